@@ -1,0 +1,302 @@
+//! The contract between the FMI 2.0 plumbing and a model.
+//!
+//! The plumbing (`fmi2*` entry points, call-order state machine, logging, resource URIs,
+//! `modelDescription.xml`) is the same for every model; a model only implements [`FmiModel`].
+//! Everything here is safe Rust: no pointers, no C types.
+
+use std::path::Path;
+
+/// Causality of a variable (FMI 2.0, section 2.2.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Causality {
+    /// Independent parameter, set before initialization (or between steps if tunable).
+    Parameter,
+    /// Calculated parameter (depends on parameters only).
+    CalculatedParameter,
+    /// Input of the model.
+    Input,
+    /// Output of the model.
+    Output,
+    /// Local variable (e.g. continuous state derivatives that are not outputs).
+    Local,
+    /// The independent variable (time).
+    Independent,
+}
+
+/// Variability of a variable (FMI 2.0, section 2.2.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variability {
+    /// Never changes.
+    Constant,
+    /// Fixed after initialization.
+    Fixed,
+    /// Changes only when set by the environment (between steps).
+    Tunable,
+    /// Changes only at events.
+    Discrete,
+    /// Changes continuously in time.
+    Continuous,
+}
+
+/// `initial` attribute of a variable (FMI 2.0, section 2.2.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Initial {
+    /// The start value is the initial value.
+    Exact,
+    /// The start value is a guess for an algebraic loop.
+    Approx,
+    /// Computed from other variables during initialization.
+    Calculated,
+}
+
+/// Type and start value of a variable.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VarType {
+    /// `<Real>`; `derivative` is the value reference of the state this variable is the
+    /// derivative of (Model Exchange), if any.
+    Real { start: Option<f64>, unit: Option<&'static str>, derivative: Option<u32> },
+    /// `<Integer>`.
+    Integer { start: Option<i32> },
+    /// `<Boolean>`.
+    Boolean { start: Option<bool> },
+    /// `<String>`.
+    String { start: Option<String> },
+}
+
+/// One scalar variable: one row of the model's variable table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variable {
+    /// Structured name, e.g. `ball.pos.z` or `scm.eps1`.
+    pub name: String,
+    /// Value reference: unique within its type.
+    pub value_reference: u32,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub initial: Option<Initial>,
+    pub var_type: VarType,
+    pub description: String,
+}
+
+/// `<ModelStructure>`: dependencies given as value references (the writer turns them into the
+/// 1-based indices of `<ModelVariables>`). `None` means "depends on everything" (attribute
+/// omitted); `Some(vec![])` means "depends on nothing" (`dependencies=""`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModelStructure {
+    pub outputs: Vec<(u32, Option<Vec<u32>>)>,
+    pub derivatives: Vec<(u32, Option<Vec<u32>>)>,
+    pub initial_unknowns: Vec<(u32, Option<Vec<u32>>)>,
+}
+
+/// A log category declared in `modelDescription.xml`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LogCategory {
+    /// Errors (`fmi2Error`, `fmi2Fatal`).
+    StatusError,
+    /// Warnings (`fmi2Warning`).
+    StatusWarning,
+    /// Instantiation, initialization, reset, termination, state changes.
+    Events,
+    /// Per-step contact diagnostics (smooth distances, forces).
+    Contact,
+}
+
+impl LogCategory {
+    /// Every category, in the order declared in `modelDescription.xml`.
+    pub const ALL: [LogCategory; 4] =
+        [LogCategory::StatusError, LogCategory::StatusWarning, LogCategory::Events, LogCategory::Contact];
+
+    /// Name as declared in `<LogCategories>`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LogCategory::StatusError => "logStatusError",
+            LogCategory::StatusWarning => "logStatusWarning",
+            LogCategory::Events => "logEvents",
+            LogCategory::Contact => "logContact",
+        }
+    }
+
+    /// Description as declared in `<LogCategories>`.
+    pub fn description(self) -> &'static str {
+        match self {
+            LogCategory::StatusError => "Errors: calls that return fmi2Error or fmi2Fatal",
+            LogCategory::StatusWarning => "Warnings: calls that return fmi2Warning",
+            LogCategory::Events => "Instantiation, initialization, reset, termination and FMU state",
+            LogCategory::Contact => "Contact diagnostics: smooth separation distance and force per pair",
+        }
+    }
+}
+
+/// A message from the model to the host's logger.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogMessage {
+    pub category: LogCategory,
+    pub text: String,
+}
+
+/// Everything `modelDescription.xml` says about a model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelInfo {
+    /// `modelName`.
+    pub model_name: String,
+    /// `guid`: must equal the `fmuGUID` passed to `fmi2Instantiate`.
+    pub guid: String,
+    /// `description`.
+    pub description: String,
+    /// `generationTool`.
+    pub generation_tool: String,
+    /// The variable table; its order is the order of `<ModelVariables>`.
+    pub variables: Vec<Variable>,
+    pub structure: ModelStructure,
+    /// Number of continuous states (Model Exchange); 0 if the model offers CS only.
+    pub number_of_event_indicators: usize,
+    /// Whether `<ModelExchange>` is offered besides `<CoSimulation>`.
+    pub model_exchange: bool,
+    /// `<DefaultExperiment>`: start, stop, tolerance, step size.
+    pub default_experiment: DefaultExperiment,
+}
+
+/// `<DefaultExperiment>` attributes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DefaultExperiment {
+    pub start_time: Option<f64>,
+    pub stop_time: Option<f64>,
+    pub tolerance: Option<f64>,
+    pub step_size: Option<f64>,
+}
+
+/// Why a step failed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepError {
+    /// The step was refused (bad arguments); the state is unchanged (`fmi2Error`).
+    Error(String),
+    /// The step diverged; the state was rolled back to the start of the step (`fmi2Discard`),
+    /// so the host may retry with a smaller step.
+    Discard(String),
+}
+
+/// Error of a model call: the message names the variable/value/reason (goes to the logger).
+pub type ModelResult<T> = Result<T, String>;
+
+/// The phase of the FMI state machine a set call is made in, so the model can decide which
+/// variables may be set (e.g. `fixed` parameters only before initialization).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// After `fmi2Instantiate`, before `fmi2EnterInitializationMode`.
+    Instantiated,
+    /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
+    Initialization,
+    /// After initialization (stepping / continuous-time mode / event mode).
+    Simulation,
+}
+
+/// What a model implements to be exported through the FMI 2.0 plumbing.
+///
+/// Methods with default bodies are optional capabilities; their defaults refuse with a reason.
+pub trait FmiModel: Sized + Send {
+    /// The FMU state saved by `fmi2GetFMUstate`: a plain value (no pointers into the instance).
+    type State: Clone + Send;
+
+    /// Builds the model from the FMU's unzipped `resources/` folder.
+    fn instantiate(resources: &Path) -> ModelResult<Self>;
+
+    /// The model's description (variables, structure, guid). Cheap: a reference.
+    fn info(&self) -> &ModelInfo;
+
+    /// `fmi2SetupExperiment`.
+    fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>, tolerance: Option<f64>) -> ModelResult<()>;
+    /// `fmi2EnterInitializationMode`.
+    fn enter_initialization(&mut self) -> ModelResult<()>;
+    /// `fmi2ExitInitializationMode`.
+    fn exit_initialization(&mut self) -> ModelResult<()>;
+    /// `fmi2Reset`: back to the state right after instantiation (start values restored).
+    fn reset(&mut self) -> ModelResult<()>;
+    /// `fmi2Terminate`.
+    fn terminate(&mut self) -> ModelResult<()> {
+        Ok(())
+    }
+
+    /// Current simulation time.
+    fn time(&self) -> f64;
+
+    fn get_real(&mut self, vr: u32) -> ModelResult<f64>;
+    fn set_real(&mut self, vr: u32, value: f64, phase: Phase) -> ModelResult<()>;
+    fn get_integer(&mut self, vr: u32) -> ModelResult<i32> {
+        Err(format!("no Integer variable with value reference {vr}"))
+    }
+    fn set_integer(&mut self, vr: u32, _value: i32, _phase: Phase) -> ModelResult<()> {
+        Err(format!("no Integer variable with value reference {vr}"))
+    }
+    fn get_boolean(&mut self, vr: u32) -> ModelResult<bool> {
+        Err(format!("no Boolean variable with value reference {vr}"))
+    }
+    fn set_boolean(&mut self, vr: u32, _value: bool, _phase: Phase) -> ModelResult<()> {
+        Err(format!("no Boolean variable with value reference {vr}"))
+    }
+    fn get_string(&mut self, vr: u32) -> ModelResult<String> {
+        Err(format!("no String variable with value reference {vr}"))
+    }
+    fn set_string(&mut self, vr: u32, _value: &str, _phase: Phase) -> ModelResult<()> {
+        Err(format!("no String variable with value reference {vr}"))
+    }
+
+    /// `fmi2DoStep` (Co-Simulation): advance from `current_time` by `step`.
+    fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError>;
+
+    /// Messages produced since the last call (warnings, events, contact diagnostics).
+    fn take_messages(&mut self) -> Vec<LogMessage> {
+        Vec::new()
+    }
+
+    /// `fmi2GetFMUstate`.
+    fn get_state(&self) -> ModelResult<Self::State> {
+        Err("this model cannot save its state".into())
+    }
+    /// `fmi2SetFMUstate`.
+    fn set_state(&mut self, _state: &Self::State) -> ModelResult<()> {
+        Err("this model cannot restore a state".into())
+    }
+    /// `fmi2SerializeFMUstate`: a self-contained byte string (no pointers).
+    fn serialize_state(&self, _state: &Self::State) -> ModelResult<Vec<u8>> {
+        Err("this model cannot serialize its state".into())
+    }
+    /// `fmi2DeSerializeFMUstate`: refuses bytes from another scene, version, or corrupt ones.
+    fn deserialize_state(&self, _bytes: &[u8]) -> ModelResult<Self::State> {
+        Err("this model cannot deserialize a state".into())
+    }
+
+    /// `fmi2GetDirectionalDerivative`: `dv_unknown = J[unknowns, knowns] · dv_known`.
+    fn directional_derivative(&mut self, _unknowns: &[u32], _knowns: &[u32], _dv_known: &[f64]) -> ModelResult<Vec<f64>> {
+        Err("this model does not provide directional derivatives".into())
+    }
+
+    // ---- Model Exchange -------------------------------------------------------------------
+    /// Number of continuous states (`fmi2GetContinuousStates` length).
+    fn number_of_states(&self) -> usize {
+        0
+    }
+    /// `fmi2SetTime`.
+    fn set_time(&mut self, _time: f64) -> ModelResult<()> {
+        Err("this model does not support Model Exchange".into())
+    }
+    /// `fmi2GetContinuousStates`.
+    fn get_continuous_states(&mut self) -> ModelResult<Vec<f64>> {
+        Err("this model does not support Model Exchange".into())
+    }
+    /// `fmi2SetContinuousStates`.
+    fn set_continuous_states(&mut self, _x: &[f64]) -> ModelResult<()> {
+        Err("this model does not support Model Exchange".into())
+    }
+    /// `fmi2GetDerivatives`.
+    fn get_derivatives(&mut self) -> ModelResult<Vec<f64>> {
+        Err("this model does not support Model Exchange".into())
+    }
+    /// `fmi2GetNominalsOfContinuousStates`.
+    fn get_nominals(&mut self) -> ModelResult<Vec<f64>> {
+        Ok(vec![1.0; self.number_of_states()])
+    }
+    /// `fmi2CompletedIntegratorStep`: returns whether the host must call `fmi2EnterEventMode`
+    /// (e.g. to renormalize quaternions it does not; a model may project its state here).
+    fn completed_integrator_step(&mut self) -> ModelResult<bool> {
+        Ok(false)
+    }
+}
