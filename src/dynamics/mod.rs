@@ -1,0 +1,531 @@
+//! Rigid-body dynamics on kinematic trees (Featherstone): joints, forward kinematics, the mass
+//! matrix by the composite-rigid-body algorithm and the bias forces by recursive Newton–Euler,
+//! all in body coordinates and generic over the scalar.
+//!
+//! A body may carry several joints (MJCF allows it: the T-block of planar pushing has slide x,
+//! slide y and hinge z). Internally each joint is a node of the tree, applied in order in the
+//! frame left by the previous ones; the body's inertia sits on its last node. A body without
+//! joints is one fixed node (welded to its parent).
+
+pub mod spatial;
+
+use crate::scalar::{c, Scalar};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6};
+use spatial::{cross_force, cross_motion, skew, Inertia, Transform};
+
+/// Kind of a joint and its number of position/velocity coordinates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointKind {
+    /// 6 DOF, top-level bodies only. `q = [x y z qw qx qy qz]`, `v = [linvel (world), angvel
+    /// (body frame)]` as in MuJoCo.
+    Free,
+    /// 3 rotational DOF about `anchor`. `q = [qw qx qy qz]`, `v` = angular velocity (body frame).
+    Ball,
+    /// Translation along `axis`: `q` in m.
+    Slide,
+    /// Rotation about `axis` through `anchor`: `q` in rad.
+    Hinge,
+}
+
+impl JointKind {
+    /// Number of position coordinates.
+    pub fn nq(self) -> usize {
+        match self {
+            JointKind::Free => 7,
+            JointKind::Ball => 4,
+            _ => 1,
+        }
+    }
+
+    /// Number of velocity coordinates (degrees of freedom).
+    pub fn nv(self) -> usize {
+        match self {
+            JointKind::Free => 6,
+            JointKind::Ball => 3,
+            _ => 1,
+        }
+    }
+}
+
+/// A joint and its passive properties.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    /// Name (from the scene; FMU variables are named after it).
+    pub name: String,
+    /// Kind.
+    pub kind: JointKind,
+    /// Unit axis (body frame) for slide and hinge.
+    pub axis: Vector3<f64>,
+    /// Point the rotation is about (body frame) for hinge and ball.
+    pub anchor: Vector3<f64>,
+    /// Viscous damping (N·s/m or N·m·s/rad).
+    pub damping: f64,
+    /// Spring stiffness towards `q = 0` (N/m or N·m/rad), slide and hinge.
+    pub stiffness: f64,
+    /// Dry friction force or torque (N or N·m), smoothed by the stiction velocity.
+    pub frictionloss: f64,
+    /// Armature: inertia added to the joint's DOFs (kg or kg·m²).
+    pub armature: f64,
+    /// Index of the first position coordinate.
+    pub qadr: usize,
+    /// Index of the first velocity coordinate.
+    pub dadr: usize,
+    /// Body the joint moves.
+    pub body: usize,
+}
+
+/// A body of the tree. Body 0 is the world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    /// Name (from the scene; `world` for body 0).
+    pub name: String,
+    /// Parent body (`None` for the world).
+    pub parent: Option<usize>,
+    /// Pose of the body frame in its parent's frame, before its joints move it.
+    pub offset: Isometry3<f64>,
+    /// Inertia about the body frame origin, in body coordinates.
+    pub inertia: Inertia,
+    /// Joints, in the order they are applied.
+    pub joints: Vec<usize>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Node {
+    body: usize,
+    joint: Option<usize>,
+    parent: Option<usize>,
+    /// Fixed transform before the joint (the body's offset for its first node).
+    offset: Isometry3<f64>,
+    /// Whether the body's inertia sits on this node (its last node).
+    carries_inertia: bool,
+}
+
+/// The mechanical model: bodies, joints, gravity. Immutable once built.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tree {
+    /// Bodies; index 0 is the world. Parents come before children.
+    pub bodies: Vec<Body>,
+    /// Joints, in coordinate order.
+    pub joints: Vec<Joint>,
+    /// Gravity (m/s², world frame).
+    pub gravity: Vector3<f64>,
+    /// Number of position coordinates.
+    pub nq: usize,
+    /// Number of velocity coordinates.
+    pub nv: usize,
+    nodes: Vec<Node>,
+    /// Node whose frame is the body frame, per body (`None` for the world).
+    body_node: Vec<Option<usize>>,
+}
+
+/// Why a tree cannot be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TreeError {
+    /// A free joint on a body whose parent is not the world, or not alone on its body.
+    #[error("free joint '{0}' must be the only joint of a body attached to the world")]
+    FreeJointPlacement(String),
+    /// A moving body without mass or without rotational inertia.
+    #[error("body '{0}' moves but has no mass or no rotational inertia: give it geoms with mass or an <inertial>")]
+    Massless(String),
+    /// A body listed before its parent.
+    #[error("body '{0}' comes before its parent")]
+    Order(String),
+}
+
+impl Tree {
+    /// Builds the tree, checking the structure. Joint `qadr`/`dadr` are assigned here.
+    pub fn new(bodies: Vec<Body>, mut joints: Vec<Joint>, gravity: Vector3<f64>) -> Result<Tree, TreeError> {
+        let mut nodes = Vec::new();
+        let mut body_node = vec![None; bodies.len()];
+        let (mut nq, mut nv) = (0, 0);
+        for (b, body) in bodies.iter().enumerate().skip(1) {
+            let parent = body.parent.unwrap_or(0);
+            if parent >= b {
+                return Err(TreeError::Order(body.name.clone()));
+            }
+            let parent_node = body_node[parent];
+            if body.joints.is_empty() {
+                nodes.push(Node { body: b, joint: None, parent: parent_node, offset: body.offset, carries_inertia: true });
+            } else {
+                for (k, &j) in body.joints.iter().enumerate() {
+                    let joint = &mut joints[j];
+                    if joint.kind == JointKind::Free && (parent != 0 || body.joints.len() != 1) {
+                        return Err(TreeError::FreeJointPlacement(joint.name.clone()));
+                    }
+                    joint.qadr = nq;
+                    joint.dadr = nv;
+                    joint.body = b;
+                    nq += joint.kind.nq();
+                    nv += joint.kind.nv();
+                    let parent = if k == 0 { parent_node } else { Some(nodes.len() - 1) };
+                    let offset = if k == 0 { body.offset } else { Isometry3::identity() };
+                    nodes.push(Node { body: b, joint: Some(j), parent, offset, carries_inertia: k + 1 == body.joints.len() });
+                }
+            }
+            body_node[b] = Some(nodes.len() - 1);
+        }
+        let tree = Tree { bodies, joints, gravity, nq, nv, nodes, body_node };
+        for (b, body) in tree.bodies.iter().enumerate().skip(1) {
+            let moves = tree.body_moves(b);
+            let i = &body.inertia;
+            if moves && (i.mass <= 0.0 || i.rot.symmetric_eigenvalues().min() <= 0.0) {
+                return Err(TreeError::Massless(body.name.clone()));
+            }
+        }
+        Ok(tree)
+    }
+
+    /// Whether a body has a joint on its path to the world.
+    pub fn body_moves(&self, mut b: usize) -> bool {
+        while b != 0 {
+            if !self.bodies[b].joints.is_empty() {
+                return true;
+            }
+            b = self.bodies[b].parent.unwrap_or(0);
+        }
+        false
+    }
+
+    /// Initial configuration: free joints at their body's offset, quaternions identity, the
+    /// rest zero.
+    pub fn q0(&self) -> Vec<f64> {
+        let mut q = vec![0.0; self.nq];
+        for j in &self.joints {
+            match j.kind {
+                JointKind::Free => {
+                    let o = &self.bodies[j.body].offset;
+                    let t = o.translation.vector;
+                    let r = o.rotation.quaternion();
+                    q[j.qadr..j.qadr + 7].copy_from_slice(&[t.x, t.y, t.z, r.w, r.i, r.j, r.k]);
+                }
+                JointKind::Ball => q[j.qadr] = 1.0,
+                _ => {}
+            }
+        }
+        q
+    }
+}
+
+/// Unit quaternion `[w x y z]` of a slice, normalized (so that kinematics stays a rotation for
+/// any finite non-zero input, and its derivatives are those of the normalized quaternion).
+pub fn quat_from<T: Scalar>(q: &[T]) -> Quaternion<T> {
+    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    Quaternion::new(q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+}
+
+/// Rotation matrix of a unit quaternion.
+pub fn quat_matrix<T: Scalar>(q: &Quaternion<T>) -> Matrix3<T> {
+    let (w, x, y, z) = (q.w, q.i, q.j, q.k);
+    let two = c::<T>(2.0);
+    Matrix3::new(
+        T::one() - two * (y * y + z * z),
+        two * (x * y - w * z),
+        two * (x * z + w * y),
+        two * (x * y + w * z),
+        T::one() - two * (x * x + z * z),
+        two * (y * z - w * x),
+        two * (x * z - w * y),
+        two * (y * z + w * x),
+        T::one() - two * (x * x + y * y),
+    )
+}
+
+/// Rotation by `angle` about the unit `axis`.
+fn axis_angle<T: Scalar>(axis: &Vector3<f64>, angle: T) -> Matrix3<T> {
+    let (s, co) = (angle.sin(), angle.cos());
+    let k = skew(&axis.map(c::<T>));
+    Matrix3::identity() + k * s + k * k * (T::one() - co)
+}
+
+fn lift_iso<T: Scalar>(iso: &Isometry3<f64>) -> Transform<T> {
+    Transform { rotation: iso.rotation.to_rotation_matrix().matrix().map(c::<T>), translation: iso.translation.vector.map(c::<T>) }
+}
+
+/// Everything the dynamics needs from one configuration and velocity.
+#[derive(Clone, Debug)]
+pub struct Kinematics<T: Scalar> {
+    /// Per node: transform from its parent node's frame (or the world) to its frame.
+    x: Vec<Transform<T>>,
+    /// Per node: motion subspace columns (node frame).
+    s: Vec<Vec<Vector6<T>>>,
+    /// Per node: spatial velocity (node frame).
+    vel: Vec<Vector6<T>>,
+    /// Per node: velocity-product acceleration `c_J + v × v_J` (node frame).
+    bias_acc: Vec<Vector6<T>>,
+    /// Per body: world pose and velocity of the body frame.
+    pub frames: Vec<crate::collision::Frame<T>>,
+}
+
+impl Tree {
+    /// Forward kinematics: frames, spatial velocities and motion subspaces.
+    pub fn kinematics<T: Scalar>(&self, q: &[T], v: &[T]) -> Kinematics<T> {
+        let n = self.nodes.len();
+        let mut x = Vec::with_capacity(n);
+        let mut s = Vec::with_capacity(n);
+        let mut vel: Vec<Vector6<T>> = Vec::with_capacity(n);
+        let mut bias_acc = Vec::with_capacity(n);
+        let mut world: Vec<Transform<T>> = Vec::with_capacity(n);
+        for node in &self.nodes {
+            let off = lift_iso::<T>(&node.offset);
+            let (xj, cols, cj): (Transform<T>, Vec<Vector6<T>>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
+                None => (Transform::identity(), vec![], Vector6::zeros()),
+                Some(j) => {
+                    let qa = j.qadr;
+                    let da = j.dadr;
+                    match j.kind {
+                        JointKind::Slide => {
+                            let a = j.axis.map(c::<T>);
+                            (Transform { rotation: Matrix3::identity(), translation: a * q[qa] }, vec![spatial::spatial(&Vector3::zeros(), &a)], Vector6::zeros())
+                        }
+                        JointKind::Hinge => {
+                            let a = j.axis.map(c::<T>);
+                            let s = j.anchor.map(c::<T>);
+                            let r = axis_angle(&j.axis, q[qa]);
+                            (Transform { rotation: r, translation: s - r * s }, vec![spatial::spatial(&a, &s.cross(&a))], Vector6::zeros())
+                        }
+                        JointKind::Ball => {
+                            let s = j.anchor.map(c::<T>);
+                            let r = quat_matrix(&quat_from(&q[qa..qa + 4]));
+                            let sx = skew(&s);
+                            let cols = (0..3).map(|k| spatial::spatial(&Vector3::ith(k, T::one()), &sx.column(k).into_owned())).collect();
+                            (Transform { rotation: r, translation: s - r * s }, cols, Vector6::zeros())
+                        }
+                        JointKind::Free => {
+                            let r = quat_matrix(&quat_from(&q[qa + 3..qa + 7]));
+                            let rt = r.transpose();
+                            let mut cols = Vec::with_capacity(6);
+                            for k in 0..3 {
+                                cols.push(spatial::spatial(&Vector3::zeros(), &rt.column(k).into_owned()));
+                            }
+                            for k in 0..3 {
+                                cols.push(spatial::spatial(&Vector3::ith(k, T::one()), &Vector3::zeros()));
+                            }
+                            let vw = Vector3::new(v[da], v[da + 1], v[da + 2]);
+                            let wb = Vector3::new(v[da + 3], v[da + 4], v[da + 5]);
+                            let cj = spatial::spatial(&Vector3::zeros(), &(-wb.cross(&(rt * vw))));
+                            // A free joint's frame is absolute: it ignores the body offset.
+                            let xj = Transform { rotation: r, translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]) };
+                            x.push(xj);
+                            world.push(xj);
+                            let vj = cols.iter().enumerate().fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
+                            vel.push(vj);
+                            bias_acc.push(cj);
+                            s.push(cols);
+                            continue;
+                        }
+                    }
+                }
+            };
+            let xi = off.then(&xj);
+            let parent_world = node.parent.map(|p| world[p]).unwrap_or_else(Transform::identity);
+            world.push(parent_world.then(&xi));
+            let vparent = node.parent.map(|p| xi.motion(&vel[p])).unwrap_or_else(Vector6::zeros);
+            let da = node.joint.map(|j| self.joints[j].dadr).unwrap_or(0);
+            let vj = cols.iter().enumerate().fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
+            let vi = vparent + vj;
+            bias_acc.push(cj + cross_motion(&vi, &vj));
+            vel.push(vi);
+            x.push(xi);
+            s.push(cols);
+        }
+        let frames = self
+            .body_node
+            .iter()
+            .map(|bn| match bn {
+                None => crate::collision::Frame::identity(),
+                Some(i) => {
+                    let w = &world[*i];
+                    crate::collision::Frame {
+                        rotation: w.rotation,
+                        origin: w.translation,
+                        linvel: w.rotation * spatial::lin(&vel[*i]),
+                        angvel: w.rotation * spatial::ang(&vel[*i]),
+                    }
+                }
+            })
+            .collect();
+        Kinematics { x, s, vel, bias_acc, frames }
+    }
+
+    fn node_dadr(&self, i: usize) -> usize {
+        self.nodes[i].joint.map(|j| self.joints[j].dadr).unwrap_or(0)
+    }
+
+    fn node_inertia<T: Scalar>(&self, i: usize) -> nalgebra::Matrix6<T> {
+        let node = &self.nodes[i];
+        if node.carries_inertia {
+            self.bodies[node.body].inertia.matrix()
+        } else {
+            nalgebra::Matrix6::zeros()
+        }
+    }
+
+    /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
+    /// included.
+    pub fn mass_matrix<T: Scalar>(&self, kin: &Kinematics<T>) -> DMatrix<T> {
+        let n = self.nodes.len();
+        let mut ic: Vec<nalgebra::Matrix6<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
+        for i in (0..n).rev() {
+            if let Some(p) = self.nodes[i].parent {
+                let xm = kin.x[i].matrix();
+                let add = xm.transpose() * ic[i] * xm;
+                ic[p] += add;
+            }
+        }
+        let mut m = DMatrix::zeros(self.nv, self.nv);
+        for i in 0..n {
+            let di = self.node_dadr(i);
+            for (a, sa) in kin.s[i].iter().enumerate() {
+                let mut f = ic[i] * sa;
+                for (b, sb) in kin.s[i].iter().enumerate() {
+                    m[(di + a, di + b)] = f.dot(sb);
+                }
+                let mut j = i;
+                while let Some(p) = self.nodes[j].parent {
+                    f = kin.x[j].force_to_parent(&f);
+                    j = p;
+                    let dj = self.node_dadr(j);
+                    for (b, sb) in kin.s[j].iter().enumerate() {
+                        let val = f.dot(sb);
+                        m[(di + a, dj + b)] = val;
+                        m[(dj + b, di + a)] = val;
+                    }
+                }
+            }
+        }
+        for jt in &self.joints {
+            for k in 0..jt.kind.nv() {
+                m[(jt.dadr + k, jt.dadr + k)] += c::<T>(jt.armature);
+            }
+        }
+        m
+    }
+
+    /// Recursive Newton–Euler: the generalized force that produces acceleration `vdot` under
+    /// gravity and external body wrenches `f_ext` (per body, world frame, torque about the body
+    /// origin). With `vdot = 0` this is the bias `c(q, v) - Σ Jᵀ f_ext`.
+    pub fn rnea<T: Scalar>(&self, kin: &Kinematics<T>, vdot: &[T], f_ext: &[crate::contact::Wrench<T>]) -> DVector<T> {
+        let n = self.nodes.len();
+        let g = self.gravity.map(c::<T>);
+        let a0 = spatial::spatial(&Vector3::zeros(), &(-g));
+        let mut f: Vec<Vector6<T>> = Vec::with_capacity(n);
+        let mut acc: Vec<Vector6<T>> = Vec::with_capacity(n);
+        for i in 0..n {
+            let node = &self.nodes[i];
+            let ap = match node.parent {
+                Some(p) => kin.x[i].motion(&acc[p]),
+                None => kin.x[i].motion(&a0),
+            };
+            let da = self.node_dadr(i);
+            let aj = kin.s[i].iter().enumerate().fold(Vector6::zeros(), |s, (k, col)| s + col * vdot[da + k]);
+            let ai = ap + aj + kin.bias_acc[i];
+            let inertia = self.node_inertia::<T>(i);
+            let mut fi = inertia * ai + cross_force(&kin.vel[i], &(inertia * kin.vel[i]));
+            if node.carries_inertia {
+                // External wrench (world frame, about the body origin) into body coordinates.
+                let fr = &kin.frames[node.body];
+                let w = &f_ext[node.body];
+                let rt = fr.rotation.transpose();
+                fi -= spatial::spatial(&(rt * w.torque), &(rt * w.force));
+            }
+            acc.push(ai);
+            f.push(fi);
+        }
+        let mut tau = DVector::zeros(self.nv);
+        for i in (0..n).rev() {
+            let da = self.node_dadr(i);
+            for (k, col) in kin.s[i].iter().enumerate() {
+                tau[da + k] = col.dot(&f[i]);
+            }
+            if let Some(p) = self.nodes[i].parent {
+                let fp = kin.x[i].force_to_parent(&f[i]);
+                f[p] += fp;
+            }
+        }
+        tau
+    }
+
+    /// `q̇` for a velocity `v`: equal to `v` except for quaternions, `q̇ = ½ q ⊗ (0, ω)`, and free
+    /// joints' positions, `ṗ = linvel`.
+    pub fn qdot<T: Scalar>(&self, q: &[T], v: &[T]) -> Vec<T> {
+        let mut out = vec![T::zero(); self.nq];
+        for j in &self.joints {
+            let (qa, da) = (j.qadr, j.dadr);
+            let quat_rate = |out: &mut [T], qi: usize, wi: usize| {
+                let qq = Quaternion::new(q[qi], q[qi + 1], q[qi + 2], q[qi + 3]);
+                let w = Quaternion::new(T::zero(), v[wi], v[wi + 1], v[wi + 2]);
+                let d = qq * w * c::<T>(0.5);
+                out[qi..qi + 4].copy_from_slice(&[d.w, d.i, d.j, d.k]);
+            };
+            match j.kind {
+                JointKind::Free => {
+                    out[qa..qa + 3].copy_from_slice(&v[da..da + 3]);
+                    quat_rate(&mut out, qa + 3, da + 3);
+                }
+                JointKind::Ball => quat_rate(&mut out, qa, da),
+                _ => out[qa] = v[da],
+            }
+        }
+        out
+    }
+
+    /// Moves a configuration by a velocity over `h`: on the rotation group for quaternions
+    /// (`q ⊗ exp(h ω / 2)`, renormalized), additive otherwise.
+    pub fn integrate_q<T: Scalar>(&self, q: &[T], v: &[T], h: T) -> Vec<T> {
+        let mut out = q.to_vec();
+        for j in &self.joints {
+            let (qa, da) = (j.qadr, j.dadr);
+            let rotate = |out: &mut [T], qi: usize, wi: usize| {
+                let w = Vector3::new(v[wi], v[wi + 1], v[wi + 2]) * h;
+                let dq = quat_exp(&w);
+                let qq = Quaternion::new(q[qi], q[qi + 1], q[qi + 2], q[qi + 3]) * dq;
+                let n = qq.norm();
+                out[qi..qi + 4].copy_from_slice(&[qq.w / n, qq.i / n, qq.j / n, qq.k / n]);
+            };
+            match j.kind {
+                JointKind::Free => {
+                    for k in 0..3 {
+                        out[qa + k] = q[qa + k] + v[da + k] * h;
+                    }
+                    rotate(&mut out, qa + 3, da + 3);
+                }
+                JointKind::Ball => rotate(&mut out, qa, da),
+                _ => out[qa] = q[qa] + v[da] * h,
+            }
+        }
+        out
+    }
+
+    /// Normalizes every quaternion of a configuration in place.
+    pub fn normalize_q<T: Scalar>(&self, q: &mut [T]) {
+        for j in &self.joints {
+            let qi = match j.kind {
+                JointKind::Free => j.qadr + 3,
+                JointKind::Ball => j.qadr,
+                _ => continue,
+            };
+            let qq = quat_from(&q[qi..qi + 4]);
+            q[qi..qi + 4].copy_from_slice(&[qq.w, qq.i, qq.j, qq.k]);
+        }
+    }
+}
+
+/// `exp` of a pure quaternion `(0, θ/2)`: the rotation by the rotation vector `θ`, smooth at
+/// `θ = 0` (series for small angles, branching on the real part only).
+pub fn quat_exp<T: Scalar>(theta: &Vector3<T>) -> Quaternion<T> {
+    let a2 = theta.dot(theta);
+    let (cos_half, sinc_half) = if a2.re() < 1e-8 {
+        // cos(a/2) and sin(a/2)/a to O(a⁴), exact to 1e-17 here.
+        let x = a2 * 0.25;
+        (T::one() - x * 0.5 + x * x / 24.0, (T::one() - x / 6.0 + x * x / 120.0) * 0.5)
+    } else {
+        let a = a2.sqrt();
+        ((a * 0.5).cos(), (a * 0.5).sin() / a)
+    };
+    Quaternion::new(cos_half, theta.x * sinc_half, theta.y * sinc_half, theta.z * sinc_half)
+}
+
+/// A unit quaternion from MJCF-style `[w x y z]`.
+pub fn unit_quat(wxyz: [f64; 4]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(wxyz[0], wxyz[1], wxyz[2], wxyz[3]))
+}

@@ -1,0 +1,10 @@
+//! Geometry: oriented point clouds (AOPC) sampled from shapes, and the soft signed distance
+//! function (SSDF) over them (paper, Methods A).
+//!
+//! Everything here lives in a body's own frame; poses are applied by the caller.
+
+pub mod aopc;
+pub mod ssdf;
+
+pub use aopc::{Aopc, Shape};
+pub use ssdf::{ssdf, ssdf_weights_sum};

@@ -1,0 +1,45 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+/// Path of a bundled scene.
+pub fn scene(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("resources/scenes").join(format!("{name}.xml"))
+}
+
+/// Central difference of `f` at `x` along coordinate `k`.
+pub fn central_difference(f: impl Fn(&[f64]) -> f64, x: &[f64], k: usize, h: f64) -> f64 {
+    let (mut a, mut b) = (x.to_vec(), x.to_vec());
+    a[k] += h;
+    b[k] -= h;
+    (f(&a) - f(&b)) / (2.0 * h)
+}
+
+/// A small deterministic generator of uniform numbers in [0, 1) (tests must not depend on
+/// the run).
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// Next number in [0, 1).
+    pub fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+
+    /// A uniformly random unit vector.
+    pub fn direction(&mut self) -> nalgebra::Vector3<f64> {
+        loop {
+            let v = nalgebra::Vector3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let n = v.norm();
+            if n > 0.1 && n < 1.0 {
+                return v / n;
+            }
+        }
+    }
+}

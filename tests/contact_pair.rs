@@ -1,0 +1,139 @@
+//! SSDF–SSDF contact between two spheres and between a box and a plane: direction, action and
+//! reaction, derivatives, degenerate configurations.
+
+use crate::common::{central_difference, Lcg};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use num_dual::Dual64;
+use scm::collision::{Collider, Frame};
+use scm::contact::{pair_contact, ContactParams, Dissipation, PairContact};
+use scm::geometry::Shape;
+use scm::scalar::Scalar;
+
+fn big() -> Collider {
+    Collider::Aopc(Shape::Sphere { radius: 0.1 }.sample(0.02))
+}
+fn small() -> Collider {
+    Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01))
+}
+
+fn frame<T: Scalar>(origin: Vector3<T>, linvel: Vector3<T>) -> Frame<T> {
+    Frame { rotation: Matrix3::identity(), origin, linvel, angvel: Vector3::zeros() }
+}
+
+fn params() -> ContactParams<f64> {
+    ContactParams { eps1: 1e-5, eps2: 1e-3, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.05, friction: 0.5, dissipation: Dissipation::Paper }
+}
+
+/// Contact between the big sphere at the origin and the small one at `x` moving with `v`.
+fn spheres<T: Scalar>(x: [T; 3], v: [T; 3], prm: &ContactParams<T>) -> PairContact<T> {
+    let o = frame(Vector3::zeros(), Vector3::zeros());
+    pair_contact(&big(), &o, &small(), &frame(Vector3::from(x), Vector3::from(v)), prm)
+}
+
+#[test]
+fn overlapping_spheres_repel_along_the_line_of_centres() {
+    let mut rng = Lcg(5);
+    for _ in 0..20 {
+        let dir = rng.direction();
+        let depth = rng.range(0.001, 0.02);
+        let x = dir * (0.15 - depth);
+        let c = spheres([x.x, x.y, x.z], [0.0; 3], &params());
+        let on_small = c.on_b.force;
+        assert!(on_small.dot(&dir) > 0.0, "not repelling: {on_small:?} for {dir:?}");
+        // Along the line of centres, up to the facets of the sampled spheres.
+        let angle = on_small.angle(&dir);
+        assert!(angle < 0.15, "force {on_small:?} is {angle} rad off the line of centres {dir:?}");
+        assert!(c.distance < 0.0, "smooth distance {} for depth {depth}", c.distance);
+    }
+}
+
+#[test]
+fn action_equals_reaction() {
+    let mut rng = Lcg(9);
+    for _ in 0..20 {
+        let x = rng.direction() * rng.range(0.0, 0.2);
+        let v = rng.direction() * rng.range(0.0, 0.5);
+        let c = spheres([x.x, x.y, x.z], [v.x, v.y, v.z], &params());
+        let scale = c.on_a.force.norm().max(1e-300);
+        assert!((c.on_a.force + c.on_b.force).norm() <= 1e-12 * scale, "{:?} vs {:?}", c.on_a.force, c.on_b.force);
+    }
+}
+
+#[test]
+fn concentric_and_coincident_bodies_give_finite_values() {
+    // Concentric spheres: the paper's unstable equilibrium, where the force vanishes by symmetry.
+    let c = spheres([0.0; 3], [0.0; 3], &params());
+    assert!(c.on_a.force.iter().chain(c.on_a.torque.iter()).all(|x| x.is_finite()) && c.distance.is_finite());
+    assert!(c.on_b.force.norm() < 1e-6 * params().stiffness * 0.05, "{:?}", c.on_b.force);
+    // Two identical bodies at the same place: every point coincides with a plane point.
+    let s = small();
+    let f = frame(Vector3::new(1e5, -2e5, 3e5), Vector3::zeros());
+    let c = pair_contact(&s, &f, &s, &f, &params());
+    assert!(c.on_a.force.iter().chain(c.on_b.torque.iter()).all(|x| x.is_finite()) && c.distance.is_finite(), "{c:?}");
+}
+
+#[test]
+fn far_from_the_origin_nothing_changes() {
+    // Distances are taken in a body's frame: moving the pair 1e5 m away changes nothing
+    // beyond the rounding of the positions themselves (1e5 m has an ulp of 1.5e-11 m).
+    let x = [0.02, 0.13, -0.01];
+    let near = spheres(x, [0.0; 3], &params());
+    let shift = Vector3::new(1e5, 1e5, -1e5);
+    let far = pair_contact(&big(), &frame(shift, Vector3::zeros()), &small(), &frame(shift + Vector3::from(x), Vector3::zeros()), &params());
+    assert!((near.on_b.force - far.on_b.force).norm() < 1e-6 * near.on_b.force.norm(), "{:?} vs {:?}", near.on_b.force, far.on_b.force);
+}
+
+#[test]
+fn box_on_a_plane_is_pushed_up_and_rotation_changes_nothing_at_rest() {
+    let plane = Collider::HalfSpace { point: Vector3::zeros(), normal: Vector3::z() };
+    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
+    let f = Frame { rotation: Matrix3::identity(), origin: Vector3::new(0.0, 0.0, 0.049), linvel: Vector3::zeros(), angvel: Vector3::zeros() };
+    let c = pair_contact(&boxc, &f, &plane, &Frame::identity(), &params());
+    assert!(c.on_a.force.z > 0.0 && c.on_a.force.x.abs() < 1e-9 * c.on_a.force.z && c.on_a.force.y.abs() < 1e-9 * c.on_a.force.z);
+    // A quarter turn about z maps the box onto itself.
+    let r = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2).into_inner();
+    let c2 = pair_contact(&boxc, &Frame { rotation: r, ..f }, &plane, &Frame::identity(), &params());
+    assert!((c.on_a.force - c2.on_a.force).norm() < 1e-9 * c.on_a.force.norm());
+    assert!((c.distance - (-0.001)).abs() < 1e-4, "distance {}", c.distance);
+}
+
+/// Every output of the pair (force and torque on both, distance) as a flat list.
+fn outputs<T: Scalar>(c: &PairContact<T>) -> Vec<T> {
+    let mut out = vec![c.distance];
+    for w in [&c.on_a, &c.on_b] {
+        out.extend(w.force.iter().chain(w.torque.iter()).copied());
+    }
+    out
+}
+
+#[test]
+fn pair_derivatives_match_central_differences() {
+    // Inputs: the small sphere's position (3) and velocity (3), then the seven parameters.
+    let mut rng = Lcg(21);
+    let prm = params();
+    let names = ["x", "y", "z", "vx", "vy", "vz", "eps1", "eps2", "eps3", "stiffness", "dissipation_velocity", "stiction_velocity", "friction"];
+    for _ in 0..6 {
+        let x = rng.direction() * rng.range(0.13, 0.16);
+        let v = rng.direction() * rng.range(0.0, 0.2);
+        let base = [x.x, x.y, x.z, v.x, v.y, v.z, prm.eps1, prm.eps2, prm.eps3, prm.stiffness, prm.dissipation_velocity, prm.stiction_velocity, prm.friction];
+        let eval = |inp: &[f64]| -> Vec<f64> {
+            let p = ContactParams { eps1: inp[6], eps2: inp[7], eps3: inp[8], stiffness: inp[9], dissipation_velocity: inp[10], stiction_velocity: inp[11], friction: inp[12], dissipation: Dissipation::Paper };
+            outputs(&spheres([inp[0], inp[1], inp[2]], [inp[3], inp[4], inp[5]], &p))
+        };
+        for k in 0..base.len() {
+            let mut d: Vec<Dual64> = base.iter().map(|&b| Dual64::from(b)).collect();
+            d[k].eps = 1.0;
+            let p = ContactParams { eps1: d[6], eps2: d[7], eps3: d[8], stiffness: d[9], dissipation_velocity: d[10], stiction_velocity: d[11], friction: d[12], dissipation: Dissipation::Paper };
+            let exact: Vec<f64> = outputs(&spheres([d[0], d[1], d[2]], [d[3], d[4], d[5]], &p)).iter().map(|o| o.eps).collect();
+            let h = 1e-6 * base[k].abs().max(1e-3);
+            let values = eval(&base);
+            for (i, e) in exact.iter().enumerate() {
+                let fd = central_difference(|inp| eval(inp)[i], &base, k, h);
+                // Relative to the output's own scale times the input's, so tiny entries of a
+                // large vector are not held to more digits than differences can give.
+                let scale = values.iter().map(|x| x.abs()).fold(0.0, f64::max) / base[k].abs().max(1e-3);
+                assert!((e - fd).abs() <= 1e-5 * (fd.abs() + scale) + 1e-9, "d output {i} / d {}: dual {e} vs fd {fd}", names[k]);
+            }
+        }
+    }
+}

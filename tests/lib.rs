@@ -1,0 +1,6 @@
+//! Integration tests, compiled as one binary.
+
+mod common;
+mod contact_pair;
+mod geometry_ssdf;
+mod scene_sphere_drop;
