@@ -204,3 +204,4 @@ fn default_initial_table() {
     assert_eq!(default_initial(Input, Continuous), None);
     assert_eq!(default_initial(CalculatedParameter, Fixed), Some(Initial::Calculated));
 }
+
