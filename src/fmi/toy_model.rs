@@ -2,7 +2,7 @@
 //!
 //! Value references: Real 0 `x` (state, output), 1 `v` (state, output), 2 `u` (input),
 //! 3 `k` (tunable parameter), 4 `der(x)`, 5 `der(v)`, 6 `max_step` (a step longer than this is
-//! discarded), Integer 10 `steps` (output), Boolean 0 `frozen` (parameter), String 0 `label`.
+//! discarded; setting `u` to -666 panics, to test the panic guard), Integer 10 `steps` (output), Boolean 0 `frozen` (parameter), String 0 `label`.
 
 use std::path::Path;
 
@@ -167,6 +167,7 @@ impl FmiModel for Toy {
         match (vr, phase) {
             (0, Phase::Instantiated | Phase::Initialization) => self.s.x = value,
             (1, Phase::Instantiated | Phase::Initialization) => self.s.v = value,
+            (2, _) if value == -666.0 => panic!("toy panic on request"),
             (2, _) => self.s.u = value,
             (3, _) if value > 0.0 => self.s.k = value,
             (3, _) => return Err(format!("k must be > 0, got {value}")),
