@@ -222,11 +222,11 @@ fn signatures_match_fmi_sys() {
     for f in [ex::instantiate::<Tiny> as OursInstantiate, fmi2Instantiate as OursInstantiate] {
         // SAFETY: identical argument/return types except the pointee of one pointer, which has
         // the same layout; function pointers of the same ABI and arity have the same size.
-        let _: sys::fmi2InstantiateTYPE = Some(unsafe { std::mem::transmute::<OursInstantiate, _>(f) });
+        let _: sys::fmi2InstantiateTYPE = unsafe { std::mem::transmute::<Option<OursInstantiate>, sys::fmi2InstantiateTYPE>(Some(f)) };
     }
     for f in [ex::new_discrete_states::<Tiny> as OursNewDiscreteStates, fmi2NewDiscreteStates as OursNewDiscreteStates] {
         // SAFETY: as above.
-        let _: sys::fmi2NewDiscreteStatesTYPE = Some(unsafe { std::mem::transmute::<OursNewDiscreteStates, _>(f) });
+        let _: sys::fmi2NewDiscreteStatesTYPE = unsafe { std::mem::transmute::<Option<OursNewDiscreteStates>, sys::fmi2NewDiscreteStatesTYPE>(Some(f)) };
     }
 }
 

@@ -64,7 +64,7 @@ fn last(env: &Env) -> Record {
 
 const RES: &CStr = c"file:///tmp/scm-toy-resources";
 
-unsafe fn new_instance(env: &Env, cb: &fmi2CallbackFunctions, fmu_type: fmi2Type) -> fmi2Component {
+unsafe fn new_instance(_env: &Env, cb: &fmi2CallbackFunctions, fmu_type: fmi2Type) -> fmi2Component {
     let guid = CString::new(GUID).unwrap();
     unsafe { instantiate::<Toy>(c"toy".as_ptr(), fmu_type, guid.as_ptr(), RES.as_ptr(), cb, fmi2False, fmi2False) }
 }

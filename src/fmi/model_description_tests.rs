@@ -3,8 +3,11 @@ use crate::fmi::toy_model::toy_info;
 use quick_xml::events::BytesStart;
 use quick_xml::Reader;
 
-/// (depth, element name, attributes) of every start/empty element, in document order.
-fn elements(xml: &str) -> Vec<(usize, String, Vec<(String, String)>)> {
+/// (depth, element name, attributes) of an element.
+type Element = (usize, String, Vec<(String, String)>);
+
+/// Every start/empty element, in document order.
+fn elements(xml: &str) -> Vec<Element> {
     let mut reader = Reader::from_str(xml);
     let mut depth = 0;
     let mut out = Vec::new();
@@ -101,7 +104,7 @@ fn variables_attributes_and_start_values() {
     }
     let xml = model_description_xml(&info);
     let els = elements(&xml);
-    let svs: Vec<&(usize, String, Vec<(String, String)>)> = els.iter().filter(|(_, n, _)| n == "ScalarVariable").collect();
+    let svs: Vec<&Element> = els.iter().filter(|(_, n, _)| n == "ScalarVariable").collect();
     assert_eq!(svs.len(), info.variables.len());
     let x = &svs[0].2;
     assert_eq!(attr(x, "name"), Some("x"));

@@ -265,11 +265,10 @@ impl Function {
 
     /// Mask of the legal states for `interface`.
     pub fn mask(self, interface: Interface) -> u32 {
-        let mask = match interface {
+        match interface {
             Interface::CoSimulation => self.co_simulation_mask(),
             Interface::ModelExchange => self.model_exchange_mask(),
-        };
-        mask
+        }
     }
 }
 

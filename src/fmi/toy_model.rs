@@ -35,6 +35,7 @@ pub struct Toy {
     pub messages: Vec<LogMessage>,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn real(name: &str, vr: u32, causality: Causality, variability: Variability, initial: Option<Initial>, start: Option<f64>, unit: &'static str, derivative: Option<u32>) -> Variable {
     Variable {
         name: name.into(),
