@@ -17,3 +17,8 @@ pub mod model;
 pub mod scalar;
 pub mod scene;
 pub mod sim;
+pub mod pack;
+
+// The FMI 2.0 C ABI of the FMU binary: every `fmi2*` function, for scenes simulated by
+// `sim::Simulation`.
+fmi2_exports!(crate::sim::Simulation);

@@ -90,7 +90,7 @@ fn run(args: &[String]) -> Result<(), String> {
                 Some(l) => PathBuf::from(l),
                 None => default_library()?,
             };
-            let _ = (&scene, &lib, &out); return Err("x".into());
+            scm::pack::pack(Path::new(&scene), &lib, Path::new(&out)).map_err(|e| e.to_string())?;
             eprintln!("wrote {out}");
             Ok(())
         }

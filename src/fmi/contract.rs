@@ -54,13 +54,29 @@ pub enum Initial {
 pub enum VarType {
     /// `<Real>`; `derivative` is the value reference of the state this variable is the
     /// derivative of (Model Exchange), if any.
-    Real { start: Option<f64>, unit: Option<&'static str>, derivative: Option<u32> },
+    Real {
+        /// Start value.
+        start: Option<f64>,
+        /// Unit (one of the units `modelDescription.xml` declares).
+        unit: Option<&'static str>,
+        /// Value reference of the state this is the derivative of.
+        derivative: Option<u32>,
+    },
     /// `<Integer>`.
-    Integer { start: Option<i32> },
+    Integer {
+        /// Start value.
+        start: Option<i32>,
+    },
     /// `<Boolean>`.
-    Boolean { start: Option<bool> },
+    Boolean {
+        /// Start value.
+        start: Option<bool>,
+    },
     /// `<String>`.
-    String { start: Option<String> },
+    String {
+        /// Start value.
+        start: Option<String>,
+    },
 }
 
 /// One scalar variable: one row of the model's variable table.
@@ -70,10 +86,15 @@ pub struct Variable {
     pub name: String,
     /// Value reference: unique within its type.
     pub value_reference: u32,
+    /// Causality.
     pub causality: Causality,
+    /// Variability.
     pub variability: Variability,
+    /// `initial` attribute (`None`: the default for the causality and variability).
     pub initial: Option<Initial>,
+    /// Type and start value.
     pub var_type: VarType,
+    /// Human-readable description.
     pub description: String,
 }
 
@@ -82,8 +103,11 @@ pub struct Variable {
 /// omitted); `Some(vec![])` means "depends on nothing" (`dependencies=""`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ModelStructure {
+    /// `<Outputs>`: each output and what it depends on.
     pub outputs: Vec<(u32, Option<Vec<u32>>)>,
+    /// `<Derivatives>`: each state derivative and what it depends on.
     pub derivatives: Vec<(u32, Option<Vec<u32>>)>,
+    /// `<InitialUnknowns>`.
     pub initial_unknowns: Vec<(u32, Option<Vec<u32>>)>,
 }
 
@@ -129,7 +153,9 @@ impl LogCategory {
 /// A message from the model to the host's logger.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogMessage {
+    /// Category (the host sees it only if the category is switched on).
     pub category: LogCategory,
+    /// Text.
     pub text: String,
 }
 
@@ -146,8 +172,9 @@ pub struct ModelInfo {
     pub generation_tool: String,
     /// The variable table; its order is the order of `<ModelVariables>`.
     pub variables: Vec<Variable>,
+    /// `<ModelStructure>`.
     pub structure: ModelStructure,
-    /// Number of continuous states (Model Exchange); 0 if the model offers CS only.
+    /// `numberOfEventIndicators` (this model has no events: 0).
     pub number_of_event_indicators: usize,
     /// Whether `<ModelExchange>` is offered besides `<CoSimulation>`.
     pub model_exchange: bool,
@@ -158,9 +185,13 @@ pub struct ModelInfo {
 /// `<DefaultExperiment>` attributes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DefaultExperiment {
+    /// `startTime` (s).
     pub start_time: Option<f64>,
+    /// `stopTime` (s).
     pub stop_time: Option<f64>,
+    /// `tolerance`.
     pub tolerance: Option<f64>,
+    /// `stepSize` (s).
     pub step_size: Option<f64>,
 }
 
@@ -218,23 +249,31 @@ pub trait FmiModel: Sized + Send {
     /// Current simulation time.
     fn time(&self) -> f64;
 
+    /// `fmi2GetReal` of one variable.
     fn get_real(&mut self, vr: u32) -> ModelResult<f64>;
+    /// `fmi2SetReal` of one variable; refuses non-finite or out-of-range values with a message naming them.
     fn set_real(&mut self, vr: u32, value: f64, phase: Phase) -> ModelResult<()>;
+    /// `fmi2GetInteger` of one variable.
     fn get_integer(&mut self, vr: u32) -> ModelResult<i32> {
         Err(format!("no Integer variable with value reference {vr}"))
     }
+    /// `fmi2SetInteger` of one variable.
     fn set_integer(&mut self, vr: u32, _value: i32, _phase: Phase) -> ModelResult<()> {
         Err(format!("no Integer variable with value reference {vr}"))
     }
+    /// `fmi2GetBoolean` of one variable.
     fn get_boolean(&mut self, vr: u32) -> ModelResult<bool> {
         Err(format!("no Boolean variable with value reference {vr}"))
     }
+    /// `fmi2SetBoolean` of one variable.
     fn set_boolean(&mut self, vr: u32, _value: bool, _phase: Phase) -> ModelResult<()> {
         Err(format!("no Boolean variable with value reference {vr}"))
     }
+    /// `fmi2GetString` of one variable.
     fn get_string(&mut self, vr: u32) -> ModelResult<String> {
         Err(format!("no String variable with value reference {vr}"))
     }
+    /// `fmi2SetString` of one variable.
     fn set_string(&mut self, vr: u32, _value: &str, _phase: Phase) -> ModelResult<()> {
         Err(format!("no String variable with value reference {vr}"))
     }

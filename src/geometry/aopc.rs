@@ -23,9 +23,15 @@ pub struct Aopc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
     /// Sphere of the given radius (m).
-    Sphere { radius: f64 },
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
     /// Box with the given half-extents (m).
-    Box { half: Vector3<f64> },
+    Box {
+        /// Half-extents along the axes (m).
+        half: Vector3<f64>,
+    },
 }
 
 impl Shape {

@@ -44,7 +44,7 @@ fn element(text: &str, e: &BytesStart, pos: usize) -> Result<Element, XmlError> 
     for a in e.attributes() {
         let a = a.map_err(|err| XmlError { line, message: format!("bad attribute in <{name}>: {err}") })?;
         let key: String = { let k: &str = a.key.as_ref(); k.to_owned() };
-        let value = a.unescape_value().map_err(|err| XmlError { line, message: format!("bad value of {key} in <{name}>: {err}") })?.into_owned();
+        let value = a.normalized_value(quick_xml::XmlVersion::Implicit1_0).map_err(|err| XmlError { line, message: format!("bad value of {key} in <{name}>: {err}") })?.into_owned();
         if attrs.iter().any(|(k, _)| *k == key) {
             return Err(XmlError { line, message: format!("attribute {key} repeated in <{name}>") });
         }
