@@ -3,4 +3,5 @@
 mod common;
 mod contact_pair;
 mod geometry_ssdf;
+mod scene_errors;
 mod scene_sphere_drop;

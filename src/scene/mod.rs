@@ -575,8 +575,10 @@ impl Builder {
         Ok(())
     }
 
+    /// An error in an SCM setting, naming its `<numeric>` or `<text>` element.
     fn setting_error(&self, line: usize, name: &str, message: String) -> SceneError {
-        SceneError { file: self.file.clone(), line, element: "custom".into(), message: format!("{name}: {message}") }
+        let element = if self.text.iter().any(|(n, _, l)| n == name && *l == line) { "text" } else { "numeric" };
+        SceneError { file: self.file.clone(), line, element: element.into(), message: format!("{name}: {message}") }
     }
 
     fn finish(mut self) -> Result<Scene, SceneError> {
