@@ -369,10 +369,13 @@ impl FmiModel for Simulation {
                 _ => continue,
             };
             let q = &mut self.current.state.q[qa..qa + 4];
-            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(n > 1e-12) {
+            // Scale by the largest component first, so huge components do not overflow.
+            let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if !(m > 0.0) {
                 return Err(format!("{}.quat is zero: set a non-zero orientation quaternion", j.name));
             }
+            q.iter_mut().for_each(|x| *x /= m);
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
             q.iter_mut().for_each(|x| *x /= n);
         }
         self.outputs = None;

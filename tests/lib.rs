@@ -2,6 +2,7 @@
 
 mod common;
 mod contact_pair;
+mod fmi_fuzz;
 mod geometry_ssdf;
 mod scene_errors;
 mod scene_sphere_drop;
