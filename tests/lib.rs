@@ -3,6 +3,7 @@
 mod common;
 mod contact_pair;
 mod fmi_fuzz;
+mod fmi_load;
 mod geometry_ssdf;
 mod scene_errors;
 mod scene_sphere_drop;
