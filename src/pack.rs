@@ -18,13 +18,28 @@ pub enum PackError {
     Write(String),
 }
 
-/// Packs `scene` with the FMU `library` into `out`.
-pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
+/// A scene's text and the `modelDescription.xml` its FMU carries.
+pub struct Described {
+    /// The scene file, as read (it goes into the FMU's `resources/`).
+    pub scene_text: String,
+    /// The generated `modelDescription.xml`.
+    pub model_description: String,
+}
+
+/// Loads `scene` and generates its `modelDescription.xml`: what `scm pack` writes, and what the
+/// golden files under `modelDescription/` are checked against.
+pub fn describe(scene: &Path) -> Result<Described, PackError> {
     let text = std::fs::read_to_string(scene).map_err(|e| crate::scene::SceneError { file: scene.display().to_string(), line: 0, element: "mujoco".into(), message: format!("cannot read the scene: {e}") })?;
     let sim = Simulation::new(crate::scene::load_str(&text, scene)?, &text);
+    let model_description = crate::fmi::model_description::model_description_xml(sim.info());
+    Ok(Described { scene_text: text, model_description })
+}
+
+/// Packs `scene` with the FMU `library` into `out`.
+pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
+    let d = describe(scene)?;
     if !library.is_file() {
         return Err(PackError::Library(library.display().to_string()));
     }
-    let xml = crate::fmi::model_description::model_description_xml(sim.info());
-    crate::fmi::pack::write_fmu(out, &xml, library, &[(SCENE_FILE.to_string(), text.into_bytes())], None).map_err(|e| PackError::Write(e.to_string()))
+    crate::fmi::pack::write_fmu(out, &d.model_description, library, &[(SCENE_FILE.to_string(), d.scene_text.into_bytes())], None).map_err(|e| PackError::Write(e.to_string()))
 }

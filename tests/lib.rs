@@ -5,5 +5,6 @@ mod contact_pair;
 mod fmi_fuzz;
 mod fmi_load;
 mod geometry_ssdf;
+mod golden_model_description;
 mod scene_errors;
 mod scene_sphere_drop;
