@@ -5,12 +5,16 @@
 use crate::contact::{ContactParams, PairContact};
 use crate::dynamics::JointKind;
 use crate::fmi::contract::{
-    Causality, DefaultExperiment, FmiModel, Initial, LogCategory, LogMessage, ModelInfo, ModelResult, ModelStructure, Phase, StepError, VarType, Variability, Variable,
+    Capabilities, Causality, DefaultExperiment, FmiModel, Initial, LogCategory, LogMessage, ModelInfo, ModelResult, Phase, StepError, VarType, Variability, Variable,
 };
-use crate::integrate::State;
+use crate::integrate::{Integrator, State};
 use crate::model::Model;
 use crate::scene::{self, Scene};
 use std::path::Path;
+
+pub mod jacobian;
+mod state_bytes;
+pub mod structure;
 
 /// Name of the scene file inside an FMU's `resources/` folder.
 pub const SCENE_FILE: &str = "scene.xml";
@@ -107,6 +111,12 @@ pub enum Slot {
     SolverTolerance,
     /// Integrator name (String).
     SolverIntegrator,
+    /// Time derivative of the position coordinate `q[i]` (a Model Exchange state derivative).
+    QDot(usize),
+    /// Time derivative of the velocity coordinate `v[i]`: an acceleration (a Model Exchange
+    /// state derivative, and an output, so that Co-Simulation has direct feedthrough from the
+    /// controls).
+    VDot(usize),
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -179,19 +189,42 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, "Integrator of the internal steps".into(), Slot::SolverIntegrator);
     push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.step), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
     push("solver.tolerance".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.tolerance), "1"), "Local error tolerance of the adaptive integrator".into(), Slot::SolverTolerance);
+    push_derivative_rows(&mut rows);
     rows
 }
 
-/// A 128-bit FNV-1a hash (two 64-bit lanes), for the GUID and state checksums. Hand-written:
-/// eight lines, and it must stay byte-for-byte stable across versions of any library.
-pub fn fnv1a(bytes: &[u8], seed: u64) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64 ^ seed;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+/// Appends the state derivatives `der(<state>)` of every position and velocity coordinate, in
+/// coordinate order (`q` then `v`, which is the order of the continuous states). Position
+/// derivatives are local; velocity derivatives (accelerations) are outputs.
+fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
+    let mut states: Vec<(Slot, u32, String, Option<&'static str>)> = rows
+        .iter()
+        .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_)))
+        .map(|(v, s)| (*s, v.value_reference, v.name.clone(), match v.var_type { VarType::Real { unit, .. } => unit, _ => None }))
+        .collect();
+    states.sort_by_key(|(s, ..)| match *s {
+        Slot::Q(i) => i,
+        Slot::V(i) => usize::MAX / 2 + i,
+        _ => usize::MAX,
+    });
+    for (slot, state_vr, name, unit) in states {
+        let (unit, slot, causality, what) = match (slot, unit) {
+            (Slot::Q(i), Some("m")) => ("m/s", Slot::QDot(i), Causality::Local, "Time derivative"),
+            (Slot::Q(i), Some("rad")) => ("rad/s", Slot::QDot(i), Causality::Local, "Time derivative"),
+            (Slot::Q(i), _) => ("1/s", Slot::QDot(i), Causality::Local, "Time derivative"),
+            (Slot::V(i), Some("m/s")) => ("m/s2", Slot::VDot(i), Causality::Output, "Acceleration (time derivative)"),
+            (Slot::V(i), _) => ("rad/s2", Slot::VDot(i), Causality::Output, "Acceleration (time derivative)"),
+            _ => continue,
+        };
+        let value_reference = rows.len() as u32;
+        let description = format!("{what} time derivative of {name} (Model Exchange state derivative)");
+        let var_type = VarType::Real { start: None, unit: Some(unit), derivative: Some(state_vr) };
+        rows.push((Variable { name: format!("der({name})"), value_reference, causality, variability: Variability::Continuous, initial: None, var_type, description }, slot));
     }
-    h
 }
+
+/// 64-bit FNV-1a (the GUID uses two lanes of it); see [`crate::fmi::serial::fnv1a`].
+pub use crate::fmi::serial::fnv1a;
 
 /// The FMU's GUID: a hash of the scene text and this crate's version, so an FMU refuses a
 /// binary or a saved state from another scene or version.
@@ -202,21 +235,20 @@ pub fn guid(scene_text: &str) -> String {
     format!("{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}", a >> 32, (a >> 16) & 0xffff, a & 0xffff, b >> 48, b & 0xffff_ffff_ffff)
 }
 
-/// The `ModelInfo` of a scene.
+/// The `ModelInfo` of a scene: Co-Simulation and Model Exchange, FMU state get/set and
+/// serialization, and exact directional derivatives, all implemented by [`Simulation`];
+/// `<ModelStructure>` from [`structure::model_structure`].
 pub fn model_info(model: &Model, scene_text: &str, rows: &[(Variable, Slot)]) -> ModelInfo {
-    let outputs = rows.iter().filter(|(v, _)| v.causality == Causality::Output).map(|(v, _)| (v.value_reference, Some(vec![]))).collect::<Vec<_>>();
-    // Initial unknowns: calculated outputs depend on the exact-initial states and parameters.
-    let knowns: Vec<u32> = rows.iter().filter(|(v, s)| v.initial == Some(Initial::Exact) && matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Param(_))).map(|(v, _)| v.value_reference).collect();
-    let initial_unknowns = rows.iter().filter(|(v, _)| v.causality == Causality::Output && v.initial == Some(Initial::Calculated)).map(|(v, _)| (v.value_reference, Some(knowns.clone()))).collect();
     ModelInfo {
         model_name: model.name.clone(),
         guid: guid(scene_text),
         description: format!("Soft-minimum contact model: scene {} ({} bodies, {} joints, {} contact pairs)", model.name, model.tree.bodies.len() - 1, model.tree.joints.len(), model.pairs.len()),
         generation_tool: format!("scm {}", env!("CARGO_PKG_VERSION")),
         variables: rows.iter().map(|(v, _)| v.clone()).collect(),
-        structure: ModelStructure { outputs, derivatives: vec![], initial_unknowns },
+        structure: structure::model_structure(model, rows),
         number_of_event_indicators: 0,
-        model_exchange: false,
+        model_exchange: true,
+        capabilities: Capabilities { can_get_and_set_fmu_state: true, can_serialize_fmu_state: true, provides_directional_derivative: true },
         default_experiment: DefaultExperiment { start_time: Some(0.0), stop_time: Some(2.0), tolerance: None, step_size: Some(model.step.max(0.01)) },
     }
 }
@@ -234,6 +266,25 @@ pub struct SimState {
     pub params: ContactParams<f64>,
 }
 
+/// What `fmi2GetFMUstate` saves: the time-varying state and the solver settings (which the
+/// host may set before initialization), so that restoring it reproduces a rollout bit for bit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FmuState {
+    /// Time, positions, velocities, controls and contact parameters.
+    pub sim: SimState,
+    /// Integrator of the internal steps.
+    pub integrator: Integrator,
+    /// Internal step (s).
+    pub step: f64,
+    /// Local error tolerance.
+    pub tolerance: f64,
+}
+
+/// A quaternion whose norm differs from 1 by more than this after a step of the host's solver
+/// (Model Exchange) is projected back onto the unit sphere at an event (see
+/// [`Simulation::quaternion_drift`]).
+pub const QUATERNION_DRIFT_TOLERANCE: f64 = 1e-6;
+
 /// A simulation of a scene.
 pub struct Simulation {
     /// The model.
@@ -247,6 +298,12 @@ pub struct Simulation {
     /// Contact outputs at the current state, computed on demand.
     outputs: Option<Vec<PairContact<f64>>>,
     messages: Vec<LogMessage>,
+    /// Accelerations `v̇` and the (time, state, controls, parameters) they were computed at.
+    accelerations: Option<(SimState, Vec<f64>)>,
+    /// Solver settings of the scene (restored by `fmi2Reset`).
+    start_solver: (Integrator, f64, f64),
+    /// Whether the host sees `logContact` messages (so diagnostics are only formatted then).
+    log_contact: bool,
 }
 
 impl Simulation {
@@ -257,7 +314,8 @@ impl Simulation {
         let info = model_info(&model, scene_text, &rows);
         let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, messages }
+        let start_solver = (model.integrator, model.step, model.tolerance);
+        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, messages, accelerations: None, start_solver, log_contact: false }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -331,8 +389,75 @@ pub fn first_non_finite(model: &Model, s: &State<f64>) -> Option<String> {
     None
 }
 
+/// Model Exchange, directional derivatives and diagnostics.
+impl Simulation {
+    /// Accelerations `v̇` at the current state, controls and parameters (computed once per
+    /// distinct state: the cache is keyed by the state itself, so no code path can leave it
+    /// stale).
+    pub fn accelerations(&mut self) -> ModelResult<&[f64]> {
+        let fresh = matches!(&self.accelerations, Some((at, _)) if at.state == self.current.state && at.ctrl == self.current.ctrl && at.params == self.current.params);
+        if !fresh {
+            let c = &self.current;
+            let f = self.model.forward(&c.state.q, &c.state.v, &c.ctrl, &c.params).map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
+            self.accelerations = Some((self.current.clone(), f.vdot.iter().copied().collect()));
+        }
+        Ok(self.accelerations.as_ref().map(|(_, a)| a.as_slice()).unwrap_or_default())
+    }
+
+    /// Start index in `q` of every quaternion (free and ball joints).
+    fn quaternions(&self) -> Vec<usize> {
+        self.model
+            .tree
+            .joints
+            .iter()
+            .filter_map(|j| match j.kind {
+                JointKind::Free => Some(j.qadr + 3),
+                JointKind::Ball => Some(j.qadr),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Largest `| |quaternion| - 1 |` of the current state.
+    ///
+    /// In Model Exchange the host's solver owns the state, and the quaternions are part of it.
+    /// The model is well defined off the unit sphere (kinematics normalizes the quaternion, and
+    /// `q̇ = ½ q ⊗ (0, ω)` is tangent to the sphere, so the exact flow keeps the norm), but a
+    /// numerical solver drifts slowly. After each completed integrator step the model asks for
+    /// an event when the drift exceeds [`QUATERNION_DRIFT_TOLERANCE`], and at the event
+    /// ([`FmiModel::event_update`]) it normalizes the quaternions and reports that the states
+    /// changed, so the host re-reads them and restarts its solver from the unit sphere.
+    pub fn quaternion_drift(&self) -> f64 {
+        self.quaternions().iter().map(|&i| (self.current.state.q[i..i + 4].iter().map(|x| x * x).sum::<f64>().sqrt() - 1.0).abs()).fold(0.0, f64::max)
+    }
+
+    /// Continuous states `x = [q; v]` (Model Exchange).
+    pub fn continuous_states(&self) -> Vec<f64> {
+        self.current.state.q.iter().chain(&self.current.state.v).copied().collect()
+    }
+
+    /// Queues one `logContact` message per pair with its smooth distance, force and torque at
+    /// the current state (only when the host has the category on).
+    fn log_contacts(&mut self) {
+        if !self.log_contact {
+            return;
+        }
+        let t = self.current.time;
+        let names: Vec<(String, String)> = self.model.pairs.iter().map(|p| (self.model.tree.bodies[p.a].name.clone(), self.model.tree.bodies[p.b].name.clone())).collect();
+        let contacts = self.contacts().to_vec();
+        for ((a, b), c) in names.iter().zip(contacts) {
+            let (f, m) = (c.on_a.force, c.on_a.torque);
+            let text = format!(
+                "t = {t} s: contact {a}-{b}: distance D = {:.6e} m, force on {a} = ({:.6e}, {:.6e}, {:.6e}) N, torque on {a} = ({:.6e}, {:.6e}, {:.6e}) N.m",
+                c.distance, f.x, f.y, f.z, m.x, m.y, m.z
+            );
+            self.messages.push(LogMessage { category: LogCategory::Contact, text });
+        }
+    }
+}
+
 impl FmiModel for Simulation {
-    type State = SimState;
+    type State = FmuState;
 
     fn instantiate(resources: &Path) -> ModelResult<Self> {
         let path = resources.join(SCENE_FILE);
@@ -385,6 +510,7 @@ impl FmiModel for Simulation {
 
     fn reset(&mut self) -> ModelResult<()> {
         self.current = self.start.clone();
+        (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
         self.outputs = None;
         self.messages.push(LogMessage { category: LogCategory::Events, text: "reset to the start values".into() });
         Ok(())
@@ -408,6 +534,8 @@ impl FmiModel for Simulation {
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,
             Slot::SolverIntegrator => return Err(format!("solver.integrator (value reference {vr}) is a String variable")),
+            Slot::QDot(i) => self.model.tree.qdot(&self.current.state.q, &self.current.state.v)[i],
+            Slot::VDot(i) => self.accelerations()?[i],
         })
     }
 
@@ -422,17 +550,14 @@ impl FmiModel for Simulation {
                 } else {
                     self.current.state.v[i] = value;
                 }
-                self.start.state = self.current.state.clone();
             }
             Slot::Ctrl(i) => self.current.ctrl[i] = value,
             Slot::Param(p) => {
                 if !p.accepts(value) {
                     return Err(format!("{} = {value} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
                 }
+                // Tunable at any time; `fmi2Reset` restores the scene's value.
                 *p.slot(&mut self.current.params) = value;
-                if before_init {
-                    self.start.params = self.current.params;
-                }
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
                 if !(value > 0.0) {
@@ -481,6 +606,7 @@ impl FmiModel for Simulation {
         self.current.time = current_time;
         self.advance(step)?;
         self.current.time = current_time + step;
+        self.log_contacts();
         Ok(())
     }
 
@@ -488,13 +614,110 @@ impl FmiModel for Simulation {
         std::mem::take(&mut self.messages)
     }
 
-    fn get_state(&self) -> ModelResult<SimState> {
-        Ok(self.current.clone())
+    fn get_state(&self) -> ModelResult<FmuState> {
+        Ok(FmuState { sim: self.current.clone(), integrator: self.model.integrator, step: self.model.step, tolerance: self.model.tolerance })
     }
 
-    fn set_state(&mut self, state: &SimState) -> ModelResult<()> {
-        self.current = state.clone();
+    fn set_state(&mut self, state: &FmuState) -> ModelResult<()> {
+        let s = &state.sim;
+        if (s.state.q.len(), s.state.v.len(), s.ctrl.len()) != (self.model.tree.nq, self.model.tree.nv, self.model.actuators.len()) {
+            return Err("the FMU state belongs to another scene (its sizes differ)".into());
+        }
+        self.current = state.sim.clone();
+        (self.model.integrator, self.model.step, self.model.tolerance) = (state.integrator, state.step, state.tolerance);
         self.outputs = None;
         Ok(())
+    }
+
+    fn serialize_state(&self, state: &FmuState) -> ModelResult<Vec<u8>> {
+        Ok(state_bytes::encode(state))
+    }
+
+    fn deserialize_state(&self, bytes: &[u8]) -> ModelResult<FmuState> {
+        state_bytes::decode(&self.model, bytes)
+    }
+
+    fn directional_derivative(&mut self, unknowns: &[u32], knowns: &[u32], dv_known: &[f64]) -> ModelResult<Vec<f64>> {
+        let mut u = Vec::with_capacity(unknowns.len());
+        for &vr in unknowns {
+            let (var, slot) = self.row(vr)?;
+            if structure::knowns_of(&self.model, *slot).is_none() {
+                return Err(format!("{} (value reference {vr}) is not an unknown: the unknowns are the outputs and the state derivatives", var.name));
+            }
+            u.push(*slot);
+        }
+        let mut k = Vec::with_capacity(knowns.len());
+        for &vr in knowns {
+            let (var, slot) = self.row(vr)?;
+            if !matches!(slot, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_) | Slot::Time) {
+                return Err(format!("{} (value reference {vr}) is not a known: the knowns are the states, the inputs and the contact parameters", var.name));
+            }
+            k.push(*slot);
+        }
+        if let Some(i) = dv_known.iter().position(|d| !d.is_finite()) {
+            return Err(format!("dvKnown[{i}] = {} is not finite", dv_known[i]));
+        }
+        jacobian::directional_derivative(&self.model, &self.current, &u, &k, dv_known)
+    }
+
+    fn number_of_states(&self) -> usize {
+        self.model.tree.nq + self.model.tree.nv
+    }
+
+    fn set_time(&mut self, time: f64) -> ModelResult<()> {
+        // Nothing depends on time explicitly: no cache to drop.
+        self.current.time = time;
+        Ok(())
+    }
+
+    fn get_continuous_states(&mut self) -> ModelResult<Vec<f64>> {
+        Ok(self.continuous_states())
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> ModelResult<()> {
+        let nq = self.model.tree.nq;
+        for (j, qa) in self.model.tree.joints.iter().filter_map(|j| match j.kind {
+            JointKind::Free => Some((j, j.qadr + 3)),
+            JointKind::Ball => Some((j, j.qadr)),
+            _ => None,
+        }) {
+            if x[qa..qa + 4].iter().all(|&c| c == 0.0) {
+                return Err(format!("the quaternion of joint {} (x[{qa}..{}]) is zero: it has no orientation; the states are unchanged", j.name, qa + 4));
+            }
+        }
+        self.current.state.q.copy_from_slice(&x[..nq]);
+        self.current.state.v.copy_from_slice(&x[nq..]);
+        self.outputs = None;
+        Ok(())
+    }
+
+    fn get_derivatives(&mut self) -> ModelResult<Vec<f64>> {
+        let mut dx = self.model.tree.qdot(&self.current.state.q, &self.current.state.v);
+        dx.extend_from_slice(self.accelerations()?);
+        if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
+            return Err(format!("the derivative of state {i} is {} at t = {} s", dx[i], self.current.time));
+        }
+        Ok(dx)
+    }
+
+    fn completed_integrator_step(&mut self) -> ModelResult<bool> {
+        self.log_contacts();
+        Ok(self.quaternion_drift() > QUATERNION_DRIFT_TOLERANCE)
+    }
+
+    fn event_update(&mut self) -> ModelResult<bool> {
+        let before = self.current.state.q.clone();
+        self.model.tree.normalize_q(&mut self.current.state.q);
+        let changed = before != self.current.state.q;
+        if changed {
+            self.outputs = None;
+        }
+        Ok(changed)
+    }
+
+    fn logging_changed(&mut self, category: LogCategory, on: bool) {
+        if category == LogCategory::Contact {
+            self.log_contact = on;
+        }
     }
 }

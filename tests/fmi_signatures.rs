@@ -44,6 +44,7 @@ impl FmiModel for Tiny {
                 structure: ModelStructure::default(),
                 number_of_event_indicators: 0,
                 model_exchange: false,
+                capabilities: Default::default(),
                 default_experiment: DefaultExperiment::default(),
             },
             t: 0.0,

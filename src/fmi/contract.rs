@@ -178,8 +178,26 @@ pub struct ModelInfo {
     pub number_of_event_indicators: usize,
     /// Whether `<ModelExchange>` is offered besides `<CoSimulation>`.
     pub model_exchange: bool,
+    /// Optional capabilities, declared in both interfaces' elements. A flag must be true only
+    /// if the model implements the matching [`FmiModel`] methods (their defaults refuse); the
+    /// plumbing refuses the calls of an undeclared capability.
+    pub capabilities: Capabilities,
     /// `<DefaultExperiment>`: start, stop, tolerance, step size.
     pub default_experiment: DefaultExperiment,
+}
+
+/// The optional capabilities of `<ModelExchange>`/`<CoSimulation>` (FMI 2.0, section 2.2.1 and
+/// 3.3.1/4.3.1). `Default` declares none of them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Capabilities {
+    /// `canGetAndSetFMUstate`: [`FmiModel::get_state`] and [`FmiModel::set_state`] work.
+    pub can_get_and_set_fmu_state: bool,
+    /// `canSerializeFMUstate`: [`FmiModel::serialize_state`] and
+    /// [`FmiModel::deserialize_state`] work.
+    pub can_serialize_fmu_state: bool,
+    /// `providesDirectionalDerivative`: [`FmiModel::directional_derivative`] answers for every
+    /// pair of unknown and known that `<ModelStructure>` declares.
+    pub provides_directional_derivative: bool,
 }
 
 /// `<DefaultExperiment>` attributes.
@@ -334,8 +352,20 @@ pub trait FmiModel: Sized + Send {
         Ok(vec![1.0; self.number_of_states()])
     }
     /// `fmi2CompletedIntegratorStep`: returns whether the host must call `fmi2EnterEventMode`
-    /// (e.g. to renormalize quaternions it does not; a model may project its state here).
+    /// (e.g. because the state drifted off a constraint the model projects back onto in
+    /// [`FmiModel::event_update`]).
     fn completed_integrator_step(&mut self) -> ModelResult<bool> {
         Ok(false)
     }
+    /// `fmi2NewDiscreteStates` (event mode): the model's event update. Returns whether it
+    /// changed the continuous states (`valuesOfContinuousStatesChanged`), e.g. by projecting
+    /// them back onto a constraint.
+    fn event_update(&mut self) -> ModelResult<bool> {
+        Ok(false)
+    }
+
+    /// Told whenever a log category is switched on or off (`loggingOn` of `fmi2Instantiate`,
+    /// `fmi2SetDebugLogging`), so the model produces costly diagnostics only when the host
+    /// will see them.
+    fn logging_changed(&mut self, _category: LogCategory, _on: bool) {}
 }

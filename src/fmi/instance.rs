@@ -20,6 +20,7 @@ use super::ffi::{
     fmi2Status, fmi2StatusKind, fmi2Terminated, fmi2True, fmi2Warning,
 };
 use super::state_machine::{check, Function, Interface, ModelState};
+use super::serial;
 use super::uri::resource_uri_to_path;
 
 /// Where an instance's log messages go (the host's logger, or a test's collector).
@@ -45,12 +46,6 @@ fn new_handle() -> FmuStateHandle {
     FmuStateHandle(NonZeroUsize::new(n.wrapping_mul(16)).unwrap_or(NonZeroUsize::MIN))
 }
 
-/// Magic number that starts a serialized FMU state.
-const SERIAL_MAGIC: &[u8; 8] = b"SCMFMU2\0";
-/// Version of the serialized layout written by this plumbing.
-const SERIAL_VERSION: u32 = 1;
-/// Header: magic, version, machine state, last successful time, model byte count.
-const SERIAL_HEADER: usize = 8 + 4 + 4 + 8 + 8;
 
 /// A saved FMU state: the model's part and the plumbing's part.
 struct Saved<S> {
@@ -182,6 +177,9 @@ impl<M: FmiModel> Instance<M> {
             last_successful_time: start_time,
             strings: Vec::new(),
         };
+        for category in LogCategory::ALL {
+            instance.model.logging_changed(category, logging_on);
+        }
         instance.log_event(&format!("fmi2Instantiate: instance {instance_name:?} created ({interface:?}) from {}", resources.display()));
         instance.forward_messages();
         Ok(instance)
@@ -340,11 +338,11 @@ impl<M: FmiModel> Instance<M> {
                 }
             }
             if indices.is_empty() {
-                this.log_enabled = [logging_on; LogCategory::ALL.len()];
-            } else {
-                for i in indices {
-                    this.log_enabled[i] = logging_on;
-                }
+                indices = (0..LogCategory::ALL.len()).collect();
+            }
+            for i in indices {
+                this.log_enabled[i] = logging_on;
+                this.model.logging_changed(LogCategory::ALL[i], logging_on);
             }
             Ok(fmi2OK)
         })
@@ -549,6 +547,7 @@ impl<M: FmiModel> Instance<M> {
     /// overwriting that known state).
     pub fn get_fmu_state(&mut self, slot: &mut Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::GetFMUstate, |this| {
+            this.require(this.model.info().capabilities.can_get_and_set_fmu_state, "canGetAndSetFMUstate")?;
             if let Some(h) = *slot {
                 if !this.saved.contains_key(&h) {
                     return Err(Self::unknown_handle(h));
@@ -568,6 +567,7 @@ impl<M: FmiModel> Instance<M> {
     /// `fmi2SetFMUstate`: restores a saved state (model and state machine).
     pub fn set_fmu_state(&mut self, handle: Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::SetFMUstate, |this| {
+            this.require(this.model.info().capabilities.can_get_and_set_fmu_state, "canGetAndSetFMUstate")?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             let saved = this.saved.get(&h).ok_or_else(|| Self::unknown_handle(h))?;
             this.model.set_state(&saved.model)?;
@@ -594,21 +594,24 @@ impl<M: FmiModel> Instance<M> {
         let saved = self.saved.get_mut(&handle).ok_or_else(|| Self::unknown_handle(handle))?;
         if saved.serialized.is_none() {
             let model_bytes = self.model.serialize_state(&saved.model)?;
-            let mut bytes = Vec::with_capacity(SERIAL_HEADER + model_bytes.len());
-            bytes.extend_from_slice(SERIAL_MAGIC);
-            bytes.extend_from_slice(&SERIAL_VERSION.to_le_bytes());
-            bytes.extend_from_slice(&saved.machine.bit().to_le_bytes());
-            bytes.extend_from_slice(&saved.last_successful_time.to_le_bytes());
-            bytes.extend_from_slice(&(model_bytes.len() as u64).to_le_bytes());
-            bytes.extend_from_slice(&model_bytes);
-            saved.serialized = Some(bytes);
+            saved.serialized = Some(serial::encode(&self.model.info().guid, saved.machine.bit(), saved.last_successful_time, &model_bytes));
         }
         Ok(saved.serialized.as_deref().unwrap_or_default())
+    }
+
+    /// Refuses a call of an optional capability that `modelDescription.xml` does not declare.
+    fn require(&self, declared: bool, flag: &str) -> Result<(), Failure> {
+        if declared {
+            Ok(())
+        } else {
+            Err(format!("not supported: this FMU declares {flag}=\"false\"").into())
+        }
     }
 
     /// `fmi2SerializedFMUstateSize`.
     pub fn serialized_fmu_state_size(&mut self, handle: Option<FmuStateHandle>, size: &mut usize) -> fmi2Status {
         self.run(Function::SerializedFMUstateSize, |this| {
+            this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             *size = this.serialized(h)?.len();
             Ok(fmi2OK)
@@ -618,6 +621,7 @@ impl<M: FmiModel> Instance<M> {
     /// `fmi2SerializeFMUstate`: `out` must hold at least `fmi2SerializedFMUstateSize` bytes.
     pub fn serialize_fmu_state(&mut self, handle: Option<FmuStateHandle>, out: &mut [u8]) -> fmi2Status {
         self.run(Function::SerializeFMUstate, |this| {
+            this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             let bytes = this.serialized(h)?;
             if out.len() < bytes.len() {
@@ -632,36 +636,20 @@ impl<M: FmiModel> Instance<M> {
     /// Corrupt or foreign bytes are refused.
     pub fn deserialize_fmu_state(&mut self, bytes: &[u8], slot: &mut Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::DeSerializeFMUstate, |this| {
+            this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
             if let Some(h) = *slot {
                 if !this.saved.contains_key(&h) {
                     return Err(Self::unknown_handle(h));
                 }
             }
-            if bytes.len() < SERIAL_HEADER || &bytes[..8] != SERIAL_MAGIC {
-                return Err("the bytes are not a serialized state of this FMU (bad header)".to_string().into());
-            }
-            let u32_at = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-            let u64_at = |i: usize| {
-                let mut b = [0u8; 8];
-                b.copy_from_slice(&bytes[i..i + 8]);
-                u64::from_le_bytes(b)
-            };
-            let version = u32_at(8);
-            if version != SERIAL_VERSION {
-                return Err(format!("serialized state has layout version {version}, this FMU reads {SERIAL_VERSION}").into());
-            }
-            let machine = ModelState::ALL.into_iter().find(|s| s.bit() == u32_at(12)).filter(|s| this.restorable(*s));
-            let machine = machine.ok_or_else(|| "serialized state is corrupt or from another interface type".to_string())?;
-            let last_successful_time = f64::from_bits(u64_at(16));
-            let n = u64_at(24);
-            let model_bytes = usize::try_from(n)
-                .ok()
-                .and_then(|n| bytes.get(SERIAL_HEADER..SERIAL_HEADER.checked_add(n)?))
-                .ok_or_else(|| format!("serialized state is truncated: {} bytes for a state of {n}", bytes.len() - SERIAL_HEADER))?;
+            let decoded = serial::decode(bytes, &this.model.info().guid)?;
+            let machine = ModelState::ALL.into_iter().find(|s| s.bit() == decoded.machine).filter(|s| this.restorable(*s));
+            let machine = machine.ok_or_else(|| format!("serialized state was saved in a state-machine state ({:#x}) this {:?} instance cannot restore", decoded.machine, this.interface))?;
+            let last_successful_time = decoded.last_successful_time;
+            let model_bytes = decoded.model;
             let model = this.model.deserialize_state(model_bytes)?;
             let handle = slot.unwrap_or_else(new_handle);
-            let canonical = bytes[..SERIAL_HEADER + model_bytes.len()].to_vec();
-            this.saved.insert(handle, Saved { model, machine, last_successful_time, serialized: Some(canonical) });
+            this.saved.insert(handle, Saved { model, machine, last_successful_time, serialized: Some(bytes.to_vec()) });
             *slot = Some(handle);
             Ok(fmi2OK)
         })
@@ -670,6 +658,7 @@ impl<M: FmiModel> Instance<M> {
     /// `fmi2GetDirectionalDerivative`: `dv_unknown = J[unknowns, knowns] · dv_known`.
     pub fn get_directional_derivative(&mut self, unknowns: &[u32], knowns: &[u32], dv_known: &[f64], dv_unknown: &mut [f64]) -> fmi2Status {
         self.run(Function::GetDirectionalDerivative, |this| {
+            this.require(this.model.info().capabilities.provides_directional_derivative, "providesDirectionalDerivative")?;
             Self::same_length("dvKnown", knowns.len(), dv_known.len())?;
             Self::same_length("dvUnknown", unknowns.len(), dv_unknown.len())?;
             this.check_known(Kind::Real, unknowns)?;
@@ -809,10 +798,15 @@ impl<M: FmiModel> Instance<M> {
         })
     }
 
-    /// `fmi2NewDiscreteStates`: the model has no discrete states, events or time events.
+    /// `fmi2NewDiscreteStates`: the model has no discrete states, event indicators or time
+    /// events; its event update ([`FmiModel::event_update`]) may change the continuous states.
     pub fn new_discrete_states(&mut self, info: &mut fmi2EventInfo) -> fmi2Status {
-        self.run(Function::NewDiscreteStates, |_| {
-            *info = fmi2EventInfo::default();
+        self.run(Function::NewDiscreteStates, |this| {
+            let changed = this.model.event_update()?;
+            *info = fmi2EventInfo { valuesOfContinuousStatesChanged: fmi_bool(changed), ..fmi2EventInfo::default() };
+            if changed {
+                this.log_event(&format!("fmi2NewDiscreteStates: the model changed its continuous states at t = {:?}", this.model.time()));
+            }
             Ok(fmi2OK)
         })
     }

@@ -8,12 +8,14 @@
 //! - [`exports`]: the C ABI: generic `extern "C"` functions and the [`fmi2_exports!`](crate::fmi2_exports) macro.
 //! - [`model_description`]: `modelDescription.xml` from a [`contract::ModelInfo`].
 //! - [`pack`]: the `.fmu` archive.
+//! - [`serial`]: the byte format of a serialized FMU state (versioned, checksummed, GUID-bound).
 pub mod contract;
 pub mod exports;
 pub mod ffi;
 pub mod instance;
 pub mod model_description;
 pub mod pack;
+pub mod serial;
 pub mod state_machine;
 pub mod uri;
 

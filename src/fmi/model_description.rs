@@ -261,12 +261,14 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
     w.write_event(Event::Start(root)).map_err(xml_err)?;
 
     // Interfaces: ModelExchange before CoSimulation (schema order).
+    let flag = |b: bool| if b { "true" } else { "false" };
+    let caps = &info.capabilities;
     let common = [
         ("modelIdentifier", "scm"),
         ("canNotUseMemoryManagementFunctions", "true"),
-        ("canGetAndSetFMUstate", "true"),
-        ("canSerializeFMUstate", "true"),
-        ("providesDirectionalDerivative", "true"),
+        ("canGetAndSetFMUstate", flag(caps.can_get_and_set_fmu_state)),
+        ("canSerializeFMUstate", flag(caps.can_serialize_fmu_state)),
+        ("providesDirectionalDerivative", flag(caps.provides_directional_derivative)),
     ];
     if info.model_exchange {
         w.create_element("ModelExchange").with_attributes(common).write_empty().map_err(xml_err)?;

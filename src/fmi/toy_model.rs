@@ -100,6 +100,7 @@ pub fn toy_info() -> ModelInfo {
         },
         number_of_event_indicators: 0,
         model_exchange: true,
+        capabilities: Capabilities { can_get_and_set_fmu_state: true, can_serialize_fmu_state: true, provides_directional_derivative: true },
         default_experiment: DefaultExperiment { start_time: Some(0.0), stop_time: Some(10.0), tolerance: None, step_size: Some(0.01) },
     }
 }

@@ -1,0 +1,88 @@
+//! Exact directional derivatives of the FMU's unknowns (`fmi2GetDirectionalDerivative`), by one
+//! forward-mode pass of the model's own (scalar-generic) math on dual numbers.
+//!
+//! The knowns are the states (`q`, `v`), the inputs (controls) and the tunable contact
+//! parameters; the pass seeds each with its component of the direction `dv_known`, so the dual
+//! part of every unknown is `J[unknown, knowns] · dv_known` exactly (no step size, no
+//! truncation error). Unknowns: the states themselves, their derivatives (`q̇`, and the
+//! accelerations `v̇` from forward dynamics) and the contact outputs.
+
+use num_dual::Dual64;
+
+use super::{Param, SimState, Slot};
+use crate::contact::ContactParams;
+use crate::model::Model;
+use crate::scalar::c;
+
+/// A state, controls and parameters lifted to dual numbers, seeded with a direction.
+struct Seeded {
+    q: Vec<Dual64>,
+    v: Vec<Dual64>,
+    ctrl: Vec<Dual64>,
+    prm: ContactParams<Dual64>,
+}
+
+fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String> {
+    let lift = |x: &[f64]| x.iter().map(|&x| c::<Dual64>(x)).collect::<Vec<_>>();
+    let mut s = Seeded { q: lift(&state.state.q), v: lift(&state.state.v), ctrl: lift(&state.ctrl), prm: state.params.lift() };
+    for (&slot, &d) in knowns.iter().zip(dv) {
+        // A known listed twice gets the sum of its directions (the derivative is linear in them).
+        let x = match slot {
+            Slot::Q(i) => &mut s.q[i],
+            Slot::V(i) => &mut s.v[i],
+            Slot::Ctrl(i) => &mut s.ctrl[i],
+            Slot::Param(p) => match p {
+                Param::Eps1 => &mut s.prm.eps1,
+                Param::Eps2 => &mut s.prm.eps2,
+                Param::Eps3 => &mut s.prm.eps3,
+                Param::Stiffness => &mut s.prm.stiffness,
+                Param::DissipationVelocity => &mut s.prm.dissipation_velocity,
+                Param::StictionVelocity => &mut s.prm.stiction_velocity,
+                Param::Friction => &mut s.prm.friction,
+            },
+            // Nothing depends on time (the dynamics is autonomous).
+            Slot::Time => continue,
+            _ => return Err(format!("{slot:?} is not a known")),
+        };
+        x.eps += d;
+    }
+    Ok(s)
+}
+
+/// `J[unknowns, knowns] · dv` at `state` (controls and parameters included in it). `knowns`
+/// must be states, controls, parameters or time; `unknowns` states, state derivatives or contact
+/// outputs (the caller maps value references to slots and names them in errors).
+pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot], knowns: &[Slot], dv: &[f64]) -> Result<Vec<f64>, String> {
+    let s = seed(state, knowns, dv)?;
+    let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
+    let needs_contacts = unknowns.iter().any(|u| matches!(u, Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)));
+    let (vdot, contacts) = if needs_vdot {
+        let f = model.forward(&s.q, &s.v, &s.ctrl, &s.prm).map_err(|e| e.to_string())?;
+        (Some(f.vdot), Some(f.contacts))
+    } else if needs_contacts {
+        let kin = model.tree.kinematics(&s.q, &s.v);
+        (None, Some(model.contacts(&kin, &s.prm).1))
+    } else {
+        (None, None)
+    };
+    let qdot = unknowns.iter().any(|u| matches!(u, Slot::QDot(_))).then(|| model.tree.qdot(&s.q, &s.v));
+    let missing = || "internal error: a needed evaluation was skipped".to_string();
+    unknowns
+        .iter()
+        .map(|&u| {
+            let d: Dual64 = match u {
+                Slot::Q(i) => s.q[i],
+                Slot::V(i) => s.v[i],
+                Slot::QDot(i) => qdot.as_ref().ok_or_else(missing)?[i],
+                Slot::VDot(i) => vdot.as_ref().ok_or_else(missing)?[i],
+                Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],
+                Slot::PairTorque(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.torque[k],
+                Slot::PairDistance(p) => contacts.as_ref().ok_or_else(missing)?[p].distance,
+                _ => return Err(format!("{u:?} is not an unknown")),
+            };
+            // Out of contact the distance is +inf with a NaN dual part: report 0 (it does not
+            // change with anything).
+            Ok(if d.re.is_finite() { d.eps } else { 0.0 })
+        })
+        .collect()
+}

@@ -1,0 +1,204 @@
+//! `<ModelStructure>` of a scene's FMU: which knowns (states, inputs, parameters) each unknown
+//! (output, state derivative) depends on, derived from the structure of the model (which joints
+//! move which body, which bodies share a mass matrix block, which bodies form a contact pair,
+//! which actuator drives which joint), never "depends on everything".
+//!
+//! The dependencies are structural: a listed known may have a zero partial derivative at some
+//! states (e.g. a contact force with respect to a velocity when the bodies are apart), but a
+//! known that is not listed has a zero partial derivative at every state. Tests check the
+//! second statement against the exact directional derivatives.
+
+use std::collections::BTreeSet;
+
+use super::{Param, Slot};
+use crate::collision::Collider;
+use crate::dynamics::JointKind;
+use crate::fmi::contract::{Causality, Initial, ModelStructure, Variable};
+use crate::model::Model;
+
+/// A set of knowns, by what they are (not yet by value reference).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Knowns {
+    /// Position coordinates `q[i]`.
+    pub q: BTreeSet<usize>,
+    /// Velocity coordinates `v[i]`.
+    pub v: BTreeSet<usize>,
+    /// Actuator controls.
+    pub ctrl: BTreeSet<usize>,
+    /// Contact parameters (knowns of `<InitialUnknowns>` only: FMI 2.0 does not list
+    /// parameters as knowns of outputs and derivatives).
+    pub params: BTreeSet<usize>,
+}
+
+impl Knowns {
+    fn union(&mut self, other: &Knowns) {
+        self.q.extend(&other.q);
+        self.v.extend(&other.v);
+        self.ctrl.extend(&other.ctrl);
+        self.params.extend(&other.params);
+    }
+
+    /// Whether the known in `slot` is in the set.
+    pub fn contains(&self, slot: Slot) -> bool {
+        match slot {
+            Slot::Q(i) => self.q.contains(&i),
+            Slot::V(i) => self.v.contains(&i),
+            Slot::Ctrl(i) => self.ctrl.contains(&i),
+            Slot::Param(p) => self.params.contains(&param_index(p)),
+            _ => false,
+        }
+    }
+}
+
+fn param_index(p: Param) -> usize {
+    Param::ALL.iter().position(|&x| x == p).unwrap_or(0)
+}
+
+/// Joints on the path from body `b` to the world.
+fn path_joints(model: &Model, mut b: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    while b != 0 {
+        out.extend(&model.tree.bodies[b].joints);
+        b = model.tree.bodies[b].parent.unwrap_or(0);
+    }
+    out
+}
+
+/// The body right below the world on the path of `b` (the root of its subtree; its mass
+/// matrix block is shared by every body of the subtree).
+fn subtree_root(model: &Model, mut b: usize) -> usize {
+    while let Some(p) = model.tree.bodies[b].parent {
+        if p == 0 {
+            return b;
+        }
+        b = p;
+    }
+    b
+}
+
+/// Position and velocity coordinates of `joints`.
+fn coordinates(model: &Model, joints: &[usize], with_v: bool) -> Knowns {
+    let mut k = Knowns::default();
+    for &j in joints {
+        let jt = &model.tree.joints[j];
+        k.q.extend(jt.qadr..jt.qadr + jt.kind.nq());
+        if with_v {
+            k.v.extend(jt.dadr..jt.dadr + jt.kind.nv());
+        }
+    }
+    k
+}
+
+/// What the contact outputs of pair `p` depend on: the poses (and for forces, the velocities)
+/// of both bodies, and the contact parameters the quantity uses.
+fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
+    let pair = &model.pairs[p];
+    let (Some(ca), Some(cb)) = (&model.colliders[pair.a], &model.colliders[pair.b]) else {
+        // Without two colliders the pair's outputs are constant (no contact).
+        return Knowns::default();
+    };
+    let mut joints = path_joints(model, pair.a);
+    joints.extend(path_joints(model, pair.b));
+    let mut k = coordinates(model, &joints, !distance_only);
+    // The smooth separation distance uses the separation distribution (ε2) and, when a point
+    // cloud's planes are queried (two point clouds; a half-space's SSDF is exact), the SSDF (ε1);
+    // the forces use the other contact parameters too.
+    let both_clouds = matches!((ca, cb), (Collider::Aopc(_), Collider::Aopc(_)));
+    let used: Vec<Param> = Param::ALL
+        .into_iter()
+        .filter(|&p| (p != Param::Eps1 || both_clouds) && (!distance_only || matches!(p, Param::Eps1 | Param::Eps2)))
+        .collect();
+    k.params = used.into_iter().map(param_index).collect();
+    k
+}
+
+/// What the accelerations of the subtree rooted at `root` depend on: its own coordinates (mass
+/// matrix, bias and passive forces), the controls of actuators on its joints, and every contact
+/// pair one of whose bodies is in the subtree.
+fn subtree_knowns(model: &Model, root: usize) -> Knowns {
+    let tree = &model.tree;
+    let joints: Vec<usize> = (0..tree.joints.len()).filter(|&j| subtree_root(model, tree.joints[j].body) == root).collect();
+    let mut k = coordinates(model, &joints, true);
+    for (a, act) in model.actuators.iter().enumerate() {
+        if joints.contains(&act.joint) {
+            k.ctrl.insert(a);
+        }
+    }
+    if joints.iter().any(|&j| tree.joints[j].frictionloss > 0.0) {
+        k.params.insert(param_index(Param::StictionVelocity));
+    }
+    for (p, pair) in model.pairs.iter().enumerate() {
+        let involved = [pair.a, pair.b].iter().any(|&b| b != 0 && tree.body_moves(b) && subtree_root(model, b) == root);
+        if involved {
+            k.union(&pair_knowns(model, p, false));
+        }
+    }
+    k
+}
+
+/// The knowns an unknown in `slot` depends on; `None` if the slot is not an unknown (inputs,
+/// parameters, time, solver settings).
+pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
+    let tree = &model.tree;
+    let joint_of_v = |i: usize| tree.joints.iter().find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&i));
+    let joint_of_q = |i: usize| tree.joints.iter().find(|j| (j.qadr..j.qadr + j.kind.nq()).contains(&i));
+    Some(match slot {
+        // A state as an output is the state itself.
+        Slot::Q(i) => Knowns { q: [i].into(), ..Knowns::default() },
+        Slot::V(i) => Knowns { v: [i].into(), ..Knowns::default() },
+        Slot::QDot(i) => {
+            let j = joint_of_q(i)?;
+            let quat = match j.kind {
+                JointKind::Free if i >= j.qadr + 3 => Some((j.qadr + 3, j.dadr + 3)),
+                JointKind::Ball => Some((j.qadr, j.dadr)),
+                _ => None,
+            };
+            match quat {
+                // q̇ = ½ q ⊗ (0, ω): each component is bilinear in the other three quaternion
+                // components and the three angular velocity components.
+                Some((qa, wa)) => Knowns { q: (qa..qa + 4).filter(|&c| c != i).collect(), v: (wa..wa + 3).collect(), ..Knowns::default() },
+                // Positions: q̇ is the matching velocity (free joints: linvel, world frame).
+                None => Knowns { v: [j.dadr + (i - j.qadr)].into(), ..Knowns::default() },
+            }
+        }
+        Slot::VDot(i) => subtree_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
+        Slot::PairForce(p, _) | Slot::PairTorque(p, _) => pair_knowns(model, p, false),
+        Slot::PairDistance(p) => pair_knowns(model, p, true),
+        _ => return None,
+    })
+}
+
+/// `<ModelStructure>` of the variable table `rows` of `model`: every output, every state
+/// derivative (in the order of the continuous states), and the initial unknowns (calculated
+/// outputs and the state derivatives), each with its exact dependencies.
+pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructure {
+    let vr_of = |slot: Slot| rows.iter().find(|(_, s)| *s == slot).map(|(v, _)| v.value_reference);
+    let to_vrs = |k: &Knowns, with_params: bool| -> Vec<u32> {
+        let mut out: Vec<u32> = Vec::new();
+        out.extend(k.q.iter().filter_map(|&i| vr_of(Slot::Q(i))));
+        out.extend(k.v.iter().filter_map(|&i| vr_of(Slot::V(i))));
+        out.extend(k.ctrl.iter().filter_map(|&i| vr_of(Slot::Ctrl(i))));
+        if with_params {
+            out.extend(k.params.iter().filter_map(|&i| vr_of(Slot::Param(Param::ALL[i]))));
+        }
+        out.sort_unstable();
+        out
+    };
+    let mut structure = ModelStructure::default();
+    for (v, slot) in rows {
+        let Some(k) = knowns_of(model, *slot) else { continue };
+        if v.causality == Causality::Output {
+            structure.outputs.push((v.value_reference, Some(to_vrs(&k, false))));
+        }
+        if matches!(slot, Slot::QDot(_) | Slot::VDot(_)) {
+            structure.derivatives.push((v.value_reference, Some(to_vrs(&k, false))));
+        }
+        // Initial unknowns: everything computed from the exact start values (states,
+        // inputs, parameters).
+        let calculated = v.initial.unwrap_or(Initial::Calculated) == Initial::Calculated;
+        if calculated && (v.causality == Causality::Output || matches!(slot, Slot::QDot(_) | Slot::VDot(_))) {
+            structure.initial_unknowns.push((v.value_reference, Some(to_vrs(&k, true))));
+        }
+    }
+    structure
+}
