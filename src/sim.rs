@@ -511,6 +511,7 @@ impl FmiModel for Simulation {
     fn reset(&mut self) -> ModelResult<()> {
         self.current = self.start.clone();
         (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
+        self.stop_time = None;
         self.outputs = None;
         self.messages.push(LogMessage { category: LogCategory::Events, text: "reset to the start values".into() });
         Ok(())

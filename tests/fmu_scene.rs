@@ -1,0 +1,458 @@
+//! The FMU of each bundled scene through the safe instance API (the same code the C ABI calls):
+//! capabilities declared only when provided, exact directional derivatives against central
+//! differences, structural dependencies complete, FMU state saved, serialized and restored bit
+//! for bit, foreign and corrupt states refused, Model Exchange (states, derivatives, quaternion
+//! projection), tunable parameters and reset, the contact log category.
+
+use scm::fmi::contract::{Causality, FmiModel, LogCategory, ModelInfo};
+use scm::fmi::ffi::*;
+use scm::fmi::instance::{FmuStateHandle, Instance, LogSink};
+use scm::fmi::state_machine::Interface;
+use scm::sim::{Simulation, Slot};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+type Log = Arc<Mutex<Vec<(fmi2Status, String, String)>>>;
+
+struct Capture(Log);
+
+impl LogSink for Capture {
+    fn log(&self, status: fmi2Status, category: &str, message: &str) {
+        self.0.lock().unwrap().push((status, category.to_owned(), message.to_owned()));
+    }
+}
+
+/// A `resources/` folder holding `name`'s scene, made once per scene and process.
+fn resources(name: &str) -> (String, String) {
+    let dir = std::env::temp_dir().join(format!("scm-fmu-scene-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(crate::common::scene(name)).unwrap();
+    std::fs::write(dir.join(scm::sim::SCENE_FILE), &text).unwrap();
+    (format!("file://{}", dir.display()), scm::sim::guid(&text))
+}
+
+fn instance(name: &str, interface: Interface) -> (Instance<Simulation>, Log) {
+    let (uri, guid) = resources(name);
+    let log: Log = Arc::default();
+    let inst = Instance::<Simulation>::instantiate(name, interface, &guid, &uri, false, Some(Box::new(Capture(log.clone())))).unwrap();
+    (inst, log)
+}
+
+fn initialized(name: &str, interface: Interface) -> (Instance<Simulation>, Log) {
+    let (mut inst, log) = instance(name, interface);
+    assert_eq!(inst.setup_experiment(None, 0.0, None), fmi2OK);
+    assert_eq!(inst.enter_initialization_mode(), fmi2OK);
+    assert_eq!(inst.exit_initialization_mode(), fmi2OK);
+    (inst, log)
+}
+
+fn vr(info: &ModelInfo, name: &str) -> u32 {
+    info.variables.iter().find(|v| v.name == name).unwrap_or_else(|| panic!("no variable {name}")).value_reference
+}
+
+fn real(inst: &mut Instance<Simulation>, vr: u32) -> f64 {
+    let mut v = [0.0];
+    assert_eq!(inst.get_real(&[vr], &mut v), fmi2OK);
+    v[0]
+}
+
+/// Every Real output, as bits.
+fn outputs(inst: &mut Instance<Simulation>) -> Vec<u64> {
+    let vrs: Vec<u32> = inst.model().info().variables.iter().filter(|v| v.causality == Causality::Output).map(|v| v.value_reference).collect();
+    let mut values = vec![0.0; vrs.len()];
+    assert_eq!(inst.get_real(&vrs, &mut values), fmi2OK);
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+fn scenes() -> Vec<String> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("resources/scenes");
+    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).map(|p| p.file_stem().unwrap().to_string_lossy().into_owned()).collect();
+    names.sort();
+    names
+}
+
+/// A state of each scene where its contacts are active: sphere_drop resting on the plane
+/// (after 0.6 s), sphere_pair at its start (1 cm deep), t_push after the finger has been pushed
+/// into the T for 0.35 s with a controlled target 3 cm in, plus some sideways velocity on
+/// every coordinate so that no partial derivative vanishes by symmetry.
+fn in_contact(name: &str) -> Simulation {
+    let mut sim = Simulation::from_file(&crate::common::scene(name)).unwrap();
+    match name {
+        "sphere_drop" => {
+            sim.do_step(0.0, 0.6).unwrap();
+        }
+        "t_push" => {
+            let ctrl_y = vr(sim.info(), "act_y.ctrl");
+            sim.set_real(ctrl_y, 0.25 - 0.1 - 0.015 + 0.03, scm::fmi::contract::Phase::Simulation).unwrap();
+            let ctrl_x = vr(sim.info(), "act_x.ctrl");
+            sim.set_real(ctrl_x, 0.01, scm::fmi::contract::Phase::Simulation).unwrap();
+            sim.do_step(0.0, 0.35).unwrap();
+        }
+        _ => {}
+    }
+    let mut rng = crate::common::Lcg(7);
+    for v in sim.current.state.v.iter_mut() {
+        *v += rng.range(-0.02, 0.02);
+    }
+    sim.exit_initialization().unwrap();
+    sim
+}
+
+/// A known's current value and a central-difference step for it.
+fn known_step(slot: Slot, x: f64) -> f64 {
+    match slot {
+        // Contact varies on the scale of ε3 = 1e-4 m and v_s = 1e-2 m/s: steps far below.
+        Slot::Q(_) | Slot::V(_) => 1e-8,
+        Slot::Ctrl(_) => 1e-7,
+        // Parameters: relative steps; their outputs vary on the parameter's own scale.
+        _ => 1e-4 * x.abs(),
+    }
+}
+
+fn set_known(sim: &mut Simulation, slot: Slot, vr: u32, x: f64) {
+    match slot {
+        Slot::Q(i) => sim.current.state.q[i] = x,
+        Slot::V(i) => sim.current.state.v[i] = x,
+        _ => sim.set_real(vr, x, scm::fmi::contract::Phase::Simulation).unwrap(),
+    }
+    // Drop cached outputs: set the state through the Model Exchange entry point.
+    let x = sim.continuous_states();
+    sim.set_continuous_states(&x).unwrap();
+}
+
+#[test]
+fn capability_flags_are_declared_and_provided() {
+    for name in scenes() {
+        let (mut inst, _) = initialized(&name, Interface::CoSimulation);
+        let caps = inst.model().info().capabilities;
+        assert!(caps.can_get_and_set_fmu_state && caps.can_serialize_fmu_state && caps.provides_directional_derivative, "{name}");
+        assert!(inst.model().info().model_exchange);
+        let xml = scm::pack::describe(&crate::common::scene(&name)).unwrap().model_description;
+        for flag in ["canGetAndSetFMUstate=\"true\"", "canSerializeFMUstate=\"true\"", "providesDirectionalDerivative=\"true\""] {
+            assert_eq!(xml.matches(flag).count(), 2, "{name}: {flag} in both ModelExchange and CoSimulation");
+        }
+        // Each declared capability answers.
+        let mut slot = None;
+        assert_eq!(inst.get_fmu_state(&mut slot), fmi2OK);
+        let mut size = 0;
+        assert_eq!(inst.serialized_fmu_state_size(slot, &mut size), fmi2OK);
+        assert!(size > 0);
+        let structure = inst.model().info().structure.clone();
+        let (unknown, deps) = &structure.outputs.iter().find(|(_, d)| d.as_ref().is_some_and(|d| !d.is_empty())).unwrap().clone();
+        let deps = deps.clone().unwrap();
+        let mut dv = [0.0];
+        assert_eq!(inst.get_directional_derivative(&[*unknown], &deps[..1], &[1.0], &mut dv), fmi2OK, "{name}");
+    }
+}
+
+/// Every declared (unknown, known) pair of `<ModelStructure>` against central differences of
+/// the same model, at a state in contact; and every pair that is not declared is exactly zero.
+#[test]
+fn directional_derivatives_match_central_differences_and_dependencies_are_complete() {
+    for name in scenes() {
+        let mut sim = in_contact(&name);
+        let info = sim.info().clone();
+        let rows: Vec<_> = sim.rows().to_vec();
+        let unknowns: Vec<(u32, Slot, String)> = rows.iter().filter(|(_, s)| scm::sim::structure::knowns_of(&sim.model, *s).is_some()).map(|(v, s)| (v.value_reference, *s, v.name.clone())).collect();
+        let knowns: Vec<(u32, Slot, String)> = rows.iter().filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_))).map(|(v, s)| (v.value_reference, *s, v.name.clone())).collect();
+        // Declared dependencies: InitialUnknowns lists parameters too; Outputs and Derivatives
+        // the states and inputs.
+        let declared = |u: u32, k: u32| -> bool {
+            let s = &info.structure;
+            s.outputs.iter().chain(&s.derivatives).chain(&s.initial_unknowns).any(|(x, d)| *x == u && d.as_ref().is_some_and(|d| d.contains(&k)))
+        };
+        let base = sim.current.clone();
+        let (mut checked, mut zero) = (0, 0);
+        for (kvr, kslot, kname) in &knowns {
+            // The column of the Jacobian for this known, exactly.
+            let uvrs: Vec<u32> = unknowns.iter().map(|u| u.0).collect();
+            let exact = sim.directional_derivative(&uvrs, &[*kvr], &[1.0]).unwrap();
+            let x0 = sim.get_real(*kvr).unwrap();
+            let h = known_step(*kslot, x0);
+            let mut eval = |x: f64| -> Vec<f64> {
+                set_known(&mut sim, *kslot, *kvr, x);
+                let out = uvrs.iter().map(|&u| sim.get_real(u).unwrap()).collect();
+                sim.current = base.clone();
+                set_known(&mut sim, *kslot, *kvr, x0);
+                out
+            };
+            let (plus, minus) = (eval(x0 + h), eval(x0 - h));
+            for (i, (uvr, _, uname)) in unknowns.iter().enumerate() {
+                let fd = (plus[i] - minus[i]) / (2.0 * h);
+                let value = sim.get_real(*uvr).unwrap();
+                // Central differences: truncation O((h/scale)²) ≤ 1e-8 relative; round-off is
+                // about ε·|y|/h times the cancellation inside the model (forces of ~10 N summed
+                // into accelerations), e.g. 64 · 2e-16 · 10 / 1e-8 m = 1e-5 against partials of
+                // 1e2..1e4.
+                let tol = 1e-5 * exact[i].abs().max(fd.abs()) + 64.0 * f64::EPSILON * value.abs().max(1.0) / h;
+                assert!((exact[i] - fd).abs() <= tol, "{name}: d {uname} / d {kname}: exact {} vs central difference {fd} (tol {tol})", exact[i]);
+                if declared(*uvr, *kvr) {
+                    checked += 1;
+                } else {
+                    assert_eq!(exact[i], 0.0, "{name}: d {uname} / d {kname} = {} but ModelStructure does not declare it", exact[i]);
+                    zero += 1;
+                }
+            }
+        }
+        eprintln!("{name}: {checked} declared partials checked against central differences, {zero} undeclared ones exactly zero");
+        assert!(checked > 0 && zero > 0);
+    }
+}
+
+#[test]
+fn declared_dependencies_are_not_everything() {
+    // t_push: the T-block's accelerations do not depend on the finger's controls (only through
+    // contact, after integration), the finger's positions' derivatives only on its velocities.
+    let sim = Simulation::from_file(&crate::common::scene("t_push")).unwrap();
+    let info = sim.info();
+    fn deps_in(info: &ModelInfo, name: &str) -> Vec<u32> {
+        let u = vr(info, name);
+        info.structure.derivatives.iter().chain(&info.structure.outputs).find(|(x, _)| *x == u).unwrap().1.clone().unwrap()
+    }
+    let deps = |name: &str| deps_in(info, name);
+    assert!(!deps("der(t_x.v)").contains(&vr(info, "act_x.ctrl")));
+    assert!(deps("der(finger_x.v)").contains(&vr(info, "act_x.ctrl")));
+    assert_eq!(deps("der(finger_x.q)"), vec![vr(info, "finger_x.v")]);
+    assert!(!deps("contact.tblock.finger.distance").contains(&vr(info, "t_x.v")), "a distance depends on positions only");
+    // sphere_drop: der(quat.w) depends on the other three components and ω only.
+    let sim = Simulation::from_file(&crate::common::scene("sphere_drop")).unwrap();
+    let info = sim.info();
+    let d = deps_in(info, "der(ball.quat.w)");
+    let expect: Vec<u32> = ["ball.quat.x", "ball.quat.y", "ball.quat.z", "ball.angvel.x", "ball.angvel.y", "ball.angvel.z"].iter().map(|n| vr(info, n)).collect();
+    assert_eq!(d, expect);
+}
+
+#[test]
+fn directional_derivative_refuses_what_is_not_a_known_or_unknown() {
+    let (mut inst, log) = initialized("t_push", Interface::CoSimulation);
+    let info = inst.model().info().clone();
+    let force = vr(&info, "contact.tblock.finger.force.y");
+    let mut out = [0.0];
+    assert_eq!(inst.get_directional_derivative(&[force], &[vr(&info, "solver.step")], &[1.0], &mut out), fmi2Error);
+    assert!(log.lock().unwrap().last().unwrap().2.contains("solver.step (value reference"), "{:?}", log.lock().unwrap().last());
+    assert_eq!(inst.get_directional_derivative(&[vr(&info, "act_x.ctrl")], &[force], &[1.0], &mut out), fmi2Error);
+    assert_eq!(inst.get_directional_derivative(&[force], &[vr(&info, "t_x.q")], &[f64::NAN], &mut out), fmi2Error);
+    assert_eq!(inst.get_directional_derivative(&[force], &[9999], &[1.0], &mut out), fmi2Error);
+}
+
+/// Saves a state after `before` steps, runs `after` more; restores (directly, and after a
+/// serialize/deserialize round trip, also into a fresh instance) and reruns: bit for bit.
+#[test]
+fn a_rollout_resumed_from_a_saved_or_serialized_state_is_bit_identical() {
+    for name in scenes() {
+        let (mut inst, _) = initialized(&name, Interface::CoSimulation);
+        let h = 0.01;
+        let (before, after) = (30, 20);
+        let ctrl: Vec<u32> = inst.model().info().variables.iter().filter(|v| v.causality == Causality::Input).map(|v| v.value_reference).collect();
+        let run = |inst: &mut Instance<Simulation>, from: usize, n: usize| -> Vec<Vec<u64>> {
+            (from..from + n)
+                .map(|k| {
+                    // A control signal that changes every step, so the inputs are part of what
+                    // must be reproduced.
+                    for (i, &c) in ctrl.iter().enumerate() {
+                        assert_eq!(inst.set_real(&[c], &[0.05 * ((k + i) as f64 * 0.3).sin()]), fmi2OK);
+                    }
+                    assert_eq!(inst.do_step(k as f64 * h, h, false), fmi2OK);
+                    outputs(inst)
+                })
+                .collect()
+        };
+        run(&mut inst, 0, before);
+        let mut saved = None;
+        assert_eq!(inst.get_fmu_state(&mut saved), fmi2OK);
+        let reference = run(&mut inst, before, after);
+
+        assert_eq!(inst.set_fmu_state(saved), fmi2OK);
+        assert_eq!(run(&mut inst, before, after), reference, "{name}: resumed from a saved state");
+
+        let mut size = 0;
+        assert_eq!(inst.serialized_fmu_state_size(saved, &mut size), fmi2OK);
+        let mut bytes = vec![0u8; size];
+        assert_eq!(inst.serialize_fmu_state(saved, &mut bytes), fmi2OK);
+        let mut restored = None;
+        assert_eq!(inst.deserialize_fmu_state(&bytes, &mut restored), fmi2OK);
+        assert_eq!(inst.set_fmu_state(restored), fmi2OK);
+        assert_eq!(run(&mut inst, before, after), reference, "{name}: resumed from a deserialized state");
+
+        // Another instance (as another process would) continues from the bytes.
+        let (mut fresh, _) = initialized(&name, Interface::CoSimulation);
+        let mut slot = None;
+        assert_eq!(fresh.deserialize_fmu_state(&bytes, &mut slot), fmi2OK);
+        assert_eq!(fresh.set_fmu_state(slot), fmi2OK);
+        assert_eq!(run(&mut fresh, before, after), reference, "{name}: resumed in a fresh instance");
+        let mut s = saved;
+        assert_eq!(inst.free_fmu_state(&mut s), fmi2OK);
+    }
+}
+
+#[test]
+fn foreign_old_corrupt_and_truncated_states_are_refused_and_change_nothing() {
+    let (mut pair, _) = initialized("sphere_pair", Interface::CoSimulation);
+    let mut saved = None;
+    assert_eq!(pair.do_step(0.0, 0.01, false), fmi2OK);
+    assert_eq!(pair.get_fmu_state(&mut saved), fmi2OK);
+    let mut size = 0;
+    assert_eq!(pair.serialized_fmu_state_size(saved, &mut size), fmi2OK);
+    let mut bytes = vec![0u8; size];
+    assert_eq!(pair.serialize_fmu_state(saved, &mut bytes), fmi2OK);
+
+    let (mut drop, log) = initialized("sphere_drop", Interface::CoSimulation);
+    assert_eq!(drop.do_step(0.0, 0.02, false), fmi2OK);
+    let before = outputs(&mut drop);
+    let last = || log.lock().unwrap().last().map(|l| l.2.clone()).unwrap_or_default();
+    let mut slot = None;
+    assert_eq!(drop.deserialize_fmu_state(&bytes, &mut slot), fmi2Error);
+    assert!(last().contains("belongs to another FMU"), "{}", last());
+    let mut old = bytes.clone();
+    old[8] = 1;
+    assert_eq!(pair.deserialize_fmu_state(&old, &mut slot), fmi2Error);
+    assert_eq!(pair.deserialize_fmu_state(&bytes[..bytes.len() / 2], &mut slot), fmi2Error);
+    let mut corrupt = bytes.clone();
+    let mid = corrupt.len() / 2;
+    corrupt[mid] ^= 1;
+    assert_eq!(pair.deserialize_fmu_state(&corrupt, &mut slot), fmi2Error);
+    assert_eq!(slot, None::<FmuStateHandle>, "no state was created");
+    assert_eq!(outputs(&mut drop), before, "the instance kept its state");
+    assert_eq!(drop.do_step(0.02, 0.01, false), fmi2OK);
+}
+
+#[test]
+fn model_exchange_states_derivatives_and_quaternion_projection() {
+    let (mut me, _) = initialized("sphere_drop", Interface::ModelExchange);
+    let n = me.model().number_of_states();
+    assert_eq!(n, 7 + 6);
+    let info = me.model().info().clone();
+    assert_eq!(info.structure.derivatives.len(), n);
+    let mut x = vec![0.0; n];
+    assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+    assert_eq!(x[2], 0.3);
+    let mut info_ev = fmi2EventInfo::default();
+    assert_eq!(me.new_discrete_states(&mut info_ev), fmi2OK);
+    assert_eq!(info_ev.valuesOfContinuousStatesChanged, fmi2False);
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    let mut dx = vec![0.0; n];
+    assert_eq!(me.get_derivatives(&mut dx), fmi2OK);
+    // Free fall, out of contact: v̇_z = -g, the position moves with the velocity (zero).
+    assert!((dx[7 + 2] + 9.81).abs() < 1e-12, "{dx:?}");
+    assert_eq!(real(&mut me, vr(&info, "der(ball.linvel.z)")), dx[7 + 2]);
+    // Spin about x: q̇ = ½ q ⊗ (0, ω) = (0, ω/2, 0, 0) at the identity.
+    x[7 + 3] = 2.0;
+    assert_eq!(me.set_continuous_states(&x), fmi2OK);
+    assert_eq!(me.get_derivatives(&mut dx), fmi2OK);
+    assert_eq!(&dx[3..7], &[0.0, 1.0, 0.0, 0.0]);
+    // A solver step that leaves the unit sphere: the FMU asks for an event and projects.
+    x[3..7].copy_from_slice(&[1.01, 0.0, 0.0, 0.0]);
+    assert_eq!(me.set_continuous_states(&x), fmi2OK);
+    let (mut enter, mut terminate) = (false, false);
+    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert!(enter && !terminate);
+    assert_eq!(me.enter_event_mode(), fmi2OK);
+    assert_eq!(me.new_discrete_states(&mut info_ev), fmi2OK);
+    assert_eq!(info_ev.valuesOfContinuousStatesChanged, fmi2True);
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+    assert_eq!(&x[3..7], &[1.0, 0.0, 0.0, 0.0]);
+    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert!(!enter);
+    // A zero quaternion is refused and changes nothing.
+    let mut bad = x.clone();
+    bad[3..7].copy_from_slice(&[0.0; 4]);
+    assert_eq!(me.set_continuous_states(&bad), fmi2Error);
+    let mut now = vec![0.0; n];
+    assert_eq!(me.get_continuous_states(&mut now), fmi2OK);
+    assert_eq!(now, x);
+}
+
+/// A spinning, tumbling body integrated by a host's explicit solver (Euler on the FMU's
+/// derivatives, projected at the events the FMU asks for) keeps unit quaternions.
+#[test]
+fn model_exchange_keeps_quaternions_unit_under_a_hosts_solver() {
+    let (mut me, _) = initialized("sphere_drop", Interface::ModelExchange);
+    let n = me.model().number_of_states();
+    let mut ev = fmi2EventInfo::default();
+    assert_eq!(me.new_discrete_states(&mut ev), fmi2OK);
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
+    assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+    x[10..13].copy_from_slice(&[3.0, -2.0, 5.0]);
+    assert_eq!(me.set_continuous_states(&x), fmi2OK);
+    let h = 1e-3;
+    let mut events = 0;
+    for k in 1..=200 {
+        assert_eq!(me.get_derivatives(&mut dx), fmi2OK);
+        for i in 0..n {
+            x[i] += h * dx[i];
+        }
+        assert_eq!(me.set_time(k as f64 * h), fmi2OK);
+        assert_eq!(me.set_continuous_states(&x), fmi2OK);
+        let (mut enter, mut term) = (false, false);
+        assert_eq!(me.completed_integrator_step(true, &mut enter, &mut term), fmi2OK);
+        if enter {
+            events += 1;
+            assert_eq!(me.enter_event_mode(), fmi2OK);
+            assert_eq!(me.new_discrete_states(&mut ev), fmi2OK);
+            assert_eq!(ev.valuesOfContinuousStatesChanged, fmi2True);
+            assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+            assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+        }
+        let norm = x[3..7].iter().map(|c| c * c).sum::<f64>().sqrt();
+        // Explicit Euler grows the norm by ½ h² |ω|² / 4 ≈ 5e-6 per step: one step past the
+        // tolerance at most.
+        assert!((norm - 1.0).abs() < scm::sim::QUATERNION_DRIFT_TOLERANCE + 1e-5, "step {k}: |q| = {norm}");
+    }
+    assert!(events > 0, "the drift never triggered a projection");
+}
+
+#[test]
+fn tunable_parameters_take_effect_between_steps_and_reset_restores_start_values() {
+    let (mut inst, _) = initialized("sphere_drop", Interface::CoSimulation);
+    let info = inst.model().info().clone();
+    let (eps2, z, fz, step) = (vr(&info, "scm.eps2"), vr(&info, "ball.pos.z"), vr(&info, "contact.world.ball.force.z"), vr(&info, "solver.step"));
+    let eps2_start = real(&mut inst, eps2);
+    for k in 0..60 {
+        assert_eq!(inst.do_step(k as f64 * 0.01, 0.01, false), fmi2OK);
+    }
+    let mut saved = None;
+    assert_eq!(inst.get_fmu_state(&mut saved), fmi2OK);
+    assert_eq!(inst.do_step(0.6, 0.01, false), fmi2OK);
+    let f_same = real(&mut inst, fz);
+    assert_eq!(inst.set_fmu_state(saved), fmi2OK);
+    // Anneal: a 10x wider separation distribution spreads the load over more points.
+    assert_eq!(inst.set_real(&[eps2], &[10.0 * eps2_start]), fmi2OK);
+    assert_eq!(inst.do_step(0.6, 0.01, false), fmi2OK);
+    let f_wider = real(&mut inst, fz);
+    assert!((f_same - f_wider).abs() > 1e-3 * f_same.abs(), "eps2 had no effect: {f_same} vs {f_wider}");
+    // Out of range: refused, unchanged.
+    assert_eq!(inst.set_real(&[eps2], &[-1.0]), fmi2Error);
+    assert_eq!(real(&mut inst, eps2), 10.0 * eps2_start);
+
+    // Start values set before initialization do not survive a reset either.
+    assert_eq!(inst.reset(), fmi2OK);
+    assert_eq!(inst.set_real(&[z, step], &[0.5, 0.0005]), fmi2OK);
+    assert_eq!(inst.reset(), fmi2OK);
+    assert_eq!(inst.setup_experiment(None, 0.0, None), fmi2OK);
+    assert_eq!(inst.enter_initialization_mode(), fmi2OK);
+    assert_eq!(real(&mut inst, eps2), eps2_start);
+    assert_eq!(real(&mut inst, z), 0.3);
+    assert_eq!(real(&mut inst, step), 0.001);
+}
+
+#[test]
+fn contact_diagnostics_follow_the_log_category() {
+    let (mut inst, log) = initialized("sphere_pair", Interface::CoSimulation);
+    let contact = |log: &Log| log.lock().unwrap().iter().filter(|l| l.1 == "logContact").count();
+    assert_eq!(inst.do_step(0.0, 0.01, false), fmi2OK);
+    assert_eq!(contact(&log), 0, "off by default (loggingOn = false)");
+    assert_eq!(inst.set_debug_logging(true, &["logContact"]), fmi2OK);
+    assert_eq!(inst.do_step(0.01, 0.01, false), fmi2OK);
+    assert_eq!(inst.do_step(0.02, 0.01, false), fmi2OK);
+    assert_eq!(contact(&log), 2, "one message per pair and step");
+    let last = log.lock().unwrap().last().unwrap().clone();
+    assert_eq!(last.0, fmi2OK);
+    assert!(last.2.starts_with("t = 0.03 s: contact big-small: distance D = ") && last.2.contains("force on big"), "{}", last.2);
+    assert!(inst.is_logging(LogCategory::Contact) && !inst.is_logging(LogCategory::Events));
+    assert_eq!(inst.set_debug_logging(false, &["logContact"]), fmi2OK);
+    assert_eq!(inst.do_step(0.03, 0.01, false), fmi2OK);
+    assert_eq!(contact(&log), 2);
+    assert_eq!(inst.set_debug_logging(true, &["logNoSuchThing"]), fmi2Error);
+}
