@@ -8,6 +8,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENES = ROOT / "resources" / "scenes"
 SCM = ROOT / "target" / "release" / "scm"
 
+#: Every bundled scene, by name (a scene added under resources/scenes/ is picked up by every
+#: test parametrized over this list).
+ALL_SCENES = sorted(p.stem for p in SCENES.glob("*.xml"))
+
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):

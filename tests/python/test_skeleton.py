@@ -7,8 +7,10 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
+from conftest import ALL_SCENES
 
-@pytest.mark.parametrize("name", ["sphere_drop", "sphere_pair"])
+
+@pytest.mark.parametrize("name", ALL_SCENES)
 def test_fmu_validates(fmu, name):
     problems = validate_fmu(fmu(name))
     assert problems == [], problems

@@ -1,0 +1,62 @@
+"""Helpers shared by the host tests: instantiate an FMU through fmpy's low-level classes."""
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Model, FMU2Slave
+
+
+class Opened:
+    """An extracted FMU, its model description and its variables by name."""
+
+    def __init__(self, path):
+        self.path = path
+        self.md = read_model_description(path)
+        self.dir = extract(path)
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.var = {v.name: v for v in self.md.modelVariables}
+
+    def instance(self, kind="CS", name="inst", start_values=None, logger=None):
+        """An initialized instance (`FMU2Slave` for "CS", `FMU2Model` in continuous-time mode
+        for "ME"); `start_values` are set before initialization."""
+        cls = FMU2Slave if kind == "CS" else FMU2Model
+        fmu = cls(guid=self.md.guid, unzipDirectory=self.dir, modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        kwargs = {} if logger is None else {"loggingOn": True}
+        fmu.instantiate(**kwargs)
+        fmu.setupExperiment(startTime=0.0)
+        for k, v in (start_values or {}).items():
+            if isinstance(v, str):
+                fmu.setString([self.vr[k]], [v.encode()])
+            else:
+                fmu.setReal([self.vr[k]], [v])
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        if kind == "ME":
+            fmu.newDiscreteStates()
+            fmu.enterContinuousTimeMode()
+        return fmu
+
+
+def _ptr(a):
+    from ctypes import POINTER, c_double
+    return a.ctypes.data_as(POINTER(c_double))
+
+
+def get_x(model, nx):
+    """fmi2GetContinuousStates as a numpy array."""
+    import numpy as np
+    x = np.zeros(nx)
+    model.getContinuousStates(_ptr(x), nx)
+    return x
+
+
+def set_x(model, x):
+    """fmi2SetContinuousStates from a sequence."""
+    import numpy as np
+    x = np.ascontiguousarray(x, dtype=float)
+    model.setContinuousStates(_ptr(x), len(x))
+
+
+def get_dx(model, nx):
+    """fmi2GetDerivatives as a numpy array."""
+    import numpy as np
+    dx = np.zeros(nx)
+    model.getDerivatives(_ptr(dx), nx)
+    return dx
