@@ -1,0 +1,76 @@
+"""Regression references: for every bundled scene, a CSV of all its outputs over the scene's
+default experiment (2 s, every 10 ms), simulated by fmpy in Co-Simulation, checked in under
+tests/reference/<scene>.csv and compared by test_references.py.
+
+Regenerate deliberately (after a change of behaviour you meant), then review and commit the
+CSVs:
+
+    scripts/regenerate_references.sh            # every scene
+    scripts/regenerate_references.sh t_push     # some scenes
+
+A scene whose outputs should be exercised by inputs gets them in INPUTS below (held constant
+from t = 0, set as start values, so the run is the same in every host).
+"""
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+REFERENCE_DIR = ROOT / "tests" / "reference"
+STOP_TIME = 2.0
+OUTPUT_INTERVAL = 0.01
+
+#: Constant inputs per scene (the rest run with their start values).
+INPUTS = {
+    "t_push": {"act_y.ctrl": 0.16, "act_x.ctrl": 0.01},
+}
+
+REGENERATE = "scripts/regenerate_references.sh"
+
+
+def reference_path(name):
+    return REFERENCE_DIR / f"{name}.csv"
+
+
+def simulate(fmu_path, name):
+    """The reference run of a scene's FMU: a structured array of time and every output."""
+    from fmpy import read_model_description, simulate_fmu
+    md = read_model_description(fmu_path)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    return simulate_fmu(fmu_path, stop_time=STOP_TIME, output_interval=OUTPUT_INTERVAL, output=outputs, start_values=INPUTS.get(name, {}))
+
+
+def write_csv(result, path):
+    names = result.dtype.names
+    with open(path, "w") as f:
+        f.write(",".join(names) + "\n")
+        for row in result:
+            f.write(",".join(repr(float(row[n])) for n in names) + "\n")
+
+
+def read_csv(path):
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return header, data
+
+
+def main(names):
+    scenes = sorted(p.stem for p in (ROOT / "resources" / "scenes").glob("*.xml"))
+    unknown = [n for n in names if n not in scenes]
+    if unknown:
+        sys.exit(f"no such scene: {', '.join(unknown)} (scenes: {', '.join(scenes)})")
+    REFERENCE_DIR.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names or scenes:
+            fmu = pathlib.Path(tmp) / f"{name}.fmu"
+            subprocess.run([str(ROOT / "target" / "release" / "scm"), "pack", str(ROOT / "resources" / "scenes" / f"{name}.xml"), "-o", str(fmu)], check=True)
+            write_csv(simulate(str(fmu), name), reference_path(name))
+            print(f"wrote {reference_path(name).relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
