@@ -6,6 +6,7 @@ mod fmi_fuzz;
 mod fmi_load;
 mod fmu_scene;
 mod geometry_ssdf;
+mod host_fmi_crate;
 mod golden_model_description;
 mod scene_errors;
 mod scene_sphere_drop;
