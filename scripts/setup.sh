@@ -1,16 +1,20 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need, from nothing, and builds the release binaries:
-#   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc (the C host test);
-#   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt;
+#   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc and libc6-dev (the C
+#     host test compiles tests/c_host/cs_host.c), python3 with venv;
+#   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
+#     (fmpy, numpy, pytest, matplotlib, libcosimpy: all wheels, no compiler needed);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
-# Idempotent: a second run only checks.
+# Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need_apt=()
 dpkg -s libclang-dev >/dev/null 2>&1 || need_apt+=(libclang-dev)
 command -v gcc >/dev/null 2>&1 || need_apt+=(gcc)
-command -v python3 >/dev/null 2>&1 || need_apt+=(python3 python3-venv)
+dpkg -s libc6-dev >/dev/null 2>&1 || need_apt+=(libc6-dev)
+command -v python3 >/dev/null 2>&1 || need_apt+=(python3)
+python3 -c "import ensurepip, venv" >/dev/null 2>&1 || need_apt+=(python3-venv)
 if [ ${#need_apt[@]} -gt 0 ]; then
   echo "setup: installing ${need_apt[*]}"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO=sudo
@@ -18,11 +22,14 @@ if [ ${#need_apt[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
 fi
 
-if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib" 2>/dev/null; then
+# The venv records the requirements it was made from; a change reinstalls.
+if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/requirements.txt \
+   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy" 2>/dev/null; then
   echo "setup: creating .venv"
   python3 -m venv .venv
   .venv/bin/pip install -q --upgrade pip
   .venv/bin/pip install -q -r tests/python/requirements.txt
+  cp tests/python/requirements.txt .venv/requirements.txt
 fi
 
 cargo build --release --locked -q 2>/dev/null || cargo build --release -q

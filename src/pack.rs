@@ -4,6 +4,8 @@ use crate::fmi::contract::FmiModel;
 use crate::sim::{Simulation, SCENE_FILE};
 use std::path::Path;
 
+pub mod documentation;
+
 /// Why packing failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
@@ -24,15 +26,19 @@ pub struct Described {
     pub scene_text: String,
     /// The generated `modelDescription.xml`.
     pub model_description: String,
+    /// The generated `documentation/index.html`.
+    pub documentation: String,
 }
 
-/// Loads `scene` and generates its `modelDescription.xml`: what `scm pack` writes, and what the
-/// golden files under `modelDescription/` are checked against.
+/// Loads `scene` and generates its `modelDescription.xml` and documentation: what `scm pack`
+/// writes; the golden files under `modelDescription/` are checked against the former.
 pub fn describe(scene: &Path) -> Result<Described, PackError> {
     let text = std::fs::read_to_string(scene).map_err(|e| crate::scene::SceneError { file: scene.display().to_string(), line: 0, element: "mujoco".into(), message: format!("cannot read the scene: {e}") })?;
-    let sim = Simulation::new(crate::scene::load_str(&text, scene)?, &text);
+    let loaded = crate::scene::load_str(&text, scene)?;
+    let sim = Simulation::new(loaded.clone(), &text);
     let model_description = crate::fmi::model_description::model_description_xml(sim.info());
-    Ok(Described { scene_text: text, model_description })
+    let documentation = documentation::index_html(&loaded, sim.info());
+    Ok(Described { scene_text: text, model_description, documentation })
 }
 
 /// Packs `scene` with the FMU `library` into `out`.
@@ -41,5 +47,5 @@ pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
     if !library.is_file() {
         return Err(PackError::Library(library.display().to_string()));
     }
-    crate::fmi::pack::write_fmu(out, &d.model_description, library, &[(SCENE_FILE.to_string(), d.scene_text.into_bytes())], None).map_err(|e| PackError::Write(e.to_string()))
+    crate::fmi::pack::write_fmu(out, &d.model_description, library, &[(SCENE_FILE.to_string(), d.scene_text.into_bytes())], Some(&d.documentation)).map_err(|e| PackError::Write(e.to_string()))
 }

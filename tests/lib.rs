@@ -4,6 +4,7 @@ mod common;
 mod contact_pair;
 mod fmi_fuzz;
 mod fmi_load;
+mod fmu_documentation;
 mod fmu_scene;
 mod geometry_ssdf;
 mod host_fmi_crate;
