@@ -471,7 +471,7 @@ impl FmiModel for Simulation {
     fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>, _tolerance: Option<f64>) -> ModelResult<()> {
         Self::check_finite("startTime", start_time)?;
         if let Some(stop) = stop_time {
-            if !(stop >= start_time) {
+            if stop.is_nan() || stop < start_time {
                 return Err(format!("stopTime = {stop} refused: it must be finite and not before startTime = {start_time}"));
             }
         }
@@ -496,7 +496,7 @@ impl FmiModel for Simulation {
             let q = &mut self.current.state.q[qa..qa + 4];
             // Scale by the largest component first, so huge components do not overflow.
             let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            if !(m > 0.0) {
+            if m.is_nan() || m <= 0.0 {
                 return Err(format!("{}.quat is zero: set a non-zero orientation quaternion", j.name));
             }
             q.iter_mut().for_each(|x| *x /= m);
@@ -561,7 +561,7 @@ impl FmiModel for Simulation {
                 *p.slot(&mut self.current.params) = value;
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
-                if !(value > 0.0) {
+                if value.is_nan() || value <= 0.0 {
                     return Err(format!("{} = {value} refused: it must be positive", var.name));
                 }
                 if slot == Slot::SolverStep {
@@ -596,7 +596,7 @@ impl FmiModel for Simulation {
     }
 
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
-        if !(step > 0.0) || !step.is_finite() {
+        if !step.is_finite() || step <= 0.0 {
             return Err(StepError::Error(format!("communicationStepSize = {step} refused: it must be positive and finite")));
         }
         if let Some(stop) = self.stop_time {
