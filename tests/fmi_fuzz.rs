@@ -55,8 +55,8 @@ fn op() -> impl Strategy<Value = Op> {
         1 => (real(), proptest::option::of(prop_oneof![Just(10.0), real()])).prop_map(|(start, stop)| Op::Setup { start: if start.is_finite() { 0.0 } else { start }, stop }),
         3 => Just(Op::EnterInit),
         3 => Just(Op::ExitInit),
-        3 => (0u32..40, real()).prop_map(|(vr, value)| Op::SetReal { vr, value }),
-        1 => (0u32..40).prop_map(|vr| Op::GetReal { vr }),
+        3 => (0u32..56, real()).prop_map(|(vr, value)| Op::SetReal { vr, value }),
+        1 => (0u32..56).prop_map(|vr| Op::GetReal { vr }),
         6 => (prop_oneof![4 => Just(0.0), 1 => real()], prop_oneof![4 => 1e-4..0.01f64, 1 => real()]).prop_map(|(offset, h)| Op::DoStep { offset, h }),
         1 => Just(Op::Terminate),
         1 => Just(Op::Reset),
@@ -83,7 +83,8 @@ fn run(ops: &[Op]) -> Result<(), TestCaseError> {
     let guid = CString::new(guid.as_str()).unwrap();
     let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
     // Value references of sphere_drop: 0 time, 1-3 position, 4-7 quaternion, 8-13 velocities,
-    // then contact outputs, parameters and solver settings; 40 and above do not exist.
+    // then contact outputs, parameters, solver settings and state derivatives; `nvars` (40) and
+    // above do not exist.
     let table = scm::sim::Simulation::from_file(&crate::common::scene("sphere_drop")).unwrap();
     let nvars = table.rows().len() as u32;
     unsafe {
