@@ -190,6 +190,12 @@ impl<M: FmiModel> Instance<M> {
         &self.model
     }
 
+    /// The model, mutably (tests change its description).
+    #[cfg(test)]
+    pub(crate) fn model_mut(&mut self) -> &mut M {
+        &mut self.model
+    }
+
     /// The instance name given to `fmi2Instantiate`.
     pub fn name(&self) -> &str {
         &self.name

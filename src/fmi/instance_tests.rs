@@ -201,6 +201,20 @@ fn fmu_state_registry_refuses_double_free_and_unknown_handles() {
 }
 
 #[test]
+fn undeclared_capabilities_are_refused() {
+    let (mut inst, log) = initialized_cs();
+    inst.model_mut().info.capabilities = crate::fmi::contract::Capabilities::default();
+    let mut slot = None;
+    assert_eq!(inst.get_fmu_state(&mut slot), fmi2Error);
+    assert!(last(&log).2.contains("canGetAndSetFMUstate=\"false\""), "{:?}", last(&log));
+    assert_eq!(inst.deserialize_fmu_state(b"x", &mut slot), fmi2Error);
+    assert!(last(&log).2.contains("canSerializeFMUstate"));
+    let mut out = [0.0];
+    assert_eq!(inst.get_directional_derivative(&[0], &[0], &[1.0], &mut out), fmi2Error);
+    assert!(last(&log).2.contains("providesDirectionalDerivative"));
+}
+
+#[test]
 fn serialize_round_trip_and_corrupt_bytes() {
     let (mut inst, _log) = initialized_cs();
     assert_eq!(inst.do_step(0.0, 0.5, false), fmi2OK);

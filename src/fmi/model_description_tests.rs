@@ -1,4 +1,5 @@
 use super::*;
+use crate::fmi::contract::Capabilities;
 use crate::fmi::toy_model::toy_info;
 use quick_xml::events::BytesStart;
 use quick_xml::Reader;
@@ -71,6 +72,22 @@ fn root_and_interfaces() {
     let mut cs_only = toy_info();
     cs_only.model_exchange = false;
     assert!(!model_description_xml(&cs_only).contains("<ModelExchange"));
+}
+
+#[test]
+fn capability_flags_follow_the_model_info() {
+    let mut info = toy_info();
+    info.capabilities = Capabilities::default();
+    let xml = model_description_xml(&info);
+    for el in elements(&xml).iter().filter(|(_, n, _)| n == "CoSimulation" || n == "ModelExchange") {
+        for flag in ["canGetAndSetFMUstate", "canSerializeFMUstate", "providesDirectionalDerivative"] {
+            assert_eq!(attr(&el.2, flag), Some("false"), "{} {flag}", el.1);
+        }
+    }
+    info.capabilities.provides_directional_derivative = true;
+    let xml = model_description_xml(&info);
+    assert_eq!(xml.matches("providesDirectionalDerivative=\"true\"").count(), 2);
+    assert_eq!(xml.matches("canSerializeFMUstate=\"false\"").count(), 2);
 }
 
 #[test]
