@@ -707,9 +707,17 @@ impl FmiModel for Simulation {
     }
 
     fn event_update(&mut self) -> ModelResult<bool> {
-        let before = self.current.state.q.clone();
-        self.model.tree.normalize_q(&mut self.current.state.q);
-        let changed = before != self.current.state.q;
+        // Project the quaternions that left the unit sphere; one already unit (to rounding)
+        // keeps its bits, so an event without drift changes no state.
+        let mut changed = false;
+        for i in self.quaternions() {
+            let q = &mut self.current.state.q[i..i + 4];
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if (n - 1.0).abs() > 4.0 * f64::EPSILON {
+                q.iter_mut().for_each(|x| *x /= n);
+                changed = true;
+            }
+        }
         if changed {
             self.outputs = None;
         }
