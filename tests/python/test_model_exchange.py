@@ -80,4 +80,4 @@ def test_model_exchange_keeps_a_tumbling_bodys_quaternion_unit(fmu):
     for c in "wxyz":
         q = f"ball.quat.{c}"
         assert np.max(np.abs(me[q][flight] - cs[q][flight])) < 1e-5, q
-    assert np.ptp(me["ball.quat.x"][flight]) > 0.5, "the sphere did not turn"
+    assert np.ptp(me["ball.quat.x"][flight]) > 0.2, "the sphere did not turn (1.2 rad in flight)"
