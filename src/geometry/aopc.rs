@@ -1,11 +1,16 @@
 //! Articulated oriented point clouds: a surface as the centres and outward normals of the faces
 //! of a quad mesh, with the quads kept (vertex indices) for the soft top-K contact points.
 
+use super::bvh::Bvh;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+use std::sync::{Arc, OnceLock};
 use std::f64::consts::FRAC_PI_4;
 
 /// A closed surface as oriented planes `(p_i, n_i)` in its body's frame (SPEC §2, AOPC).
-#[derive(Clone, Debug, Default, PartialEq)]
+///
+/// A bounding-volume hierarchy over the points is built on first use (pruned queries) and kept;
+/// change the fields only before the first query, or call [`Aopc::invalidate`].
+#[derive(Clone, Debug, Default)]
 pub struct Aopc {
     /// Face centres `p_i` (m, body frame).
     pub points: Vec<Vector3<f64>>,
@@ -17,6 +22,14 @@ pub struct Aopc {
     pub vertices: Vec<Vector3<f64>>,
     /// Quads as four indices into `vertices`, counter-clockwise seen from outside.
     pub faces: Vec<[u32; 4]>,
+    /// The hierarchy over `points`, built on first use.
+    bvh: OnceLock<Arc<Bvh>>,
+}
+
+impl PartialEq for Aopc {
+    fn eq(&self, o: &Self) -> bool {
+        self.points == o.points && self.normals == o.normals && self.areas == o.areas && self.vertices == o.vertices && self.faces == o.faces
+    }
 }
 
 /// A primitive shape, in its own frame (centred at the origin; capsule/cylinder along z).
@@ -65,6 +78,22 @@ impl Shape {
 }
 
 impl Aopc {
+    /// An AOPC from its parts.
+    pub fn new(points: Vec<Vector3<f64>>, normals: Vec<Vector3<f64>>, areas: Vec<f64>, vertices: Vec<Vector3<f64>>, faces: Vec<[u32; 4]>) -> Aopc {
+        Aopc { points, normals, areas, vertices, faces, bvh: OnceLock::new() }
+    }
+
+    /// The bounding-volume hierarchy over the points (built on first use).
+    pub fn bvh(&self) -> &Bvh {
+        debug_assert!(self.bvh.get().is_none_or(|b| b.len() == self.points.len()), "AOPC changed after its BVH was built");
+        self.bvh.get_or_init(|| Arc::new(Bvh::build(&self.points, &self.normals)))
+    }
+
+    /// Forgets the hierarchy (after changing the points or normals).
+    pub fn invalidate(&mut self) {
+        self.bvh = OnceLock::new();
+    }
+
     /// Number of points `I`.
     pub fn len(&self) -> usize {
         self.points.len()
@@ -78,17 +107,12 @@ impl Aopc {
     /// The same surface moved by `pose` (e.g. a geom's pose in its body).
     pub fn transformed(&self, pose: &Isometry3<f64>) -> Aopc {
         let tp = |v: &Vector3<f64>| (pose * Point3::from(*v)).coords;
-        Aopc {
-            points: self.points.iter().map(tp).collect(),
-            normals: self.normals.iter().map(|n| pose.rotation * n).collect(),
-            areas: self.areas.clone(),
-            vertices: self.vertices.iter().map(tp).collect(),
-            faces: self.faces.clone(),
-        }
+        Aopc::new(self.points.iter().map(tp).collect(), self.normals.iter().map(|n| pose.rotation * n).collect(), self.areas.clone(), self.vertices.iter().map(tp).collect(), self.faces.clone())
     }
 
     /// Appends another AOPC (vertex indices renumbered).
     pub fn extend(&mut self, other: &Aopc) {
+        self.invalidate();
         let base = self.vertices.len() as u32;
         self.points.extend_from_slice(&other.points);
         self.normals.extend_from_slice(&other.normals);
@@ -127,20 +151,8 @@ impl Aopc {
         if self.len() < 2 {
             return 0.0;
         }
-        let mut nn: Vec<f64> = self
-            .points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                self.points
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .map(|(_, q)| (p - q).norm_squared())
-                    .fold(f64::INFINITY, f64::min)
-                    .sqrt()
-            })
-            .collect();
+        let bvh = self.bvh();
+        let mut nn: Vec<f64> = (0..bvh.len()).map(|k| bvh.nearest_except(&bvh.points[k], k).1.sqrt()).collect();
         nn.sort_by(|a, b| a.total_cmp(b));
         nn[nn.len() / 2]
     }
@@ -148,6 +160,7 @@ impl Aopc {
     /// Adds one quad given its four corners (counter-clockwise seen from outside), with the
     /// face centre and normal computed from the corners (or given, for curved surfaces).
     fn push_quad(&mut self, corners: [Vector3<f64>; 4], centre_normal: Option<(Vector3<f64>, Vector3<f64>)>) {
+        self.invalidate();
         let base = self.vertices.len() as u32;
         self.vertices.extend_from_slice(&corners);
         self.faces.push([base, base + 1, base + 2, base + 3]);

@@ -4,7 +4,8 @@
 //! Everything here lives in a body's own frame; poses are applied by the caller.
 
 pub mod aopc;
+pub mod bvh;
 pub mod ssdf;
 
 pub use aopc::{Aopc, Shape};
-pub use ssdf::{ssdf, ssdf_weights_sum};
+pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};
