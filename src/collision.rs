@@ -286,6 +286,9 @@ pub struct BandEntry<T> {
     pub k: u32,
     /// `Φ_f` (m).
     pub phi: T,
+    /// Smallest squared distance from the point to the other body's points (m², real part;
+    /// the SSDF's softmax shift, kept for the force pass). Infinite against a half-space.
+    pub dmin: f64,
 }
 
 /// The part of the separation field that can carry weight (module documentation): every
@@ -335,9 +338,15 @@ pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb:
             if node.is_leaf() {
                 for k in node.start..node.start + node.count {
                     let x = rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
-                    let phi = planes.signed_distance(&x, eps1);
+                    let (phi, dmin) = match planes {
+                        Collider::Aopc(o) => {
+                            let dmin = o.bvh().nearest(&crate::scalar::re3(&x)).1;
+                            (crate::geometry::ssdf::ssdf_at(o, &x, eps1, dmin).0, dmin)
+                        }
+                        Collider::HalfSpace { .. } => (planes.signed_distance(&x, eps1), f64::INFINITY),
+                    };
                     band.min = band.min.min(phi.re());
-                    band.entries.push(BandEntry { side, k, phi });
+                    band.entries.push(BandEntry { side, k, phi, dmin });
                 }
             } else {
                 let (l, r) = (node.left, node.left + 1);
@@ -388,7 +397,13 @@ impl<T: Scalar> SeparationDistribution<T> {
         }
         let inv = eps2.recip();
         let (mut sum, mut acc) = (T::zero(), T::zero());
+        let e2 = eps2.re();
         for phi in values {
+            // Past 746 ε2 the weight underflows to exactly 0 (derivatives too): skip exp's slow
+            // underflow path; the sums are bit-for-bit the same.
+            if phi.re() - min > 746.0 * e2 {
+                continue;
+            }
             let w = (-(phi - min) * inv).exp();
             sum += w;
             acc += w * phi;

@@ -119,6 +119,11 @@ impl ContactParams<f64> {
 #[inline]
 pub fn point_plane_force<T: Scalar>(r: &Vector3<T>, n: &Vector3<T>, v: &Vector3<T>, prm: &ContactParams<T>) -> Vector3<T> {
     let phi = n.dot(r);
+    // Far outside the plane the spring term underflows to exactly zero, and the whole force
+    // (normal and friction both scale with it) with it: return that zero without the work.
+    if phi.re() > 746.0 * prm.eps3.re() {
+        return Vector3::zeros();
+    }
     let spring = prm.stiffness * softplus(-phi, prm.eps3);
     let vn = n.dot(v);
     let lambda_n = spring * prm.dissipation.factor(vn / prm.dissipation_velocity);
@@ -166,7 +171,8 @@ struct PointForce<T: Scalar> {
 /// `v` relative to the plane body's frame origin motion, see [`Frame`]), against `planes`.
 /// With `naive`, every plane is summed; otherwise the planes of
 /// [`visit_relevant`](crate::geometry::ssdf::visit_relevant) (the SSDF's pruning bound).
-fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>, naive: bool) -> PointForce<T> {
+/// `dmin` is the smallest squared distance from `x` to the planes' points, if known.
+fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>, naive: bool, dmin: Option<f64>) -> PointForce<T> {
     match planes {
         Collider::HalfSpace { point, normal } => {
             let p = point.map(c::<T>);
@@ -178,7 +184,11 @@ fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vect
         Collider::Aopc(s) => {
             let xr = re3(x);
             let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
-            let dmin = if naive { s.points.iter().map(|q| (xr - q).norm_squared()).fold(f64::INFINITY, f64::min) } else { s.bvh().nearest(&xr).1 };
+            let dmin = match dmin {
+                Some(d) => d,
+                None if naive => s.points.iter().map(|q| (xr - q).norm_squared()).fold(f64::INFINITY, f64::min),
+                None => s.bvh().nearest(&xr).1,
+            };
             let mut sum = SoftminSum::new(c(dmin), prm.eps1);
             let mut term = |q: &Vector3<f64>, nq: &Vector3<f64>| {
                 let p = lift3::<T>(q);
@@ -215,11 +225,11 @@ impl<T: Scalar> SideSums<T> {
     }
 
     /// Adds query point `p` (query body frame) with separation weight `w`.
-    fn add(&mut self, planes: &Collider, rel: &Relative<T>, p: &Vector3<f64>, w: T, prm: &ContactParams<T>, naive: bool) {
+    fn add(&mut self, planes: &Collider, rel: &Relative<T>, p: &Vector3<f64>, w: T, prm: &ContactParams<T>, naive: bool, dmin: Option<f64>) {
         let arm = rel.rotation * lift3::<T>(p); // query point relative to the query body origin
         let x = arm + rel.translation;
         let v = rel.linvel + rel.angvel.cross(&arm);
-        let pf = point_ssdf_force(planes, &x, &v, &rel.angvel_planes, prm, naive);
+        let pf = point_ssdf_force(planes, &x, &v, &rel.angvel_planes, prm, naive, dmin);
         let fw = pf.force * w;
         self.f_q += fw;
         self.t_q += arm.cross(&fw);
@@ -266,7 +276,7 @@ pub fn pair_contact<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &F
         let bvh = s.bvh();
         let mut sums = SideSums::zero();
         for e in band.entries.iter().filter(|e| e.side == side && e.phi.re() <= cutoff) {
-            sums.add(planes, &rel, &bvh.points[e.k as usize], dist.weight(0, e.phi), prm, false);
+            sums.add(planes, &rel, &bvh.points[e.k as usize], dist.weight(0, e.phi), prm, false, Some(e.dmin));
         }
         sums.finish(pf, side == 0, &mut on_a, &mut on_b);
     }
@@ -287,7 +297,7 @@ pub fn pair_contact_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, 
         let rel = qf.relative_to(pf);
         let mut sums = SideSums::zero();
         for (p, &phi) in s.points.iter().zip(phis) {
-            sums.add(planes, &rel, p, dist.weight(0, phi), prm, true);
+            sums.add(planes, &rel, p, dist.weight(0, phi), prm, true, None);
         }
         sums.finish(pf, q_is_a, &mut on_a, &mut on_b);
     }

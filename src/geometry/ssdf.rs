@@ -20,7 +20,8 @@
 //! differs from the full one by `|(Z_s φ̂ - A_s)/(Z - Z_s)| < τ (|φ̂| + ℓ)/(1 - τ)`: relative to
 //! the natural length of the query (its distance to the cloud, or √ε1), the error is τ.
 //! A whole node is skipped when the bound holds for its box: `d_i ≥ d_lo` (smallest squared
-//! distance from `p` to the box) on the left, `d_i ≤ d_hi` (largest) inside the logarithm.
+//! distance from `p` to the box) on the left, and inside the logarithm `d_i` is at most the
+//! largest squared distance to the root box.
 //! The same visit weighs point–plane forces (contact), whose size grows at most linearly with
 //! `√d_i` too, so the same argument bounds them.
 
@@ -38,11 +39,13 @@ pub fn visit_relevant(s: &Aopc, pr: &Vector3<f64>, eps1: f64, dmin: f64, mut f: 
     if bvh.is_empty() {
         return;
     }
-    let k0 = (bvh.len() as f64 / PRUNE_TOLERANCE).ln();
+    // One threshold for the whole query: `ln(1 + √d_i/ℓ)` is at most its value at the largest
+    // distance to the root box, so skipping beyond `k ε1` satisfies the bound for every term
+    // (a few more terms are kept than the per-term bound would keep; one logarithm per query).
     let ell = dmin.sqrt() + eps1.sqrt();
-    // Within `dmin + k0 ε1` nothing is ever skipped (the logarithm is non-negative).
-    let always = dmin + k0 * eps1;
-    let skip = |dlo: f64, dhi: f64| dlo > always && (dlo - dmin) / eps1 > k0 + (dhi.sqrt() / ell).ln_1p();
+    let k = (bvh.len() as f64 / PRUNE_TOLERANCE).ln() + (bvh.nodes[0].max_sq_dist(pr).sqrt() / ell).ln_1p();
+    let cutoff = dmin + k * eps1;
+    let skip = |dlo: f64, _dhi: f64| dlo > cutoff;
     let mut stack: [u32; 64] = [0; 64];
     let mut top = 1usize;
     while top > 0 {
@@ -81,8 +84,13 @@ pub fn ssdf_weights_sum<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> (T, T) 
         return (c(f64::INFINITY), T::one());
     }
     let pr = crate::scalar::re3(p);
-    // The shift is fixed before the sum: the nearest point is found first, inside the visit.
-    let dmin = s.bvh().nearest(&pr).1;
+    ssdf_at(s, p, eps1, s.bvh().nearest(&pr).1)
+}
+
+/// [`ssdf_weights_sum`] given `dmin`, the smallest squared distance from `p` (real part) to the
+/// points of `s` (from [`Bvh::nearest`](super::bvh::Bvh::nearest)).
+pub fn ssdf_at<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T, dmin: f64) -> (T, T) {
+    let pr = crate::scalar::re3(p);
     let mut sum = SoftminSum::new(c(dmin), eps1);
     let mut acc = T::zero();
     visit_relevant(s, &pr, eps1.re(), dmin, |q, n| {
