@@ -5,7 +5,12 @@
 
 pub mod aopc;
 pub mod bvh;
+pub mod mesh;
+pub mod shapes;
 pub mod ssdf;
+pub mod union;
 
-pub use aopc::{Aopc, Shape};
+pub use aopc::Aopc;
+pub use mesh::{MeshError, TriMesh};
+pub use shapes::{MassProperties, Shape};
 pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};
