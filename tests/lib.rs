@@ -5,6 +5,7 @@ mod contact_pair;
 mod fmi_fuzz;
 mod fmi_load;
 mod geometry_pruning;
+mod geometry_shapes;
 mod geometry_ssdf;
 mod golden_model_description;
 mod scene_errors;

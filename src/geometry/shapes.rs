@@ -295,29 +295,52 @@ fn push_side(out: &mut Aopc, r: f64, h: f64, n: usize, spacing: f64) {
     }
 }
 
-/// Cylinder: the side, and two flat caps meshed by the elliptical square-to-disk map
-/// `(u, v) ↦ (u √(1 - v²/2), v √(1 - u²/2))` on a grid at `u = √2 sin θ`, whose rim vertices
-/// fall at the side's column angles (the rim is a quad edge).
+/// Cylinder: the side, and two flat caps meshed as an "O-grid": a central square of `n × n`
+/// cells (half-width r/2) and four ring patches joining each side of the square to a quarter of
+/// the rim, whose vertices fall at the side's column angles (the rim is a quad edge, and no
+/// cell is squashed against it).
 fn sample_cylinder(r: f64, h: f64, spacing: f64) -> Aopc {
     let mut out = Aopc::default();
     let n = quarter_cells(r, spacing);
     push_side(&mut out, r, h, n, spacing);
-    let grid: Vec<f64> = (0..=n).map(|i| 2f64.sqrt() * (-FRAC_PI_4 + FRAC_PI_2 * i as f64 / n as f64).sin()).collect();
-    let disk = |u: f64, v: f64| (r * u * (1.0 - v * v / 2.0).max(0.0).sqrt(), r * v * (1.0 - u * u / 2.0).max(0.0).sqrt());
+    let a = 0.5 * r;
+    let layers = divisions(r - a, spacing);
     for sign in [1.0, -1.0] {
         let mut cap = Aopc::default();
+        let mut quad = |c: [(f64, f64); 4]| {
+            let mut c = c.map(|(x, y)| Vector3::new(x, y, sign * h));
+            // Counter-clockwise seen from outside (from +z on top, from -z below).
+            if (c[2] - c[0]).cross(&(c[3] - c[1])).z * sign < 0.0 {
+                c.reverse();
+            }
+            cap.push_quad(c);
+        };
+        let g = |i: usize| -a + 2.0 * a * i as f64 / n as f64;
         for i in 0..n {
             for j in 0..n {
-                let c = [(grid[i], grid[j]), (grid[i + 1], grid[j]), (grid[i + 1], grid[j + 1]), (grid[i], grid[j + 1])].map(|(u, v)| {
-                    let (x, y) = disk(u, v);
-                    // Seen from outside, the bottom cap runs the other way round.
-                    Vector3::new(x, sign * y, sign * h)
-                });
-                cap.push_quad(c);
+                quad([(g(i), g(j)), (g(i + 1), g(j)), (g(i + 1), g(j + 1)), (g(i), g(j + 1))]);
+            }
+        }
+        for q in 0..4 {
+            let rot = |(x, y): (f64, f64)| {
+                let t = FRAC_PI_2 * q as f64;
+                (x * t.cos() - y * t.sin(), x * t.sin() + y * t.cos())
+            };
+            let at = |i: usize, j: usize| {
+                let (sx, sy) = (a, g(i));
+                let th = -FRAC_PI_4 + FRAC_PI_2 * i as f64 / n as f64;
+                let (rx, ry) = (r * th.cos(), r * th.sin());
+                let f = j as f64 / layers as f64;
+                rot((sx + (rx - sx) * f, sy + (ry - sy) * f))
+            };
+            for i in 0..n {
+                for j in 0..layers {
+                    quad([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                }
             }
         }
         let total: f64 = cap.areas.iter().sum();
-        cap.areas.iter_mut().for_each(|a| *a *= PI * r * r / total);
+        cap.areas.iter_mut().for_each(|x| *x *= PI * r * r / total);
         out.extend(&cap);
     }
     out
