@@ -4,6 +4,7 @@ mod common;
 mod contact_pair;
 mod fmi_fuzz;
 mod fmi_load;
+mod geometry_meshes;
 mod geometry_pruning;
 mod geometry_shapes;
 mod geometry_ssdf;
