@@ -817,6 +817,9 @@ fn geom_inertia(mp: &crate::geometry::MassProperties, mass: f64, pose: &Isometry
 
 /// Where a mesh file is: absolute as given, else relative to the scene file's folder joined
 /// with `meshdir` (itself relative to the scene's folder unless absolute), as MuJoCo does.
+///
+/// Inside an unpacked FMU (the scene is `resources/scene.xml`), a mesh that is not found there
+/// is looked up where `scm pack` puts it: `resources/` + [`packed_mesh_name`].
 pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
     let f = Path::new(file);
     if f.is_absolute() {
@@ -826,7 +829,40 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
     if let Some(d) = meshdir {
         dir = dir.join(d);
     }
-    dir.join(f)
+    let path = dir.join(f);
+    let in_fmu = scene.file_name().is_some_and(|n| n == crate::sim::SCENE_FILE) && scene_dir(scene).file_name().is_some_and(|n| n == "resources");
+    if !path.exists() && in_fmu {
+        if let Ok(packed) = packed_mesh_name(file) {
+            let p = scene_dir(scene).join(packed);
+            if p.exists() {
+                return p;
+            }
+        }
+    }
+    path
+}
+
+/// The name under an FMU's `resources/` of a mesh whose `file` attribute is `file`:
+/// `meshes/<file>`, with `.` and `..` resolved (a path that leaves the mesh folder, or an
+/// absolute one, cannot be packed).
+pub fn packed_mesh_name(file: &str) -> Result<String, String> {
+    if Path::new(file).is_absolute() {
+        return Err("an absolute path cannot be packed: give the file relative to meshdir".into());
+    }
+    let mut parts: Vec<&str> = Vec::new();
+    for c in file.split(['/', '\\']) {
+        match c {
+            "" | "." => {}
+            ".." => {
+                parts.pop().ok_or("the path leaves the mesh folder: give the file relative to meshdir")?;
+            }
+            c => parts.push(c),
+        }
+    }
+    if parts.is_empty() {
+        return Err("empty file name".into());
+    }
+    Ok(format!("meshes/{}", parts.join("/")))
 }
 
 /// The folder a scene's relative paths start from.

@@ -19,7 +19,6 @@ def test_fmu_validates_and_carries_its_mesh(fmu, name, mesh):
     with zipfile.ZipFile(path) as z:
         names = z.namelist()
         assert f"resources/meshes/{mesh}" in names, names
-        assert 'meshdir="meshes"' in z.read("resources/scene.xml").decode()
 
 
 def test_horseshoe_comes_to_rest_on_the_bar(fmu):
