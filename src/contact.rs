@@ -225,6 +225,7 @@ impl<T: Scalar> SideSums<T> {
     }
 
     /// Adds query point `p` (query body frame) with separation weight `w`.
+    #[allow(clippy::too_many_arguments)]
     fn add(&mut self, planes: &Collider, rel: &Relative<T>, p: &Vector3<f64>, w: T, prm: &ContactParams<T>, naive: bool, dmin: Option<f64>) {
         let arm = rel.rotation * lift3::<T>(p); // query point relative to the query body origin
         let x = arm + rel.translation;

@@ -241,6 +241,9 @@ pub struct SimState {
     pub params: ContactParams<f64>,
 }
 
+/// Soft top-K contact points per pair, with the positions and ε1, ε2 they belong to.
+type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
+
 /// A simulation of a scene.
 pub struct Simulation {
     /// The model.
@@ -254,7 +257,7 @@ pub struct Simulation {
     /// Contact outputs at the current state, computed on demand.
     outputs: Option<Vec<PairContact<f64>>>,
     /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
-    points: Option<(Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>)>,
+    points: Option<PointsCache>,
     messages: Vec<LogMessage>,
 }
 

@@ -42,7 +42,8 @@ fn load(name: &str, text: &[u8]) -> Result<(TriMesh, Vec<String>), scm::geometry
 
 #[test]
 fn each_bad_mesh_gives_its_error_naming_the_file() {
-    let cases: Vec<(&str, Vec<u8>, fn(&MeshProblem) -> bool)> = vec![
+    type Case = (&'static str, Vec<u8>, fn(&MeshProblem) -> bool);
+    let cases: Vec<Case> = vec![
         ("open.obj", cube_obj(Some(3), &[]).into_bytes(), |p| matches!(p, MeshProblem::Open { count: 3, .. })),
         ("inconsistent.obj", cube_obj(None, &[5]).into_bytes(), |p| matches!(p, MeshProblem::Inconsistent { .. })),
         ("degenerate.obj", (cube_obj(None, &[]) + "v 0 0 0\nf 1 9 2\n").into_bytes(), |p| matches!(p, MeshProblem::Degenerate { count: 1, first: 12 })),

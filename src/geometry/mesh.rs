@@ -400,8 +400,11 @@ fn refine(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], max_len: f64) -> (V
     (v, t)
 }
 
+/// Vertices and triangles of a parsed file, or what is wrong with it.
+type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
+
 /// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
-fn parse_obj(bytes: &[u8]) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String> {
+fn parse_obj(bytes: &[u8]) -> Parsed {
     let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     let mut reader = std::io::BufReader::new(bytes);
     let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default())).map_err(|e| e.to_string())?;
@@ -417,7 +420,7 @@ fn parse_obj(bytes: &[u8]) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>
 
 /// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
 /// winding decides the orientation.
-fn parse_stl(bytes: &[u8]) -> Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String> {
+fn parse_stl(bytes: &[u8]) -> Parsed {
     let mut cursor = std::io::Cursor::new(bytes);
     let mesh = stl_io::read_stl(&mut cursor).map_err(|e| e.to_string())?;
     let verts = mesh.vertices.iter().map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
