@@ -1,8 +1,26 @@
 //! Soft collision detection (paper, Methods A.3; SPEC §2): the separation field of two
 //! colliders, the separation distribution over it and the smooth separation distance.
+//!
+//! Two evaluations, as for the SSDF:
+//! - [`separation_field`] + [`SeparationDistribution::new`]: every point of both bodies (the
+//!   reference; memory O(I1 + I2), one scalar per point);
+//! - [`separation_band`]: only the points whose weight in the separation distribution can
+//!   matter, found by walking each body's bounding-volume hierarchy and proving, node by node,
+//!   that the other body's SSDF is large over a whole node ([`ssdf_exceeds`]).
+//!
+//! # The band bound
+//! Let `Φ_best` be the smallest field value evaluated so far (so `Φ_min ≤ Φ_best`),
+//! `N = I1 + I2` and `M2 = ln(N/τ)` with `τ` = [`PRUNE_TOLERANCE`]. A node of query points is
+//! skipped only once it is proven that `Φ_f > Φ_best + M2 ε2` for each of its points, so the
+//! weight of each skipped point relative to the largest is below `e^{-M2} = τ/N` (SPEC §3), and
+//! all of them together below τ. Each skipped point also has `Φ_f - Φ_min = s ε2` with
+//! `s > M2`, so its share of `D = WᵀΦ` is `W_f |Φ_f - D| ≤ e^{-s} (s ε2 + |D - Φ_min|)`, and all
+//! of them change `D` by less than `τ (M2 ε2 + 2|D - Φ_min|)`. Because every skipped point lies
+//! above `Φ_best + M2 ε2`, the smallest evaluated value is the true `Φ_min`, so the softmax
+//! shift is the same as the reference's.
 
-use crate::geometry::{ssdf, Aopc};
-use crate::scalar::{c, Scalar};
+use crate::geometry::{ssdf, ssdf_naive, Aopc};
+use crate::scalar::{c, lift3, re, Scalar, PRUNE_TOLERANCE};
 use nalgebra::{Matrix3, Vector3};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.
@@ -35,13 +53,133 @@ impl Collider {
     }
 
     /// Signed distance (soft for an AOPC, exact for a half-space) of a point in the collider's
-    /// frame.
+    /// frame (pruned SSDF, exact to the bound of [`crate::geometry::ssdf`]).
     pub fn signed_distance<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
         match self {
             Collider::Aopc(s) => ssdf(s, p, eps1),
             Collider::HalfSpace { point, normal } => (p - point.map(c::<T>)).dot(&normal.map(c::<T>)),
         }
     }
+
+    /// [`Collider::signed_distance`] summed over every point (the reference).
+    pub fn signed_distance_naive<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
+        match self {
+            Collider::Aopc(s) => ssdf_naive(s, p, eps1),
+            Collider::HalfSpace { .. } => self.signed_distance(p, eps1),
+        }
+    }
+}
+
+/// Whether the collider's SSDF exceeds `t` (m) at every point within `r` (m) of `centre`
+/// (collider frame), proven; `false` when it cannot be shown cheaply. `eps1` in m².
+///
+/// For a half-space, `nᵀ(x - p) ≥ nᵀ(centre - p) - r` is exact. For an AOPC:
+/// 1. Witness: `j`, the point nearest to the centre. A point `i` can carry a softmax weight
+///    above `e^{-M1}` (`M1 = ln(I/τ)`) somewhere in the ball only where
+///    `d_i(x) - d_j(x) ≤ M1 ε1`, since `d_min(x) ≤ d_j(x)`. That difference is affine in `x`:
+///    `d_i(c + y) - d_j(c + y) = d_i(c) - d_j(c) + 2yᵀ(p_j - p_i)`, so over the ball
+///    (`|y| ≤ r`) its minimum is `d_i(c) - d_j(c) - 2r|p_i - p_j|` (exact), and over a cluster
+///    of points in a box at least `mindist²(c, box) - d_j(c) - 2r maxdist(p_j, box)`.
+///    Points that fail it are *irrelevant*: all of them together weigh less than τ.
+/// 2. For a relevant point, `v_i(x) = n_iᵀ(x - p_i)` is bounded below over the part of the ball
+///    where it can matter, the ball cut by the half-space `d_i - d_j ≤ M1 ε1` (a linear
+///    minimum over a ball cut by a plane, in closed form); a cluster is first bounded by
+///    interval arithmetic over its box of points and box of normals.
+/// 3. `φ̂(x)` is a convex combination of the `v_i(x)`: with `L` the smallest bound over relevant
+///    points, `s < τ` the irrelevant weight and `|v_i(x)| ≤ V = √d_j(c) + r + diameter`,
+///    `φ̂(x) ≥ min(L, (1 - τ) L) - τ V`. The answer is `true` when that exceeds `t`.
+///
+/// The walk gives up (returns `false`) after 16 leaves, so a large ball costs little: the
+/// caller then splits it.
+pub fn ssdf_exceeds(planes: &Collider, centre: &Vector3<f64>, r: f64, t: f64, eps1: f64) -> bool {
+    match planes {
+        Collider::HalfSpace { point, normal } => normal.dot(&(centre - point)) - r > t,
+        Collider::Aopc(s) => aopc_exceeds(s, centre, r, t, eps1),
+    }
+}
+
+fn aopc_exceeds(s: &Aopc, c: &Vector3<f64>, r: f64, t: f64, eps1: f64) -> bool {
+    let bvh = s.bvh();
+    if bvh.is_empty() {
+        return true;
+    }
+    let (j, dj) = bvh.nearest(c);
+    let (pj, nj) = (bvh.points[j], bvh.normals[j]);
+    let m1 = (bvh.len() as f64 / PRUNE_TOLERANCE).ln() * eps1;
+    let vmax = dj.sqrt() + r + bvh.diameter;
+    let tt = t + PRUNE_TOLERANCE * vmax;
+    // The bound L on relevant v_i must exceed `need` (step 3), with a little room for rounding.
+    let need = if tt >= 0.0 { tt / (1.0 - PRUNE_TOLERANCE) } else { tt } + 1e-12 * (tt.abs() + r + dj.sqrt());
+    // The witness is relevant in the whole ball.
+    if nj.dot(&(c - pj)) - r <= need {
+        return false;
+    }
+    let mut budget = 16;
+    let mut stack: [u32; 64] = [0; 64];
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let node = &bvh.nodes[stack[top] as usize];
+        if node.min_sq_dist(c) - dj - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1 {
+            continue; // irrelevant cluster
+        }
+        // Interval bound of nᵀ(x - p) over the ball's box, the cluster's box and normals' box.
+        let mut lb = 0.0;
+        for k in 0..3 {
+            let (ylo, yhi) = (c[k] - r - node.hi[k], c[k] + r - node.lo[k]);
+            let (a, b) = (node.nlo[k], node.nhi[k]);
+            lb += (a * ylo).min(a * yhi).min(b * ylo).min(b * yhi);
+        }
+        if lb > need {
+            continue;
+        }
+        if node.is_leaf() {
+            budget -= 1;
+            if budget == 0 {
+                return false;
+            }
+            for k in node.start as usize..(node.start + node.count) as usize {
+                let (pi, ni) = (&bvh.points[k], &bvh.normals[k]);
+                let gap = (c - pi).norm_squared() - dj;
+                let a = (pj - pi) * 2.0;
+                let alen = a.norm();
+                if gap - r * alen > m1 {
+                    continue; // irrelevant point
+                }
+                if ball_halfspace_min(ni.dot(&(c - pi)), ni, r, &a, alen, m1 - gap) <= need {
+                    return false;
+                }
+            }
+        } else {
+            stack[top] = node.left;
+            stack[top + 1] = node.left + 1;
+            top += 2;
+        }
+    }
+    true
+}
+
+/// `min { v0 + nᵀy : |y| ≤ r, aᵀy ≤ β }` (closed form; `+∞` if the set is empty), with
+/// `alen = |a|`, less a relative rounding allowance.
+fn ball_halfspace_min(v0: f64, n: &Vector3<f64>, r: f64, a: &Vector3<f64>, alen: f64, beta: f64) -> f64 {
+    let slack = 1e-12 * (v0.abs() + r);
+    // The ball's own minimiser y* = -r n, if it satisfies the constraint.
+    if -r * a.dot(n) <= beta {
+        return v0 - r - slack;
+    }
+    if alen == 0.0 {
+        return f64::INFINITY; // 0 ≤ β fails: empty
+    }
+    let dist = beta / alen; // signed distance of the cutting plane from the centre, along a
+    if dist < -r {
+        return f64::INFINITY;
+    }
+    // Otherwise the minimum lies on the disk where the plane cuts the ball.
+    let ah = a / alen;
+    let y0 = ah * dist;
+    let rho = (r * r - dist * dist).max(0.0).sqrt();
+    let nperp = n - ah * n.dot(&ah);
+    v0 + n.dot(&y0) - rho * nperp.norm() - slack
 }
 
 /// Pose and velocity of a body, world frame.
@@ -104,22 +242,125 @@ pub struct SeparationField<T> {
 
 impl<T: Scalar> SeparationField<T> {
     /// All entries, `a`'s then `b`'s.
-    pub fn iter(&self) -> impl Iterator<Item = &T> {
+    pub fn iter(&self) -> impl Iterator<Item = &T> + Clone {
         self.of_a.iter().chain(&self.of_b)
     }
 }
 
 /// Points of `query` (with frame `fq`) in the frame of the other body `fp`, and their SSDFs
 /// with respect to `planes`.
-fn field_one_side<T: Scalar>(query: &Collider, fq: &Frame<T>, planes: &Collider, fp: &Frame<T>, eps1: T) -> Vec<T> {
+fn field_one_side<T: Scalar>(query: &Collider, fq: &Frame<T>, planes: &Collider, fp: &Frame<T>, eps1: T, naive: bool) -> Vec<T> {
     let Collider::Aopc(s) = query else { return Vec::new() };
     let rel = fq.relative_to(fp);
-    s.points.iter().map(|p| planes.signed_distance(&(rel.rotation * p.map(c::<T>) + rel.translation), eps1)).collect()
+    s.points
+        .iter()
+        .map(|p| {
+            let x = rel.rotation * p.map(c::<T>) + rel.translation;
+            if naive {
+                planes.signed_distance_naive(&x, eps1)
+            } else {
+                planes.signed_distance(&x, eps1)
+            }
+        })
+        .collect()
 }
 
-/// Soft collision detection between two colliders: the separation field.
+/// Soft collision detection between two colliders: the separation field, every entry (each
+/// SSDF pruned to its bound).
 pub fn separation_field<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T) -> SeparationField<T> {
-    SeparationField { of_a: field_one_side(a, fa, b, fb, eps1), of_b: field_one_side(b, fb, a, fa, eps1) }
+    SeparationField { of_a: field_one_side(a, fa, b, fb, eps1, false), of_b: field_one_side(b, fb, a, fa, eps1, false) }
+}
+
+/// [`separation_field`] with every SSDF summed over every point (the reference).
+pub fn separation_field_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T) -> SeparationField<T> {
+    SeparationField { of_a: field_one_side(a, fa, b, fb, eps1, true), of_b: field_one_side(b, fb, a, fa, eps1, true) }
+}
+
+/// One evaluated entry of the separation field: a query point and its SSDF w.r.t. the other
+/// body.
+#[derive(Clone, Copy, Debug)]
+pub struct BandEntry<T> {
+    /// 0: a point of `a` against the planes of `b`; 1: a point of `b` against those of `a`.
+    pub side: u8,
+    /// The point's position in its AOPC's BVH leaf order (`bvh().index[k]` is its face).
+    pub k: u32,
+    /// `Φ_f` (m).
+    pub phi: T,
+    /// Smallest squared distance from the point to the other body's points (m², real part;
+    /// the SSDF's softmax shift, kept for the force pass). Infinite against a half-space.
+    pub dmin: f64,
+}
+
+/// The part of the separation field that can carry weight (module documentation): every
+/// entry whose weight is not provably below τ/(I1 + I2) relative to the largest.
+#[derive(Clone, Debug)]
+pub struct SeparationBand<T> {
+    /// Evaluated entries (a superset of the band: some may turn out negligible).
+    pub entries: Vec<BandEntry<T>>,
+    /// `Φ_min`: the smallest entry (real part), the same as the full field's.
+    pub min: f64,
+    /// Number of query points skipped without evaluation.
+    pub skipped: usize,
+    /// `M2 = ln((I1 + I2)/τ)`: entries with `(Φ_f - Φ_min)/ε2 > M2` weigh less than τ/(I1 + I2).
+    pub margin: f64,
+}
+
+/// Soft collision detection with pruning: the entries of the separation field that matter
+/// (module documentation). `eps1` in m², `eps2` in m.
+pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T, eps2: T) -> SeparationBand<T> {
+    let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
+    let mut band = SeparationBand { entries: Vec::new(), min: f64::INFINITY, skipped: 0, margin };
+    let (e1, e2) = (re(eps1), re(eps2));
+    for (side, query, fq, planes, fp) in [(0u8, a, fa, b, fb), (1u8, b, fb, a, fa)] {
+        let Collider::Aopc(s) = query else { continue };
+        if s.is_empty() {
+            continue;
+        }
+        let rel = fq.relative_to(fp);
+        let rot = rel.rotation.map(re);
+        let tr = crate::scalar::re3(&rel.translation);
+        let bvh = s.bvh();
+        // Children are visited nearer-first to the other body's centre, so that a small Φ is
+        // found early and prunes the rest.
+        let target = match planes {
+            Collider::Aopc(o) if !o.is_empty() => o.bvh().nodes[0].centre,
+            Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
+            _ => Vector3::zeros(),
+        };
+        let mut stack = vec![0u32];
+        while let Some(ni) = stack.pop() {
+            let node = &bvh.nodes[ni as usize];
+            let centre = rot * node.centre + tr;
+            if band.min.is_finite() && ssdf_exceeds(planes, &centre, node.radius, band.min + margin * e2, e1) {
+                band.skipped += node.count as usize;
+                continue;
+            }
+            if node.is_leaf() {
+                for k in node.start..node.start + node.count {
+                    let x = rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
+                    let (phi, dmin) = match planes {
+                        Collider::Aopc(o) => {
+                            let dmin = o.bvh().nearest(&crate::scalar::re3(&x)).1;
+                            (crate::geometry::ssdf::ssdf_at(o, &x, eps1, dmin).0, dmin)
+                        }
+                        Collider::HalfSpace { .. } => (planes.signed_distance(&x, eps1), f64::INFINITY),
+                    };
+                    band.min = band.min.min(phi.re());
+                    band.entries.push(BandEntry { side, k, phi, dmin });
+                }
+            } else {
+                let (l, r) = (node.left, node.left + 1);
+                let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
+                let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
+                if dl <= dr {
+                    stack.extend([r, l]);
+                } else {
+                    stack.extend([l, r]);
+                }
+            }
+        }
+    }
+    band
 }
 
 /// The separation distribution `W = σ_ε2(-Φ)` (paper eq. 15) without storing it: its
@@ -139,14 +380,30 @@ pub struct SeparationDistribution<T: Scalar> {
 impl<T: Scalar> SeparationDistribution<T> {
     /// Builds the distribution of a field (two streamed passes over it).
     pub fn new(field: &SeparationField<T>, eps2: T) -> Self {
-        let min = field.iter().map(|p| p.re()).fold(f64::INFINITY, f64::min);
+        Self::from_values(field.iter().copied(), eps2)
+    }
+
+    /// Builds the distribution of the entries of a [`SeparationBand`].
+    pub fn from_band(band: &SeparationBand<T>, eps2: T) -> Self {
+        Self::from_values(band.entries.iter().map(|e| e.phi), eps2)
+    }
+
+    /// Builds the distribution of field values (two streamed passes).
+    pub fn from_values<I: Iterator<Item = T> + Clone>(values: I, eps2: T) -> Self {
+        let min = values.clone().map(|p| p.re()).fold(f64::INFINITY, f64::min);
         if !min.is_finite() {
             // Empty field, or nothing to collide with: no contact.
             return SeparationDistribution { min, eps: eps2, normaliser: T::one(), distance: c(f64::INFINITY) };
         }
         let inv = eps2.recip();
         let (mut sum, mut acc) = (T::zero(), T::zero());
-        for &phi in field.iter() {
+        let e2 = eps2.re();
+        for phi in values {
+            // Past 746 ε2 the weight underflows to exactly 0 (derivatives too): skip exp's slow
+            // underflow path; the sums are bit-for-bit the same.
+            if phi.re() - min > 746.0 * e2 {
+                continue;
+            }
             let w = (-(phi - min) * inv).exp();
             sum += w;
             acc += w * phi;
@@ -159,4 +416,77 @@ impl<T: Scalar> SeparationDistribution<T> {
     pub fn weight(&self, _f: usize, phi: T) -> T {
         (-(phi - self.min) / self.eps).exp() / self.normaliser
     }
+}
+
+/// Temperature of the soft top-K over vertex weights: `Γ_1 = softmax(ln z / t)`, so a vertex
+/// carrying twice the weight of another is preferred by a factor `2^(1/t) = 1024`.
+pub const TOPK_TEMPERATURE: f64 = 0.1;
+
+/// Soft top-K contact points (paper eq. 16; SPEC §2): the separation distribution `W` moved
+/// from faces to their vertices, `z_v = Σ_f [v ∈ f] W_f`, then `c_k = Σ_v Γ_kv y_v` with the
+/// successive softmax `Γ_k = softmax(ℓ_k)`, `ℓ_1 = ln z / t` ([`TOPK_TEMPERATURE`]),
+/// `ℓ_{k+1} = ℓ_k + ln(1 - Γ_k)`: closed form and smooth, no iterative solver. Points are in
+/// the world frame (m). Vertices of faces whose weight is below the pruning bound carry
+/// nothing (their `z` would be below τ). If fewer than `k` vertices carry weight, the last
+/// point repeats. Empty when neither body has points.
+pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T, eps2: T, k: usize) -> Vec<Vector3<T>> {
+    let band = separation_band(a, fa, b, fb, eps1, eps2);
+    let dist = SeparationDistribution::from_band(&band, eps2);
+    if !dist.min.is_finite() || k == 0 {
+        return Vec::new();
+    }
+    // Vertex weights z and vertex positions relative to a's origin (world axes), so that
+    // bodies far from the world origin lose no precision.
+    let cutoff = dist.min + band.margin * re(eps2);
+    let mut z: std::collections::HashMap<(u8, u32), T> = std::collections::HashMap::new();
+    for e in band.entries.iter().filter(|e| e.phi.re() <= cutoff) {
+        let Collider::Aopc(s) = (if e.side == 0 { a } else { b }) else { continue };
+        let face = s.faces[s.bvh().index[e.k as usize] as usize];
+        let w = dist.weight(0, e.phi);
+        for v in face {
+            *z.entry((e.side, v)).or_insert(T::zero()) += w;
+        }
+    }
+    let mut verts: Vec<((u8, u32), T)> = z.into_iter().collect();
+    verts.sort_by_key(|(key, _)| *key); // a fixed order: sums do not depend on hashing
+    let ys: Vec<Vector3<T>> = verts
+        .iter()
+        .map(|((side, v), _)| {
+            let (s, f) = match (side, a, b) {
+                (0, Collider::Aopc(s), _) => (s, fa),
+                (_, _, Collider::Aopc(s)) => (s, fb),
+                _ => unreachable!("weights come from AOPC faces"),
+            };
+            f.rotation * lift3::<T>(&s.vertices[*v as usize]) + (f.origin - fa.origin)
+        })
+        .collect();
+    let inv_t = T::from(1.0 / TOPK_TEMPERATURE);
+    let mut ell: Vec<T> = verts.iter().map(|(_, z)| z.ln() * inv_t).collect();
+    let mut out: Vec<Vector3<T>> = Vec::with_capacity(k);
+    for _ in 0..k {
+        let (imax, lmax) = ell.iter().enumerate().filter(|(_, l)| l.re().is_finite()).fold((usize::MAX, f64::NEG_INFINITY), |m, (i, l)| if l.re() > m.1 { (i, l.re()) } else { m });
+        if imax == usize::MAX {
+            let last = out.last().copied().unwrap_or_else(Vector3::zeros);
+            out.push(last);
+            continue;
+        }
+        let e: Vec<T> = ell.iter().map(|l| if l.re().is_finite() { (*l - lmax).exp() } else { T::zero() }).collect();
+        let total = e.iter().fold(T::zero(), |acc, x| acc + *x);
+        let others = e.iter().enumerate().filter(|(i, _)| *i != imax).fold(T::zero(), |acc, (_, x)| acc + *x);
+        let mut c = Vector3::zeros();
+        for (ev, y) in e.iter().zip(&ys) {
+            c += y * (*ev / total);
+        }
+        out.push(c);
+        // ℓ_{k+1} = ℓ_k + ln(1 - Γ_k); for the largest entry 1 - Γ = (Σ others)/Σ, computed
+        // without cancellation.
+        for (i, l) in ell.iter_mut().enumerate() {
+            if !l.re().is_finite() {
+                continue;
+            }
+            let one_minus = if i == imax { others / total } else { T::one() - e[i] / total };
+            *l = if one_minus.re() > 0.0 { *l + one_minus.ln() } else { T::from(f64::NEG_INFINITY) };
+        }
+    }
+    out.into_iter().map(|c| c + fa.origin).collect()
 }

@@ -5,8 +5,9 @@
 //! Naming follows `quantity_shape1_shape2`: [`point_plane_force`] is the force between a point
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
-use crate::collision::{separation_field, Collider, Frame, SeparationDistribution};
-use crate::scalar::{c, prune_margin, smooth_norm, softplus, Scalar, SoftminSum};
+use crate::collision::{separation_band, separation_field_naive, Collider, Frame, Relative, SeparationDistribution};
+use crate::geometry::ssdf::visit_relevant;
+use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum};
 use nalgebra::Vector3;
 
 /// The dissipation factor `d(s)` of the point–plane force, `s = v_n / v_d`.
@@ -118,6 +119,11 @@ impl ContactParams<f64> {
 #[inline]
 pub fn point_plane_force<T: Scalar>(r: &Vector3<T>, n: &Vector3<T>, v: &Vector3<T>, prm: &ContactParams<T>) -> Vector3<T> {
     let phi = n.dot(r);
+    // Far outside the plane the spring term underflows to exactly zero, and the whole force
+    // (normal and friction both scale with it) with it: return that zero without the work.
+    if phi.re() > 746.0 * prm.eps3.re() {
+        return Vector3::zeros();
+    }
     let spring = prm.stiffness * softplus(-phi, prm.eps3);
     let vn = n.dot(v);
     let lambda_n = spring * prm.dissipation.factor(vn / prm.dissipation_velocity);
@@ -163,7 +169,10 @@ struct PointForce<T: Scalar> {
 /// Point–SSDF force (paper eq. 23–24 with the sign corrected, SPEC §2): the softmin-weighted
 /// average of point–plane forces on a query point `x` with velocity `v` (plane body's frame,
 /// `v` relative to the plane body's frame origin motion, see [`Frame`]), against `planes`.
-fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>) -> PointForce<T> {
+/// With `naive`, every plane is summed; otherwise the planes of
+/// [`visit_relevant`](crate::geometry::ssdf::visit_relevant) (the SSDF's pruning bound).
+/// `dmin` is the smallest squared distance from `x` to the planes' points, if known.
+fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>, naive: bool, dmin: Option<f64>) -> PointForce<T> {
     match planes {
         Collider::HalfSpace { point, normal } => {
             let p = point.map(c::<T>);
@@ -173,22 +182,27 @@ fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vect
             PointForce { force: lambda, moment: p.cross(&lambda) }
         }
         Collider::Aopc(s) => {
-            let dmin = crate::geometry::ssdf::min_sq_distance(s, x);
-            let cutoff = dmin + prune_margin() * prm.eps1.re();
-            let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            let xr = re3(x);
             let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
-            for (q, nq) in s.points.iter().zip(&s.normals) {
-                let p = q.map(c::<T>);
+            let dmin = match dmin {
+                Some(d) => d,
+                None if naive => s.points.iter().map(|q| (xr - q).norm_squared()).fold(f64::INFINITY, f64::min),
+                None => s.bvh().nearest(&xr).1,
+            };
+            let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            let mut term = |q: &Vector3<f64>, nq: &Vector3<f64>| {
+                let p = lift3::<T>(q);
                 let r = x - p;
-                let d = r.dot(&r);
-                if d.re() > cutoff {
-                    continue; // relative weight < PRUNE_TOLERANCE
-                }
-                let w = sum.add(d);
+                let w = sum.add(r.dot(&r));
                 let v = v_point - angvel_planes.cross(&p);
-                let lambda = point_plane_force(&r, &nq.map(c::<T>), &v, prm) * w;
+                let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
                 force += lambda;
                 moment += p.cross(&lambda);
+            };
+            if naive {
+                s.points.iter().zip(&s.normals).for_each(|(q, n)| term(q, n));
+            } else {
+                visit_relevant(s, &xr, prm.eps1.re(), dmin, term);
             }
             let inv = sum.weight.recip();
             PointForce { force: force * inv, moment: moment * inv }
@@ -196,51 +210,97 @@ fn point_ssdf_force<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vect
     }
 }
 
-/// SSDF–SSDF contact (paper eq. 25; SPEC §2) between collider `a` on a body with pose/motion
-/// `fa` and collider `b` with `fb`: points of `a` against the planes of `b` and points of `b`
-/// against the planes of `a`, weighted by the separation distribution.
-///
-/// Memory is O(I1 + I2): the separation field is one scalar per point; every softmax is
-/// streamed. Points whose separation weight is below the pruning tolerance relative to the
-/// largest are skipped (their contribution is provably negligible).
-pub fn pair_contact<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
-    let field = separation_field(a, fa, b, fb, prm.eps1);
-    let dist = SeparationDistribution::new(&field, prm.eps2);
-    let mut on_a = Wrench::zero();
-    let mut on_b = Wrench::zero();
-    // Points of `a` against planes of `b`, then points of `b` against planes of `a`.
-    for (query, qf, planes, pf, phis, offset, q_is_a) in [
-        (a, fa, b, fb, &field.of_a, 0, true),
-        (b, fb, a, fa, &field.of_b, field.of_a.len(), false),
-    ] {
-        let Collider::Aopc(s) = query else { continue };
-        let rel = qf.relative_to(pf);
-        let cutoff = prune_margin() * dist.eps.re();
-        let (mut f_q, mut t_q, mut f_p, mut t_p) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
-        for (k, (p, _)) in s.points.iter().zip(&s.normals).enumerate() {
-            if phis[k].re() - dist.min > cutoff {
-                continue;
-            }
-            let w = dist.weight(offset + k, phis[k]);
-            let arm = rel.rotation * p.map(c::<T>); // query point relative to the query body origin
-            let x = arm + rel.translation;
-            let v = rel.linvel + rel.angvel.cross(&arm);
-            let pf_ = point_ssdf_force(planes, &x, &v, &rel.angvel_planes, prm);
-            let fw = pf_.force * w;
-            f_q += fw;
-            t_q += arm.cross(&fw);
-            f_p -= fw;
-            t_p -= pf_.moment * w;
-        }
-        // From the plane body's frame to the world.
+/// Accumulated wrenches of one side of a pair (query points of one body against the planes of
+/// the other), in the plane body's frame.
+struct SideSums<T: Scalar> {
+    f_q: Vector3<T>,
+    t_q: Vector3<T>,
+    f_p: Vector3<T>,
+    t_p: Vector3<T>,
+}
+
+impl<T: Scalar> SideSums<T> {
+    fn zero() -> Self {
+        SideSums { f_q: Vector3::zeros(), t_q: Vector3::zeros(), f_p: Vector3::zeros(), t_p: Vector3::zeros() }
+    }
+
+    /// Adds query point `p` (query body frame) with separation weight `w`.
+    #[allow(clippy::too_many_arguments)]
+    fn add(&mut self, planes: &Collider, rel: &Relative<T>, p: &Vector3<f64>, w: T, prm: &ContactParams<T>, naive: bool, dmin: Option<f64>) {
+        let arm = rel.rotation * lift3::<T>(p); // query point relative to the query body origin
+        let x = arm + rel.translation;
+        let v = rel.linvel + rel.angvel.cross(&arm);
+        let pf = point_ssdf_force(planes, &x, &v, &rel.angvel_planes, prm, naive, dmin);
+        let fw = pf.force * w;
+        self.f_q += fw;
+        self.t_q += arm.cross(&fw);
+        self.f_p -= fw;
+        self.t_p -= pf.moment * w;
+    }
+
+    /// Adds these sums, rotated from the plane body's frame to the world, to the pair's
+    /// wrenches.
+    fn finish(self, pf: &Frame<T>, q_is_a: bool, on_a: &mut Wrench<T>, on_b: &mut Wrench<T>) {
         let r = &pf.rotation;
-        let wq = Wrench { force: r * f_q, torque: r * t_q };
-        let wp = Wrench { force: r * f_p, torque: r * t_p };
+        let wq = Wrench { force: r * self.f_q, torque: r * self.t_q };
+        let wp = Wrench { force: r * self.f_p, torque: r * self.t_p };
         let (wa, wb) = if q_is_a { (wq, wp) } else { (wp, wq) };
         on_a.force += wa.force;
         on_a.torque += wa.torque;
         on_b.force += wb.force;
         on_b.torque += wb.torque;
+    }
+}
+
+/// SSDF–SSDF contact (paper eq. 25; SPEC §2) between collider `a` on a body with pose/motion
+/// `fa` and collider `b` with `fb`: points of `a` against the planes of `b` and points of `b`
+/// against the planes of `a`, weighted by the separation distribution.
+///
+/// Pruned to a proven bound (SPEC §3): only the query points of the
+/// [`separation_band`] are visited (whole BVH nodes of points whose separation weight is below
+/// τ/(I1 + I2) relative to the largest are never evaluated), points whose weight is below that
+/// bound contribute no force, and each point–SSDF force sums only the planes of
+/// [`visit_relevant`](crate::geometry::ssdf::visit_relevant). Skipped forces total less than τ
+/// times the largest point force. Memory is O(I1 + I2) at most (the band), never I1×I2.
+/// [`pair_contact_naive`] is the unpruned reference.
+pub fn pair_contact<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
+    let band = separation_band(a, fa, b, fb, prm.eps1, prm.eps2);
+    let dist = SeparationDistribution::from_band(&band, prm.eps2);
+    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
+    if !dist.min.is_finite() {
+        return PairContact { on_a, on_b, distance: dist.distance };
+    }
+    let cutoff = dist.min + band.margin * dist.eps.re();
+    for (side, query, qf, planes, pf) in [(0u8, a, fa, b, fb), (1u8, b, fb, a, fa)] {
+        let Collider::Aopc(s) = query else { continue };
+        let rel = qf.relative_to(pf);
+        let bvh = s.bvh();
+        let mut sums = SideSums::zero();
+        for e in band.entries.iter().filter(|e| e.side == side && e.phi.re() <= cutoff) {
+            sums.add(planes, &rel, &bvh.points[e.k as usize], dist.weight(0, e.phi), prm, false, Some(e.dmin));
+        }
+        sums.finish(pf, side == 0, &mut on_a, &mut on_b);
+    }
+    PairContact { on_a, on_b, distance: dist.distance }
+}
+
+/// [`pair_contact`] without any pruning: every point of both bodies, every plane (the
+/// reference; O(I1·I2) time, O(I1 + I2) memory).
+pub fn pair_contact_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
+    let field = separation_field_naive(a, fa, b, fb, prm.eps1);
+    let dist = SeparationDistribution::new(&field, prm.eps2);
+    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
+    if !dist.min.is_finite() {
+        return PairContact { on_a, on_b, distance: dist.distance };
+    }
+    for (query, qf, planes, pf, phis, q_is_a) in [(a, fa, b, fb, &field.of_a, true), (b, fb, a, fa, &field.of_b, false)] {
+        let Collider::Aopc(s) = query else { continue };
+        let rel = qf.relative_to(pf);
+        let mut sums = SideSums::zero();
+        for (p, &phi) in s.points.iter().zip(phis) {
+            sums.add(planes, &rel, p, dist.weight(0, phi), prm, true, None);
+        }
+        sums.finish(pf, q_is_a, &mut on_a, &mut on_b);
     }
     PairContact { on_a, on_b, distance: dist.distance }
 }

@@ -76,6 +76,8 @@ pub struct Model {
     pub step: f64,
     /// Local error tolerance of the adaptive integrator.
     pub tolerance: f64,
+    /// Number of soft top-K contact points output per pair (`scm_contact_points`; 0: none).
+    pub contact_points: usize,
 }
 
 /// Result of forward dynamics.

@@ -105,6 +105,8 @@ pub enum Slot {
     PairTorque(usize, usize),
     /// Smooth separation distance of a pair.
     PairDistance(usize),
+    /// Soft top-K contact point `k` of a pair, world axis (scenes with `scm_contact_points`).
+    PairPoint(usize, usize, usize),
     /// Internal step.
     SolverStep,
     /// Local error tolerance.
@@ -181,6 +183,11 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             push(format!("contact.{na}.{nb}.torque.{a}"), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "N.m"), format!("Contact torque on {na} about its origin (world frame)"), Slot::PairTorque(p, k));
         }
         push(format!("contact.{na}.{nb}.distance"), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "m"), format!("Smooth separation distance between {na} and {nb} (negative: penetration)"), Slot::PairDistance(p));
+        for k in 0..model.contact_points {
+            for (i, a) in AXES.iter().enumerate() {
+                push(format!("contact.{na}.{nb}.point{}.{a}", k + 1), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "m"), format!("Soft top-K contact point {} of {na} and {nb} (world frame)", k + 1), Slot::PairPoint(p, k, i));
+            }
+        }
     }
     for prm in Param::ALL {
         let (name, unit, desc) = prm.describe();
@@ -285,6 +292,9 @@ pub struct FmuState {
 /// [`Simulation::quaternion_drift`]).
 pub const QUATERNION_DRIFT_TOLERANCE: f64 = 1e-6;
 
+/// Soft top-K contact points per pair, with the positions and ε1, ε2 they belong to.
+type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
+
 /// A simulation of a scene.
 pub struct Simulation {
     /// The model.
@@ -297,6 +307,8 @@ pub struct Simulation {
     stop_time: Option<f64>,
     /// Contact outputs at the current state, computed on demand.
     outputs: Option<Vec<PairContact<f64>>>,
+    /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
+    points: Option<PointsCache>,
     messages: Vec<LogMessage>,
     /// Accelerations `v̇` and the (time, state, controls, parameters) they were computed at.
     accelerations: Option<(SimState, Vec<f64>)>,
@@ -315,7 +327,7 @@ impl Simulation {
         let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, messages, accelerations: None, start_solver, log_contact: false }
+        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, messages, accelerations: None, start_solver, log_contact: false }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -340,6 +352,27 @@ impl Simulation {
             self.outputs = Some(self.model.contacts(&kin, &self.current.params).1);
         }
         self.outputs.as_deref().unwrap_or(&[])
+    }
+
+    /// Soft top-K contact points of every pair at the current positions (world frame), cached
+    /// until the positions or ε1, ε2 change.
+    pub fn contact_points(&mut self) -> &[Vec<nalgebra::Vector3<f64>>] {
+        let (q, e1, e2) = (&self.current.state.q, self.current.params.eps1, self.current.params.eps2);
+        let fresh = matches!(&self.points, Some((pq, p1, p2, _)) if pq == q && *p1 == e1 && *p2 == e2);
+        if !fresh {
+            let kin = self.model.tree.kinematics(q, &self.current.state.v);
+            let pts = self
+                .model
+                .pairs
+                .iter()
+                .map(|pair| match (&self.model.colliders[pair.a], &self.model.colliders[pair.b]) {
+                    (Some(a), Some(b)) => crate::collision::contact_points(a, &kin.frames[pair.a], b, &kin.frames[pair.b], e1, e2, self.model.contact_points),
+                    _ => Vec::new(),
+                })
+                .collect();
+            self.points = Some((q.clone(), e1, e2, pts));
+        }
+        self.points.as_ref().map(|p| p.3.as_slice()).unwrap_or(&[])
     }
 
     /// Advances by `h` in equal internal steps no longer than `solver.step`, landing exactly on
@@ -532,6 +565,7 @@ impl FmiModel for Simulation {
             Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
             Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
             Slot::PairDistance(p) => self.contacts()[p].distance,
+            Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,
             Slot::SolverIntegrator => return Err(format!("solver.integrator (value reference {vr}) is a String variable")),

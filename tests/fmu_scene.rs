@@ -22,13 +22,19 @@ impl LogSink for Capture {
     }
 }
 
-/// A `resources/` folder holding `name`'s scene, made once per scene and process.
+/// A `resources/` folder holding `name`'s scene and the meshes it uses, as `scm pack` lays it
+/// out, made once per scene and process.
 fn resources(name: &str) -> (String, String) {
-    let dir = std::env::temp_dir().join(format!("scm-fmu-scene-{}-{name}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("scm-fmu-scene-{}-{name}", std::process::id())).join("resources");
+    let described = scm::pack::describe(&crate::common::scene(name)).unwrap();
+    for (file, bytes) in &described.resources {
+        let path = dir.join(file);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
+    }
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(crate::common::scene(name)).unwrap();
-    std::fs::write(dir.join(scm::sim::SCENE_FILE), &text).unwrap();
-    (format!("file://{}", dir.display()), scm::sim::guid(&text))
+    std::fs::write(dir.join(scm::sim::SCENE_FILE), &described.scene_text).unwrap();
+    (format!("file://{}", dir.display()), scm::sim::guid(&described.scene_text))
 }
 
 fn instance(name: &str, interface: Interface) -> (Instance<Simulation>, Log) {
@@ -71,14 +77,14 @@ fn scenes() -> Vec<String> {
     names
 }
 
-/// A state of each scene where its contacts are active: sphere_drop resting on the plane
-/// (after 0.6 s), sphere_pair at its start (1 cm deep), t_push after the finger has been pushed
+/// A state of each scene where its contacts are active: sphere_drop and mesh_drop resting on
+/// the plane (after 0.6 s), sphere_pair at its start (1 cm deep), t_push after the finger has been pushed
 /// into the T for 0.35 s with a controlled target 3 cm in, plus some sideways velocity on
 /// every coordinate so that no partial derivative vanishes by symmetry.
 fn in_contact(name: &str) -> Simulation {
     let mut sim = Simulation::from_file(&crate::common::scene(name)).unwrap();
     match name {
-        "sphere_drop" => {
+        "sphere_drop" | "mesh_drop" => {
             sim.do_step(0.0, 0.6).unwrap();
         }
         "t_push" => {

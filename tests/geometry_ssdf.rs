@@ -6,7 +6,7 @@ use num_dual::Dual64;
 use scm::geometry::{ssdf, Shape};
 
 /// Largest |SSDF - SDF| over points within ±2 mm of the surface, in random directions.
-fn max_error_near_surface(shape: Shape, spacing: f64, eps1: f64) -> f64 {
+fn max_error_near_surface(shape: &Shape, spacing: f64, eps1: f64) -> f64 {
     let aopc = shape.sample(spacing);
     let mut rng = Lcg(7);
     let mut worst: f64 = 0.0;
@@ -26,7 +26,7 @@ fn max_error_near_surface(shape: Shape, spacing: f64, eps1: f64) -> f64 {
         // Outside a convex edge or corner the Euclidean SDF is rounded while planes extend
         // sharply (the SSDF tends to the max of the face planes there, as the paper's eq. 6–7
         // do): compare only where the nearest feature is a face, or inside.
-        if let Shape::Box { half } = shape {
+        if let Shape::Box { half } = *shape {
             if (p.abs() - half).iter().filter(|&&q| q > 0.0).count() > 1 {
                 continue;
             }
@@ -48,7 +48,7 @@ fn ssdf_error_near_the_surface_is_bounded_and_shrinks_with_spacing() {
     for ((name, shape), bound) in SHAPES.iter().zip(bounds) {
         let mut last = f64::INFINITY;
         for (h, b) in [0.02, 0.01, 0.005].into_iter().zip(bound) {
-            let e = max_error_near_surface(*shape, h, 0.1 * h * h);
+            let e = max_error_near_surface(shape, h, 0.1 * h * h);
             println!("{name}: spacing {h} m, eps1 {:.1e} m²: max error {e:.3e} m", 0.1 * h * h);
             assert!(e < b, "{name} at spacing {h}: error {e} above {b}");
             assert!(e < 0.75 * last, "{name}: error did not shrink with spacing ({last} -> {e})");
@@ -61,7 +61,7 @@ fn ssdf_error_near_the_surface_is_bounded_and_shrinks_with_spacing() {
 fn ssdf_error_shrinks_with_eps1() {
     for (name, shape) in SHAPES {
         let h = 0.01;
-        let errors: Vec<f64> = [1e-4, 1e-5, 1e-6].iter().map(|&e1| max_error_near_surface(shape, h, e1)).collect();
+        let errors: Vec<f64> = [1e-4, 1e-5, 1e-6].iter().map(|&e1| max_error_near_surface(&shape, h, e1)).collect();
         println!("{name}: spacing {h}: eps1 1e-4, 1e-5, 1e-6 -> {errors:?}");
         assert!(errors[0] > errors[1] && errors[1] > errors[2], "{name}: {errors:?}");
         // At ε1 = 0.01 h² what is left is the facets' sag on the sphere (2.1e-4 m measured);

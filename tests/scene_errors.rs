@@ -35,7 +35,7 @@ fn each_kind_of_mistake_is_named_with_its_line() {
         (r#"pos="0 0 0.3""#, r#"pos="0 0 nan""#, 4, "body", "finite"),
         (r#"<freejoint/>"#, r#"<tendon/>"#, 5, "tendon", "unsupported"),
         (r#"size="0.05" mass="1""#, r#"size="0.05" mass="1" solmix="1""#, 6, "geom", "solmix"),
-        (r#"type="sphere""#, r#"type="capsule""#, 6, "geom", "capsule"),
+        (r#"type="sphere""#, r#"type="capsule""#, 6, "geom", "size needs 2"),
         (r#"type="sphere""#, r#"type="blob""#, 6, "geom", "blob"),
         (r#"<body name="ball" pos="0 0 0.3">"#, r#"<body name="ball" pos="0 0 0.3" quat="0 0 0 0">"#, 4, "body", "zero"),
     ];

@@ -147,29 +147,64 @@ fn check(path: &Path) -> Result<(), String> {
     let m = &sc.model;
     println!("scene {} ({}): {} bodies, {} joints ({} positions, {} velocities), {} actuators", m.name, path.display(), m.tree.bodies.len() - 1, m.tree.joints.len(), m.tree.nq, m.tree.nv, m.actuators.len());
     println!("integrator {}, internal step {} s", m.integrator.name(), m.step);
+    for a in &sc.meshes {
+        let mp = a.mesh.mass_properties();
+        println!("mesh {} ({}): {} vertices, {} triangles, volume {:.4e} m³{}", a.name, a.path.display(), a.mesh.vertices.len(), a.mesh.triangles.len(), mp.volume, if a.used { "" } else { " (unused)" });
+    }
+    let mut problems = Vec::new();
     for (b, body) in m.tree.bodies.iter().enumerate() {
         match &m.colliders[b] {
             None => println!("body {}: no collider", body.name),
             Some(scm::collision::Collider::HalfSpace { normal, .. }) => println!("body {}: plane (exact half-space), normal {:?}", body.name, normal.as_slice()),
             Some(scm::collision::Collider::Aopc(s)) => {
-                let exact: f64 = sc.geoms.iter().filter(|g| g.body == b).filter_map(|g| g.shape).map(|s| s.volume()).sum();
+                let parts: Vec<_> = sc.geoms.iter().filter(|g| g.body == b).filter_map(|g| g.shape.clone().map(|s| (s, g.pose))).collect();
+                let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
+                let size = parts.iter().map(|(s, p)| s.size() + p.translation.vector.norm()).fold(0.0, f64::max);
+                let closure = s.closure_defect().norm();
+                let volume = s.enclosed_volume();
                 println!(
-                    "body {}: {} points, spacing {:.4} m, |Σ n·area| = {:.2e} m², volume {:.4e} m³ (geoms: {:.4e} m³, overlaps counted twice)",
+                    "body {}: {} geom(s), {} points, {} quads, {} vertices, spacing {:.4} m, |Σ n·area| = {:.2e} m², enclosed volume {:.4e} m³ ({} {:.4e} m³, {:+.2} %)",
                     body.name,
+                    parts.len(),
                     s.len(),
+                    s.faces.len(),
+                    s.vertices.len(),
                     s.spacing(),
-                    s.closure_defect().norm(),
-                    s.enclosed_volume(),
-                    exact
+                    closure,
+                    volume,
+                    if is_exact { "exact" } else { "estimated" },
+                    exact,
+                    100.0 * (volume - exact) / exact
                 );
+                // The faces of a closed surface have Σ n·area = 0; the AOPC's volume is that of
+                // its quads (chords of curved surfaces), within a few per mille of the shape's
+                // at a sensible spacing.
+                if closure > 1e-3 * size * size {
+                    problems.push(format!("body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m²)", body.name));
+                }
+                let allowed = if is_exact { 0.02 } else { 0.05 };
+                if (volume - exact).abs() > allowed * exact {
+                    problems.push(format!("body {}: enclosed volume {volume:.4e} m³ differs from the geoms' {exact:.4e} m³ by more than {} %: interior or missing faces, or a spacing too coarse for the shape", body.name, allowed * 100.0));
+                }
             }
         }
     }
     for p in &m.pairs {
         println!("pair {} - {}", m.tree.bodies[p.a].name, m.tree.bodies[p.b].name);
     }
+    if m.contact_points > 0 {
+        println!("contact points: {} per pair", m.contact_points);
+    }
     for w in &sc.warnings {
         println!("warning: {w}");
     }
-    Ok(())
+    for p in &problems {
+        println!("problem: {p}");
+    }
+    if problems.is_empty() {
+        println!("no problems found");
+        Ok(())
+    } else {
+        Err(format!("{} problem(s) found in {}", problems.len(), path.display()))
+    }
 }

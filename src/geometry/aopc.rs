@@ -1,11 +1,15 @@
 //! Articulated oriented point clouds: a surface as the centres and outward normals of the faces
 //! of a quad mesh, with the quads kept (vertex indices) for the soft top-K contact points.
 
+use super::bvh::Bvh;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
-use std::f64::consts::FRAC_PI_4;
+use std::sync::{Arc, OnceLock};
 
 /// A closed surface as oriented planes `(p_i, n_i)` in its body's frame (SPEC §2, AOPC).
-#[derive(Clone, Debug, Default, PartialEq)]
+///
+/// A bounding-volume hierarchy over the points is built on first use (pruned queries) and kept;
+/// change the fields only before the first query, or call [`Aopc::invalidate`].
+#[derive(Clone, Debug, Default)]
 pub struct Aopc {
     /// Face centres `p_i` (m, body frame).
     pub points: Vec<Vector3<f64>>,
@@ -17,54 +21,33 @@ pub struct Aopc {
     pub vertices: Vec<Vector3<f64>>,
     /// Quads as four indices into `vertices`, counter-clockwise seen from outside.
     pub faces: Vec<[u32; 4]>,
+    /// The hierarchy over `points`, built on first use.
+    bvh: OnceLock<Arc<Bvh>>,
 }
 
-/// A primitive shape, in its own frame (centred at the origin; capsule/cylinder along z).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Shape {
-    /// Sphere of the given radius (m).
-    Sphere {
-        /// Radius (m).
-        radius: f64,
-    },
-    /// Box with the given half-extents (m).
-    Box {
-        /// Half-extents along the axes (m).
-        half: Vector3<f64>,
-    },
-}
-
-impl Shape {
-    /// Exact signed distance of a point (shape frame): negative inside.
-    pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
-        match *self {
-            Shape::Sphere { radius } => p.norm() - radius,
-            Shape::Box { half } => {
-                let q = p.abs() - half;
-                let outside = q.map(|x| x.max(0.0)).norm();
-                outside + q.max().min(0.0)
-            }
-        }
-    }
-
-    /// Enclosed volume (m³).
-    pub fn volume(&self) -> f64 {
-        match *self {
-            Shape::Sphere { radius } => 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
-            Shape::Box { half } => 8.0 * half.x * half.y * half.z,
-        }
-    }
-
-    /// Samples the surface as an AOPC with faces about `spacing` (m) apart.
-    pub fn sample(&self, spacing: f64) -> Aopc {
-        match *self {
-            Shape::Sphere { radius } => sample_sphere(radius, spacing),
-            Shape::Box { half } => sample_box(&half, spacing),
-        }
+impl PartialEq for Aopc {
+    fn eq(&self, o: &Self) -> bool {
+        self.points == o.points && self.normals == o.normals && self.areas == o.areas && self.vertices == o.vertices && self.faces == o.faces
     }
 }
 
 impl Aopc {
+    /// An AOPC from its parts.
+    pub fn new(points: Vec<Vector3<f64>>, normals: Vec<Vector3<f64>>, areas: Vec<f64>, vertices: Vec<Vector3<f64>>, faces: Vec<[u32; 4]>) -> Aopc {
+        Aopc { points, normals, areas, vertices, faces, bvh: OnceLock::new() }
+    }
+
+    /// The bounding-volume hierarchy over the points (built on first use).
+    pub fn bvh(&self) -> &Bvh {
+        debug_assert!(self.bvh.get().is_none_or(|b| b.len() == self.points.len()), "AOPC changed after its BVH was built");
+        self.bvh.get_or_init(|| Arc::new(Bvh::build(&self.points, &self.normals)))
+    }
+
+    /// Forgets the hierarchy (after changing the points or normals).
+    pub fn invalidate(&mut self) {
+        self.bvh = OnceLock::new();
+    }
+
     /// Number of points `I`.
     pub fn len(&self) -> usize {
         self.points.len()
@@ -78,17 +61,12 @@ impl Aopc {
     /// The same surface moved by `pose` (e.g. a geom's pose in its body).
     pub fn transformed(&self, pose: &Isometry3<f64>) -> Aopc {
         let tp = |v: &Vector3<f64>| (pose * Point3::from(*v)).coords;
-        Aopc {
-            points: self.points.iter().map(tp).collect(),
-            normals: self.normals.iter().map(|n| pose.rotation * n).collect(),
-            areas: self.areas.clone(),
-            vertices: self.vertices.iter().map(tp).collect(),
-            faces: self.faces.clone(),
-        }
+        Aopc::new(self.points.iter().map(tp).collect(), self.normals.iter().map(|n| pose.rotation * n).collect(), self.areas.clone(), self.vertices.iter().map(tp).collect(), self.faces.clone())
     }
 
     /// Appends another AOPC (vertex indices renumbered).
     pub fn extend(&mut self, other: &Aopc) {
+        self.invalidate();
         let base = self.vertices.len() as u32;
         self.points.extend_from_slice(&other.points);
         self.normals.extend_from_slice(&other.normals);
@@ -127,126 +105,78 @@ impl Aopc {
         if self.len() < 2 {
             return 0.0;
         }
-        let mut nn: Vec<f64> = self
-            .points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                self.points
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .map(|(_, q)| (p - q).norm_squared())
-                    .fold(f64::INFINITY, f64::min)
-                    .sqrt()
-            })
-            .collect();
+        let bvh = self.bvh();
+        let mut nn: Vec<f64> = (0..bvh.len()).map(|k| bvh.nearest_except(&bvh.points[k], k).1.sqrt()).collect();
         nn.sort_by(|a, b| a.total_cmp(b));
         nn[nn.len() / 2]
     }
 
-    /// Adds one quad given its four corners (counter-clockwise seen from outside), with the
-    /// face centre and normal computed from the corners (or given, for curved surfaces).
-    fn push_quad(&mut self, corners: [Vector3<f64>; 4], centre_normal: Option<(Vector3<f64>, Vector3<f64>)>) {
+    /// Adds one face: its four corners (counter-clockwise seen from outside), the AOPC point
+    /// and outward normal, and its area (m²).
+    pub fn push_face(&mut self, corners: [Vector3<f64>; 4], point: Vector3<f64>, normal: Vector3<f64>, area: f64) {
+        self.invalidate();
         let base = self.vertices.len() as u32;
         self.vertices.extend_from_slice(&corners);
         self.faces.push([base, base + 1, base + 2, base + 3]);
-        // Area and normal of a planar-or-not quad from its diagonals.
-        let cross = (corners[2] - corners[0]).cross(&(corners[3] - corners[1]));
-        let area = 0.5 * cross.norm();
-        let (centre, normal) = centre_normal.unwrap_or_else(|| ((corners[0] + corners[1] + corners[2] + corners[3]) / 4.0, cross.normalize()));
-        self.points.push(centre);
+        self.points.push(point);
         self.normals.push(normal);
         self.areas.push(area);
     }
-}
 
-/// Number of quads along a length so that they are at most about `spacing` long (at least 1).
-fn divisions(length: f64, spacing: f64) -> usize {
-    ((length / spacing).round() as usize).max(1)
-}
-
-/// Sphere as a cube mapped onto the sphere with equal angles per quad (an equi-angular cubed
-/// sphere): six patches of `n × n` quads, the most even quad mesh of a sphere that stays simple.
-/// Points are the projections of the quad centres on the sphere, normals are radial.
-///
-/// `n` is even, so that four points surround each pole of the three axes. With an odd `n` a
-/// point sits at the pole, and a sphere resting on a plane balances on that single point: an
-/// unstable equilibrium (like a polyhedron on a vertex) from which it tips over onto four
-/// points after a few seconds of growing rocking; measured, independent of integrator and step.
-fn sample_sphere(radius: f64, spacing: f64) -> Aopc {
-    let n = (((std::f64::consts::FRAC_PI_2 * radius / spacing).ceil() as usize).max(1) + 1) & !1;
-    let mut out = Aopc::default();
-    // Each cube face: normal axis and two tangent axes with t1 × t2 = normal (outward order).
-    let faces = [
-        (Vector3::x(), Vector3::y(), Vector3::z()),
-        (-Vector3::x(), Vector3::z(), Vector3::y()),
-        (Vector3::y(), Vector3::z(), Vector3::x()),
-        (-Vector3::y(), Vector3::x(), Vector3::z()),
-        (Vector3::z(), Vector3::x(), Vector3::y()),
-        (-Vector3::z(), Vector3::y(), Vector3::x()),
-    ];
-    let on_sphere = |axis: &Vector3<f64>, t1: &Vector3<f64>, t2: &Vector3<f64>, a: f64, b: f64| {
-        let u = (-FRAC_PI_4 + std::f64::consts::FRAC_PI_2 * a).tan();
-        let v = (-FRAC_PI_4 + std::f64::consts::FRAC_PI_2 * b).tan();
-        (axis + t1 * u + t2 * v).normalize() * radius
-    };
-    for (axis, t1, t2) in &faces {
-        for i in 0..n {
-            for j in 0..n {
-                let (a0, a1) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);
-                let (b0, b1) = (j as f64 / n as f64, (j + 1) as f64 / n as f64);
-                let corners = [
-                    on_sphere(axis, t1, t2, a0, b0),
-                    on_sphere(axis, t1, t2, a1, b0),
-                    on_sphere(axis, t1, t2, a1, b1),
-                    on_sphere(axis, t1, t2, a0, b1),
-                ];
-                let centre = on_sphere(axis, t1, t2, 0.5 * (a0 + a1), 0.5 * (b0 + b1));
-                out.push_quad(corners, Some((centre, centre / radius)));
-            }
-        }
+    /// Adds one planar quad given its corners (counter-clockwise seen from outside): the point
+    /// is its area centroid, the normal and area from its diagonals.
+    pub fn push_quad(&mut self, c: [Vector3<f64>; 4]) {
+        let cross = (c[2] - c[0]).cross(&(c[3] - c[1]));
+        let area = 0.5 * cross.norm();
+        // Area centroid of the two triangles (0,1,2) and (0,2,3).
+        let (t1, t2) = (0.5 * (c[1] - c[0]).cross(&(c[2] - c[0])).norm(), 0.5 * (c[2] - c[0]).cross(&(c[3] - c[0])).norm());
+        let centroid = if t1 + t2 > 0.0 { ((c[0] + c[1] + c[2]) * t1 + (c[0] + c[2] + c[3]) * t2) / (3.0 * (t1 + t2)) } else { (c[0] + c[1] + c[2] + c[3]) / 4.0 };
+        self.push_face(c, centroid, cross.try_normalize(0.0).unwrap_or_else(Vector3::z), area);
     }
-    // Quads of a sphere are slightly curved: scale areas so that Σ area is the sphere's area.
-    let total: f64 = out.areas.iter().sum();
-    let exact = 4.0 * std::f64::consts::PI * radius * radius;
-    for a in &mut out.areas {
-        *a *= exact / total;
-    }
-    out
-}
 
-/// Box: each face cut into a grid of quads, so quad edges lie on the box's edges and corners.
-fn sample_box(half: &Vector3<f64>, spacing: f64) -> Aopc {
-    let mut out = Aopc::default();
-    for axis in 0..3 {
-        for sign in [1.0, -1.0] {
-            // Tangent axes ordered so that t1 × t2 points outward.
-            let (i1, i2) = ((axis + 1) % 3, (axis + 2) % 3);
-            let (i1, i2) = if sign > 0.0 { (i1, i2) } else { (i2, i1) };
-            let (l1, l2) = (2.0 * half[i1], 2.0 * half[i2]);
-            let (n1, n2) = (divisions(l1, spacing), divisions(l2, spacing));
-            let corner = |a: f64, b: f64| {
-                let mut p = Vector3::zeros();
-                p[axis] = sign * half[axis];
-                p[i1] = -half[i1] + l1 * a;
-                p[i2] = -half[i2] + l2 * b;
-                p
-            };
-            for i in 0..n1 {
-                for j in 0..n2 {
-                    let (a0, a1) = (i as f64 / n1 as f64, (i + 1) as f64 / n1 as f64);
-                    let (b0, b1) = (j as f64 / n2 as f64, (j + 1) as f64 / n2 as f64);
-                    let mut normal = Vector3::zeros();
-                    normal[axis] = sign;
-                    let corners = [corner(a0, b0), corner(a1, b0), corner(a1, b1), corner(a0, b1)];
-                    let centre = (corners[0] + corners[2]) / 2.0;
-                    out.push_quad(corners, Some((centre, normal)));
+    /// Merges vertices closer than `tol` (m), so that neighbouring quads share them (the soft
+    /// top-K sums a vertex's weight over the faces that use it), and drops unused ones.
+    pub fn weld(&mut self, tol: f64) {
+        use std::collections::HashMap;
+        let key = |v: &Vector3<f64>| v.map(|x| (x / tol).round() as i64);
+        let mut map: HashMap<[i64; 3], u32> = HashMap::new();
+        let mut remap = vec![u32::MAX; self.vertices.len()];
+        let mut kept: Vec<Vector3<f64>> = Vec::new();
+        for f in &self.faces {
+            for &i in f {
+                if remap[i as usize] != u32::MAX {
+                    continue;
                 }
+                let v = self.vertices[i as usize];
+                let k = key(&v);
+                // Look in the neighbouring cells too, so that rounding at a cell boundary does
+                // not split a vertex.
+                let mut found = None;
+                'search: for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        for dz in -1..=1 {
+                            if let Some(&j) = map.get(&[k.x + dx, k.y + dy, k.z + dz]) {
+                                if (kept[j as usize] - v).norm() <= tol {
+                                    found = Some(j);
+                                    break 'search;
+                                }
+                            }
+                        }
+                    }
+                }
+                remap[i as usize] = found.unwrap_or_else(|| {
+                    kept.push(v);
+                    let j = kept.len() as u32 - 1;
+                    map.insert([k.x, k.y, k.z], j);
+                    j
+                });
             }
         }
+        for f in &mut self.faces {
+            *f = f.map(|i| remap[i as usize]);
+        }
+        self.vertices = kept;
     }
-    out
 }
 
 /// Rotation taking the z axis to `dir` (for shapes defined along z).
@@ -257,6 +187,8 @@ pub fn z_to(dir: &Vector3<f64>) -> UnitQuaternion<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::geometry::Shape;
 
     #[test]
     fn sphere_aopc_is_closed_outward_and_on_the_surface() {

@@ -4,7 +4,13 @@
 //! Everything here lives in a body's own frame; poses are applied by the caller.
 
 pub mod aopc;
+pub mod bvh;
+pub mod mesh;
+pub mod shapes;
 pub mod ssdf;
+pub mod union;
 
-pub use aopc::{Aopc, Shape};
-pub use ssdf::{ssdf, ssdf_weights_sum};
+pub use aopc::Aopc;
+pub use mesh::{MeshError, TriMesh};
+pub use shapes::{MassProperties, Shape};
+pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};

@@ -11,11 +11,12 @@ use crate::collision::Collider;
 use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{unit_quat, Body, Joint, JointKind, Tree};
-use crate::geometry::{Aopc, Shape};
+use crate::geometry::{Shape, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair};
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use xml::Element;
 
 /// A scene that could not be loaded: where, and why.
@@ -41,6 +42,26 @@ pub struct Scene {
     pub geoms: Vec<Geom>,
     /// Things that were accepted but are not modelled exactly (for `scm check`).
     pub warnings: Vec<String>,
+    /// Mesh assets the geoms use: name, the `file` attribute as written, and the resolved path.
+    pub meshes: Vec<MeshAsset>,
+    /// The compiler's mesh folder as written (`meshdir`, else `assetdir`), relative to the
+    /// scene file.
+    pub meshdir: Option<String>,
+}
+
+/// A mesh asset of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAsset {
+    /// Asset name (`name`, else the file name without extension).
+    pub name: String,
+    /// The `file` attribute as written.
+    pub file: String,
+    /// The file, resolved against the scene's folder and `meshdir`.
+    pub path: PathBuf,
+    /// The checked mesh (scaled), shared by every geom that uses it.
+    pub mesh: Arc<TriMesh>,
+    /// Whether a geom uses it.
+    pub used: bool,
 }
 
 /// A geom as read from the scene, posed in its body's frame.
@@ -52,6 +73,8 @@ pub struct Geom {
     pub body: usize,
     /// Shape; `None` for a plane.
     pub shape: Option<Shape>,
+    /// Mesh asset name, for mesh geoms.
+    pub mesh: Option<String>,
     /// Pose in the body frame.
     pub pose: Isometry3<f64>,
     /// MuJoCo collision bits.
@@ -90,6 +113,8 @@ struct Defaults {
 struct Builder {
     file: String,
     degrees: bool,
+    meshdir: Option<String>,
+    meshes: Vec<MeshAsset>,
     bodies: Vec<Body>,
     joints: Vec<Joint>,
     geoms: Vec<Geom>,
@@ -116,6 +141,8 @@ impl Builder {
         Builder {
             file,
             degrees: true,
+            meshdir: None,
+            meshes: vec![],
             bodies: vec![Body { name: "world".into(), parent: None, offset: Isometry3::identity(), inertia: Inertia { mass: 0.0, com: Vector3::zeros(), rot: Matrix3::zeros() }, joints: vec![] }],
             joints: vec![],
             geoms: vec![],
@@ -226,6 +253,16 @@ impl Builder {
                 _ => {}
             }
         }
+        // Assets next (they may come after the bodies that use them).
+        for el in root.children.iter().filter(|e| e.name == "asset") {
+            for a in &el.children {
+                match a.name.as_str() {
+                    "texture" | "material" | "hfield" | "skin" => {}
+                    "mesh" => self.mesh_asset(a)?,
+                    _ => return Err(self.err(a, "unsupported asset")),
+                }
+            }
+        }
         for el in &root.children {
             match el.name.as_str() {
                 "compiler" | "option" | "default" | "custom" => {}
@@ -240,15 +277,7 @@ impl Builder {
                     }
                 }
                 "contact" => self.contact(el)?,
-                "asset" => {
-                    for a in &el.children {
-                        match a.name.as_str() {
-                            "texture" | "material" => {}
-                            "mesh" => return Err(self.err(a, "mesh assets are not supported yet (only sphere, box and plane geoms)")),
-                            _ => return Err(self.err(a, "unsupported asset")),
-                        }
-                    }
-                }
+                "asset" => {}
                 "visual" | "statistic" | "size" | "keyframe" | "sensor" | "extension" => {}
                 _ => return Err(self.err(el, "unsupported element")),
             }
@@ -262,6 +291,9 @@ impl Builder {
             None | Some("degree") => self.degrees = true,
             Some("radian") => self.degrees = false,
             Some(a) => return Err(self.err(el, format!("angle=\"{a}\": expected degree or radian"))),
+        }
+        if let Some(d) = el.attr("meshdir").or(el.attr("assetdir")) {
+            self.meshdir = Some(d.to_string());
         }
         Ok(())
     }
@@ -436,47 +468,128 @@ impl Builder {
         if el.attr("friction").is_some() {
             self.warnings.push(format!("{}:{}: per-geom friction is ignored: SCM uses scm_friction for every pair", self.file, el.line));
         }
-        if el.attr("fromto").is_some() {
-            return Err(self.err(el, "fromto is not supported yet: use pos and quat/euler"));
-        }
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
+        let kind = el.attr("type").unwrap_or("sphere");
+        let fromto = self.floats(el, "fromto", 6)?;
+        // With fromto, the geom runs from one point to the other along its z axis.
+        let from_to = match fromto {
+            Some(_) if !matches!(kind, "capsule" | "cylinder" | "box" | "ellipsoid") => return Err(self.err(el, format!("fromto does not apply to a {kind}"))),
+            Some(f) => {
+                if el.attr("pos").is_some() || el.attr("quat").is_some() || el.attr("euler").is_some() {
+                    return Err(self.err(el, "give either fromto or pos/quat/euler, not both"));
+                }
+                let (a, b) = (Vector3::new(f[0], f[1], f[2]), Vector3::new(f[3], f[4], f[5]));
+                let axis = b - a;
+                if axis.norm() < 1e-12 {
+                    return Err(self.err(el, "fromto: the two points coincide"));
+                }
+                Some((Isometry3::from_parts(Translation3::from((a + b) * 0.5), crate::geometry::aopc::z_to(&axis.normalize())), 0.5 * axis.norm()))
+            }
+            None => None,
+        };
         let need = |n: usize| -> Result<(), SceneError> {
             if size.len() < n || size[..n].iter().any(|&s| s <= 0.0) {
                 return Err(self.err(el, format!("size needs {n} positive number(s), got \"{}\"", el.attr("size").unwrap_or(""))));
             }
             Ok(())
         };
-        let shape = match el.attr("type").unwrap_or("sphere") {
+        // Half-length along z: from fromto, else the size entry at `k`.
+        let half_z = |k: usize| -> Result<f64, SceneError> {
+            match from_to {
+                Some((_, h)) => Ok(h),
+                None => {
+                    need(k + 1)?;
+                    Ok(size[k])
+                }
+            }
+        };
+        let mut mesh_name = None;
+        let shape = match kind {
             "sphere" => {
                 need(1)?;
                 Some(Shape::Sphere { radius: size[0] })
             }
             "box" => {
-                need(3)?;
-                Some(Shape::Box { half: Vector3::new(size[0], size[1], size[2]) })
+                need(2)?;
+                let hz = half_z(2)?;
+                Some(Shape::Box { half: Vector3::new(size[0], size[1], hz) })
+            }
+            "capsule" => {
+                need(1)?;
+                Some(Shape::Capsule { radius: size[0], half_length: half_z(1)? })
+            }
+            "cylinder" => {
+                need(1)?;
+                Some(Shape::Cylinder { radius: size[0], half_length: half_z(1)? })
+            }
+            "ellipsoid" => {
+                need(2)?;
+                let hz = half_z(2)?;
+                Some(Shape::Ellipsoid { radii: Vector3::new(size[0], size[1], hz) })
+            }
+            "mesh" => {
+                let name = el.attr("mesh").ok_or_else(|| self.err(el, "a mesh geom needs mesh=\"NAME\" naming a <mesh> asset"))?;
+                let asset = self.meshes.iter_mut().find(|m| m.name == name).ok_or_else(|| SceneError { file: self.file.clone(), line: el.line, element: el.name.clone(), message: format!("no mesh asset named '{name}'") })?;
+                asset.used = true;
+                mesh_name = Some(name.to_string());
+                Some(Shape::Mesh(asset.mesh.clone()))
             }
             "plane" => None,
-            t @ ("capsule" | "cylinder" | "ellipsoid" | "mesh") => return Err(self.err(el, format!("geom type {t} is not supported yet (only sphere, box and plane)"))),
+            t @ ("hfield" | "sdf") => return Err(self.err(el, format!("geom type {t} is not supported"))),
             t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
         };
-        let pose = self.pose(el)?;
+        if el.attr("mesh").is_some() && kind != "mesh" {
+            return Err(self.err(el, format!("mesh=\"{}\" given for a {kind} geom: add type=\"mesh\"", el.attr("mesh").unwrap_or(""))));
+        }
+        let pose = match from_to {
+            Some((p, _)) => p,
+            None => self.pose(el)?,
+        };
         let name = el.attr("name").map(str::to_string).unwrap_or_else(|| format!("{}_geom{}", self.bodies[body].name, self.geoms.iter().filter(|g| g.body == body).count()));
-        if let Some(shape) = shape {
+        if let Some(shape) = &shape {
             if !self.explicit_inertia[body] && body != 0 {
+                let mp = shape.mass_properties();
                 let mass = match (self.float(el, "mass")?, self.float(el, "density")?) {
                     (Some(m), _) if m < 0.0 => return Err(self.err(el, format!("mass=\"{m}\" must not be negative"))),
                     (Some(m), _) => m,
                     (None, Some(d)) if d < 0.0 => return Err(self.err(el, format!("density=\"{d}\" must not be negative"))),
-                    (None, d) => d.unwrap_or(1000.0) * shape.volume(),
+                    (None, d) => d.unwrap_or(1000.0) * mp.volume,
                 };
-                let gi = geom_inertia(&shape, mass, &pose);
+                let gi = geom_inertia(&mp, mass, &pose);
                 self.bodies[body].inertia = self.bodies[body].inertia.add(&gi);
             }
         } else if body != 0 && !self.bodies[body].joints.is_empty() {
             return Err(self.err(el, "a plane can only belong to a static body"));
         }
         let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
-        self.geoms.push(Geom { name, body, shape, pose, contype, conaffinity });
+        self.geoms.push(Geom { name, body, shape, mesh: mesh_name, pose, contype, conaffinity });
+        Ok(())
+    }
+
+    /// `<mesh name file scale>`: loads and checks the file at once (paths relative to the scene
+    /// file's folder and the compiler's `meshdir`), so that problems name the asset's line.
+    fn mesh_asset(&mut self, el: &Element) -> Result<(), SceneError> {
+        self.check_attrs(el, &["name", "file", "scale", "inertia", "maxhullvert", "refpos", "refquat"])?;
+        for unsupported in ["refpos", "refquat"] {
+            if el.attr(unsupported).is_some() {
+                return Err(self.err(el, format!("{unsupported} is not supported")));
+            }
+        }
+        let file = el.attr("file").ok_or_else(|| self.err(el, "a mesh needs file=\"...\" (OBJ or STL); inline vertices are not supported"))?.to_string();
+        let name = el.attr("name").map(str::to_string).unwrap_or_else(|| Path::new(&file).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
+        if self.meshes.iter().any(|m| m.name == name) {
+            return Err(self.err(el, format!("mesh name '{name}' is used twice")));
+        }
+        let scale = self.vec3(el, "scale")?.unwrap_or_else(|| Vector3::repeat(1.0));
+        if scale.iter().any(|&x| x == 0.0) {
+            return Err(self.err(el, "scale has a zero component"));
+        }
+        let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
+        let (mesh, warnings) = TriMesh::load(&path, &scale).map_err(|e| self.err(el, e.to_string()))?;
+        for w in warnings {
+            self.warnings.push(format!("{}:{}: {w}", self.file, el.line));
+        }
+        self.meshes.push(MeshAsset { name, file, path, mesh: Arc::new(mesh), used: false });
         Ok(())
     }
 
@@ -587,6 +700,7 @@ impl Builder {
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
         let mut integrator = self.option_integrator.unwrap_or_default();
         let mut tolerance = 1e-6;
+        let mut contact_points = 0.0;
         for (name, value, line) in self.numeric.clone() {
             let slot = match name.as_str() {
                 "scm_eps1" => &mut contact.eps1,
@@ -599,9 +713,13 @@ impl Builder {
                 "scm_spacing" => &mut spacing,
                 "scm_step" => &mut step,
                 "scm_tolerance" => &mut tolerance,
+                "scm_contact_points" => &mut contact_points,
                 _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
             };
-            let ok = if name == "scm_friction" { value >= 0.0 } else { value > 0.0 };
+            if name == "scm_contact_points" && !(value.fract() == 0.0 && (0.0..=64.0).contains(&value)) {
+                return Err(self.setting_error(line, &name, format!("{value} must be a whole number of contact points from 0 to 64")));
+            }
+            let ok = if name == "scm_friction" || name == "scm_contact_points" { value >= 0.0 } else { value > 0.0 };
             if !ok {
                 return Err(self.setting_error(line, &name, format!("{value} is out of range (must be {})", if name == "scm_friction" { "non-negative" } else { "positive" })));
             }
@@ -631,21 +749,15 @@ impl Builder {
             if geoms.is_empty() {
                 continue;
             }
-            let mut aopc = Aopc::default();
-            for (k, g) in geoms.iter().enumerate() {
-                let shape = g.shape.expect("planes handled above");
-                let mut part = shape.sample(spacing).transformed(&g.pose);
-                let others: Vec<_> = geoms.iter().enumerate().filter(|(m, _)| *m != k).map(|(_, o)| (o.shape.expect("no planes"), o.pose.inverse())).collect();
-                part = part.retain(|p| others.iter().all(|(s, inv)| s.sdf(&(inv * nalgebra::Point3::from(*p)).coords) >= -1e-9 * spacing));
-                aopc.extend(&part);
-            }
+            let parts: Vec<(Shape, Isometry3<f64>)> = geoms.iter().map(|g| (g.shape.clone().expect("planes handled above"), g.pose)).collect();
+            let aopc = crate::geometry::union::sample_union(&parts, spacing);
             colliders[b] = Some(Collider::Aopc(aopc));
         }
         let tree = Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| SceneError { file: self.file.clone(), line: 0, element: "body".into(), message: e.to_string() })?;
         let pairs = self.pairs(&tree, &colliders)?;
         let name = Path::new(&self.file).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
-        let model = Model { name, tree, colliders, pairs, actuators: std::mem::take(&mut self.actuators), contact, integrator, step, tolerance };
-        Ok(Scene { model, geoms: self.geoms, warnings: self.warnings })
+        let model = Model { name, tree, colliders, pairs, actuators: std::mem::take(&mut self.actuators), contact, integrator, step, tolerance, contact_points: contact_points as usize };
+        Ok(Scene { model, geoms: self.geoms, warnings: self.warnings, meshes: self.meshes, meshdir: self.meshdir })
     }
 
     /// Colliding pairs by MuJoCo's rules: contype/conaffinity bits, no parent–child pairs
@@ -695,17 +807,62 @@ impl Builder {
     }
 }
 
-/// Inertia of a solid shape of mass `mass` posed at `pose`, about the body origin.
-fn geom_inertia(shape: &Shape, mass: f64, pose: &Isometry3<f64>) -> Inertia {
-    let local = match *shape {
-        Shape::Sphere { radius } => Matrix3::identity() * (0.4 * mass * radius * radius),
-        Shape::Box { half } => {
-            let (x2, y2, z2) = (4.0 * half.x * half.x, 4.0 * half.y * half.y, 4.0 * half.z * half.z);
-            Matrix3::from_diagonal(&Vector3::new(y2 + z2, x2 + z2, x2 + y2)) * (mass / 12.0)
-        }
-    };
+/// Inertia of a solid of mass `mass` with unit-density properties `mp`, posed at `pose`: its
+/// centre of mass and rotational inertia in the body frame.
+fn geom_inertia(mp: &crate::geometry::MassProperties, mass: f64, pose: &Isometry3<f64>) -> Inertia {
     let r = pose.rotation.to_rotation_matrix().into_inner();
-    Inertia { mass, com: pose.translation.vector, rot: r * local * r.transpose() }
+    let per = if mp.volume > 0.0 { mass / mp.volume } else { 0.0 };
+    Inertia { mass, com: (pose * nalgebra::Point3::from(mp.com)).coords, rot: r * mp.inertia * r.transpose() * per }
+}
+
+/// Where a mesh file is: absolute as given, else relative to the scene file's folder joined
+/// with `meshdir` (itself relative to the scene's folder unless absolute), as MuJoCo does.
+///
+/// Inside an unpacked FMU (the scene is `resources/scene.xml`), a mesh that is not found there
+/// is looked up where `scm pack` puts it: `resources/` + [`packed_mesh_name`].
+pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
+    let f = Path::new(file);
+    if f.is_absolute() {
+        return f.to_path_buf();
+    }
+    let mut dir = scene_dir(scene);
+    if let Some(d) = meshdir {
+        dir = dir.join(d);
+    }
+    let path = dir.join(f);
+    let in_fmu = scene.file_name().is_some_and(|n| n == crate::sim::SCENE_FILE) && scene_dir(scene).file_name().is_some_and(|n| n == "resources");
+    if !path.exists() && in_fmu {
+        if let Ok(packed) = packed_mesh_name(file) {
+            let p = scene_dir(scene).join(packed);
+            if p.exists() {
+                return p;
+            }
+        }
+    }
+    path
+}
+
+/// The name under an FMU's `resources/` of a mesh whose `file` attribute is `file`:
+/// `meshes/<file>`, with `.` and `..` resolved (a path that leaves the mesh folder, or an
+/// absolute one, cannot be packed).
+pub fn packed_mesh_name(file: &str) -> Result<String, String> {
+    if Path::new(file).is_absolute() {
+        return Err("an absolute path cannot be packed: give the file relative to meshdir".into());
+    }
+    let mut parts: Vec<&str> = Vec::new();
+    for c in file.split(['/', '\\']) {
+        match c {
+            "" | "." => {}
+            ".." => {
+                parts.pop().ok_or("the path leaves the mesh folder: give the file relative to meshdir")?;
+            }
+            c => parts.push(c),
+        }
+    }
+    if parts.is_empty() {
+        return Err("empty file name".into());
+    }
+    Ok(format!("meshes/{}", parts.join("/")))
 }
 
 /// The folder a scene's relative paths start from.

@@ -66,6 +66,17 @@ pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot]
         (None, None)
     };
     let qdot = unknowns.iter().any(|u| matches!(u, Slot::QDot(_))).then(|| model.tree.qdot(&s.q, &s.v));
+    let points = unknowns.iter().any(|u| matches!(u, Slot::PairPoint(..))).then(|| {
+        let kin = model.tree.kinematics(&s.q, &s.v);
+        model
+            .pairs
+            .iter()
+            .map(|pair| match (&model.colliders[pair.a], &model.colliders[pair.b]) {
+                (Some(a), Some(b)) => crate::collision::contact_points(a, &kin.frames[pair.a], b, &kin.frames[pair.b], s.prm.eps1, s.prm.eps2, model.contact_points),
+                _ => Vec::new(),
+            })
+            .collect::<Vec<_>>()
+    });
     let missing = || "internal error: a needed evaluation was skipped".to_string();
     unknowns
         .iter()
@@ -78,6 +89,7 @@ pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot]
                 Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],
                 Slot::PairTorque(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.torque[k],
                 Slot::PairDistance(p) => contacts.as_ref().ok_or_else(missing)?[p].distance,
+                Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p].get(k).map_or(Dual64::from(0.0), |c| c[i]),
                 _ => return Err(format!("{u:?} is not an unknown")),
             };
             // Out of contact the distance is +inf with a NaN dual part: report 0 (it does not

@@ -163,7 +163,9 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
         }
         Slot::VDot(i) => subtree_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
         Slot::PairForce(p, _) | Slot::PairTorque(p, _) => pair_knowns(model, p, false),
-        Slot::PairDistance(p) => pair_knowns(model, p, true),
+        // The smooth distance and the soft top-K contact points both come from the separation
+        // distribution alone: positions, ε1 (two point clouds) and ε2.
+        Slot::PairDistance(p) | Slot::PairPoint(p, _, _) => pair_knowns(model, p, true),
         _ => return None,
     })
 }

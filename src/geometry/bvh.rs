@@ -1,0 +1,231 @@
+//! A bounding-volume hierarchy over the points of an AOPC, for exact pruning (SPEC §3).
+//!
+//! Every node stores an axis-aligned box of its points, a bounding sphere (for query nodes, whose
+//! boxes rotate with their body) and a box of its normals (for bounding `nᵢᵀ(x - pᵢ)` over a
+//! cluster). Points and normals are copied in leaf order, so a leaf is a contiguous slice;
+//! `index` maps back to the AOPC's own order (faces, for the soft top-K).
+//!
+//! All bounds here work on real parts (`f64`): they decide which terms of a softmax are summed,
+//! never the value of a term, so dual numbers follow the same path as the `f64` they extend.
+
+use nalgebra::Vector3;
+
+/// Points per leaf (at most).
+pub const LEAF_SIZE: usize = 4;
+
+/// One node: a contiguous range of points in leaf order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Lower corner of the points' box (m).
+    pub lo: Vector3<f64>,
+    /// Upper corner of the points' box (m).
+    pub hi: Vector3<f64>,
+    /// Centre of the bounding sphere (the box centre, m).
+    pub centre: Vector3<f64>,
+    /// Radius of the bounding sphere: the largest distance from `centre` to a point (m).
+    pub radius: f64,
+    /// Lower corner of the normals' box.
+    pub nlo: Vector3<f64>,
+    /// Upper corner of the normals' box.
+    pub nhi: Vector3<f64>,
+    /// First point (leaf order).
+    pub start: u32,
+    /// Number of points.
+    pub count: u32,
+    /// Index of the first child (the second is `left + 1`); 0 for a leaf.
+    pub left: u32,
+}
+
+impl Node {
+    /// Whether the node has no children.
+    #[inline]
+    pub fn is_leaf(&self) -> bool {
+        self.left == 0
+    }
+
+    /// Smallest squared distance from `p` to the node's box (m²).
+    #[inline]
+    pub fn min_sq_dist(&self, p: &Vector3<f64>) -> f64 {
+        let mut s = 0.0;
+        for k in 0..3 {
+            let d = (self.lo[k] - p[k]).max(p[k] - self.hi[k]).max(0.0);
+            s += d * d;
+        }
+        s
+    }
+
+    /// Largest squared distance from `p` to the node's box (m²).
+    #[inline]
+    pub fn max_sq_dist(&self, p: &Vector3<f64>) -> f64 {
+        let mut s = 0.0;
+        for k in 0..3 {
+            let d = (p[k] - self.lo[k]).abs().max((self.hi[k] - p[k]).abs());
+            s += d * d;
+        }
+        s
+    }
+}
+
+/// The hierarchy. Memory is O(I): about 2I/[`LEAF_SIZE`] nodes and one copy of the points.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Bvh {
+    /// Nodes; `nodes[0]` is the root (absent for an empty cloud).
+    pub nodes: Vec<Node>,
+    /// Points in leaf order (m).
+    pub points: Vec<Vector3<f64>>,
+    /// Normals in leaf order.
+    pub normals: Vec<Vector3<f64>>,
+    /// Original index of each point in leaf order.
+    pub index: Vec<u32>,
+    /// Largest distance between two points (an upper bound: the root box's diagonal, m).
+    pub diameter: f64,
+}
+
+impl Bvh {
+    /// Builds the hierarchy by median splits along the longest box axis.
+    pub fn build(points: &[Vector3<f64>], normals: &[Vector3<f64>]) -> Bvh {
+        let n = points.len();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut bvh = Bvh::default();
+        if n == 0 {
+            return bvh;
+        }
+        bvh.nodes.reserve(2 * n / LEAF_SIZE + 1);
+        bvh.nodes.push(Self::make_node(points, normals, &order, 0, n));
+        let mut stack = vec![0usize];
+        while let Some(ni) = stack.pop() {
+            let (start, count) = (bvh.nodes[ni].start as usize, bvh.nodes[ni].count as usize);
+            if count <= LEAF_SIZE {
+                continue;
+            }
+            let ext = bvh.nodes[ni].hi - bvh.nodes[ni].lo;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+            let mid = count / 2;
+            order[start..start + count].select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
+            let left = bvh.nodes.len();
+            bvh.nodes.push(Self::make_node(points, normals, &order, start, mid));
+            bvh.nodes.push(Self::make_node(points, normals, &order, start + mid, count - mid));
+            bvh.nodes[ni].left = left as u32;
+            stack.push(left);
+            stack.push(left + 1);
+        }
+        bvh.points = order.iter().map(|&i| points[i as usize]).collect();
+        bvh.normals = order.iter().map(|&i| normals[i as usize]).collect();
+        bvh.index = order;
+        bvh.diameter = (bvh.nodes[0].hi - bvh.nodes[0].lo).norm();
+        bvh
+    }
+
+    fn make_node(points: &[Vector3<f64>], normals: &[Vector3<f64>], order: &[u32], start: usize, count: usize) -> Node {
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        let mut nlo = Vector3::repeat(f64::INFINITY);
+        let mut nhi = Vector3::repeat(f64::NEG_INFINITY);
+        for &i in &order[start..start + count] {
+            lo = lo.inf(&points[i as usize]);
+            hi = hi.sup(&points[i as usize]);
+            nlo = nlo.inf(&normals[i as usize]);
+            nhi = nhi.sup(&normals[i as usize]);
+        }
+        let centre = (lo + hi) * 0.5;
+        let radius = order[start..start + count].iter().map(|&i| (points[i as usize] - centre).norm()).fold(0.0, f64::max);
+        // Rounding of the norm: the sphere must contain every point.
+        let radius = radius * (1.0 + 4.0 * f64::EPSILON);
+        Node { lo, hi, centre, radius, nlo, nhi, start: start as u32, count: count as u32, left: 0 }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// The nearest point to `p`: its leaf-order position and squared distance (m²). The
+    /// distance is computed as `(p - q).norm_squared()`, exactly as a full scan would.
+    pub fn nearest(&self, p: &Vector3<f64>) -> (usize, f64) {
+        self.nearest_except(p, usize::MAX)
+    }
+
+    /// [`Bvh::nearest`] ignoring the point at leaf-order position `skip`.
+    pub fn nearest_except(&self, p: &Vector3<f64>, skip: usize) -> (usize, f64) {
+        let mut best = (usize::MAX, f64::INFINITY);
+        if self.nodes.is_empty() {
+            return best;
+        }
+        let mut stack: [u32; 64] = [0; 64];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.min_sq_dist(p) >= best.1 {
+                continue;
+            }
+            if node.is_leaf() {
+                for k in node.start as usize..(node.start + node.count) as usize {
+                    let d = (p - self.points[k]).norm_squared();
+                    if d < best.1 && k != skip {
+                        best = (k, d);
+                    }
+                }
+            } else {
+                // Nearer child last, so it is popped first.
+                let (a, b) = (node.left, node.left + 1);
+                let (da, db) = (self.nodes[a as usize].min_sq_dist(p), self.nodes[b as usize].min_sq_dist(p));
+                let (first, second) = if da <= db { (a, b) } else { (b, a) };
+                stack[top] = second;
+                stack[top + 1] = first;
+                top += 2;
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cloud(n: usize) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+        let mut s = 12345u64;
+        let mut r = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let pts: Vec<_> = (0..n).map(|_| Vector3::new(r(), r(), r())).collect();
+        let nrm: Vec<_> = (0..n).map(|_| Vector3::new(r(), r(), r()).normalize()).collect();
+        (pts, nrm)
+    }
+
+    #[test]
+    fn nodes_contain_their_points_and_nearest_matches_a_scan() {
+        let (pts, nrm) = cloud(1000);
+        let bvh = Bvh::build(&pts, &nrm);
+        let mut seen = vec![false; pts.len()];
+        for &i in &bvh.index {
+            seen[i as usize] = true;
+        }
+        assert!(seen.iter().all(|&s| s), "the leaf order is a permutation");
+        for node in &bvh.nodes {
+            for k in node.start as usize..(node.start + node.count) as usize {
+                let (p, n) = (bvh.points[k], bvh.normals[k]);
+                assert!((0..3).all(|a| p[a] >= node.lo[a] && p[a] <= node.hi[a] && n[a] >= node.nlo[a] && n[a] <= node.nhi[a]));
+                assert!((p - node.centre).norm() <= node.radius);
+            }
+            if !node.is_leaf() {
+                let (l, r) = (&bvh.nodes[node.left as usize], &bvh.nodes[node.left as usize + 1]);
+                assert_eq!((l.start, l.count + r.count), (node.start, node.count));
+            }
+        }
+        let (queries, _) = cloud(50);
+        for q in queries.iter().map(|q| q * 3.0) {
+            let scan = pts.iter().map(|p| (q - p).norm_squared()).fold(f64::INFINITY, f64::min);
+            let (k, d) = bvh.nearest(&q);
+            assert_eq!(d, scan);
+            assert_eq!((q - bvh.points[k]).norm_squared(), d);
+        }
+    }
+}

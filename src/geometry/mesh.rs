@@ -1,0 +1,459 @@
+//! Closed triangle meshes (OBJ through tobj, STL through stl_io): checks with clear errors, mass
+//! properties, exact signed distance, and the AOPC of the surface as a quad mesh.
+//!
+//! A mesh becomes quads in two steps: its triangles are refined by longest-edge bisection until
+//! no edge is longer than 2.5 × the spacing (a split never moves the surface and never crosses
+//! an edge of the input, so sharp feature edges stay edges), then each triangle is cut into
+//! three quads through its centroid and edge midpoints. Every quad edge therefore runs along
+//! an input edge or inside an input triangle: the quads follow the mesh's feature edges. A mesh
+//! whose triangles are already smaller than that keeps them (three quads each).
+
+use super::Aopc;
+use super::MassProperties;
+use nalgebra::{Matrix3, Vector3};
+use std::collections::{BinaryHeap, HashMap};
+use std::path::Path;
+
+/// What is wrong with a mesh file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("mesh {file}: {problem}")]
+pub struct MeshError {
+    /// The mesh file, as named in the scene (resolved path).
+    pub file: String,
+    /// What is wrong.
+    pub problem: MeshProblem,
+}
+
+/// The kinds of mesh problems.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshProblem {
+    /// The file cannot be read.
+    #[error("cannot read the file: {0}")]
+    Missing(String),
+    /// The file is not a valid OBJ or STL.
+    #[error("cannot parse the file: {0}")]
+    Parse(String),
+    /// Neither `.obj` nor `.stl`.
+    #[error("unsupported mesh format '{0}' (use .obj or .stl)")]
+    Format(String),
+    /// No triangles.
+    #[error("the mesh has no triangles")]
+    Empty,
+    /// A vertex coordinate is NaN or infinite.
+    #[error("vertex {0} has a non-finite coordinate")]
+    NonFinite(usize),
+    /// Triangles of zero area or with a repeated vertex.
+    #[error("{count} degenerate triangle(s) (zero area or a repeated vertex); the first is triangle {first}")]
+    Degenerate {
+        /// How many.
+        count: usize,
+        /// Index of the first (0-based, in file order).
+        first: usize,
+    },
+    /// Edges that belong to a single triangle: the surface has holes.
+    #[error("the mesh is open (not watertight): {count} edge(s) belong to a single triangle, e.g. the edge between vertices {a} and {b}")]
+    Open {
+        /// Number of boundary edges.
+        count: usize,
+        /// One boundary edge (vertex indices after merging duplicates).
+        a: u32,
+        /// Its other end.
+        b: u32,
+    },
+    /// An edge shared by more than two triangles.
+    #[error("the mesh is not manifold: the edge between vertices {a} and {b} belongs to {count} triangles")]
+    NonManifold {
+        /// Vertex index.
+        a: u32,
+        /// Vertex index.
+        b: u32,
+        /// Number of triangles on that edge.
+        count: usize,
+    },
+    /// Two neighbouring triangles wound in opposite senses (their normals disagree).
+    #[error("inconsistent normals: triangles {t1} and {t2} run their shared edge between vertices {a} and {b} the same way (one of them is flipped)")]
+    Inconsistent {
+        /// A triangle.
+        t1: usize,
+        /// Its neighbour.
+        t2: usize,
+        /// Edge vertex.
+        a: u32,
+        /// Edge vertex.
+        b: u32,
+    },
+    /// The enclosed volume is zero (a flat or doubled surface).
+    #[error("the mesh encloses no volume ({0:.3e} m³)")]
+    ZeroVolume(f64),
+}
+
+/// A closed, consistently outward-oriented triangle mesh (m, mesh frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriMesh {
+    /// The file it came from (for messages).
+    pub file: String,
+    /// Vertices (m), duplicates merged.
+    pub vertices: Vec<Vector3<f64>>,
+    /// Triangles, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// Loads an OBJ or STL file, scales it, checks it and orients it outward. Returns the mesh
+    /// and warnings (e.g. an inward orientation that was fixed).
+    pub fn load(path: &Path, scale: &Vector3<f64>) -> Result<(TriMesh, Vec<String>), MeshError> {
+        let file = path.display().to_string();
+        let err = |problem| MeshError { file: file.clone(), problem };
+        let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+        if ext != "obj" && ext != "stl" {
+            return Err(err(MeshProblem::Format(ext)));
+        }
+        let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
+        // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
+        // a parse error, never a crash of the host.
+        let parsed = std::panic::catch_unwind(|| if ext == "obj" { parse_obj(&bytes) } else { parse_stl(&bytes) }).unwrap_or_else(|_| Err("the parser failed on this file".into()));
+        let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
+        let vertices = vertices.into_iter().map(|v| v.component_mul(scale)).collect();
+        let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
+        if scale.x * scale.y * scale.z < 0.0 {
+            // A mirroring scale turns the surface inside out; `new` has already flipped it back.
+            warnings.retain(|w| !w.contains("inward"));
+        }
+        mesh.file = file;
+        Ok((mesh, warnings))
+    }
+
+    /// Builds a mesh from vertices and triangles (any winding), merging duplicate vertices,
+    /// checking that it is a closed manifold with consistent orientation and a volume, and
+    /// turning inward-facing shells outward (with a warning).
+    pub fn new(file: &str, vertices: Vec<Vector3<f64>>, triangles: Vec<[u32; 3]>) -> Result<(TriMesh, Vec<String>), MeshError> {
+        let err = |problem| MeshError { file: file.to_string(), problem };
+        if let Some(i) = vertices.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+            return Err(err(MeshProblem::NonFinite(i)));
+        }
+        if triangles.is_empty() {
+            return Err(err(MeshProblem::Empty));
+        }
+        if let Some(t) = triangles.iter().position(|t| t.iter().any(|&i| i as usize >= vertices.len())) {
+            return Err(err(MeshProblem::Parse(format!("triangle {t} refers to a vertex that does not exist"))));
+        }
+        // Merge vertices with equal coordinates (STL repeats them per triangle).
+        let mut map: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut merged = Vec::new();
+        let remap: Vec<u32> = vertices
+            .iter()
+            .map(|v| {
+                *map.entry([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).or_insert_with(|| {
+                    merged.push(*v);
+                    merged.len() as u32 - 1
+                })
+            })
+            .collect();
+        let mut tris: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|i| remap[i as usize])).collect();
+        let lo = merged.iter().fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
+        let hi = merged.iter().fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
+        let size = (hi - lo).norm();
+        // Degenerate triangles.
+        let degenerate: Vec<usize> = tris
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || tri_normal(&merged, t).norm() <= 1e-12 * size * size)
+            .map(|(i, _)| i)
+            .collect();
+        if let Some(&first) = degenerate.first() {
+            return Err(err(MeshProblem::Degenerate { count: degenerate.len(), first }));
+        }
+        // Edges: each undirected edge in exactly two triangles, run in opposite directions.
+        let mut edges: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
+        for (ti, t) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                edges.entry((a.min(b), a.max(b))).or_default().push((ti, a < b));
+            }
+        }
+        let mut keys: Vec<_> = edges.keys().copied().collect();
+        keys.sort_unstable();
+        let open: Vec<_> = keys.iter().filter(|k| edges[k].len() == 1).collect();
+        if let Some(&&(a, b)) = open.first() {
+            return Err(err(MeshProblem::Open { count: open.len(), a, b }));
+        }
+        if let Some(&(a, b)) = keys.iter().find(|k| edges[k].len() > 2) {
+            return Err(err(MeshProblem::NonManifold { a, b, count: edges[&(a, b)].len() }));
+        }
+        if let Some(&(a, b)) = keys.iter().find(|k| edges[k][0].1 == edges[k][1].1) {
+            let e = &edges[&(a, b)];
+            let (t1, t2) = (e[0].0.min(e[1].0), e[0].0.max(e[1].0));
+            return Err(err(MeshProblem::Inconsistent { t1, t2, a, b }));
+        }
+        // Connected shells (union–find over shared edges), each oriented outward unless it is
+        // a cavity inside another shell.
+        let mut parent: Vec<usize> = (0..tris.len()).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for e in edges.values() {
+            let (a, b) = (find(&mut parent, e[0].0), find(&mut parent, e[1].0));
+            parent[a] = b;
+        }
+        let roots: Vec<usize> = (0..tris.len()).map(|i| find(&mut parent, i)).collect();
+        let mut shells: Vec<usize> = roots.clone();
+        shells.sort_unstable();
+        shells.dedup();
+        let mut warnings = Vec::new();
+        let centre = (lo + hi) * 0.5;
+        let shell_volume = |tris: &[[u32; 3]], s: usize| -> f64 { tris.iter().zip(&roots).filter(|(_, &r)| r == s).map(|(t, _)| signed_tet_volume(&merged, t, &centre)).sum() };
+        for &s in &shells {
+            if shell_volume(&tris, s) >= 0.0 {
+                continue;
+            }
+            // Inside another shell (an odd number of other shells around it): a cavity, whose
+            // normals rightly point into it.
+            let probe = merged[tris[roots.iter().position(|&r| r == s).expect("a shell has triangles")][0] as usize];
+            let around: f64 = shells.iter().filter(|&&o| o != s).map(|&o| winding(&merged, tris.iter().zip(&roots).filter(|(_, &r)| r == o).map(|(t, _)| t), &probe).abs()).sum();
+            if around.round() as i64 % 2 == 1 {
+                continue;
+            }
+            for (t, &r) in tris.iter_mut().zip(&roots) {
+                if r == s {
+                    t.swap(1, 2);
+                }
+            }
+            warnings.push(format!("mesh {file}: {} triangles faced inward; their orientation was flipped", roots.iter().filter(|&&r| r == s).count()));
+        }
+        let mesh = TriMesh { file: file.to_string(), vertices: merged, triangles: tris };
+        let volume = mesh.mass_properties().volume;
+        if volume <= 1e-9 * size.powi(3) {
+            return Err(err(MeshProblem::ZeroVolume(volume)));
+        }
+        Ok((mesh, warnings))
+    }
+
+    /// Volume, centre of mass and inertia at unit density, by signed tetrahedra from a point
+    /// near the mesh (exact for the polyhedron): for a tetrahedron `(0, a, b, c)` with
+    /// `D = aᵀ(b × c)`, volume `D/6`, first moment `D (a + b + c)/24` and second moment
+    /// `∫ x xᵀ = D/120 (a aᵀ + b bᵀ + c cᵀ + s sᵀ)`, `s = a + b + c`.
+    pub fn mass_properties(&self) -> MassProperties {
+        let o = self.vertices.iter().fold(Vector3::zeros(), |a, v| a + v) / self.vertices.len().max(1) as f64;
+        let (mut vol, mut first, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize] - o);
+            let d = a.dot(&b.cross(&c));
+            let s = a + b + c;
+            vol += d / 6.0;
+            first += s * (d / 24.0);
+            second += (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose()) * (d / 120.0);
+        }
+        let com = if vol != 0.0 { first / vol } else { Vector3::zeros() };
+        let about_com = second - com * com.transpose() * vol;
+        let inertia = Matrix3::identity() * about_com.trace() - about_com;
+        MassProperties { volume: vol, com: com + o, inertia }
+    }
+
+    /// Generalized winding number of the surface around `p`: 1 inside, 0 outside.
+    pub fn winding_number(&self, p: &Vector3<f64>) -> f64 {
+        winding(&self.vertices, self.triangles.iter(), p)
+    }
+
+    /// Exact signed distance (m): distance to the nearest triangle, negative inside.
+    pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
+        let d = self.triangles.iter().map(|t| (closest_on_triangle(p, &t.map(|i| self.vertices[i as usize])) - p).norm_squared()).fold(f64::INFINITY, f64::min).sqrt();
+        if self.winding_number(p) > 0.5 {
+            -d
+        } else {
+            d
+        }
+    }
+
+    /// The AOPC of the surface at about `spacing` (m) between points (module documentation).
+    pub fn sample(&self, spacing: f64) -> Aopc {
+        let (verts, tris) = refine(&self.vertices, &self.triangles, 5.0 * spacing);
+        let mut out = Aopc::default();
+        for t in &tris {
+            let [a, b, c] = t.map(|i| verts[i as usize]);
+            let g = (a + b + c) / 3.0;
+            let (mab, mbc, mca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
+            out.push_quad([a, mab, g, mca]);
+            out.push_quad([b, mbc, g, mab]);
+            out.push_quad([c, mca, g, mbc]);
+        }
+        out
+    }
+}
+
+fn tri_normal(v: &[Vector3<f64>], t: &[u32; 3]) -> Vector3<f64> {
+    (v[t[1] as usize] - v[t[0] as usize]).cross(&(v[t[2] as usize] - v[t[0] as usize]))
+}
+
+fn signed_tet_volume(v: &[Vector3<f64>], t: &[u32; 3], o: &Vector3<f64>) -> f64 {
+    let [a, b, c] = t.map(|i| v[i as usize] - o);
+    a.dot(&b.cross(&c)) / 6.0
+}
+
+/// Σ of the triangles' solid angles seen from `p`, over 4π (Van Oosterom and Strackee).
+fn winding<'a>(v: &[Vector3<f64>], tris: impl Iterator<Item = &'a [u32; 3]>, p: &Vector3<f64>) -> f64 {
+    let mut total = 0.0;
+    for t in tris {
+        let [a, b, c] = t.map(|i| v[i as usize] - p);
+        let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+        let num = a.dot(&b.cross(&c));
+        let den = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
+        total += 2.0 * num.atan2(den);
+    }
+    total / (4.0 * std::f64::consts::PI)
+}
+
+/// Closest point to `p` on the triangle `t` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn closest_on_triangle(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> Vector3<f64> {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Longest-edge bisection of a closed manifold mesh until no edge exceeds `max_len`: the
+/// longest edge is split at its midpoint together with both triangles on it (the mesh stays
+/// conforming and keeps its orientation and its shape).
+fn refine(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], max_len: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+    let mut v = vertices.to_vec();
+    let mut t = triangles.to_vec();
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (i, tri) in t.iter().enumerate() {
+        for k in 0..3 {
+            edges.entry(key(tri[k], tri[(k + 1) % 3])).or_default().push(i as u32);
+        }
+    }
+    // Max-heap of edges by length (bits of a positive f64 order like the value).
+    let mut heap: BinaryHeap<(u64, u32, u32)> = BinaryHeap::new();
+    let len = |v: &[Vector3<f64>], a: u32, b: u32| (v[a as usize] - v[b as usize]).norm();
+    for &(a, b) in edges.keys() {
+        let l = len(&v, a, b);
+        if l > max_len {
+            heap.push((l.to_bits(), a, b));
+        }
+    }
+    while let Some((_, a, b)) = heap.pop() {
+        let Some(on) = edges.remove(&key(a, b)) else { continue };
+        let m = v.len() as u32;
+        v.push((v[a as usize] + v[b as usize]) * 0.5);
+        for &ti in &on {
+            let tri = t[ti as usize];
+            let k = (0..3).find(|&k| key(tri[k], tri[(k + 1) % 3]) == key(a, b)).expect("the edge belongs to the triangle");
+            let (p, q, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            // (p, q, c) becomes (p, m, c) in place and (m, q, c) as a new triangle.
+            let tn = t.len() as u32;
+            t[ti as usize] = [p, m, c];
+            t.push([m, q, c]);
+            edges.entry(key(p, m)).or_default().push(ti);
+            edges.entry(key(m, q)).or_default().push(tn);
+            let mc = edges.entry(key(m, c)).or_default();
+            mc.push(ti);
+            mc.push(tn);
+            if let Some(list) = edges.get_mut(&key(q, c)) {
+                for x in list.iter_mut() {
+                    if *x == ti {
+                        *x = tn;
+                    }
+                }
+            }
+            let lc = len(&v, m, c);
+            if lc > max_len {
+                heap.push((lc.to_bits(), m, c));
+            }
+        }
+        let half = len(&v, a, m);
+        if half > max_len {
+            heap.push((half.to_bits(), a, m));
+            heap.push((len(&v, m, b).to_bits(), m, b));
+        }
+    }
+    (v, t)
+}
+
+/// Vertices and triangles of a parsed file, or what is wrong with it.
+type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
+
+/// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
+fn parse_obj(bytes: &[u8]) -> Parsed {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    let mut reader = std::io::BufReader::new(bytes);
+    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default())).map_err(|e| e.to_string())?;
+    let (mut verts, mut tris) = (Vec::new(), Vec::new());
+    for m in &models {
+        let base = verts.len() as u32;
+        let p = &m.mesh.positions;
+        verts.extend(p.chunks_exact(3).map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)));
+        tris.extend(m.mesh.indices.chunks_exact(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
+    }
+    Ok((verts, tris))
+}
+
+/// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
+/// winding decides the orientation.
+fn parse_stl(bytes: &[u8]) -> Parsed {
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mesh = stl_io::read_stl(&mut cursor).map_err(|e| e.to_string())?;
+    let verts = mesh.vertices.iter().map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+    let tris = mesh.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect();
+    Ok((verts, tris))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube as 12 triangles, outward.
+    pub(crate) fn cube() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+        let v: Vec<_> = (0..8).map(|i| Vector3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64)).collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let t = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        (v, t)
+    }
+
+    #[test]
+    fn cube_mesh_mass_properties_and_quads() {
+        let (v, t) = cube();
+        let (m, w) = TriMesh::new("cube", v, t).unwrap();
+        assert!(w.is_empty(), "{w:?}");
+        let mp = m.mass_properties();
+        assert!((mp.volume - 1.0).abs() < 1e-12 && (mp.com - Vector3::repeat(0.5)).norm() < 1e-12);
+        assert!((mp.inertia - Matrix3::identity() / 6.0).norm() < 1e-12, "{}", mp.inertia);
+        let s = m.sample(0.1);
+        assert!(s.closure_defect().norm() < 1e-12);
+        assert!((s.enclosed_volume() - 1.0).abs() < 1e-12);
+        assert!((s.spacing() - 0.1).abs() < 0.04, "spacing {}", s.spacing());
+        // Quad edges follow the cube's edges: no quad normal is off an axis.
+        assert!(s.normals.iter().all(|n| n.abs().max() > 1.0 - 1e-12));
+        assert!((m.sdf(&Vector3::new(0.5, 0.5, 0.2)) + 0.2).abs() < 1e-12 && (m.sdf(&Vector3::new(0.5, 0.5, 1.3)) - 0.3).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,420 @@
+//! Shapes of MJCF geoms (SPEC §4) in their own frame (centred at the origin; capsule and
+//! cylinder along z): exact signed distance, mass properties, and AOPC sampling as a quad mesh
+//! whose edges follow the shape's sharp edges (box edges, cylinder rims) and whose points are
+//! evenly spaced.
+//!
+//! Curved surfaces come from the equi-angular cubed sphere: each face of a cube is cut into a
+//! grid at equal angles and projected on the sphere (or stretched onto an ellipsoid). With an
+//! even number of cells per axis its equator is a grid line of uniformly spaced vertices, which
+//! is what a capsule's hemispheres and a cylinder's side meet.
+
+use super::mesh::TriMesh;
+use super::Aopc;
+use nalgebra::{Matrix3, Vector3};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::sync::Arc;
+
+/// A geom's shape, in its own frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// Sphere of the given radius (m).
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
+    /// Box with the given half-extents (m).
+    Box {
+        /// Half-extents along the axes (m).
+        half: Vector3<f64>,
+    },
+    /// Capsule along z: a cylinder of half-length `half_length` capped by hemispheres.
+    Capsule {
+        /// Radius (m).
+        radius: f64,
+        /// Half-length of the cylindrical part (m).
+        half_length: f64,
+    },
+    /// Cylinder along z with flat caps.
+    Cylinder {
+        /// Radius (m).
+        radius: f64,
+        /// Half-length (m).
+        half_length: f64,
+    },
+    /// Ellipsoid with the given semi-axes along x, y, z.
+    Ellipsoid {
+        /// Semi-axes (m).
+        radii: Vector3<f64>,
+    },
+    /// A closed triangle mesh (checked and oriented, see [`TriMesh`]).
+    Mesh(Arc<TriMesh>),
+}
+
+/// Mass properties of a solid of unit density: volume, centre of mass and the inertia about
+/// the centre of mass (multiply by the density, or by `mass / volume`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassProperties {
+    /// Volume (m³).
+    pub volume: f64,
+    /// Centre of mass (m, shape frame).
+    pub com: Vector3<f64>,
+    /// `∫ (|r|² 1 - r rᵀ) dV` about the centre of mass (m⁵): the inertia per unit density.
+    pub inertia: Matrix3<f64>,
+}
+
+impl Shape {
+    /// Exact signed distance of a point (shape frame, m): negative inside.
+    pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
+        match self {
+            Shape::Sphere { radius } => p.norm() - radius,
+            Shape::Box { half } => {
+                let q = p.abs() - half;
+                let outside = q.map(|x| x.max(0.0)).norm();
+                outside + q.max().min(0.0)
+            }
+            Shape::Capsule { radius, half_length } => {
+                let z = p.z.clamp(-half_length, *half_length);
+                (p - Vector3::new(0.0, 0.0, z)).norm() - radius
+            }
+            Shape::Cylinder { radius, half_length } => {
+                let (dx, dz) = (p.xy().norm() - radius, p.z.abs() - half_length);
+                dx.max(dz).min(0.0) + (dx.max(0.0).powi(2) + dz.max(0.0).powi(2)).sqrt()
+            }
+            Shape::Ellipsoid { radii } => ellipsoid_sdf(radii, p),
+            Shape::Mesh(m) => m.sdf(p),
+        }
+    }
+
+    /// Whether a point is strictly inside (shape frame).
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        match self {
+            Shape::Ellipsoid { radii } => p.component_div(radii).norm_squared() < 1.0,
+            Shape::Mesh(m) => m.winding_number(p) > 0.5,
+            _ => self.sdf(p) < 0.0,
+        }
+    }
+
+    /// Outward unit normal of the surface nearest to `p`: the gradient of the SDF by central
+    /// differences of step `h` (m).
+    pub fn sdf_gradient(&self, p: &Vector3<f64>, h: f64) -> Vector3<f64> {
+        let g = Vector3::from_fn(|k, _| {
+            let mut e = Vector3::zeros();
+            e[k] = h;
+            (self.sdf(&(p + e)) - self.sdf(&(p - e))) / (2.0 * h)
+        });
+        g.try_normalize(1e-12).unwrap_or_else(Vector3::zeros)
+    }
+
+    /// Enclosed volume (m³).
+    pub fn volume(&self) -> f64 {
+        self.mass_properties().volume
+    }
+
+    /// A length that characterizes the shape (its bounding radius, m).
+    pub fn size(&self) -> f64 {
+        match self {
+            Shape::Sphere { radius } => *radius,
+            Shape::Box { half } => half.norm(),
+            Shape::Capsule { radius, half_length } => radius + half_length,
+            Shape::Cylinder { radius, half_length } => radius.hypot(*half_length),
+            Shape::Ellipsoid { radii } => radii.max(),
+            Shape::Mesh(m) => m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max),
+        }
+    }
+
+    /// Volume, centre of mass and inertia of the solid at unit density (closed forms; a mesh by
+    /// its signed tetrahedra, exact for the polyhedron).
+    pub fn mass_properties(&self) -> MassProperties {
+        let diag = |v: f64, i: Vector3<f64>| MassProperties { volume: v, com: Vector3::zeros(), inertia: Matrix3::from_diagonal(&i) };
+        match self {
+            Shape::Sphere { radius: r } => {
+                let v = 4.0 / 3.0 * PI * r.powi(3);
+                diag(v, Vector3::repeat(0.4 * v * r * r))
+            }
+            Shape::Box { half: h } => {
+                let v = 8.0 * h.x * h.y * h.z;
+                let (x2, y2, z2) = (h.x * h.x, h.y * h.y, h.z * h.z);
+                diag(v, Vector3::new(y2 + z2, x2 + z2, x2 + y2) * (v / 3.0))
+            }
+            Shape::Ellipsoid { radii: a } => {
+                let v = 4.0 / 3.0 * PI * a.x * a.y * a.z;
+                let (x2, y2, z2) = (a.x * a.x, a.y * a.y, a.z * a.z);
+                diag(v, Vector3::new(y2 + z2, x2 + z2, x2 + y2) * (v / 5.0))
+            }
+            Shape::Cylinder { radius: r, half_length: h } => {
+                let v = PI * r * r * 2.0 * h;
+                let t = v * (3.0 * r * r + 4.0 * h * h) / 12.0;
+                diag(v, Vector3::new(t, t, v * r * r / 2.0))
+            }
+            Shape::Capsule { radius: r, half_length: h } => {
+                // Cylinder plus two hemispheres. A hemisphere of mass m has the transverse
+                // inertia (2/5) m r² about its flat face's centre and its centre of mass 3r/8
+                // from it; moved to the capsule's centre (h + 3r/8 away):
+                // (2/5) m r² + m (h² + 3hr/4).
+                let vc = PI * r * r * 2.0 * h;
+                let vh = 2.0 / 3.0 * PI * r.powi(3);
+                let t = vc * (3.0 * r * r + 4.0 * h * h) / 12.0 + 2.0 * (0.4 * vh * r * r + vh * (h * h + 0.75 * h * r));
+                let a = vc * r * r / 2.0 + 2.0 * 0.4 * vh * r * r;
+                diag(vc + 2.0 * vh, Vector3::new(t, t, a))
+            }
+            Shape::Mesh(m) => m.mass_properties(),
+        }
+    }
+
+    /// Samples the surface as an AOPC with faces about `spacing` (m) apart (see the module
+    /// documentation). Vertices shared by neighbouring quads are merged.
+    pub fn sample(&self, spacing: f64) -> Aopc {
+        let mut out = match self {
+            Shape::Sphere { radius } => sample_ellipsoid(&Vector3::repeat(*radius), spacing),
+            Shape::Ellipsoid { radii } => sample_ellipsoid(radii, spacing),
+            Shape::Box { half } => sample_box(half, spacing, &[[vec![], vec![]], [vec![], vec![]], [vec![], vec![]]]),
+            Shape::Capsule { radius, half_length } => sample_capsule(*radius, *half_length, spacing),
+            Shape::Cylinder { radius, half_length } => sample_cylinder(*radius, *half_length, spacing),
+            Shape::Mesh(m) => m.sample(spacing),
+        };
+        out.weld(1e-9 * self.size().max(1e-9));
+        out
+    }
+}
+
+/// Number of quads along a length so that they are about `spacing` long (at least 1).
+pub(crate) fn divisions(length: f64, spacing: f64) -> usize {
+    ((length / spacing).round() as usize).max(1)
+}
+
+/// Cells per quarter turn of an arc of radius `r` (even, at least 2).
+fn quarter_cells(r: f64, spacing: f64) -> usize {
+    (((FRAC_PI_2 * r / spacing).ceil() as usize).max(1) + 1) & !1
+}
+
+/// Equi-angular coordinate: `tan(-π/4 + π/2 s)` for `s ∈ [0, 1]`.
+#[inline]
+fn equi(s: f64) -> f64 {
+    (-FRAC_PI_4 + FRAC_PI_2 * s).tan()
+}
+
+/// The six faces of the cube: normal axis index, sign, tangent axes `(t1, t2)` with
+/// `t1 × t2` = outward normal.
+const CUBE_FACES: [(usize, f64, usize, usize); 6] = [(0, 1.0, 1, 2), (0, -1.0, 2, 1), (1, 1.0, 2, 0), (1, -1.0, 0, 2), (2, 1.0, 0, 1), (2, -1.0, 1, 0)];
+
+/// Quads of a cubed sphere stretched to an ellipsoid of semi-axes `radii` with `cells[k]`
+/// cells along edges parallel to axis `k`, offset by `offset`; only quads whose centre
+/// direction satisfies `keep`. Points lie on the ellipsoid at the quads' parametric centres,
+/// normals are the ellipsoid's there; areas are the curved patches' (4×4 midpoint rule).
+fn push_cubed(out: &mut Aopc, radii: &Vector3<f64>, cells: [usize; 3], offset: &Vector3<f64>, keep: impl Fn(&Vector3<f64>) -> bool) {
+    for &(axis, sign, t1, t2) in &CUBE_FACES {
+        let (n1, n2) = (cells[t1], cells[t2]);
+        let dir = |a: f64, b: f64| {
+            let mut d = Vector3::zeros();
+            d[axis] = sign;
+            d[t1] = equi(a);
+            d[t2] = equi(b);
+            d.normalize()
+        };
+        let on = |d: &Vector3<f64>| d.component_mul(radii) + offset;
+        for i in 0..n1 {
+            for j in 0..n2 {
+                let (a0, a1) = (i as f64 / n1 as f64, (i + 1) as f64 / n1 as f64);
+                let (b0, b1) = (j as f64 / n2 as f64, (j + 1) as f64 / n2 as f64);
+                let dc = dir(0.5 * (a0 + a1), 0.5 * (b0 + b1));
+                if !keep(&dc) {
+                    continue;
+                }
+                let corners = [on(&dir(a0, b0)), on(&dir(a1, b0)), on(&dir(a1, b1)), on(&dir(a0, b1))];
+                let normal = dc.component_div(radii).normalize();
+                // Curved area: sum of small flat quads.
+                let k = 4;
+                let mut area = 0.0;
+                for u in 0..k {
+                    for v in 0..k {
+                        let (s0, s1) = (a0 + (a1 - a0) * u as f64 / k as f64, a0 + (a1 - a0) * (u + 1) as f64 / k as f64);
+                        let (r0, r1) = (b0 + (b1 - b0) * v as f64 / k as f64, b0 + (b1 - b0) * (v + 1) as f64 / k as f64);
+                        let c = [on(&dir(s0, r0)), on(&dir(s1, r0)), on(&dir(s1, r1)), on(&dir(s0, r1))];
+                        area += 0.5 * (c[2] - c[0]).cross(&(c[3] - c[1])).norm();
+                    }
+                }
+                out.push_face(corners, on(&dc), normal, area);
+            }
+        }
+    }
+}
+
+/// Sphere or ellipsoid as a stretched cubed sphere.
+///
+/// Cell counts are even, so that four points surround each pole of the three axes. With an
+/// odd count a point sits at the pole, and a sphere resting on a plane balances on that single
+/// point: an unstable equilibrium (like a polyhedron on a vertex) from which it tips over onto
+/// four points after a few seconds of growing rocking; measured, independent of integrator and
+/// step.
+fn sample_ellipsoid(radii: &Vector3<f64>, spacing: f64) -> Aopc {
+    let mut out = Aopc::default();
+    let cells = [0, 1, 2].map(|k| quarter_cells(radii[k], spacing));
+    push_cubed(&mut out, radii, cells, &Vector3::zeros(), |_| true);
+    if radii.x == radii.y && radii.y == radii.z {
+        // A sphere's area is known exactly: remove the midpoint rule's last digits.
+        let total: f64 = out.areas.iter().sum();
+        let exact = 4.0 * PI * radii.x * radii.x;
+        out.areas.iter_mut().for_each(|a| *a *= exact / total);
+    }
+    out
+}
+
+/// Capsule: two hemispheres of a cubed sphere (its equator is a grid line) and a cylinder of
+/// `4n` columns that meets them.
+fn sample_capsule(r: f64, h: f64, spacing: f64) -> Aopc {
+    let mut out = Aopc::default();
+    let n = quarter_cells(r, spacing);
+    let radii = Vector3::repeat(r);
+    push_cubed(&mut out, &radii, [n, n, n], &Vector3::new(0.0, 0.0, h), |d| d.z > 0.0);
+    push_cubed(&mut out, &radii, [n, n, n], &Vector3::new(0.0, 0.0, -h), |d| d.z < 0.0);
+    let hemi = 2.0 * PI * r * r;
+    let total: f64 = out.areas.iter().sum();
+    out.areas.iter_mut().for_each(|a| *a *= 2.0 * hemi / total);
+    push_side(&mut out, r, h, n, spacing);
+    out
+}
+
+/// The side of a cylinder along z: `4n` columns at the cubed sphere's equator angles, rows of
+/// about `spacing`. Points on the surface at the cells' centres, radial normals, exact areas.
+fn push_side(out: &mut Aopc, r: f64, h: f64, n: usize, spacing: f64) {
+    if h <= 0.0 {
+        return;
+    }
+    let cols = 4 * n;
+    let rows = divisions(2.0 * h, spacing);
+    let angle = |k: usize| -FRAC_PI_4 + FRAC_PI_2 * k as f64 / n as f64;
+    let at = |t: f64, z: f64| Vector3::new(r * t.cos(), r * t.sin(), z);
+    for k in 0..cols {
+        for j in 0..rows {
+            let (t0, t1) = (angle(k), angle(k + 1));
+            let (z0, z1) = (-h + 2.0 * h * j as f64 / rows as f64, -h + 2.0 * h * (j + 1) as f64 / rows as f64);
+            let tc = 0.5 * (t0 + t1);
+            let corners = [at(t0, z0), at(t1, z0), at(t1, z1), at(t0, z1)];
+            out.push_face(corners, at(tc, 0.5 * (z0 + z1)), Vector3::new(tc.cos(), tc.sin(), 0.0), r * (t1 - t0) * (z1 - z0));
+        }
+    }
+}
+
+/// Cylinder: the side, and two flat caps meshed as an "O-grid": a central square of `n × n`
+/// cells (half-width r/2) and four ring patches joining each side of the square to a quarter of
+/// the rim, whose vertices fall at the side's column angles (the rim is a quad edge, and no
+/// cell is squashed against it).
+fn sample_cylinder(r: f64, h: f64, spacing: f64) -> Aopc {
+    let mut out = Aopc::default();
+    let n = quarter_cells(r, spacing);
+    push_side(&mut out, r, h, n, spacing);
+    let a = 0.5 * r;
+    let layers = divisions(r - a, spacing);
+    for sign in [1.0, -1.0] {
+        let mut cap = Aopc::default();
+        let mut quad = |c: [(f64, f64); 4]| {
+            let mut c = c.map(|(x, y)| Vector3::new(x, y, sign * h));
+            // Counter-clockwise seen from outside (from +z on top, from -z below).
+            if (c[2] - c[0]).cross(&(c[3] - c[1])).z * sign < 0.0 {
+                c.reverse();
+            }
+            cap.push_quad(c);
+        };
+        let g = |i: usize| -a + 2.0 * a * i as f64 / n as f64;
+        for i in 0..n {
+            for j in 0..n {
+                quad([(g(i), g(j)), (g(i + 1), g(j)), (g(i + 1), g(j + 1)), (g(i), g(j + 1))]);
+            }
+        }
+        for q in 0..4 {
+            let rot = |(x, y): (f64, f64)| {
+                let t = FRAC_PI_2 * q as f64;
+                (x * t.cos() - y * t.sin(), x * t.sin() + y * t.cos())
+            };
+            let at = |i: usize, j: usize| {
+                let (sx, sy) = (a, g(i));
+                let th = -FRAC_PI_4 + FRAC_PI_2 * i as f64 / n as f64;
+                let (rx, ry) = (r * th.cos(), r * th.sin());
+                let f = j as f64 / layers as f64;
+                rot((sx + (rx - sx) * f, sy + (ry - sy) * f))
+            };
+            for i in 0..n {
+                for j in 0..layers {
+                    quad([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                }
+            }
+        }
+        let total: f64 = cap.areas.iter().sum();
+        cap.areas.iter_mut().for_each(|x| *x *= PI * r * r / total);
+        out.extend(&cap);
+    }
+    out
+}
+
+/// Box: each face cut into a grid of quads, so quad edges lie on the box's edges and corners.
+/// `breaks[axis][0|1]` lists extra grid lines (coordinates along `axis`) on the faces that span
+/// that axis: where another geom's boundary crosses them, so no quad straddles it.
+pub(crate) fn sample_box(half: &Vector3<f64>, spacing: f64, breaks: &[[Vec<f64>; 2]; 3]) -> Aopc {
+    let mut out = Aopc::default();
+    for axis in 0..3 {
+        for sign in [1.0, -1.0] {
+            // Tangent axes ordered so that t1 × t2 points outward.
+            let (i1, i2) = ((axis + 1) % 3, (axis + 2) % 3);
+            let (i1, i2) = if sign > 0.0 { (i1, i2) } else { (i2, i1) };
+            let side = if sign > 0.0 { 0 } else { 1 };
+            let lines = |t: usize| {
+                let mut cuts = vec![-half[t], half[t]];
+                cuts.extend(breaks[t][side].iter().copied().filter(|&c| c > -half[t] && c < half[t]));
+                cuts.sort_by(f64::total_cmp);
+                cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * half[t]);
+                let mut out = vec![cuts[0]];
+                for w in cuts.windows(2) {
+                    let m = divisions(w[1] - w[0], spacing);
+                    out.extend((1..=m).map(|k| if k == m { w[1] } else { w[0] + (w[1] - w[0]) * k as f64 / m as f64 }));
+                }
+                out
+            };
+            let (g1, g2) = (lines(i1), lines(i2));
+            for a in g1.windows(2) {
+                for b in g2.windows(2) {
+                    let corner = |x: f64, y: f64| {
+                        let mut p = Vector3::zeros();
+                        p[axis] = sign * half[axis];
+                        p[i1] = x;
+                        p[i2] = y;
+                        p
+                    };
+                    out.push_quad([corner(a[0], b[0]), corner(a[1], b[0]), corner(a[1], b[1]), corner(a[0], b[1])]);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Exact signed distance to an ellipsoid: the closest point `x_i = a_i² y_i/(t + a_i²)` with
+/// `t` the root of `Σ (a_i y_i/(t + a_i²))² = 1` (Eberly's formulation), found by bisection
+/// (t > 0 outside, `-min a_i² < t < 0` inside).
+fn ellipsoid_sdf(a: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
+    let scale = a.max();
+    // A zero coordinate along the shortest axis makes the root degenerate; a nudge of 1e-12
+    // of the size changes the distance by at most that much.
+    let y = p.abs().map(|v| v.max(1e-12 * scale));
+    let f = |t: f64| (0..3).map(|i| (a[i] * y[i] / (t + a[i] * a[i])).powi(2)).sum::<f64>() - 1.0;
+    let amin2 = a.min().powi(2);
+    let (mut lo, mut hi) = if f(0.0) > 0.0 { (0.0, y.norm() * scale + scale * scale) } else { (-amin2, 0.0) };
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if m == lo || m == hi {
+            break;
+        }
+        if f(m) > 0.0 {
+            lo = m
+        } else {
+            hi = m
+        }
+    }
+    let t = 0.5 * (lo + hi);
+    let x = Vector3::from_fn(|i, _| a[i] * a[i] * y[i] / (t + a[i] * a[i]));
+    let d = (x - y).norm();
+    if p.component_div(a).norm_squared() < 1.0 {
+        -d
+    } else {
+        d
+    }
+}

@@ -1,0 +1,134 @@
+//! Pruned against naive evaluation (SPEC §3): the SSDF, the separation distance and the pair
+//! wrenches agree to 1e-12 relative on random configurations, from deep penetration to far
+//! separation and far from the origin; derivatives flow through the pruned path.
+
+use crate::common::{central_difference, Lcg};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use num_dual::Dual64;
+use scm::collision::{separation_band, Collider, Frame};
+use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation, PairContact};
+use scm::geometry::{ssdf, ssdf_naive, Shape};
+use scm::scalar::Scalar;
+
+fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
+    ContactParams { eps1, eps2, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.05, friction: 0.5, dissipation: Dissipation::Paper }
+}
+
+fn random_frame(rng: &mut Lcg, origin: Vector3<f64>) -> Frame<f64> {
+    let axis = rng.direction();
+    let rot = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), rng.range(-3.0, 3.0)).into_inner();
+    Frame { rotation: rot, origin, linvel: rng.direction() * rng.range(0.0, 0.3), angvel: rng.direction() * rng.range(0.0, 2.0) }
+}
+
+/// Wrenches agree to 1e-12 relative to the larger of their size and the force at touching
+/// `k ε3` (times 0.2 m, the bodies' size, for torques): the bound on skipped forces is relative
+/// to the largest point force, so far apart, where every force is ~1e-150 N, only the scale of
+/// the contact force means anything. The distance agrees to 1e-12 of `|D| + ε2`.
+fn assert_close(p: &PairContact<f64>, n: &PairContact<f64>, eps2: f64, what: &str) {
+    let f0 = 1e4 * 1e-4;
+    for (x, y, name, scale) in [(p.on_a.force, n.on_a.force, "force a", f0), (p.on_b.force, n.on_b.force, "force b", f0), (p.on_a.torque, n.on_a.torque, "torque a", 0.2 * f0), (p.on_b.torque, n.on_b.torque, "torque b", 0.2 * f0)] {
+        assert!((x - y).norm() <= 1e-12 * (y.norm() + scale), "{what}: {name}: pruned {x:?} vs naive {y:?} (rel {:e})", (x - y).norm() / y.norm());
+    }
+    assert!((p.distance - n.distance).abs() <= 1e-12 * (n.distance.abs() + eps2), "{what}: distance {} vs {}", p.distance, n.distance);
+}
+
+#[test]
+fn pruned_ssdf_matches_naive_everywhere() {
+    let mut rng = Lcg(17);
+    let shapes = [Shape::Sphere { radius: 0.1 }, Shape::Box { half: Vector3::new(0.1, 0.04, 0.02) }];
+    for shape in shapes {
+        let s = shape.sample(0.005);
+        for _ in 0..300 {
+            let p = rng.direction() * 10f64.powf(rng.range(-3.0, 1.0));
+            let eps1 = 10f64.powf(rng.range(-9.0, -2.0));
+            let (a, b) = (ssdf(&s, &p, eps1), ssdf_naive(&s, &p, eps1));
+            assert!((a - b).abs() <= 1e-12 * (b.abs() + eps1.sqrt()), "{p:?} eps1 {eps1}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn pruned_pair_matches_naive_on_random_configurations() {
+    let mut rng = Lcg(99);
+    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
+    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.01));
+    let plane = Collider::HalfSpace { point: Vector3::new(0.0, 0.0, 0.01), normal: Vector3::z() };
+    let mut pruned_points = 0;
+    let mut total_points = 0;
+    for case in 0..60 {
+        let (a, b, reach) = match case % 3 {
+            0 => (&sphere, &boxc, 0.15),
+            1 => (&boxc, &boxc, 0.25),
+            _ => (&boxc, &plane, 0.1),
+        };
+        // Depths from deep penetration (centres 1 cm apart) to far separation (2 m).
+        let dist = match case % 4 {
+            0 => rng.range(0.0, 0.02),
+            1 => rng.range(0.5, 1.0) * reach,
+            2 => rng.range(1.0, 1.3) * reach,
+            _ => rng.range(1.0, 2.0),
+        };
+        let far = if case % 5 == 0 { Vector3::new(1e5, -3e4, 2e5) } else { Vector3::zeros() };
+        let fa = random_frame(&mut rng, far);
+        let offset = far + rng.direction() * dist;
+        let fb = if matches!(b, Collider::HalfSpace { .. }) { Frame::identity() } else { random_frame(&mut rng, offset) };
+        let fa = if matches!(b, Collider::HalfSpace { .. }) { Frame { origin: Vector3::new(0.0, 0.0, dist - 0.05), ..fa } } else { fa };
+        for (eps1, eps2) in [(1e-5, 1e-3), (1e-6, 1e-4), (1e-8, 1e-6)] {
+            let prm = params(eps1, eps2);
+            let p = pair_contact(a, &fa, b, &fb, &prm);
+            let n = pair_contact_naive(a, &fa, b, &fb, &prm);
+            assert_close(&p, &n, eps2, &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}"));
+            let band = separation_band(a, &fa, b, &fb, eps1, eps2);
+            pruned_points += band.skipped;
+            total_points += a.len() + b.len();
+        }
+    }
+    println!("query points never evaluated: {pruned_points} of {total_points}");
+    assert!(pruned_points * 4 > total_points, "the band bound prunes little: {pruned_points} of {total_points}");
+}
+
+/// Outputs of a pair as a flat list.
+fn outputs<T: Scalar>(c: &PairContact<T>) -> Vec<T> {
+    let mut out = vec![c.distance];
+    for w in [&c.on_a, &c.on_b] {
+        out.extend(w.force.iter().chain(w.torque.iter()).copied());
+    }
+    out
+}
+
+#[test]
+fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
+    // A box resting on a tilted box, both moving: derivatives with respect to the second
+    // body's position and velocity.
+    let a = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.01));
+    let b = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
+    let prm = params(1e-5, 1e-3);
+    let rot = Rotation3::from_euler_angles(0.3, -0.2, 0.5).into_inner();
+    let fa = Frame { rotation: Matrix3::identity(), origin: Vector3::zeros(), linvel: Vector3::new(0.01, 0.0, 0.0), angvel: Vector3::new(0.0, 0.0, 0.3) };
+    let eval = |x: &[Dual64]| -> Vec<Dual64> {
+        let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
+        let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
+        outputs(&pair_contact(&a, &fa, &b, &fb, &prm.lift()))
+    };
+    let eval_naive = |x: &[Dual64]| -> Vec<Dual64> {
+        let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
+        let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
+        outputs(&pair_contact_naive(&a, &fa, &b, &fb, &prm.lift()))
+    };
+    let base = [0.02, -0.01, 0.095, 0.0, 0.01, -0.05];
+    let value = |x: &[f64]| -> Vec<f64> { eval(&x.iter().map(|&v| Dual64::from(v)).collect::<Vec<_>>()).iter().map(|d| d.re).collect() };
+    let v0 = value(&base);
+    assert!(v0[3] < -1.0 && v0[0] < 0.0, "the boxes should be in contact: {v0:?}");
+    for k in 0..base.len() {
+        let mut x: Vec<Dual64> = base.iter().map(|&v| Dual64::from(v)).collect();
+        x[k].eps = 1.0;
+        let exact: Vec<f64> = eval(&x).iter().map(|d| d.eps).collect();
+        let reference: Vec<f64> = eval_naive(&x).iter().map(|d| d.eps).collect();
+        let scale = exact.iter().map(|e| e.abs()).fold(0.0, f64::max);
+        for i in 0..exact.len() {
+            assert!((exact[i] - reference[i]).abs() <= 1e-10 * scale, "d{i}/dx{k}: pruned {} vs naive {}", exact[i], reference[i]);
+            let fd = central_difference(|y| value(y)[i], &base, k, 1e-7);
+            assert!((exact[i] - fd).abs() <= 1e-5 * scale + 1e-6, "d{i}/dx{k}: dual {} vs fd {fd}", exact[i]);
+        }
+    }
+}
