@@ -21,7 +21,8 @@
 //! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| (FD step 1e-6 relative),
 //!   and `dualvec_vs_dual64` (should be rounding only).
 //!
-//! Times are medians over batches filling `--budget` seconds per quantity. `--profile` runs one
+//! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
+//! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
 //! quantity `--iterations` times and prints nothing else, for callgrind.
 //!
 //! This is the first version of the derivative study: once the crate has a public derivatives
@@ -81,24 +82,36 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// Median time per call of `f`, over batches that together fill about `budget` seconds.
-fn time_per_call(budget: f64, mut f: impl FnMut()) -> f64 {
-    let start = Instant::now();
-    f();
-    let once = start.elapsed().as_secs_f64().max(1e-9);
-    let batches = 9;
-    let per_batch = ((budget / batches as f64 / once).floor() as usize).max(1);
-    let mut samples: Vec<f64> = (0..batches)
-        .map(|_| {
+/// Median time per call of each function, over 9 rounds; each round runs one batch of every
+/// function in turn (batches sized so that all rounds together take about `budget` seconds).
+fn time_interleaved(budget: f64, fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    let rounds = 9;
+    let per_fn = budget / (rounds * fs.len()) as f64;
+    let sizes: Vec<usize> = fs
+        .iter_mut()
+        .map(|f| {
             let t = Instant::now();
-            for _ in 0..per_batch {
-                f();
-            }
-            t.elapsed().as_secs_f64() / per_batch as f64
+            f();
+            ((per_fn / t.elapsed().as_secs_f64().max(1e-9)).floor() as usize).max(1)
         })
         .collect();
-    samples.sort_by(f64::total_cmp);
-    samples[batches / 2]
+    let mut samples = vec![Vec::with_capacity(rounds); fs.len()];
+    for _ in 0..rounds {
+        for (k, f) in fs.iter_mut().enumerate() {
+            let t = Instant::now();
+            for _ in 0..sizes[k] {
+                f();
+            }
+            samples[k].push(t.elapsed().as_secs_f64() / sizes[k] as f64);
+        }
+    }
+    samples
+        .into_iter()
+        .map(|mut s| {
+            s.sort_by(f64::total_cmp);
+            s[rounds / 2]
+        })
+        .collect()
 }
 
 /// The scene's simulation with the `--set` values applied, advanced by the warm-up (with the
@@ -294,54 +307,61 @@ fn run() -> Result<String, String> {
             return Ok(format!("{{\"profiled\": \"{what}\", \"iterations\": {iterations}}}"));
         }
 
-        let model_step = time_per_call(a.budget, || {
-            black_box(model.step(black_box(&state), &ctrl, &prm, h).expect("step"));
-        });
         let mut sim = warmed_up(&a, &scene, integrator)?;
         let saved = sim.current.clone();
-        let engine_step = time_per_call(a.budget, || {
-            // Restart from the same state each time, so every call times the same step.
-            sim.current.state.clone_from(&saved.state);
-            sim.advance(h).expect("advance");
-        });
         // FFI: fmi2DoStep advances the instance; to time the same step each time, restore its
-        // state with fmi2SetFMUstate (itself timed separately and subtracted).
+        // state with fmi2SetFMUstate (itself timed and subtracted).
         let mut fmu_state: fmi2FMUstate = std::ptr::null_mut();
         unsafe {
             if fmi2GetFMUstate(c, &mut fmu_state) != fmi2OK {
                 return Err("fmi2GetFMUstate failed".into());
             }
         }
-        let restore = time_per_call(a.budget * 0.5, || unsafe {
-            assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
-        });
-        let ffi_with_restore = time_per_call(a.budget, || unsafe {
-            assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
-            let s = fmi2DoStep(c, 0.0, h, fmi2True);
-            assert_eq!(s, fmi2OK, "fmi2DoStep");
-        });
+        let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
+        let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
+        let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
+        let jfd = jacobian_fd(&model, &prm, h, nq, nv, &x);
+        // Every quantity is timed in interleaved rounds (one batch of each per round), so a
+        // change of machine load affects all of them alike and their ratios stay meaningful.
+        let times = time_interleaved(
+            a.budget * 8.0,
+            &mut [
+                &mut || {
+                    black_box(model.step(black_box(&state), &ctrl, &prm, h).expect("step"));
+                },
+                &mut || {
+                    // Restart from the same state each time, so every call times the same step.
+                    sim.current.state.clone_from(&saved.state);
+                    sim.advance(h).expect("advance");
+                },
+                &mut || unsafe {
+                    assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                },
+                &mut || unsafe {
+                    assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                    let s = fmi2DoStep(c, 0.0, h, fmi2True);
+                    assert_eq!(s, fmi2OK, "fmi2DoStep");
+                },
+                &mut || {
+                    black_box(jacobian_dual64(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_vec::<4>(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_vec::<16>(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+            ],
+        );
+        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd] = times[..] else { unreachable!() };
         let ffi_step = (ffi_with_restore - restore).max(0.0);
         unsafe {
             fmi2FreeFMUstate(c, &mut fmu_state);
             fmi2FreeInstance(c);
         }
-
-        let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
-        let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
-        let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
-        let jfd = jacobian_fd(&model, &prm, h, nq, nv, &x);
-        let t_j64 = time_per_call(a.budget, || {
-            black_box(jacobian_dual64(&model, &prm, h, nq, nv, black_box(&x)));
-        });
-        let t_j4 = time_per_call(a.budget, || {
-            black_box(jacobian_vec::<4>(&model, &prm, h, nq, nv, black_box(&x)));
-        });
-        let t_j16 = time_per_call(a.budget, || {
-            black_box(jacobian_vec::<16>(&model, &prm, h, nq, nv, black_box(&x)));
-        });
-        let t_fd = time_per_call(a.budget, || {
-            black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x)));
-        });
         let scale = max_abs(&j64).max(1e-300);
         let vec_err = max_diff(&j64, &j4).max(max_diff(&j64, &j16)) / scale;
         let distances: Vec<String> = {

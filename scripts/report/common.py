@@ -302,6 +302,10 @@ def fmt(x, digits=3):
 
 
 def table(header, rows):
+    """A Markdown table; a '|' inside a cell would break it, so it is a bug of the report."""
+    for c in list(header) + [c for r in rows for c in r if isinstance(c, str)]:
+        if "|" in c:
+            raise ReportBug(f"a table cell contains '|': {c!r}")
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join(" --- " for _ in header) + "|"]
     for r in rows:
         lines.append("| " + " | ".join(fmt(c) for c in r) + " |")

@@ -129,18 +129,35 @@ def force_profile(ctx):
             "`contact.big.small.force.*` after initialization (negated: the FMU reports the force on the first body), in MuJoCo from "
             "`qfrc_constraint` of the three slide joints after `mj_forward` (their axes are the world axes).",
             "", "![force profile](force_profile.png)", "",
-            table(["model", "Fy at 16 cm (N)", "Fy at 15 cm, touching (N)", "Fy at 14 cm, 1 cm overlap (N)", "max |Fy| straight in (N)",
-                   "at distance (cm)", "Fy at 0.5 cm, nearly concentric (N)", "max |Fx| moving past (N)", "max Fy moving past (N)"], rows),
+            table(["model", "Fy at 16 cm (N)", "Fy at 15 cm, touching (N)", "Fy at 14 cm, 1 cm overlap (N)", "largest Fy magnitude, straight in (N)",
+                   "at distance (cm)", "Fy at 0.5 cm, nearly concentric (N)", "largest Fx magnitude, moving past (N)", "max Fy moving past (N)"], rows),
             "",
-            "How to read it: SCM's force is a smooth function of the offset: it rises over a few ε3 (here 0.1 mm) around the AOPC surfaces "
-            "(whose face centres sit slightly inside the true spheres, so at the true touching distance it is still tiny), grows with the overlap "
-            "as k times the penetration of the deepest points, and falls back to zero as the spheres become concentric (the paper's unstable "
-            "equilibrium: the soft minimum averages opposite normals). MuJoCo's force is exactly zero until the spheres touch, has a kink there, and "
-            "its size comes from its soft-constraint solver (solref/solimp defaults, scaled by the sphere's mass), not from a stiffness: so the two "
-            "agree in direction and in where the force starts, not in magnitude (compare the columns)."]
+            reading(dist, scm["through"][:, 1])]
     write(ctx, "force_profile.md", "\n".join(text))
     ctx.figures["force_profile"] = rows
     return rows
+
+
+def reading(dist, fy):
+    """What the SCM profile shows, from the numbers (not assumed)."""
+    inside = dist < 0.15
+    sign_change = [float(dist[i]) for i in range(len(dist) - 1) if inside[i] and fy[i] > 0 >= fy[i + 1]]
+    near = fy[-1]
+    text = ("How to read it: SCM's force is a smooth function of the offset. It rises over a few ε3 (0.1 mm here) around the AOPC "
+            "surfaces (whose face centres sit slightly inside the true spheres, so at the true touching distance it is still small) and "
+            "grows with the overlap as k times the penetration of the deepest points. MuJoCo's is exactly zero until the spheres touch, has "
+            "a kink there, and its size comes from its soft-constraint solver (solref/solimp defaults, scaled by the sphere's mass), not from "
+            "a stiffness: the two agree in direction and in where the force starts, not in magnitude. ")
+    if sign_change and near < 0:
+        text += (f"Deeper than R − r = 5 cm (the small sphere wholly inside the big one) SCM's force reverses: it changes sign at a "
+                 f"centre distance of about {sign_change[0] * 100:.2g} cm and then pulls the small sphere toward the centre "
+                 f"({near:.3g} N at {dist[-1] * 100:.2g} cm): the deepest points of the small sphere are then on the far side of the big "
+                 "sphere's centre, and their nearest planes face the other way. So the concentric state attracts from within about 5 cm, and "
+                 f"the unstable equilibrium is the sign change near {sign_change[0] * 100:.2g} cm; the paper calls the concentric state the "
+                 "unstable one. MuJoCo keeps pushing outward all the way in.")
+    elif abs(near) < 0.05 * np.max(np.abs(fy)):
+        text += "As the spheres become concentric, SCM's force falls back towards zero (the paper's unstable equilibrium)."
+    return text
 
 
 def mujoco_version():

@@ -145,11 +145,11 @@ def run(ctx):
             "## Full Jacobian of one step", "",
             "`x' = step(x, u)` with x = (q, v) and u the controls; forward-mode dual numbers through the generic `Model::step` "
             "(`Dual64`: one column per pass; `DualSVec64<4>`: four per pass; `DualSVec64<16>`: all in one pass), against central finite "
-            "differences (2n + 1 steps, relative step 1e-6). Accuracy: max |J_dual − J_fd| / max |J_dual| (the finite differences' own "
+            "differences (2n + 1 steps, relative step 1e-6). Accuracy: max‖J_dual − J_fd‖ / max‖J_dual‖ (largest entries) (the finite differences' own "
             "truncation and rounding error, not the duals'); the dual variants agree with each other to rounding. "
             "This is the first version of the study: once the crate has a public derivatives module, measure it here beside these columns.", "",
             table(["scene", "integrator", "inputs → outputs", "step (µs)", "Jacobian Dual64 (µs)", "DualSVec64<4> (µs)", "DualSVec64<16> (µs)",
-                   "central FD (µs)", "best Jacobian / step", "FD / step", "|J − J_fd| / |J|", "dual variants differ"], deriv_rows), ""]
+                   "central FD (µs)", "best Jacobian / step", "FD / step", "max‖J − J_fd‖ / max‖J‖", "dual variants differ"], deriv_rows), ""]
     if profiles:
         text += ["## Where the time goes", "",
                  "`perf stat -e instructions` " + ("works here, " if perf_ok else "reports `<not supported>` on this machine, so ")
