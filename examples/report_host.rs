@@ -6,8 +6,8 @@
 //! ```text
 //! report_host integrators SCENE.xml
 //!     JSON: every integrator of the crate (one enumeration, SPEC §2) with whether it reads
-//!     `solver.tolerance` (found by running SCENE with two tolerances: an adaptive method's
-//!     result changes, a fixed-step one's does not)
+//!     `solver.tolerance` (found by running SCENE with two tolerances) and whether it is
+//!     adaptive (reads the tolerance, and at a tight one barely depends on `solver.step`)
 //! report_host run FMU_DIR --duration S --comm S [--set NAME=VALUE]... [--set-string NAME=VALUE]...
 //!                 [--inputs FILE.csv] [--outputs NAME,NAME,...]
 //!     JSON: status ("ok", "discard", "error"), message, the outputs at every communication
@@ -84,16 +84,18 @@ fn json_num(x: f64) -> String {
     }
 }
 
-/// Every integrator, and whether its result depends on `solver.tolerance`.
+/// Every integrator, whether its result depends on `solver.tolerance`, and whether it is
+/// adaptive: it depends on the tolerance and, at a tight tolerance, hardly on `solver.step`
+/// (an implicit method whose Newton iterations read the tolerance still changes with the step).
 fn integrators(scene: &Path) -> Result<String, String> {
     use scm::fmi::contract::FmiModel;
     let mut items = Vec::new();
     for integrator in scm::integrate::Integrator::ALL.iter().copied() {
-        let final_state = |tolerance: f64| -> Result<Vec<f64>, String> {
+        let final_state = |tolerance: f64, step: f64| -> Result<Vec<f64>, String> {
             let mut sim = scm::sim::Simulation::from_file(scene).map_err(|e| e.to_string())?;
             sim.model.integrator = integrator;
             sim.model.tolerance = tolerance;
-            sim.model.step = 0.01;
+            sim.model.step = step;
             for k in 0..50 {
                 // A refused step counts as a result too: compare what was reached.
                 if sim.do_step(k as f64 * 0.01, 0.01).is_err() {
@@ -102,9 +104,12 @@ fn integrators(scene: &Path) -> Result<String, String> {
             }
             Ok(sim.current.state.q.iter().chain(&sim.current.state.v).copied().collect())
         };
-        let (loose, tight) = (final_state(1e-2)?, final_state(1e-9)?);
+        let (loose, tight) = (final_state(1e-2, 0.01)?, final_state(1e-9, 0.01)?);
         let uses_tolerance = loose.iter().zip(&tight).any(|(a, b)| a.to_bits() != b.to_bits());
-        items.push(format!("{{\"name\": {}, \"uses_tolerance\": {uses_tolerance}}}", json_str(integrator.name())));
+        let tight_half = final_state(1e-9, 0.005)?;
+        let step_change = tight.iter().zip(&tight_half).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        let adaptive = uses_tolerance && step_change < 1e-6;
+        items.push(format!("{{\"name\": {}, \"uses_tolerance\": {uses_tolerance}, \"adaptive\": {adaptive}}}", json_str(integrator.name())));
     }
     Ok(format!("[{}]", items.join(", ")))
 }

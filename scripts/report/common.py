@@ -232,7 +232,7 @@ def reference_integrator(ctx: Context):
     """(name, adaptive, explanation) of the integrator references are computed with: the
     adaptive one at a tight tolerance once it exists, else the highest-order fixed-step one."""
     items = integrators(ctx)
-    adaptive = [i["name"] for i in items if i["uses_tolerance"]]
+    adaptive = [i["name"] for i in items if i["adaptive"]]
     if adaptive:
         return adaptive[0], True, f"`{adaptive[0]}` (adaptive) at solver.tolerance = 1e-10"
     names = [i["name"] for i in items]

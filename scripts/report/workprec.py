@@ -58,7 +58,7 @@ def run(ctx):
             refs[v.name] = (ref, float(dpos[-1]), float(drot[-1]), float(np.sqrt(np.mean(dpos ** 2))))
 
         # The grid (timed, one at a time).
-        grid = [(v, i["name"], label, sets) for v in variants for i in ints for label, sets in _settings(ctx, i["name"], i["uses_tolerance"])]
+        grid = [(v, i["name"], label, sets) for v in variants for i in ints for label, sets in _settings(ctx, i["name"], i["adaptive"])]
         rows, points = [], []
         for v, integ, label, sets in progress(grid, f"{scene}: grid (timed)"):
             r = go(v, integ, sets, timed=True)
@@ -108,7 +108,7 @@ def run(ctx):
             "rotation error: the largest hinge-angle or quaternion-angle difference. "
             "A run refused with `fmi2Discard` is listed but not plotted.",
             "",
-            "Adaptive integrators (found by the report: their result depends on `solver.tolerance`) are run at tolerances "
+            "Adaptive integrators (found by the report: their result depends on `solver.tolerance` and, at a tight tolerance, hardly on `solver.step`) are run at tolerances "
             f"{', '.join(f'{t:g}' for t in ADAPTIVE_TOLERANCES)} with `solver.step` = {max(S.STEPS_MS):g} ms, instead of the fixed steps.",
             ""] + [x + "\n" for x in sections]
     write(ctx, "work_precision.md", "\n".join(text))
