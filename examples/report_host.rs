@@ -1,0 +1,271 @@
+//! A minimal FMI 2.0 Co-Simulation host in Rust for the report (`scripts/report/`): it drives an
+//! unpacked FMU through the crate's own exported `fmi2*` functions (the same C ABI a host calls
+//! in `scm.so`), so results carry real `fmi2Discard`s, and times are those of `fmi2DoStep`
+//! without a Python interpreter in between.
+//!
+//! ```text
+//! report_host integrators SCENE.xml
+//!     JSON: every integrator of the crate (one enumeration, SPEC §2) with whether it reads
+//!     `solver.tolerance` (found by running SCENE with two tolerances) and whether it is
+//!     adaptive (reads the tolerance, and at a tight one barely depends on `solver.step`)
+//! report_host run FMU_DIR --duration S --comm S [--set NAME=VALUE]... [--set-string NAME=VALUE]...
+//!                 [--inputs FILE.csv] [--outputs NAME,NAME,...]
+//!     JSON: status ("ok", "discard", "error"), message, the outputs at every communication
+//!     point reached, and the wall time spent inside fmi2DoStep
+//! ```
+//! `FMU_DIR` is an unpacked FMU (its `resources/scene.xml` is the scene). `--set` values are
+//! applied after `fmi2Instantiate`, before initialization (parameters, `solver.step`, start
+//! values such as `J.q`). `--inputs` is a CSV whose header names input variables and whose row
+//! `k` holds their values during communication step `k` (the last row is held). A non-finite
+//! output is written as `null`: the report treats it as a bug and stops.
+//!
+//! The logger is a non-variadic function transmuted to the variadic type, as in
+//! `src/fmi/exports_tests.rs` (x86_64 / AArch64 Linux: the message after the `"%s"` format
+//! arrives in the register of a sixth fixed pointer argument).
+
+use scm::fmi::ffi::*;
+use scm::*;
+use std::ffi::{c_char, c_void, CStr, CString};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+type Messages = Mutex<Vec<String>>;
+
+unsafe extern "C" fn logger(env: *mut c_void, _instance: fmi2String, status: fmi2Status, category: fmi2String, _format: fmi2String, message: *const c_char) {
+    let text = |p: *const c_char| if p.is_null() { String::new() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() };
+    let env = unsafe { &*(env as *const Messages) };
+    let line = format!("[{status}] {}: {}", text(category), text(message));
+    env.lock().unwrap_or_else(|e| e.into_inner()).push(line);
+}
+
+type Fixed = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, *const c_char);
+type Variadic = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("integrators") if args.len() == 2 => integrators(Path::new(&args[1])),
+        Some("run") if args.len() >= 2 => run(&args[1..]),
+        _ => Err("usage: report_host integrators SCENE.xml | report_host run FMU_DIR --duration S --comm S [--set N=V]... [--set-string N=V]... [--inputs F.csv] [--outputs A,B]".into()),
+    };
+    match result {
+        Ok(json) => println!("{json}"),
+        Err(e) => {
+            eprintln!("report_host: {e}");
+            std::process::exit(2);
+        }
+    }
+}
+
+fn json_str(s: &str) -> String {
+    let mut out = String::from("\"");
+    for ch in s.chars() {
+        match ch {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(out, "\\u{:04x}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+fn json_num(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:e}")
+    } else {
+        "null".into()
+    }
+}
+
+/// Every integrator, whether its result depends on `solver.tolerance`, and whether it is
+/// adaptive: it depends on the tolerance and, at a tight tolerance, hardly on `solver.step`
+/// (an implicit method whose Newton iterations read the tolerance still changes with the step).
+fn integrators(scene: &Path) -> Result<String, String> {
+    use scm::fmi::contract::FmiModel;
+    let mut items = Vec::new();
+    for integrator in scm::integrate::Integrator::ALL.iter().copied() {
+        let final_state = |tolerance: f64, step: f64| -> Result<Vec<f64>, String> {
+            let mut sim = scm::sim::Simulation::from_file(scene).map_err(|e| e.to_string())?;
+            sim.model.integrator = integrator;
+            sim.model.tolerance = tolerance;
+            sim.model.step = step;
+            for k in 0..50 {
+                // A refused step counts as a result too: compare what was reached.
+                if sim.do_step(k as f64 * 0.01, 0.01).is_err() {
+                    break;
+                }
+            }
+            Ok(sim.current.state.q.iter().chain(&sim.current.state.v).copied().collect())
+        };
+        let (loose, tight) = (final_state(1e-2, 0.01)?, final_state(1e-9, 0.01)?);
+        let uses_tolerance = loose.iter().zip(&tight).any(|(a, b)| a.to_bits() != b.to_bits());
+        let tight_half = final_state(1e-9, 0.005)?;
+        let step_change = tight.iter().zip(&tight_half).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        let adaptive = uses_tolerance && step_change < 1e-6;
+        items.push(format!("{{\"name\": {}, \"uses_tolerance\": {uses_tolerance}, \"adaptive\": {adaptive}}}", json_str(integrator.name())));
+    }
+    Ok(format!("[{}]", items.join(", ")))
+}
+
+struct Job {
+    dir: PathBuf,
+    duration: f64,
+    comm: f64,
+    reals: Vec<(String, f64)>,
+    strings: Vec<(String, String)>,
+    inputs: Option<(Vec<String>, Vec<Vec<f64>>)>,
+    outputs: Vec<String>,
+}
+
+fn parse_job(args: &[String]) -> Result<Job, String> {
+    let mut job = Job { dir: PathBuf::from(&args[0]), duration: f64::NAN, comm: f64::NAN, reals: vec![], strings: vec![], inputs: None, outputs: vec![] };
+    let mut it = args[1..].iter();
+    let pair = |s: &str| -> Result<(String, String), String> { s.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("expected NAME=VALUE, got {s}")) };
+    let num = |s: &str| -> Result<f64, String> { s.parse::<f64>().map_err(|_| format!("not a number: {s}")) };
+    while let Some(flag) = it.next() {
+        let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        match flag.as_str() {
+            "--duration" => job.duration = num(value)?,
+            "--comm" => job.comm = num(value)?,
+            "--set" => {
+                let (n, v) = pair(value)?;
+                job.reals.push((n, num(&v)?));
+            }
+            "--set-string" => job.strings.push(pair(value)?),
+            "--outputs" => job.outputs = value.split(',').filter(|s| !s.is_empty()).map(String::from).collect(),
+            "--inputs" => {
+                let text = std::fs::read_to_string(value).map_err(|e| format!("{value}: {e}"))?;
+                let mut lines = text.lines();
+                let header: Vec<String> = lines.next().ok_or(format!("{value}: empty"))?.split(',').map(|s| s.trim().to_string()).collect();
+                let rows = lines.filter(|l| !l.trim().is_empty()).map(|l| l.split(',').map(|s| num(s.trim())).collect::<Result<Vec<f64>, String>>()).collect::<Result<Vec<_>, _>>()?;
+                if rows.is_empty() || rows.iter().any(|r| r.len() != header.len()) {
+                    return Err(format!("{value}: every row needs {} values", header.len()));
+                }
+                job.inputs = Some((header, rows));
+            }
+            other => return Err(format!("unknown option {other}")),
+        }
+    }
+    if !(job.duration > 0.0 && job.comm > 0.0) {
+        return Err("--duration and --comm must be positive".into());
+    }
+    Ok(job)
+}
+
+fn run(args: &[String]) -> Result<String, String> {
+    let job = parse_job(args)?;
+    let scene = job.dir.join("resources").join(scm::sim::SCENE_FILE);
+    let text = std::fs::read_to_string(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+    // The variable table is the FMU's (same code): names to value references.
+    let sim = scm::sim::Simulation::from_file(&scene).map_err(|e| e.to_string())?;
+    let vr = |name: &str| -> Result<u32, String> { sim.rows().iter().find(|(v, _)| v.name == name).map(|(v, _)| v.value_reference).ok_or_else(|| format!("the FMU has no variable {name}")) };
+    let out_vrs = job.outputs.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?;
+    let real_vrs = job.reals.iter().map(|(n, _)| vr(n)).collect::<Result<Vec<_>, _>>()?;
+    let string_vrs = job.strings.iter().map(|(n, _)| vr(n)).collect::<Result<Vec<_>, _>>()?;
+    let (in_vrs, in_rows) = match &job.inputs {
+        Some((names, rows)) => (names.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?, rows.clone()),
+        None => (vec![], vec![]),
+    };
+
+    let messages: Messages = Mutex::new(Vec::new());
+    // SAFETY: see the module documentation.
+    let log = unsafe { std::mem::transmute::<Fixed, Variadic>(logger) };
+    let callbacks = fmi2CallbackFunctions { logger: Some(log), allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: &messages as *const Messages as *mut c_void };
+    let uri = CString::new(format!("file://{}", job.dir.join("resources").display())).map_err(|e| e.to_string())?;
+    let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
+    let name = CString::new("report").map_err(|e| e.to_string())?;
+    let n_steps = (job.duration / job.comm).round() as usize;
+    let mut t_out = Vec::with_capacity(n_steps + 1);
+    let mut y_out: Vec<Vec<f64>> = Vec::with_capacity(n_steps + 1);
+    let mut wall = 0.0;
+    let mut status = "ok";
+    let last_message = |m: &Messages| m.lock().unwrap_or_else(|e| e.into_inner()).last().cloned().unwrap_or_default();
+    // SAFETY: every pointer passed below is valid for the length given with it, strings are
+    // NUL-terminated and outlive the instance, and the instance is freed before they drop.
+    unsafe {
+        let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, fmi2False, fmi2False);
+        if c.is_null() {
+            return Err(format!("fmi2Instantiate failed: {}", last_message(&messages)));
+        }
+        let check = |s: fmi2Status, what: &str| -> Result<(), String> {
+            if s <= fmi2Warning {
+                Ok(())
+            } else {
+                Err(format!("{what} returned {s}: {}", last_message(&messages)))
+            }
+        };
+        let setup = (|| -> Result<(), String> {
+            check(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, n_steps as f64 * job.comm), "fmi2SetupExperiment")?;
+            for ((vr, (n, _)), v) in real_vrs.iter().zip(&job.reals).zip(job.reals.iter().map(|(_, v)| *v)) {
+                check(fmi2SetReal(c, vr, 1, &v), &format!("fmi2SetReal({n})"))?;
+            }
+            for (vr, (n, v)) in string_vrs.iter().zip(&job.strings) {
+                let s = CString::new(v.as_str()).map_err(|e| e.to_string())?;
+                let p = s.as_ptr();
+                check(fmi2SetString(c, vr, 1, &p), &format!("fmi2SetString({n})"))?;
+            }
+            check(fmi2EnterInitializationMode(c), "fmi2EnterInitializationMode")?;
+            check(fmi2ExitInitializationMode(c), "fmi2ExitInitializationMode")
+        })();
+        if let Err(e) = setup {
+            fmi2FreeInstance(c);
+            return Err(e);
+        }
+        let mut y = vec![0.0; out_vrs.len()];
+        let mut read = |t: f64, t_out: &mut Vec<f64>, y_out: &mut Vec<Vec<f64>>| -> Result<(), String> {
+            check(fmi2GetReal(c, out_vrs.as_ptr(), out_vrs.len(), y.as_mut_ptr()), "fmi2GetReal")?;
+            t_out.push(t);
+            y_out.push(y.clone());
+            Ok(())
+        };
+        let mut failure = None;
+        for k in 0..=n_steps {
+            if let Some(row) = in_rows.get(k.min(in_rows.len().saturating_sub(1))) {
+                if let Err(e) = check(fmi2SetReal(c, in_vrs.as_ptr(), in_vrs.len(), row.as_ptr()), "fmi2SetReal(inputs)") {
+                    failure = Some(e);
+                    break;
+                }
+            }
+            if let Err(e) = read(k as f64 * job.comm, &mut t_out, &mut y_out) {
+                failure = Some(e);
+                break;
+            }
+            if k == n_steps {
+                break;
+            }
+            let start = Instant::now();
+            let s = fmi2DoStep(c, k as f64 * job.comm, job.comm, fmi2True);
+            wall += start.elapsed().as_secs_f64();
+            if s == fmi2Discard {
+                status = "discard";
+                break;
+            } else if s > fmi2Warning {
+                status = "error";
+                break;
+            }
+        }
+        fmi2FreeInstance(c);
+        if let Some(e) = failure {
+            return Err(e);
+        }
+    }
+    let message = if status == "ok" { String::new() } else { last_message(&messages) };
+    let rows: Vec<String> = y_out.iter().map(|r| format!("[{}]", r.iter().map(|&x| json_num(x)).collect::<Vec<_>>().join(","))).collect();
+    Ok(format!(
+        "{{\"status\": {}, \"message\": {}, \"wall_step_s\": {}, \"comm_steps\": {}, \"names\": [{}], \"t\": [{}], \"y\": [{}]}}",
+        json_str(status),
+        json_str(&message),
+        json_num(wall),
+        t_out.len().saturating_sub(1),
+        job.outputs.iter().map(|n| json_str(n)).collect::<Vec<_>>().join(","),
+        t_out.iter().map(|&t| json_num(t)).collect::<Vec<_>>().join(","),
+        rows.join(",")
+    ))
+}

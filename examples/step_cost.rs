@@ -1,0 +1,384 @@
+//! Cost of one step, of the same step through the C ABI, and of the full Jacobian of a step,
+//! for the report (`scripts/report/`), measured in one run and printed as JSON.
+//!
+//! ```text
+//! step_cost FMU_DIR --h S [--integrators a,b|all] [--set NAME=VALUE]... [--warmup S]
+//!           [--budget S] [--profile step|jacobian --iterations N]
+//! ```
+//! `FMU_DIR` is an unpacked FMU. The state at which everything is measured is reached by
+//! simulating `--warmup` seconds from the start with the `--set` values (e.g. a constant finger
+//! target that presses the finger into the T), so contact is active. Per integrator:
+//! - `model_step_s`: `Model::step::<f64>`, one internal step of `h` (the bare method);
+//! - `engine_step_s`: `Simulation::advance(h)` with `solver.step = h` (one internal step, with
+//!   the non-finite check and state bookkeeping the FMU does);
+//! - `ffi_step_s`: `fmi2DoStep(h)` through the crate's exported `extern "C"` function (the
+//!   same code path a host calling `scm.so` runs), `solver.step = h`;
+//! - `jacobian_*_s`: the full Jacobian of one step `x' = step(x, u)`, `x = (q, v)`, `u` the
+//!   controls, with forward-mode dual numbers through the generic `Model::step`: `dual64`
+//!   (n = nq + nv + nu passes of `Dual64`), `dualvec4` (`DualSVec64<4>`, ⌈n/4⌉ passes),
+//!   `dualvec16` (`DualSVec64<16>`, one pass for n ≤ 16);
+//! - `fd_s`: central finite differences of the same map, 2n + 1 steps;
+//! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| (FD step 1e-6 relative),
+//!   and `dualvec_vs_dual64` (should be rounding only).
+//!
+//! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
+//! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
+//! quantity `--iterations` times and prints nothing else, for callgrind.
+//!
+//! This is the first version of the derivative study: once the crate has a public derivatives
+//! module (Jacobians of a step), it should be measured here beside these columns.
+
+use nalgebra::{Const, U1};
+use num_dual::{Derivative, Dual64, DualSVec64};
+use scm::contact::ContactParams;
+use scm::fmi::contract::FmiModel;
+use scm::fmi::ffi::*;
+use scm::integrate::{Integrator, State};
+use scm::model::Model;
+use scm::scalar::Scalar;
+use scm::sim::{Simulation, Slot};
+use scm::*;
+use std::ffi::CString;
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
+
+struct Args {
+    dir: PathBuf,
+    h: f64,
+    integrators: Vec<Integrator>,
+    sets: Vec<(String, f64)>,
+    warmup: f64,
+    budget: f64,
+    profile: Option<(String, usize)>,
+}
+
+fn parse() -> Result<Args, String> {
+    let raw: Vec<String> = std::env::args().skip(1).collect();
+    let dir = PathBuf::from(raw.first().ok_or("usage: step_cost FMU_DIR --h S [--integrators a,b|all] [--set N=V]... [--warmup S] [--budget S] [--profile step|jacobian --iterations N]")?);
+    let mut a = Args { dir, h: 0.002, integrators: Integrator::ALL.to_vec(), sets: vec![], warmup: 0.0, budget: 0.3, profile: None };
+    let mut iterations = 100;
+    let mut profile = None;
+    let mut it = raw[1..].iter();
+    let num = |s: &str| s.parse::<f64>().map_err(|_| format!("not a number: {s}"));
+    while let Some(flag) = it.next() {
+        let v = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        match flag.as_str() {
+            "--h" => a.h = num(v)?,
+            "--warmup" => a.warmup = num(v)?,
+            "--budget" => a.budget = num(v)?,
+            "--iterations" => iterations = num(v)? as usize,
+            "--profile" => profile = Some(v.clone()),
+            "--set" => {
+                let (n, x) = v.split_once('=').ok_or_else(|| format!("expected NAME=VALUE, got {v}"))?;
+                a.sets.push((n.to_string(), num(x)?));
+            }
+            "--integrators" if v == "all" => {}
+            "--integrators" => a.integrators = v.split(',').map(|n| Integrator::from_name(n).ok_or_else(|| format!("unknown integrator {n}"))).collect::<Result<_, _>>()?,
+            other => return Err(format!("unknown option {other}")),
+        }
+    }
+    a.profile = profile.map(|p| (p, iterations));
+    Ok(a)
+}
+
+/// Median time per call of each function, over 9 rounds; each round runs one batch of every
+/// function in turn (batches sized so that all rounds together take about `budget` seconds).
+fn time_interleaved(budget: f64, fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    let rounds = 9;
+    let per_fn = budget / (rounds * fs.len()) as f64;
+    let sizes: Vec<usize> = fs
+        .iter_mut()
+        .map(|f| {
+            let t = Instant::now();
+            f();
+            ((per_fn / t.elapsed().as_secs_f64().max(1e-9)).floor() as usize).max(1)
+        })
+        .collect();
+    let mut samples = vec![Vec::with_capacity(rounds); fs.len()];
+    for _ in 0..rounds {
+        for (k, f) in fs.iter_mut().enumerate() {
+            let t = Instant::now();
+            for _ in 0..sizes[k] {
+                f();
+            }
+            samples[k].push(t.elapsed().as_secs_f64() / sizes[k] as f64);
+        }
+    }
+    samples
+        .into_iter()
+        .map(|mut s| {
+            s.sort_by(f64::total_cmp);
+            s[rounds / 2]
+        })
+        .collect()
+}
+
+/// The scene's simulation with the `--set` values applied, advanced by the warm-up (with the
+/// scene's own integrator at 1 ms internal steps, so every integrator is measured at the same
+/// state), then switched to `integrator` with internal step `h`.
+fn warmed_up(a: &Args, scene: &std::path::Path, integrator: Integrator) -> Result<Simulation, String> {
+    let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
+    apply_sets(&mut sim, &a.sets)?;
+    sim.model.step = 1e-3;
+    sim.exit_initialization()?;
+    let n = (a.warmup / 0.01).round() as usize;
+    for k in 0..n {
+        sim.do_step(k as f64 * 0.01, 0.01).map_err(|e| format!("warm-up: {e:?}"))?;
+    }
+    sim.model.integrator = integrator;
+    sim.model.step = a.h;
+    Ok(sim)
+}
+
+fn apply_sets(sim: &mut Simulation, sets: &[(String, f64)]) -> Result<(), String> {
+    for (name, value) in sets {
+        let vr = sim.rows().iter().find(|(v, _)| &v.name == name).map(|(v, _)| v.value_reference).ok_or_else(|| format!("no variable {name}"))?;
+        sim.set_real(vr, *value, scm::fmi::contract::Phase::Instantiated)?;
+    }
+    Ok(())
+}
+
+/// The step map `x' = step(x, u)` on a flat vector `[q, v, u]` → `[q', v']`.
+fn step_map<T: Scalar>(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[T]) -> Vec<T> {
+    let state = State { q: x[..nq].to_vec(), v: x[nq..nq + nv].to_vec() };
+    let next = model.step(&state, &x[nq + nv..], &prm.lift::<T>(), T::from(h)).expect("step");
+    next.q.into_iter().chain(next.v).collect()
+}
+
+/// Jacobian (rows: outputs, columns: inputs) with `Dual64`, one column per pass.
+// `j` is a column index: it indexes the inner vectors, which clippy does not see.
+#[allow(clippy::needless_range_loop)]
+fn jacobian_dual64(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+    let n = x.len();
+    let mut jac = vec![vec![0.0; n]; nq + nv];
+    for j in 0..n {
+        let xd: Vec<Dual64> = x.iter().enumerate().map(|(i, &xi)| Dual64::new(xi, if i == j { 1.0 } else { 0.0 })).collect();
+        for (r, y) in step_map(model, prm, h, nq, nv, &xd).iter().enumerate() {
+            jac[r][j] = y.eps;
+        }
+    }
+    jac
+}
+
+/// Jacobian with `DualSVec64<N>`: N columns per pass.
+fn jacobian_vec<const N: usize>(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+    let n = x.len();
+    let mut jac = vec![vec![0.0; n]; nq + nv];
+    for first in (0..n).step_by(N) {
+        let xd: Vec<DualSVec64<N>> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &xi)| {
+                if i >= first && i < first + N {
+                    let mut e = nalgebra::SVector::<f64, N>::zeros();
+                    e[i - first] = 1.0;
+                    DualSVec64::new(xi, Derivative::some(e))
+                } else {
+                    DualSVec64::from_re(xi)
+                }
+            })
+            .collect();
+        for (r, y) in step_map(model, prm, h, nq, nv, &xd).into_iter().enumerate() {
+            let d = y.eps.unwrap_generic(Const::<N>, U1);
+            for k in 0..N.min(n - first) {
+                jac[r][first + k] = d[k];
+            }
+        }
+    }
+    jac
+}
+
+/// Central finite differences: 2n + 1 steps.
+fn jacobian_fd(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+    let n = x.len();
+    let _nominal = step_map::<f64>(model, prm, h, nq, nv, x);
+    let mut jac = vec![vec![0.0; n]; nq + nv];
+    let mut xp = x.to_vec();
+    for j in 0..n {
+        let d = 1e-6 * x[j].abs().max(1.0);
+        xp[j] = x[j] + d;
+        let yp = step_map::<f64>(model, prm, h, nq, nv, &xp);
+        xp[j] = x[j] - d;
+        let ym = step_map::<f64>(model, prm, h, nq, nv, &xp);
+        xp[j] = x[j];
+        for r in 0..nq + nv {
+            jac[r][j] = (yp[r] - ym[r]) / (2.0 * d);
+        }
+    }
+    jac
+}
+
+fn max_abs(j: &[Vec<f64>]) -> f64 {
+    j.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+fn max_diff(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+    a.iter().flatten().zip(b.iter().flatten()).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
+/// The part a profiler looks at (`valgrind --tool=callgrind --toggle-collect='*profiled_section*'`):
+/// `iterations` steps or Jacobians from the warmed-up state, nothing else.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn profiled_section(what: &str, iterations: usize, model: &Model, state: &State<f64>, ctrl: &[f64], prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Result<(), String> {
+    for _ in 0..iterations {
+        match what {
+            "step" => {
+                black_box(model.step(state, ctrl, prm, h).map_err(|e| e.to_string())?);
+            }
+            "jacobian" => {
+                black_box(jacobian_dual64(model, prm, h, nq, nv, x));
+            }
+            other => return Err(format!("unknown --profile {other} (step or jacobian)")),
+        }
+    }
+    Ok(())
+}
+
+fn main() {
+    match run() {
+        Ok(json) => println!("{json}"),
+        Err(e) => {
+            eprintln!("step_cost: {e}");
+            std::process::exit(2);
+        }
+    }
+}
+
+fn run() -> Result<String, String> {
+    let a = parse()?;
+    let scene = a.dir.join("resources").join(scm::sim::SCENE_FILE);
+    let text = std::fs::read_to_string(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+    let mut items = Vec::new();
+    for &integrator in &a.integrators {
+        let sim0 = warmed_up(&a, &scene, integrator)?;
+        let model = sim0.model.clone();
+        let prm = sim0.current.params;
+        let (nq, nv) = (model.tree.nq, model.tree.nv);
+        let x: Vec<f64> = sim0.current.state.q.iter().chain(&sim0.current.state.v).chain(&sim0.current.ctrl).copied().collect();
+        let state = sim0.current.state.clone();
+        let ctrl = sim0.current.ctrl.clone();
+        let h = a.h;
+
+        // Through the C ABI: a fresh instance whose start values are the warmed-up state and
+        // controls, with solver.step = h, so one fmi2DoStep(h) is one internal step of h.
+        let uri = CString::new(format!("file://{}", a.dir.join("resources").display())).map_err(|e| e.to_string())?;
+        let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
+        let name = CString::new("step_cost").map_err(|e| e.to_string())?;
+        let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
+        let mut starts: Vec<(u32, f64)> = Vec::new();
+        let (mut vr_step, mut vr_int) = (None, None);
+        for (var, slot) in sim0.rows() {
+            match *slot {
+                Slot::Q(i) => starts.push((var.value_reference, state.q[i])),
+                Slot::V(i) => starts.push((var.value_reference, state.v[i])),
+                Slot::Ctrl(i) => starts.push((var.value_reference, ctrl[i])),
+                Slot::Param(p) => starts.push((var.value_reference, p.get(&prm))),
+                Slot::SolverStep => vr_step = Some(var.value_reference),
+                Slot::SolverIntegrator => vr_int = Some(var.value_reference),
+                _ => {}
+            }
+        }
+        let (vr_step, vr_int) = (vr_step.ok_or("no solver.step")?, vr_int.ok_or("no solver.integrator")?);
+        let int_name = CString::new(integrator.name()).map_err(|e| e.to_string())?;
+        // SAFETY: pointers valid for the lengths given; strings outlive the instance.
+        let c = unsafe {
+            let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, fmi2False, fmi2False);
+            if c.is_null() {
+                return Err("fmi2Instantiate failed".into());
+            }
+            let ok = |s: fmi2Status| if s == fmi2OK { Ok(()) } else { Err(format!("FMI call returned {s}")) };
+            ok(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0))?;
+            for (vr, v) in &starts {
+                ok(fmi2SetReal(c, vr, 1, v))?;
+            }
+            let p = int_name.as_ptr();
+            ok(fmi2SetString(c, &vr_int, 1, &p))?;
+            ok(fmi2SetReal(c, &vr_step, 1, &h))?;
+            ok(fmi2EnterInitializationMode(c))?;
+            ok(fmi2ExitInitializationMode(c))?;
+            c
+        };
+
+        if let Some((what, iterations)) = &a.profile {
+            profiled_section(what, *iterations, &model, &state, &ctrl, &prm, h, nq, nv, &x)?;
+            unsafe { fmi2FreeInstance(c) };
+            return Ok(format!("{{\"profiled\": \"{what}\", \"iterations\": {iterations}}}"));
+        }
+
+        let mut sim = warmed_up(&a, &scene, integrator)?;
+        let saved = sim.current.clone();
+        // FFI: fmi2DoStep advances the instance; to time the same step each time, restore its
+        // state with fmi2SetFMUstate (itself timed and subtracted).
+        let mut fmu_state: fmi2FMUstate = std::ptr::null_mut();
+        unsafe {
+            if fmi2GetFMUstate(c, &mut fmu_state) != fmi2OK {
+                return Err("fmi2GetFMUstate failed".into());
+            }
+        }
+        let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
+        let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
+        let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
+        let jfd = jacobian_fd(&model, &prm, h, nq, nv, &x);
+        // Every quantity is timed in interleaved rounds (one batch of each per round), so a
+        // change of machine load affects all of them alike and their ratios stay meaningful.
+        let times = time_interleaved(
+            a.budget * 8.0,
+            &mut [
+                &mut || {
+                    black_box(model.step(black_box(&state), &ctrl, &prm, h).expect("step"));
+                },
+                &mut || {
+                    // Restart from the same state each time, so every call times the same step.
+                    sim.current.state.clone_from(&saved.state);
+                    sim.advance(h).expect("advance");
+                },
+                &mut || unsafe {
+                    assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                },
+                &mut || unsafe {
+                    assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                    let s = fmi2DoStep(c, 0.0, h, fmi2True);
+                    assert_eq!(s, fmi2OK, "fmi2DoStep");
+                },
+                &mut || {
+                    black_box(jacobian_dual64(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_vec::<4>(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_vec::<16>(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+                &mut || {
+                    black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x)));
+                },
+            ],
+        );
+        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd] = times[..] else { unreachable!() };
+        let ffi_step = (ffi_with_restore - restore).max(0.0);
+        unsafe {
+            fmi2FreeFMUstate(c, &mut fmu_state);
+            fmi2FreeInstance(c);
+        }
+        let scale = max_abs(&j64).max(1e-300);
+        let vec_err = max_diff(&j64, &j4).max(max_diff(&j64, &j16)) / scale;
+        let distances: Vec<String> = {
+            let kin = model.tree.kinematics(&state.q, &state.v);
+            model.contacts(&kin, &prm).1.iter().map(|p| format!("{:e}", p.distance)).collect()
+        };
+        items.push(format!(
+            "{{\"integrator\": \"{}\", \"h\": {h:e}, \"n_inputs\": {}, \"n_outputs\": {}, \"pair_distances\": [{}], \
+             \"model_step_s\": {model_step:e}, \"engine_step_s\": {engine_step:e}, \"ffi_step_s\": {ffi_step:e}, \"ffi_restore_s\": {restore:e}, \
+             \"jacobian_dual64_s\": {t_j64:e}, \"jacobian_dualvec4_s\": {t_j4:e}, \"jacobian_dualvec16_s\": {t_j16:e}, \"fd_s\": {t_fd:e}, \
+             \"jacobian_vs_fd_rel\": {:e}, \"dualvec_vs_dual64_rel\": {vec_err:e}, \"jacobian_max_abs\": {scale:e}}}",
+            integrator.name(),
+            x.len(),
+            nq + nv,
+            distances.join(", "),
+            max_diff(&j64, &jfd) / scale,
+        ));
+    }
+    Ok(format!("{{\"scene\": \"{}\", \"results\": [{}]}}", scene.display(), items.join(", ")))
+}
