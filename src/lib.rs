@@ -9,6 +9,7 @@
 
 pub mod collision;
 pub mod contact;
+pub mod derivatives;
 pub mod dynamics;
 pub mod fmi;
 pub mod geometry;
