@@ -451,7 +451,8 @@ impl Model {
         // once here, it also gives the contact state for the energy guard.
         let needs_start = self.integrator != Integrator::Sdirk2 || guard;
         let start = if needs_start { Some(self.forward(&state.q, &state.v, &u, prm).map_err(|error| StepFailure::Dynamics { time: t0, step: 1, h: 0.0, error })?) } else { None };
-        let mut monitor = guard.then(|| {
+        let mut monitor = guard
+            .then(|| {
             let e = self.energy(&state.q, &state.v);
             let contact = start.as_ref().map_or(0.0, |f| {
                 f.contacts.iter().filter(|pc| pc.distance.is_finite()).map(|pc| prm.stiffness * ((-pc.distance).max(0.0).powi(2) + prm.eps3 * prm.eps3)).sum::<f64>()
@@ -464,7 +465,9 @@ impl Model {
                 power: self.actuator_power(state, ctrl),
                 floor: self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4),
             }
-        });
+            })
+            // An energy that is already not finite cannot be judged.
+            .filter(|m| m.reference.is_finite() && m.contact.is_finite());
         let a0 = start.map(|f| f.vdot.iter().copied().collect::<Vec<f64>>());
         let mut report = Advanced { state: state.clone(), steps: 0, rejected: 0, min_step: f64::INFINITY, max_step: 0.0 };
         let mut check = |s: &State<f64>, t: f64, step: usize, h: f64| -> Result<(), StepFailure> {
@@ -477,7 +480,7 @@ impl Model {
                 m.work += 0.5 * (m.power + p) * h;
                 m.power = p;
                 let input = m.contact + m.work;
-                let allowed = m.reference + input + 0.5 * (m.kinetic + m.contact + m.work.abs()) + m.floor;
+                let allowed = m.reference + input + 0.5 * (m.kinetic.max(e.kinetic) + m.contact + m.work.abs()) + m.floor;
                 let total = e.total();
                 if !total.is_finite() || total > allowed {
                     return Err(StepFailure::EnergyGrowth { time: t, step, h, from: m.reference, to: total, input });
@@ -524,8 +527,10 @@ impl Model {
             let t = t0 + elapsed;
             let uk = self.inputs_after(&u, elapsed);
             let trial = self.dopri5_step(&s, &uk, prm, h, first.clone());
+            let cause;
             let (err, out) = match trial {
                 Ok(out) => {
+                    cause = self.first_non_finite(&out.state);
                     let x0 = s.q.iter().chain(&s.v);
                     let x1 = out.state.q.iter().chain(&out.state.v);
                     let sum: f64 = out.error.iter().zip(x0.zip(x1)).map(|(e, (a, b))| (e / (tol * (1.0 + a.abs().max(b.abs())))).powi(2)).sum();
@@ -533,7 +538,10 @@ impl Model {
                     (if err.is_finite() { err } else { f64::INFINITY }, Some(out))
                 }
                 // A stage that cannot be evaluated (e.g. a non-finite stage state): reject.
-                Err(_) => (f64::INFINITY, None),
+                Err(e) => {
+                    cause = Some(format!("a stage ({e})"));
+                    (f64::INFINITY, None)
+                }
             };
             if report.steps + report.rejected >= opts.max_steps {
                 return Err(StepFailure::TooManySteps { time: t, steps: opts.max_steps });
@@ -560,7 +568,7 @@ impl Model {
                     rejected_last = true;
                     h *= if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
                     if h < 1e-14 * (1.0 + t.abs()) || h < 1e-12 * duration {
-                        return Err(StepFailure::StepTooSmall { time: t, h, tolerance: tol });
+                        return Err(StepFailure::StepTooSmall { time: t, h, tolerance: tol, cause });
                     }
                 }
             }
@@ -594,11 +602,13 @@ pub struct AdvanceOptions {
     /// springs at the start (contact damping, friction, joint damping and frictionloss
     /// dissipate). An explicit integrator on stiff contact adds energy at every bounce; this
     /// guard stops it long before the state overflows. The test, at the end of every internal
-    /// step, is `E > E₀ + U₀ + W + ½ (T₀ + U₀ + |W|) + E_floor`, with
+    /// step, is `E > E₀ + U₀ + W + ½ (max(T₀, T) + U₀ + |W|) + E_floor`, with
     /// `U₀ ≤ Σ_pairs k (D² + ε3²)` (`D < 0`: the smooth penetration; twice the energy of one
     /// spring `½ k D²` and its softplus tail `k ε3² π²/12`) and `E_floor` the energy of raising
     /// every moving body by 1 mm and moving it at 1 cm/s. The half margin covers the
-    /// integrators' legitimate energy errors (trapezoidal work, `O(hᵖ)` drift). Mocap bodies
+    /// integrators' legitimate energy errors (trapezoidal work, `O(hᵖ)` drift, explicit Euler's
+    /// slow growth); a blow-up, whose kinetic energy `T` soon dwarfs everything else, exceeds it
+    /// once the energy has about doubled. Mocap bodies
     /// put in energy the guard cannot bound: it is off while one moves.
     pub energy_guard: bool,
     /// Most internal steps (accepted and rejected) an adaptive advance may take.
@@ -670,7 +680,7 @@ pub enum StepFailure {
         input: f64,
     },
     /// The adaptive step fell to a size that can no longer advance.
-    #[error("the adaptive step fell to {h:e} s at t = {time} s without meeting the tolerance {tolerance:e} (stiff contact? try sdirk2)")]
+    #[error("the adaptive step fell to {h:e} s at t = {time} s without meeting the tolerance {tolerance:e}{}", cause.as_ref().map(|c| format!(": the last trial step made {c} non-finite")).unwrap_or_else(|| " (stiff contact? try sdirk2)".into()))]
     StepTooSmall {
         /// Time reached (s).
         time: f64,
@@ -678,6 +688,8 @@ pub enum StepFailure {
         h: f64,
         /// `solver.tolerance`.
         tolerance: f64,
+        /// The coordinate the last trial made non-finite, if it did.
+        cause: Option<String>,
     },
     /// The adaptive method needed too many steps.
     #[error("more than {steps} internal steps by t = {time} s (stiff contact? try sdirk2)")]

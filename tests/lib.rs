@@ -7,5 +7,6 @@ mod fmi_fuzz;
 mod fmi_load;
 mod geometry_ssdf;
 mod golden_model_description;
+mod integrators;
 mod scene_errors;
 mod scene_sphere_drop;

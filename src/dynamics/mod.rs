@@ -557,6 +557,19 @@ impl Tree {
         out
     }
 
+    /// Velocity index of the first of the three rotational coordinates of every free and ball
+    /// joint (body-frame angular velocity).
+    pub fn rotation_blocks(&self) -> Vec<usize> {
+        self.joints
+            .iter()
+            .filter_map(|j| match j.kind {
+                JointKind::Free => Some(j.dadr + 3),
+                JointKind::Ball => Some(j.dadr),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Normalizes every quaternion of a configuration in place.
     pub fn normalize_q<T: Scalar>(&self, q: &mut [T]) {
         for j in &self.joints {
