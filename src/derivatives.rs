@@ -5,7 +5,7 @@
 //! - [`forward_jacobian`]: `∂v̇/∂(q, v, u, p)` of forward dynamics [`Model::forward`], contact
 //!   included.
 //! - [`step_jacobian`]: `∂(q', v')/∂(q, v, u, p)` of one step of any integrator
-//!   ([`Model::step_with`]); for the implicit `sdirk2` the derivative of the converged Newton
+//!   ([`Model::step_with`]); for `implicit_euler` the derivative of the converged Newton
 //!   solution (the implicit-function derivative), for `dopri5` of one step of fixed length.
 //! - [`forward_hessians`]: the Hessian of every component of `v̇` with respect to `(q, v, u, p)`.
 //! - [`distance_hessian`]: value, gradient and Hessian of a pair's smooth separation distance `D`

@@ -104,11 +104,12 @@ pub enum DynamicsError {
         /// Length given.
         got: usize,
     },
-    /// The Newton iterations of an implicit stage did not converge.
-    #[error("the implicit integrator's Newton iterations did not converge in stage {stage} (residual {residual:.3e} after {iterations} iterations): reduce the step")]
+    /// The state given to the dynamics is not finite (typically a stage of a diverging step).
+    #[error("the dynamics were asked at a non-finite state: {0} is not finite")]
+    NonFinite(String),
+    /// The Newton iterations of the implicit stage equations did not converge.
+    #[error("the implicit integrator's Newton iterations did not converge (residual {residual:.3e} m/s after {iterations} iterations): reduce the step")]
     NewtonFailed {
-        /// Stage (1-based).
-        stage: usize,
         /// Iterations done.
         iterations: usize,
         /// Max-norm of the last residual (m/s).
@@ -259,6 +260,14 @@ impl Model {
     /// Forward dynamics for a generalized applied force: `v̇ = FD(q, v, τ) = M⁻¹ (τ + τ_passive
     /// - c + Σ Λ)`, contact included. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
     pub fn forward_tau<T: Scalar>(&self, q: &[T], v: &[T], tau: &[T], mocap: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
+        for j in &self.tree.joints {
+            if q[j.qadr..j.qadr + j.kind.nq()].iter().any(|x| !x.re().is_finite()) {
+                return Err(DynamicsError::NonFinite(format!("the position of joint {}", j.name)));
+            }
+            if v[j.dadr..j.dadr + j.kind.nv()].iter().any(|x| !x.re().is_finite()) {
+                return Err(DynamicsError::NonFinite(format!("the velocity of joint {}", j.name)));
+            }
+        }
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (wrenches, contacts) = self.contacts(&kin, prm);
         let zero = vec![T::zero(); self.tree.nv];

@@ -334,7 +334,7 @@ impl Simulation {
         u.extend_from_slice(&mocap);
         let t0 = self.current.time;
         let done = self.model.advance(&self.current.state, &u, &self.current.params, t0, h, &crate::integrate::AdvanceOptions::default()).map_err(|e| {
-            StepError::Discard(format!("{e}; the state is kept at t = {t0} s: retry with a smaller step{}", if self.model.integrator.is_explicit() { ", or the implicit integrator sdirk2" } else { "" }))
+            StepError::Discard(format!("{e}; the state is kept at t = {t0} s: retry with a smaller step{}", if self.model.integrator.is_explicit() { ", or the implicit integrator implicit_euler" } else { "" }))
         })?;
         self.current.state = done.state;
         // Land the mocap bodies exactly on their targets, keeping the step's velocity.

@@ -230,7 +230,7 @@ fn rk4_conserves_energy_with_an_error_shrinking_as_h4() {
 fn contact_between_free_bodies_conserves_linear_momentum() {
     // Two free spheres without gravity, a glancing collision (friction and spin): the contact
     // forces are equal and opposite, so total momentum stays what it was, with every integrator
-    // (each preserves linear invariants; sdirk2 to its Newton tolerance).
+    // (each preserves linear invariants; implicit_euler to its Newton tolerance).
     let text = r#"<mujoco model="billiards">
   <option gravity="0 0 0" timestep="0.001"/>
   <custom>

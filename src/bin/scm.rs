@@ -9,7 +9,7 @@ use std::process::ExitCode;
 const USAGE: &str = "usage:
   scm pack SCENE.xml -o OUT.fmu [--lib PATH/libscm.so]   build an FMU of the scene
   scm simulate SCENE.xml [--duration S] [--step S] [--integrator NAME] [-o OUT.csv]   run natively, write CSV
-        (integrators: euler, semi_implicit_euler, rk4, sdirk2, dopri5; default: the scene's)
+        (integrators: euler, semi_implicit_euler, rk4, implicit_euler, dopri5; default: the scene's)
   scm aopc SCENE.xml BODY                                print a body's AOPC as CSV (body frame)
   scm check SCENE.xml                                    report the scene's contents and problems";
 

@@ -283,8 +283,8 @@ impl Builder {
             Some("Euler") => Some(Integrator::SemiImplicitEuler),
             Some("RK4") => Some(Integrator::Rk4),
             // MuJoCo's implicit integrators are implicit in the velocity-dependent forces; SCM's
-            // implicit method (L-stable SDIRK) covers that and the stiff contact too.
-            Some("implicit") | Some("implicitfast") => Some(Integrator::Sdirk2),
+            // implicit Euler covers that and the stiff contact too.
+            Some("implicit") | Some("implicitfast") => Some(Integrator::ImplicitEuler),
             Some(i) => return Err(self.err(el, format!("integrator=\"{i}\" is not a MuJoCo integrator"))),
         };
         Ok(())
