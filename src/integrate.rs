@@ -233,7 +233,6 @@ fn newton<T: Scalar>(residual: &dyn Fn(&[T]) -> Result<Vec<T>, DynamicsError>, r
         // dx = J⁻¹ r, in the scalar type (J is real).
         let dx: Vec<T> = (0..n).map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)])).collect();
         let dx_re = inf_norm(&re_vec(&dx));
-        let r_norm = inf_norm(&re_vec(&r));
         // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
         // halve the step while the merit does not decrease enough.
         let merit = sq_norm(&re_vec(&r));

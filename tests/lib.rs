@@ -8,5 +8,6 @@ mod fmi_load;
 mod geometry_ssdf;
 mod golden_model_description;
 mod integrators;
+mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;
