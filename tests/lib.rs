@@ -2,6 +2,7 @@
 
 mod common;
 mod contact_pair;
+mod derivatives;
 mod dynamics_tree;
 mod fmi_fuzz;
 mod fmi_load;
