@@ -12,3 +12,4 @@ mod integrators;
 mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;
+mod scenes_dynamics;
