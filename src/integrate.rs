@@ -469,6 +469,16 @@ impl Model {
     /// [`AdvanceOptions::energy_guard`]) an energy growth no input explains fails the whole
     /// call: the caller keeps its state from before.
     pub fn advance(&self, state: &State<f64>, u: &[f64], prm: &ContactParams<f64>, t0: f64, duration: f64, opts: &AdvanceOptions) -> Result<Advanced, StepFailure> {
+        self.advance_cached(state, u, prm, t0, duration, opts, &mut SolverCache::default())
+    }
+
+    /// [`Model::advance`] with a cache carried from one call to the next (the implicit
+    /// method's Newton Jacobian): a caller that advances the state it got from the previous
+    /// call saves a Jacobian per call. The cache only changes where Newton's iterations start,
+    /// not what they converge to (to their tolerance); it is used only for the state and step
+    /// it was left for, so a run is reproducible from any state.
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance_cached(&self, state: &State<f64>, u: &[f64], prm: &ContactParams<f64>, t0: f64, duration: f64, opts: &AdvanceOptions, cache: &mut SolverCache) -> Result<Advanced, StepFailure> {
         let u = if u.len() == self.actuators.len() { [u, &self.tree.mocap0()].concat() } else { u.to_vec() };
         self.split_inputs(&u).map_err(|error| StepFailure::Dynamics { time: t0, step: 0, h: 0.0, error })?;
         let ctrl = &u[..self.actuators.len()];
@@ -522,7 +532,10 @@ impl Model {
             let mut s = state.clone();
             let mut first = a0;
             // The implicit method's Newton Jacobian, carried from step to step while it serves.
-            let mut jac = None;
+            let mut jac = match cache.left {
+                Some((ref s_left, h_left)) if h_left == dt && s_left == state => cache.jacobian.take(),
+                _ => None,
+            };
             for k in 0..n {
                 let t = t0 + (k + 1) as f64 * dt;
                 let uk = self.inputs_after(&u, k as f64 * dt);
@@ -532,6 +545,10 @@ impl Model {
                     i => self.explicit_step(i, &s, &uk, prm, dt, first.take()).map_err(dyn_err)?,
                 };
                 check(&s, t, k + 1, dt)?;
+            }
+            if self.integrator == Integrator::ImplicitEuler {
+                cache.jacobian = jac;
+                cache.left = Some((s.clone(), dt));
             }
             report.state = s;
             report.steps = n;
@@ -602,6 +619,15 @@ impl Model {
             }
         }
     }
+}
+
+/// What [`Model::advance_cached`] carries from one call to the next.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverCache {
+    /// The implicit method's last Newton Jacobian.
+    jacobian: Option<DMatrix<f64>>,
+    /// The state and internal step the cache was left for.
+    left: Option<(State<f64>, f64)>,
 }
 
 /// The energy balance of one [`Model::advance`] call (see [`AdvanceOptions::energy_guard`]).

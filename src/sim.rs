@@ -266,6 +266,8 @@ pub struct Simulation {
     stop_time: Option<f64>,
     /// Contact outputs at the current state, computed on demand.
     outputs: Option<Vec<PairContact<f64>>>,
+    /// What the integrator carries between communication steps (a Newton Jacobian).
+    cache: crate::integrate::SolverCache,
     messages: Vec<LogMessage>,
 }
 
@@ -279,7 +281,7 @@ impl Simulation {
         let mocap_target = mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
         let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, messages }
+        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, cache: Default::default(), messages }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -333,7 +335,7 @@ impl Simulation {
         let mut u = self.current.ctrl.clone();
         u.extend_from_slice(&mocap);
         let t0 = self.current.time;
-        let done = self.model.advance(&self.current.state, &u, &self.current.params, t0, h, &crate::integrate::AdvanceOptions::default()).map_err(|e| {
+        let done = self.model.advance_cached(&self.current.state, &u, &self.current.params, t0, h, &crate::integrate::AdvanceOptions::default(), &mut self.cache).map_err(|e| {
             StepError::Discard(format!("{e}; the state is kept at t = {t0} s: retry with a smaller step{}", if self.model.integrator.is_explicit() { ", or the implicit integrator implicit_euler" } else { "" }))
         })?;
         self.current.state = done.state;
