@@ -43,7 +43,7 @@
 //! `HyperDualSVec64<M, N>` (checked by a test).
 
 use crate::contact::ContactParams;
-use crate::dynamics::{Tree, MOCAP_INPUTS};
+use crate::dynamics::Tree;
 use crate::integrate::{Integrator, State};
 use crate::model::{DynamicsError, Model};
 use crate::scalar::{c, Scalar};
@@ -335,12 +335,23 @@ pub fn forward_jacobian(model: &Model, point: &Point, coords: Coordinates) -> Re
     Ok(Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout })
 }
 
+/// Second derivatives of a vector output with respect to `z = [q, v, u, p]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hessians {
+    /// The output's value at the point.
+    pub value: DVector<f64>,
+    /// One symmetric `n_z × n_z` Hessian per output component.
+    pub hessians: Vec<DMatrix<f64>>,
+    /// Row and column layout of every Hessian.
+    pub layout: Layout,
+}
+
 /// Hessians of every component of `v̇ = FD(q, v, u, p)` with respect to `z = [q, v, u, p]`: one
 /// symmetric `n_z × n_z` matrix per acceleration, with the value.
-pub fn forward_hessians(model: &Model, point: &Point, coords: Coordinates) -> Result<(DVector<f64>, Vec<DMatrix<f64>>, Layout), DynamicsError> {
+pub fn forward_hessians(model: &Model, point: &Point, coords: Coordinates) -> Result<Hessians, DynamicsError> {
     let f = ForwardFn { model, chart: Chart::new(model, point, coords) };
-    let (value, h) = hessians(&f, &f.chart.z0())?;
-    Ok((DVector::from_vec(value), h, f.chart.layout))
+    let (value, hessians) = hessians(&f, &f.chart.z0())?;
+    Ok(Hessians { value: DVector::from_vec(value), hessians, layout: f.chart.layout })
 }
 
 /// One integrator step as a function of `z`, with the next state in the chosen coordinates.
@@ -418,9 +429,4 @@ pub fn distance_hessian(model: &Model, pair: usize, point: &Point, coords: Coord
     let (value, h) = hessians(&f, &x)?;
     let (_, g) = jacobian(&f, &x)?;
     Ok((value[0], g.row(0).transpose(), h.into_iter().next().unwrap_or_else(|| DMatrix::zeros(0, 0))))
-}
-
-/// Number of mocap inputs of a model (re-exported for callers building `u`).
-pub fn mocap_inputs(model: &Model) -> usize {
-    MOCAP_INPUTS * model.tree.mocap.len()
 }

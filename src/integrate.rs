@@ -196,11 +196,16 @@ fn step_residual<T: Scalar>(model: &Model, q0: &[T], v0: &[T], h: T, u: &[T], pr
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
 }
 
+/// A residual function of the implicit step, on the scalar type.
+type Residual<'a, T> = dyn Fn(&[T]) -> Result<Vec<T>, DynamicsError> + 'a;
+/// The Jacobian of a residual at real values.
+type RealJacobian<'a> = dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError> + 'a;
+
 /// Newton's method for `residual(x) = 0` from `guess`, with a real Jacobian (see
 /// [`Integrator::ImplicitEuler`]): backtracking line search; in `f64` a Jacobian is kept (also from
 /// the caller's `jac`) while the iterations contract by 4 or more per step; with dual numbers a
 /// fresh one every iteration.
-fn newton<T: Scalar>(residual: &dyn Fn(&[T]) -> Result<Vec<T>, DynamicsError>, real_jacobian: &dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError>, guess: Vec<T>, jac: &mut Option<DMatrix<f64>>) -> Result<Vec<T>, DynamicsError> {
+fn newton<T: Scalar>(residual: &Residual<T>, real_jacobian: &RealJacobian, guess: Vec<T>, jac: &mut Option<DMatrix<f64>>) -> Result<Vec<T>, DynamicsError> {
     let n = guess.len();
     if n == 0 {
         return Ok(guess);

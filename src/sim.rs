@@ -190,7 +190,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         let (name, unit, desc) = prm.describe();
         push(format!("scm.{name}"), Causality::Parameter, Variability::Tunable, Some(Initial::Exact), real(Some(prm.get(&model.contact)), unit), desc.into(), Slot::Param(prm));
     }
-    push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, "Integrator of the internal steps".into(), Slot::SolverIntegrator);
+    push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, format!("Integrator of the internal steps: one of {}", crate::integrate::Integrator::ALL.map(|i| i.name()).join(", ")), Slot::SolverIntegrator);
     push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.step), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
     push("solver.tolerance".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.tolerance), "1"), "Local error tolerance of the adaptive integrator".into(), Slot::SolverTolerance);
     rows
@@ -328,7 +328,7 @@ impl Simulation {
     /// On failure (a non-finite state, an energy blow-up, a dynamics error) the simulation keeps
     /// everything from before the call and the error says what went wrong and when.
     pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
-        if !(h > 0.0) || !h.is_finite() {
+        if !h.is_finite() || h <= 0.0 {
             return Err(StepError::Error(format!("a step of {h} s refused: it must be positive and finite")));
         }
         let mocap = self.mocap_path(h)?;

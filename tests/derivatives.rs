@@ -215,7 +215,8 @@ impl JacobianOfForward<'_> {
 fn forward_hessians_match_differences_of_the_exact_jacobian() {
     for d in [Dissipation::Paper, Dissipation::Smooth] {
         let (model, point) = t_push_point(d);
-        let (value, hess, layout) = forward_hessians(&model, &point, Coordinates::Embedded).unwrap();
+        let fh = forward_hessians(&model, &point, Coordinates::Embedded).unwrap();
+        let (value, hess, layout) = (fh.value, fh.hessians, fh.layout);
         assert_eq!(value.len(), model.tree.nv);
         assert_eq!(hess.len(), model.tree.nv);
         let z = z0(&model, &point, Coordinates::Embedded);
@@ -253,7 +254,8 @@ fn tangent_hessians_are_embedded_hessians_through_the_exponential_chart() {
     // In tangent coordinates the Hessian is that of f(q ⊕ δ) at δ = 0: check it against central
     // differences of the exact tangent gradient taken in the fixed chart at the point.
     let (model, point) = mocap_point();
-    let (_, hess, layout) = forward_hessians(&model, &point, Coordinates::Tangent).unwrap();
+    let fh = forward_hessians(&model, &point, Coordinates::Tangent).unwrap();
+    let (hess, layout) = (fh.hessians, fh.layout);
     let n = layout.len();
     let z = z0(&model, &point, Coordinates::Tangent);
     // v̇ as a function of z in the fixed chart, and its exact Jacobian there by dual numbers.
@@ -383,7 +385,7 @@ fn smooth_dissipation_gives_continuous_second_derivatives() {
         model.contact.dissipation = d;
         let at = |v: f64| {
             let p = Point { q: vec![0.0], v: vec![v], u: vec![], params: model.contact };
-            forward_hessians(&model, &p, Coordinates::Embedded).unwrap().1[0][(1, 1)]
+            forward_hessians(&model, &p, Coordinates::Embedded).unwrap().hessians[0][(1, 1)]
         };
         let (below, above) = (at(-1e-9), at(1e-9));
         jumps.push((below - above).abs());

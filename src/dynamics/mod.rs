@@ -423,6 +423,8 @@ impl Tree {
 
     /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
     /// included.
+    // Nodes are visited by index: each step reads several per-node arrays and walks parents.
+    #[allow(clippy::needless_range_loop)]
     pub fn mass_matrix<T: Scalar>(&self, kin: &Kinematics<T>) -> DMatrix<T> {
         let n = self.nodes.len();
         let mut ic: Vec<nalgebra::Matrix6<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
