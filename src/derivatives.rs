@@ -181,7 +181,7 @@ pub struct Point {
     pub q: Vec<f64>,
     /// Generalized velocities (`nv`).
     pub v: Vec<f64>,
-    /// Inputs (`Model::nu()`, or only the actuator controls).
+    /// Inputs (`Model::nu()` of them).
     pub u: Vec<f64>,
     /// Contact parameters (their dissipation variant is kept).
     pub params: ContactParams<f64>,

@@ -484,8 +484,8 @@ impl Model {
     /// it was left for, so a run is reproducible from any state.
     #[allow(clippy::too_many_arguments)]
     pub fn advance_cached(&self, state: &State<f64>, u: &[f64], prm: &ContactParams<f64>, t0: f64, duration: f64, opts: &AdvanceOptions, cache: &mut SolverCache) -> Result<Advanced, StepFailure> {
-        let u = if u.len() == self.actuators.len() { [u, &self.tree.mocap0()].concat() } else { u.to_vec() };
-        self.split_inputs(&u).map_err(|error| StepFailure::Dynamics { time: t0, step: 0, h: 0.0, error })?;
+        self.split_inputs(u).map_err(|error| StepFailure::Dynamics { time: t0, step: 0, h: 0.0, error })?;
+        let u = u.to_vec();
         let ctrl = &u[..self.actuators.len()];
         let mocap_moves = (0..self.tree.mocap.len()).any(|m| u[self.actuators.len() + MOCAP_INPUTS * m + 7..][..6].iter().any(|&x| x != 0.0));
         let guard = opts.energy_guard && !mocap_moves;

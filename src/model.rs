@@ -95,7 +95,7 @@ pub enum DynamicsError {
     #[error("the mass matrix is not positive definite (is the configuration finite?)")]
     Singular,
     /// An input vector of the wrong length.
-    #[error("{got} inputs given: expected {expected} (actuator controls, then {per} per mocap body) or {actuators} (actuator controls only)", per = MOCAP_INPUTS)]
+    #[error("{got} inputs given: expected {expected} ({actuators} actuator controls, then {per} per mocap body: Simulation::inputs() gives them)", per = MOCAP_INPUTS)]
     Inputs {
         /// Full length `nu`.
         expected: usize,
@@ -149,11 +149,12 @@ impl Model {
         u
     }
 
-    /// Splits an input vector into actuator controls and mocap inputs. A vector of only the
-    /// actuator controls is accepted too: the mocap bodies are then at their scene poses, at rest.
+    /// Splits an input vector (length [`Model::nu`]) into actuator controls and mocap inputs.
+    /// A vector of another length is an error: in particular, for a scene with mocap bodies, the
+    /// actuator controls alone are refused rather than leaving the mocap bodies somewhere.
     pub fn split_inputs<'a, T>(&self, u: &'a [T]) -> Result<(&'a [T], &'a [T]), DynamicsError> {
         let na = self.actuators.len();
-        if u.len() == self.nu() || u.len() == na {
+        if u.len() == self.nu() {
             Ok((&u[..na], &u[na..]))
         } else {
             Err(DynamicsError::Inputs { expected: self.nu(), actuators: na, got: u.len() })
@@ -249,9 +250,8 @@ impl Model {
     }
 
     /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
-    /// bodies' inputs, see [`Model::nu`]): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
-    ///
-    /// `u` may also hold only the actuator controls (mocap bodies at their scene poses, at rest).
+    /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
+    /// gives them for a running simulation): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
     pub fn forward<T: Scalar>(&self, q: &[T], v: &[T], u: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         self.forward_tau(q, v, self.actuator_forces(q, v, ctrl).as_slice(), mocap, prm)

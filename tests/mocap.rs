@@ -130,3 +130,18 @@ fn the_paddle_pushes_the_box() {
     // It stays on the floor, upright.
     assert!((q.q[2] - 0.05).abs() < 1e-3 && q.q[3].abs() > 0.999, "z {}, quat w {}", q.q[2], q.q[3]);
 }
+
+#[test]
+fn inputs_of_the_wrong_length_are_refused() {
+    // The actuator controls alone (none here) would leave the paddle nowhere: refused, with the
+    // expected length in the message.
+    let sim = mocap_push();
+    let m = &sim.model;
+    let (q, v) = (sim.current.state.q.clone(), sim.current.state.v.clone());
+    let e = m.forward(&q, &v, &[], &m.contact).unwrap_err();
+    assert!(e.to_string().contains("expected 13"), "{e}");
+    let e = m.advance(&sim.current.state, &[0.0; 5], &m.contact, 0.0, 0.01, &Default::default()).unwrap_err();
+    assert!(e.to_string().contains("5 inputs given"), "{e}");
+    // The full vector works.
+    assert!(m.forward(&q, &v, &sim.inputs(), &m.contact).is_ok());
+}
