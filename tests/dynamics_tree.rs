@@ -352,3 +352,20 @@ fn structural_errors_name_the_problem() {
         assert!(e.to_string().contains(words), "'{words}' not in {e}");
     }
 }
+
+#[test]
+fn mujoco_integrator_options_map_to_ours() {
+    let scene = |option: &str, custom: &str| format!(r#"<mujoco model="m"><option {option}/><custom>{custom}</custom><worldbody>
+  <body name="b"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body></worldbody></mujoco>"#);
+    for (mj, ours) in [("Euler", Integrator::SemiImplicitEuler), ("RK4", Integrator::Rk4), ("implicit", Integrator::ImplicitEuler), ("implicitfast", Integrator::ImplicitEuler)] {
+        assert_eq!(model_of(&scene(&format!(r#"integrator="{mj}""#), "")).integrator, ours, "{mj}");
+    }
+    // scm_integrator wins over MuJoCo's option, and every name of ours is accepted.
+    for i in Integrator::ALL {
+        let m = model_of(&scene(r#"integrator="RK4""#, &format!(r#"<text name="scm_integrator" data="{}"/>"#, i.name())));
+        assert_eq!(m.integrator, i);
+        assert_eq!(Integrator::from_name(i.name()), Some(i));
+    }
+    let e = load_str(&scene(r#"integrator="leapfrog""#, ""), Path::new("bad.xml")).unwrap_err();
+    assert!(e.to_string().contains("leapfrog"), "{e}");
+}
