@@ -375,14 +375,16 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
 fn smooth_dissipation_gives_continuous_second_derivatives() {
     // A 1 kg sphere on a vertical slide pressed 1 mm into the floor; its normal velocity crosses
     // 0 (s = v_n / v_d = 0), where the paper's d(s) has a jump in d'' and the smooth one not.
-    let text = r#"<mujoco model="slide"><custom><numeric name="scm_stiffness" data="1e4"/></custom>
+    let text = r#"<mujoco model="slide"><custom><numeric name="scm_stiffness" data="1e4"/>DISSIPATION</custom>
   <worldbody><geom type="plane" size="1 1 0.1"/>
     <body name="b" pos="0 0 0.049"><joint name="z" type="slide" axis="0 0 1"/><geom type="sphere" size="0.05" mass="1"/></body>
   </worldbody></mujoco>"#;
     let mut jumps = Vec::new();
     for d in [Dissipation::Paper, Dissipation::Smooth] {
-        let mut model = crate::dynamics_tree::model_of(text);
-        model.contact.dissipation = d;
+        // Selected by the scene's scm_dissipation (the paper's is the default).
+        let setting = if d == Dissipation::Smooth { r#"<text name="scm_dissipation" data="smooth"/>"# } else { "" };
+        let model = crate::dynamics_tree::model_of(&text.replace("DISSIPATION", setting));
+        assert_eq!(model.contact.dissipation, d);
         let at = |v: f64| {
             let p = Point { q: vec![0.0], v: vec![v], u: vec![], params: model.contact };
             forward_hessians(&model, &p, Coordinates::Embedded).unwrap().hessians[0][(1, 1)]
