@@ -7,10 +7,10 @@
 
 use crate::collision::Collider;
 use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
-use crate::dynamics::{Kinematics, Tree};
+use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
 use crate::integrate::Integrator;
 use crate::scalar::{c, Scalar};
-use nalgebra::DVector;
+use nalgebra::{DVector, Vector3};
 
 /// A pair of bodies whose colliders interact.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,14 +90,99 @@ pub struct Forward<T: Scalar> {
 }
 
 /// Why the dynamics could not be evaluated.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, Clone, thiserror::Error, PartialEq)]
 pub enum DynamicsError {
-    /// The mass matrix is not positive definite (should not happen for a valid model).
-    #[error("the mass matrix is not positive definite")]
+    /// The mass matrix is not positive definite (should not happen for a valid model; a
+    /// non-finite configuration gets here).
+    #[error("the mass matrix is not positive definite (is the configuration finite?)")]
     Singular,
+    /// An input vector of the wrong length.
+    #[error("{got} inputs given: expected {expected} ({actuators} actuator controls, then {per} per mocap body: Simulation::inputs() gives them)", per = MOCAP_INPUTS)]
+    Inputs {
+        /// Full length `nu`.
+        expected: usize,
+        /// Number of actuators.
+        actuators: usize,
+        /// Length given.
+        got: usize,
+    },
+    /// The state given to the dynamics is not finite (typically a stage of a diverging step).
+    #[error("the dynamics were asked at a non-finite state: {0} is not finite")]
+    NonFinite(String),
+    /// The Newton iterations of the implicit stage equations did not converge.
+    #[error("the implicit integrator's Newton iterations did not converge (residual {residual:.3e} m/s after {iterations} iterations): reduce the step")]
+    NewtonFailed {
+        /// Iterations done.
+        iterations: usize,
+        /// Max-norm of the last residual (m/s).
+        residual: f64,
+    },
+}
+
+/// Mechanical energy of a state (J).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Energy<T> {
+    /// Kinetic energy of the bodies with joints, armature included (J).
+    pub kinetic: T,
+    /// Potential energy of gravity, zero at the world origin (J).
+    pub gravity: T,
+    /// Energy stored in joint springs (J).
+    pub springs: T,
+}
+
+impl<T: Scalar> Energy<T> {
+    /// `kinetic + gravity + springs` (J).
+    pub fn total(&self) -> T {
+        self.kinetic + self.gravity + self.springs
+    }
 }
 
 impl Model {
+    /// Number of inputs `u`: the actuator controls, then [`MOCAP_INPUTS`] per mocap body
+    /// (position, quaternion, linear and angular velocity; see [`MOCAP_INPUTS`]).
+    pub fn nu(&self) -> usize {
+        self.actuators.len() + MOCAP_INPUTS * self.tree.mocap.len()
+    }
+
+    /// The inputs at the scene's start: zero controls, mocap bodies at their scene pose at rest.
+    pub fn u0(&self) -> Vec<f64> {
+        let mut u = vec![0.0; self.actuators.len()];
+        u.extend(self.tree.mocap0());
+        u
+    }
+
+    /// Splits an input vector (length [`Model::nu`]) into actuator controls and mocap inputs.
+    /// A vector of another length is an error: in particular, for a scene with mocap bodies, the
+    /// actuator controls alone are refused rather than leaving the mocap bodies somewhere.
+    pub fn split_inputs<'a, T>(&self, u: &'a [T]) -> Result<(&'a [T], &'a [T]), DynamicsError> {
+        let na = self.actuators.len();
+        if u.len() == self.nu() {
+            Ok((&u[..na], &u[na..]))
+        } else {
+            Err(DynamicsError::Inputs { expected: self.nu(), actuators: na, got: u.len() })
+        }
+    }
+
+    /// The inputs `dt` later, with every mocap body moved by its velocity (constant linear and
+    /// body-frame angular velocity: `p + dt·v`, `q ⊗ exp(dt·ω/2)`); controls unchanged.
+    pub fn inputs_after<T: Scalar>(&self, u: &[T], dt: T) -> Vec<T> {
+        let mut out = u.to_vec();
+        let na = self.actuators.len();
+        if u.len() != self.nu() {
+            return out;
+        }
+        for m in 0..self.tree.mocap.len() {
+            let o = na + MOCAP_INPUTS * m;
+            for k in 0..3 {
+                out[o + k] = u[o + k] + u[o + 7 + k] * dt;
+            }
+            let w = Vector3::new(u[o + 10], u[o + 11], u[o + 12]) * dt;
+            let r = quat_from(&u[o + 3..o + 7]) * quat_exp(&w);
+            out[o + 3..o + 7].copy_from_slice(&[r.w, r.i, r.j, r.k]);
+        }
+        out
+    }
+
     /// Contact of every pair and the wrench each body receives (world frame, about its origin).
     pub fn contacts<T: Scalar>(&self, kin: &Kinematics<T>, prm: &ContactParams<T>) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
@@ -117,19 +202,26 @@ impl Model {
         (wrenches, out)
     }
 
-    /// Generalized passive forces: joint springs, dampers and smooth dry friction
-    /// `-F v / sqrt(v_s² + v²)` (SPEC §2), with `v_s` the stiction velocity.
+    /// Generalized passive forces (SPEC §2): viscous damping `-b v`, springs towards the zero
+    /// position (`-k q` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation
+    /// vector of the joint's quaternion: the exact gradient of `½ k |θ|²`), and smooth dry
+    /// friction `-F v / sqrt(v_s² + v²)` per degree of freedom, with `v_s` the stiction velocity.
     pub fn passive_forces<T: Scalar>(&self, q: &[T], v: &[T], stiction_velocity: T) -> DVector<T> {
         let mut tau = DVector::zeros(self.tree.nv);
         for j in &self.tree.joints {
+            let theta = (j.kind == JointKind::Ball && j.stiffness != 0.0).then(|| quat_log(&quat_from(&q[j.qadr..j.qadr + 4])));
             for k in 0..j.kind.nv() {
                 let vi = v[j.dadr + k];
                 let mut t = -vi * j.damping;
                 if j.frictionloss > 0.0 {
                     t -= vi * j.frictionloss / (stiction_velocity * stiction_velocity + vi * vi).sqrt();
                 }
-                if j.kind.nv() == 1 && j.stiffness != 0.0 {
-                    t -= q[j.qadr] * j.stiffness;
+                if j.stiffness != 0.0 {
+                    match (j.kind, &theta) {
+                        (JointKind::Slide | JointKind::Hinge, _) => t -= q[j.qadr] * j.stiffness,
+                        (JointKind::Ball, Some(th)) => t -= th[k] * j.stiffness,
+                        _ => {}
+                    }
                 }
                 tau[j.dadr + k] += t;
             }
@@ -137,7 +229,8 @@ impl Model {
         tau
     }
 
-    /// Generalized actuator forces for controls `ctrl` (clamped to their ranges).
+    /// Generalized actuator forces for controls `ctrl` (clamped to their ranges: the derivative
+    /// with respect to a clamped control is zero).
     pub fn actuator_forces<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T]) -> DVector<T> {
         let mut tau = DVector::zeros(self.tree.nv);
         for (a, &u) in self.actuators.iter().zip(ctrl) {
@@ -158,22 +251,40 @@ impl Model {
         tau
     }
 
-    /// Forward dynamics `v̇ = M⁻¹ (τ_act + τ_passive - c + Σ Λ)` (paper eq. 28).
-    pub fn forward<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
-        let kin = self.tree.kinematics(q, v);
+    /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
+    /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
+    /// gives them for a running simulation): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
+    pub fn forward<T: Scalar>(&self, q: &[T], v: &[T], u: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        self.forward_tau(q, v, self.actuator_forces(q, v, ctrl).as_slice(), mocap, prm)
+    }
+
+    /// Forward dynamics for a generalized applied force: `v̇ = FD(q, v, τ) = M⁻¹ (τ + τ_passive
+    /// - c + Σ Λ)`, contact included. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
+    pub fn forward_tau<T: Scalar>(&self, q: &[T], v: &[T], tau: &[T], mocap: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
+        for j in &self.tree.joints {
+            if q[j.qadr..j.qadr + j.kind.nq()].iter().any(|x| !x.re().is_finite()) {
+                return Err(DynamicsError::NonFinite(format!("the position of joint {}", j.name)));
+            }
+            if v[j.dadr..j.dadr + j.kind.nv()].iter().any(|x| !x.re().is_finite()) {
+                return Err(DynamicsError::NonFinite(format!("the velocity of joint {}", j.name)));
+            }
+        }
+        let kin = self.tree.kinematics_with(q, v, mocap);
         let (wrenches, contacts) = self.contacts(&kin, prm);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
-        let rhs = self.actuator_forces(q, v, ctrl) + self.passive_forces(q, v, prm.stiction_velocity) - bias;
+        let rhs = DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity) - bias;
         let m = self.tree.mass_matrix(&kin);
         let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
         Ok(Forward { vdot, contacts })
     }
 
-    /// Inverse dynamics (paper eq. 27): the actuation `τ = M v̇ + c - Σ Λ - τ_passive` that
-    /// produces accelerations `vdot`.
-    pub fn inverse<T: Scalar>(&self, q: &[T], v: &[T], vdot: &[T], prm: &ContactParams<T>) -> DVector<T> {
-        let kin = self.tree.kinematics(q, v);
+    /// Inverse dynamics (paper eq. 27): the generalized actuation `τ = ID(q, v, v̇) = M v̇ + c -
+    /// Σ Λ - τ_passive` that produces accelerations `vdot`, contact included, so that
+    /// `ID(q, v, FD(q, v, τ)) = τ`. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
+    pub fn inverse<T: Scalar>(&self, q: &[T], v: &[T], vdot: &[T], mocap: &[T], prm: &ContactParams<T>) -> DVector<T> {
+        let kin = self.tree.kinematics_with(q, v, mocap);
         let (wrenches, _) = self.contacts(&kin, prm);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches) - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia.
@@ -183,5 +294,45 @@ impl Model {
             }
         }
         tau
+    }
+
+    /// Mechanical energy of a state, computed from the bodies' motion (not from `M`): kinetic
+    /// energy `Σ ½ m |v_com|² + ½ ωᵀ I_c ω + Σ ½ armature v²`, gravity `-Σ m gᵀ x_com`, springs
+    /// `½ k q²` (slide, hinge) and `½ k |θ|²` (ball). Mocap bodies are not counted.
+    pub fn energy<T: Scalar>(&self, q: &[T], v: &[T]) -> Energy<T> {
+        let kin = self.tree.kinematics(q, v);
+        let g = self.tree.gravity.map(c::<T>);
+        let (mut kinetic, mut gravity, mut springs) = (T::zero(), T::zero(), T::zero());
+        for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
+            if body.mocap || body.inertia.mass <= 0.0 {
+                continue;
+            }
+            let f = &kin.frames[b];
+            let arm = f.rotation * body.inertia.com.map(c::<T>);
+            let vcom = f.linvel + f.angvel.cross(&arm);
+            let wb = f.rotation.transpose() * f.angvel;
+            let m = c::<T>(body.inertia.mass);
+            kinetic += m * vcom.dot(&vcom) * 0.5 + wb.dot(&(body.inertia.rot.map(c::<T>) * wb)) * 0.5;
+            gravity -= m * g.dot(&(f.origin + arm));
+        }
+        for j in &self.tree.joints {
+            for k in 0..j.kind.nv() {
+                kinetic += v[j.dadr + k] * v[j.dadr + k] * (0.5 * j.armature);
+            }
+            match j.kind {
+                JointKind::Slide | JointKind::Hinge => springs += q[j.qadr] * q[j.qadr] * (0.5 * j.stiffness),
+                JointKind::Ball if j.stiffness != 0.0 => {
+                    let th = quat_log(&quat_from(&q[j.qadr..j.qadr + 4]));
+                    springs += th.dot(&th) * (0.5 * j.stiffness);
+                }
+                _ => {}
+            }
+        }
+        Energy { kinetic, gravity, springs }
+    }
+
+    /// Total mass of the bodies that move (kg).
+    pub fn moving_mass(&self) -> f64 {
+        (1..self.tree.bodies.len()).filter(|&b| self.tree.body_moves(b)).map(|b| self.tree.bodies[b].inertia.mass).sum()
     }
 }

@@ -97,6 +97,9 @@ pub enum Slot {
     V(usize),
     /// An actuator control.
     Ctrl(usize),
+    /// Input pose of mocap body `m` (index into `Tree::mocap`): `k` = 0..3 position x, y, z (m,
+    /// world frame), 3..7 quaternion w, x, y, z.
+    Mocap(usize, usize),
     /// A contact parameter.
     Param(Param),
     /// Force on the pair's first body, world axis.
@@ -174,6 +177,17 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         let jn = &model.tree.joints[a.joint].name;
         push(format!("{}.ctrl", a.name), Causality::Input, Variability::Continuous, None, VarType::Real { start: Some(0.0), unit: None, derivative: None }, format!("Control of actuator {} on joint {jn}", a.name), Slot::Ctrl(i));
     }
+    let mocap0 = model.tree.mocap0();
+    for (m, &b) in model.tree.mocap.iter().enumerate() {
+        let name = &model.tree.bodies[b].name;
+        let start = |k: usize| mocap0[crate::dynamics::MOCAP_INPUTS * m + k];
+        for (k, a) in AXES.iter().enumerate() {
+            push(format!("{name}.pos.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(k)), "m"), format!("Position of mocap body {name} (world frame), reached at the end of the next communication step"), Slot::Mocap(m, k));
+        }
+        for (k, a) in ["w", "x", "y", "z"].iter().enumerate() {
+            push(format!("{name}.quat.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(3 + k)), "1"), format!("Orientation quaternion of mocap body {name} (normalized on use), reached at the end of the next communication step"), Slot::Mocap(m, 3 + k));
+        }
+    }
     for (p, pair) in model.pairs.iter().enumerate() {
         let (na, nb) = (&model.tree.bodies[pair.a].name, &model.tree.bodies[pair.b].name);
         for (k, a) in AXES.iter().enumerate() {
@@ -193,7 +207,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         let (name, unit, desc) = prm.describe();
         push(format!("scm.{name}"), Causality::Parameter, Variability::Tunable, Some(Initial::Exact), real(Some(prm.get(&model.contact)), unit), desc.into(), Slot::Param(prm));
     }
-    push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, "Integrator of the internal steps".into(), Slot::SolverIntegrator);
+    push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, format!("Integrator of the internal steps: one of {}", crate::integrate::Integrator::ALL.map(|i| i.name()).join(", ")), Slot::SolverIntegrator);
     push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.step), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
     push("solver.tolerance".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.tolerance), "1"), "Local error tolerance of the adaptive integrator".into(), Slot::SolverTolerance);
     push_derivative_rows(&mut rows);
@@ -271,6 +285,12 @@ pub struct SimState {
     pub ctrl: Vec<f64>,
     /// Contact parameters (tunable).
     pub params: ContactParams<f64>,
+    /// Mocap bodies at `time`: `MOCAP_INPUTS` numbers each (pose, and the velocity of the last
+    /// communication step), the mocap part of the model's inputs `u`.
+    pub mocap: Vec<f64>,
+    /// Mocap inputs as set by the host (7 per body: position, quaternion): the pose each mocap
+    /// body reaches at the end of the next communication step.
+    pub mocap_target: Vec<f64>,
 }
 
 /// What `fmi2GetFMUstate` saves: the time-varying state and the solver settings (which the
@@ -285,6 +305,9 @@ pub struct FmuState {
     pub step: f64,
     /// Local error tolerance.
     pub tolerance: f64,
+    /// What the integrator carries between communication steps (the implicit method's Newton
+    /// Jacobian): part of the state, since the next step's last bits depend on it.
+    pub solver_cache: crate::integrate::SolverCache,
 }
 
 /// A quaternion whose norm differs from 1 by more than this after a step of the host's solver
@@ -292,7 +315,8 @@ pub struct FmuState {
 /// [`Simulation::quaternion_drift`]).
 pub const QUATERNION_DRIFT_TOLERANCE: f64 = 1e-6;
 
-/// Soft top-K contact points per pair, with the positions and ε1, ε2 they belong to.
+/// Soft top-K contact points per pair, with the positions (`q`, then the mocap poses) and ε1, ε2
+/// they belong to.
 type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 
 /// A simulation of a scene.
@@ -309,6 +333,8 @@ pub struct Simulation {
     outputs: Option<Vec<PairContact<f64>>>,
     /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
     points: Option<PointsCache>,
+    /// What the integrator carries between communication steps (a Newton Jacobian).
+    cache: crate::integrate::SolverCache,
     messages: Vec<LogMessage>,
     /// Accelerations `v̇` and the (time, state, controls, parameters) they were computed at.
     accelerations: Option<(SimState, Vec<f64>)>,
@@ -324,10 +350,12 @@ impl Simulation {
         let model = scene.model;
         let rows = variable_table(&model);
         let info = model_info(&model, scene_text, &rows);
-        let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact };
+        let mocap = model.tree.mocap0();
+        let mocap_target = mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
+        let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, messages, accelerations: None, start_solver, log_contact: false }
+        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -345,10 +373,17 @@ impl Simulation {
         self.rows.get(vr as usize).ok_or_else(|| format!("unknown value reference {vr}"))
     }
 
+    /// The model's inputs `u` at the current time (see [`Model::nu`]): actuator controls, then
+    /// each mocap body's pose and velocity. This is what [`Model::forward`] and
+    /// [`Model::step`] take.
+    pub fn inputs(&self) -> Vec<f64> {
+        [self.current.ctrl.as_slice(), self.current.mocap.as_slice()].concat()
+    }
+
     /// Contact of every pair at the current state.
     pub fn contacts(&mut self) -> &[PairContact<f64>] {
         if self.outputs.is_none() {
-            let kin = self.model.tree.kinematics(&self.current.state.q, &self.current.state.v);
+            let kin = self.model.tree.kinematics_with(&self.current.state.q, &self.current.state.v, &self.current.mocap);
             self.outputs = Some(self.model.contacts(&kin, &self.current.params).1);
         }
         self.outputs.as_deref().unwrap_or(&[])
@@ -358,9 +393,9 @@ impl Simulation {
     /// until the positions or ε1, ε2 change.
     pub fn contact_points(&mut self) -> &[Vec<nalgebra::Vector3<f64>>] {
         let (q, e1, e2) = (&self.current.state.q, self.current.params.eps1, self.current.params.eps2);
-        let fresh = matches!(&self.points, Some((pq, p1, p2, _)) if pq == q && *p1 == e1 && *p2 == e2);
+        let fresh = matches!(&self.points, Some((pq, p1, p2, _)) if *pq == [q.as_slice(), &self.current.mocap].concat() && *p1 == e1 && *p2 == e2);
         if !fresh {
-            let kin = self.model.tree.kinematics(q, &self.current.state.v);
+            let kin = self.model.tree.kinematics_with(q, &self.current.state.v, &self.current.mocap);
             let pts = self
                 .model
                 .pairs
@@ -370,32 +405,66 @@ impl Simulation {
                     _ => Vec::new(),
                 })
                 .collect();
-            self.points = Some((q.clone(), e1, e2, pts));
+            self.points = Some(([q.as_slice(), &self.current.mocap].concat(), e1, e2, pts));
         }
         self.points.as_ref().map(|p| p.3.as_slice()).unwrap_or(&[])
     }
 
-    /// Advances by `h` in equal internal steps no longer than `solver.step`, landing exactly on
-    /// `time + h`. On a non-finite state the simulation keeps its state from before the call.
+    /// Advances by `h` (s), landing exactly on `time + h`: in equal internal steps no longer than
+    /// `solver.step`, or adaptive ones for `dopri5` (see [`Model::advance`]).
+    ///
+    /// Mocap bodies move from their pose at `time` to the pose last set through their inputs
+    /// (`B.pos`, `B.quat`), reached exactly at `time + h`, with constant linear and angular
+    /// velocity (position: linear interpolation; orientation: the constant-rate rotation
+    /// `q ⊗ exp(t ω/2)`, ω = log(q⁻¹ ⊗ q_target)/h): the velocity the contact model sees is the
+    /// input's rate over the communication step, and it is kept as the mocap body's velocity for
+    /// the outputs at `time + h`.
+    ///
+    /// On failure (a non-finite state, an energy blow-up, a dynamics error) the simulation keeps
+    /// everything from before the call and the error says what went wrong and when.
     pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
-        let n = ((h / self.model.step) * (1.0 - 1e-12)).ceil().max(1.0) as usize;
-        let dt = h / n as f64;
-        let mut s = self.current.state.clone();
-        for k in 0..n {
-            s = self.model.step(&s, &self.current.ctrl, &self.current.params, dt).map_err(|e| StepError::Discard(format!("at t = {} s: {e}", self.current.time + k as f64 * dt)))?;
-            if let Some(bad) = first_non_finite(&self.model, &s) {
-                return Err(StepError::Discard(format!(
-                    "the state diverged: {bad} became non-finite at t = {} s (internal step {} of {n}, dt = {dt} s); the state is kept at t = {} s: retry with a smaller step, or a stiffer-stable integrator",
-                    self.current.time + (k + 1) as f64 * dt,
-                    k + 1,
-                    self.current.time
-                )));
-            }
+        if !h.is_finite() || h <= 0.0 {
+            return Err(StepError::Error(format!("a step of {h} s refused: it must be positive and finite")));
         }
-        self.current.state = s;
+        let mocap = self.mocap_path(h)?;
+        let mut u = self.current.ctrl.clone();
+        u.extend_from_slice(&mocap);
+        let t0 = self.current.time;
+        let done = self.model.advance_cached(&self.current.state, &u, &self.current.params, t0, h, &crate::integrate::AdvanceOptions::default(), &mut self.cache).map_err(|e| {
+            StepError::Discard(format!("{e}; the state is kept at t = {t0} s: retry with a smaller step{}", if self.model.integrator.is_explicit() { ", or the implicit integrator implicit_euler" } else { "" }))
+        })?;
+        self.current.state = done.state;
+        // Land the mocap bodies exactly on their targets, keeping the step's velocity.
+        self.current.mocap = mocap;
+        for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
+            let o = crate::dynamics::MOCAP_INPUTS * m;
+            let q = crate::dynamics::quat_from(&target[3..7]);
+            self.current.mocap[o..o + 7].copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
+        }
         self.current.time += h;
         self.outputs = None;
         Ok(())
+    }
+
+    /// The mocap part of the inputs for a communication step of `h` (s): the current poses with
+    /// the velocities that reach the targets at its end.
+    fn mocap_path(&self, h: f64) -> Result<Vec<f64>, StepError> {
+        let mut out = self.current.mocap.clone();
+        for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
+            let o = crate::dynamics::MOCAP_INPUTS * m;
+            let name = &self.model.tree.bodies[self.model.tree.mocap[m]].name;
+            if target[3..7].iter().all(|&x| x == 0.0) {
+                return Err(StepError::Error(format!("{name}.quat is zero: set a non-zero orientation quaternion")));
+            }
+            let q0 = crate::dynamics::quat_from(&out[o + 3..o + 7]);
+            let q1 = crate::dynamics::quat_from(&target[3..7]);
+            let w = crate::dynamics::quat_log(&(q0.conjugate() * q1)) / h;
+            for k in 0..3 {
+                out[o + 7 + k] = (target[k] - out[o + k]) / h;
+                out[o + 10 + k] = w[k];
+            }
+        }
+        Ok(out)
     }
 
     fn check_finite(name: &str, value: f64) -> ModelResult<()> {
@@ -407,19 +476,10 @@ impl Simulation {
     }
 }
 
-/// Name of the first non-finite coordinate of a state, if any.
+/// Name of the first non-finite coordinate of a state, if any (see
+/// [`Model::first_non_finite`]).
 pub fn first_non_finite(model: &Model, s: &State<f64>) -> Option<String> {
-    for j in &model.tree.joints {
-        let bad_q = (j.qadr..j.qadr + j.kind.nq()).any(|i| !s.q[i].is_finite());
-        let bad_v = (j.dadr..j.dadr + j.kind.nv()).any(|i| !s.v[i].is_finite());
-        if bad_q {
-            return Some(format!("the position of joint {}", j.name));
-        }
-        if bad_v {
-            return Some(format!("the velocity of joint {}", j.name));
-        }
-    }
-    None
+    model.first_non_finite(s)
 }
 
 /// Model Exchange, directional derivatives and diagnostics.
@@ -428,10 +488,10 @@ impl Simulation {
     /// distinct state: the cache is keyed by the state itself, so no code path can leave it
     /// stale).
     pub fn accelerations(&mut self) -> ModelResult<&[f64]> {
-        let fresh = matches!(&self.accelerations, Some((at, _)) if at.state == self.current.state && at.ctrl == self.current.ctrl && at.params == self.current.params);
+        let fresh = matches!(&self.accelerations, Some((at, _)) if at.state == self.current.state && at.ctrl == self.current.ctrl && at.mocap == self.current.mocap && at.params == self.current.params);
         if !fresh {
             let c = &self.current;
-            let f = self.model.forward(&c.state.q, &c.state.v, &c.ctrl, &c.params).map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
+            let f = self.model.forward(&c.state.q, &c.state.v, &self.inputs(), &c.params).map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
             self.accelerations = Some((self.current.clone(), f.vdot.iter().copied().collect()));
         }
         Ok(self.accelerations.as_ref().map(|(_, a)| a.as_slice()).unwrap_or_default())
@@ -544,6 +604,7 @@ impl FmiModel for Simulation {
     fn reset(&mut self) -> ModelResult<()> {
         self.current = self.start.clone();
         (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
+        self.cache = Default::default();
         self.stop_time = None;
         self.outputs = None;
         self.messages.push(LogMessage { category: LogCategory::Events, text: "reset to the start values".into() });
@@ -561,6 +622,7 @@ impl FmiModel for Simulation {
             Slot::Q(i) => self.current.state.q[i],
             Slot::V(i) => self.current.state.v[i],
             Slot::Ctrl(i) => self.current.ctrl[i],
+            Slot::Mocap(m, k) => self.current.mocap_target[7 * m + k],
             Slot::Param(p) => p.get(&self.current.params),
             Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
             Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
@@ -587,6 +649,18 @@ impl FmiModel for Simulation {
                 }
             }
             Slot::Ctrl(i) => self.current.ctrl[i] = value,
+            Slot::Mocap(m, k) => {
+                // Before initialization the pose is set at once (at rest); later it is the
+                // target the next communication step moves to.
+                self.current.mocap_target[7 * m + k] = value;
+                if before_init {
+                    let o = crate::dynamics::MOCAP_INPUTS * m;
+                    self.current.mocap[o + k] = value;
+                    self.current.mocap[o + 7..o + 13].fill(0.0);
+                    self.start.mocap = self.current.mocap.clone();
+                    self.start.mocap_target = self.current.mocap_target.clone();
+                }
+            }
             Slot::Param(p) => {
                 if !p.accepts(value) {
                     return Err(format!("{} = {value} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
@@ -650,7 +724,7 @@ impl FmiModel for Simulation {
     }
 
     fn get_state(&self) -> ModelResult<FmuState> {
-        Ok(FmuState { sim: self.current.clone(), integrator: self.model.integrator, step: self.model.step, tolerance: self.model.tolerance })
+        Ok(FmuState { sim: self.current.clone(), integrator: self.model.integrator, step: self.model.step, tolerance: self.model.tolerance, solver_cache: self.cache.clone() })
     }
 
     fn set_state(&mut self, state: &FmuState) -> ModelResult<()> {
@@ -660,6 +734,7 @@ impl FmiModel for Simulation {
         }
         self.current = state.sim.clone();
         (self.model.integrator, self.model.step, self.model.tolerance) = (state.integrator, state.step, state.tolerance);
+        self.cache = state.solver_cache.clone();
         self.outputs = None;
         Ok(())
     }

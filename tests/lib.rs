@@ -2,6 +2,8 @@
 
 mod common;
 mod contact_pair;
+mod derivatives;
+mod dynamics_tree;
 mod fmi_fuzz;
 mod fmi_load;
 mod fmu_documentation;
@@ -12,5 +14,8 @@ mod geometry_shapes;
 mod geometry_ssdf;
 mod golden_model_description;
 mod host_fmi_crate;
+mod integrators;
+mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;
+mod scenes_dynamics;

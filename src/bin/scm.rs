@@ -8,7 +8,8 @@ use std::process::ExitCode;
 
 const USAGE: &str = "usage:
   scm pack SCENE.xml -o OUT.fmu [--lib PATH/libscm.so]   build an FMU of the scene
-  scm simulate SCENE.xml [--duration S] [--step S] [-o OUT.csv]   run natively, write CSV
+  scm simulate SCENE.xml [--duration S] [--step S] [--integrator NAME] [-o OUT.csv]   run natively, write CSV
+        (integrators: euler, semi_implicit_euler, rk4, implicit_euler, dopri5; default: the scene's)
   scm aopc SCENE.xml BODY                                print a body's AOPC as CSV (body frame)
   scm check SCENE.xml                                    report the scene's contents and problems";
 
@@ -55,8 +56,13 @@ fn run(args: &[String]) -> Result<(), String> {
             let duration = number(take_opt(&mut args, &["--duration"])?, "--duration", 1.0)?;
             let out = take_opt(&mut args, &["-o", "--output"])?;
             let comm = take_opt(&mut args, &["--step"])?;
+            let integrator = take_opt(&mut args, &["--integrator"])?;
             let [scene] = positional(&args, &["SCENE.xml"])?;
             let mut sim = Simulation::from_file(Path::new(&scene)).map_err(|e| e.to_string())?;
+            if let Some(name) = integrator {
+                sim.model.integrator = scm::integrate::Integrator::from_name(&name)
+                    .ok_or_else(|| format!("--integrator {name}: known integrators are {}", scm::integrate::Integrator::ALL.map(|i| i.name()).join(", ")))?;
+            }
             let h = number(comm, "--step", sim.model.step.max(0.01))?;
             simulate(&mut sim, duration, h, out.map(PathBuf::from))
         }

@@ -6,6 +6,11 @@
 //! slide y and hinge z). Internally each joint is a node of the tree, applied in order in the
 //! frame left by the previous ones; the body's inertia sits on its last node. A body without
 //! joints is one fixed node (welded to its parent).
+//!
+//! A *mocap* body (MJCF `mocap="true"`) is a top-level body without joints whose pose and
+//! velocity are inputs: it moves kinematically, pushes what it touches and is pushed by nothing.
+//! Its pose and velocity enter [`Tree::kinematics_with`] as [`MOCAP_INPUTS`] numbers per mocap
+//! body (see [`Tree::mocap`]).
 
 pub mod spatial;
 
@@ -87,7 +92,14 @@ pub struct Body {
     pub inertia: Inertia,
     /// Joints, in the order they are applied.
     pub joints: Vec<usize>,
+    /// Whether the body is a mocap body: top-level, no joints, pose and velocity from inputs.
+    pub mocap: bool,
 }
+
+/// Numbers per mocap body in an input vector: position (3, m, world frame), orientation
+/// quaternion `w x y z` (4, normalized on use), linear velocity of the body origin (3, m/s,
+/// world frame), angular velocity (3, rad/s, body frame, as for free joints).
+pub const MOCAP_INPUTS: usize = 13;
 
 #[derive(Clone, Debug, PartialEq)]
 struct Node {
@@ -113,6 +125,8 @@ pub struct Tree {
     pub nq: usize,
     /// Number of velocity coordinates.
     pub nv: usize,
+    /// Mocap bodies, in scene order (their inputs come in this order).
+    pub mocap: Vec<usize>,
     nodes: Vec<Node>,
     /// Node whose frame is the body frame, per body (`None` for the world).
     body_node: Vec<Option<usize>>,
@@ -130,6 +144,9 @@ pub enum TreeError {
     /// A body listed before its parent.
     #[error("body '{0}' comes before its parent")]
     Order(String),
+    /// A mocap body that is not a joint-less child of the world, or that has child bodies.
+    #[error("mocap body '{0}' must be a child of the world without joints and without child bodies")]
+    MocapPlacement(String),
 }
 
 impl Tree {
@@ -138,10 +155,17 @@ impl Tree {
         let mut nodes = Vec::new();
         let mut body_node = vec![None; bodies.len()];
         let (mut nq, mut nv) = (0, 0);
+        let mut mocap = Vec::new();
         for (b, body) in bodies.iter().enumerate().skip(1) {
             let parent = body.parent.unwrap_or(0);
             if parent >= b {
                 return Err(TreeError::Order(body.name.clone()));
+            }
+            if body.mocap {
+                if parent != 0 || !body.joints.is_empty() || bodies.iter().any(|o| o.parent == Some(b)) {
+                    return Err(TreeError::MocapPlacement(body.name.clone()));
+                }
+                mocap.push(b);
             }
             let parent_node = body_node[parent];
             if body.joints.is_empty() {
@@ -164,7 +188,7 @@ impl Tree {
             }
             body_node[b] = Some(nodes.len() - 1);
         }
-        let tree = Tree { bodies, joints, gravity, nq, nv, nodes, body_node };
+        let tree = Tree { bodies, joints, gravity, nq, nv, mocap, nodes, body_node };
         for (b, body) in tree.bodies.iter().enumerate().skip(1) {
             let moves = tree.body_moves(b);
             let i = &body.inertia;
@@ -184,6 +208,18 @@ impl Tree {
             b = self.bodies[b].parent.unwrap_or(0);
         }
         false
+    }
+
+    /// The inputs of every mocap body at its scene pose, at rest ([`MOCAP_INPUTS`] per body).
+    pub fn mocap0(&self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(MOCAP_INPUTS * self.mocap.len());
+        for &b in &self.mocap {
+            let o = &self.bodies[b].offset;
+            let (t, r) = (o.translation.vector, o.rotation.quaternion());
+            out.extend_from_slice(&[t.x, t.y, t.z, r.w, r.i, r.j, r.k]);
+            out.extend_from_slice(&[0.0; 6]);
+        }
+        out
     }
 
     /// Initial configuration: free joints at their body's offset, quaternions identity, the
@@ -257,8 +293,19 @@ pub struct Kinematics<T: Scalar> {
 }
 
 impl Tree {
-    /// Forward kinematics: frames, spatial velocities and motion subspaces.
+    /// Forward kinematics with every mocap body at its scene pose, at rest.
     pub fn kinematics<T: Scalar>(&self, q: &[T], v: &[T]) -> Kinematics<T> {
+        self.kinematics_with(q, v, &[])
+    }
+
+    /// Forward kinematics: frames, spatial velocities and motion subspaces. `mocap` holds
+    /// [`MOCAP_INPUTS`] numbers per mocap body (in [`Tree::mocap`] order), or is empty for the
+    /// scene poses at rest.
+    ///
+    /// # Panics
+    /// If `mocap` is neither empty nor of length `MOCAP_INPUTS · mocap bodies`.
+    pub fn kinematics_with<T: Scalar>(&self, q: &[T], v: &[T], mocap: &[T]) -> Kinematics<T> {
+        assert!(mocap.is_empty() || mocap.len() == MOCAP_INPUTS * self.mocap.len(), "{} mocap inputs for {} mocap bodies", mocap.len(), self.mocap.len());
         let n = self.nodes.len();
         let mut x = Vec::with_capacity(n);
         let mut s = Vec::with_capacity(n);
@@ -268,6 +315,20 @@ impl Tree {
         for node in &self.nodes {
             let off = lift_iso::<T>(&node.offset);
             let (xj, cols, cj): (Transform<T>, Vec<Vector6<T>>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
+                None if self.bodies[node.body].mocap && !mocap.is_empty() => {
+                    // A mocap body: its world pose and velocity are inputs (it is top-level).
+                    let m = &mocap[MOCAP_INPUTS * self.mocap.iter().position(|&b| b == node.body).unwrap_or(0)..];
+                    let r = quat_matrix(&quat_from(&m[3..7]));
+                    let xi = Transform { rotation: r, translation: Vector3::new(m[0], m[1], m[2]) };
+                    let linvel = Vector3::new(m[7], m[8], m[9]);
+                    let angvel = Vector3::new(m[10], m[11], m[12]);
+                    x.push(xi);
+                    world.push(xi);
+                    vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
+                    bias_acc.push(Vector6::zeros());
+                    s.push(vec![]);
+                    continue;
+                }
                 None => (Transform::identity(), vec![], Vector6::zeros()),
                 Some(j) => {
                     let qa = j.qadr;
@@ -362,6 +423,8 @@ impl Tree {
 
     /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
     /// included.
+    // Nodes are visited by index: each step reads several per-node arrays and walks parents.
+    #[allow(clippy::needless_range_loop)]
     pub fn mass_matrix<T: Scalar>(&self, kin: &Kinematics<T>) -> DMatrix<T> {
         let n = self.nodes.len();
         let mut ic: Vec<nalgebra::Matrix6<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
@@ -496,6 +559,19 @@ impl Tree {
         out
     }
 
+    /// Velocity index of the first of the three rotational coordinates of every free and ball
+    /// joint (body-frame angular velocity).
+    pub fn rotation_blocks(&self) -> Vec<usize> {
+        self.joints
+            .iter()
+            .filter_map(|j| match j.kind {
+                JointKind::Free => Some(j.dadr + 3),
+                JointKind::Ball => Some(j.dadr),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Normalizes every quaternion of a configuration in place.
     pub fn normalize_q<T: Scalar>(&self, q: &mut [T]) {
         for j in &self.joints {
@@ -523,6 +599,55 @@ pub fn quat_exp<T: Scalar>(theta: &Vector3<T>) -> Quaternion<T> {
         ((a * 0.5).cos(), (a * 0.5).sin() / a)
     };
     Quaternion::new(cos_half, theta.x * sinc_half, theta.y * sinc_half, theta.z * sinc_half)
+}
+
+/// Rotation vector `θ` of a quaternion (the inverse of [`quat_exp`]): `q = ±exp(θ/2)`, with the
+/// sign chosen so that `|θ| ≤ π`. Smooth away from `|θ| = π` (series near `θ = 0`, branching on
+/// the real part only). The quaternion need not be normalized.
+pub fn quat_log<T: Scalar>(q: &Quaternion<T>) -> Vector3<T> {
+    // q and -q are the same rotation: take the one with w ≥ 0 (shortest rotation).
+    let q = if q.w.re() < 0.0 { -*q } else { *q };
+    let v = Vector3::new(q.i, q.j, q.k);
+    let s2 = v.dot(&v);
+    let w = q.w;
+    // θ = 2 atan2(|v|, w) v/|v|; atan(x)/x = 1 - x²/3 + x⁴/5 - ... for x = |v|/w small.
+    let factor = if w.re() > 0.0 && s2.re() < 1e-6 * w.re() * w.re() {
+        let x2 = s2 / (w * w);
+        (T::one() - x2 / 3.0 + x2 * x2 / 5.0) / w
+    } else {
+        let s = s2.sqrt();
+        s.atan2(w) / s
+    };
+    v * (factor * 2.0)
+}
+
+impl Tree {
+    /// Tangent difference `δ = q1 ⊖ q0` (length `nv`), the inverse of
+    /// [`integrate_q`](Tree::integrate_q)`(q0, δ, 1)`: differences for scalars and free-joint
+    /// positions, body-frame rotation vectors `log(q0⁻¹ ⊗ q1)` for quaternions.
+    pub fn difference_q<T: Scalar>(&self, q0: &[T], q1: &[T]) -> Vec<T> {
+        let mut out = vec![T::zero(); self.nv];
+        for j in &self.joints {
+            let (qa, da) = (j.qadr, j.dadr);
+            let rot = |out: &mut [T], qi: usize, di: usize| {
+                let a = quat_from(&q0[qi..qi + 4]);
+                let b = quat_from(&q1[qi..qi + 4]);
+                let d = quat_log(&(a.conjugate() * b));
+                out[di..di + 3].copy_from_slice(&[d.x, d.y, d.z]);
+            };
+            match j.kind {
+                JointKind::Free => {
+                    for k in 0..3 {
+                        out[da + k] = q1[qa + k] - q0[qa + k];
+                    }
+                    rot(&mut out, qa + 3, da + 3);
+                }
+                JointKind::Ball => rot(&mut out, qa, da),
+                _ => out[da] = q1[qa] - q0[qa],
+            }
+        }
+        out
+    }
 }
 
 /// A unit quaternion from MJCF-style `[w x y z]`.

@@ -143,7 +143,7 @@ impl Builder {
             degrees: true,
             meshdir: None,
             meshes: vec![],
-            bodies: vec![Body { name: "world".into(), parent: None, offset: Isometry3::identity(), inertia: Inertia { mass: 0.0, com: Vector3::zeros(), rot: Matrix3::zeros() }, joints: vec![] }],
+            bodies: vec![Body { name: "world".into(), parent: None, offset: Isometry3::identity(), inertia: Inertia { mass: 0.0, com: Vector3::zeros(), rot: Matrix3::zeros() }, joints: vec![], mocap: false }],
             joints: vec![],
             geoms: vec![],
             actuators: vec![],
@@ -314,10 +314,9 @@ impl Builder {
             // MuJoCo's "Euler" is semi-implicit in velocity.
             Some("Euler") => Some(Integrator::SemiImplicitEuler),
             Some("RK4") => Some(Integrator::Rk4),
-            Some("implicit") | Some("implicitfast") => {
-                self.warnings.push(format!("{}:{}: <option integrator=\"{}\"> has no SCM counterpart yet; using semi_implicit_euler", self.file, el.line, el.attr("integrator").unwrap_or("")));
-                None
-            }
+            // MuJoCo's implicit integrators are implicit in the velocity-dependent forces; SCM's
+            // implicit Euler covers that and the stiff contact too.
+            Some("implicit") | Some("implicitfast") => Some(Integrator::ImplicitEuler),
             Some(i) => return Err(self.err(el, format!("integrator=\"{i}\" is not a MuJoCo integrator"))),
         };
         Ok(())
@@ -369,6 +368,9 @@ impl Builder {
             "body" => self.body(el, body),
             "geom" => self.geom(el, body),
             "joint" | "freejoint" if body == 0 => Err(self.err(el, "the world body cannot have joints")),
+            "joint" | "freejoint" if self.bodies[body].mocap => {
+                Err(self.err(el, format!("mocap body '{}' cannot have joints: its pose comes from the inputs {0}.pos and {0}.quat", self.bodies[body].name)))
+            }
             "joint" => self.joint(el, body, false),
             "freejoint" => self.joint(el, body, true),
             "inertial" if body == 0 => Err(self.err(el, "the world body has no inertia")),
@@ -380,8 +382,16 @@ impl Builder {
 
     fn body(&mut self, el: &Element, parent: usize) -> Result<(), SceneError> {
         self.check_attrs(el, &["name", "pos", "quat", "euler", "childclass", "mocap", "gravcomp"])?;
-        if el.attr("mocap") == Some("true") {
-            return Err(self.err(el, "mocap bodies are not supported yet"));
+        let mocap = match el.attr("mocap") {
+            None | Some("false") => false,
+            Some("true") => true,
+            Some(m) => return Err(self.err(el, format!("mocap=\"{m}\": expected true or false"))),
+        };
+        if mocap && parent != 0 {
+            return Err(self.err(el, "a mocap body must be a child of the worldbody (MuJoCo's rule)"));
+        }
+        if parent != 0 && self.bodies[parent].mocap {
+            return Err(self.err(el, format!("body inside mocap body '{}': a mocap body cannot have child bodies (put its geoms in it directly)", self.bodies[parent].name)));
         }
         let index = self.bodies.len();
         let name = el.attr("name").map(str::to_string).unwrap_or_else(|| format!("body{index}"));
@@ -389,7 +399,7 @@ impl Builder {
             return Err(self.err(el, format!("body name '{name}' is used twice")));
         }
         let offset = self.pose(el)?;
-        self.bodies.push(Body { name, parent: Some(parent), offset, inertia: Inertia { mass: 0.0, com: Vector3::zeros(), rot: Matrix3::zeros() }, joints: vec![] });
+        self.bodies.push(Body { name, parent: Some(parent), offset, inertia: Inertia { mass: 0.0, com: Vector3::zeros(), rot: Matrix3::zeros() }, joints: vec![], mocap });
         self.explicit_inertia.push(false);
         for child in &el.children {
             self.body_child(child, index)?;
@@ -430,6 +440,9 @@ impl Builder {
             }
             Ok(v)
         };
+        if kind == JointKind::Free && self.float(el, "stiffness")?.is_some_and(|k| k != 0.0) {
+            return Err(self.err(el, "stiffness on a free joint is not supported (springs act on slide, hinge and ball joints)"));
+        }
         let index = self.joints.len();
         let name = match el.attr("name") {
             Some(n) => n.to_string(),

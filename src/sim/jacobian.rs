@@ -18,19 +18,20 @@ use crate::scalar::c;
 struct Seeded {
     q: Vec<Dual64>,
     v: Vec<Dual64>,
-    ctrl: Vec<Dual64>,
+    /// The model's inputs `u`: actuator controls, then the mocap bodies' poses and velocities.
+    u: Vec<Dual64>,
     prm: ContactParams<Dual64>,
 }
 
 fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String> {
     let lift = |x: &[f64]| x.iter().map(|&x| c::<Dual64>(x)).collect::<Vec<_>>();
-    let mut s = Seeded { q: lift(&state.state.q), v: lift(&state.state.v), ctrl: lift(&state.ctrl), prm: state.params.lift() };
+    let mut s = Seeded { q: lift(&state.state.q), v: lift(&state.state.v), u: lift(&[state.ctrl.as_slice(), &state.mocap].concat()), prm: state.params.lift() };
     for (&slot, &d) in knowns.iter().zip(dv) {
         // A known listed twice gets the sum of its directions (the derivative is linear in them).
         let x = match slot {
             Slot::Q(i) => &mut s.q[i],
             Slot::V(i) => &mut s.v[i],
-            Slot::Ctrl(i) => &mut s.ctrl[i],
+            Slot::Ctrl(i) => &mut s.u[i],
             Slot::Param(p) => match p {
                 Param::Eps1 => &mut s.prm.eps1,
                 Param::Eps2 => &mut s.prm.eps2,
@@ -40,8 +41,10 @@ fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String>
                 Param::StictionVelocity => &mut s.prm.stiction_velocity,
                 Param::Friction => &mut s.prm.friction,
             },
-            // Nothing depends on time (the dynamics is autonomous).
-            Slot::Time => continue,
+            // Nothing depends on time (the dynamics is autonomous), and a mocap input is the
+            // pose its body reaches at the end of the next communication step: nothing depends
+            // on it at the current time.
+            Slot::Time | Slot::Mocap(..) => continue,
             _ => return Err(format!("{slot:?} is not a known")),
         };
         x.eps += d;
@@ -57,17 +60,17 @@ pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot]
     let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
     let needs_contacts = unknowns.iter().any(|u| matches!(u, Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)));
     let (vdot, contacts) = if needs_vdot {
-        let f = model.forward(&s.q, &s.v, &s.ctrl, &s.prm).map_err(|e| e.to_string())?;
+        let f = model.forward(&s.q, &s.v, &s.u, &s.prm).map_err(|e| e.to_string())?;
         (Some(f.vdot), Some(f.contacts))
     } else if needs_contacts {
-        let kin = model.tree.kinematics(&s.q, &s.v);
+        let kin = model.tree.kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
         (None, Some(model.contacts(&kin, &s.prm).1))
     } else {
         (None, None)
     };
     let qdot = unknowns.iter().any(|u| matches!(u, Slot::QDot(_))).then(|| model.tree.qdot(&s.q, &s.v));
     let points = unknowns.iter().any(|u| matches!(u, Slot::PairPoint(..))).then(|| {
-        let kin = model.tree.kinematics(&s.q, &s.v);
+        let kin = model.tree.kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
         model
             .pairs
             .iter()

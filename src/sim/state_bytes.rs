@@ -8,39 +8,62 @@
 //! | bytes | what |
 //! | --- | --- |
 //! | 4 | layout version ([`STATE_VERSION`]) |
-//! | 4 × 3 | `nq`, `nv`, number of controls |
+//! | 4 × 4 | `nq`, `nv`, number of controls, number of mocap bodies `nm` |
 //! | 8 | time (s) |
 //! | 8 × (nq + nv + nctrl) | `q`, `v`, controls |
+//! | 8 × 13 nm | mocap bodies at `time`: pose and velocity ([`MOCAP_INPUTS`] each) |
+//! | 8 × 7 nm | mocap inputs as set: the pose reached at the end of the next step |
 //! | 8 × 7 | the tunable contact parameters, in [`Param::ALL`] order |
 //! | 8 × 2 | internal step (s), tolerance |
 //! | 4 + n | integrator name: length, UTF-8 bytes |
+//! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
+//! | 1 (+ 8 (nq + nv + 1)) | the state and internal step that Jacobian was left for: 0, or 1, `q`, `v`, step |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
 use super::{FmuState, Param, SimState};
 use crate::fmi::serial::Reader;
+use crate::dynamics::MOCAP_INPUTS;
 use crate::integrate::{Integrator, State};
 use crate::model::Model;
 
 /// Version of the layout written by [`encode`].
-pub const STATE_VERSION: u32 = 1;
+pub const STATE_VERSION: u32 = 2;
 
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
     let s = &state.sim;
     let mut b = Vec::with_capacity(64 + 8 * (s.state.q.len() + s.state.v.len() + s.ctrl.len() + 10));
     b.extend_from_slice(&STATE_VERSION.to_le_bytes());
-    for n in [s.state.q.len(), s.state.v.len(), s.ctrl.len()] {
+    for n in [s.state.q.len(), s.state.v.len(), s.ctrl.len(), s.mocap.len() / MOCAP_INPUTS] {
         b.extend_from_slice(&(n as u32).to_le_bytes());
     }
     let params = Param::ALL.map(|p| p.get(&s.params));
-    let values = std::iter::once(&s.time).chain(&s.state.q).chain(&s.state.v).chain(&s.ctrl).chain(params.iter()).chain([&state.step, &state.tolerance]);
+    let values = std::iter::once(&s.time).chain(&s.state.q).chain(&s.state.v).chain(&s.ctrl).chain(&s.mocap).chain(&s.mocap_target).chain(params.iter()).chain([&state.step, &state.tolerance]);
     for x in values {
         b.extend_from_slice(&x.to_bits().to_le_bytes());
     }
     let name = state.integrator.name().as_bytes();
     b.extend_from_slice(&(name.len() as u32).to_le_bytes());
     b.extend_from_slice(name);
+    let put = |b: &mut Vec<u8>, x: f64| b.extend_from_slice(&x.to_bits().to_le_bytes());
+    let (jacobian, left) = state.solver_cache.parts();
+    match jacobian {
+        None => b.push(0),
+        Some(j) => {
+            b.push(1);
+            b.extend_from_slice(&(j.nrows() as u64).to_le_bytes());
+            b.extend_from_slice(&(j.ncols() as u64).to_le_bytes());
+            j.iter().for_each(|&x| put(&mut b, x));
+        }
+    }
+    match left {
+        None => b.push(0),
+        Some((st, h)) => {
+            b.push(1);
+            st.q.iter().chain(&st.v).chain([h]).for_each(|&x| put(&mut b, x));
+        }
+    }
     b
 }
 
@@ -52,33 +75,27 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     if version != STATE_VERSION {
         return Err(format!("model state has layout version {version}; this FMU reads version {STATE_VERSION} only"));
     }
-    let (nq, nv, nc) = (r.u32("nq")? as usize, r.u32("nv")? as usize, r.u32("the number of controls")? as usize);
-    let expected = (model.tree.nq, model.tree.nv, model.actuators.len());
-    if (nq, nv, nc) != expected {
-        return Err(format!("model state has (nq, nv, controls) = {:?}, this scene has {expected:?}", (nq, nv, nc)));
+    let (nq, nv, nc, nm) = (r.u32("nq")? as usize, r.u32("nv")? as usize, r.u32("the number of controls")? as usize, r.u32("the number of mocap bodies")? as usize);
+    let expected = (model.tree.nq, model.tree.nv, model.actuators.len(), model.tree.mocap.len());
+    if (nq, nv, nc, nm) != expected {
+        return Err(format!("model state has (nq, nv, controls, mocap bodies) = {:?}, this scene has {expected:?}", (nq, nv, nc, nm)));
     }
-    let mut finite = |what: &str| -> Result<f64, String> {
-        let x = r.f64(what)?;
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(format!("model state is corrupt: {what} is {x}"))
-        }
-    };
-    let time = finite("the time")?;
-    let q = (0..nq).map(|_| finite("a position")).collect::<Result<Vec<_>, _>>()?;
-    let v = (0..nv).map(|_| finite("a velocity")).collect::<Result<Vec<_>, _>>()?;
-    let ctrl = (0..nc).map(|_| finite("a control")).collect::<Result<Vec<_>, _>>()?;
+    let time = finite(&mut r, "the time")?;
+    let q = (0..nq).map(|_| finite(&mut r, "a position")).collect::<Result<Vec<_>, _>>()?;
+    let v = (0..nv).map(|_| finite(&mut r, "a velocity")).collect::<Result<Vec<_>, _>>()?;
+    let ctrl = (0..nc).map(|_| finite(&mut r, "a control")).collect::<Result<Vec<_>, _>>()?;
+    let mocap = (0..nm * MOCAP_INPUTS).map(|_| finite(&mut r, "a mocap pose or velocity")).collect::<Result<Vec<_>, _>>()?;
+    let mocap_target = (0..nm * 7).map(|_| finite(&mut r, "a mocap input")).collect::<Result<Vec<_>, _>>()?;
     let mut params = model.contact;
     for p in Param::ALL {
-        let x = finite(p.describe().0)?;
+        let x = finite(&mut r, p.describe().0)?;
         if !p.accepts(x) {
             return Err(format!("model state is corrupt: scm.{} = {x} is out of range", p.describe().0));
         }
         *p.slot(&mut params) = x;
     }
-    let step = finite("the internal step")?;
-    let tolerance = finite("the tolerance")?;
+    let step = finite(&mut r, "the internal step")?;
+    let tolerance = finite(&mut r, "the tolerance")?;
     if step <= 0.0 || tolerance <= 0.0 {
         return Err(format!("model state is corrupt: solver.step = {step}, solver.tolerance = {tolerance} must be positive"));
     }
@@ -86,8 +103,43 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let name = r.take(n, "the integrator name")?;
     let name = std::str::from_utf8(name).map_err(|_| "model state is corrupt: integrator name is not UTF-8".to_string())?;
     let integrator = Integrator::from_name(name).ok_or_else(|| format!("model state names an unknown integrator {name:?}"))?;
+    let jacobian = match r.take(1, "the solver cache flag")?[0] {
+        0 => None,
+        1 => {
+            let (rows, cols) = (r.u64("the Jacobian's rows")?, r.u64("the Jacobian's columns")?);
+            // The Newton Jacobian is square in the velocity coordinates or the whole state.
+            let n = nq + 2 * nv;
+            if rows > n as u64 || cols > n as u64 || rows == 0 || cols == 0 {
+                return Err(format!("model state is corrupt: a {rows} x {cols} Newton Jacobian for {nq} positions and {nv} velocities"));
+            }
+            let (rows, cols) = (rows as usize, cols as usize);
+            let entries = (0..rows * cols).map(|_| finite(&mut r, "a Newton Jacobian entry")).collect::<Result<Vec<_>, _>>()?;
+            Some(nalgebra::DMatrix::from_vec(rows, cols, entries))
+        }
+        f => return Err(format!("model state is corrupt: solver cache flag {f}")),
+    };
+    let left = match r.take(1, "the solver cache state flag")?[0] {
+        0 => None,
+        1 => {
+            let q = (0..nq).map(|_| finite(&mut r, "a cached position")).collect::<Result<Vec<_>, _>>()?;
+            let v = (0..nv).map(|_| finite(&mut r, "a cached velocity")).collect::<Result<Vec<_>, _>>()?;
+            Some((State { q, v }, finite(&mut r, "the cached internal step")?))
+        }
+        f => return Err(format!("model state is corrupt: solver cache state flag {f}")),
+    };
+    let solver_cache = crate::integrate::SolverCache::from_parts(jacobian, left);
     if r.remaining() != 0 {
         return Err(format!("model state is corrupt: {} unexpected bytes at the end", r.remaining()));
     }
-    Ok(FmuState { sim: SimState { time, state: State { q, v }, ctrl, params }, integrator, step, tolerance })
+    Ok(FmuState { sim: SimState { time, state: State { q, v }, ctrl, params, mocap, mocap_target }, integrator, step, tolerance, solver_cache })
+}
+
+/// The next f64 of `r`, refused unless finite.
+fn finite(r: &mut Reader, what: &str) -> Result<f64, String> {
+    let x = r.f64(what)?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("model state is corrupt: {what} is {x}"))
+    }
 }

@@ -9,7 +9,9 @@ CSVs:
     scripts/regenerate_references.sh t_push     # some scenes
 
 A scene whose outputs should be exercised by inputs gets them in INPUTS below (held constant
-from t = 0, set as start values, so the run is the same in every host).
+from t = 0, set as start values, so the run is the same in every host), or, for inputs that
+must move (a mocap body), a signal in SIGNALS: input values at the communication points, which
+fmpy sets before each step.
 """
 import pathlib
 import subprocess
@@ -28,7 +30,27 @@ INPUTS = {
     "t_push": {"act_y.ctrl": 0.16, "act_x.ctrl": 0.01},
 }
 
+#: Time-varying inputs per scene: {input: function of time}, sampled at the communication points.
+SIGNALS = {
+    # The paddle starts 3 cm behind the box and moves +x at 10 cm/s for 1.5 s, then stops: it
+    # reaches the box at 0.3 s and pushes it about 12 cm.
+    "mocap_push": {"paddle.pos.x": lambda t: -0.11 + 0.1 * np.minimum(t, 1.5)},
+}
+
 REGENERATE = "scripts/regenerate_references.sh"
+
+
+def input_signal(name):
+    """The structured input array fmpy takes for a scene's SIGNALS, or None."""
+    signals = SIGNALS.get(name)
+    if not signals:
+        return None
+    t = np.arange(0.0, STOP_TIME + OUTPUT_INTERVAL / 2, OUTPUT_INTERVAL)
+    out = np.zeros(len(t), dtype=[("time", float)] + [(k, float) for k in signals])
+    out["time"] = t
+    for k, f in signals.items():
+        out[k] = f(t)
+    return out
 
 
 def reference_path(name):
@@ -40,7 +62,7 @@ def simulate(fmu_path, name):
     from fmpy import read_model_description, simulate_fmu
     md = read_model_description(fmu_path)
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-    return simulate_fmu(fmu_path, stop_time=STOP_TIME, output_interval=OUTPUT_INTERVAL, output=outputs, start_values=INPUTS.get(name, {}))
+    return simulate_fmu(fmu_path, stop_time=STOP_TIME, output_interval=OUTPUT_INTERVAL, output=outputs, start_values=INPUTS.get(name, {}), input=input_signal(name))
 
 
 def write_csv(result, path):

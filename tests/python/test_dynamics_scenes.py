@@ -1,0 +1,162 @@
+"""The dynamics scenes as FMUs in fmpy: they validate, the box stack stays at rest, the arm and
+the mocap paddle push their boxes through the FMU inputs, every integrator can be chosen
+through solver.integrator, and a diverging explicit step is refused (not NaN)."""
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+from ctypes import byref
+
+from fmpy import calloc, extract, free, read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                       fmi2CallbackLoggerTYPE, fmi2Discard)
+from fmpy.logging import addLoggerProxy
+from fmpy.validation import validate_fmu
+
+from conftest import SCM
+
+DYNAMICS_SCENES = ["box_stack", "arm_push", "t_push", "mocap_push"]
+INTEGRATORS = ["euler", "semi_implicit_euler", "rk4", "implicit_euler", "dopri5"]
+
+
+@pytest.mark.parametrize("name", DYNAMICS_SCENES)
+def test_fmu_validates(fmu, name):
+    problems = validate_fmu(fmu(name))
+    assert problems == [], problems
+
+
+def test_solver_integrator_lists_every_integrator(fmu):
+    md = read_model_description(fmu("box_stack"))
+    v = next(v for v in md.modelVariables if v.name == "solver.integrator")
+    assert v.start == "semi_implicit_euler"
+    assert all(name in v.description for name in INTEGRATORS), v.description
+
+
+def test_box_stack_stays_at_rest(fmu):
+    names = [f"{b}.{k}" for b in ("bottom", "middle", "top") for k in ("pos.z", "linvel.z", "angvel.x")]
+    res = simulate_fmu(fmu("box_stack"), stop_time=3.0, output_interval=0.05, output=names)
+    # Settled within the first second, then still: no drift, no jitter (SCM's own test runs 10 s).
+    late = res["time"] > 1.0
+    for b, rest in (("bottom", 0.0596822), ("middle", 0.1695338), ("top", 0.2594837)):
+        z = res[f"{b}.pos.z"][late]
+        assert np.ptp(z) < 1e-7 and abs(z[-1] - rest) < 1e-6, (b, z[-1])
+        assert np.max(np.abs(res[f"{b}.linvel.z"][late])) < 1e-6
+        assert np.max(np.abs(res[f"{b}.angvel.x"][late])) < 1e-6
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_every_integrator_runs_through_the_fmu(fmu, integrator):
+    # The sphere dropped on the floor: every integrator brings it to rest at the same height.
+    res = simulate_fmu(fmu("sphere_drop"), stop_time=1.5, output_interval=0.01, output=["ball.pos.z", "ball.linvel.z"],
+                       start_values={"solver.integrator": integrator})
+    assert abs(res["ball.linvel.z"][-1]) < 1e-4, integrator
+    assert res["ball.pos.z"][-1] == pytest.approx(0.04854, abs=2e-5), integrator
+
+
+def test_arm_pushes_the_box_through_its_motor_inputs(fmu):
+    # Constant torques: 0.3 N m at the shoulder swings the tip into the box after about 2.4 s;
+    # 0.5 N m at the elbow (gear 1, within the ctrlrange of +-2) keeps it from folding back.
+    signals = np.array([(0.0, 0.3, 0.0), (4.0, 0.3, 0.0)],
+                       dtype=[("time", np.float64), ("shoulder_motor.ctrl", np.float64), ("elbow_motor.ctrl", np.float64)])
+    res = simulate_fmu(fmu("arm_push"), stop_time=4.0, output_interval=0.01, input=signals,
+                       output=["shoulder.q", "box_x.q", "box_y.q", "contact.tip.box.force.x"])
+    touched = np.nonzero(np.abs(res["contact.tip.box.force.x"]) > 0.1)[0]
+    assert len(touched) > 0, "the tip never reached the box"
+    # Before contact the box did not move; after it, it was pushed towards -x.
+    assert np.all(np.abs(res["box_x.q"][:touched[0] - 1]) < 1e-9)
+    assert res["box_x.q"][-1] < -0.005, res["box_x.q"][-1]
+    # Contact happens where the tip's circle meets the box's face: shoulder ≈ 1.44 rad.
+    assert res["shoulder.q"][touched[0]] == pytest.approx(1.443, abs=0.05)
+
+
+def test_mocap_paddle_pushes_the_box(fmu):
+    # The paddle moves +x at 0.1 m/s for 1.5 s; the box starts 3 cm ahead of it.
+    t = np.linspace(0.0, 1.5, 151)
+    signals = np.zeros(len(t), dtype=[("time", np.float64), ("paddle.pos.x", np.float64)])
+    signals["time"] = t
+    signals["paddle.pos.x"] = -0.11 + 0.1 * t
+    res = simulate_fmu(fmu("mocap_push"), stop_time=1.5, output_interval=0.01, input=signals,
+                       output=["box.pos.x", "box.linvel.x", "contact.box.paddle.force.x"])
+    # fmpy sets the input at each communication point; the paddle reaches it one step later.
+    assert res["box.pos.x"][-1] == pytest.approx(0.12, abs=0.01)
+    assert res["box.linvel.x"][-1] == pytest.approx(0.1, rel=0.02)
+    # Sliding at 0.1 m/s, the paddle pushes against the floor's friction, about 2.4 N.
+    assert np.mean(res["contact.box.paddle.force.x"][-50:]) == pytest.approx(2.41, rel=0.02)
+
+
+STIFF = """<mujoco model="stiff">
+  <option timestep="0.016"/>
+  <custom>
+    <numeric name="scm_stiffness" data="1e6"/>
+    <numeric name="scm_eps2" data="2e-4"/>
+    <numeric name="scm_eps3" data="1e-6"/>
+    <numeric name="scm_stiction_velocity" data="0.05"/>
+  </custom>
+  <worldbody>
+    <geom name="ground" type="plane" size="1 1 0.1"/>
+    <body name="ball" pos="0 0 0.06"><freejoint/><geom name="ball" type="sphere" size="0.05" mass="1"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def run_stiff(path, integrator, steps):
+    """Drives the FMU step by step (fmpy's simulate_fmu retries a discarded step for as long as
+    fmi2Terminated is false). Returns the heights reached, the exception of a refused step (or
+    None), the state read after it, and the log messages."""
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append(message.decode())
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    addLoggerProxy(byref(callbacks))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stiff")
+    fmu.instantiate(callbacks=callbacks, loggingOn=True)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setString([vr["solver.integrator"]], [integrator])
+    fmu.exitInitializationMode()
+    z, refused, after = [], None, None
+    h = 0.016
+    for k in range(steps):
+        try:
+            fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
+        except FMICallException as e:
+            refused = (k * h, e)
+            after = fmu.getReal([vr["ball.pos.z"], vr["ball.linvel.z"]])
+            break
+        z.append(fmu.getReal([vr["ball.pos.z"], vr["ball.linvel.z"]]))
+    fmu.terminate()
+    fmu.freeInstance()
+    return np.array(z), refused, after, messages
+
+
+def test_stiff_contact_implicit_settles_explicit_refused(tmp_path):
+    scene = tmp_path / "stiff.xml"
+    scene.write_text(STIFF)
+    out = tmp_path / "stiff.fmu"
+    subprocess.run([str(SCM), "pack", str(scene), "-o", str(out)], check=True)
+    # k = 1e6 N/m on 1 kg at h = 16 ms: h ω = 16. The implicit method settles at rest.
+    z, refused, _, _ = run_stiff(str(out), "implicit_euler", 63)
+    assert refused is None, refused
+    assert np.all(np.isfinite(z)) and abs(z[-1, 1]) < 1e-8
+    assert z[-1, 0] == pytest.approx(0.0495121, abs=1e-6)
+    # An explicit one is refused with fmi2Discard before anything overflows, keeping the last
+    # good state, and says why and when.
+    z, refused, after, messages = run_stiff(str(out), "semi_implicit_euler", 63)
+    assert refused is not None, "the explicit step was not refused"
+    t, e = refused
+    assert e.status == fmi2Discard, e
+    assert after == pytest.approx(list(z[-1])), (after, z[-1])
+    assert np.all(np.isfinite(after))
+    text = " ".join(messages)
+    # "... the state is kept at t = <start of the refused step> s ...".
+    assert "unstable" in text and f"t = {t!r} s" in text, text
