@@ -776,12 +776,18 @@ impl<M: FmiModel> Instance<M> {
         self.run(Function::GetIntegerStatus, |_| Self::unsupported_status(kind))
     }
 
-    /// `fmi2GetBooleanStatus`: `fmi2Terminated` only (always false: the FMU never asks to end
-    /// the simulation; the standard's question after a discarded step).
+    /// `fmi2GetBooleanStatus`: `fmi2Terminated` only, the standard's question after a discarded
+    /// step: true while the last `fmi2DoStep` was discarded (`StepFailed`), false otherwise.
+    ///
+    /// After a discard the FMU keeps the state at the start of the refused step and would accept
+    /// a retry with a smaller step; but a master that cannot shrink its step (fmpy's
+    /// `simulate_fmu` retries the same step for as long as `fmi2Terminated` is false, recording a
+    /// sample each time) would loop forever. So the FMU asks to end the simulation there, and a
+    /// master that can retry still may: `fmi2DoStep` stays legal in `StepFailed`.
     pub fn get_boolean_status(&mut self, kind: fmi2StatusKind, value: &mut fmi2Boolean) -> fmi2Status {
-        self.run(Function::GetBooleanStatus, |_| {
+        self.run(Function::GetBooleanStatus, |this| {
             if kind == fmi2Terminated {
-                *value = fmi2False;
+                *value = fmi_bool(this.state == ModelState::StepFailed);
                 Ok(fmi2OK)
             } else {
                 Self::unsupported_status(kind)

@@ -3,6 +3,7 @@ the mocap paddle push their boxes through the FMU inputs, every integrator can b
 through solver.integrator, and a diverging explicit step is refused (not NaN)."""
 import pathlib
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -103,8 +104,8 @@ STIFF = """<mujoco model="stiff">
 
 
 def run_stiff(path, integrator, steps):
-    """Drives the FMU step by step (fmpy's simulate_fmu retries a discarded step for as long as
-    fmi2Terminated is false). Returns the heights reached, the exception of a refused step (or
+    """Drives the FMU step by step (to see the refused step itself: simulate_fmu ends the run
+    there, see the last test). Returns the heights reached, the exception of a refused step (or
     None), the state read after it, and the log messages."""
     md = read_model_description(path)
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -160,3 +161,28 @@ def test_stiff_contact_implicit_settles_explicit_refused(tmp_path):
     text = " ".join(messages)
     # "... the state is kept at t = <start of the refused step> s ...".
     assert "unstable" in text and f"t = {t!r} s" in text, text
+
+
+def test_simulate_fmu_stops_cleanly_at_a_discarded_step(tmp_path):
+    """fmpy's simulate_fmu retries a discarded step for as long as fmi2Terminated is false; the
+    FMU reports fmi2Terminated after a discard, so the run ends at the last good time with
+    finite results instead of looping (run in a subprocess with a timeout, so a regression
+    fails instead of hanging the suite)."""
+    scene = tmp_path / "stiff.xml"
+    scene.write_text(STIFF)
+    out = tmp_path / "stiff.fmu"
+    subprocess.run([str(SCM), "pack", str(scene), "-o", str(out)], check=True)
+    script = f"""
+import numpy as np
+from fmpy import simulate_fmu
+res = simulate_fmu({str(out)!r}, stop_time=1.0, output_interval=0.016,
+                   start_values={{"solver.integrator": "semi_implicit_euler"}}, output=["ball.pos.z"])
+assert np.all(np.isfinite(res["ball.pos.z"])), res
+print("RESULT", len(res), res["time"][-1])
+"""
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    n, t_end = p.stdout.split("RESULT")[-1].split()
+    # Refused at t ≈ 0.03-0.06 s (see the test above): the run ends there, well before 1 s,
+    # with a handful of samples (not thousands of repeated ones).
+    assert float(t_end) < 0.2 and int(n) < 20, p.stdout
