@@ -291,6 +291,9 @@ pub struct SimState {
     /// Mocap inputs as set by the host (7 per body: position, quaternion): the pose each mocap
     /// body reaches at the end of the next communication step.
     pub mocap_target: Vec<f64>,
+    /// Model Exchange only: the mocap poses (7 per body) at the host's last completed
+    /// integrator step and its time, from which the mocap velocities are estimated.
+    pub mocap_sampled: Option<(f64, Vec<f64>)>,
 }
 
 /// What `fmi2GetFMUstate` saves: the time-varying state and the solver settings (which the
@@ -342,6 +345,8 @@ pub struct Simulation {
     start_solver: (Integrator, f64, f64),
     /// Whether the host sees `logContact` messages (so diagnostics are only formatted then).
     log_contact: bool,
+    /// Whether the host instantiated Model Exchange (mocap inputs then act at once).
+    model_exchange: bool,
 }
 
 impl Simulation {
@@ -352,10 +357,10 @@ impl Simulation {
         let info = model_info(&model, scene_text, &rows);
         let mocap = model.tree.mocap0();
         let mocap_target = mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
-        let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target };
+        let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target, mocap_sampled: None };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false }
+        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -444,6 +449,36 @@ impl Simulation {
         self.current.time += h;
         self.outputs = None;
         Ok(())
+    }
+
+    /// Model Exchange: at a completed integrator step of the host, the mocap bodies' velocities
+    /// become the rate of their poses (the inputs) over the host's last step (position: the
+    /// difference over the step; orientation: `log(q_prev⁻¹ ⊗ q)/Δt`, body frame), held until
+    /// the next completed step. In Co-Simulation the rate is known ahead (the step's target), so
+    /// this does nothing there.
+    fn sample_mocap(&mut self) {
+        if !self.model_exchange || self.model.tree.mocap.is_empty() {
+            return;
+        }
+        let t = self.current.time;
+        let poses: Vec<f64> = self.current.mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
+        if let Some((t0, prev)) = &self.current.mocap_sampled {
+            let dt = t - t0;
+            if dt > 0.0 {
+                for (m, (now, before)) in poses.chunks(7).zip(prev.chunks(7)).enumerate() {
+                    let o = crate::dynamics::MOCAP_INPUTS * m;
+                    let q0 = crate::dynamics::quat_from(&before[3..7]);
+                    let q1 = crate::dynamics::quat_from(&now[3..7]);
+                    let w = crate::dynamics::quat_log(&(q0.conjugate() * q1)) / dt;
+                    for k in 0..3 {
+                        self.current.mocap[o + 7 + k] = (now[k] - before[k]) / dt;
+                        self.current.mocap[o + 10 + k] = w[k];
+                    }
+                }
+                self.outputs = None;
+            }
+        }
+        self.current.mocap_sampled = Some((t, poses));
     }
 
     /// The mocap part of the inputs for a communication step of `h` (s): the current poses with
@@ -598,7 +633,15 @@ impl FmiModel for Simulation {
         }
         self.outputs = None;
         self.messages.push(LogMessage { category: LogCategory::Events, text: format!("initialized {} at t = {} s", self.model.name, self.current.time) });
+        if self.model_exchange {
+            // Mocap velocities are rates between completed integrator steps from here on.
+            self.sample_mocap();
+        }
         Ok(())
+    }
+
+    fn interface_chosen(&mut self, model_exchange: bool) {
+        self.model_exchange = model_exchange;
     }
 
     fn reset(&mut self) -> ModelResult<()> {
@@ -650,10 +693,14 @@ impl FmiModel for Simulation {
             }
             Slot::Ctrl(i) => self.current.ctrl[i] = value,
             Slot::Mocap(m, k) => {
-                // Before initialization the pose is set at once (at rest); later it is the
-                // target the next communication step moves to.
+                // Before initialization the pose is set at once (at rest). Later, in
+                // Co-Simulation it is the target the next communication step moves to; in
+                // Model Exchange the pose at the current time (its velocity is estimated at the
+                // host's completed integrator steps, see `Simulation::sample_mocap`).
                 self.current.mocap_target[7 * m + k] = value;
-                if before_init {
+                if self.model_exchange && !before_init {
+                    self.current.mocap[crate::dynamics::MOCAP_INPUTS * m + k] = value;
+                } else if before_init {
                     let o = crate::dynamics::MOCAP_INPUTS * m;
                     self.current.mocap[o + k] = value;
                     self.current.mocap[o + 7..o + 13].fill(0.0);
@@ -759,7 +806,7 @@ impl FmiModel for Simulation {
         let mut k = Vec::with_capacity(knowns.len());
         for &vr in knowns {
             let (var, slot) = self.row(vr)?;
-            if !matches!(slot, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_) | Slot::Time) {
+            if !matches!(slot, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Mocap(..) | Slot::Param(_) | Slot::Time) {
                 return Err(format!("{} (value reference {vr}) is not a known: the knowns are the states, the inputs and the contact parameters", var.name));
             }
             k.push(*slot);
@@ -767,7 +814,7 @@ impl FmiModel for Simulation {
         if let Some(i) = dv_known.iter().position(|d| !d.is_finite()) {
             return Err(format!("dvKnown[{i}] = {} is not finite", dv_known[i]));
         }
-        jacobian::directional_derivative(&self.model, &self.current, &u, &k, dv_known)
+        jacobian::directional_derivative(&self.model, &self.current, &u, &k, dv_known, self.model_exchange)
     }
 
     fn number_of_states(&self) -> usize {
@@ -811,6 +858,7 @@ impl FmiModel for Simulation {
     }
 
     fn completed_integrator_step(&mut self) -> ModelResult<bool> {
+        self.sample_mocap();
         self.log_contacts();
         Ok(self.quaternion_drift() > QUATERNION_DRIFT_TOLERANCE)
     }

@@ -462,3 +462,58 @@ fn contact_diagnostics_follow_the_log_category() {
     assert_eq!(contact(&log), 2);
     assert_eq!(inst.set_debug_logging(true, &["logNoSuchThing"]), fmi2Error);
 }
+
+/// Model Exchange: a mocap input is its body's pose at the current time (it acts at once, with
+/// exact directional derivatives), and its velocity is the input's rate over the host's last
+/// completed integrator step. In Co-Simulation the same input is a target reached at the end of
+/// the next step, so nothing changes at once and its partials are zero.
+#[test]
+fn model_exchange_mocap_inputs_act_at_once_and_their_rate_is_the_velocity() {
+    let name = "mocap_push";
+    let (mut me, log) = initialized(name, Interface::ModelExchange);
+    let info = me.model().info().clone();
+    let (px, fx) = (vr(&info, "paddle.pos.x"), vr(&info, "contact.box.paddle.force.x"));
+    let mut event = fmi2EventInfo::default();
+    assert_eq!(me.new_discrete_states(&mut event), fmi2OK);
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    // The paddle (r = 3 cm) starts 3 cm behind the box's face at x = -0.05: no force.
+    assert!(real(&mut me, fx).abs() < 1e-9);
+    // Moved 1 mm into the box: the box is pushed at once (+x), and the output depends on the
+    // input as ModelStructure says.
+    let x_in = -0.08 + 1e-3;
+    assert_eq!(me.set_real(&[px], &[x_in]), fmi2OK);
+    let f = real(&mut me, fx);
+    assert!(f > 1.0, "force on the box {f} N");
+    let deps = info.structure.outputs.iter().find(|(u, _)| *u == fx).unwrap().1.clone().unwrap();
+    assert!(deps.contains(&px), "ModelStructure: {fx} does not list paddle.pos.x");
+    let mut exact = [0.0];
+    assert_eq!(me.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact), fmi2OK, "{:?}", log.lock().unwrap().last());
+    let h = 1e-8;
+    let mut at = |x: f64| {
+        assert_eq!(me.set_real(&[px], &[x]), fmi2OK);
+        real(&mut me, fx)
+    };
+    let fd = (at(x_in + h) - at(x_in - h)) / (2.0 * h);
+    at(x_in);
+    // Central differences at h = 1e-8 m on a force of ~10 N with slope ~1e4 N/m: truncation
+    // (h/ε3)² = 1e-8 relative, round-off ~1e-16 · 10 N / 1e-8 m = 1e-7 N/m.
+    assert!((exact[0] - fd).abs() <= 1e-6 * fd.abs(), "exact {} vs central difference {fd}", exact[0]);
+    // The velocity: the input moves 1 mm over a completed step of 10 ms: 0.1 m/s along x.
+    let (mut enter, mut terminate) = (false, false);
+    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert_eq!(me.set_time(0.01), fmi2OK);
+    assert_eq!(me.set_real(&[px], &[x_in + 1e-3]), fmi2OK);
+    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    let mocap = &me.model().current.mocap;
+    assert!((mocap[7] - 0.1).abs() < 1e-9 && mocap[8] == 0.0 && mocap[9] == 0.0, "paddle velocity {:?}", &mocap[7..13]);
+
+    // Co-Simulation: the same input is a target, nothing acts at once, its partial is zero.
+    let (mut cs, _) = initialized(name, Interface::CoSimulation);
+    assert_eq!(cs.set_real(&[px], &[x_in]), fmi2OK);
+    assert!(real(&mut cs, fx).abs() < 1e-9);
+    assert_eq!(cs.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact), fmi2OK);
+    assert_eq!(exact[0], 0.0);
+    // ... and it is reached at the end of the next step.
+    assert_eq!(cs.do_step(0.0, 0.01, false), fmi2OK);
+    assert!(real(&mut cs, fx) > 1.0);
+}

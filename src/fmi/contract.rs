@@ -368,4 +368,10 @@ pub trait FmiModel: Sized + Send {
     /// `fmi2SetDebugLogging`), so the model produces costly diagnostics only when the host
     /// will see them.
     fn logging_changed(&mut self, _category: LogCategory, _on: bool) {}
+
+    /// Told once, right after instantiation, which interface the host instantiated
+    /// (`fmi2ModelExchange` or `fmi2CoSimulation`), for models whose inputs mean different
+    /// things in the two (e.g. an input that is a target reached at the end of a communication
+    /// step in Co-Simulation, and the value at the current time in Model Exchange).
+    fn interface_chosen(&mut self, _model_exchange: bool) {}
 }

@@ -177,6 +177,7 @@ impl<M: FmiModel> Instance<M> {
             last_successful_time: start_time,
             strings: Vec::new(),
         };
+        instance.model.interface_chosen(interface == Interface::ModelExchange);
         for category in LogCategory::ALL {
             instance.model.logging_changed(category, logging_on);
         }

@@ -23,7 +23,7 @@ struct Seeded {
     prm: ContactParams<Dual64>,
 }
 
-fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String> {
+fn seed(model: &Model, state: &SimState, knowns: &[Slot], dv: &[f64], model_exchange: bool) -> Result<Seeded, String> {
     let lift = |x: &[f64]| x.iter().map(|&x| c::<Dual64>(x)).collect::<Vec<_>>();
     let mut s = Seeded { q: lift(&state.state.q), v: lift(&state.state.v), u: lift(&[state.ctrl.as_slice(), &state.mocap].concat()), prm: state.params.lift() };
     for (&slot, &d) in knowns.iter().zip(dv) {
@@ -41,9 +41,11 @@ fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String>
                 Param::StictionVelocity => &mut s.prm.stiction_velocity,
                 Param::Friction => &mut s.prm.friction,
             },
-            // Nothing depends on time (the dynamics is autonomous), and a mocap input is the
-            // pose its body reaches at the end of the next communication step: nothing depends
-            // on it at the current time.
+            // In Model Exchange a mocap input is its body's pose now.
+            Slot::Mocap(m, k) if model_exchange => &mut s.u[model.actuators.len() + crate::dynamics::MOCAP_INPUTS * m + k],
+            // Nothing depends on time (the dynamics is autonomous), and in Co-Simulation a
+            // mocap input is the pose its body reaches at the end of the next communication
+            // step: nothing depends on it at the current time.
             Slot::Time | Slot::Mocap(..) => continue,
             _ => return Err(format!("{slot:?} is not a known")),
         };
@@ -55,8 +57,11 @@ fn seed(state: &SimState, knowns: &[Slot], dv: &[f64]) -> Result<Seeded, String>
 /// `J[unknowns, knowns] · dv` at `state` (controls and parameters included in it). `knowns`
 /// must be states, controls, parameters or time; `unknowns` states, state derivatives or contact
 /// outputs (the caller maps value references to slots and names them in errors).
-pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot], knowns: &[Slot], dv: &[f64]) -> Result<Vec<f64>, String> {
-    let s = seed(state, knowns, dv)?;
+///
+/// `model_exchange`: whether a mocap input acts at once (Model Exchange) or at the end of the
+/// next communication step (Co-Simulation: no instantaneous effect).
+pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot], knowns: &[Slot], dv: &[f64], model_exchange: bool) -> Result<Vec<f64>, String> {
+    let s = seed(model, state, knowns, dv, model_exchange)?;
     let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
     let needs_contacts = unknowns.iter().any(|u| matches!(u, Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)));
     let (vdot, contacts) = if needs_vdot {

@@ -13,6 +13,7 @@
 //! | 8 × (nq + nv + nctrl) | `q`, `v`, controls |
 //! | 8 × 13 nm | mocap bodies at `time`: pose and velocity ([`MOCAP_INPUTS`] each) |
 //! | 8 × 7 nm | mocap inputs as set: the pose reached at the end of the next step |
+//! | 1 (+ 8 + 8 × 7 nm) | Model Exchange: mocap poses at the last completed integrator step: 0, or 1, time, poses |
 //! | 8 × 7 | the tunable contact parameters, in [`Param::ALL`] order |
 //! | 8 × 2 | internal step (s), tolerance |
 //! | 4 + n | integrator name: length, UTF-8 bytes |
@@ -47,6 +48,13 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
     b.extend_from_slice(&(name.len() as u32).to_le_bytes());
     b.extend_from_slice(name);
     let put = |b: &mut Vec<u8>, x: f64| b.extend_from_slice(&x.to_bits().to_le_bytes());
+    match &s.mocap_sampled {
+        None => b.push(0),
+        Some((t, poses)) => {
+            b.push(1);
+            std::iter::once(t).chain(poses).for_each(|&x| put(&mut b, x));
+        }
+    }
     let (jacobian, left) = state.solver_cache.parts();
     match jacobian {
         None => b.push(0),
@@ -103,6 +111,14 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let name = r.take(n, "the integrator name")?;
     let name = std::str::from_utf8(name).map_err(|_| "model state is corrupt: integrator name is not UTF-8".to_string())?;
     let integrator = Integrator::from_name(name).ok_or_else(|| format!("model state names an unknown integrator {name:?}"))?;
+    let mocap_sampled = match r.take(1, "the sampled mocap flag")?[0] {
+        0 => None,
+        1 => {
+            let t = finite(&mut r, "the time mocap poses were sampled at")?;
+            Some((t, (0..nm * 7).map(|_| finite(&mut r, "a sampled mocap pose")).collect::<Result<Vec<_>, _>>()?))
+        }
+        f => return Err(format!("model state is corrupt: sampled mocap flag {f}")),
+    };
     let jacobian = match r.take(1, "the solver cache flag")?[0] {
         0 => None,
         1 => {
@@ -131,7 +147,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     if r.remaining() != 0 {
         return Err(format!("model state is corrupt: {} unexpected bytes at the end", r.remaining()));
     }
-    Ok(FmuState { sim: SimState { time, state: State { q, v }, ctrl, params, mocap, mocap_target }, integrator, step, tolerance, solver_cache })
+    Ok(FmuState { sim: SimState { time, state: State { q, v }, ctrl, params, mocap, mocap_target, mocap_sampled }, integrator, step, tolerance, solver_cache })
 }
 
 /// The next f64 of `r`, refused unless finite.

@@ -25,6 +25,11 @@ pub struct Knowns {
     pub v: BTreeSet<usize>,
     /// Actuator controls.
     pub ctrl: BTreeSet<usize>,
+    /// Mocap inputs `(mocap body, component)` (components 0-2 position, 3-6 quaternion). They act
+    /// at once in Model Exchange only; in Co-Simulation their partials are zero (a listed
+    /// dependency may be zero), since an input there is the pose reached at the end of the next
+    /// communication step.
+    pub mocap: BTreeSet<(usize, usize)>,
     /// Contact parameters (knowns of `<InitialUnknowns>` only: FMI 2.0 does not list
     /// parameters as knowns of outputs and derivatives).
     pub params: BTreeSet<usize>,
@@ -35,6 +40,7 @@ impl Knowns {
         self.q.extend(&other.q);
         self.v.extend(&other.v);
         self.ctrl.extend(&other.ctrl);
+        self.mocap.extend(&other.mocap);
         self.params.extend(&other.params);
     }
 
@@ -44,6 +50,7 @@ impl Knowns {
             Slot::Q(i) => self.q.contains(&i),
             Slot::V(i) => self.v.contains(&i),
             Slot::Ctrl(i) => self.ctrl.contains(&i),
+            Slot::Mocap(m, k) => self.mocap.contains(&(m, k)),
             Slot::Param(p) => self.params.contains(&param_index(p)),
             _ => false,
         }
@@ -100,6 +107,11 @@ fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
     let mut joints = path_joints(model, pair.a);
     joints.extend(path_joints(model, pair.b));
     let mut k = coordinates(model, &joints, !distance_only);
+    for body in [pair.a, pair.b] {
+        if let Some(m) = model.tree.mocap.iter().position(|&b| b == body) {
+            k.mocap.extend((0..7).map(|c| (m, c)));
+        }
+    }
     // The smooth separation distance uses the separation distribution (ε2) and, when a point
     // cloud's planes are queried (two point clouds; a half-space's SSDF is exact), the SSDF (ε1);
     // the forces use the other contact parameters too.
@@ -180,6 +192,7 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
         out.extend(k.q.iter().filter_map(|&i| vr_of(Slot::Q(i))));
         out.extend(k.v.iter().filter_map(|&i| vr_of(Slot::V(i))));
         out.extend(k.ctrl.iter().filter_map(|&i| vr_of(Slot::Ctrl(i))));
+        out.extend(k.mocap.iter().filter_map(|&(m, c)| vr_of(Slot::Mocap(m, c))));
         if with_params {
             out.extend(k.params.iter().filter_map(|&i| vr_of(Slot::Param(Param::ALL[i]))));
         }

@@ -186,3 +186,27 @@ print("RESULT", len(res), res["time"][-1])
     # Refused at t ≈ 0.03-0.06 s (see the test above): the run ends there, well before 1 s,
     # with a handful of samples (not thousands of repeated ones).
     assert float(t_end) < 0.2 and int(n) < 20, p.stdout
+
+
+def test_mocap_paddle_pushes_the_box_in_model_exchange_as_in_co_simulation(fmu):
+    """In Model Exchange a mocap input is the pose now and its velocity the input's rate over
+    the last completed solver step; in Co-Simulation the pose set at a communication point is
+    reached at the end of the next step. fmpy's CVode applies inputs only at its communication
+    points (its right-hand side does not call input.apply), so in ME the paddle advances in
+    1 mm jumps every 10 ms, pushing the box by short pulses instead of steadily; the box still
+    travels with the paddle."""
+    t = np.linspace(0.0, 1.5, 151)
+    signals = np.zeros(len(t), dtype=[("time", np.float64), ("paddle.pos.x", np.float64)])
+    signals["time"] = t
+    signals["paddle.pos.x"] = -0.11 + 0.1 * t
+    out = ["box.pos.x", "box.linvel.x", "contact.box.paddle.force.x"]
+    cs = simulate_fmu(fmu("mocap_push"), stop_time=1.5, output_interval=0.01, input=signals, output=out)
+    me = simulate_fmu(fmu("mocap_push"), fmi_type="ModelExchange", stop_time=1.5, output_interval=0.01,
+                      input=signals, output=out)
+    # Same distance: one communication step of lag in CS (1 mm at 0.1 m/s) plus the ~1 mm the
+    # pulses let the box trail the paddle (the contact's compression at a few N).
+    assert me["box.pos.x"][-1] == pytest.approx(0.12, abs=0.01)
+    assert me["box.pos.x"][-1] == pytest.approx(cs["box.pos.x"][-1], abs=3e-3)
+    # Over the last half second the box keeps the paddle's pace on average.
+    pace = (me["box.pos.x"][-1] - me["box.pos.x"][-51]) / (me["time"][-1] - me["time"][-51])
+    assert pace == pytest.approx(0.1, rel=0.03)
