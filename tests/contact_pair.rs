@@ -1,7 +1,7 @@
 //! SSDF–SSDF contact between two spheres and between a box and a plane: direction, action and
 //! reaction, derivatives, degenerate configurations.
 
-use crate::common::{central_difference, Lcg};
+use crate::common::{central_difference, pair_outputs, Lcg};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use num_dual::Dual64;
 use scm::collision::{Collider, Frame};
@@ -97,15 +97,6 @@ fn box_on_a_plane_is_pushed_up_and_rotation_changes_nothing_at_rest() {
     assert!((c.distance - (-0.001)).abs() < 1e-4, "distance {}", c.distance);
 }
 
-/// Every output of the pair (force and torque on both, distance) as a flat list.
-fn outputs<T: Scalar>(c: &PairContact<T>) -> Vec<T> {
-    let mut out = vec![c.distance];
-    for w in [&c.on_a, &c.on_b] {
-        out.extend(w.force.iter().chain(w.torque.iter()).copied());
-    }
-    out
-}
-
 #[test]
 fn pair_derivatives_match_central_differences() {
     // Inputs: the small sphere's position (3) and velocity (3), then the seven parameters.
@@ -118,13 +109,13 @@ fn pair_derivatives_match_central_differences() {
         let base = [x.x, x.y, x.z, v.x, v.y, v.z, prm.eps1, prm.eps2, prm.eps3, prm.stiffness, prm.dissipation_velocity, prm.stiction_velocity, prm.friction];
         let eval = |inp: &[f64]| -> Vec<f64> {
             let p = ContactParams { eps1: inp[6], eps2: inp[7], eps3: inp[8], stiffness: inp[9], dissipation_velocity: inp[10], stiction_velocity: inp[11], friction: inp[12], dissipation: Dissipation::Paper };
-            outputs(&spheres([inp[0], inp[1], inp[2]], [inp[3], inp[4], inp[5]], &p))
+            pair_outputs(&spheres([inp[0], inp[1], inp[2]], [inp[3], inp[4], inp[5]], &p))
         };
         for k in 0..base.len() {
             let mut d: Vec<Dual64> = base.iter().map(|&b| Dual64::from(b)).collect();
             d[k].eps = 1.0;
             let p = ContactParams { eps1: d[6], eps2: d[7], eps3: d[8], stiffness: d[9], dissipation_velocity: d[10], stiction_velocity: d[11], friction: d[12], dissipation: Dissipation::Paper };
-            let exact: Vec<f64> = outputs(&spheres([d[0], d[1], d[2]], [d[3], d[4], d[5]], &p)).iter().map(|o| o.eps).collect();
+            let exact: Vec<f64> = pair_outputs(&spheres([d[0], d[1], d[2]], [d[3], d[4], d[5]], &p)).iter().map(|o| o.eps).collect();
             let h = 1e-6 * base[k].abs().max(1e-3);
             let values = eval(&base);
             for (i, e) in exact.iter().enumerate() {

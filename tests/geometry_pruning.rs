@@ -2,13 +2,12 @@
 //! wrenches agree to 1e-12 relative on random configurations, from deep penetration to far
 //! separation and far from the origin; derivatives flow through the pruned path.
 
-use crate::common::{central_difference, Lcg};
+use crate::common::{central_difference, pair_outputs, Lcg};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use num_dual::Dual64;
 use scm::collision::{separation_band, Collider, Frame};
 use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation, PairContact};
 use scm::geometry::{ssdf, ssdf_naive, Shape};
-use scm::scalar::Scalar;
 
 fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
     ContactParams { eps1, eps2, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.05, friction: 0.5, dissipation: Dissipation::Paper }
@@ -87,15 +86,6 @@ fn pruned_pair_matches_naive_on_random_configurations() {
     assert!(pruned_points * 4 > total_points, "the band bound prunes little: {pruned_points} of {total_points}");
 }
 
-/// Outputs of a pair as a flat list.
-fn outputs<T: Scalar>(c: &PairContact<T>) -> Vec<T> {
-    let mut out = vec![c.distance];
-    for w in [&c.on_a, &c.on_b] {
-        out.extend(w.force.iter().chain(w.torque.iter()).copied());
-    }
-    out
-}
-
 #[test]
 fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
     // A box resting on a tilted box, both moving: derivatives with respect to the second
@@ -108,12 +98,12 @@ fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
     let eval = |x: &[Dual64]| -> Vec<Dual64> {
         let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
         let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
-        outputs(&pair_contact(&a, &fa, &b, &fb, &prm.lift()))
+        pair_outputs(&pair_contact(&a, &fa, &b, &fb, &prm.lift()))
     };
     let eval_naive = |x: &[Dual64]| -> Vec<Dual64> {
         let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
         let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
-        outputs(&pair_contact_naive(&a, &fa, &b, &fb, &prm.lift()))
+        pair_outputs(&pair_contact_naive(&a, &fa, &b, &fb, &prm.lift()))
     };
     let base = [0.02, -0.01, 0.095, 0.0, 0.01, -0.05];
     let value = |x: &[f64]| -> Vec<f64> { eval(&x.iter().map(|&v| Dual64::from(v)).collect::<Vec<_>>()).iter().map(|d| d.re).collect() };

@@ -3,6 +3,7 @@
 //! a non-finite step is refused with the state kept, communication steps land exactly on their
 //! end, and each method converges at its order (the adaptive one to its tolerance).
 
+use crate::common::bisect;
 use crate::dynamics_tree::model_of;
 use scm::collision::Collider;
 use scm::fmi::contract::{FmiModel, StepError};
@@ -37,18 +38,6 @@ fn stiff_sphere(k: f64, step: f64, integrator: &str) -> String {
   </worldbody>
 </mujoco>"#
     )
-}
-
-fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if f(mid) > 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    0.5 * (lo + hi)
 }
 
 /// Resting height of the sphere's centre from the static balance over its own AOPC, and the

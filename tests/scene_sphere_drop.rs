@@ -1,24 +1,11 @@
 //! The sphere of `sphere_drop.xml` falls, bounces and comes to rest on the plane at the
 //! equilibrium penetration.
 
-use crate::common::scene;
+use crate::common::{bisect, scene};
 use scm::collision::Collider;
 use scm::fmi::contract::FmiModel;
 use scm::scalar::softplus;
 use scm::sim::Simulation;
-
-/// Root of an increasing function on `[lo, hi]` by bisection.
-fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if f(mid) > 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
 
 #[test]
 fn sphere_comes_to_rest_at_the_equilibrium_penetration() {

@@ -748,7 +748,7 @@ impl Builder {
         // Colliders: the union of each body's geoms, minus the faces inside another geom of it.
         let nb = self.bodies.len();
         let mut colliders: Vec<Option<Collider>> = vec![None; nb];
-        for b in 0..nb {
+        for (b, slot) in colliders.iter_mut().enumerate() {
             let geoms: Vec<&Geom> = self.geoms.iter().filter(|g| g.body == b).collect();
             let planes: Vec<&&Geom> = geoms.iter().filter(|g| g.shape.is_none()).collect();
             if let Some(p) = planes.first() {
@@ -756,7 +756,7 @@ impl Builder {
                     let line = 0;
                     return Err(SceneError { file: self.file.clone(), line, element: "geom".into(), message: format!("body '{}' has a plane and other geoms: give the plane a body of its own", self.bodies[b].name) });
                 }
-                colliders[b] = Some(Collider::HalfSpace { point: p.pose.translation.vector, normal: p.pose.rotation * Vector3::z() });
+                *slot = Some(Collider::HalfSpace { point: p.pose.translation.vector, normal: p.pose.rotation * Vector3::z() });
                 continue;
             }
             if geoms.is_empty() {
@@ -764,7 +764,7 @@ impl Builder {
             }
             let parts: Vec<(Shape, Isometry3<f64>)> = geoms.iter().map(|g| (g.shape.clone().expect("planes handled above"), g.pose)).collect();
             let aopc = crate::geometry::union::sample_union(&parts, spacing);
-            colliders[b] = Some(Collider::Aopc(aopc));
+            *slot = Some(Collider::Aopc(aopc));
         }
         let tree = Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| SceneError { file: self.file.clone(), line: 0, element: "body".into(), message: e.to_string() })?;
         let pairs = self.pairs(&tree, &colliders)?;

@@ -43,3 +43,25 @@ impl Lcg {
         }
     }
 }
+
+/// Root of an increasing function on `[lo, hi]` by bisection (200 halvings: to the last bit).
+pub fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Every output of a pair contact (distance, then force and torque on each body) as a flat list.
+pub fn pair_outputs<T: scm::scalar::Scalar>(c: &scm::contact::PairContact<T>) -> Vec<T> {
+    let mut out = vec![c.distance];
+    for w in [&c.on_a, &c.on_b] {
+        out.extend(w.force.iter().chain(w.torque.iter()).copied());
+    }
+    out
+}
