@@ -18,7 +18,8 @@
 //!   (n = nq + nv + nu passes of `Dual64`), `dualvec4` (`DualSVec64<4>`, ⌈n/4⌉ passes),
 //!   `dualvec16` (`DualSVec64<16>`, one pass for n ≤ 16);
 //! - `fd_s`: central finite differences of the same map, 2n + 1 steps;
-//! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| (FD step 1e-6 relative),
+//! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| at the relative FD step
+//!   of 1e-4 … 1e-8 that agrees best (`fd_rel_step`; `fd_s` is timed at 1e-6),
 //!   and `dualvec_vs_dual64` (should be rounding only).
 //!
 //! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
@@ -189,14 +190,14 @@ fn jacobian_vec<const N: usize>(model: &Model, prm: &ContactParams<f64>, h: f64,
     jac
 }
 
-/// Central finite differences: 2n + 1 steps.
-fn jacobian_fd(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+/// Central finite differences with relative step `rel`: 2n + 1 steps.
+fn jacobian_fd(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64], rel: f64) -> Vec<Vec<f64>> {
     let n = x.len();
     let _nominal = step_map::<f64>(model, prm, h, nq, nv, x);
     let mut jac = vec![vec![0.0; n]; nq + nv];
     let mut xp = x.to_vec();
     for j in 0..n {
-        let d = 1e-6 * x[j].abs().max(1.0);
+        let d = rel * x[j].abs().max(1.0);
         xp[j] = x[j] + d;
         let yp = step_map::<f64>(model, prm, h, nq, nv, &xp);
         xp[j] = x[j] - d;
@@ -208,6 +209,9 @@ fn jacobian_fd(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: u
     }
     jac
 }
+
+/// Relative steps of the central differences the accuracy is checked with.
+const FD_STEPS: [f64; 5] = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
 
 fn max_abs(j: &[Vec<f64>]) -> f64 {
     j.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
@@ -320,7 +324,14 @@ fn run() -> Result<String, String> {
         let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
         let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
         let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
-        let jfd = jacobian_fd(&model, &prm, h, nq, nv, &x);
+        // Accuracy against central differences at the FD step that agrees best: a map with a
+        // fast smooth transition (frictionloss below the stiction velocity, the dissipation
+        // factor) has a truncation error that only a small step makes small, and rounding takes
+        // over below it. The FD column is timed at 1e-6.
+        let (fd_err, fd_rel) = FD_STEPS
+            .iter()
+            .map(|&rel| (max_diff(&j64, &jacobian_fd(&model, &prm, h, nq, nv, &x, rel)), rel))
+            .fold((f64::INFINITY, 0.0), |best, e| if e.0 < best.0 { e } else { best });
         // Every quantity is timed in interleaved rounds (one batch of each per round), so a
         // change of machine load affects all of them alike and their ratios stay meaningful.
         let times = time_interleaved(
@@ -352,7 +363,7 @@ fn run() -> Result<String, String> {
                     black_box(jacobian_vec::<16>(&model, &prm, h, nq, nv, black_box(&x)));
                 },
                 &mut || {
-                    black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x)));
+                    black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x), 1e-6));
                 },
             ],
         );
@@ -372,12 +383,12 @@ fn run() -> Result<String, String> {
             "{{\"integrator\": \"{}\", \"h\": {h:e}, \"n_inputs\": {}, \"n_outputs\": {}, \"pair_distances\": [{}], \
              \"model_step_s\": {model_step:e}, \"engine_step_s\": {engine_step:e}, \"ffi_step_s\": {ffi_step:e}, \"ffi_restore_s\": {restore:e}, \
              \"jacobian_dual64_s\": {t_j64:e}, \"jacobian_dualvec4_s\": {t_j4:e}, \"jacobian_dualvec16_s\": {t_j16:e}, \"fd_s\": {t_fd:e}, \
-             \"jacobian_vs_fd_rel\": {:e}, \"dualvec_vs_dual64_rel\": {vec_err:e}, \"jacobian_max_abs\": {scale:e}}}",
+             \"jacobian_vs_fd_rel\": {:e}, \"fd_rel_step\": {fd_rel:e}, \"dualvec_vs_dual64_rel\": {vec_err:e}, \"jacobian_max_abs\": {scale:e}}}",
             integrator.name(),
             x.len(),
             nq + nv,
             distances.join(", "),
-            max_diff(&j64, &jfd) / scale,
+            fd_err / scale,
         ));
     }
     Ok(format!("{{\"scene\": \"{}\", \"results\": [{}]}}", scene.display(), items.join(", ")))
