@@ -105,7 +105,7 @@ def run(ctx):
             "Each cell is one run through the FMU's C ABI with that parameter (the others at the scene's values), internal step and integrator, "
             "classified as **S** stable (finished, final pose within tolerance of the reference: "
             + "; ".join(f"{s['label']}: {s['tol_pos'] * 1000:g} mm and {s['tol_rot']:g} rad" for s in S.STABILITY)
-            + "), **R** refused (`fmi2DoStep` returned `fmi2Discard`: the state went non-finite and the FMU kept its last good state), "
+            + "), **R** refused (`fmi2DoStep` returned `fmi2Discard`: the state went non-finite, or its energy grew by more than its inputs and losses explain, and the FMU kept its last good state), "
             f"**W** wrong (finished, but far from the reference or beyond {BOUND:g} m). A NaN reaching the host would stop the report as a bug; none did. "
             f"The reference at each parameter value is {ref_text}, starting at 0.5 ms and halved until two successive runs agree "
             "to a tenth of the tolerance (its step is in the last column).", ""] + [x + "\n" for x in sections]
