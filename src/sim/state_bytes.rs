@@ -91,6 +91,16 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let time = finite(&mut r, "the time")?;
     let q = (0..nq).map(|_| finite(&mut r, "a position")).collect::<Result<Vec<_>, _>>()?;
     let v = (0..nv).map(|_| finite(&mut r, "a velocity")).collect::<Result<Vec<_>, _>>()?;
+    for j in &model.tree.joints {
+        let qa = match j.kind {
+            crate::dynamics::JointKind::Free => j.qadr + 3,
+            crate::dynamics::JointKind::Ball => j.qadr,
+            _ => continue,
+        };
+        if q[qa..qa + 4].iter().all(|&c| c == 0.0) {
+            return Err(format!("model state is corrupt: the quaternion of joint {} is zero", j.name));
+        }
+    }
     let ctrl = (0..nc).map(|_| finite(&mut r, "a control")).collect::<Result<Vec<_>, _>>()?;
     let mocap = (0..nm * MOCAP_INPUTS).map(|_| finite(&mut r, "a mocap pose or velocity")).collect::<Result<Vec<_>, _>>()?;
     let mocap_target = (0..nm * 7).map(|_| finite(&mut r, "a mocap input")).collect::<Result<Vec<_>, _>>()?;
@@ -125,7 +135,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             let (rows, cols) = (r.u64("the Jacobian's rows")?, r.u64("the Jacobian's columns")?);
             // The Newton Jacobian is square in the velocity coordinates or the whole state.
             let n = nq + 2 * nv;
-            if rows > n as u64 || cols > n as u64 || rows == 0 || cols == 0 {
+            if rows != cols || rows > n as u64 || rows == 0 {
                 return Err(format!("model state is corrupt: a {rows} x {cols} Newton Jacobian for {nq} positions and {nv} velocities"));
             }
             let (rows, cols) = (rows as usize, cols as usize);
