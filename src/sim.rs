@@ -505,7 +505,7 @@ impl Simulation {
         if value.is_finite() {
             Ok(())
         } else {
-            Err(format!("{name} = {value} refused: the value must be finite"))
+            Err(format!("{name} = {value:?} refused: the value must be finite"))
         }
     }
 }
@@ -702,14 +702,14 @@ impl FmiModel for Simulation {
             }
             Slot::Param(p) => {
                 if !p.accepts(value) {
-                    return Err(format!("{} = {value} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
+                    return Err(format!("{} = {value:?} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
                 }
                 // Tunable at any time; `fmi2Reset` restores the scene's value.
                 *p.slot(&mut self.current.params) = value;
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
                 if value.is_nan() || value <= 0.0 {
-                    return Err(format!("{} = {value} refused: it must be positive", var.name));
+                    return Err(format!("{} = {value:?} refused: it must be positive", var.name));
                 }
                 if slot == Slot::SolverStep {
                     self.model.step = value;

@@ -6,6 +6,8 @@ mod derivatives;
 mod dynamics_tree;
 #[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
 mod fmi_fuzz;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_values;
 mod fmi_load;
 mod fmu_documentation;
 mod fmu_scene;
