@@ -8,6 +8,8 @@ mod dynamics_tree;
 mod fmi_fuzz;
 #[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
 mod fmi_bad_values;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_calls;
 mod fmi_load;
 mod fmu_documentation;
 mod fmu_scene;
