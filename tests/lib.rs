@@ -10,6 +10,8 @@ mod fmi_fuzz;
 mod fmi_bad_values;
 #[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
 mod fmi_bad_calls;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_files;
 mod fmi_load;
 mod fmu_documentation;
 mod fmu_scene;
