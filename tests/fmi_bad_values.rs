@@ -249,3 +249,59 @@ fn model_exchange_refuses_non_finite_time_and_states() {
         fmi2FreeInstance(c);
     }
 }
+
+/// Divergence: an explicit integrator on contact far too stiff for its internal step (k = 1e9
+/// N/m on 1 kg: ω = 3.2e4 rad/s, h ω = 32 at the scene's 1 ms step) makes the energy explode;
+/// `fmi2DoStep` returns `fmi2Discard`, names the quantity and the time, keeps the state at the
+/// start of the step bit for bit (`fmi2LastSuccessfulTime` says where), answers
+/// `fmi2Terminated = true`, and a retry with communication steps short enough for the
+/// stiffness (10 µs: h ω = 0.32) succeeds from there and clears the flag.
+#[test]
+fn a_diverging_step_is_discarded_and_a_smaller_retry_continues() {
+    let res = host::resources("sphere_drop");
+    let sim = scm::sim::Simulation::from_file(&crate::common::scene("sphere_drop")).unwrap();
+    let vr = |name: &str| sim.rows().iter().position(|(v, _)| v.name == name).unwrap() as u32;
+    let (z, vz, k) = (vr("ball.pos.z"), vr("ball.linvel.z"), vr("scm.stiffness"));
+    let n = sim.rows().len() as u32;
+    let capture = Capture::default();
+    let callbacks = host::callbacks(&capture);
+    unsafe {
+        let c = host::instantiate(&res, fmi2CoSimulation, &callbacks);
+        // Resting on the plane (r = 5 cm), moving down at 1 m/s.
+        assert_eq!(fmi2SetReal(c, &z, 1, &0.0505), fmi2OK);
+        assert_eq!(fmi2SetReal(c, &vz, 1, &-1.0), fmi2OK);
+        assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
+        assert_eq!(fmi2ExitInitializationMode(c), fmi2OK);
+        assert_eq!(fmi2DoStep(c, 0.0, 1e-4, 1), fmi2OK);
+        assert_eq!(fmi2SetReal(c, &k, 1, &1e9), fmi2OK);
+        let before = all(c, n);
+        let t0 = 1e-4;
+        assert_eq!(fmi2DoStep(c, t0, 0.01, 1), fmi2Discard, "{:?}", capture.last());
+        let msg = capture.last();
+        assert_eq!(msg.status, fmi2Discard);
+        assert!(msg.message.contains("energy") || msg.message.contains("non-finite"), "{msg:?}");
+        assert!(msg.message.contains(&format!("t = {t0}")), "{msg:?}");
+        assert_eq!(all(c, n), before, "a discarded step changed the state");
+        let (mut last, mut terminated) = (0.0, fmi2False);
+        assert_eq!(fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &mut last), fmi2OK);
+        assert_eq!(last, t0);
+        assert_eq!(fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated), fmi2OK);
+        assert_eq!(terminated, fmi2True);
+        // Retry with short steps: the sphere is stopped by the stiff contact without blowing up.
+        let h = 1e-5;
+        let mut zmin = f64::INFINITY;
+        for i in 0..300 {
+            let s = fmi2DoStep(c, t0 + i as f64 * h, h, 1);
+            assert_eq!(s, fmi2OK, "retry step {i}: {:?}", capture.last());
+            let mut x = 0.0;
+            assert_eq!(fmi2GetReal(c, &z, 1, &mut x), fmi2OK);
+            zmin = zmin.min(x);
+            assert!(x.is_finite() && x < 0.06, "z = {x}");
+        }
+        assert_eq!(fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated), fmi2OK);
+        assert_eq!(terminated, fmi2False);
+        // k = 1e9 N/m stops 1 m/s on 1 kg within about v/ω = 32 µm (plus the softplus offset).
+        assert!(zmin > 0.0505 - 0.002, "penetrated to z = {zmin}");
+        fmi2FreeInstance(c);
+    }
+}
