@@ -22,6 +22,7 @@ mod geometry_ssdf;
 mod golden_model_description;
 mod host_fmi_crate;
 mod integrators;
+mod long_run;
 mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;
