@@ -4,6 +4,7 @@ mod common;
 mod contact_pair;
 mod derivatives;
 mod dynamics_tree;
+mod extremes;
 #[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
 mod fmi_fuzz;
 #[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
