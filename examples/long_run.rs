@@ -188,7 +188,7 @@ pub fn phase(scene: &str, steps: usize, h: f64, mut drive: impl FnMut(&Run, f64)
         if k + 1 >= warmup {
             live_max = live_max.max(live_bytes());
         }
-        if (k + 1) % 10_000 == 0 {
+        if (k + 1).is_multiple_of(10_000) {
             progress(k + 1, live_bytes());
         }
     }
@@ -224,11 +224,12 @@ pub fn box_stack(steps: usize, progress: impl FnMut(usize, isize)) -> Phase {
 #[allow(dead_code)]
 fn main() {
     let steps: usize = std::env::args().nth(1).map(|s| s.parse().expect("STEPS")).unwrap_or(1_000_000);
-    let phases: [(&str, fn(usize, &mut dyn FnMut(usize, isize)) -> Phase); 2] = [("t_push", |n, p| t_push(n, p)), ("box_stack", |n, p| box_stack(n, p))];
+    type Driver = fn(usize, &mut dyn FnMut(usize, isize)) -> Phase;
+    let phases: [(&str, Driver); 2] = [("t_push", |n, p| t_push(n, p)), ("box_stack", |n, p| box_stack(n, p))];
     let only: Vec<String> = std::env::args().skip(2).collect();
     for (name, f) in phases.into_iter().filter(|(n, _)| only.is_empty() || only.iter().any(|o| o == n)) {
         let mut report = |k: usize, live: isize| {
-            if k % 100_000 == 0 {
+            if k.is_multiple_of(100_000) {
                 println!("{name}: step {k}: live heap {live} B, RSS {:.1} MB", rss_bytes() as f64 / 1e6);
             }
         };

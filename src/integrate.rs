@@ -535,7 +535,7 @@ impl Model {
             let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0);
             // Refused before any work (the cast below would saturate, and internal steps would
             // grow past `step`; a state that stays finite would run for ages).
-            if !(n <= opts.max_steps as f64) {
+            if n.is_nan() || n > opts.max_steps as f64 {
                 return Err(StepFailure::TooLong { time: t0, duration, step: self.step, steps: opts.max_steps });
             }
             let n = n as usize;

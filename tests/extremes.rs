@@ -3,8 +3,8 @@
 //! steps from 0.01 ms to 50 ms, an impact at 100 m/s, a mass ratio of 1e6, concentric and
 //! coincident bodies, bodies 1e5 m from the origin, a one-point AOPC.
 //!
-//! "Physically sensible" is asserted as: every coordinate finite; the mechanical energy (kinetic
-//! + gravity) at the end not above its start (no input, dissipative contact: the model may only
+//! "Physically sensible" is asserted as: every coordinate finite; the mechanical energy
+//! (kinetic and gravity) at the end not above its start (no input, dissipative contact: the model may only
 //! lose energy; 1e-9 J of slack for rounding) unless stated; no body below the plane it rests on
 //! by more than the penetration its stiffness allows.
 

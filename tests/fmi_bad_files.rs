@@ -325,8 +325,10 @@ fn apply(text: &str, m: &Mutation) -> String {
 }
 
 /// The scenes the mutation fuzz uses, with their meshes (`scm pack` layout).
-fn mutable_scenes() -> &'static [(String, Vec<(String, Vec<u8>)>)] {
-    static S: std::sync::OnceLock<Vec<(String, Vec<(String, Vec<u8>)>)>> = std::sync::OnceLock::new();
+type SceneFiles = (String, Vec<(String, Vec<u8>)>);
+
+fn mutable_scenes() -> &'static [SceneFiles] {
+    static S: std::sync::OnceLock<Vec<SceneFiles>> = std::sync::OnceLock::new();
     S.get_or_init(|| {
         ["sphere_drop", "sphere_pair", "box_stack", "arm_push", "mocap_push", "mesh_drop"]
             .iter()

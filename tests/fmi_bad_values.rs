@@ -89,6 +89,7 @@ unsafe fn refuse(c: fmi2Component, capture: &Capture, vr: u32, name: &str, value
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 /// A scene's run: setup with `stopTime`, initialization, `steps` communication steps of `h`
 /// with a hook after each, then every variable.
 unsafe fn run(res: &Resources, capture: &Capture, n: u32, stop: f64, steps: usize, h: f64, mut before_init: impl FnMut(fmi2Component, bool), mut hook: impl FnMut(fmi2Component, usize)) -> Vec<Option<u64>> {

@@ -793,7 +793,7 @@ impl Builder {
             }
             let parts: Vec<(Shape, Isometry3<f64>)> = geoms.iter().map(|g| (g.shape.clone().expect("planes handled above"), g.pose)).collect();
             let estimate: f64 = parts.iter().map(|(shape, _)| estimated_points(shape, spacing)).sum();
-            if !(estimate <= MAX_AOPC_POINTS) {
+            if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
                 return Err(SceneError {
                     file: self.file.clone(),
                     line: 0,
