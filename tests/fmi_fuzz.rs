@@ -714,3 +714,12 @@ proptest! {
         forge(scene.0, scene.1, &edits)?;
     }
 }
+
+/// Found by the fuzz: a zero quaternion set before initialization, saved and serialized, must
+/// deserialize (the FMU's own bytes round-trip); initialization then refuses it.
+#[test]
+fn a_zero_quaternion_saved_before_initialization_round_trips() {
+    // vr 4 is ball.quat.w of sphere_drop (time, then pos.x|y|z): the start quaternion is (1, 0, 0, 0).
+    assert!(matches!(fixture(0).slots[4].0, Slot::Q(3)));
+    run(0, false, &[Op::SetReal { vr: 4, value: 0.0 }, Op::SaveState, Op::Serialize { slot: 0, damage: Damage::None }, Op::RestoreState { slot: 1 }, Op::EnterInit, Op::ExitInit]).unwrap();
+}

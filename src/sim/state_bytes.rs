@@ -91,16 +91,9 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let time = finite(&mut r, "the time")?;
     let q = (0..nq).map(|_| finite(&mut r, "a position")).collect::<Result<Vec<_>, _>>()?;
     let v = (0..nv).map(|_| finite(&mut r, "a velocity")).collect::<Result<Vec<_>, _>>()?;
-    for j in &model.tree.joints {
-        let qa = match j.kind {
-            crate::dynamics::JointKind::Free => j.qadr + 3,
-            crate::dynamics::JointKind::Ball => j.qadr,
-            _ => continue,
-        };
-        if q[qa..qa + 4].iter().all(|&c| c == 0.0) {
-            return Err(format!("model state is corrupt: the quaternion of joint {} is zero", j.name));
-        }
-    }
+    // A zero quaternion is not refused here: before initialization a host may set one (a
+    // component at a time), save the state and serialize it, and the bytes must round-trip;
+    // `fmi2ExitInitializationMode` refuses it, and a step from it is refused as non-finite.
     let ctrl = (0..nc).map(|_| finite(&mut r, "a control")).collect::<Result<Vec<_>, _>>()?;
     let mocap = (0..nm * MOCAP_INPUTS).map(|_| finite(&mut r, "a mocap pose or velocity")).collect::<Result<Vec<_>, _>>()?;
     let mocap_target = (0..nm * 7).map(|_| finite(&mut r, "a mocap input")).collect::<Result<Vec<_>, _>>()?;
