@@ -532,7 +532,13 @@ impl Model {
             Ok(())
         };
         if !self.integrator.is_adaptive() {
-            let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0) as usize;
+            let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0);
+            // Refused before any work (the cast below would saturate, and internal steps would
+            // grow past `step`; a state that stays finite would run for ages).
+            if n.is_nan() || n > opts.max_steps as f64 {
+                return Err(StepFailure::TooLong { time: t0, duration, step: self.step, steps: opts.max_steps });
+            }
+            let n = n as usize;
             let dt = duration / n as f64;
             let mut s = state.clone();
             let mut first = a0;
@@ -687,7 +693,8 @@ pub struct AdvanceOptions {
     /// once the energy has about doubled. Mocap bodies
     /// put in energy the guard cannot bound: it is off while one moves.
     pub energy_guard: bool,
-    /// Most internal steps (accepted and rejected) an adaptive advance may take.
+    /// Most internal steps (accepted and rejected) an adaptive advance may take, and most
+    /// internal steps a fixed-step advance may be split into.
     pub max_steps: usize,
 }
 
@@ -769,6 +776,19 @@ pub enum StepFailure {
         /// What went wrong in the last trial, if more than the tolerance ("made the velocity of
         /// joint J non-finite", "failed: …").
         cause: Option<String>,
+    },
+    /// A fixed-step advance would need more than [`AdvanceOptions::max_steps`] internal steps;
+    /// refused before any step is taken.
+    #[error("a step of {duration:e} s from t = {time} s would need more than {steps} internal steps of {step:e} s: split it into shorter communication steps")]
+    TooLong {
+        /// Start of the refused advance (s).
+        time: f64,
+        /// The requested duration (s).
+        duration: f64,
+        /// The internal step (s).
+        step: f64,
+        /// The limit.
+        steps: usize,
     },
     /// The adaptive method needed too many steps.
     #[error("more than {steps} internal steps by t = {time} s (stiff contact? try implicit_euler)")]

@@ -331,7 +331,6 @@ pub struct Simulation {
     /// Current state.
     pub current: SimState,
     start: SimState,
-    stop_time: Option<f64>,
     /// Contact outputs at the current state, computed on demand.
     outputs: Option<Vec<PairContact<f64>>>,
     /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
@@ -360,7 +359,7 @@ impl Simulation {
         let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target, mocap_sampled: None };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        Simulation { model, rows, info, current: start.clone(), start, stop_time: None, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false }
+        Simulation { model, rows, info, current: start.clone(), start, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false }
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -506,7 +505,7 @@ impl Simulation {
         if value.is_finite() {
             Ok(())
         } else {
-            Err(format!("{name} = {value} refused: the value must be finite"))
+            Err(format!("{name} = {value:?} refused: the value must be finite"))
         }
     }
 }
@@ -596,16 +595,12 @@ impl FmiModel for Simulation {
         &self.info
     }
 
-    fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>, _tolerance: Option<f64>) -> ModelResult<()> {
+    /// The start time only: the plumbing owns `stopTime` (it refuses a step past it before
+    /// calling [`FmiModel::do_step`], and saves it with the FMU state).
+    fn setup_experiment(&mut self, start_time: f64, _stop_time: Option<f64>, _tolerance: Option<f64>) -> ModelResult<()> {
         Self::check_finite("startTime", start_time)?;
-        if let Some(stop) = stop_time {
-            if stop.is_nan() || stop < start_time {
-                return Err(format!("stopTime = {stop} refused: it must be finite and not before startTime = {start_time}"));
-            }
-        }
+        // Only the current time: `fmi2Reset` goes back to the instantiated state (t = 0).
         self.current.time = start_time;
-        self.start.time = start_time;
-        self.stop_time = stop_time;
         Ok(())
     }
 
@@ -648,7 +643,6 @@ impl FmiModel for Simulation {
         self.current = self.start.clone();
         (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
         self.cache = Default::default();
-        self.stop_time = None;
         self.outputs = None;
         self.messages.push(LogMessage { category: LogCategory::Events, text: "reset to the start values".into() });
         Ok(())
@@ -704,20 +698,18 @@ impl FmiModel for Simulation {
                     let o = crate::dynamics::MOCAP_INPUTS * m;
                     self.current.mocap[o + k] = value;
                     self.current.mocap[o + 7..o + 13].fill(0.0);
-                    self.start.mocap = self.current.mocap.clone();
-                    self.start.mocap_target = self.current.mocap_target.clone();
                 }
             }
             Slot::Param(p) => {
                 if !p.accepts(value) {
-                    return Err(format!("{} = {value} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
+                    return Err(format!("{} = {value:?} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
                 }
                 // Tunable at any time; `fmi2Reset` restores the scene's value.
                 *p.slot(&mut self.current.params) = value;
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
                 if value.is_nan() || value <= 0.0 {
-                    return Err(format!("{} = {value} refused: it must be positive", var.name));
+                    return Err(format!("{} = {value:?} refused: it must be positive", var.name));
                 }
                 if slot == Slot::SolverStep {
                     self.model.step = value;
@@ -754,13 +746,12 @@ impl FmiModel for Simulation {
         if !step.is_finite() || step <= 0.0 {
             return Err(StepError::Error(format!("communicationStepSize = {step} refused: it must be positive and finite")));
         }
-        if let Some(stop) = self.stop_time {
-            if current_time + step > stop * (1.0 + 1e-12) + 1e-12 {
-                return Err(StepError::Error(format!("a step from t = {current_time} s by {step} s would pass the stop time {stop} s")));
-            }
-        }
+        let before = self.current.time;
         self.current.time = current_time;
-        self.advance(step)?;
+        if let Err(e) = self.advance(step) {
+            self.current.time = before;
+            return Err(e);
+        }
         self.current.time = current_time + step;
         self.log_contacts();
         Ok(())

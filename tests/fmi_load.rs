@@ -1,4 +1,5 @@
-//! Load: 16 instances of the bundled scenes stepped concurrently from 16 threads give results
+//! Load: 16 instances of the bundled scenes (each scene twice: as bundled, and with other
+//! contact parameters and controls) stepped concurrently from 16 threads give results
 //! bit-identical to running them one after another (no shared mutable state between instances).
 
 use scm::fmi::ffi::*;
@@ -7,7 +8,7 @@ use std::ffi::CString;
 use std::path::{Path, PathBuf};
 
 /// Packs a scene into an FMU and unzips it; returns (resources URI, GUID, number of variables).
-fn unpacked(scene: &Path, root: &Path) -> (CString, CString, u32) {
+fn unpacked(scene: &Path, root: &Path) -> (CString, CString, Vec<(String, f64)>) {
     let name = scene.file_stem().unwrap().to_string_lossy().into_owned();
     let dir = root.join(&name);
     let fmu = root.join(format!("{name}.fmu"));
@@ -22,13 +23,18 @@ fn unpacked(scene: &Path, root: &Path) -> (CString, CString, u32) {
     (
         CString::new(format!("file://{}", dir.join("resources").display())).unwrap(),
         CString::new(scm::sim::guid(&text)).unwrap(),
-        sim.rows().len() as u32,
+        sim.rows()
+            .iter()
+            .map(|(v, _)| (v.name.clone(), match v.var_type { scm::fmi::contract::VarType::Real { start, .. } => start.unwrap_or(f64::NAN), _ => f64::NAN }))
+            .collect(),
     )
 }
 
 /// Runs one instance for `steps` communication steps and returns every Real variable after
-/// each step, as bits.
-fn rollout(uri: &CString, guid: &CString, nvars: u32, seed: usize, steps: usize) -> Vec<u64> {
+/// each step, as bits. The variant (`seed >= 8`) doubles the stiffness, sets the friction to
+/// 0.3, ε2 to 1.5 times its value and every control to 0.05 before initialization.
+fn rollout(uri: &CString, guid: &CString, names: &[(String, f64)], seed: usize, steps: usize) -> Vec<u64> {
+    let nvars = names.len() as u32;
     let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
     let mut out = Vec::new();
     unsafe {
@@ -36,6 +42,19 @@ fn rollout(uri: &CString, guid: &CString, nvars: u32, seed: usize, steps: usize)
         let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, 0, 0);
         assert!(!c.is_null());
         assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), fmi2OK);
+        if seed >= 8 {
+            for (i, (name, start)) in names.iter().enumerate() {
+                let vr = i as u32;
+                let value = match name.as_str() {
+                    "scm.stiffness" => 2.0 * start,
+                    "scm.eps2" => 1.5 * start,
+                    "scm.friction" => 0.3,
+                    n if n.ends_with(".ctrl") => 0.05,
+                    _ => continue,
+                };
+                assert_eq!(fmi2SetReal(c, &vr, 1, &value), fmi2OK);
+            }
+        }
         assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
         let vrs: Vec<u32> = (0..nvars).collect();
         let mut values = vec![0.0; nvars as usize];
@@ -69,15 +88,19 @@ fn sixteen_concurrent_instances_match_sequential_runs_bit_for_bit() {
     let jobs: Vec<usize> = (0..16).collect();
     let sequential: Vec<Vec<u64>> = jobs.iter().map(|&i| {
         let (uri, guid, n) = &fmus[i % fmus.len()];
-        rollout(uri, guid, *n, i, steps)
+        rollout(uri, guid, n, i, steps)
     }).collect();
     let concurrent: Vec<Vec<u64>> = std::thread::scope(|scope| {
         let handles: Vec<_> = jobs.iter().map(|&i| {
             let (uri, guid, n) = &fmus[i % fmus.len()];
-            scope.spawn(move || rollout(uri, guid, *n, i, steps))
+            scope.spawn(move || rollout(uri, guid, n, i, steps))
         }).collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
+    assert_eq!(fmus.len(), 8, "16 instances: each bundled scene twice");
+    for i in 0..8 {
+        assert!(sequential[i] != sequential[i + 8], "{}: the variant ran like the original", scenes[i].display());
+    }
     for (i, (s, c)) in sequential.iter().zip(&concurrent).enumerate() {
         assert!(s == c, "instance {i} ({}) differs between sequential and concurrent runs", scenes[i % scenes.len()].display());
     }

@@ -4,7 +4,15 @@ mod common;
 mod contact_pair;
 mod derivatives;
 mod dynamics_tree;
+mod extremes;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
 mod fmi_fuzz;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_values;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_calls;
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+mod fmi_bad_files;
 mod fmi_load;
 mod fmu_documentation;
 mod fmu_scene;
@@ -15,6 +23,7 @@ mod geometry_ssdf;
 mod golden_model_description;
 mod host_fmi_crate;
 mod integrators;
+mod long_run;
 mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;

@@ -296,7 +296,10 @@ pub trait FmiModel: Sized + Send {
         Err(format!("no String variable with value reference {vr}"))
     }
 
-    /// `fmi2DoStep` (Co-Simulation): advance from `current_time` by `step`.
+    /// `fmi2DoStep` (Co-Simulation): advance from `current_time` by `step`. The plumbing has
+    /// already refused a step that is not finite and positive, a `current_time` that is not the
+    /// model's time (to rounding) and a step past `stopTime` (which it owns and saves with the
+    /// FMU state); on failure the model keeps its state from before the call.
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError>;
 
     /// Messages produced since the last call (warnings, events, contact diagnostics).

@@ -33,6 +33,16 @@ pub trait LogSink {
 /// this much, relative to the larger of the time and the step size (SPEC §7).
 pub const COMMUNICATION_POINT_RELATIVE_TOLERANCE: f64 = 1e-9;
 
+/// Whether a communication step of `step` (s) ending at `end` (s) passes `stop` (s), the
+/// `stopTime` of `fmi2SetupExperiment`, by more than rounding: the same relative tolerance as
+/// the communication point ([`COMMUNICATION_POINT_RELATIVE_TOLERANCE`], relative to the larger
+/// of `|stop|` and the step), so that a host's time grid that lands on `stop` up to its last bits
+/// is accepted, whatever the sign of `stop`. One function, used by the plumbing and by models,
+/// so the two can never disagree on a step.
+pub fn passes_stop_time(end: f64, stop: f64, step: f64) -> bool {
+    end > stop + COMMUNICATION_POINT_RELATIVE_TOLERANCE * stop.abs().max(step)
+}
+
 /// Opaque handle of a saved FMU state (never 0, unique in the process, never reused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct FmuStateHandle(pub NonZeroUsize);
@@ -52,6 +62,9 @@ struct Saved<S> {
     model: S,
     machine: ModelState,
     last_successful_time: f64,
+    /// `stopTime` of `fmi2SetupExperiment` when the state was saved (part of the state: a
+    /// state restored after `fmi2Reset`, or into another instance, keeps its experiment).
+    stop_time: Option<f64>,
     serialized: Option<Vec<u8>>,
 }
 
@@ -562,7 +575,7 @@ impl<M: FmiModel> Instance<M> {
             }
             let model = this.model.get_state()?;
             let machine = if this.state == ModelState::StepFailed { ModelState::StepComplete } else { this.state };
-            let saved = Saved { model, machine, last_successful_time: this.last_successful_time, serialized: None };
+            let saved = Saved { model, machine, last_successful_time: this.last_successful_time, stop_time: this.stop_time, serialized: None };
             let handle = slot.unwrap_or_else(new_handle);
             this.saved.insert(handle, saved);
             *slot = Some(handle);
@@ -580,6 +593,7 @@ impl<M: FmiModel> Instance<M> {
             this.model.set_state(&saved.model)?;
             this.state = saved.machine;
             this.last_successful_time = saved.last_successful_time;
+            this.stop_time = saved.stop_time;
             this.log_event(&format!("fmi2SetFMUstate: restored state {:#x}, t = {:?}", h.0, this.model.time()));
             Ok(fmi2OK)
         })
@@ -601,7 +615,7 @@ impl<M: FmiModel> Instance<M> {
         let saved = self.saved.get_mut(&handle).ok_or_else(|| Self::unknown_handle(handle))?;
         if saved.serialized.is_none() {
             let model_bytes = self.model.serialize_state(&saved.model)?;
-            saved.serialized = Some(serial::encode(&self.model.info().guid, saved.machine.bit(), saved.last_successful_time, &model_bytes));
+            saved.serialized = Some(serial::encode(&self.model.info().guid, saved.machine.bit(), saved.last_successful_time, saved.stop_time, &model_bytes));
         }
         Ok(saved.serialized.as_deref().unwrap_or_default())
     }
@@ -652,11 +666,14 @@ impl<M: FmiModel> Instance<M> {
             let decoded = serial::decode(bytes, &this.model.info().guid)?;
             let machine = ModelState::ALL.into_iter().find(|s| s.bit() == decoded.machine).filter(|s| this.restorable(*s));
             let machine = machine.ok_or_else(|| format!("serialized state was saved in a state-machine state ({:#x}) this {:?} instance cannot restore", decoded.machine, this.interface))?;
-            let last_successful_time = decoded.last_successful_time;
+            let (last_successful_time, stop_time) = (decoded.last_successful_time, decoded.stop_time);
+            if !last_successful_time.is_finite() || stop_time.is_some_and(|s| !s.is_finite()) {
+                return Err(format!("serialized state is corrupt: last successful time {last_successful_time:?}, stop time {stop_time:?}").into());
+            }
             let model_bytes = decoded.model;
             let model = this.model.deserialize_state(model_bytes)?;
             let handle = slot.unwrap_or_else(new_handle);
-            this.saved.insert(handle, Saved { model, machine, last_successful_time, serialized: Some(bytes.to_vec()) });
+            this.saved.insert(handle, Saved { model, machine, last_successful_time, stop_time, serialized: Some(bytes.to_vec()) });
             *slot = Some(handle);
             Ok(fmi2OK)
         })
@@ -713,7 +730,7 @@ impl<M: FmiModel> Instance<M> {
             }
             if let Some(stop) = this.stop_time {
                 let end = now + step;
-                if end > stop + COMMUNICATION_POINT_RELATIVE_TOLERANCE * stop.abs().max(step) {
+                if passes_stop_time(end, stop, step) {
                     return Err(format!("the step to t = {end:?} would pass stopTime = {stop:?}; the state is unchanged").into());
                 }
             }

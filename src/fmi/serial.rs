@@ -10,6 +10,7 @@
 //! | 4 + n | GUID of the FMU that wrote it: length, then UTF-8 bytes |
 //! | 4 | state-machine state (its bit) |
 //! | 8 | last successful time (f64 bits) |
+//! | 1 (+ 8) | `stopTime` of `fmi2SetupExperiment`: 0, or 1 and its f64 bits |
 //! | 8 + m | the model's own bytes ([`FmiModel::serialize_state`](super::contract::FmiModel::serialize_state)): length, then bytes |
 //! | 8 | checksum: 64-bit FNV-1a of everything before it |
 //!
@@ -21,7 +22,7 @@
 /// Magic number that starts a serialized FMU state.
 pub const SERIAL_MAGIC: &[u8; 8] = b"SCMFMU2\0";
 /// Version of the layout written by [`encode`].
-pub const SERIAL_VERSION: u32 = 2;
+pub const SERIAL_VERSION: u32 = 3;
 
 /// 64-bit FNV-1a hash of `bytes` (offset basis xor `seed`). Hand-written: eight lines, and it
 /// must stay byte-for-byte stable across versions of any library, since saved states and GUIDs
@@ -43,19 +44,28 @@ pub struct Decoded<'a> {
     pub machine: u32,
     /// Last successful time (s).
     pub last_successful_time: f64,
+    /// `stopTime` of `fmi2SetupExperiment` (s), if one was given.
+    pub stop_time: Option<f64>,
     /// The model's bytes.
     pub model: &'a [u8],
 }
 
 /// Writes a serialized state.
-pub fn encode(guid: &str, machine: u32, last_successful_time: f64, model: &[u8]) -> Vec<u8> {
-    let mut bytes = Vec::with_capacity(8 + 4 + 4 + guid.len() + 4 + 8 + 8 + model.len() + 8);
+pub fn encode(guid: &str, machine: u32, last_successful_time: f64, stop_time: Option<f64>, model: &[u8]) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(8 + 4 + 4 + guid.len() + 4 + 8 + 9 + 8 + model.len() + 8);
     bytes.extend_from_slice(SERIAL_MAGIC);
     bytes.extend_from_slice(&SERIAL_VERSION.to_le_bytes());
     bytes.extend_from_slice(&(guid.len() as u32).to_le_bytes());
     bytes.extend_from_slice(guid.as_bytes());
     bytes.extend_from_slice(&machine.to_le_bytes());
     bytes.extend_from_slice(&last_successful_time.to_bits().to_le_bytes());
+    match stop_time {
+        None => bytes.push(0),
+        Some(stop) => {
+            bytes.push(1);
+            bytes.extend_from_slice(&stop.to_bits().to_le_bytes());
+        }
+    }
     bytes.extend_from_slice(&(model.len() as u64).to_le_bytes());
     bytes.extend_from_slice(model);
     let sum = fnv1a(&bytes, 0);
@@ -133,6 +143,11 @@ pub fn decode<'a>(bytes: &'a [u8], guid: &str) -> Result<Decoded<'a>, String> {
     let stored_guid = r.take(guid_len, "the GUID")?;
     let machine = r.u32("the state-machine state")?;
     let last_successful_time = r.f64("the last successful time")?;
+    let stop_time = match r.take(1, "the stop time flag")?[0] {
+        0 => None,
+        1 => Some(r.f64("the stop time")?),
+        f => return Err(format!("serialized state is corrupt: stop time flag {f}")),
+    };
     let model_len = r.u64("the model state length")?;
     let model_len = usize::try_from(model_len).map_err(|_| format!("serialized state is corrupt: model state length {model_len}"))?;
     let model = r.take(model_len, "the model state")?;
@@ -150,7 +165,7 @@ pub fn decode<'a>(bytes: &'a [u8], guid: &str) -> Result<Decoded<'a>, String> {
             String::from_utf8_lossy(stored_guid)
         ));
     }
-    Ok(Decoded { machine, last_successful_time, model })
+    Ok(Decoded { machine, last_successful_time, stop_time, model })
 }
 
 #[cfg(test)]
@@ -161,14 +176,16 @@ mod tests {
 
     #[test]
     fn round_trip() {
-        let bytes = encode(GUID, 4, 1.25, b"model bytes");
+        let bytes = encode(GUID, 4, 1.25, Some(-2.5), b"model bytes");
         let d = decode(&bytes, GUID).unwrap();
-        assert_eq!(d, Decoded { machine: 4, last_successful_time: 1.25, model: b"model bytes" });
+        assert_eq!(d, Decoded { machine: 4, last_successful_time: 1.25, stop_time: Some(-2.5), model: b"model bytes" });
+        let bytes = encode(GUID, 4, 1.25, None, b"");
+        assert_eq!(decode(&bytes, GUID).unwrap(), Decoded { machine: 4, last_successful_time: 1.25, stop_time: None, model: b"" });
     }
 
     #[test]
     fn refuses_foreign_old_corrupt_and_truncated_bytes() {
-        let bytes = encode(GUID, 4, 1.25, b"model bytes");
+        let bytes = encode(GUID, 4, 1.25, Some(3.0), b"model bytes");
         let err = decode(&bytes, "{guid-b}").unwrap_err();
         assert!(err.contains("another FMU") && err.contains("{guid-a}"), "{err}");
         let mut old = bytes.clone();

@@ -85,6 +85,35 @@ pub struct Geom {
 
 /// Default spacing between AOPC points when the scene gives no `scm_spacing` (m).
 pub const DEFAULT_SPACING: f64 = 0.01;
+/// Most AOPC points one body may get, estimated from its geoms' surface area before sampling
+/// (a point per `scm_spacing`² of surface, at least three per mesh triangle). A body at the
+/// limit takes about 650 MB (about 320 bytes per point with its BVH, see README, Performance)
+/// and a pair evaluation at the scenes' ε seconds to minutes; a scene beyond it (a spacing of
+/// 1e-9 m, a geom of a kilometre) would exhaust the host's memory, and an allocation failure
+/// aborts the host's process: refused with an error instead.
+pub const MAX_AOPC_POINTS: f64 = 2e6;
+
+/// Estimated AOPC point count of a shape sampled at `spacing` (m): surface area / spacing², at
+/// least three points per mesh triangle (an upper bound for the ellipsoid: its bounding sphere).
+fn estimated_points(shape: &Shape, spacing: f64) -> f64 {
+    use std::f64::consts::PI;
+    let area = match shape {
+        Shape::Sphere { radius } => 4.0 * PI * radius * radius,
+        Shape::Box { half } => 8.0 * (half.x * half.y + half.y * half.z + half.x * half.z),
+        Shape::Capsule { radius, half_length } => 4.0 * PI * radius * radius + 4.0 * PI * radius * half_length,
+        Shape::Cylinder { radius, half_length } => 2.0 * PI * radius * radius + 4.0 * PI * radius * half_length,
+        Shape::Ellipsoid { radii } => 4.0 * PI * radii.max().powi(2),
+        Shape::Mesh(m) => {
+            let area: f64 = m.triangles.iter().map(|t| {
+                let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            }).sum();
+            return area / (spacing * spacing) + 3.0 * m.triangles.len() as f64;
+        }
+    };
+    area / (spacing * spacing)
+}
+
 /// Default internal step when neither `scm_step` nor `<option timestep>` is given (s).
 pub const DEFAULT_STEP: f64 = 0.002;
 
@@ -763,6 +792,15 @@ impl Builder {
                 continue;
             }
             let parts: Vec<(Shape, Isometry3<f64>)> = geoms.iter().map(|g| (g.shape.clone().expect("planes handled above"), g.pose)).collect();
+            let estimate: f64 = parts.iter().map(|(shape, _)| estimated_points(shape, spacing)).sum();
+            if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
+                return Err(SceneError {
+                    file: self.file.clone(),
+                    line: 0,
+                    element: "geom".into(),
+                    message: format!("body '{}' (geoms {}) would get about {estimate:.3e} AOPC points at scm_spacing = {spacing} m (at most {MAX_AOPC_POINTS:e}): increase scm_spacing or make the geoms smaller", self.bodies[b].name, geoms.iter().map(|g| format!("'{}'", g.name)).collect::<Vec<_>>().join(", ")),
+                });
+            }
             let aopc = crate::geometry::union::sample_union(&parts, spacing);
             *slot = Some(Collider::Aopc(aopc));
         }

@@ -91,6 +91,9 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let time = finite(&mut r, "the time")?;
     let q = (0..nq).map(|_| finite(&mut r, "a position")).collect::<Result<Vec<_>, _>>()?;
     let v = (0..nv).map(|_| finite(&mut r, "a velocity")).collect::<Result<Vec<_>, _>>()?;
+    // A zero quaternion is not refused here: before initialization a host may set one (a
+    // component at a time), save the state and serialize it, and the bytes must round-trip;
+    // `fmi2ExitInitializationMode` refuses it, and a step from it is refused as non-finite.
     let ctrl = (0..nc).map(|_| finite(&mut r, "a control")).collect::<Result<Vec<_>, _>>()?;
     let mocap = (0..nm * MOCAP_INPUTS).map(|_| finite(&mut r, "a mocap pose or velocity")).collect::<Result<Vec<_>, _>>()?;
     let mocap_target = (0..nm * 7).map(|_| finite(&mut r, "a mocap input")).collect::<Result<Vec<_>, _>>()?;
@@ -125,7 +128,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             let (rows, cols) = (r.u64("the Jacobian's rows")?, r.u64("the Jacobian's columns")?);
             // The Newton Jacobian is square in the velocity coordinates or the whole state.
             let n = nq + 2 * nv;
-            if rows > n as u64 || cols > n as u64 || rows == 0 || cols == 0 {
+            if rows != cols || rows > n as u64 || rows == 0 {
                 return Err(format!("model state is corrupt: a {rows} x {cols} Newton Jacobian for {nq} positions and {nv} velocities"));
             }
             let (rows, cols) = (rows as usize, cols as usize);

@@ -3,6 +3,9 @@
 
 use std::path::PathBuf;
 
+#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+pub mod host;
+
 /// Path of a bundled scene.
 pub fn scene(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("resources/scenes").join(format!("{name}.xml"))

@@ -1,0 +1,141 @@
+//! A minimal FMI host for the tests that call the C ABI (`fmi2*` symbols of the crate):
+//! `resources/` folders laid out as `scm pack` lays them out, and a logger that records what the
+//! FMU logs.
+//!
+//! The FMI logger is variadic, which stable Rust cannot define. The recording logger is a
+//! non-variadic `extern "C"` function with one extra `*const c_char` parameter, transmuted to
+//! the variadic pointer type: on x86_64 System V and AArch64 Linux, the first variadic pointer
+//! argument travels in the same register as a sixth fixed pointer argument, so the logger reads
+//! the message that follows the `"%s"` format (the FMU always logs `"%s"` plus the text). The
+//! same trick as `src/fmi/exports_tests.rs`; modules that use it are limited to those targets.
+#![allow(dead_code)]
+
+use scm::fmi::ffi::*;
+use std::collections::HashSet;
+use std::ffi::{c_char, c_void, CStr, CString};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+
+/// One message the FMU sent to the logger.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Logged {
+    /// Status of the message.
+    pub status: fmi2Status,
+    /// Category.
+    pub category: String,
+    /// The format argument (always `"%s"`).
+    pub format: String,
+    /// The text.
+    pub message: String,
+}
+
+/// What the recording logger collects; keep it alive (and in place) while the instance lives.
+#[derive(Default)]
+pub struct Capture(Mutex<Vec<Logged>>);
+
+impl Capture {
+    /// Everything logged so far.
+    pub fn all(&self) -> Vec<Logged> {
+        self.0.lock().unwrap().clone()
+    }
+
+    /// The last message, or an empty one.
+    pub fn last(&self) -> Logged {
+        self.all().last().cloned().unwrap_or(Logged { status: fmi2OK, category: String::new(), format: String::new(), message: String::new() })
+    }
+
+    /// Number of messages so far.
+    pub fn len(&self) -> usize {
+        self.0.lock().unwrap().len()
+    }
+
+    /// Messages after the first `from`.
+    pub fn since(&self, from: usize) -> Vec<Logged> {
+        self.all().into_iter().skip(from).collect()
+    }
+}
+
+unsafe fn text(p: *const c_char) -> String {
+    if p.is_null() {
+        "<NULL>".into()
+    } else {
+        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+    }
+}
+
+unsafe extern "C" fn recording_logger(env: *mut c_void, _instance: fmi2String, status: fmi2Status, category: fmi2String, format: fmi2String, arg: *const c_char) {
+    let capture = unsafe { &*(env as *const Capture) };
+    let logged = unsafe { Logged { status, category: text(category), format: text(format), message: text(arg) } };
+    capture.0.lock().unwrap().push(logged);
+}
+
+type Fixed = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, *const c_char);
+type Variadic = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+
+/// Callbacks whose logger records into `capture`.
+pub fn callbacks(capture: &Capture) -> fmi2CallbackFunctions {
+    // SAFETY: see the module documentation: the arguments read travel in the same registers.
+    let logger = unsafe { std::mem::transmute::<Fixed, Variadic>(recording_logger) };
+    fmi2CallbackFunctions { logger: Some(logger), allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: capture as *const Capture as *mut c_void }
+}
+
+/// Callbacks without a logger.
+pub fn quiet() -> fmi2CallbackFunctions {
+    fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() }
+}
+
+/// An unpacked FMU's `resources/` folder.
+#[derive(Clone, Debug)]
+pub struct Resources {
+    /// The folder.
+    pub dir: PathBuf,
+    /// Its `file://` URI (the `fmuResourceLocation`).
+    pub uri: CString,
+    /// The FMU's GUID.
+    pub guid: CString,
+}
+
+fn made() -> &'static Mutex<HashSet<PathBuf>> {
+    static MADE: OnceLock<Mutex<HashSet<PathBuf>>> = OnceLock::new();
+    MADE.get_or_init(Default::default)
+}
+
+/// The `resources/` folder of a scene text (and the meshes, read from `meshes`: name inside
+/// `resources/` and bytes), under a folder named `tag`, made once per process and tag.
+pub fn resources_of(tag: &str, scene_text: &str, meshes: &[(String, Vec<u8>)]) -> Resources {
+    let dir = std::env::temp_dir().join(format!("scm-host-{}", std::process::id())).join(tag).join("resources");
+    let mut made = made().lock().unwrap();
+    if !made.contains(&dir) {
+        for (file, bytes) in meshes {
+            let path = dir.join(file);
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(path, bytes).unwrap();
+        }
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(scm::sim::SCENE_FILE), scene_text).unwrap();
+        made.insert(dir.clone());
+    }
+    Resources { uri: CString::new(format!("file://{}", dir.display())).unwrap(), guid: CString::new(scm::sim::guid(scene_text)).unwrap(), dir }
+}
+
+/// The `resources/` folder of a bundled scene, as `scm pack` lays it out.
+pub fn resources(name: &str) -> Resources {
+    let described = scm::pack::describe(&super::scene(name)).unwrap();
+    resources_of(name, &described.scene_text, &described.resources)
+}
+
+/// Every bundled scene's name, sorted.
+pub fn scene_names() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes");
+    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).map(|p| p.file_stem().unwrap().to_string_lossy().into_owned()).collect();
+    names.sort();
+    names
+}
+
+/// `fmi2Instantiate` of `res` with `callbacks`.
+///
+/// # Safety
+/// `callbacks` (and the capture it points to) must outlive the instance.
+pub unsafe fn instantiate(res: &Resources, fmu_type: fmi2Type, callbacks: &fmi2CallbackFunctions) -> fmi2Component {
+    unsafe { scm::fmi2Instantiate(c"test".as_ptr(), fmu_type, res.guid.as_ptr(), res.uri.as_ptr(), callbacks, fmi2False, fmi2False) }
+}
