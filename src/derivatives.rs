@@ -58,8 +58,11 @@ pub trait VectorFunction {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError>;
 }
 
-/// Values and Jacobian `∂f/∂x` (rows: outputs, columns: inputs), exact, in `⌈n/8⌉` passes of
-/// vector dual numbers.
+/// Values and Jacobian `∂f/∂x` (rows: outputs, columns: inputs), exact, in passes of vector
+/// dual numbers: one pass of width 16 up to 16 inputs, else `⌈n/8⌉` passes of width 8. One
+/// pass matters for the contact: with first-order duals the pair's Jacobian is computed once
+/// per pass in `f64` ([`pair_contact`](crate::contact::pair_contact)), whatever the width, so a
+/// second pass would compute it again.
 pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
     match x.len() {
         0 => {
@@ -70,6 +73,8 @@ pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64
         1 => jacobian_width::<F, 1>(f, x),
         2 => jacobian_width::<F, 2>(f, x),
         3 | 4 => jacobian_width::<F, 4>(f, x),
+        5..=8 => jacobian_width::<F, 8>(f, x),
+        9..=16 => jacobian_width::<F, 16>(f, x),
         _ => jacobian_width::<F, 8>(f, x),
     }
 }
