@@ -341,6 +341,7 @@ impl<T: Scalar> SideSums<T> {
 /// `eval(i)` for each entry `i` of the band whose force is evaluated, the one with the largest
 /// bound first; `eval` returns the size of that entry's summand `W_f |F_f|` (real part).
 /// `bounds` is scratch space.
+#[allow(clippy::too_many_arguments)]
 fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2], band: &SeparationBand<T>, dist: &SeparationDistribution<T>, prm: &ContactParams<T>, bounds: &mut Vec<(usize, f64)>, mut eval: impl FnMut(usize) -> f64) {
     let prm_re = prm.re();
     let cutoff = dist.min + band.margin * dist.eps.re();
@@ -349,7 +350,8 @@ fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2]
     let (e2, norm) = (dist.eps.re(), dist.normaliser.re());
     // Per side: rotation, origin velocity, angular velocities (real parts), the query AOPC and
     // the largest distance of a plane point from its body's origin.
-    let sides: [Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>, f64, &Aopc)>; 2] = [(a, b, &rels[0]), (b, a, &rels[1])].map(|(q, p, rel)| {
+    type Side<'s> = Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>, f64, &'s Aopc)>;
+    let sides: [Side; 2] = [(a, b, &rels[0]), (b, a, &rels[1])].map(|(q, p, rel)| {
         let Collider::Aopc(s) = q else { return None };
         let reach = match p {
             Collider::Aopc(o) => o.bvh().max_norm,

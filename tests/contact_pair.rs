@@ -183,8 +183,8 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
             let prm = ContactParams { dissipation, ..params() };
             let mut base = [0.0; N];
             base[..3].copy_from_slice(&origin);
-            for i in 3..N {
-                base[i] = match i {
+            for (i, b) in base.iter_mut().enumerate().skip(3) {
+                *b = match i {
                     3..=5 => rng.range(-0.05, 0.05),  // b's velocity (m/s): sliding, s across 0 and 2
                     6..=8 => rng.range(-0.5, 0.5),    // b's spin (rad/s)
                     9..=11 => rng.range(-0.02, 0.02), // b's extra rotation (rad)

@@ -295,7 +295,7 @@ impl SpringBound {
     /// The bound for `terms` terms with weight sum `weight` (≥ 1), rounded up.
     #[inline]
     pub fn bound(&self, terms: usize, weight: f64) -> f64 {
-        if !(self.eps3 > 0.0) {
+        if self.eps3.is_nan() || self.eps3 <= 0.0 {
             return f64::INFINITY;
         }
         let shallow = if self.exponent > -745.0 { self.eps3 * self.exponent.exp() } else { 0.0 };
