@@ -366,15 +366,29 @@ pub(crate) fn band_of<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>
                 continue;
             }
             if node.is_leaf() {
-                // One walk of the other body's hierarchy for the whole leaf.
-                if let Collider::Aopc(o) = planes {
+                // One walk of the other body's hierarchy for the whole leaf when the leaf is
+                // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
+                // candidates are then about the points each query needs anyway. A leaf wider
+                // than that (sharp ε1) would gather far more candidates than any one point
+                // keeps, so each point walks on its own, from its neighbour's nearest point.
+                // Both give the same relevant set ([`Relevant`]).
+                let share = match planes {
+                    Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
+                    Collider::HalfSpace { .. } => false,
+                };
+                if let (true, Collider::Aopc(o)) = (share, planes) {
                     scratch.find_ball(o, &centre, node.radius * (1.0 + 1e-12) + 1e-12 * centre.norm(), e1);
                 }
                 for k in node.start..node.start + node.count {
                     let x = rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
                     let entry = match planes {
                         Collider::Aopc(o) => {
-                            scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                            if share {
+                                scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                            } else {
+                                let hint = scratch.nearest;
+                                scratch.find(o, &crate::scalar::re3(&x), e1, hint);
+                            }
                             let (phi, springs) = match grads.as_deref_mut() {
                                 Some(g) => {
                                     let mut sink = GradientSink::default();
