@@ -369,7 +369,7 @@ fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2]
         let w = (-(phi - dist.min) / e2).exp() / norm;
         let spring = prm_re.stiffness.abs() * e.springs;
         if w == 0.0 || spring == 0.0 {
-            continue; // exactly zero
+            continue; // zero or subnormal (doc of `pair_contact`)
         }
         let arm = rot * s.bvh().points[e.k as usize];
         let speed = (u + wq.cross(&arm)).norm() + spin;
@@ -456,7 +456,8 @@ fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relat
 /// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f max_i |p_i|`, with
 /// `B_f ≥ Σ_i σ_i s⁺_ε3(-φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`]).
 /// An entry is skipped when its separation weight is below the band's cutoff, when `W_f Λ_f`
-/// is exactly zero (every spring term underflows, so its force is exactly zero), or when
+/// is zero in `f64` (every term's `w_i e^{-φ_i/ε3}` is below e^-745, so its force is zero or
+/// subnormal: `B_f < I ε3 e^-745`), or when
 /// `W_f Λ_f < (τ/N) M`, `M` the largest summand `W_g |F_g|` evaluated so far (the entry with
 /// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each
 /// skipped summand is below the relative weight τ/N of the largest, and all of them together
