@@ -202,7 +202,7 @@ struct PointForce<T: Scalar> {
 }
 
 /// Receives the real parts of every term of a point–SSDF force, for derivatives computed
-/// alongside the value ([`LocalJacobian`]).
+/// alongside the value (`LocalJacobian`).
 trait ForceSink {
     /// Whether the sink does anything (when `false`, the calls compile away).
     const ON: bool;
@@ -433,7 +433,7 @@ fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relat
 /// `fa` and collider `b` with `fb`: points of `a` against the planes of `b` and points of `b`
 /// against the planes of `a`, weighted by the separation distribution.
 ///
-/// Pruned to proven bounds (SPEC §3): only the query points of the [`separation_band`] are
+/// Pruned to proven bounds (SPEC §3): only the query points of the [`separation_band`](crate::collision::separation_band) are
 /// visited (whole BVH nodes of points whose separation weight is below τ/(I1 + I2) relative to
 /// the largest are never evaluated), each SSDF sums only the planes of [`Relevant`], and only
 /// the point forces that can matter are evaluated: a point force whose bound is provably below
@@ -444,7 +444,7 @@ fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relat
 /// With a first-order dual scalar (`Dual64`, `DualSVec64<N>`) and constant contact parameters,
 /// the derivatives are not carried through every term: the wrenches' exact Jacobian with
 /// respect to the two bodies' relative motion is computed once in `f64` (hand-derived,
-/// [`pair_jacobian`]) and chained with the duals' derivative parts ([`ChainRule`]). Every other
+/// [`pair_jacobian`]) and chained with the duals' derivative parts ([`ChainRule`](crate::scalar::ChainRule)). Every other
 /// scalar runs [`pair_contact_generic`].
 ///
 /// # The force bound
@@ -454,7 +454,7 @@ fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relat
 /// `c_i = k s⁺_ε3(-φ_i)`, `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`|v_i| ≤ V_f = |v_f| + |ω_p|
 /// max_i |p_i|`) and `|n_i - μ u_i| ≤ √(1 + μ²)` (`u_i ⊥ n_i`, `|u_i| < 1`), so
 /// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f max_i |p_i|`, with
-/// `B_f ≥ Σ_i σ_i s⁺_ε3(-φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`]).
+/// `B_f ≥ Σ_i σ_i s⁺_ε3(-φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`](crate::collision::BandEntry::springs)).
 /// An entry is skipped when its separation weight is below the band's cutoff, when `W_f Λ_f`
 /// is zero in `f64` (every term's `w_i e^{-φ_i/ε3}` is below e^-745, so its force is zero or
 /// subnormal: `B_f < I ε3 e^-745`), or when
@@ -620,7 +620,7 @@ impl LocalJacobian {
 ///
 /// Derivation. Entry `f` of side `s` has query point `a_f` (its body's frame), `arm_f = R a_f`,
 /// `x_f = arm_f + t`, `v_f = u + ω_q × arm_f`; its SSDF `Φ_f` depends on `x_f` (gradient
-/// [`GradientSink`]); its point force `F_f`, `G_f` on `x_f`, `v_f`, `ω_p` ([`LocalJacobian`]).
+/// [`GradientSink`](crate::geometry::ssdf::GradientSink)); its point force `F_f`, `G_f` on `x_f`, `v_f`, `ω_p` (`LocalJacobian`).
 /// `W_f = exp(-Φ_f/ε2)/Σ_g exp(-Φ_g/ε2)`, so `dW_f = -(W_f/ε2)(dΦ_f - dΦ̄)` with
 /// `dΦ̄ = Σ_g W_g dΦ_g` over every entry with a weight. For a side's output
 /// `S = Σ_f W_f s_f`: `dS = Σ_f W_f (ds_f - s_f dΦ_f/ε2) + S dΦ̄/ε2`, and

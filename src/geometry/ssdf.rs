@@ -10,7 +10,7 @@
 //! weighted values): memory is constant, never an array of weights.
 //!
 //! # The pruning bound
-//! Let `d_min = min_i d_i`, `I` the number of points, `τ` = [`PRUNE_TOLERANCE`] and
+//! Let `d_min = min_i d_i`, `I` the number of points, `τ` = [`PRUNE_TOLERANCE`](crate::scalar::PRUNE_TOLERANCE) and
 //! `ℓ = √d_min + √ε1`. A term is skipped only if
 //! `(d_i - d_min)/ε1 > ln(I/τ) + ln(1 + √d_i/ℓ)`, so its weight relative to the largest
 //! (which is 1, at `d_min`) is `w_i < (τ/I)/(1 + √d_i/ℓ)`: every skipped term is below the
