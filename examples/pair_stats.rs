@@ -1,49 +1,165 @@
-//! Prints band statistics and timings of one scene's pairs at its initial state (a diagnostic
-//! for the pruning; `cargo run --release --example pair_stats resources/scenes/t_push.xml`).
+//! Pair and step cost on one scene at a chosen state, measured in one run (a diagnostic for
+//! the contact pipeline's speed):
+//!
+//! ```text
+//! pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]
+//! ```
+//! The state is reached by simulating `--warmup` seconds with the `--set` values (e.g.
+//! `--set act_y.ctrl=0.13 --warmup 0.5` presses the finger of `t_push.xml` against the T, as
+//! the report's speed study does). Printed: per pair the band statistics (query points
+//! evaluated and skipped, plane terms visited) and the time of one pruned pair evaluation and
+//! of one naive one; then the time of one `Model::step` (the scene's integrator, `f64`) and of
+//! the full step Jacobian with respect to `(q, v, u)` (`derivatives::step_jacobian`), all timed
+//! in interleaved rounds. With `--profile`, only that quantity runs N times (for callgrind).
 use scm::collision::separation_band;
 use scm::contact::{pair_contact, pair_contact_naive};
+use scm::fmi::contract::{FmiModel, Phase};
+use scm::integrate::State;
+use scm::sim::Simulation;
+use std::hint::black_box;
 use std::time::Instant;
 
 fn main() {
-    let path = std::env::args().nth(1).expect("scene path");
-    let sc = scm::scene::load(std::path::Path::new(&path)).expect("scene");
-    let m = &sc.model;
-    let kin = m.tree.kinematics(&m.tree.q0(), &vec![0.0; m.tree.nv]);
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).expect("usage: pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]");
+    let mut sim = Simulation::from_file(std::path::Path::new(path)).expect("scene");
+    let (mut warmup, mut profile): (f64, Option<(String, usize)>) = (0.0, None);
+    let mut i = 2;
+    while i < args.len() {
+        match args[i].as_str() {
+            "--set" => {
+                let (n, x) = args[i + 1].split_once('=').expect("NAME=VALUE");
+                let vr = sim.rows().iter().find(|(v, _)| v.name == n).expect("variable").0.value_reference;
+                sim.set_real(vr, x.parse().expect("number"), Phase::Instantiated).expect("set");
+            }
+            "--warmup" => warmup = args[i + 1].parse().expect("seconds"),
+            "--profile" => {
+                profile = Some((args[i + 1].clone(), args[i + 2].parse::<usize>().expect("N")));
+                i += 1;
+            }
+            other => panic!("unknown option {other}"),
+        }
+        i += 2;
+    }
+    sim.exit_initialization().expect("init");
+    let n = (warmup / 0.002).round() as usize;
+    for k in 0..n {
+        sim.do_step(k as f64 * 0.002, 0.002).expect("warm-up step");
+    }
+    let m = sim.model.clone();
+    let state = sim.current.state.clone();
+    let u = sim.inputs();
+    let prm = sim.current.params;
+    let h = m.step;
+    let kin = m.tree.kinematics_with(&state.q, &state.v, &u[m.actuators.len()..]);
+    let point = scm::derivatives::Point { q: state.q.clone(), v: state.v.clone(), u: u.clone(), params: prm };
+    let jac = || scm::derivatives::step_jacobian_state(&m, m.integrator, &point, h, scm::derivatives::Coordinates::Embedded).expect("jacobian");
+    let step = || m.step(&State { q: state.q.clone(), v: state.v.clone() }, &u, &prm, h).expect("step");
+    if let Some((what, n)) = profile {
+        let mut f: Box<dyn FnMut()> = match what.as_str() {
+            "pair" => Box::new(|| {
+                for p in &m.pairs {
+                    if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
+                        black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &prm));
+                    }
+                }
+            }),
+            "step" => Box::new(|| drop(black_box(step()))),
+            "jacobian" => Box::new(|| drop(black_box(jac()))),
+            other => panic!("--profile {other}: pair, step or jacobian"),
+        };
+        profiled_section(n, &mut f);
+        return;
+    }
+    println!("state after {warmup} s: q = {:?}", state.q);
     for p in &m.pairs {
         let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) else { continue };
         let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
-        let band = separation_band(a, fa, b, fb, m.contact.eps1, m.contact.eps2);
+        let band = separation_band(a, fa, b, fb, prm.eps1, prm.eps2);
         let mut terms = 0;
         for e in &band.entries {
             let (q, fq, pl, fp) = if e.side == 0 { (a, fa, b, fb) } else { (b, fb, a, fa) };
             let (scm::collision::Collider::Aopc(qs), scm::collision::Collider::Aopc(ps)) = (q, pl) else { continue };
             let rel = fq.relative_to(fp);
             let x = rel.rotation * qs.bvh().points[e.k as usize] + rel.translation;
-            terms += count_terms(ps, &x, m.contact.eps1);
+            terms += count_terms(ps, &x, prm.eps1);
         }
-        println!("plane terms per SSDF pass: {terms}; band min {:.4}", band.min);
-        let n = 2000;
-        let t = Instant::now();
-        for _ in 0..n {
-            std::hint::black_box(pair_contact(a, fa, b, fb, &m.contact));
-        }
-        let pruned = t.elapsed().as_secs_f64() / n as f64;
-        let t = Instant::now();
-        let nn = 20;
-        for _ in 0..nn {
-            std::hint::black_box(pair_contact_naive(a, fa, b, fb, &m.contact));
-        }
-        let naive = t.elapsed().as_secs_f64() / nn as f64;
+        let pc = pair_contact(a, fa, b, fb, &prm);
+        let cutoff = band.min + band.margin * prm.eps2;
+        let within = band.entries.iter().filter(|e| e.phi <= cutoff).count();
         println!(
-            "{} - {}: {} + {} points, {} evaluated, {} skipped; pruned {:.1} us, naive {:.1} us",
-            m.tree.bodies[p.a].name, m.tree.bodies[p.b].name, a.len(), b.len(), band.entries.len(), band.skipped, pruned * 1e6, naive * 1e6
+            "{} - {}: {} + {} points; band: {} evaluated ({} within the cutoff), {} skipped, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
+            m.tree.bodies[p.a].name,
+            m.tree.bodies[p.b].name,
+            a.len(),
+            b.len(),
+            band.entries.len(),
+            within,
+            band.skipped,
+            terms,
+            band.min,
+            pc.distance,
+            pc.on_a.force.as_slice()
         );
+        let t = Instant::now();
+        let nn = 5;
+        for _ in 0..nn {
+            black_box(pair_contact_naive(a, fa, b, fb, &prm));
+        }
+        println!("  naive pair evaluation: {:.1} µs", t.elapsed().as_secs_f64() / nn as f64 * 1e6);
+    }
+    let pair_all = || {
+        for p in &m.pairs {
+            if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
+                black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &prm));
+            }
+        }
+    };
+    let times = interleaved(1.5, &mut [&mut || pair_all(), &mut || drop(black_box(step())), &mut || drop(black_box(jac()))]);
+    println!("pruned pairs {:.2} µs; step ({}) {:.2} µs; step Jacobian w.r.t. (q, v, u) {:.2} µs = {:.2} steps", times[0] * 1e6, m.integrator.name(), times[1] * 1e6, times[2] * 1e6, times[2] / times[1]);
+}
+
+/// What callgrind looks at (`--toggle-collect='*profiled_section*'`).
+#[inline(never)]
+fn profiled_section(n: usize, f: &mut dyn FnMut()) {
+    for _ in 0..n {
+        f();
     }
 }
 
-#[allow(dead_code)]
+/// Median time per call of each function over 9 interleaved rounds of about `budget` s in all.
+fn interleaved(budget: f64, fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
+    let rounds = 9;
+    let per = budget / (rounds * fs.len()) as f64;
+    let sizes: Vec<usize> = fs
+        .iter_mut()
+        .map(|f| {
+            let t = Instant::now();
+            f();
+            ((per / t.elapsed().as_secs_f64().max(1e-9)) as usize).max(1)
+        })
+        .collect();
+    let mut samples = vec![Vec::new(); fs.len()];
+    for _ in 0..rounds {
+        for (k, f) in fs.iter_mut().enumerate() {
+            let t = Instant::now();
+            for _ in 0..sizes[k] {
+                f();
+            }
+            samples[k].push(t.elapsed().as_secs_f64() / sizes[k] as f64);
+        }
+    }
+    samples
+        .into_iter()
+        .map(|mut s| {
+            s.sort_by(f64::total_cmp);
+            s[rounds / 2]
+        })
+        .collect()
+}
+
 fn count_terms(s: &scm::geometry::Aopc, x: &nalgebra::Vector3<f64>, eps1: f64) -> usize {
     let mut n = 0;
-    scm::geometry::ssdf::visit_relevant(s, x, eps1, s.bvh().nearest(x).1, |_, _| n += 1);
+    scm::geometry::ssdf::visit_relevant(s, x, eps1, |_, _| n += 1);
     n
 }

@@ -19,6 +19,7 @@
 //! above `Φ_best + M2 ε2`, the smallest evaluated value is the true `Φ_min`, so the softmax
 //! shift is the same as the reference's.
 
+use crate::geometry::ssdf::{ssdf_over, GradientSink, NoSink, Relevant};
 use crate::geometry::{ssdf, ssdf_naive, Aopc};
 use crate::scalar::{c, lift3, re, Scalar, PRUNE_TOLERANCE};
 use nalgebra::{Matrix3, Vector3};
@@ -210,6 +211,19 @@ pub struct Relative<T: Scalar> {
     pub angvel_planes: Vector3<T>,
 }
 
+impl<T: Scalar> Relative<T> {
+    /// Real parts.
+    pub fn re(&self) -> Relative<f64> {
+        Relative {
+            rotation: self.rotation.map(|x| x.re()),
+            translation: crate::scalar::re3(&self.translation),
+            linvel: crate::scalar::re3(&self.linvel),
+            angvel: crate::scalar::re3(&self.angvel),
+            angvel_planes: crate::scalar::re3(&self.angvel_planes),
+        }
+    }
+}
+
 impl<T: Scalar> Frame<T> {
     /// A body at rest at the world origin (the world itself).
     pub fn identity() -> Self {
@@ -287,8 +301,15 @@ pub struct BandEntry<T> {
     /// `Φ_f` (m).
     pub phi: T,
     /// Smallest squared distance from the point to the other body's points (m², real part;
-    /// the SSDF's softmax shift, kept for the force pass). Infinite against a half-space.
+    /// the SSDF's softmax shift). Infinite against a half-space.
     pub dmin: f64,
+    /// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` over the planes the SSDF summed (m, real part;
+    /// [`SpringBound`](crate::geometry::ssdf::SpringBound)): times the stiffness, it bounds the
+    /// springs of this point's force. Infinite when the band was built without ε3.
+    pub springs: f64,
+    /// Leaf-order index of the other body's point nearest to this one (`u32::MAX` against a
+    /// half-space).
+    pub nearest: u32,
 }
 
 /// The part of the separation field that can carry weight (module documentation): every
@@ -308,24 +329,33 @@ pub struct SeparationBand<T> {
 /// Soft collision detection with pruning: the entries of the separation field that matter
 /// (module documentation). `eps1` in m², `eps2` in m.
 pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T, eps2: T) -> SeparationBand<T> {
+    let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    band_of(a, b, &rels, eps1, eps2, 0.0, &mut Relevant::default(), None)
+}
+
+/// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
+/// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
+/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). With `grads`, the
+/// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
+/// real parts) is pushed, in the order of the entries.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn band_of<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2], eps1: T, eps2: T, eps3: f64, scratch: &mut Relevant, mut grads: Option<&mut Vec<Vector3<f64>>>) -> SeparationBand<T> {
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
     let mut band = SeparationBand { entries: Vec::new(), min: f64::INFINITY, skipped: 0, margin };
     let (e1, e2) = (re(eps1), re(eps2));
-    for (side, query, fq, planes, fp) in [(0u8, a, fa, b, fb), (1u8, b, fb, a, fa)] {
+    for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
         let Collider::Aopc(s) = query else { continue };
-        if s.is_empty() {
+        if s.is_empty() || matches!(planes, Collider::Aopc(o) if o.is_empty()) {
             continue;
         }
-        let rel = fq.relative_to(fp);
         let rot = rel.rotation.map(re);
         let tr = crate::scalar::re3(&rel.translation);
         let bvh = s.bvh();
         // Children are visited nearer-first to the other body's centre, so that a small Φ is
         // found early and prunes the rest.
         let target = match planes {
-            Collider::Aopc(o) if !o.is_empty() => o.bvh().nodes[0].centre,
+            Collider::Aopc(o) => o.bvh().nodes[0].centre,
             Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
-            _ => Vector3::zeros(),
         };
         let mut stack = vec![0u32];
         while let Some(ni) = stack.pop() {
@@ -336,17 +366,54 @@ pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb:
                 continue;
             }
             if node.is_leaf() {
+                // One walk of the other body's hierarchy for the whole leaf when the leaf is
+                // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
+                // candidates are then about the points each query needs anyway. A leaf wider
+                // than that (sharp ε1) would gather far more candidates than any one point
+                // keeps, so each point walks on its own, from its neighbour's nearest point.
+                // Both give the same relevant set ([`Relevant`]).
+                let share = match planes {
+                    Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
+                    Collider::HalfSpace { .. } => false,
+                };
+                if let (true, Collider::Aopc(o)) = (share, planes) {
+                    scratch.find_ball(o, &centre, node.radius * (1.0 + 1e-12) + 1e-12 * centre.norm(), e1);
+                }
                 for k in node.start..node.start + node.count {
                     let x = rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
-                    let (phi, dmin) = match planes {
+                    let entry = match planes {
                         Collider::Aopc(o) => {
-                            let dmin = o.bvh().nearest(&crate::scalar::re3(&x)).1;
-                            (crate::geometry::ssdf::ssdf_at(o, &x, eps1, dmin).0, dmin)
+                            if share {
+                                scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                            } else {
+                                let hint = scratch.nearest;
+                                scratch.find(o, &crate::scalar::re3(&x), e1, hint);
+                            }
+                            let (phi, springs) = match grads.as_deref_mut() {
+                                Some(g) => {
+                                    let mut sink = GradientSink::default();
+                                    let (phi, w, springs) = ssdf_over(o, &x, eps1, eps3, scratch, &mut sink);
+                                    g.push(sink.gradient(phi.re(), w.re(), e1));
+                                    (phi, springs)
+                                }
+                                None => {
+                                    let (phi, _, springs) = ssdf_over(o, &x, eps1, eps3, scratch, &mut NoSink);
+                                    (phi, springs)
+                                }
+                            };
+                            BandEntry { side, k, phi, dmin: scratch.dmin, springs, nearest: scratch.nearest as u32 }
                         }
-                        Collider::HalfSpace { .. } => (planes.signed_distance(&x, eps1), f64::INFINITY),
+                        Collider::HalfSpace { normal, .. } => {
+                            let phi = planes.signed_distance(&x, eps1);
+                            if let Some(g) = grads.as_deref_mut() {
+                                g.push(*normal);
+                            }
+                            let springs = if eps3 > 0.0 { crate::scalar::softplus(-phi.re(), eps3) * (1.0 + 1e-12) } else { f64::INFINITY };
+                            BandEntry { side, k, phi, dmin: f64::INFINITY, springs, nearest: u32::MAX }
+                        }
                     };
-                    band.min = band.min.min(phi.re());
-                    band.entries.push(BandEntry { side, k, phi, dmin });
+                    band.min = band.min.min(entry.phi.re());
+                    band.entries.push(entry);
                 }
             } else {
                 let (l, r) = (node.left, node.left + 1);

@@ -58,8 +58,11 @@ pub trait VectorFunction {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError>;
 }
 
-/// Values and Jacobian `∂f/∂x` (rows: outputs, columns: inputs), exact, in `⌈n/8⌉` passes of
-/// vector dual numbers.
+/// Values and Jacobian `∂f/∂x` (rows: outputs, columns: inputs), exact, in passes of vector
+/// dual numbers: one pass of width 16 up to 16 inputs, else `⌈n/8⌉` passes of width 8. One
+/// pass matters for the contact: with first-order duals the pair's Jacobian is computed once
+/// per pass in `f64` ([`pair_contact`](crate::contact::pair_contact)), whatever the width, so a
+/// second pass would compute it again.
 pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
     match x.len() {
         0 => {
@@ -70,6 +73,8 @@ pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64
         1 => jacobian_width::<F, 1>(f, x),
         2 => jacobian_width::<F, 2>(f, x),
         3 | 4 => jacobian_width::<F, 4>(f, x),
+        5..=8 => jacobian_width::<F, 8>(f, x),
+        9..=16 => jacobian_width::<F, 16>(f, x),
         _ => jacobian_width::<F, 8>(f, x),
     }
 }
@@ -245,9 +250,15 @@ struct Chart<'a> {
 
 impl<'a> Chart<'a> {
     fn new(model: &'a Model, point: &'a Point, coords: Coordinates) -> Self {
+        Self::with_params(model, point, coords, true)
+    }
+
+    /// A chart whose `z` holds the parameters (`params`) or only `[q, v, u]` (the parameters
+    /// are then the point's, constant).
+    fn with_params(model: &'a Model, point: &'a Point, coords: Coordinates, params: bool) -> Self {
         let tree = &model.tree;
         let nq = if coords == Coordinates::Embedded { tree.nq } else { tree.nv };
-        Chart { tree, point, coords, layout: Layout { nq, nv: tree.nv, nu: point.u.len(), np: PARAMS.len() } }
+        Chart { tree, point, coords, layout: Layout { nq, nv: tree.nv, nu: point.u.len(), np: if params { PARAMS.len() } else { 0 } } }
     }
 
     /// `z` at the point.
@@ -258,7 +269,9 @@ impl<'a> Chart<'a> {
         };
         z.extend_from_slice(&self.point.v);
         z.extend_from_slice(&self.point.u);
-        z.extend(params_vec(&self.point.params));
+        if self.layout.np > 0 {
+            z.extend(params_vec(&self.point.params));
+        }
         z
     }
 
@@ -272,7 +285,8 @@ impl<'a> Chart<'a> {
                 self.tree.integrate_q(&q0, &z[rq], T::one())
             }
         };
-        (q, z[rv].to_vec(), z[ru].to_vec(), params_from(&z[rp], &self.point.params))
+        let p = if self.layout.np > 0 { params_from(&z[rp], &self.point.params) } else { self.point.params.lift() };
+        (q, z[rv].to_vec(), z[ru].to_vec(), p)
     }
 }
 
@@ -386,6 +400,16 @@ impl VectorFunction for StepFn<'_> {
 pub fn step_jacobian(model: &Model, integrator: Integrator, point: &Point, h: f64, coords: Coordinates) -> Result<(State<f64>, Jacobian), DynamicsError> {
     let next = model.step_with(integrator, &State { q: point.q.clone(), v: point.v.clone() }, &point.u, &point.params, h)?;
     let f = StepFn { model, integrator, h, chart: Chart::new(model, point, coords), q_next: next.q.clone() };
+    let (value, full) = jacobian(&f, &f.chart.z0())?;
+    Ok((next, Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout }))
+}
+
+/// [`step_jacobian`] with respect to the state and inputs only, `z = [q, v, u]` (the
+/// parameters are the point's, held constant; the layout's parameter block is empty): the
+/// Jacobian a trajectory optimizer or an estimator needs at every step.
+pub fn step_jacobian_state(model: &Model, integrator: Integrator, point: &Point, h: f64, coords: Coordinates) -> Result<(State<f64>, Jacobian), DynamicsError> {
+    let next = model.step_with(integrator, &State { q: point.q.clone(), v: point.v.clone() }, &point.u, &point.params, h)?;
+    let f = StepFn { model, integrator, h, chart: Chart::with_params(model, point, coords, false), q_next: next.q.clone() };
     let (value, full) = jacobian(&f, &f.chart.z0())?;
     Ok((next, Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout }))
 }

@@ -4,13 +4,115 @@
 //! Branches look at real parts only ([`re`]), so a dual number follows the same path as the
 //! `f64` it extends, and every function here is smooth wherever the `f64` version is.
 
-use nalgebra::{RealField, Vector3};
-use num_dual::DualNum;
+use nalgebra::{Const, RealField, SVector, Vector3};
+use num_dual::{Derivative, Dual, Dual2, Dual2Vec, DualNum, DualVec, HyperDual, HyperDualVec};
 
 /// A real number that the math can be evaluated on: `f64`, `Dual64`, `DualSVec64<N>`,
-/// `Dual2SVec64<N>`, `HyperDual64`.
-pub trait Scalar: DualNum<Primitive = f64> + RealField + Copy {}
-impl<T: DualNum<Primitive = f64> + RealField + Copy> Scalar for T {}
+/// `Dual2_64`, `Dual2SVec64<N>`, `HyperDual64`, `HyperDualSVec64<M, N>`.
+pub trait Scalar: DualNum<Primitive = f64> + RealField + Copy + ChainRule {}
+impl<T: DualNum<Primitive = f64> + RealField + Copy + ChainRule> Scalar for T {}
+
+/// The forward-mode chain rule across a block whose Jacobian was computed in `f64`: for a
+/// first-order dual type, `y_i = values_i` with derivative parts `Σ_k J_ik ε(x_k)`, exactly
+/// what the type would have carried through the block itself. Hot kernels (the pair contact)
+/// use it to compute their Jacobian once, by hand, instead of carrying every derivative
+/// direction through every term.
+pub trait ChainRule: Sized {
+    /// Whether [`ChainRule::chain`] applies (first-order duals); `f64` and second-order types
+    /// run the generic code.
+    const FIRST_ORDER: bool;
+
+    /// Whether every derivative part is zero (the number is a constant).
+    fn is_constant(&self) -> bool;
+
+    /// `out[i] = values[i] + Σ_k jac[i n + k] (inputs[k] - re(inputs[k]))` (`jac` row-major,
+    /// `n = inputs.len()`); `false` (and `out` untouched) when the type is not first order.
+    fn chain(values: &[f64], jac: &[f64], inputs: &[Self], out: &mut [Self]) -> bool;
+}
+
+impl ChainRule for f64 {
+    const FIRST_ORDER: bool = false;
+    fn is_constant(&self) -> bool {
+        true
+    }
+    fn chain(_: &[f64], _: &[f64], _: &[Self], _: &mut [Self]) -> bool {
+        false
+    }
+}
+
+impl ChainRule for Dual<f64> {
+    const FIRST_ORDER: bool = true;
+    fn is_constant(&self) -> bool {
+        self.eps == 0.0
+    }
+    fn chain(values: &[f64], jac: &[f64], inputs: &[Self], out: &mut [Self]) -> bool {
+        let n = inputs.len();
+        for (i, (o, &v)) in out.iter_mut().zip(values).enumerate() {
+            let row = &jac[i * n..(i + 1) * n];
+            *o = Dual::new(v, row.iter().zip(inputs).map(|(j, x)| j * x.eps).sum());
+        }
+        true
+    }
+}
+
+impl<const N: usize> ChainRule for DualVec<f64, Const<N>> {
+    const FIRST_ORDER: bool = true;
+    fn is_constant(&self) -> bool {
+        self.eps.0.as_ref().is_none_or(|e| e.iter().all(|&x| x == 0.0))
+    }
+    fn chain(values: &[f64], jac: &[f64], inputs: &[Self], out: &mut [Self]) -> bool {
+        let n = inputs.len();
+        // Only inputs that carry a derivative contribute.
+        let live: Vec<(usize, &SVector<f64, N>)> = inputs.iter().enumerate().filter_map(|(k, x)| x.eps.0.as_ref().map(|e| (k, e))).collect();
+        for (i, (o, &v)) in out.iter_mut().zip(values).enumerate() {
+            let row = &jac[i * n..(i + 1) * n];
+            let mut e = SVector::<f64, N>::zeros();
+            for &(k, ek) in &live {
+                if row[k] != 0.0 {
+                    e += ek * row[k];
+                }
+            }
+            *o = DualVec::new(v, if live.is_empty() { Derivative::none() } else { Derivative::some(e) });
+        }
+        true
+    }
+}
+
+/// Second-order types: no chain rule (it would need the block's second derivatives).
+macro_rules! second_order {
+    ($($t:ty),* $(,)?) => {$(
+        impl ChainRule for $t {
+            const FIRST_ORDER: bool = false;
+            fn is_constant(&self) -> bool {
+                false
+            }
+            fn chain(_: &[f64], _: &[f64], _: &[Self], _: &mut [Self]) -> bool {
+                false
+            }
+        }
+    )*};
+}
+second_order!(Dual2<f64>, HyperDual<f64>);
+
+impl<const N: usize> ChainRule for Dual2Vec<f64, Const<N>> {
+    const FIRST_ORDER: bool = false;
+    fn is_constant(&self) -> bool {
+        false
+    }
+    fn chain(_: &[f64], _: &[f64], _: &[Self], _: &mut [Self]) -> bool {
+        false
+    }
+}
+
+impl<const M: usize, const N: usize> ChainRule for HyperDualVec<f64, Const<M>, Const<N>> {
+    const FIRST_ORDER: bool = false;
+    fn is_constant(&self) -> bool {
+        false
+    }
+    fn chain(_: &[f64], _: &[f64], _: &[Self], _: &mut [Self]) -> bool {
+        false
+    }
+}
 
 /// Real part of a scalar (the value without its derivative parts).
 #[inline]

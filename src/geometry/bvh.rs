@@ -8,10 +8,11 @@
 //! All bounds here work on real parts (`f64`): they decide which terms of a softmax are summed,
 //! never the value of a term, so dual numbers follow the same path as the `f64` they extend.
 
+use crate::scalar::PRUNE_TOLERANCE;
 use nalgebra::Vector3;
 
 /// Points per leaf (at most).
-pub const LEAF_SIZE: usize = 4;
+pub const LEAF_SIZE: usize = 16;
 
 /// One node: a contiguous range of points in leaf order.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,6 +80,11 @@ pub struct Bvh {
     pub index: Vec<u32>,
     /// Largest distance between two points (an upper bound: the root box's diagonal, m).
     pub diameter: f64,
+    /// Largest distance of a point from the AOPC's origin (m; rounded up).
+    pub max_norm: f64,
+    /// `ln(I/τ)`, `I` the number of points and `τ` = [`PRUNE_TOLERANCE`]: the margin (in units
+    /// of the temperature) beyond which a softmax term over these points is negligible.
+    pub log_terms: f64,
 }
 
 impl Bvh {
@@ -113,6 +119,8 @@ impl Bvh {
         bvh.normals = order.iter().map(|&i| normals[i as usize]).collect();
         bvh.index = order;
         bvh.diameter = (bvh.nodes[0].hi - bvh.nodes[0].lo).norm();
+        bvh.max_norm = bvh.points.iter().map(|p| p.norm()).fold(0.0, f64::max) * (1.0 + 4.0 * f64::EPSILON);
+        bvh.log_terms = (n as f64 / PRUNE_TOLERANCE).ln();
         bvh
     }
 
@@ -152,9 +160,23 @@ impl Bvh {
 
     /// [`Bvh::nearest`] ignoring the point at leaf-order position `skip`.
     pub fn nearest_except(&self, p: &Vector3<f64>, skip: usize) -> (usize, f64) {
+        self.nearest_search(p, skip, usize::MAX)
+    }
+
+    /// [`Bvh::nearest`] starting from the point at leaf-order position `hint` (a guess, e.g.
+    /// the nearest point of a neighbouring query): the same answer, found sooner when the guess
+    /// is good.
+    pub fn nearest_hint(&self, p: &Vector3<f64>, hint: usize) -> (usize, f64) {
+        self.nearest_search(p, usize::MAX, hint)
+    }
+
+    fn nearest_search(&self, p: &Vector3<f64>, skip: usize, hint: usize) -> (usize, f64) {
         let mut best = (usize::MAX, f64::INFINITY);
         if self.nodes.is_empty() {
             return best;
+        }
+        if hint < self.len() && hint != skip {
+            best = (hint, (p - self.points[hint]).norm_squared());
         }
         let mut stack: [u32; 64] = [0; 64];
         let mut top = 1usize;

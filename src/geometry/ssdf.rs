@@ -4,13 +4,13 @@
 //! Two evaluations of the same sum:
 //! - [`ssdf_naive`]: every term, the reference;
 //! - [`ssdf`]: the terms that can matter, found with the AOPC's bounding-volume hierarchy
-//!   ([`visit_relevant`]), with a proven bound on what is skipped.
+//!   ([`Relevant`]), with a proven bound on what is skipped.
 //!
 //! Both stream the softmax (shift by the smallest `d_i`, then one pass accumulating weights and
 //! weighted values): memory is constant, never an array of weights.
 //!
 //! # The pruning bound
-//! Let `d_min = min_i d_i`, `I` the number of points, `τ` = [`PRUNE_TOLERANCE`] and
+//! Let `d_min = min_i d_i`, `I` the number of points, `τ` = [`PRUNE_TOLERANCE`](crate::scalar::PRUNE_TOLERANCE) and
 //! `ℓ = √d_min + √ε1`. A term is skipped only if
 //! `(d_i - d_min)/ε1 > ln(I/τ) + ln(1 + √d_i/ℓ)`, so its weight relative to the largest
 //! (which is 1, at `d_min`) is `w_i < (τ/I)/(1 + √d_i/ℓ)`: every skipped term is below the
@@ -21,52 +21,285 @@
 //! the natural length of the query (its distance to the cloud, or √ε1), the error is τ.
 //! A whole node is skipped when the bound holds for its box: `d_i ≥ d_lo` (smallest squared
 //! distance from `p` to the box) on the left, and inside the logarithm `d_i` is at most the
-//! largest squared distance to the root box.
+//! largest squared distance to the root box; the logarithm is rounded up to a multiple of
+//! `ln 2` ([`ln_upper`]), which only keeps a few more terms.
 //! The same visit weighs point–plane forces (contact), whose size grows at most linearly with
 //! `√d_i` too, so the same argument bounds them.
 
-use crate::scalar::{c, Scalar, SoftminSum, PRUNE_TOLERANCE};
+use crate::scalar::{c, lift3, re3, Scalar, SoftminSum};
 use nalgebra::Vector3;
 
 use super::Aopc;
 
-/// Calls `f(p_i, n_i)` for every point of `s` whose softmax weight at the query `pr` (real
-/// part, AOPC frame) is not provably negligible (see the module documentation). `dmin` is the
-/// smallest squared distance from `pr` to the points ([`Bvh::nearest`](super::bvh::Bvh::nearest)).
+/// An upper bound of `ln x` for `x ≥ 1` from the exponent bits alone (`x < 2^(e+1)`, so
+/// `ln x < (e + 1) ln 2`): at most `ln 2` above the logarithm, and no call to `log`.
 #[inline]
-pub fn visit_relevant(s: &Aopc, pr: &Vector3<f64>, eps1: f64, dmin: f64, mut f: impl FnMut(&Vector3<f64>, &Vector3<f64>)) {
-    let bvh = s.bvh();
+pub fn ln_upper(x: f64) -> f64 {
+    let e = ((x.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+    (e + 1) as f64 * std::f64::consts::LN_2
+}
+
+/// The points of an AOPC that can carry weight in the SSDF's softmax at one query point (real
+/// part, AOPC frame): every point not provably negligible by the bound of the module
+/// documentation, found in one walk of the hierarchy, with the smallest squared distance.
+///
+/// It is scratch space: one `Relevant` serves query after query without allocating.
+#[derive(Clone, Debug, Default)]
+pub struct Relevant {
+    /// `(leaf-order index, squared distance (m²))` of every relevant point, in walk order.
+    pub items: Vec<(u32, f64)>,
+    /// Smallest squared distance from the query to the points (m²); `+∞` for no points.
+    pub dmin: f64,
+    /// Leaf-order index of the nearest point (`usize::MAX` for no points).
+    pub nearest: usize,
+    /// Candidates of the last ball query (leaf-order indices).
+    ball: Vec<u32>,
+}
+
+impl Relevant {
+    /// Finds the relevant points of `s` at `pr` (AOPC frame) for temperature `eps1` (m²).
+    /// `hint`: a leaf-order index whose point is probably near (e.g. the nearest point of the
+    /// previous query), or `usize::MAX`; it only makes the walk shorter.
+    ///
+    /// The walk keeps every point within `d_best + k_max ε1` of the best squared distance so
+    /// far, with `k_max` the largest threshold the bound can ask for (`ℓ ≥ √ε1`), then keeps
+    /// those within the exact query's threshold `d_min + k ε1`: one walk finds both `d_min`
+    /// and the relevant set.
+    pub fn find(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, hint: usize) {
+        let bvh = s.bvh();
+        self.items.clear();
+        let mut cands = std::mem::take(&mut self.ball);
+        gather(bvh, pr, 0.0, eps1, hint, &mut cands);
+        self.filter(s, pr, eps1, &cands);
+        self.ball = cands;
+    }
+
+    /// Finds the points of `s` that can be relevant at some point of the ball of radius `r`
+    /// (m) around `c` (AOPC frame): a superset of what [`Relevant::find`] gives at every point
+    /// of the ball, to be narrowed per point with [`Relevant::find_within`]. Several nearby
+    /// queries (the points of one BVH leaf) then share one walk of the hierarchy.
+    pub fn find_ball(&mut self, s: &Aopc, c: &Vector3<f64>, r: f64, eps1: f64) {
+        let mut cands = std::mem::take(&mut self.ball);
+        gather(s.bvh(), c, r, eps1, usize::MAX, &mut cands);
+        self.ball = cands;
+    }
+
+    /// [`Relevant::find`] for a point `pr` of the ball last given to [`Relevant::find_ball`]:
+    /// the same relevant set and `d_min`, from the ball's candidates.
+    pub fn find_within(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64) {
+        let cands = std::mem::take(&mut self.ball);
+        self.filter(s, pr, eps1, &cands);
+        self.ball = cands;
+    }
+
+    /// The relevant set at `pr` among `cands` (which must contain it).
+    fn filter(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, cands: &[u32]) {
+        self.items.clear();
+        let bvh = s.bvh();
+        if bvh.is_empty() {
+            self.dmin = f64::INFINITY;
+            self.nearest = usize::MAX;
+            return;
+        }
+        self.items.extend(cands.iter().map(|&k| (k, (pr - bvh.points[k as usize]).norm_squared())));
+        let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
+        for &(k, d) in &self.items {
+            if d < best {
+                best = d;
+                nearest = k as usize;
+            }
+        }
+        self.dmin = best;
+        self.nearest = nearest;
+        let dmax = bvh.nodes[0].max_sq_dist(pr).sqrt();
+        let ell = best.sqrt() + eps1.sqrt();
+        let cutoff = best + (bvh.log_terms + ln_upper(1.0 + dmax / ell)) * eps1;
+        self.items.retain(|&(_, d)| d <= cutoff);
+    }
+}
+
+/// The points of `bvh` that can be relevant (module documentation) at some point `x` of the
+/// ball `|x - c| ≤ r`, as leaf-order indices in `out`. With `j` the point nearest to `c` and
+/// `K` the largest threshold over the ball (`K = ln(I/τ) + ln↑(1 + (√d_max(c) + r)/√ε1)`, as
+/// `ℓ ≥ √ε1` and `√d_max(x) ≤ √d_max(c) + r`): `d_min(x) ≤ (√d_j(c) + r)²` and
+/// `d_i(x) ≥ (|c - p_i| - r)²`, so a relevant `i` has
+/// `|c - p_i| ≤ r + √((√d_j(c) + r)² + K ε1)`. The walk applies that test with the best `d_j`
+/// so far (which only shrinks), then once more with the final one.
+fn gather(bvh: &super::bvh::Bvh, c: &Vector3<f64>, r: f64, eps1: f64, hint: usize, out: &mut Vec<u32>) {
+    out.clear();
     if bvh.is_empty() {
         return;
     }
-    // One threshold for the whole query: `ln(1 + √d_i/ℓ)` is at most its value at the largest
-    // distance to the root box, so skipping beyond `k ε1` satisfies the bound for every term
-    // (a few more terms are kept than the per-term bound would keep; one logarithm per query).
-    let ell = dmin.sqrt() + eps1.sqrt();
-    let k = (bvh.len() as f64 / PRUNE_TOLERANCE).ln() + (bvh.nodes[0].max_sq_dist(pr).sqrt() / ell).ln_1p();
-    let cutoff = dmin + k * eps1;
-    let skip = |dlo: f64, _dhi: f64| dlo > cutoff;
-    let mut stack: [u32; 64] = [0; 64];
+    let dmax = bvh.nodes[0].max_sq_dist(c).sqrt() + r;
+    let slack = (bvh.log_terms + ln_upper(1.0 + dmax / eps1.sqrt())) * eps1;
+    let reach = |best: f64| {
+        let x = r + ((best.sqrt() + r).powi(2) + slack).sqrt();
+        x * x * (1.0 + 1e-12)
+    };
+    let mut best = if hint < bvh.len() { (c - bvh.points[hint]).norm_squared() } else { f64::INFINITY };
+    let mut limit = reach(best);
+    let mut stack: [(u32, f64); 64] = [(0, 0.0); 64];
     let mut top = 1usize;
     while top > 0 {
         top -= 1;
-        let node = &bvh.nodes[stack[top] as usize];
-        if skip(node.min_sq_dist(pr), node.max_sq_dist(pr)) {
+        let (ni, dlo) = stack[top];
+        if dlo > limit {
             continue;
         }
+        let node = &bvh.nodes[ni as usize];
         if node.is_leaf() {
-            for k in node.start as usize..(node.start + node.count) as usize {
-                let q = &bvh.points[k];
-                let d = (pr - q).norm_squared();
-                if !skip(d, d) {
-                    f(q, &bvh.normals[k]);
+            for k in node.start..node.start + node.count {
+                let d = (c - bvh.points[k as usize]).norm_squared();
+                if d <= limit {
+                    out.push(k);
+                    if d < best {
+                        best = d;
+                        limit = reach(best);
+                    }
                 }
             }
         } else {
-            stack[top] = node.left;
-            stack[top + 1] = node.left + 1;
+            // Nearer child last, so that it is walked first and the limit drops early.
+            let (a, b) = (node.left, node.left + 1);
+            let (da, db) = (bvh.nodes[a as usize].min_sq_dist(c), bvh.nodes[b as usize].min_sq_dist(c));
+            let (first, second) = if da <= db { ((a, da), (b, db)) } else { ((b, db), (a, da)) };
+            stack[top] = second;
+            stack[top + 1] = first;
             top += 2;
         }
+    }
+    out.retain(|&k| (c - bvh.points[k as usize]).norm_squared() <= limit);
+}
+
+/// Calls `f(p_i, n_i)` for every point of `s` whose softmax weight at the query `pr` (real
+/// part, AOPC frame) is not provably negligible (see the module documentation). A convenience
+/// over [`Relevant`] (which the hot paths use, to reuse its buffer).
+pub fn visit_relevant(s: &Aopc, pr: &Vector3<f64>, eps1: f64, mut f: impl FnMut(&Vector3<f64>, &Vector3<f64>)) {
+    let mut rel = Relevant::default();
+    rel.find(s, pr, eps1, usize::MAX);
+    let bvh = s.bvh();
+    for &(k, _) in &rel.items {
+        f(&bvh.points[k as usize], &bvh.normals[k as usize]);
+    }
+}
+
+/// Receives the real parts of every term of an SSDF sum (for derivatives computed alongside
+/// the value; see [`GradientSink`]).
+pub trait SsdfSink {
+    /// Whether the sink does anything (when `false`, the calls compile away).
+    const ON: bool;
+    /// One term: weight `w = exp(-(d - d_min)/ε1)`, offset `r = p - p_i`, normal and
+    /// `φ_i = n_iᵀ r`.
+    fn term(&mut self, w: f64, r: &Vector3<f64>, n: &Vector3<f64>, phi: f64);
+}
+
+/// A sink that does nothing.
+pub struct NoSink;
+
+impl SsdfSink for NoSink {
+    const ON: bool = false;
+    #[inline(always)]
+    fn term(&mut self, _: f64, _: &Vector3<f64>, _: &Vector3<f64>, _: f64) {}
+}
+
+/// Accumulates the gradient of the SSDF with respect to the query point:
+/// `∇φ̂ = (Σ w_i n_i - (2/ε1) Σ w_i r_i (φ_i - φ̂)) / Σ w_i` (the derivative of the weights is
+/// `∂w_i/∂p = -(2/ε1) w_i r_i`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GradientSink {
+    sn: Vector3<f64>,
+    srphi: Vector3<f64>,
+    sr: Vector3<f64>,
+}
+
+impl SsdfSink for GradientSink {
+    const ON: bool = true;
+    #[inline(always)]
+    fn term(&mut self, w: f64, r: &Vector3<f64>, n: &Vector3<f64>, phi: f64) {
+        self.sn += n * w;
+        self.srphi += r * (w * phi);
+        self.sr += r * w;
+    }
+}
+
+impl GradientSink {
+    /// `∇φ̂` given the value `phi`, the weight sum and ε1 (m²).
+    pub fn gradient(&self, phi: f64, weight: f64, eps1: f64) -> Vector3<f64> {
+        (self.sn - (self.srphi - self.sr * phi) * (2.0 / eps1)) / weight
+    }
+}
+
+/// The SSDF of `p` (AOPC frame) over the points `rel` found relevant at its real part:
+/// `(φ̂, Σ_i w_i)` with `w_i = exp(-(d_i - d_min)/ε1)`.
+///
+/// With `eps3 > 0` it also bounds, from real parts, the point–plane springs these planes would
+/// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite.
+#[inline]
+pub fn ssdf_over<T: Scalar, S: SsdfSink>(s: &Aopc, p: &Vector3<T>, eps1: T, eps3: f64, rel: &Relevant, sink: &mut S) -> (T, T, f64) {
+    let bvh = s.bvh();
+    let mut sum = SoftminSum::new(c(rel.dmin), eps1);
+    let mut acc = T::zero();
+    let mut springs = SpringBound::new(rel.dmin, eps1.re(), eps3);
+    for &(k, d) in &rel.items {
+        let (q, n) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
+        let r = p - lift3::<T>(q);
+        let w = sum.add(r.dot(&r));
+        let phi = r.x * n.x + r.y * n.y + r.z * n.z;
+        acc += w * phi;
+        if eps3 > 0.0 {
+            springs.add(d, w.re(), phi.re());
+        }
+        if S::ON {
+            sink.term(w.re(), &re3(&r), n, phi.re());
+        }
+    }
+    let weight = sum.weight;
+    (acc / weight, weight, springs.bound(rel.items.len(), weight.re()))
+}
+
+/// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` (m) over the terms of an SSDF sum, `σ_i` its
+/// softmax weights and `φ_i = n_iᵀ(p - p_i)`: with the stiffness, it bounds every point–plane
+/// spring of the point–SSDF force at `p` (the contact's force pruning). From real parts, with
+/// `s⁺_ε(-φ) ≤ ε exp(-φ/ε)` for `φ ≥ 0` (kept as the exponent `-(d_i - d_min)/ε1 - φ_i/ε3`
+/// of `w_i exp(-φ_i/ε3)`, so no `exp` per term) and `≤ -φ + ε ln 2` for `φ < 0`; the sum is at
+/// most the number of terms times the largest.
+#[derive(Clone, Copy, Debug)]
+pub struct SpringBound {
+    dmin: f64,
+    inv_eps1: f64,
+    eps3: f64,
+    inv_eps3: f64,
+    /// Largest `-(d_i - d_min)/ε1 - φ_i/ε3` over terms with `φ_i ≥ 0`.
+    exponent: f64,
+    /// Largest `w_i (-φ_i + ε3 ln 2)` over terms with `φ_i < 0`.
+    deep: f64,
+}
+
+impl SpringBound {
+    /// A bound for an SSDF sum with shift `dmin` (m²) and temperatures `eps1` (m²), `eps3` (m).
+    #[inline]
+    pub fn new(dmin: f64, eps1: f64, eps3: f64) -> Self {
+        SpringBound { dmin, inv_eps1: 1.0 / eps1, eps3, inv_eps3: 1.0 / eps3, exponent: f64::NEG_INFINITY, deep: 0.0 }
+    }
+
+    /// One term: squared distance `d` (m²), weight `w` and plane distance `phi` (m).
+    #[inline]
+    pub fn add(&mut self, d: f64, w: f64, phi: f64) {
+        if phi >= 0.0 {
+            self.exponent = self.exponent.max(-(d - self.dmin) * self.inv_eps1 - phi * self.inv_eps3);
+        } else {
+            self.deep = self.deep.max(w * (-phi + self.eps3 * std::f64::consts::LN_2));
+        }
+    }
+
+    /// The bound for `terms` terms with weight sum `weight` (≥ 1), rounded up.
+    #[inline]
+    pub fn bound(&self, terms: usize, weight: f64) -> f64 {
+        if self.eps3.is_nan() || self.eps3 <= 0.0 {
+            return f64::INFINITY;
+        }
+        let shallow = if self.exponent > -745.0 { self.eps3 * self.exponent.exp() } else { 0.0 };
+        terms as f64 * shallow.max(self.deep) / weight * (1.0 + 1e-12)
     }
 }
 
@@ -83,22 +316,10 @@ pub fn ssdf_weights_sum<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> (T, T) 
     if s.is_empty() {
         return (c(f64::INFINITY), T::one());
     }
-    let pr = crate::scalar::re3(p);
-    ssdf_at(s, p, eps1, s.bvh().nearest(&pr).1)
-}
-
-/// [`ssdf_weights_sum`] given `dmin`, the smallest squared distance from `p` (real part) to the
-/// points of `s` (from [`Bvh::nearest`](super::bvh::Bvh::nearest)).
-pub fn ssdf_at<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T, dmin: f64) -> (T, T) {
-    let pr = crate::scalar::re3(p);
-    let mut sum = SoftminSum::new(c(dmin), eps1);
-    let mut acc = T::zero();
-    visit_relevant(s, &pr, eps1.re(), dmin, |q, n| {
-        let r = p - q.map(c::<T>);
-        let w = sum.add(r.dot(&r));
-        acc += w * (r.x * n.x + r.y * n.y + r.z * n.z);
-    });
-    (acc / sum.weight, sum.weight)
+    let mut rel = Relevant::default();
+    rel.find(s, &re3(p), eps1.re(), usize::MAX);
+    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, &rel, &mut NoSink);
+    (phi, w)
 }
 
 /// The SSDF summed over every point (no pruning): the reference for [`ssdf`].
@@ -137,7 +358,7 @@ mod tests {
             let (a, b): (f64, f64) = (ssdf(&s, &p, eps1), ssdf_naive(&s, &p, eps1));
             assert!((a - b).abs() <= 1e-13 * (a.abs() + 0.1), "{p:?}: {a} vs {b}");
             let mut n = 0;
-            visit_relevant(&s, &p, eps1, s.bvh().nearest(&p).1, |_, _| n += 1);
+            visit_relevant(&s, &p, eps1, |_, _| n += 1);
             // At the centre with a wide ε1 most points matter; elsewhere few do.
             if p != Vector3::zeros() {
                 assert!(n < s.len() / 20, "{n} of {} visited", s.len());
