@@ -17,6 +17,9 @@
 //!   controls, with forward-mode dual numbers through the generic `Model::step`: `dual64`
 //!   (n = nq + nv + nu passes of `Dual64`), `dualvec4` (`DualSVec64<4>`, ⌈n/4⌉ passes),
 //!   `dualvec16` (`DualSVec64<16>`, one pass for n ≤ 16);
+//! - `jacobian_crate_s`: the same Jacobian through the crate's API,
+//!   `derivatives::step_jacobian_state` (one dual pass of width 16 for up to 16 inputs), and
+//!   `crate_vs_dual64_rel`, its agreement with the `Dual64` columns;
 //! - `fd_s`: central finite differences of the same map, 2n + 1 steps;
 //! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| at the relative FD step
 //!   of 1e-4 … 1e-8 that agrees best (`fd_rel_step`; `fd_s` is timed at 1e-6),
@@ -26,12 +29,11 @@
 //! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
 //! quantity `--iterations` times and prints nothing else, for callgrind.
 //!
-//! This is the first version of the derivative study: once the crate has a public derivatives
-//! module (Jacobians of a step), it should be measured here beside these columns.
 
 use nalgebra::{Const, U1};
 use num_dual::{Derivative, Dual64, DualSVec64};
 use scm::contact::ContactParams;
+use scm::derivatives::{step_jacobian_state, Coordinates, Point};
 use scm::fmi::contract::FmiModel;
 use scm::fmi::ffi::*;
 use scm::integrate::{Integrator, State};
@@ -324,6 +326,12 @@ fn run() -> Result<String, String> {
         let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
         let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
         let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
+        // The crate's own API (what a user calls): `derivatives::step_jacobian_state`, the same
+        // map in embedded coordinates, its columns [q, v, u].
+        let point = Point { q: state.q.clone(), v: state.v.clone(), u: ctrl.clone(), params: prm };
+        let crate_jacobian = || step_jacobian_state(&model, integrator, &point, h, Coordinates::Embedded).map_err(|e| format!("step_jacobian_state: {e}"));
+        let jc = crate_jacobian()?.1.full;
+        let jc: Vec<Vec<f64>> = (0..jc.nrows()).map(|r| jc.row(r).iter().copied().collect()).collect();
         // Accuracy against central differences at the FD step that agrees best: a map with a
         // fast smooth transition (frictionloss below the stiction velocity, the dissipation
         // factor) has a truncation error that only a small step makes small, and rounding takes
@@ -365,9 +373,12 @@ fn run() -> Result<String, String> {
                 &mut || {
                     black_box(jacobian_fd(&model, &prm, h, nq, nv, black_box(&x), 1e-6));
                 },
+                &mut || {
+                    black_box(crate_jacobian().expect("step_jacobian_state"));
+                },
             ],
         );
-        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd] = times[..] else { unreachable!() };
+        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd, t_crate] = times[..] else { unreachable!() };
         let ffi_step = (ffi_with_restore - restore).max(0.0);
         unsafe {
             fmi2FreeFMUstate(c, &mut fmu_state);
@@ -375,6 +386,7 @@ fn run() -> Result<String, String> {
         }
         let scale = max_abs(&j64).max(1e-300);
         let vec_err = max_diff(&j64, &j4).max(max_diff(&j64, &j16)) / scale;
+        let crate_err = max_diff(&j64, &jc) / scale;
         let distances: Vec<String> = {
             let kin = model.tree.kinematics(&state.q, &state.v);
             model.contacts(&kin, &prm).1.iter().map(|p| format!("{:e}", p.distance)).collect()
@@ -382,7 +394,7 @@ fn run() -> Result<String, String> {
         items.push(format!(
             "{{\"integrator\": \"{}\", \"h\": {h:e}, \"n_inputs\": {}, \"n_outputs\": {}, \"pair_distances\": [{}], \
              \"model_step_s\": {model_step:e}, \"engine_step_s\": {engine_step:e}, \"ffi_step_s\": {ffi_step:e}, \"ffi_restore_s\": {restore:e}, \
-             \"jacobian_dual64_s\": {t_j64:e}, \"jacobian_dualvec4_s\": {t_j4:e}, \"jacobian_dualvec16_s\": {t_j16:e}, \"fd_s\": {t_fd:e}, \
+             \"jacobian_dual64_s\": {t_j64:e}, \"jacobian_dualvec4_s\": {t_j4:e}, \"jacobian_dualvec16_s\": {t_j16:e}, \"fd_s\": {t_fd:e}, \"jacobian_crate_s\": {t_crate:e}, \"crate_vs_dual64_rel\": {crate_err:e}, \
              \"jacobian_vs_fd_rel\": {:e}, \"fd_rel_step\": {fd_rel:e}, \"dualvec_vs_dual64_rel\": {vec_err:e}, \"jacobian_max_abs\": {scale:e}}}",
             integrator.name(),
             x.len(),

@@ -96,13 +96,14 @@ def run(ctx):
         log(f"step cost: {scene}")
         res = step_cost(ctx, v, sets, warmup)["results"]
         for r in res:
-            best_jac = min(r["jacobian_dual64_s"], r["jacobian_dualvec4_s"], r["jacobian_dualvec16_s"])
+            best_jac = min(r["jacobian_dual64_s"], r["jacobian_dualvec4_s"], r["jacobian_dualvec16_s"], r["jacobian_crate_s"])
             rows.append([scene, r["integrator"], r["model_step_s"] * 1e6, r["engine_step_s"] * 1e6, r["ffi_step_s"] * 1e6,
                          r["ffi_step_s"] / r["engine_step_s"]])
             deriv_rows.append([scene, r["integrator"], f"{r['n_inputs']} → {r['n_outputs']}", r["model_step_s"] * 1e6,
-                               r["jacobian_dual64_s"] * 1e6, r["jacobian_dualvec4_s"] * 1e6, r["jacobian_dualvec16_s"] * 1e6,
-                               r["fd_s"] * 1e6, best_jac / r["model_step_s"], r["fd_s"] / r["model_step_s"],
-                               r["jacobian_vs_fd_rel"], f"{r['fd_rel_step']:.0e}", r["dualvec_vs_dual64_rel"]])
+                               r["jacobian_crate_s"] * 1e6, r["jacobian_dual64_s"] * 1e6, r["jacobian_dualvec4_s"] * 1e6,
+                               r["jacobian_dualvec16_s"] * 1e6, r["fd_s"] * 1e6, r["jacobian_crate_s"] / r["model_step_s"],
+                               best_jac / r["model_step_s"], r["fd_s"] / r["model_step_s"],
+                               r["jacobian_vs_fd_rel"], f"{r['fd_rel_step']:.0e}", max(r["dualvec_vs_dual64_rel"], r["crate_vs_dual64_rel"])])
         if scene == "t_push":
             tp = (v, sets, warmup, {r["integrator"]: r for r in res})
 
@@ -123,10 +124,11 @@ def run(ctx):
         targets.append(["t_push: `fmi2DoStep(2 ms)` through the C ABI / `Simulation::advance(2 ms)` (semi-implicit Euler)", "≤ 1.2",
                         f"{sie['ffi_step_s'] * 1e6:.4g} µs / {sie['engine_step_s'] * 1e6:.4g} µs = {ffi:.3g} (worst integrator: {worst_ffi['integrator']} {worst_ffi['ffi_step_s'] / worst_ffi['engine_step_s']:.3g})",
                         "met" if ffi <= 1.2 else f"missed by {ffi / 1.2:.3g}×"])
+        jr = sie["jacobian_crate_s"] / sie["model_step_s"]
         best = min(("dual64", "dualvec4", "dualvec16"), key=lambda k: sie[f"jacobian_{k}_s"])
-        jr = sie[f"jacobian_{best}_s"] / sie["model_step_s"]
-        targets.append([f"t_push: full step Jacobian ({sie['n_inputs']} inputs: q, v, controls) / one step (semi-implicit Euler, best variant: {best})",
-                        "≤ 4", f"{sie[f'jacobian_{best}_s'] * 1e6:.4g} µs / {sie['model_step_s'] * 1e6:.4g} µs = {jr:.3g}",
+        targets.append([f"t_push: full step Jacobian ({sie['n_inputs']} inputs: q, v, controls) through `derivatives::step_jacobian_state` / one step "
+                        f"(semi-implicit Euler; fastest hand-rolled variant: {best}, {sie[f'jacobian_{best}_s'] / sie['model_step_s']:.3g} steps)",
+                        "≤ 4", f"{sie['jacobian_crate_s'] * 1e6:.4g} µs / {sie['model_step_s'] * 1e6:.4g} µs = {jr:.3g}",
                         "met" if jr <= 4 else f"missed by {jr / 4:.3g}×"])
         it_step = 20 if ctx.quick else 200
         prof_step, perf_ok = profile(ctx, v, sets, warmup, "step", it_step)
@@ -143,14 +145,17 @@ def run(ctx):
             "## One step, and the same step through the C ABI", "",
             table(["scene", "integrator", "`Model::step` (µs)", "`Simulation::advance` (µs)", "`fmi2DoStep` via C ABI (µs)", "C ABI / engine"], rows), "",
             "## Full Jacobian of one step", "",
-            "`x' = step(x, u)` with x = (q, v) and u the controls; forward-mode dual numbers through the generic `Model::step` "
-            "(`Dual64`: one column per pass; `DualSVec64<4>`: four per pass; `DualSVec64<16>`: all in one pass), against central finite "
+            "`x' = step(x, u)` with x = (q, v) and u the controls, through the crate's API (`derivatives::step_jacobian_state`, embedded "
+            "coordinates) and with forward-mode dual numbers through the generic `Model::step` by hand "
+            "(`Dual64`: one column per pass; `DualSVec64<4>`: four per pass; `DualSVec64<16>`: all in one pass; in every variant the pair "
+            "contact runs in f64 and chains its hand-derived exact Jacobian into the duals), against central finite "
             "differences (2n + 1 steps, timed at relative step 1e-6). Accuracy: max‖J_dual − J_fd‖ / max‖J_dual‖ (largest entries) at the "
             "relative FD step of 1e-4 … 1e-8 that agrees best (column \"FD step\"): smooth but fast transitions (frictionloss below the "
             "stiction velocity, the dissipation factor) leave a truncation error at 1e-6 that shrinks as h² with the step, so what remains is "
             "the finite differences' own error, not the duals'; the dual variants agree with each other to rounding.", "",
-            table(["scene", "integrator", "inputs → outputs", "step (µs)", "Jacobian Dual64 (µs)", "DualSVec64<4> (µs)", "DualSVec64<16> (µs)",
-                   "central FD (µs)", "best Jacobian / step", "FD / step", "max‖J − J_fd‖ / max‖J‖", "FD step", "dual variants differ"], deriv_rows), ""]
+            table(["scene", "integrator", "inputs → outputs", "step (µs)", "`step_jacobian_state` (µs)", "Dual64 (µs)", "DualSVec64<4> (µs)",
+                   "DualSVec64<16> (µs)", "central FD (µs)", "crate Jacobian / step", "best Jacobian / step", "FD / step",
+                   "max‖J − J_fd‖ / max‖J‖", "FD step", "variants differ"], deriv_rows), ""]
     if profiles:
         text += ["## Where the time goes", "",
                  "`perf stat -e instructions` " + ("works here, " if perf_ok else "reports `<not supported>` on this machine, so ")
@@ -158,17 +163,19 @@ def run(ctx):
         for title, body in profiles:
             text += [f"### {title}", "", "```", body, "```", ""]
         text += ["## What would close the gaps", "",
-                 "- **SCM step vs MuJoCo** (the main gap): a t_push step evaluates the pair force over every point of one AOPC against every "
-                 "plane of the other, twice (O(I1·I2) soft minima with an `exp` each), where MuJoCo runs one sphere–box collision test and a small "
-                 "constraint solve. The geometry issue's exact BVH pruning (SPEC §3: skip terms whose weight is provably below 1e-15) removes most "
-                 "`exp` calls: the far side of the T never contributes. After that, the remaining costs are the softmax over the points near contact "
-                 "and the CRBA/RNEA on 5 DOF. The paper's own GPU implementation took about 0.9 ms per step; reaching MuJoCo's few microseconds "
-                 "needs pruning plus coarser AOPCs near contact, or caching the SSDF of rigid pairs.",
-                 "- **Jacobian vs step**: forward mode costs about (number of inputs) × (dual overhead) steps; `DualSVec64<N>` carries N derivative "
-                 "lanes through every `exp`, so it is not cheaper than N `Dual64` passes here. What would close it: exploit sparsity (a pair "
-                 "force depends only on the two bodies' poses and velocities: 12 of the inputs, and its Jacobian can be formed per body pair "
-                 "with 6+6 directions, then mapped through the body Jacobians), compute the softmax weights once in f64 and differentiate only "
-                 "the terms that survive pruning, or use the exact analytic Jacobian of the dynamics issue's derivatives module.",
+                 "- **SCM step vs MuJoCo** (the main gap): MuJoCo runs one sphere–box collision test and a small constraint solve; SCM "
+                 "evaluates the soft minima of the pair over the AOPC points near contact (the BVH pruning of SPEC §3 already skips every term "
+                 "whose weight is provably below 1e-15: the far side of the T never costs anything). The profile above shows where the rest goes: "
+                 "finding each query point's relevant planes and its SSDF (the softmax sums, an `exp` per term that survives), then the point "
+                 "forces; the rigid-body dynamics are under 1 %. What would close it: fewer terms (a node bound using the normal cone as well as "
+                 "the bounding sphere, a warm start of the walk from the previous step's deepest points, coarser AOPCs away from sharp features), "
+                 "cheaper terms (SIMD `exp` over a leaf of 16 points), and reusing the relevant sets between the stages of a step. The paper's GPU "
+                 "implementation took about 0.9 ms per step; MuJoCo's few microseconds would need the term count near contact to fall by an "
+                 "order of magnitude as well.",
+                 "- **Jacobian vs step**: the pair contact, which is nearly all of a step, runs once in f64 and applies its hand-derived exact "
+                 "Jacobian to the duals (`scalar::ChainRule`); `derivatives::step_jacobian_state` carries all 12 directions in one pass, so a "
+                 "Jacobian costs one step plus the pair Jacobian plus 12 lanes through the dynamics. With one `Dual64` pass per input the pair "
+                 "Jacobian is recomputed in every pass, hence the Dual64 column's cost.",
                  "- **C ABI vs engine**: " + (targets[1][3] if len(targets) > 1 else "not measured")
                  + "; the FFI layer adds a state-machine check, the panic guard and a copy of the state per call, which is small against a step."]
     write(ctx, "derivatives_and_speed.md", "\n".join(text))
