@@ -184,9 +184,9 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 };
             }
             let z: Vec<DualSVec64<N>> = (0..N).map(|i| DualSVec64::new(base[i], num_dual::Derivative::derivative_generic(nalgebra::Const::<N>, nalgebra::Const::<1>, i))).collect();
-            let chained = outputs(&moving_pair(a, b, &z, &prm.lift(), false));
-            let generic = outputs(&moving_pair(a, b, &z, &prm.lift(), true));
-            let value = |x: &[f64]| outputs(&moving_pair(a, b, x, &prm, false));
+            let chained = pair_outputs(&moving_pair(a, b, &z, &prm.lift(), false));
+            let generic = pair_outputs(&moving_pair(a, b, &z, &prm.lift(), true));
+            let value = |x: &[f64]| pair_outputs(&moving_pair(a, b, x, &prm, false));
             let v0 = value(&base);
             assert!(v0.iter().skip(1).any(|f| f.abs() > 0.1), "{name}: not in contact: {v0:?}");
             for (o, (c, g)) in chained.iter().zip(&generic).enumerate() {
