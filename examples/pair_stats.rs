@@ -19,6 +19,10 @@ use scm::sim::Simulation;
 use std::hint::black_box;
 use std::time::Instant;
 
+#[path = "support/timing.rs"]
+mod timing;
+use timing::time_interleaved;
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let path = args.get(1).expect("usage: pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]");
@@ -115,7 +119,7 @@ fn main() {
             }
         }
     };
-    let times = interleaved(1.5, &mut [&mut || pair_all(), &mut || drop(black_box(step())), &mut || drop(black_box(jac()))]);
+    let times = time_interleaved(1.5, &mut [&mut || pair_all(), &mut || drop(black_box(step())), &mut || drop(black_box(jac()))]);
     println!("pruned pairs {:.2} µs; step ({}) {:.2} µs; step Jacobian w.r.t. (q, v, u) {:.2} µs = {:.2} steps", times[0] * 1e6, m.integrator.name(), times[1] * 1e6, times[2] * 1e6, times[2] / times[1]);
 }
 
@@ -127,36 +131,6 @@ fn profiled_section(n: usize, f: &mut dyn FnMut()) {
     }
 }
 
-/// Median time per call of each function over 9 interleaved rounds of about `budget` s in all.
-fn interleaved(budget: f64, fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
-    let rounds = 9;
-    let per = budget / (rounds * fs.len()) as f64;
-    let sizes: Vec<usize> = fs
-        .iter_mut()
-        .map(|f| {
-            let t = Instant::now();
-            f();
-            ((per / t.elapsed().as_secs_f64().max(1e-9)) as usize).max(1)
-        })
-        .collect();
-    let mut samples = vec![Vec::new(); fs.len()];
-    for _ in 0..rounds {
-        for (k, f) in fs.iter_mut().enumerate() {
-            let t = Instant::now();
-            for _ in 0..sizes[k] {
-                f();
-            }
-            samples[k].push(t.elapsed().as_secs_f64() / sizes[k] as f64);
-        }
-    }
-    samples
-        .into_iter()
-        .map(|mut s| {
-            s.sort_by(f64::total_cmp);
-            s[rounds / 2]
-        })
-        .collect()
-}
 
 fn count_terms(s: &scm::geometry::Aopc, x: &nalgebra::Vector3<f64>, eps1: f64) -> usize {
     let mut n = 0;

@@ -44,7 +44,10 @@ use scm::*;
 use std::ffi::CString;
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::time::Instant;
+
+#[path = "support/timing.rs"]
+mod timing;
+use timing::time_interleaved;
 
 struct Args {
     dir: PathBuf,
@@ -85,37 +88,6 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// Median time per call of each function, over 9 rounds; each round runs one batch of every
-/// function in turn (batches sized so that all rounds together take about `budget` seconds).
-fn time_interleaved(budget: f64, fs: &mut [&mut dyn FnMut()]) -> Vec<f64> {
-    let rounds = 9;
-    let per_fn = budget / (rounds * fs.len()) as f64;
-    let sizes: Vec<usize> = fs
-        .iter_mut()
-        .map(|f| {
-            let t = Instant::now();
-            f();
-            ((per_fn / t.elapsed().as_secs_f64().max(1e-9)).floor() as usize).max(1)
-        })
-        .collect();
-    let mut samples = vec![Vec::with_capacity(rounds); fs.len()];
-    for _ in 0..rounds {
-        for (k, f) in fs.iter_mut().enumerate() {
-            let t = Instant::now();
-            for _ in 0..sizes[k] {
-                f();
-            }
-            samples[k].push(t.elapsed().as_secs_f64() / sizes[k] as f64);
-        }
-    }
-    samples
-        .into_iter()
-        .map(|mut s| {
-            s.sort_by(f64::total_cmp);
-            s[rounds / 2]
-        })
-        .collect()
-}
 
 /// The scene's simulation with the `--set` values applied, advanced by the warm-up (with the
 /// scene's own integrator at 1 ms internal steps, so every integrator is measured at the same
