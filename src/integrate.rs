@@ -642,17 +642,20 @@ pub struct SolverCache {
     /// The implicit method's last Newton Jacobian.
     jacobian: Option<DMatrix<f64>>,
     /// The state and internal step the cache was left for.
-    left: Option<(State<f64>, f64)>,
+    left: Option<CacheMark>,
 }
+
+/// Where a [`SolverCache`] was left: the state and the internal step (s).
+pub type CacheMark = (State<f64>, f64);
 
 impl SolverCache {
     /// The cached Newton Jacobian, and the state and internal step (s) it was left for.
-    pub fn parts(&self) -> (Option<&DMatrix<f64>>, Option<&(State<f64>, f64)>) {
+    pub fn parts(&self) -> (Option<&DMatrix<f64>>, Option<&CacheMark>) {
         (self.jacobian.as_ref(), self.left.as_ref())
     }
 
     /// A cache from its [`parts`](SolverCache::parts).
-    pub fn from_parts(jacobian: Option<DMatrix<f64>>, left: Option<(State<f64>, f64)>) -> SolverCache {
+    pub fn from_parts(jacobian: Option<DMatrix<f64>>, left: Option<CacheMark>) -> SolverCache {
         SolverCache { jacobian, left }
     }
 }
