@@ -3,7 +3,7 @@
 //! a non-finite step is refused with the state kept, communication steps land exactly on their
 //! end, and each method converges at its order (the adaptive one to its tolerance).
 
-use crate::common::bisect;
+use crate::common::{bisect, static_lift};
 use crate::dynamics_tree::model_of;
 use scm::collision::Collider;
 use scm::fmi::contract::{FmiModel, StepError};
@@ -45,13 +45,7 @@ fn stiff_sphere(k: f64, step: f64, integrator: &str) -> String {
 fn equilibrium(model: &Model) -> (f64, f64) {
     let prm = model.contact;
     let Some(Collider::Aopc(aopc)) = &model.colliders[1] else { panic!("the ball has an AOPC") };
-    let lift = |z: f64| {
-        let phis: Vec<f64> = aopc.points.iter().map(|p| z + p.z).collect();
-        let min = phis.iter().cloned().fold(f64::INFINITY, f64::min);
-        let w: Vec<f64> = phis.iter().map(|f| (-(f - min) / prm.eps2).exp()).collect();
-        let sum: f64 = w.iter().sum();
-        phis.iter().zip(&w).map(|(f, w)| w / sum * prm.stiffness * softplus(-f, prm.eps3)).sum::<f64>()
-    };
+    let lift = |z: f64| static_lift(aopc, &prm, z);
     let z = bisect(|z| 9.81 - lift(z), 0.0, 0.1);
     let phi = bisect(|phi| 9.81 - prm.stiffness * softplus(-phi, prm.eps3), -0.05, 0.05);
     (z, phi)

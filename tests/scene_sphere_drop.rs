@@ -1,7 +1,7 @@
 //! The sphere of `sphere_drop.xml` falls, bounces and comes to rest on the plane at the
 //! equilibrium penetration.
 
-use crate::common::{bisect, scene};
+use crate::common::{bisect, scene, static_lift};
 use scm::collision::Collider;
 use scm::fmi::contract::FmiModel;
 use scm::scalar::softplus;
@@ -24,13 +24,7 @@ fn sphere_comes_to_rest_at_the_equilibrium_penetration() {
     //    dynamics code: at rest (v = 0, so d = 1 and no friction) the separation-weighted
     //    normal force Σ W_f k s⁺(-Φ_f), Φ_f = z + p_f.z, carries the weight.
     let Some(Collider::Aopc(aopc)) = &sim.model.colliders[1] else { panic!("the ball has an AOPC") };
-    let lift = |z: f64| {
-        let phis: Vec<f64> = aopc.points.iter().map(|p| z + p.z).collect();
-        let min = phis.iter().cloned().fold(f64::INFINITY, f64::min);
-        let w: Vec<f64> = phis.iter().map(|f| (-(f - min) / prm.eps2).exp()).collect();
-        let sum: f64 = w.iter().sum();
-        phis.iter().zip(&w).map(|(f, w)| w / sum * prm.stiffness * softplus(-f, prm.eps3)).sum::<f64>()
-    };
+    let lift = |z: f64| static_lift(aopc, &prm, z);
     let z_balance = bisect(|z| m * g - lift(z), 0.0, r);
     println!("resting centre height {z:.9} m, static balance {z_balance:.9} m");
     assert!((z - z_balance).abs() < 1e-7, "rest {z} vs static balance {z_balance}");

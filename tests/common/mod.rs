@@ -68,3 +68,15 @@ pub fn pair_outputs<T: scm::scalar::Scalar>(c: &scm::contact::PairContact<T>) ->
     }
     out
 }
+
+/// The static balance of the SCM between a plane `z = 0` and an AOPC whose frame origin is at
+/// height `z` (m), unrotated, at rest (v = 0, so d = 1 and no friction): the
+/// separation-weighted normal force `Σ W_f k s⁺(-Φ_f)`, `Φ_f = z + p_f.z` (N), written out
+/// independently of the dynamics code.
+pub fn static_lift(aopc: &scm::geometry::Aopc, prm: &scm::contact::ContactParams<f64>, z: f64) -> f64 {
+    let phis: Vec<f64> = aopc.points.iter().map(|p| z + p.z).collect();
+    let min = phis.iter().cloned().fold(f64::INFINITY, f64::min);
+    let w: Vec<f64> = phis.iter().map(|f| (-(f - min) / prm.eps2).exp()).collect();
+    let sum: f64 = w.iter().sum();
+    phis.iter().zip(&w).map(|(f, w)| w / sum * prm.stiffness * scm::scalar::softplus(-f, prm.eps3)).sum::<f64>()
+}
