@@ -164,12 +164,7 @@ fn fixture() -> &'static Fixture {
             let c = host::instantiate(&res, if me { fmi2ModelExchange } else { fmi2CoSimulation }, &cb);
             assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
             assert_eq!(fmi2ExitInitializationMode(c), fmi2OK);
-            let mut st = null_mut();
-            assert_eq!(fmi2GetFMUstate(c, &mut st), fmi2OK);
-            let mut size = 0;
-            assert_eq!(fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
-            let mut bytes = vec![0u8; size];
-            assert_eq!(fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size), fmi2OK);
+            let bytes = host::serialize_current(c);
             fmi2FreeInstance(c);
             bytes
         };

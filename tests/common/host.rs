@@ -139,3 +139,21 @@ pub fn scene_names() -> Vec<String> {
 pub unsafe fn instantiate(res: &Resources, fmu_type: fmi2Type, callbacks: &fmi2CallbackFunctions) -> fmi2Component {
     unsafe { scm::fmi2Instantiate(c"test".as_ptr(), fmu_type, res.guid.as_ptr(), res.uri.as_ptr(), callbacks, fmi2False, fmi2False) }
 }
+
+/// The instance's current state, got with `fmi2GetFMUstate` and serialized (the state is left
+/// allocated in the instance, as a host that keeps it would).
+///
+/// # Safety
+/// `c` must be a live instance in a state where `fmi2GetFMUstate` is allowed.
+pub unsafe fn serialize_current(c: fmi2Component) -> Vec<u8> {
+    unsafe {
+        let mut st = std::ptr::null_mut();
+        assert_eq!(scm::fmi2GetFMUstate(c, &mut st), fmi2OK);
+        let mut size = 0;
+        assert_eq!(scm::fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
+        let mut bytes = vec![0u8; size];
+        assert_eq!(scm::fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size), fmi2OK);
+        bytes
+    }
+}
+
