@@ -265,3 +265,178 @@ fn communication_steps_land_exactly_on_their_end() {
         assert!((sim.time() - t).abs() < 1e-15);
     }
 }
+
+/// Explicit Euler on the pendulum swinging 0.5 rad at `hω = 0.1`: a linear swing gains a
+/// factor `1 + (hω)² = 1.01` of its energy per step, too little for any one communication
+/// step to look unstable, but it adds up.
+fn slowly_growing_pendulum() -> (Model, f64, State<f64>) {
+    let mut model = model_of(PENDULUM);
+    let omega = (9.81 * 0.5 / (0.25 + 0.001f64)).sqrt();
+    model.integrator = Integrator::Euler;
+    model.step = 0.1 / omega;
+    let h = model.step;
+    (model, h, State { q: vec![0.5], v: vec![0.0] })
+}
+
+#[test]
+fn the_energy_guard_adds_up_a_slow_growth_over_communication_steps() {
+    let (model, h, s0) = slowly_growing_pendulum();
+    let bottom = model.energy(&[0.0], &[0.0]).total();
+    let swing = |s: &State<f64>| model.energy(&s.q, &s.v).total() - bottom;
+    let e0 = swing(&s0);
+    // The guard's floor for 1 kg: raised by 1 mm, moving at 1 cm/s.
+    let floor = 9.81e-3 + 0.5e-4;
+    let opts = AdvanceOptions::default();
+    // One communication step per internal step, the cache (and its ledger) carried along as
+    // an FMU does. Every accepted state has `E - E₀ ≤ ½ S + E_floor` with `S`, the largest
+    // kinetic energy seen, at most the largest swing energy: so the swing never exceeds
+    // 2 (e0 + floor), and at 1 % per step it gets there in about ln(2)/0.01 ≈ 70 steps.
+    let mut cache = scm::integrate::SolverCache::default();
+    let mut s = s0.clone();
+    let mut refused = None;
+    for k in 0..200 {
+        match model.advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache) {
+            Ok(a) => {
+                s = a.state;
+                assert!(swing(&s) <= 2.0 * (e0 + floor) * (1.0 + 1e-9), "step {k}: swing energy {} accepted (started at {e0})", swing(&s));
+            }
+            Err(e @ StepFailure::EnergyGrowth { .. }) => {
+                println!("refused at step {k}, swing energy {e0} -> {}: {e}", swing(&s));
+                refused = Some(k);
+                break;
+            }
+            Err(e) => panic!("step {k}: {e}"),
+        }
+    }
+    let k = refused.expect("the slow growth was never refused");
+    assert!(k > 10 && swing(&s) > 1.5 * e0, "refused too early: step {k}, swing {} from {e0}", swing(&s));
+    // Without the ledger (a fresh cache in every call, as if the host set the state each
+    // time) each call judges only itself: a step is refused only once its own growth, 1 % of
+    // the swing, exceeds the floor and half the kinetic energy at its start, which happens
+    // near a turning point when the swing has grown about five-fold (measured: step 163,
+    // 0.60 → 2.6 J, against step 62, 1.08 J, with the ledger).
+    let mut s = s0;
+    let mut alone = 200;
+    for j in 0..200 {
+        match model.advance_cached(&s, &[], &model.contact, j as f64 * h, h, &opts, &mut Default::default()) {
+            Ok(a) => s = a.state,
+            Err(_) => {
+                alone = j;
+                break;
+            }
+        }
+    }
+    println!("without the ledger: refused at step {alone}, swing energy {e0} -> {}", swing(&s));
+    assert!(alone > 2 * k && swing(&s) > 2.0 * (e0 + floor), "step {alone}: swing {} from {e0}", swing(&s));
+}
+
+#[test]
+fn the_energy_ledger_restarts_when_the_state_or_the_contact_parameters_are_set() {
+    let (model, h, s0) = slowly_growing_pendulum();
+    let opts = AdvanceOptions::default();
+    let mut cache = scm::integrate::SolverCache::default();
+    let mut s = s0;
+    for k in 0..20 {
+        s = model.advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache).unwrap().state;
+    }
+    let since = |c: &scm::integrate::SolverCache| c.parts().2.map(|l| l.since);
+    assert_eq!(since(&cache), Some(0.0), "the ledger runs from the start");
+    // The state carried on: the ledger goes on.
+    let t = 20.0 * h;
+    s = model.advance_cached(&s, &[], &model.contact, t, h, &opts, &mut cache).unwrap().state;
+    assert_eq!(since(&cache), Some(0.0));
+    // A host that sets the velocity puts in energy (here 50 J, far above what the ledger
+    // allows): the ledger restarts there instead of refusing the step.
+    let mut fast = s.clone();
+    fast.v[0] = 10.0;
+    let t = 21.0 * h;
+    s = model.advance_cached(&fast, &[], &model.contact, t, h, &opts, &mut cache).unwrap_or_else(|e| panic!("{e}")).state;
+    assert_eq!(since(&cache), Some(t));
+    // Other contact parameters change the energy stored in contact: a new ledger too.
+    let mut prm = model.contact;
+    prm.stiffness *= 2.0;
+    let t = 22.0 * h;
+    model.advance_cached(&s, &[], &prm, t, h, &opts, &mut cache).unwrap();
+    assert_eq!(since(&cache), Some(t));
+    // With the guard off nothing is carried.
+    model.advance_cached(&s, &[], &prm, t, h, &AdvanceOptions { energy_guard: false, ..opts }, &mut cache).unwrap();
+    assert_eq!(since(&cache), None);
+}
+
+#[test]
+fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step() {
+    let (model, h, _) = slowly_growing_pendulum();
+    let text = format!(
+        r#"<mujoco model="pendulum"><option timestep="{h:e}" gravity="0 0 -9.81"/>
+  <custom><text name="scm_integrator" data="euler"/></custom>
+  <worldbody><body name="p"><joint name="j" type="hinge" axis="0 1 0" ref="0"/>
+    <inertial pos="0 0 -0.5" mass="1" diaginertia="0.001 0.001 0.001"/></body></worldbody></mujoco>"#
+    );
+    assert_eq!(model.step, h);
+    let scene = scm::scene::load_str(&text, std::path::Path::new("pendulum.xml")).unwrap();
+    let mut sim = Simulation::new(scene, &text);
+    sim.current.state.q[0] = 0.5;
+    let run = |sim: &mut Simulation, from: usize| -> usize {
+        for k in from..400 {
+            match sim.do_step(k as f64 * h, h) {
+                Ok(()) => {}
+                Err(StepError::Discard(m)) => {
+                    assert!(m.contains("unstable"), "{m}");
+                    return k;
+                }
+                Err(StepError::Error(m)) => panic!("{m}"),
+            }
+        }
+        panic!("never refused");
+    };
+    for k in 0..30 {
+        sim.do_step(k as f64 * h, h).unwrap();
+    }
+    let saved = sim.get_state().unwrap();
+    let bytes = sim.serialize_state(&saved).unwrap();
+    let restored = sim.deserialize_state(&bytes).unwrap();
+    assert_eq!(restored, saved, "the state with its ledger round-trips through bytes");
+    assert!(saved.solver_cache.parts().2.is_some(), "the ledger is part of the state");
+    let first = run(&mut sim, 30);
+    let end = sim.current.clone();
+    sim.set_state(&restored).unwrap();
+    assert_eq!(run(&mut sim, 30), first, "the restored run is refused at the same step");
+    assert_eq!(sim.current, end);
+    println!("refused at communication step {first}, after a restore at step 30 too");
+}
+
+#[test]
+fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_factor() {
+    // The sphere of `stiff_sphere` (ε3 = 1e-6 m, here k = 1e5 N/m and ε3 = 1e-4 m as in the
+    // bundled scenes) at rest at heights around its resting one: the energy stored in contact
+    // is the work the contact force does as the sphere is lifted slowly (no damping at v = 0)
+    // out of reach, `∫_z^∞ F_z dz`. The guard's estimate must stay within a small factor of it
+    // (the doc of `contact_energy`: 1.00 to 1.25 for one spring). Measured: 1.00 at 0.5 mm
+    // above rest, 1.17 at rest, 1.33, 1.80, 1.94 at 0.2, 0.5, 1 mm below: deeper, more springs
+    // of the sphere's patch push, the force grows faster than one spring's and `|F|²/2k`
+    // reads high (on the side of allowing more, never less).
+    let mut model = model_of(&stiff_sphere(1e5, 1e-3, "implicit_euler"));
+    model.contact.eps3 = 1e-4;
+    let prm = model.contact;
+    let at = |z: f64| {
+        let q = [0.0, 0.0, z, 1.0, 0.0, 0.0, 0.0];
+        let kin = model.tree.kinematics_with(&q, &[0.0; 6], &[]);
+        model.contacts(&kin, &prm).1
+    };
+    let force = |z: f64| at(z)[0].on_b.force.z.abs().max(at(z)[0].on_a.force.z.abs());
+    // Resting height: the lift equals m g.
+    let rest = bisect(|z| 9.81 - force(z), 0.045, 0.06);
+    assert!((force(rest) - 9.81).abs() < 1e-6, "resting height {rest}: lift {}", force(rest));
+    for depth in [-5e-4, 0.0, 2e-4, 5e-4, 1e-3] {
+        let z = rest - depth;
+        // Trapezoid on 4,000 steps of 1 µm up to 4 mm above the resting height (the force
+        // there is e^-40 of the resting one).
+        let n = 4000;
+        let top = rest + 4e-3;
+        let dz = (top - z) / n as f64;
+        let work: f64 = (0..n).map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz).sum();
+        let estimate = scm::integrate::contact_energy(&at(z), &prm);
+        println!("{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}", depth * 1e3, estimate / work);
+        assert!(estimate >= 0.9 * work && estimate <= 2.5 * work, "depth {depth}: estimate {estimate} J against the work {work} J");
+    }
+}

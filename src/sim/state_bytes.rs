@@ -19,17 +19,18 @@
 //! | 4 + n | integrator name: length, UTF-8 bytes |
 //! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
 //! | 1 (+ 8 (nq + nv + 1)) | the state and internal step that Jacobian was left for: 0, or 1, `q`, `v`, step |
+//! | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
 use super::{FmuState, Param, SimState};
 use crate::fmi::serial::Reader;
 use crate::dynamics::MOCAP_INPUTS;
-use crate::integrate::{Integrator, State};
+use crate::integrate::{EnergyLedger, Integrator, State};
 use crate::model::Model;
 
 /// Version of the layout written by [`encode`].
-pub const STATE_VERSION: u32 = 2;
+pub const STATE_VERSION: u32 = 3;
 
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
@@ -55,7 +56,7 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
             std::iter::once(t).chain(poses).for_each(|&x| put(&mut b, x));
         }
     }
-    let (jacobian, left) = state.solver_cache.parts();
+    let (jacobian, left, ledger) = state.solver_cache.parts();
     match jacobian {
         None => b.push(0),
         Some(j) => {
@@ -70,6 +71,14 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
         Some((st, h)) => {
             b.push(1);
             st.q.iter().chain(&st.v).chain([h]).for_each(|&x| put(&mut b, x));
+        }
+    }
+    match ledger {
+        None => b.push(0),
+        Some(l) => {
+            b.push(1);
+            let params = Param::ALL.map(|p| p.get(&l.params));
+            l.at.q.iter().chain(&l.at.v).chain(&params).chain([&l.since, &l.reference, &l.work, &l.gross_work, &l.scale]).for_each(|&x| put(&mut b, x));
         }
     }
     b
@@ -146,7 +155,30 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         }
         f => return Err(format!("model state is corrupt: solver cache state flag {f}")),
     };
-    let solver_cache = crate::integrate::SolverCache::from_parts(jacobian, left);
+    let ledger = match r.take(1, "the energy ledger flag")?[0] {
+        0 => None,
+        1 => {
+            let q = (0..nq).map(|_| finite(&mut r, "the energy ledger's position")).collect::<Result<Vec<_>, _>>()?;
+            let v = (0..nv).map(|_| finite(&mut r, "the energy ledger's velocity")).collect::<Result<Vec<_>, _>>()?;
+            let mut params = model.contact;
+            for p in Param::ALL {
+                let x = finite(&mut r, "the energy ledger's contact parameter")?;
+                if !p.accepts(x) {
+                    return Err(format!("model state is corrupt: the energy ledger's scm.{} = {x} is out of range", p.describe().0));
+                }
+                *p.slot(&mut params) = x;
+            }
+            let mut next = |what| finite(&mut r, what);
+            let (since, reference, work) = (next("the energy ledger's start time")?, next("the energy ledger's reference energy")?, next("the energy ledger's work")?);
+            let (gross_work, scale) = (next("the energy ledger's gross work")?, next("the energy ledger's scale")?);
+            if gross_work < 0.0 || scale < 0.0 || work.abs() > gross_work * (1.0 + 1e-9) {
+                return Err(format!("model state is corrupt: an energy ledger with work {work} J, gross work {gross_work} J and scale {scale} J"));
+            }
+            Some(EnergyLedger { at: State { q, v }, params, since, reference, work, gross_work, scale })
+        }
+        f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
+    };
+    let solver_cache = crate::integrate::SolverCache::from_parts(jacobian, left, ledger);
     if r.remaining() != 0 {
         return Err(format!("model state is corrupt: {} unexpected bytes at the end", r.remaining()));
     }
