@@ -359,7 +359,35 @@ impl Simulation {
         let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target, mocap_sampled: None };
         let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        Simulation { model, rows, info, current: start.clone(), start, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false }
+        let mut sim = Simulation { model, rows, info, current: start.clone(), start, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false };
+        for p in [Param::Eps1, Param::Eps2, Param::Eps3] {
+            if let Some(text) = sim.smoothing_warning(p, p.get(&sim.current.params)) {
+                sim.messages.push(LogMessage { category: LogCategory::StatusWarning, text });
+            }
+        }
+        sim
+    }
+
+    /// A warning when a smoothing length (`√ε1`, `ε2`, `ε3`) is as large as the smallest body
+    /// in contact: the model is then no longer contact (ε1 smooths the SSDF over the whole
+    /// body, ε2 averages the separation distribution instead of taking its minimum, ε3 pushes
+    /// at any distance), though it stays finite. `None` for other parameters or smaller values.
+    fn smoothing_warning(&self, p: Param, value: f64) -> Option<String> {
+        let (length, what) = match p {
+            Param::Eps1 => (value.sqrt(), "its square root smooths each SSDF over the whole body"),
+            Param::Eps2 => (value, "the separation distribution becomes an average over the bodies instead of a soft minimum"),
+            Param::Eps3 => (value, "the softplus pushes at any distance within the bodies' reach"),
+            _ => return None,
+        };
+        let smallest = self.model.colliders.iter().flatten().filter_map(|c| match c {
+            crate::collision::Collider::Aopc(s) if !s.is_empty() => Some(s.bvh().diameter),
+            _ => None,
+        });
+        let smallest = smallest.fold(f64::INFINITY, f64::min);
+        (length >= smallest).then(|| {
+            let (name, unit, _) = p.describe();
+            format!("scm.{name} = {value:e} {unit} is as large as the smallest colliding body ({smallest:.3e} m across): {what}; the result is finite but no longer contact")
+        })
     }
 
     /// Loads a scene file and starts a simulation of it.
@@ -706,6 +734,9 @@ impl FmiModel for Simulation {
                 }
                 // Tunable at any time; `fmi2Reset` restores the scene's value.
                 *p.slot(&mut self.current.params) = value;
+                if let Some(text) = self.smoothing_warning(p, value) {
+                    self.messages.push(LogMessage { category: LogCategory::StatusWarning, text });
+                }
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
                 if value.is_nan() || value <= 0.0 {

@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, Vector3};
 use scm::collision::{Collider, Frame};
 use scm::contact::{pair_contact, ContactParams, Dissipation};
-use scm::fmi::contract::{FmiModel, StepError};
+use scm::fmi::contract::{FmiModel, LogCategory, Phase, StepError};
 use scm::geometry::{ssdf, Aopc, Shape};
 use scm::sim::Simulation;
 
@@ -122,6 +122,14 @@ fn eps_from_1e_9_to_10() {
     for name in ["scm_eps1", "scm_eps2", "scm_eps3"] {
         for eps in [1e-9, 1e-6, 1e-3, 1.0, 10.0] {
             let mut sim = scene(&[(name, eps)], "implicit_euler", 0.002, "0 0 -9.81", world);
+            // A smoothing length as large as the 10 cm ball is accepted with a warning saying
+            // it is no longer contact (√ε1 = 1 m for ε1 = 1 m²); the scene's ε give none.
+            let param = name.trim_start_matches("scm_");
+            let warned = |sim: &mut Simulation| sim.take_messages().iter().any(|m| m.category == LogCategory::StatusWarning && m.text.contains(&format!("scm.{param} = ")) && m.text.contains("no longer contact"));
+            assert_eq!(warned(&mut sim), eps >= 1.0, "{name} = {eps}: warning expected only from 1 m on");
+            let vr = sim.rows().iter().find(|(v, _)| v.name == format!("scm.{param}")).expect("the parameter's variable").0.value_reference;
+            sim.set_real(vr, eps, Phase::Simulation).unwrap();
+            assert_eq!(warned(&mut sim), eps >= 1.0, "{name} = {eps} set by the host: warning expected only from 1 m on");
             let c = sim.contacts()[0];
             assert!(c.distance.is_finite() && c.on_a.force.iter().all(|x| x.is_finite()), "{name} = {eps}: {c:?}");
             let e0 = energy(&sim);
