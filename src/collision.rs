@@ -129,16 +129,20 @@ impl QueryRegion {
 /// [`ssdf_exceeds`] over a [`QueryRegion`], with `hint` a leaf-order index of a point of the
 /// collider probably near the centre (e.g. the witness of an enclosing region, or
 /// `usize::MAX`): it only shortens the search for the nearest point. Returns the answer and the
-/// witness (the nearest point to the centre; `usize::MAX` for a half-space or no points).
+/// witness (the nearest point to the centre; `usize::MAX` for a half-space or no points). In a
+/// band walk the witness is only a point near the centre (`Bvh::near`, the better of the hint
+/// and one descent): any point `j` gives `d_min(x) ≤ d_j(x)`, a nearer one only sharper tests.
 ///
 /// For a half-space, `nᵀ(x - p) ≥ nᵀ(centre - p) + min nᵀ(x - centre)` is exact. For an AOPC,
 /// with `X` the region:
-/// 1. Witness: `j`, the point nearest to the centre. A point `i` can carry a softmax weight
+/// 1. Witness: `j`, a point near the centre (here the nearest). A point `i` can carry a softmax weight
 ///    above `e^{-M1}` (`M1 = ln(I/τ)`) somewhere in `X` only where
 ///    `d_i(x) - d_j(x) ≤ M1 ε1`, since `d_min(x) ≤ d_j(x)`. That difference is affine in `x`:
 ///    `d_i(c + y) - d_j(c + y) = d_i(c) - d_j(c) + 2yᵀ(p_j - p_i)`, so over `X` its minimum is
 ///    at least `d_i(c) - d_j(c) + min_X 2yᵀ(p_j - p_i)` ([`QueryRegion::min_lin`]), and over a
-///    cluster of points in a box at least `mindist²(c, box) - d_j(c) - 2r maxdist(p_j, box)`.
+///    cluster of points in a box at least `mindist²(c, box) - d_j(c) - 2r maxdist(p_j, box)`,
+///    and at least `mindist²(c, box) - d_j(c) + 2 min_X yᵀ(p_j - b) - 2r ρ` (`b`, `ρ` the
+///    cluster's centre and radius: `2yᵀ(p_j - p_i) = 2yᵀ(p_j - b) + 2yᵀ(b - p_i)`).
 ///    Points that fail it are *irrelevant*: all of them together weigh less than τ.
 /// 2. For a relevant point, `v_i(x) = n_iᵀ(x - p_i)` is bounded below over the part of `X`
 ///    where it can matter by the larger of: its minimum over the ball cut by the half-space
@@ -156,7 +160,7 @@ impl QueryRegion {
 ///    points, `s < τ` the irrelevant weight and `|v_i(x)| ≤ V = √d_j(c) + r + diameter`,
 ///    `φ̂(x) ≥ min(L, (1 - τ) L) - τ V`. The answer is `true` when that exceeds `t`.
 ///
-/// The walk gives up (returns `false`) after 16 leaves, so a large region costs little: the
+/// The walk gives up (returns `false`) after 8 leaves, so a large region costs little: the
 /// caller then splits it.
 pub fn ssdf_exceeds_over(planes: &Collider, q: &QueryRegion, t: f64, eps1: f64, hint: usize) -> (bool, usize) {
     match planes {
@@ -198,7 +202,7 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (true, usize::MAX);
     }
     let (c, r) = (&q.centre, q.radius);
-    let (j, dj) = bvh.nearest_hint(c, hint);
+    let (j, dj) = if vmax.is_some() { bvh.near(c, hint) } else { bvh.nearest_hint(c, hint) };
     let (pj, nj) = (bvh.points[j], bvh.normals[j]);
     let m1 = bvh.log_terms * eps1;
     let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
@@ -209,12 +213,13 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (false, j);
     }
     let start = open.len();
-    let mut budget = 16;
+    let mut budget = 8;
     let mut stack: Vec<u32> = Vec::with_capacity(64);
     stack.extend(front.iter().rev());
     while let Some(ni) = stack.pop() {
         let node = &bvh.nodes[ni as usize];
-        if node.min_sq_dist(c) - dj - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1 {
+        let gap = node.min_sq_dist(c) - dj;
+        if gap - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1 || gap + 2.0 * (q.min_lin(&(pj - node.centre)) - r * node.radius) > m1 {
             continue; // irrelevant cluster
         }
         // Interval bound of nᵀ(x - p) over the ball's box, the cluster's box and normals' box.

@@ -236,6 +236,32 @@ impl Bvh {
         self.nearest_search(p, usize::MAX, hint)
     }
 
+    /// A point near `p`, not always the nearest: the better of `hint` (a leaf-order index, or
+    /// `usize::MAX`) and the nearest point of the leaf reached by descending into the child
+    /// whose box is nearer (depth steps, no backtracking). Its leaf-order position and squared
+    /// distance (m²).
+    pub fn near(&self, p: &Vector3<f64>, hint: usize) -> (usize, f64) {
+        let mut best = (usize::MAX, f64::INFINITY);
+        if self.nodes.is_empty() {
+            return best;
+        }
+        if hint < self.len() {
+            best = (hint, (p - self.points[hint]).norm_squared());
+        }
+        let mut node = &self.nodes[0];
+        while !node.is_leaf() {
+            let (a, b) = (&self.nodes[node.left as usize], &self.nodes[node.left as usize + 1]);
+            node = if a.min_sq_dist(p) <= b.min_sq_dist(p) { a } else { b };
+        }
+        for k in node.start as usize..(node.start + node.count) as usize {
+            let d = (p - self.points[k]).norm_squared();
+            if d < best.1 {
+                best = (k, d);
+            }
+        }
+        best
+    }
+
     fn nearest_search(&self, p: &Vector3<f64>, skip: usize, hint: usize) -> (usize, f64) {
         let mut best = (usize::MAX, f64::INFINITY);
         if self.nodes.is_empty() {
