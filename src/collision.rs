@@ -202,7 +202,7 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (true, usize::MAX);
     }
     let (c, r) = (&q.centre, q.radius);
-    let (j, dj) = if vmax.is_some() { bvh.near(c, hint) } else { bvh.nearest_hint(c, hint) };
+    let (j, dj) = if vmax.is_some() && bvh.len() > 2048 { bvh.near(c, hint) } else { bvh.nearest_hint(c, hint) };
     let (pj, nj) = (bvh.points[j], bvh.normals[j]);
     let m1 = bvh.log_terms * eps1;
     let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
@@ -213,7 +213,7 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (false, j);
     }
     let start = open.len();
-    let mut budget = 8;
+    let mut budget = 16;
     let mut stack: Vec<u32> = Vec::with_capacity(64);
     stack.extend(front.iter().rev());
     while let Some(ni) = stack.pop() {
@@ -250,8 +250,11 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
                     continue;
                 }
                 if ball_halfspace_min(v0, ni_, r, &a, a.norm(), m1 - gap) <= need {
+                    // The answer is `false`: stop here, leaving this leaf and every node not
+                    // yet examined open.
                     open.push(ni);
-                    break;
+                    open.extend(stack.iter().rev());
+                    return (false, j);
                 }
             }
         } else {
