@@ -130,8 +130,10 @@ impl QueryRegion {
 /// collider probably near the centre (e.g. the witness of an enclosing region, or
 /// `usize::MAX`): it only shortens the search for the nearest point. Returns the answer and the
 /// witness (the nearest point to the centre; `usize::MAX` for a half-space or no points). In a
-/// band walk the witness is only a point near the centre (`Bvh::near`, the better of the hint
-/// and one descent): any point `j` gives `d_min(x) ≤ d_j(x)`, a nearer one only sharper tests.
+/// band walk over a cloud of more than 2048 points the witness is only a point near the centre
+/// (`Bvh::near`, the better of the hint and one descent; the exact search costs more there
+/// than the sharper tests save): any point `j` gives `d_min(x) ≤ d_j(x)`, a nearer one only
+/// sharper tests.
 ///
 /// For a half-space, `nᵀ(x - p) ≥ nᵀ(centre - p) + min nᵀ(x - centre)` is exact. For an AOPC,
 /// with `X` the region:
@@ -160,7 +162,7 @@ impl QueryRegion {
 ///    points, `s < τ` the irrelevant weight and `|v_i(x)| ≤ V = √d_j(c) + r + diameter`,
 ///    `φ̂(x) ≥ min(L, (1 - τ) L) - τ V`. The answer is `true` when that exceeds `t`.
 ///
-/// The walk gives up (returns `false`) after 8 leaves, so a large region costs little: the
+/// The walk gives up (returns `false`) after 16 leaves, so a large region costs little: the
 /// caller then splits it.
 pub fn ssdf_exceeds_over(planes: &Collider, q: &QueryRegion, t: f64, eps1: f64, hint: usize) -> (bool, usize) {
     match planes {
