@@ -747,3 +747,98 @@ pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: 
     }
     out.into_iter().map(|c| c + fa.origin).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Shape;
+
+    /// Uniform numbers in [-1, 1) (a fixed LCG: the test is the same every run).
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*state >> 11) as f64) / ((1u64 << 52) as f64) - 1.0
+    }
+
+    fn vec3(s: &mut u64) -> Vector3<f64> {
+        Vector3::new(lcg(s), lcg(s), lcg(s))
+    }
+
+    /// A point of the region: a random offset in the ball, projected into the slab along `m`.
+    fn sample_region(q: &QueryRegion, s: &mut u64) -> Vector3<f64> {
+        loop {
+            let y = vec3(s) * q.radius;
+            let h = q.m.dot(&y);
+            if y.norm() <= q.radius && h >= q.lo && h <= q.hi {
+                return q.centre + y;
+            }
+            // Move it into the slab along m, keeping it in the ball when possible.
+            let hc = h.clamp(q.lo, q.hi);
+            let y2 = y + q.m * (hc - h);
+            if y2.norm() <= q.radius {
+                return q.centre + y2;
+            }
+        }
+    }
+
+    #[test]
+    fn min_lin_is_the_minimum_over_the_ball_cut_by_the_slab() {
+        let mut s = 7u64;
+        for _ in 0..2000 {
+            let r = 0.01 + lcg(&mut s).abs();
+            let m = vec3(&mut s).normalize();
+            let (a, b) = (lcg(&mut s) * r, lcg(&mut s) * r);
+            let q = QueryRegion { centre: vec3(&mut s), radius: r, m, lo: a.min(b), hi: a.max(b) };
+            let n = vec3(&mut s) * 2.0;
+            let lower = q.min_lin(&n);
+            // A lower bound at sampled points of the region...
+            for _ in 0..50 {
+                let x = sample_region(&q, &mut s);
+                assert!(n.dot(&(x - q.centre)) >= lower, "{} < {lower}", n.dot(&(x - q.centre)));
+            }
+            // ...attained (to rounding) at the minimiser of the proof: s* clamped, then the
+            // perpendicular part of the ball's extent against n.
+            let alpha = n.dot(&m);
+            let perp = n - m * alpha;
+            let sc = (-alpha * r / n.norm()).clamp(q.lo, q.hi);
+            let u = if perp.norm() > 0.0 { -perp.normalize() * (r * r - sc * sc).max(0.0).sqrt() } else { Vector3::zeros() };
+            let y = m * sc + u;
+            assert!(y.norm() <= r * (1.0 + 1e-12) && (m.dot(&y) - sc).abs() <= 1e-12 * r);
+            assert!((n.dot(&y) - lower).abs() <= 1e-9 * n.norm() * r, "{} vs {lower}", n.dot(&y));
+        }
+        // The whole ball: -r|n|.
+        let q = QueryRegion::ball(Vector3::zeros(), 0.5);
+        let n = Vector3::new(0.3, -0.4, 1.2);
+        assert!((q.min_lin(&n) + 0.5 * n.norm()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cone_bound_is_a_lower_bound_of_every_plane_of_a_cluster_over_the_region() {
+        // Curved (sphere, cylinder) and flat (box) clusters at several levels, regions near and
+        // far, thin (a slab) and full balls.
+        let mut s = 11u64;
+        for shape in [Shape::Sphere { radius: 0.05 }, Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }, Shape::Cylinder { radius: 0.04, half_length: 0.05 }] {
+            let cloud = shape.sample(0.004);
+            let bvh = cloud.bvh();
+            let mut checked = 0;
+            for node in bvh.nodes.iter().filter(|n| n.count <= 64) {
+                let r = 0.002 + 0.02 * lcg(&mut s).abs();
+                let m = vec3(&mut s).normalize();
+                let h = 0.3 * r * lcg(&mut s).abs();
+                let q = QueryRegion { centre: node.centre + vec3(&mut s) * 0.1, radius: r, m, lo: -h, hi: h };
+                let bound = cone_bound(node, &q);
+                if !bound.is_finite() {
+                    continue;
+                }
+                checked += 1;
+                for _ in 0..20 {
+                    let x = sample_region(&q, &mut s);
+                    for k in node.start as usize..(node.start + node.count) as usize {
+                        let v = bvh.normals[k].dot(&(x - bvh.points[k]));
+                        assert!(v >= bound, "{v} < {bound}");
+                    }
+                }
+            }
+            assert!(checked > 20, "{checked} clusters with a cone under 90°");
+        }
+    }
+}
