@@ -4,7 +4,7 @@
 //! repeated runs, measured in this run) for the README.
 //!
 //! `cargo bench --bench pair_contact` (all), `cargo bench --bench pair_contact -- table` (the
-//! table only).
+//! table only), `-- table sharp` or `-- table scene` (the table's rows of one ε only).
 //!
 //! The naive path is O(I1·I2): it is run up to 1k points per body (10k would take minutes per
 //! evaluation) and marked "skipped" above.
@@ -132,7 +132,8 @@ fn fmt_time(s: f64) -> String {
     }
 }
 
-fn table() {
+/// `only`: `Some(true)` prints the sharp rows alone, `Some(false)` the scene rows alone.
+fn table(only: Option<bool>) {
     println!("\n| pair | ε | points per body (a + b) | pruned time | pruned peak memory | naive time | naive peak memory | body memory (AOPCs + BVHs) |");
     println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
     for n in SIZES {
@@ -144,6 +145,9 @@ fn table() {
         let body_mem = (LIVE.load(Ordering::Relaxed) - live0) / cs.len();
         for case in &cs {
             for sharp in [true, false] {
+                if only.is_some_and(|o| o != sharp) {
+                    continue;
+                }
                 let prm = params(sharp);
                 let (tp, mp) = measure(|| {
                     std::hint::black_box(pair_contact(&case.a, &case.fa, &case.b, &case.fb, &prm));
@@ -181,5 +185,12 @@ fn main() {
         benches();
         Criterion::default().configure_from_args().final_summary();
     }
-    table();
+    let only = if std::env::args().any(|a| a == "sharp") {
+        Some(true)
+    } else if std::env::args().any(|a| a == "scene") {
+        Some(false)
+    } else {
+        None
+    };
+    table(only);
 }
