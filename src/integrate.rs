@@ -641,8 +641,9 @@ impl Model {
 
 /// What [`Model::advance_cached`] carries from one call to the next.
 ///
-/// It changes the result in the last bits (Newton starts from another Jacobian), so an FMU
-/// state that must reproduce a rollout bit for bit carries it ([`SolverCache::parts`],
+/// It changes the result in the last bits (Newton starts from another Jacobian) and which steps
+/// the energy guard refuses (its [`EnergyLedger`]), so an FMU state that must reproduce a rollout
+/// bit for bit, refusals included, carries it ([`SolverCache::parts`],
 /// [`SolverCache::from_parts`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SolverCache {
