@@ -40,7 +40,11 @@ impl Aopc {
     /// The bounding-volume hierarchy over the points (built on first use).
     pub fn bvh(&self) -> &Bvh {
         debug_assert!(self.bvh.get().is_none_or(|b| b.len() == self.points.len()), "AOPC changed after its BVH was built");
-        self.bvh.get_or_init(|| Arc::new(Bvh::build(&self.points, &self.normals)))
+        self.bvh.get_or_init(|| {
+            let mut b = Bvh::build(&self.points, &self.normals);
+            b.set_patches(&self.points, &self.normals, &self.vertices, &self.faces);
+            Arc::new(b)
+        })
     }
 
     /// Forgets the hierarchy (after changing the points or normals).

@@ -6,7 +6,8 @@
 //! a smooth surface is thin along its mean normal (a flat face has zero thickness, a patch of
 //! radius `r` on a sphere of radius `R` about `r²/2R`) and its normals stay in a narrow cone, so
 //! bounds over "the points of the node" need not cover the whole ball (`Node::axis`). Points and normals are copied in leaf order, so a leaf is a contiguous slice;
-//! `index` maps back to the AOPC's own order (faces, for the soft top-K).
+//! `index` maps back to the AOPC's own order (faces, for the soft top-K). The cloud's flat
+//! patches ([`super::patch`]) are attached by [`Bvh::set_patches`], per point in leaf order.
 //!
 //! All bounds here work on real parts (`f64`): they decide which terms of a softmax are summed,
 //! never the value of a term, so dual numbers follow the same path as the `f64` they extend.
@@ -117,9 +118,22 @@ pub struct Bvh {
     /// `ln(I/τ)`, `I` the number of points and `τ` = [`PRUNE_TOLERANCE`]: the margin (in units
     /// of the temperature) beyond which a softmax term over these points is negligible.
     pub log_terms: f64,
+    /// Flat patch of each point in leaf order (an index into `patches`, `u32::MAX` for none);
+    /// empty until [`Bvh::set_patches`].
+    pub patch: Vec<u32>,
+    /// The cloud's flat patches ([`super::patch`]).
+    pub patches: Vec<super::patch::Patch>,
 }
 
 impl Bvh {
+    /// Attaches the flat patches of the quad mesh whose face centres the points are (`points`,
+    /// `normals`, `vertices`, `faces` in the cloud's own order, as in [`super::Aopc`]).
+    pub fn set_patches(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
+        let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
+        self.patch = self.index.iter().map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX)).collect();
+        self.patches = patches;
+    }
+
     /// Builds the hierarchy by median splits along the longest box axis.
     pub fn build(points: &[Vector3<f64>], normals: &[Vector3<f64>]) -> Bvh {
         let n = points.len();
