@@ -8,16 +8,17 @@
 //! the quad's centre `p_k` (in the plane), so `d_min(x) ≤ |x - p_k|² ≤ (|u| + t)² + ρ²` with
 //! `u = nᵀx - o`.
 //!
-//! A group of coplanar quads is a patch only when its union is provably the convex hull of
-//! its vertices: every projected quad is convex and counter-clockwise seen from outside,
-//! every edge that only one quad of the group has lies on the hull's boundary, and the quads'
-//! areas add up to the hull's area. Then the covering number of a point of the plane (the sum
-//! over quads of their winding numbers about it) equals the winding number of the boundary
-//! edges, a cycle on the hull's boundary: a constant `k` inside the hull, 0 outside; the areas
-//! give `k = 1`, so every point of the hull lies in some quad.
+//! A group of coplanar quads is a patch only when its union is provably a convex polygon:
+//! every projected quad is convex and counter-clockwise seen from outside, no directed edge
+//! belongs to two quads, every boundary edge (one that no quad of the group has reversed) lies
+//! on the boundary of the convex hull `H` of the boundary's vertices, and the quads' areas add
+//! up to the area of `H`. Then the covering number of a point of the plane (the sum over quads
+//! of their winding numbers about it) equals the winding number of the boundary edges (the
+//! interior edges cancel), a cycle on the boundary of `H`: a constant `k` inside `H`, 0
+//! outside; the areas give `k = 1`, so every point of `H` lies in some quad (and every quad in
+//! `H`, its covering number being at least 1).
 
 use nalgebra::{Vector2, Vector3};
-use std::collections::{HashMap, HashSet};
 
 /// A flat patch (module documentation).
 #[derive(Clone, Debug, PartialEq)]
@@ -48,19 +49,18 @@ pub fn find_patches(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices:
         return (of, patches);
     }
     // Candidate groups: the same normal and plane offset to 1e-7 (quantised; a face split by
-    // the quantisation only loses a patch, as each group is checked on its own).
-    let mut groups: HashMap<[i64; 4], Vec<usize>> = HashMap::new();
-    for (k, (p, n)) in points.iter().zip(normals).enumerate() {
-        let key = [n.x, n.y, n.z, n.dot(p)].map(|v| (v * 1e7).round() as i64);
-        groups.entry(key).or_default().push(k);
-    }
-    let mut keys: Vec<_> = groups.keys().copied().collect();
-    keys.sort_unstable(); // deterministic patch numbering
-    for key in keys {
-        let members = &groups[&key];
-        if members.len() < MIN_POINTS {
+    // the quantisation only loses a patch, as each group is checked on its own). Sorting the
+    // keys groups them without a hash map (a curved surface has one group per point).
+    let mut keyed: Vec<([i64; 4], u32)> = points.iter().zip(normals).enumerate().map(|(k, (p, n))| ([n.x, n.y, n.z, n.dot(p)].map(|v| (v * 1e7).round() as i64), k as u32)).collect();
+    keyed.sort_unstable();
+    let mut members: Vec<usize> = Vec::new();
+    for run in keyed.chunk_by(|a, b| a.0 == b.0) {
+        if run.len() < MIN_POINTS {
             continue;
         }
+        members.clear();
+        members.extend(run.iter().map(|&(_, k)| k as usize));
+        let members = &members[..];
         if let Some(patch) = check(points, normals, vertices, faces, members) {
             for &k in members {
                 of[k] = patches.len() as u32;
@@ -82,8 +82,8 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
     let e2 = n.cross(&e1);
     let flat = |v: &Vector3<f64>| Vector2::new(e1.dot(v), e2.dot(v));
     let (mut thickness, mut rho, mut area, mut scale) = (0.0f64, 0.0f64, 0.0, 0.0f64);
-    let mut directed: HashSet<(u32, u32)> = HashSet::new();
-    let mut used: Vec<u32> = Vec::new();
+    // Directed edges `(from << 32) | to`, sorted for the reverse-edge lookups.
+    let mut directed: Vec<u64> = Vec::with_capacity(4 * members.len());
     for &k in members {
         let q = faces[k];
         let (pk, c) = (points[k], flat(&points[k]));
@@ -99,14 +99,23 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
             if (b - a).perp(&(d - b)) <= 0.0 {
                 return None;
             }
-            directed.insert((q[i], q[(i + 1) % 4]));
-            used.push(q[i]);
+            directed.push((q[i] as u64) << 32 | q[(i + 1) % 4] as u64);
         }
         area += 0.5 * (v[0].perp(&v[1]) + v[1].perp(&v[2]) + v[2].perp(&v[3]) + v[3].perp(&v[0]));
     }
-    used.sort_unstable();
-    used.dedup();
-    let hull = convex_hull(used.iter().map(|&i| flat(&vertices[i as usize])).collect());
+    directed.sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1]) {
+        return None; // two quads run along one edge the same way: a fold or a duplicate
+    }
+    // The boundary: edges of one quad only (no quad of the group has them reversed). The
+    // union of the quads lies in the hull of the boundary's vertices (module documentation:
+    // inside every quad the boundary's winding number is at least 1).
+    let boundary: Vec<(u32, u32)> = directed
+        .iter()
+        .map(|&e| ((e >> 32) as u32, e as u32))
+        .filter(|&(a, b)| directed.binary_search(&((b as u64) << 32 | a as u64)).is_err())
+        .collect();
+    let hull = convex_hull(boundary.iter().map(|&(a, _)| flat(&vertices[a as usize])).collect());
     if hull.len() < 3 {
         return None;
     }
@@ -124,11 +133,8 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
             (m, m.dot(&a).max(m.dot(&b)))
         })
         .collect();
-    // Every edge of one quad only (no quad of the group has it reversed) lies on one hull edge.
-    for &(a, b) in &directed {
-        if directed.contains(&(b, a)) {
-            continue;
-        }
+    // Every boundary edge lies on one hull edge.
+    for &(a, b) in &boundary {
         let (pa, pb) = (flat(&vertices[a as usize]), flat(&vertices[b as usize]));
         if !lines.iter().any(|(m, c)| (m.dot(&pa) - c).abs() <= tol && (m.dot(&pb) - c).abs() <= tol) {
             return None;
@@ -211,7 +217,7 @@ mod tests {
     #[test]
     fn a_group_whose_quads_do_not_tile_a_convex_polygon_is_not_a_patch() {
         // A 3 × 3 grid of unit squares in z = 0 (normal +z) is a patch; without a corner
-        // quad (an L) or the centre one (a hole), or with one quad flipped, it is not.
+        // quad (an L) or the centre one (a hole), with a quad twice or one flipped, it is not.
         let g: Vec<Vector3<f64>> = (0..16).map(|i| Vector3::new((i % 4) as f64, (i / 4) as f64, 0.0)).collect();
         let quad = |q: usize| {
             let b = (4 * (q / 3) + q % 3) as u32;
@@ -226,6 +232,9 @@ mod tests {
         assert_eq!(patches_of(&gf), 1);
         assert_eq!(patches_of(&(0..8).map(quad).collect::<Vec<_>>()), 0, "an L");
         assert_eq!(patches_of(&(0..9).filter(|&q| q != 4).map(quad).collect::<Vec<_>>()), 0, "a hole");
+        let mut twice = gf.clone();
+        twice.push(gf[4]);
+        assert_eq!(patches_of(&twice), 0, "a quad twice");
         gf[4] = [gf[4][0], gf[4][3], gf[4][2], gf[4][1]];
         assert_eq!(patches_of(&gf), 0, "a flipped quad");
     }
