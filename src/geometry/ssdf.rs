@@ -54,6 +54,12 @@ pub struct Relevant {
     pub nearest: usize,
     /// Candidates of the last ball query (leaf-order indices).
     ball: Vec<u32>,
+    /// The ball's candidate points, coordinate by coordinate: contiguous, so that the squared
+    /// distances of [`Relevant::find_within`] (every point of a leaf against the shared
+    /// ball's candidates) are a plain loop rather than a gather through the indices.
+    ball_xyz: [Vec<f64>; 3],
+    /// Squared distances to the ball's candidates (scratch of `find_within`).
+    dist: Vec<f64>,
 }
 
 impl Relevant {
@@ -79,17 +85,45 @@ impl Relevant {
     /// of the ball, to be narrowed per point with [`Relevant::find_within`]. Several nearby
     /// queries (the points of one BVH leaf) then share one walk of the hierarchy.
     pub fn find_ball(&mut self, s: &Aopc, c: &Vector3<f64>, r: f64, eps1: f64) {
+        let bvh = s.bvh();
         let mut cands = std::mem::take(&mut self.ball);
-        gather(s.bvh(), c, r, eps1, usize::MAX, &mut cands);
+        gather(bvh, c, r, eps1, usize::MAX, &mut cands);
+        for (d, coord) in self.ball_xyz.iter_mut().enumerate() {
+            coord.clear();
+            coord.extend(cands.iter().map(|&k| bvh.points[k as usize][d]));
+        }
         self.ball = cands;
     }
 
     /// [`Relevant::find`] for a point `pr` of the ball last given to [`Relevant::find_ball`]:
     /// the same relevant set and `d_min`, from the ball's candidates.
     pub fn find_within(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64) {
-        let cands = std::mem::take(&mut self.ball);
-        self.filter(s, pr, eps1, &cands);
-        self.ball = cands;
+        let bvh = s.bvh();
+        self.items.clear();
+        if bvh.is_empty() {
+            self.dmin = f64::INFINITY;
+            self.nearest = usize::MAX;
+            return;
+        }
+        // The same squared distances as `filter` (`(pr - p).norm_squared()`, x² + y² + z² in
+        // that order), so both give the same set bit for bit.
+        let [xs, ys, zs] = &self.ball_xyz;
+        self.dist.clear();
+        self.dist.extend(xs.iter().zip(ys).zip(zs).map(|((x, y), z)| {
+            let (dx, dy, dz) = (pr.x - x, pr.y - y, pr.z - z);
+            dx * dx + dy * dy + dz * dz
+        }));
+        let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
+        for (&k, &d) in self.ball.iter().zip(&self.dist) {
+            if d < best {
+                best = d;
+                nearest = k as usize;
+            }
+        }
+        self.dmin = best;
+        self.nearest = nearest;
+        let cutoff = cutoff(bvh, pr, eps1, best);
+        self.items.extend(self.ball.iter().zip(&self.dist).filter(|(_, &d)| d <= cutoff).map(|(&k, &d)| (k, d)));
     }
 
     /// The relevant set at `pr` among `cands` (which must contain it).
@@ -111,11 +145,17 @@ impl Relevant {
         }
         self.dmin = best;
         self.nearest = nearest;
-        let dmax = bvh.nodes[0].max_sq_dist(pr).sqrt();
-        let ell = best.sqrt() + eps1.sqrt();
-        let cutoff = best + (bvh.log_terms + ln_upper(1.0 + dmax / ell)) * eps1;
+        let cutoff = cutoff(bvh, pr, eps1, best);
         self.items.retain(|&(_, d)| d <= cutoff);
     }
+}
+
+/// The relevance threshold on squared distances at `pr`, given the smallest one, `best`
+/// (module documentation: `d_min + k ε1` with `ℓ ≥ √d_min + √ε1`).
+fn cutoff(bvh: &super::bvh::Bvh, pr: &Vector3<f64>, eps1: f64, best: f64) -> f64 {
+    let dmax = bvh.nodes[0].max_sq_dist(pr).sqrt();
+    let ell = best.sqrt() + eps1.sqrt();
+    best + (bvh.log_terms + ln_upper(1.0 + dmax / ell)) * eps1
 }
 
 /// The points of `bvh` that can be relevant (module documentation) at some point `x` of the
@@ -383,4 +423,39 @@ mod tests {
             assert!((g - fd).abs() < 1e-6 * (1.0 + fd.abs()), "axis {k}: {g} vs {fd}");
         }
     }
+
+    /// A shared ball query and its per-point narrowing give the same relevant set, `d_min`
+    /// and nearest point as each point's own walk, bit for bit (the band walk relies on it
+    /// for results that do not depend on which path a leaf takes).
+    #[test]
+    fn the_shared_ball_gives_each_point_its_own_relevant_set() {
+        let cloud = Shape::Box { half: Vector3::new(0.05, 0.03, 0.02) }.sample(0.004);
+        let mut state = 5u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / ((1u64 << 52) as f64) - 1.0
+        };
+        for eps1 in [1e-5, 1e-7, 1e-9] {
+            for _ in 0..40 {
+                let c = Vector3::new(0.08 * next(), 0.06 * next(), 0.05 * next());
+                let r = 0.01 * next().abs();
+                let (mut shared, mut own) = (Relevant::default(), Relevant::default());
+                shared.find_ball(&cloud, &c, r, eps1);
+                for _ in 0..8 {
+                    let d = Vector3::new(next(), next(), next());
+                    let x = c + d * (r / d.norm().max(1.0) * 0.999);
+                    shared.find_within(&cloud, &x, eps1);
+                    own.find(&cloud, &x, eps1, usize::MAX);
+                    let sort = |v: &Vec<(u32, f64)>| {
+                        let mut v = v.clone();
+                        v.sort_by_key(|e| e.0);
+                        v
+                    };
+                    assert_eq!(sort(&shared.items), sort(&own.items));
+                    assert_eq!((shared.dmin.to_bits(), shared.nearest), (own.dmin.to_bits(), own.nearest));
+                }
+            }
+        }
+    }
+
 }
