@@ -54,7 +54,7 @@ impl Collider {
     }
 
     /// Signed distance (soft for an AOPC, exact for a half-space) of a point in the collider's
-    /// frame (pruned SSDF, exact to the bound of [`crate::geometry::ssdf`]).
+    /// frame (pruned SSDF, exact to the bound of [`mod@crate::geometry::ssdf`]).
     pub fn signed_distance<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
         match self {
             Collider::Aopc(s) => ssdf(s, p, eps1),
@@ -151,7 +151,7 @@ impl QueryRegion {
 ///    ([`crate::geometry::patch`]: a box face, a cylinder's cap), a point or cluster behind
 ///    the patch's plane is also irrelevant wherever its plane could be at or below the
 ///    threshold, if that part of `X` projects into the patch and the patch's covering bound
-///    on `d_min` proves it ([`covered_out`], [`cluster_covered`]). This settles the other
+///    on `d_min` proves it (`covered_out`, `cluster_covered`). This settles the other
 ///    faces' points near an edge over a region far wider than a spacing, which the single
 ///    witness cannot (a paraboloid bounds `d_min` well only near its apex).
 /// 2. For a relevant point, `v_i(x) = n_iᵀ(x - p_i)` is bounded below over the part of `X`

@@ -7,7 +7,7 @@
 //! empty `Outputs`/`Derivatives`/`InitialUnknowns` are omitted (the schema requires at least
 //! one `Unknown` in each).
 //!
-//! Value references in [`ModelStructure`] are resolved to variables by preferring a `Real`
+//! Value references in `ModelStructure` are resolved to variables by preferring a `Real`
 //! variable; a value reference carried only by variables of other types must be unique.
 
 use std::collections::{BTreeSet, HashMap};
