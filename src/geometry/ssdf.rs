@@ -113,16 +113,8 @@ impl Relevant {
             let (dx, dy, dz) = (pr.x - x, pr.y - y, pr.z - z);
             dx * dx + dy * dy + dz * dz
         }));
-        let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
-        for (&k, &d) in self.ball.iter().zip(&self.dist) {
-            if d < best {
-                best = d;
-                nearest = k as usize;
-            }
-        }
-        self.dmin = best;
-        self.nearest = nearest;
-        let cutoff = cutoff(bvh, pr, eps1, best);
+        (self.dmin, self.nearest) = nearest_of(self.ball.iter().copied().zip(self.dist.iter().copied()));
+        let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.extend(self.ball.iter().zip(&self.dist).filter(|(_, &d)| d <= cutoff).map(|(&k, &d)| (k, d)));
     }
 
@@ -136,18 +128,23 @@ impl Relevant {
             return;
         }
         self.items.extend(cands.iter().map(|&k| (k, (pr - bvh.points[k as usize]).norm_squared())));
-        let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
-        for &(k, d) in &self.items {
-            if d < best {
-                best = d;
-                nearest = k as usize;
-            }
-        }
-        self.dmin = best;
-        self.nearest = nearest;
-        let cutoff = cutoff(bvh, pr, eps1, best);
+        (self.dmin, self.nearest) = nearest_of(self.items.iter().copied());
+        let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.retain(|&(_, d)| d <= cutoff);
     }
+}
+
+/// The smallest squared distance of `(index, squared distance)` pairs and its index (the
+/// first of equals; `(+∞, usize::MAX)` for none).
+fn nearest_of(pairs: impl Iterator<Item = (u32, f64)>) -> (f64, usize) {
+    let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
+    for (k, d) in pairs {
+        if d < best {
+            best = d;
+            nearest = k as usize;
+        }
+    }
+    (best, nearest)
 }
 
 /// The relevance threshold on squared distances at `pr`, given the smallest one, `best`
