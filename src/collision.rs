@@ -932,10 +932,10 @@ mod tests {
     /// The covering argument against brute force: near a box's bottom edges, below the
     /// bottom face, every point or cluster that `covered_out` / `cluster_covered` proves out
     /// is irrelevant (`d_i - d_min > m1`) at sampled points of the ball wherever its plane is
-    /// at or below `need` (about 6,300 points and 1,100 clusters proven, 1.1 M checks). It
+    /// at or below `need` (about 18,000 points and 2,600 clusters proven, 6 M checks). It
     /// fails if the polygon check is loosened (the side face's points past the edge are then
     /// "proven" out where they are nearest) or if the largest instead of the smallest height
-    /// over the set is taken.
+    /// over the set is taken; the covering radius has its own test below.
     #[test]
     fn the_covering_argument_proves_out_only_irrelevant_points() {
         let cloud = Shape::Box { half: Vector3::repeat(0.05) }.sample(0.002);
@@ -945,20 +945,25 @@ mod tests {
         let dmin = |x: &Vector3<f64>| bvh.points.iter().map(|p| (x - p).norm_squared()).fold(f64::INFINITY, f64::min);
         let mut s = 11u64;
         let (mut points_proven, mut clusters_proven, mut checked) = (0, 0, 0);
-        for case in 0..120 {
+        for case in 0..180 {
             // A region below the bottom face (z = -0.05) by 1 to 20 mm, from 1 cm inside an
             // edge in y to 2 cm past it, 1 to 8 mm in radius (it may cross the face's plane);
             // every other one close to the edge and the face, where the side face's points
             // are nearest past the edge (there the polygon check is what refuses a proof).
-            let (c, r) = if case % 2 == 0 {
-                (Vector3::new(0.03 * lcg(&mut s), -0.055 + 0.015 * lcg(&mut s), -0.0605 - 0.0095 * lcg(&mut s)), 0.0045 + 0.0035 * lcg(&mut s))
-            } else {
-                (Vector3::new(0.03 * lcg(&mut s), -0.05 + 0.001 * lcg(&mut s), -0.0512 - 0.0002 * lcg(&mut s)), 0.00095 + 0.00015 * lcg(&mut s))
+            let (c, r) = match case % 3 {
+                0 => (Vector3::new(0.03 * lcg(&mut s), -0.055 + 0.015 * lcg(&mut s), -0.0605 - 0.0095 * lcg(&mut s)), 0.0045 + 0.0035 * lcg(&mut s)),
+                1 => (Vector3::new(0.03 * lcg(&mut s), -0.05 + 0.001 * lcg(&mut s), -0.0512 - 0.0002 * lcg(&mut s)), 0.00095 + 0.00015 * lcg(&mut s)),
+                // Touching the face from below, at the edge: the side face's first row is
+                // nearest there by less than the quads' reach `ρ`.
+                _ => {
+                    let r = 0.0005 + 0.0003 * lcg(&mut s);
+                    (Vector3::new(0.03 * lcg(&mut s), -0.0495 + 0.0005 * lcg(&mut s), -0.05 - r * 1.0001), r)
+                }
             };
             let q = QueryRegion::ball(c, r);
             let (j, _) = bvh.nearest(&c);
             let Some(patch) = bvh.patch.get(j).and_then(|&p| bvh.patches.get(p as usize)) else { continue };
-            let need = if case % 2 == 0 { 0.004 * lcg(&mut s) } else { 0.002 + 0.002 * lcg(&mut s) };
+            let need = if case % 3 == 0 { 0.004 * lcg(&mut s) } else { 0.002 + 0.002 * lcg(&mut s) };
             let samples: Vec<Vector3<f64>> = (0..150).map(|_| sample_region(&q, &mut s)).collect();
             let dmins: Vec<f64> = samples.iter().map(dmin).collect();
             let mut verify = |k: usize| {
@@ -989,6 +994,41 @@ mod tests {
             }
         }
         assert!(points_proven > 200 && clusters_proven > 20 && checked > 10_000, "the test proves too little: {points_proven} points, {clusters_proven} clusters, {checked} checks");
+    }
+
+
+    /// The covering radius matters: below a corner of a quad of a box's bottom face, at a
+    /// height `u`, a point at a depth `s` behind the face, with `s² + 2us` under the corner's
+    /// squared in-plane distance to the nearest point, is relevant there (its squared distance
+    /// within `M1 ε1` of the smallest), and `covered_out` must not prove it out (it would with
+    /// `ρ = 0`).
+    #[test]
+    fn the_covering_bound_keeps_a_point_nearer_than_the_quads_reach() {
+        let cloud = Shape::Box { half: Vector3::repeat(0.05) }.sample(0.002);
+        let bvh = cloud.bvh();
+        let m1 = bvh.log_terms * 1e-9;
+        let bottom = bvh.patches.iter().find(|p| p.normal.z < -0.5).expect("the bottom face's patch");
+        let mut tested = 0;
+        for (f, face) in cloud.faces.iter().enumerate() {
+            if cloud.normals[f].z > -0.5 || tested >= 40 {
+                continue;
+            }
+            let v = cloud.vertices[face[0] as usize];
+            if v.x.abs() > 0.045 || v.y.abs() > 0.045 {
+                continue; // an inner corner, away from the face's edges
+            }
+            tested += 1;
+            let reach2 = bvh.points.iter().filter(|p| p.z < -0.0499).map(|p| (p.xy() - v.xy()).norm_squared()).fold(f64::INFINITY, f64::min);
+            let u = 1e-4;
+            // s² + 2us = 0.8 reach²
+            let s = -u + (u * u + 0.8 * reach2).sqrt();
+            let x = v - Vector3::z() * u;
+            let pi = v + Vector3::z() * s;
+            let dmin = bvh.points.iter().map(|p| (x - p).norm_squared()).fold(f64::INFINITY, f64::min);
+            assert!((x - pi).norm_squared() - dmin < m1, "the construction: the point is relevant at x");
+            assert!(!covered_out(bottom, &x, 1e-9, &Vector3::z(), 1.0, (s, s), m1), "proven out although nearest, below corner {v:?}");
+        }
+        assert_eq!(tested, 40);
     }
 
 }
