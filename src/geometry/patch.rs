@@ -34,6 +34,11 @@ pub struct Patch {
     /// The polygon, as half-spaces `mᵀx ≤ c` (`m` a unit vector in the plane), rounded
     /// outwards.
     pub edges: Vec<(Vector3<f64>, f64)>,
+    /// `k` such that a point of the plane that breaks the edges' half-planes by `w_e` lies
+    /// within `√(k Σ w_e²)` of the polygon: `1 / (1 - c)²` with `c` the largest `-cos` of the
+    /// angle between neighbouring edges' outward normals, when every interior angle is
+    /// 90° or more up to `c ≤ 0.1` (rectangles, cylinder caps); `∞` otherwise.
+    pub outside: f64,
 }
 
 /// Groups with fewer points are not worth a patch.
@@ -141,7 +146,9 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
         }
     }
     let pad = 1e-12 * (size + scale) + tol;
+    let c = (0..lines.len()).map(|i| -lines[i].0.dot(&lines[(i + 1) % lines.len()].0)).fold(0.0, f64::max);
     Some(Patch {
+        outside: if c <= 0.1 { (1.0 + 1e-12) / ((1.0 - c) * (1.0 - c)) } else { f64::INFINITY },
         normal: n,
         offset,
         thickness: thickness * (1.0 + 1e-12) + pad,
@@ -200,6 +207,8 @@ mod tests {
         assert!(inside(Vector3::new(0.3, 0.049, -0.019)));
         assert!(!inside(Vector3::new(0.1, 0.051, 0.0)));
         assert!(!inside(Vector3::new(0.1, 0.0, 0.021)));
+        // Rectangles: a point past a corner by (a, b) lies √(a² + b²) from the polygon.
+        assert!(patches.iter().all(|p| (p.outside - 1.0).abs() < 1e-9));
     }
 
     #[test]
@@ -212,6 +221,21 @@ mod tests {
         for (k, &p) in of.iter().enumerate() {
             assert_eq!(p != u32::MAX, c.normals[k].z.abs() > 0.999);
         }
+        // A cap is a polygon of many sides: every interior angle is obtuse.
+        assert!(patches.iter().all(|p| (p.outside - 1.0).abs() < 1e-9));
+    }
+
+    /// A polygon with an acute corner gets no outside factor: past a 60° corner a point's
+    /// distance to the polygon is up to twice the edges' excesses, not `√(w₁² + w₂²)`.
+    #[test]
+    fn a_polygon_with_an_acute_corner_bounds_no_point_outside_it() {
+        // A 3 × 3 grid of rhombi with 60° and 120° angles in z = 0.
+        let g: Vec<Vector3<f64>> = (0..16).map(|i| Vector3::new((i % 4) as f64 + 0.5 * (i / 4) as f64, 0.75f64.sqrt() * (i / 4) as f64, 0.0)).collect();
+        let faces: Vec<[u32; 4]> = (0..9).map(|q| (4 * (q / 3) + q % 3) as u32).map(|b| [b, b + 1, b + 5, b + 4]).collect();
+        let points: Vec<_> = faces.iter().map(|f| f.iter().fold(Vector3::zeros(), |s, &i| s + g[i as usize]) / 4.0).collect();
+        let (_, patches) = find_patches(&points, &vec![Vector3::z(); 9], &g, &faces);
+        assert_eq!(patches.len(), 1, "the rhombi tile a rhombus");
+        assert_eq!(patches[0].outside, f64::INFINITY);
     }
 
     #[test]
