@@ -1,7 +1,9 @@
 //! Pair-force evaluation, pruned against naive: sphere–box and box–box at 100, 1k, 10k and
 //! 100k points per body, time (criterion) and peak heap memory of one evaluation (a counting
 //! global allocator). At the end a Markdown table of the same cases is printed (median of
-//! repeated runs, measured in this run) for the README.
+//! repeated runs, measured in this run) for the README, then the targets from the
+//! same rows: the sharp-ε time from 1k to 100k points per body (≤ 3×) and the memory at 100k ×
+//! 100k (< 64 MB).
 //!
 //! `cargo bench --bench pair_contact` (all), `cargo bench --bench pair_contact -- table` (the
 //! table only), `-- table sharp` or `-- table scene` (the table's rows of one ε only).
@@ -136,6 +138,8 @@ fn fmt_time(s: f64) -> String {
 fn table(only: Option<bool>) {
     println!("\n| pair | ε | points per body (a + b) | pruned time | pruned peak memory | naive time | naive peak memory | body memory (AOPCs + BVHs) |");
     println!("| --- | --- | --- | --- | --- | --- | --- | --- |");
+    // (pair, n, sharp, pruned time, pruned peak bytes, body bytes), for the summary below.
+    let mut rows: Vec<(&str, usize, bool, f64, usize, usize)> = Vec::new();
     for n in SIZES {
         let live0 = LIVE.load(Ordering::Relaxed);
         let cs = cases(n);
@@ -160,6 +164,7 @@ fn table(only: Option<bool>) {
                 } else {
                     ("skipped (O(I1·I2))".into(), "–".into())
                 };
+                rows.push((case.name, n, sharp, tp, mp, body_mem));
                 println!(
                     "| {} | {} | {} + {} | {} | {:.1} kB | {} | {} | {:.1} MB |",
                     case.name,
@@ -172,6 +177,22 @@ fn table(only: Option<bool>) {
                     naive.1,
                     body_mem as f64 / 1e6
                 );
+            }
+        }
+    }
+    // The targets, from this run's rows: time growing at most 3× from 1k to 100k
+    // points per body at fixed (sharp) ε, memory under 64 MB at 100k × 100k.
+    let largest = SIZES[SIZES.len() - 1];
+    let kilo = |n: usize| if n % 1000 == 0 { format!("{}k", n / 1000) } else { n.to_string() };
+    let at = |name: &str, n: usize, sharp: bool| rows.iter().find(|r| r.0 == name && r.1 == n && r.2 == sharp);
+    for name in ["sphere-box", "box-box"] {
+        if let (Some(small), Some(big)) = (at(name, 1000, true), at(name, largest, true)) {
+            println!("{name}, sharp ε: pruned time {} → {} from 1k to {} points per body, {:.1}× (target ≤ 3×)", fmt_time(small.3), fmt_time(big.3), kilo(largest), big.3 / small.3);
+        }
+        for sharp in [true, false] {
+            if let Some(big) = at(name, largest, sharp) {
+                let total = (big.4 + big.5) as f64 / 1e6;
+                println!("{name}, {} ε, {} points per body: {:.1} MB of bodies + {:.2} MB per evaluation = {total:.1} MB (target < 64 MB)", if sharp { "sharp" } else { "scene" }, kilo(largest), big.5 as f64 / 1e6, big.4 as f64 / 1e6);
             }
         }
     }
