@@ -183,7 +183,7 @@ fn table(only: Option<bool>) {
     // The targets, from this run's rows: time growing at most 3× from 1k to 100k
     // points per body at fixed (sharp) ε, memory under 64 MB at 100k × 100k.
     let largest = SIZES[SIZES.len() - 1];
-    let kilo = |n: usize| if n % 1000 == 0 { format!("{}k", n / 1000) } else { n.to_string() };
+    let kilo = |n: usize| if n.is_multiple_of(1000) { format!("{}k", n / 1000) } else { n.to_string() };
     let at = |name: &str, n: usize, sharp: bool| rows.iter().find(|r| r.0 == name && r.1 == n && r.2 == sharp);
     for name in ["sphere-box", "box-box"] {
         if let (Some(small), Some(big)) = (at(name, 1000, true), at(name, largest, true)) {
