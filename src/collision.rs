@@ -151,9 +151,9 @@ impl QueryRegion {
 ///    ([`crate::geometry::patch`]: a box face, a cylinder's cap), a point or cluster behind
 ///    the patch's plane is also irrelevant wherever its plane could be at or below the
 ///    threshold, if the patch's covering bound on `d_min` over that part of `X` (sharpest
-///    where it projects into the patch) proves it (`covered_out`, `cluster_covered`). This settles the other
-///    faces' points near an edge over a region far wider than a spacing, which the single
-///    witness cannot (a paraboloid bounds `d_min` well only near its apex).
+///    where it projects into the patch) proves it (`covered_out`, `cluster_covered`). This
+///    settles the other faces' points near an edge over a region far wider than a spacing,
+///    which the single witness cannot (a paraboloid bounds `d_min` well only near its apex).
 /// 2. For a relevant point, `v_i(x) = n_iᵀ(x - p_i)` is bounded below over the part of `X`
 ///    where it can matter by the larger of: its minimum over the ball cut by the half-space
 ///    `d_i - d_j ≤ M1 ε1` (a linear minimum over a ball cut by a plane, in closed form), and
@@ -185,7 +185,9 @@ pub fn ssdf_exceeds_over(planes: &Collider, q: &QueryRegion, t: f64, eps1: f64, 
 /// See [`aopc_exceeds`]: a band walk's region gives up at an unsettled cluster smaller than
 /// this times its radius (measured: callgrind, one sphere–box evaluation at sharp ε, 100k
 /// points per body, 23.0 M instructions without, 16.8 M at 0.15, 15.7 M at 0.3, 15.2 M at
-/// 0.4; box–box 10.5, 9.8, 10.0 and 10.5 M; no change at 1k points or at the scenes' ε).
+/// 0.4; box–box 10.5 M without, 9.8 M at 0.15, 10.0 M at 0.3, and before the covering bound
+/// reached past the edges 10.7 M at 0.3 against 11.2 M at 0.4; no change at 1k points or at
+/// the scenes' ε).
 const GIVE_UP_RATIO: f64 = 0.3;
 
 /// The threshold the bound `L` on relevant `v_i` must exceed (step 3 of
@@ -346,8 +348,8 @@ fn cluster_covered(p: &crate::geometry::patch::Patch, node: &crate::geometry::bv
 /// crate::geometry::patch::Patch::outside): the nearest point is on one edge, at distance at
 /// most its excess, or a corner, at distance at most `√k` times the two edges' excesses
 /// when the corner's interior angle is 90° or more). And `d_i(x) ≥ (nᵀ(x - p_i))² = (u +
-/// s_i)²`, so `d_i - d_min ≥ s_i² + 2u s_i - (2|u| t + t² + (w + ρ)²)`. Over `u ∈ [u_lo, u_hi]` (the range of
-/// `nᵀx - o` over `S`) and `s_i ∈ [s.0, s.1]` the first part is smallest at `u_lo` (as
+/// s_i)²`, so `d_i - d_min ≥ s_i² + 2u s_i - (2|u| t + t² + (w + ρ)²)`. Over `u ∈ [u_lo,
+/// u_hi]` (the range of `nᵀx - o` over `S`) and `s_i ∈ [s.0, s.1]` the first part is smallest at `u_lo` (as
 /// `s_i > 0`) and at `s_i = -u_lo` clamped to the interval (it is convex in `s_i`).
 ///
 /// Why: outside a box near an edge, where the bottom face is nearest, the side face's planes
