@@ -238,7 +238,7 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (false, j);
     }
     // The witness's flat patch, if any (step 1' of [`ssdf_exceeds_over`]).
-    let patch = bvh.patch.get(j).and_then(|&p| bvh.patches.get(p as usize));
+    let patch = bvh.patch_of(j);
     let start = open.len();
     let mut budget = 16;
     let mut stack: Vec<u32> = Vec::with_capacity(64);
@@ -1006,7 +1006,7 @@ mod tests {
             };
             let q = QueryRegion::ball(c, r);
             let (j, _) = bvh.nearest(&c);
-            let Some(patch) = bvh.patch.get(j).and_then(|&p| bvh.patches.get(p as usize)) else { continue };
+            let Some(patch) = bvh.patch_of(j) else { continue };
             let need = if case % 5 == 0 || case % 5 == 3 { 0.004 * lcg(&mut s) } else { 0.002 + 0.002 * lcg(&mut s) };
             let samples: Vec<Vector3<f64>> = (0..150).map(|_| sample_region(&q, &mut s)).collect();
             let dmins: Vec<f64> = samples.iter().map(dmin).collect();
@@ -1040,7 +1040,6 @@ mod tests {
         }
         assert!(points_proven > 200 && clusters_proven > 20 && checked > 10_000 && outside > 100, "the test proves too little: {points_proven} points ({outside} from regions reaching past an edge), {clusters_proven} clusters, {checked} checks");
     }
-
 
     /// The covering radius matters: below a corner of a quad of a box's bottom face, at a
     /// height `u`, a point at a depth `s` behind the face, with `s² + 2us` under the corner's

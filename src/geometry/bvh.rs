@@ -134,6 +134,12 @@ impl Bvh {
         self.patches = patches;
     }
 
+    /// The flat patch of the point `k` (leaf order), if any.
+    #[inline]
+    pub fn patch_of(&self, k: usize) -> Option<&super::patch::Patch> {
+        self.patch.get(k).and_then(|&p| self.patches.get(p as usize))
+    }
+
     /// Builds the hierarchy by median splits along the longest box axis.
     pub fn build(points: &[Vector3<f64>], normals: &[Vector3<f64>]) -> Bvh {
         let n = points.len();

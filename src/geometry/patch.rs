@@ -1,7 +1,8 @@
 //! Flat patches of an AOPC: sets of points whose quads lie in one plane and tile a convex
 //! polygon (a box face, a cylinder's cap). Over such a patch the nearest point is known
-//! to within the quads' size wherever a query projects into the polygon, which the band walk
-//! uses to prove another face's points out of a softmax (`collision::covered_out`):
+//! to within the quads' size wherever a query projects into the polygon (and, charging the
+//! distance to the polygon, a little past it: [`Patch::outside`]), which the band walk uses
+//! to prove another face's points out of a softmax (`collision::covered_out`):
 //!
 //! if `x` projects into the polygon `Ω` (plane `nᵀy = o`, points and quad vertices within
 //! `t` of it), it projects into some quad `Q_k`, and every point of `Q_k` is within `ρ` of
