@@ -218,6 +218,11 @@ fn band_need(t: f64, vmax: f64) -> f64 {
 /// `x` and every point `p_i`). `vmax = None` takes `√d_j(c) + r + diameter`, valid in the
 /// region only.
 ///
+/// In a band walk over a sampled sphere ([`crate::geometry::radial`]), the closed-form bound
+/// of its planes at the region's point nearest the sphere's centre is tried first: when it
+/// clears `need`, every cluster is settled at once (a 100k-point sphere–box evaluation at sharp
+/// ε: 12.1 M instructions without, 1.1 M with; 1k points: 3.0 M and 0.63 M).
+///
 /// In a band walk, a region at least four times as wide as the softmax's reach `√(M1 ε1)`
 /// gives up at the first cluster it cannot settle that is smaller than [`GIVE_UP_RATIO`]
 /// times its own radius: its children then walk on from that cluster. Over such a region the
@@ -231,9 +236,19 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         return (true, usize::MAX);
     }
     let (c, r) = (&q.centre, q.radius);
+    let m1 = bvh.log_terms * eps1;
+    // A sampled sphere bounds its planes in closed form (`geometry::radial`): if that bound
+    // clears the threshold at the region's point nearest the centre, every cluster is settled.
+    if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
+        let oc = c - rad.centre;
+        let l = oc.norm();
+        let s_lo = if l > 0.0 { l + q.min_lin(&(oc / l)) } else { 0.0 };
+        if rad.plane_bound(s_lo, m1) > band_need(t, v) {
+            return (true, hint);
+        }
+    }
     let (j, dj) = if vmax.is_some() && bvh.len() > 2048 { bvh.near(c, hint) } else { bvh.nearest_hint(c, hint) };
     let (pj, nj) = (bvh.points[j], bvh.normals[j]);
-    let m1 = bvh.log_terms * eps1;
     let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
     // The witness is relevant at the centre; if its plane comes below `need` in the region,
     // the answer would be `false` anyway (a quick exit, not part of the proof).

@@ -86,6 +86,41 @@ fn pruned_pair_matches_naive_on_random_configurations() {
     assert!(pruned_points * 4 > total_points, "the band bound prunes little: {pruned_points} of {total_points}");
 }
 
+/// Fine spheres (whose planes the band walk bounds in closed form, `geometry::radial`) on a
+/// box and on a sphere, from just touching to 2 cm deep, at sharp and scene ε.
+#[test]
+fn pruned_pair_with_a_fine_sphere_matches_naive() {
+    let mut rng = Lcg(7);
+    let fine = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.003));
+    let other = Collider::Aopc(Shape::Sphere { radius: 0.04 }.sample(0.004));
+    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.006));
+    let (mut skipped, mut total) = (0, 0);
+    for case in 0..8 {
+        let (b, reach) = if case % 2 == 0 { (&boxc, 0.05 + 0.03) } else { (&other, 0.05 + 0.04) };
+        let depth = [0.0, 0.001, 0.005, 0.02][case / 2];
+        let fa = random_frame(&mut rng, Vector3::zeros());
+        // Along a random direction at the distance where the bounding spheres would touch for
+        // the sphere pair; for the box, above its top face.
+        let fb = if case % 2 == 0 {
+            let origin = Vector3::new(rng.range(-0.03, 0.03), rng.range(-0.03, 0.03), -(reach - depth));
+            Frame { rotation: Matrix3::identity(), ..random_frame(&mut rng, origin) }
+        } else {
+            let origin = rng.direction() * (reach - depth);
+            random_frame(&mut rng, origin)
+        };
+        for (eps1, eps2) in [(1e-5, 1e-3), (1e-9, 1e-7)] {
+            let prm = params(eps1, eps2);
+            let p = pair_contact(&fine, &fa, b, &fb, &prm);
+            let n = pair_contact_naive(&fine, &fa, b, &fb, &prm);
+            assert_close(&p, &n, eps2, &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"));
+            let band = separation_band(&fine, &fa, b, &fb, eps1, eps2);
+            skipped += band.skipped;
+            total += fine.len() + b.len();
+        }
+    }
+    assert!(skipped * 2 > total, "the band bound prunes little: {skipped} of {total}");
+}
+
 #[test]
 fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
     // A box resting on a tilted box, both moving: derivatives with respect to the second

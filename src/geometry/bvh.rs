@@ -123,15 +123,19 @@ pub struct Bvh {
     pub patch: Vec<u32>,
     /// The cloud's flat patches ([`super::patch`]).
     pub patches: Vec<super::patch::Patch>,
+    /// The cloud's radial certificate, if it is a sampled sphere ([`super::radial`]); `None`
+    /// until [`Bvh::set_patches`].
+    pub radial: Option<super::radial::Radial>,
 }
 
 impl Bvh {
-    /// Attaches the flat patches of the quad mesh whose face centres the points are (`points`,
+    /// Attaches the flat patches and the radial certificate of the quad mesh whose face centres the points are (`points`,
     /// `normals`, `vertices`, `faces` in the cloud's own order, as in [`super::Aopc`]).
     pub fn set_patches(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
         self.patch = self.index.iter().map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX)).collect();
         self.patches = patches;
+        self.radial = super::radial::find_radial(points, normals, vertices, faces);
     }
 
     /// The flat patch of the point `k` (leaf order), if any.

@@ -7,6 +7,7 @@ pub mod aopc;
 pub mod bvh;
 pub mod mesh;
 pub mod patch;
+pub mod radial;
 pub mod shapes;
 pub mod ssdf;
 pub mod union;
