@@ -42,7 +42,7 @@ impl Aopc {
         debug_assert!(self.bvh.get().is_none_or(|b| b.len() == self.points.len()), "AOPC changed after its BVH was built");
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
-            b.set_patches(&self.points, &self.normals, &self.vertices, &self.faces);
+            b.set_surface(&self.points, &self.normals, &self.vertices, &self.faces);
             Arc::new(b)
         })
     }

@@ -7,7 +7,8 @@
 //! radius `r` on a sphere of radius `R` about `r²/2R`) and its normals stay in a narrow cone, so
 //! bounds over "the points of the node" need not cover the whole ball (`Node::axis`). Points and normals are copied in leaf order, so a leaf is a contiguous slice;
 //! `index` maps back to the AOPC's own order (faces, for the soft top-K). The cloud's flat
-//! patches ([`super::patch`]) are attached by [`Bvh::set_patches`], per point in leaf order.
+//! patches ([`super::patch`]) are attached by [`Bvh::set_surface`], per point in leaf order, with
+//! the certificate of a sampled sphere ([`super::radial`]).
 //!
 //! All bounds here work on real parts (`f64`): they decide which terms of a softmax are summed,
 //! never the value of a term, so dual numbers follow the same path as the `f64` they extend.
@@ -119,19 +120,20 @@ pub struct Bvh {
     /// of the temperature) beyond which a softmax term over these points is negligible.
     pub log_terms: f64,
     /// Flat patch of each point in leaf order (an index into `patches`, `u32::MAX` for none);
-    /// empty until [`Bvh::set_patches`].
+    /// empty until [`Bvh::set_surface`].
     pub patch: Vec<u32>,
     /// The cloud's flat patches ([`super::patch`]).
     pub patches: Vec<super::patch::Patch>,
     /// The cloud's radial certificate, if it is a sampled sphere ([`super::radial`]); `None`
-    /// until [`Bvh::set_patches`].
+    /// until [`Bvh::set_surface`].
     pub radial: Option<super::radial::Radial>,
 }
 
 impl Bvh {
-    /// Attaches the flat patches and the radial certificate of the quad mesh whose face centres the points are (`points`,
-    /// `normals`, `vertices`, `faces` in the cloud's own order, as in [`super::Aopc`]).
-    pub fn set_patches(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
+    /// Attaches what the quad mesh whose face centres the points are proves about the surface:
+    /// its flat patches and, for a sampled sphere, its radial certificate (`points`, `normals`,
+    /// `vertices`, `faces` in the cloud's own order, as in [`super::Aopc`]).
+    pub fn set_surface(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
         self.patch = self.index.iter().map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX)).collect();
         self.patches = patches;

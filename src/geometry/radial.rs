@@ -97,7 +97,9 @@ pub fn find_radial(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
         vdirs.push((v - centre) / r);
     }
     // Closed: every directed edge once, with its reversed twin.
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(4 * faces.len());
+    // Edges as `a << 32 | b` (sorting integers: a 146k-point sphere is checked in about half
+    // the time its BVH takes to build).
+    let mut edges: Vec<u64> = Vec::with_capacity(4 * faces.len());
     let mut cos_cover = 1.0f64;
     for (f, d) in faces.iter().zip(&dirs) {
         for k in 0..4 {
@@ -111,11 +113,13 @@ pub fn find_radial(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
                 return None;
             }
             cos_cover = cos_cover.min(d.dot(ua));
-            edges.push((a, b));
+            edges.push((a as u64) << 32 | b as u64);
         }
     }
+    let mut twins: Vec<u64> = edges.iter().map(|e| e.rotate_left(32)).collect();
     edges.sort_unstable();
-    if edges.windows(2).any(|w| w[0] == w[1]) || edges.iter().any(|&(a, b)| edges.binary_search(&(b, a)).is_err()) {
+    twins.sort_unstable();
+    if edges.windows(2).any(|w| w[0] == w[1]) || edges != twins {
         return None;
     }
     // Round outwards: the distances and angles above carry a few ulps.
