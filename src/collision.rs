@@ -221,7 +221,10 @@ fn band_need(t: f64, vmax: f64) -> f64 {
 /// In a band walk over a sampled sphere ([`crate::geometry::radial`]), the closed-form bound
 /// of its planes at the region's point nearest the sphere's centre is tried first: when it
 /// clears `need`, every cluster is settled at once (a 100k-point sphere–box evaluation at sharp
-/// ε: 12.1 M instructions without, 1.1 M with; 1k points: 3.0 M and 0.63 M).
+/// ε: 12.1 M instructions without, 1.1 M with; 1k points: 3.0 M and 0.63 M). Over a
+/// sampled box ([`crate::geometry::cuboid`]) its face-by-face bound is tried the same way
+/// (box–box at sharp ε, 100k points: 9.8 M without, 0.96 M with; 1k points: 1.90 M and
+/// 0.38 M).
 ///
 /// In a band walk, a region at least four times as wide as the softmax's reach `√(M1 ε1)`
 /// gives up at the first cluster it cannot settle that is smaller than [`GIVE_UP_RATIO`]
@@ -244,6 +247,17 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
         let l = oc.norm();
         let s_lo = if l > 0.0 { l + q.min_lin(&(oc / l)) } else { 0.0 };
         if rad.plane_bound(s_lo, m1) > band_need(t, v) {
+            return (true, hint);
+        }
+    }
+    // So does a sampled box, face by face (`geometry::cuboid`), over the box of the region's
+    // coordinates along the box's axes.
+    if let (Some(v), Some(cub)) = (vmax, &bvh.cuboid) {
+        let u = &cub.axes;
+        let mid = u * c;
+        let lo = Vector3::from_fn(|k, _| mid[k] + q.min_lin(&u.row(k).transpose()));
+        let hi = Vector3::from_fn(|k, _| mid[k] - q.min_lin(&-u.row(k).transpose()));
+        if cub.settles(&lo, &hi, c.norm() + r, band_need(t, v), m1) {
             return (true, hint);
         }
     }

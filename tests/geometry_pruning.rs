@@ -121,6 +121,47 @@ fn pruned_pair_with_a_fine_sphere_matches_naive() {
     assert!(skipped * 2 > total, "the band bound prunes little: {skipped} of {total}");
 }
 
+/// Fine boxes (whose planes the band walk bounds face by face, `geometry::cuboid`): a cube
+/// face, edge or corner down on a box, in its middle and overhanging its edge, from just
+/// touching to 2 cm deep, at sharp and scene ε.
+#[test]
+fn pruned_pair_with_fine_boxes_matches_naive() {
+    let mut rng = Lcg(11);
+    let a = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.005));
+    let b = Collider::Aopc(Shape::Box { half: Vector3::repeat(0.04) }.sample(0.0045));
+    for c in [&a, &b] {
+        let Collider::Aopc(s) = c else { unreachable!() };
+        assert!(s.bvh().cuboid.is_some(), "a sampled box has its certificate");
+    }
+    let down = [
+        Matrix3::identity(),
+        Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_4, 0.0, 0.2).into_inner(),
+        Rotation3::rotation_between(&Vector3::new(1.0, 1.0, 1.0), &-Vector3::z()).unwrap().into_inner(),
+    ];
+    let (mut skipped, mut total) = (0, 0);
+    for case in 0..12 {
+        let rot = down[case % 3];
+        let depth = [0.0, 0.001, 0.005, 0.02][case / 3];
+        // The cube's lowest point `depth` below the box's top face; every other case over the
+        // box's edge at x = 0.1.
+        let low = 0.04 * (0..3).map(|k| rot[(2, k)].abs()).sum::<f64>();
+        let x = if case % 2 == 0 { rng.range(-0.03, 0.03) } else { 0.1 + rng.range(-0.01, 0.01) };
+        let origin = Vector3::new(x, rng.range(-0.03, 0.03), 0.03 - depth + low);
+        let fb = Frame { rotation: rot, ..random_frame(&mut rng, origin) };
+        let fa = Frame { rotation: Matrix3::identity(), ..random_frame(&mut rng, Vector3::zeros()) };
+        for (eps1, eps2) in [(1e-5, 1e-3), (1e-9, 1e-7)] {
+            let prm = params(eps1, eps2);
+            let p = pair_contact(&a, &fa, &b, &fb, &prm);
+            let n = pair_contact_naive(&a, &fa, &b, &fb, &prm);
+            assert_close(&p, &n, eps2, &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"));
+            let band = separation_band(&a, &fa, &b, &fb, eps1, eps2);
+            skipped += band.skipped;
+            total += a.len() + b.len();
+        }
+    }
+    assert!(skipped * 2 > total, "the band bound prunes little: {skipped} of {total}");
+}
+
 #[test]
 fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
     // A box resting on a tilted box, both moving: derivatives with respect to the second

@@ -8,7 +8,8 @@
 //! bounds over "the points of the node" need not cover the whole ball (`Node::axis`). Points and normals are copied in leaf order, so a leaf is a contiguous slice;
 //! `index` maps back to the AOPC's own order (faces, for the soft top-K). The cloud's flat
 //! patches ([`super::patch`]) are attached by [`Bvh::set_surface`], per point in leaf order, with
-//! the certificate of a sampled sphere ([`super::radial`]).
+//! the certificates of a sampled sphere ([`super::radial`]) and of a sampled box
+//! ([`super::cuboid`]).
 //!
 //! All bounds here work on real parts (`f64`): they decide which terms of a softmax are summed,
 //! never the value of a term, so dual numbers follow the same path as the `f64` they extend.
@@ -127,14 +128,19 @@ pub struct Bvh {
     /// The cloud's radial certificate, if it is a sampled sphere ([`super::radial`]); `None`
     /// until [`Bvh::set_surface`].
     pub radial: Option<super::radial::Radial>,
+    /// The cloud's cuboid certificate, if it is a sampled box ([`super::cuboid`]); `None`
+    /// until [`Bvh::set_surface`].
+    pub cuboid: Option<super::cuboid::Cuboid>,
 }
 
 impl Bvh {
     /// Attaches what the quad mesh whose face centres the points are proves about the surface:
-    /// its flat patches and, for a sampled sphere, its radial certificate (`points`, `normals`,
-    /// `vertices`, `faces` in the cloud's own order, as in [`super::Aopc`]).
+    /// its flat patches and, for a sampled sphere or box, its radial or cuboid certificate
+    /// (`points`, `normals`, `vertices`, `faces` in the cloud's own order, as in
+    /// [`super::Aopc`]).
     pub fn set_surface(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
+        self.cuboid = super::cuboid::find_cuboid(points, normals, vertices, faces, &of, &patches);
         self.patch = self.index.iter().map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX)).collect();
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);

@@ -5,6 +5,7 @@
 
 pub mod aopc;
 pub mod bvh;
+pub mod cuboid;
 pub mod mesh;
 pub mod patch;
 pub mod radial;
