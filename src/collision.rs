@@ -223,8 +223,8 @@ fn band_need(t: f64, vmax: f64) -> f64 {
 /// clears `need`, every cluster is settled at once (a 100k-point sphere–box evaluation at sharp
 /// ε: 12.1 M instructions without, 1.1 M with; 1k points: 3.0 M and 0.63 M). Over a
 /// sampled box ([`crate::geometry::cuboid`]) its face-by-face bound is tried the same way
-/// (box–box at sharp ε, 100k points: 9.8 M without, 0.96 M with; 1k points: 1.90 M and
-/// 0.38 M).
+/// (box–box at sharp ε, 100k points: 9.8 M without, 0.94 M with; 1k points: 1.90 M and
+/// 0.37 M).
 ///
 /// In a band walk, a region at least four times as wide as the softmax's reach `√(M1 ε1)`
 /// gives up at the first cluster it cannot settle that is smaller than [`GIVE_UP_RATIO`]

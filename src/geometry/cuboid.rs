@@ -93,9 +93,19 @@ impl Cuboid {
             let low = if face.sign > 0.0 { lo[k] } else { -hi[k] };
             lb[f] = low - face.top - face.normal_err * far - 1e-12 * far;
         }
-        // The faces the region lies farthest in front of bound `d_min` best: try two of them.
-        let mut order = [0usize, 1, 2, 3, 4, 5];
-        order.sort_unstable_by(|a, b| lb[*b].total_cmp(&lb[*a]));
+        // The faces the region lies farthest in front of bound `d_min` best: try two of them
+        // (the first three, by insertion: a sort of six cost 5 % of a box–box evaluation).
+        let mut order = [usize::MAX; 3];
+        for f in 0..6 {
+            let mut k = 3;
+            while k > 0 && (order[k - 1] == usize::MAX || lb[order[k - 1]] < lb[f]) {
+                k -= 1;
+            }
+            if k < 3 {
+                order.copy_within(k..2, k + 1);
+                order[k] = f;
+            }
+        }
         // `d_i ≥ (1 - η)A`, `d_min ≤ (1 + 2η)B`, with `A` and `B` below `3 (D + P + Z)²`.
         let slack = (9.0 * self.eta + 1e-12) * (far + self.size).powi(2);
         for (f, face) in self.faces.iter().enumerate() {
