@@ -59,17 +59,54 @@ struct Case {
 /// Sphere (r = 5 cm) resting 1 mm deep on a box (20 × 20 × 10 cm), and a box (10 cm cube)
 /// tilted onto the same box, its lowest corner 1 mm deep: `n` points per body (about).
 fn cases(n: usize) -> Vec<Case> {
-    let big = Shape::Box { half: Vector3::new(0.1, 0.1, 0.05) };
+    let big = Shape::Box {
+        half: Vector3::new(0.1, 0.1, 0.05),
+    };
     let big = Collider::Aopc(big.sample(spacing_for(2.0 * (0.04 + 0.02 + 0.02), n)));
-    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(spacing_for(4.0 * std::f64::consts::PI * 0.05 * 0.05, n)));
-    let cube = Collider::Aopc(Shape::Box { half: Vector3::repeat(0.05) }.sample(spacing_for(6.0 * 0.01, n)));
-    let at = |z: f64, rot: Matrix3<f64>| Frame { rotation: rot, origin: Vector3::new(0.0, 0.0, z), linvel: Vector3::new(0.01, 0.0, -0.01), angvel: Vector3::new(0.0, 0.1, 0.0) };
+    let sphere = Collider::Aopc(
+        Shape::Sphere { radius: 0.05 }
+            .sample(spacing_for(4.0 * std::f64::consts::PI * 0.05 * 0.05, n)),
+    );
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::repeat(0.05),
+        }
+        .sample(spacing_for(6.0 * 0.01, n)),
+    );
+    let at = |z: f64, rot: Matrix3<f64>| Frame {
+        rotation: rot,
+        origin: Vector3::new(0.0, 0.0, z),
+        linvel: Vector3::new(0.01, 0.0, -0.01),
+        angvel: Vector3::new(0.0, 0.1, 0.0),
+    };
     let tilt = Rotation3::from_euler_angles(0.3, 0.4, 0.1).into_inner();
     // Lowest corner of the tilted cube: the smallest z over its corners.
-    let low = (0..8).map(|i| (tilt * Vector3::new(if i & 1 == 0 { -0.05 } else { 0.05 }, if i & 2 == 0 { -0.05 } else { 0.05 }, if i & 4 == 0 { -0.05 } else { 0.05 })).z).fold(f64::INFINITY, f64::min);
+    let low = (0..8)
+        .map(|i| {
+            (tilt
+                * Vector3::new(
+                    if i & 1 == 0 { -0.05 } else { 0.05 },
+                    if i & 2 == 0 { -0.05 } else { 0.05 },
+                    if i & 4 == 0 { -0.05 } else { 0.05 },
+                ))
+            .z
+        })
+        .fold(f64::INFINITY, f64::min);
     vec![
-        Case { name: "sphere-box", a: big.clone(), b: sphere, fa: Frame::identity(), fb: at(0.05 + 0.05 - 0.001, Matrix3::identity()) },
-        Case { name: "box-box", a: big, b: cube, fa: Frame::identity(), fb: at(0.05 - low - 0.001, tilt) },
+        Case {
+            name: "sphere-box",
+            a: big.clone(),
+            b: sphere,
+            fa: Frame::identity(),
+            fb: at(0.05 + 0.05 - 0.001, Matrix3::identity()),
+        },
+        Case {
+            name: "box-box",
+            a: big,
+            b: cube,
+            fa: Frame::identity(),
+            fb: at(0.05 - low - 0.001, tilt),
+        },
     ]
 }
 
@@ -78,7 +115,16 @@ fn cases(n: usize) -> Vec<Case> {
 /// the field carries weight, so its point count grows with the resolution).
 fn params(sharp: bool) -> ContactParams<f64> {
     let (eps1, eps2) = if sharp { (1e-9, 1e-7) } else { (1e-5, 1e-3) };
-    ContactParams { eps1, eps2, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.01, friction: 0.5, dissipation: Dissipation::Paper }
+    ContactParams {
+        eps1,
+        eps2,
+        eps3: 1e-4,
+        stiffness: 1e4,
+        dissipation_velocity: 0.1,
+        stiction_velocity: 0.01,
+        friction: 0.5,
+        dissipation: Dissipation::Paper,
+    }
 }
 
 const SIZES: [usize; 4] = [100, 1_000, 10_000, 100_000];
@@ -93,9 +139,13 @@ fn bench(c: &mut Criterion) {
                 pair_contact(&case.a, &case.fa, &case.b, &case.fb, &prm); // builds the BVHs
                 let mut g = c.benchmark_group(label);
                 g.sample_size(10);
-                g.bench_with_input(BenchmarkId::new("pruned", n), &n, |bch, _| bch.iter(|| pair_contact(&case.a, &case.fa, &case.b, &case.fb, &prm)));
+                g.bench_with_input(BenchmarkId::new("pruned", n), &n, |bch, _| {
+                    bch.iter(|| pair_contact(&case.a, &case.fa, &case.b, &case.fb, &prm))
+                });
                 if n <= NAIVE_MAX {
-                    g.bench_with_input(BenchmarkId::new("naive", n), &n, |bch, _| bch.iter(|| pair_contact_naive(&case.a, &case.fa, &case.b, &case.fb, &prm)));
+                    g.bench_with_input(BenchmarkId::new("naive", n), &n, |bch, _| {
+                        bch.iter(|| pair_contact_naive(&case.a, &case.fa, &case.b, &case.fb, &prm))
+                    });
                 }
                 g.finish();
             }
@@ -158,7 +208,9 @@ fn table(only: Option<bool>) {
                 });
                 let naive = if n <= NAIVE_MAX {
                     let (tn, mn) = measure(|| {
-                        std::hint::black_box(pair_contact_naive(&case.a, &case.fa, &case.b, &case.fb, &prm));
+                        std::hint::black_box(pair_contact_naive(
+                            &case.a, &case.fa, &case.b, &case.fb, &prm,
+                        ));
                     });
                     (fmt_time(tn), format!("{:.1} kB", mn as f64 / 1e3))
                 } else {
@@ -183,8 +235,17 @@ fn table(only: Option<bool>) {
     // The targets, from this run's rows: time growing at most 3× from 1k to 100k
     // points per body at fixed (sharp) ε, memory under 64 MB at 100k × 100k.
     let largest = SIZES[SIZES.len() - 1];
-    let kilo = |n: usize| if n.is_multiple_of(1000) { format!("{}k", n / 1000) } else { n.to_string() };
-    let at = |name: &str, n: usize, sharp: bool| rows.iter().find(|r| r.0 == name && r.1 == n && r.2 == sharp);
+    let kilo = |n: usize| {
+        if n.is_multiple_of(1000) {
+            format!("{}k", n / 1000)
+        } else {
+            n.to_string()
+        }
+    };
+    let at = |name: &str, n: usize, sharp: bool| {
+        rows.iter()
+            .find(|r| r.0 == name && r.1 == n && r.2 == sharp)
+    };
     for name in ["sphere-box", "box-box"] {
         if let (Some(small), Some(big)) = (at(name, 1000, true), at(name, largest, true)) {
             println!("{name}, sharp ε: pruned time {} → {} from 1k to {} points per body, {:.1}× (target ≤ 3×)", fmt_time(small.3), fmt_time(big.3), kilo(largest), big.3 / small.3);

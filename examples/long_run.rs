@@ -63,7 +63,14 @@ pub fn live_bytes() -> isize {
 
 /// Resident set size of the process (bytes), from `/proc/self/statm` (0 where unavailable).
 pub fn rss_bytes() -> usize {
-    std::fs::read_to_string("/proc/self/statm").ok().and_then(|s| s.split_whitespace().nth(1).and_then(|p| p.parse::<usize>().ok())).map_or(0, |pages| pages * 4096)
+    std::fs::read_to_string("/proc/self/statm")
+        .ok()
+        .and_then(|s| {
+            s.split_whitespace()
+                .nth(1)
+                .and_then(|p| p.parse::<usize>().ok())
+        })
+        .map_or(0, |pages| pages * 4096)
 }
 
 /// An instance of a bundled scene through the C ABI, its resources unpacked into a temporary
@@ -77,9 +84,17 @@ pub struct Run {
 impl Run {
     /// Instantiates and initializes `scene` (Co-Simulation).
     pub fn new(scene: &str) -> Run {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes").join(format!("{scene}.xml"));
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("resources/scenes")
+            .join(format!("{scene}.xml"));
         let d = scm::pack::describe(&path).unwrap();
-        let dir = std::env::temp_dir().join(format!("scm-long-run-{}-{scene}-{:?}", std::process::id(), std::thread::current().id())).join("resources");
+        let dir = std::env::temp_dir()
+            .join(format!(
+                "scm-long-run-{}-{scene}-{:?}",
+                std::process::id(),
+                std::thread::current().id()
+            ))
+            .join("resources");
         for (file, bytes) in &d.resources {
             let p = dir.join(file);
             std::fs::create_dir_all(p.parent().unwrap()).unwrap();
@@ -89,25 +104,56 @@ impl Run {
         std::fs::write(dir.join(scm::sim::SCENE_FILE), &d.scene_text).unwrap();
         let uri = CString::new(format!("file://{}", dir.display())).unwrap();
         let guid = CString::new(scm::sim::guid(&d.scene_text)).unwrap();
-        let names = scm::sim::Simulation::from_file(&path).unwrap().rows().iter().map(|(v, _)| v.name.clone()).collect();
-        let callbacks = Box::new(fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() });
+        let names = scm::sim::Simulation::from_file(&path)
+            .unwrap()
+            .rows()
+            .iter()
+            .map(|(v, _)| v.name.clone())
+            .collect();
+        let callbacks = Box::new(fmi2CallbackFunctions {
+            logger: None,
+            allocateMemory: None,
+            freeMemory: None,
+            stepFinished: None,
+            componentEnvironment: std::ptr::null_mut(),
+        });
         unsafe {
-            let c = scm::fmi2Instantiate(c"long".as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &*callbacks, 0, 0);
+            let c = scm::fmi2Instantiate(
+                c"long".as_ptr(),
+                fmi2CoSimulation,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                &*callbacks,
+                0,
+                0,
+            );
             assert!(!c.is_null(), "{scene}: fmi2Instantiate failed");
             assert_eq!(scm::fmi2EnterInitializationMode(c), fmi2OK);
             assert_eq!(scm::fmi2ExitInitializationMode(c), fmi2OK);
-            Run { c, names, _callbacks: callbacks }
+            Run {
+                c,
+                names,
+                _callbacks: callbacks,
+            }
         }
     }
 
     /// Value reference of a variable.
     pub fn vr(&self, name: &str) -> u32 {
-        self.names.iter().position(|n| n == name).unwrap_or_else(|| panic!("no variable {name}")) as u32
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .unwrap_or_else(|| panic!("no variable {name}")) as u32
     }
 
     /// Every value reference whose name ends with `suffix`.
     pub fn vrs_ending(&self, suffix: &str) -> Vec<u32> {
-        self.names.iter().enumerate().filter(|(_, n)| n.ends_with(suffix)).map(|(i, _)| i as u32).collect()
+        self.names
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.ends_with(suffix))
+            .map(|(i, _)| i as u32)
+            .collect()
     }
 
     /// Reads a Real.
@@ -158,13 +204,26 @@ pub struct Phase {
 
 /// Steps `scene` for `steps` communication steps of `h` (s); `drive(run, t)` sets the inputs
 /// before each step. The warm-up is the first tenth of the run.
-pub fn phase(scene: &str, steps: usize, h: f64, mut drive: impl FnMut(&Run, f64), mut progress: impl FnMut(usize, isize)) -> Phase {
+pub fn phase(
+    scene: &str,
+    steps: usize,
+    h: f64,
+    mut drive: impl FnMut(&Run, f64),
+    mut progress: impl FnMut(usize, isize),
+) -> Phase {
     let run = Run::new(scene);
     let w: Vec<u32> = run.vrs_ending(".quat.w");
     let distances = run.vrs_ending(".distance");
-    let positions: Vec<u32> = run.names.iter().enumerate().filter(|(_, n)| n.ends_with(".q") || n.contains(".pos.")).map(|(i, _)| i as u32).collect();
+    let positions: Vec<u32> = run
+        .names
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| n.ends_with(".q") || n.contains(".pos."))
+        .map(|(i, _)| i as u32)
+        .collect();
     let warmup = (steps / 10).max(1);
-    let (mut live_after_warmup, mut live_max, mut max_err, mut changes) = (0, isize::MIN, 0.0f64, 0);
+    let (mut live_after_warmup, mut live_max, mut max_err, mut changes) =
+        (0, isize::MIN, 0.0f64, 0);
     let mut touching: Vec<bool> = distances.iter().map(|&d| run.get(d) < 1e-3).collect();
     let started = std::time::Instant::now();
     for k in 0..steps {
@@ -193,8 +252,20 @@ pub fn phase(scene: &str, steps: usize, h: f64, mut drive: impl FnMut(&Run, f64)
         }
     }
     let seconds_per_step = started.elapsed().as_secs_f64() / steps as f64;
-    let max_abs_position = positions.iter().map(|&p| run.get(p).abs()).fold(0.0, f64::max);
-    Phase { steps, live_after_warmup, live_at_end: live_bytes(), live_max, max_quat_norm_error: max_err, seconds_per_step, contact_changes: changes, max_abs_position }
+    let max_abs_position = positions
+        .iter()
+        .map(|&p| run.get(p).abs())
+        .fold(0.0, f64::max);
+    Phase {
+        steps,
+        live_after_warmup,
+        live_at_end: live_bytes(),
+        live_max,
+        max_quat_norm_error: max_err,
+        seconds_per_step,
+        contact_changes: changes,
+        max_abs_position,
+    }
 }
 
 /// `t_push` with the finger following the T in a closed loop: its target is the contact point
@@ -208,9 +279,19 @@ pub fn t_push(steps: usize, progress: impl FnMut(usize, isize)) -> Phase {
         steps,
         0.002,
         |run, t| {
-            let (tx, ty, ax, ay) = *vrs.get_or_insert_with(|| (run.vr("t_x.q"), run.vr("t_y.q"), run.vr("act_x.ctrl"), run.vr("act_y.ctrl")));
+            let (tx, ty, ax, ay) = *vrs.get_or_insert_with(|| {
+                (
+                    run.vr("t_x.q"),
+                    run.vr("t_y.q"),
+                    run.vr("act_x.ctrl"),
+                    run.vr("act_y.ctrl"),
+                )
+            });
             run.set(ax, run.get(tx));
-            run.set(ay, run.get(ty) + 0.0975 + 0.01 * (2.0 * std::f64::consts::PI * t).sin());
+            run.set(
+                ay,
+                run.get(ty) + 0.0975 + 0.01 * (2.0 * std::f64::consts::PI * t).sin(),
+            );
         },
         progress,
     )
@@ -223,14 +304,26 @@ pub fn box_stack(steps: usize, progress: impl FnMut(usize, isize)) -> Phase {
 
 #[allow(dead_code)]
 fn main() {
-    let steps: usize = std::env::args().nth(1).map(|s| s.parse().expect("STEPS")).unwrap_or(1_000_000);
+    let steps: usize = std::env::args()
+        .nth(1)
+        .map(|s| s.parse().expect("STEPS"))
+        .unwrap_or(1_000_000);
     type Driver = fn(usize, &mut dyn FnMut(usize, isize)) -> Phase;
-    let phases: [(&str, Driver); 2] = [("t_push", |n, p| t_push(n, p)), ("box_stack", |n, p| box_stack(n, p))];
+    let phases: [(&str, Driver); 2] = [
+        ("t_push", |n, p| t_push(n, p)),
+        ("box_stack", |n, p| box_stack(n, p)),
+    ];
     let only: Vec<String> = std::env::args().skip(2).collect();
-    for (name, f) in phases.into_iter().filter(|(n, _)| only.is_empty() || only.iter().any(|o| o == n)) {
+    for (name, f) in phases
+        .into_iter()
+        .filter(|(n, _)| only.is_empty() || only.iter().any(|o| o == n))
+    {
         let mut report = |k: usize, live: isize| {
             if k.is_multiple_of(100_000) {
-                println!("{name}: step {k}: live heap {live} B, RSS {:.1} MB", rss_bytes() as f64 / 1e6);
+                println!(
+                    "{name}: step {k}: live heap {live} B, RSS {:.1} MB",
+                    rss_bytes() as f64 / 1e6
+                );
             }
         };
         let rss0 = rss_bytes();

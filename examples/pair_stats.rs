@@ -33,12 +33,22 @@ fn main() {
         match args[i].as_str() {
             "--set" => {
                 let (n, x) = args[i + 1].split_once('=').expect("NAME=VALUE");
-                let vr = sim.rows().iter().find(|(v, _)| v.name == n).expect("variable").0.value_reference;
-                sim.set_real(vr, x.parse().expect("number"), Phase::Instantiated).expect("set");
+                let vr = sim
+                    .rows()
+                    .iter()
+                    .find(|(v, _)| v.name == n)
+                    .expect("variable")
+                    .0
+                    .value_reference;
+                sim.set_real(vr, x.parse().expect("number"), Phase::Instantiated)
+                    .expect("set");
             }
             "--warmup" => warmup = args[i + 1].parse().expect("seconds"),
             "--profile" => {
-                profile = Some((args[i + 1].clone(), args[i + 2].parse::<usize>().expect("N")));
+                profile = Some((
+                    args[i + 1].clone(),
+                    args[i + 2].parse::<usize>().expect("N"),
+                ));
                 i += 1;
             }
             other => panic!("unknown option {other}"),
@@ -55,10 +65,37 @@ fn main() {
     let u = sim.inputs();
     let prm = sim.current.params;
     let h = m.step;
-    let kin = m.tree.kinematics_with(&state.q, &state.v, &u[m.actuators.len()..]);
-    let point = scm::derivatives::Point { q: state.q.clone(), v: state.v.clone(), u: u.clone(), params: prm };
-    let jac = || scm::derivatives::step_jacobian_state(&m, m.integrator, &point, h, scm::derivatives::Coordinates::Embedded).expect("jacobian");
-    let step = || m.step(&State { q: state.q.clone(), v: state.v.clone() }, &u, &prm, h).expect("step");
+    let kin = m
+        .tree
+        .kinematics_with(&state.q, &state.v, &u[m.actuators.len()..]);
+    let point = scm::derivatives::Point {
+        q: state.q.clone(),
+        v: state.v.clone(),
+        u: u.clone(),
+        params: prm,
+    };
+    let jac = || {
+        scm::derivatives::step_jacobian_state(
+            &m,
+            m.integrator,
+            &point,
+            h,
+            scm::derivatives::Coordinates::Embedded,
+        )
+        .expect("jacobian")
+    };
+    let step = || {
+        m.step(
+            &State {
+                q: state.q.clone(),
+                v: state.v.clone(),
+            },
+            &u,
+            &prm,
+            h,
+        )
+        .expect("step")
+    };
     if let Some((what, n)) = profile {
         let mut f: Box<dyn FnMut()> = match what.as_str() {
             "pair" => Box::new(|| {
@@ -77,13 +114,22 @@ fn main() {
     }
     println!("state after {warmup} s: q = {:?}", state.q);
     for p in &m.pairs {
-        let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) else { continue };
+        let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) else {
+            continue;
+        };
         let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
         let band = separation_band(a, fa, b, fb, prm.eps1, prm.eps2);
         let mut terms = 0;
         for e in &band.entries {
-            let (q, fq, pl, fp) = if e.side == 0 { (a, fa, b, fb) } else { (b, fb, a, fa) };
-            let (scm::collision::Collider::Aopc(qs), scm::collision::Collider::Aopc(ps)) = (q, pl) else { continue };
+            let (q, fq, pl, fp) = if e.side == 0 {
+                (a, fa, b, fb)
+            } else {
+                (b, fb, a, fa)
+            };
+            let (scm::collision::Collider::Aopc(qs), scm::collision::Collider::Aopc(ps)) = (q, pl)
+            else {
+                continue;
+            };
             let rel = fq.relative_to(fp);
             let x = rel.rotation * qs.bvh().points[e.k as usize] + rel.translation;
             terms += count_terms(ps, &x, prm.eps1);
@@ -110,7 +156,10 @@ fn main() {
         for _ in 0..nn {
             black_box(pair_contact_naive(a, fa, b, fb, &prm));
         }
-        println!("  naive pair evaluation: {:.1} µs", t.elapsed().as_secs_f64() / nn as f64 * 1e6);
+        println!(
+            "  naive pair evaluation: {:.1} µs",
+            t.elapsed().as_secs_f64() / nn as f64 * 1e6
+        );
     }
     let pair_all = || {
         for p in &m.pairs {
@@ -119,7 +168,14 @@ fn main() {
             }
         }
     };
-    let times = time_interleaved(1.5, &mut [&mut || pair_all(), &mut || drop(black_box(step())), &mut || drop(black_box(jac()))]);
+    let times = time_interleaved(
+        1.5,
+        &mut [
+            &mut || pair_all(),
+            &mut || drop(black_box(step())),
+            &mut || drop(black_box(jac())),
+        ],
+    );
     println!("pruned pairs {:.2} µs; step ({}) {:.2} µs; step Jacobian w.r.t. (q, v, u) {:.2} µs = {:.2} steps", times[0] * 1e6, m.integrator.name(), times[1] * 1e6, times[2] * 1e6, times[2] / times[1]);
 }
 
@@ -130,7 +186,6 @@ fn profiled_section(n: usize, f: &mut dyn FnMut()) {
         f();
     }
 }
-
 
 fn count_terms(s: &scm::geometry::Aopc, x: &nalgebra::Vector3<f64>, eps1: f64) -> usize {
     let mut n = 0;

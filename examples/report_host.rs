@@ -33,15 +33,36 @@ use std::time::Instant;
 
 type Messages = Mutex<Vec<String>>;
 
-unsafe extern "C" fn logger(env: *mut c_void, _instance: fmi2String, status: fmi2Status, category: fmi2String, _format: fmi2String, message: *const c_char) {
-    let text = |p: *const c_char| if p.is_null() { String::new() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() };
+unsafe extern "C" fn logger(
+    env: *mut c_void,
+    _instance: fmi2String,
+    status: fmi2Status,
+    category: fmi2String,
+    _format: fmi2String,
+    message: *const c_char,
+) {
+    let text = |p: *const c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+        }
+    };
     let env = unsafe { &*(env as *const Messages) };
     let line = format!("[{status}] {}: {}", text(category), text(message));
     env.lock().unwrap_or_else(|e| e.into_inner()).push(line);
 }
 
-type Fixed = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, *const c_char);
-type Variadic = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+type Fixed = unsafe extern "C" fn(
+    *mut c_void,
+    fmi2String,
+    fmi2Status,
+    fmi2String,
+    fmi2String,
+    *const c_char,
+);
+type Variadic =
+    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -102,14 +123,30 @@ fn integrators(scene: &Path) -> Result<String, String> {
                     break;
                 }
             }
-            Ok(sim.current.state.q.iter().chain(&sim.current.state.v).copied().collect())
+            Ok(sim
+                .current
+                .state
+                .q
+                .iter()
+                .chain(&sim.current.state.v)
+                .copied()
+                .collect())
         };
         let (loose, tight) = (final_state(1e-2, 0.01)?, final_state(1e-9, 0.01)?);
-        let uses_tolerance = loose.iter().zip(&tight).any(|(a, b)| a.to_bits() != b.to_bits());
+        let uses_tolerance = loose
+            .iter()
+            .zip(&tight)
+            .any(|(a, b)| a.to_bits() != b.to_bits());
         let tight_half = final_state(1e-9, 0.005)?;
-        let step_change = tight.iter().zip(&tight_half).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        let step_change = tight
+            .iter()
+            .zip(&tight_half)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
         let adaptive = uses_tolerance && step_change < 1e-6;
-        items.push(format!("{{\"name\": {}, \"uses_tolerance\": {uses_tolerance}, \"adaptive\": {adaptive}}}", json_str(integrator.name())));
+        items.push(format!(
+            "{{\"name\": {}, \"uses_tolerance\": {uses_tolerance}, \"adaptive\": {adaptive}}}",
+            json_str(integrator.name())
+        ));
     }
     Ok(format!("[{}]", items.join(", ")))
 }
@@ -125,10 +162,24 @@ struct Job {
 }
 
 fn parse_job(args: &[String]) -> Result<Job, String> {
-    let mut job = Job { dir: PathBuf::from(&args[0]), duration: f64::NAN, comm: f64::NAN, reals: vec![], strings: vec![], inputs: None, outputs: vec![] };
+    let mut job = Job {
+        dir: PathBuf::from(&args[0]),
+        duration: f64::NAN,
+        comm: f64::NAN,
+        reals: vec![],
+        strings: vec![],
+        inputs: None,
+        outputs: vec![],
+    };
     let mut it = args[1..].iter();
-    let pair = |s: &str| -> Result<(String, String), String> { s.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("expected NAME=VALUE, got {s}")) };
-    let num = |s: &str| -> Result<f64, String> { s.parse::<f64>().map_err(|_| format!("not a number: {s}")) };
+    let pair = |s: &str| -> Result<(String, String), String> {
+        s.split_once('=')
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .ok_or_else(|| format!("expected NAME=VALUE, got {s}"))
+    };
+    let num = |s: &str| -> Result<f64, String> {
+        s.parse::<f64>().map_err(|_| format!("not a number: {s}"))
+    };
     while let Some(flag) = it.next() {
         let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
         match flag.as_str() {
@@ -139,12 +190,30 @@ fn parse_job(args: &[String]) -> Result<Job, String> {
                 job.reals.push((n, num(&v)?));
             }
             "--set-string" => job.strings.push(pair(value)?),
-            "--outputs" => job.outputs = value.split(',').filter(|s| !s.is_empty()).map(String::from).collect(),
+            "--outputs" => {
+                job.outputs = value
+                    .split(',')
+                    .filter(|s| !s.is_empty())
+                    .map(String::from)
+                    .collect()
+            }
             "--inputs" => {
                 let text = std::fs::read_to_string(value).map_err(|e| format!("{value}: {e}"))?;
                 let mut lines = text.lines();
-                let header: Vec<String> = lines.next().ok_or(format!("{value}: empty"))?.split(',').map(|s| s.trim().to_string()).collect();
-                let rows = lines.filter(|l| !l.trim().is_empty()).map(|l| l.split(',').map(|s| num(s.trim())).collect::<Result<Vec<f64>, String>>()).collect::<Result<Vec<_>, _>>()?;
+                let header: Vec<String> = lines
+                    .next()
+                    .ok_or(format!("{value}: empty"))?
+                    .split(',')
+                    .map(|s| s.trim().to_string())
+                    .collect();
+                let rows = lines
+                    .filter(|l| !l.trim().is_empty())
+                    .map(|l| {
+                        l.split(',')
+                            .map(|s| num(s.trim()))
+                            .collect::<Result<Vec<f64>, String>>()
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
                 if rows.is_empty() || rows.iter().any(|r| r.len() != header.len()) {
                     return Err(format!("{value}: every row needs {} values", header.len()));
                 }
@@ -165,20 +234,48 @@ fn run(args: &[String]) -> Result<String, String> {
     let text = std::fs::read_to_string(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
     // The variable table is the FMU's (same code): names to value references.
     let sim = scm::sim::Simulation::from_file(&scene).map_err(|e| e.to_string())?;
-    let vr = |name: &str| -> Result<u32, String> { sim.rows().iter().find(|(v, _)| v.name == name).map(|(v, _)| v.value_reference).ok_or_else(|| format!("the FMU has no variable {name}")) };
-    let out_vrs = job.outputs.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?;
-    let real_vrs = job.reals.iter().map(|(n, _)| vr(n)).collect::<Result<Vec<_>, _>>()?;
-    let string_vrs = job.strings.iter().map(|(n, _)| vr(n)).collect::<Result<Vec<_>, _>>()?;
+    let vr = |name: &str| -> Result<u32, String> {
+        sim.rows()
+            .iter()
+            .find(|(v, _)| v.name == name)
+            .map(|(v, _)| v.value_reference)
+            .ok_or_else(|| format!("the FMU has no variable {name}"))
+    };
+    let out_vrs = job
+        .outputs
+        .iter()
+        .map(|n| vr(n))
+        .collect::<Result<Vec<_>, _>>()?;
+    let real_vrs = job
+        .reals
+        .iter()
+        .map(|(n, _)| vr(n))
+        .collect::<Result<Vec<_>, _>>()?;
+    let string_vrs = job
+        .strings
+        .iter()
+        .map(|(n, _)| vr(n))
+        .collect::<Result<Vec<_>, _>>()?;
     let (in_vrs, in_rows) = match &job.inputs {
-        Some((names, rows)) => (names.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?, rows.clone()),
+        Some((names, rows)) => (
+            names.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?,
+            rows.clone(),
+        ),
         None => (vec![], vec![]),
     };
 
     let messages: Messages = Mutex::new(Vec::new());
     // SAFETY: see the module documentation.
     let log = unsafe { std::mem::transmute::<Fixed, Variadic>(logger) };
-    let callbacks = fmi2CallbackFunctions { logger: Some(log), allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: &messages as *const Messages as *mut c_void };
-    let uri = CString::new(format!("file://{}", job.dir.join("resources").display())).map_err(|e| e.to_string())?;
+    let callbacks = fmi2CallbackFunctions {
+        logger: Some(log),
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: &messages as *const Messages as *mut c_void,
+    };
+    let uri = CString::new(format!("file://{}", job.dir.join("resources").display()))
+        .map_err(|e| e.to_string())?;
     let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
     let name = CString::new("report").map_err(|e| e.to_string())?;
     let n_steps = (job.duration / job.comm).round() as usize;
@@ -186,13 +283,30 @@ fn run(args: &[String]) -> Result<String, String> {
     let mut y_out: Vec<Vec<f64>> = Vec::with_capacity(n_steps + 1);
     let mut wall = 0.0;
     let mut status = "ok";
-    let last_message = |m: &Messages| m.lock().unwrap_or_else(|e| e.into_inner()).last().cloned().unwrap_or_default();
+    let last_message = |m: &Messages| {
+        m.lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .last()
+            .cloned()
+            .unwrap_or_default()
+    };
     // SAFETY: every pointer passed below is valid for the length given with it, strings are
     // NUL-terminated and outlive the instance, and the instance is freed before they drop.
     unsafe {
-        let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, fmi2False, fmi2False);
+        let c = fmi2Instantiate(
+            name.as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            uri.as_ptr(),
+            &callbacks,
+            fmi2False,
+            fmi2False,
+        );
         if c.is_null() {
-            return Err(format!("fmi2Instantiate failed: {}", last_message(&messages)));
+            return Err(format!(
+                "fmi2Instantiate failed: {}",
+                last_message(&messages)
+            ));
         }
         let check = |s: fmi2Status, what: &str| -> Result<(), String> {
             if s <= fmi2Warning {
@@ -202,8 +316,15 @@ fn run(args: &[String]) -> Result<String, String> {
             }
         };
         let setup = (|| -> Result<(), String> {
-            check(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, n_steps as f64 * job.comm), "fmi2SetupExperiment")?;
-            for ((vr, (n, _)), v) in real_vrs.iter().zip(&job.reals).zip(job.reals.iter().map(|(_, v)| *v)) {
+            check(
+                fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, n_steps as f64 * job.comm),
+                "fmi2SetupExperiment",
+            )?;
+            for ((vr, (n, _)), v) in real_vrs
+                .iter()
+                .zip(&job.reals)
+                .zip(job.reals.iter().map(|(_, v)| *v))
+            {
                 check(fmi2SetReal(c, vr, 1, &v), &format!("fmi2SetReal({n})"))?;
             }
             for (vr, (n, v)) in string_vrs.iter().zip(&job.strings) {
@@ -211,7 +332,10 @@ fn run(args: &[String]) -> Result<String, String> {
                 let p = s.as_ptr();
                 check(fmi2SetString(c, vr, 1, &p), &format!("fmi2SetString({n})"))?;
             }
-            check(fmi2EnterInitializationMode(c), "fmi2EnterInitializationMode")?;
+            check(
+                fmi2EnterInitializationMode(c),
+                "fmi2EnterInitializationMode",
+            )?;
             check(fmi2ExitInitializationMode(c), "fmi2ExitInitializationMode")
         })();
         if let Err(e) = setup {
@@ -219,16 +343,23 @@ fn run(args: &[String]) -> Result<String, String> {
             return Err(e);
         }
         let mut y = vec![0.0; out_vrs.len()];
-        let mut read = |t: f64, t_out: &mut Vec<f64>, y_out: &mut Vec<Vec<f64>>| -> Result<(), String> {
-            check(fmi2GetReal(c, out_vrs.as_ptr(), out_vrs.len(), y.as_mut_ptr()), "fmi2GetReal")?;
-            t_out.push(t);
-            y_out.push(y.clone());
-            Ok(())
-        };
+        let mut read =
+            |t: f64, t_out: &mut Vec<f64>, y_out: &mut Vec<Vec<f64>>| -> Result<(), String> {
+                check(
+                    fmi2GetReal(c, out_vrs.as_ptr(), out_vrs.len(), y.as_mut_ptr()),
+                    "fmi2GetReal",
+                )?;
+                t_out.push(t);
+                y_out.push(y.clone());
+                Ok(())
+            };
         let mut failure = None;
         for k in 0..=n_steps {
             if let Some(row) = in_rows.get(k.min(in_rows.len().saturating_sub(1))) {
-                if let Err(e) = check(fmi2SetReal(c, in_vrs.as_ptr(), in_vrs.len(), row.as_ptr()), "fmi2SetReal(inputs)") {
+                if let Err(e) = check(
+                    fmi2SetReal(c, in_vrs.as_ptr(), in_vrs.len(), row.as_ptr()),
+                    "fmi2SetReal(inputs)",
+                ) {
                     failure = Some(e);
                     break;
                 }
@@ -256,8 +387,20 @@ fn run(args: &[String]) -> Result<String, String> {
             return Err(e);
         }
     }
-    let message = if status == "ok" { String::new() } else { last_message(&messages) };
-    let rows: Vec<String> = y_out.iter().map(|r| format!("[{}]", r.iter().map(|&x| json_num(x)).collect::<Vec<_>>().join(","))).collect();
+    let message = if status == "ok" {
+        String::new()
+    } else {
+        last_message(&messages)
+    };
+    let rows: Vec<String> = y_out
+        .iter()
+        .map(|r| {
+            format!(
+                "[{}]",
+                r.iter().map(|&x| json_num(x)).collect::<Vec<_>>().join(",")
+            )
+        })
+        .collect();
     Ok(format!(
         "{{\"status\": {}, \"message\": {}, \"wall_step_s\": {}, \"comm_steps\": {}, \"names\": [{}], \"t\": [{}], \"y\": [{}]}}",
         json_str(status),

@@ -62,7 +62,15 @@ struct Args {
 fn parse() -> Result<Args, String> {
     let raw: Vec<String> = std::env::args().skip(1).collect();
     let dir = PathBuf::from(raw.first().ok_or("usage: step_cost FMU_DIR --h S [--integrators a,b|all] [--set N=V]... [--warmup S] [--budget S] [--profile step|jacobian --iterations N]")?);
-    let mut a = Args { dir, h: 0.002, integrators: Integrator::ALL.to_vec(), sets: vec![], warmup: 0.0, budget: 0.3, profile: None };
+    let mut a = Args {
+        dir,
+        h: 0.002,
+        integrators: Integrator::ALL.to_vec(),
+        sets: vec![],
+        warmup: 0.0,
+        budget: 0.3,
+        profile: None,
+    };
     let mut iterations = 100;
     let mut profile = None;
     let mut it = raw[1..].iter();
@@ -76,11 +84,20 @@ fn parse() -> Result<Args, String> {
             "--iterations" => iterations = num(v)? as usize,
             "--profile" => profile = Some(v.clone()),
             "--set" => {
-                let (n, x) = v.split_once('=').ok_or_else(|| format!("expected NAME=VALUE, got {v}"))?;
+                let (n, x) = v
+                    .split_once('=')
+                    .ok_or_else(|| format!("expected NAME=VALUE, got {v}"))?;
                 a.sets.push((n.to_string(), num(x)?));
             }
             "--integrators" if v == "all" => {}
-            "--integrators" => a.integrators = v.split(',').map(|n| Integrator::from_name(n).ok_or_else(|| format!("unknown integrator {n}"))).collect::<Result<_, _>>()?,
+            "--integrators" => {
+                a.integrators = v
+                    .split(',')
+                    .map(|n| {
+                        Integrator::from_name(n).ok_or_else(|| format!("unknown integrator {n}"))
+                    })
+                    .collect::<Result<_, _>>()?
+            }
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -88,18 +105,22 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-
 /// The scene's simulation with the `--set` values applied, advanced by the warm-up (with the
 /// scene's own integrator at 1 ms internal steps, so every integrator is measured at the same
 /// state), then switched to `integrator` with internal step `h`.
-fn warmed_up(a: &Args, scene: &std::path::Path, integrator: Integrator) -> Result<Simulation, String> {
+fn warmed_up(
+    a: &Args,
+    scene: &std::path::Path,
+    integrator: Integrator,
+) -> Result<Simulation, String> {
     let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
     apply_sets(&mut sim, &a.sets)?;
     sim.model.step = 1e-3;
     sim.exit_initialization()?;
     let n = (a.warmup / 0.01).round() as usize;
     for k in 0..n {
-        sim.do_step(k as f64 * 0.01, 0.01).map_err(|e| format!("warm-up: {e:?}"))?;
+        sim.do_step(k as f64 * 0.01, 0.01)
+            .map_err(|e| format!("warm-up: {e:?}"))?;
     }
     sim.model.integrator = integrator;
     sim.model.step = a.h;
@@ -108,27 +129,55 @@ fn warmed_up(a: &Args, scene: &std::path::Path, integrator: Integrator) -> Resul
 
 fn apply_sets(sim: &mut Simulation, sets: &[(String, f64)]) -> Result<(), String> {
     for (name, value) in sets {
-        let vr = sim.rows().iter().find(|(v, _)| &v.name == name).map(|(v, _)| v.value_reference).ok_or_else(|| format!("no variable {name}"))?;
+        let vr = sim
+            .rows()
+            .iter()
+            .find(|(v, _)| &v.name == name)
+            .map(|(v, _)| v.value_reference)
+            .ok_or_else(|| format!("no variable {name}"))?;
         sim.set_real(vr, *value, scm::fmi::contract::Phase::Instantiated)?;
     }
     Ok(())
 }
 
 /// The step map `x' = step(x, u)` on a flat vector `[q, v, u]` → `[q', v']`.
-fn step_map<T: Scalar>(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[T]) -> Vec<T> {
-    let state = State { q: x[..nq].to_vec(), v: x[nq..nq + nv].to_vec() };
-    let next = model.step(&state, &x[nq + nv..], &prm.lift::<T>(), T::from(h)).expect("step");
+fn step_map<T: Scalar>(
+    model: &Model,
+    prm: &ContactParams<f64>,
+    h: f64,
+    nq: usize,
+    nv: usize,
+    x: &[T],
+) -> Vec<T> {
+    let state = State {
+        q: x[..nq].to_vec(),
+        v: x[nq..nq + nv].to_vec(),
+    };
+    let next = model
+        .step(&state, &x[nq + nv..], &prm.lift::<T>(), T::from(h))
+        .expect("step");
     next.q.into_iter().chain(next.v).collect()
 }
 
 /// Jacobian (rows: outputs, columns: inputs) with `Dual64`, one column per pass.
 // `j` is a column index: it indexes the inner vectors, which clippy does not see.
 #[allow(clippy::needless_range_loop)]
-fn jacobian_dual64(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+fn jacobian_dual64(
+    model: &Model,
+    prm: &ContactParams<f64>,
+    h: f64,
+    nq: usize,
+    nv: usize,
+    x: &[f64],
+) -> Vec<Vec<f64>> {
     let n = x.len();
     let mut jac = vec![vec![0.0; n]; nq + nv];
     for j in 0..n {
-        let xd: Vec<Dual64> = x.iter().enumerate().map(|(i, &xi)| Dual64::new(xi, if i == j { 1.0 } else { 0.0 })).collect();
+        let xd: Vec<Dual64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &xi)| Dual64::new(xi, if i == j { 1.0 } else { 0.0 }))
+            .collect();
         for (r, y) in step_map(model, prm, h, nq, nv, &xd).iter().enumerate() {
             jac[r][j] = y.eps;
         }
@@ -137,7 +186,14 @@ fn jacobian_dual64(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, n
 }
 
 /// Jacobian with `DualSVec64<N>`: N columns per pass.
-fn jacobian_vec<const N: usize>(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Vec<Vec<f64>> {
+fn jacobian_vec<const N: usize>(
+    model: &Model,
+    prm: &ContactParams<f64>,
+    h: f64,
+    nq: usize,
+    nv: usize,
+    x: &[f64],
+) -> Vec<Vec<f64>> {
     let n = x.len();
     let mut jac = vec![vec![0.0; n]; nq + nv];
     for first in (0..n).step_by(N) {
@@ -165,7 +221,15 @@ fn jacobian_vec<const N: usize>(model: &Model, prm: &ContactParams<f64>, h: f64,
 }
 
 /// Central finite differences with relative step `rel`: 2n + 1 steps.
-fn jacobian_fd(model: &Model, prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64], rel: f64) -> Vec<Vec<f64>> {
+fn jacobian_fd(
+    model: &Model,
+    prm: &ContactParams<f64>,
+    h: f64,
+    nq: usize,
+    nv: usize,
+    x: &[f64],
+    rel: f64,
+) -> Vec<Vec<f64>> {
     let n = x.len();
     let _nominal = step_map::<f64>(model, prm, h, nq, nv, x);
     let mut jac = vec![vec![0.0; n]; nq + nv];
@@ -192,14 +256,28 @@ fn max_abs(j: &[Vec<f64>]) -> f64 {
 }
 
 fn max_diff(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
-    a.iter().flatten().zip(b.iter().flatten()).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
 }
 
 /// The part a profiler looks at (`valgrind --tool=callgrind --toggle-collect='*profiled_section*'`):
 /// `iterations` steps or Jacobians from the warmed-up state, nothing else.
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn profiled_section(what: &str, iterations: usize, model: &Model, state: &State<f64>, ctrl: &[f64], prm: &ContactParams<f64>, h: f64, nq: usize, nv: usize, x: &[f64]) -> Result<(), String> {
+fn profiled_section(
+    what: &str,
+    iterations: usize,
+    model: &Model,
+    state: &State<f64>,
+    ctrl: &[f64],
+    prm: &ContactParams<f64>,
+    h: f64,
+    nq: usize,
+    nv: usize,
+    x: &[f64],
+) -> Result<(), String> {
     for _ in 0..iterations {
         match what {
             "step" => {
@@ -234,17 +312,32 @@ fn run() -> Result<String, String> {
         let model = sim0.model.clone();
         let prm = sim0.current.params;
         let (nq, nv) = (model.tree.nq, model.tree.nv);
-        let x: Vec<f64> = sim0.current.state.q.iter().chain(&sim0.current.state.v).chain(&sim0.current.ctrl).copied().collect();
+        let x: Vec<f64> = sim0
+            .current
+            .state
+            .q
+            .iter()
+            .chain(&sim0.current.state.v)
+            .chain(&sim0.current.ctrl)
+            .copied()
+            .collect();
         let state = sim0.current.state.clone();
         let ctrl = sim0.current.ctrl.clone();
         let h = a.h;
 
         // Through the C ABI: a fresh instance whose start values are the warmed-up state and
         // controls, with solver.step = h, so one fmi2DoStep(h) is one internal step of h.
-        let uri = CString::new(format!("file://{}", a.dir.join("resources").display())).map_err(|e| e.to_string())?;
+        let uri = CString::new(format!("file://{}", a.dir.join("resources").display()))
+            .map_err(|e| e.to_string())?;
         let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
         let name = CString::new("step_cost").map_err(|e| e.to_string())?;
-        let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
+        let callbacks = fmi2CallbackFunctions {
+            logger: None,
+            allocateMemory: None,
+            freeMemory: None,
+            stepFinished: None,
+            componentEnvironment: std::ptr::null_mut(),
+        };
         let mut starts: Vec<(u32, f64)> = Vec::new();
         let (mut vr_step, mut vr_int) = (None, None);
         for (var, slot) in sim0.rows() {
@@ -258,15 +351,32 @@ fn run() -> Result<String, String> {
                 _ => {}
             }
         }
-        let (vr_step, vr_int) = (vr_step.ok_or("no solver.step")?, vr_int.ok_or("no solver.integrator")?);
+        let (vr_step, vr_int) = (
+            vr_step.ok_or("no solver.step")?,
+            vr_int.ok_or("no solver.integrator")?,
+        );
         let int_name = CString::new(integrator.name()).map_err(|e| e.to_string())?;
         // SAFETY: pointers valid for the lengths given; strings outlive the instance.
         let c = unsafe {
-            let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, fmi2False, fmi2False);
+            let c = fmi2Instantiate(
+                name.as_ptr(),
+                fmi2CoSimulation,
+                guid.as_ptr(),
+                uri.as_ptr(),
+                &callbacks,
+                fmi2False,
+                fmi2False,
+            );
             if c.is_null() {
                 return Err("fmi2Instantiate failed".into());
             }
-            let ok = |s: fmi2Status| if s == fmi2OK { Ok(()) } else { Err(format!("FMI call returned {s}")) };
+            let ok = |s: fmi2Status| {
+                if s == fmi2OK {
+                    Ok(())
+                } else {
+                    Err(format!("FMI call returned {s}"))
+                }
+            };
             ok(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0))?;
             for (vr, v) in &starts {
                 ok(fmi2SetReal(c, vr, 1, v))?;
@@ -280,9 +390,22 @@ fn run() -> Result<String, String> {
         };
 
         if let Some((what, iterations)) = &a.profile {
-            profiled_section(what, *iterations, &model, &state, &ctrl, &prm, h, nq, nv, &x)?;
+            profiled_section(
+                what,
+                *iterations,
+                &model,
+                &state,
+                &ctrl,
+                &prm,
+                h,
+                nq,
+                nv,
+                &x,
+            )?;
             unsafe { fmi2FreeInstance(c) };
-            return Ok(format!("{{\"profiled\": \"{what}\", \"iterations\": {iterations}}}"));
+            return Ok(format!(
+                "{{\"profiled\": \"{what}\", \"iterations\": {iterations}}}"
+            ));
         }
 
         let mut sim = warmed_up(&a, &scene, integrator)?;
@@ -300,18 +423,36 @@ fn run() -> Result<String, String> {
         let j16 = jacobian_vec::<16>(&model, &prm, h, nq, nv, &x);
         // The crate's own API (what a user calls): `derivatives::step_jacobian_state`, the same
         // map in embedded coordinates, its columns [q, v, u].
-        let point = Point { q: state.q.clone(), v: state.v.clone(), u: ctrl.clone(), params: prm };
-        let crate_jacobian = || step_jacobian_state(&model, integrator, &point, h, Coordinates::Embedded).map_err(|e| format!("step_jacobian_state: {e}"));
+        let point = Point {
+            q: state.q.clone(),
+            v: state.v.clone(),
+            u: ctrl.clone(),
+            params: prm,
+        };
+        let crate_jacobian = || {
+            step_jacobian_state(&model, integrator, &point, h, Coordinates::Embedded)
+                .map_err(|e| format!("step_jacobian_state: {e}"))
+        };
         let jc = crate_jacobian()?.1.full;
-        let jc: Vec<Vec<f64>> = (0..jc.nrows()).map(|r| jc.row(r).iter().copied().collect()).collect();
+        let jc: Vec<Vec<f64>> = (0..jc.nrows())
+            .map(|r| jc.row(r).iter().copied().collect())
+            .collect();
         // Accuracy against central differences at the FD step that agrees best: a map with a
         // fast smooth transition (frictionloss below the stiction velocity, the dissipation
         // factor) has a truncation error that only a small step makes small, and rounding takes
         // over below it. The FD column is timed at 1e-6.
         let (fd_err, fd_rel) = FD_STEPS
             .iter()
-            .map(|&rel| (max_diff(&j64, &jacobian_fd(&model, &prm, h, nq, nv, &x, rel)), rel))
-            .fold((f64::INFINITY, 0.0), |best, e| if e.0 < best.0 { e } else { best });
+            .map(|&rel| {
+                (
+                    max_diff(&j64, &jacobian_fd(&model, &prm, h, nq, nv, &x, rel)),
+                    rel,
+                )
+            })
+            .fold(
+                (f64::INFINITY, 0.0),
+                |best, e| if e.0 < best.0 { e } else { best },
+            );
         // Every quantity is timed in interleaved rounds (one batch of each per round), so a
         // change of machine load affects all of them alike and their ratios stay meaningful.
         let times = time_interleaved(
@@ -350,7 +491,11 @@ fn run() -> Result<String, String> {
                 },
             ],
         );
-        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd, t_crate] = times[..] else { unreachable!() };
+        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd, t_crate] =
+            times[..]
+        else {
+            unreachable!()
+        };
         let ffi_step = (ffi_with_restore - restore).max(0.0);
         unsafe {
             fmi2FreeFMUstate(c, &mut fmu_state);
@@ -361,7 +506,12 @@ fn run() -> Result<String, String> {
         let crate_err = max_diff(&j64, &jc) / scale;
         let distances: Vec<String> = {
             let kin = model.tree.kinematics(&state.q, &state.v);
-            model.contacts(&kin, &prm).1.iter().map(|p| format!("{:e}", p.distance)).collect()
+            model
+                .contacts(&kin, &prm)
+                .1
+                .iter()
+                .map(|p| format!("{:e}", p.distance))
+                .collect()
         };
         items.push(format!(
             "{{\"integrator\": \"{}\", \"h\": {h:e}, \"n_inputs\": {}, \"n_outputs\": {}, \"pair_distances\": [{}], \
@@ -375,5 +525,9 @@ fn run() -> Result<String, String> {
             fd_err / scale,
         ));
     }
-    Ok(format!("{{\"scene\": \"{}\", \"results\": [{}]}}", scene.display(), items.join(", ")))
+    Ok(format!(
+        "{{\"scene\": \"{}\", \"results\": [{}]}}",
+        scene.display(),
+        items.join(", ")
+    ))
 }

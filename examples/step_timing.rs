@@ -21,14 +21,22 @@ fn main() {
         let mut sim = Simulation::from_file(&path).expect("t_push loads");
         sim.model.integrator = integrator;
         sim.model.step = h;
-        let vr = |sim: &Simulation, name: &str| sim.rows().iter().find(|(v, _)| v.name == name).expect("variable").0.value_reference;
+        let vr = |sim: &Simulation, name: &str| {
+            sim.rows()
+                .iter()
+                .find(|(v, _)| v.name == name)
+                .expect("variable")
+                .0
+                .value_reference
+        };
         let (ax, ay) = (vr(&sim, "act_x.ctrl"), vr(&sim, "act_y.ctrl"));
         let (mut free, mut contact) = (0.0, 0.0);
         let n = (2.5 / h).round() as usize;
         for k in 0..n {
             let t = k as f64 * h;
             sim.set_real(ax, 0.01, Phase::Simulation).expect("input");
-            sim.set_real(ay, (0.1 * t).min(0.25), Phase::Simulation).expect("input");
+            sim.set_real(ay, (0.1 * t).min(0.25), Phase::Simulation)
+                .expect("input");
             let start = Instant::now();
             if let Err(e) = sim.do_step(t, h) {
                 println!("{}: refused at t = {t}: {e:?}", integrator.name());
@@ -42,12 +50,28 @@ fn main() {
             }
         }
         let per = |total: f64, steps: f64| total / steps * 1e6;
-        rows.push((integrator.name(), per(free, 1.0 / h), per(contact, 1.5 / h), sim.current.state.q[1]));
+        rows.push((
+            integrator.name(),
+            per(free, 1.0 / h),
+            per(contact, 1.5 / h),
+            sim.current.state.q[1],
+        ));
     }
-    let base = rows.iter().find(|r| r.0 == "semi_implicit_euler").map(|r| (r.1, r.2)).unwrap_or((1.0, 1.0));
+    let base = rows
+        .iter()
+        .find(|r| r.0 == "semi_implicit_euler")
+        .map(|r| (r.1, r.2))
+        .unwrap_or((1.0, 1.0));
     println!("t_push, h = 2 ms: wall time per step (µs) and ratio to semi_implicit_euler");
-    println!("{:<22} {:>12} {:>7} {:>12} {:>7} {:>14}", "integrator", "no contact", "ratio", "pushing", "ratio", "T moved (m)");
+    println!(
+        "{:<22} {:>12} {:>7} {:>12} {:>7} {:>14}",
+        "integrator", "no contact", "ratio", "pushing", "ratio", "T moved (m)"
+    );
     for (name, free, contact, moved) in rows {
-        println!("{name:<22} {free:>12.1} {:>7.2} {contact:>12.1} {:>7.2} {moved:>14.5}", free / base.0, contact / base.1);
+        println!(
+            "{name:<22} {free:>12.1} {:>7.2} {contact:>12.1} {:>7.2} {moved:>14.5}",
+            free / base.0,
+            contact / base.1
+        );
     }
 }

@@ -58,7 +58,9 @@ impl Collider {
     pub fn signed_distance<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
         match self {
             Collider::Aopc(s) => ssdf(s, p, eps1),
-            Collider::HalfSpace { point, normal } => (p - point.map(c::<T>)).dot(&normal.map(c::<T>)),
+            Collider::HalfSpace { point, normal } => {
+                (p - point.map(c::<T>)).dot(&normal.map(c::<T>))
+            }
         }
     }
 
@@ -101,7 +103,13 @@ pub struct QueryRegion {
 impl QueryRegion {
     /// The whole ball (the slab is the ball's extent along any axis).
     pub fn ball(centre: Vector3<f64>, radius: f64) -> Self {
-        QueryRegion { centre, radius, m: Vector3::z(), lo: -radius, hi: radius }
+        QueryRegion {
+            centre,
+            radius,
+            m: Vector3::z(),
+            lo: -radius,
+            hi: radius,
+        }
     }
 
     /// A lower bound of `nᵀy` over the offsets `y = x - centre` of the region's points:
@@ -120,7 +128,11 @@ impl QueryRegion {
         let beta = (n - self.m * alpha).norm();
         let len = (alpha * alpha + beta * beta).sqrt();
         let (lo, hi) = (self.lo.max(-r), self.hi.min(r).max(self.lo.max(-r)));
-        let s = if len > 0.0 { (-alpha * r / len).clamp(lo, hi) } else { lo };
+        let s = if len > 0.0 {
+            (-alpha * r / len).clamp(lo, hi)
+        } else {
+            lo
+        };
         // The slack covers the rounding of these few operations (and of |m| = 1 to rounding).
         alpha * s - beta * (r * r - s * s).max(0.0).sqrt() - 1e-12 * (len * r)
     }
@@ -176,9 +188,18 @@ impl QueryRegion {
 ///
 /// The walk gives up (returns `false`) after 16 leaves, so a large region costs little: the
 /// caller then splits it.
-pub fn ssdf_exceeds_over(planes: &Collider, q: &QueryRegion, t: f64, eps1: f64, hint: usize) -> (bool, usize) {
+pub fn ssdf_exceeds_over(
+    planes: &Collider,
+    q: &QueryRegion,
+    t: f64,
+    eps1: f64,
+    hint: usize,
+) -> (bool, usize) {
     match planes {
-        Collider::HalfSpace { point, normal } => (normal.dot(&(q.centre - point)) + q.min_lin(normal) > t, usize::MAX),
+        Collider::HalfSpace { point, normal } => (
+            normal.dot(&(q.centre - point)) + q.min_lin(normal) > t,
+            usize::MAX,
+        ),
         Collider::Aopc(s) => {
             let mut open = Vec::new();
             aopc_exceeds(s, q, t, eps1, hint, None, &[0], &mut open)
@@ -201,7 +222,11 @@ const GIVE_UP_RATIO: f64 = 0.3;
 #[inline]
 fn band_need(t: f64, vmax: f64) -> f64 {
     let tt = t + PRUNE_TOLERANCE * vmax;
-    (if tt >= 0.0 { tt / (1.0 - PRUNE_TOLERANCE) } else { tt }) + 1e-12 * (tt.abs() + vmax)
+    (if tt >= 0.0 {
+        tt / (1.0 - PRUNE_TOLERANCE)
+    } else {
+        tt
+    }) + 1e-12 * (tt.abs() + vmax)
 }
 
 /// The walk of [`ssdf_exceeds_over`] for an AOPC, starting from the nodes `front` of its
@@ -233,7 +258,16 @@ fn band_need(t: f64, vmax: f64) -> f64 {
 /// small unsettled cluster are rarely settled either; descending to them (the 16-leaf budget
 /// alone) spent most of a 100k-point sphere–box evaluation on proofs that then failed.
 #[allow(clippy::too_many_arguments)]
-fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax: Option<f64>, front: &[u32], open: &mut Vec<u32>) -> (bool, usize) {
+fn aopc_exceeds(
+    s: &Aopc,
+    q: &QueryRegion,
+    t: f64,
+    eps1: f64,
+    hint: usize,
+    vmax: Option<f64>,
+    front: &[u32],
+    open: &mut Vec<u32>,
+) -> (bool, usize) {
     let bvh = s.bvh();
     if bvh.is_empty() || front.is_empty() {
         return (true, usize::MAX);
@@ -245,7 +279,11 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
     if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
         let oc = c - rad.centre;
         let l = oc.norm();
-        let s_lo = if l > 0.0 { l + q.min_lin(&(oc / l)) } else { 0.0 };
+        let s_lo = if l > 0.0 {
+            l + q.min_lin(&(oc / l))
+        } else {
+            0.0
+        };
         if rad.plane_bound(s_lo, m1) > band_need(t, v) {
             return (true, hint);
         }
@@ -261,7 +299,11 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
             return (true, hint);
         }
     }
-    let (j, dj) = if vmax.is_some() && bvh.len() > 2048 { bvh.near(c, hint) } else { bvh.nearest_hint(c, hint) };
+    let (j, dj) = if vmax.is_some() && bvh.len() > 2048 {
+        bvh.near(c, hint)
+    } else {
+        bvh.nearest_hint(c, hint)
+    };
     let (pj, nj) = (bvh.points[j], bvh.normals[j]);
     let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
     // The witness is relevant at the centre; if its plane comes below `need` in the region,
@@ -279,7 +321,9 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
     while let Some(ni) = stack.pop() {
         let node = &bvh.nodes[ni as usize];
         let gap = node.min_sq_dist(c) - dj;
-        if gap - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1 || gap + 2.0 * (q.min_lin(&(pj - node.centre)) - r * node.radius) > m1 {
+        if gap - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1
+            || gap + 2.0 * (q.min_lin(&(pj - node.centre)) - r * node.radius) > m1
+        {
             continue; // irrelevant cluster
         }
         // Interval bound of nᵀ(x - p) over the ball's box, the cluster's box and normals' box.
@@ -319,10 +363,12 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
                 if v0 + q.min_lin(ni_) > need {
                     continue;
                 }
-                if ball_halfspace_min(v0, ni_, r, &a, a.norm(), m1 - gap) <= need && !patch.is_some_and(|p| {
-                    let depth = p.offset - p.normal.dot(pi) - 1e-12 * pi.norm();
-                    covered_out(p, c, r, ni_, need - v0, (depth, depth), m1)
-                }) {
+                if ball_halfspace_min(v0, ni_, r, &a, a.norm(), m1 - gap) <= need
+                    && !patch.is_some_and(|p| {
+                        let depth = p.offset - p.normal.dot(pi) - 1e-12 * pi.norm();
+                        covered_out(p, c, r, ni_, need - v0, (depth, depth), m1)
+                    })
+                {
                     // The answer is `false`: stop here, leaving this leaf and every node not
                     // yet examined open.
                     open.push(ni);
@@ -345,7 +391,13 @@ fn aopc_exceeds(s: &Aopc, q: &QueryRegion, t: f64, eps1: f64, hint: usize, vmax:
 /// `v_i(x) = n_iᵀ(x - b) - n_iᵀ(p_i - b) ≥ aᵀ(x - b) - w |x - b| - σ`, so a point of the
 /// cluster can be at or below `need` only where `aᵀ(x - b) ≤ need + σ + w (|c - b| + r)`; the
 /// depths `o - nᵀp_i` behind the patch's plane are bounded by the cluster's box.
-fn cluster_covered(p: &crate::geometry::patch::Patch, node: &crate::geometry::bvh::Node, q: &QueryRegion, need: f64, m1: f64) -> bool {
+fn cluster_covered(
+    p: &crate::geometry::patch::Patch,
+    node: &crate::geometry::bvh::Node,
+    q: &QueryRegion,
+    need: f64,
+    m1: f64,
+) -> bool {
     if node.cos_cone < 0.0 {
         return false;
     }
@@ -364,7 +416,15 @@ fn cluster_covered(p: &crate::geometry::patch::Patch, node: &crate::geometry::bv
     let w = (2.0 - 2.0 * node.cos_cone).max(0.0).sqrt() + 1e-12;
     let cb = q.centre - node.centre;
     let beta = need + node.support + w * (cb.norm() + q.radius) - node.axis.dot(&cb);
-    covered_out(p, &q.centre, q.radius, &node.axis, beta + 1e-12 * (beta.abs() + cb.norm() + q.radius), depth, m1)
+    covered_out(
+        p,
+        &q.centre,
+        q.radius,
+        &node.axis,
+        beta + 1e-12 * (beta.abs() + cb.norm() + q.radius),
+        depth,
+        m1,
+    )
 }
 
 /// The covering argument ([`crate::geometry::patch`]): points `i` that lie at depths
@@ -390,7 +450,15 @@ fn cluster_covered(p: &crate::geometry::patch::Patch, node: &crate::geometry::bv
 /// prove those points out over a region a few spacings wide, but the bottom face's patch
 /// bounds `d_min` at every `x` below it, and a side point a depth `s` behind the bottom's
 /// plane is out by about `2 s u`, the depth times the distance.
-fn covered_out(p: &crate::geometry::patch::Patch, c: &Vector3<f64>, r: f64, a: &Vector3<f64>, beta: f64, s: (f64, f64), m1: f64) -> bool {
+fn covered_out(
+    p: &crate::geometry::patch::Patch,
+    c: &Vector3<f64>,
+    r: f64,
+    a: &Vector3<f64>,
+    beta: f64,
+    s: (f64, f64),
+    m1: f64,
+) -> bool {
     if s.0 <= 0.0 {
         return false;
     }
@@ -438,13 +506,24 @@ fn cone_bound(node: &crate::geometry::bvh::Node, q: &QueryRegion) -> f64 {
     let aw = a.dot(&w);
     let big_a = aw + q.min_lin(a);
     let big_p = (w - a * aw).norm() + q.radius;
-    let f = if big_a >= 0.0 { big_a * node.cos_cone - big_p * node.sin_cone } else { (big_a - big_p * node.sin_cone).max(-(big_a * big_a + big_p * big_p).sqrt()) };
+    let f = if big_a >= 0.0 {
+        big_a * node.cos_cone - big_p * node.sin_cone
+    } else {
+        (big_a - big_p * node.sin_cone).max(-(big_a * big_a + big_p * big_p).sqrt())
+    };
     f - node.support - 1e-12 * (w.norm() + q.radius)
 }
 
 /// `min { v0 + nᵀy : |y| ≤ r, aᵀy ≤ β }` (closed form; `+∞` if the set is empty), with
 /// `alen = |a|`, less a relative rounding allowance.
-fn ball_halfspace_min(v0: f64, n: &Vector3<f64>, r: f64, a: &Vector3<f64>, alen: f64, beta: f64) -> f64 {
+fn ball_halfspace_min(
+    v0: f64,
+    n: &Vector3<f64>,
+    r: f64,
+    a: &Vector3<f64>,
+    alen: f64,
+    beta: f64,
+) -> f64 {
     let slack = 1e-12 * (v0.abs() + r);
     // The ball's own minimiser y* = -r n, if it satisfies the constraint.
     if -r * a.dot(n) <= beta {
@@ -509,7 +588,12 @@ impl<T: Scalar> Relative<T> {
 impl<T: Scalar> Frame<T> {
     /// A body at rest at the world origin (the world itself).
     pub fn identity() -> Self {
-        Frame { rotation: Matrix3::identity(), origin: Vector3::zeros(), linvel: Vector3::zeros(), angvel: Vector3::zeros() }
+        Frame {
+            rotation: Matrix3::identity(),
+            origin: Vector3::zeros(),
+            linvel: Vector3::zeros(),
+            angvel: Vector3::zeros(),
+        }
     }
 
     /// This body's motion in the frame of `planes`. Differences of world positions are taken
@@ -545,8 +629,17 @@ impl<T: Scalar> SeparationField<T> {
 
 /// Points of `query` (with frame `fq`) in the frame of the other body `fp`, and their SSDFs
 /// with respect to `planes`.
-fn field_one_side<T: Scalar>(query: &Collider, fq: &Frame<T>, planes: &Collider, fp: &Frame<T>, eps1: T, naive: bool) -> Vec<T> {
-    let Collider::Aopc(s) = query else { return Vec::new() };
+fn field_one_side<T: Scalar>(
+    query: &Collider,
+    fq: &Frame<T>,
+    planes: &Collider,
+    fp: &Frame<T>,
+    eps1: T,
+    naive: bool,
+) -> Vec<T> {
+    let Collider::Aopc(s) = query else {
+        return Vec::new();
+    };
     let rel = fq.relative_to(fp);
     s.points
         .iter()
@@ -563,13 +656,31 @@ fn field_one_side<T: Scalar>(query: &Collider, fq: &Frame<T>, planes: &Collider,
 
 /// Soft collision detection between two colliders: the separation field, every entry (each
 /// SSDF pruned to its bound).
-pub fn separation_field<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T) -> SeparationField<T> {
-    SeparationField { of_a: field_one_side(a, fa, b, fb, eps1, false), of_b: field_one_side(b, fb, a, fa, eps1, false) }
+pub fn separation_field<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+) -> SeparationField<T> {
+    SeparationField {
+        of_a: field_one_side(a, fa, b, fb, eps1, false),
+        of_b: field_one_side(b, fb, a, fa, eps1, false),
+    }
 }
 
 /// [`separation_field`] with every SSDF summed over every point (the reference).
-pub fn separation_field_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T) -> SeparationField<T> {
-    SeparationField { of_a: field_one_side(a, fa, b, fb, eps1, true), of_b: field_one_side(b, fb, a, fa, eps1, true) }
+pub fn separation_field_naive<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+) -> SeparationField<T> {
+    SeparationField {
+        of_a: field_one_side(a, fa, b, fb, eps1, true),
+        of_b: field_one_side(b, fb, a, fa, eps1, true),
+    }
 }
 
 /// One evaluated entry of the separation field: a query point and its SSDF w.r.t. the other
@@ -610,7 +721,14 @@ pub struct SeparationBand<T> {
 
 /// Soft collision detection with pruning: the entries of the separation field that matter
 /// (module documentation). `eps1` in m², `eps2` in m.
-pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T, eps2: T) -> SeparationBand<T> {
+pub fn separation_band<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+    eps2: T,
+) -> SeparationBand<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     band_of(a, b, &rels, eps1, eps2, 0.0, &mut Relevant::default(), None)
 }
@@ -621,9 +739,23 @@ pub fn separation_band<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb:
 /// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
 /// real parts) is pushed, in the order of the entries.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn band_of<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2], eps1: T, eps2: T, eps3: f64, scratch: &mut Relevant, mut grads: Option<&mut Vec<Vector3<f64>>>) -> SeparationBand<T> {
+pub(crate) fn band_of<T: Scalar>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    eps1: T,
+    eps2: T,
+    eps3: f64,
+    scratch: &mut Relevant,
+    mut grads: Option<&mut Vec<Vector3<f64>>>,
+) -> SeparationBand<T> {
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
-    let mut band = SeparationBand { entries: Vec::new(), min: f64::INFINITY, skipped: 0, margin };
+    let mut band = SeparationBand {
+        entries: Vec::new(),
+        min: f64::INFINITY,
+        skipped: 0,
+        margin,
+    };
     let (e1, e2) = (re(eps1), re(eps2));
     // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
     // nearer-first to the other body's centre (where the deepest points usually are), so that
@@ -636,144 +768,193 @@ pub(crate) fn band_of<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>
     let mut seeds = [(u32::MAX, false); 2];
     let (mut arena, mut front): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
     for pass in 0..2 {
-    for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
-        let Collider::Aopc(s) = query else { continue };
-        if s.is_empty() || matches!(planes, Collider::Aopc(o) if o.is_empty()) {
-            continue;
-        }
-        let rot = rel.rotation.map(re);
-        let tr = crate::scalar::re3(&rel.translation);
-        let bvh = s.bvh();
-        // Children are visited nearer-first to the other body's centre, so that a small Φ is
-        // found early and prunes the rest.
-        let target = match planes {
-            Collider::Aopc(o) => o.bvh().nodes[0].centre,
-            Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
-        };
-        // A bound on |x - p_i| for every query point of this side and every point of the
-        // other body (the two root spheres), for `need` to be one threshold for the walk.
-        let vmax = match planes {
-            Collider::Aopc(o) => {
-                let (qr, or) = (&bvh.nodes[0], &o.bvh().nodes[0]);
-                ((rot * qr.centre + tr - or.centre).norm() + qr.radius + or.radius) * (1.0 + 1e-12)
+        for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
+            let Collider::Aopc(s) = query else { continue };
+            if s.is_empty() || matches!(planes, Collider::Aopc(o) if o.is_empty()) {
+                continue;
             }
-            Collider::HalfSpace { .. } => f64::NAN,
-        };
-        // Each entry: node, the witness of its parent's bound (a start for the next search),
-        // and the parent's open nodes of the other hierarchy (`arena[from..to]`; see
-        // `aopc_exceeds`): a node walks only what its parent left open. The arena grows and
-        // shrinks with the depth-first walk.
-        arena.clear();
-        arena.push(0);
-        let mut stack = vec![(0u32, u32::MAX, 0u32, 1u32)];
-        if pass == 0 {
-            let mut ni = 0u32;
-            while !bvh.nodes[ni as usize].is_leaf() {
-                let (l, r) = (bvh.nodes[ni as usize].left, bvh.nodes[ni as usize].left + 1);
-                let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
-                let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
-                ni = if dl <= dr { l } else { r };
-            }
-            seeds[side as usize] = (ni, false);
-            stack[0].0 = ni;
-        }
-        let seed = seeds[side as usize];
-        while let Some((ni, hint, from, to)) = stack.pop() {
-            let node = &bvh.nodes[ni as usize];
-            if pass == 1 && ni == seed.0 {
-                continue; // done in the seed pass
-            }
-            arena.truncate(to as usize);
-            let centre = rot * node.centre + tr;
-            let mut witness = u32::MAX;
-            let (mut cfrom, mut cto) = (from, to);
-            if band.min.is_finite() {
-                // The node's points lie in its ball cut by the slab along its normal cone's axis.
-                let region = QueryRegion { centre, radius: node.radius, m: rot * node.axis, lo: node.slab_lo, hi: node.slab_hi };
-                let t = band.min + margin * e2;
-                let (exceeds, j) = match planes {
-                    Collider::Aopc(o) => {
-                        front.clear();
-                        front.extend_from_slice(&arena[from as usize..to as usize]);
-                        let r = aopc_exceeds(o, &region, t, e1, hint as usize, Some(vmax), &front, &mut arena);
-                        (cfrom, cto) = (to, arena.len() as u32);
-                        r
-                    }
-                    Collider::HalfSpace { .. } => ssdf_exceeds_over(planes, &region, t, e1, usize::MAX),
-                };
-                if exceeds {
-                    let seed_node = &bvh.nodes[seed.0 as usize];
-                    let holds_seed = pass == 1 && seed.1 && (node.start..node.start + node.count).contains(&seed_node.start);
-                    band.skipped += (node.count - if holds_seed { seed_node.count } else { 0 }) as usize;
-                    continue;
+            let rot = rel.rotation.map(re);
+            let tr = crate::scalar::re3(&rel.translation);
+            let bvh = s.bvh();
+            // Children are visited nearer-first to the other body's centre, so that a small Φ is
+            // found early and prunes the rest.
+            let target = match planes {
+                Collider::Aopc(o) => o.bvh().nodes[0].centre,
+                Collider::HalfSpace { point, normal } => {
+                    point - normal * 1e3 * bvh.diameter.max(1.0)
                 }
-                witness = j as u32;
+            };
+            // A bound on |x - p_i| for every query point of this side and every point of the
+            // other body (the two root spheres), for `need` to be one threshold for the walk.
+            let vmax = match planes {
+                Collider::Aopc(o) => {
+                    let (qr, or) = (&bvh.nodes[0], &o.bvh().nodes[0]);
+                    ((rot * qr.centre + tr - or.centre).norm() + qr.radius + or.radius)
+                        * (1.0 + 1e-12)
+                }
+                Collider::HalfSpace { .. } => f64::NAN,
+            };
+            // Each entry: node, the witness of its parent's bound (a start for the next search),
+            // and the parent's open nodes of the other hierarchy (`arena[from..to]`; see
+            // `aopc_exceeds`): a node walks only what its parent left open. The arena grows and
+            // shrinks with the depth-first walk.
+            arena.clear();
+            arena.push(0);
+            let mut stack = vec![(0u32, u32::MAX, 0u32, 1u32)];
+            if pass == 0 {
+                let mut ni = 0u32;
+                while !bvh.nodes[ni as usize].is_leaf() {
+                    let (l, r) = (bvh.nodes[ni as usize].left, bvh.nodes[ni as usize].left + 1);
+                    let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
+                    let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
+                    ni = if dl <= dr { l } else { r };
+                }
+                seeds[side as usize] = (ni, false);
+                stack[0].0 = ni;
             }
-            if node.is_leaf() {
-                if pass == 0 {
-                    seeds[side as usize].1 = true;
+            let seed = seeds[side as usize];
+            while let Some((ni, hint, from, to)) = stack.pop() {
+                let node = &bvh.nodes[ni as usize];
+                if pass == 1 && ni == seed.0 {
+                    continue; // done in the seed pass
                 }
-                // One walk of the other body's hierarchy for the whole leaf when the leaf is
-                // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
-                // candidates are then about the points each query needs anyway. A leaf wider
-                // than that (sharp ε1) would gather far more candidates than any one point
-                // keeps, so each point walks on its own, from its neighbour's nearest point.
-                // Both give the same relevant set ([`Relevant`]).
-                let share = match planes {
-                    Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
-                    Collider::HalfSpace { .. } => false,
-                };
-                if let (true, Collider::Aopc(o)) = (share, planes) {
-                    scratch.find_ball(o, &centre, node.radius * (1.0 + 1e-12) + 1e-12 * centre.norm(), e1);
-                }
-                for k in node.start..node.start + node.count {
-                    let x = rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
-                    let entry = match planes {
+                arena.truncate(to as usize);
+                let centre = rot * node.centre + tr;
+                let mut witness = u32::MAX;
+                let (mut cfrom, mut cto) = (from, to);
+                if band.min.is_finite() {
+                    // The node's points lie in its ball cut by the slab along its normal cone's axis.
+                    let region = QueryRegion {
+                        centre,
+                        radius: node.radius,
+                        m: rot * node.axis,
+                        lo: node.slab_lo,
+                        hi: node.slab_hi,
+                    };
+                    let t = band.min + margin * e2;
+                    let (exceeds, j) = match planes {
                         Collider::Aopc(o) => {
-                            if share {
-                                scratch.find_within(o, &crate::scalar::re3(&x), e1);
-                            } else {
-                                let hint = scratch.nearest;
-                                scratch.find(o, &crate::scalar::re3(&x), e1, hint);
-                            }
-                            let (phi, springs) = match grads.as_deref_mut() {
-                                Some(g) => {
-                                    let mut sink = GradientSink::default();
-                                    let (phi, w, springs) = ssdf_over(o, &x, eps1, eps3, scratch, &mut sink);
-                                    g.push(sink.gradient(phi.re(), w.re(), e1));
-                                    (phi, springs)
-                                }
-                                None => {
-                                    let (phi, _, springs) = ssdf_over(o, &x, eps1, eps3, scratch, &mut NoSink);
-                                    (phi, springs)
-                                }
-                            };
-                            BandEntry { side, k, phi, dmin: scratch.dmin, springs, nearest: scratch.nearest as u32 }
+                            front.clear();
+                            front.extend_from_slice(&arena[from as usize..to as usize]);
+                            let r = aopc_exceeds(
+                                o,
+                                &region,
+                                t,
+                                e1,
+                                hint as usize,
+                                Some(vmax),
+                                &front,
+                                &mut arena,
+                            );
+                            (cfrom, cto) = (to, arena.len() as u32);
+                            r
                         }
-                        Collider::HalfSpace { normal, .. } => {
-                            let phi = planes.signed_distance(&x, eps1);
-                            if let Some(g) = grads.as_deref_mut() {
-                                g.push(*normal);
-                            }
-                            let springs = if eps3 > 0.0 { crate::scalar::softplus(-phi.re(), eps3) * (1.0 + 1e-12) } else { f64::INFINITY };
-                            BandEntry { side, k, phi, dmin: f64::INFINITY, springs, nearest: u32::MAX }
+                        Collider::HalfSpace { .. } => {
+                            ssdf_exceeds_over(planes, &region, t, e1, usize::MAX)
                         }
                     };
-                    band.min = band.min.min(entry.phi.re());
-                    band.entries.push(entry);
+                    if exceeds {
+                        let seed_node = &bvh.nodes[seed.0 as usize];
+                        let holds_seed = pass == 1
+                            && seed.1
+                            && (node.start..node.start + node.count).contains(&seed_node.start);
+                        band.skipped +=
+                            (node.count - if holds_seed { seed_node.count } else { 0 }) as usize;
+                        continue;
+                    }
+                    witness = j as u32;
                 }
-            } else {
-                let (l, r) = (node.left, node.left + 1);
-                let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
-                let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
-                if dl <= dr {
-                    stack.extend([(r, witness, cfrom, cto), (l, witness, cfrom, cto)]);
+                if node.is_leaf() {
+                    if pass == 0 {
+                        seeds[side as usize].1 = true;
+                    }
+                    // One walk of the other body's hierarchy for the whole leaf when the leaf is
+                    // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
+                    // candidates are then about the points each query needs anyway. A leaf wider
+                    // than that (sharp ε1) would gather far more candidates than any one point
+                    // keeps, so each point walks on its own, from its neighbour's nearest point.
+                    // Both give the same relevant set ([`Relevant`]).
+                    let share = match planes {
+                        Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
+                        Collider::HalfSpace { .. } => false,
+                    };
+                    if let (true, Collider::Aopc(o)) = (share, planes) {
+                        scratch.find_ball(
+                            o,
+                            &centre,
+                            node.radius * (1.0 + 1e-12) + 1e-12 * centre.norm(),
+                            e1,
+                        );
+                    }
+                    for k in node.start..node.start + node.count {
+                        let x =
+                            rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
+                        let entry = match planes {
+                            Collider::Aopc(o) => {
+                                if share {
+                                    scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                                } else {
+                                    let hint = scratch.nearest;
+                                    scratch.find(o, &crate::scalar::re3(&x), e1, hint);
+                                }
+                                let (phi, springs) = match grads.as_deref_mut() {
+                                    Some(g) => {
+                                        let mut sink = GradientSink::default();
+                                        let (phi, w, springs) =
+                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut sink);
+                                        g.push(sink.gradient(phi.re(), w.re(), e1));
+                                        (phi, springs)
+                                    }
+                                    None => {
+                                        let (phi, _, springs) =
+                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut NoSink);
+                                        (phi, springs)
+                                    }
+                                };
+                                BandEntry {
+                                    side,
+                                    k,
+                                    phi,
+                                    dmin: scratch.dmin,
+                                    springs,
+                                    nearest: scratch.nearest as u32,
+                                }
+                            }
+                            Collider::HalfSpace { normal, .. } => {
+                                let phi = planes.signed_distance(&x, eps1);
+                                if let Some(g) = grads.as_deref_mut() {
+                                    g.push(*normal);
+                                }
+                                let springs = if eps3 > 0.0 {
+                                    crate::scalar::softplus(-phi.re(), eps3) * (1.0 + 1e-12)
+                                } else {
+                                    f64::INFINITY
+                                };
+                                BandEntry {
+                                    side,
+                                    k,
+                                    phi,
+                                    dmin: f64::INFINITY,
+                                    springs,
+                                    nearest: u32::MAX,
+                                }
+                            }
+                        };
+                        band.min = band.min.min(entry.phi.re());
+                        band.entries.push(entry);
+                    }
                 } else {
-                    stack.extend([(l, witness, cfrom, cto), (r, witness, cfrom, cto)]);
+                    let (l, r) = (node.left, node.left + 1);
+                    let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
+                    let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
+                    if dl <= dr {
+                        stack.extend([(r, witness, cfrom, cto), (l, witness, cfrom, cto)]);
+                    } else {
+                        stack.extend([(l, witness, cfrom, cto), (r, witness, cfrom, cto)]);
+                    }
                 }
             }
         }
-    }
     }
     band
 }
@@ -808,7 +989,12 @@ impl<T: Scalar> SeparationDistribution<T> {
         let min = values.clone().map(|p| p.re()).fold(f64::INFINITY, f64::min);
         if !min.is_finite() {
             // Empty field, or nothing to collide with: no contact.
-            return SeparationDistribution { min, eps: eps2, normaliser: T::one(), distance: c(f64::INFINITY) };
+            return SeparationDistribution {
+                min,
+                eps: eps2,
+                normaliser: T::one(),
+                distance: c(f64::INFINITY),
+            };
         }
         let inv = eps2.recip();
         let (mut sum, mut acc) = (T::zero(), T::zero());
@@ -823,7 +1009,12 @@ impl<T: Scalar> SeparationDistribution<T> {
             sum += w;
             acc += w * phi;
         }
-        SeparationDistribution { min, eps: eps2, normaliser: sum, distance: acc / sum }
+        SeparationDistribution {
+            min,
+            eps: eps2,
+            normaliser: sum,
+            distance: acc / sum,
+        }
     }
 
     /// `W_f` for entry `f` whose value is `phi`.
@@ -844,7 +1035,15 @@ pub const TOPK_TEMPERATURE: f64 = 0.1;
 /// the world frame (m). Vertices of faces whose weight is below the pruning bound carry
 /// nothing (their `z` would be below τ). If fewer than `k` vertices carry weight, the last
 /// point repeats. Empty when neither body has points.
-pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, eps1: T, eps2: T, k: usize) -> Vec<Vector3<T>> {
+pub fn contact_points<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+    eps2: T,
+    k: usize,
+) -> Vec<Vector3<T>> {
     let band = separation_band(a, fa, b, fb, eps1, eps2);
     let dist = SeparationDistribution::from_band(&band, eps2);
     if !dist.min.is_finite() || k == 0 {
@@ -855,7 +1054,9 @@ pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: 
     let cutoff = dist.min + band.margin * re(eps2);
     let mut z: std::collections::HashMap<(u8, u32), T> = std::collections::HashMap::new();
     for e in band.entries.iter().filter(|e| e.phi.re() <= cutoff) {
-        let Collider::Aopc(s) = (if e.side == 0 { a } else { b }) else { continue };
+        let Collider::Aopc(s) = (if e.side == 0 { a } else { b }) else {
+            continue;
+        };
         let face = s.faces[s.bvh().index[e.k as usize] as usize];
         let w = dist.weight(0, e.phi);
         for v in face {
@@ -879,15 +1080,38 @@ pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: 
     let mut ell: Vec<T> = verts.iter().map(|(_, z)| z.ln() * inv_t).collect();
     let mut out: Vec<Vector3<T>> = Vec::with_capacity(k);
     for _ in 0..k {
-        let (imax, lmax) = ell.iter().enumerate().filter(|(_, l)| l.re().is_finite()).fold((usize::MAX, f64::NEG_INFINITY), |m, (i, l)| if l.re() > m.1 { (i, l.re()) } else { m });
+        let (imax, lmax) = ell
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.re().is_finite())
+            .fold((usize::MAX, f64::NEG_INFINITY), |m, (i, l)| {
+                if l.re() > m.1 {
+                    (i, l.re())
+                } else {
+                    m
+                }
+            });
         if imax == usize::MAX {
             let last = out.last().copied().unwrap_or_else(Vector3::zeros);
             out.push(last);
             continue;
         }
-        let e: Vec<T> = ell.iter().map(|l| if l.re().is_finite() { (*l - lmax).exp() } else { T::zero() }).collect();
+        let e: Vec<T> = ell
+            .iter()
+            .map(|l| {
+                if l.re().is_finite() {
+                    (*l - lmax).exp()
+                } else {
+                    T::zero()
+                }
+            })
+            .collect();
         let total = e.iter().fold(T::zero(), |acc, x| acc + *x);
-        let others = e.iter().enumerate().filter(|(i, _)| *i != imax).fold(T::zero(), |acc, (_, x)| acc + *x);
+        let others = e
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != imax)
+            .fold(T::zero(), |acc, (_, x)| acc + *x);
         let mut c = Vector3::zeros();
         for (ev, y) in e.iter().zip(&ys) {
             c += y * (*ev / total);
@@ -899,8 +1123,16 @@ pub fn contact_points<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: 
             if !l.re().is_finite() {
                 continue;
             }
-            let one_minus = if i == imax { others / total } else { T::one() - e[i] / total };
-            *l = if one_minus.re() > 0.0 { *l + one_minus.ln() } else { T::from(f64::NEG_INFINITY) };
+            let one_minus = if i == imax {
+                others / total
+            } else {
+                T::one() - e[i] / total
+            };
+            *l = if one_minus.re() > 0.0 {
+                *l + one_minus.ln()
+            } else {
+                T::from(f64::NEG_INFINITY)
+            };
         }
     }
     out.into_iter().map(|c| c + fa.origin).collect()
@@ -913,7 +1145,9 @@ mod tests {
 
     /// Uniform numbers in [-1, 1) (a fixed LCG: the test is the same every run).
     fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*state >> 11) as f64) / ((1u64 << 52) as f64) - 1.0
     }
 
@@ -945,23 +1179,41 @@ mod tests {
             let r = 0.01 + lcg(&mut s).abs();
             let m = vec3(&mut s).normalize();
             let (a, b) = (lcg(&mut s) * r, lcg(&mut s) * r);
-            let q = QueryRegion { centre: vec3(&mut s), radius: r, m, lo: a.min(b), hi: a.max(b) };
+            let q = QueryRegion {
+                centre: vec3(&mut s),
+                radius: r,
+                m,
+                lo: a.min(b),
+                hi: a.max(b),
+            };
             let n = vec3(&mut s) * 2.0;
             let lower = q.min_lin(&n);
             // A lower bound at sampled points of the region...
             for _ in 0..50 {
                 let x = sample_region(&q, &mut s);
-                assert!(n.dot(&(x - q.centre)) >= lower, "{} < {lower}", n.dot(&(x - q.centre)));
+                assert!(
+                    n.dot(&(x - q.centre)) >= lower,
+                    "{} < {lower}",
+                    n.dot(&(x - q.centre))
+                );
             }
             // ...attained (to rounding) at the minimiser of the proof: s* clamped, then the
             // perpendicular part of the ball's extent against n.
             let alpha = n.dot(&m);
             let perp = n - m * alpha;
             let sc = (-alpha * r / n.norm()).clamp(q.lo, q.hi);
-            let u = if perp.norm() > 0.0 { -perp.normalize() * (r * r - sc * sc).max(0.0).sqrt() } else { Vector3::zeros() };
+            let u = if perp.norm() > 0.0 {
+                -perp.normalize() * (r * r - sc * sc).max(0.0).sqrt()
+            } else {
+                Vector3::zeros()
+            };
             let y = m * sc + u;
             assert!(y.norm() <= r * (1.0 + 1e-12) && (m.dot(&y) - sc).abs() <= 1e-12 * r);
-            assert!((n.dot(&y) - lower).abs() <= 1e-9 * n.norm() * r, "{} vs {lower}", n.dot(&y));
+            assert!(
+                (n.dot(&y) - lower).abs() <= 1e-9 * n.norm() * r,
+                "{} vs {lower}",
+                n.dot(&y)
+            );
         }
         // The whole ball: -r|n|.
         let q = QueryRegion::ball(Vector3::zeros(), 0.5);
@@ -974,7 +1226,16 @@ mod tests {
         // Curved (sphere, cylinder) and flat (box) clusters at several levels, regions near and
         // far, thin (a slab) and full balls.
         let mut s = 11u64;
-        for shape in [Shape::Sphere { radius: 0.05 }, Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }, Shape::Cylinder { radius: 0.04, half_length: 0.05 }] {
+        for shape in [
+            Shape::Sphere { radius: 0.05 },
+            Shape::Box {
+                half: Vector3::new(0.1, 0.06, 0.03),
+            },
+            Shape::Cylinder {
+                radius: 0.04,
+                half_length: 0.05,
+            },
+        ] {
             let cloud = shape.sample(0.004);
             let bvh = cloud.bvh();
             let (mut checked, mut behind) = (0, 0);
@@ -982,7 +1243,13 @@ mod tests {
                 let r = 0.002 + 0.02 * lcg(&mut s).abs();
                 let m = vec3(&mut s).normalize();
                 let h = 0.3 * r * lcg(&mut s).abs();
-                let q = QueryRegion { centre: node.centre + vec3(&mut s) * 0.1, radius: r, m, lo: -h, hi: h };
+                let q = QueryRegion {
+                    centre: node.centre + vec3(&mut s) * 0.1,
+                    radius: r,
+                    m,
+                    lo: -h,
+                    hi: h,
+                };
                 let bound = cone_bound(node, &q);
                 if !bound.is_finite() {
                     continue;
@@ -1005,7 +1272,10 @@ mod tests {
                 }
             }
             assert!(checked > 20, "{checked} clusters with a cone under 90°");
-            assert!(behind > 10, "{behind} regions behind a cluster's planes with a narrow cone");
+            assert!(
+                behind > 10,
+                "{behind} regions behind a cluster's planes with a narrow cone"
+            );
         }
     }
 
@@ -1018,11 +1288,19 @@ mod tests {
     /// over the set is taken; the covering radius has its own test below.
     #[test]
     fn the_covering_argument_proves_out_only_irrelevant_points() {
-        let cloud = Shape::Box { half: Vector3::repeat(0.05) }.sample(0.002);
+        let cloud = Shape::Box {
+            half: Vector3::repeat(0.05),
+        }
+        .sample(0.002);
         let bvh = cloud.bvh();
         assert_eq!(bvh.patches.len(), 6);
         let m1 = bvh.log_terms * 1e-9;
-        let dmin = |x: &Vector3<f64>| bvh.points.iter().map(|p| (x - p).norm_squared()).fold(f64::INFINITY, f64::min);
+        let dmin = |x: &Vector3<f64>| {
+            bvh.points
+                .iter()
+                .map(|p| (x - p).norm_squared())
+                .fold(f64::INFINITY, f64::min)
+        };
         let mut s = 11u64;
         let (mut points_proven, mut clusters_proven, mut checked, mut outside) = (0, 0, 0, 0);
         for case in 0..300 {
@@ -1035,21 +1313,62 @@ mod tests {
             // little past one edge, where the side face's first row is nearest and its planes
             // lie below `need` (proving it out there would be wrong).
             let (c, r) = match case % 5 {
-                4 => (Vector3::new(0.03 * lcg(&mut s), -0.052 + 0.0015 * lcg(&mut s), -0.06 - 0.005 * lcg(&mut s)), 0.0015 + 0.0005 * lcg(&mut s)),
-                3 => (Vector3::new(-0.049 + 0.007 * lcg(&mut s), -0.049 + 0.007 * lcg(&mut s), -0.061 - 0.009 * lcg(&mut s)), 0.0045 + 0.0035 * lcg(&mut s)),
-                0 => (Vector3::new(0.03 * lcg(&mut s), -0.055 + 0.015 * lcg(&mut s), -0.0605 - 0.0095 * lcg(&mut s)), 0.0045 + 0.0035 * lcg(&mut s)),
-                1 => (Vector3::new(0.03 * lcg(&mut s), -0.05 + 0.001 * lcg(&mut s), -0.0512 - 0.0002 * lcg(&mut s)), 0.00095 + 0.00015 * lcg(&mut s)),
+                4 => (
+                    Vector3::new(
+                        0.03 * lcg(&mut s),
+                        -0.052 + 0.0015 * lcg(&mut s),
+                        -0.06 - 0.005 * lcg(&mut s),
+                    ),
+                    0.0015 + 0.0005 * lcg(&mut s),
+                ),
+                3 => (
+                    Vector3::new(
+                        -0.049 + 0.007 * lcg(&mut s),
+                        -0.049 + 0.007 * lcg(&mut s),
+                        -0.061 - 0.009 * lcg(&mut s),
+                    ),
+                    0.0045 + 0.0035 * lcg(&mut s),
+                ),
+                0 => (
+                    Vector3::new(
+                        0.03 * lcg(&mut s),
+                        -0.055 + 0.015 * lcg(&mut s),
+                        -0.0605 - 0.0095 * lcg(&mut s),
+                    ),
+                    0.0045 + 0.0035 * lcg(&mut s),
+                ),
+                1 => (
+                    Vector3::new(
+                        0.03 * lcg(&mut s),
+                        -0.05 + 0.001 * lcg(&mut s),
+                        -0.0512 - 0.0002 * lcg(&mut s),
+                    ),
+                    0.00095 + 0.00015 * lcg(&mut s),
+                ),
                 // Touching the face from below, at the edge: the side face's first row is
                 // nearest there by less than the quads' reach `ρ`.
                 _ => {
                     let r = 0.0005 + 0.0003 * lcg(&mut s);
-                    (Vector3::new(0.03 * lcg(&mut s), -0.0495 + 0.0005 * lcg(&mut s), -0.05 - r * 1.0001), r)
+                    (
+                        Vector3::new(
+                            0.03 * lcg(&mut s),
+                            -0.0495 + 0.0005 * lcg(&mut s),
+                            -0.05 - r * 1.0001,
+                        ),
+                        r,
+                    )
                 }
             };
             let q = QueryRegion::ball(c, r);
             let (j, _) = bvh.nearest(&c);
-            let Some(patch) = bvh.patch_of(j) else { continue };
-            let need = if case % 5 == 0 || case % 5 == 3 { 0.004 * lcg(&mut s) } else { 0.002 + 0.002 * lcg(&mut s) };
+            let Some(patch) = bvh.patch_of(j) else {
+                continue;
+            };
+            let need = if case % 5 == 0 || case % 5 == 3 {
+                0.004 * lcg(&mut s)
+            } else {
+                0.002 + 0.002 * lcg(&mut s)
+            };
             let samples: Vec<Vector3<f64>> = (0..150).map(|_| sample_region(&q, &mut s)).collect();
             let dmins: Vec<f64> = samples.iter().map(dmin).collect();
             let mut verify = |k: usize| {
@@ -1057,7 +1376,10 @@ mod tests {
                 for (x, dm) in samples.iter().zip(&dmins) {
                     if nk.dot(&(x - pk)) <= need {
                         checked += 1;
-                        assert!((x - pk).norm_squared() - dm > m1, "point {k} relevant at {x:?} with its plane below need");
+                        assert!(
+                            (x - pk).norm_squared() - dm > m1,
+                            "point {k} relevant at {x:?} with its plane below need"
+                        );
                     }
                 }
             };
@@ -1074,7 +1396,10 @@ mod tests {
                 }
             }
             for node in &bvh.nodes {
-                if node.radius < 0.012 && (node.centre - c).norm() < 0.03 && cluster_covered(patch, node, &q, need, m1) {
+                if node.radius < 0.012
+                    && (node.centre - c).norm() < 0.03
+                    && cluster_covered(patch, node, &q, need, m1)
+                {
                     clusters_proven += 1;
                     (node.start as usize..(node.start + node.count) as usize).for_each(&mut verify);
                 }
@@ -1090,10 +1415,17 @@ mod tests {
     /// `ρ = 0`).
     #[test]
     fn the_covering_bound_keeps_a_point_nearer_than_the_quads_reach() {
-        let cloud = Shape::Box { half: Vector3::repeat(0.05) }.sample(0.002);
+        let cloud = Shape::Box {
+            half: Vector3::repeat(0.05),
+        }
+        .sample(0.002);
         let bvh = cloud.bvh();
         let m1 = bvh.log_terms * 1e-9;
-        let bottom = bvh.patches.iter().find(|p| p.normal.z < -0.5).expect("the bottom face's patch");
+        let bottom = bvh
+            .patches
+            .iter()
+            .find(|p| p.normal.z < -0.5)
+            .expect("the bottom face's patch");
         let mut tested = 0;
         for (f, face) in cloud.faces.iter().enumerate() {
             if cloud.normals[f].z > -0.5 || tested >= 40 {
@@ -1104,17 +1436,31 @@ mod tests {
                 continue; // an inner corner, away from the face's edges
             }
             tested += 1;
-            let reach2 = bvh.points.iter().filter(|p| p.z < -0.0499).map(|p| (p.xy() - v.xy()).norm_squared()).fold(f64::INFINITY, f64::min);
+            let reach2 = bvh
+                .points
+                .iter()
+                .filter(|p| p.z < -0.0499)
+                .map(|p| (p.xy() - v.xy()).norm_squared())
+                .fold(f64::INFINITY, f64::min);
             let u = 1e-4;
             // s² + 2us = 0.8 reach²
             let s = -u + (u * u + 0.8 * reach2).sqrt();
             let x = v - Vector3::z() * u;
             let pi = v + Vector3::z() * s;
-            let dmin = bvh.points.iter().map(|p| (x - p).norm_squared()).fold(f64::INFINITY, f64::min);
-            assert!((x - pi).norm_squared() - dmin < m1, "the construction: the point is relevant at x");
-            assert!(!covered_out(bottom, &x, 1e-9, &Vector3::z(), 1.0, (s, s), m1), "proven out although nearest, below corner {v:?}");
+            let dmin = bvh
+                .points
+                .iter()
+                .map(|p| (x - p).norm_squared())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                (x - pi).norm_squared() - dmin < m1,
+                "the construction: the point is relevant at x"
+            );
+            assert!(
+                !covered_out(bottom, &x, 1e-9, &Vector3::z(), 1.0, (s, s), m1),
+                "proven out although nearest, below corner {v:?}"
+            );
         }
         assert_eq!(tested, 40);
     }
-
 }

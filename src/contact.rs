@@ -5,7 +5,10 @@
 //! Naming follows `quantity_shape1_shape2`: [`point_plane_force`] is the force between a point
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
-use crate::collision::{band_of, separation_field_naive, Collider, Frame, Relative, SeparationBand, SeparationDistribution};
+use crate::collision::{
+    band_of, separation_field_naive, Collider, Frame, Relative, SeparationBand,
+    SeparationDistribution,
+};
 use crate::geometry::ssdf::Relevant;
 use crate::geometry::Aopc;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum, PRUNE_TOLERANCE};
@@ -69,7 +72,10 @@ impl Dissipation {
                 Dissipation::Paper => ((s - 2.0) * (s - 2.0) * 0.25, (s - 2.0) * 0.5),
                 Dissipation::Smooth => {
                     let s2 = s * s;
-                    (1.0 - s + s2 * s * 0.25 - s2 * s2 * (1.0 / 16.0), -1.0 + 0.75 * s2 - 0.25 * s2 * s)
+                    (
+                        1.0 - s + s2 * s * 0.25 - s2 * s2 * (1.0 / 16.0),
+                        -1.0 + 0.75 * s2 - 0.25 * s2 * s,
+                    )
                 }
             }
         } else {
@@ -151,7 +157,12 @@ impl ContactParams<f64> {
 /// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
 /// material point. Returns `λ`, which acts on the point; `-λ` acts on the plane's body.
 #[inline]
-pub fn point_plane_force<T: Scalar>(r: &Vector3<T>, n: &Vector3<T>, v: &Vector3<T>, prm: &ContactParams<T>) -> Vector3<T> {
+pub fn point_plane_force<T: Scalar>(
+    r: &Vector3<T>,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
     let phi = n.dot(r);
     // Far outside the plane the spring term underflows to exactly zero, and the whole force
     // (normal and friction both scale with it) with it: return that zero without the work.
@@ -178,7 +189,10 @@ pub struct Wrench<T: Scalar> {
 impl<T: Scalar> Wrench<T> {
     /// The zero wrench.
     pub fn zero() -> Self {
-        Wrench { force: Vector3::zeros(), torque: Vector3::zeros() }
+        Wrench {
+            force: Vector3::zeros(),
+            torque: Vector3::zeros(),
+        }
     }
 }
 
@@ -209,7 +223,14 @@ trait ForceSink {
     /// One term: softmax weight `w` (1 for a half-space), offset `r = x - p` from the plane
     /// point `p` with normal `n`, and the velocity `v` of the query point relative to the
     /// plane's material point.
-    fn term(&mut self, w: f64, r: &Vector3<f64>, n: &Vector3<f64>, p: &Vector3<f64>, v: &Vector3<f64>);
+    fn term(
+        &mut self,
+        w: f64,
+        r: &Vector3<f64>,
+        n: &Vector3<f64>,
+        p: &Vector3<f64>,
+        v: &Vector3<f64>,
+    );
 }
 
 struct NoForceSink;
@@ -217,7 +238,15 @@ struct NoForceSink;
 impl ForceSink for NoForceSink {
     const ON: bool = false;
     #[inline(always)]
-    fn term(&mut self, _: f64, _: &Vector3<f64>, _: &Vector3<f64>, _: &Vector3<f64>, _: &Vector3<f64>) {}
+    fn term(
+        &mut self,
+        _: f64,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+    ) {
+    }
 }
 
 /// Point–SSDF force (paper eq. 23–24 with the sign corrected, SPEC §2): the softmin-weighted
@@ -225,7 +254,15 @@ impl ForceSink for NoForceSink {
 /// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
 /// planes `rel` found relevant at `x` (the SSDF's pruning bound, [`Relevant`]).
 #[inline]
-fn point_force<T: Scalar, S: ForceSink>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>, rel: &Relevant, sink: &mut S) -> PointForce<T> {
+fn point_force<T: Scalar, S: ForceSink>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+    rel: &Relevant,
+    sink: &mut S,
+) -> PointForce<T> {
     match planes {
         Collider::HalfSpace { point, normal } => {
             let p = lift3::<T>(point);
@@ -235,7 +272,10 @@ fn point_force<T: Scalar, S: ForceSink>(planes: &Collider, x: &Vector3<T>, v_poi
             if S::ON {
                 sink.term(1.0, &re3(&r), normal, point, &re3(&v));
             }
-            PointForce { force: lambda, moment: p.cross(&lambda) }
+            PointForce {
+                force: lambda,
+                moment: p.cross(&lambda),
+            }
         }
         Collider::Aopc(s) => {
             let bvh = s.bvh();
@@ -255,19 +295,40 @@ fn point_force<T: Scalar, S: ForceSink>(planes: &Collider, x: &Vector3<T>, v_poi
                 }
             }
             let inv = sum.weight.recip();
-            PointForce { force: force * inv, moment: moment * inv }
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
         }
     }
 }
 
 /// [`point_force`] summed over every plane (the reference for [`pair_contact_naive`]).
-fn point_force_naive<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vector3<T>, angvel_planes: &Vector3<T>, prm: &ContactParams<T>) -> PointForce<T> {
+fn point_force_naive<T: Scalar>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> PointForce<T> {
     match planes {
-        Collider::HalfSpace { .. } => point_force(planes, x, v_point, angvel_planes, prm, &Relevant::default(), &mut NoForceSink),
+        Collider::HalfSpace { .. } => point_force(
+            planes,
+            x,
+            v_point,
+            angvel_planes,
+            prm,
+            &Relevant::default(),
+            &mut NoForceSink,
+        ),
         Collider::Aopc(s) => {
             let xr = re3(x);
             let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
-            let dmin = s.points.iter().map(|q| (xr - q).norm_squared()).fold(f64::INFINITY, f64::min);
+            let dmin = s
+                .points
+                .iter()
+                .map(|q| (xr - q).norm_squared())
+                .fold(f64::INFINITY, f64::min);
             let mut sum = SoftminSum::new(c(dmin), prm.eps1);
             for (q, nq) in s.points.iter().zip(&s.normals) {
                 let p = lift3::<T>(q);
@@ -279,7 +340,10 @@ fn point_force_naive<T: Scalar>(planes: &Collider, x: &Vector3<T>, v_point: &Vec
                 moment += p.cross(&lambda);
             }
             let inv = sum.weight.recip();
-            PointForce { force: force * inv, moment: moment * inv }
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
         }
     }
 }
@@ -296,7 +360,12 @@ struct SideSums<T: Scalar> {
 
 impl<T: Scalar> SideSums<T> {
     fn zero() -> Self {
-        SideSums { f_q: Vector3::zeros(), t_q: Vector3::zeros(), f_p: Vector3::zeros(), t_p: Vector3::zeros() }
+        SideSums {
+            f_q: Vector3::zeros(),
+            t_q: Vector3::zeros(),
+            f_p: Vector3::zeros(),
+            t_p: Vector3::zeros(),
+        }
     }
 
     /// Adds the point force `pf` of query point `arm` (relative to the query body's origin,
@@ -313,8 +382,14 @@ impl<T: Scalar> SideSums<T> {
     /// wrenches.
     fn finish(self, pf: &Frame<T>, q_is_a: bool, on_a: &mut Wrench<T>, on_b: &mut Wrench<T>) {
         let r = &pf.rotation;
-        let wq = Wrench { force: r * self.f_q, torque: r * self.t_q };
-        let wp = Wrench { force: r * self.f_p, torque: r * self.t_p };
+        let wq = Wrench {
+            force: r * self.f_q,
+            torque: r * self.t_q,
+        };
+        let wp = Wrench {
+            force: r * self.f_p,
+            torque: r * self.t_p,
+        };
         let (wa, wb) = if q_is_a { (wq, wp) } else { (wp, wq) };
         on_a.force += wa.force;
         on_a.torque += wa.torque;
@@ -325,7 +400,10 @@ impl<T: Scalar> SideSums<T> {
     /// The twelve numbers `f_q, t_q, f_p, t_p`.
     fn flat(&self) -> [T; 12] {
         let mut out = [T::zero(); 12];
-        for (i, v) in [&self.f_q, &self.t_q, &self.f_p, &self.t_p].into_iter().enumerate() {
+        for (i, v) in [&self.f_q, &self.t_q, &self.f_p, &self.t_p]
+            .into_iter()
+            .enumerate()
+        {
             out[3 * i..3 * i + 3].copy_from_slice(v.as_slice());
         }
         out
@@ -333,7 +411,12 @@ impl<T: Scalar> SideSums<T> {
 
     fn from_flat(x: &[T]) -> Self {
         let v = |i: usize| Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
-        SideSums { f_q: v(0), t_q: v(1), f_p: v(2), t_p: v(3) }
+        SideSums {
+            f_q: v(0),
+            t_q: v(1),
+            f_p: v(2),
+            t_p: v(3),
+        }
     }
 }
 
@@ -342,7 +425,16 @@ impl<T: Scalar> SideSums<T> {
 /// bound first; `eval` returns the size of that entry's summand `W_f |F_f|` (real part).
 /// `bounds` is scratch space.
 #[allow(clippy::too_many_arguments)]
-fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2], band: &SeparationBand<T>, dist: &SeparationDistribution<T>, prm: &ContactParams<T>, bounds: &mut Vec<(usize, f64)>, mut eval: impl FnMut(usize) -> f64) {
+fn for_each_force<T: Scalar>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    band: &SeparationBand<T>,
+    dist: &SeparationDistribution<T>,
+    prm: &ContactParams<T>,
+    bounds: &mut Vec<(usize, f64)>,
+    mut eval: impl FnMut(usize) -> f64,
+) {
     let prm_re = prm.re();
     let cutoff = dist.min + band.margin * dist.eps.re();
     let fric = (1.0 + prm_re.friction * prm_re.friction).sqrt();
@@ -357,7 +449,13 @@ fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2]
             Collider::Aopc(o) => o.bvh().max_norm,
             Collider::HalfSpace { point, .. } => point.norm(),
         };
-        Some((rel.rotation.map(|x| x.re()), re3(&rel.linvel), re3(&rel.angvel), re3(&rel.angvel_planes).norm() * reach, s))
+        Some((
+            rel.rotation.map(|x| x.re()),
+            re3(&rel.linvel),
+            re3(&rel.angvel),
+            re3(&rel.angvel_planes).norm() * reach,
+            s,
+        ))
     });
     bounds.clear();
     for (i, e) in band.entries.iter().enumerate() {
@@ -365,7 +463,9 @@ fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2]
         if phi > cutoff {
             continue;
         }
-        let Some((rot, u, wq, spin, s)) = &sides[e.side as usize] else { continue };
+        let Some((rot, u, wq, spin, s)) = &sides[e.side as usize] else {
+            continue;
+        };
         let w = (-(phi - dist.min) / e2).exp() / norm;
         let spring = prm_re.stiffness.abs() * e.springs;
         if w == 0.0 || spring == 0.0 {
@@ -375,7 +475,9 @@ fn for_each_force<T: Scalar>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2]
         let speed = (u + wq.cross(&arm)).norm() + spin;
         bounds.push((i, w * spring * (1.0 + speed * inv_vd) * fric));
     }
-    let Some(first) = (0..bounds.len()).max_by(|&x, &y| bounds[x].1.total_cmp(&bounds[y].1)) else { return };
+    let Some(first) = (0..bounds.len()).max_by(|&x, &y| bounds[x].1.total_cmp(&bounds[y].1)) else {
+        return;
+    };
     let tol = PRUNE_TOLERANCE / bounds.len() as f64;
     let mut largest = eval(bounds[first].0);
     for (j, &(i, bound)) in bounds.iter().enumerate() {
@@ -398,8 +500,26 @@ struct PairParts<T: Scalar> {
 /// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
 /// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry.
 #[allow(clippy::too_many_arguments)]
-fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relative<T>; 2], prm: &ContactParams<T>, scratch: &mut Relevant, grads: Option<&mut Vec<Vector3<f64>>>, mut sink: impl FnMut() -> S, mut on_force: impl FnMut(usize, T, &PointForce<T>, S)) -> PairParts<T> {
-    let band = band_of(a, b, rels, prm.eps1, prm.eps2, prm.eps3.re(), scratch, grads);
+fn pair_sides<T: Scalar, S: ForceSink>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    prm: &ContactParams<T>,
+    scratch: &mut Relevant,
+    grads: Option<&mut Vec<Vector3<f64>>>,
+    mut sink: impl FnMut() -> S,
+    mut on_force: impl FnMut(usize, T, &PointForce<T>, S),
+) -> PairParts<T> {
+    let band = band_of(
+        a,
+        b,
+        rels,
+        prm.eps1,
+        prm.eps2,
+        prm.eps3.re(),
+        scratch,
+        grads,
+    );
     let dist = SeparationDistribution::from_band(&band, prm.eps2);
     let mut sums = [SideSums::zero(), SideSums::zero()];
     if !dist.min.is_finite() {
@@ -462,8 +582,24 @@ fn pair_sides<T: Scalar, S: ForceSink>(a: &Collider, b: &Collider, rels: &[Relat
 /// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each
 /// skipped summand is below the relative weight τ/N of the largest, and all of them together
 /// change the force by less than `τ M`, the torques by less than `τ M` times the bodies' size.
-pub fn pair_contact<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
-    let constant = [prm.eps1, prm.eps2, prm.eps3, prm.stiffness, prm.dissipation_velocity, prm.stiction_velocity, prm.friction].iter().all(|x| x.is_constant());
+pub fn pair_contact<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
+    let constant = [
+        prm.eps1,
+        prm.eps2,
+        prm.eps3,
+        prm.stiffness,
+        prm.dissipation_velocity,
+        prm.stiction_velocity,
+        prm.friction,
+    ]
+    .iter()
+    .all(|x| x.is_constant());
     if T::FIRST_ORDER && constant {
         pair_contact_chained(a, fa, b, fb, prm)
     } else {
@@ -473,14 +609,33 @@ pub fn pair_contact<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &F
 
 /// [`pair_contact`] with every derivative carried by the scalar type through every term (no
 /// chain rule): the reference for [`pair_jacobian`], and the path of second-order scalars.
-pub fn pair_contact_generic<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
+pub fn pair_contact_generic<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-    let parts = pair_sides(a, b, &rels, prm, &mut Relevant::default(), None, || NoForceSink, |_, _, _, _| {});
+    let parts = pair_sides(
+        a,
+        b,
+        &rels,
+        prm,
+        &mut Relevant::default(),
+        None,
+        || NoForceSink,
+        |_, _, _, _| {},
+    );
     let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
     let [s0, s1] = parts.sums;
     s0.finish(fb, true, &mut on_a, &mut on_b);
     s1.finish(fa, false, &mut on_a, &mut on_b);
-    PairContact { on_a, on_b, distance: parts.dist.distance }
+    PairContact {
+        on_a,
+        on_b,
+        distance: parts.dist.distance,
+    }
 }
 
 /// Number of inputs of [`pair_jacobian`] per side: the rotation (9 entries, row-major), the
@@ -498,13 +653,22 @@ fn relative_inputs<T: Scalar>(r: &Relative<T>) -> [T; SIDE_INPUTS] {
             out[3 * j + k] = r.rotation[(j, k)];
         }
     }
-    for (i, v) in [&r.translation, &r.linvel, &r.angvel, &r.angvel_planes].into_iter().enumerate() {
+    for (i, v) in [&r.translation, &r.linvel, &r.angvel, &r.angvel_planes]
+        .into_iter()
+        .enumerate()
+    {
         out[9 + 3 * i..12 + 3 * i].copy_from_slice(v.as_slice());
     }
     out
 }
 
-fn pair_contact_chained<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
+fn pair_contact_chained<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let mut inputs = [T::zero(); 2 * SIDE_INPUTS];
     inputs[..SIDE_INPUTS].copy_from_slice(&relative_inputs(&rels[0]));
@@ -517,7 +681,11 @@ fn pair_contact_chained<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb
     let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
     SideSums::from_flat(&out[..12]).finish(fb, true, &mut on_a, &mut on_b);
     SideSums::from_flat(&out[12..24]).finish(fa, false, &mut on_a, &mut on_b);
-    PairContact { on_a, on_b, distance: out[24] }
+    PairContact {
+        on_a,
+        on_b,
+        distance: out[24],
+    }
 }
 
 /// `[v]×`, the matrix of `w ↦ v × w`.
@@ -530,7 +698,12 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 /// `s = nᵀv/v_d`, `e = n - μ u`, `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`, so
 /// `∂λ/∂φ = c'(φ) d e` with `c' = -k / (1 + exp(φ/ε3))`, and
 /// `∂λ/∂v = c (d'(s)/v_d) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)`.
-pub fn point_plane_force_jacobian(r: &Vector3<f64>, n: &Vector3<f64>, v: &Vector3<f64>, prm: &ContactParams<f64>) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
+pub fn point_plane_force_jacobian(
+    r: &Vector3<f64>,
+    n: &Vector3<f64>,
+    v: &Vector3<f64>,
+    prm: &ContactParams<f64>,
+) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
     let phi = n.dot(r);
     if phi > 746.0 * prm.eps3 {
         return (Vector3::zeros(), Vector3::zeros(), Matrix3::zeros());
@@ -546,7 +719,9 @@ pub fn point_plane_force_jacobian(r: &Vector3<f64>, n: &Vector3<f64>, v: &Vector
     let u = vt / norm;
     let e = n - u * prm.friction;
     let dphi = e * (dspring * d);
-    let dv = e * n.transpose() * (spring * dd / prm.dissipation_velocity) - (Matrix3::identity() - n * n.transpose() - u * u.transpose()) * (spring * prm.friction * d / norm);
+    let dv = e * n.transpose() * (spring * dd / prm.dissipation_velocity)
+        - (Matrix3::identity() - n * n.transpose() - u * u.transpose())
+            * (spring * prm.friction * d / norm);
     (lambda, dphi, dv)
 }
 
@@ -575,7 +750,14 @@ struct LocalJacobian {
 
 impl ForceSink for LocalJacobian {
     const ON: bool = true;
-    fn term(&mut self, w: f64, r: &Vector3<f64>, n: &Vector3<f64>, p: &Vector3<f64>, v: &Vector3<f64>) {
+    fn term(
+        &mut self,
+        w: f64,
+        r: &Vector3<f64>,
+        n: &Vector3<f64>,
+        p: &Vector3<f64>,
+        v: &Vector3<f64>,
+    ) {
         let (lambda, lphi, lv) = point_plane_force_jacobian(r, n, v, &self.prm);
         let px = skew(p);
         self.z += w;
@@ -595,7 +777,20 @@ impl ForceSink for LocalJacobian {
 impl LocalJacobian {
     fn new(prm: &ContactParams<f64>, softmax: bool) -> Self {
         let z = Matrix3::zeros();
-        LocalJacobian { prm: *prm, softmax, z: 0.0, sr: Vector3::zeros(), lphi_n: z, lam_r: z, plphi_n: z, plam_r: z, lv: z, plv: z, lvp: z, plvp: z }
+        LocalJacobian {
+            prm: *prm,
+            softmax,
+            z: 0.0,
+            sr: Vector3::zeros(),
+            lphi_n: z,
+            lam_r: z,
+            plphi_n: z,
+            plam_r: z,
+            lv: z,
+            plv: z,
+            lvp: z,
+            plvp: z,
+        }
     }
 
     /// `(∂F/∂x, ∂F/∂v, ∂F/∂ω_p, ∂G/∂x, ∂G/∂v, ∂G/∂ω_p)` given the values `F`, `G`.
@@ -608,7 +803,14 @@ impl LocalJacobian {
             fx += (f * rbar.transpose() - self.lam_r * inv) * k;
             gx += (g * rbar.transpose() - self.plam_r * inv) * k;
         }
-        [fx, self.lv * inv, self.lvp * inv, gx, self.plv * inv, self.plvp * inv]
+        [
+            fx,
+            self.lv * inv,
+            self.lvp * inv,
+            gx,
+            self.plv * inv,
+            self.plvp * inv,
+        ]
     }
 }
 
@@ -626,14 +828,31 @@ impl LocalJacobian {
 /// `S = Σ_f W_f s_f`: `dS = Σ_f W_f (ds_f - s_f dΦ_f/ε2) + S dΦ̄/ε2`, and
 /// `dD = Σ_g W_g (1 - (Φ_g - D)/ε2) dΦ_g`. Finally `dx_f = dR a_f + dt`,
 /// `dv_f = du - [arm_f]× dω_q + [ω_q]× dR a_f`, `d arm_f = dR a_f`.
-pub fn pair_jacobian(a: &Collider, b: &Collider, rels: &[Relative<f64>; 2], prm: &ContactParams<f64>) -> ([f64; PAIR_OUTPUTS], Vec<f64>) {
+pub fn pair_jacobian(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<f64>; 2],
+    prm: &ContactParams<f64>,
+) -> ([f64; PAIR_OUTPUTS], Vec<f64>) {
     const NI: usize = 2 * SIDE_INPUTS;
     let mut jac = vec![0.0; PAIR_OUTPUTS * NI];
     let mut grads = Vec::new();
     let mut records: Vec<(usize, f64, PointForce<f64>, LocalJacobian)> = Vec::new();
     // The planes of side 0 are b's, of side 1 a's: against a half-space there is no softmax.
-    let halfspace = [matches!(b, Collider::HalfSpace { .. }), matches!(a, Collider::HalfSpace { .. })];
-    let parts = pair_sides(a, b, rels, prm, &mut Relevant::default(), Some(&mut grads), || LocalJacobian::new(prm, true), |i, w, pf, snk| records.push((i, w, *pf, snk)));
+    let halfspace = [
+        matches!(b, Collider::HalfSpace { .. }),
+        matches!(a, Collider::HalfSpace { .. }),
+    ];
+    let parts = pair_sides(
+        a,
+        b,
+        rels,
+        prm,
+        &mut Relevant::default(),
+        Some(&mut grads),
+        || LocalJacobian::new(prm, true),
+        |i, w, pf, snk| records.push((i, w, *pf, snk)),
+    );
     let mut values = [0.0; PAIR_OUTPUTS];
     values[..12].copy_from_slice(&parts.sums[0].flat());
     values[12..24].copy_from_slice(&parts.sums[1].flat());
@@ -737,14 +956,27 @@ pub fn pair_jacobian(a: &Collider, b: &Collider, rels: &[Relative<f64>; 2], prm:
 
 /// [`pair_contact`] without any pruning: every point of both bodies, every plane (the
 /// reference; O(I1·I2) time, O(I1 + I2) memory).
-pub fn pair_contact_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, fb: &Frame<T>, prm: &ContactParams<T>) -> PairContact<T> {
+pub fn pair_contact_naive<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
     let field = separation_field_naive(a, fa, b, fb, prm.eps1);
     let dist = SeparationDistribution::new(&field, prm.eps2);
     let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
     if !dist.min.is_finite() {
-        return PairContact { on_a, on_b, distance: dist.distance };
+        return PairContact {
+            on_a,
+            on_b,
+            distance: dist.distance,
+        };
     }
-    for (query, qf, planes, pf, phis, q_is_a) in [(a, fa, b, fb, &field.of_a, true), (b, fb, a, fa, &field.of_b, false)] {
+    for (query, qf, planes, pf, phis, q_is_a) in [
+        (a, fa, b, fb, &field.of_a, true),
+        (b, fb, a, fa, &field.of_b, false),
+    ] {
         let Collider::Aopc(s) = query else { continue };
         let rel = qf.relative_to(pf);
         let mut sums = SideSums::zero();
@@ -757,7 +989,11 @@ pub fn pair_contact_naive<T: Scalar>(a: &Collider, fa: &Frame<T>, b: &Collider, 
         }
         sums.finish(pf, q_is_a, &mut on_a, &mut on_b);
     }
-    PairContact { on_a, on_b, distance: dist.distance }
+    PairContact {
+        on_a,
+        on_b,
+        distance: dist.distance,
+    }
 }
 
 #[cfg(test)]
@@ -786,7 +1022,10 @@ mod tests {
             assert!((d2(s - 1e-9) - d2(s + 1e-9)).abs() < 1e-6, "jump at {s}");
         }
         let p2 = |s: f64| second_derivative(|x| Dissipation::Paper.factor(x), s).2;
-        assert!((p2(-1e-9) - p2(1e-9)).abs() > 0.4, "the paper's d is only C1 at 0");
+        assert!(
+            (p2(-1e-9) - p2(1e-9)).abs() > 0.4,
+            "the paper's d is only C1 at 0"
+        );
     }
 
     #[test]
@@ -798,27 +1037,74 @@ mod tests {
         // nearly at rest, for both dissipation laws.
         let n = Vector3::new(0.2, -0.3, 0.9).normalize();
         for dissipation in [Dissipation::Paper, Dissipation::Smooth] {
-            let prm = ContactParams { eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.01, friction: 0.5, dissipation, ..ContactParams::default() };
-            for (depth, vn, vt) in [(1e-3, -0.05, 0.03), (2e-4, 0.05, -0.2), (-3e-4, 0.15, 1e-3), (5e-4, 0.25, 0.1), (1e-3, 0.0, 0.0)] {
+            let prm = ContactParams {
+                eps3: 1e-4,
+                stiffness: 1e4,
+                dissipation_velocity: 0.1,
+                stiction_velocity: 0.01,
+                friction: 0.5,
+                dissipation,
+                ..ContactParams::default()
+            };
+            for (depth, vn, vt) in [
+                (1e-3, -0.05, 0.03),
+                (2e-4, 0.05, -0.2),
+                (-3e-4, 0.15, 1e-3),
+                (5e-4, 0.25, 0.1),
+                (1e-3, 0.0, 0.0),
+            ] {
                 let t = n.cross(&Vector3::x()).normalize();
-                let (r, v) = (n * -depth + t * 0.01, n * vn + t * vt + n.cross(&t) * 0.2 * vt);
+                let (r, v) = (
+                    n * -depth + t * 0.01,
+                    n * vn + t * vt + n.cross(&t) * 0.2 * vt,
+                );
                 let (lambda, dphi, dv) = point_plane_force_jacobian(&r, &n, &v, &prm);
-                assert!((lambda - point_plane_force(&r, &n, &v, &prm)).norm() <= 1e-15 * lambda.norm());
+                assert!(
+                    (lambda - point_plane_force(&r, &n, &v, &prm)).norm() <= 1e-15 * lambda.norm()
+                );
                 let scale = dphi.amax().max(dv.amax()).max(1e-300);
                 // ∂λ/∂φ along r = r0 + s n (φ changes by s).
                 let along = |s: f64| point_plane_force(&(r + n * s), &n, &v, &prm);
-                let dual: Vector3<f64> = point_plane_force(&(r.map(Dual64::from) + n.map(Dual64::from) * Dual64::new(0.0, 1.0)), &n.map(Dual64::from), &v.map(Dual64::from), &prm.lift()).map(|x| x.eps);
+                let dual: Vector3<f64> = point_plane_force(
+                    &(r.map(Dual64::from) + n.map(Dual64::from) * Dual64::new(0.0, 1.0)),
+                    &n.map(Dual64::from),
+                    &v.map(Dual64::from),
+                    &prm.lift(),
+                )
+                .map(|x| x.eps);
                 let fd = (along(1e-9) - along(-1e-9)) / 2e-9;
-                assert!((dphi - dual).amax() <= 1e-12 * scale, "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}");
-                assert!((dphi - fd).amax() <= 1e-6 * scale, "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}");
+                assert!(
+                    (dphi - dual).amax() <= 1e-12 * scale,
+                    "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
+                );
+                assert!(
+                    (dphi - fd).amax() <= 1e-6 * scale,
+                    "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
+                );
                 for k in 0..3 {
                     let mut e = Vector3::zeros();
                     e[k] = 1.0;
-                    let dual: Vector3<f64> = point_plane_force(&r.map(Dual64::from), &n.map(Dual64::from), &(v.map(Dual64::from) + e.map(|x| Dual64::new(0.0, x))), &prm.lift()).map(|x| x.eps);
+                    let dual: Vector3<f64> = point_plane_force(
+                        &r.map(Dual64::from),
+                        &n.map(Dual64::from),
+                        &(v.map(Dual64::from) + e.map(|x| Dual64::new(0.0, x))),
+                        &prm.lift(),
+                    )
+                    .map(|x| x.eps);
                     let h = 1e-7 * v.norm().max(0.01);
-                    let fd = (point_plane_force(&r, &n, &(v + e * h), &prm) - point_plane_force(&r, &n, &(v - e * h), &prm)) / (2.0 * h);
-                    assert!((dv.column(k) - dual).amax() <= 1e-12 * scale, "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}", dv.column(k));
-                    assert!((dv.column(k) - fd).amax() <= 1e-6 * scale, "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}", dv.column(k));
+                    let fd = (point_plane_force(&r, &n, &(v + e * h), &prm)
+                        - point_plane_force(&r, &n, &(v - e * h), &prm))
+                        / (2.0 * h);
+                    assert!(
+                        (dv.column(k) - dual).amax() <= 1e-12 * scale,
+                        "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
+                        dv.column(k)
+                    );
+                    assert!(
+                        (dv.column(k) - fd).amax() <= 1e-6 * scale,
+                        "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
+                        dv.column(k)
+                    );
                 }
             }
         }

@@ -63,7 +63,10 @@ pub trait VectorFunction {
 /// pass matters for the contact: with first-order duals the pair's Jacobian is computed once
 /// per pass in `f64` ([`pair_contact`](crate::contact::pair_contact)), whatever the width, so a
 /// second pass would compute it again.
-pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
+pub fn jacobian<F: VectorFunction + ?Sized>(
+    f: &F,
+    x: &[f64],
+) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
     match x.len() {
         0 => {
             let values = f.eval(x)?;
@@ -79,7 +82,10 @@ pub fn jacobian<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64
     }
 }
 
-fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(f: &F, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
+fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(
+    f: &F,
+    x: &[f64],
+) -> Result<(Vec<f64>, DMatrix<f64>), DynamicsError> {
     let n = x.len();
     let mut values = Vec::new();
     let mut jac = DMatrix::zeros(0, n);
@@ -116,7 +122,10 @@ const HB: usize = 4;
 
 /// Values and the Hessian `∂²f_i/∂x∂x` of every output `i`, exact, in 4×4 blocks of
 /// hyper-dual numbers.
-pub fn hessians<F: VectorFunction + ?Sized>(f: &F, x: &[f64]) -> Result<(Vec<f64>, Vec<DMatrix<f64>>), DynamicsError> {
+pub fn hessians<F: VectorFunction + ?Sized>(
+    f: &F,
+    x: &[f64],
+) -> Result<(Vec<f64>, Vec<DMatrix<f64>>), DynamicsError> {
     let n = x.len();
     let nb = n.div_ceil(HB);
     if nb == 0 {
@@ -195,7 +204,12 @@ pub struct Point {
 impl Point {
     /// The point of a model's start: `q0`, at rest, inputs `u0`, the scene's parameters.
     pub fn start(model: &Model) -> Point {
-        Point { q: model.tree.q0(), v: vec![0.0; model.tree.nv], u: model.u0(), params: model.contact }
+        Point {
+            q: model.tree.q0(),
+            v: vec![0.0; model.tree.nv],
+            u: model.u0(),
+            params: model.contact,
+        }
     }
 }
 
@@ -237,7 +251,16 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
 
 /// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant.
 pub fn params_from<T: Copy>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
-    ContactParams { eps1: x[0], eps2: x[1], eps3: x[2], stiffness: x[3], dissipation_velocity: x[4], stiction_velocity: x[5], friction: x[6], dissipation: like.dissipation }
+    ContactParams {
+        eps1: x[0],
+        eps2: x[1],
+        eps3: x[2],
+        stiffness: x[3],
+        dissipation_velocity: x[4],
+        stiction_velocity: x[5],
+        friction: x[6],
+        dissipation: like.dissipation,
+    }
 }
 
 /// The differentiable variables `z = [q, v, u, p]` of a point and the map back from them.
@@ -257,8 +280,22 @@ impl<'a> Chart<'a> {
     /// are then the point's, constant).
     fn with_params(model: &'a Model, point: &'a Point, coords: Coordinates, params: bool) -> Self {
         let tree = &model.tree;
-        let nq = if coords == Coordinates::Embedded { tree.nq } else { tree.nv };
-        Chart { tree, point, coords, layout: Layout { nq, nv: tree.nv, nu: point.u.len(), np: if params { PARAMS.len() } else { 0 } } }
+        let nq = if coords == Coordinates::Embedded {
+            tree.nq
+        } else {
+            tree.nv
+        };
+        Chart {
+            tree,
+            point,
+            coords,
+            layout: Layout {
+                nq,
+                nv: tree.nv,
+                nu: point.u.len(),
+                np: if params { PARAMS.len() } else { 0 },
+            },
+        }
     }
 
     /// `z` at the point.
@@ -285,7 +322,11 @@ impl<'a> Chart<'a> {
                 self.tree.integrate_q(&q0, &z[rq], T::one())
             }
         };
-        let p = if self.layout.np > 0 { params_from(&z[rp], &self.point.params) } else { self.point.params.lift() };
+        let p = if self.layout.np > 0 {
+            params_from(&z[rp], &self.point.params)
+        } else {
+            self.point.params.lift()
+        };
         (q, z[rv].to_vec(), z[ru].to_vec(), p)
     }
 }
@@ -299,7 +340,13 @@ struct ForwardFn<'a> {
 impl VectorFunction for ForwardFn<'_> {
     fn eval<T: Scalar>(&self, z: &[T]) -> Result<Vec<T>, DynamicsError> {
         let (q, v, u, p) = self.chart.unpack(z);
-        Ok(self.model.forward(&q, &v, &u, &p)?.vdot.iter().copied().collect())
+        Ok(self
+            .model
+            .forward(&q, &v, &u, &p)?
+            .vdot
+            .iter()
+            .copied()
+            .collect())
     }
 }
 
@@ -343,10 +390,21 @@ impl Jacobian {
 
 /// `v̇ = FD(q, v, u, p)` and its exact Jacobian with respect to `z = [q, v, u, p]`
 /// (`nv × (nq|nv + nv + nu + 7)`).
-pub fn forward_jacobian(model: &Model, point: &Point, coords: Coordinates) -> Result<Jacobian, DynamicsError> {
-    let f = ForwardFn { model, chart: Chart::new(model, point, coords) };
+pub fn forward_jacobian(
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+) -> Result<Jacobian, DynamicsError> {
+    let f = ForwardFn {
+        model,
+        chart: Chart::new(model, point, coords),
+    };
     let (value, full) = jacobian(&f, &f.chart.z0())?;
-    Ok(Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout })
+    Ok(Jacobian {
+        value: DVector::from_vec(value),
+        full,
+        layout: f.chart.layout,
+    })
 }
 
 /// Second derivatives of a vector output with respect to `z = [q, v, u, p]`.
@@ -362,10 +420,21 @@ pub struct Hessians {
 
 /// Hessians of every component of `v̇ = FD(q, v, u, p)` with respect to `z = [q, v, u, p]`: one
 /// symmetric `n_z × n_z` matrix per acceleration, with the value.
-pub fn forward_hessians(model: &Model, point: &Point, coords: Coordinates) -> Result<Hessians, DynamicsError> {
-    let f = ForwardFn { model, chart: Chart::new(model, point, coords) };
+pub fn forward_hessians(
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+) -> Result<Hessians, DynamicsError> {
+    let f = ForwardFn {
+        model,
+        chart: Chart::new(model, point, coords),
+    };
     let (value, hessians) = hessians(&f, &f.chart.z0())?;
-    Ok(Hessians { value: DVector::from_vec(value), hessians, layout: f.chart.layout })
+    Ok(Hessians {
+        value: DVector::from_vec(value),
+        hessians,
+        layout: f.chart.layout,
+    })
 }
 
 /// One integrator step as a function of `z`, with the next state in the chosen coordinates.
@@ -381,7 +450,9 @@ struct StepFn<'a> {
 impl VectorFunction for StepFn<'_> {
     fn eval<T: Scalar>(&self, z: &[T]) -> Result<Vec<T>, DynamicsError> {
         let (q, v, u, p) = self.chart.unpack(z);
-        let next = self.model.step_with(self.integrator, &State { q, v }, &u, &p, c(self.h))?;
+        let next = self
+            .model
+            .step_with(self.integrator, &State { q, v }, &u, &p, c(self.h))?;
         let mut out = match self.chart.coords {
             Coordinates::Embedded => next.q,
             Coordinates::Tangent => {
@@ -397,21 +468,77 @@ impl VectorFunction for StepFn<'_> {
 /// One step of `integrator` of length `h` (s) from the point, and the exact Jacobian of the
 /// next state `[q', v']` (rows: `nq + nv` embedded, `2 nv` tangent) with respect to
 /// `z = [q, v, u, p]`.
-pub fn step_jacobian(model: &Model, integrator: Integrator, point: &Point, h: f64, coords: Coordinates) -> Result<(State<f64>, Jacobian), DynamicsError> {
-    let next = model.step_with(integrator, &State { q: point.q.clone(), v: point.v.clone() }, &point.u, &point.params, h)?;
-    let f = StepFn { model, integrator, h, chart: Chart::new(model, point, coords), q_next: next.q.clone() };
+pub fn step_jacobian(
+    model: &Model,
+    integrator: Integrator,
+    point: &Point,
+    h: f64,
+    coords: Coordinates,
+) -> Result<(State<f64>, Jacobian), DynamicsError> {
+    let next = model.step_with(
+        integrator,
+        &State {
+            q: point.q.clone(),
+            v: point.v.clone(),
+        },
+        &point.u,
+        &point.params,
+        h,
+    )?;
+    let f = StepFn {
+        model,
+        integrator,
+        h,
+        chart: Chart::new(model, point, coords),
+        q_next: next.q.clone(),
+    };
     let (value, full) = jacobian(&f, &f.chart.z0())?;
-    Ok((next, Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout }))
+    Ok((
+        next,
+        Jacobian {
+            value: DVector::from_vec(value),
+            full,
+            layout: f.chart.layout,
+        },
+    ))
 }
 
 /// [`step_jacobian`] with respect to the state and inputs only, `z = [q, v, u]` (the
 /// parameters are the point's, held constant; the layout's parameter block is empty): the
 /// Jacobian a trajectory optimizer or an estimator needs at every step.
-pub fn step_jacobian_state(model: &Model, integrator: Integrator, point: &Point, h: f64, coords: Coordinates) -> Result<(State<f64>, Jacobian), DynamicsError> {
-    let next = model.step_with(integrator, &State { q: point.q.clone(), v: point.v.clone() }, &point.u, &point.params, h)?;
-    let f = StepFn { model, integrator, h, chart: Chart::with_params(model, point, coords, false), q_next: next.q.clone() };
+pub fn step_jacobian_state(
+    model: &Model,
+    integrator: Integrator,
+    point: &Point,
+    h: f64,
+    coords: Coordinates,
+) -> Result<(State<f64>, Jacobian), DynamicsError> {
+    let next = model.step_with(
+        integrator,
+        &State {
+            q: point.q.clone(),
+            v: point.v.clone(),
+        },
+        &point.u,
+        &point.params,
+        h,
+    )?;
+    let f = StepFn {
+        model,
+        integrator,
+        h,
+        chart: Chart::with_params(model, point, coords, false),
+        q_next: next.q.clone(),
+    };
     let (value, full) = jacobian(&f, &f.chart.z0())?;
-    Ok((next, Jacobian { value: DVector::from_vec(value), full, layout: f.chart.layout }))
+    Ok((
+        next,
+        Jacobian {
+            value: DVector::from_vec(value),
+            full,
+            layout: f.chart.layout,
+        },
+    ))
 }
 
 /// The smooth separation distance of one pair as a function of `[q, ε1, ε2]`.
@@ -436,15 +563,27 @@ impl VectorFunction for DistanceFn<'_> {
         let (Some(a), Some(b)) = (&self.model.colliders[pr.a], &self.model.colliders[pr.b]) else {
             return Ok(vec![c(f64::INFINITY)]);
         };
-        let field = crate::collision::separation_field(a, &kin.frames[pr.a], b, &kin.frames[pr.b], p.eps1);
-        Ok(vec![crate::collision::SeparationDistribution::new(&field, p.eps2).distance])
+        let field =
+            crate::collision::separation_field(a, &kin.frames[pr.a], b, &kin.frames[pr.b], p.eps1);
+        Ok(vec![
+            crate::collision::SeparationDistribution::new(&field, p.eps2).distance,
+        ])
     }
 }
 
 /// Value, gradient and Hessian of the smooth separation distance `D` of pair `pair` (index
 /// into `Model::pairs`) with respect to `[q, ε1, ε2]` (configuration in the chosen coordinates).
-pub fn distance_hessian(model: &Model, pair: usize, point: &Point, coords: Coordinates) -> Result<(f64, DVector<f64>, DMatrix<f64>), DynamicsError> {
-    let f = DistanceFn { model, pair, chart: Chart::new(model, point, coords) };
+pub fn distance_hessian(
+    model: &Model,
+    pair: usize,
+    point: &Point,
+    coords: Coordinates,
+) -> Result<(f64, DVector<f64>, DMatrix<f64>), DynamicsError> {
+    let f = DistanceFn {
+        model,
+        pair,
+        chart: Chart::new(model, point, coords),
+    };
     let z0 = f.chart.z0();
     let nq = f.chart.layout.nq;
     let mut x = z0[..nq].to_vec();
@@ -452,5 +591,9 @@ pub fn distance_hessian(model: &Model, pair: usize, point: &Point, coords: Coord
     x.extend_from_slice(&[z0[rp], z0[rp + 1]]);
     let (value, h) = hessians(&f, &x)?;
     let (_, g) = jacobian(&f, &x)?;
-    Ok((value[0], g.row(0).transpose(), h.into_iter().next().unwrap_or_else(|| DMatrix::zeros(0, 0))))
+    Ok((
+        value[0],
+        g.row(0).transpose(),
+        h.into_iter().next().unwrap_or_else(|| DMatrix::zeros(0, 0)),
+    ))
 }

@@ -75,7 +75,13 @@ pub enum Integrator {
 
 impl Integrator {
     /// Every integrator.
-    pub const ALL: [Integrator; 5] = [Integrator::Euler, Integrator::SemiImplicitEuler, Integrator::Rk4, Integrator::ImplicitEuler, Integrator::Dopri5];
+    pub const ALL: [Integrator; 5] = [
+        Integrator::Euler,
+        Integrator::SemiImplicitEuler,
+        Integrator::Rk4,
+        Integrator::ImplicitEuler,
+        Integrator::Dopri5,
+    ];
 
     /// Name used in scenes (`scm_integrator`), the command line and the FMU.
     pub fn name(self) -> &'static str {
@@ -149,12 +155,46 @@ mod dp {
         &[1.0 / 5.0],
         &[3.0 / 40.0, 9.0 / 40.0],
         &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
-        &[19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0],
-        &[9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0],
-        &[35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+        &[
+            19372.0 / 6561.0,
+            -25360.0 / 2187.0,
+            64448.0 / 6561.0,
+            -212.0 / 729.0,
+        ],
+        &[
+            9017.0 / 3168.0,
+            -355.0 / 33.0,
+            46732.0 / 5247.0,
+            49.0 / 176.0,
+            -5103.0 / 18656.0,
+        ],
+        &[
+            35.0 / 384.0,
+            0.0,
+            500.0 / 1113.0,
+            125.0 / 192.0,
+            -2187.0 / 6784.0,
+            11.0 / 84.0,
+        ],
     ];
-    pub const B: [f64; 7] = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0];
-    pub const E: [f64; 7] = [71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0, -1.0 / 40.0];
+    pub const B: [f64; 7] = [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+        0.0,
+    ];
+    pub const E: [f64; 7] = [
+        71.0 / 57600.0,
+        0.0,
+        -71.0 / 16695.0,
+        71.0 / 1920.0,
+        -17253.0 / 339200.0,
+        22.0 / 525.0,
+        -1.0 / 40.0,
+    ];
 }
 
 /// A Dormand–Prince step: the 5th-order solution, the error estimate (`nq + nv`), and the
@@ -186,11 +226,27 @@ struct StepResidual<'a> {
 impl VectorFunction for StepResidual<'_> {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
-        step_residual(self.model, &lift(&self.q0), &lift(&self.v0), c(self.h), &lift(&self.u), &self.prm.lift(), x)
+        step_residual(
+            self.model,
+            &lift(&self.q0),
+            &lift(&self.v0),
+            c(self.h),
+            &lift(&self.u),
+            &self.prm.lift(),
+            x,
+        )
     }
 }
 
-fn step_residual<T: Scalar>(model: &Model, q0: &[T], v0: &[T], h: T, u: &[T], prm: &ContactParams<T>, vs: &[T]) -> Result<Vec<T>, DynamicsError> {
+fn step_residual<T: Scalar>(
+    model: &Model,
+    q0: &[T],
+    v0: &[T],
+    h: T,
+    u: &[T],
+    prm: &ContactParams<T>,
+    vs: &[T],
+) -> Result<Vec<T>, DynamicsError> {
     let q = model.tree.integrate_q(q0, vs, h);
     let a = model.forward(&q, vs, u, prm)?.vdot;
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
@@ -205,13 +261,21 @@ type RealJacobian<'a> = dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError> + 
 /// [`Integrator::ImplicitEuler`]): backtracking line search; in `f64` a Jacobian is kept (also from
 /// the caller's `jac`) while the iterations contract by 4 or more per step; with dual numbers a
 /// fresh one every iteration.
-fn newton<T: Scalar>(residual: &Residual<T>, real_jacobian: &RealJacobian, guess: Vec<T>, jac: &mut Option<DMatrix<f64>>) -> Result<Vec<T>, DynamicsError> {
+fn newton<T: Scalar>(
+    residual: &Residual<T>,
+    real_jacobian: &RealJacobian,
+    guess: Vec<T>,
+    jac: &mut Option<DMatrix<f64>>,
+) -> Result<Vec<T>, DynamicsError> {
     let n = guess.len();
     if n == 0 {
         return Ok(guess);
     }
     let exact_each_iteration = TypeId::of::<T>() != TypeId::of::<f64>();
-    let fail = |iterations: usize, r: &[T]| DynamicsError::NewtonFailed { iterations, residual: inf_norm(&re_vec(r)) };
+    let fail = |iterations: usize, r: &[T]| DynamicsError::NewtonFailed {
+        iterations,
+        residual: inf_norm(&re_vec(r)),
+    };
     let mut x = guess;
     let mut r = residual(&x)?;
     if jac.as_ref().is_some_and(|j| j.nrows() != n) {
@@ -236,7 +300,9 @@ fn newton<T: Scalar>(residual: &Residual<T>, real_jacobian: &RealJacobian, guess
         }
         let jinv = inverse.as_ref().expect("inverted above");
         // dx = J⁻¹ r, in the scalar type (J is real).
-        let dx: Vec<T> = (0..n).map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)])).collect();
+        let dx: Vec<T> = (0..n)
+            .map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)]))
+            .collect();
         let dx_re = inf_norm(&re_vec(&dx));
         // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
         // halve the step while the merit does not decrease enough.
@@ -249,7 +315,8 @@ fn newton<T: Scalar>(residual: &Residual<T>, real_jacobian: &RealJacobian, guess
             let ok = match &r_new {
                 Ok(rn) => {
                     let m = sq_norm(&re_vec(rn));
-                    m.is_finite() && (m <= (1.0 - 1e-4 * alpha) * merit || m <= 1e-24 * (1.0 + merit))
+                    m.is_finite()
+                        && (m <= (1.0 - 1e-4 * alpha) * merit || m <= 1e-24 * (1.0 + merit))
                 }
                 Err(_) => false,
             };
@@ -269,7 +336,9 @@ fn newton<T: Scalar>(residual: &Residual<T>, real_jacobian: &RealJacobian, guess
         // Converged: a tiny full Newton step, or (with a Jacobian taken at this iterate) a small
         // one that no longer contracts: the rounding floor of a stiff residual.
         let contraction = step / last_dx;
-        if alpha == 1.0 && (step <= NEWTON_TOL * scale || (fresh && step <= 1e-7 * scale && contraction > 0.5)) {
+        if alpha == 1.0
+            && (step <= NEWTON_TOL * scale || (fresh && step <= 1e-7 * scale && contraction > 0.5))
+        {
             return Ok(x);
         }
         // Slow contraction or a damped step: a fresh Jacobian next time.
@@ -314,11 +383,23 @@ fn inf_norm(x: &[f64]) -> f64 {
 
 impl Model {
     /// One internal step of length `h` (s) with the model's integrator.
-    pub fn step<T: Scalar>(&self, state: &State<T>, u: &[T], prm: &ContactParams<T>, h: T) -> Result<State<T>, DynamicsError> {
+    pub fn step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<State<T>, DynamicsError> {
         self.step_with(self.integrator, state, u, prm, h)
     }
 
-    fn accel<T: Scalar>(&self, q: &[T], v: &[T], u: &[T], prm: &ContactParams<T>) -> Result<Vec<T>, DynamicsError> {
+    fn accel<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+    ) -> Result<Vec<T>, DynamicsError> {
         Ok(self.forward(q, v, u, prm)?.vdot.iter().copied().collect())
     }
 
@@ -326,7 +407,14 @@ impl Model {
     /// the step ([`Model::nu`]; mocap bodies move on with their velocity during the step). For
     /// `dopri5`, the 5th-order solution of one step of exactly this length (no error control:
     /// that is [`Model::advance`]).
-    pub fn step_with<T: Scalar>(&self, integrator: Integrator, state: &State<T>, u: &[T], prm: &ContactParams<T>, h: T) -> Result<State<T>, DynamicsError> {
+    pub fn step_with<T: Scalar>(
+        &self,
+        integrator: Integrator,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<State<T>, DynamicsError> {
         match integrator {
             Integrator::ImplicitEuler => self.implicit_euler_step(state, u, prm, h, &mut None),
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
@@ -335,7 +423,15 @@ impl Model {
     }
 
     /// Euler, semi-implicit Euler or RK4; `a0`: the acceleration at the start, if known.
-    fn explicit_step<T: Scalar>(&self, integrator: Integrator, state: &State<T>, u: &[T], prm: &ContactParams<T>, h: T, a0: Option<Vec<T>>) -> Result<State<T>, DynamicsError> {
+    fn explicit_step<T: Scalar>(
+        &self,
+        integrator: Integrator,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        a0: Option<Vec<T>>,
+    ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         let dv1 = match a0 {
@@ -343,10 +439,16 @@ impl Model {
             None => self.accel(q1, v1, u, prm)?,
         };
         match integrator {
-            Integrator::Euler => Ok(State { q: tree.integrate_q(q1, v1, h), v: axpy(v1, h, &dv1) }),
+            Integrator::Euler => Ok(State {
+                q: tree.integrate_q(q1, v1, h),
+                v: axpy(v1, h, &dv1),
+            }),
             Integrator::SemiImplicitEuler => {
                 let v = axpy(v1, h, &dv1);
-                Ok(State { q: tree.integrate_q(q1, &v, h), v })
+                Ok(State {
+                    q: tree.integrate_q(q1, &v, h),
+                    v,
+                })
             }
             _ => {
                 let half = h * 0.5;
@@ -359,23 +461,44 @@ impl Model {
                 let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
                 let (dq4, dv4) = (tree.qdot(&q4, &v4), self.accel(&q4, &v4, &u_end, prm)?);
                 let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
-                let mut q = combine(q1, h, &[(w[0], &dq1), (w[1], &dq2), (w[2], &dq3), (w[3], &dq4)]);
+                let mut q = combine(
+                    q1,
+                    h,
+                    &[(w[0], &dq1), (w[1], &dq2), (w[2], &dq3), (w[3], &dq4)],
+                );
                 tree.normalize_q(&mut q);
-                Ok(State { q, v: combine(v1, h, &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)]) })
+                Ok(State {
+                    q,
+                    v: combine(
+                        v1,
+                        h,
+                        &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)],
+                    ),
+                })
             }
         }
     }
 
     /// One Dormand–Prince 5(4) step of length `h`; `first`: `(q̇, v̇)` at the start if known
     /// (the last stage of the previous step).
-    pub fn dopri5_step<T: Scalar>(&self, state: &State<T>, u: &[T], prm: &ContactParams<T>, h: T, first: Option<(Vec<T>, Vec<T>)>) -> Result<Dopri5Step<T>, DynamicsError> {
+    pub fn dopri5_step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        first: Option<(Vec<T>, Vec<T>)>,
+    ) -> Result<Dopri5Step<T>, DynamicsError> {
         let tree = &self.tree;
         let (nq, nv) = (tree.nq, tree.nv);
         let mut kq: Vec<Vec<T>> = Vec::with_capacity(7);
         let mut kv: Vec<Vec<T>> = Vec::with_capacity(7);
         let (dq0, dv0) = match first {
             Some(f) => f,
-            None => (tree.qdot(&state.q, &state.v), self.accel(&state.q, &state.v, u, prm)?),
+            None => (
+                tree.qdot(&state.q, &state.v),
+                self.accel(&state.q, &state.v, u, prm)?,
+            ),
         };
         kq.push(dq0);
         kv.push(dv0);
@@ -389,8 +512,16 @@ impl Model {
             kq.push(tree.qdot(&q, &v));
             kv.push(self.accel(&q, &v, &us, prm)?);
         }
-        let tq: Vec<(f64, &[T])> = dp::B.iter().zip(&kq).map(|(&x, k)| (x, k.as_slice())).collect();
-        let tv: Vec<(f64, &[T])> = dp::B.iter().zip(&kv).map(|(&x, k)| (x, k.as_slice())).collect();
+        let tq: Vec<(f64, &[T])> = dp::B
+            .iter()
+            .zip(&kq)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let tv: Vec<(f64, &[T])> = dp::B
+            .iter()
+            .zip(&kv)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
         let mut q = combine(&state.q, h, &tq);
         tree.normalize_q(&mut q);
         let v = combine(&state.v, h, &tv);
@@ -400,11 +531,23 @@ impl Model {
         kv.push(last.1.clone());
         let zq = vec![T::zero(); nq];
         let zv = vec![T::zero(); nv];
-        let eq: Vec<(f64, &[T])> = dp::E.iter().zip(&kq).map(|(&x, k)| (x, k.as_slice())).collect();
-        let ev: Vec<(f64, &[T])> = dp::E.iter().zip(&kv).map(|(&x, k)| (x, k.as_slice())).collect();
+        let eq: Vec<(f64, &[T])> = dp::E
+            .iter()
+            .zip(&kq)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let ev: Vec<(f64, &[T])> = dp::E
+            .iter()
+            .zip(&kv)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
         let mut error = combine(&zq, h, &eq);
         error.extend(combine(&zv, h, &ev));
-        Ok(Dopri5Step { state: State { q, v }, error, last })
+        Ok(Dopri5Step {
+            state: State { q, v },
+            error,
+            last,
+        })
     }
 
     /// One implicit Euler step ([`Integrator::ImplicitEuler`]): `V` solves
@@ -418,29 +561,71 @@ impl Model {
     ///
     /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
     /// and replaced when the iterations contract slowly; updated here.
-    fn implicit_euler_step<T: Scalar>(&self, state: &State<T>, u: &[T], prm: &ContactParams<T>, h: T, jac: &mut Option<DMatrix<f64>>) -> Result<State<T>, DynamicsError> {
+    fn implicit_euler_step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        jac: &mut Option<DMatrix<f64>>,
+    ) -> Result<State<T>, DynamicsError> {
         let u1 = self.inputs_after(u, h);
         let residual = |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x);
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
-            let f = StepResidual { model: self, q0: re_vec(&state.q), v0: re_vec(&state.v), h: h.re(), u: re_vec(&u1), prm: re_params(prm) };
+            let f = StepResidual {
+                model: self,
+                q0: re_vec(&state.q),
+                v0: re_vec(&state.v),
+                h: h.re(),
+                u: re_vec(&u1),
+                prm: re_params(prm),
+            };
             Ok(jacobian(&f, x)?.1)
         };
         let v = newton(&residual, &real_jacobian, state.v.clone(), jac)?;
-        Ok(State { q: self.tree.integrate_q(&state.q, &v, h), v })
+        Ok(State {
+            q: self.tree.integrate_q(&state.q, &v, h),
+            v,
+        })
     }
 
     /// An implicit step of `h`; when Newton's iterations fail (typically when contact starts
     /// within a step much longer than the contact's period), the step is done as two halves,
     /// recursively, down to `h / 2⁸`.
     #[allow(clippy::too_many_arguments)]
-    fn implicit_step_subdividing(&self, s: &State<f64>, u: &[f64], prm: &ContactParams<f64>, h: f64, jac: &mut Option<DMatrix<f64>>, depth: usize, subdivided: &mut usize) -> Result<State<f64>, DynamicsError> {
+    fn implicit_step_subdividing(
+        &self,
+        s: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        jac: &mut Option<DMatrix<f64>>,
+        depth: usize,
+        subdivided: &mut usize,
+    ) -> Result<State<f64>, DynamicsError> {
         match self.implicit_euler_step(s, u, prm, h, jac) {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
                 *subdivided += 1;
                 let half = 0.5 * h;
                 let mut sub = None;
-                let mid = self.implicit_step_subdividing(s, u, prm, half, &mut sub, depth + 1, subdivided)?;
-                self.implicit_step_subdividing(&mid, &self.inputs_after(u, half), prm, half, &mut sub, depth + 1, subdivided)
+                let mid = self.implicit_step_subdividing(
+                    s,
+                    u,
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                )?;
+                self.implicit_step_subdividing(
+                    &mid,
+                    &self.inputs_after(u, half),
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                )
             }
             other => other,
         }
@@ -462,19 +647,42 @@ impl Model {
 
     /// Power of the actuators `τ_act · v` (W).
     fn actuator_power(&self, s: &State<f64>, ctrl: &[f64]) -> f64 {
-        self.actuator_forces(&s.q, &s.v, ctrl).iter().zip(&s.v).map(|(t, v)| t * v).sum()
+        self.actuator_forces(&s.q, &s.v, ctrl)
+            .iter()
+            .zip(&s.v)
+            .map(|(t, v)| t * v)
+            .sum()
     }
 
     /// The guard's state at the start of a call from `state` at time `t0` (s), with the contacts
     /// there (`None`: none evaluated), continuing `ledger` if it was left at this state and
     /// these parameters. `None` when the energy is not finite (it cannot be judged).
-    fn energy_monitor(&self, state: &State<f64>, ctrl: &[f64], prm: &ContactParams<f64>, contacts: Option<&[crate::contact::PairContact<f64>]>, t0: f64, ledger: Option<&EnergyLedger>) -> Option<EnergyMonitor> {
+    fn energy_monitor(
+        &self,
+        state: &State<f64>,
+        ctrl: &[f64],
+        prm: &ContactParams<f64>,
+        contacts: Option<&[crate::contact::PairContact<f64>]>,
+        t0: f64,
+        ledger: Option<&EnergyLedger>,
+    ) -> Option<EnergyMonitor> {
         let e = self.energy(&state.q, &state.v);
         let stored = contacts.map_or(0.0, |c| contact_energy(c, prm));
         let moving = e.kinetic + stored;
         let ledger = match ledger {
-            Some(l) if l.at == *state && l.params == *prm => EnergyLedger { scale: l.scale.max(moving), ..l.clone() },
-            _ => EnergyLedger { at: state.clone(), params: *prm, since: t0, reference: e.total() + stored, work: 0.0, gross_work: 0.0, scale: moving },
+            Some(l) if l.at == *state && l.params == *prm => EnergyLedger {
+                scale: l.scale.max(moving),
+                ..l.clone()
+            },
+            _ => EnergyLedger {
+                at: state.clone(),
+                params: *prm,
+                since: t0,
+                reference: e.total() + stored,
+                work: 0.0,
+                gross_work: 0.0,
+                scale: moving,
+            },
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
             ledger,
@@ -491,8 +699,24 @@ impl Model {
     /// A step that produces a non-finite state, a dynamics error or (with
     /// [`AdvanceOptions::energy_guard`]) an energy growth no input explains fails the whole
     /// call: the caller keeps its state from before.
-    pub fn advance(&self, state: &State<f64>, u: &[f64], prm: &ContactParams<f64>, t0: f64, duration: f64, opts: &AdvanceOptions) -> Result<Advanced, StepFailure> {
-        self.advance_cached(state, u, prm, t0, duration, opts, &mut SolverCache::default())
+    pub fn advance(
+        &self,
+        state: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        t0: f64,
+        duration: f64,
+        opts: &AdvanceOptions,
+    ) -> Result<Advanced, StepFailure> {
+        self.advance_cached(
+            state,
+            u,
+            prm,
+            t0,
+            duration,
+            opts,
+            &mut SolverCache::default(),
+        )
     }
 
     /// [`Model::advance`] with a cache carried from one call to the next (the implicit
@@ -501,22 +725,80 @@ impl Model {
     /// not what they converge to (to their tolerance); it is used only for the state and step
     /// it was left for, so a run is reproducible from any state.
     #[allow(clippy::too_many_arguments)]
-    pub fn advance_cached(&self, state: &State<f64>, u: &[f64], prm: &ContactParams<f64>, t0: f64, duration: f64, opts: &AdvanceOptions, cache: &mut SolverCache) -> Result<Advanced, StepFailure> {
-        self.split_inputs(u).map_err(|error| StepFailure::Dynamics { time: t0, step: 0, h: 0.0, error })?;
+    pub fn advance_cached(
+        &self,
+        state: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        t0: f64,
+        duration: f64,
+        opts: &AdvanceOptions,
+        cache: &mut SolverCache,
+    ) -> Result<Advanced, StepFailure> {
+        self.split_inputs(u)
+            .map_err(|error| StepFailure::Dynamics {
+                time: t0,
+                step: 0,
+                h: 0.0,
+                error,
+            })?;
         let u = u.to_vec();
         let ctrl = &u[..self.actuators.len()];
-        let mocap_moves = (0..self.tree.mocap.len()).any(|m| u[self.actuators.len() + MOCAP_INPUTS * m + 7..][..6].iter().any(|&x| x != 0.0));
+        let mocap_moves = (0..self.tree.mocap.len()).any(|m| {
+            u[self.actuators.len() + MOCAP_INPUTS * m + 7..][..6]
+                .iter()
+                .any(|&x| x != 0.0)
+        });
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
         // once here, it also gives the contact state for the energy guard.
         let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
-        let start = if needs_start { Some(self.forward(&state.q, &state.v, &u, prm).map_err(|error| StepFailure::Dynamics { time: t0, step: 1, h: 0.0, error })?) } else { None };
-        let mut monitor = guard.then(|| self.energy_monitor(state, ctrl, prm, start.as_ref().map(|f| f.contacts.as_slice()), t0, cache.ledger.as_ref())).flatten();
+        let start = if needs_start {
+            Some(self.forward(&state.q, &state.v, &u, prm).map_err(|error| {
+                StepFailure::Dynamics {
+                    time: t0,
+                    step: 1,
+                    h: 0.0,
+                    error,
+                }
+            })?)
+        } else {
+            None
+        };
+        let mut monitor = guard
+            .then(|| {
+                self.energy_monitor(
+                    state,
+                    ctrl,
+                    prm,
+                    start.as_ref().map(|f| f.contacts.as_slice()),
+                    t0,
+                    cache.ledger.as_ref(),
+                )
+            })
+            .flatten();
         let a0 = start.map(|f| f.vdot.iter().copied().collect::<Vec<f64>>());
-        let mut report = Advanced { state: state.clone(), steps: 0, rejected: 0, subdivided: 0, min_step: f64::INFINITY, max_step: 0.0 };
-        let check = |monitor: &mut Option<EnergyMonitor>, s: &State<f64>, t: f64, step: usize, h: f64| -> Result<(), StepFailure> {
+        let mut report = Advanced {
+            state: state.clone(),
+            steps: 0,
+            rejected: 0,
+            subdivided: 0,
+            min_step: f64::INFINITY,
+            max_step: 0.0,
+        };
+        let check = |monitor: &mut Option<EnergyMonitor>,
+                     s: &State<f64>,
+                     t: f64,
+                     step: usize,
+                     h: f64|
+         -> Result<(), StepFailure> {
             if let Some(quantity) = self.first_non_finite(s) {
-                return Err(StepFailure::NonFinite { time: t, step, h, quantity });
+                return Err(StepFailure::NonFinite {
+                    time: t,
+                    step,
+                    h,
+                    quantity,
+                });
             }
             if let Some(m) = monitor.as_mut() {
                 let e = self.energy(&s.q, &s.v);
@@ -529,19 +811,39 @@ impl Model {
                 let total = e.total();
                 if !total.is_finite() || total > m.ledger.allowed(m.floor) {
                     let l = &m.ledger;
-                    return Err(StepFailure::EnergyGrowth { time: t, step, h, since: l.since, from: l.reference, to: total, input: l.work, allowed: l.allowed(m.floor) });
+                    return Err(StepFailure::EnergyGrowth {
+                        time: t,
+                        step,
+                        h,
+                        since: l.since,
+                        from: l.reference,
+                        to: total,
+                        input: l.work,
+                        allowed: l.allowed(m.floor),
+                    });
                 }
             }
             Ok(())
         };
         // What the guard leaves for the next call: the balance so far, at the end state.
-        let leave = |monitor: Option<EnergyMonitor>, end: &State<f64>| monitor.map(|m| EnergyLedger { at: end.clone(), params: *prm, ..m.ledger });
+        let leave = |monitor: Option<EnergyMonitor>, end: &State<f64>| {
+            monitor.map(|m| EnergyLedger {
+                at: end.clone(),
+                params: *prm,
+                ..m.ledger
+            })
+        };
         if !self.integrator.is_adaptive() {
             let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0);
             // Refused before any work (the cast below would saturate, and internal steps would
             // grow past `step`; a state that stays finite would run for ages).
             if n.is_nan() || n > opts.max_steps as f64 {
-                return Err(StepFailure::TooLong { time: t0, duration, step: self.step, steps: opts.max_steps });
+                return Err(StepFailure::TooLong {
+                    time: t0,
+                    duration,
+                    step: self.step,
+                    steps: opts.max_steps,
+                });
             }
             let n = n as usize;
             let dt = duration / n as f64;
@@ -549,16 +851,35 @@ impl Model {
             let mut first = a0;
             // The implicit method's Newton Jacobian, carried from step to step while it serves.
             let mut jac = match cache.left {
-                Some((ref s_left, h_left)) if h_left == dt && s_left == state => cache.jacobian.take(),
+                Some((ref s_left, h_left)) if h_left == dt && s_left == state => {
+                    cache.jacobian.take()
+                }
                 _ => None,
             };
             for k in 0..n {
                 let t = t0 + (k + 1) as f64 * dt;
                 let uk = self.inputs_after(&u, k as f64 * dt);
-                let dyn_err = |error| StepFailure::Dynamics { time: t0 + k as f64 * dt, step: k + 1, h: dt, error };
+                let dyn_err = |error| StepFailure::Dynamics {
+                    time: t0 + k as f64 * dt,
+                    step: k + 1,
+                    h: dt,
+                    error,
+                };
                 s = match self.integrator {
-                    Integrator::ImplicitEuler => self.implicit_step_subdividing(&s, &uk, prm, dt, &mut jac, 0, &mut report.subdivided).map_err(dyn_err)?,
-                    i => self.explicit_step(i, &s, &uk, prm, dt, first.take()).map_err(dyn_err)?,
+                    Integrator::ImplicitEuler => self
+                        .implicit_step_subdividing(
+                            &s,
+                            &uk,
+                            prm,
+                            dt,
+                            &mut jac,
+                            0,
+                            &mut report.subdivided,
+                        )
+                        .map_err(dyn_err)?,
+                    i => self
+                        .explicit_step(i, &s, &uk, prm, dt, first.take())
+                        .map_err(dyn_err)?,
                 };
                 check(&mut monitor, &s, t, k + 1, dt)?;
             }
@@ -592,10 +913,17 @@ impl Model {
             let cause;
             let (err, out) = match trial {
                 Ok(out) => {
-                    cause = self.first_non_finite(&out.state).map(|q| format!("made {q} non-finite"));
+                    cause = self
+                        .first_non_finite(&out.state)
+                        .map(|q| format!("made {q} non-finite"));
                     let x0 = s.q.iter().chain(&s.v);
                     let x1 = out.state.q.iter().chain(&out.state.v);
-                    let sum: f64 = out.error.iter().zip(x0.zip(x1)).map(|(e, (a, b))| (e / (tol * (1.0 + a.abs().max(b.abs())))).powi(2)).sum();
+                    let sum: f64 = out
+                        .error
+                        .iter()
+                        .zip(x0.zip(x1))
+                        .map(|(e, (a, b))| (e / (tol * (1.0 + a.abs().max(b.abs())))).powi(2))
+                        .sum();
                     let err = (sum / out.error.len().max(1) as f64).sqrt();
                     (if err.is_finite() { err } else { f64::INFINITY }, Some(out))
                 }
@@ -606,7 +934,10 @@ impl Model {
                 }
             };
             if report.steps + report.rejected >= opts.max_steps {
-                return Err(StepFailure::TooManySteps { time: t, steps: opts.max_steps });
+                return Err(StepFailure::TooManySteps {
+                    time: t,
+                    steps: opts.max_steps,
+                });
             }
             match out {
                 Some(out) if err <= 1.0 => {
@@ -622,16 +953,29 @@ impl Model {
                         report.state = s;
                         return Ok(report);
                     }
-                    let grow = if err > 0.0 { (0.9 * err.powf(-0.2)).clamp(0.2, 5.0) } else { 5.0 };
+                    let grow = if err > 0.0 {
+                        (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                    } else {
+                        5.0
+                    };
                     h = (h * if rejected_last { grow.min(1.0) } else { grow }).min(self.step);
                     rejected_last = false;
                 }
                 _ => {
                     report.rejected += 1;
                     rejected_last = true;
-                    h *= if err.is_finite() { (0.9 * err.powf(-0.2)).clamp(0.1, 0.9) } else { 0.1 };
+                    h *= if err.is_finite() {
+                        (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
+                    } else {
+                        0.1
+                    };
                     if h < 1e-14 * (1.0 + t.abs()) || h < 1e-12 * duration {
-                        return Err(StepFailure::StepTooSmall { time: t, h, tolerance: tol, cause });
+                        return Err(StepFailure::StepTooSmall {
+                            time: t,
+                            h,
+                            tolerance: tol,
+                            cause,
+                        });
                     }
                 }
             }
@@ -661,13 +1005,31 @@ pub type CacheMark = (State<f64>, f64);
 impl SolverCache {
     /// The cached Newton Jacobian, the state and internal step (s) it was left for, and the
     /// energy guard's ledger.
-    pub fn parts(&self) -> (Option<&DMatrix<f64>>, Option<&CacheMark>, Option<&EnergyLedger>) {
-        (self.jacobian.as_ref(), self.left.as_ref(), self.ledger.as_ref())
+    pub fn parts(
+        &self,
+    ) -> (
+        Option<&DMatrix<f64>>,
+        Option<&CacheMark>,
+        Option<&EnergyLedger>,
+    ) {
+        (
+            self.jacobian.as_ref(),
+            self.left.as_ref(),
+            self.ledger.as_ref(),
+        )
     }
 
     /// A cache from its [`parts`](SolverCache::parts).
-    pub fn from_parts(jacobian: Option<DMatrix<f64>>, left: Option<CacheMark>, ledger: Option<EnergyLedger>) -> SolverCache {
-        SolverCache { jacobian, left, ledger }
+    pub fn from_parts(
+        jacobian: Option<DMatrix<f64>>,
+        left: Option<CacheMark>,
+        ledger: Option<EnergyLedger>,
+    ) -> SolverCache {
+        SolverCache {
+            jacobian,
+            left,
+            ledger,
+        }
     }
 }
 
@@ -727,7 +1089,10 @@ struct EnergyMonitor {
 /// (one body inside another: the `k D²` term covers that). The old per-step bound `k (D² + ε3²)`
 /// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
 /// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
-pub fn contact_energy(contacts: &[crate::contact::PairContact<f64>], prm: &ContactParams<f64>) -> f64 {
+pub fn contact_energy(
+    contacts: &[crate::contact::PairContact<f64>],
+    prm: &ContactParams<f64>,
+) -> f64 {
     let k = prm.stiffness;
     contacts
         .iter()
@@ -771,7 +1136,10 @@ pub struct AdvanceOptions {
 
 impl Default for AdvanceOptions {
     fn default() -> Self {
-        AdvanceOptions { energy_guard: true, max_steps: 1_000_000 }
+        AdvanceOptions {
+            energy_guard: true,
+            max_steps: 1_000_000,
+        }
     }
 }
 
@@ -866,7 +1234,9 @@ pub enum StepFailure {
         steps: usize,
     },
     /// The adaptive method needed too many steps.
-    #[error("more than {steps} internal steps by t = {time} s (stiff contact? try implicit_euler)")]
+    #[error(
+        "more than {steps} internal steps by t = {time} s (stiff contact? try implicit_euler)"
+    )]
     TooManySteps {
         /// Time reached (s).
         time: f64,

@@ -16,10 +16,10 @@ pub mod fmi;
 pub mod geometry;
 pub mod integrate;
 pub mod model;
+pub mod pack;
 pub mod scalar;
 pub mod scene;
 pub mod sim;
-pub mod pack;
 
 // The FMI 2.0 C ABI of the FMU binary: every `fmi2*` function, for scenes simulated by
 // `sim::Simulation`.

@@ -159,7 +159,11 @@ impl Model {
         if u.len() == self.nu() {
             Ok((&u[..na], &u[na..]))
         } else {
-            Err(DynamicsError::Inputs { expected: self.nu(), actuators: na, got: u.len() })
+            Err(DynamicsError::Inputs {
+                expected: self.nu(),
+                actuators: na,
+                got: u.len(),
+            })
         }
     }
 
@@ -184,12 +188,20 @@ impl Model {
     }
 
     /// Contact of every pair and the wrench each body receives (world frame, about its origin).
-    pub fn contacts<T: Scalar>(&self, kin: &Kinematics<T>, prm: &ContactParams<T>) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
+    pub fn contacts<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+    ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let mut out = Vec::with_capacity(self.pairs.len());
         for pair in &self.pairs {
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
-                out.push(PairContact { on_a: Wrench::zero(), on_b: Wrench::zero(), distance: c(f64::INFINITY) });
+                out.push(PairContact {
+                    on_a: Wrench::zero(),
+                    on_b: Wrench::zero(),
+                    distance: c(f64::INFINITY),
+                });
                 continue;
             };
             let pc = pair_contact(ca, &kin.frames[pair.a], cb, &kin.frames[pair.b], prm);
@@ -209,12 +221,14 @@ impl Model {
     pub fn passive_forces<T: Scalar>(&self, q: &[T], v: &[T], stiction_velocity: T) -> DVector<T> {
         let mut tau = DVector::zeros(self.tree.nv);
         for j in &self.tree.joints {
-            let theta = (j.kind == JointKind::Ball && j.stiffness != 0.0).then(|| quat_log(&quat_from(&q[j.qadr..j.qadr + 4])));
+            let theta = (j.kind == JointKind::Ball && j.stiffness != 0.0)
+                .then(|| quat_log(&quat_from(&q[j.qadr..j.qadr + 4])));
             for k in 0..j.kind.nv() {
                 let vi = v[j.dadr + k];
                 let mut t = -vi * j.damping;
                 if j.frictionloss > 0.0 {
-                    t -= vi * j.frictionloss / (stiction_velocity * stiction_velocity + vi * vi).sqrt();
+                    t -= vi * j.frictionloss
+                        / (stiction_velocity * stiction_velocity + vi * vi).sqrt();
                 }
                 if j.stiffness != 0.0 {
                     match (j.kind, &theta) {
@@ -254,27 +268,60 @@ impl Model {
     /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
     /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
     /// gives them for a running simulation): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
-    pub fn forward<T: Scalar>(&self, q: &[T], v: &[T], u: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
+    pub fn forward<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+    ) -> Result<Forward<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
-        self.forward_tau(q, v, self.actuator_forces(q, v, ctrl).as_slice(), mocap, prm)
+        self.forward_tau(
+            q,
+            v,
+            self.actuator_forces(q, v, ctrl).as_slice(),
+            mocap,
+            prm,
+        )
     }
 
     /// Forward dynamics for a generalized applied force: `v̇ = FD(q, v, τ) = M⁻¹ (τ + τ_passive
     /// - c + Σ Λ)`, contact included. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
-    pub fn forward_tau<T: Scalar>(&self, q: &[T], v: &[T], tau: &[T], mocap: &[T], prm: &ContactParams<T>) -> Result<Forward<T>, DynamicsError> {
+    pub fn forward_tau<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        tau: &[T],
+        mocap: &[T],
+        prm: &ContactParams<T>,
+    ) -> Result<Forward<T>, DynamicsError> {
         for j in &self.tree.joints {
-            if q[j.qadr..j.qadr + j.kind.nq()].iter().any(|x| !x.re().is_finite()) {
-                return Err(DynamicsError::NonFinite(format!("the position of joint {}", j.name)));
+            if q[j.qadr..j.qadr + j.kind.nq()]
+                .iter()
+                .any(|x| !x.re().is_finite())
+            {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the position of joint {}",
+                    j.name
+                )));
             }
-            if v[j.dadr..j.dadr + j.kind.nv()].iter().any(|x| !x.re().is_finite()) {
-                return Err(DynamicsError::NonFinite(format!("the velocity of joint {}", j.name)));
+            if v[j.dadr..j.dadr + j.kind.nv()]
+                .iter()
+                .any(|x| !x.re().is_finite())
+            {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the velocity of joint {}",
+                    j.name
+                )));
             }
         }
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (wrenches, contacts) = self.contacts(&kin, prm);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
-        let rhs = DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity) - bias;
+        let rhs = DVector::from_column_slice(tau)
+            + self.passive_forces(q, v, prm.stiction_velocity)
+            - bias;
         let m = self.tree.mass_matrix(&kin);
         let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
         Ok(Forward { vdot, contacts })
@@ -283,10 +330,18 @@ impl Model {
     /// Inverse dynamics (paper eq. 27): the generalized actuation `τ = ID(q, v, v̇) = M v̇ + c -
     /// Σ Λ - τ_passive` that produces accelerations `vdot`, contact included, so that
     /// `ID(q, v, FD(q, v, τ)) = τ`. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
-    pub fn inverse<T: Scalar>(&self, q: &[T], v: &[T], vdot: &[T], mocap: &[T], prm: &ContactParams<T>) -> DVector<T> {
+    pub fn inverse<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        vdot: &[T],
+        mocap: &[T],
+        prm: &ContactParams<T>,
+    ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (wrenches, _) = self.contacts(&kin, prm);
-        let mut tau = self.tree.rnea(&kin, vdot, &wrenches) - self.passive_forces(q, v, prm.stiction_velocity);
+        let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
+            - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia.
         for j in &self.tree.joints {
             for k in 0..j.kind.nv() {
@@ -312,7 +367,8 @@ impl Model {
             let vcom = f.linvel + f.angvel.cross(&arm);
             let wb = f.rotation.transpose() * f.angvel;
             let m = c::<T>(body.inertia.mass);
-            kinetic += m * vcom.dot(&vcom) * 0.5 + wb.dot(&(body.inertia.rot.map(c::<T>) * wb)) * 0.5;
+            kinetic +=
+                m * vcom.dot(&vcom) * 0.5 + wb.dot(&(body.inertia.rot.map(c::<T>) * wb)) * 0.5;
             gravity -= m * g.dot(&(f.origin + arm));
         }
         for j in &self.tree.joints {
@@ -320,7 +376,9 @@ impl Model {
                 kinetic += v[j.dadr + k] * v[j.dadr + k] * (0.5 * j.armature);
             }
             match j.kind {
-                JointKind::Slide | JointKind::Hinge => springs += q[j.qadr] * q[j.qadr] * (0.5 * j.stiffness),
+                JointKind::Slide | JointKind::Hinge => {
+                    springs += q[j.qadr] * q[j.qadr] * (0.5 * j.stiffness)
+                }
                 JointKind::Ball if j.stiffness != 0.0 => {
                     let th = quat_log(&quat_from(&q[j.qadr..j.qadr + 4]));
                     springs += th.dot(&th) * (0.5 * j.stiffness);
@@ -328,11 +386,18 @@ impl Model {
                 _ => {}
             }
         }
-        Energy { kinetic, gravity, springs }
+        Energy {
+            kinetic,
+            gravity,
+            springs,
+        }
     }
 
     /// Total mass of the bodies that move (kg).
     pub fn moving_mass(&self) -> f64 {
-        (1..self.tree.bodies.len()).filter(|&b| self.tree.body_moves(b)).map(|b| self.tree.bodies[b].inertia.mass).sum()
+        (1..self.tree.bodies.len())
+            .filter(|&b| self.tree.body_moves(b))
+            .map(|b| self.tree.bodies[b].inertia.mass)
+            .sum()
     }
 }

@@ -36,21 +36,34 @@ pub struct Described {
 /// Loads `scene` and generates its `modelDescription.xml` and documentation: what `scm pack`
 /// writes; the golden files under `modelDescription/` are checked against the former.
 pub fn describe(scene: &Path) -> Result<Described, PackError> {
-    let text = std::fs::read_to_string(scene).map_err(|e| crate::scene::SceneError { file: scene.display().to_string(), line: 0, element: "mujoco".into(), message: format!("cannot read the scene: {e}") })?;
+    let text = std::fs::read_to_string(scene).map_err(|e| crate::scene::SceneError {
+        file: scene.display().to_string(),
+        line: 0,
+        element: "mujoco".into(),
+        message: format!("cannot read the scene: {e}"),
+    })?;
     let loaded = crate::scene::load_str(&text, scene)?;
     let mut resources: Vec<(String, Vec<u8>)> = Vec::new();
     for m in &loaded.meshes {
-        let name = crate::scene::packed_mesh_name(&m.file).map_err(|why| PackError::Write(format!("{}: mesh {}: {why}", scene.display(), m.file)))?;
+        let name = crate::scene::packed_mesh_name(&m.file).map_err(|why| {
+            PackError::Write(format!("{}: mesh {}: {why}", scene.display(), m.file))
+        })?;
         if resources.iter().any(|(n, _)| *n == name) {
             continue;
         }
-        let bytes = std::fs::read(&m.path).map_err(|e| PackError::Write(format!("{}: {e}", m.path.display())))?;
+        let bytes = std::fs::read(&m.path)
+            .map_err(|e| PackError::Write(format!("{}: {e}", m.path.display())))?;
         resources.push((name, bytes));
     }
     let sim = Simulation::new(loaded.clone(), &text);
     let model_description = crate::fmi::model_description::model_description_xml(sim.info());
     let documentation = documentation::index_html(&loaded, sim.info());
-    Ok(Described { scene_text: text, model_description, documentation, resources })
+    Ok(Described {
+        scene_text: text,
+        model_description,
+        documentation,
+        resources,
+    })
 }
 
 /// Packs `scene` with the FMU `library` into `out`: the scene file and the meshes it names go
@@ -62,5 +75,12 @@ pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
     }
     let mut files = vec![(SCENE_FILE.to_string(), d.scene_text.into_bytes())];
     files.extend(d.resources);
-    crate::fmi::pack::write_fmu(out, &d.model_description, library, &files, Some(&d.documentation)).map_err(|e| PackError::Write(e.to_string()))
+    crate::fmi::pack::write_fmu(
+        out,
+        &d.model_description,
+        library,
+        &files,
+        Some(&d.documentation),
+    )
+    .map_err(|e| PackError::Write(e.to_string()))
 }

@@ -58,12 +58,19 @@ impl ChainRule for Dual<f64> {
 impl<const N: usize> ChainRule for DualVec<f64, Const<N>> {
     const FIRST_ORDER: bool = true;
     fn is_constant(&self) -> bool {
-        self.eps.0.as_ref().is_none_or(|e| e.iter().all(|&x| x == 0.0))
+        self.eps
+            .0
+            .as_ref()
+            .is_none_or(|e| e.iter().all(|&x| x == 0.0))
     }
     fn chain(values: &[f64], jac: &[f64], inputs: &[Self], out: &mut [Self]) -> bool {
         let n = inputs.len();
         // Only inputs that carry a derivative contribute.
-        let live: Vec<(usize, &SVector<f64, N>)> = inputs.iter().enumerate().filter_map(|(k, x)| x.eps.0.as_ref().map(|e| (k, e))).collect();
+        let live: Vec<(usize, &SVector<f64, N>)> = inputs
+            .iter()
+            .enumerate()
+            .filter_map(|(k, x)| x.eps.0.as_ref().map(|e| (k, e)))
+            .collect();
         for (i, (o, &v)) in out.iter_mut().zip(values).enumerate() {
             let row = &jac[i * n..(i + 1) * n];
             let mut e = SVector::<f64, N>::zeros();
@@ -72,7 +79,14 @@ impl<const N: usize> ChainRule for DualVec<f64, Const<N>> {
                     e += ek * row[k];
                 }
             }
-            *o = DualVec::new(v, if live.is_empty() { Derivative::none() } else { Derivative::some(e) });
+            *o = DualVec::new(
+                v,
+                if live.is_empty() {
+                    Derivative::none()
+                } else {
+                    Derivative::some(e)
+                },
+            );
         }
         true
     }
@@ -142,7 +156,11 @@ pub fn re3<T: Scalar>(v: &Vector3<T>) -> Vector3<f64> {
 /// so it neither overflows for large `x/ε` nor loses the tail for small ones (SPEC §2).
 #[inline]
 pub fn softplus<T: Scalar>(x: T, eps: T) -> T {
-    let (pos, abs) = if x.re() > 0.0 { (x, x) } else { (T::zero(), -x) };
+    let (pos, abs) = if x.re() > 0.0 {
+        (x, x)
+    } else {
+        (T::zero(), -x)
+    };
     // Past |x|/ε = 746, exp underflows to exactly 0 (and so do its derivatives): skip the
     // slow underflow path of exp. Past 40, exp(-|x|/ε) < 5e-18 and log1p(y) = y(1 - y/2 + ...)
     // equals y to within a relative 3e-18, below f64 rounding: skip the log1p.
@@ -180,7 +198,11 @@ impl<T: Scalar> SoftminSum<T> {
     /// Starts a sum with weights `exp(-(key - shift)/eps)`.
     #[inline]
     pub fn new(shift: T, eps: T) -> Self {
-        SoftminSum { shift, inv_eps: eps.recip(), weight: T::zero() }
+        SoftminSum {
+            shift,
+            inv_eps: eps.recip(),
+            weight: T::zero(),
+        }
     }
 
     /// Weight of a key, added to the running total and returned (so the caller can weigh its

@@ -5,7 +5,8 @@
 use crate::contact::{ContactParams, PairContact};
 use crate::dynamics::JointKind;
 use crate::fmi::contract::{
-    Capabilities, Causality, DefaultExperiment, FmiModel, Initial, LogCategory, LogMessage, ModelInfo, ModelResult, Phase, StepError, VarType, Variability, Variable,
+    Capabilities, Causality, DefaultExperiment, FmiModel, Initial, LogCategory, LogMessage,
+    ModelInfo, ModelResult, Phase, StepError, VarType, Variability, Variable,
 };
 use crate::integrate::{Integrator, State};
 use crate::model::Model;
@@ -40,7 +41,15 @@ pub enum Param {
 
 impl Param {
     /// Every parameter, in table order.
-    pub const ALL: [Param; 7] = [Param::Eps1, Param::Eps2, Param::Eps3, Param::Stiffness, Param::DissipationVelocity, Param::StictionVelocity, Param::Friction];
+    pub const ALL: [Param; 7] = [
+        Param::Eps1,
+        Param::Eps2,
+        Param::Eps3,
+        Param::Stiffness,
+        Param::DissipationVelocity,
+        Param::StictionVelocity,
+        Param::Friction,
+    ];
 
     /// `(name, unit, description)`.
     pub fn describe(self) -> (&'static str, &'static str, &'static str) {
@@ -82,7 +91,12 @@ impl Param {
 
     /// Whether `value` is allowed (finite; positive, or non-negative for friction).
     pub fn accepts(self, value: f64) -> bool {
-        value.is_finite() && if self == Param::Friction { value >= 0.0 } else { value > 0.0 }
+        value.is_finite()
+            && if self == Param::Friction {
+                value >= 0.0
+            } else {
+                value > 0.0
+            }
     }
 }
 
@@ -132,50 +146,171 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     let mut rows: Vec<(Variable, Slot)> = Vec::new();
     let q0 = model.tree.q0();
-    let mut push = |name: String, causality, variability, initial, var_type, description: String, slot| {
-        let value_reference = rows.len() as u32;
-        rows.push((Variable { name, value_reference, causality, variability, initial, var_type, description }, slot));
+    let mut push =
+        |name: String, causality, variability, initial, var_type, description: String, slot| {
+            let value_reference = rows.len() as u32;
+            rows.push((
+                Variable {
+                    name,
+                    value_reference,
+                    causality,
+                    variability,
+                    initial,
+                    var_type,
+                    description,
+                },
+                slot,
+            ));
+        };
+    let real = |start: Option<f64>, unit: &'static str| VarType::Real {
+        start,
+        unit: Some(unit),
+        derivative: None,
     };
-    let real = |start: Option<f64>, unit: &'static str| VarType::Real { start, unit: Some(unit), derivative: None };
-    push("time".into(), Causality::Independent, Variability::Continuous, None, VarType::Real { start: None, unit: Some("s"), derivative: None }, "Simulation time".into(), Slot::Time);
+    push(
+        "time".into(),
+        Causality::Independent,
+        Variability::Continuous,
+        None,
+        VarType::Real {
+            start: None,
+            unit: Some("s"),
+            derivative: None,
+        },
+        "Simulation time".into(),
+        Slot::Time,
+    );
     for j in &model.tree.joints {
         let body = &model.tree.bodies[j.body].name;
-        let state = |push: &mut dyn FnMut(String, Causality, Variability, Option<Initial>, VarType, String, Slot), name: String, start: f64, unit: &'static str, desc: String, slot: Slot| {
-            push(name, Causality::Output, Variability::Continuous, Some(Initial::Exact), real(Some(start), unit), desc, slot);
+        let state = |push: &mut dyn FnMut(
+            String,
+            Causality,
+            Variability,
+            Option<Initial>,
+            VarType,
+            String,
+            Slot,
+        ),
+                     name: String,
+                     start: f64,
+                     unit: &'static str,
+                     desc: String,
+                     slot: Slot| {
+            push(
+                name,
+                Causality::Output,
+                Variability::Continuous,
+                Some(Initial::Exact),
+                real(Some(start), unit),
+                desc,
+                slot,
+            );
         };
         match j.kind {
             JointKind::Slide | JointKind::Hinge => {
-                let (u, uv, what) = if j.kind == JointKind::Slide { ("m", "m/s", "displacement") } else { ("rad", "rad/s", "angle") };
-                state(&mut push, format!("{}.q", j.name), q0[j.qadr], u, format!("{} {what} of joint {} (body {body})", if j.kind == JointKind::Slide { "Slide" } else { "Hinge" }, j.name), Slot::Q(j.qadr));
-                state(&mut push, format!("{}.v", j.name), 0.0, uv, format!("Velocity of joint {}", j.name), Slot::V(j.dadr));
+                let (u, uv, what) = if j.kind == JointKind::Slide {
+                    ("m", "m/s", "displacement")
+                } else {
+                    ("rad", "rad/s", "angle")
+                };
+                state(
+                    &mut push,
+                    format!("{}.q", j.name),
+                    q0[j.qadr],
+                    u,
+                    format!(
+                        "{} {what} of joint {} (body {body})",
+                        if j.kind == JointKind::Slide {
+                            "Slide"
+                        } else {
+                            "Hinge"
+                        },
+                        j.name
+                    ),
+                    Slot::Q(j.qadr),
+                );
+                state(
+                    &mut push,
+                    format!("{}.v", j.name),
+                    0.0,
+                    uv,
+                    format!("Velocity of joint {}", j.name),
+                    Slot::V(j.dadr),
+                );
             }
             JointKind::Free | JointKind::Ball => {
-                let qa = if j.kind == JointKind::Free { j.qadr + 3 } else { j.qadr };
+                let qa = if j.kind == JointKind::Free {
+                    j.qadr + 3
+                } else {
+                    j.qadr
+                };
                 if j.kind == JointKind::Free {
                     for (k, a) in AXES.iter().enumerate() {
-                        state(&mut push, format!("{}.pos.{a}", j.name), q0[j.qadr + k], "m", format!("Position of body {body} (world frame)"), Slot::Q(j.qadr + k));
+                        state(
+                            &mut push,
+                            format!("{}.pos.{a}", j.name),
+                            q0[j.qadr + k],
+                            "m",
+                            format!("Position of body {body} (world frame)"),
+                            Slot::Q(j.qadr + k),
+                        );
                     }
                 }
                 for (k, a) in ["w", "x", "y", "z"].iter().enumerate() {
-                    state(&mut push, format!("{}.quat.{a}", j.name), q0[qa + k], "1", format!("Orientation quaternion of body {body} (normalized at initialization)"), Slot::Q(qa + k));
+                    state(
+                        &mut push,
+                        format!("{}.quat.{a}", j.name),
+                        q0[qa + k],
+                        "1",
+                        format!(
+                            "Orientation quaternion of body {body} (normalized at initialization)"
+                        ),
+                        Slot::Q(qa + k),
+                    );
                 }
                 let da = if j.kind == JointKind::Free {
                     for (k, a) in AXES.iter().enumerate() {
-                        state(&mut push, format!("{}.linvel.{a}", j.name), 0.0, "m/s", format!("Velocity of the origin of body {body} (world frame)"), Slot::V(j.dadr + k));
+                        state(
+                            &mut push,
+                            format!("{}.linvel.{a}", j.name),
+                            0.0,
+                            "m/s",
+                            format!("Velocity of the origin of body {body} (world frame)"),
+                            Slot::V(j.dadr + k),
+                        );
                     }
                     j.dadr + 3
                 } else {
                     j.dadr
                 };
                 for (k, a) in AXES.iter().enumerate() {
-                    state(&mut push, format!("{}.angvel.{a}", j.name), 0.0, "rad/s", format!("Angular velocity of body {body} (body frame)"), Slot::V(da + k));
+                    state(
+                        &mut push,
+                        format!("{}.angvel.{a}", j.name),
+                        0.0,
+                        "rad/s",
+                        format!("Angular velocity of body {body} (body frame)"),
+                        Slot::V(da + k),
+                    );
                 }
             }
         }
     }
     for (i, a) in model.actuators.iter().enumerate() {
         let jn = &model.tree.joints[a.joint].name;
-        push(format!("{}.ctrl", a.name), Causality::Input, Variability::Continuous, None, VarType::Real { start: Some(0.0), unit: None, derivative: None }, format!("Control of actuator {} on joint {jn}", a.name), Slot::Ctrl(i));
+        push(
+            format!("{}.ctrl", a.name),
+            Causality::Input,
+            Variability::Continuous,
+            None,
+            VarType::Real {
+                start: Some(0.0),
+                unit: None,
+                derivative: None,
+            },
+            format!("Control of actuator {} on joint {jn}", a.name),
+            Slot::Ctrl(i),
+        );
     }
     let mocap0 = model.tree.mocap0();
     for (m, &b) in model.tree.mocap.iter().enumerate() {
@@ -189,27 +324,98 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         }
     }
     for (p, pair) in model.pairs.iter().enumerate() {
-        let (na, nb) = (&model.tree.bodies[pair.a].name, &model.tree.bodies[pair.b].name);
+        let (na, nb) = (
+            &model.tree.bodies[pair.a].name,
+            &model.tree.bodies[pair.b].name,
+        );
         for (k, a) in AXES.iter().enumerate() {
-            push(format!("contact.{na}.{nb}.force.{a}"), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "N"), format!("Contact force on {na} from {nb} (world frame); {nb} receives the opposite"), Slot::PairForce(p, k));
+            push(
+                format!("contact.{na}.{nb}.force.{a}"),
+                Causality::Output,
+                Variability::Continuous,
+                Some(Initial::Calculated),
+                real(None, "N"),
+                format!(
+                    "Contact force on {na} from {nb} (world frame); {nb} receives the opposite"
+                ),
+                Slot::PairForce(p, k),
+            );
         }
         for (k, a) in AXES.iter().enumerate() {
-            push(format!("contact.{na}.{nb}.torque.{a}"), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "N.m"), format!("Contact torque on {na} about its origin (world frame)"), Slot::PairTorque(p, k));
+            push(
+                format!("contact.{na}.{nb}.torque.{a}"),
+                Causality::Output,
+                Variability::Continuous,
+                Some(Initial::Calculated),
+                real(None, "N.m"),
+                format!("Contact torque on {na} about its origin (world frame)"),
+                Slot::PairTorque(p, k),
+            );
         }
-        push(format!("contact.{na}.{nb}.distance"), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "m"), format!("Smooth separation distance between {na} and {nb} (negative: penetration)"), Slot::PairDistance(p));
+        push(
+            format!("contact.{na}.{nb}.distance"),
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            real(None, "m"),
+            format!("Smooth separation distance between {na} and {nb} (negative: penetration)"),
+            Slot::PairDistance(p),
+        );
         for k in 0..model.contact_points {
             for (i, a) in AXES.iter().enumerate() {
-                push(format!("contact.{na}.{nb}.point{}.{a}", k + 1), Causality::Output, Variability::Continuous, Some(Initial::Calculated), real(None, "m"), format!("Soft top-K contact point {} of {na} and {nb} (world frame)", k + 1), Slot::PairPoint(p, k, i));
+                push(
+                    format!("contact.{na}.{nb}.point{}.{a}", k + 1),
+                    Causality::Output,
+                    Variability::Continuous,
+                    Some(Initial::Calculated),
+                    real(None, "m"),
+                    format!(
+                        "Soft top-K contact point {} of {na} and {nb} (world frame)",
+                        k + 1
+                    ),
+                    Slot::PairPoint(p, k, i),
+                );
             }
         }
     }
     for prm in Param::ALL {
         let (name, unit, desc) = prm.describe();
-        push(format!("scm.{name}"), Causality::Parameter, Variability::Tunable, Some(Initial::Exact), real(Some(prm.get(&model.contact)), unit), desc.into(), Slot::Param(prm));
+        push(
+            format!("scm.{name}"),
+            Causality::Parameter,
+            Variability::Tunable,
+            Some(Initial::Exact),
+            real(Some(prm.get(&model.contact)), unit),
+            desc.into(),
+            Slot::Param(prm),
+        );
     }
-    push("solver.integrator".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), VarType::String { start: Some(model.integrator.name().into()) }, format!("Integrator of the internal steps: one of {}", crate::integrate::Integrator::ALL.map(|i| i.name()).join(", ")), Slot::SolverIntegrator);
+    push(
+        "solver.integrator".into(),
+        Causality::Parameter,
+        Variability::Fixed,
+        Some(Initial::Exact),
+        VarType::String {
+            start: Some(model.integrator.name().into()),
+        },
+        format!(
+            "Integrator of the internal steps: one of {}",
+            crate::integrate::Integrator::ALL
+                .map(|i| i.name())
+                .join(", ")
+        ),
+        Slot::SolverIntegrator,
+    );
     push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.step), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
-    push("solver.tolerance".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.tolerance), "1"), "Local error tolerance of the adaptive integrator".into(), Slot::SolverTolerance);
+    push(
+        "solver.tolerance".into(),
+        Causality::Parameter,
+        Variability::Fixed,
+        Some(Initial::Exact),
+        real(Some(model.tolerance), "1"),
+        "Local error tolerance of the adaptive integrator".into(),
+        Slot::SolverTolerance,
+    );
     push_derivative_rows(&mut rows);
     rows
 }
@@ -221,7 +427,17 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
     let mut states: Vec<(Slot, u32, String, Option<&'static str>)> = rows
         .iter()
         .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_)))
-        .map(|(v, s)| (*s, v.value_reference, v.name.clone(), match v.var_type { VarType::Real { unit, .. } => unit, _ => None }))
+        .map(|(v, s)| {
+            (
+                *s,
+                v.value_reference,
+                v.name.clone(),
+                match v.var_type {
+                    VarType::Real { unit, .. } => unit,
+                    _ => None,
+                },
+            )
+        })
         .collect();
     states.sort_by_key(|(s, ..)| match *s {
         Slot::Q(i) => i,
@@ -231,16 +447,44 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
     for (slot, state_vr, name, unit) in states {
         let (unit, slot, causality, what) = match (slot, unit) {
             (Slot::Q(i), Some("m")) => ("m/s", Slot::QDot(i), Causality::Local, "Time derivative"),
-            (Slot::Q(i), Some("rad")) => ("rad/s", Slot::QDot(i), Causality::Local, "Time derivative"),
+            (Slot::Q(i), Some("rad")) => {
+                ("rad/s", Slot::QDot(i), Causality::Local, "Time derivative")
+            }
             (Slot::Q(i), _) => ("1/s", Slot::QDot(i), Causality::Local, "Time derivative"),
-            (Slot::V(i), Some("m/s")) => ("m/s2", Slot::VDot(i), Causality::Output, "Acceleration (time derivative)"),
-            (Slot::V(i), _) => ("rad/s2", Slot::VDot(i), Causality::Output, "Acceleration (time derivative)"),
+            (Slot::V(i), Some("m/s")) => (
+                "m/s2",
+                Slot::VDot(i),
+                Causality::Output,
+                "Acceleration (time derivative)",
+            ),
+            (Slot::V(i), _) => (
+                "rad/s2",
+                Slot::VDot(i),
+                Causality::Output,
+                "Acceleration (time derivative)",
+            ),
             _ => continue,
         };
         let value_reference = rows.len() as u32;
-        let description = format!("{what} time derivative of {name} (Model Exchange state derivative)");
-        let var_type = VarType::Real { start: None, unit: Some(unit), derivative: Some(state_vr) };
-        rows.push((Variable { name: format!("der({name})"), value_reference, causality, variability: Variability::Continuous, initial: None, var_type, description }, slot));
+        let description =
+            format!("{what} time derivative of {name} (Model Exchange state derivative)");
+        let var_type = VarType::Real {
+            start: None,
+            unit: Some(unit),
+            derivative: Some(state_vr),
+        };
+        rows.push((
+            Variable {
+                name: format!("der({name})"),
+                value_reference,
+                causality,
+                variability: Variability::Continuous,
+                initial: None,
+                var_type,
+                description,
+            },
+            slot,
+        ));
     }
 }
 
@@ -253,7 +497,14 @@ pub fn guid(scene_text: &str) -> String {
     let mut bytes = scene_text.as_bytes().to_vec();
     bytes.extend_from_slice(env!("CARGO_PKG_VERSION").as_bytes());
     let (a, b) = (fnv1a(&bytes, 0), fnv1a(&bytes, 0x9e37_79b9_7f4a_7c15));
-    format!("{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}", a >> 32, (a >> 16) & 0xffff, a & 0xffff, b >> 48, b & 0xffff_ffff_ffff)
+    format!(
+        "{{{:08x}-{:04x}-{:04x}-{:04x}-{:012x}}}",
+        a >> 32,
+        (a >> 16) & 0xffff,
+        a & 0xffff,
+        b >> 48,
+        b & 0xffff_ffff_ffff
+    )
 }
 
 /// The `ModelInfo` of a scene: Co-Simulation and Model Exchange, FMU state get/set and
@@ -263,14 +514,29 @@ pub fn model_info(model: &Model, scene_text: &str, rows: &[(Variable, Slot)]) ->
     ModelInfo {
         model_name: model.name.clone(),
         guid: guid(scene_text),
-        description: format!("Soft-minimum contact model: scene {} ({} bodies, {} joints, {} contact pairs)", model.name, model.tree.bodies.len() - 1, model.tree.joints.len(), model.pairs.len()),
+        description: format!(
+            "Soft-minimum contact model: scene {} ({} bodies, {} joints, {} contact pairs)",
+            model.name,
+            model.tree.bodies.len() - 1,
+            model.tree.joints.len(),
+            model.pairs.len()
+        ),
         generation_tool: format!("scm {}", env!("CARGO_PKG_VERSION")),
         variables: rows.iter().map(|(v, _)| v.clone()).collect(),
         structure: structure::model_structure(model, rows),
         number_of_event_indicators: 0,
         model_exchange: true,
-        capabilities: Capabilities { can_get_and_set_fmu_state: true, can_serialize_fmu_state: true, provides_directional_derivative: true },
-        default_experiment: DefaultExperiment { start_time: Some(0.0), stop_time: Some(2.0), tolerance: None, step_size: Some(model.step.max(0.01)) },
+        capabilities: Capabilities {
+            can_get_and_set_fmu_state: true,
+            can_serialize_fmu_state: true,
+            provides_directional_derivative: true,
+        },
+        default_experiment: DefaultExperiment {
+            start_time: Some(0.0),
+            stop_time: Some(2.0),
+            tolerance: None,
+            step_size: Some(model.step.max(0.01)),
+        },
     }
 }
 
@@ -355,14 +621,52 @@ impl Simulation {
         let rows = variable_table(&model);
         let info = model_info(&model, scene_text, &rows);
         let mocap = model.tree.mocap0();
-        let mocap_target = mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
-        let start = SimState { time: 0.0, state: State { q: model.tree.q0(), v: vec![0.0; model.tree.nv] }, ctrl: vec![0.0; model.actuators.len()], params: model.contact, mocap, mocap_target, mocap_sampled: None };
-        let messages = scene.warnings.into_iter().map(|text| LogMessage { category: LogCategory::StatusWarning, text }).collect();
+        let mocap_target = mocap
+            .chunks(crate::dynamics::MOCAP_INPUTS)
+            .flat_map(|m| m[..7].to_vec())
+            .collect();
+        let start = SimState {
+            time: 0.0,
+            state: State {
+                q: model.tree.q0(),
+                v: vec![0.0; model.tree.nv],
+            },
+            ctrl: vec![0.0; model.actuators.len()],
+            params: model.contact,
+            mocap,
+            mocap_target,
+            mocap_sampled: None,
+        };
+        let messages = scene
+            .warnings
+            .into_iter()
+            .map(|text| LogMessage {
+                category: LogCategory::StatusWarning,
+                text,
+            })
+            .collect();
         let start_solver = (model.integrator, model.step, model.tolerance);
-        let mut sim = Simulation { model, rows, info, current: start.clone(), start, outputs: None, points: None, cache: Default::default(), messages, accelerations: None, start_solver, log_contact: false, model_exchange: false };
+        let mut sim = Simulation {
+            model,
+            rows,
+            info,
+            current: start.clone(),
+            start,
+            outputs: None,
+            points: None,
+            cache: Default::default(),
+            messages,
+            accelerations: None,
+            start_solver,
+            log_contact: false,
+            model_exchange: false,
+        };
         for p in [Param::Eps1, Param::Eps2, Param::Eps3] {
             if let Some(text) = sim.smoothing_warning(p, p.get(&sim.current.params)) {
-                sim.messages.push(LogMessage { category: LogCategory::StatusWarning, text });
+                sim.messages.push(LogMessage {
+                    category: LogCategory::StatusWarning,
+                    text,
+                });
             }
         }
         sim
@@ -379,10 +683,15 @@ impl Simulation {
             Param::Eps3 => (value, "the softplus pushes at any distance within the bodies' reach"),
             _ => return None,
         };
-        let smallest = self.model.colliders.iter().flatten().filter_map(|c| match c {
-            crate::collision::Collider::Aopc(s) if !s.is_empty() => Some(s.bvh().diameter),
-            _ => None,
-        });
+        let smallest = self
+            .model
+            .colliders
+            .iter()
+            .flatten()
+            .filter_map(|c| match c {
+                crate::collision::Collider::Aopc(s) if !s.is_empty() => Some(s.bvh().diameter),
+                _ => None,
+            });
         let smallest = smallest.fold(f64::INFINITY, f64::min);
         (length >= smallest).then(|| {
             let (name, unit, _) = p.describe();
@@ -392,7 +701,12 @@ impl Simulation {
 
     /// Loads a scene file and starts a simulation of it.
     pub fn from_file(path: &Path) -> Result<Simulation, scene::SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|e| scene::SceneError { file: path.display().to_string(), line: 0, element: "mujoco".into(), message: format!("cannot read the scene: {e}") })?;
+        let text = std::fs::read_to_string(path).map_err(|e| scene::SceneError {
+            file: path.display().to_string(),
+            line: 0,
+            element: "mujoco".into(),
+            message: format!("cannot read the scene: {e}"),
+        })?;
         Ok(Simulation::new(scene::load_str(&text, path)?, &text))
     }
 
@@ -402,7 +716,9 @@ impl Simulation {
     }
 
     fn row(&self, vr: u32) -> ModelResult<&(Variable, Slot)> {
-        self.rows.get(vr as usize).ok_or_else(|| format!("unknown value reference {vr}"))
+        self.rows
+            .get(vr as usize)
+            .ok_or_else(|| format!("unknown value reference {vr}"))
     }
 
     /// The model's inputs `u` at the current time (see [`Model::nu`]): actuator controls, then
@@ -415,7 +731,11 @@ impl Simulation {
     /// Contact of every pair at the current state.
     pub fn contacts(&mut self) -> &[PairContact<f64>] {
         if self.outputs.is_none() {
-            let kin = self.model.tree.kinematics_with(&self.current.state.q, &self.current.state.v, &self.current.mocap);
+            let kin = self.model.tree.kinematics_with(
+                &self.current.state.q,
+                &self.current.state.v,
+                &self.current.mocap,
+            );
             self.outputs = Some(self.model.contacts(&kin, &self.current.params).1);
         }
         self.outputs.as_deref().unwrap_or(&[])
@@ -424,18 +744,35 @@ impl Simulation {
     /// Soft top-K contact points of every pair at the current positions (world frame), cached
     /// until the positions or ε1, ε2 change.
     pub fn contact_points(&mut self) -> &[Vec<nalgebra::Vector3<f64>>] {
-        let (q, e1, e2) = (&self.current.state.q, self.current.params.eps1, self.current.params.eps2);
+        let (q, e1, e2) = (
+            &self.current.state.q,
+            self.current.params.eps1,
+            self.current.params.eps2,
+        );
         let fresh = matches!(&self.points, Some((pq, p1, p2, _)) if *pq == [q.as_slice(), &self.current.mocap].concat() && *p1 == e1 && *p2 == e2);
         if !fresh {
-            let kin = self.model.tree.kinematics_with(q, &self.current.state.v, &self.current.mocap);
+            let kin =
+                self.model
+                    .tree
+                    .kinematics_with(q, &self.current.state.v, &self.current.mocap);
             let pts = self
                 .model
                 .pairs
                 .iter()
-                .map(|pair| match (&self.model.colliders[pair.a], &self.model.colliders[pair.b]) {
-                    (Some(a), Some(b)) => crate::collision::contact_points(a, &kin.frames[pair.a], b, &kin.frames[pair.b], e1, e2, self.model.contact_points),
-                    _ => Vec::new(),
-                })
+                .map(
+                    |pair| match (&self.model.colliders[pair.a], &self.model.colliders[pair.b]) {
+                        (Some(a), Some(b)) => crate::collision::contact_points(
+                            a,
+                            &kin.frames[pair.a],
+                            b,
+                            &kin.frames[pair.b],
+                            e1,
+                            e2,
+                            self.model.contact_points,
+                        ),
+                        _ => Vec::new(),
+                    },
+                )
                 .collect();
             self.points = Some(([q.as_slice(), &self.current.mocap].concat(), e1, e2, pts));
         }
@@ -456,22 +793,43 @@ impl Simulation {
     /// everything from before the call and the error says what went wrong and when.
     pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
         if !h.is_finite() || h <= 0.0 {
-            return Err(StepError::Error(format!("a step of {h} s refused: it must be positive and finite")));
+            return Err(StepError::Error(format!(
+                "a step of {h} s refused: it must be positive and finite"
+            )));
         }
         let mocap = self.mocap_path(h)?;
         let mut u = self.current.ctrl.clone();
         u.extend_from_slice(&mocap);
         let t0 = self.current.time;
-        let done = self.model.advance_cached(&self.current.state, &u, &self.current.params, t0, h, &crate::integrate::AdvanceOptions::default(), &mut self.cache).map_err(|e| {
-            StepError::Discard(format!("{e}; the state is kept at t = {t0} s: retry with a smaller step{}", if self.model.integrator.is_explicit() { ", or the implicit integrator implicit_euler" } else { "" }))
-        })?;
+        let done = self
+            .model
+            .advance_cached(
+                &self.current.state,
+                &u,
+                &self.current.params,
+                t0,
+                h,
+                &crate::integrate::AdvanceOptions::default(),
+                &mut self.cache,
+            )
+            .map_err(|e| {
+                StepError::Discard(format!(
+                    "{e}; the state is kept at t = {t0} s: retry with a smaller step{}",
+                    if self.model.integrator.is_explicit() {
+                        ", or the implicit integrator implicit_euler"
+                    } else {
+                        ""
+                    }
+                ))
+            })?;
         self.current.state = done.state;
         // Land the mocap bodies exactly on their targets, keeping the step's velocity.
         self.current.mocap = mocap;
         for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
             let o = crate::dynamics::MOCAP_INPUTS * m;
             let q = crate::dynamics::quat_from(&target[3..7]);
-            self.current.mocap[o..o + 7].copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
+            self.current.mocap[o..o + 7]
+                .copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
         }
         self.current.time += h;
         self.outputs = None;
@@ -488,7 +846,12 @@ impl Simulation {
             return;
         }
         let t = self.current.time;
-        let poses: Vec<f64> = self.current.mocap.chunks(crate::dynamics::MOCAP_INPUTS).flat_map(|m| m[..7].to_vec()).collect();
+        let poses: Vec<f64> = self
+            .current
+            .mocap
+            .chunks(crate::dynamics::MOCAP_INPUTS)
+            .flat_map(|m| m[..7].to_vec())
+            .collect();
         if let Some((t0, prev)) = &self.current.mocap_sampled {
             let dt = t - t0;
             if dt > 0.0 {
@@ -516,7 +879,9 @@ impl Simulation {
             let o = crate::dynamics::MOCAP_INPUTS * m;
             let name = &self.model.tree.bodies[self.model.tree.mocap[m]].name;
             if target[3..7].iter().all(|&x| x == 0.0) {
-                return Err(StepError::Error(format!("{name}.quat is zero: set a non-zero orientation quaternion")));
+                return Err(StepError::Error(format!(
+                    "{name}.quat is zero: set a non-zero orientation quaternion"
+                )));
             }
             let q0 = crate::dynamics::quat_from(&out[o + 3..o + 7]);
             let q1 = crate::dynamics::quat_from(&target[3..7]);
@@ -533,7 +898,9 @@ impl Simulation {
         if value.is_finite() {
             Ok(())
         } else {
-            Err(format!("{name} = {value:?} refused: the value must be finite"))
+            Err(format!(
+                "{name} = {value:?} refused: the value must be finite"
+            ))
         }
     }
 }
@@ -553,10 +920,17 @@ impl Simulation {
         let fresh = matches!(&self.accelerations, Some((at, _)) if at.state == self.current.state && at.ctrl == self.current.ctrl && at.mocap == self.current.mocap && at.params == self.current.params);
         if !fresh {
             let c = &self.current;
-            let f = self.model.forward(&c.state.q, &c.state.v, &self.inputs(), &c.params).map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
+            let f = self
+                .model
+                .forward(&c.state.q, &c.state.v, &self.inputs(), &c.params)
+                .map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
             self.accelerations = Some((self.current.clone(), f.vdot.iter().copied().collect()));
         }
-        Ok(self.accelerations.as_ref().map(|(_, a)| a.as_slice()).unwrap_or_default())
+        Ok(self
+            .accelerations
+            .as_ref()
+            .map(|(_, a)| a.as_slice())
+            .unwrap_or_default())
     }
 
     /// Start index in `q` of every quaternion (free and ball joints).
@@ -583,12 +957,29 @@ impl Simulation {
     /// ([`FmiModel::event_update`]) it normalizes the quaternions and reports that the states
     /// changed, so the host re-reads them and restarts its solver from the unit sphere.
     pub fn quaternion_drift(&self) -> f64 {
-        self.quaternions().iter().map(|&i| (self.current.state.q[i..i + 4].iter().map(|x| x * x).sum::<f64>().sqrt() - 1.0).abs()).fold(0.0, f64::max)
+        self.quaternions()
+            .iter()
+            .map(|&i| {
+                (self.current.state.q[i..i + 4]
+                    .iter()
+                    .map(|x| x * x)
+                    .sum::<f64>()
+                    .sqrt()
+                    - 1.0)
+                    .abs()
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Continuous states `x = [q; v]` (Model Exchange).
     pub fn continuous_states(&self) -> Vec<f64> {
-        self.current.state.q.iter().chain(&self.current.state.v).copied().collect()
+        self.current
+            .state
+            .q
+            .iter()
+            .chain(&self.current.state.v)
+            .copied()
+            .collect()
     }
 
     /// Queues one `logContact` message per pair with its smooth distance, force and torque at
@@ -598,7 +989,17 @@ impl Simulation {
             return;
         }
         let t = self.current.time;
-        let names: Vec<(String, String)> = self.model.pairs.iter().map(|p| (self.model.tree.bodies[p.a].name.clone(), self.model.tree.bodies[p.b].name.clone())).collect();
+        let names: Vec<(String, String)> = self
+            .model
+            .pairs
+            .iter()
+            .map(|p| {
+                (
+                    self.model.tree.bodies[p.a].name.clone(),
+                    self.model.tree.bodies[p.b].name.clone(),
+                )
+            })
+            .collect();
         let contacts = self.contacts().to_vec();
         for ((a, b), c) in names.iter().zip(contacts) {
             let (f, m) = (c.on_a.force, c.on_a.torque);
@@ -606,7 +1007,10 @@ impl Simulation {
                 "t = {t} s: contact {a}-{b}: distance D = {:.6e} m, force on {a} = ({:.6e}, {:.6e}, {:.6e}) N, torque on {a} = ({:.6e}, {:.6e}, {:.6e}) N.m",
                 c.distance, f.x, f.y, f.z, m.x, m.y, m.z
             );
-            self.messages.push(LogMessage { category: LogCategory::Contact, text });
+            self.messages.push(LogMessage {
+                category: LogCategory::Contact,
+                text,
+            });
         }
     }
 }
@@ -625,7 +1029,12 @@ impl FmiModel for Simulation {
 
     /// The start time only: the plumbing owns `stopTime` (it refuses a step past it before
     /// calling [`FmiModel::do_step`], and saves it with the FMU state).
-    fn setup_experiment(&mut self, start_time: f64, _stop_time: Option<f64>, _tolerance: Option<f64>) -> ModelResult<()> {
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop_time: Option<f64>,
+        _tolerance: Option<f64>,
+    ) -> ModelResult<()> {
         Self::check_finite("startTime", start_time)?;
         // Only the current time: `fmi2Reset` goes back to the instantiated state (t = 0).
         self.current.time = start_time;
@@ -648,14 +1057,23 @@ impl FmiModel for Simulation {
             // Scale by the largest component first, so huge components do not overflow.
             let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             if m.is_nan() || m <= 0.0 {
-                return Err(format!("{}.quat is zero: set a non-zero orientation quaternion", j.name));
+                return Err(format!(
+                    "{}.quat is zero: set a non-zero orientation quaternion",
+                    j.name
+                ));
             }
             q.iter_mut().for_each(|x| *x /= m);
             let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
             q.iter_mut().for_each(|x| *x /= n);
         }
         self.outputs = None;
-        self.messages.push(LogMessage { category: LogCategory::Events, text: format!("initialized {} at t = {} s", self.model.name, self.current.time) });
+        self.messages.push(LogMessage {
+            category: LogCategory::Events,
+            text: format!(
+                "initialized {} at t = {} s",
+                self.model.name, self.current.time
+            ),
+        });
         if self.model_exchange {
             // Mocap velocities are rates between completed integrator steps from here on.
             self.sample_mocap();
@@ -672,7 +1090,10 @@ impl FmiModel for Simulation {
         (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
         self.cache = Default::default();
         self.outputs = None;
-        self.messages.push(LogMessage { category: LogCategory::Events, text: "reset to the start values".into() });
+        self.messages.push(LogMessage {
+            category: LogCategory::Events,
+            text: "reset to the start values".into(),
+        });
         Ok(())
     }
 
@@ -695,8 +1116,15 @@ impl FmiModel for Simulation {
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,
-            Slot::SolverIntegrator => return Err(format!("solver.integrator (value reference {vr}) is a String variable")),
-            Slot::QDot(i) => self.model.tree.qdot(&self.current.state.q, &self.current.state.v)[i],
+            Slot::SolverIntegrator => {
+                return Err(format!(
+                    "solver.integrator (value reference {vr}) is a String variable"
+                ))
+            }
+            Slot::QDot(i) => self
+                .model
+                .tree
+                .qdot(&self.current.state.q, &self.current.state.v)[i],
             Slot::VDot(i) => self.accelerations()?[i],
         })
     }
@@ -730,17 +1158,31 @@ impl FmiModel for Simulation {
             }
             Slot::Param(p) => {
                 if !p.accepts(value) {
-                    return Err(format!("{} = {value:?} refused: it must be {}", var.name, if p == Param::Friction { "non-negative" } else { "positive" }));
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be {}",
+                        var.name,
+                        if p == Param::Friction {
+                            "non-negative"
+                        } else {
+                            "positive"
+                        }
+                    ));
                 }
                 // Tunable at any time; `fmi2Reset` restores the scene's value.
                 *p.slot(&mut self.current.params) = value;
                 if let Some(text) = self.smoothing_warning(p, value) {
-                    self.messages.push(LogMessage { category: LogCategory::StatusWarning, text });
+                    self.messages.push(LogMessage {
+                        category: LogCategory::StatusWarning,
+                        text,
+                    });
                 }
             }
             Slot::SolverStep | Slot::SolverTolerance if before_init => {
                 if value.is_nan() || value <= 0.0 {
-                    return Err(format!("{} = {value:?} refused: it must be positive", var.name));
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be positive",
+                        var.name
+                    ));
                 }
                 if slot == Slot::SolverStep {
                     self.model.step = value;
@@ -748,7 +1190,19 @@ impl FmiModel for Simulation {
                     self.model.tolerance = value;
                 }
             }
-            _ => return Err(format!("{} (value reference {vr}) cannot be set {}", var.name, if before_init { "" } else { "after initialization" }).trim_end().to_string()),
+            _ => {
+                return Err(format!(
+                    "{} (value reference {vr}) cannot be set {}",
+                    var.name,
+                    if before_init {
+                        ""
+                    } else {
+                        "after initialization"
+                    }
+                )
+                .trim_end()
+                .to_string())
+            }
         }
         self.outputs = None;
         Ok(())
@@ -764,18 +1218,29 @@ impl FmiModel for Simulation {
     fn set_string(&mut self, vr: u32, value: &str, phase: Phase) -> ModelResult<()> {
         match self.row(vr)?.1 {
             Slot::SolverIntegrator if phase != Phase::Simulation => {
-                self.model.integrator = crate::integrate::Integrator::from_name(value)
-                    .ok_or_else(|| format!("solver.integrator = \"{value}\" refused: known integrators are {}", crate::integrate::Integrator::ALL.map(|i| i.name()).join(", ")))?;
+                self.model.integrator =
+                    crate::integrate::Integrator::from_name(value).ok_or_else(|| {
+                        format!(
+                            "solver.integrator = \"{value}\" refused: known integrators are {}",
+                            crate::integrate::Integrator::ALL
+                                .map(|i| i.name())
+                                .join(", ")
+                        )
+                    })?;
                 Ok(())
             }
-            Slot::SolverIntegrator => Err("solver.integrator cannot be set after initialization".into()),
+            Slot::SolverIntegrator => {
+                Err("solver.integrator cannot be set after initialization".into())
+            }
             _ => Err(format!("value reference {vr} is not a String variable")),
         }
     }
 
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
         if !step.is_finite() || step <= 0.0 {
-            return Err(StepError::Error(format!("communicationStepSize = {step} refused: it must be positive and finite")));
+            return Err(StepError::Error(format!(
+                "communicationStepSize = {step} refused: it must be positive and finite"
+            )));
         }
         let before = self.current.time;
         self.current.time = current_time;
@@ -793,16 +1258,29 @@ impl FmiModel for Simulation {
     }
 
     fn get_state(&self) -> ModelResult<FmuState> {
-        Ok(FmuState { sim: self.current.clone(), integrator: self.model.integrator, step: self.model.step, tolerance: self.model.tolerance, solver_cache: self.cache.clone() })
+        Ok(FmuState {
+            sim: self.current.clone(),
+            integrator: self.model.integrator,
+            step: self.model.step,
+            tolerance: self.model.tolerance,
+            solver_cache: self.cache.clone(),
+        })
     }
 
     fn set_state(&mut self, state: &FmuState) -> ModelResult<()> {
         let s = &state.sim;
-        if (s.state.q.len(), s.state.v.len(), s.ctrl.len()) != (self.model.tree.nq, self.model.tree.nv, self.model.actuators.len()) {
+        if (s.state.q.len(), s.state.v.len(), s.ctrl.len())
+            != (
+                self.model.tree.nq,
+                self.model.tree.nv,
+                self.model.actuators.len(),
+            )
+        {
             return Err("the FMU state belongs to another scene (its sizes differ)".into());
         }
         self.current = state.sim.clone();
-        (self.model.integrator, self.model.step, self.model.tolerance) = (state.integrator, state.step, state.tolerance);
+        (self.model.integrator, self.model.step, self.model.tolerance) =
+            (state.integrator, state.step, state.tolerance);
         self.cache = state.solver_cache.clone();
         self.outputs = None;
         Ok(())
@@ -816,7 +1294,12 @@ impl FmiModel for Simulation {
         state_bytes::decode(&self.model, bytes)
     }
 
-    fn directional_derivative(&mut self, unknowns: &[u32], knowns: &[u32], dv_known: &[f64]) -> ModelResult<Vec<f64>> {
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv_known: &[f64],
+    ) -> ModelResult<Vec<f64>> {
         let mut u = Vec::with_capacity(unknowns.len());
         for &vr in unknowns {
             let (var, slot) = self.row(vr)?;
@@ -828,7 +1311,15 @@ impl FmiModel for Simulation {
         let mut k = Vec::with_capacity(knowns.len());
         for &vr in knowns {
             let (var, slot) = self.row(vr)?;
-            if !matches!(slot, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Mocap(..) | Slot::Param(_) | Slot::Time) {
+            if !matches!(
+                slot,
+                Slot::Q(_)
+                    | Slot::V(_)
+                    | Slot::Ctrl(_)
+                    | Slot::Mocap(..)
+                    | Slot::Param(_)
+                    | Slot::Time
+            ) {
                 return Err(format!("{} (value reference {vr}) is not a known: the knowns are the states, the inputs and the contact parameters", var.name));
             }
             k.push(*slot);
@@ -836,7 +1327,14 @@ impl FmiModel for Simulation {
         if let Some(i) = dv_known.iter().position(|d| !d.is_finite()) {
             return Err(format!("dvKnown[{i}] = {} is not finite", dv_known[i]));
         }
-        jacobian::directional_derivative(&self.model, &self.current, &u, &k, dv_known, self.model_exchange)
+        jacobian::directional_derivative(
+            &self.model,
+            &self.current,
+            &u,
+            &k,
+            dv_known,
+            self.model_exchange,
+        )
     }
 
     fn number_of_states(&self) -> usize {
@@ -871,10 +1369,16 @@ impl FmiModel for Simulation {
     }
 
     fn get_derivatives(&mut self) -> ModelResult<Vec<f64>> {
-        let mut dx = self.model.tree.qdot(&self.current.state.q, &self.current.state.v);
+        let mut dx = self
+            .model
+            .tree
+            .qdot(&self.current.state.q, &self.current.state.v);
         dx.extend_from_slice(self.accelerations()?);
         if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
-            return Err(format!("the derivative of state {i} is {} at t = {} s", dx[i], self.current.time));
+            return Err(format!(
+                "the derivative of state {i} is {} at t = {} s",
+                dx[i], self.current.time
+            ));
         }
         Ok(dx)
     }

@@ -17,17 +17,37 @@ fn small() -> Collider {
 }
 
 fn frame<T: Scalar>(origin: Vector3<T>, linvel: Vector3<T>) -> Frame<T> {
-    Frame { rotation: Matrix3::identity(), origin, linvel, angvel: Vector3::zeros() }
+    Frame {
+        rotation: Matrix3::identity(),
+        origin,
+        linvel,
+        angvel: Vector3::zeros(),
+    }
 }
 
 fn params() -> ContactParams<f64> {
-    ContactParams { eps1: 1e-5, eps2: 1e-3, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.05, friction: 0.5, dissipation: Dissipation::Paper }
+    ContactParams {
+        eps1: 1e-5,
+        eps2: 1e-3,
+        eps3: 1e-4,
+        stiffness: 1e4,
+        dissipation_velocity: 0.1,
+        stiction_velocity: 0.05,
+        friction: 0.5,
+        dissipation: Dissipation::Paper,
+    }
 }
 
 /// Contact between the big sphere at the origin and the small one at `x` moving with `v`.
 fn spheres<T: Scalar>(x: [T; 3], v: [T; 3], prm: &ContactParams<T>) -> PairContact<T> {
     let o = frame(Vector3::zeros(), Vector3::zeros());
-    pair_contact(&big(), &o, &small(), &frame(Vector3::from(x), Vector3::from(v)), prm)
+    pair_contact(
+        &big(),
+        &o,
+        &small(),
+        &frame(Vector3::from(x), Vector3::from(v)),
+        prm,
+    )
 }
 
 #[test]
@@ -39,11 +59,21 @@ fn overlapping_spheres_repel_along_the_line_of_centres() {
         let x = dir * (0.15 - depth);
         let c = spheres([x.x, x.y, x.z], [0.0; 3], &params());
         let on_small = c.on_b.force;
-        assert!(on_small.dot(&dir) > 0.0, "not repelling: {on_small:?} for {dir:?}");
+        assert!(
+            on_small.dot(&dir) > 0.0,
+            "not repelling: {on_small:?} for {dir:?}"
+        );
         // Along the line of centres, up to the facets of the sampled spheres.
         let angle = on_small.angle(&dir);
-        assert!(angle < 0.15, "force {on_small:?} is {angle} rad off the line of centres {dir:?}");
-        assert!(c.distance < 0.0, "smooth distance {} for depth {depth}", c.distance);
+        assert!(
+            angle < 0.15,
+            "force {on_small:?} is {angle} rad off the line of centres {dir:?}"
+        );
+        assert!(
+            c.distance < 0.0,
+            "smooth distance {} for depth {depth}",
+            c.distance
+        );
     }
 }
 
@@ -55,7 +85,12 @@ fn action_equals_reaction() {
         let v = rng.direction() * rng.range(0.0, 0.5);
         let c = spheres([x.x, x.y, x.z], [v.x, v.y, v.z], &params());
         let scale = c.on_a.force.norm().max(1e-300);
-        assert!((c.on_a.force + c.on_b.force).norm() <= 1e-12 * scale, "{:?} vs {:?}", c.on_a.force, c.on_b.force);
+        assert!(
+            (c.on_a.force + c.on_b.force).norm() <= 1e-12 * scale,
+            "{:?} vs {:?}",
+            c.on_a.force,
+            c.on_b.force
+        );
     }
 }
 
@@ -63,13 +98,32 @@ fn action_equals_reaction() {
 fn concentric_and_coincident_bodies_give_finite_values() {
     // Concentric spheres: the paper's unstable equilibrium, where the force vanishes by symmetry.
     let c = spheres([0.0; 3], [0.0; 3], &params());
-    assert!(c.on_a.force.iter().chain(c.on_a.torque.iter()).all(|x| x.is_finite()) && c.distance.is_finite());
-    assert!(c.on_b.force.norm() < 1e-6 * params().stiffness * 0.05, "{:?}", c.on_b.force);
+    assert!(
+        c.on_a
+            .force
+            .iter()
+            .chain(c.on_a.torque.iter())
+            .all(|x| x.is_finite())
+            && c.distance.is_finite()
+    );
+    assert!(
+        c.on_b.force.norm() < 1e-6 * params().stiffness * 0.05,
+        "{:?}",
+        c.on_b.force
+    );
     // Two identical bodies at the same place: every point coincides with a plane point.
     let s = small();
     let f = frame(Vector3::new(1e5, -2e5, 3e5), Vector3::zeros());
     let c = pair_contact(&s, &f, &s, &f, &params());
-    assert!(c.on_a.force.iter().chain(c.on_b.torque.iter()).all(|x| x.is_finite()) && c.distance.is_finite(), "{c:?}");
+    assert!(
+        c.on_a
+            .force
+            .iter()
+            .chain(c.on_b.torque.iter())
+            .all(|x| x.is_finite())
+            && c.distance.is_finite(),
+        "{c:?}"
+    );
 }
 
 #[test]
@@ -79,22 +133,61 @@ fn far_from_the_origin_nothing_changes() {
     let x = [0.02, 0.13, -0.01];
     let near = spheres(x, [0.0; 3], &params());
     let shift = Vector3::new(1e5, 1e5, -1e5);
-    let far = pair_contact(&big(), &frame(shift, Vector3::zeros()), &small(), &frame(shift + Vector3::from(x), Vector3::zeros()), &params());
-    assert!((near.on_b.force - far.on_b.force).norm() < 1e-6 * near.on_b.force.norm(), "{:?} vs {:?}", near.on_b.force, far.on_b.force);
+    let far = pair_contact(
+        &big(),
+        &frame(shift, Vector3::zeros()),
+        &small(),
+        &frame(shift + Vector3::from(x), Vector3::zeros()),
+        &params(),
+    );
+    assert!(
+        (near.on_b.force - far.on_b.force).norm() < 1e-6 * near.on_b.force.norm(),
+        "{:?} vs {:?}",
+        near.on_b.force,
+        far.on_b.force
+    );
 }
 
 #[test]
 fn box_on_a_plane_is_pushed_up_and_rotation_changes_nothing_at_rest() {
-    let plane = Collider::HalfSpace { point: Vector3::zeros(), normal: Vector3::z() };
-    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
-    let f = Frame { rotation: Matrix3::identity(), origin: Vector3::new(0.0, 0.0, 0.049), linvel: Vector3::zeros(), angvel: Vector3::zeros() };
+    let plane = Collider::HalfSpace {
+        point: Vector3::zeros(),
+        normal: Vector3::z(),
+    };
+    let boxc = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
+    let f = Frame {
+        rotation: Matrix3::identity(),
+        origin: Vector3::new(0.0, 0.0, 0.049),
+        linvel: Vector3::zeros(),
+        angvel: Vector3::zeros(),
+    };
     let c = pair_contact(&boxc, &f, &plane, &Frame::identity(), &params());
-    assert!(c.on_a.force.z > 0.0 && c.on_a.force.x.abs() < 1e-9 * c.on_a.force.z && c.on_a.force.y.abs() < 1e-9 * c.on_a.force.z);
+    assert!(
+        c.on_a.force.z > 0.0
+            && c.on_a.force.x.abs() < 1e-9 * c.on_a.force.z
+            && c.on_a.force.y.abs() < 1e-9 * c.on_a.force.z
+    );
     // A quarter turn about z maps the box onto itself.
-    let r = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2).into_inner();
-    let c2 = pair_contact(&boxc, &Frame { rotation: r, ..f }, &plane, &Frame::identity(), &params());
+    let r =
+        Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2).into_inner();
+    let c2 = pair_contact(
+        &boxc,
+        &Frame { rotation: r, ..f },
+        &plane,
+        &Frame::identity(),
+        &params(),
+    );
     assert!((c.on_a.force - c2.on_a.force).norm() < 1e-9 * c.on_a.force.norm());
-    assert!((c.distance - (-0.001)).abs() < 1e-4, "distance {}", c.distance);
+    assert!(
+        (c.distance - (-0.001)).abs() < 1e-4,
+        "distance {}",
+        c.distance
+    );
 }
 
 #[test]
@@ -102,28 +195,87 @@ fn pair_derivatives_match_central_differences() {
     // Inputs: the small sphere's position (3) and velocity (3), then the seven parameters.
     let mut rng = Lcg(21);
     let prm = params();
-    let names = ["x", "y", "z", "vx", "vy", "vz", "eps1", "eps2", "eps3", "stiffness", "dissipation_velocity", "stiction_velocity", "friction"];
+    let names = [
+        "x",
+        "y",
+        "z",
+        "vx",
+        "vy",
+        "vz",
+        "eps1",
+        "eps2",
+        "eps3",
+        "stiffness",
+        "dissipation_velocity",
+        "stiction_velocity",
+        "friction",
+    ];
     for _ in 0..6 {
         let x = rng.direction() * rng.range(0.13, 0.16);
         let v = rng.direction() * rng.range(0.0, 0.2);
-        let base = [x.x, x.y, x.z, v.x, v.y, v.z, prm.eps1, prm.eps2, prm.eps3, prm.stiffness, prm.dissipation_velocity, prm.stiction_velocity, prm.friction];
+        let base = [
+            x.x,
+            x.y,
+            x.z,
+            v.x,
+            v.y,
+            v.z,
+            prm.eps1,
+            prm.eps2,
+            prm.eps3,
+            prm.stiffness,
+            prm.dissipation_velocity,
+            prm.stiction_velocity,
+            prm.friction,
+        ];
         let eval = |inp: &[f64]| -> Vec<f64> {
-            let p = ContactParams { eps1: inp[6], eps2: inp[7], eps3: inp[8], stiffness: inp[9], dissipation_velocity: inp[10], stiction_velocity: inp[11], friction: inp[12], dissipation: Dissipation::Paper };
-            pair_outputs(&spheres([inp[0], inp[1], inp[2]], [inp[3], inp[4], inp[5]], &p))
+            let p = ContactParams {
+                eps1: inp[6],
+                eps2: inp[7],
+                eps3: inp[8],
+                stiffness: inp[9],
+                dissipation_velocity: inp[10],
+                stiction_velocity: inp[11],
+                friction: inp[12],
+                dissipation: Dissipation::Paper,
+            };
+            pair_outputs(&spheres(
+                [inp[0], inp[1], inp[2]],
+                [inp[3], inp[4], inp[5]],
+                &p,
+            ))
         };
         for k in 0..base.len() {
             let mut d: Vec<Dual64> = base.iter().map(|&b| Dual64::from(b)).collect();
             d[k].eps = 1.0;
-            let p = ContactParams { eps1: d[6], eps2: d[7], eps3: d[8], stiffness: d[9], dissipation_velocity: d[10], stiction_velocity: d[11], friction: d[12], dissipation: Dissipation::Paper };
-            let exact: Vec<f64> = pair_outputs(&spheres([d[0], d[1], d[2]], [d[3], d[4], d[5]], &p)).iter().map(|o| o.eps).collect();
+            let p = ContactParams {
+                eps1: d[6],
+                eps2: d[7],
+                eps3: d[8],
+                stiffness: d[9],
+                dissipation_velocity: d[10],
+                stiction_velocity: d[11],
+                friction: d[12],
+                dissipation: Dissipation::Paper,
+            };
+            let exact: Vec<f64> =
+                pair_outputs(&spheres([d[0], d[1], d[2]], [d[3], d[4], d[5]], &p))
+                    .iter()
+                    .map(|o| o.eps)
+                    .collect();
             let h = 1e-6 * base[k].abs().max(1e-3);
             let values = eval(&base);
             for (i, e) in exact.iter().enumerate() {
                 let fd = central_difference(|inp| eval(inp)[i], &base, k, h);
                 // Relative to the output's own scale times the input's, so tiny entries of a
                 // large vector are not held to more digits than differences can give.
-                let scale = values.iter().map(|x| x.abs()).fold(0.0, f64::max) / base[k].abs().max(1e-3);
-                assert!((e - fd).abs() <= 1e-5 * (fd.abs() + scale) + 1e-9, "d output {i} / d {}: dual {e} vs fd {fd}", names[k]);
+                let scale =
+                    values.iter().map(|x| x.abs()).fold(0.0, f64::max) / base[k].abs().max(1e-3);
+                assert!(
+                    (e - fd).abs() <= 1e-5 * (fd.abs() + scale) + 1e-9,
+                    "d output {i} / d {}: dual {e} vs fd {fd}",
+                    names[k]
+                );
             }
         }
     }
@@ -132,12 +284,32 @@ fn pair_derivatives_match_central_differences() {
 /// The pair's outputs for the 18 motion inputs `z` (generic over the scalar): body b's
 /// origin, linear velocity, angular velocity and rotation vector (applied after a fixed tilt),
 /// then body a's origin and angular velocity (a keeps a fixed tilt and linear velocity).
-fn moving_pair<T: Scalar>(a: &Collider, b: &Collider, z: &[T], prm: &ContactParams<T>, generic: bool) -> PairContact<T> {
+fn moving_pair<T: Scalar>(
+    a: &Collider,
+    b: &Collider,
+    z: &[T],
+    prm: &ContactParams<T>,
+    generic: bool,
+) -> PairContact<T> {
     let v3 = |i: usize| Vector3::new(z[i], z[i + 1], z[i + 2]);
-    let tilt_b = Rotation3::from_euler_angles(0.3, -0.2, 0.5).into_inner().map(scm::scalar::c::<T>);
-    let tilt_a = Rotation3::from_euler_angles(-0.1, 0.05, 0.2).into_inner().map(scm::scalar::c::<T>);
-    let fb = Frame { rotation: tilt_b * Rotation3::from_scaled_axis(v3(9)).into_inner(), origin: v3(0), linvel: v3(3), angvel: v3(6) };
-    let fa = Frame { rotation: tilt_a, origin: v3(12), linvel: Vector3::new(0.01, -0.02, 0.0).map(scm::scalar::c::<T>), angvel: v3(15) };
+    let tilt_b = Rotation3::from_euler_angles(0.3, -0.2, 0.5)
+        .into_inner()
+        .map(scm::scalar::c::<T>);
+    let tilt_a = Rotation3::from_euler_angles(-0.1, 0.05, 0.2)
+        .into_inner()
+        .map(scm::scalar::c::<T>);
+    let fb = Frame {
+        rotation: tilt_b * Rotation3::from_scaled_axis(v3(9)).into_inner(),
+        origin: v3(0),
+        linvel: v3(3),
+        angvel: v3(6),
+    };
+    let fa = Frame {
+        rotation: tilt_a,
+        origin: v3(12),
+        linvel: Vector3::new(0.01, -0.02, 0.0).map(scm::scalar::c::<T>),
+        angvel: v3(15),
+    };
     if generic {
         scm::contact::pair_contact_generic(a, &fa, b, &fb, prm)
     } else {
@@ -156,10 +328,23 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     // sliding and spinning. Central differences check the values' slopes independently.
     use num_dual::DualSVec64;
     const N: usize = 18;
-    let box_a = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.01));
-    let box_b = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
+    let box_a = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.03),
+        }
+        .sample(0.01),
+    );
+    let box_b = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
     let ball = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
-    let floor = Collider::HalfSpace { point: Vector3::new(0.0, 0.0, 0.02), normal: Vector3::z() };
+    let floor = Collider::HalfSpace {
+        point: Vector3::new(0.0, 0.0, 0.02),
+        normal: Vector3::z(),
+    };
     // (a, b, b's origin): b rests ~1–2 mm into a.
     let cases: [(&str, &Collider, &Collider, [f64; 3]); 4] = [
         ("box on box", &box_a, &box_b, [0.02, -0.01, 0.095]),
@@ -171,30 +356,57 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     let (mut checked, mut worst) = (0, 0.0f64);
     for (name, a, b, origin) in cases {
         for dissipation in [Dissipation::Paper, Dissipation::Smooth] {
-            let prm = ContactParams { dissipation, ..params() };
+            let prm = ContactParams {
+                dissipation,
+                ..params()
+            };
             let mut base = [0.0; N];
             base[..3].copy_from_slice(&origin);
             for (i, b) in base.iter_mut().enumerate().skip(3) {
                 *b = match i {
-                    3..=5 => rng.range(-0.05, 0.05),  // b's velocity (m/s): sliding, s across 0 and 2
-                    6..=8 => rng.range(-0.5, 0.5),    // b's spin (rad/s)
+                    3..=5 => rng.range(-0.05, 0.05), // b's velocity (m/s): sliding, s across 0 and 2
+                    6..=8 => rng.range(-0.5, 0.5),   // b's spin (rad/s)
                     9..=11 => rng.range(-0.02, 0.02), // b's extra rotation (rad)
                     12..=14 => rng.range(-1e-3, 1e-3), // a's origin (m)
-                    _ => rng.range(-0.3, 0.3),        // a's spin (rad/s)
+                    _ => rng.range(-0.3, 0.3),       // a's spin (rad/s)
                 };
             }
-            let z: Vec<DualSVec64<N>> = (0..N).map(|i| DualSVec64::new(base[i], num_dual::Derivative::derivative_generic(nalgebra::Const::<N>, nalgebra::Const::<1>, i))).collect();
+            let z: Vec<DualSVec64<N>> = (0..N)
+                .map(|i| {
+                    DualSVec64::new(
+                        base[i],
+                        num_dual::Derivative::derivative_generic(
+                            nalgebra::Const::<N>,
+                            nalgebra::Const::<1>,
+                            i,
+                        ),
+                    )
+                })
+                .collect();
             let chained = pair_outputs(&moving_pair(a, b, &z, &prm.lift(), false));
             let generic = pair_outputs(&moving_pair(a, b, &z, &prm.lift(), true));
             let value = |x: &[f64]| pair_outputs(&moving_pair(a, b, x, &prm, false));
             let v0 = value(&base);
-            assert!(v0.iter().skip(1).any(|f| f.abs() > 0.1), "{name}: not in contact: {v0:?}");
+            assert!(
+                v0.iter().skip(1).any(|f| f.abs() > 0.1),
+                "{name}: not in contact: {v0:?}"
+            );
             for (o, (c, g)) in chained.iter().zip(&generic).enumerate() {
                 // The chained values are the f64 path's exactly; the generic duals' differ by
                 // round-off (dual arithmetic orders some operations differently).
                 assert_eq!(c.re, v0[o], "{name}: value {o}");
-                assert!((c.re - g.re).abs() <= 1e-13 * v0.iter().map(|x| x.abs()).fold(0.0, f64::max), "{name}: value {o}: {} vs {}", c.re, g.re);
-                let (dc, dg) = (c.eps.unwrap_generic(nalgebra::Const::<N>, nalgebra::Const::<1>), g.eps.unwrap_generic(nalgebra::Const::<N>, nalgebra::Const::<1>));
+                assert!(
+                    (c.re - g.re).abs() <= 1e-13 * v0.iter().map(|x| x.abs()).fold(0.0, f64::max),
+                    "{name}: value {o}: {} vs {}",
+                    c.re,
+                    g.re
+                );
+                let (dc, dg) = (
+                    c.eps
+                        .unwrap_generic(nalgebra::Const::<N>, nalgebra::Const::<1>),
+                    g.eps
+                        .unwrap_generic(nalgebra::Const::<N>, nalgebra::Const::<1>),
+                );
                 let scale = dg.amax().max(1e-300);
                 for k in 0..N {
                     worst = worst.max((dc[k] - dg[k]).abs() / scale);
@@ -202,7 +414,11 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                     let h = 1e-7;
                     let fd = central_difference(|x| value(x)[o], &base, k, h);
                     // Differences of a value of size |v| carry ~1e-16 |v| / h of round-off.
-                    assert!((dc[k] - fd).abs() <= 1e-5 * scale + 1e-8 * v0[o].abs().max(1.0), "{name} {dissipation:?}: d{o}/dz{k}: hand {} vs fd {fd}", dc[k]);
+                    assert!(
+                        (dc[k] - fd).abs() <= 1e-5 * scale + 1e-8 * v0[o].abs().max(1.0),
+                        "{name} {dissipation:?}: d{o}/dz{k}: hand {} vs fd {fd}",
+                        dc[k]
+                    );
                     checked += 1;
                 }
             }

@@ -6,7 +6,10 @@
 use crate::common::scene;
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 use scm::contact::{ContactParams, Dissipation};
-use scm::derivatives::{distance_hessian, forward_hessians, forward_jacobian, jacobian, params_from, params_vec, step_jacobian, Coordinates, Point, VectorFunction};
+use scm::derivatives::{
+    distance_hessian, forward_hessians, forward_jacobian, jacobian, params_from, params_vec,
+    step_jacobian, Coordinates, Point, VectorFunction,
+};
 use scm::integrate::{Integrator, State};
 use scm::model::{DynamicsError, Model};
 use scm::scalar::Scalar;
@@ -51,40 +54,92 @@ fn fd_jacobian(f: &dyn Fn(&[f64]) -> Vec<f64>, z: &[f64], rel: f64, floor: &[f64
 /// column is "the output change for a relative change of the input"); entries must agree to
 /// `tol` of the largest scaled entry of the column, with a floor of `tol` times the largest
 /// scaled entry of the whole matrix (for columns that are almost zero).
-fn assert_close(what: &str, exact: &DMatrix<f64>, fd: &DMatrix<f64>, scales: &[f64], tol: f64, names: &[String]) {
+fn assert_close(
+    what: &str,
+    exact: &DMatrix<f64>,
+    fd: &DMatrix<f64>,
+    scales: &[f64],
+    tol: f64,
+    names: &[String],
+) {
     assert_eq!(exact.shape(), fd.shape(), "{what}");
     let col = |k: usize| fd.column(k).amax() * scales[k];
     let global = (0..fd.ncols()).map(col).fold(0.0, f64::max);
     for k in 0..fd.ncols() {
         for i in 0..fd.nrows() {
             let (e, f) = (exact[(i, k)] * scales[k], fd[(i, k)] * scales[k]);
-            assert!((e - f).abs() <= tol * (col(k) + 1e-3 * global), "{what}: d out[{i}] / d {}: exact {} vs fd {} (column scale {}, matrix {})", names[k], exact[(i, k)], fd[(i, k)], col(k), global);
+            assert!(
+                (e - f).abs() <= tol * (col(k) + 1e-3 * global),
+                "{what}: d out[{i}] / d {}: exact {} vs fd {} (column scale {}, matrix {})",
+                names[k],
+                exact[(i, k)],
+                fd[(i, k)],
+                col(k),
+                global
+            );
         }
     }
 }
 
 fn names(model: &Model, point: &Point, coords: Coordinates) -> Vec<String> {
-    let nq = if coords == Coordinates::Embedded { model.tree.nq } else { model.tree.nv };
+    let nq = if coords == Coordinates::Embedded {
+        model.tree.nq
+    } else {
+        model.tree.nv
+    };
     let mut out: Vec<String> = (0..nq).map(|i| format!("q{i}")).collect();
     out.extend((0..model.tree.nv).map(|i| format!("v{i}")));
     out.extend((0..point.u.len()).map(|i| format!("u{i}")));
-    out.extend(["eps1", "eps2", "eps3", "stiffness", "dissipation_velocity", "stiction_velocity", "friction"].map(String::from));
+    out.extend(
+        [
+            "eps1",
+            "eps2",
+            "eps3",
+            "stiffness",
+            "dissipation_velocity",
+            "stiction_velocity",
+            "friction",
+        ]
+        .map(String::from),
+    );
     out
 }
 
 /// `z = [q|δ, v, u, p]` of a point, the evaluation of `(q, v, u, p)` from it, and the floors of
 /// the finite-difference steps.
-fn unpack(model: &Model, point: &Point, coords: Coordinates, z: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>, ContactParams<f64>) {
-    let (nq, nv, nu) = (if coords == Coordinates::Embedded { model.tree.nq } else { model.tree.nv }, model.tree.nv, point.u.len());
+fn unpack(
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+    z: &[f64],
+) -> (Vec<f64>, Vec<f64>, Vec<f64>, ContactParams<f64>) {
+    let (nq, nv, nu) = (
+        if coords == Coordinates::Embedded {
+            model.tree.nq
+        } else {
+            model.tree.nv
+        },
+        model.tree.nv,
+        point.u.len(),
+    );
     let q = match coords {
         Coordinates::Embedded => z[..nq].to_vec(),
         Coordinates::Tangent => model.tree.integrate_q(&point.q, &z[..nq], 1.0),
     };
-    (q, z[nq..nq + nv].to_vec(), z[nq + nv..nq + nv + nu].to_vec(), params_from(&z[nq + nv + nu..], &point.params))
+    (
+        q,
+        z[nq..nq + nv].to_vec(),
+        z[nq + nv..nq + nv + nu].to_vec(),
+        params_from(&z[nq + nv + nu..], &point.params),
+    )
 }
 
 fn z0(model: &Model, point: &Point, coords: Coordinates) -> Vec<f64> {
-    let mut z = if coords == Coordinates::Embedded { point.q.clone() } else { vec![0.0; model.tree.nv] };
+    let mut z = if coords == Coordinates::Embedded {
+        point.q.clone()
+    } else {
+        vec![0.0; model.tree.nv]
+    };
     z.extend_from_slice(&point.v);
     z.extend_from_slice(&point.u);
     z.extend(params_vec(&point.params));
@@ -94,7 +149,10 @@ fn z0(model: &Model, point: &Point, coords: Coordinates) -> Vec<f64> {
 /// Floors for the steps: 1e-3 for configurations, velocities and inputs (m, rad, m/s);
 /// parameters relative to themselves.
 fn floors(z: &[f64], n_state_inputs: usize) -> Vec<f64> {
-    z.iter().enumerate().map(|(k, x)| if k < n_state_inputs { 1e-3 } else { x.abs() }).collect()
+    z.iter()
+        .enumerate()
+        .map(|(k, x)| if k < n_state_inputs { 1e-3 } else { x.abs() })
+        .collect()
 }
 
 /// t_push with the finger pressing 1 mm into the stem, off-centre, everything moving.
@@ -120,7 +178,9 @@ fn mocap_point() -> (Model, Point) {
     p.q = vec![0.001, 0.002, 0.0497, r.w, r.i, r.j, r.k];
     p.v = vec![0.05, -0.02, 0.01, 0.3, -0.2, 0.5];
     let rp = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.2, 0.1));
-    p.u = vec![-0.0785, 0.004, 0.049, rp.w, rp.i, rp.j, rp.k, 0.1, 0.02, -0.01, 0.0, 0.5, 0.3];
+    p.u = vec![
+        -0.0785, 0.004, 0.049, rp.w, rp.i, rp.j, rp.k, 0.1, 0.02, -0.01, 0.0, 0.5, 0.3,
+    ];
     (model, p)
 }
 
@@ -130,15 +190,34 @@ fn check_forward_jacobian(label: &str, model: &Model, point: &Point, coords: Coo
     let n_state_inputs = z.len() - 7;
     let f = |z: &[f64]| -> Vec<f64> {
         let (q, v, u, p) = unpack(model, point, coords, z);
-        model.forward(&q, &v, &u, &p).unwrap().vdot.iter().copied().collect()
+        model
+            .forward(&q, &v, &u, &p)
+            .unwrap()
+            .vdot
+            .iter()
+            .copied()
+            .collect()
     };
     let fd = fd_jacobian(&f, &z, 1e-6, &floors(&z, n_state_inputs));
     let scales = floors(&z, n_state_inputs);
     let value = DVector::from_vec(f(&z));
-    assert!((jac.value.clone() - &value).amax() <= 1e-12 * value.amax(), "{label}: values differ");
-    assert_close(&format!("{label} forward Jacobian"), &jac.full, &fd, &scales, 1e-5, &names(model, point, coords));
+    assert!(
+        (jac.value.clone() - &value).amax() <= 1e-12 * value.amax(),
+        "{label}: values differ"
+    );
+    assert_close(
+        &format!("{label} forward Jacobian"),
+        &jac.full,
+        &fd,
+        &scales,
+        1e-5,
+        &names(model, point, coords),
+    );
     // The blocks are the columns of the full Jacobian.
-    assert_eq!(jac.dv(), jac.full.columns(jac.layout.nq, model.tree.nv).into_owned());
+    assert_eq!(
+        jac.dv(),
+        jac.full.columns(jac.layout.nq, model.tree.nv).into_owned()
+    );
 }
 
 #[test]
@@ -146,13 +225,29 @@ fn forward_jacobians_match_central_differences() {
     for d in [Dissipation::Paper, Dissipation::Smooth] {
         let (model, point) = t_push_point(d);
         // The finger is in contact: the Jacobian sees the contact.
-        let f = model.forward(&point.q, &point.v, &point.u, &point.params).unwrap();
-        assert!(f.contacts[0].on_a.force.norm() > 1.0, "{:?}", f.contacts[0].on_a.force);
-        check_forward_jacobian(&format!("t_push ({})", d.name()), &model, &point, Coordinates::Embedded);
+        let f = model
+            .forward(&point.q, &point.v, &point.u, &point.params)
+            .unwrap();
+        assert!(
+            f.contacts[0].on_a.force.norm() > 1.0,
+            "{:?}",
+            f.contacts[0].on_a.force
+        );
+        check_forward_jacobian(
+            &format!("t_push ({})", d.name()),
+            &model,
+            &point,
+            Coordinates::Embedded,
+        );
     }
     let (model, point) = mocap_point();
-    let f = model.forward(&point.q, &point.v, &point.u, &point.params).unwrap();
-    assert!(f.contacts.iter().all(|c| c.on_a.force.norm() > 0.5), "both contacts active");
+    let f = model
+        .forward(&point.q, &point.v, &point.u, &point.params)
+        .unwrap();
+    assert!(
+        f.contacts.iter().all(|c| c.on_a.force.norm() > 0.5),
+        "both contacts active"
+    );
     for coords in [Coordinates::Embedded, Coordinates::Tangent] {
         check_forward_jacobian(&format!("mocap_push ({coords:?})"), &model, &point, coords);
     }
@@ -177,7 +272,9 @@ fn step_jacobians_of_every_integrator_match_central_differences() {
             let n_state_inputs = z.len() - 7;
             let f = |z: &[f64]| -> Vec<f64> {
                 let (q, v, u, p) = unpack(&model, &point, coords, z);
-                let s = model.step_with(integrator, &State { q, v }, &u, &p, h).unwrap();
+                let s = model
+                    .step_with(integrator, &State { q, v }, &u, &p, h)
+                    .unwrap();
                 let mut out = match coords {
                     Coordinates::Embedded => s.q,
                     Coordinates::Tangent => model.tree.difference_q(&next.q, &s.q),
@@ -189,7 +286,14 @@ fn step_jacobians_of_every_integrator_match_central_differences() {
             let label = format!("{} step ({coords:?})", integrator.name());
             // The implicit step converges its Newton iterations to 1e-12 (relative), which the
             // differences see as 1e-12/1e-6: 1e-5 leaves room for it.
-            assert_close(&label, &jac.full, &fd, &floors(&z, n_state_inputs), 2e-5, &names(&model, &point, coords));
+            assert_close(
+                &label,
+                &jac.full,
+                &fd,
+                &floors(&z, n_state_inputs),
+                2e-5,
+                &names(&model, &point, coords),
+            );
         }
     }
 }
@@ -207,7 +311,13 @@ impl JacobianOfForward<'_> {
         // The Jacobian at a shifted point: for tangent coordinates, at the moved configuration
         // in its own chart, which agrees with the chart at the point to first order in δ only;
         // so tangent Hessians are checked through embedded ones below.
-        forward_jacobian(self.model, &Point { q, v, u, params: p }, Coordinates::Embedded).unwrap().full
+        forward_jacobian(
+            self.model,
+            &Point { q, v, u, params: p },
+            Coordinates::Embedded,
+        )
+        .unwrap()
+        .full
     }
 }
 
@@ -222,7 +332,11 @@ fn forward_hessians_match_differences_of_the_exact_jacobian() {
         let z = z0(&model, &point, Coordinates::Embedded);
         let n = layout.len();
         assert_eq!(n, z.len());
-        let jf = JacobianOfForward { model: &model, point: &point, coords: Coordinates::Embedded };
+        let jf = JacobianOfForward {
+            model: &model,
+            point: &point,
+            coords: Coordinates::Embedded,
+        };
         let fl = floors(&z, n - 7);
         // Column k of the Hessian of output i is d/dz_k of row i of the Jacobian.
         let mut fd = vec![DMatrix::zeros(n, n); model.tree.nv];
@@ -241,10 +355,20 @@ fn forward_hessians_match_differences_of_the_exact_jacobian() {
         let nm = names(&model, &point, Coordinates::Embedded);
         for i in 0..model.tree.nv {
             let sym = (&hess[i] - hess[i].transpose()).amax();
-            assert!(sym <= 1e-12 * hess[i].amax(), "Hessian {i} not symmetric by {sym}");
+            assert!(
+                sym <= 1e-12 * hess[i].amax(),
+                "Hessian {i} not symmetric by {sym}"
+            );
             // Scale rows and columns by the inputs' sizes: both indices are inputs.
             let scaled = |m: &DMatrix<f64>| DMatrix::from_fn(n, n, |r, c| m[(r, c)] * fl[r]);
-            assert_close(&format!("t_push ({}) Hessian of v̇[{i}]", d.name()), &scaled(&hess[i]), &scaled(&fd[i]), &fl, 1e-4, &nm);
+            assert_close(
+                &format!("t_push ({}) Hessian of v̇[{i}]", d.name()),
+                &scaled(&hess[i]),
+                &scaled(&fd[i]),
+                &fl,
+                1e-4,
+                &nm,
+            );
         }
     }
 }
@@ -267,7 +391,13 @@ fn tangent_hessians_are_embedded_hessians_through_the_exponential_chart() {
             let q0: Vec<T> = p.q.iter().map(|&x| T::from(x)).collect();
             let q = m.tree.integrate_q(&q0, &z[..nv], T::one());
             let prm = params_from(&z[2 * nv + nu..], &p.params);
-            Ok(m.forward(&q, &z[nv..2 * nv], &z[2 * nv..2 * nv + nu], &prm)?.vdot.iter().copied().collect())
+            Ok(
+                m.forward(&q, &z[nv..2 * nv], &z[2 * nv..2 * nv + nu], &prm)?
+                    .vdot
+                    .iter()
+                    .copied()
+                    .collect(),
+            )
         }
     }
     let fixed = Fixed(&model, &point);
@@ -280,19 +410,33 @@ fn tangent_hessians_are_embedded_hessians_through_the_exponential_chart() {
             let (mut a, mut b) = (z.clone(), z.clone());
             a[k] += hk;
             b[k] -= hk;
-            let (ja, jb) = (jacobian(&fixed, &a).unwrap().1, jacobian(&fixed, &b).unwrap().1);
+            let (ja, jb) = (
+                jacobian(&fixed, &a).unwrap().1,
+                jacobian(&fixed, &b).unwrap().1,
+            );
             for j in 0..n {
                 fd[(j, k)] = (ja[(i, j)] - jb[(i, j)]) / (2.0 * hk);
             }
         }
         let scaled = |m: &DMatrix<f64>| DMatrix::from_fn(n, n, |r, c| m[(r, c)] * fl[r]);
-        assert_close(&format!("mocap_push tangent Hessian of v̇[{i}]"), &scaled(&hess[i]), &scaled(&fd), &fl, 1e-4, &nm);
+        assert_close(
+            &format!("mocap_push tangent Hessian of v̇[{i}]"),
+            &scaled(&hess[i]),
+            &scaled(&fd),
+            &fl,
+            1e-4,
+            &nm,
+        );
     }
 }
 
 #[test]
 fn distance_hessians_match_differences_of_the_exact_gradient() {
-    for (name, pair, coords) in [("box_stack", 3, Coordinates::Tangent), ("sphere_pair", 0, Coordinates::Embedded), ("mocap_push", 1, Coordinates::Tangent)] {
+    for (name, pair, coords) in [
+        ("box_stack", 3, Coordinates::Tangent),
+        ("sphere_pair", 0, Coordinates::Embedded),
+        ("mocap_push", 1, Coordinates::Tangent),
+    ] {
         let model = load(name);
         let mut point = Point::start(&model);
         if name == "box_stack" {
@@ -305,7 +449,11 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
             point = mocap_point().1;
         }
         let (d, g, hess) = distance_hessian(&model, pair, &point, coords).unwrap();
-        let nq = if coords == Coordinates::Embedded { model.tree.nq } else { model.tree.nv };
+        let nq = if coords == Coordinates::Embedded {
+            model.tree.nq
+        } else {
+            model.tree.nv
+        };
         assert_eq!((g.len(), hess.shape()), (nq + 2, (nq + 2, nq + 2)));
         // D as a function of x = [q|δ, ε1, ε2] with everything else at the point.
         let dist = |x: &[f64]| -> f64 {
@@ -318,17 +466,46 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
             let (_, mocap) = model.split_inputs(&u).unwrap();
             let kin = model.tree.kinematics_with(&q, &v, mocap);
             let pr = &model.pairs[pair];
-            let (a, b) = (model.colliders[pr.a].as_ref().unwrap(), model.colliders[pr.b].as_ref().unwrap());
-            scm::collision::SeparationDistribution::new(&scm::collision::separation_field(a, &kin.frames[pr.a], b, &kin.frames[pr.b], p.eps1), p.eps2).distance
+            let (a, b) = (
+                model.colliders[pr.a].as_ref().unwrap(),
+                model.colliders[pr.b].as_ref().unwrap(),
+            );
+            scm::collision::SeparationDistribution::new(
+                &scm::collision::separation_field(
+                    a,
+                    &kin.frames[pr.a],
+                    b,
+                    &kin.frames[pr.b],
+                    p.eps1,
+                ),
+                p.eps2,
+            )
+            .distance
         };
         let mut x: Vec<f64> = z0(&model, &point, coords)[..nq].to_vec();
         x.extend([point.params.eps1, point.params.eps2]);
-        assert!((dist(&x) - d).abs() <= 1e-15 * d.abs().max(1e-3), "{name}: D {d} vs {}", dist(&x));
+        assert!(
+            (dist(&x) - d).abs() <= 1e-15 * d.abs().max(1e-3),
+            "{name}: D {d} vs {}",
+            dist(&x)
+        );
         assert!(d < 0.0, "{name}: the pair is in contact (D = {d})");
-        let fl: Vec<f64> = (0..nq + 2).map(|k| if k < nq { 1e-3 } else { x[k].abs() }).collect();
-        let nm: Vec<String> = (0..nq).map(|i| format!("q{i}")).chain(["eps1".into(), "eps2".into()]).collect();
+        let fl: Vec<f64> = (0..nq + 2)
+            .map(|k| if k < nq { 1e-3 } else { x[k].abs() })
+            .collect();
+        let nm: Vec<String> = (0..nq)
+            .map(|i| format!("q{i}"))
+            .chain(["eps1".into(), "eps2".into()])
+            .collect();
         let fd_g = fd_jacobian(&|x: &[f64]| vec![dist(x)], &x, 1e-6, &fl);
-        assert_close(&format!("{name} distance gradient"), &DMatrix::from_row_slice(1, nq + 2, g.as_slice()), &fd_g, &fl, 1e-5, &nm);
+        assert_close(
+            &format!("{name} distance gradient"),
+            &DMatrix::from_row_slice(1, nq + 2, g.as_slice()),
+            &fd_g,
+            &fl,
+            1e-5,
+            &nm,
+        );
         // Hessian: differences of the exact gradient.
         let grad_at = |x: &[f64]| -> DVector<f64> {
             let mut z = z0(&model, &point, coords);
@@ -336,7 +513,14 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
             let (q, v, u, mut p) = unpack(&model, &point, coords, &z);
             p.eps1 = x[nq];
             p.eps2 = x[nq + 1];
-            distance_hessian(&model, pair, &Point { q, v, u, params: p }, Coordinates::Embedded).unwrap().1
+            distance_hessian(
+                &model,
+                pair,
+                &Point { q, v, u, params: p },
+                Coordinates::Embedded,
+            )
+            .unwrap()
+            .1
         };
         if coords == Coordinates::Embedded {
             let mut fd = DMatrix::zeros(nq + 2, nq + 2);
@@ -348,8 +532,16 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
                 let diff = (grad_at(&a) - grad_at(&b)) / (2.0 * hk);
                 fd.set_column(k, &diff);
             }
-            let scaled = |m: &DMatrix<f64>| DMatrix::from_fn(nq + 2, nq + 2, |r, c| m[(r, c)] * fl[r]);
-            assert_close(&format!("{name} distance Hessian"), &scaled(&hess), &scaled(&fd), &fl, 1e-4, &nm);
+            let scaled =
+                |m: &DMatrix<f64>| DMatrix::from_fn(nq + 2, nq + 2, |r, c| m[(r, c)] * fl[r]);
+            assert_close(
+                &format!("{name} distance Hessian"),
+                &scaled(&hess),
+                &scaled(&fd),
+                &fl,
+                1e-4,
+                &nm,
+            );
         } else {
             // Tangent: second differences of D itself in the fixed chart.
             let mut fd = DMatrix::zeros(nq + 2, nq + 2);
@@ -362,11 +554,20 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
                         y[j] += sj * hj;
                         dist(&y)
                     };
-                    fd[(k, j)] = (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0)) / (4.0 * hk * hj);
+                    fd[(k, j)] = (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0))
+                        / (4.0 * hk * hj);
                 }
             }
-            let scaled = |m: &DMatrix<f64>| DMatrix::from_fn(nq + 2, nq + 2, |r, c| m[(r, c)] * fl[r]);
-            assert_close(&format!("{name} tangent distance Hessian"), &scaled(&hess), &scaled(&fd), &fl, 1e-3, &nm);
+            let scaled =
+                |m: &DMatrix<f64>| DMatrix::from_fn(nq + 2, nq + 2, |r, c| m[(r, c)] * fl[r]);
+            assert_close(
+                &format!("{name} tangent distance Hessian"),
+                &scaled(&hess),
+                &scaled(&fd),
+                &fl,
+                1e-3,
+                &nm,
+            );
         }
     }
 }
@@ -382,12 +583,23 @@ fn smooth_dissipation_gives_continuous_second_derivatives() {
     let mut jumps = Vec::new();
     for d in [Dissipation::Paper, Dissipation::Smooth] {
         // Selected by the scene's scm_dissipation (the paper's is the default).
-        let setting = if d == Dissipation::Smooth { r#"<text name="scm_dissipation" data="smooth"/>"# } else { "" };
+        let setting = if d == Dissipation::Smooth {
+            r#"<text name="scm_dissipation" data="smooth"/>"#
+        } else {
+            ""
+        };
         let model = crate::dynamics_tree::model_of(&text.replace("DISSIPATION", setting));
         assert_eq!(model.contact.dissipation, d);
         let at = |v: f64| {
-            let p = Point { q: vec![0.0], v: vec![v], u: vec![], params: model.contact };
-            forward_hessians(&model, &p, Coordinates::Embedded).unwrap().hessians[0][(1, 1)]
+            let p = Point {
+                q: vec![0.0],
+                v: vec![v],
+                u: vec![],
+                params: model.contact,
+            };
+            forward_hessians(&model, &p, Coordinates::Embedded)
+                .unwrap()
+                .hessians[0][(1, 1)]
         };
         let (below, above) = (at(-1e-9), at(1e-9));
         jumps.push((below - above).abs());
@@ -395,7 +607,10 @@ fn smooth_dissipation_gives_continuous_second_derivatives() {
     // The paper's d'' jumps from 0 to 1/2 at s = 0, so ∂²v̇/∂v² jumps by c / (2 m v_d²), with
     // c = k s⁺(1 mm) ≈ 10 N: about 500 (m s⁻¹)⁻¹. The smooth one's d'' = 3s/2 - 3s²/4 is
     // 1.5e-8 at s = 1e-8.
-    println!("jump of ∂²v̇/∂v² across v = 0: paper {}, smooth {}", jumps[0], jumps[1]);
+    println!(
+        "jump of ∂²v̇/∂v² across v = 0: paper {}, smooth {}",
+        jumps[0], jumps[1]
+    );
     assert!(jumps[0] > 100.0, "the paper's d(s) should show its C¹ kink");
     assert!(jumps[1] < 1e-6 * jumps[0], "the smooth d(s) must be C²");
 }

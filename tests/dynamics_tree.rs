@@ -13,13 +13,22 @@ use scm::scene::load_str;
 use std::path::Path;
 
 pub fn model_of(text: &str) -> Model {
-    load_str(text, Path::new("inline.xml")).unwrap_or_else(|e| panic!("{e}")).model
+    load_str(text, Path::new("inline.xml"))
+        .unwrap_or_else(|e| panic!("{e}"))
+        .model
 }
 
 /// Every bundled scene.
 pub fn bundled() -> Vec<(String, Model)> {
     let mut out = Vec::new();
-    for name in ["sphere_drop", "sphere_pair", "t_push", "box_stack", "arm_push", "mocap_push"] {
+    for name in [
+        "sphere_drop",
+        "sphere_pair",
+        "t_push",
+        "box_stack",
+        "arm_push",
+        "mocap_push",
+    ] {
         let path = scene(name);
         if path.exists() {
             out.push((name.to_string(), scm::scene::load(&path).unwrap().model));
@@ -35,7 +44,10 @@ pub fn random_point(model: &Model, rng: &mut Lcg, spread: f64) -> (Vec<f64>, Vec
     let mut q = model.tree.q0();
     for j in &model.tree.joints {
         let rot = |q: &mut [f64], rng: &mut Lcg| {
-            let r = UnitQuaternion::new(rng.direction() * rng.range(0.0, 0.5)) * UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+            let r = UnitQuaternion::new(rng.direction() * rng.range(0.0, 0.5))
+                * UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                    q[0], q[1], q[2], q[3],
+                ));
             q.copy_from_slice(&[r.w, r.i, r.j, r.k]);
         };
         match j.kind {
@@ -51,11 +63,24 @@ pub fn random_point(model: &Model, rng: &mut Lcg, spread: f64) -> (Vec<f64>, Vec
         }
     }
     let v = (0..model.tree.nv).map(|_| rng.range(-0.5, 0.5)).collect();
-    let mut u: Vec<f64> = model.actuators.iter().map(|_| rng.range(-1.0, 1.0)).collect();
+    let mut u: Vec<f64> = model
+        .actuators
+        .iter()
+        .map(|_| rng.range(-1.0, 1.0))
+        .collect();
     let mocap = model.tree.mocap0();
     for m in mocap.chunks(MOCAP_INPUTS) {
-        let r = UnitQuaternion::new(rng.direction() * 0.3) * UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(m[3], m[4], m[5], m[6]));
-        u.extend_from_slice(&[m[0] + rng.range(-spread, spread), m[1] + rng.range(-spread, spread), m[2] + rng.range(-spread, spread), r.w, r.i, r.j, r.k]);
+        let r = UnitQuaternion::new(rng.direction() * 0.3)
+            * UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(m[3], m[4], m[5], m[6]));
+        u.extend_from_slice(&[
+            m[0] + rng.range(-spread, spread),
+            m[1] + rng.range(-spread, spread),
+            m[2] + rng.range(-spread, spread),
+            r.w,
+            r.i,
+            r.j,
+            r.k,
+        ]);
         u.extend((0..6).map(|_| rng.range(-0.3, 0.3)));
     }
     (q, v, u)
@@ -89,20 +114,39 @@ fn mass_matrix_and_bias_match_the_hand_derived_double_pendulum() {
     let (m1, l1, i1, m2, l2, i2, big_l1, g) = (1.5, 0.3, 0.03, 0.7, 0.2, 0.008, 0.5, 9.81);
     let mut rng = Lcg(3);
     for _ in 0..20 {
-        let (t1, t2, w1, w2) = (rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-4.0, 4.0), rng.range(-4.0, 4.0));
+        let (t1, t2, w1, w2) = (
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-4.0, 4.0),
+            rng.range(-4.0, 4.0),
+        );
         let kin = model.tree.kinematics(&[t1, t2], &[w1, w2]);
         let m = model.tree.mass_matrix(&kin);
-        let m11 = i1 + i2 + m1 * l1 * l1 + m2 * (big_l1 * big_l1 + l2 * l2 + 2.0 * big_l1 * l2 * t2.cos());
+        let m11 = i1
+            + i2
+            + m1 * l1 * l1
+            + m2 * (big_l1 * big_l1 + l2 * l2 + 2.0 * big_l1 * l2 * t2.cos());
         let m12 = i2 + m2 * (l2 * l2 + big_l1 * l2 * t2.cos());
         let m22 = i2 + m2 * l2 * l2;
-        for (got, want) in [(m[(0, 0)], m11), (m[(0, 1)], m12), (m[(1, 0)], m12), (m[(1, 1)], m22)] {
+        for (got, want) in [
+            (m[(0, 0)], m11),
+            (m[(0, 1)], m12),
+            (m[(1, 0)], m12),
+            (m[(1, 1)], m22),
+        ] {
             assert!((got - want).abs() < 1e-12, "M: {got} vs {want}");
         }
         let bias = model.tree.rnea(&kin, &[0.0, 0.0], &[Wrench::zero(); 3]);
         let h = m2 * big_l1 * l2 * t2.sin();
-        let c1 = -h * (2.0 * w1 * w2 + w2 * w2) + g * (m1 * l1 + m2 * big_l1) * t1.sin() + g * m2 * l2 * (t1 + t2).sin();
+        let c1 = -h * (2.0 * w1 * w2 + w2 * w2)
+            + g * (m1 * l1 + m2 * big_l1) * t1.sin()
+            + g * m2 * l2 * (t1 + t2).sin();
         let c2 = h * w1 * w1 + g * m2 * l2 * (t1 + t2).sin();
-        assert!((bias[0] - c1).abs() < 1e-11 && (bias[1] - c2).abs() < 1e-11, "c: {:?} vs {c1}, {c2}", bias.as_slice());
+        assert!(
+            (bias[0] - c1).abs() < 1e-11 && (bias[1] - c2).abs() < 1e-11,
+            "c: {:?} vs {c1}, {c2}",
+            bias.as_slice()
+        );
     }
 }
 
@@ -144,7 +188,12 @@ pub fn chain(extra_joint_attrs: &str) -> String {
 #[test]
 fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
     let mut models = bundled();
-    models.push(("chain".into(), model_of(&chain(r#"armature="0.01" damping="0.1" frictionloss="0.2""#))));
+    models.push((
+        "chain".into(),
+        model_of(&chain(
+            r#"armature="0.01" damping="0.1" frictionloss="0.2""#,
+        )),
+    ));
     let mut rng = Lcg(11);
     for (name, model) in &models {
         for _ in 0..8 {
@@ -157,15 +206,26 @@ fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
             // Scale: the largest generalized force involved (τ, contact, gravity through M v̇).
             let kin = model.tree.kinematics_with(&q, &v, mocap);
             let mvdot = model.tree.mass_matrix(&kin) * &fd.vdot;
-            let scale = tau.iter().chain(mvdot.iter()).fold(1.0f64, |m, x| m.max(x.abs()));
+            let scale = tau
+                .iter()
+                .chain(mvdot.iter())
+                .fold(1.0f64, |m, x| m.max(x.abs()));
             for k in 0..model.tree.nv {
-                assert!((id[k] - tau[k]).abs() <= 1e-10 * scale, "{name}: dof {k}: ID(FD(τ)) = {} vs τ = {} (scale {scale})", id[k], tau[k]);
+                assert!(
+                    (id[k] - tau[k]).abs() <= 1e-10 * scale,
+                    "{name}: dof {k}: ID(FD(τ)) = {} vs τ = {} (scale {scale})",
+                    id[k],
+                    tau[k]
+                );
             }
             // The actuated form: ID(FD(u)) is the actuators' generalized force.
             let fd = model.forward(&q, &v, &u, &prm).unwrap();
             let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm);
             let act = model.actuator_forces(&q, &v, &u[..model.actuators.len()]);
-            assert!((id - act).amax() <= 1e-10 * scale.max(1.0), "{name}: actuated form");
+            assert!(
+                (id - act).amax() <= 1e-10 * scale.max(1.0),
+                "{name}: actuated form"
+            );
         }
     }
 }
@@ -180,7 +240,10 @@ fn mass_matrix_is_symmetric_positive_definite_and_carries_the_kinetic_energy() {
             let (q, v, _) = random_point(model, &mut rng, 0.05);
             let m = model.tree.mass_matrix(&model.tree.kinematics(&q, &v));
             let asym = (&m - m.transpose()).amax();
-            assert!(asym <= 1e-14 * m.amax(), "{name}: M not symmetric by {asym}");
+            assert!(
+                asym <= 1e-14 * m.amax(),
+                "{name}: M not symmetric by {asym}"
+            );
             let eig = m.clone().symmetric_eigenvalues();
             assert!(eig.min() > 0.0, "{name}: eigenvalues {eig}");
             // ½ vᵀ M v equals the kinetic energy of the bodies' motion (computed from their
@@ -188,7 +251,10 @@ fn mass_matrix_is_symmetric_positive_definite_and_carries_the_kinetic_energy() {
             let v = DVector::from_vec(v.clone());
             let t_m = 0.5 * v.dot(&(&m * &v));
             let t = model.energy(&q, v.as_slice()).kinetic;
-            assert!((t_m - t).abs() <= 1e-12 * t.max(1e-12), "{name}: ½vᵀMv = {t_m} vs {t}");
+            assert!(
+                (t_m - t).abs() <= 1e-12 * t.max(1e-12),
+                "{name}: ½vᵀMv = {t_m} vs {t}"
+            );
         }
     }
 }
@@ -203,8 +269,14 @@ fn rk4_energy_error(model: &Model, h: f64) -> f64 {
     let v: Vec<f64> = v.iter().map(|x| 4.0 * x).collect(); // up to 2 rad/s, 2 m/s
     let state = State { q, v };
     let e0 = m.energy(&state.q, &state.v).total();
-    let opts = AdvanceOptions { energy_guard: false, ..Default::default() };
-    let end = m.advance(&state, &u, &m.contact, 0.0, 1.0, &opts).unwrap().state;
+    let opts = AdvanceOptions {
+        energy_guard: false,
+        ..Default::default()
+    };
+    let end = m
+        .advance(&state, &u, &m.contact, 0.0, 1.0, &opts)
+        .unwrap()
+        .state;
     m.energy(&end.q, &end.v).total() - e0
 }
 
@@ -215,13 +287,21 @@ fn rk4_conserves_energy_with_an_error_shrinking_as_h4() {
     // 6e-11 (0.3125 ms, where rounding over 3200 steps starts to count). The fourth-order regime
     // (ratio 16 per halving) holds from 2.5 ms down.
     let model = model_of(&chain(""));
-    let errors: Vec<(f64, f64)> = [0.0025, 0.00125, 0.000625].iter().map(|&h| (h, rk4_energy_error(&model, h))).collect();
+    let errors: Vec<(f64, f64)> = [0.0025, 0.00125, 0.000625]
+        .iter()
+        .map(|&h| (h, rk4_energy_error(&model, h)))
+        .collect();
     println!("RK4 energy error after 1 s: {errors:?}");
     for w in errors.windows(2) {
         // Halving h divides a fourth-order error by 16; 12 to 20 leaves room for the
         // fifth-order terms still present (measured 13.8 and 15.0).
         let ratio = w[0].1 / w[1].1;
-        assert!((12.0..20.0).contains(&ratio), "error ratio {ratio} from h = {} to {}", w[0].0, w[1].0);
+        assert!(
+            (12.0..20.0).contains(&ratio),
+            "error ratio {ratio} from h = {} to {}",
+            w[0].0,
+            w[1].0
+        );
     }
     assert!(errors[2].1.abs() < 1e-8, "{errors:?}");
 }
@@ -247,50 +327,93 @@ fn contact_between_free_bodies_conserves_linear_momentum() {
     for integrator in Integrator::ALL {
         let mut model = model_of(text);
         model.integrator = integrator;
-        let mut state = State { q: model.tree.q0(), v: vec![0.0; 12] };
+        let mut state = State {
+            q: model.tree.q0(),
+            v: vec![0.0; 12],
+        };
         state.v[0] = 1.0; // a moves towards b at 1 m/s
         state.v[4] = 2.0; // and spins
         state.v[6] = -0.2;
-        let momentum = |s: &State<f64>| Vector3::new(s.v[0] + 2.5 * s.v[6], s.v[1] + 2.5 * s.v[7], s.v[2] + 2.5 * s.v[8]);
+        let momentum = |s: &State<f64>| {
+            Vector3::new(
+                s.v[0] + 2.5 * s.v[6],
+                s.v[1] + 2.5 * s.v[7],
+                s.v[2] + 2.5 * s.v[8],
+            )
+        };
         let p0 = momentum(&state);
         let mut touched = false;
         for k in 0..40 {
-            state = model.advance(&state, &[], &model.contact, k as f64 * 0.01, 0.01, &AdvanceOptions::default()).unwrap().state;
+            state = model
+                .advance(
+                    &state,
+                    &[],
+                    &model.contact,
+                    k as f64 * 0.01,
+                    0.01,
+                    &AdvanceOptions::default(),
+                )
+                .unwrap()
+                .state;
             touched |= (state.v[0] - 1.0).abs() > 0.1;
             let dp = (momentum(&state) - p0).norm();
             assert!(dp < 1e-9, "{}: momentum changed by {dp}", integrator.name());
         }
         assert!(touched, "{}: the bodies never collided", integrator.name());
         // They hit off-centre: the box was pushed sideways too.
-        assert!(state.v[7].abs() > 1e-3, "{}: no sideways push", integrator.name());
+        assert!(
+            state.v[7].abs() > 1e-3,
+            "{}: no sideways push",
+            integrator.name()
+        );
     }
 }
 
 #[test]
 fn loader_reads_joint_and_body_properties() {
-    let model = model_of(&chain(r#"armature="0.02" damping="0.3" stiffness="2" frictionloss="0.1""#));
+    let model = model_of(&chain(
+        r#"armature="0.02" damping="0.3" stiffness="2" frictionloss="0.1""#,
+    ));
     let t = &model.tree;
     assert_eq!((t.nq, t.nv), (4 + 1 + 4 + 1 + 7, 3 + 1 + 3 + 1 + 6));
     let ball = &t.joints[0];
-    assert_eq!((ball.kind, ball.armature, ball.damping, ball.stiffness, ball.frictionloss), (JointKind::Ball, 0.02, 0.3, 2.0, 0.1));
+    assert_eq!(
+        (
+            ball.kind,
+            ball.armature,
+            ball.damping,
+            ball.stiffness,
+            ball.frictionloss
+        ),
+        (JointKind::Ball, 0.02, 0.3, 2.0, 0.1)
+    );
     assert!((ball.anchor - Vector3::new(0.0, 0.0, 0.1)).norm() < 1e-15);
     let hinge = &t.joints[1];
     assert!((hinge.axis - Vector3::new(1.0, 1.0, 0.0).normalize()).norm() < 1e-15);
     // Inertia from two geoms of body c: total mass and centre of mass.
     let c = &t.bodies[3].inertia;
     assert!((c.mass - 0.7).abs() < 1e-15);
-    assert!((c.com - Vector3::new(0.03 * 0.2 / 0.7, 0.0, (-0.06 * 0.5 - 0.02 * 0.2) / 0.7)).norm() < 1e-15);
+    assert!(
+        (c.com - Vector3::new(0.03 * 0.2 / 0.7, 0.0, (-0.06 * 0.5 - 0.02 * 0.2) / 0.7)).norm()
+            < 1e-15
+    );
     // Inertia of body a from its box geom and density 800.
     let a = &t.bodies[1].inertia;
     assert!((a.mass - 800.0 * 0.1 * 0.08 * 0.2).abs() < 1e-12);
     // Armature sits on the diagonal of M.
     let (q, v) = (t.q0(), vec![0.0; t.nv]);
     let with = t.mass_matrix(&t.kinematics(&q, &v));
-    let without = model_of(&chain(r#"damping="0.3""#)).tree.mass_matrix(&t.kinematics(&q, &v));
+    let without = model_of(&chain(r#"damping="0.3""#))
+        .tree
+        .mass_matrix(&t.kinematics(&q, &v));
     let d = &with - &without;
     for i in 0..t.nv {
         let expect = if i < 8 { 0.02 } else { 0.0 };
-        assert!((d[(i, i)] - expect).abs() < 1e-14, "armature on dof {i}: {}", d[(i, i)]);
+        assert!(
+            (d[(i, i)] - expect).abs() < 1e-14,
+            "armature on dof {i}: {}",
+            d[(i, i)]
+        );
     }
     // Ball stiffness pulls towards the reference orientation: the torque is -k θ.
     let mut q = q.clone();
@@ -298,7 +421,11 @@ fn loader_reads_joint_and_body_properties() {
     q[0..4].copy_from_slice(&[r.w, r.i, r.j, r.k]);
     let tau = model.passive_forces(&q, &v, 0.01);
     for k in 0..3 {
-        assert!((tau[k] + 2.0 * r.scaled_axis()[k]).abs() < 1e-12, "ball spring dof {k}: {}", tau[k]);
+        assert!(
+            (tau[k] + 2.0 * r.scaled_axis()[k]).abs() < 1e-12,
+            "ball spring dof {k}: {}",
+            tau[k]
+        );
     }
     // Frictionloss is smooth dry friction: -F v / sqrt(v_s² + v²), tending to -F sign(v).
     let mut v = v.clone();
@@ -326,15 +453,34 @@ fn actuators_apply_gear_gains_and_control_ranges() {
     let (q, v) = ([0.1, 0.2], [0.3, -0.4]);
     let tau: DVector<f64> = model.actuator_forces(&q, &v, &[5.0, 0.7, 0.25]);
     // Motor: clamped to 1, force 1, generalized 3·1. Velocity actuator: 4 (0.25 - 0.3).
-    assert!((tau[0] - (3.0 + 4.0 * (0.25 - 0.3))).abs() < 1e-14, "{}", tau[0]);
+    assert!(
+        (tau[0] - (3.0 + 4.0 * (0.25 - 0.3))).abs() < 1e-14,
+        "{}",
+        tau[0]
+    );
     // Position: force 10 (0.7 - 2·0.2) - 0.5·2·(-0.4), generalized ×2.
-    assert!((tau[1] - 2.0 * (10.0 * (0.7 - 0.4) + 0.5 * 2.0 * 0.4)).abs() < 1e-14, "{}", tau[1]);
+    assert!(
+        (tau[1] - 2.0 * (10.0 * (0.7 - 0.4) + 0.5 * 2.0 * 0.4)).abs() < 1e-14,
+        "{}",
+        tau[1]
+    );
     // The derivative with respect to a clamped control is zero, inside the range it is the gear.
     use num_dual::Dual64;
-    let d = |u0: f64| model.actuator_forces(&q.map(Dual64::from), &v.map(Dual64::from), &[Dual64::new(u0, 1.0), Dual64::from(0.0), Dual64::from(0.0)])[0].eps;
+    let d = |u0: f64| {
+        model.actuator_forces(
+            &q.map(Dual64::from),
+            &v.map(Dual64::from),
+            &[Dual64::new(u0, 1.0), Dual64::from(0.0), Dual64::from(0.0)],
+        )[0]
+        .eps
+    };
     assert_eq!((d(5.0), d(0.5)), (0.0, 3.0));
     // A bad ctrlrange is refused.
-    let e = load_str(&text.replace(r#"ctrlrange="-1 1""#, r#"ctrlrange="1 -1""#), Path::new("bad.xml")).unwrap_err();
+    let e = load_str(
+        &text.replace(r#"ctrlrange="-1 1""#, r#"ctrlrange="1 -1""#),
+        Path::new("bad.xml"),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("reversed"), "{e}");
 }
 
@@ -342,10 +488,26 @@ fn actuators_apply_gear_gains_and_control_ranges() {
 fn structural_errors_name_the_problem() {
     let base = chain("");
     for (from, to, words) in [
-        (r#"<joint name="slide_d""#, r#"<freejoint/><joint name="slide_d""#, "free joint"),
-        (r#"<freejoint/>"#, r#"<freejoint/><joint type="ball"/>"#, "free joint"),
-        (r#"<joint name="ball_a" type="ball""#, r#"<joint name="ball_a" type="ball" stiffness="-1""#, "negative"),
-        (r#"<freejoint/>"#, r#"<joint type="free" stiffness="3"/>"#, "stiffness on a free joint"),
+        (
+            r#"<joint name="slide_d""#,
+            r#"<freejoint/><joint name="slide_d""#,
+            "free joint",
+        ),
+        (
+            r#"<freejoint/>"#,
+            r#"<freejoint/><joint type="ball"/>"#,
+            "free joint",
+        ),
+        (
+            r#"<joint name="ball_a" type="ball""#,
+            r#"<joint name="ball_a" type="ball" stiffness="-1""#,
+            "negative",
+        ),
+        (
+            r#"<freejoint/>"#,
+            r#"<joint type="free" stiffness="3"/>"#,
+            "stiffness on a free joint",
+        ),
     ] {
         assert!(base.contains(from), "{from}");
         let e = load_str(&base.replacen(from, to, 1), Path::new("bad.xml")).unwrap_err();
@@ -355,14 +517,30 @@ fn structural_errors_name_the_problem() {
 
 #[test]
 fn mujoco_integrator_options_map_to_ours() {
-    let scene = |option: &str, custom: &str| format!(r#"<mujoco model="m"><option {option}/><custom>{custom}</custom><worldbody>
-  <body name="b"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body></worldbody></mujoco>"#);
-    for (mj, ours) in [("Euler", Integrator::SemiImplicitEuler), ("RK4", Integrator::Rk4), ("implicit", Integrator::ImplicitEuler), ("implicitfast", Integrator::ImplicitEuler)] {
-        assert_eq!(model_of(&scene(&format!(r#"integrator="{mj}""#), "")).integrator, ours, "{mj}");
+    let scene = |option: &str, custom: &str| {
+        format!(
+            r#"<mujoco model="m"><option {option}/><custom>{custom}</custom><worldbody>
+  <body name="b"><freejoint/><geom type="sphere" size="0.1" mass="1"/></body></worldbody></mujoco>"#
+        )
+    };
+    for (mj, ours) in [
+        ("Euler", Integrator::SemiImplicitEuler),
+        ("RK4", Integrator::Rk4),
+        ("implicit", Integrator::ImplicitEuler),
+        ("implicitfast", Integrator::ImplicitEuler),
+    ] {
+        assert_eq!(
+            model_of(&scene(&format!(r#"integrator="{mj}""#), "")).integrator,
+            ours,
+            "{mj}"
+        );
     }
     // scm_integrator wins over MuJoCo's option, and every name of ours is accepted.
     for i in Integrator::ALL {
-        let m = model_of(&scene(r#"integrator="RK4""#, &format!(r#"<text name="scm_integrator" data="{}"/>"#, i.name())));
+        let m = model_of(&scene(
+            r#"integrator="RK4""#,
+            &format!(r#"<text name="scm_integrator" data="{}"/>"#, i.name()),
+        ));
         assert_eq!(m.integrator, i);
         assert_eq!(Integrator::from_name(i.name()), Some(i));
     }

@@ -115,22 +115,41 @@ fn legal(f: F, me: bool, s: St) -> bool {
     let any_but_start = true; // every reachable state is past instantiation
     match f {
         F::SetDebugLogging | F::Reset => any_but_start,
-        F::GetFMUstate | F::SetFMUstate | F::FreeFMUstate | F::SerializedSize | F::Serialize | F::DeSerialize => any_but_start,
+        F::GetFMUstate
+        | F::SetFMUstate
+        | F::FreeFMUstate
+        | F::SerializedSize
+        | F::Serialize
+        | F::DeSerialize => any_but_start,
         F::SetupExperiment | F::EnterInit => s == Instantiated,
         F::ExitInit => s == Init,
-        F::Terminate => if me { matches!(s, Event | Continuous) } else { matches!(s, StepComplete | StepFailed) },
-        F::GetReal | F::GetInteger | F::GetBoolean | F::GetString | F::DirectionalDerivative => !matches!(s, Instantiated),
+        F::Terminate => {
+            if me {
+                matches!(s, Event | Continuous)
+            } else {
+                matches!(s, StepComplete | StepFailed)
+            }
+        }
+        F::GetReal | F::GetInteger | F::GetBoolean | F::GetString | F::DirectionalDerivative => {
+            !matches!(s, Instantiated)
+        }
         // A continuous input: also in continuous-time mode (ME).
         F::SetReal => matches!(s, Instantiated | Init | StepComplete | Event | Continuous),
-        F::SetInteger | F::SetBoolean | F::SetString => matches!(s, Instantiated | Init | StepComplete | Event),
+        F::SetInteger | F::SetBoolean | F::SetString => {
+            matches!(s, Instantiated | Init | StepComplete | Event)
+        }
         // Extension: a retry after a discarded step.
         F::DoStep => !me && matches!(s, StepComplete | StepFailed),
-        F::GetRealStatus | F::GetBooleanStatus => !me && matches!(s, StepComplete | StepFailed | Terminated),
+        F::GetRealStatus | F::GetBooleanStatus => {
+            !me && matches!(s, StepComplete | StepFailed | Terminated)
+        }
         F::EnterEventMode | F::SetTime => me && matches!(s, Event | Continuous),
         F::NewDiscreteStates | F::EnterContinuousTimeMode => me && s == Event,
         F::CompletedIntegratorStep | F::SetContinuousStates => me && s == Continuous,
         // Extension: derivatives also in initialization mode.
-        F::GetDerivatives | F::GetEventIndicators | F::GetContinuousStates => me && matches!(s, Init | Event | Continuous | Terminated),
+        F::GetDerivatives | F::GetEventIndicators | F::GetContinuousStates => {
+            me && matches!(s, Init | Event | Continuous | Terminated)
+        }
         F::GetNominals => me && matches!(s, Instantiated | Event | Continuous | Terminated),
     }
 }
@@ -155,13 +174,23 @@ fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
         let sim = scm::sim::Simulation::from_file(&crate::common::scene("mocap_push")).unwrap();
-        let find = |pred: &dyn Fn(&str) -> bool| sim.rows().iter().position(|(v, _)| pred(&v.name)).unwrap() as u32;
+        let find = |pred: &dyn Fn(&str) -> bool| {
+            sim.rows().iter().position(|(v, _)| pred(&v.name)).unwrap() as u32
+        };
         let input = find(&|n| n == "paddle.pos.x");
         let output = find(&|n| n.starts_with("contact.") && n.ends_with(".force.x"));
         let res = host::resources("mocap_push");
         let serialized = |me: bool| unsafe {
             let cb = host::quiet();
-            let c = host::instantiate(&res, if me { fmi2ModelExchange } else { fmi2CoSimulation }, &cb);
+            let c = host::instantiate(
+                &res,
+                if me {
+                    fmi2ModelExchange
+                } else {
+                    fmi2CoSimulation
+                },
+                &cb,
+            );
             assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
             assert_eq!(fmi2ExitInitializationMode(c), fmi2OK);
             let bytes = host::serialize_current(c);
@@ -169,14 +198,37 @@ fn fixture() -> &'static Fixture {
             bytes
         };
         let (bytes_cs, bytes_me) = (serialized(false), serialized(true));
-        Fixture { nvars: sim.rows().len() as u32, nx: sim.continuous_states().len(), x0: sim.continuous_states(), input, output, res, bytes_cs, bytes_me }
+        Fixture {
+            nvars: sim.rows().len() as u32,
+            nx: sim.continuous_states().len(),
+            x0: sim.continuous_states(),
+            input,
+            output,
+            res,
+            bytes_cs,
+            bytes_me,
+        }
     })
 }
 
 /// A new instance driven to state `s`.
-unsafe fn reach(f: &Fixture, me: bool, s: St, cb: &fmi2CallbackFunctions, capture: &Capture) -> fmi2Component {
+unsafe fn reach(
+    f: &Fixture,
+    me: bool,
+    s: St,
+    cb: &fmi2CallbackFunctions,
+    capture: &Capture,
+) -> fmi2Component {
     unsafe {
-        let c = host::instantiate(&f.res, if me { fmi2ModelExchange } else { fmi2CoSimulation }, cb);
+        let c = host::instantiate(
+            &f.res,
+            if me {
+                fmi2ModelExchange
+            } else {
+                fmi2CoSimulation
+            },
+            cb,
+        );
         assert!(!c.is_null());
         if s == Instantiated {
             return c;
@@ -191,7 +243,11 @@ unsafe fn reach(f: &Fixture, me: bool, s: St, cb: &fmi2CallbackFunctions, captur
             StepFailed => {
                 // A step that would need ~1e303 internal steps is refused before any work.
                 assert_eq!(fmi2DoStep(c, 0.0, 1e300, fmi2True), fmi2Discard);
-                assert!(capture.last().message.contains("internal steps"), "{:?}", capture.last());
+                assert!(
+                    capture.last().message.contains("internal steps"),
+                    "{:?}",
+                    capture.last()
+                );
             }
             Continuous => assert_eq!(fmi2EnterContinuousTimeMode(c), fmi2OK),
             Terminated => assert_eq!(fmi2Terminate(c), fmi2OK),
@@ -253,7 +309,9 @@ unsafe fn call(fx: &Fixture, c: fmi2Component, me: bool, f: F) -> fmi2Status {
                 let bytes = if me { &fx.bytes_me } else { &fx.bytes_cs };
                 fmi2DeSerializeFMUstate(c, bytes.as_ptr().cast(), bytes.len(), &mut st)
             }
-            F::DirectionalDerivative => fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, &1.0, &mut 0.0),
+            F::DirectionalDerivative => {
+                fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, &1.0, &mut 0.0)
+            }
             F::DoStep => fmi2DoStep(c, time, 0.002, fmi2True),
             F::GetRealStatus => fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &mut 0.0),
             F::GetBooleanStatus => fmi2GetBooleanStatus(c, fmi2Terminated, &mut 0),
@@ -301,13 +359,27 @@ fn every_function_in_every_state_follows_the_standard() {
                     let logged = capture.len();
                     let status = call(fx, c, me, f);
                     if legal(f, me, s) {
-                        assert_eq!(status, fmi2OK, "{f:?} in {s:?} (me = {me}): {:?}", capture.since(logged));
+                        assert_eq!(
+                            status,
+                            fmi2OK,
+                            "{f:?} in {s:?} (me = {me}): {:?}",
+                            capture.since(logged)
+                        );
                     } else {
                         assert_eq!(status, fmi2Error, "{f:?} in {s:?} (me = {me}) was accepted");
                         let said = capture.since(logged);
-                        let named = said.iter().any(|l| l.status == fmi2Error && l.message.contains("fmi2") && (l.message.contains(&format!("state {}", state_name(s))) || l.message.contains("is not part of")));
+                        let named = said.iter().any(|l| {
+                            l.status == fmi2Error
+                                && l.message.contains("fmi2")
+                                && (l.message.contains(&format!("state {}", state_name(s)))
+                                    || l.message.contains("is not part of"))
+                        });
                         assert!(named, "{f:?} in {s:?} (me = {me}): {said:?}");
-                        assert_eq!(snapshot(c, fx.nvars), before, "{f:?} in {s:?} (me = {me}) was refused but changed the instance");
+                        assert_eq!(
+                            snapshot(c, fx.nvars),
+                            before,
+                            "{f:?} in {s:?} (me = {me}) was refused but changed the instance"
+                        );
                     }
                     fmi2FreeInstance(c);
                 }
@@ -351,10 +423,21 @@ fn other_interface_and_unsupported_functions_are_refused() {
             assert!(s.iter().all(|&s| s == fmi2Error), "me = {me}: {s:?}");
             if me {
                 assert_eq!(fmi2DoStep(c, 0.0, 0.002, fmi2True), fmi2Error);
-                assert!(capture.last().message.contains("not part of Model Exchange"), "{:?}", capture.last());
+                assert!(
+                    capture
+                        .last()
+                        .message
+                        .contains("not part of Model Exchange"),
+                    "{:?}",
+                    capture.last()
+                );
             } else {
                 assert_eq!(fmi2SetTime(c, 0.0), fmi2Error);
-                assert!(capture.last().message.contains("not part of Co-Simulation"), "{:?}", capture.last());
+                assert!(
+                    capture.last().message.contains("not part of Co-Simulation"),
+                    "{:?}",
+                    capture.last()
+                );
             }
             fmi2FreeInstance(c);
         }
@@ -399,13 +482,55 @@ fn null_pointers_are_refused_by_every_function() {
         ];
         assert!(statuses.iter().all(|&s| s == fmi2Error), "{statuses:?}");
         fmi2FreeInstance(z);
-        assert!(scm::fmi2Instantiate(null(), fmi2CoSimulation, fx.res.guid.as_ptr(), fx.res.uri.as_ptr(), &cb, 0, 0).is_null());
-        assert!(scm::fmi2Instantiate(c"x".as_ptr(), fmi2CoSimulation, null(), fx.res.uri.as_ptr(), &cb, 0, 0).is_null());
-        assert!(scm::fmi2Instantiate(c"x".as_ptr(), fmi2CoSimulation, fx.res.guid.as_ptr(), null(), &cb, 0, 0).is_null());
-        assert!(scm::fmi2Instantiate(c"x".as_ptr(), fmi2CoSimulation, fx.res.guid.as_ptr(), fx.res.uri.as_ptr(), null(), 0, 0).is_null());
+        assert!(scm::fmi2Instantiate(
+            null(),
+            fmi2CoSimulation,
+            fx.res.guid.as_ptr(),
+            fx.res.uri.as_ptr(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(scm::fmi2Instantiate(
+            c"x".as_ptr(),
+            fmi2CoSimulation,
+            null(),
+            fx.res.uri.as_ptr(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(scm::fmi2Instantiate(
+            c"x".as_ptr(),
+            fmi2CoSimulation,
+            fx.res.guid.as_ptr(),
+            null(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(scm::fmi2Instantiate(
+            c"x".as_ptr(),
+            fmi2CoSimulation,
+            fx.res.guid.as_ptr(),
+            fx.res.uri.as_ptr(),
+            null(),
+            0,
+            0
+        )
+        .is_null());
 
         for me in [false, true] {
-            let c = reach(fx, me, if me { Continuous } else { StepComplete }, &cb, &capture);
+            let c = reach(
+                fx,
+                me,
+                if me { Continuous } else { StepComplete },
+                &cb,
+                &capture,
+            );
             let before = snapshot(c, fx.nvars);
             let nx = fx.nx;
             let mut x = vec![0.0; nx];
@@ -425,41 +550,104 @@ fn null_pointers_are_refused_by_every_function() {
                 ("FMUstate", fmi2GetFMUstate(c, null_mut())),
                 ("FMUstate", fmi2SetFMUstate(c, null_mut())),
                 ("size", fmi2SerializedFMUstateSize(c, st, null_mut())),
-                ("serializedState", fmi2SerializeFMUstate(c, st, null_mut(), fx.bytes_cs.len())),
-                ("serializedState", fmi2DeSerializeFMUstate(c, null(), fx.bytes_cs.len(), &mut null_mut())),
-                ("FMUstate", fmi2DeSerializeFMUstate(c, fx.bytes_cs.as_ptr().cast(), fx.bytes_cs.len(), null_mut())),
-                ("vUnknown_ref", fmi2GetDirectionalDerivative(c, null(), 1, &fx.input, 1, &1.0, &mut 0.0)),
-                ("vKnown_ref", fmi2GetDirectionalDerivative(c, &fx.output, 1, null(), 1, &1.0, &mut 0.0)),
-                ("dvKnown", fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, null(), &mut 0.0)),
-                ("dvUnknown", fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, &1.0, null_mut())),
+                (
+                    "serializedState",
+                    fmi2SerializeFMUstate(c, st, null_mut(), fx.bytes_cs.len()),
+                ),
+                (
+                    "serializedState",
+                    fmi2DeSerializeFMUstate(c, null(), fx.bytes_cs.len(), &mut null_mut()),
+                ),
+                (
+                    "FMUstate",
+                    fmi2DeSerializeFMUstate(
+                        c,
+                        fx.bytes_cs.as_ptr().cast(),
+                        fx.bytes_cs.len(),
+                        null_mut(),
+                    ),
+                ),
+                (
+                    "vUnknown_ref",
+                    fmi2GetDirectionalDerivative(c, null(), 1, &fx.input, 1, &1.0, &mut 0.0),
+                ),
+                (
+                    "vKnown_ref",
+                    fmi2GetDirectionalDerivative(c, &fx.output, 1, null(), 1, &1.0, &mut 0.0),
+                ),
+                (
+                    "dvKnown",
+                    fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, null(), &mut 0.0),
+                ),
+                (
+                    "dvUnknown",
+                    fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.input, 1, &1.0, null_mut()),
+                ),
             ];
             if me {
                 cases.extend([
                     ("x", fmi2SetContinuousStates(c, null(), nx)),
                     ("x", fmi2GetContinuousStates(c, null_mut(), nx)),
                     ("derivatives", fmi2GetDerivatives(c, null_mut(), nx)),
-                    ("x_nominal", fmi2GetNominalsOfContinuousStates(c, null_mut(), nx)),
-                    ("enterEventMode", fmi2CompletedIntegratorStep(c, 1, null_mut(), &mut 0)),
-                    ("terminateSimulation", fmi2CompletedIntegratorStep(c, 1, &mut 0, null_mut())),
+                    (
+                        "x_nominal",
+                        fmi2GetNominalsOfContinuousStates(c, null_mut(), nx),
+                    ),
+                    (
+                        "enterEventMode",
+                        fmi2CompletedIntegratorStep(c, 1, null_mut(), &mut 0),
+                    ),
+                    (
+                        "terminateSimulation",
+                        fmi2CompletedIntegratorStep(c, 1, &mut 0, null_mut()),
+                    ),
                 ]);
             } else {
-                cases.extend([("value", fmi2GetRealStatus(c, fmi2LastSuccessfulTime, null_mut())), ("value", fmi2GetBooleanStatus(c, fmi2Terminated, null_mut()))]);
+                cases.extend([
+                    (
+                        "value",
+                        fmi2GetRealStatus(c, fmi2LastSuccessfulTime, null_mut()),
+                    ),
+                    ("value", fmi2GetBooleanStatus(c, fmi2Terminated, null_mut())),
+                ]);
             }
             for (i, (arg, s)) in cases.iter().enumerate() {
-                assert_eq!(*s, fmi2Error, "case {i} ({arg}, me = {me}) accepted a NULL pointer");
+                assert_eq!(
+                    *s, fmi2Error,
+                    "case {i} ({arg}, me = {me}) accepted a NULL pointer"
+                );
             }
             // Every refusal is explained, and names the argument.
-            let errors: Vec<_> = capture.all().into_iter().filter(|l| l.status == fmi2Error).collect();
+            let errors: Vec<_> = capture
+                .all()
+                .into_iter()
+                .filter(|l| l.status == fmi2Error)
+                .collect();
             for (arg, _) in &cases {
-                assert!(errors.iter().any(|l| l.message.contains(&format!("argument {arg}")) || l.message.contains(&format!("{arg} is NULL"))), "no message names {arg}: {errors:?}");
+                assert!(
+                    errors
+                        .iter()
+                        .any(|l| l.message.contains(&format!("argument {arg}"))
+                            || l.message.contains(&format!("{arg} is NULL"))),
+                    "no message names {arg}: {errors:?}"
+                );
             }
-            assert_eq!(snapshot(c, fx.nvars), before, "a refused call changed the instance");
+            assert_eq!(
+                snapshot(c, fx.nvars),
+                before,
+                "a refused call changed the instance"
+            );
             // Still usable.
             if me {
                 assert_eq!(fmi2GetContinuousStates(c, x.as_mut_ptr(), nx), fmi2OK);
                 assert_eq!(fmi2SetContinuousStates(c, x.as_ptr(), nx), fmi2OK);
             } else {
-                assert_eq!(fmi2DoStep(c, 0.002, 0.002, 1), fmi2OK, "{:?}", capture.last());
+                assert_eq!(
+                    fmi2DoStep(c, 0.002, 0.002, 1),
+                    fmi2OK,
+                    "{:?}",
+                    capture.last()
+                );
             }
             fmi2FreeInstance(c);
         }
@@ -475,7 +663,13 @@ fn unknown_references_and_wrong_lengths_are_refused() {
     let cb = host::callbacks(&capture);
     unsafe {
         for me in [false, true] {
-            let c = reach(fx, me, if me { Continuous } else { StepComplete }, &cb, &capture);
+            let c = reach(
+                fx,
+                me,
+                if me { Continuous } else { StepComplete },
+                &cb,
+                &capture,
+            );
             let before = snapshot(c, fx.nvars);
             let bad = [fx.nvars, fx.nvars + 1, u32::MAX];
             for vr in bad {
@@ -489,12 +683,25 @@ fn unknown_references_and_wrong_lengths_are_refused() {
                     fmi2GetDirectionalDerivative(c, &vr, 1, &fx.input, 1, &1.0, &mut 0.0),
                     fmi2GetDirectionalDerivative(c, &fx.output, 1, &vr, 1, &1.0, &mut 0.0),
                 ];
-                assert!(s.iter().all(|&s| s == fmi2Error), "vr {vr} (me = {me}): {s:?}");
-                assert!(capture.last().message.contains(&format!("{vr}")), "{:?}", capture.last());
+                assert!(
+                    s.iter().all(|&s| s == fmi2Error),
+                    "vr {vr} (me = {me}): {s:?}"
+                );
+                assert!(
+                    capture.last().message.contains(&format!("{vr}")),
+                    "{:?}",
+                    capture.last()
+                );
             }
             // An input is not an unknown, an output not a known.
-            assert_eq!(fmi2GetDirectionalDerivative(c, &fx.input, 1, &fx.input, 1, &1.0, &mut 0.0), fmi2Error);
-            assert_eq!(fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.output, 1, &1.0, &mut 0.0), fmi2Error);
+            assert_eq!(
+                fmi2GetDirectionalDerivative(c, &fx.input, 1, &fx.input, 1, &1.0, &mut 0.0),
+                fmi2Error
+            );
+            assert_eq!(
+                fmi2GetDirectionalDerivative(c, &fx.output, 1, &fx.output, 1, &1.0, &mut 0.0),
+                fmi2Error
+            );
             // A Real read as a String and the other way round.
             assert_eq!(fmi2GetString(c, &fx.input, 1, &mut null()), fmi2Error);
             assert_eq!(snapshot(c, fx.nvars), before);
@@ -509,7 +716,11 @@ fn unknown_references_and_wrong_lengths_are_refused() {
                         fmi2GetNominalsOfContinuousStates(c, x.as_mut_ptr(), n),
                     ];
                     assert!(s.iter().all(|&s| s == fmi2Error), "nx = {n}: {s:?}");
-                    assert!(capture.last().message.contains(&format!("{n}")), "{:?}", capture.last());
+                    assert!(
+                        capture.last().message.contains(&format!("{n}")),
+                        "{:?}",
+                        capture.last()
+                    );
                 }
                 // No event indicators.
                 assert_eq!(fmi2GetEventIndicators(c, [0.0].as_mut_ptr(), 1), fmi2Error);
@@ -520,13 +731,28 @@ fn unknown_references_and_wrong_lengths_are_refused() {
             let mut size = 0;
             assert_eq!(fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
             let mut buf = vec![0u8; size + 1];
-            assert_eq!(fmi2SerializeFMUstate(c, st, buf.as_mut_ptr().cast(), size - 1), fmi2Error);
+            assert_eq!(
+                fmi2SerializeFMUstate(c, st, buf.as_mut_ptr().cast(), size - 1),
+                fmi2Error
+            );
             // A larger buffer is fine (the state fills its first `size` bytes).
-            assert_eq!(fmi2SerializeFMUstate(c, st, buf.as_mut_ptr().cast(), size), fmi2OK);
+            assert_eq!(
+                fmi2SerializeFMUstate(c, st, buf.as_mut_ptr().cast(), size),
+                fmi2OK
+            );
             let mut back = null_mut();
-            assert_eq!(fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), size - 1, &mut back), fmi2Error);
-            assert_eq!(fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), size + 1, &mut back), fmi2Error);
-            assert_eq!(fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), 0, &mut back), fmi2Error);
+            assert_eq!(
+                fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), size - 1, &mut back),
+                fmi2Error
+            );
+            assert_eq!(
+                fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), size + 1, &mut back),
+                fmi2Error
+            );
+            assert_eq!(
+                fmi2DeSerializeFMUstate(c, buf.as_ptr().cast(), 0, &mut back),
+                fmi2Error
+            );
             assert!(back.is_null());
             // A state of the other interface is not restorable here.
             let other = if me { &fx.bytes_cs } else { &fx.bytes_me };
@@ -534,7 +760,11 @@ fn unknown_references_and_wrong_lengths_are_refused() {
             if s == fmi2OK {
                 // Both are "after initialization" states: restorable only if the state-machine
                 // state exists in this interface (it does not: StepComplete vs EventMode).
-                panic!("a {} state was accepted by a {} instance", if me { "CS" } else { "ME" }, if me { "ME" } else { "CS" });
+                panic!(
+                    "a {} state was accepted by a {} instance",
+                    if me { "CS" } else { "ME" },
+                    if me { "ME" } else { "CS" }
+                );
             }
             assert_eq!(snapshot(c, fx.nvars), before);
             fmi2FreeInstance(c);
@@ -558,8 +788,16 @@ fn double_free_and_calls_after_terminate_and_free() {
         assert!(st.is_null());
         let mut again = copy;
         assert_eq!(fmi2FreeFMUstate(c, &mut again), fmi2Error);
-        assert!(capture.last().message.contains("unknown FMU state"), "{:?}", capture.last());
-        assert_eq!(fmi2SetFMUstate(c, copy), fmi2Error, "a freed state was restored");
+        assert!(
+            capture.last().message.contains("unknown FMU state"),
+            "{:?}",
+            capture.last()
+        );
+        assert_eq!(
+            fmi2SetFMUstate(c, copy),
+            fmi2Error,
+            "a freed state was restored"
+        );
         assert_eq!(fmi2SerializedFMUstateSize(c, copy, &mut 0), fmi2Error);
         // A state handle of another instance is unknown here.
         let d = reach(fx, false, StepComplete, &cb, &capture);
@@ -570,7 +808,10 @@ fn double_free_and_calls_after_terminate_and_free() {
 
         assert_eq!(fmi2Terminate(c), fmi2OK);
         let before = snapshot(c, fx.nvars);
-        assert!(before.iter().any(|v| v.is_some()), "variables stay readable after fmi2Terminate");
+        assert!(
+            before.iter().any(|v| v.is_some()),
+            "variables stay readable after fmi2Terminate"
+        );
         let after_terminate = [
             fmi2DoStep(c, 0.002, 0.002, 1),
             fmi2SetReal(c, &fx.input, 1, &0.5),
@@ -579,7 +820,10 @@ fn double_free_and_calls_after_terminate_and_free() {
             fmi2ExitInitializationMode(c),
             fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0),
         ];
-        assert!(after_terminate.iter().all(|&s| s == fmi2Error), "{after_terminate:?}");
+        assert!(
+            after_terminate.iter().all(|&s| s == fmi2Error),
+            "{after_terminate:?}"
+        );
         assert_eq!(snapshot(c, fx.nvars), before);
         // fmi2Reset after fmi2Terminate starts over.
         assert_eq!(fmi2Reset(c), fmi2OK);

@@ -53,32 +53,124 @@ fn broken_scenes_are_refused_by_instantiate_with_the_reason() {
         ("truncated", good[..good.len() / 2].to_string(), "scene.xml"),
         ("not-xml", "this is not XML".into(), "scene.xml"),
         ("empty", String::new(), "scene.xml"),
-        ("mismatched", good.replace("</body>", "</bodyx>"), "scene.xml:22"),
-        ("unknown-element", good.replace("<freejoint/>", "<freejoint/><tendon/>"), "tendon"),
-        ("unsupported-geom", good.replace("type=\"sphere\"", "type=\"hfield\""), "hfield"),
-        ("unsupported-joint", good.replace("<freejoint/>", "<joint type=\"universal\"/>"), "universal"),
-        ("negative-mass", good.replace("mass=\"1\"", "mass=\"-1\""), "mass"),
-        ("zero-mass", good.replace("mass=\"1\"", "mass=\"0\""), "mass"),
-        ("nan-mass", good.replace("mass=\"1\"", "mass=\"nan\""), "mass"),
-        ("negative-radius", good.replace("size=\"0.05\"", "size=\"-0.05\""), "size"),
-        ("nan-position", good.replace("pos=\"0 0 0.3\"", "pos=\"0 nan 0.3\""), "pos"),
-        ("inf-position", good.replace("pos=\"0 0 0.3\"", "pos=\"0 inf 0.3\""), "pos"),
-        ("text-number", good.replace("pos=\"0 0 0.3\"", "pos=\"0 zero 0.3\""), "pos"),
-        ("zero-stiffness", good.replace("data=\"10000\"", "data=\"0\""), "scm_stiffness"),
-        ("negative-eps1", good.replace("name=\"scm_eps1\" data=\"1e-5\"", "name=\"scm_eps1\" data=\"-1e-5\""), "scm_eps1"),
-        ("nan-eps2", good.replace("name=\"scm_eps2\" data=\"2e-4\"", "name=\"scm_eps2\" data=\"nan\""), "scm_eps2"),
-        ("zero-timestep", good.replace("timestep=\"0.001\"", "timestep=\"0\""), "timestep"),
-        ("negative-timestep", good.replace("timestep=\"0.001\"", "timestep=\"-0.001\""), "timestep"),
-        ("unknown-integrator", good.replace("data=\"semi_implicit_euler\"", "data=\"leapfrog\""), "leapfrog"),
-        ("unknown-setting", good.replace("scm_friction", "scm_fiction"), "scm_fiction"),
+        (
+            "mismatched",
+            good.replace("</body>", "</bodyx>"),
+            "scene.xml:22",
+        ),
+        (
+            "unknown-element",
+            good.replace("<freejoint/>", "<freejoint/><tendon/>"),
+            "tendon",
+        ),
+        (
+            "unsupported-geom",
+            good.replace("type=\"sphere\"", "type=\"hfield\""),
+            "hfield",
+        ),
+        (
+            "unsupported-joint",
+            good.replace("<freejoint/>", "<joint type=\"universal\"/>"),
+            "universal",
+        ),
+        (
+            "negative-mass",
+            good.replace("mass=\"1\"", "mass=\"-1\""),
+            "mass",
+        ),
+        (
+            "zero-mass",
+            good.replace("mass=\"1\"", "mass=\"0\""),
+            "mass",
+        ),
+        (
+            "nan-mass",
+            good.replace("mass=\"1\"", "mass=\"nan\""),
+            "mass",
+        ),
+        (
+            "negative-radius",
+            good.replace("size=\"0.05\"", "size=\"-0.05\""),
+            "size",
+        ),
+        (
+            "nan-position",
+            good.replace("pos=\"0 0 0.3\"", "pos=\"0 nan 0.3\""),
+            "pos",
+        ),
+        (
+            "inf-position",
+            good.replace("pos=\"0 0 0.3\"", "pos=\"0 inf 0.3\""),
+            "pos",
+        ),
+        (
+            "text-number",
+            good.replace("pos=\"0 0 0.3\"", "pos=\"0 zero 0.3\""),
+            "pos",
+        ),
+        (
+            "zero-stiffness",
+            good.replace("data=\"10000\"", "data=\"0\""),
+            "scm_stiffness",
+        ),
+        (
+            "negative-eps1",
+            good.replace(
+                "name=\"scm_eps1\" data=\"1e-5\"",
+                "name=\"scm_eps1\" data=\"-1e-5\"",
+            ),
+            "scm_eps1",
+        ),
+        (
+            "nan-eps2",
+            good.replace(
+                "name=\"scm_eps2\" data=\"2e-4\"",
+                "name=\"scm_eps2\" data=\"nan\"",
+            ),
+            "scm_eps2",
+        ),
+        (
+            "zero-timestep",
+            good.replace("timestep=\"0.001\"", "timestep=\"0\""),
+            "timestep",
+        ),
+        (
+            "negative-timestep",
+            good.replace("timestep=\"0.001\"", "timestep=\"-0.001\""),
+            "timestep",
+        ),
+        (
+            "unknown-integrator",
+            good.replace("data=\"semi_implicit_euler\"", "data=\"leapfrog\""),
+            "leapfrog",
+        ),
+        (
+            "unknown-setting",
+            good.replace("scm_friction", "scm_fiction"),
+            "scm_fiction",
+        ),
         // Sampling this would need ~3e13 points (terabytes): refused before any allocation.
-        ("tiny-spacing", good.replace("name=\"scm_spacing\" data=\"0.01\"", "name=\"scm_spacing\" data=\"1e-9\""), "AOPC points"),
-        ("huge-geom", good.replace("size=\"0.05\"", "size=\"1000\""), "AOPC points"),
+        (
+            "tiny-spacing",
+            good.replace(
+                "name=\"scm_spacing\" data=\"0.01\"",
+                "name=\"scm_spacing\" data=\"1e-9\"",
+            ),
+            "AOPC points",
+        ),
+        (
+            "huge-geom",
+            good.replace("size=\"0.05\"", "size=\"1000\""),
+            "AOPC points",
+        ),
     ];
     for (tag, text, expect) in &cases {
         assert_ne!(text, &good, "{tag}: the replacement did not apply");
         let err = instantiate_text(tag, text, &[]).expect_err(tag);
-        assert!(err.to_lowercase().contains(&expect.to_lowercase()), "{tag}: {err:?} should mention {expect:?}");
+        assert!(
+            err.to_lowercase().contains(&expect.to_lowercase()),
+            "{tag}: {err:?} should mention {expect:?}"
+        );
     }
 }
 
@@ -97,7 +189,12 @@ fn missing_and_corrupt_meshes_are_refused() {
             // A binary STL of one triangle: an open surface.
             let mut b = vec![0u8; 80];
             b.extend(1u32.to_le_bytes());
-            for v in [[0.0f32, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+            for v in [
+                [0.0f32, 0.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ] {
                 for x in v {
                     b.extend(x.to_le_bytes());
                 }
@@ -107,12 +204,18 @@ fn missing_and_corrupt_meshes_are_refused() {
         }),
     ];
     for (k, m) in corrupt.iter().enumerate() {
-        let err = instantiate_text(&format!("mesh-corrupt-{k}"), &text, std::slice::from_ref(m)).unwrap_err();
+        let err = instantiate_text(&format!("mesh-corrupt-{k}"), &text, std::slice::from_ref(m))
+            .unwrap_err();
         assert!(err.contains("bracket.stl"), "case {k}: {err}");
     }
     // An unknown mesh format.
     let obj = text.replace("bracket.stl", "bracket.ply");
-    let err = instantiate_text("mesh-format", &obj, &[(name.replace(".stl", ".ply"), meshes[0].1.clone())]).unwrap_err();
+    let err = instantiate_text(
+        "mesh-format",
+        &obj,
+        &[(name.replace(".stl", ".ply"), meshes[0].1.clone())],
+    )
+    .unwrap_err();
     assert!(err.contains("bracket.ply"), "{err}");
 }
 
@@ -133,7 +236,15 @@ fn bad_resource_locations_are_refused() {
     ];
     for (uri, expect) in &uris {
         unsafe {
-            let c = scm::fmi2Instantiate(c"t".as_ptr(), fmi2CoSimulation, res.guid.as_ptr(), uri.as_ptr(), &cb, 0, 0);
+            let c = scm::fmi2Instantiate(
+                c"t".as_ptr(),
+                fmi2CoSimulation,
+                res.guid.as_ptr(),
+                uri.as_ptr(),
+                &cb,
+                0,
+                0,
+            );
             assert!(c.is_null(), "{uri:?} accepted");
         }
         let last = capture.last();
@@ -141,19 +252,50 @@ fn bad_resource_locations_are_refused() {
         assert!(last.message.contains(expect), "{uri:?}: {last:?}");
     }
     // A folder without the scene.
-    let empty = std::env::temp_dir().join(format!("scm-empty-{}", std::process::id())).join("resources");
+    let empty = std::env::temp_dir()
+        .join(format!("scm-empty-{}", std::process::id()))
+        .join("resources");
     std::fs::create_dir_all(&empty).unwrap();
     let uri = CString::new(format!("file://{}", empty.display())).unwrap();
     unsafe {
-        assert!(scm::fmi2Instantiate(c"t".as_ptr(), fmi2CoSimulation, res.guid.as_ptr(), uri.as_ptr(), &cb, 0, 0).is_null());
+        assert!(scm::fmi2Instantiate(
+            c"t".as_ptr(),
+            fmi2CoSimulation,
+            res.guid.as_ptr(),
+            uri.as_ptr(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
     }
-    assert!(capture.last().message.contains("scene.xml"), "{:?}", capture.last());
+    assert!(
+        capture.last().message.contains("scene.xml"),
+        "{:?}",
+        capture.last()
+    );
     // The GUID of another scene.
     let other = host::resources("sphere_pair");
     unsafe {
-        assert!(scm::fmi2Instantiate(c"t".as_ptr(), fmi2CoSimulation, other.guid.as_ptr(), res.uri.as_ptr(), &cb, 0, 0).is_null());
+        assert!(scm::fmi2Instantiate(
+            c"t".as_ptr(),
+            fmi2CoSimulation,
+            other.guid.as_ptr(),
+            res.uri.as_ptr(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
     }
-    assert!(capture.last().message.contains(other.guid.to_str().unwrap()), "{:?}", capture.last());
+    assert!(
+        capture
+            .last()
+            .message
+            .contains(other.guid.to_str().unwrap()),
+        "{:?}",
+        capture.last()
+    );
     let _ = std::fs::remove_dir_all(empty.parent().unwrap());
 }
 
@@ -175,7 +317,10 @@ fn every_truncation_and_corruption_of_a_serialized_state_is_refused() {
             let bytes = host::serialize_current(c);
             let size = bytes.len();
             assert_eq!(fmi2DoStep(c, 0.006, 0.002, 1), fmi2OK);
-            let nvars = scm::sim::Simulation::from_file(&crate::common::scene(scene)).unwrap().rows().len() as u32;
+            let nvars = scm::sim::Simulation::from_file(&crate::common::scene(scene))
+                .unwrap()
+                .rows()
+                .len() as u32;
             let read = |c| -> Vec<u64> {
                 (0..nvars)
                     .map(|vr| {
@@ -189,10 +334,19 @@ fn every_truncation_and_corruption_of_a_serialized_state_is_refused() {
             let refuse = |b: &[u8], what: &str| {
                 let mut back = null_mut();
                 let n = capture.len();
-                assert_eq!(fmi2DeSerializeFMUstate(c, b.as_ptr().cast(), b.len(), &mut back), fmi2Error, "{scene}: {what} accepted");
+                assert_eq!(
+                    fmi2DeSerializeFMUstate(c, b.as_ptr().cast(), b.len(), &mut back),
+                    fmi2Error,
+                    "{scene}: {what} accepted"
+                );
                 assert!(back.is_null());
                 let said = capture.since(n);
-                assert!(said.iter().any(|l| l.status == fmi2Error && l.message.contains("fmi2DeSerializeFMUstate") && l.message.len() > 30), "{what}: {said:?}");
+                assert!(
+                    said.iter().any(|l| l.status == fmi2Error
+                        && l.message.contains("fmi2DeSerializeFMUstate")
+                        && l.message.len() > 30),
+                    "{what}: {said:?}"
+                );
             };
             for len in 0..size {
                 refuse(&bytes[..len], &format!("truncation to {len} bytes"));
@@ -207,10 +361,17 @@ fn every_truncation_and_corruption_of_a_serialized_state_is_refused() {
             let mut longer = bytes.clone();
             longer.push(0);
             refuse(&longer, "an extra byte");
-            assert_eq!(read(c), before, "{scene}: a refused state changed the instance");
+            assert_eq!(
+                read(c),
+                before,
+                "{scene}: a refused state changed the instance"
+            );
             // The intact bytes restore the saved state.
             let mut back = null_mut();
-            assert_eq!(fmi2DeSerializeFMUstate(c, bytes.as_ptr().cast(), size, &mut back), fmi2OK);
+            assert_eq!(
+                fmi2DeSerializeFMUstate(c, bytes.as_ptr().cast(), size, &mut back),
+                fmi2OK
+            );
             assert_eq!(fmi2SetFMUstate(c, back), fmi2OK);
             let mut t = 0.0;
             assert_eq!(fmi2GetReal(c, &0, 1, &mut t), fmi2OK);
@@ -240,9 +401,38 @@ fn mutation() -> impl Strategy<Value = Mutation> {
         (any::<usize>(), 1usize..40).prop_map(|(at, len)| Mutation::Delete { at, len }),
         any::<usize>().prop_map(|line| Mutation::DoubleLine { line }),
         (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Mutation::SwapLines { a, b }),
-        (any::<usize>(), prop::sample::select(vec!["0", "-0", "-1", "1e300", "-1e300", "1e-300", "nan", "inf", "-inf", "1e9", "1e-9", "100000", "2", "0.5", "", "x", "1 2", "1e5 1e5 1e5"]))
+        (
+            any::<usize>(),
+            prop::sample::select(vec![
+                "0",
+                "-0",
+                "-1",
+                "1e300",
+                "-1e300",
+                "1e-300",
+                "nan",
+                "inf",
+                "-inf",
+                "1e9",
+                "1e-9",
+                "100000",
+                "2",
+                "0.5",
+                "",
+                "x",
+                "1 2",
+                "1e5 1e5 1e5"
+            ])
+        )
             .prop_map(|(k, value)| Mutation::Number { k, value }),
-        (any::<usize>(), prop::sample::select(vec!["", "body", "geom", "joint", "mesh", "tendon", "free", "ball", "hinge", "slide", "box", "plane", "sphere", "capsule", "world", "true", "x y z", "\"", "<", "&amp;", "&bogus;"]))
+        (
+            any::<usize>(),
+            prop::sample::select(vec![
+                "", "body", "geom", "joint", "mesh", "tendon", "free", "ball", "hinge", "slide",
+                "box", "plane", "sphere", "capsule", "world", "true", "x y z", "\"", "<", "&amp;",
+                "&bogus;"
+            ])
+        )
             .prop_map(|(k, word)| Mutation::Word { k, word }),
     ]
 }
@@ -259,7 +449,12 @@ fn numbers(text: &str) -> Vec<(usize, usize)> {
                 s -= 1;
             }
             let mut e = i;
-            while e < b.len() && (b[e].is_ascii_digit() || b[e] == b'.' || b[e] == b'e' || ((b[e] == b'-' || b[e] == b'+') && b[e - 1] == b'e')) {
+            while e < b.len()
+                && (b[e].is_ascii_digit()
+                    || b[e] == b'.'
+                    || b[e] == b'e'
+                    || ((b[e] == b'-' || b[e] == b'+') && b[e - 1] == b'e'))
+            {
                 e += 1;
             }
             out.push((s, e));
@@ -278,7 +473,9 @@ fn words(text: &str) -> Vec<(usize, usize)> {
     for (i, &c) in b.iter().enumerate() {
         if c == b'"' || c == b'<' {
             let s = i + 1;
-            let e = (s..b.len()).find(|&j| !(b[j].is_ascii_alphanumeric() || b[j] == b'_')).unwrap_or(b.len());
+            let e = (s..b.len())
+                .find(|&j| !(b[j].is_ascii_alphanumeric() || b[j] == b'_'))
+                .unwrap_or(b.len());
             if e > s {
                 out.push((s, e));
             }
@@ -293,7 +490,12 @@ fn apply(text: &str, m: &Mutation) -> String {
         Mutation::Delete { at, len } => {
             let at = at % text.len();
             let end = (at + len).min(text.len());
-            let (at, end) = ((0..=at).rev().find(|&i| text.is_char_boundary(i)).unwrap(), (end..=text.len()).find(|&i| text.is_char_boundary(i)).unwrap());
+            let (at, end) = (
+                (0..=at).rev().find(|&i| text.is_char_boundary(i)).unwrap(),
+                (end..=text.len())
+                    .find(|&i| text.is_char_boundary(i))
+                    .unwrap(),
+            );
             format!("{}{}", &text[..at], &text[end..])
         }
         Mutation::DoubleLine { line } => {
@@ -326,13 +528,20 @@ type SceneFiles = (String, Vec<(String, Vec<u8>)>);
 fn mutable_scenes() -> &'static [SceneFiles] {
     static S: std::sync::OnceLock<Vec<SceneFiles>> = std::sync::OnceLock::new();
     S.get_or_init(|| {
-        ["sphere_drop", "sphere_pair", "box_stack", "arm_push", "mocap_push", "mesh_drop"]
-            .iter()
-            .map(|n| {
-                let d = scm::pack::describe(&crate::common::scene(n)).unwrap();
-                (d.scene_text, d.resources)
-            })
-            .collect()
+        [
+            "sphere_drop",
+            "sphere_pair",
+            "box_stack",
+            "arm_push",
+            "mocap_push",
+            "mesh_drop",
+        ]
+        .iter()
+        .map(|n| {
+            let d = scm::pack::describe(&crate::common::scene(n)).unwrap();
+            (d.scene_text, d.resources)
+        })
+        .collect()
     })
 }
 

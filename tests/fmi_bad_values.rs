@@ -32,12 +32,26 @@ fn table(name: &str) -> (Vec<Settable>, Option<u32>, u32) {
     for (i, (var, slot)) in sim.rows().iter().enumerate() {
         let vr = i as u32;
         match slot {
-            Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Mocap(..) | Slot::Param(_) | Slot::SolverStep | Slot::SolverTolerance => {
+            Slot::Q(_)
+            | Slot::V(_)
+            | Slot::Ctrl(_)
+            | Slot::Mocap(..)
+            | Slot::Param(_)
+            | Slot::SolverStep
+            | Slot::SolverTolerance => {
                 assert!(matches!(var.var_type, VarType::Real { .. }), "{}", var.name);
-                settable.push(Settable { vr, name: var.name.clone(), slot: *slot });
+                settable.push(Settable {
+                    vr,
+                    name: var.name.clone(),
+                    slot: *slot,
+                });
             }
             Slot::SolverIntegrator => integrator = Some(vr),
-            _ => assert!(!matches!(var.causality, Causality::Input | Causality::Parameter), "{} is settable but not covered by the table", var.name),
+            _ => assert!(
+                !matches!(var.causality, Causality::Input | Causality::Parameter),
+                "{} is settable but not covered by the table",
+                var.name
+            ),
         }
     }
     (settable, integrator, sim.rows().len() as u32)
@@ -48,7 +62,9 @@ fn bad_values(slot: Slot) -> Vec<f64> {
     let mut bad = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
     match slot {
         Slot::Param(Param::Friction) => bad.extend([-1.0, -1e-300]),
-        Slot::Param(_) | Slot::SolverStep | Slot::SolverTolerance => bad.extend([0.0, -0.0, -1.0, -1e-300]),
+        Slot::Param(_) | Slot::SolverStep | Slot::SolverTolerance => {
+            bad.extend([0.0, -0.0, -1.0, -1e-300])
+        }
         _ => {}
     }
     bad
@@ -72,19 +88,35 @@ unsafe fn all(c: fmi2Component, n: u32) -> Vec<Option<u64>> {
 /// Sets `vr` to `value`, expects `fmi2Error` with a message naming `name` and `value`, checks
 /// the variable did not change (when it can be read), and sets it again to its value (a valid
 /// call, which must work).
-unsafe fn refuse(c: fmi2Component, capture: &Capture, vr: u32, name: &str, value: f64, readable: bool) {
+unsafe fn refuse(
+    c: fmi2Component,
+    capture: &Capture,
+    vr: u32,
+    name: &str,
+    value: f64,
+    readable: bool,
+) {
     unsafe {
         let before = if readable { get(c, vr) } else { None };
         let s = fmi2SetReal(c, &vr, 1, &value);
         assert_eq!(s, fmi2Error, "{name} = {value} was accepted");
         let msg = capture.last();
         assert_eq!(msg.status, fmi2Error);
-        assert!(msg.message.contains(name) && msg.message.contains(&format!("{value:?}")), "{name} = {value}: message {:?}", msg.message);
+        assert!(
+            msg.message.contains(name) && msg.message.contains(&format!("{value:?}")),
+            "{name} = {value}: message {:?}",
+            msg.message
+        );
         if readable {
             let after = get(c, vr);
             assert_eq!(after, before, "{name} changed after a refused set");
             let good = f64::from_bits(after.unwrap());
-            assert_eq!(fmi2SetReal(c, &vr, 1, &good), fmi2OK, "{name}: a valid set after a refused one: {:?}", capture.last());
+            assert_eq!(
+                fmi2SetReal(c, &vr, 1, &good),
+                fmi2OK,
+                "{name}: a valid set after a refused one: {:?}",
+                capture.last()
+            );
         }
     }
 }
@@ -92,16 +124,33 @@ unsafe fn refuse(c: fmi2Component, capture: &Capture, vr: u32, name: &str, value
 #[allow(clippy::too_many_arguments)]
 /// A scene's run: setup with `stopTime`, initialization, `steps` communication steps of `h`
 /// with a hook after each, then every variable.
-unsafe fn run(res: &Resources, capture: &Capture, n: u32, stop: f64, steps: usize, h: f64, mut before_init: impl FnMut(fmi2Component, bool), mut hook: impl FnMut(fmi2Component, usize)) -> Vec<Option<u64>> {
+unsafe fn run(
+    res: &Resources,
+    capture: &Capture,
+    n: u32,
+    stop: f64,
+    steps: usize,
+    h: f64,
+    mut before_init: impl FnMut(fmi2Component, bool),
+    mut hook: impl FnMut(fmi2Component, usize),
+) -> Vec<Option<u64>> {
     unsafe {
         let callbacks = host::callbacks(capture);
         let c = host::instantiate(res, fmi2CoSimulation, &callbacks);
         assert!(!c.is_null(), "{:?}", capture.all());
         before_init(c, false);
-        assert_eq!(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, stop), fmi2OK);
+        assert_eq!(
+            fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, stop),
+            fmi2OK
+        );
         assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
         before_init(c, true);
-        assert_eq!(fmi2ExitInitializationMode(c), fmi2OK, "{:?}", capture.last());
+        assert_eq!(
+            fmi2ExitInitializationMode(c),
+            fmi2OK,
+            "{:?}",
+            capture.last()
+        );
         for k in 0..steps {
             let s = fmi2DoStep(c, k as f64 * h, h, fmi2True);
             assert_eq!(s, fmi2OK, "step {k}: {:?}", capture.last());
@@ -144,7 +193,12 @@ fn every_bad_value_of_every_settable_variable_is_refused_and_nothing_is_lost() {
                     if let Some(vr) = integrator {
                         let bad = CString::new("leapfrog").unwrap();
                         assert_eq!(fmi2SetString(c, &vr, 1, &bad.as_ptr()), fmi2Error);
-                        assert!(capture.last().message.contains("solver.integrator") && capture.last().message.contains("leapfrog"), "{:?}", capture.last());
+                        assert!(
+                            capture.last().message.contains("solver.integrator")
+                                && capture.last().message.contains("leapfrog"),
+                            "{:?}",
+                            capture.last()
+                        );
                         count.set(count.get() + 1);
                     }
                 },
@@ -162,8 +216,18 @@ fn every_bad_value_of_every_settable_variable_is_refused_and_nothing_is_lost() {
                             }
                         } else {
                             let value = f64::from_bits(get(c, v.vr).unwrap());
-                            assert_eq!(fmi2SetReal(c, &v.vr, 1, &value), fmi2Error, "{} set after initialization", v.name);
-                            assert!(capture.last().message.contains(&v.name) && capture.last().message.contains("after initialization"), "{:?}", capture.last());
+                            assert_eq!(
+                                fmi2SetReal(c, &v.vr, 1, &value),
+                                fmi2Error,
+                                "{} set after initialization",
+                                v.name
+                            );
+                            assert!(
+                                capture.last().message.contains(&v.name)
+                                    && capture.last().message.contains("after initialization"),
+                                "{:?}",
+                                capture.last()
+                            );
                             count.set(count.get() + 1);
                         }
                     }
@@ -171,8 +235,16 @@ fn every_bad_value_of_every_settable_variable_is_refused_and_nothing_is_lost() {
                     if let Some(v) = settable.iter().find(|v| tunable(v.slot)) {
                         let before = get(c, v.vr).unwrap();
                         let vrs = [v.vr, v.vr];
-                        assert_eq!(fmi2SetReal(c, vrs.as_ptr(), 2, [0.5, f64::NAN].as_ptr()), fmi2Error);
-                        assert_eq!(get(c, v.vr).unwrap(), before, "{}: half of a refused fmi2SetReal was applied", v.name);
+                        assert_eq!(
+                            fmi2SetReal(c, vrs.as_ptr(), 2, [0.5, f64::NAN].as_ptr()),
+                            fmi2Error
+                        );
+                        assert_eq!(
+                            get(c, v.vr).unwrap(),
+                            before,
+                            "{}: half of a refused fmi2SetReal was applied",
+                            v.name
+                        );
                         count.set(count.get() + 1);
                     }
                     // Bad communication steps: each names the argument and the value.
@@ -183,15 +255,32 @@ fn every_bad_value_of_every_settable_variable_is_refused_and_nothing_is_lost() {
                         (t, -0.0, "communicationStepSize", "-0.0".into()),
                         (t, f64::NAN, "communicationStepSize", "NaN".into()),
                         (t, f64::INFINITY, "communicationStepSize", "inf".into()),
-                        (t + h, h, "currentCommunicationPoint", format!("{:?}", t + h)),
-                        (t - h, h, "currentCommunicationPoint", format!("{:?}", t - h)),
+                        (
+                            t + h,
+                            h,
+                            "currentCommunicationPoint",
+                            format!("{:?}", t + h),
+                        ),
+                        (
+                            t - h,
+                            h,
+                            "currentCommunicationPoint",
+                            format!("{:?}", t - h),
+                        ),
                         (f64::NAN, h, "currentCommunicationPoint", "NaN".into()),
                         (t, 1.0, "stopTime", format!("{stop:?}")),
                     ];
                     for (point, step, what, value) in cases {
-                        assert_eq!(fmi2DoStep(c, point, step, fmi2True), fmi2Error, "fmi2DoStep({point}, {step}) accepted");
+                        assert_eq!(
+                            fmi2DoStep(c, point, step, fmi2True),
+                            fmi2Error,
+                            "fmi2DoStep({point}, {step}) accepted"
+                        );
                         let msg = capture.last().message;
-                        assert!(msg.contains(what) && msg.contains(&value), "fmi2DoStep({point}, {step}): {msg:?} should name {what} = {value}");
+                        assert!(
+                            msg.contains(what) && msg.contains(&value),
+                            "fmi2DoStep({point}, {step}): {msg:?} should name {what} = {value}"
+                        );
                         count.set(count.get() + 1);
                     }
                     // The time did not move.
@@ -199,7 +288,10 @@ fn every_bad_value_of_every_settable_variable_is_refused_and_nothing_is_lost() {
                 },
             )
         };
-        assert!(hardened == reference, "{name}: the run with refused calls differs from the run without them");
+        assert!(
+            hardened == reference,
+            "{name}: the run with refused calls differs from the run without them"
+        );
         assert!(capture.all().iter().all(|l| l.format == "%s"));
         refused += count.get();
     }
@@ -224,14 +316,26 @@ fn model_exchange_refuses_non_finite_time_and_states() {
         assert_eq!(fmi2GetContinuousStates(c, x.as_mut_ptr(), 13), fmi2OK);
         for time in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             assert_eq!(fmi2SetTime(c, time), fmi2Error);
-            assert!(capture.last().message.contains("time") && capture.last().message.contains(&format!("{time:?}")), "{:?}", capture.last());
+            assert!(
+                capture.last().message.contains("time")
+                    && capture.last().message.contains(&format!("{time:?}")),
+                "{:?}",
+                capture.last()
+            );
         }
         for i in 0..13 {
             for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
                 let mut y = x;
                 y[i] = bad;
                 assert_eq!(fmi2SetContinuousStates(c, y.as_ptr(), 13), fmi2Error);
-                assert!(capture.last().message.contains(&format!("x[{i}] = {bad:?}")), "{:?}", capture.last());
+                assert!(
+                    capture
+                        .last()
+                        .message
+                        .contains(&format!("x[{i}] = {bad:?}")),
+                    "{:?}",
+                    capture.last()
+                );
                 let mut back = [0.0; 13];
                 assert_eq!(fmi2GetContinuousStates(c, back.as_mut_ptr(), 13), fmi2OK);
                 assert_eq!(back.map(f64::to_bits), x.map(f64::to_bits));
@@ -241,12 +345,20 @@ fn model_exchange_refuses_non_finite_time_and_states() {
         let mut y = x;
         y[3..7].fill(0.0);
         assert_eq!(fmi2SetContinuousStates(c, y.as_ptr(), 13), fmi2Error);
-        assert!(capture.last().message.contains("quaternion"), "{:?}", capture.last());
+        assert!(
+            capture.last().message.contains("quaternion"),
+            "{:?}",
+            capture.last()
+        );
         // A valid call works from there.
         assert_eq!(fmi2SetTime(c, 0.001), fmi2OK);
         let mut dx = [0.0; 13];
         assert_eq!(fmi2GetDerivatives(c, dx.as_mut_ptr(), 13), fmi2OK);
-        assert!((dx[9] + 9.81).abs() < 1e-9, "free fall: vz' = -g, got {}", dx[9]);
+        assert!(
+            (dx[9] + 9.81).abs() < 1e-9,
+            "free fall: vz' = -g, got {}",
+            dx[9]
+        );
         fmi2FreeInstance(c);
     }
 }
@@ -277,16 +389,30 @@ fn a_diverging_step_is_discarded_and_a_smaller_retry_continues() {
         assert_eq!(fmi2SetReal(c, &k, 1, &1e9), fmi2OK);
         let before = all(c, n);
         let t0 = 1e-4;
-        assert_eq!(fmi2DoStep(c, t0, 0.01, 1), fmi2Discard, "{:?}", capture.last());
+        assert_eq!(
+            fmi2DoStep(c, t0, 0.01, 1),
+            fmi2Discard,
+            "{:?}",
+            capture.last()
+        );
         let msg = capture.last();
         assert_eq!(msg.status, fmi2Discard);
-        assert!(msg.message.contains("energy") || msg.message.contains("non-finite"), "{msg:?}");
+        assert!(
+            msg.message.contains("energy") || msg.message.contains("non-finite"),
+            "{msg:?}"
+        );
         assert!(msg.message.contains(&format!("t = {t0}")), "{msg:?}");
         assert_eq!(all(c, n), before, "a discarded step changed the state");
         let (mut last, mut terminated) = (0.0, fmi2False);
-        assert_eq!(fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &mut last), fmi2OK);
+        assert_eq!(
+            fmi2GetRealStatus(c, fmi2LastSuccessfulTime, &mut last),
+            fmi2OK
+        );
         assert_eq!(last, t0);
-        assert_eq!(fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated), fmi2OK);
+        assert_eq!(
+            fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated),
+            fmi2OK
+        );
         assert_eq!(terminated, fmi2True);
         // Retry with short steps: the sphere is stopped by the stiff contact without blowing up.
         let h = 1e-5;
@@ -299,7 +425,10 @@ fn a_diverging_step_is_discarded_and_a_smaller_retry_continues() {
             zmin = zmin.min(x);
             assert!(x.is_finite() && x < 0.06, "z = {x}");
         }
-        assert_eq!(fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated), fmi2OK);
+        assert_eq!(
+            fmi2GetBooleanStatus(c, fmi2Terminated, &mut terminated),
+            fmi2OK
+        );
         assert_eq!(terminated, fmi2False);
         // k = 1e9 N/m stops 1 m/s on 1 kg within about v/ω = 32 µm (plus the softplus offset).
         assert!(zmin > 0.0505 - 0.002, "penetrated to z = {zmin}");

@@ -39,7 +39,16 @@ fn fixture(k: usize) -> &'static Fixture {
             .iter()
             .map(|name| {
                 let sim = scm::sim::Simulation::from_file(&crate::common::scene(name)).unwrap();
-                let slots = sim.rows().iter().map(|(v, s)| (*s, matches!(v.var_type, scm::fmi::contract::VarType::Real { .. }))).collect();
+                let slots = sim
+                    .rows()
+                    .iter()
+                    .map(|(v, s)| {
+                        (
+                            *s,
+                            matches!(v.var_type, scm::fmi::contract::VarType::Real { .. }),
+                        )
+                    })
+                    .collect();
                 let quats = sim
                     .model
                     .tree
@@ -51,8 +60,19 @@ fn fixture(k: usize) -> &'static Fixture {
                         _ => None,
                     })
                     .collect();
-                let mocap_quat0 = sim.current.mocap_target.chunks(7).map(|m| [m[3], m[4], m[5], m[6]]).collect();
-                Fixture { res: host::resources(name), slots, x0: sim.continuous_states(), quats, mocap_quat0 }
+                let mocap_quat0 = sim
+                    .current
+                    .mocap_target
+                    .chunks(7)
+                    .map(|m| [m[3], m[4], m[5], m[6]])
+                    .collect();
+                Fixture {
+                    res: host::resources(name),
+                    slots,
+                    x0: sim.continuous_states(),
+                    quats,
+                    mocap_quat0,
+                }
             })
             .collect()
     })[k]
@@ -82,29 +102,61 @@ enum Bad {
 
 #[derive(Clone, Debug)]
 enum Op {
-    Setup { start: f64, stop: Option<f64> },
+    Setup {
+        start: f64,
+        stop: Option<f64>,
+    },
     EnterInit,
     ExitInit,
-    SetReal { vr: u32, value: f64 },
-    GetReal { vr: u32 },
-    SetString { vr: u32, value: &'static str },
+    SetReal {
+        vr: u32,
+        value: f64,
+    },
+    GetReal {
+        vr: u32,
+    },
+    SetString {
+        vr: u32,
+        value: &'static str,
+    },
     /// `fmi2Get/SetInteger`, `fmi2Get/SetBoolean` (the scenes have no such variables).
-    OtherType { vr: u32, set: bool, boolean: bool },
+    OtherType {
+        vr: u32,
+        set: bool,
+        boolean: bool,
+    },
     /// `offset` is added to the instance's own time (0: a valid communication point).
-    DoStep { offset: f64, h: f64 },
+    DoStep {
+        offset: f64,
+        h: f64,
+    },
     Terminate,
     Reset,
     SaveState,
-    RestoreState { slot: usize },
-    FreeState { slot: usize },
-    Serialize { slot: usize, damage: Damage },
-    Logging { on: bool },
+    RestoreState {
+        slot: usize,
+    },
+    FreeState {
+        slot: usize,
+    },
+    Serialize {
+        slot: usize,
+        damage: Damage,
+    },
+    Logging {
+        on: bool,
+    },
     EnterEventMode,
     NewDiscreteStates,
     EnterContinuousTimeMode,
     CompletedIntegratorStep,
-    SetTime { time: f64 },
-    SetStates { nudge: f64, bad: Bad },
+    SetTime {
+        time: f64,
+    },
+    SetStates {
+        nudge: f64,
+        bad: Bad,
+    },
     GetDerivatives,
     GetStates,
 }
@@ -192,7 +244,13 @@ struct Model {
 
 impl Model {
     fn fresh(f: &Fixture) -> Model {
-        Model { phase: Phase::Instantiated, time: 0.0, stop: None, q_set: f.x0.clone(), mocap_quat: f.mocap_quat0.clone() }
+        Model {
+            phase: Phase::Instantiated,
+            time: 0.0,
+            stop: None,
+            q_set: f.x0.clone(),
+            mocap_quat: f.mocap_quat0.clone(),
+        }
     }
 
     fn before_init(&self) -> bool {
@@ -202,13 +260,19 @@ impl Model {
     /// `fmi2Get*` (variables, states, derivatives) is legal.
     fn can_get(&self) -> bool {
         use Phase::*;
-        matches!(self.phase, Init | Stepping | Failed | Event | Continuous | Terminated)
+        matches!(
+            self.phase,
+            Init | Stepping | Failed | Event | Continuous | Terminated
+        )
     }
 
     /// `fmi2SetReal` is legal.
     fn can_set_real(&self) -> bool {
         use Phase::*;
-        matches!(self.phase, Instantiated | Init | Stepping | Event | Continuous)
+        matches!(
+            self.phase,
+            Instantiated | Init | Stepping | Event | Continuous
+        )
     }
 
     /// `fmi2SetString` (and Integer, Boolean) is legal.
@@ -220,7 +284,9 @@ impl Model {
     /// Whether `fmi2SetReal(vr) = value` must succeed, from the variable's slot alone
     /// (independent of the code under test: the rules of SPEC §5 and the FMI standard).
     fn set_real_ok(&self, slot: Option<&(Slot, bool)>, value: f64) -> bool {
-        let Some(&(slot, true)) = slot else { return false };
+        let Some(&(slot, true)) = slot else {
+            return false;
+        };
         if !self.can_set_real() || !value.is_finite() {
             return false;
         }
@@ -244,7 +310,18 @@ unsafe fn snapshot(c: fmi2Component, f: &Fixture, m: &Model) -> Option<Vec<u64>>
     if !m.can_get() {
         return None;
     }
-    let vrs: Vec<u32> = f.slots.iter().enumerate().filter(|(_, (s, _))| matches!(s, Slot::Time | Slot::Q(_) | Slot::V(_) | Slot::Param(_) | Slot::SolverStep)).map(|(i, _)| i as u32).collect();
+    let vrs: Vec<u32> = f
+        .slots
+        .iter()
+        .enumerate()
+        .filter(|(_, (s, _))| {
+            matches!(
+                s,
+                Slot::Time | Slot::Q(_) | Slot::V(_) | Slot::Param(_) | Slot::SolverStep
+            )
+        })
+        .map(|(i, _)| i as u32)
+        .collect();
     let mut values = vec![0.0; vrs.len()];
     let s = unsafe { fmi2GetReal(c, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
     assert_eq!(s, fmi2OK, "snapshot in {:?}", m.phase);
@@ -258,7 +335,15 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
     let callbacks = host::callbacks(&capture);
     let n = f.x0.len();
     unsafe {
-        let c = host::instantiate(&f.res, if me { fmi2ModelExchange } else { fmi2CoSimulation }, &callbacks);
+        let c = host::instantiate(
+            &f.res,
+            if me {
+                fmi2ModelExchange
+            } else {
+                fmi2CoSimulation
+            },
+            &callbacks,
+        );
         prop_assert!(!c.is_null(), "{:?}", capture.all());
         let mut m = Model::fresh(f);
         // Saved states with the model they were saved in.
@@ -270,8 +355,17 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
             let expect: Result<bool, &[fmi2Status]>;
             let status = match op {
                 Op::Setup { start, stop } => {
-                    let s = fmi2SetupExperiment(c, 0, 0.0, *start, stop.is_some() as i32, stop.unwrap_or(0.0));
-                    let ok = m.phase == Phase::Instantiated && start.is_finite() && stop.is_none_or(|x| x.is_finite() && x >= *start);
+                    let s = fmi2SetupExperiment(
+                        c,
+                        0,
+                        0.0,
+                        *start,
+                        stop.is_some() as i32,
+                        stop.unwrap_or(0.0),
+                    );
+                    let ok = m.phase == Phase::Instantiated
+                        && start.is_finite()
+                        && stop.is_none_or(|x| x.is_finite() && x >= *start);
                     if ok {
                         m.time = *start;
                         m.stop = *stop;
@@ -291,7 +385,10 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                 Op::ExitInit => {
                     let s = fmi2ExitInitializationMode(c);
                     // A quaternion the host set to zero has no orientation: refused.
-                    let zero = f.quats.iter().any(|&i| m.q_set[i..i + 4].iter().all(|&x| x == 0.0));
+                    let zero = f
+                        .quats
+                        .iter()
+                        .any(|&i| m.q_set[i..i + 4].iter().all(|&x| x == 0.0));
                     let ok = m.phase == Phase::Init && !zero;
                     if ok {
                         m.phase = if me { Phase::Event } else { Phase::Stepping };
@@ -310,7 +407,11 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                             _ => {}
                         }
                     } else if let Some(old) = old {
-                        prop_assert_eq!(try_get(c, *vr), Some(old), "a refused fmi2SetReal changed the variable");
+                        prop_assert_eq!(
+                            try_get(c, *vr),
+                            Some(old),
+                            "a refused fmi2SetReal changed the variable"
+                        );
                     }
                     expect = Ok(ok);
                     s
@@ -336,7 +437,10 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                 Op::SetString { vr, value } => {
                     let cs = std::ffi::CString::new(*value).unwrap();
                     let s = fmi2SetString(c, vr, 1, &cs.as_ptr());
-                    let is_integrator = f.slots.get(*vr as usize).is_some_and(|(s, _)| *s == Slot::SolverIntegrator);
+                    let is_integrator = f
+                        .slots
+                        .get(*vr as usize)
+                        .is_some_and(|(s, _)| *s == Slot::SolverIntegrator);
                     let known = ["rk4", "implicit_euler", "semi_implicit_euler"].contains(value);
                     expect = Ok(m.can_set_other() && m.before_init() && is_integrator && known);
                     s
@@ -357,8 +461,17 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                     // The communication point may differ from the FMU's time by 1e-9 relative
                     // to the larger of the time and the step; so may the end from stopTime.
                     let tol = 1e-9 * m.time.abs().max(*h);
-                    let args = h.is_finite() && *h > 0.0 && t.is_finite() && (t - m.time).abs() <= tol && m.stop.is_none_or(|st| m.time + h <= st + 1e-9 * st.abs().max(*h));
-                    if !me && matches!(m.phase, Phase::Stepping | Phase::Failed) && args && !m.mocap_zero() {
+                    let args = h.is_finite()
+                        && *h > 0.0
+                        && t.is_finite()
+                        && (t - m.time).abs() <= tol
+                        && m.stop
+                            .is_none_or(|st| m.time + h <= st + 1e-9 * st.abs().max(*h));
+                    if !me
+                        && matches!(m.phase, Phase::Stepping | Phase::Failed)
+                        && args
+                        && !m.mocap_zero()
+                    {
                         expect = Err(&[fmi2OK, fmi2Discard]);
                         if s == fmi2OK {
                             m.time += h;
@@ -373,7 +486,11 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                 }
                 Op::Terminate => {
                     let s = fmi2Terminate(c);
-                    let ok = if me { matches!(m.phase, Phase::Event | Phase::Continuous) } else { matches!(m.phase, Phase::Stepping | Phase::Failed) };
+                    let ok = if me {
+                        matches!(m.phase, Phase::Event | Phase::Continuous)
+                    } else {
+                        matches!(m.phase, Phase::Stepping | Phase::Failed)
+                    };
                     if ok {
                         m.phase = Phase::Terminated;
                     }
@@ -406,7 +523,11 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                         if s == fmi2OK {
                             m = saved.clone();
                             if m.can_get() {
-                                prop_assert_eq!(snapshot_one(c, 0), m.time.to_bits(), "restored time");
+                                prop_assert_eq!(
+                                    snapshot_one(c, 0),
+                                    m.time.to_bits(),
+                                    "restored time"
+                                );
                             }
                         }
                         expect = Ok(true);
@@ -418,14 +539,25 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                     }
                 },
                 Op::FreeState { slot } => {
-                    let mut st = states.get(*slot).map(|x| x.0).unwrap_or(std::ptr::null_mut());
+                    let mut st = states
+                        .get(*slot)
+                        .map(|x| x.0)
+                        .unwrap_or(std::ptr::null_mut());
                     let s = fmi2FreeFMUstate(c, &mut st);
                     prop_assert!(st.is_null(), "fmi2FreeFMUstate leaves the handle NULL");
                     if *slot < states.len() {
                         // Freeing the same handle again is refused, not a crash.
                         let mut again = states.remove(*slot).0;
-                        prop_assert_eq!(fmi2FreeFMUstate(c, &mut again), fmi2Error, "double free accepted");
-                        prop_assert!(capture.last().message.contains("unknown FMU state"), "{:?}", capture.last());
+                        prop_assert_eq!(
+                            fmi2FreeFMUstate(c, &mut again),
+                            fmi2Error,
+                            "double free accepted"
+                        );
+                        prop_assert!(
+                            capture.last().message.contains("unknown FMU state"),
+                            "{:?}",
+                            capture.last()
+                        );
                     }
                     expect = Ok(true);
                     s
@@ -440,7 +572,10 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                         let mut size = 0usize;
                         prop_assert_eq!(fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
                         let mut bytes = vec![0u8; size];
-                        prop_assert_eq!(fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size), fmi2OK);
+                        prop_assert_eq!(
+                            fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size),
+                            fmi2OK
+                        );
                         match damage {
                             Damage::None => {}
                             Damage::Flip(i, mask) => bytes[i % size] ^= mask,
@@ -448,7 +583,12 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                             Damage::Append(k) => bytes.extend(std::iter::repeat_n(0u8, *k)),
                         }
                         let mut back: fmi2FMUstate = std::ptr::null_mut();
-                        let s = fmi2DeSerializeFMUstate(c, bytes.as_ptr().cast(), bytes.len(), &mut back);
+                        let s = fmi2DeSerializeFMUstate(
+                            c,
+                            bytes.as_ptr().cast(),
+                            bytes.len(),
+                            &mut back,
+                        );
                         if matches!(damage, Damage::None) {
                             expect = Ok(true);
                             states.push((back, saved));
@@ -497,7 +637,9 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                 }
                 Op::SetTime { time } => {
                     let s = fmi2SetTime(c, *time);
-                    let ok = me && matches!(m.phase, Phase::Event | Phase::Continuous) && time.is_finite();
+                    let ok = me
+                        && matches!(m.phase, Phase::Event | Phase::Continuous)
+                        && time.is_finite();
                     if ok {
                         m.time = *time;
                     }
@@ -531,7 +673,11 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                     let mut dx = vec![0.0; n];
                     let s = fmi2GetDerivatives(c, dx.as_mut_ptr(), n);
                     // The forward dynamics may refuse a state (a non-finite derivative).
-                    expect = if me && m.can_get() { Err(&[fmi2OK, fmi2Error]) } else { Ok(false) };
+                    expect = if me && m.can_get() {
+                        Err(&[fmi2OK, fmi2Error])
+                    } else {
+                        Ok(false)
+                    };
                     if s == fmi2OK {
                         prop_assert!(dx.iter().all(|d| d.is_finite()), "{:?}", dx);
                     }
@@ -547,23 +693,66 @@ fn run(scene: usize, me: bool, ops: &[Op]) -> Result<(), TestCaseError> {
                     s
                 }
             };
-            prop_assert_ne!(status, fmi2Fatal, "{:?} panicked inside the FMU: {:?}", op, capture.last());
+            prop_assert_ne!(
+                status,
+                fmi2Fatal,
+                "{:?} panicked inside the FMU: {:?}",
+                op,
+                capture.last()
+            );
             match expect {
-                Ok(true) => prop_assert_eq!(status, fmi2OK, "{:?} in {:?} at t = {}: {:?}", op, m.phase, m.time, capture.last()),
-                Ok(false) => prop_assert_eq!(status, fmi2Error, "{:?} in {:?} at t = {}", op, m.phase, m.time),
-                Err(allowed) => prop_assert!(allowed.contains(&status), "{:?} in {:?}: status {} not in {:?}: {:?}", op, m.phase, status, allowed, capture.last()),
+                Ok(true) => prop_assert_eq!(
+                    status,
+                    fmi2OK,
+                    "{:?} in {:?} at t = {}: {:?}",
+                    op,
+                    m.phase,
+                    m.time,
+                    capture.last()
+                ),
+                Ok(false) => prop_assert_eq!(
+                    status,
+                    fmi2Error,
+                    "{:?} in {:?} at t = {}",
+                    op,
+                    m.phase,
+                    m.time
+                ),
+                Err(allowed) => prop_assert!(
+                    allowed.contains(&status),
+                    "{:?} in {:?}: status {} not in {:?}: {:?}",
+                    op,
+                    m.phase,
+                    status,
+                    allowed,
+                    capture.last()
+                ),
             }
             if status == fmi2Error || status == fmi2Discard {
                 // Explained to the host...
                 let said = capture.since(logged_before);
-                prop_assert!(said.iter().any(|l| l.status == status && !l.message.is_empty()), "{:?} returned {} without a message", op, status);
+                prop_assert!(
+                    said.iter()
+                        .any(|l| l.status == status && !l.message.is_empty()),
+                    "{:?} returned {} without a message",
+                    op,
+                    status
+                );
                 // ... and nothing changed.
                 if let (Some(a), Some(b)) = (before.as_ref(), snapshot(c, f, &m)) {
-                    prop_assert!(*a == b, "{:?} was refused ({}) but changed the state", op, status);
+                    prop_assert!(
+                        *a == b,
+                        "{:?} was refused ({}) but changed the state",
+                        op,
+                        status
+                    );
                 }
             }
         }
-        prop_assert!(capture.all().iter().all(|l| l.format == "%s"), "every message goes through \"%s\"");
+        prop_assert!(
+            capture.all().iter().all(|l| l.format == "%s"),
+            "every message goes through \"%s\""
+        );
         fmi2FreeInstance(c);
         // Calls after free are refused, not crashes; a second free is ignored.
         prop_assert_eq!(fmi2DoStep(c, 0.0, 0.001, 0), fmi2Error);
@@ -619,7 +808,20 @@ enum Edit {
 fn edit() -> impl Strategy<Value = Edit> {
     prop_oneof![
         (any::<usize>(), any::<u8>()).prop_map(|(i, b)| Edit::Byte(i, b)),
-        (any::<usize>(), prop_oneof![Just(0.0), Just(-1.0), Just(1e300), Just(1e-300), Just(f64::NAN), Just(f64::INFINITY), Just(2.0), Just(-1e-9)]).prop_map(|(i, x)| Edit::Number(i, x)),
+        (
+            any::<usize>(),
+            prop_oneof![
+                Just(0.0),
+                Just(-1.0),
+                Just(1e300),
+                Just(1e-300),
+                Just(f64::NAN),
+                Just(f64::INFINITY),
+                Just(2.0),
+                Just(-1e-9)
+            ]
+        )
+            .prop_map(|(i, x)| Edit::Number(i, x)),
     ]
 }
 
@@ -656,7 +858,10 @@ fn forge(scene: &str, steps: usize, edits: &[Edit]) -> Result<(), TestCaseError>
         let mut size = 0;
         prop_assert_eq!(fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
         let mut bytes = vec![0u8; size];
-        prop_assert_eq!(fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size), fmi2OK);
+        prop_assert_eq!(
+            fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size),
+            fmi2OK
+        );
         let (start, len) = model_part(&bytes);
         for e in edits {
             match *e {
@@ -670,7 +875,10 @@ fn forge(scene: &str, steps: usize, edits: &[Edit]) -> Result<(), TestCaseError>
         let body = bytes.len() - 8;
         let sum = scm::fmi::serial::fnv1a(&bytes[..body], 0);
         bytes[body..].copy_from_slice(&sum.to_le_bytes());
-        let nvars = scm::sim::Simulation::from_file(&crate::common::scene(scene)).unwrap().rows().len() as u32;
+        let nvars = scm::sim::Simulation::from_file(&crate::common::scene(scene))
+            .unwrap()
+            .rows()
+            .len() as u32;
         let read_all = |c: fmi2Component| -> Vec<(fmi2Status, u64)> {
             (0..nvars)
                 .map(|vr| {
@@ -686,8 +894,15 @@ fn forge(scene: &str, steps: usize, edits: &[Edit]) -> Result<(), TestCaseError>
         prop_assert!(s == fmi2OK || s == fmi2Error, "status {}", s);
         if s == fmi2Error {
             prop_assert!(forged.is_null());
-            prop_assert!(capture.last().message.contains("fmi2DeSerializeFMUstate"), "{:?}", capture.last());
-            prop_assert!(read_all(c) == before, "a refused state changed the instance");
+            prop_assert!(
+                capture.last().message.contains("fmi2DeSerializeFMUstate"),
+                "{:?}",
+                capture.last()
+            );
+            prop_assert!(
+                read_all(c) == before,
+                "a refused state changed the instance"
+            );
         } else {
             prop_assert_eq!(fmi2SetFMUstate(c, forged), fmi2OK);
             let values = read_all(c);
@@ -695,7 +910,11 @@ fn forge(scene: &str, steps: usize, edits: &[Edit]) -> Result<(), TestCaseError>
             let mut t = 0.0;
             prop_assert_eq!(fmi2GetReal(c, &0, 1, &mut t), fmi2OK);
             let s = fmi2DoStep(c, t, 0.002, 0);
-            prop_assert!(s != fmi2Fatal, "stepping a forged state panicked: {:?}", capture.last());
+            prop_assert!(
+                s != fmi2Fatal,
+                "stepping a forged state panicked: {:?}",
+                capture.last()
+            );
             prop_assert!(read_all(c).iter().all(|(s, _)| *s != fmi2Fatal));
         }
         fmi2FreeInstance(c);
@@ -721,5 +940,20 @@ proptest! {
 fn a_zero_quaternion_saved_before_initialization_round_trips() {
     // vr 4 is ball.quat.w of sphere_drop (time, then pos.x|y|z): the start quaternion is (1, 0, 0, 0).
     assert!(matches!(fixture(0).slots[4].0, Slot::Q(3)));
-    run(0, false, &[Op::SetReal { vr: 4, value: 0.0 }, Op::SaveState, Op::Serialize { slot: 0, damage: Damage::None }, Op::RestoreState { slot: 1 }, Op::EnterInit, Op::ExitInit]).unwrap();
+    run(
+        0,
+        false,
+        &[
+            Op::SetReal { vr: 4, value: 0.0 },
+            Op::SaveState,
+            Op::Serialize {
+                slot: 0,
+                damage: Damage::None,
+            },
+            Op::RestoreState { slot: 1 },
+            Op::EnterInit,
+            Op::ExitInit,
+        ],
+    )
+    .unwrap();
 }

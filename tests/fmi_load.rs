@@ -25,7 +25,17 @@ fn unpacked(scene: &Path, root: &Path) -> (CString, CString, Vec<(String, f64)>)
         CString::new(scm::sim::guid(&text)).unwrap(),
         sim.rows()
             .iter()
-            .map(|(v, _)| (v.name.clone(), match v.var_type { scm::fmi::contract::VarType::Real { start, .. } => start.unwrap_or(f64::NAN), _ => f64::NAN }))
+            .map(|(v, _)| {
+                (
+                    v.name.clone(),
+                    match v.var_type {
+                        scm::fmi::contract::VarType::Real { start, .. } => {
+                            start.unwrap_or(f64::NAN)
+                        }
+                        _ => f64::NAN,
+                    },
+                )
+            })
             .collect(),
     )
 }
@@ -33,13 +43,33 @@ fn unpacked(scene: &Path, root: &Path) -> (CString, CString, Vec<(String, f64)>)
 /// Runs one instance for `steps` communication steps and returns every Real variable after
 /// each step, as bits. The variant (`seed >= 8`) doubles the stiffness, sets the friction to
 /// 0.3, ε2 to 1.5 times its value and every control to 0.05 before initialization.
-fn rollout(uri: &CString, guid: &CString, names: &[(String, f64)], seed: usize, steps: usize) -> Vec<u64> {
+fn rollout(
+    uri: &CString,
+    guid: &CString,
+    names: &[(String, f64)],
+    seed: usize,
+    steps: usize,
+) -> Vec<u64> {
     let nvars = names.len() as u32;
-    let callbacks = fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() };
+    let callbacks = fmi2CallbackFunctions {
+        logger: None,
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: std::ptr::null_mut(),
+    };
     let mut out = Vec::new();
     unsafe {
         let name = CString::new(format!("load{seed}")).unwrap();
-        let c = fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), uri.as_ptr(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            name.as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            uri.as_ptr(),
+            &callbacks,
+            0,
+            0,
+        );
         assert!(!c.is_null());
         assert_eq!(fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0), fmi2OK);
         if seed >= 8 {
@@ -81,28 +111,47 @@ fn rollout(uri: &CString, guid: &CString, names: &[(String, f64)], seed: usize, 
 fn sixteen_concurrent_instances_match_sequential_runs_bit_for_bit() {
     let root = std::env::temp_dir().join(format!("scm-load-{}", std::process::id()));
     std::fs::create_dir_all(&root).unwrap();
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes")).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).collect();
+    let mut scenes: Vec<PathBuf> =
+        std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+            .collect();
     scenes.sort();
     let fmus: Vec<_> = scenes.iter().map(|s| unpacked(s, &root)).collect();
     let steps = 25;
     let jobs: Vec<usize> = (0..16).collect();
-    let sequential: Vec<Vec<u64>> = jobs.iter().map(|&i| {
-        let (uri, guid, n) = &fmus[i % fmus.len()];
-        rollout(uri, guid, n, i, steps)
-    }).collect();
-    let concurrent: Vec<Vec<u64>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = jobs.iter().map(|&i| {
+    let sequential: Vec<Vec<u64>> = jobs
+        .iter()
+        .map(|&i| {
             let (uri, guid, n) = &fmus[i % fmus.len()];
-            scope.spawn(move || rollout(uri, guid, n, i, steps))
-        }).collect();
+            rollout(uri, guid, n, i, steps)
+        })
+        .collect();
+    let concurrent: Vec<Vec<u64>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = jobs
+            .iter()
+            .map(|&i| {
+                let (uri, guid, n) = &fmus[i % fmus.len()];
+                scope.spawn(move || rollout(uri, guid, n, i, steps))
+            })
+            .collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
     assert_eq!(fmus.len(), 8, "16 instances: each bundled scene twice");
     for i in 0..8 {
-        assert!(sequential[i] != sequential[i + 8], "{}: the variant ran like the original", scenes[i].display());
+        assert!(
+            sequential[i] != sequential[i + 8],
+            "{}: the variant ran like the original",
+            scenes[i].display()
+        );
     }
     for (i, (s, c)) in sequential.iter().zip(&concurrent).enumerate() {
-        assert!(s == c, "instance {i} ({}) differs between sequential and concurrent runs", scenes[i % scenes.len()].display());
+        assert!(
+            s == c,
+            "instance {i} ({}) differs between sequential and concurrent runs",
+            scenes[i % scenes.len()].display()
+        );
     }
     let _ = std::fs::remove_dir_all(&root);
 }

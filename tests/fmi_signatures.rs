@@ -38,7 +38,11 @@ impl FmiModel for Tiny {
                     causality: Causality::Independent,
                     variability: Variability::Continuous,
                     initial: None,
-                    var_type: VarType::Real { start: None, unit: Some("s"), derivative: None },
+                    var_type: VarType::Real {
+                        start: None,
+                        unit: Some("s"),
+                        derivative: None,
+                    },
                     description: String::new(),
                 }],
                 structure: ModelStructure::default(),
@@ -53,7 +57,12 @@ impl FmiModel for Tiny {
     fn info(&self) -> &ModelInfo {
         &self.info
     }
-    fn setup_experiment(&mut self, start: f64, _stop: Option<f64>, _tol: Option<f64>) -> ModelResult<()> {
+    fn setup_experiment(
+        &mut self,
+        start: f64,
+        _stop: Option<f64>,
+        _tol: Option<f64>,
+    ) -> ModelResult<()> {
         self.t = start;
         Ok(())
     }
@@ -88,13 +97,34 @@ use scm::*;
 /// Same layout for the callback struct and the event-info struct.
 #[test]
 fn struct_layouts_match() {
-    assert_eq!(size_of::<ffi::fmi2CallbackFunctions>(), size_of::<sys::fmi2CallbackFunctions>());
-    assert_eq!(align_of::<ffi::fmi2CallbackFunctions>(), align_of::<sys::fmi2CallbackFunctions>());
-    assert_eq!(offset_of!(ffi::fmi2CallbackFunctions, logger), offset_of!(sys::fmi2CallbackFunctions, logger));
-    assert_eq!(offset_of!(ffi::fmi2CallbackFunctions, allocateMemory), offset_of!(sys::fmi2CallbackFunctions, allocateMemory));
-    assert_eq!(offset_of!(ffi::fmi2CallbackFunctions, freeMemory), offset_of!(sys::fmi2CallbackFunctions, freeMemory));
-    assert_eq!(offset_of!(ffi::fmi2CallbackFunctions, stepFinished), offset_of!(sys::fmi2CallbackFunctions, stepFinished));
-    assert_eq!(offset_of!(ffi::fmi2CallbackFunctions, componentEnvironment), offset_of!(sys::fmi2CallbackFunctions, componentEnvironment));
+    assert_eq!(
+        size_of::<ffi::fmi2CallbackFunctions>(),
+        size_of::<sys::fmi2CallbackFunctions>()
+    );
+    assert_eq!(
+        align_of::<ffi::fmi2CallbackFunctions>(),
+        align_of::<sys::fmi2CallbackFunctions>()
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2CallbackFunctions, logger),
+        offset_of!(sys::fmi2CallbackFunctions, logger)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2CallbackFunctions, allocateMemory),
+        offset_of!(sys::fmi2CallbackFunctions, allocateMemory)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2CallbackFunctions, freeMemory),
+        offset_of!(sys::fmi2CallbackFunctions, freeMemory)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2CallbackFunctions, stepFinished),
+        offset_of!(sys::fmi2CallbackFunctions, stepFinished)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2CallbackFunctions, componentEnvironment),
+        offset_of!(sys::fmi2CallbackFunctions, componentEnvironment)
+    );
     // the field types themselves are the same types
     let cb: sys::fmi2CallbackFunctions = unsafe { std::mem::zeroed() };
     let _: ffi::fmi2CallbackLogger = cb.logger;
@@ -103,10 +133,22 @@ fn struct_layouts_match() {
     let _: ffi::fmi2StepFinished = cb.stepFinished;
     let _: ffi::fmi2ComponentEnvironment = cb.componentEnvironment;
 
-    assert_eq!(size_of::<ffi::fmi2EventInfo>(), size_of::<sys::fmi2EventInfo>());
-    assert_eq!(align_of::<ffi::fmi2EventInfo>(), align_of::<sys::fmi2EventInfo>());
-    assert_eq!(offset_of!(ffi::fmi2EventInfo, newDiscreteStatesNeeded), offset_of!(sys::fmi2EventInfo, newDiscreteStatesNeeded));
-    assert_eq!(offset_of!(ffi::fmi2EventInfo, terminateSimulation), offset_of!(sys::fmi2EventInfo, terminateSimulation));
+    assert_eq!(
+        size_of::<ffi::fmi2EventInfo>(),
+        size_of::<sys::fmi2EventInfo>()
+    );
+    assert_eq!(
+        align_of::<ffi::fmi2EventInfo>(),
+        align_of::<sys::fmi2EventInfo>()
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2EventInfo, newDiscreteStatesNeeded),
+        offset_of!(sys::fmi2EventInfo, newDiscreteStatesNeeded)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2EventInfo, terminateSimulation),
+        offset_of!(sys::fmi2EventInfo, terminateSimulation)
+    );
     assert_eq!(
         offset_of!(ffi::fmi2EventInfo, nominalsOfContinuousStatesChanged),
         offset_of!(sys::fmi2EventInfo, nominalsOfContinuousStatesChanged)
@@ -115,8 +157,14 @@ fn struct_layouts_match() {
         offset_of!(ffi::fmi2EventInfo, valuesOfContinuousStatesChanged),
         offset_of!(sys::fmi2EventInfo, valuesOfContinuousStatesChanged)
     );
-    assert_eq!(offset_of!(ffi::fmi2EventInfo, nextEventTimeDefined), offset_of!(sys::fmi2EventInfo, nextEventTimeDefined));
-    assert_eq!(offset_of!(ffi::fmi2EventInfo, nextEventTime), offset_of!(sys::fmi2EventInfo, nextEventTime));
+    assert_eq!(
+        offset_of!(ffi::fmi2EventInfo, nextEventTimeDefined),
+        offset_of!(sys::fmi2EventInfo, nextEventTimeDefined)
+    );
+    assert_eq!(
+        offset_of!(ffi::fmi2EventInfo, nextEventTime),
+        offset_of!(sys::fmi2EventInfo, nextEventTime)
+    );
     let info = sys::fmi2EventInfo::default();
     let _: ffi::fmi2Boolean = info.newDiscreteStatesNeeded;
     let _: ffi::fmi2Real = info.nextEventTime;
@@ -146,8 +194,14 @@ fn types_and_constants_match() {
     assert_eq!(ffi::fmi2ModelExchange, sys::fmi2Type_fmi2ModelExchange);
     assert_eq!(ffi::fmi2CoSimulation, sys::fmi2Type_fmi2CoSimulation);
     assert_eq!(ffi::fmi2DoStepStatus, sys::fmi2StatusKind_fmi2DoStepStatus);
-    assert_eq!(ffi::fmi2PendingStatus, sys::fmi2StatusKind_fmi2PendingStatus);
-    assert_eq!(ffi::fmi2LastSuccessfulTime, sys::fmi2StatusKind_fmi2LastSuccessfulTime);
+    assert_eq!(
+        ffi::fmi2PendingStatus,
+        sys::fmi2StatusKind_fmi2PendingStatus
+    );
+    assert_eq!(
+        ffi::fmi2LastSuccessfulTime,
+        sys::fmi2StatusKind_fmi2LastSuccessfulTime
+    );
     assert_eq!(ffi::fmi2Terminated, sys::fmi2StatusKind_fmi2Terminated);
 }
 
@@ -170,7 +224,8 @@ type OursInstantiate = unsafe extern "C" fn(
     ffi::fmi2Boolean,
     ffi::fmi2Boolean,
 ) -> ffi::fmi2Component;
-type OursNewDiscreteStates = unsafe extern "C" fn(ffi::fmi2Component, *mut ffi::fmi2EventInfo) -> ffi::fmi2Status;
+type OursNewDiscreteStates =
+    unsafe extern "C" fn(ffi::fmi2Component, *mut ffi::fmi2EventInfo) -> ffi::fmi2Status;
 
 #[test]
 fn signatures_match_fmi_sys() {
@@ -221,14 +276,26 @@ fn signatures_match_fmi_sys() {
 
     // fmi2Instantiate and fmi2NewDiscreteStates take our struct types: same signature up to the
     // pointee struct, whose layout `struct_layouts_match` checks.
-    for f in [ex::instantiate::<Tiny> as OursInstantiate, fmi2Instantiate as OursInstantiate] {
+    for f in [
+        ex::instantiate::<Tiny> as OursInstantiate,
+        fmi2Instantiate as OursInstantiate,
+    ] {
         // SAFETY: identical argument/return types except the pointee of one pointer, which has
         // the same layout; function pointers of the same ABI and arity have the same size.
-        let _: sys::fmi2InstantiateTYPE = unsafe { std::mem::transmute::<Option<OursInstantiate>, sys::fmi2InstantiateTYPE>(Some(f)) };
+        let _: sys::fmi2InstantiateTYPE = unsafe {
+            std::mem::transmute::<Option<OursInstantiate>, sys::fmi2InstantiateTYPE>(Some(f))
+        };
     }
-    for f in [ex::new_discrete_states::<Tiny> as OursNewDiscreteStates, fmi2NewDiscreteStates as OursNewDiscreteStates] {
+    for f in [
+        ex::new_discrete_states::<Tiny> as OursNewDiscreteStates,
+        fmi2NewDiscreteStates as OursNewDiscreteStates,
+    ] {
         // SAFETY: as above.
-        let _: sys::fmi2NewDiscreteStatesTYPE = unsafe { std::mem::transmute::<Option<OursNewDiscreteStates>, sys::fmi2NewDiscreteStatesTYPE>(Some(f)) };
+        let _: sys::fmi2NewDiscreteStatesTYPE = unsafe {
+            std::mem::transmute::<Option<OursNewDiscreteStates>, sys::fmi2NewDiscreteStatesTYPE>(
+                Some(f),
+            )
+        };
     }
 }
 
@@ -238,7 +305,10 @@ fn crate_exports_are_callable() {
     unsafe {
         assert_eq!(std::ffi::CStr::from_ptr(fmi2GetVersion()), c"2.0");
         assert_eq!(std::ffi::CStr::from_ptr(fmi2GetTypesPlatform()), c"default");
-        assert_eq!(fmi2DoStep(std::ptr::null_mut(), 0.0, 1.0, 0), ffi::fmi2Error);
+        assert_eq!(
+            fmi2DoStep(std::ptr::null_mut(), 0.0, 1.0, 0),
+            ffi::fmi2Error
+        );
         assert_eq!(fmi2CancelStep(std::ptr::null_mut()), ffi::fmi2Error);
         fmi2FreeInstance(std::ptr::null_mut());
         let callbacks = ffi::fmi2CallbackFunctions {
@@ -249,11 +319,30 @@ fn crate_exports_are_callable() {
             componentEnvironment: std::ptr::null_mut(),
         };
         // No scene in /nonexistent: instantiation fails cleanly with NULL.
-        let c = fmi2Instantiate(c"t".as_ptr(), ffi::fmi2CoSimulation, c"{guid}".as_ptr(), c"file:///nonexistent".as_ptr(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            c"t".as_ptr(),
+            ffi::fmi2CoSimulation,
+            c"{guid}".as_ptr(),
+            c"file:///nonexistent".as_ptr(),
+            &callbacks,
+            0,
+            0,
+        );
         assert!(c.is_null());
-        let c = fmi2Instantiate(c"t".as_ptr(), ffi::fmi2CoSimulation, c"{guid}".as_ptr(), c"http://example/resources".as_ptr(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            c"t".as_ptr(),
+            ffi::fmi2CoSimulation,
+            c"{guid}".as_ptr(),
+            c"http://example/resources".as_ptr(),
+            &callbacks,
+            0,
+            0,
+        );
         assert!(c.is_null());
         let mut info = ffi::fmi2EventInfo::default();
-        assert_eq!(fmi2NewDiscreteStates(std::ptr::null_mut(), &mut info), ffi::fmi2Error);
+        assert_eq!(
+            fmi2NewDiscreteStates(std::ptr::null_mut(), &mut info),
+            ffi::fmi2Error
+        );
     }
 }

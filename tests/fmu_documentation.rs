@@ -30,7 +30,10 @@ fn text_of(html: &str) -> String {
             }),
             Ok(Event::Eof) => break,
             Ok(_) => {}
-            Err(e) => panic!("malformed documentation at byte {}: {e}", reader.buffer_position()),
+            Err(e) => panic!(
+                "malformed documentation at byte {}: {e}",
+                reader.buffer_position()
+            ),
         }
     }
     assert_eq!(depth, 0, "unbalanced elements");
@@ -40,7 +43,11 @@ fn text_of(html: &str) -> String {
 #[test]
 fn every_fmu_documents_its_scene() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes");
-    let mut scenes: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).collect();
+    let mut scenes: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .collect();
     scenes.sort();
     for path in scenes {
         let d = scm::pack::describe(&path).unwrap();
@@ -55,19 +62,34 @@ fn every_fmu_documents_its_scene() {
             assert!(text.contains(&j.name), "{name}: joint {}", j.name);
         }
         for a in &scene.model.actuators {
-            assert!(text.contains(&format!("{}.ctrl", a.name)), "{name}: actuator {}", a.name);
+            assert!(
+                text.contains(&format!("{}.ctrl", a.name)),
+                "{name}: actuator {}",
+                a.name
+            );
         }
         for (v, _) in sim.rows() {
             assert!(text.contains(&v.name), "{name}: variable {}", v.name);
             if let VarType::Real { unit: Some(u), .. } = v.var_type {
-                assert!(text.contains(&format!("{} {} ", v.name, v.value_reference)) && text.contains(u), "{name}: {} with its unit {u}", v.name);
+                assert!(
+                    text.contains(&format!("{} {} ", v.name, v.value_reference))
+                        && text.contains(u),
+                    "{name}: {} with its unit {u}",
+                    v.name
+                );
             }
         }
         for p in scm::sim::Param::ALL {
             let (pname, _, meaning) = p.describe();
-            assert!(text.contains(&format!("scm.{pname}")) && text.contains(meaning), "{name}: parameter {pname} and its meaning");
+            assert!(
+                text.contains(&format!("scm.{pname}")) && text.contains(meaning),
+                "{name}: parameter {pname} and its meaning"
+            );
         }
-        assert!(text.contains(scene.model.integrator.name()), "{name}: integrator");
+        assert!(
+            text.contains(scene.model.integrator.name()),
+            "{name}: integrator"
+        );
     }
 }
 
@@ -82,7 +104,11 @@ fn the_fmu_carries_its_documentation() {
     scm::pack::pack(&scene, &lib, &fmu).unwrap();
     let mut archive = zip::ZipArchive::new(std::fs::File::open(&fmu).unwrap()).unwrap();
     let mut html = String::new();
-    archive.by_name("documentation/index.html").unwrap().read_to_string(&mut html).unwrap();
+    archive
+        .by_name("documentation/index.html")
+        .unwrap()
+        .read_to_string(&mut html)
+        .unwrap();
     assert_eq!(html, scm::pack::describe(&scene).unwrap().documentation);
     let _ = std::fs::remove_dir_all(&dir);
 }

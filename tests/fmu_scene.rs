@@ -18,14 +18,19 @@ struct Capture(Log);
 
 impl LogSink for Capture {
     fn log(&self, status: fmi2Status, category: &str, message: &str) {
-        self.0.lock().unwrap().push((status, category.to_owned(), message.to_owned()));
+        self.0
+            .lock()
+            .unwrap()
+            .push((status, category.to_owned(), message.to_owned()));
     }
 }
 
 /// A `resources/` folder holding `name`'s scene and the meshes it uses, as `scm pack` lays it
 /// out, made once per scene and process.
 fn resources(name: &str) -> (String, String) {
-    let dir = std::env::temp_dir().join(format!("scm-fmu-scene-{}-{name}", std::process::id())).join("resources");
+    let dir = std::env::temp_dir()
+        .join(format!("scm-fmu-scene-{}-{name}", std::process::id()))
+        .join("resources");
     let described = scm::pack::describe(&crate::common::scene(name)).unwrap();
     for (file, bytes) in &described.resources {
         let path = dir.join(file);
@@ -34,13 +39,24 @@ fn resources(name: &str) -> (String, String) {
     }
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join(scm::sim::SCENE_FILE), &described.scene_text).unwrap();
-    (format!("file://{}", dir.display()), scm::sim::guid(&described.scene_text))
+    (
+        format!("file://{}", dir.display()),
+        scm::sim::guid(&described.scene_text),
+    )
 }
 
 fn instance(name: &str, interface: Interface) -> (Instance<Simulation>, Log) {
     let (uri, guid) = resources(name);
     let log: Log = Arc::default();
-    let inst = Instance::<Simulation>::instantiate(name, interface, &guid, &uri, false, Some(Box::new(Capture(log.clone())))).unwrap();
+    let inst = Instance::<Simulation>::instantiate(
+        name,
+        interface,
+        &guid,
+        &uri,
+        false,
+        Some(Box::new(Capture(log.clone()))),
+    )
+    .unwrap();
     (inst, log)
 }
 
@@ -53,7 +69,11 @@ fn initialized(name: &str, interface: Interface) -> (Instance<Simulation>, Log) 
 }
 
 fn vr(info: &ModelInfo, name: &str) -> u32 {
-    info.variables.iter().find(|v| v.name == name).unwrap_or_else(|| panic!("no variable {name}")).value_reference
+    info.variables
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap_or_else(|| panic!("no variable {name}"))
+        .value_reference
 }
 
 fn real(inst: &mut Instance<Simulation>, vr: u32) -> f64 {
@@ -64,7 +84,14 @@ fn real(inst: &mut Instance<Simulation>, vr: u32) -> f64 {
 
 /// Every Real output, as bits.
 fn outputs(inst: &mut Instance<Simulation>) -> Vec<u64> {
-    let vrs: Vec<u32> = inst.model().info().variables.iter().filter(|v| v.causality == Causality::Output).map(|v| v.value_reference).collect();
+    let vrs: Vec<u32> = inst
+        .model()
+        .info()
+        .variables
+        .iter()
+        .filter(|v| v.causality == Causality::Output)
+        .map(|v| v.value_reference)
+        .collect();
     let mut values = vec![0.0; vrs.len()];
     assert_eq!(inst.get_real(&vrs, &mut values), fmi2OK);
     values.iter().map(|v| v.to_bits()).collect()
@@ -72,7 +99,12 @@ fn outputs(inst: &mut Instance<Simulation>) -> Vec<u64> {
 
 fn scenes() -> Vec<String> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("resources/scenes");
-    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).map(|p| p.file_stem().unwrap().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     names
 }
@@ -89,9 +121,15 @@ fn in_contact(name: &str) -> Simulation {
         }
         "t_push" => {
             let ctrl_y = vr(sim.info(), "act_y.ctrl");
-            sim.set_real(ctrl_y, 0.25 - 0.1 - 0.015 + 0.03, scm::fmi::contract::Phase::Simulation).unwrap();
+            sim.set_real(
+                ctrl_y,
+                0.25 - 0.1 - 0.015 + 0.03,
+                scm::fmi::contract::Phase::Simulation,
+            )
+            .unwrap();
             let ctrl_x = vr(sim.info(), "act_x.ctrl");
-            sim.set_real(ctrl_x, 0.01, scm::fmi::contract::Phase::Simulation).unwrap();
+            sim.set_real(ctrl_x, 0.01, scm::fmi::contract::Phase::Simulation)
+                .unwrap();
             sim.do_step(0.0, 0.35).unwrap();
         }
         _ => {}
@@ -119,7 +157,9 @@ fn set_known(sim: &mut Simulation, slot: Slot, vr: u32, x: f64) {
     match slot {
         Slot::Q(i) => sim.current.state.q[i] = x,
         Slot::V(i) => sim.current.state.v[i] = x,
-        _ => sim.set_real(vr, x, scm::fmi::contract::Phase::Simulation).unwrap(),
+        _ => sim
+            .set_real(vr, x, scm::fmi::contract::Phase::Simulation)
+            .unwrap(),
     }
     // Drop cached outputs: set the state through the Model Exchange entry point.
     let x = sim.continuous_states();
@@ -131,11 +171,26 @@ fn capability_flags_are_declared_and_provided() {
     for name in scenes() {
         let (mut inst, _) = initialized(&name, Interface::CoSimulation);
         let caps = inst.model().info().capabilities;
-        assert!(caps.can_get_and_set_fmu_state && caps.can_serialize_fmu_state && caps.provides_directional_derivative, "{name}");
+        assert!(
+            caps.can_get_and_set_fmu_state
+                && caps.can_serialize_fmu_state
+                && caps.provides_directional_derivative,
+            "{name}"
+        );
         assert!(inst.model().info().model_exchange);
-        let xml = scm::pack::describe(&crate::common::scene(&name)).unwrap().model_description;
-        for flag in ["canGetAndSetFMUstate=\"true\"", "canSerializeFMUstate=\"true\"", "providesDirectionalDerivative=\"true\""] {
-            assert_eq!(xml.matches(flag).count(), 2, "{name}: {flag} in both ModelExchange and CoSimulation");
+        let xml = scm::pack::describe(&crate::common::scene(&name))
+            .unwrap()
+            .model_description;
+        for flag in [
+            "canGetAndSetFMUstate=\"true\"",
+            "canSerializeFMUstate=\"true\"",
+            "providesDirectionalDerivative=\"true\"",
+        ] {
+            assert_eq!(
+                xml.matches(flag).count(),
+                2,
+                "{name}: {flag} in both ModelExchange and CoSimulation"
+            );
         }
         // Each declared capability answers.
         let mut slot = None;
@@ -144,10 +199,19 @@ fn capability_flags_are_declared_and_provided() {
         assert_eq!(inst.serialized_fmu_state_size(slot, &mut size), fmi2OK);
         assert!(size > 0);
         let structure = inst.model().info().structure.clone();
-        let (unknown, deps) = &structure.outputs.iter().find(|(_, d)| d.as_ref().is_some_and(|d| !d.is_empty())).unwrap().clone();
+        let (unknown, deps) = &structure
+            .outputs
+            .iter()
+            .find(|(_, d)| d.as_ref().is_some_and(|d| !d.is_empty()))
+            .unwrap()
+            .clone();
         let deps = deps.clone().unwrap();
         let mut dv = [0.0];
-        assert_eq!(inst.get_directional_derivative(&[*unknown], &deps[..1], &[1.0], &mut dv), fmi2OK, "{name}");
+        assert_eq!(
+            inst.get_directional_derivative(&[*unknown], &deps[..1], &[1.0], &mut dv),
+            fmi2OK,
+            "{name}"
+        );
     }
 }
 
@@ -159,13 +223,25 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
         let mut sim = in_contact(&name);
         let info = sim.info().clone();
         let rows: Vec<_> = sim.rows().to_vec();
-        let unknowns: Vec<(u32, Slot, String)> = rows.iter().filter(|(_, s)| scm::sim::structure::knowns_of(&sim.model, *s).is_some()).map(|(v, s)| (v.value_reference, *s, v.name.clone())).collect();
-        let knowns: Vec<(u32, Slot, String)> = rows.iter().filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_))).map(|(v, s)| (v.value_reference, *s, v.name.clone())).collect();
+        let unknowns: Vec<(u32, Slot, String)> = rows
+            .iter()
+            .filter(|(_, s)| scm::sim::structure::knowns_of(&sim.model, *s).is_some())
+            .map(|(v, s)| (v.value_reference, *s, v.name.clone()))
+            .collect();
+        let knowns: Vec<(u32, Slot, String)> = rows
+            .iter()
+            .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_)))
+            .map(|(v, s)| (v.value_reference, *s, v.name.clone()))
+            .collect();
         // Declared dependencies: InitialUnknowns lists parameters too; Outputs and Derivatives
         // the states and inputs.
         let declared = |u: u32, k: u32| -> bool {
             let s = &info.structure;
-            s.outputs.iter().chain(&s.derivatives).chain(&s.initial_unknowns).any(|(x, d)| *x == u && d.as_ref().is_some_and(|d| d.contains(&k)))
+            s.outputs
+                .iter()
+                .chain(&s.derivatives)
+                .chain(&s.initial_unknowns)
+                .any(|(x, d)| *x == u && d.as_ref().is_some_and(|d| d.contains(&k)))
         };
         let base = sim.current.clone();
         let (mut checked, mut zero) = (0, 0);
@@ -190,12 +266,17 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
                 // about ε·|y|/h times the cancellation inside the model (forces of ~10 N summed
                 // into accelerations), e.g. 64 · 2e-16 · 10 / 1e-8 m = 1e-5 against partials of
                 // 1e2..1e4.
-                let tol = 1e-5 * exact[i].abs().max(fd.abs()) + 64.0 * f64::EPSILON * value.abs().max(1.0) / h;
+                let tol = 1e-5 * exact[i].abs().max(fd.abs())
+                    + 64.0 * f64::EPSILON * value.abs().max(1.0) / h;
                 assert!((exact[i] - fd).abs() <= tol, "{name}: d {uname} / d {kname}: exact {} vs central difference {fd} (tol {tol})", exact[i]);
                 if declared(*uvr, *kvr) {
                     checked += 1;
                 } else {
-                    assert_eq!(exact[i], 0.0, "{name}: d {uname} / d {kname} = {} but ModelStructure does not declare it", exact[i]);
+                    assert_eq!(
+                        exact[i], 0.0,
+                        "{name}: d {uname} / d {kname} = {} but ModelStructure does not declare it",
+                        exact[i]
+                    );
                     zero += 1;
                 }
             }
@@ -213,18 +294,39 @@ fn declared_dependencies_are_not_everything() {
     let info = sim.info();
     fn deps_in(info: &ModelInfo, name: &str) -> Vec<u32> {
         let u = vr(info, name);
-        info.structure.derivatives.iter().chain(&info.structure.outputs).find(|(x, _)| *x == u).unwrap().1.clone().unwrap()
+        info.structure
+            .derivatives
+            .iter()
+            .chain(&info.structure.outputs)
+            .find(|(x, _)| *x == u)
+            .unwrap()
+            .1
+            .clone()
+            .unwrap()
     }
     let deps = |name: &str| deps_in(info, name);
     assert!(!deps("der(t_x.v)").contains(&vr(info, "act_x.ctrl")));
     assert!(deps("der(finger_x.v)").contains(&vr(info, "act_x.ctrl")));
     assert_eq!(deps("der(finger_x.q)"), vec![vr(info, "finger_x.v")]);
-    assert!(!deps("contact.tblock.finger.distance").contains(&vr(info, "t_x.v")), "a distance depends on positions only");
+    assert!(
+        !deps("contact.tblock.finger.distance").contains(&vr(info, "t_x.v")),
+        "a distance depends on positions only"
+    );
     // sphere_drop: der(quat.w) depends on the other three components and ω only.
     let sim = Simulation::from_file(&crate::common::scene("sphere_drop")).unwrap();
     let info = sim.info();
     let d = deps_in(info, "der(ball.quat.w)");
-    let expect: Vec<u32> = ["ball.quat.x", "ball.quat.y", "ball.quat.z", "ball.angvel.x", "ball.angvel.y", "ball.angvel.z"].iter().map(|n| vr(info, n)).collect();
+    let expect: Vec<u32> = [
+        "ball.quat.x",
+        "ball.quat.y",
+        "ball.quat.z",
+        "ball.angvel.x",
+        "ball.angvel.y",
+        "ball.angvel.z",
+    ]
+    .iter()
+    .map(|n| vr(info, n))
+    .collect();
     assert_eq!(d, expect);
 }
 
@@ -234,11 +336,32 @@ fn directional_derivative_refuses_what_is_not_a_known_or_unknown() {
     let info = inst.model().info().clone();
     let force = vr(&info, "contact.tblock.finger.force.y");
     let mut out = [0.0];
-    assert_eq!(inst.get_directional_derivative(&[force], &[vr(&info, "solver.step")], &[1.0], &mut out), fmi2Error);
-    assert!(log.lock().unwrap().last().unwrap().2.contains("solver.step (value reference"), "{:?}", log.lock().unwrap().last());
-    assert_eq!(inst.get_directional_derivative(&[vr(&info, "act_x.ctrl")], &[force], &[1.0], &mut out), fmi2Error);
-    assert_eq!(inst.get_directional_derivative(&[force], &[vr(&info, "t_x.q")], &[f64::NAN], &mut out), fmi2Error);
-    assert_eq!(inst.get_directional_derivative(&[force], &[9999], &[1.0], &mut out), fmi2Error);
+    assert_eq!(
+        inst.get_directional_derivative(&[force], &[vr(&info, "solver.step")], &[1.0], &mut out),
+        fmi2Error
+    );
+    assert!(
+        log.lock()
+            .unwrap()
+            .last()
+            .unwrap()
+            .2
+            .contains("solver.step (value reference"),
+        "{:?}",
+        log.lock().unwrap().last()
+    );
+    assert_eq!(
+        inst.get_directional_derivative(&[vr(&info, "act_x.ctrl")], &[force], &[1.0], &mut out),
+        fmi2Error
+    );
+    assert_eq!(
+        inst.get_directional_derivative(&[force], &[vr(&info, "t_x.q")], &[f64::NAN], &mut out),
+        fmi2Error
+    );
+    assert_eq!(
+        inst.get_directional_derivative(&[force], &[9999], &[1.0], &mut out),
+        fmi2Error
+    );
 }
 
 /// Saves a state after `before` steps, runs `after` more; restores (directly, and after a
@@ -249,14 +372,24 @@ fn a_rollout_resumed_from_a_saved_or_serialized_state_is_bit_identical() {
         let (mut inst, _) = initialized(&name, Interface::CoSimulation);
         let h = 0.01;
         let (before, after) = (30, 20);
-        let ctrl: Vec<u32> = inst.model().info().variables.iter().filter(|v| v.causality == Causality::Input).map(|v| v.value_reference).collect();
+        let ctrl: Vec<u32> = inst
+            .model()
+            .info()
+            .variables
+            .iter()
+            .filter(|v| v.causality == Causality::Input)
+            .map(|v| v.value_reference)
+            .collect();
         let run = |inst: &mut Instance<Simulation>, from: usize, n: usize| -> Vec<Vec<u64>> {
             (from..from + n)
                 .map(|k| {
                     // A control signal that changes every step, so the inputs are part of what
                     // must be reproduced.
                     for (i, &c) in ctrl.iter().enumerate() {
-                        assert_eq!(inst.set_real(&[c], &[0.05 * ((k + i) as f64 * 0.3).sin()]), fmi2OK);
+                        assert_eq!(
+                            inst.set_real(&[c], &[0.05 * ((k + i) as f64 * 0.3).sin()]),
+                            fmi2OK
+                        );
                     }
                     assert_eq!(inst.do_step(k as f64 * h, h, false), fmi2OK);
                     outputs(inst)
@@ -269,7 +402,11 @@ fn a_rollout_resumed_from_a_saved_or_serialized_state_is_bit_identical() {
         let reference = run(&mut inst, before, after);
 
         assert_eq!(inst.set_fmu_state(saved), fmi2OK);
-        assert_eq!(run(&mut inst, before, after), reference, "{name}: resumed from a saved state");
+        assert_eq!(
+            run(&mut inst, before, after),
+            reference,
+            "{name}: resumed from a saved state"
+        );
 
         let mut size = 0;
         assert_eq!(inst.serialized_fmu_state_size(saved, &mut size), fmi2OK);
@@ -278,14 +415,22 @@ fn a_rollout_resumed_from_a_saved_or_serialized_state_is_bit_identical() {
         let mut restored = None;
         assert_eq!(inst.deserialize_fmu_state(&bytes, &mut restored), fmi2OK);
         assert_eq!(inst.set_fmu_state(restored), fmi2OK);
-        assert_eq!(run(&mut inst, before, after), reference, "{name}: resumed from a deserialized state");
+        assert_eq!(
+            run(&mut inst, before, after),
+            reference,
+            "{name}: resumed from a deserialized state"
+        );
 
         // Another instance (as another process would) continues from the bytes.
         let (mut fresh, _) = initialized(&name, Interface::CoSimulation);
         let mut slot = None;
         assert_eq!(fresh.deserialize_fmu_state(&bytes, &mut slot), fmi2OK);
         assert_eq!(fresh.set_fmu_state(slot), fmi2OK);
-        assert_eq!(run(&mut fresh, before, after), reference, "{name}: resumed in a fresh instance");
+        assert_eq!(
+            run(&mut fresh, before, after),
+            reference,
+            "{name}: resumed in a fresh instance"
+        );
         let mut s = saved;
         assert_eq!(inst.free_fmu_state(&mut s), fmi2OK);
     }
@@ -305,14 +450,23 @@ fn foreign_old_corrupt_and_truncated_states_are_refused_and_change_nothing() {
     let (mut drop, log) = initialized("sphere_drop", Interface::CoSimulation);
     assert_eq!(drop.do_step(0.0, 0.02, false), fmi2OK);
     let before = outputs(&mut drop);
-    let last = || log.lock().unwrap().last().map(|l| l.2.clone()).unwrap_or_default();
+    let last = || {
+        log.lock()
+            .unwrap()
+            .last()
+            .map(|l| l.2.clone())
+            .unwrap_or_default()
+    };
     let mut slot = None;
     assert_eq!(drop.deserialize_fmu_state(&bytes, &mut slot), fmi2Error);
     assert!(last().contains("belongs to another FMU"), "{}", last());
     let mut old = bytes.clone();
     old[8] = 1;
     assert_eq!(pair.deserialize_fmu_state(&old, &mut slot), fmi2Error);
-    assert_eq!(pair.deserialize_fmu_state(&bytes[..bytes.len() / 2], &mut slot), fmi2Error);
+    assert_eq!(
+        pair.deserialize_fmu_state(&bytes[..bytes.len() / 2], &mut slot),
+        fmi2Error
+    );
     let mut corrupt = bytes.clone();
     let mid = corrupt.len() / 2;
     corrupt[mid] ^= 1;
@@ -350,7 +504,10 @@ fn model_exchange_states_derivatives_and_quaternion_projection() {
     x[3..7].copy_from_slice(&[1.01, 0.0, 0.0, 0.0]);
     assert_eq!(me.set_continuous_states(&x), fmi2OK);
     let (mut enter, mut terminate) = (false, false);
-    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert_eq!(
+        me.completed_integrator_step(true, &mut enter, &mut terminate),
+        fmi2OK
+    );
     assert!(enter && !terminate);
     assert_eq!(me.enter_event_mode(), fmi2OK);
     assert_eq!(me.new_discrete_states(&mut info_ev), fmi2OK);
@@ -358,7 +515,10 @@ fn model_exchange_states_derivatives_and_quaternion_projection() {
     assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
     assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
     assert_eq!(&x[3..7], &[1.0, 0.0, 0.0, 0.0]);
-    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert_eq!(
+        me.completed_integrator_step(true, &mut enter, &mut terminate),
+        fmi2OK
+    );
     assert!(!enter);
     // A zero quaternion is refused and changes nothing.
     let mut bad = x.clone();
@@ -392,7 +552,10 @@ fn model_exchange_keeps_quaternions_unit_under_a_hosts_solver() {
         assert_eq!(me.set_time(k as f64 * h), fmi2OK);
         assert_eq!(me.set_continuous_states(&x), fmi2OK);
         let (mut enter, mut term) = (false, false);
-        assert_eq!(me.completed_integrator_step(true, &mut enter, &mut term), fmi2OK);
+        assert_eq!(
+            me.completed_integrator_step(true, &mut enter, &mut term),
+            fmi2OK
+        );
         if enter {
             events += 1;
             assert_eq!(me.enter_event_mode(), fmi2OK);
@@ -404,7 +567,10 @@ fn model_exchange_keeps_quaternions_unit_under_a_hosts_solver() {
         let norm = x[3..7].iter().map(|c| c * c).sum::<f64>().sqrt();
         // Explicit Euler grows the norm by ½ h² |ω|² / 4 ≈ 5e-6 per step: one step past the
         // tolerance at most.
-        assert!((norm - 1.0).abs() < scm::sim::QUATERNION_DRIFT_TOLERANCE + 1e-5, "step {k}: |q| = {norm}");
+        assert!(
+            (norm - 1.0).abs() < scm::sim::QUATERNION_DRIFT_TOLERANCE + 1e-5,
+            "step {k}: |q| = {norm}"
+        );
     }
     assert!(events > 0, "the drift never triggered a projection");
 }
@@ -413,7 +579,12 @@ fn model_exchange_keeps_quaternions_unit_under_a_hosts_solver() {
 fn tunable_parameters_take_effect_between_steps_and_reset_restores_start_values() {
     let (mut inst, _) = initialized("sphere_drop", Interface::CoSimulation);
     let info = inst.model().info().clone();
-    let (eps2, z, fz, step) = (vr(&info, "scm.eps2"), vr(&info, "ball.pos.z"), vr(&info, "contact.world.ball.force.z"), vr(&info, "solver.step"));
+    let (eps2, z, fz, step) = (
+        vr(&info, "scm.eps2"),
+        vr(&info, "ball.pos.z"),
+        vr(&info, "contact.world.ball.force.z"),
+        vr(&info, "solver.step"),
+    );
     let eps2_start = real(&mut inst, eps2);
     for k in 0..60 {
         assert_eq!(inst.do_step(k as f64 * 0.01, 0.01, false), fmi2OK);
@@ -427,7 +598,10 @@ fn tunable_parameters_take_effect_between_steps_and_reset_restores_start_values(
     assert_eq!(inst.set_real(&[eps2], &[10.0 * eps2_start]), fmi2OK);
     assert_eq!(inst.do_step(0.6, 0.01, false), fmi2OK);
     let f_wider = real(&mut inst, fz);
-    assert!((f_same - f_wider).abs() > 1e-3 * f_same.abs(), "eps2 had no effect: {f_same} vs {f_wider}");
+    assert!(
+        (f_same - f_wider).abs() > 1e-3 * f_same.abs(),
+        "eps2 had no effect: {f_same} vs {f_wider}"
+    );
     // Out of range: refused, unchanged.
     assert_eq!(inst.set_real(&[eps2], &[-1.0]), fmi2Error);
     assert_eq!(real(&mut inst, eps2), 10.0 * eps2_start);
@@ -446,7 +620,13 @@ fn tunable_parameters_take_effect_between_steps_and_reset_restores_start_values(
 #[test]
 fn contact_diagnostics_follow_the_log_category() {
     let (mut inst, log) = initialized("sphere_pair", Interface::CoSimulation);
-    let contact = |log: &Log| log.lock().unwrap().iter().filter(|l| l.1 == "logContact").count();
+    let contact = |log: &Log| {
+        log.lock()
+            .unwrap()
+            .iter()
+            .filter(|l| l.1 == "logContact")
+            .count()
+    };
     assert_eq!(inst.do_step(0.0, 0.01, false), fmi2OK);
     assert_eq!(contact(&log), 0, "off by default (loggingOn = false)");
     assert_eq!(inst.set_debug_logging(true, &["logContact"]), fmi2OK);
@@ -455,7 +635,13 @@ fn contact_diagnostics_follow_the_log_category() {
     assert_eq!(contact(&log), 2, "one message per pair and step");
     let last = log.lock().unwrap().last().unwrap().clone();
     assert_eq!(last.0, fmi2OK);
-    assert!(last.2.starts_with("t = 0.03 s: contact big-small: distance D = ") && last.2.contains("force on big"), "{}", last.2);
+    assert!(
+        last.2
+            .starts_with("t = 0.03 s: contact big-small: distance D = ")
+            && last.2.contains("force on big"),
+        "{}",
+        last.2
+    );
     assert!(inst.is_logging(LogCategory::Contact) && !inst.is_logging(LogCategory::Events));
     assert_eq!(inst.set_debug_logging(false, &["logContact"]), fmi2OK);
     assert_eq!(inst.do_step(0.03, 0.01, false), fmi2OK);
@@ -472,7 +658,10 @@ fn model_exchange_mocap_inputs_act_at_once_and_their_rate_is_the_velocity() {
     let name = "mocap_push";
     let (mut me, log) = initialized(name, Interface::ModelExchange);
     let info = me.model().info().clone();
-    let (px, fx) = (vr(&info, "paddle.pos.x"), vr(&info, "contact.box.paddle.force.x"));
+    let (px, fx) = (
+        vr(&info, "paddle.pos.x"),
+        vr(&info, "contact.box.paddle.force.x"),
+    );
     let mut event = fmi2EventInfo::default();
     assert_eq!(me.new_discrete_states(&mut event), fmi2OK);
     assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
@@ -484,10 +673,26 @@ fn model_exchange_mocap_inputs_act_at_once_and_their_rate_is_the_velocity() {
     assert_eq!(me.set_real(&[px], &[x_in]), fmi2OK);
     let f = real(&mut me, fx);
     assert!(f > 1.0, "force on the box {f} N");
-    let deps = info.structure.outputs.iter().find(|(u, _)| *u == fx).unwrap().1.clone().unwrap();
-    assert!(deps.contains(&px), "ModelStructure: {fx} does not list paddle.pos.x");
+    let deps = info
+        .structure
+        .outputs
+        .iter()
+        .find(|(u, _)| *u == fx)
+        .unwrap()
+        .1
+        .clone()
+        .unwrap();
+    assert!(
+        deps.contains(&px),
+        "ModelStructure: {fx} does not list paddle.pos.x"
+    );
     let mut exact = [0.0];
-    assert_eq!(me.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact), fmi2OK, "{:?}", log.lock().unwrap().last());
+    assert_eq!(
+        me.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact),
+        fmi2OK,
+        "{:?}",
+        log.lock().unwrap().last()
+    );
     let h = 1e-8;
     let mut at = |x: f64| {
         assert_eq!(me.set_real(&[px], &[x]), fmi2OK);
@@ -497,21 +702,38 @@ fn model_exchange_mocap_inputs_act_at_once_and_their_rate_is_the_velocity() {
     at(x_in);
     // Central differences at h = 1e-8 m on a force of ~10 N with slope ~1e4 N/m: truncation
     // (h/ε3)² = 1e-8 relative, round-off ~1e-16 · 10 N / 1e-8 m = 1e-7 N/m.
-    assert!((exact[0] - fd).abs() <= 1e-6 * fd.abs(), "exact {} vs central difference {fd}", exact[0]);
+    assert!(
+        (exact[0] - fd).abs() <= 1e-6 * fd.abs(),
+        "exact {} vs central difference {fd}",
+        exact[0]
+    );
     // The velocity: the input moves 1 mm over a completed step of 10 ms: 0.1 m/s along x.
     let (mut enter, mut terminate) = (false, false);
-    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert_eq!(
+        me.completed_integrator_step(true, &mut enter, &mut terminate),
+        fmi2OK
+    );
     assert_eq!(me.set_time(0.01), fmi2OK);
     assert_eq!(me.set_real(&[px], &[x_in + 1e-3]), fmi2OK);
-    assert_eq!(me.completed_integrator_step(true, &mut enter, &mut terminate), fmi2OK);
+    assert_eq!(
+        me.completed_integrator_step(true, &mut enter, &mut terminate),
+        fmi2OK
+    );
     let mocap = &me.model().current.mocap;
-    assert!((mocap[7] - 0.1).abs() < 1e-9 && mocap[8] == 0.0 && mocap[9] == 0.0, "paddle velocity {:?}", &mocap[7..13]);
+    assert!(
+        (mocap[7] - 0.1).abs() < 1e-9 && mocap[8] == 0.0 && mocap[9] == 0.0,
+        "paddle velocity {:?}",
+        &mocap[7..13]
+    );
 
     // Co-Simulation: the same input is a target, nothing acts at once, its partial is zero.
     let (mut cs, _) = initialized(name, Interface::CoSimulation);
     assert_eq!(cs.set_real(&[px], &[x_in]), fmi2OK);
     assert!(real(&mut cs, fx).abs() < 1e-9);
-    assert_eq!(cs.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact), fmi2OK);
+    assert_eq!(
+        cs.get_directional_derivative(&[fx], &[px], &[1.0], &mut exact),
+        fmi2OK
+    );
     assert_eq!(exact[0], 0.0);
     // ... and it is reached at the end of the next step.
     assert_eq!(cs.do_step(0.0, 0.01, false), fmi2OK);

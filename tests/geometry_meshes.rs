@@ -22,13 +22,27 @@ fn cube_obj(drop: Option<usize>, flip: &[usize]) -> String {
     for i in 0..8 {
         s += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
     }
-    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-    let tris: Vec<[usize; 3]> = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let tris: Vec<[usize; 3]> = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
     for (k, t) in tris.iter().enumerate() {
         if Some(k) == drop {
             continue;
         }
-        let t = if flip.contains(&k) { [t[0], t[2], t[1]] } else { *t };
+        let t = if flip.contains(&k) {
+            [t[0], t[2], t[1]]
+        } else {
+            *t
+        };
         s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
     }
     s
@@ -44,24 +58,73 @@ fn load(name: &str, text: &[u8]) -> Result<(TriMesh, Vec<String>), scm::geometry
 fn each_bad_mesh_gives_its_error_naming_the_file() {
     type Case = (&'static str, Vec<u8>, fn(&MeshProblem) -> bool);
     let cases: Vec<Case> = vec![
-        ("open.obj", cube_obj(Some(3), &[]).into_bytes(), |p| matches!(p, MeshProblem::Open { count: 3, .. })),
-        ("inconsistent.obj", cube_obj(None, &[5]).into_bytes(), |p| matches!(p, MeshProblem::Inconsistent { .. })),
-        ("degenerate.obj", (cube_obj(None, &[]) + "v 0 0 0\nf 1 9 2\n").into_bytes(), |p| matches!(p, MeshProblem::Degenerate { count: 1, first: 12 })),
-        ("flat.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n".to_vec(), |p| matches!(p, MeshProblem::ZeroVolume(_))),
-        ("empty.obj", b"# nothing\n".to_vec(), |p| matches!(p, MeshProblem::Empty)),
-        ("garbage.stl", vec![0xde, 0xad, 0xbe, 0xef, 1, 2, 3], |p| matches!(p, MeshProblem::Parse(_))),
-        ("truncated.stl", { let mut b = vec![b' '; 80]; b.extend(1000u32.to_le_bytes()); b.extend([0u8; 30]); b }, |p| matches!(p, MeshProblem::Parse(_))),
-        ("bad.obj", b"v 0 0 0\nf 1 2 3\n".to_vec(), |p| matches!(p, MeshProblem::Parse(_))),
-        ("mesh.ply", b"ply\n".to_vec(), |p| matches!(p, MeshProblem::Format(_))),
+        ("open.obj", cube_obj(Some(3), &[]).into_bytes(), |p| {
+            matches!(p, MeshProblem::Open { count: 3, .. })
+        }),
+        ("inconsistent.obj", cube_obj(None, &[5]).into_bytes(), |p| {
+            matches!(p, MeshProblem::Inconsistent { .. })
+        }),
+        (
+            "degenerate.obj",
+            (cube_obj(None, &[]) + "v 0 0 0\nf 1 9 2\n").into_bytes(),
+            |p| {
+                matches!(
+                    p,
+                    MeshProblem::Degenerate {
+                        count: 1,
+                        first: 12
+                    }
+                )
+            },
+        ),
+        (
+            "flat.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n".to_vec(),
+            |p| matches!(p, MeshProblem::ZeroVolume(_)),
+        ),
+        ("empty.obj", b"# nothing\n".to_vec(), |p| {
+            matches!(p, MeshProblem::Empty)
+        }),
+        ("garbage.stl", vec![0xde, 0xad, 0xbe, 0xef, 1, 2, 3], |p| {
+            matches!(p, MeshProblem::Parse(_))
+        }),
+        (
+            "truncated.stl",
+            {
+                let mut b = vec![b' '; 80];
+                b.extend(1000u32.to_le_bytes());
+                b.extend([0u8; 30]);
+                b
+            },
+            |p| matches!(p, MeshProblem::Parse(_)),
+        ),
+        ("bad.obj", b"v 0 0 0\nf 1 2 3\n".to_vec(), |p| {
+            matches!(p, MeshProblem::Parse(_))
+        }),
+        ("mesh.ply", b"ply\n".to_vec(), |p| {
+            matches!(p, MeshProblem::Format(_))
+        }),
     ];
     for (name, bytes, expected) in cases {
-        let e = load(name, &bytes).err().unwrap_or_else(|| panic!("{name}: accepted"));
+        let e = load(name, &bytes)
+            .err()
+            .unwrap_or_else(|| panic!("{name}: accepted"));
         assert!(expected(&e.problem), "{name}: {e}");
-        assert!(e.to_string().contains(name), "{name}: the message does not name the file: {e}");
+        assert!(
+            e.to_string().contains(name),
+            "{name}: the message does not name the file: {e}"
+        );
         println!("{e}");
     }
-    let e = TriMesh::load(Path::new("/nonexistent/dir/missing.stl"), &Vector3::repeat(1.0)).unwrap_err();
-    assert!(matches!(e.problem, MeshProblem::Missing(_)) && e.to_string().contains("missing.stl"), "{e}");
+    let e = TriMesh::load(
+        Path::new("/nonexistent/dir/missing.stl"),
+        &Vector3::repeat(1.0),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e.problem, MeshProblem::Missing(_)) && e.to_string().contains("missing.stl"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -69,13 +132,19 @@ fn an_inward_mesh_is_flipped_with_a_warning() {
     let all: Vec<usize> = (0..12).collect();
     let (m, warnings) = load("inward.obj", cube_obj(None, &all).as_bytes()).unwrap();
     assert_eq!(warnings.len(), 1, "{warnings:?}");
-    assert!(warnings[0].contains("inward.obj") && warnings[0].contains("flipped"), "{warnings:?}");
+    assert!(
+        warnings[0].contains("inward.obj") && warnings[0].contains("flipped"),
+        "{warnings:?}"
+    );
     assert!((m.mass_properties().volume - 1.0).abs() < 1e-12);
     // A mirroring scale turns it inside out too: fixed silently (the file is fine).
     let p = tmp("cube.obj");
     std::fs::write(&p, cube_obj(None, &[])).unwrap();
     let (m, w) = TriMesh::load(&p, &Vector3::new(-2.0, 1.0, 1.0)).unwrap();
-    assert!(w.is_empty() && (m.mass_properties().volume - 2.0).abs() < 1e-12, "{w:?}");
+    assert!(
+        w.is_empty() && (m.mass_properties().volume - 2.0).abs() < 1e-12,
+        "{w:?}"
+    );
 }
 
 #[test]
@@ -91,22 +160,35 @@ fn a_scene_names_the_mesh_problem_and_its_line() {
 </mujoco>"#;
     let e = scm::scene::load_str(xml, &dir.join("s.xml")).unwrap_err();
     assert_eq!((e.line, e.element.as_str()), (3, "mesh"), "{e}");
-    assert!(e.message.contains("open.obj") && e.message.contains("not watertight"), "{e}");
-    let e = scm::scene::load_str(&xml.replace("open.obj", "none.obj"), &dir.join("s.xml")).unwrap_err();
-    assert!(e.message.contains("none.obj") && e.message.contains("cannot read"), "{e}");
+    assert!(
+        e.message.contains("open.obj") && e.message.contains("not watertight"),
+        "{e}"
+    );
+    let e =
+        scm::scene::load_str(&xml.replace("open.obj", "none.obj"), &dir.join("s.xml")).unwrap_err();
+    assert!(
+        e.message.contains("none.obj") && e.message.contains("cannot read"),
+        "{e}"
+    );
 }
 
 #[test]
 fn horseshoe_rests_on_two_separated_modes_without_sideways_bias() {
     let sc = scm::scene::load(&scene("horseshoe")).unwrap();
     let m = &sc.model;
-    let (bar, ring) = (m.tree.bodies.iter().position(|b| b.name == "bar").unwrap(), m.tree.bodies.iter().position(|b| b.name == "ring").unwrap());
+    let (bar, ring) = (
+        m.tree.bodies.iter().position(|b| b.name == "bar").unwrap(),
+        m.tree.bodies.iter().position(|b| b.name == "ring").unwrap(),
+    );
     // The ring lowered until it presses on the bar (bar top at z = 0.02; the tube's lowest
     // facet is r cos 18° = 14.27 mm below the ring's centre), 0.3 mm deep.
     let mut q = m.tree.q0();
     q[2] = 0.02 + 0.015 * (18f64).to_radians().cos() - 0.0003;
     let kin = m.tree.kinematics(&q, &vec![0.0; m.tree.nv]);
-    let (ca, cb) = (m.colliders[bar].as_ref().unwrap(), m.colliders[ring].as_ref().unwrap());
+    let (ca, cb) = (
+        m.colliders[bar].as_ref().unwrap(),
+        m.colliders[ring].as_ref().unwrap(),
+    );
     let (fa, fb) = (&kin.frames[bar], &kin.frames[ring]);
     let band = separation_band(ca, fa, cb, fb, m.contact.eps1, m.contact.eps2);
     let dist = SeparationDistribution::from_band(&band, m.contact.eps2);
@@ -127,10 +209,16 @@ fn horseshoe_rests_on_two_separated_modes_without_sideways_bias() {
     }
     println!("weight at x < -3 cm: {left}, x > 3 cm: {right}, between: {middle}");
     // Two modes, one at each place the ring crosses the bar (x = ±6 cm), nothing between.
-    assert!(left > 0.45 && right > 0.45 && middle < 1e-6, "{left} {right} {middle}");
+    assert!(
+        left > 0.45 && right > 0.45 && middle < 1e-6,
+        "{left} {right} {middle}"
+    );
     let c = scm::contact::pair_contact(ca, fa, cb, fb, &m.contact);
     // Symmetric contact: the force on the ring is vertical, and at rest it is close to the
     // weight (0.3 kg): the height above was chosen near the resting height.
     let f = c.on_b.force;
-    assert!(f.z > 0.0 && f.x.abs() < 1e-9 * f.z && f.y.abs() < 1e-9 * f.z, "{f:?}");
+    assert!(
+        f.z > 0.0 && f.x.abs() < 1e-9 * f.z && f.y.abs() < 1e-9 * f.z,
+        "{f:?}"
+    );
 }

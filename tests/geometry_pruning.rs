@@ -10,13 +10,29 @@ use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation,
 use scm::geometry::{ssdf, ssdf_naive, Shape};
 
 fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
-    ContactParams { eps1, eps2, eps3: 1e-4, stiffness: 1e4, dissipation_velocity: 0.1, stiction_velocity: 0.05, friction: 0.5, dissipation: Dissipation::Paper }
+    ContactParams {
+        eps1,
+        eps2,
+        eps3: 1e-4,
+        stiffness: 1e4,
+        dissipation_velocity: 0.1,
+        stiction_velocity: 0.05,
+        friction: 0.5,
+        dissipation: Dissipation::Paper,
+    }
 }
 
 fn random_frame(rng: &mut Lcg, origin: Vector3<f64>) -> Frame<f64> {
     let axis = rng.direction();
-    let rot = Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), rng.range(-3.0, 3.0)).into_inner();
-    Frame { rotation: rot, origin, linvel: rng.direction() * rng.range(0.0, 0.3), angvel: rng.direction() * rng.range(0.0, 2.0) }
+    let rot =
+        Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), rng.range(-3.0, 3.0))
+            .into_inner();
+    Frame {
+        rotation: rot,
+        origin,
+        linvel: rng.direction() * rng.range(0.0, 0.3),
+        angvel: rng.direction() * rng.range(0.0, 2.0),
+    }
 }
 
 /// Wrenches agree to 1e-12 relative to the larger of their size and the force at touching
@@ -25,23 +41,45 @@ fn random_frame(rng: &mut Lcg, origin: Vector3<f64>) -> Frame<f64> {
 /// the contact force means anything. The distance agrees to 1e-12 of `|D| + ε2`.
 fn assert_close(p: &PairContact<f64>, n: &PairContact<f64>, eps2: f64, what: &str) {
     let f0 = 1e4 * 1e-4;
-    for (x, y, name, scale) in [(p.on_a.force, n.on_a.force, "force a", f0), (p.on_b.force, n.on_b.force, "force b", f0), (p.on_a.torque, n.on_a.torque, "torque a", 0.2 * f0), (p.on_b.torque, n.on_b.torque, "torque b", 0.2 * f0)] {
-        assert!((x - y).norm() <= 1e-12 * (y.norm() + scale), "{what}: {name}: pruned {x:?} vs naive {y:?} (rel {:e})", (x - y).norm() / y.norm());
+    for (x, y, name, scale) in [
+        (p.on_a.force, n.on_a.force, "force a", f0),
+        (p.on_b.force, n.on_b.force, "force b", f0),
+        (p.on_a.torque, n.on_a.torque, "torque a", 0.2 * f0),
+        (p.on_b.torque, n.on_b.torque, "torque b", 0.2 * f0),
+    ] {
+        assert!(
+            (x - y).norm() <= 1e-12 * (y.norm() + scale),
+            "{what}: {name}: pruned {x:?} vs naive {y:?} (rel {:e})",
+            (x - y).norm() / y.norm()
+        );
     }
-    assert!((p.distance - n.distance).abs() <= 1e-12 * (n.distance.abs() + eps2), "{what}: distance {} vs {}", p.distance, n.distance);
+    assert!(
+        (p.distance - n.distance).abs() <= 1e-12 * (n.distance.abs() + eps2),
+        "{what}: distance {} vs {}",
+        p.distance,
+        n.distance
+    );
 }
 
 #[test]
 fn pruned_ssdf_matches_naive_everywhere() {
     let mut rng = Lcg(17);
-    let shapes = [Shape::Sphere { radius: 0.1 }, Shape::Box { half: Vector3::new(0.1, 0.04, 0.02) }];
+    let shapes = [
+        Shape::Sphere { radius: 0.1 },
+        Shape::Box {
+            half: Vector3::new(0.1, 0.04, 0.02),
+        },
+    ];
     for shape in shapes {
         let s = shape.sample(0.005);
         for _ in 0..300 {
             let p = rng.direction() * 10f64.powf(rng.range(-3.0, 1.0));
             let eps1 = 10f64.powf(rng.range(-9.0, -2.0));
             let (a, b) = (ssdf(&s, &p, eps1), ssdf_naive(&s, &p, eps1));
-            assert!((a - b).abs() <= 1e-12 * (b.abs() + eps1.sqrt()), "{p:?} eps1 {eps1}: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 1e-12 * (b.abs() + eps1.sqrt()),
+                "{p:?} eps1 {eps1}: {a} vs {b}"
+            );
         }
     }
 }
@@ -50,8 +88,16 @@ fn pruned_ssdf_matches_naive_everywhere() {
 fn pruned_pair_matches_naive_on_random_configurations() {
     let mut rng = Lcg(99);
     let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
-    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.01));
-    let plane = Collider::HalfSpace { point: Vector3::new(0.0, 0.0, 0.01), normal: Vector3::z() };
+    let boxc = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.03),
+        }
+        .sample(0.01),
+    );
+    let plane = Collider::HalfSpace {
+        point: Vector3::new(0.0, 0.0, 0.01),
+        normal: Vector3::z(),
+    };
     let mut pruned_points = 0;
     let mut total_points = 0;
     for case in 0..60 {
@@ -67,23 +113,46 @@ fn pruned_pair_matches_naive_on_random_configurations() {
             2 => rng.range(1.0, 1.3) * reach,
             _ => rng.range(1.0, 2.0),
         };
-        let far = if case % 5 == 0 { Vector3::new(1e5, -3e4, 2e5) } else { Vector3::zeros() };
+        let far = if case % 5 == 0 {
+            Vector3::new(1e5, -3e4, 2e5)
+        } else {
+            Vector3::zeros()
+        };
         let fa = random_frame(&mut rng, far);
         let offset = far + rng.direction() * dist;
-        let fb = if matches!(b, Collider::HalfSpace { .. }) { Frame::identity() } else { random_frame(&mut rng, offset) };
-        let fa = if matches!(b, Collider::HalfSpace { .. }) { Frame { origin: Vector3::new(0.0, 0.0, dist - 0.05), ..fa } } else { fa };
+        let fb = if matches!(b, Collider::HalfSpace { .. }) {
+            Frame::identity()
+        } else {
+            random_frame(&mut rng, offset)
+        };
+        let fa = if matches!(b, Collider::HalfSpace { .. }) {
+            Frame {
+                origin: Vector3::new(0.0, 0.0, dist - 0.05),
+                ..fa
+            }
+        } else {
+            fa
+        };
         for (eps1, eps2) in [(1e-5, 1e-3), (1e-6, 1e-4), (1e-8, 1e-6)] {
             let prm = params(eps1, eps2);
             let p = pair_contact(a, &fa, b, &fb, &prm);
             let n = pair_contact_naive(a, &fa, b, &fb, &prm);
-            assert_close(&p, &n, eps2, &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}"));
+            assert_close(
+                &p,
+                &n,
+                eps2,
+                &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}"),
+            );
             let band = separation_band(a, &fa, b, &fb, eps1, eps2);
             pruned_points += band.skipped;
             total_points += a.len() + b.len();
         }
     }
     println!("query points never evaluated: {pruned_points} of {total_points}");
-    assert!(pruned_points * 4 > total_points, "the band bound prunes little: {pruned_points} of {total_points}");
+    assert!(
+        pruned_points * 4 > total_points,
+        "the band bound prunes little: {pruned_points} of {total_points}"
+    );
 }
 
 /// Fine spheres (whose planes the band walk bounds in closed form, `geometry::radial`) on a
@@ -93,17 +162,33 @@ fn pruned_pair_with_a_fine_sphere_matches_naive() {
     let mut rng = Lcg(7);
     let fine = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.003));
     let other = Collider::Aopc(Shape::Sphere { radius: 0.04 }.sample(0.004));
-    let boxc = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.006));
+    let boxc = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.03),
+        }
+        .sample(0.006),
+    );
     let (mut skipped, mut total) = (0, 0);
     for case in 0..8 {
-        let (b, reach) = if case % 2 == 0 { (&boxc, 0.05 + 0.03) } else { (&other, 0.05 + 0.04) };
+        let (b, reach) = if case % 2 == 0 {
+            (&boxc, 0.05 + 0.03)
+        } else {
+            (&other, 0.05 + 0.04)
+        };
         let depth = [0.0, 0.001, 0.005, 0.02][case / 2];
         let fa = random_frame(&mut rng, Vector3::zeros());
         // Along a random direction at the distance where the bounding spheres would touch for
         // the sphere pair; for the box, above its top face.
         let fb = if case % 2 == 0 {
-            let origin = Vector3::new(rng.range(-0.03, 0.03), rng.range(-0.03, 0.03), -(reach - depth));
-            Frame { rotation: Matrix3::identity(), ..random_frame(&mut rng, origin) }
+            let origin = Vector3::new(
+                rng.range(-0.03, 0.03),
+                rng.range(-0.03, 0.03),
+                -(reach - depth),
+            );
+            Frame {
+                rotation: Matrix3::identity(),
+                ..random_frame(&mut rng, origin)
+            }
         } else {
             let origin = rng.direction() * (reach - depth);
             random_frame(&mut rng, origin)
@@ -112,13 +197,21 @@ fn pruned_pair_with_a_fine_sphere_matches_naive() {
             let prm = params(eps1, eps2);
             let p = pair_contact(&fine, &fa, b, &fb, &prm);
             let n = pair_contact_naive(&fine, &fa, b, &fb, &prm);
-            assert_close(&p, &n, eps2, &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"));
+            assert_close(
+                &p,
+                &n,
+                eps2,
+                &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"),
+            );
             let band = separation_band(&fine, &fa, b, &fb, eps1, eps2);
             skipped += band.skipped;
             total += fine.len() + b.len();
         }
     }
-    assert!(skipped * 2 > total, "the band bound prunes little: {skipped} of {total}");
+    assert!(
+        skipped * 2 > total,
+        "the band bound prunes little: {skipped} of {total}"
+    );
 }
 
 /// Fine boxes (whose planes the band walk bounds face by face, `geometry::cuboid`): a cube
@@ -127,16 +220,31 @@ fn pruned_pair_with_a_fine_sphere_matches_naive() {
 #[test]
 fn pruned_pair_with_fine_boxes_matches_naive() {
     let mut rng = Lcg(11);
-    let a = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.005));
-    let b = Collider::Aopc(Shape::Box { half: Vector3::repeat(0.04) }.sample(0.0045));
+    let a = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.03),
+        }
+        .sample(0.005),
+    );
+    let b = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::repeat(0.04),
+        }
+        .sample(0.0045),
+    );
     for c in [&a, &b] {
         let Collider::Aopc(s) = c else { unreachable!() };
-        assert!(s.bvh().cuboid.is_some(), "a sampled box has its certificate");
+        assert!(
+            s.bvh().cuboid.is_some(),
+            "a sampled box has its certificate"
+        );
     }
     let down = [
         Matrix3::identity(),
         Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_4, 0.0, 0.2).into_inner(),
-        Rotation3::rotation_between(&Vector3::new(1.0, 1.0, 1.0), &-Vector3::z()).unwrap().into_inner(),
+        Rotation3::rotation_between(&Vector3::new(1.0, 1.0, 1.0), &-Vector3::z())
+            .unwrap()
+            .into_inner(),
     ];
     let (mut skipped, mut total) = (0, 0);
     for case in 0..12 {
@@ -145,46 +253,107 @@ fn pruned_pair_with_fine_boxes_matches_naive() {
         // The cube's lowest point `depth` below the box's top face; every other case over the
         // box's edge at x = 0.1.
         let low = 0.04 * (0..3).map(|k| rot[(2, k)].abs()).sum::<f64>();
-        let x = if case % 2 == 0 { rng.range(-0.03, 0.03) } else { 0.1 + rng.range(-0.01, 0.01) };
+        let x = if case % 2 == 0 {
+            rng.range(-0.03, 0.03)
+        } else {
+            0.1 + rng.range(-0.01, 0.01)
+        };
         let origin = Vector3::new(x, rng.range(-0.03, 0.03), 0.03 - depth + low);
-        let fb = Frame { rotation: rot, ..random_frame(&mut rng, origin) };
-        let fa = Frame { rotation: Matrix3::identity(), ..random_frame(&mut rng, Vector3::zeros()) };
+        let fb = Frame {
+            rotation: rot,
+            ..random_frame(&mut rng, origin)
+        };
+        let fa = Frame {
+            rotation: Matrix3::identity(),
+            ..random_frame(&mut rng, Vector3::zeros())
+        };
         for (eps1, eps2) in [(1e-5, 1e-3), (1e-9, 1e-7)] {
             let prm = params(eps1, eps2);
             let p = pair_contact(&a, &fa, &b, &fb, &prm);
             let n = pair_contact_naive(&a, &fa, &b, &fb, &prm);
-            assert_close(&p, &n, eps2, &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"));
+            assert_close(
+                &p,
+                &n,
+                eps2,
+                &format!("case {case}, depth {depth}, eps {eps1:e}/{eps2:e}"),
+            );
             let band = separation_band(&a, &fa, &b, &fb, eps1, eps2);
             skipped += band.skipped;
             total += a.len() + b.len();
         }
     }
-    assert!(skipped * 2 > total, "the band bound prunes little: {skipped} of {total}");
+    assert!(
+        skipped * 2 > total,
+        "the band bound prunes little: {skipped} of {total}"
+    );
 }
 
 #[test]
 fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
     // A box resting on a tilted box, both moving: derivatives with respect to the second
     // body's position and velocity.
-    let a = Collider::Aopc(Shape::Box { half: Vector3::new(0.1, 0.06, 0.03) }.sample(0.01));
-    let b = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
+    let a = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.03),
+        }
+        .sample(0.01),
+    );
+    let b = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
     let prm = params(1e-5, 1e-3);
     let rot = Rotation3::from_euler_angles(0.3, -0.2, 0.5).into_inner();
-    let fa = Frame { rotation: Matrix3::identity(), origin: Vector3::zeros(), linvel: Vector3::new(0.01, 0.0, 0.0), angvel: Vector3::new(0.0, 0.0, 0.3) };
+    let fa = Frame {
+        rotation: Matrix3::identity(),
+        origin: Vector3::zeros(),
+        linvel: Vector3::new(0.01, 0.0, 0.0),
+        angvel: Vector3::new(0.0, 0.0, 0.3),
+    };
     let eval = |x: &[Dual64]| -> Vec<Dual64> {
-        let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
-        let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
+        let fb = Frame {
+            rotation: rot.map(Dual64::from),
+            origin: Vector3::new(x[0], x[1], x[2]),
+            linvel: Vector3::new(x[3], x[4], x[5]),
+            angvel: Vector3::zeros(),
+        };
+        let fa = Frame {
+            rotation: fa.rotation.map(Dual64::from),
+            origin: fa.origin.map(Dual64::from),
+            linvel: fa.linvel.map(Dual64::from),
+            angvel: fa.angvel.map(Dual64::from),
+        };
         pair_outputs(&pair_contact(&a, &fa, &b, &fb, &prm.lift()))
     };
     let eval_naive = |x: &[Dual64]| -> Vec<Dual64> {
-        let fb = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(x[0], x[1], x[2]), linvel: Vector3::new(x[3], x[4], x[5]), angvel: Vector3::zeros() };
-        let fa = Frame { rotation: fa.rotation.map(Dual64::from), origin: fa.origin.map(Dual64::from), linvel: fa.linvel.map(Dual64::from), angvel: fa.angvel.map(Dual64::from) };
+        let fb = Frame {
+            rotation: rot.map(Dual64::from),
+            origin: Vector3::new(x[0], x[1], x[2]),
+            linvel: Vector3::new(x[3], x[4], x[5]),
+            angvel: Vector3::zeros(),
+        };
+        let fa = Frame {
+            rotation: fa.rotation.map(Dual64::from),
+            origin: fa.origin.map(Dual64::from),
+            linvel: fa.linvel.map(Dual64::from),
+            angvel: fa.angvel.map(Dual64::from),
+        };
         pair_outputs(&pair_contact_naive(&a, &fa, &b, &fb, &prm.lift()))
     };
     let base = [0.02, -0.01, 0.095, 0.0, 0.01, -0.05];
-    let value = |x: &[f64]| -> Vec<f64> { eval(&x.iter().map(|&v| Dual64::from(v)).collect::<Vec<_>>()).iter().map(|d| d.re).collect() };
+    let value = |x: &[f64]| -> Vec<f64> {
+        eval(&x.iter().map(|&v| Dual64::from(v)).collect::<Vec<_>>())
+            .iter()
+            .map(|d| d.re)
+            .collect()
+    };
     let v0 = value(&base);
-    assert!(v0[3] < -1.0 && v0[0] < 0.0, "the boxes should be in contact: {v0:?}");
+    assert!(
+        v0[3] < -1.0 && v0[0] < 0.0,
+        "the boxes should be in contact: {v0:?}"
+    );
     for k in 0..base.len() {
         let mut x: Vec<Dual64> = base.iter().map(|&v| Dual64::from(v)).collect();
         x[k].eps = 1.0;
@@ -192,9 +361,18 @@ fn pruned_pair_gradients_match_central_differences_and_the_naive_duals() {
         let reference: Vec<f64> = eval_naive(&x).iter().map(|d| d.eps).collect();
         let scale = exact.iter().map(|e| e.abs()).fold(0.0, f64::max);
         for i in 0..exact.len() {
-            assert!((exact[i] - reference[i]).abs() <= 1e-10 * scale, "d{i}/dx{k}: pruned {} vs naive {}", exact[i], reference[i]);
+            assert!(
+                (exact[i] - reference[i]).abs() <= 1e-10 * scale,
+                "d{i}/dx{k}: pruned {} vs naive {}",
+                exact[i],
+                reference[i]
+            );
             let fd = central_difference(|y| value(y)[i], &base, k, 1e-7);
-            assert!((exact[i] - fd).abs() <= 1e-5 * scale + 1e-6, "d{i}/dx{k}: dual {} vs fd {fd}", exact[i]);
+            assert!(
+                (exact[i] - fd).abs() <= 1e-5 * scale + 1e-6,
+                "d{i}/dx{k}: dual {} vs fd {fd}",
+                exact[i]
+            );
         }
     }
 }

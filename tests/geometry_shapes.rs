@@ -17,7 +17,11 @@ pub fn torus(big: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
         let u = 2.0 * PI * i as f64 / nu as f64;
         for j in 0..nv {
             let w = 2.0 * PI * j as f64 / nv as f64;
-            v.push(Vector3::new((big + r * w.cos()) * u.cos(), (big + r * w.cos()) * u.sin(), r * w.sin()));
+            v.push(Vector3::new(
+                (big + r * w.cos()) * u.cos(),
+                (big + r * w.cos()) * u.sin(),
+                r * w.sin(),
+            ));
         }
     }
     let idx = |i: usize, j: usize| ((i % nu) * nv + (j % nv)) as u32;
@@ -34,11 +38,36 @@ pub fn torus(big: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
 fn shapes() -> Vec<(&'static str, Shape)> {
     vec![
         ("sphere", Shape::Sphere { radius: 0.1 }),
-        ("box", Shape::Box { half: Vector3::new(0.1, 0.06, 0.04) }),
-        ("capsule", Shape::Capsule { radius: 0.05, half_length: 0.06 }),
-        ("cylinder", Shape::Cylinder { radius: 0.06, half_length: 0.05 }),
-        ("ellipsoid", Shape::Ellipsoid { radii: Vector3::new(0.1, 0.06, 0.04) }),
-        ("torus mesh", Shape::Mesh(Arc::new(torus(0.07, 0.03, 48, 24)))),
+        (
+            "box",
+            Shape::Box {
+                half: Vector3::new(0.1, 0.06, 0.04),
+            },
+        ),
+        (
+            "capsule",
+            Shape::Capsule {
+                radius: 0.05,
+                half_length: 0.06,
+            },
+        ),
+        (
+            "cylinder",
+            Shape::Cylinder {
+                radius: 0.06,
+                half_length: 0.05,
+            },
+        ),
+        (
+            "ellipsoid",
+            Shape::Ellipsoid {
+                radii: Vector3::new(0.1, 0.06, 0.04),
+            },
+        ),
+        (
+            "torus mesh",
+            Shape::Mesh(Arc::new(torus(0.07, 0.03, 48, 24))),
+        ),
     ]
 }
 
@@ -48,16 +77,31 @@ fn aopcs_are_closed_outward_even_and_on_the_surface() {
         let s = shape.sample(0.01);
         let size = shape.size();
         // Closed: Σ n·area = 0 (exact faces; curved areas from a midpoint rule).
-        assert!(s.closure_defect().norm() < 1e-4 * size * size, "{name}: |Σ n area| = {:e}", s.closure_defect().norm());
+        assert!(
+            s.closure_defect().norm() < 1e-4 * size * size,
+            "{name}: |Σ n area| = {:e}",
+            s.closure_defect().norm()
+        );
         // The quads' volume is the shape's up to the chords of curved surfaces (< 1 %).
         let v = shape.volume();
-        assert!((s.enclosed_volume() - v).abs() < 0.01 * v, "{name}: volume {} vs {v}", s.enclosed_volume());
+        assert!(
+            (s.enclosed_volume() - v).abs() < 0.01 * v,
+            "{name}: volume {} vs {v}",
+            s.enclosed_volume()
+        );
         // Points on the surface (the mesh's own triangles: exactly; curved shapes: exactly at
         // their parametric centres; planar caps: chords, within h²/r).
         for (p, n) in s.points.iter().zip(&s.normals) {
-            assert!(shape.sdf(p).abs() < 0.002, "{name}: point {p:?} is {} off the surface", shape.sdf(p));
+            assert!(
+                shape.sdf(p).abs() < 0.002,
+                "{name}: point {p:?} is {} off the surface",
+                shape.sdf(p)
+            );
             // Outward: a step along the normal leaves the solid, one against it enters.
-            assert!(shape.sdf(&(p + n * 0.003)) > shape.sdf(&(p - n * 0.003)), "{name}: normal {n:?} at {p:?} points inward");
+            assert!(
+                shape.sdf(&(p + n * 0.003)) > shape.sdf(&(p - n * 0.003)),
+                "{name}: normal {n:?} at {p:?} points inward"
+            );
         }
         // Even: the nearest-neighbour spacing is about the target (meshes: the input's).
         let h = s.spacing();
@@ -67,16 +111,27 @@ fn aopcs_are_closed_outward_even_and_on_the_surface() {
         // Every quad is wound like its normal.
         for (f, n) in s.faces.iter().zip(&s.normals) {
             let c: Vec<_> = f.iter().map(|&i| s.vertices[i as usize]).collect();
-            assert!((c[2] - c[0]).cross(&(c[3] - c[1])).dot(n) > 0.0, "{name}: a quad is wound against its normal");
+            assert!(
+                (c[2] - c[0]).cross(&(c[3] - c[1])).dot(n) > 0.0,
+                "{name}: a quad is wound against its normal"
+            );
         }
-        println!("{name}: {} points, spacing {h:.4}, volume error {:.2e}", s.len(), (s.enclosed_volume() - v) / v);
+        println!(
+            "{name}: {} points, spacing {h:.4}, volume error {:.2e}",
+            s.len(),
+            (s.enclosed_volume() - v) / v
+        );
     }
 }
 
 #[test]
 fn quads_follow_sharp_edges() {
     // Cylinder: no quad crosses a rim (every quad is on the side or on a cap).
-    let s = Shape::Cylinder { radius: 0.05, half_length: 0.04 }.sample(0.01);
+    let s = Shape::Cylinder {
+        radius: 0.05,
+        half_length: 0.04,
+    }
+    .sample(0.01);
     for f in &s.faces {
         let zs: Vec<f64> = f.iter().map(|&i| s.vertices[i as usize].z).collect();
         let on_cap = zs.iter().all(|z| (z.abs() - 0.04).abs() < 1e-12);
@@ -84,9 +139,17 @@ fn quads_follow_sharp_edges() {
         assert!(on_cap || rims <= 2, "a quad crosses a rim: {zs:?}");
     }
     // The rim is a polygon of vertices at the side's column angles, shared by side and cap.
-    let rim: Vec<_> = s.vertices.iter().filter(|v| (v.z - 0.04).abs() < 1e-12 && (v.xy().norm() - 0.05).abs() < 1e-12).collect();
+    let rim: Vec<_> = s
+        .vertices
+        .iter()
+        .filter(|v| (v.z - 0.04).abs() < 1e-12 && (v.xy().norm() - 0.05).abs() < 1e-12)
+        .collect();
     assert_eq!(rim.len() % 4, 0);
-    assert_eq!(s.vertices.len() + s.faces.len() - 2, s.faces.len() * 2, "V - E + F = 2: a closed, welded quad mesh");
+    assert_eq!(
+        s.vertices.len() + s.faces.len() - 2,
+        s.faces.len() * 2,
+        "V - E + F = 2: a closed, welded quad mesh"
+    );
 }
 
 #[test]
@@ -96,14 +159,22 @@ fn ssdf_sign_is_right_for_every_shape() {
         let aopc = shape.sample(0.01);
         let mut checked = 0;
         for _ in 0..300 {
-            let p = Vector3::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(-0.15, 0.15));
+            let p = Vector3::new(
+                rng.range(-0.2, 0.2),
+                rng.range(-0.2, 0.2),
+                rng.range(-0.15, 0.15),
+            );
             let exact = shape.sdf(&p);
             // At least 5 mm from the surface: the facets (sag below 1 mm) cannot flip the sign.
             if exact.abs() < 0.005 {
                 continue;
             }
             checked += 1;
-            assert_eq!(ssdf(&aopc, &p, 1e-5).signum(), exact.signum(), "{name} at {p:?}: sdf {exact}");
+            assert_eq!(
+                ssdf(&aopc, &p, 1e-5).signum(),
+                exact.signum(),
+                "{name} at {p:?}: sdf {exact}"
+            );
         }
         assert!(checked > 150, "{name}");
     }
@@ -137,20 +208,41 @@ fn ssdf_error_near_the_surface_shrinks_with_spacing_and_eps1() {
             continue; // its spacing is the input mesh's: see the next test
         }
         // ε1 = 0.1 h² keeps the softmin as sharp relative to the spacing at every h.
-        let e: Vec<f64> = [0.02, 0.01, 0.005].iter().map(|&h| near_surface_error(&shape, h, 0.1 * h * h)).collect();
+        let e: Vec<f64> = [0.02, 0.01, 0.005]
+            .iter()
+            .map(|&h| near_surface_error(&shape, h, 0.1 * h * h))
+            .collect();
         println!("{name}: spacing 2, 1, 0.5 cm: {e:?}");
-        assert!(e[1] < 0.8 * e[0] && e[2] < 0.8 * e[1], "{name}: error does not shrink with spacing: {e:?}");
+        assert!(
+            e[1] < 0.8 * e[0] && e[2] < 0.8 * e[1],
+            "{name}: error does not shrink with spacing: {e:?}"
+        );
         assert!(e[2] < 3e-4, "{name}: {e:?}");
-        let e: Vec<f64> = [1e-4, 1e-5, 1e-6].iter().map(|&e1| near_surface_error(&shape, 0.01, e1)).collect();
+        let e: Vec<f64> = [1e-4, 1e-5, 1e-6]
+            .iter()
+            .map(|&e1| near_surface_error(&shape, 0.01, e1))
+            .collect();
         println!("{name}: eps1 1e-4, 1e-5, 1e-6: {e:?}");
-        assert!(e[0] > e[1] && e[1] > e[2], "{name}: error does not shrink with eps1: {e:?}");
+        assert!(
+            e[0] > e[1] && e[1] > e[2],
+            "{name}: error does not shrink with eps1: {e:?}"
+        );
     }
 }
 
 #[test]
 fn ssdf_of_a_mesh_tracks_its_exact_sdf() {
     // Meshes of the same torus at two resolutions: the error near the surface shrinks.
-    let e: Vec<f64> = [(24, 12), (48, 24)].iter().map(|&(nu, nv)| near_surface_error(&Shape::Mesh(Arc::new(torus(0.07, 0.03, nu, nv))), 0.01, 1e-6)).collect();
+    let e: Vec<f64> = [(24, 12), (48, 24)]
+        .iter()
+        .map(|&(nu, nv)| {
+            near_surface_error(
+                &Shape::Mesh(Arc::new(torus(0.07, 0.03, nu, nv))),
+                0.01,
+                1e-6,
+            )
+        })
+        .collect();
     println!("torus mesh 24x12, 48x24: {e:?}");
     assert!(e[1] < 0.6 * e[0] && e[1] < 1e-3, "{e:?}");
 }
@@ -159,7 +251,11 @@ fn ssdf_of_a_mesh_tracks_its_exact_sdf() {
 fn mass_properties_match_closed_forms() {
     // Against independent closed forms per unit density (m⁵ for inertia).
     let (r, h) = (0.05, 0.06);
-    let cap = Shape::Capsule { radius: r, half_length: h }.mass_properties();
+    let cap = Shape::Capsule {
+        radius: r,
+        half_length: h,
+    }
+    .mass_properties();
     let v_cap = PI * r * r * 2.0 * h + 4.0 / 3.0 * PI * r.powi(3);
     assert!((cap.volume - v_cap).abs() < 1e-15);
     // Capsule I_zz: cylinder m r²/2 plus a sphere's 2/5 m r².
@@ -169,13 +265,35 @@ fn mass_properties_match_closed_forms() {
     let ring = torus(0.07, 0.03, 192, 96).mass_properties();
     let (big, tube) = (0.07, 0.03);
     let v = 2.0 * PI * PI * big * tube * tube;
-    assert!((ring.volume - v).abs() < 1e-3 * v, "torus volume {} vs {v}", ring.volume);
+    assert!(
+        (ring.volume - v).abs() < 1e-3 * v,
+        "torus volume {} vs {v}",
+        ring.volume
+    );
     // Torus: I_zz = m (R² + 3/4 r²), I_xx = m (R²/2 + 5/8 r²).
-    assert!((ring.inertia[(2, 2)] - v * (big * big + 0.75 * tube * tube)).abs() < 2e-3 * ring.inertia[(2, 2)]);
-    assert!((ring.inertia[(0, 0)] - v * (big * big / 2.0 + 0.625 * tube * tube)).abs() < 2e-3 * ring.inertia[(0, 0)]);
+    assert!(
+        (ring.inertia[(2, 2)] - v * (big * big + 0.75 * tube * tube)).abs()
+            < 2e-3 * ring.inertia[(2, 2)]
+    );
+    assert!(
+        (ring.inertia[(0, 0)] - v * (big * big / 2.0 + 0.625 * tube * tube)).abs()
+            < 2e-3 * ring.inertia[(0, 0)]
+    );
     assert!(ring.com.norm() < 1e-12);
     // Cylinder and ellipsoid against a numerical integration on a grid (midpoint rule, 1e-3).
-    for shape in [Shape::Cylinder { radius: 0.05, half_length: 0.03 }, Shape::Ellipsoid { radii: Vector3::new(0.05, 0.03, 0.02) }, Shape::Capsule { radius: 0.03, half_length: 0.02 }] {
+    for shape in [
+        Shape::Cylinder {
+            radius: 0.05,
+            half_length: 0.03,
+        },
+        Shape::Ellipsoid {
+            radii: Vector3::new(0.05, 0.03, 0.02),
+        },
+        Shape::Capsule {
+            radius: 0.03,
+            half_length: 0.02,
+        },
+    ] {
         let mp = shape.mass_properties();
         let n = 120;
         let ext = shape.size();
@@ -184,33 +302,60 @@ fn mass_properties_match_closed_forms() {
         for i in 0..n {
             for j in 0..n {
                 for k in 0..n {
-                    let p = Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * step - Vector3::repeat(ext);
+                    let p = Vector3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * step
+                        - Vector3::repeat(ext);
                     if shape.contains(&p) {
                         let dv = step.powi(3);
                         vol += dv;
-                        inertia += (Matrix3::identity() * p.norm_squared() - p * p.transpose()) * dv;
+                        inertia +=
+                            (Matrix3::identity() * p.norm_squared() - p * p.transpose()) * dv;
                     }
                 }
             }
         }
-        assert!((mp.volume - vol).abs() < 5e-3 * vol, "{shape:?}: volume {} vs grid {vol}", mp.volume);
-        assert!((mp.inertia - inertia).norm() < 1e-2 * inertia.norm(), "{shape:?}: inertia {} vs grid {inertia}", mp.inertia);
+        assert!(
+            (mp.volume - vol).abs() < 5e-3 * vol,
+            "{shape:?}: volume {} vs grid {vol}",
+            mp.volume
+        );
+        assert!(
+            (mp.inertia - inertia).norm() < 1e-2 * inertia.norm(),
+            "{shape:?}: inertia {} vs grid {inertia}",
+            mp.inertia
+        );
     }
 }
 
 #[test]
 fn overlapping_boxes_give_the_ssdf_of_their_union() {
     // Two boxes of one body whose union is one box: [-0.1, 0.06] and [-0.04, 0.1] along x.
-    let a = (Shape::Box { half: Vector3::new(0.08, 0.03, 0.02) }, Isometry3::translation(-0.02, 0.0, 0.0));
-    let b = (Shape::Box { half: Vector3::new(0.07, 0.03, 0.02) }, Isometry3::translation(0.03, 0.0, 0.0));
+    let a = (
+        Shape::Box {
+            half: Vector3::new(0.08, 0.03, 0.02),
+        },
+        Isometry3::translation(-0.02, 0.0, 0.0),
+    );
+    let b = (
+        Shape::Box {
+            half: Vector3::new(0.07, 0.03, 0.02),
+        },
+        Isometry3::translation(0.03, 0.0, 0.0),
+    );
     let union = sample_union(&[a.clone(), b.clone()], 0.01);
-    let one = Shape::Box { half: Vector3::new(0.1, 0.03, 0.02) }.sample(0.01);
+    let one = Shape::Box {
+        half: Vector3::new(0.1, 0.03, 0.02),
+    }
+    .sample(0.01);
     assert_eq!(union.len(), one.len(), "interior or duplicate faces remain");
     assert!((union_volume(&[a, b]).0 - 0.2 * 0.06 * 0.04).abs() < 1e-15);
     let mut rng = Lcg(4);
     for _ in 0..300 {
         // Near the shared top, bottom and side surfaces, and across the overlap.
-        let p = Vector3::new(rng.range(-0.12, 0.12), rng.range(-0.05, 0.05), rng.range(-0.04, 0.04));
+        let p = Vector3::new(
+            rng.range(-0.12, 0.12),
+            rng.range(-0.05, 0.05),
+            rng.range(-0.04, 0.04),
+        );
         for eps1 in [1e-4, 1e-5] {
             let (u, o) = (ssdf(&union, &p, eps1), ssdf(&one, &p, eps1));
             assert!((u - o).abs() < 1e-12, "{p:?}: union {u} vs one box {o}");
@@ -220,19 +365,39 @@ fn overlapping_boxes_give_the_ssdf_of_their_union() {
 
 #[test]
 fn t_block_union_has_no_interior_points_and_the_exact_volume() {
-    let bar = (Shape::Box { half: Vector3::new(0.125, 0.025, 0.02) }, Isometry3::translation(0.0, 0.0375, 0.0));
-    let stem = (Shape::Box { half: Vector3::new(0.025, 0.085, 0.02) }, Isometry3::translation(0.0, -0.0525, 0.0));
+    let bar = (
+        Shape::Box {
+            half: Vector3::new(0.125, 0.025, 0.02),
+        },
+        Isometry3::translation(0.0, 0.0375, 0.0),
+    );
+    let stem = (
+        Shape::Box {
+            half: Vector3::new(0.025, 0.085, 0.02),
+        },
+        Isometry3::translation(0.0, -0.0525, 0.0),
+    );
     let s = sample_union(&[bar.clone(), stem.clone()], 0.01);
-    assert!((s.enclosed_volume() - 8.0e-4).abs() < 1e-15, "{}", s.enclosed_volume());
+    assert!(
+        (s.enclosed_volume() - 8.0e-4).abs() < 1e-15,
+        "{}",
+        s.enclosed_volume()
+    );
     assert!(s.closure_defect().norm() < 1e-15);
     // No point strictly inside either box, and no two points at the same place.
     for p in &s.points {
         for (shape, pose) in [&bar, &stem] {
-            assert!(shape.sdf(&(pose.inverse() * nalgebra::Point3::from(*p)).coords) > -1e-12, "interior point {p:?}");
+            assert!(
+                shape.sdf(&(pose.inverse() * nalgebra::Point3::from(*p)).coords) > -1e-12,
+                "interior point {p:?}"
+            );
         }
     }
     let bvh = s.bvh();
-    assert!((0..bvh.len()).all(|k| bvh.nearest_except(&bvh.points[k], k).1 > 1e-8), "duplicate points");
+    assert!(
+        (0..bvh.len()).all(|k| bvh.nearest_except(&bvh.points[k], k).1 > 1e-8),
+        "duplicate points"
+    );
 }
 
 #[test]
@@ -241,38 +406,91 @@ fn union_with_curved_geoms_drops_inside_faces() {
     // the volume close to the union's.
     let parts = [
         (Shape::Sphere { radius: 0.05 }, Isometry3::identity()),
-        (Shape::Capsule { radius: 0.02, half_length: 0.06 }, Isometry3::from_parts(Translation3::new(0.03, 0.0, 0.0), UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI / 2.0))),
+        (
+            Shape::Capsule {
+                radius: 0.02,
+                half_length: 0.06,
+            },
+            Isometry3::from_parts(
+                Translation3::new(0.03, 0.0, 0.0),
+                UnitQuaternion::from_axis_angle(&Vector3::y_axis(), PI / 2.0),
+            ),
+        ),
     ];
     let s = sample_union(&parts, 0.005);
     for p in &s.points {
         for (shape, pose) in &parts {
-            assert!(shape.sdf(&(pose.inverse() * nalgebra::Point3::from(*p)).coords) > -1e-3, "interior point {p:?}");
+            assert!(
+                shape.sdf(&(pose.inverse() * nalgebra::Point3::from(*p)).coords) > -1e-3,
+                "interior point {p:?}"
+            );
         }
     }
     let (v, exact) = union_volume(&parts);
     assert!(!exact);
-    assert!((s.enclosed_volume() - v).abs() < 0.02 * v, "{} vs {v}", s.enclosed_volume());
+    assert!(
+        (s.enclosed_volume() - v).abs() < 0.02 * v,
+        "{} vs {v}",
+        s.enclosed_volume()
+    );
 }
 
 #[test]
 fn soft_top_k_points_find_the_contacts_and_are_smooth() {
     // A box tilted about y resting on a larger box: its lower edge (at x > 0: a turn about y
     // takes +x down) is deeper than anything else, so the points are there, on the contact.
-    let ground = Collider::Aopc(Shape::Box { half: Vector3::new(0.2, 0.2, 0.05) }.sample(0.01));
-    let block = Collider::Aopc(Shape::Box { half: Vector3::new(0.05, 0.05, 0.05) }.sample(0.01));
-    let rot = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.2).to_rotation_matrix().into_inner();
-    let fb = Frame { rotation: rot, origin: Vector3::new(0.0, 0.0, 0.05 + 0.05 * (0.2f64.cos() + 0.2f64.sin()) - 0.002), linvel: Vector3::zeros(), angvel: Vector3::zeros() };
+    let ground = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.2, 0.2, 0.05),
+        }
+        .sample(0.01),
+    );
+    let block = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
+    let rot = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.2)
+        .to_rotation_matrix()
+        .into_inner();
+    let fb = Frame {
+        rotation: rot,
+        origin: Vector3::new(
+            0.0,
+            0.0,
+            0.05 + 0.05 * (0.2f64.cos() + 0.2f64.sin()) - 0.002,
+        ),
+        linvel: Vector3::zeros(),
+        angvel: Vector3::zeros(),
+    };
     let pts = contact_points(&ground, &Frame::identity(), &block, &fb, 1e-5, 1e-3, 3);
     assert_eq!(pts.len(), 3);
     for c in &pts {
-        assert!((c.z - 0.05).abs() < 0.005, "contact point {c:?} is not at the contact height");
+        assert!(
+            (c.z - 0.05).abs() < 0.005,
+            "contact point {c:?} is not at the contact height"
+        );
         assert!(c.x > 0.02, "contact point {c:?} is not at the deeper edge");
     }
     // Derivative of a point with respect to the block's height, against central differences.
     use num_dual::Dual64;
     let at = |z: Dual64| {
-        let f = Frame { rotation: rot.map(Dual64::from), origin: Vector3::new(Dual64::from(0.0), Dual64::from(0.0), z), linvel: Vector3::zeros(), angvel: Vector3::zeros() };
-        contact_points(&ground, &Frame::identity(), &block, &f, Dual64::from(1e-5), Dual64::from(1e-3), 2)
+        let f = Frame {
+            rotation: rot.map(Dual64::from),
+            origin: Vector3::new(Dual64::from(0.0), Dual64::from(0.0), z),
+            linvel: Vector3::zeros(),
+            angvel: Vector3::zeros(),
+        };
+        contact_points(
+            &ground,
+            &Frame::identity(),
+            &block,
+            &f,
+            Dual64::from(1e-5),
+            Dual64::from(1e-3),
+            2,
+        )
     };
     let z0 = fb.origin.z;
     let d = at(Dual64::new(z0, 1.0));
@@ -281,7 +499,11 @@ fn soft_top_k_points_find_the_contacts_and_are_smooth() {
     for k in 0..2 {
         for i in 0..3 {
             let fd = (up[k][i].re - down[k][i].re) / (2.0 * h);
-            assert!((d[k][i].eps - fd).abs() < 1e-4 * (1.0 + fd.abs()), "point {k} axis {i}: dual {} vs fd {fd}", d[k][i].eps);
+            assert!(
+                (d[k][i].eps - fd).abs() < 1e-4 * (1.0 + fd.abs()),
+                "point {k} axis {i}: dual {} vs fd {fd}",
+                d[k][i].eps
+            );
         }
     }
 }

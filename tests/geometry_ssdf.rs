@@ -36,7 +36,15 @@ fn max_error_near_surface(shape: &Shape, spacing: f64, eps1: f64) -> f64 {
     worst
 }
 
-const SHAPES: [(&str, Shape); 2] = [("sphere r=0.1", Shape::Sphere { radius: 0.1 }), ("box 0.2x0.12x0.08", Shape::Box { half: Vector3::new(0.1, 0.06, 0.04) })];
+const SHAPES: [(&str, Shape); 2] = [
+    ("sphere r=0.1", Shape::Sphere { radius: 0.1 }),
+    (
+        "box 0.2x0.12x0.08",
+        Shape::Box {
+            half: Vector3::new(0.1, 0.06, 0.04),
+        },
+    ),
+];
 
 #[test]
 fn ssdf_error_near_the_surface_is_bounded_and_shrinks_with_spacing() {
@@ -49,9 +57,15 @@ fn ssdf_error_near_the_surface_is_bounded_and_shrinks_with_spacing() {
         let mut last = f64::INFINITY;
         for (h, b) in [0.02, 0.01, 0.005].into_iter().zip(bound) {
             let e = max_error_near_surface(shape, h, 0.1 * h * h);
-            println!("{name}: spacing {h} m, eps1 {:.1e} m²: max error {e:.3e} m", 0.1 * h * h);
+            println!(
+                "{name}: spacing {h} m, eps1 {:.1e} m²: max error {e:.3e} m",
+                0.1 * h * h
+            );
             assert!(e < b, "{name} at spacing {h}: error {e} above {b}");
-            assert!(e < 0.75 * last, "{name}: error did not shrink with spacing ({last} -> {e})");
+            assert!(
+                e < 0.75 * last,
+                "{name}: error did not shrink with spacing ({last} -> {e})"
+            );
             last = e;
         }
     }
@@ -61,12 +75,22 @@ fn ssdf_error_near_the_surface_is_bounded_and_shrinks_with_spacing() {
 fn ssdf_error_shrinks_with_eps1() {
     for (name, shape) in SHAPES {
         let h = 0.01;
-        let errors: Vec<f64> = [1e-4, 1e-5, 1e-6].iter().map(|&e1| max_error_near_surface(&shape, h, e1)).collect();
+        let errors: Vec<f64> = [1e-4, 1e-5, 1e-6]
+            .iter()
+            .map(|&e1| max_error_near_surface(&shape, h, e1))
+            .collect();
         println!("{name}: spacing {h}: eps1 1e-4, 1e-5, 1e-6 -> {errors:?}");
-        assert!(errors[0] > errors[1] && errors[1] > errors[2], "{name}: {errors:?}");
+        assert!(
+            errors[0] > errors[1] && errors[1] > errors[2],
+            "{name}: {errors:?}"
+        );
         // At ε1 = 0.01 h² what is left is the facets' sag on the sphere (2.1e-4 m measured);
         // the box's faces are exact planes (7e-7 m measured).
-        let bound = if name.starts_with("box") { 1e-5 } else { 2.6e-4 };
+        let bound = if name.starts_with("box") {
+            1e-5
+        } else {
+            2.6e-4
+        };
         assert!(errors[2] < bound, "{name}: {}", errors[2]);
     }
 }
@@ -86,7 +110,11 @@ fn ssdf_sign_is_right_inside_and_outside() {
                     continue;
                 }
                 let soft = ssdf(&aopc, &p, 1e-5);
-                assert_eq!(soft.signum(), exact.signum(), "{name} at {p:?}: ssdf {soft}, sdf {exact}");
+                assert_eq!(
+                    soft.signum(),
+                    exact.signum(),
+                    "{name} at {p:?}: ssdf {soft}, sdf {exact}"
+                );
             }
         }
     }
@@ -104,13 +132,26 @@ fn ssdf_gradient_matches_central_differences() {
                     let mut pd = p.map(Dual64::from);
                     pd[k].eps = 1.0;
                     let exact = ssdf(&aopc, &pd, Dual64::from(eps1)).eps;
-                    let fd = crate::common::central_difference(|x| ssdf(&aopc, &Vector3::new(x[0], x[1], x[2]), eps1), p.as_slice(), k, 1e-7);
-                    assert!((exact - fd).abs() < 1e-5 * (1.0 + fd.abs()), "{name} at {p:?}, axis {k}: dual {exact} vs fd {fd}");
+                    let fd = crate::common::central_difference(
+                        |x| ssdf(&aopc, &Vector3::new(x[0], x[1], x[2]), eps1),
+                        p.as_slice(),
+                        k,
+                        1e-7,
+                    );
+                    assert!(
+                        (exact - fd).abs() < 1e-5 * (1.0 + fd.abs()),
+                        "{name} at {p:?}, axis {k}: dual {exact} vs fd {fd}"
+                    );
                 }
                 // And the derivative with respect to ε1.
                 let d_eps = ssdf(&aopc, &p.map(Dual64::from), Dual64::new(eps1, 1.0)).eps;
-                let fd = (ssdf(&aopc, &p, eps1 * (1.0 + 1e-6)) - ssdf(&aopc, &p, eps1 * (1.0 - 1e-6))) / (2e-6 * eps1);
-                assert!((d_eps - fd).abs() < 1e-4 * (1.0 + fd.abs()), "{name}: d/deps1 {d_eps} vs {fd}");
+                let fd = (ssdf(&aopc, &p, eps1 * (1.0 + 1e-6))
+                    - ssdf(&aopc, &p, eps1 * (1.0 - 1e-6)))
+                    / (2e-6 * eps1);
+                assert!(
+                    (d_eps - fd).abs() < 1e-4 * (1.0 + fd.abs()),
+                    "{name}: d/deps1 {d_eps} vs {fd}"
+                );
             }
         }
     }

@@ -14,13 +14,19 @@ fn root() -> PathBuf {
 fn every_bundled_scene_matches_its_golden_model_description() {
     let bless = std::env::var_os("SCM_BLESS").is_some();
     let golden_dir = root().join("modelDescription");
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("resources/scenes")).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|x| x == "xml")).collect();
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("resources/scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "xml"))
+        .collect();
     scenes.sort();
     assert!(!scenes.is_empty());
     let mut stale = Vec::new();
     for scene in &scenes {
         let name = scene.file_stem().unwrap().to_string_lossy().into_owned();
-        let generated = scm::pack::describe(scene).unwrap_or_else(|e| panic!("{}: {e}", scene.display())).model_description;
+        let generated = scm::pack::describe(scene)
+            .unwrap_or_else(|e| panic!("{}: {e}", scene.display()))
+            .model_description;
         let golden = golden_dir.join(format!("{name}.xml"));
         if bless {
             std::fs::create_dir_all(&golden_dir).unwrap();
@@ -30,8 +36,16 @@ fn every_bundled_scene_matches_its_golden_model_description() {
         match std::fs::read_to_string(&golden) {
             Ok(g) if g == generated => {}
             Ok(g) => {
-                let line = g.lines().zip(generated.lines()).position(|(a, b)| a != b).map_or(g.lines().count().min(generated.lines().count()), |i| i) + 1;
-                stale.push(format!("{name}: differs from {} from line {line}", golden.display()));
+                let line = g
+                    .lines()
+                    .zip(generated.lines())
+                    .position(|(a, b)| a != b)
+                    .map_or(g.lines().count().min(generated.lines().count()), |i| i)
+                    + 1;
+                stale.push(format!(
+                    "{name}: differs from {} from line {line}",
+                    golden.display()
+                ));
             }
             Err(_) => stale.push(format!("{name}: no golden file {}", golden.display())),
         }
@@ -41,8 +55,14 @@ fn every_bundled_scene_matches_its_golden_model_description() {
         for e in entries {
             let p = e.unwrap().path();
             let stem = p.file_stem().unwrap().to_string_lossy().into_owned();
-            if !scenes.iter().any(|s| s.file_stem().unwrap().to_string_lossy() == stem) {
-                stale.push(format!("{}: no scene resources/scenes/{stem}.xml", p.display()));
+            if !scenes
+                .iter()
+                .any(|s| s.file_stem().unwrap().to_string_lossy() == stem)
+            {
+                stale.push(format!(
+                    "{}: no scene resources/scenes/{stem}.xml",
+                    p.display()
+                ));
             }
         }
     }

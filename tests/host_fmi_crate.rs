@@ -30,11 +30,27 @@ fn the_fmi_crate_instantiates_steps_reads_outputs_and_restores_states() {
     let import: Fmi2Import = fmi::import::from_path(&fmu).expect("the fmi crate reads the FMU");
     let md = import.model_description();
     assert_eq!(md.model_name, "t_push");
-    let vr = |name: &str| md.model_variable_by_name(name).unwrap_or_else(|_| panic!("{name}")).value_reference;
+    let vr = |name: &str| {
+        md.model_variable_by_name(name)
+            .unwrap_or_else(|_| panic!("{name}"))
+            .value_reference
+    };
     let (ctrl_x, ctrl_y) = (vr("act_x.ctrl"), vr("act_y.ctrl"));
-    let outputs: Vec<u32> = ["t_x.q", "t_y.q", "t_yaw.q", "finger_y.q", "contact.tblock.finger.force.y", "contact.tblock.finger.distance"].iter().map(|n| vr(n)).collect();
+    let outputs: Vec<u32> = [
+        "t_x.q",
+        "t_y.q",
+        "t_yaw.q",
+        "finger_y.q",
+        "contact.tblock.finger.force.y",
+        "contact.tblock.finger.distance",
+    ]
+    .iter()
+    .map(|n| vr(n))
+    .collect();
 
-    let mut inst = import.instantiate_cs("fmi-crate", false, false).expect("instantiate");
+    let mut inst = import
+        .instantiate_cs("fmi-crate", false, false)
+        .expect("instantiate");
     FmiInstance::enter_initialization_mode(&mut inst, None, 0.0, None).unwrap();
     inst.set_real(&[ctrl_x, ctrl_y], &[0.01, 0.16]).unwrap();
     FmiInstance::exit_initialization_mode(&mut inst).unwrap();
@@ -49,18 +65,32 @@ fn the_fmi_crate_instantiates_steps_reads_outputs_and_restores_states() {
         inst.do_step(k as f64 * h, h, true).unwrap();
     }
     let state = inst.get_fmu_state().expect("fmi2GetFMUstate");
-    let bytes = inst.serialize_fmu_state(&state).expect("fmi2SerializeFMUstate");
+    let bytes = inst
+        .serialize_fmu_state(&state)
+        .expect("fmi2SerializeFMUstate");
     let mut reference = Vec::new();
     for k in 50..100 {
         inst.do_step(k as f64 * h, h, true).unwrap();
         reference.push(read(&mut inst));
     }
     let y = reference.last().unwrap();
-    assert!(y[1] > 0.02, "the finger pushed the T-block forward: t_y.q = {}", y[1]);
-    assert!(y[4] > 0.0, "the T-block is pushed (+y) by the finger: force on it {}", y[4]);
+    assert!(
+        y[1] > 0.02,
+        "the finger pushed the T-block forward: t_y.q = {}",
+        y[1]
+    );
+    assert!(
+        y[4] > 0.0,
+        "the T-block is pushed (+y) by the finger: force on it {}",
+        y[4]
+    );
 
     // Restored from the saved state, and from the deserialized bytes: the same, bit for bit.
-    for restored in [state, inst.deserialize_fmu_state(&bytes).expect("fmi2DeSerializeFMUstate")] {
+    for restored in [
+        state,
+        inst.deserialize_fmu_state(&bytes)
+            .expect("fmi2DeSerializeFMUstate"),
+    ] {
         let status = inst.set_fmu_state(&restored);
         assert!(status.ok().is_ok(), "fmi2SetFMUstate");
         let rerun: Vec<Vec<f64>> = (50..100)
@@ -69,14 +99,19 @@ fn the_fmi_crate_instantiates_steps_reads_outputs_and_restores_states() {
                 read(&mut inst)
             })
             .collect();
-        assert!(rerun.iter().flatten().map(|x| x.to_bits()).eq(reference.iter().flatten().map(|x| x.to_bits())));
+        assert!(rerun
+            .iter()
+            .flatten()
+            .map(|x| x.to_bits())
+            .eq(reference.iter().flatten().map(|x| x.to_bits())));
     }
 
     // ∂(der(finger_y.v), der(finger_x.v)) / ∂(act_y.ctrl, act_x.ctrl) · (1, 0): the position
     // actuator's kp / m = 500 on its own joint, 0 on the other. Two unknowns, two knowns.
     let unknowns = [vr("der(finger_y.v)"), vr("der(finger_x.v)")];
     let mut dv = [0.0; 2];
-    inst.get_directional_derivative(&unknowns, &[ctrl_y, ctrl_x], &[1.0, 0.0], &mut dv).unwrap();
+    inst.get_directional_derivative(&unknowns, &[ctrl_y, ctrl_x], &[1.0, 0.0], &mut dv)
+        .unwrap();
     assert_eq!(dv, [500.0, 0.0]);
     FmiInstance::terminate(&mut inst).unwrap();
     drop(inst);

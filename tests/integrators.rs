@@ -44,15 +44,26 @@ fn stiff_sphere(k: f64, step: f64, integrator: &str) -> String {
 /// analytic point-contact penetration `m g = k s⁺_ε3(-φ)`.
 fn equilibrium(model: &Model) -> (f64, f64) {
     let prm = model.contact;
-    let Some(Collider::Aopc(aopc)) = &model.colliders[1] else { panic!("the ball has an AOPC") };
+    let Some(Collider::Aopc(aopc)) = &model.colliders[1] else {
+        panic!("the ball has an AOPC")
+    };
     let lift = |z: f64| static_lift(aopc, &prm, z);
     let z = bisect(|z| 9.81 - lift(z), 0.0, 0.1);
-    let phi = bisect(|phi| 9.81 - prm.stiffness * softplus(-phi, prm.eps3), -0.05, 0.05);
+    let phi = bisect(
+        |phi| 9.81 - prm.stiffness * softplus(-phi, prm.eps3),
+        -0.05,
+        0.05,
+    );
     (z, phi)
 }
 
 /// Runs `duration` in communication steps of `h`, returning the first refusal.
-fn run(sim: &mut Simulation, h: f64, duration: f64, mut each: impl FnMut(&Simulation)) -> Result<(), (f64, String)> {
+fn run(
+    sim: &mut Simulation,
+    h: f64,
+    duration: f64,
+    mut each: impl FnMut(&Simulation),
+) -> Result<(), (f64, String)> {
     let n = (duration / h).round() as usize;
     for k in 0..n {
         let t = k as f64 * h;
@@ -70,7 +81,10 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
     // k = 1e6 N/m on 1 kg: ω = 1000 rad/s, h ω = 16, far beyond every explicit method's
     // stability limit (2 for semi-implicit Euler, 2.8 for RK4, 0 for Euler).
     let text = stiff_sphere(1e6, h, "implicit_euler");
-    let mut sim = Simulation::new(scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(), &text);
+    let mut sim = Simulation::new(
+        scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(),
+        &text,
+    );
     let (z_rest, phi) = equilibrium(&sim.model);
     let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
     run(&mut sim, h, 1.0, |s| {
@@ -79,50 +93,103 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
     })
     .unwrap_or_else(|(t, m)| panic!("implicit_euler refused a step at {t}: {m}"));
     let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
-    println!("implicit_euler: z in [{zmin}, {zmax}], rests at {z} (static balance {z_rest}), vz {vz:e}");
+    println!(
+        "implicit_euler: z in [{zmin}, {zmax}], rests at {z} (static balance {z_rest}), vz {vz:e}"
+    );
     // Bounded: never above the start, never deeper than 1 mm below the rest height (an
     // explicit blow-up would launch it metres high).
-    assert!(zmax <= 0.06 + 1e-12 && zmin > z_rest - 1e-3, "z in [{zmin}, {zmax}]");
+    assert!(
+        zmax <= 0.06 + 1e-12 && zmin > z_rest - 1e-3,
+        "z in [{zmin}, {zmax}]"
+    );
     // Settled: the static balance over this AOPC to 1e-9 m, at rest.
-    assert!(vz.abs() < 1e-8 && (z - z_rest).abs() < 1e-9, "z = {z} vs {z_rest}, vz = {vz}");
+    assert!(
+        vz.abs() < 1e-8 && (z - z_rest).abs() < 1e-9,
+        "z = {z} vs {z_rest}, vz = {vz}"
+    );
     // The analytic point contact: four points around the pole share the load (the next ring,
     // 1.9 mm ≈ 9.5 ε2 higher, carries < 0.1 %), so the lowest points sit at φ within 1 %.
-    let Some(Collider::Aopc(aopc)) = &sim.model.colliders[1] else { unreachable!() };
-    let lowest = z + aopc.points.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-    assert!(lowest < 0.0 && (lowest - phi).abs() < 0.01 * phi.abs(), "penetration {lowest} vs analytic {phi}");
+    let Some(Collider::Aopc(aopc)) = &sim.model.colliders[1] else {
+        unreachable!()
+    };
+    let lowest = z + aopc
+        .points
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        lowest < 0.0 && (lowest - phi).abs() < 0.01 * phi.abs(),
+        "penetration {lowest} vs analytic {phi}"
+    );
 
-    for integrator in [Integrator::Euler, Integrator::SemiImplicitEuler, Integrator::Rk4] {
-        let mut sim = Simulation::new(scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(), &text);
+    for integrator in [
+        Integrator::Euler,
+        Integrator::SemiImplicitEuler,
+        Integrator::Rk4,
+    ] {
+        let mut sim = Simulation::new(
+            scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(),
+            &text,
+        );
         sim.model.integrator = integrator;
         let mut last_good = sim.current.clone();
         let refused = run(&mut sim, h, 1.0, |s| last_good = s.current.clone());
         let (t, message) = refused.expect_err(&format!("{} was not refused", integrator.name()));
         println!("{}: refused at t = {t}: {message}", integrator.name());
         // The message says what diverged and when; the state is the last good one, finite.
-        assert!(message.contains("unstable") || message.contains("non-finite"), "{message}");
+        assert!(
+            message.contains("unstable") || message.contains("non-finite"),
+            "{message}"
+        );
         assert!(message.contains("t = "), "{message}");
         assert_eq!(sim.current.state, last_good.state);
-        assert!(sim.current.state.q.iter().chain(&sim.current.state.v).all(|x| x.is_finite()));
+        assert!(sim
+            .current
+            .state
+            .q
+            .iter()
+            .chain(&sim.current.state.v)
+            .all(|x| x.is_finite()));
         assert!(t < 0.5, "{}: refused only at {t}", integrator.name());
     }
 
     // The adaptive method stays stable by taking steps below the stability limit (2.8/ω ≈
     // 3 ms), and settles too.
-    let mut sim = Simulation::new(scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(), &text);
+    let mut sim = Simulation::new(
+        scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(),
+        &text,
+    );
     sim.model.integrator = Integrator::Dopri5;
-    run(&mut sim, h, 1.0, |_| {}).unwrap_or_else(|(t, m)| panic!("dopri5 refused a step at {t}: {m}"));
-    assert!((sim.current.state.q[2] - z_rest).abs() < 1e-6, "dopri5 rests at {}", sim.current.state.q[2]);
+    run(&mut sim, h, 1.0, |_| {})
+        .unwrap_or_else(|(t, m)| panic!("dopri5 refused a step at {t}: {m}"));
+    assert!(
+        (sim.current.state.q[2] - z_rest).abs() < 1e-6,
+        "dopri5 rests at {}",
+        sim.current.state.q[2]
+    );
 }
 
 #[test]
 fn implicit_method_holds_k_1e9_at_50_ms() {
     // ω = 31623 rad/s, h ω = 1581.
     let text = stiff_sphere(1e9, 0.05, "implicit_euler");
-    let mut sim = Simulation::new(scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(), &text);
+    let mut sim = Simulation::new(
+        scm::scene::load_str(&text, std::path::Path::new("stiff.xml")).unwrap(),
+        &text,
+    );
     let (z_rest, _) = equilibrium(&sim.model);
-    run(&mut sim, 0.05, 1.0, |s| println!("t {} z {:.9e} vz {:.3e}", s.current.time, s.current.state.q[2], s.current.state.v[2])).unwrap_or_else(|(t, m)| panic!("refused at {t}: {m}"));
+    run(&mut sim, 0.05, 1.0, |s| {
+        println!(
+            "t {} z {:.9e} vz {:.3e}",
+            s.current.time, s.current.state.q[2], s.current.state.v[2]
+        )
+    })
+    .unwrap_or_else(|(t, m)| panic!("refused at {t}: {m}"));
     let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
-    assert!(vz.abs() < 1e-8 && (z - z_rest).abs() < 1e-9, "z = {z} vs {z_rest}, vz = {vz}");
+    assert!(
+        vz.abs() < 1e-8 && (z - z_rest).abs() < 1e-9,
+        "z = {z} vs {z_rest}, vz = {vz}"
+    );
 }
 
 #[test]
@@ -131,25 +198,49 @@ fn a_non_finite_step_is_refused_and_the_state_kept() {
     let text = r#"<mujoco model="spin"><option gravity="0 0 0" timestep="0.001"/>
   <worldbody><body name="top" pos="0 0 1"><freejoint name="top"/><geom type="box" size="0.1 0.05 0.02" mass="1"/></body></worldbody></mujoco>"#;
     for integrator in Integrator::ALL {
-        let mut sim = Simulation::new(scm::scene::load_str(text, std::path::Path::new("spin.xml")).unwrap(), text);
+        let mut sim = Simulation::new(
+            scm::scene::load_str(text, std::path::Path::new("spin.xml")).unwrap(),
+            text,
+        );
         sim.model.integrator = integrator;
         sim.current.state.v[3..6].copy_from_slice(&[1e160, 2e160, -1e160]);
         sim.current.time = 0.25;
         let before = sim.current.clone();
         let err = sim.do_step(0.25, 0.01).unwrap_err();
-        let StepError::Discard(message) = err else { panic!("{}: {err:?}", integrator.name()) };
+        let StepError::Discard(message) = err else {
+            panic!("{}: {err:?}", integrator.name())
+        };
         println!("{}: {message}", integrator.name());
-        assert!(message.contains("of joint top") && message.contains("non-finite"), "{message}");
+        assert!(
+            message.contains("of joint top") && message.contains("non-finite"),
+            "{message}"
+        );
         assert!(message.contains("t = 0.25"), "{message}");
-        assert_eq!(sim.current, before, "{}: the state changed", integrator.name());
+        assert_eq!(
+            sim.current,
+            before,
+            "{}: the state changed",
+            integrator.name()
+        );
     }
     // The same through Model::advance: the failure names the quantity and the time.
     let model = model_of(text);
-    let mut state = State { q: model.tree.q0(), v: vec![0.0; 6] };
+    let mut state = State {
+        q: model.tree.q0(),
+        v: vec![0.0; 6],
+    };
     state.v[3..6].copy_from_slice(&[1e160, 2e160, -1e160]);
-    let opts = AdvanceOptions { energy_guard: false, ..Default::default() };
+    let opts = AdvanceOptions {
+        energy_guard: false,
+        ..Default::default()
+    };
     match model.advance(&state, &[], &model.contact, 2.0, 0.003, &opts) {
-        Err(StepFailure::NonFinite { time, step, quantity, .. }) => {
+        Err(StepFailure::NonFinite {
+            time,
+            step,
+            quantity,
+            ..
+        }) => {
             assert_eq!(step, 1);
             assert!(quantity.contains("of joint top"), "{quantity}");
             assert!((time - 2.001).abs() < 1e-12, "{time}");
@@ -163,26 +254,59 @@ const PENDULUM: &str = r#"<mujoco model="pendulum"><option gravity="0 0 -9.81"/>
   <worldbody><body name="p"><joint name="j" type="hinge" axis="0 1 0"/>
     <inertial pos="0 0 -0.5" mass="1" diaginertia="0.001 0.001 0.001"/></body></worldbody></mujoco>"#;
 
-fn pendulum_after(integrator: Integrator, step: f64, tolerance: f64, duration: f64) -> (State<f64>, usize) {
+fn pendulum_after(
+    integrator: Integrator,
+    step: f64,
+    tolerance: f64,
+    duration: f64,
+) -> (State<f64>, usize) {
     let mut model = model_of(PENDULUM);
     model.integrator = integrator;
     model.step = step;
     model.tolerance = tolerance;
-    let state = State { q: vec![1.0], v: vec![0.0] };
-    let done = model.advance(&state, &[], &model.contact, 0.0, duration, &AdvanceOptions::default()).unwrap();
+    let state = State {
+        q: vec![1.0],
+        v: vec![0.0],
+    };
+    let done = model
+        .advance(
+            &state,
+            &[],
+            &model.contact,
+            0.0,
+            duration,
+            &AdvanceOptions::default(),
+        )
+        .unwrap();
     (done.state, done.steps)
 }
 
 #[test]
 fn each_method_converges_at_its_order() {
     let (reference, _) = pendulum_after(Integrator::Rk4, 1e-4, 0.0, 2.0);
-    let err = |s: &State<f64>| (s.q[0] - reference.q[0]).abs() + 0.3 * (s.v[0] - reference.v[0]).abs();
-    for (integrator, order) in [(Integrator::SemiImplicitEuler, 1.0), (Integrator::Euler, 1.0), (Integrator::Rk4, 4.0), (Integrator::ImplicitEuler, 1.0)] {
-        let e: Vec<f64> = [0.004, 0.002, 0.001].iter().map(|&h| err(&pendulum_after(integrator, h, 0.0, 2.0).0)).collect();
+    let err =
+        |s: &State<f64>| (s.q[0] - reference.q[0]).abs() + 0.3 * (s.v[0] - reference.v[0]).abs();
+    for (integrator, order) in [
+        (Integrator::SemiImplicitEuler, 1.0),
+        (Integrator::Euler, 1.0),
+        (Integrator::Rk4, 4.0),
+        (Integrator::ImplicitEuler, 1.0),
+    ] {
+        let e: Vec<f64> = [0.004, 0.002, 0.001]
+            .iter()
+            .map(|&h| err(&pendulum_after(integrator, h, 0.0, 2.0).0))
+            .collect();
         let rates: Vec<f64> = e.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
-        println!("{}: errors {e:?}, observed orders {rates:?}", integrator.name());
+        println!(
+            "{}: errors {e:?}, observed orders {rates:?}",
+            integrator.name()
+        );
         for r in rates {
-            assert!((r - order).abs() < 0.25, "{}: observed order {r}, expected {order}", integrator.name());
+            assert!(
+                (r - order).abs() < 0.25,
+                "{}: observed order {r}, expected {order}",
+                integrator.name()
+            );
         }
     }
     // The adaptive method meets its tolerance: the global error follows it down.
@@ -208,20 +332,44 @@ fn implicit_euler_damps_resolved_motion_as_its_stability_function_says() {
     m.integrator = Integrator::ImplicitEuler;
     m.step = h;
     let bottom = model.energy(&[0.0], &[0.0]).total();
-    let mut s = State { q: vec![0.05], v: vec![0.0] };
+    let mut s = State {
+        q: vec![0.05],
+        v: vec![0.0],
+    };
     let e0 = model.energy(&s.q, &s.v).total() - bottom;
     let mut last = e0;
     for k in 0..500 {
-        s = m.advance(&s, &[], &m.contact, k as f64 * h, h, &AdvanceOptions::default()).unwrap().state;
+        s = m
+            .advance(
+                &s,
+                &[],
+                &m.contact,
+                k as f64 * h,
+                h,
+                &AdvanceOptions::default(),
+            )
+            .unwrap()
+            .state;
         let e = model.energy(&s.q, &s.v).total() - bottom;
-        assert!(e <= last * (1.0 + 1e-12), "energy grew at step {k}: {last} -> {e}");
+        assert!(
+            e <= last * (1.0 + 1e-12),
+            "energy grew at step {k}: {last} -> {e}"
+        );
         last = e;
     }
     let predicted = (1.0 + (h * omega).powi(2)).powi(-500);
-    println!("implicit Euler, 500 steps at hω = {}: energy ratio {} (predicted {predicted})", h * omega, last / e0);
+    println!(
+        "implicit Euler, 500 steps at hω = {}: energy ratio {} (predicted {predicted})",
+        h * omega,
+        last / e0
+    );
     // 2 %: the swing is not exactly linear (sin θ ≈ θ to 4e-4 at 0.05 rad) and the energy
     // oscillates slightly within a period around its decay.
-    assert!((last / e0 / predicted - 1.0).abs() < 0.02, "{} vs {predicted}", last / e0);
+    assert!(
+        (last / e0 / predicted - 1.0).abs() < 0.02,
+        "{} vs {predicted}",
+        last / e0
+    );
 }
 
 #[test]
@@ -234,7 +382,10 @@ fn communication_steps_land_exactly_on_their_end() {
     let steps = [0.01, 0.0137, 0.001, 0.05, 0.0251];
     let g = 9.81;
     for integrator in Integrator::ALL {
-        let mut sim = Simulation::new(scm::scene::load_str(text, std::path::Path::new("fall.xml")).unwrap(), text);
+        let mut sim = Simulation::new(
+            scm::scene::load_str(text, std::path::Path::new("fall.xml")).unwrap(),
+            text,
+        );
         sim.model.integrator = integrator;
         let (mut t, mut z, mut vz) = (0.0, 10.0, 0.0);
         for &h in &steps {
@@ -261,7 +412,11 @@ fn communication_steps_land_exactly_on_their_end() {
             }
         }
         let (zs, vs) = (sim.current.state.q[2], sim.current.state.v[2]);
-        assert!((zs - z).abs() < 1e-12 && (vs - vz).abs() < 1e-12, "{}: z {zs} vs {z}, vz {vs} vs {vz} at {t}", integrator.name());
+        assert!(
+            (zs - z).abs() < 1e-12 && (vs - vz).abs() < 1e-12,
+            "{}: z {zs} vs {z}, vz {vs} vs {vz} at {t}",
+            integrator.name()
+        );
         assert!((sim.time() - t).abs() < 1e-15);
     }
 }
@@ -275,7 +430,14 @@ fn slowly_growing_pendulum() -> (Model, f64, State<f64>) {
     model.integrator = Integrator::Euler;
     model.step = 0.1 / omega;
     let h = model.step;
-    (model, h, State { q: vec![0.5], v: vec![0.0] })
+    (
+        model,
+        h,
+        State {
+            q: vec![0.5],
+            v: vec![0.0],
+        },
+    )
 }
 
 #[test]
@@ -298,10 +460,17 @@ fn the_energy_guard_adds_up_a_slow_growth_over_communication_steps() {
         match model.advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache) {
             Ok(a) => {
                 s = a.state;
-                assert!(swing(&s) <= 2.0 * (e0 + floor) * (1.0 + 1e-9), "step {k}: swing energy {} accepted (started at {e0})", swing(&s));
+                assert!(
+                    swing(&s) <= 2.0 * (e0 + floor) * (1.0 + 1e-9),
+                    "step {k}: swing energy {} accepted (started at {e0})",
+                    swing(&s)
+                );
             }
             Err(e @ StepFailure::EnergyGrowth { .. }) => {
-                println!("refused at step {k}, swing energy {e0} -> {}: {e}", swing(&s));
+                println!(
+                    "refused at step {k}, swing energy {e0} -> {}: {e}",
+                    swing(&s)
+                );
                 refused = Some(k);
                 break;
             }
@@ -309,7 +478,11 @@ fn the_energy_guard_adds_up_a_slow_growth_over_communication_steps() {
         }
     }
     let k = refused.expect("the slow growth was never refused");
-    assert!(k > 10 && swing(&s) > 1.5 * e0, "refused too early: step {k}, swing {} from {e0}", swing(&s));
+    assert!(
+        k > 10 && swing(&s) > 1.5 * e0,
+        "refused too early: step {k}, swing {} from {e0}",
+        swing(&s)
+    );
     // Without the ledger (a fresh cache in every call, as if the host set the state each
     // time) each call judges only itself: a step is refused only once its own growth, 1 % of
     // the swing, exceeds the floor and half the kinetic energy at its start, which happens
@@ -318,7 +491,15 @@ fn the_energy_guard_adds_up_a_slow_growth_over_communication_steps() {
     let mut s = s0;
     let mut alone = 200;
     for j in 0..200 {
-        match model.advance_cached(&s, &[], &model.contact, j as f64 * h, h, &opts, &mut Default::default()) {
+        match model.advance_cached(
+            &s,
+            &[],
+            &model.contact,
+            j as f64 * h,
+            h,
+            &opts,
+            &mut Default::default(),
+        ) {
             Ok(a) => s = a.state,
             Err(_) => {
                 alone = j;
@@ -326,8 +507,15 @@ fn the_energy_guard_adds_up_a_slow_growth_over_communication_steps() {
             }
         }
     }
-    println!("without the ledger: refused at step {alone}, swing energy {e0} -> {}", swing(&s));
-    assert!(alone > 2 * k && swing(&s) > 2.0 * (e0 + floor), "step {alone}: swing {} from {e0}", swing(&s));
+    println!(
+        "without the ledger: refused at step {alone}, swing energy {e0} -> {}",
+        swing(&s)
+    );
+    assert!(
+        alone > 2 * k && swing(&s) > 2.0 * (e0 + floor),
+        "step {alone}: swing {} from {e0}",
+        swing(&s)
+    );
 }
 
 #[test]
@@ -337,29 +525,53 @@ fn the_energy_ledger_restarts_when_the_state_or_the_contact_parameters_are_set()
     let mut cache = scm::integrate::SolverCache::default();
     let mut s = s0;
     for k in 0..20 {
-        s = model.advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache).unwrap().state;
+        s = model
+            .advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache)
+            .unwrap()
+            .state;
     }
     let since = |c: &scm::integrate::SolverCache| c.parts().2.map(|l| l.since);
     assert_eq!(since(&cache), Some(0.0), "the ledger runs from the start");
     // The state carried on: the ledger goes on.
     let t = 20.0 * h;
-    s = model.advance_cached(&s, &[], &model.contact, t, h, &opts, &mut cache).unwrap().state;
+    s = model
+        .advance_cached(&s, &[], &model.contact, t, h, &opts, &mut cache)
+        .unwrap()
+        .state;
     assert_eq!(since(&cache), Some(0.0));
     // A host that sets the velocity puts in energy (here 50 J, far above what the ledger
     // allows): the ledger restarts there instead of refusing the step.
     let mut fast = s.clone();
     fast.v[0] = 10.0;
     let t = 21.0 * h;
-    s = model.advance_cached(&fast, &[], &model.contact, t, h, &opts, &mut cache).unwrap_or_else(|e| panic!("{e}")).state;
+    s = model
+        .advance_cached(&fast, &[], &model.contact, t, h, &opts, &mut cache)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .state;
     assert_eq!(since(&cache), Some(t));
     // Other contact parameters change the energy stored in contact: a new ledger too.
     let mut prm = model.contact;
     prm.stiffness *= 2.0;
     let t = 22.0 * h;
-    model.advance_cached(&s, &[], &prm, t, h, &opts, &mut cache).unwrap();
+    model
+        .advance_cached(&s, &[], &prm, t, h, &opts, &mut cache)
+        .unwrap();
     assert_eq!(since(&cache), Some(t));
     // With the guard off nothing is carried.
-    model.advance_cached(&s, &[], &prm, t, h, &AdvanceOptions { energy_guard: false, ..opts }, &mut cache).unwrap();
+    model
+        .advance_cached(
+            &s,
+            &[],
+            &prm,
+            t,
+            h,
+            &AdvanceOptions {
+                energy_guard: false,
+                ..opts
+            },
+            &mut cache,
+        )
+        .unwrap();
     assert_eq!(since(&cache), None);
 }
 
@@ -395,12 +607,22 @@ fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step()
     let saved = sim.get_state().unwrap();
     let bytes = sim.serialize_state(&saved).unwrap();
     let restored = sim.deserialize_state(&bytes).unwrap();
-    assert_eq!(restored, saved, "the state with its ledger round-trips through bytes");
-    assert!(saved.solver_cache.parts().2.is_some(), "the ledger is part of the state");
+    assert_eq!(
+        restored, saved,
+        "the state with its ledger round-trips through bytes"
+    );
+    assert!(
+        saved.solver_cache.parts().2.is_some(),
+        "the ledger is part of the state"
+    );
     let first = run(&mut sim, 30);
     let end = sim.current.clone();
     sim.set_state(&restored).unwrap();
-    assert_eq!(run(&mut sim, 30), first, "the restored run is refused at the same step");
+    assert_eq!(
+        run(&mut sim, 30),
+        first,
+        "the restored run is refused at the same step"
+    );
     assert_eq!(sim.current, end);
     println!("refused at communication step {first}, after a restore at step 30 too");
 }
@@ -426,7 +648,11 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
     let force = |z: f64| at(z)[0].on_b.force.z.abs().max(at(z)[0].on_a.force.z.abs());
     // Resting height: the lift equals m g.
     let rest = bisect(|z| 9.81 - force(z), 0.045, 0.06);
-    assert!((force(rest) - 9.81).abs() < 1e-6, "resting height {rest}: lift {}", force(rest));
+    assert!(
+        (force(rest) - 9.81).abs() < 1e-6,
+        "resting height {rest}: lift {}",
+        force(rest)
+    );
     for depth in [-5e-4, 0.0, 2e-4, 5e-4, 1e-3] {
         let z = rest - depth;
         // Trapezoid on 4,000 steps of 1 µm up to 4 mm above the resting height (the force
@@ -434,9 +660,18 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
         let n = 4000;
         let top = rest + 4e-3;
         let dz = (top - z) / n as f64;
-        let work: f64 = (0..n).map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz).sum();
+        let work: f64 = (0..n)
+            .map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz)
+            .sum();
         let estimate = scm::integrate::contact_energy(&at(z), &prm);
-        println!("{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}", depth * 1e3, estimate / work);
-        assert!(estimate >= 0.9 * work && estimate <= 2.5 * work, "depth {depth}: estimate {estimate} J against the work {work} J");
+        println!(
+            "{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}",
+            depth * 1e3,
+            estimate / work
+        );
+        assert!(
+            estimate >= 0.9 * work && estimate <= 2.5 * work,
+            "depth {depth}: estimate {estimate} J against the work {work} J"
+        );
     }
 }

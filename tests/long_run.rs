@@ -17,15 +17,24 @@ mod example;
 #[test]
 fn t_push_long_run_keeps_memory_steady() {
     let p = example::t_push(1_000_000, |_, _| {});
-    assert!(p.live_max - p.live_after_warmup <= 4096, "live heap grew: {p:?}");
+    assert!(
+        p.live_max - p.live_after_warmup <= 4096,
+        "live heap grew: {p:?}"
+    );
     // The finger makes and breaks contact every second: about 4000 changes in 2000 s.
     assert!(p.contact_changes >= 2000, "the finger did not push: {p:?}");
-    assert!(p.max_abs_position.is_finite() && p.max_abs_position < 100.0, "{p:?}");
+    assert!(
+        p.max_abs_position.is_finite() && p.max_abs_position < 100.0,
+        "{p:?}"
+    );
 }
 
 #[test]
 fn box_stack_long_run_keeps_memory_steady_and_quaternions_unit() {
     let p = example::box_stack(10_000, |_, _| {});
-    assert!(p.live_max - p.live_after_warmup <= 4096, "live heap grew: {p:?}");
+    assert!(
+        p.live_max - p.live_after_warmup <= 4096,
+        "live heap grew: {p:?}"
+    );
     assert!(p.max_quat_norm_error < 1e-13, "{p:?}");
 }

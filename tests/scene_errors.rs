@@ -29,15 +29,51 @@ fn the_reference_scene_loads() {
 fn each_kind_of_mistake_is_named_with_its_line() {
     // (replace this, with that, expected line, expected element, expected words)
     let cases: &[(&str, &str, usize, &str, &str)] = &[
-        (r#"size="0.05" mass="1""#, r#"size="-0.05" mass="1""#, 6, "geom", "positive"),
-        (r#"<freejoint/>"#, r#"<joint type="screw"/>"#, 5, "joint", "screw"),
+        (
+            r#"size="0.05" mass="1""#,
+            r#"size="-0.05" mass="1""#,
+            6,
+            "geom",
+            "positive",
+        ),
+        (
+            r#"<freejoint/>"#,
+            r#"<joint type="screw"/>"#,
+            5,
+            "joint",
+            "screw",
+        ),
         (r#"pos="0 0 0.3""#, r#"pos="0 0 x""#, 4, "body", "pos"),
         (r#"pos="0 0 0.3""#, r#"pos="0 0 nan""#, 4, "body", "finite"),
-        (r#"<freejoint/>"#, r#"<tendon/>"#, 5, "tendon", "unsupported"),
-        (r#"size="0.05" mass="1""#, r#"size="0.05" mass="1" solmix="1""#, 6, "geom", "solmix"),
-        (r#"type="sphere""#, r#"type="capsule""#, 6, "geom", "size needs 2"),
+        (
+            r#"<freejoint/>"#,
+            r#"<tendon/>"#,
+            5,
+            "tendon",
+            "unsupported",
+        ),
+        (
+            r#"size="0.05" mass="1""#,
+            r#"size="0.05" mass="1" solmix="1""#,
+            6,
+            "geom",
+            "solmix",
+        ),
+        (
+            r#"type="sphere""#,
+            r#"type="capsule""#,
+            6,
+            "geom",
+            "size needs 2",
+        ),
         (r#"type="sphere""#, r#"type="blob""#, 6, "geom", "blob"),
-        (r#"<body name="ball" pos="0 0 0.3">"#, r#"<body name="ball" pos="0 0 0.3" quat="0 0 0 0">"#, 4, "body", "zero"),
+        (
+            r#"<body name="ball" pos="0 0 0.3">"#,
+            r#"<body name="ball" pos="0 0 0.3" quat="0 0 0 0">"#,
+            4,
+            "body",
+            "zero",
+        ),
     ];
     for (from, to, line, element, words) in cases {
         assert!(GOOD.contains(from), "case setup: {from}");
@@ -51,46 +87,98 @@ fn each_kind_of_mistake_is_named_with_its_line() {
 
 #[test]
 fn malformed_xml_is_refused_with_a_line() {
-    for (text, line) in [("<mujoco>\n<worldbody>\n</mujoco>", 3), ("<mujoco>\n  <worldbody/>\n  <body", 3), ("", 1), ("<mujoco>\n</mujoco>\n<extra/>", 3)] {
+    for (text, line) in [
+        ("<mujoco>\n<worldbody>\n</mujoco>", 3),
+        ("<mujoco>\n  <worldbody/>\n  <body", 3),
+        ("", 1),
+        ("<mujoco>\n</mujoco>\n<extra/>", 3),
+    ] {
         let e = err(text);
         assert_eq!(e.element, "xml", "{e}");
-        assert!(e.line >= 1 && e.line <= line, "line {} for {text:?}: {e}", e.line);
+        assert!(
+            e.line >= 1 && e.line <= line,
+            "line {} for {text:?}: {e}",
+            e.line
+        );
     }
     assert!(err("<robot/>").to_string().contains("<mujoco>"));
 }
 
 #[test]
 fn bad_settings_are_refused() {
-    let with = |custom: &str| GOOD.replace("<worldbody>", &format!("<custom>{custom}</custom>\n  <worldbody>"));
+    let with = |custom: &str| {
+        GOOD.replace(
+            "<worldbody>",
+            &format!("<custom>{custom}</custom>\n  <worldbody>"),
+        )
+    };
     for (custom, words) in [
         (r#"<numeric name="scm_eps1" data="-1"/>"#, "scm_eps1"),
-        (r#"<numeric name="scm_stiffness" data="0"/>"#, "scm_stiffness"),
-        (r#"<numeric name="scm_stifness" data="10"/>"#, "unknown SCM setting"),
-        (r#"<text name="scm_integrator" data="leapfrog"/>"#, "leapfrog"),
-        (r#"<text name="scm_dissipation" data="viscous"/>"#, "viscous"),
-        (r#"<numeric name="scm_eps2" data="1 2"/>"#, "one finite number"),
+        (
+            r#"<numeric name="scm_stiffness" data="0"/>"#,
+            "scm_stiffness",
+        ),
+        (
+            r#"<numeric name="scm_stifness" data="10"/>"#,
+            "unknown SCM setting",
+        ),
+        (
+            r#"<text name="scm_integrator" data="leapfrog"/>"#,
+            "leapfrog",
+        ),
+        (
+            r#"<text name="scm_dissipation" data="viscous"/>"#,
+            "viscous",
+        ),
+        (
+            r#"<numeric name="scm_eps2" data="1 2"/>"#,
+            "one finite number",
+        ),
     ] {
         let e = err(&with(custom));
-        assert!(["numeric", "text"].contains(&e.element.as_str()) && e.line == 2, "{e}");
+        assert!(
+            ["numeric", "text"].contains(&e.element.as_str()) && e.line == 2,
+            "{e}"
+        );
         assert!(e.to_string().contains(words), "'{words}' not in {e}");
     }
     // Settings MuJoCo ignores and we do not own pass through.
-    assert!(load_str(&with(r#"<numeric name="other_tool" data="1 2 3"/>"#), Path::new("ok.xml")).is_ok());
+    assert!(load_str(
+        &with(r#"<numeric name="other_tool" data="1 2 3"/>"#),
+        Path::new("ok.xml")
+    )
+    .is_ok());
 }
 
 #[test]
 fn structural_mistakes_are_refused() {
     // A free joint below another body.
-    let nested = GOOD.replace("<freejoint/>", "<body name=\"inner\"><freejoint/><geom size=\"0.01\"/></body><joint type=\"slide\"/>");
-    assert!(err(&nested).to_string().contains("free joint"), "{}", err(&nested));
+    let nested = GOOD.replace(
+        "<freejoint/>",
+        "<body name=\"inner\"><freejoint/><geom size=\"0.01\"/></body><joint type=\"slide\"/>",
+    );
+    assert!(
+        err(&nested).to_string().contains("free joint"),
+        "{}",
+        err(&nested)
+    );
     // Two bodies with the same name.
-    let twice = GOOD.replace("</body>", "</body>\n    <body name=\"ball\"><geom size=\"0.1\"/></body>");
+    let twice = GOOD.replace(
+        "</body>",
+        "</body>\n    <body name=\"ball\"><geom size=\"0.1\"/></body>",
+    );
     assert!(err(&twice).to_string().contains("used twice"));
     // A moving body without mass.
-    let massless = GOOD.replace(r#"<geom type="sphere" size="0.05" mass="1"/>"#, r#"<geom type="sphere" size="0.05" mass="0"/>"#);
+    let massless = GOOD.replace(
+        r#"<geom type="sphere" size="0.05" mass="1"/>"#,
+        r#"<geom type="sphere" size="0.05" mass="0"/>"#,
+    );
     assert!(err(&massless).to_string().contains("no mass"));
     // An actuator on a joint that does not exist.
-    let act = GOOD.replace("</worldbody>", "</worldbody>\n  <actuator><motor joint=\"nope\"/></actuator>");
+    let act = GOOD.replace(
+        "</worldbody>",
+        "</worldbody>\n  <actuator><motor joint=\"nope\"/></actuator>",
+    );
     let e = err(&act);
     assert_eq!((e.element.as_str(), e.line), ("motor", 9), "{e}");
 }

@@ -40,7 +40,11 @@ fn take_opt(args: &mut Vec<String>, names: &[&str]) -> Result<Option<String>, St
 fn number(s: Option<String>, name: &str, default: f64) -> Result<f64, String> {
     match s {
         None => Ok(default),
-        Some(s) => s.parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0).ok_or_else(|| format!("{name} {s}: expected a positive number")),
+        Some(s) => s
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .ok_or_else(|| format!("{name} {s}: expected a positive number")),
     }
 }
 
@@ -60,8 +64,13 @@ fn run(args: &[String]) -> Result<(), String> {
             let [scene] = positional(&args, &["SCENE.xml"])?;
             let mut sim = Simulation::from_file(Path::new(&scene)).map_err(|e| e.to_string())?;
             if let Some(name) = integrator {
-                sim.model.integrator = scm::integrate::Integrator::from_name(&name)
-                    .ok_or_else(|| format!("--integrator {name}: known integrators are {}", scm::integrate::Integrator::ALL.map(|i| i.name()).join(", ")))?;
+                sim.model.integrator =
+                    scm::integrate::Integrator::from_name(&name).ok_or_else(|| {
+                        format!(
+                            "--integrator {name}: known integrators are {}",
+                            scm::integrate::Integrator::ALL.map(|i| i.name()).join(", ")
+                        )
+                    })?;
             }
             let h = number(comm, "--step", sim.model.step.max(0.01))?;
             simulate(&mut sim, duration, h, out.map(PathBuf::from))
@@ -69,17 +78,28 @@ fn run(args: &[String]) -> Result<(), String> {
         "aopc" => {
             let [scene, body] = positional(&args, &["SCENE.xml", "BODY"])?;
             let sc = scm::scene::load(Path::new(&scene)).map_err(|e| e.to_string())?;
-            let b = sc.model.tree.bodies.iter().position(|b| b.name == body).ok_or_else(|| format!("{scene}: no body named '{body}'"))?;
+            let b = sc
+                .model
+                .tree
+                .bodies
+                .iter()
+                .position(|b| b.name == body)
+                .ok_or_else(|| format!("{scene}: no body named '{body}'"))?;
             let stdout = std::io::stdout();
             let mut w = stdout.lock();
             writeln!(w, "x,y,z,nx,ny,nz").map_err(|e| e.to_string())?;
             match &sc.model.colliders[b] {
                 Some(scm::collision::Collider::Aopc(s)) => {
                     for (p, n) in s.points.iter().zip(&s.normals) {
-                        writeln!(w, "{},{},{},{},{},{}", p.x, p.y, p.z, n.x, n.y, n.z).map_err(|e| e.to_string())?;
+                        writeln!(w, "{},{},{},{},{},{}", p.x, p.y, p.z, n.x, n.y, n.z)
+                            .map_err(|e| e.to_string())?;
                     }
                 }
-                Some(scm::collision::Collider::HalfSpace { .. }) => return Err(format!("body '{body}' is a plane (an exact half-space, not a point cloud)")),
+                Some(scm::collision::Collider::HalfSpace { .. }) => {
+                    return Err(format!(
+                        "body '{body}' is a plane (an exact half-space, not a point cloud)"
+                    ))
+                }
                 None => return Err(format!("body '{body}' has no collision geometry")),
             }
             Ok(())
@@ -108,7 +128,8 @@ fn positional<const N: usize>(args: &[String], names: &[&str; N]) -> Result<[Str
     if let Some(flag) = args.iter().find(|a| a.starts_with('-')) {
         return Err(format!("unknown option {flag}\n{USAGE}"));
     }
-    <[String; N]>::try_from(args.to_vec()).map_err(|_| format!("expected {}\n{USAGE}", names.join(" ")))
+    <[String; N]>::try_from(args.to_vec())
+        .map_err(|_| format!("expected {}\n{USAGE}", names.join(" ")))
 }
 
 /// `libscm.so` next to this executable (cargo puts both in `target/<profile>/`).
@@ -118,23 +139,45 @@ fn default_library() -> Result<PathBuf, String> {
     if lib.is_file() {
         Ok(lib)
     } else {
-        Err(format!("{} not found: build it with `cargo build --release` or pass --lib", lib.display()))
+        Err(format!(
+            "{} not found: build it with `cargo build --release` or pass --lib",
+            lib.display()
+        ))
     }
 }
 
-fn simulate(sim: &mut Simulation, duration: f64, h: f64, out: Option<PathBuf>) -> Result<(), String> {
-    let outputs: Vec<(String, u32)> = sim.info().variables.iter().filter(|v| matches!(v.var_type, VarType::Real { .. }) && v.causality == scm::fmi::contract::Causality::Output).map(|v| (v.name.clone(), v.value_reference)).collect();
+fn simulate(
+    sim: &mut Simulation,
+    duration: f64,
+    h: f64,
+    out: Option<PathBuf>,
+) -> Result<(), String> {
+    let outputs: Vec<(String, u32)> = sim
+        .info()
+        .variables
+        .iter()
+        .filter(|v| {
+            matches!(v.var_type, VarType::Real { .. })
+                && v.causality == scm::fmi::contract::Causality::Output
+        })
+        .map(|v| (v.name.clone(), v.value_reference))
+        .collect();
     let mut w: Box<dyn Write> = match &out {
-        Some(p) => Box::new(std::io::BufWriter::new(std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?)),
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?,
+        )),
         None => Box::new(std::io::stdout().lock()),
     };
-    let header: Vec<&str> = std::iter::once("time").chain(outputs.iter().map(|(n, _)| n.as_str())).collect();
+    let header: Vec<&str> = std::iter::once("time")
+        .chain(outputs.iter().map(|(n, _)| n.as_str()))
+        .collect();
     writeln!(w, "{}", header.join(",")).map_err(|e| e.to_string())?;
     let n = (duration / h).round() as usize;
     let start = std::time::Instant::now();
     for k in 0..=n {
         if k > 0 {
-            sim.do_step((k - 1) as f64 * h, h).map_err(|e| format!("{e:?}"))?;
+            sim.do_step((k - 1) as f64 * h, h)
+                .map_err(|e| format!("{e:?}"))?;
         }
         let mut row = vec![format!("{}", k as f64 * h)];
         for (_, vr) in &outputs {
@@ -143,7 +186,12 @@ fn simulate(sim: &mut Simulation, duration: f64, h: f64, out: Option<PathBuf>) -
         writeln!(w, "{}", row.join(",")).map_err(|e| e.to_string())?;
     }
     if let Some(p) = out {
-        eprintln!("wrote {} ({} steps of {h} s in {:.3} s wall time)", p.display(), n, start.elapsed().as_secs_f64());
+        eprintln!(
+            "wrote {} ({} steps of {h} s in {:.3} s wall time)",
+            p.display(),
+            n,
+            start.elapsed().as_secs_f64()
+        );
     }
     Ok(())
 }
@@ -151,21 +199,54 @@ fn simulate(sim: &mut Simulation, duration: f64, h: f64, out: Option<PathBuf>) -
 fn check(path: &Path) -> Result<(), String> {
     let sc = scm::scene::load(path).map_err(|e| e.to_string())?;
     let m = &sc.model;
-    println!("scene {} ({}): {} bodies, {} joints ({} positions, {} velocities), {} actuators", m.name, path.display(), m.tree.bodies.len() - 1, m.tree.joints.len(), m.tree.nq, m.tree.nv, m.actuators.len());
-    println!("integrator {}, internal step {} s", m.integrator.name(), m.step);
+    println!(
+        "scene {} ({}): {} bodies, {} joints ({} positions, {} velocities), {} actuators",
+        m.name,
+        path.display(),
+        m.tree.bodies.len() - 1,
+        m.tree.joints.len(),
+        m.tree.nq,
+        m.tree.nv,
+        m.actuators.len()
+    );
+    println!(
+        "integrator {}, internal step {} s",
+        m.integrator.name(),
+        m.step
+    );
     for a in &sc.meshes {
         let mp = a.mesh.mass_properties();
-        println!("mesh {} ({}): {} vertices, {} triangles, volume {:.4e} m³{}", a.name, a.path.display(), a.mesh.vertices.len(), a.mesh.triangles.len(), mp.volume, if a.used { "" } else { " (unused)" });
+        println!(
+            "mesh {} ({}): {} vertices, {} triangles, volume {:.4e} m³{}",
+            a.name,
+            a.path.display(),
+            a.mesh.vertices.len(),
+            a.mesh.triangles.len(),
+            mp.volume,
+            if a.used { "" } else { " (unused)" }
+        );
     }
     let mut problems = Vec::new();
     for (b, body) in m.tree.bodies.iter().enumerate() {
         match &m.colliders[b] {
             None => println!("body {}: no collider", body.name),
-            Some(scm::collision::Collider::HalfSpace { normal, .. }) => println!("body {}: plane (exact half-space), normal {:?}", body.name, normal.as_slice()),
+            Some(scm::collision::Collider::HalfSpace { normal, .. }) => println!(
+                "body {}: plane (exact half-space), normal {:?}",
+                body.name,
+                normal.as_slice()
+            ),
             Some(scm::collision::Collider::Aopc(s)) => {
-                let parts: Vec<_> = sc.geoms.iter().filter(|g| g.body == b).filter_map(|g| g.shape.clone().map(|s| (s, g.pose))).collect();
+                let parts: Vec<_> = sc
+                    .geoms
+                    .iter()
+                    .filter(|g| g.body == b)
+                    .filter_map(|g| g.shape.clone().map(|s| (s, g.pose)))
+                    .collect();
                 let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
-                let size = parts.iter().map(|(s, p)| s.size() + p.translation.vector.norm()).fold(0.0, f64::max);
+                let size = parts
+                    .iter()
+                    .map(|(s, p)| s.size() + p.translation.vector.norm())
+                    .fold(0.0, f64::max);
                 let closure = s.closure_defect().norm();
                 let volume = s.enclosed_volume();
                 println!(
@@ -186,7 +267,10 @@ fn check(path: &Path) -> Result<(), String> {
                 // its quads (chords of curved surfaces), within a few per mille of the shape's
                 // at a sensible spacing.
                 if closure > 1e-3 * size * size {
-                    problems.push(format!("body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m²)", body.name));
+                    problems.push(format!(
+                        "body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m²)",
+                        body.name
+                    ));
                 }
                 let allowed = if is_exact { 0.02 } else { 0.05 };
                 if (volume - exact).abs() > allowed * exact {
@@ -196,7 +280,10 @@ fn check(path: &Path) -> Result<(), String> {
         }
     }
     for p in &m.pairs {
-        println!("pair {} - {}", m.tree.bodies[p.a].name, m.tree.bodies[p.b].name);
+        println!(
+            "pair {} - {}",
+            m.tree.bodies[p.a].name, m.tree.bodies[p.b].name
+        );
     }
     if m.contact_points > 0 {
         println!("contact points: {} per pair", m.contact_points);
@@ -211,6 +298,10 @@ fn check(path: &Path) -> Result<(), String> {
         println!("no problems found");
         Ok(())
     } else {
-        Err(format!("{} problem(s) found in {}", problems.len(), path.display()))
+        Err(format!(
+            "{} problem(s) found in {}",
+            problems.len(),
+            path.display()
+        ))
     }
 }

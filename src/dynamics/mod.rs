@@ -15,7 +15,9 @@
 pub mod spatial;
 
 use crate::scalar::{c, Scalar};
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{
+    DMatrix, DVector, Isometry3, Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6,
+};
 use spatial::{cross_force, cross_motion, skew, Inertia, Transform};
 
 /// Kind of a joint and its number of position/velocity coordinates.
@@ -145,13 +147,19 @@ pub enum TreeError {
     #[error("body '{0}' comes before its parent")]
     Order(String),
     /// A mocap body that is not a joint-less child of the world, or that has child bodies.
-    #[error("mocap body '{0}' must be a child of the world without joints and without child bodies")]
+    #[error(
+        "mocap body '{0}' must be a child of the world without joints and without child bodies"
+    )]
     MocapPlacement(String),
 }
 
 impl Tree {
     /// Builds the tree, checking the structure. Joint `qadr`/`dadr` are assigned here.
-    pub fn new(bodies: Vec<Body>, mut joints: Vec<Joint>, gravity: Vector3<f64>) -> Result<Tree, TreeError> {
+    pub fn new(
+        bodies: Vec<Body>,
+        mut joints: Vec<Joint>,
+        gravity: Vector3<f64>,
+    ) -> Result<Tree, TreeError> {
         let mut nodes = Vec::new();
         let mut body_node = vec![None; bodies.len()];
         let (mut nq, mut nv) = (0, 0);
@@ -162,14 +170,23 @@ impl Tree {
                 return Err(TreeError::Order(body.name.clone()));
             }
             if body.mocap {
-                if parent != 0 || !body.joints.is_empty() || bodies.iter().any(|o| o.parent == Some(b)) {
+                if parent != 0
+                    || !body.joints.is_empty()
+                    || bodies.iter().any(|o| o.parent == Some(b))
+                {
                     return Err(TreeError::MocapPlacement(body.name.clone()));
                 }
                 mocap.push(b);
             }
             let parent_node = body_node[parent];
             if body.joints.is_empty() {
-                nodes.push(Node { body: b, joint: None, parent: parent_node, offset: body.offset, carries_inertia: true });
+                nodes.push(Node {
+                    body: b,
+                    joint: None,
+                    parent: parent_node,
+                    offset: body.offset,
+                    carries_inertia: true,
+                });
             } else {
                 for (k, &j) in body.joints.iter().enumerate() {
                     let joint = &mut joints[j];
@@ -181,14 +198,37 @@ impl Tree {
                     joint.body = b;
                     nq += joint.kind.nq();
                     nv += joint.kind.nv();
-                    let parent = if k == 0 { parent_node } else { Some(nodes.len() - 1) };
-                    let offset = if k == 0 { body.offset } else { Isometry3::identity() };
-                    nodes.push(Node { body: b, joint: Some(j), parent, offset, carries_inertia: k + 1 == body.joints.len() });
+                    let parent = if k == 0 {
+                        parent_node
+                    } else {
+                        Some(nodes.len() - 1)
+                    };
+                    let offset = if k == 0 {
+                        body.offset
+                    } else {
+                        Isometry3::identity()
+                    };
+                    nodes.push(Node {
+                        body: b,
+                        joint: Some(j),
+                        parent,
+                        offset,
+                        carries_inertia: k + 1 == body.joints.len(),
+                    });
                 }
             }
             body_node[b] = Some(nodes.len() - 1);
         }
-        let tree = Tree { bodies, joints, gravity, nq, nv, mocap, nodes, body_node };
+        let tree = Tree {
+            bodies,
+            joints,
+            gravity,
+            nq,
+            nv,
+            mocap,
+            nodes,
+            body_node,
+        };
         for (b, body) in tree.bodies.iter().enumerate().skip(1) {
             let moves = tree.body_moves(b);
             let i = &body.inertia;
@@ -274,7 +314,10 @@ fn axis_angle<T: Scalar>(axis: &Vector3<f64>, angle: T) -> Matrix3<T> {
 }
 
 fn lift_iso<T: Scalar>(iso: &Isometry3<f64>) -> Transform<T> {
-    Transform { rotation: iso.rotation.to_rotation_matrix().matrix().map(c::<T>), translation: iso.translation.vector.map(c::<T>) }
+    Transform {
+        rotation: iso.rotation.to_rotation_matrix().matrix().map(c::<T>),
+        translation: iso.translation.vector.map(c::<T>),
+    }
 }
 
 /// Everything the dynamics needs from one configuration and velocity.
@@ -305,7 +348,12 @@ impl Tree {
     /// # Panics
     /// If `mocap` is neither empty nor of length `MOCAP_INPUTS · mocap bodies`.
     pub fn kinematics_with<T: Scalar>(&self, q: &[T], v: &[T], mocap: &[T]) -> Kinematics<T> {
-        assert!(mocap.is_empty() || mocap.len() == MOCAP_INPUTS * self.mocap.len(), "{} mocap inputs for {} mocap bodies", mocap.len(), self.mocap.len());
+        assert!(
+            mocap.is_empty() || mocap.len() == MOCAP_INPUTS * self.mocap.len(),
+            "{} mocap inputs for {} mocap bodies",
+            mocap.len(),
+            self.mocap.len()
+        );
         let n = self.nodes.len();
         let mut x = Vec::with_capacity(n);
         let mut s = Vec::with_capacity(n);
@@ -314,75 +362,130 @@ impl Tree {
         let mut world: Vec<Transform<T>> = Vec::with_capacity(n);
         for node in &self.nodes {
             let off = lift_iso::<T>(&node.offset);
-            let (xj, cols, cj): (Transform<T>, Vec<Vector6<T>>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
-                None if self.bodies[node.body].mocap && !mocap.is_empty() => {
-                    // A mocap body: its world pose and velocity are inputs (it is top-level).
-                    let m = &mocap[MOCAP_INPUTS * self.mocap.iter().position(|&b| b == node.body).unwrap_or(0)..];
-                    let r = quat_matrix(&quat_from(&m[3..7]));
-                    let xi = Transform { rotation: r, translation: Vector3::new(m[0], m[1], m[2]) };
-                    let linvel = Vector3::new(m[7], m[8], m[9]);
-                    let angvel = Vector3::new(m[10], m[11], m[12]);
-                    x.push(xi);
-                    world.push(xi);
-                    vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
-                    bias_acc.push(Vector6::zeros());
-                    s.push(vec![]);
-                    continue;
-                }
-                None => (Transform::identity(), vec![], Vector6::zeros()),
-                Some(j) => {
-                    let qa = j.qadr;
-                    let da = j.dadr;
-                    match j.kind {
-                        JointKind::Slide => {
-                            let a = j.axis.map(c::<T>);
-                            (Transform { rotation: Matrix3::identity(), translation: a * q[qa] }, vec![spatial::spatial(&Vector3::zeros(), &a)], Vector6::zeros())
-                        }
-                        JointKind::Hinge => {
-                            let a = j.axis.map(c::<T>);
-                            let s = j.anchor.map(c::<T>);
-                            let r = axis_angle(&j.axis, q[qa]);
-                            (Transform { rotation: r, translation: s - r * s }, vec![spatial::spatial(&a, &s.cross(&a))], Vector6::zeros())
-                        }
-                        JointKind::Ball => {
-                            let s = j.anchor.map(c::<T>);
-                            let r = quat_matrix(&quat_from(&q[qa..qa + 4]));
-                            let sx = skew(&s);
-                            let cols = (0..3).map(|k| spatial::spatial(&Vector3::ith(k, T::one()), &sx.column(k).into_owned())).collect();
-                            (Transform { rotation: r, translation: s - r * s }, cols, Vector6::zeros())
-                        }
-                        JointKind::Free => {
-                            let r = quat_matrix(&quat_from(&q[qa + 3..qa + 7]));
-                            let rt = r.transpose();
-                            let mut cols = Vec::with_capacity(6);
-                            for k in 0..3 {
-                                cols.push(spatial::spatial(&Vector3::zeros(), &rt.column(k).into_owned()));
+            let (xj, cols, cj): (Transform<T>, Vec<Vector6<T>>, Vector6<T>) =
+                match node.joint.map(|j| &self.joints[j]) {
+                    None if self.bodies[node.body].mocap && !mocap.is_empty() => {
+                        // A mocap body: its world pose and velocity are inputs (it is top-level).
+                        let m = &mocap[MOCAP_INPUTS
+                            * self.mocap.iter().position(|&b| b == node.body).unwrap_or(0)..];
+                        let r = quat_matrix(&quat_from(&m[3..7]));
+                        let xi = Transform {
+                            rotation: r,
+                            translation: Vector3::new(m[0], m[1], m[2]),
+                        };
+                        let linvel = Vector3::new(m[7], m[8], m[9]);
+                        let angvel = Vector3::new(m[10], m[11], m[12]);
+                        x.push(xi);
+                        world.push(xi);
+                        vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
+                        bias_acc.push(Vector6::zeros());
+                        s.push(vec![]);
+                        continue;
+                    }
+                    None => (Transform::identity(), vec![], Vector6::zeros()),
+                    Some(j) => {
+                        let qa = j.qadr;
+                        let da = j.dadr;
+                        match j.kind {
+                            JointKind::Slide => {
+                                let a = j.axis.map(c::<T>);
+                                (
+                                    Transform {
+                                        rotation: Matrix3::identity(),
+                                        translation: a * q[qa],
+                                    },
+                                    vec![spatial::spatial(&Vector3::zeros(), &a)],
+                                    Vector6::zeros(),
+                                )
                             }
-                            for k in 0..3 {
-                                cols.push(spatial::spatial(&Vector3::ith(k, T::one()), &Vector3::zeros()));
+                            JointKind::Hinge => {
+                                let a = j.axis.map(c::<T>);
+                                let s = j.anchor.map(c::<T>);
+                                let r = axis_angle(&j.axis, q[qa]);
+                                (
+                                    Transform {
+                                        rotation: r,
+                                        translation: s - r * s,
+                                    },
+                                    vec![spatial::spatial(&a, &s.cross(&a))],
+                                    Vector6::zeros(),
+                                )
                             }
-                            let vw = Vector3::new(v[da], v[da + 1], v[da + 2]);
-                            let wb = Vector3::new(v[da + 3], v[da + 4], v[da + 5]);
-                            let cj = spatial::spatial(&Vector3::zeros(), &(-wb.cross(&(rt * vw))));
-                            // A free joint's frame is absolute: it ignores the body offset.
-                            let xj = Transform { rotation: r, translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]) };
-                            x.push(xj);
-                            world.push(xj);
-                            let vj = cols.iter().enumerate().fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
-                            vel.push(vj);
-                            bias_acc.push(cj);
-                            s.push(cols);
-                            continue;
+                            JointKind::Ball => {
+                                let s = j.anchor.map(c::<T>);
+                                let r = quat_matrix(&quat_from(&q[qa..qa + 4]));
+                                let sx = skew(&s);
+                                let cols = (0..3)
+                                    .map(|k| {
+                                        spatial::spatial(
+                                            &Vector3::ith(k, T::one()),
+                                            &sx.column(k).into_owned(),
+                                        )
+                                    })
+                                    .collect();
+                                (
+                                    Transform {
+                                        rotation: r,
+                                        translation: s - r * s,
+                                    },
+                                    cols,
+                                    Vector6::zeros(),
+                                )
+                            }
+                            JointKind::Free => {
+                                let r = quat_matrix(&quat_from(&q[qa + 3..qa + 7]));
+                                let rt = r.transpose();
+                                let mut cols = Vec::with_capacity(6);
+                                for k in 0..3 {
+                                    cols.push(spatial::spatial(
+                                        &Vector3::zeros(),
+                                        &rt.column(k).into_owned(),
+                                    ));
+                                }
+                                for k in 0..3 {
+                                    cols.push(spatial::spatial(
+                                        &Vector3::ith(k, T::one()),
+                                        &Vector3::zeros(),
+                                    ));
+                                }
+                                let vw = Vector3::new(v[da], v[da + 1], v[da + 2]);
+                                let wb = Vector3::new(v[da + 3], v[da + 4], v[da + 5]);
+                                let cj =
+                                    spatial::spatial(&Vector3::zeros(), &(-wb.cross(&(rt * vw))));
+                                // A free joint's frame is absolute: it ignores the body offset.
+                                let xj = Transform {
+                                    rotation: r,
+                                    translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]),
+                                };
+                                x.push(xj);
+                                world.push(xj);
+                                let vj = cols
+                                    .iter()
+                                    .enumerate()
+                                    .fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
+                                vel.push(vj);
+                                bias_acc.push(cj);
+                                s.push(cols);
+                                continue;
+                            }
                         }
                     }
-                }
-            };
+                };
             let xi = off.then(&xj);
-            let parent_world = node.parent.map(|p| world[p]).unwrap_or_else(Transform::identity);
+            let parent_world = node
+                .parent
+                .map(|p| world[p])
+                .unwrap_or_else(Transform::identity);
             world.push(parent_world.then(&xi));
-            let vparent = node.parent.map(|p| xi.motion(&vel[p])).unwrap_or_else(Vector6::zeros);
+            let vparent = node
+                .parent
+                .map(|p| xi.motion(&vel[p]))
+                .unwrap_or_else(Vector6::zeros);
             let da = node.joint.map(|j| self.joints[j].dadr).unwrap_or(0);
-            let vj = cols.iter().enumerate().fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
+            let vj = cols
+                .iter()
+                .enumerate()
+                .fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
             let vi = vparent + vj;
             bias_acc.push(cj + cross_motion(&vi, &vj));
             vel.push(vi);
@@ -405,11 +508,20 @@ impl Tree {
                 }
             })
             .collect();
-        Kinematics { x, s, vel, bias_acc, frames }
+        Kinematics {
+            x,
+            s,
+            vel,
+            bias_acc,
+            frames,
+        }
     }
 
     fn node_dadr(&self, i: usize) -> usize {
-        self.nodes[i].joint.map(|j| self.joints[j].dadr).unwrap_or(0)
+        self.nodes[i]
+            .joint
+            .map(|j| self.joints[j].dadr)
+            .unwrap_or(0)
     }
 
     fn node_inertia<T: Scalar>(&self, i: usize) -> nalgebra::Matrix6<T> {
@@ -467,7 +579,12 @@ impl Tree {
     /// Recursive Newton–Euler: the generalized force that produces acceleration `vdot` under
     /// gravity and external body wrenches `f_ext` (per body, world frame, torque about the body
     /// origin). With `vdot = 0` this is the bias `c(q, v) - Σ Jᵀ f_ext`.
-    pub fn rnea<T: Scalar>(&self, kin: &Kinematics<T>, vdot: &[T], f_ext: &[crate::contact::Wrench<T>]) -> DVector<T> {
+    pub fn rnea<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        vdot: &[T],
+        f_ext: &[crate::contact::Wrench<T>],
+    ) -> DVector<T> {
         let n = self.nodes.len();
         let g = self.gravity.map(c::<T>);
         let a0 = spatial::spatial(&Vector3::zeros(), &(-g));
@@ -480,7 +597,10 @@ impl Tree {
                 None => kin.x[i].motion(&a0),
             };
             let da = self.node_dadr(i);
-            let aj = kin.s[i].iter().enumerate().fold(Vector6::zeros(), |s, (k, col)| s + col * vdot[da + k]);
+            let aj = kin.s[i]
+                .iter()
+                .enumerate()
+                .fold(Vector6::zeros(), |s, (k, col)| s + col * vdot[da + k]);
             let ai = ap + aj + kin.bias_acc[i];
             let inertia = self.node_inertia::<T>(i);
             let mut fi = inertia * ai + cross_force(&kin.vel[i], &(inertia * kin.vel[i]));
@@ -593,12 +713,20 @@ pub fn quat_exp<T: Scalar>(theta: &Vector3<T>) -> Quaternion<T> {
     let (cos_half, sinc_half) = if a2.re() < 1e-8 {
         // cos(a/2) and sin(a/2)/a to O(a⁴), exact to 1e-17 here.
         let x = a2 * 0.25;
-        (T::one() - x * 0.5 + x * x / 24.0, (T::one() - x / 6.0 + x * x / 120.0) * 0.5)
+        (
+            T::one() - x * 0.5 + x * x / 24.0,
+            (T::one() - x / 6.0 + x * x / 120.0) * 0.5,
+        )
     } else {
         let a = a2.sqrt();
         ((a * 0.5).cos(), (a * 0.5).sin() / a)
     };
-    Quaternion::new(cos_half, theta.x * sinc_half, theta.y * sinc_half, theta.z * sinc_half)
+    Quaternion::new(
+        cos_half,
+        theta.x * sinc_half,
+        theta.y * sinc_half,
+        theta.z * sinc_half,
+    )
 }
 
 /// Rotation vector `θ` of a quaternion (the inverse of [`quat_exp`]): `q = ±exp(θ/2)`, with the

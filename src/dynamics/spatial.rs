@@ -8,7 +8,17 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 /// Skew-symmetric matrix `[a]×` with `[a]× b = a × b`.
 #[inline]
 pub fn skew<T: Scalar>(a: &Vector3<T>) -> Matrix3<T> {
-    Matrix3::new(T::zero(), -a.z, a.y, a.z, T::zero(), -a.x, -a.y, a.x, T::zero())
+    Matrix3::new(
+        T::zero(),
+        -a.z,
+        a.y,
+        a.z,
+        T::zero(),
+        -a.x,
+        -a.y,
+        a.x,
+        T::zero(),
+    )
 }
 
 /// Angular part of a spatial vector.
@@ -56,12 +66,18 @@ pub struct Transform<T: Scalar> {
 impl<T: Scalar> Transform<T> {
     /// The identity transform.
     pub fn identity() -> Self {
-        Transform { rotation: Matrix3::identity(), translation: Vector3::zeros() }
+        Transform {
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+        }
     }
 
     /// Composition: `self` (parent → mid) followed by `child` (mid → child).
     pub fn then(&self, child: &Transform<T>) -> Transform<T> {
-        Transform { rotation: self.rotation * child.rotation, translation: self.translation + self.rotation * child.translation }
+        Transform {
+            rotation: self.rotation * child.rotation,
+            translation: self.translation + self.rotation * child.translation,
+        }
     }
 
     /// Motion vector from parent to child coordinates.
@@ -85,7 +101,8 @@ impl<T: Scalar> Transform<T> {
         let mut x = Matrix6::zeros();
         x.fixed_view_mut::<3, 3>(0, 0).copy_from(&et);
         x.fixed_view_mut::<3, 3>(3, 3).copy_from(&et);
-        x.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-et * skew(&self.translation)));
+        x.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&(-et * skew(&self.translation)));
         x
     }
 }
@@ -111,8 +128,10 @@ impl Inertia {
         let mut out = Matrix6::zeros();
         out.fixed_view_mut::<3, 3>(0, 0).copy_from(&io);
         out.fixed_view_mut::<3, 3>(0, 3).copy_from(&(cx * m));
-        out.fixed_view_mut::<3, 3>(3, 0).copy_from(&(cx.transpose() * m));
-        out.fixed_view_mut::<3, 3>(3, 3).copy_from(&(Matrix3::identity() * m));
+        out.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&(cx.transpose() * m));
+        out.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(Matrix3::identity() * m));
         out.map(c::<T>)
     }
 
@@ -120,13 +139,21 @@ impl Inertia {
     pub fn add(&self, other: &Inertia) -> Inertia {
         let mass = self.mass + other.mass;
         if mass <= 0.0 {
-            return Inertia { mass: 0.0, com: Vector3::zeros(), rot: self.rot + other.rot };
+            return Inertia {
+                mass: 0.0,
+                com: Vector3::zeros(),
+                rot: self.rot + other.rot,
+            };
         }
         let com = (self.com * self.mass + other.com * other.mass) / mass;
         let shift = |i: &Inertia| {
             let d = i.com - com;
             i.rot + (Matrix3::identity() * d.norm_squared() - d * d.transpose()) * i.mass
         };
-        Inertia { mass, com, rot: shift(self) + shift(other) }
+        Inertia {
+            mass,
+            com,
+            rot: shift(self) + shift(other),
+        }
     }
 }

@@ -126,8 +126,12 @@ pub enum LogCategory {
 
 impl LogCategory {
     /// Every category, in the order declared in `modelDescription.xml`.
-    pub const ALL: [LogCategory; 4] =
-        [LogCategory::StatusError, LogCategory::StatusWarning, LogCategory::Events, LogCategory::Contact];
+    pub const ALL: [LogCategory; 4] = [
+        LogCategory::StatusError,
+        LogCategory::StatusWarning,
+        LogCategory::Events,
+        LogCategory::Contact,
+    ];
 
     /// Name as declared in `<LogCategories>`.
     pub fn name(self) -> &'static str {
@@ -144,8 +148,12 @@ impl LogCategory {
         match self {
             LogCategory::StatusError => "Errors: calls that return fmi2Error or fmi2Fatal",
             LogCategory::StatusWarning => "Warnings: calls that return fmi2Warning",
-            LogCategory::Events => "Instantiation, initialization, reset, termination and FMU state",
-            LogCategory::Contact => "Contact diagnostics: smooth separation distance and force per pair",
+            LogCategory::Events => {
+                "Instantiation, initialization, reset, termination and FMU state"
+            }
+            LogCategory::Contact => {
+                "Contact diagnostics: smooth separation distance and force per pair"
+            }
         }
     }
 }
@@ -252,7 +260,12 @@ pub trait FmiModel: Sized + Send {
     fn info(&self) -> &ModelInfo;
 
     /// `fmi2SetupExperiment`.
-    fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>, tolerance: Option<f64>) -> ModelResult<()>;
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        stop_time: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> ModelResult<()>;
     /// `fmi2EnterInitializationMode`.
     fn enter_initialization(&mut self) -> ModelResult<()>;
     /// `fmi2ExitInitializationMode`.
@@ -325,7 +338,12 @@ pub trait FmiModel: Sized + Send {
     }
 
     /// `fmi2GetDirectionalDerivative`: `dv_unknown = J[unknowns, knowns] · dv_known`.
-    fn directional_derivative(&mut self, _unknowns: &[u32], _knowns: &[u32], _dv_known: &[f64]) -> ModelResult<Vec<f64>> {
+    fn directional_derivative(
+        &mut self,
+        _unknowns: &[u32],
+        _knowns: &[u32],
+        _dv_known: &[f64],
+    ) -> ModelResult<Vec<f64>> {
         Err("this model does not provide directional derivatives".into())
     }
 

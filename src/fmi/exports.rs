@@ -50,7 +50,11 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 /// # Safety
 /// `c` must be NULL, or a component returned by [`instantiate::<M>`] and not yet freed (a
 /// foreign or freed pointer is recognised through the registry of live instances).
-unsafe fn with_instance<M: FmiModel>(c: fmi2Component, function: &str, body: impl FnOnce(&mut Instance<M>) -> fmi2Status) -> fmi2Status {
+unsafe fn with_instance<M: FmiModel>(
+    c: fmi2Component,
+    function: &str,
+    body: impl FnOnce(&mut Instance<M>) -> fmi2Status,
+) -> fmi2Status {
     if c.is_null() || !live().contains(&c.addr()) {
         return fmi2Error;
     }
@@ -62,7 +66,9 @@ unsafe fn with_instance<M: FmiModel>(c: fmi2Component, function: &str, body: imp
         Err(payload) => {
             let message = panic_message(&*payload);
             // SAFETY: as above; the reference made for `body` is gone.
-            let _ = catch_unwind(AssertUnwindSafe(|| unsafe { (*instance).mark_fatal(function, &message) }));
+            let _ = catch_unwind(AssertUnwindSafe(|| unsafe {
+                (*instance).mark_fatal(function, &message)
+            }));
             fmi2Fatal
         }
     }
@@ -130,7 +136,9 @@ unsafe fn str_from<'a>(ptr: fmi2String) -> Result<&'a str, String> {
         return Err("NULL string".into());
     }
     // SAFETY: non-NULL; NUL-terminated by the caller's contract.
-    unsafe { CStr::from_ptr(ptr) }.to_str().map_err(|e| format!("not valid UTF-8 ({e})"))
+    unsafe { CStr::from_ptr(ptr) }
+        .to_str()
+        .map_err(|e| format!("not valid UTF-8 ({e})"))
 }
 
 /// Turns a checked-argument result into its value, or logs the problem with the argument's
@@ -195,7 +203,12 @@ pub extern "C" fn get_version() -> *const c_char {
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_debug_logging<M: FmiModel>(c: fmi2Component, logging_on: fmi2Boolean, n_categories: usize, categories: *const fmi2String) -> fmi2Status {
+pub unsafe extern "C" fn set_debug_logging<M: FmiModel>(
+    c: fmi2Component,
+    logging_on: fmi2Boolean,
+    n_categories: usize,
+    categories: *const fmi2String,
+) -> fmi2Status {
     const F: &str = "fmi2SetDebugLogging";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -224,12 +237,22 @@ pub unsafe extern "C" fn instantiate<M: FmiModel>(
     logging_on: fmi2Boolean,
 ) -> fmi2Component {
     let result = catch_unwind(AssertUnwindSafe(|| unsafe {
-        instantiate_checked::<M>(instance_name, fmu_type, fmu_guid, fmu_resource_location, functions, logging_on)
+        instantiate_checked::<M>(
+            instance_name,
+            fmu_type,
+            fmu_guid,
+            fmu_resource_location,
+            functions,
+            logging_on,
+        )
     }));
     match result {
         Ok(c) => c,
         Err(payload) => {
-            let message = format!("fmi2Instantiate: internal error (panic: {})", panic_message(&*payload));
+            let message = format!(
+                "fmi2Instantiate: internal error (panic: {})",
+                panic_message(&*payload)
+            );
             let _ = catch_unwind(AssertUnwindSafe(|| {
                 // SAFETY: `functions` was checked non-NULL and aligned before anything could panic,
                 // or it is NULL/misaligned and `as_ref` below is not reached.
@@ -266,7 +289,11 @@ unsafe fn instantiate_checked<M: FmiModel>(
     let logger = unsafe { HostLogger::new(functions, name.as_deref().unwrap_or("")) };
     let fail = |message: String| {
         if let Some(logger) = &logger {
-            logger.log(fmi2Error, LogCategory::StatusError.name(), &format!("fmi2Instantiate: {message}"));
+            logger.log(
+                fmi2Error,
+                LogCategory::StatusError.name(),
+                &format!("fmi2Instantiate: {message}"),
+            );
         }
         std::ptr::null_mut()
     };
@@ -287,7 +314,11 @@ unsafe fn instantiate_checked<M: FmiModel>(
     };
     let location = match unsafe { str_from(fmu_resource_location) } {
         Ok(location) => location,
-        Err(problem) => return fail(format!("argument fmuResourceLocation is invalid: {problem}")),
+        Err(problem) => {
+            return fail(format!(
+                "argument fmuResourceLocation is invalid: {problem}"
+            ))
+        }
     };
     let sink = logger.map(|l| Box::new(l) as Box<dyn LogSink>);
     match Instance::<M>::instantiate(name, interface, guid, location, to_bool(logging_on), sink) {
@@ -327,7 +358,11 @@ pub unsafe extern "C" fn setup_experiment<M: FmiModel>(
 ) -> fmi2Status {
     let tolerance = to_bool(tolerance_defined).then_some(tolerance);
     let stop_time = to_bool(stop_time_defined).then_some(stop_time);
-    unsafe { with_instance::<M>(c, "fmi2SetupExperiment", |inst| inst.setup_experiment(tolerance, start_time, stop_time)) }
+    unsafe {
+        with_instance::<M>(c, "fmi2SetupExperiment", |inst| {
+            inst.setup_experiment(tolerance, start_time, stop_time)
+        })
+    }
 }
 
 /// `fmi2EnterInitializationMode`.
@@ -335,7 +370,11 @@ pub unsafe extern "C" fn setup_experiment<M: FmiModel>(
 /// # Safety
 /// See the [module documentation](self).
 pub unsafe extern "C" fn enter_initialization_mode<M: FmiModel>(c: fmi2Component) -> fmi2Status {
-    unsafe { with_instance::<M>(c, "fmi2EnterInitializationMode", |inst| inst.enter_initialization_mode()) }
+    unsafe {
+        with_instance::<M>(c, "fmi2EnterInitializationMode", |inst| {
+            inst.enter_initialization_mode()
+        })
+    }
 }
 
 /// `fmi2ExitInitializationMode`.
@@ -343,7 +382,11 @@ pub unsafe extern "C" fn enter_initialization_mode<M: FmiModel>(c: fmi2Component
 /// # Safety
 /// See the [module documentation](self).
 pub unsafe extern "C" fn exit_initialization_mode<M: FmiModel>(c: fmi2Component) -> fmi2Status {
-    unsafe { with_instance::<M>(c, "fmi2ExitInitializationMode", |inst| inst.exit_initialization_mode()) }
+    unsafe {
+        with_instance::<M>(c, "fmi2ExitInitializationMode", |inst| {
+            inst.exit_initialization_mode()
+        })
+    }
 }
 
 /// `fmi2Terminate`.
@@ -368,7 +411,12 @@ pub unsafe extern "C" fn reset<M: FmiModel>(c: fmi2Component) -> fmi2Status {
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_real<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Real) -> fmi2Status {
+pub unsafe extern "C" fn get_real<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Real,
+) -> fmi2Status {
     const F: &str = "fmi2GetReal";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -383,7 +431,12 @@ pub unsafe extern "C" fn get_real<M: FmiModel>(c: fmi2Component, vr: *const fmi2
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_integer<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Integer) -> fmi2Status {
+pub unsafe extern "C" fn get_integer<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
     const F: &str = "fmi2GetInteger";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -398,7 +451,12 @@ pub unsafe extern "C" fn get_integer<M: FmiModel>(c: fmi2Component, vr: *const f
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_boolean<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2Boolean) -> fmi2Status {
+pub unsafe extern "C" fn get_boolean<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
     const F: &str = "fmi2GetBoolean";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -413,7 +471,12 @@ pub unsafe extern "C" fn get_boolean<M: FmiModel>(c: fmi2Component, vr: *const f
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_string<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2String) -> fmi2Status {
+pub unsafe extern "C" fn get_string<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2String,
+) -> fmi2Status {
     const F: &str = "fmi2GetString";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -428,7 +491,12 @@ pub unsafe extern "C" fn get_string<M: FmiModel>(c: fmi2Component, vr: *const fm
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_real<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Real) -> fmi2Status {
+pub unsafe extern "C" fn set_real<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Real,
+) -> fmi2Status {
     const F: &str = "fmi2SetReal";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -443,7 +511,12 @@ pub unsafe extern "C" fn set_real<M: FmiModel>(c: fmi2Component, vr: *const fmi2
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_integer<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Integer) -> fmi2Status {
+pub unsafe extern "C" fn set_integer<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Integer,
+) -> fmi2Status {
     const F: &str = "fmi2SetInteger";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -458,7 +531,12 @@ pub unsafe extern "C" fn set_integer<M: FmiModel>(c: fmi2Component, vr: *const f
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_boolean<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2Boolean) -> fmi2Status {
+pub unsafe extern "C" fn set_boolean<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2Boolean,
+) -> fmi2Status {
     const F: &str = "fmi2SetBoolean";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -473,7 +551,12 @@ pub unsafe extern "C" fn set_boolean<M: FmiModel>(c: fmi2Component, vr: *const f
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_string<M: FmiModel>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2String) -> fmi2Status {
+pub unsafe extern "C" fn set_string<M: FmiModel>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2String,
+) -> fmi2Status {
     const F: &str = "fmi2SetString";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -494,7 +577,10 @@ pub unsafe extern "C" fn set_string<M: FmiModel>(c: fmi2Component, vr: *const fm
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe extern "C" fn get_fmu_state<M: FmiModel>(
+    c: fmi2Component,
+    fmu_state: *mut fmi2FMUstate,
+) -> fmi2Status {
     const F: &str = "fmi2GetFMUstate";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -511,15 +597,25 @@ pub unsafe extern "C" fn get_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state:
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state: fmi2FMUstate) -> fmi2Status {
-    unsafe { with_instance::<M>(c, "fmi2SetFMUstate", |inst| inst.set_fmu_state(handle_from_ptr(fmu_state))) }
+pub unsafe extern "C" fn set_fmu_state<M: FmiModel>(
+    c: fmi2Component,
+    fmu_state: fmi2FMUstate,
+) -> fmi2Status {
+    unsafe {
+        with_instance::<M>(c, "fmi2SetFMUstate", |inst| {
+            inst.set_fmu_state(handle_from_ptr(fmu_state))
+        })
+    }
 }
 
 /// `fmi2FreeFMUstate`: sets `*FMUstate` to NULL; an unknown handle is refused.
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn free_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe extern "C" fn free_fmu_state<M: FmiModel>(
+    c: fmi2Component,
+    fmu_state: *mut fmi2FMUstate,
+) -> fmi2Status {
     const F: &str = "fmi2FreeFMUstate";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -539,7 +635,11 @@ pub unsafe extern "C" fn free_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn serialized_fmu_state_size<M: FmiModel>(c: fmi2Component, fmu_state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+pub unsafe extern "C" fn serialized_fmu_state_size<M: FmiModel>(
+    c: fmi2Component,
+    fmu_state: fmi2FMUstate,
+    size: *mut usize,
+) -> fmi2Status {
     const F: &str = "fmi2SerializedFMUstateSize";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -553,11 +653,22 @@ pub unsafe extern "C" fn serialized_fmu_state_size<M: FmiModel>(c: fmi2Component
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn serialize_fmu_state<M: FmiModel>(c: fmi2Component, fmu_state: fmi2FMUstate, serialized_state: *mut fmi2Byte, size: usize) -> fmi2Status {
+pub unsafe extern "C" fn serialize_fmu_state<M: FmiModel>(
+    c: fmi2Component,
+    fmu_state: fmi2FMUstate,
+    serialized_state: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
     const F: &str = "fmi2SerializeFMUstate";
     unsafe {
         with_instance::<M>(c, F, |inst| {
-            let out = try_slice_mut!(inst, F, "serializedState", serialized_state.cast::<u8>(), size);
+            let out = try_slice_mut!(
+                inst,
+                F,
+                "serializedState",
+                serialized_state.cast::<u8>(),
+                size
+            );
             inst.serialize_fmu_state(handle_from_ptr(fmu_state), out)
         })
     }
@@ -567,11 +678,22 @@ pub unsafe extern "C" fn serialize_fmu_state<M: FmiModel>(c: fmi2Component, fmu_
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn de_serialize_fmu_state<M: FmiModel>(c: fmi2Component, serialized_state: *const fmi2Byte, size: usize, fmu_state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe extern "C" fn de_serialize_fmu_state<M: FmiModel>(
+    c: fmi2Component,
+    serialized_state: *const fmi2Byte,
+    size: usize,
+    fmu_state: *mut fmi2FMUstate,
+) -> fmi2Status {
     const F: &str = "fmi2DeSerializeFMUstate";
     unsafe {
         with_instance::<M>(c, F, |inst| {
-            let bytes = try_slice!(inst, F, "serializedState", serialized_state.cast::<u8>(), size);
+            let bytes = try_slice!(
+                inst,
+                F,
+                "serializedState",
+                serialized_state.cast::<u8>(),
+                size
+            );
             let out = try_ref_mut!(inst, F, "FMUstate", fmu_state);
             let mut slot = handle_from_ptr(*out);
             let status = inst.deserialize_fmu_state(bytes, &mut slot);
@@ -664,7 +786,11 @@ pub unsafe extern "C" fn do_step<M: FmiModel>(
 ) -> fmi2Status {
     unsafe {
         with_instance::<M>(c, "fmi2DoStep", |inst| {
-            inst.do_step(current_communication_point, communication_step_size, to_bool(no_set_fmu_state_prior_to_current_point))
+            inst.do_step(
+                current_communication_point,
+                communication_step_size,
+                to_bool(no_set_fmu_state_prior_to_current_point),
+            )
         })
     }
 }
@@ -681,7 +807,11 @@ pub unsafe extern "C" fn cancel_step<M: FmiModel>(c: fmi2Component) -> fmi2Statu
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_status<M: FmiModel>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+pub unsafe extern "C" fn get_status<M: FmiModel>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Status,
+) -> fmi2Status {
     const F: &str = "fmi2GetStatus";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -695,7 +825,11 @@ pub unsafe extern "C" fn get_status<M: FmiModel>(c: fmi2Component, s: fmi2Status
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_real_status<M: FmiModel>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+pub unsafe extern "C" fn get_real_status<M: FmiModel>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Real,
+) -> fmi2Status {
     const F: &str = "fmi2GetRealStatus";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -709,7 +843,11 @@ pub unsafe extern "C" fn get_real_status<M: FmiModel>(c: fmi2Component, s: fmi2S
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_integer_status<M: FmiModel>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Integer) -> fmi2Status {
+pub unsafe extern "C" fn get_integer_status<M: FmiModel>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
     const F: &str = "fmi2GetIntegerStatus";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -723,7 +861,11 @@ pub unsafe extern "C" fn get_integer_status<M: FmiModel>(c: fmi2Component, s: fm
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_boolean_status<M: FmiModel>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
+pub unsafe extern "C" fn get_boolean_status<M: FmiModel>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
     const F: &str = "fmi2GetBooleanStatus";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -737,7 +879,11 @@ pub unsafe extern "C" fn get_boolean_status<M: FmiModel>(c: fmi2Component, s: fm
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_string_status<M: FmiModel>(c: fmi2Component, s: fmi2StatusKind, _value: *mut fmi2String) -> fmi2Status {
+pub unsafe extern "C" fn get_string_status<M: FmiModel>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    _value: *mut fmi2String,
+) -> fmi2Status {
     unsafe { with_instance::<M>(c, "fmi2GetStringStatus", |inst| inst.get_string_status(s)) }
 }
 
@@ -755,7 +901,10 @@ pub unsafe extern "C" fn enter_event_mode<M: FmiModel>(c: fmi2Component) -> fmi2
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn new_discrete_states<M: FmiModel>(c: fmi2Component, event_info: *mut fmi2EventInfo) -> fmi2Status {
+pub unsafe extern "C" fn new_discrete_states<M: FmiModel>(
+    c: fmi2Component,
+    event_info: *mut fmi2EventInfo,
+) -> fmi2Status {
     const F: &str = "fmi2NewDiscreteStates";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -770,7 +919,11 @@ pub unsafe extern "C" fn new_discrete_states<M: FmiModel>(c: fmi2Component, even
 /// # Safety
 /// See the [module documentation](self).
 pub unsafe extern "C" fn enter_continuous_time_mode<M: FmiModel>(c: fmi2Component) -> fmi2Status {
-    unsafe { with_instance::<M>(c, "fmi2EnterContinuousTimeMode", |inst| inst.enter_continuous_time_mode()) }
+    unsafe {
+        with_instance::<M>(c, "fmi2EnterContinuousTimeMode", |inst| {
+            inst.enter_continuous_time_mode()
+        })
+    }
 }
 
 /// `fmi2CompletedIntegratorStep`.
@@ -789,7 +942,11 @@ pub unsafe extern "C" fn completed_integrator_step<M: FmiModel>(
             let enter = try_ref_mut!(inst, F, "enterEventMode", enter_event_mode);
             let terminate = try_ref_mut!(inst, F, "terminateSimulation", terminate_simulation);
             let (mut e, mut t) = (false, false);
-            let status = inst.completed_integrator_step(to_bool(no_set_fmu_state_prior_to_current_point), &mut e, &mut t);
+            let status = inst.completed_integrator_step(
+                to_bool(no_set_fmu_state_prior_to_current_point),
+                &mut e,
+                &mut t,
+            );
             *enter = if e { fmi2True } else { fmi2False };
             *terminate = if t { fmi2True } else { fmi2False };
             status
@@ -809,7 +966,11 @@ pub unsafe extern "C" fn set_time<M: FmiModel>(c: fmi2Component, time: fmi2Real)
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn set_continuous_states<M: FmiModel>(c: fmi2Component, x: *const fmi2Real, nx: usize) -> fmi2Status {
+pub unsafe extern "C" fn set_continuous_states<M: FmiModel>(
+    c: fmi2Component,
+    x: *const fmi2Real,
+    nx: usize,
+) -> fmi2Status {
     const F: &str = "fmi2SetContinuousStates";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -823,7 +984,11 @@ pub unsafe extern "C" fn set_continuous_states<M: FmiModel>(c: fmi2Component, x:
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_derivatives<M: FmiModel>(c: fmi2Component, derivatives: *mut fmi2Real, nx: usize) -> fmi2Status {
+pub unsafe extern "C" fn get_derivatives<M: FmiModel>(
+    c: fmi2Component,
+    derivatives: *mut fmi2Real,
+    nx: usize,
+) -> fmi2Status {
     const F: &str = "fmi2GetDerivatives";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -837,7 +1002,11 @@ pub unsafe extern "C" fn get_derivatives<M: FmiModel>(c: fmi2Component, derivati
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_event_indicators<M: FmiModel>(c: fmi2Component, event_indicators: *mut fmi2Real, ni: usize) -> fmi2Status {
+pub unsafe extern "C" fn get_event_indicators<M: FmiModel>(
+    c: fmi2Component,
+    event_indicators: *mut fmi2Real,
+    ni: usize,
+) -> fmi2Status {
     const F: &str = "fmi2GetEventIndicators";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -851,7 +1020,11 @@ pub unsafe extern "C" fn get_event_indicators<M: FmiModel>(c: fmi2Component, eve
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_continuous_states<M: FmiModel>(c: fmi2Component, x: *mut fmi2Real, nx: usize) -> fmi2Status {
+pub unsafe extern "C" fn get_continuous_states<M: FmiModel>(
+    c: fmi2Component,
+    x: *mut fmi2Real,
+    nx: usize,
+) -> fmi2Status {
     const F: &str = "fmi2GetContinuousStates";
     unsafe {
         with_instance::<M>(c, F, |inst| {
@@ -865,7 +1038,11 @@ pub unsafe extern "C" fn get_continuous_states<M: FmiModel>(c: fmi2Component, x:
 ///
 /// # Safety
 /// See the [module documentation](self).
-pub unsafe extern "C" fn get_nominals_of_continuous_states<M: FmiModel>(c: fmi2Component, x_nominal: *mut fmi2Real, nx: usize) -> fmi2Status {
+pub unsafe extern "C" fn get_nominals_of_continuous_states<M: FmiModel>(
+    c: fmi2Component,
+    x_nominal: *mut fmi2Real,
+    nx: usize,
+) -> fmi2Status {
     const F: &str = "fmi2GetNominalsOfContinuousStates";
     unsafe {
         with_instance::<M>(c, F, |inst| {

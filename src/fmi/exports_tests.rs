@@ -5,7 +5,10 @@
 //! variadic pointer type: on x86_64 System V (and AArch64 Linux), the first variadic pointer
 //! argument is passed in the same register as a sixth fixed pointer argument, so the logger
 //! reads the message that follows the `"%s"` format. Tests are limited to those targets.
-#![cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+#![cfg(all(
+    any(target_arch = "x86_64", target_arch = "aarch64"),
+    target_os = "linux"
+))]
 
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::ptr::{null, null_mut};
@@ -33,14 +36,37 @@ unsafe fn text(p: *const c_char) -> String {
     }
 }
 
-unsafe extern "C" fn test_logger(env: *mut c_void, instance: fmi2String, status: fmi2Status, category: fmi2String, format: fmi2String, arg: *const c_char) {
+unsafe extern "C" fn test_logger(
+    env: *mut c_void,
+    instance: fmi2String,
+    status: fmi2Status,
+    category: fmi2String,
+    format: fmi2String,
+    arg: *const c_char,
+) {
     let env = unsafe { &*(env as *const Env) };
-    let record = unsafe { Record { instance: text(instance), status, category: text(category), format: text(format), message: text(arg) } };
+    let record = unsafe {
+        Record {
+            instance: text(instance),
+            status,
+            category: text(category),
+            format: text(format),
+            message: text(arg),
+        }
+    };
     env.lock().unwrap().push(record);
 }
 
-type Fixed = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, *const c_char);
-type Variadic = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+type Fixed = unsafe extern "C" fn(
+    *mut c_void,
+    fmi2String,
+    fmi2Status,
+    fmi2String,
+    fmi2String,
+    *const c_char,
+);
+type Variadic =
+    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
 
 fn callbacks(env: &Env) -> fmi2CallbackFunctions {
     // SAFETY: see the module documentation: same registers for the arguments we read.
@@ -64,16 +90,33 @@ fn last(env: &Env) -> Record {
 
 const RES: &CStr = c"file:///tmp/scm-toy-resources";
 
-unsafe fn new_instance(_env: &Env, cb: &fmi2CallbackFunctions, fmu_type: fmi2Type) -> fmi2Component {
+unsafe fn new_instance(
+    _env: &Env,
+    cb: &fmi2CallbackFunctions,
+    fmu_type: fmi2Type,
+) -> fmi2Component {
     let guid = CString::new(GUID).unwrap();
-    unsafe { instantiate::<Toy>(c"toy".as_ptr(), fmu_type, guid.as_ptr(), RES.as_ptr(), cb, fmi2False, fmi2False) }
+    unsafe {
+        instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmu_type,
+            guid.as_ptr(),
+            RES.as_ptr(),
+            cb,
+            fmi2False,
+            fmi2False,
+        )
+    }
 }
 
 unsafe fn initialized(env: &Env, cb: &fmi2CallbackFunctions) -> fmi2Component {
     unsafe {
         let c = new_instance(env, cb, fmi2CoSimulation);
         assert!(!c.is_null(), "{:?}", records(env));
-        assert_eq!(setup_experiment::<Toy>(c, fmi2False, 0.0, 0.0, fmi2False, 0.0), fmi2OK);
+        assert_eq!(
+            setup_experiment::<Toy>(c, fmi2False, 0.0, 0.0, fmi2False, 0.0),
+            fmi2OK
+        );
         assert_eq!(enter_initialization_mode::<Toy>(c), fmi2OK);
         assert_eq!(exit_initialization_mode::<Toy>(c), fmi2OK);
         c
@@ -91,7 +134,15 @@ fn instantiate_failures_return_null_and_log_with_percent_s() {
     let env = Env::default();
     let cb = callbacks(&env);
     unsafe {
-        let c = instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, c"{not-the-guid}".as_ptr(), RES.as_ptr(), &cb, 0, 1);
+        let c = instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            c"{not-the-guid}".as_ptr(),
+            RES.as_ptr(),
+            &cb,
+            0,
+            1,
+        );
         assert!(c.is_null());
         let r = last(&env);
         assert_eq!(r.format, "%s");
@@ -101,23 +152,88 @@ fn instantiate_failures_return_null_and_log_with_percent_s() {
         assert!(r.message.contains("{not-the-guid}"), "{r:?}");
 
         let guid = CString::new(GUID).unwrap();
-        assert!(instantiate::<Toy>(null(), fmi2CoSimulation, guid.as_ptr(), RES.as_ptr(), &cb, 0, 1).is_null());
+        assert!(instantiate::<Toy>(
+            null(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            RES.as_ptr(),
+            &cb,
+            0,
+            1
+        )
+        .is_null());
         assert!(last(&env).message.contains("instanceName"));
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), 7, guid.as_ptr(), RES.as_ptr(), &cb, 0, 1).is_null());
+        assert!(
+            instantiate::<Toy>(c"toy".as_ptr(), 7, guid.as_ptr(), RES.as_ptr(), &cb, 0, 1)
+                .is_null()
+        );
         assert!(last(&env).message.contains("fmuType = 7"));
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, null(), RES.as_ptr(), &cb, 0, 1).is_null());
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, guid.as_ptr(), null(), &cb, 0, 1).is_null());
+        assert!(instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            null(),
+            RES.as_ptr(),
+            &cb,
+            0,
+            1
+        )
+        .is_null());
+        assert!(instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            null(),
+            &cb,
+            0,
+            1
+        )
+        .is_null());
         assert!(last(&env).message.contains("fmuResourceLocation"));
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, guid.as_ptr(), c"http://x".as_ptr(), &cb, 0, 1).is_null());
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, guid.as_ptr(), RES.as_ptr(), null(), 0, 1).is_null());
+        assert!(instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            c"http://x".as_ptr(),
+            &cb,
+            0,
+            1
+        )
+        .is_null());
+        assert!(instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            RES.as_ptr(),
+            null(),
+            0,
+            1
+        )
+        .is_null());
         // a message holding printf directives is passed as an argument, never as the format
-        let c = instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, c"%s%n%s".as_ptr(), RES.as_ptr(), &cb, 0, 1);
+        let c = instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            c"%s%n%s".as_ptr(),
+            RES.as_ptr(),
+            &cb,
+            0,
+            1,
+        );
         assert!(c.is_null());
         assert!(last(&env).message.contains("\"%s%n%s\""));
         assert!(records(&env).iter().all(|r| r.format == "%s"));
         // no logger at all: still NULL, no crash
         let quiet = fmi2CallbackFunctions { logger: None, ..cb };
-        assert!(instantiate::<Toy>(c"toy".as_ptr(), fmi2CoSimulation, c"x".as_ptr(), RES.as_ptr(), &quiet, 0, 1).is_null());
+        assert!(instantiate::<Toy>(
+            c"toy".as_ptr(),
+            fmi2CoSimulation,
+            c"x".as_ptr(),
+            RES.as_ptr(),
+            &quiet,
+            0,
+            1
+        )
+        .is_null());
     }
 }
 
@@ -132,10 +248,17 @@ fn co_simulation_through_the_c_abi() {
         assert_eq!(get_real::<Toy>(c, vr.as_ptr(), 2, v.as_mut_ptr()), fmi2OK);
         assert_eq!(v, [1.0, 0.0]);
         assert_eq!(do_step::<Toy>(c, 0.0, 0.1, fmi2True), fmi2OK);
-        assert_eq!(do_step::<Toy>(c, 0.0, 0.1, fmi2True), fmi2Error, "wrong communication point");
+        assert_eq!(
+            do_step::<Toy>(c, 0.0, 0.1, fmi2True),
+            fmi2Error,
+            "wrong communication point"
+        );
         assert!(last(&env).message.contains("currentCommunicationPoint"));
         let mut t = 0.0;
-        assert_eq!(get_real_status::<Toy>(c, fmi2LastSuccessfulTime, &mut t), fmi2OK);
+        assert_eq!(
+            get_real_status::<Toy>(c, fmi2LastSuccessfulTime, &mut t),
+            fmi2OK
+        );
         assert_eq!(t, 0.1);
         // strings
         let mut s: fmi2String = null();
@@ -143,11 +266,17 @@ fn co_simulation_through_the_c_abi() {
         assert_eq!(text(s), "toy");
         // debug logging through C strings
         let cats = [c"logContact".as_ptr()];
-        assert_eq!(set_debug_logging::<Toy>(c, fmi2True, 1, cats.as_ptr()), fmi2OK);
+        assert_eq!(
+            set_debug_logging::<Toy>(c, fmi2True, 1, cats.as_ptr()),
+            fmi2OK
+        );
         assert_eq!(do_step::<Toy>(c, 0.1, 0.1, fmi2True), fmi2OK);
         assert_eq!(last(&env).category, "logContact");
         let bad = [c"logNope".as_ptr()];
-        assert_eq!(set_debug_logging::<Toy>(c, fmi2True, 1, bad.as_ptr()), fmi2Error);
+        assert_eq!(
+            set_debug_logging::<Toy>(c, fmi2True, 1, bad.as_ptr()),
+            fmi2Error
+        );
         assert!(last(&env).message.contains("logNope"));
         assert_eq!(cancel_step::<Toy>(c), fmi2Error);
         assert_eq!(terminate::<Toy>(c), fmi2OK);
@@ -162,27 +291,56 @@ fn null_pointers_are_refused() {
     let cb = callbacks(&env);
     unsafe {
         assert_eq!(do_step::<Toy>(null_mut(), 0.0, 0.1, 0), fmi2Error);
-        assert_eq!(get_real::<Toy>(null_mut(), null(), 0, null_mut()), fmi2Error);
+        assert_eq!(
+            get_real::<Toy>(null_mut(), null(), 0, null_mut()),
+            fmi2Error
+        );
         free_instance::<Toy>(null_mut());
         let c = initialized(&env, &cb);
         let mut v = [0.0];
         assert_eq!(get_real::<Toy>(c, null(), 1, v.as_mut_ptr()), fmi2Error);
         let r = last(&env);
-        assert_eq!(r.message, "fmi2GetReal: argument vr is invalid: NULL pointer for 1 elements");
-        assert_eq!(get_real::<Toy>(c, [0u32].as_ptr(), 1, null_mut()), fmi2Error);
+        assert_eq!(
+            r.message,
+            "fmi2GetReal: argument vr is invalid: NULL pointer for 1 elements"
+        );
+        assert_eq!(
+            get_real::<Toy>(c, [0u32].as_ptr(), 1, null_mut()),
+            fmi2Error
+        );
         assert!(last(&env).message.contains("argument value"));
-        assert_eq!(get_real::<Toy>(c, null(), 0, null_mut()), fmi2OK, "nvr = 0: pointers unused");
+        assert_eq!(
+            get_real::<Toy>(c, null(), 0, null_mut()),
+            fmi2OK,
+            "nvr = 0: pointers unused"
+        );
         assert_eq!(set_real::<Toy>(c, [2u32].as_ptr(), 1, null()), fmi2Error);
         let strings = [null()];
-        assert_eq!(set_string::<Toy>(c, [0u32].as_ptr(), 1, strings.as_ptr()), fmi2Error);
+        assert_eq!(
+            set_string::<Toy>(c, [0u32].as_ptr(), 1, strings.as_ptr()),
+            fmi2Error
+        );
         assert!(last(&env).message.contains("value[0]"));
         assert_eq!(get_fmu_state::<Toy>(c, null_mut()), fmi2Error);
-        assert_eq!(free_fmu_state::<Toy>(c, null_mut()), fmi2OK, "ignored by the standard");
-        assert_eq!(serialized_fmu_state_size::<Toy>(c, null_mut(), null_mut()), fmi2Error);
-        assert_eq!(get_real_status::<Toy>(c, fmi2LastSuccessfulTime, null_mut()), fmi2Error);
+        assert_eq!(
+            free_fmu_state::<Toy>(c, null_mut()),
+            fmi2OK,
+            "ignored by the standard"
+        );
+        assert_eq!(
+            serialized_fmu_state_size::<Toy>(c, null_mut(), null_mut()),
+            fmi2Error
+        );
+        assert_eq!(
+            get_real_status::<Toy>(c, fmi2LastSuccessfulTime, null_mut()),
+            fmi2Error
+        );
         assert_eq!(new_discrete_states::<Toy>(c, null_mut()), fmi2Error);
         let misaligned = (v.as_mut_ptr() as *mut u8).wrapping_add(1) as *mut f64;
-        assert_eq!(get_real::<Toy>(c, [0u32].as_ptr(), 1, misaligned), fmi2Error);
+        assert_eq!(
+            get_real::<Toy>(c, [0u32].as_ptr(), 1, misaligned),
+            fmi2Error
+        );
         assert!(last(&env).message.contains("misaligned"));
         free_instance::<Toy>(c);
     }
@@ -215,29 +373,49 @@ fn fmu_state_handles_through_the_c_abi() {
         assert!(!state.is_null());
         assert_eq!(do_step::<Toy>(c, 0.0, 0.5, 0), fmi2OK);
         let mut size = 0usize;
-        assert_eq!(serialized_fmu_state_size::<Toy>(c, state, &mut size), fmi2OK);
+        assert_eq!(
+            serialized_fmu_state_size::<Toy>(c, state, &mut size),
+            fmi2OK
+        );
         let mut bytes = vec![0 as fmi2Byte; size];
-        assert_eq!(serialize_fmu_state::<Toy>(c, state, bytes.as_mut_ptr(), size), fmi2OK);
+        assert_eq!(
+            serialize_fmu_state::<Toy>(c, state, bytes.as_mut_ptr(), size),
+            fmi2OK
+        );
         assert_eq!(set_fmu_state::<Toy>(c, state), fmi2OK);
         let mut x = 0.0;
         assert_eq!(get_real::<Toy>(c, [0u32].as_ptr(), 1, &mut x), fmi2OK);
         assert_eq!(x, 1.0);
         let mut copy: fmi2FMUstate = null_mut();
-        assert_eq!(de_serialize_fmu_state::<Toy>(c, bytes.as_ptr(), size, &mut copy), fmi2OK);
+        assert_eq!(
+            de_serialize_fmu_state::<Toy>(c, bytes.as_ptr(), size, &mut copy),
+            fmi2OK
+        );
         assert!(!copy.is_null() && copy != state);
         let stale = state;
         assert_eq!(free_fmu_state::<Toy>(c, &mut state), fmi2OK);
         assert!(state.is_null());
         let mut again = stale;
-        assert_eq!(free_fmu_state::<Toy>(c, &mut again), fmi2Error, "double free");
+        assert_eq!(
+            free_fmu_state::<Toy>(c, &mut again),
+            fmi2Error,
+            "double free"
+        );
         assert!(last(&env).message.contains("unknown FMU state"));
         let mut foreign = &mut x as *mut f64 as fmi2FMUstate;
-        assert_eq!(free_fmu_state::<Toy>(c, &mut foreign), fmi2Error, "foreign pointer");
+        assert_eq!(
+            free_fmu_state::<Toy>(c, &mut foreign),
+            fmi2Error,
+            "foreign pointer"
+        );
         assert_eq!(set_fmu_state::<Toy>(c, foreign), fmi2Error);
         assert_eq!(free_fmu_state::<Toy>(c, &mut copy), fmi2OK);
         let garbage = [7 as fmi2Byte; 40];
         let mut slot: fmi2FMUstate = null_mut();
-        assert_eq!(de_serialize_fmu_state::<Toy>(c, garbage.as_ptr(), garbage.len(), &mut slot), fmi2Error);
+        assert_eq!(
+            de_serialize_fmu_state::<Toy>(c, garbage.as_ptr(), garbage.len(), &mut slot),
+            fmi2Error
+        );
         assert!(slot.is_null());
         free_instance::<Toy>(c);
     }
@@ -249,7 +427,10 @@ fn a_panic_becomes_fatal() {
     let cb = callbacks(&env);
     unsafe {
         let c = initialized(&env, &cb);
-        assert_eq!(set_real::<Toy>(c, [2u32].as_ptr(), 1, [-666.0].as_ptr()), fmi2Fatal);
+        assert_eq!(
+            set_real::<Toy>(c, [2u32].as_ptr(), 1, [-666.0].as_ptr()),
+            fmi2Fatal
+        );
         let r = last(&env);
         assert_eq!(r.status, fmi2Fatal);
         assert!(r.message.contains("toy panic on request"), "{r:?}");
@@ -279,10 +460,24 @@ fn model_exchange_through_the_c_abi() {
         assert_eq!(dx, [1.0, -2.0]);
         assert_eq!(get_event_indicators::<Toy>(c, null_mut(), 0), fmi2OK);
         let (mut enter, mut stop) = (fmi2True, fmi2True);
-        assert_eq!(completed_integrator_step::<Toy>(c, fmi2True, &mut enter, &mut stop), fmi2OK);
+        assert_eq!(
+            completed_integrator_step::<Toy>(c, fmi2True, &mut enter, &mut stop),
+            fmi2OK
+        );
         assert_eq!((enter, stop), (fmi2False, fmi2False));
         let mut dv = [0.0];
-        assert_eq!(get_directional_derivative::<Toy>(c, [5u32].as_ptr(), 1, [0u32].as_ptr(), 1, [1.0].as_ptr(), dv.as_mut_ptr()), fmi2OK);
+        assert_eq!(
+            get_directional_derivative::<Toy>(
+                c,
+                [5u32].as_ptr(),
+                1,
+                [0u32].as_ptr(),
+                1,
+                [1.0].as_ptr(),
+                dv.as_mut_ptr()
+            ),
+            fmi2OK
+        );
         assert_eq!(dv, [-4.0]);
         assert_eq!(do_step::<Toy>(c, 0.0, 0.1, 0), fmi2Error);
         free_instance::<Toy>(c);

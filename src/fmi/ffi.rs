@@ -85,11 +85,14 @@ pub type fmi2CallbackLogger = Option<
     ),
 >;
 /// `fmi2CallbackAllocateMemory` (like `calloc`).
-pub type fmi2CallbackAllocateMemory = Option<unsafe extern "C" fn(nobj: usize, size: usize) -> *mut c_void>;
+pub type fmi2CallbackAllocateMemory =
+    Option<unsafe extern "C" fn(nobj: usize, size: usize) -> *mut c_void>;
 /// `fmi2CallbackFreeMemory` (like `free`).
 pub type fmi2CallbackFreeMemory = Option<unsafe extern "C" fn(obj: *mut c_void)>;
 /// `fmi2StepFinished` (asynchronous Co-Simulation; never called here).
-pub type fmi2StepFinished = Option<unsafe extern "C" fn(componentEnvironment: fmi2ComponentEnvironment, status: fmi2Status)>;
+pub type fmi2StepFinished = Option<
+    unsafe extern "C" fn(componentEnvironment: fmi2ComponentEnvironment, status: fmi2Status),
+>;
 
 /// `fmi2CallbackFunctions`: the host's callbacks given to `fmi2Instantiate`.
 #[repr(C)]
@@ -136,7 +139,14 @@ pub fn c_string_lossless(text: &str) -> CString {
 /// The host's logger with its environment and the instance name: the one place where the
 /// variadic C logger is called. Always passes `"%s"` as the format and the text as its argument.
 pub struct HostLogger {
-    logger: unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...),
+    logger: unsafe extern "C" fn(
+        fmi2ComponentEnvironment,
+        fmi2String,
+        fmi2Status,
+        fmi2String,
+        fmi2String,
+        ...
+    ),
     environment: fmi2ComponentEnvironment,
     instance_name: CString,
 }
@@ -148,7 +158,10 @@ impl HostLogger {
     /// `callbacks.logger` must be a valid logger callback, callable with
     /// `callbacks.componentEnvironment` for as long as the returned value lives (the FMI 2.0
     /// standard requires this for the lifetime of the instance).
-    pub unsafe fn new(callbacks: &fmi2CallbackFunctions, instance_name: &str) -> Option<HostLogger> {
+    pub unsafe fn new(
+        callbacks: &fmi2CallbackFunctions,
+        instance_name: &str,
+    ) -> Option<HostLogger> {
         callbacks.logger.map(|logger| HostLogger {
             logger,
             environment: callbacks.componentEnvironment,

@@ -16,11 +16,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::contract::{FmiModel, LogCategory, Phase, StepError, VarType};
 use super::ffi::{
-    c_string_lossless, fmi2Boolean, fmi2Discard, fmi2Error, fmi2EventInfo, fmi2False, fmi2LastSuccessfulTime, fmi2OK,
-    fmi2Status, fmi2StatusKind, fmi2Terminated, fmi2True, fmi2Warning,
+    c_string_lossless, fmi2Boolean, fmi2Discard, fmi2Error, fmi2EventInfo, fmi2False,
+    fmi2LastSuccessfulTime, fmi2OK, fmi2Status, fmi2StatusKind, fmi2Terminated, fmi2True,
+    fmi2Warning,
 };
-use super::state_machine::{check, Function, Interface, ModelState};
 use super::serial;
+use super::state_machine::{check, Function, Interface, ModelState};
 use super::uri::resource_uri_to_path;
 
 /// Where an instance's log messages go (the host's logger, or a test's collector).
@@ -55,7 +56,6 @@ fn new_handle() -> FmuStateHandle {
     let n = NEXT_HANDLE.fetch_add(1, Ordering::Relaxed);
     FmuStateHandle(NonZeroUsize::new(n.wrapping_mul(16)).unwrap_or(NonZeroUsize::MIN))
 }
-
 
 /// A saved FMU state: the model's part and the plumbing's part.
 struct Saved<S> {
@@ -120,7 +120,10 @@ pub struct Instance<M: FmiModel> {
 }
 
 fn category_index(category: LogCategory) -> usize {
-    LogCategory::ALL.iter().position(|&c| c == category).unwrap_or(0)
+    LogCategory::ALL
+        .iter()
+        .position(|&c| c == category)
+        .unwrap_or(0)
 }
 
 fn fmi_bool(b: bool) -> fmi2Boolean {
@@ -144,7 +147,11 @@ impl<M: FmiModel> Instance<M> {
     ) -> Result<Instance<M>, String> {
         let fail = |message: String| {
             if let Some(sink) = &sink {
-                sink.log(fmi2Error, LogCategory::StatusError.name(), &format!("fmi2Instantiate: {message}"));
+                sink.log(
+                    fmi2Error,
+                    LogCategory::StatusError.name(),
+                    &format!("fmi2Instantiate: {message}"),
+                );
             }
             Err(message)
         };
@@ -157,7 +164,12 @@ impl<M: FmiModel> Instance<M> {
         };
         let model = match M::instantiate(&resources) {
             Ok(model) => model,
-            Err(e) => return fail(format!("cannot build the model from {}: {e}", resources.display())),
+            Err(e) => {
+                return fail(format!(
+                    "cannot build the model from {}: {e}",
+                    resources.display()
+                ))
+            }
         };
         let info = model.info();
         if info.guid != guid {
@@ -190,11 +202,16 @@ impl<M: FmiModel> Instance<M> {
             last_successful_time: start_time,
             strings: Vec::new(),
         };
-        instance.model.interface_chosen(interface == Interface::ModelExchange);
+        instance
+            .model
+            .interface_chosen(interface == Interface::ModelExchange);
         for category in LogCategory::ALL {
             instance.model.logging_changed(category, logging_on);
         }
-        instance.log_event(&format!("fmi2Instantiate: instance {instance_name:?} created ({interface:?}) from {}", resources.display()));
+        instance.log_event(&format!(
+            "fmi2Instantiate: instance {instance_name:?} created ({interface:?}) from {}",
+            resources.display()
+        ));
         instance.forward_messages();
         Ok(instance)
     }
@@ -275,7 +292,9 @@ impl<M: FmiModel> Instance<M> {
         self.log(
             super::ffi::fmi2Fatal,
             LogCategory::StatusError,
-            &format!("{function}: internal error (panic: {panic_message}); the instance must be freed"),
+            &format!(
+                "{function}: internal error (panic: {panic_message}); the instance must be freed"
+            ),
         );
     }
 
@@ -287,7 +306,9 @@ impl<M: FmiModel> Instance<M> {
 
     /// Logs that `argument` of `function` is invalid (e.g. not UTF-8); returns `fmi2Error`.
     pub fn bad_argument(&self, function: &str, argument: &str, reason: &str) -> fmi2Status {
-        self.log_error(&format!("{function}: argument {argument} is invalid: {reason}"));
+        self.log_error(&format!(
+            "{function}: argument {argument} is invalid: {reason}"
+        ));
         fmi2Error
     }
 
@@ -323,21 +344,32 @@ impl<M: FmiModel> Instance<M> {
     }
 
     fn check_known(&self, kind: Kind, vrs: &[u32]) -> Result<(), Failure> {
-        match vrs.iter().find(|vr| !self.variables.contains_key(&(kind, **vr))) {
-            Some(vr) => Err(Failure::Error(format!("unknown value reference {vr}: no {} variable has it", kind.name()))),
+        match vrs
+            .iter()
+            .find(|vr| !self.variables.contains_key(&(kind, **vr)))
+        {
+            Some(vr) => Err(Failure::Error(format!(
+                "unknown value reference {vr}: no {} variable has it",
+                kind.name()
+            ))),
             None => Ok(()),
         }
     }
 
     fn var_name(&self, kind: Kind, vr: u32) -> &str {
-        self.variables.get(&(kind, vr)).map(String::as_str).unwrap_or("?")
+        self.variables
+            .get(&(kind, vr))
+            .map(String::as_str)
+            .unwrap_or("?")
     }
 
     fn same_length(what: &str, expected: usize, got: usize) -> Result<(), Failure> {
         if expected == got {
             Ok(())
         } else {
-            Err(Failure::Error(format!("{what} has {got} elements, expected {expected}")))
+            Err(Failure::Error(format!(
+                "{what} has {got} elements, expected {expected}"
+            )))
         }
     }
 
@@ -353,7 +385,11 @@ impl<M: FmiModel> Instance<M> {
                     Some(i) => indices.push(i),
                     None => {
                         let known: Vec<&str> = LogCategory::ALL.iter().map(|c| c.name()).collect();
-                        return Err(format!("unknown log category {name:?} (known: {})", known.join(", ")).into());
+                        return Err(format!(
+                            "unknown log category {name:?} (known: {})",
+                            known.join(", ")
+                        )
+                        .into());
                     }
                 }
             }
@@ -369,7 +405,12 @@ impl<M: FmiModel> Instance<M> {
     }
 
     /// `fmi2SetupExperiment`.
-    pub fn setup_experiment(&mut self, tolerance: Option<f64>, start_time: f64, stop_time: Option<f64>) -> fmi2Status {
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start_time: f64,
+        stop_time: Option<f64>,
+    ) -> fmi2Status {
         self.run(Function::SetupExperiment, |this| {
             if !start_time.is_finite() {
                 return Err(format!("startTime must be finite, got {start_time:?}").into());
@@ -381,10 +422,14 @@ impl<M: FmiModel> Instance<M> {
             }
             if let Some(stop) = stop_time {
                 if !(stop.is_finite() && stop >= start_time) {
-                    return Err(format!("stopTime must be finite and >= startTime = {start_time:?}, got {stop:?}").into());
+                    return Err(format!(
+                        "stopTime must be finite and >= startTime = {start_time:?}, got {stop:?}"
+                    )
+                    .into());
                 }
             }
-            this.model.setup_experiment(start_time, stop_time, tolerance)?;
+            this.model
+                .setup_experiment(start_time, stop_time, tolerance)?;
             this.stop_time = stop_time;
             this.last_successful_time = start_time;
             Ok(fmi2OK)
@@ -410,7 +455,10 @@ impl<M: FmiModel> Instance<M> {
                 Interface::ModelExchange => ModelState::EventMode,
             };
             this.last_successful_time = this.model.time();
-            this.log_event(&format!("fmi2ExitInitializationMode: initialized at t = {:?}", this.last_successful_time));
+            this.log_event(&format!(
+                "fmi2ExitInitializationMode: initialized at t = {:?}",
+                this.last_successful_time
+            ));
             Ok(fmi2OK)
         })
     }
@@ -432,7 +480,12 @@ impl<M: FmiModel> Instance<M> {
             Ok(()) => {
                 this.state = ModelState::Instantiated;
                 this.stop_time = None;
-                this.last_successful_time = this.model.info().default_experiment.start_time.unwrap_or(0.0);
+                this.last_successful_time = this
+                    .model
+                    .info()
+                    .default_experiment
+                    .start_time
+                    .unwrap_or(0.0);
                 this.log_event("fmi2Reset: reset to the instantiated state");
                 Ok(fmi2OK)
             }
@@ -445,11 +498,18 @@ impl<M: FmiModel> Instance<M> {
 
     // ---- get / set --------------------------------------------------------------------------------
 
-    fn get_all<T>(&mut self, kind: Kind, vrs: &[u32], values: &mut [T], get: impl Fn(&mut M, u32) -> Result<T, String>) -> Outcome {
+    fn get_all<T>(
+        &mut self,
+        kind: Kind,
+        vrs: &[u32],
+        values: &mut [T],
+        get: impl Fn(&mut M, u32) -> Result<T, String>,
+    ) -> Outcome {
         Self::same_length("value", vrs.len(), values.len())?;
         self.check_known(kind, vrs)?;
         for (vr, value) in vrs.iter().zip(values.iter_mut()) {
-            *value = get(&mut self.model, *vr).map_err(|e| format!("{} (value reference {vr}): {e}", self.var_name(kind, *vr)))?;
+            *value = get(&mut self.model, *vr)
+                .map_err(|e| format!("{} (value reference {vr}): {e}", self.var_name(kind, *vr)))?;
         }
         Ok(fmi2OK)
     }
@@ -485,18 +545,24 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2GetReal`.
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> fmi2Status {
-        self.run(Function::GetReal, |this| this.get_all(Kind::Real, vrs, values, |m, vr| m.get_real(vr)))
+        self.run(Function::GetReal, |this| {
+            this.get_all(Kind::Real, vrs, values, |m, vr| m.get_real(vr))
+        })
     }
 
     /// `fmi2GetInteger`.
     pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> fmi2Status {
-        self.run(Function::GetInteger, |this| this.get_all(Kind::Integer, vrs, values, |m, vr| m.get_integer(vr)))
+        self.run(Function::GetInteger, |this| {
+            this.get_all(Kind::Integer, vrs, values, |m, vr| m.get_integer(vr))
+        })
     }
 
     /// `fmi2GetBoolean`.
     pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [fmi2Boolean]) -> fmi2Status {
         self.run(Function::GetBoolean, |this| {
-            this.get_all(Kind::Boolean, vrs, values, |m, vr| m.get_boolean(vr).map(fmi_bool))
+            this.get_all(Kind::Boolean, vrs, values, |m, vr| {
+                m.get_boolean(vr).map(fmi_bool)
+            })
         })
     }
 
@@ -517,14 +583,26 @@ impl<M: FmiModel> Instance<M> {
     /// `fmi2SetReal`: all or nothing (NaN/Inf are for the model to refuse).
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> fmi2Status {
         self.run(Function::SetReal, |this| {
-            this.set_all(Kind::Real, vrs, values, |m, vr| m.get_real(vr), |m, vr, v, p| m.set_real(vr, *v, p))
+            this.set_all(
+                Kind::Real,
+                vrs,
+                values,
+                |m, vr| m.get_real(vr),
+                |m, vr, v, p| m.set_real(vr, *v, p),
+            )
         })
     }
 
     /// `fmi2SetInteger`: all or nothing.
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> fmi2Status {
         self.run(Function::SetInteger, |this| {
-            this.set_all(Kind::Integer, vrs, values, |m, vr| m.get_integer(vr), |m, vr, v, p| m.set_integer(vr, *v, p))
+            this.set_all(
+                Kind::Integer,
+                vrs,
+                values,
+                |m, vr| m.get_integer(vr),
+                |m, vr, v, p| m.set_integer(vr, *v, p),
+            )
         })
     }
 
@@ -532,7 +610,13 @@ impl<M: FmiModel> Instance<M> {
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[fmi2Boolean]) -> fmi2Status {
         let values: Vec<bool> = values.iter().map(|&b| b != fmi2False).collect();
         self.run(Function::SetBoolean, |this| {
-            this.set_all(Kind::Boolean, vrs, &values, |m, vr| m.get_boolean(vr), |m, vr, v, p| m.set_boolean(vr, *v, p))
+            this.set_all(
+                Kind::Boolean,
+                vrs,
+                &values,
+                |m, vr| m.get_boolean(vr),
+                |m, vr, v, p| m.set_boolean(vr, *v, p),
+            )
         })
     }
 
@@ -540,7 +624,13 @@ impl<M: FmiModel> Instance<M> {
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> fmi2Status {
         let values: Vec<String> = values.iter().map(|s| (*s).to_owned()).collect();
         self.run(Function::SetString, |this| {
-            this.set_all(Kind::String, vrs, &values, |m, vr| m.get_string(vr), |m, vr, v, p| m.set_string(vr, v, p))
+            this.set_all(
+                Kind::String,
+                vrs,
+                &values,
+                |m, vr| m.get_string(vr),
+                |m, vr, v, p| m.set_string(vr, v, p),
+            )
         })
     }
 
@@ -549,9 +639,20 @@ impl<M: FmiModel> Instance<M> {
     fn restorable(&self, machine: ModelState) -> bool {
         use ModelState::*;
         match self.interface {
-            Interface::CoSimulation => matches!(machine, Instantiated | InitializationMode | StepComplete | Terminated | Error),
+            Interface::CoSimulation => matches!(
+                machine,
+                Instantiated | InitializationMode | StepComplete | Terminated | Error
+            ),
             Interface::ModelExchange => {
-                matches!(machine, Instantiated | InitializationMode | EventMode | ContinuousTimeMode | Terminated | Error)
+                matches!(
+                    machine,
+                    Instantiated
+                        | InitializationMode
+                        | EventMode
+                        | ContinuousTimeMode
+                        | Terminated
+                        | Error
+                )
             }
         }
     }
@@ -567,19 +668,36 @@ impl<M: FmiModel> Instance<M> {
     /// overwriting that known state).
     pub fn get_fmu_state(&mut self, slot: &mut Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::GetFMUstate, |this| {
-            this.require(this.model.info().capabilities.can_get_and_set_fmu_state, "canGetAndSetFMUstate")?;
+            this.require(
+                this.model.info().capabilities.can_get_and_set_fmu_state,
+                "canGetAndSetFMUstate",
+            )?;
             if let Some(h) = *slot {
                 if !this.saved.contains_key(&h) {
                     return Err(Self::unknown_handle(h));
                 }
             }
             let model = this.model.get_state()?;
-            let machine = if this.state == ModelState::StepFailed { ModelState::StepComplete } else { this.state };
-            let saved = Saved { model, machine, last_successful_time: this.last_successful_time, stop_time: this.stop_time, serialized: None };
+            let machine = if this.state == ModelState::StepFailed {
+                ModelState::StepComplete
+            } else {
+                this.state
+            };
+            let saved = Saved {
+                model,
+                machine,
+                last_successful_time: this.last_successful_time,
+                stop_time: this.stop_time,
+                serialized: None,
+            };
             let handle = slot.unwrap_or_else(new_handle);
             this.saved.insert(handle, saved);
             *slot = Some(handle);
-            this.log_event(&format!("fmi2GetFMUstate: saved state {:#x} at t = {:?}", handle.0, this.model.time()));
+            this.log_event(&format!(
+                "fmi2GetFMUstate: saved state {:#x} at t = {:?}",
+                handle.0,
+                this.model.time()
+            ));
             Ok(fmi2OK)
         })
     }
@@ -587,14 +705,21 @@ impl<M: FmiModel> Instance<M> {
     /// `fmi2SetFMUstate`: restores a saved state (model and state machine).
     pub fn set_fmu_state(&mut self, handle: Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::SetFMUstate, |this| {
-            this.require(this.model.info().capabilities.can_get_and_set_fmu_state, "canGetAndSetFMUstate")?;
+            this.require(
+                this.model.info().capabilities.can_get_and_set_fmu_state,
+                "canGetAndSetFMUstate",
+            )?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             let saved = this.saved.get(&h).ok_or_else(|| Self::unknown_handle(h))?;
             this.model.set_state(&saved.model)?;
             this.state = saved.machine;
             this.last_successful_time = saved.last_successful_time;
             this.stop_time = saved.stop_time;
-            this.log_event(&format!("fmi2SetFMUstate: restored state {:#x}, t = {:?}", h.0, this.model.time()));
+            this.log_event(&format!(
+                "fmi2SetFMUstate: restored state {:#x}, t = {:?}",
+                h.0,
+                this.model.time()
+            ));
             Ok(fmi2OK)
         })
     }
@@ -604,7 +729,9 @@ impl<M: FmiModel> Instance<M> {
     pub fn free_fmu_state(&mut self, slot: &mut Option<FmuStateHandle>) -> fmi2Status {
         self.run(Function::FreeFMUstate, |this| {
             if let Some(h) = *slot {
-                this.saved.remove(&h).ok_or_else(|| Self::unknown_handle(h))?;
+                this.saved
+                    .remove(&h)
+                    .ok_or_else(|| Self::unknown_handle(h))?;
                 *slot = None;
             }
             Ok(fmi2OK)
@@ -612,10 +739,19 @@ impl<M: FmiModel> Instance<M> {
     }
 
     fn serialized(&mut self, handle: FmuStateHandle) -> Result<&[u8], Failure> {
-        let saved = self.saved.get_mut(&handle).ok_or_else(|| Self::unknown_handle(handle))?;
+        let saved = self
+            .saved
+            .get_mut(&handle)
+            .ok_or_else(|| Self::unknown_handle(handle))?;
         if saved.serialized.is_none() {
             let model_bytes = self.model.serialize_state(&saved.model)?;
-            saved.serialized = Some(serial::encode(&self.model.info().guid, saved.machine.bit(), saved.last_successful_time, saved.stop_time, &model_bytes));
+            saved.serialized = Some(serial::encode(
+                &self.model.info().guid,
+                saved.machine.bit(),
+                saved.last_successful_time,
+                saved.stop_time,
+                &model_bytes,
+            ));
         }
         Ok(saved.serialized.as_deref().unwrap_or_default())
     }
@@ -630,9 +766,16 @@ impl<M: FmiModel> Instance<M> {
     }
 
     /// `fmi2SerializedFMUstateSize`.
-    pub fn serialized_fmu_state_size(&mut self, handle: Option<FmuStateHandle>, size: &mut usize) -> fmi2Status {
+    pub fn serialized_fmu_state_size(
+        &mut self,
+        handle: Option<FmuStateHandle>,
+        size: &mut usize,
+    ) -> fmi2Status {
         self.run(Function::SerializedFMUstateSize, |this| {
-            this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
+            this.require(
+                this.model.info().capabilities.can_serialize_fmu_state,
+                "canSerializeFMUstate",
+            )?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             *size = this.serialized(h)?.len();
             Ok(fmi2OK)
@@ -640,13 +783,25 @@ impl<M: FmiModel> Instance<M> {
     }
 
     /// `fmi2SerializeFMUstate`: `out` must hold at least `fmi2SerializedFMUstateSize` bytes.
-    pub fn serialize_fmu_state(&mut self, handle: Option<FmuStateHandle>, out: &mut [u8]) -> fmi2Status {
+    pub fn serialize_fmu_state(
+        &mut self,
+        handle: Option<FmuStateHandle>,
+        out: &mut [u8],
+    ) -> fmi2Status {
         self.run(Function::SerializeFMUstate, |this| {
-            this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
+            this.require(
+                this.model.info().capabilities.can_serialize_fmu_state,
+                "canSerializeFMUstate",
+            )?;
             let h = handle.ok_or_else(|| "FMUstate is NULL".to_string())?;
             let bytes = this.serialized(h)?;
             if out.len() < bytes.len() {
-                return Err(format!("buffer of {} bytes is too small: the state needs {}", out.len(), bytes.len()).into());
+                return Err(format!(
+                    "buffer of {} bytes is too small: the state needs {}",
+                    out.len(),
+                    bytes.len()
+                )
+                .into());
             }
             out[..bytes.len()].copy_from_slice(bytes);
             Ok(fmi2OK)
@@ -655,7 +810,11 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2DeSerializeFMUstate`: into `*slot` (new handle if `None`, else that known state).
     /// Corrupt or foreign bytes are refused.
-    pub fn deserialize_fmu_state(&mut self, bytes: &[u8], slot: &mut Option<FmuStateHandle>) -> fmi2Status {
+    pub fn deserialize_fmu_state(
+        &mut self,
+        bytes: &[u8],
+        slot: &mut Option<FmuStateHandle>,
+    ) -> fmi2Status {
         self.run(Function::DeSerializeFMUstate, |this| {
             this.require(this.model.info().capabilities.can_serialize_fmu_state, "canSerializeFMUstate")?;
             if let Some(h) = *slot {
@@ -680,15 +839,33 @@ impl<M: FmiModel> Instance<M> {
     }
 
     /// `fmi2GetDirectionalDerivative`: `dv_unknown = J[unknowns, knowns] · dv_known`.
-    pub fn get_directional_derivative(&mut self, unknowns: &[u32], knowns: &[u32], dv_known: &[f64], dv_unknown: &mut [f64]) -> fmi2Status {
+    pub fn get_directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv_known: &[f64],
+        dv_unknown: &mut [f64],
+    ) -> fmi2Status {
         self.run(Function::GetDirectionalDerivative, |this| {
-            this.require(this.model.info().capabilities.provides_directional_derivative, "providesDirectionalDerivative")?;
+            this.require(
+                this.model
+                    .info()
+                    .capabilities
+                    .provides_directional_derivative,
+                "providesDirectionalDerivative",
+            )?;
             Self::same_length("dvKnown", knowns.len(), dv_known.len())?;
             Self::same_length("dvUnknown", unknowns.len(), dv_unknown.len())?;
             this.check_known(Kind::Real, unknowns)?;
             this.check_known(Kind::Real, knowns)?;
-            let dv = this.model.directional_derivative(unknowns, knowns, dv_known)?;
-            Self::same_length("the model's directional derivative", unknowns.len(), dv.len())?;
+            let dv = this
+                .model
+                .directional_derivative(unknowns, knowns, dv_known)?;
+            Self::same_length(
+                "the model's directional derivative",
+                unknowns.len(),
+                dv.len(),
+            )?;
             dv_unknown.copy_from_slice(&dv);
             Ok(fmi2OK)
         })
@@ -697,14 +874,24 @@ impl<M: FmiModel> Instance<M> {
     // ---- Co-Simulation ------------------------------------------------------------------------
 
     /// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs="false"`).
-    pub fn set_real_input_derivatives(&mut self, _vrs: &[u32], _orders: &[i32], _values: &[f64]) -> fmi2Status {
+    pub fn set_real_input_derivatives(
+        &mut self,
+        _vrs: &[u32],
+        _orders: &[i32],
+        _values: &[f64],
+    ) -> fmi2Status {
         self.run(Function::SetRealInputDerivatives, |_| {
             Err("not supported: this FMU does not interpolate inputs (canInterpolateInputs=\"false\")".to_string().into())
         })
     }
 
     /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder="0"`).
-    pub fn get_real_output_derivatives(&mut self, _vrs: &[u32], _orders: &[i32], _values: &mut [f64]) -> fmi2Status {
+    pub fn get_real_output_derivatives(
+        &mut self,
+        _vrs: &[u32],
+        _orders: &[i32],
+        _values: &mut [f64],
+    ) -> fmi2Status {
         self.run(Function::GetRealOutputDerivatives, |_| {
             Err("not supported: this FMU provides no output derivatives (maxOutputDerivativeOrder=\"0\")".to_string().into())
         })
@@ -714,7 +901,12 @@ impl<M: FmiModel> Instance<M> {
     /// must match within [`COMMUNICATION_POINT_RELATIVE_TOLERANCE`]) by `step`.
     /// A step the model discards returns `fmi2Discard` with the state at the start of the step;
     /// the host may retry (also from `StepFailed`).
-    pub fn do_step(&mut self, current_communication_point: f64, step: f64, _no_set_fmu_state_prior: bool) -> fmi2Status {
+    pub fn do_step(
+        &mut self,
+        current_communication_point: f64,
+        step: f64,
+        _no_set_fmu_state_prior: bool,
+    ) -> fmi2Status {
         self.run(Function::DoStep, |this| {
             if !(step.is_finite() && step > 0.0) {
                 return Err(format!("communicationStepSize must be finite and > 0, got {step:?}; the state is unchanged").into());
@@ -769,7 +961,11 @@ impl<M: FmiModel> Instance<M> {
     }
 
     fn unsupported_status(kind: fmi2StatusKind) -> Outcome {
-        Err(format!("{} is not available from this function (steps are synchronous, never pending)", Self::status_kind_name(kind)).into())
+        Err(format!(
+            "{} is not available from this function (steps are synchronous, never pending)",
+            Self::status_kind_name(kind)
+        )
+        .into())
     }
 
     /// `fmi2GetStatus`: not available (no asynchronous steps).
@@ -791,7 +987,9 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2GetIntegerStatus`: nothing available.
     pub fn get_integer_status(&mut self, kind: fmi2StatusKind, _value: &mut i32) -> fmi2Status {
-        self.run(Function::GetIntegerStatus, |_| Self::unsupported_status(kind))
+        self.run(Function::GetIntegerStatus, |_| {
+            Self::unsupported_status(kind)
+        })
     }
 
     /// `fmi2GetBooleanStatus`: `fmi2Terminated` only, the standard's question after a discarded
@@ -802,7 +1000,11 @@ impl<M: FmiModel> Instance<M> {
     /// `simulate_fmu` retries the same step for as long as `fmi2Terminated` is false, recording a
     /// sample each time) would loop forever. So the FMU asks to end the simulation there, and a
     /// master that can retry still may: `fmi2DoStep` stays legal in `StepFailed`.
-    pub fn get_boolean_status(&mut self, kind: fmi2StatusKind, value: &mut fmi2Boolean) -> fmi2Status {
+    pub fn get_boolean_status(
+        &mut self,
+        kind: fmi2StatusKind,
+        value: &mut fmi2Boolean,
+    ) -> fmi2Status {
         self.run(Function::GetBooleanStatus, |this| {
             if kind == fmi2Terminated {
                 *value = fmi_bool(this.state == ModelState::StepFailed);
@@ -815,7 +1017,9 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2GetStringStatus`: nothing available.
     pub fn get_string_status(&mut self, kind: fmi2StatusKind) -> fmi2Status {
-        self.run(Function::GetStringStatus, |_| Self::unsupported_status(kind))
+        self.run(Function::GetStringStatus, |_| {
+            Self::unsupported_status(kind)
+        })
     }
 
     // ---- Model Exchange -----------------------------------------------------------------------
@@ -833,9 +1037,15 @@ impl<M: FmiModel> Instance<M> {
     pub fn new_discrete_states(&mut self, info: &mut fmi2EventInfo) -> fmi2Status {
         self.run(Function::NewDiscreteStates, |this| {
             let changed = this.model.event_update()?;
-            *info = fmi2EventInfo { valuesOfContinuousStatesChanged: fmi_bool(changed), ..fmi2EventInfo::default() };
+            *info = fmi2EventInfo {
+                valuesOfContinuousStatesChanged: fmi_bool(changed),
+                ..fmi2EventInfo::default()
+            };
             if changed {
-                this.log_event(&format!("fmi2NewDiscreteStates: the model changed its continuous states at t = {:?}", this.model.time()));
+                this.log_event(&format!(
+                    "fmi2NewDiscreteStates: the model changed its continuous states at t = {:?}",
+                    this.model.time()
+                ));
             }
             Ok(fmi2OK)
         })
@@ -851,7 +1061,12 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2CompletedIntegratorStep`: returns through `enter_event_mode` whether the host must
     /// enter event mode; `terminate_simulation` is always false.
-    pub fn completed_integrator_step(&mut self, _no_set_fmu_state_prior: bool, enter_event_mode: &mut bool, terminate_simulation: &mut bool) -> fmi2Status {
+    pub fn completed_integrator_step(
+        &mut self,
+        _no_set_fmu_state_prior: bool,
+        enter_event_mode: &mut bool,
+        terminate_simulation: &mut bool,
+    ) -> fmi2Status {
         self.run(Function::CompletedIntegratorStep, |this| {
             *enter_event_mode = this.model.completed_integrator_step()?;
             *terminate_simulation = false;
@@ -875,14 +1090,23 @@ impl<M: FmiModel> Instance<M> {
         self.run(Function::SetContinuousStates, |this| {
             Self::same_length("x", this.model.number_of_states(), x.len())?;
             if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-                return Err(format!("x[{i}] = {:?} is not finite; the states are unchanged", x[i]).into());
+                return Err(format!(
+                    "x[{i}] = {:?} is not finite; the states are unchanged",
+                    x[i]
+                )
+                .into());
             }
             this.model.set_continuous_states(x)?;
             Ok(fmi2OK)
         })
     }
 
-    fn copy_states(&mut self, what: &str, out: &mut [f64], get: impl FnOnce(&mut M) -> Result<Vec<f64>, String>) -> Outcome {
+    fn copy_states(
+        &mut self,
+        what: &str,
+        out: &mut [f64],
+        get: impl FnOnce(&mut M) -> Result<Vec<f64>, String>,
+    ) -> Outcome {
         Self::same_length(what, self.model.number_of_states(), out.len())?;
         let v = get(&mut self.model)?;
         Self::same_length("the model's result", out.len(), v.len())?;
@@ -892,23 +1116,33 @@ impl<M: FmiModel> Instance<M> {
 
     /// `fmi2GetDerivatives`.
     pub fn get_derivatives(&mut self, out: &mut [f64]) -> fmi2Status {
-        self.run(Function::GetDerivatives, |this| this.copy_states("derivatives", out, |m| m.get_derivatives()))
+        self.run(Function::GetDerivatives, |this| {
+            this.copy_states("derivatives", out, |m| m.get_derivatives())
+        })
     }
 
     /// `fmi2GetContinuousStates`.
     pub fn get_continuous_states(&mut self, out: &mut [f64]) -> fmi2Status {
-        self.run(Function::GetContinuousStates, |this| this.copy_states("x", out, |m| m.get_continuous_states()))
+        self.run(Function::GetContinuousStates, |this| {
+            this.copy_states("x", out, |m| m.get_continuous_states())
+        })
     }
 
     /// `fmi2GetNominalsOfContinuousStates`.
     pub fn get_nominals_of_continuous_states(&mut self, out: &mut [f64]) -> fmi2Status {
-        self.run(Function::GetNominalsOfContinuousStates, |this| this.copy_states("x_nominal", out, |m| m.get_nominals()))
+        self.run(Function::GetNominalsOfContinuousStates, |this| {
+            this.copy_states("x_nominal", out, |m| m.get_nominals())
+        })
     }
 
     /// `fmi2GetEventIndicators`: the FMU has no event indicators (`ni` must be 0).
     pub fn get_event_indicators(&mut self, out: &mut [f64]) -> fmi2Status {
         self.run(Function::GetEventIndicators, |_| {
-            Self::same_length("eventIndicators (numberOfEventIndicators=\"0\")", 0, out.len())?;
+            Self::same_length(
+                "eventIndicators (numberOfEventIndicators=\"0\")",
+                0,
+                out.len(),
+            )?;
             Ok(fmi2OK)
         })
     }

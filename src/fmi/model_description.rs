@@ -16,7 +16,7 @@ use std::io::Cursor;
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 
-use super::contract::{Causality, Initial, LogCategory, ModelInfo, Variability, VarType};
+use super::contract::{Causality, Initial, LogCategory, ModelInfo, VarType, Variability};
 
 /// An inconsistent [`ModelInfo`] (a bug in the model's variable table).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -49,7 +49,9 @@ pub enum DescriptionError {
         vr: u32,
     },
     /// The plumbing offers no event indicators.
-    #[error("numberOfEventIndicators must be 0 (the FMI plumbing offers no event indicators), got {0}")]
+    #[error(
+        "numberOfEventIndicators must be 0 (the FMI plumbing offers no event indicators), got {0}"
+    )]
     EventIndicators(usize),
     /// quick-xml failed (out of memory, ...).
     #[error("XML writer: {0}")]
@@ -119,7 +121,10 @@ pub fn base_unit(unit: &str) -> Option<BaseUnit> {
             let (sym, power) = if digits.is_empty() || digits.len() == token.len() {
                 (token, 1)
             } else {
-                (&token[..token.len() - digits.len()], digits.parse::<i32>().ok()?)
+                (
+                    &token[..token.len() - digits.len()],
+                    digits.parse::<i32>().ok()?,
+                )
             };
             let (e, f) = symbol(sym)?;
             for (acc, x) in exponents.iter_mut().zip(e) {
@@ -210,8 +215,14 @@ impl Indices {
         }
         match self.other.get(&vr).map(Vec::as_slice) {
             Some([i]) => Ok(*i),
-            Some(_) => Err(DescriptionError::AmbiguousValueReference { context: context.into(), vr }),
-            None => Err(DescriptionError::UnknownValueReference { context: context.into(), vr }),
+            Some(_) => Err(DescriptionError::AmbiguousValueReference {
+                context: context.into(),
+                vr,
+            }),
+            None => Err(DescriptionError::UnknownValueReference {
+                context: context.into(),
+                vr,
+            }),
         }
     }
 }
@@ -223,28 +234,41 @@ fn xml_err(e: impl std::fmt::Display) -> DescriptionError {
 /// Writes `modelDescription.xml` for `info`, or says what is inconsistent in it.
 pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, DescriptionError> {
     if info.number_of_event_indicators != 0 {
-        return Err(DescriptionError::EventIndicators(info.number_of_event_indicators));
+        return Err(DescriptionError::EventIndicators(
+            info.number_of_event_indicators,
+        ));
     }
     let mut names = BTreeSet::new();
     let mut seen = BTreeSet::new();
-    let mut indices = Indices { real: HashMap::new(), other: HashMap::new() };
+    let mut indices = Indices {
+        real: HashMap::new(),
+        other: HashMap::new(),
+    };
     for (i, v) in info.variables.iter().enumerate() {
         if !names.insert(v.name.as_str()) {
             return Err(DescriptionError::DuplicateName(v.name.clone()));
         }
         let kind = kind_name(&v.var_type);
         if !seen.insert((kind, v.value_reference)) {
-            return Err(DescriptionError::DuplicateValueReference { kind, vr: v.value_reference });
+            return Err(DescriptionError::DuplicateValueReference {
+                kind,
+                vr: v.value_reference,
+            });
         }
         if kind == "Real" {
             indices.real.insert(v.value_reference, i + 1);
         } else {
-            indices.other.entry(v.value_reference).or_default().push(i + 1);
+            indices
+                .other
+                .entry(v.value_reference)
+                .or_default()
+                .push(i + 1);
         }
     }
 
     let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
-    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None))).map_err(xml_err)?;
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
+        .map_err(xml_err)?;
 
     let mut root = BytesStart::new("fmiModelDescription");
     root.push_attribute(("fmiVersion", "2.0"));
@@ -268,10 +292,16 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
         ("canNotUseMemoryManagementFunctions", "true"),
         ("canGetAndSetFMUstate", flag(caps.can_get_and_set_fmu_state)),
         ("canSerializeFMUstate", flag(caps.can_serialize_fmu_state)),
-        ("providesDirectionalDerivative", flag(caps.provides_directional_derivative)),
+        (
+            "providesDirectionalDerivative",
+            flag(caps.provides_directional_derivative),
+        ),
     ];
     if info.model_exchange {
-        w.create_element("ModelExchange").with_attributes(common).write_empty().map_err(xml_err)?;
+        w.create_element("ModelExchange")
+            .with_attributes(common)
+            .write_empty()
+            .map_err(xml_err)?;
     }
     w.create_element("CoSimulation")
         .with_attributes(common)
@@ -289,7 +319,8 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
         }
     }
     if !units.is_empty() {
-        w.write_event(Event::Start(BytesStart::new("UnitDefinitions"))).map_err(xml_err)?;
+        w.write_event(Event::Start(BytesStart::new("UnitDefinitions")))
+            .map_err(xml_err)?;
         for u in &units {
             let el = w.create_element("Unit").with_attribute(("name", *u));
             match base_unit(u) {
@@ -304,7 +335,9 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
                         attrs.push(("factor", format_real(b.factor)));
                     }
                     el.write_inner_content(|w| {
-                        w.create_element("BaseUnit").with_attributes(attrs.iter().map(|(k, v)| (*k, v.as_str()))).write_empty()?;
+                        w.create_element("BaseUnit")
+                            .with_attributes(attrs.iter().map(|(k, v)| (*k, v.as_str())))
+                            .write_empty()?;
                         Ok::<(), std::io::Error>(())
                     })
                     .map_err(xml_err)?;
@@ -315,10 +348,12 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
                 }
             }
         }
-        w.write_event(Event::End(BytesEnd::new("UnitDefinitions"))).map_err(xml_err)?;
+        w.write_event(Event::End(BytesEnd::new("UnitDefinitions")))
+            .map_err(xml_err)?;
     }
 
-    w.write_event(Event::Start(BytesStart::new("LogCategories"))).map_err(xml_err)?;
+    w.write_event(Event::Start(BytesStart::new("LogCategories")))
+        .map_err(xml_err)?;
     for c in LogCategory::ALL {
         w.create_element("Category")
             .with_attribute(("name", c.name()))
@@ -326,13 +361,19 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
             .write_empty()
             .map_err(xml_err)?;
     }
-    w.write_event(Event::End(BytesEnd::new("LogCategories"))).map_err(xml_err)?;
+    w.write_event(Event::End(BytesEnd::new("LogCategories")))
+        .map_err(xml_err)?;
 
     let de = &info.default_experiment;
-    let experiment: Vec<(&str, String)> = [("startTime", de.start_time), ("stopTime", de.stop_time), ("tolerance", de.tolerance), ("stepSize", de.step_size)]
-        .into_iter()
-        .filter_map(|(k, v)| v.map(|v| (k, format_real(v))))
-        .collect();
+    let experiment: Vec<(&str, String)> = [
+        ("startTime", de.start_time),
+        ("stopTime", de.stop_time),
+        ("tolerance", de.tolerance),
+        ("stepSize", de.step_size),
+    ]
+    .into_iter()
+    .filter_map(|(k, v)| v.map(|v| (k, format_real(v))))
+    .collect();
     if !experiment.is_empty() {
         w.create_element("DefaultExperiment")
             .with_attributes(experiment.iter().map(|(k, v)| (*k, v.as_str())))
@@ -340,9 +381,13 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
             .map_err(xml_err)?;
     }
 
-    w.write_event(Event::Start(BytesStart::new("ModelVariables"))).map_err(xml_err)?;
+    w.write_event(Event::Start(BytesStart::new("ModelVariables")))
+        .map_err(xml_err)?;
     for v in &info.variables {
-        let mut sv: Vec<(&str, String)> = vec![("name", v.name.clone()), ("valueReference", v.value_reference.to_string())];
+        let mut sv: Vec<(&str, String)> = vec![
+            ("name", v.name.clone()),
+            ("valueReference", v.value_reference.to_string()),
+        ];
         if !v.description.is_empty() {
             sv.push(("description", v.description.clone()));
         }
@@ -361,7 +406,11 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
         let mut ty: Vec<(&str, String)> = Vec::new();
         let type_name = kind_name(&v.var_type);
         match &v.var_type {
-            VarType::Real { start, unit, derivative } => {
+            VarType::Real {
+                start,
+                unit,
+                derivative,
+            } => {
                 if let Some(u) = unit {
                     ty.push(("unit", (*u).into()));
                 }
@@ -369,9 +418,11 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
                     ty.push(("start", format_real(*s)));
                 }
                 if let Some(d) = derivative {
-                    let index = indices.real.get(d).copied().ok_or_else(|| DescriptionError::UnknownValueReference {
-                        context: format!("derivative of {}", v.name),
-                        vr: *d,
+                    let index = indices.real.get(d).copied().ok_or_else(|| {
+                        DescriptionError::UnknownValueReference {
+                            context: format!("derivative of {}", v.name),
+                            vr: *d,
+                        }
                     })?;
                     ty.push(("derivative", index.to_string()));
                 }
@@ -395,41 +446,63 @@ pub fn try_model_description_xml(info: &ModelInfo) -> Result<String, Description
         w.create_element("ScalarVariable")
             .with_attributes(sv.iter().map(|(k, v)| (*k, v.as_str())))
             .write_inner_content(|w| {
-                w.create_element(type_name).with_attributes(ty.iter().map(|(k, v)| (*k, v.as_str()))).write_empty()?;
+                w.create_element(type_name)
+                    .with_attributes(ty.iter().map(|(k, v)| (*k, v.as_str())))
+                    .write_empty()?;
                 Ok::<(), std::io::Error>(())
             })
             .map_err(xml_err)?;
     }
-    w.write_event(Event::End(BytesEnd::new("ModelVariables"))).map_err(xml_err)?;
+    w.write_event(Event::End(BytesEnd::new("ModelVariables")))
+        .map_err(xml_err)?;
 
     let s = &info.structure;
-    let lists = [("Outputs", &s.outputs), ("Derivatives", &s.derivatives), ("InitialUnknowns", &s.initial_unknowns)];
+    let lists = [
+        ("Outputs", &s.outputs),
+        ("Derivatives", &s.derivatives),
+        ("InitialUnknowns", &s.initial_unknowns),
+    ];
     if lists.iter().all(|(_, l)| l.is_empty()) {
-        w.write_event(Event::Empty(BytesStart::new("ModelStructure"))).map_err(xml_err)?;
+        w.write_event(Event::Empty(BytesStart::new("ModelStructure")))
+            .map_err(xml_err)?;
     } else {
-        w.write_event(Event::Start(BytesStart::new("ModelStructure"))).map_err(xml_err)?;
+        w.write_event(Event::Start(BytesStart::new("ModelStructure")))
+            .map_err(xml_err)?;
         for (element, list) in lists {
             if list.is_empty() {
                 continue;
             }
-            w.write_event(Event::Start(BytesStart::new(element))).map_err(xml_err)?;
+            w.write_event(Event::Start(BytesStart::new(element)))
+                .map_err(xml_err)?;
             for (vr, deps) in list.iter() {
                 let context = format!("ModelStructure/{element}");
                 let index = indices.resolve(*vr, &context)?;
                 let mut attrs = vec![("index", index.to_string())];
                 if let Some(deps) = deps {
-                    let d: Result<Vec<String>, _> =
-                        deps.iter().map(|d| indices.resolve(*d, &format!("{context} dependencies of {vr}")).map(|i| i.to_string())).collect();
+                    let d: Result<Vec<String>, _> = deps
+                        .iter()
+                        .map(|d| {
+                            indices
+                                .resolve(*d, &format!("{context} dependencies of {vr}"))
+                                .map(|i| i.to_string())
+                        })
+                        .collect();
                     attrs.push(("dependencies", d?.join(" ")));
                 }
-                w.create_element("Unknown").with_attributes(attrs.iter().map(|(k, v)| (*k, v.as_str()))).write_empty().map_err(xml_err)?;
+                w.create_element("Unknown")
+                    .with_attributes(attrs.iter().map(|(k, v)| (*k, v.as_str())))
+                    .write_empty()
+                    .map_err(xml_err)?;
             }
-            w.write_event(Event::End(BytesEnd::new(element))).map_err(xml_err)?;
+            w.write_event(Event::End(BytesEnd::new(element)))
+                .map_err(xml_err)?;
         }
-        w.write_event(Event::End(BytesEnd::new("ModelStructure"))).map_err(xml_err)?;
+        w.write_event(Event::End(BytesEnd::new("ModelStructure")))
+            .map_err(xml_err)?;
     }
 
-    w.write_event(Event::End(BytesEnd::new("fmiModelDescription"))).map_err(xml_err)?;
+    w.write_event(Event::End(BytesEnd::new("fmiModelDescription")))
+        .map_err(xml_err)?;
     let mut bytes = w.into_inner().into_inner();
     bytes.push(b'\n');
     String::from_utf8(bytes).map_err(xml_err)

@@ -48,7 +48,12 @@ pub enum PackError {
 /// Checks that a resource name is a relative path with `/` separators that stays inside
 /// `resources/`.
 pub fn check_resource_name(name: &str) -> Result<(), PackError> {
-    let bad = |reason| Err(PackError::BadResourceName { name: name.to_owned(), reason });
+    let bad = |reason| {
+        Err(PackError::BadResourceName {
+            name: name.to_owned(),
+            reason,
+        })
+    };
     if name.is_empty() {
         return bad("empty name");
     }
@@ -84,15 +89,35 @@ pub fn write_fmu(
     for (name, _) in resources {
         check_resource_name(name)?;
         if !names.insert(name.as_str()) {
-            return Err(PackError::BadResourceName { name: name.clone(), reason: "given twice" });
+            return Err(PackError::BadResourceName {
+                name: name.clone(),
+                reason: "given twice",
+            });
         }
     }
-    let library_bytes = std::fs::read(library).map_err(|source| PackError::Io { path: library.to_owned(), source })?;
+    let library_bytes = std::fs::read(library).map_err(|source| PackError::Io {
+        path: library.to_owned(),
+        source,
+    })?;
 
-    let file_name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out.fmu".into());
+    let file_name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out.fmu".into());
     let temp = out.with_file_name(format!(".{file_name}.{}.tmp", std::process::id()));
-    let result = write_archive(&temp, model_description_xml, &library_bytes, resources, documentation_html)
-        .and_then(|()| std::fs::rename(&temp, out).map_err(|source| PackError::Io { path: out.to_owned(), source }));
+    let result = write_archive(
+        &temp,
+        model_description_xml,
+        &library_bytes,
+        resources,
+        documentation_html,
+    )
+    .and_then(|()| {
+        std::fs::rename(&temp, out).map_err(|source| PackError::Io {
+            path: out.to_owned(),
+            source,
+        })
+    });
     if result.is_err() {
         let _ = std::fs::remove_file(&temp);
     }
@@ -106,8 +131,14 @@ fn write_archive(
     resources: &[(String, Vec<u8>)],
     documentation_html: Option<&str>,
 ) -> Result<(), PackError> {
-    let io = |source| PackError::Io { path: path.to_owned(), source };
-    let zip_err = |source| PackError::Zip { path: path.to_owned(), source };
+    let io = |source| PackError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let zip_err = |source| PackError::Zip {
+        path: path.to_owned(),
+        source,
+    };
     let file = File::create(path).map_err(io)?;
     let mut zip = ZipWriter::new(BufWriter::new(file));
     let options = SimpleFileOptions::default()
@@ -115,15 +146,24 @@ fn write_archive(
         .last_modified_time(DateTime::default())
         .unix_permissions(0o644);
     let mut entries: Vec<(String, &[u8], u32)> = vec![
-        ("modelDescription.xml".into(), model_description_xml.as_bytes(), 0o644),
+        (
+            "modelDescription.xml".into(),
+            model_description_xml.as_bytes(),
+            0o644,
+        ),
         (LIBRARY_ENTRY.into(), library, 0o755),
     ];
-    entries.extend(resources.iter().map(|(name, bytes)| (format!("resources/{name}"), bytes.as_slice(), 0o644)));
+    entries.extend(
+        resources
+            .iter()
+            .map(|(name, bytes)| (format!("resources/{name}"), bytes.as_slice(), 0o644)),
+    );
     if let Some(html) = documentation_html {
         entries.push(("documentation/index.html".into(), html.as_bytes(), 0o644));
     }
     for (name, bytes, mode) in entries {
-        zip.start_file(name, options.unix_permissions(mode)).map_err(zip_err)?;
+        zip.start_file(name, options.unix_permissions(mode))
+            .map_err(zip_err)?;
         zip.write_all(bytes).map_err(io)?;
     }
     let writer = zip.finish().map_err(zip_err)?;
@@ -145,7 +185,9 @@ mod tests {
     }
 
     fn read_entry(archive: &mut zip::ZipArchive<File>, name: &str) -> Vec<u8> {
-        let mut f = archive.by_name(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mut f = archive
+            .by_name(name)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         let mut v = Vec::new();
         f.read_to_end(&mut v).unwrap();
         v
@@ -157,28 +199,76 @@ mod tests {
         let lib = dir.join("libscm.so");
         std::fs::write(&lib, b"\x7fELF fake library").unwrap();
         let out = dir.join("scene.fmu");
-        let resources = vec![("scene.xml".to_string(), b"<mujoco/>".to_vec()), ("meshes/a.obj".to_string(), b"v 0 0 0\n".to_vec())];
-        write_fmu(&out, "<fmiModelDescription/>", &lib, &resources, Some("<html>doc</html>")).unwrap();
+        let resources = vec![
+            ("scene.xml".to_string(), b"<mujoco/>".to_vec()),
+            ("meshes/a.obj".to_string(), b"v 0 0 0\n".to_vec()),
+        ];
+        write_fmu(
+            &out,
+            "<fmiModelDescription/>",
+            &lib,
+            &resources,
+            Some("<html>doc</html>"),
+        )
+        .unwrap();
 
         let mut archive = zip::ZipArchive::new(File::open(&out).unwrap()).unwrap();
-        let mut names: Vec<String> = archive.file_names().map(|n| n.unwrap().into_owned()).collect();
+        let mut names: Vec<String> = archive
+            .file_names()
+            .map(|n| n.unwrap().into_owned())
+            .collect();
         names.sort();
         assert_eq!(
             names,
-            ["binaries/linux64/scm.so", "documentation/index.html", "modelDescription.xml", "resources/meshes/a.obj", "resources/scene.xml"]
+            [
+                "binaries/linux64/scm.so",
+                "documentation/index.html",
+                "modelDescription.xml",
+                "resources/meshes/a.obj",
+                "resources/scene.xml"
+            ]
         );
-        assert_eq!(read_entry(&mut archive, "modelDescription.xml"), b"<fmiModelDescription/>");
-        assert_eq!(read_entry(&mut archive, "binaries/linux64/scm.so"), b"\x7fELF fake library");
-        assert_eq!(read_entry(&mut archive, "resources/meshes/a.obj"), b"v 0 0 0\n");
-        assert_eq!(read_entry(&mut archive, "documentation/index.html"), b"<html>doc</html>");
-        assert_eq!(archive.by_name("binaries/linux64/scm.so").unwrap().unix_mode().map(|m| m & 0o777), Some(0o755));
+        assert_eq!(
+            read_entry(&mut archive, "modelDescription.xml"),
+            b"<fmiModelDescription/>"
+        );
+        assert_eq!(
+            read_entry(&mut archive, "binaries/linux64/scm.so"),
+            b"\x7fELF fake library"
+        );
+        assert_eq!(
+            read_entry(&mut archive, "resources/meshes/a.obj"),
+            b"v 0 0 0\n"
+        );
+        assert_eq!(
+            read_entry(&mut archive, "documentation/index.html"),
+            b"<html>doc</html>"
+        );
+        assert_eq!(
+            archive
+                .by_name("binaries/linux64/scm.so")
+                .unwrap()
+                .unix_mode()
+                .map(|m| m & 0o777),
+            Some(0o755)
+        );
         // no temporary file left behind
-        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(left.len(), 2, "{left:?}");
 
         // reproducible: same inputs, same bytes
         let first = std::fs::read(&out).unwrap();
-        write_fmu(&out, "<fmiModelDescription/>", &lib, &resources, Some("<html>doc</html>")).unwrap();
+        write_fmu(
+            &out,
+            "<fmiModelDescription/>",
+            &lib,
+            &resources,
+            Some("<html>doc</html>"),
+        )
+        .unwrap();
         assert_eq!(first, std::fs::read(&out).unwrap());
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -197,8 +287,23 @@ mod tests {
 
     #[test]
     fn refuses_bad_resource_names() {
-        for name in ["../evil", "a/../../b", "/etc/passwd", "a\\b", "", "a//b", "./a", "C:/x"] {
-            assert!(matches!(check_resource_name(name), Err(PackError::BadResourceName { .. })), "{name:?}");
+        for name in [
+            "../evil",
+            "a/../../b",
+            "/etc/passwd",
+            "a\\b",
+            "",
+            "a//b",
+            "./a",
+            "C:/x",
+        ] {
+            assert!(
+                matches!(
+                    check_resource_name(name),
+                    Err(PackError::BadResourceName { .. })
+                ),
+                "{name:?}"
+            );
         }
         for name in ["scene.xml", "meshes/a.obj", "a..b"] {
             assert!(check_resource_name(name).is_ok(), "{name:?}");
@@ -228,7 +333,10 @@ mod tests {
         std::fs::write(&lib, b"x").unwrap();
         let err = write_fmu(&out_in_missing_dir, "<x/>", &lib, &[], None).unwrap_err();
         assert!(err.to_string().contains("no-such-dir"), "{err}");
-        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(left.len(), 1, "{left:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -51,7 +51,13 @@ pub struct Decoded<'a> {
 }
 
 /// Writes a serialized state.
-pub fn encode(guid: &str, machine: u32, last_successful_time: f64, stop_time: Option<f64>, model: &[u8]) -> Vec<u8> {
+pub fn encode(
+    guid: &str,
+    machine: u32,
+    last_successful_time: f64,
+    stop_time: Option<f64>,
+    model: &[u8],
+) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(8 + 4 + 4 + guid.len() + 4 + 8 + 9 + 8 + model.len() + 8);
     bytes.extend_from_slice(SERIAL_MAGIC);
     bytes.extend_from_slice(&SERIAL_VERSION.to_le_bytes());
@@ -94,7 +100,11 @@ impl<'a> Reader<'a> {
                 self.at = end;
                 Ok(s)
             }
-            None => Err(format!("serialized state is truncated: {} bytes, {what} needs {n} more after byte {}", self.bytes.len(), self.at)),
+            None => Err(format!(
+                "serialized state is truncated: {} bytes, {what} needs {n} more after byte {}",
+                self.bytes.len(),
+                self.at
+            )),
         }
     }
 
@@ -149,12 +159,16 @@ pub fn decode<'a>(bytes: &'a [u8], guid: &str) -> Result<Decoded<'a>, String> {
         f => return Err(format!("serialized state is corrupt: stop time flag {f}")),
     };
     let model_len = r.u64("the model state length")?;
-    let model_len = usize::try_from(model_len).map_err(|_| format!("serialized state is corrupt: model state length {model_len}"))?;
+    let model_len = usize::try_from(model_len)
+        .map_err(|_| format!("serialized state is corrupt: model state length {model_len}"))?;
     let model = r.take(model_len, "the model state")?;
     let body_end = r.position();
     let sum = r.u64("the checksum")?;
     if r.remaining() != 0 {
-        return Err(format!("serialized state is corrupt: {} bytes after the checksum", r.remaining()));
+        return Err(format!(
+            "serialized state is corrupt: {} bytes after the checksum",
+            r.remaining()
+        ));
     }
     if fnv1a(&bytes[..body_end], 0) != sum {
         return Err("serialized state is corrupt: checksum mismatch".into());
@@ -165,7 +179,12 @@ pub fn decode<'a>(bytes: &'a [u8], guid: &str) -> Result<Decoded<'a>, String> {
             String::from_utf8_lossy(stored_guid)
         ));
     }
-    Ok(Decoded { machine, last_successful_time, stop_time, model })
+    Ok(Decoded {
+        machine,
+        last_successful_time,
+        stop_time,
+        model,
+    })
 }
 
 #[cfg(test)]
@@ -178,32 +197,61 @@ mod tests {
     fn round_trip() {
         let bytes = encode(GUID, 4, 1.25, Some(-2.5), b"model bytes");
         let d = decode(&bytes, GUID).unwrap();
-        assert_eq!(d, Decoded { machine: 4, last_successful_time: 1.25, stop_time: Some(-2.5), model: b"model bytes" });
+        assert_eq!(
+            d,
+            Decoded {
+                machine: 4,
+                last_successful_time: 1.25,
+                stop_time: Some(-2.5),
+                model: b"model bytes"
+            }
+        );
         let bytes = encode(GUID, 4, 1.25, None, b"");
-        assert_eq!(decode(&bytes, GUID).unwrap(), Decoded { machine: 4, last_successful_time: 1.25, stop_time: None, model: b"" });
+        assert_eq!(
+            decode(&bytes, GUID).unwrap(),
+            Decoded {
+                machine: 4,
+                last_successful_time: 1.25,
+                stop_time: None,
+                model: b""
+            }
+        );
     }
 
     #[test]
     fn refuses_foreign_old_corrupt_and_truncated_bytes() {
         let bytes = encode(GUID, 4, 1.25, Some(3.0), b"model bytes");
         let err = decode(&bytes, "{guid-b}").unwrap_err();
-        assert!(err.contains("another FMU") && err.contains("{guid-a}"), "{err}");
+        assert!(
+            err.contains("another FMU") && err.contains("{guid-a}"),
+            "{err}"
+        );
         let mut old = bytes.clone();
         old[8] = 1;
         assert!(decode(&old, GUID).unwrap_err().contains("layout version 1"));
         for n in [0, 5, 8, 20, bytes.len() - 1] {
             let err = decode(&bytes[..n], GUID).unwrap_err();
-            assert!(err.contains("truncated") || err.contains("magic"), "{n}: {err}");
+            assert!(
+                err.contains("truncated") || err.contains("magic"),
+                "{n}: {err}"
+            );
         }
         let mut long = bytes.clone();
         long.push(0);
-        assert!(decode(&long, GUID).unwrap_err().contains("after the checksum"));
+        assert!(decode(&long, GUID)
+            .unwrap_err()
+            .contains("after the checksum"));
         // Every single-byte corruption after the header fields that are checked first is caught.
         for i in 12..bytes.len() {
             let mut bad = bytes.clone();
             bad[i] ^= 0x40;
-            assert!(decode(&bad, GUID).is_err(), "corruption of byte {i} not detected");
+            assert!(
+                decode(&bad, GUID).is_err(),
+                "corruption of byte {i} not detected"
+            );
         }
-        assert!(decode(b"not a state at all", GUID).unwrap_err().contains("magic"));
+        assert!(decode(b"not a state at all", GUID)
+            .unwrap_err()
+            .contains("magic"));
     }
 }

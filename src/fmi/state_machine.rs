@@ -157,7 +157,17 @@ const TERMINATED: u32 = S::Terminated.bit();
 const ERROR: u32 = S::Error.bit();
 const FATAL: u32 = S::Fatal.bit();
 const NONE: u32 = 0;
-const ANY: u32 = INST | INIT | STEP_COMPLETE | STEP_IN_PROGRESS | STEP_FAILED | STEP_CANCELED | EVENT | CONT | TERMINATED | ERROR | FATAL;
+const ANY: u32 = INST
+    | INIT
+    | STEP_COMPLETE
+    | STEP_IN_PROGRESS
+    | STEP_FAILED
+    | STEP_CANCELED
+    | EVENT
+    | CONT
+    | TERMINATED
+    | ERROR
+    | FATAL;
 
 impl Function {
     /// The C name, e.g. `fmi2DoStep`.
@@ -211,7 +221,8 @@ impl Function {
     /// Mask of the states this function is legal in, for Co-Simulation.
     pub fn co_simulation_mask(self) -> u32 {
         use Function::*;
-        let all_but_start = INST | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
+        let all_but_start =
+            INST | INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR;
         match self {
             SetDebugLogging => all_but_start | STEP_IN_PROGRESS,
             FreeInstance => ANY,
@@ -219,19 +230,37 @@ impl Function {
             ExitInitializationMode => INIT,
             Terminate => STEP_COMPLETE | STEP_FAILED,
             Reset => all_but_start,
-            GetReal | GetInteger | GetBoolean | GetString => INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR,
+            GetReal | GetInteger | GetBoolean | GetString => {
+                INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR
+            }
             SetReal | SetInteger | SetBoolean | SetString => INST | INIT | STEP_COMPLETE,
-            GetFMUstate | SetFMUstate | FreeFMUstate | SerializedFMUstateSize | SerializeFMUstate | DeSerializeFMUstate => all_but_start,
-            GetDirectionalDerivative => INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR,
+            GetFMUstate
+            | SetFMUstate
+            | FreeFMUstate
+            | SerializedFMUstateSize
+            | SerializeFMUstate
+            | DeSerializeFMUstate => all_but_start,
+            GetDirectionalDerivative => {
+                INIT | STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR
+            }
             SetRealInputDerivatives => INST | INIT | STEP_COMPLETE,
-            GetRealOutputDerivatives => STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR,
+            GetRealOutputDerivatives => {
+                STEP_COMPLETE | STEP_FAILED | STEP_CANCELED | TERMINATED | ERROR
+            }
             DoStep => STEP_COMPLETE | STEP_FAILED,
             CancelStep => STEP_IN_PROGRESS,
             GetStatus | GetRealStatus | GetIntegerStatus | GetBooleanStatus | GetStringStatus => {
                 STEP_COMPLETE | STEP_IN_PROGRESS | STEP_FAILED | TERMINATED
             }
-            EnterEventMode | NewDiscreteStates | EnterContinuousTimeMode | CompletedIntegratorStep | SetTime
-            | SetContinuousStates | GetDerivatives | GetEventIndicators | GetContinuousStates
+            EnterEventMode
+            | NewDiscreteStates
+            | EnterContinuousTimeMode
+            | CompletedIntegratorStep
+            | SetTime
+            | SetContinuousStates
+            | GetDerivatives
+            | GetEventIndicators
+            | GetContinuousStates
             | GetNominalsOfContinuousStates => NONE,
         }
     }
@@ -247,19 +276,35 @@ impl Function {
             ExitInitializationMode => INIT,
             Terminate => EVENT | CONT,
             Reset => all_but_start,
-            GetReal | GetInteger | GetBoolean | GetString => INIT | EVENT | CONT | TERMINATED | ERROR,
+            GetReal | GetInteger | GetBoolean | GetString => {
+                INIT | EVENT | CONT | TERMINATED | ERROR
+            }
             SetReal => INST | INIT | EVENT | CONT,
             SetInteger | SetBoolean | SetString => INST | INIT | EVENT,
-            GetFMUstate | SetFMUstate | FreeFMUstate | SerializedFMUstateSize | SerializeFMUstate | DeSerializeFMUstate => all_but_start,
+            GetFMUstate
+            | SetFMUstate
+            | FreeFMUstate
+            | SerializedFMUstateSize
+            | SerializeFMUstate
+            | DeSerializeFMUstate => all_but_start,
             GetDirectionalDerivative => INIT | EVENT | CONT | TERMINATED | ERROR,
             EnterEventMode => EVENT | CONT,
             NewDiscreteStates | EnterContinuousTimeMode => EVENT,
             CompletedIntegratorStep | SetContinuousStates => CONT,
             SetTime => EVENT | CONT,
-            GetDerivatives | GetEventIndicators | GetContinuousStates => INIT | EVENT | CONT | TERMINATED | ERROR,
+            GetDerivatives | GetEventIndicators | GetContinuousStates => {
+                INIT | EVENT | CONT | TERMINATED | ERROR
+            }
             GetNominalsOfContinuousStates => INST | EVENT | CONT | TERMINATED | ERROR,
-            SetRealInputDerivatives | GetRealOutputDerivatives | DoStep | CancelStep | GetStatus | GetRealStatus
-            | GetIntegerStatus | GetBooleanStatus | GetStringStatus => NONE,
+            SetRealInputDerivatives
+            | GetRealOutputDerivatives
+            | DoStep
+            | CancelStep
+            | GetStatus
+            | GetRealStatus
+            | GetIntegerStatus
+            | GetBooleanStatus
+            | GetStringStatus => NONE,
         }
     }
 
@@ -282,9 +327,19 @@ pub fn check(function: Function, interface: Interface, state: ModelState) -> Res
             Interface::CoSimulation => "Co-Simulation",
             Interface::ModelExchange => "Model Exchange",
         };
-        Err(format!("Illegal call sequence: {} is not allowed in state {} ({} is not part of {})", function.c_name(), state, function.c_name(), which))
+        Err(format!(
+            "Illegal call sequence: {} is not allowed in state {} ({} is not part of {})",
+            function.c_name(),
+            state,
+            function.c_name(),
+            which
+        ))
     } else {
-        Err(format!("Illegal call sequence: {} is not allowed in state {}", function.c_name(), state))
+        Err(format!(
+            "Illegal call sequence: {} is not allowed in state {}",
+            function.c_name(),
+            state
+        ))
     }
 }
 
@@ -298,22 +353,51 @@ mod tests {
         assert!(check(Function::DoStep, cs, ModelState::StepComplete).is_ok());
         assert!(check(Function::DoStep, cs, ModelState::StepFailed).is_ok());
         let err = check(Function::DoStep, cs, ModelState::Instantiated).unwrap_err();
-        assert_eq!(err, "Illegal call sequence: fmi2DoStep is not allowed in state Instantiated");
+        assert_eq!(
+            err,
+            "Illegal call sequence: fmi2DoStep is not allowed in state Instantiated"
+        );
         assert!(check(Function::DoStep, cs, ModelState::Terminated).is_err());
     }
 
     #[test]
     fn model_exchange_functions_are_not_co_simulation() {
-        let err = check(Function::SetTime, Interface::CoSimulation, ModelState::StepComplete).unwrap_err();
-        assert!(err.starts_with("Illegal call sequence: fmi2SetTime is not allowed in state StepComplete"), "{err}");
-        assert!(check(Function::DoStep, Interface::ModelExchange, ModelState::ContinuousTimeMode).is_err());
-        assert!(check(Function::SetTime, Interface::ModelExchange, ModelState::ContinuousTimeMode).is_ok());
+        let err = check(
+            Function::SetTime,
+            Interface::CoSimulation,
+            ModelState::StepComplete,
+        )
+        .unwrap_err();
+        assert!(
+            err.starts_with(
+                "Illegal call sequence: fmi2SetTime is not allowed in state StepComplete"
+            ),
+            "{err}"
+        );
+        assert!(check(
+            Function::DoStep,
+            Interface::ModelExchange,
+            ModelState::ContinuousTimeMode
+        )
+        .is_err());
+        assert!(check(
+            Function::SetTime,
+            Interface::ModelExchange,
+            ModelState::ContinuousTimeMode
+        )
+        .is_ok());
     }
 
     #[test]
     fn fatal_allows_only_free_instance() {
         for interface in [Interface::CoSimulation, Interface::ModelExchange] {
-            for f in [Function::GetReal, Function::Reset, Function::SetDebugLogging, Function::GetFMUstate, Function::Terminate] {
+            for f in [
+                Function::GetReal,
+                Function::Reset,
+                Function::SetDebugLogging,
+                Function::GetFMUstate,
+                Function::Terminate,
+            ] {
                 assert!(check(f, interface, ModelState::Fatal).is_err());
             }
             assert!(check(Function::FreeInstance, interface, ModelState::Fatal).is_ok());
@@ -323,9 +407,24 @@ mod tests {
     #[test]
     fn setup_and_initialization_order() {
         for interface in [Interface::CoSimulation, Interface::ModelExchange] {
-            assert!(check(Function::SetupExperiment, interface, ModelState::Instantiated).is_ok());
-            assert!(check(Function::SetupExperiment, interface, ModelState::InitializationMode).is_err());
-            assert!(check(Function::ExitInitializationMode, interface, ModelState::Instantiated).is_err());
+            assert!(check(
+                Function::SetupExperiment,
+                interface,
+                ModelState::Instantiated
+            )
+            .is_ok());
+            assert!(check(
+                Function::SetupExperiment,
+                interface,
+                ModelState::InitializationMode
+            )
+            .is_err());
+            assert!(check(
+                Function::ExitInitializationMode,
+                interface,
+                ModelState::Instantiated
+            )
+            .is_err());
             assert!(check(Function::GetReal, interface, ModelState::Instantiated).is_err());
             assert!(check(Function::SetReal, interface, ModelState::Instantiated).is_ok());
         }

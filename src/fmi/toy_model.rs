@@ -25,7 +25,17 @@ pub struct ToyState {
 
 impl ToyState {
     fn start() -> ToyState {
-        ToyState { t: 0.0, x: 1.0, v: 0.0, u: 0.0, k: 4.0, max_step: 1.0, steps: 0, frozen: false, label: "toy".into() }
+        ToyState {
+            t: 0.0,
+            x: 1.0,
+            v: 0.0,
+            u: 0.0,
+            k: 4.0,
+            max_step: 1.0,
+            steps: 0,
+            frozen: false,
+            label: "toy".into(),
+        }
     }
 }
 
@@ -36,14 +46,27 @@ pub struct Toy {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn real(name: &str, vr: u32, causality: Causality, variability: Variability, initial: Option<Initial>, start: Option<f64>, unit: &'static str, derivative: Option<u32>) -> Variable {
+fn real(
+    name: &str,
+    vr: u32,
+    causality: Causality,
+    variability: Variability,
+    initial: Option<Initial>,
+    start: Option<f64>,
+    unit: &'static str,
+    derivative: Option<u32>,
+) -> Variable {
     Variable {
         name: name.into(),
         value_reference: vr,
         causality,
         variability,
         initial,
-        var_type: VarType::Real { start, unit: Some(unit), derivative },
+        var_type: VarType::Real {
+            start,
+            unit: Some(unit),
+            derivative,
+        },
         description: format!("{name} of the toy"),
     }
 }
@@ -52,10 +75,37 @@ pub fn toy_info() -> ModelInfo {
     use Causality::*;
     use Variability::*;
     let variables = vec![
-        real("x", 0, Output, Continuous, Some(Initial::Exact), Some(1.0), "m", None),
-        real("v", 1, Output, Continuous, Some(Initial::Exact), Some(0.0), "m/s", None),
+        real(
+            "x",
+            0,
+            Output,
+            Continuous,
+            Some(Initial::Exact),
+            Some(1.0),
+            "m",
+            None,
+        ),
+        real(
+            "v",
+            1,
+            Output,
+            Continuous,
+            Some(Initial::Exact),
+            Some(0.0),
+            "m/s",
+            None,
+        ),
         real("u", 2, Input, Continuous, None, Some(0.0), "N", None),
-        real("k", 3, Parameter, Tunable, Some(Initial::Exact), Some(4.0), "N/m", None),
+        real(
+            "k",
+            3,
+            Parameter,
+            Tunable,
+            Some(Initial::Exact),
+            Some(4.0),
+            "N/m",
+            None,
+        ),
         real("der(x)", 4, Local, Continuous, None, None, "m/s", Some(0)),
         real("der(v)", 5, Local, Continuous, None, None, "m/s2", Some(1)),
         real("max_step", 6, Parameter, Fixed, None, Some(1.0), "s", None),
@@ -83,7 +133,9 @@ pub fn toy_info() -> ModelInfo {
             causality: Parameter,
             variability: Fixed,
             initial: None,
-            var_type: VarType::String { start: Some("toy".into()) },
+            var_type: VarType::String {
+                start: Some("toy".into()),
+            },
             description: "a <label> & \"quote\"".into(),
         },
     ];
@@ -100,8 +152,17 @@ pub fn toy_info() -> ModelInfo {
         },
         number_of_event_indicators: 0,
         model_exchange: true,
-        capabilities: Capabilities { can_get_and_set_fmu_state: true, can_serialize_fmu_state: true, provides_directional_derivative: true },
-        default_experiment: DefaultExperiment { start_time: Some(0.0), stop_time: Some(10.0), tolerance: None, step_size: Some(0.01) },
+        capabilities: Capabilities {
+            can_get_and_set_fmu_state: true,
+            can_serialize_fmu_state: true,
+            provides_directional_derivative: true,
+        },
+        default_experiment: DefaultExperiment {
+            start_time: Some(0.0),
+            stop_time: Some(10.0),
+            tolerance: None,
+            step_size: Some(0.01),
+        },
     }
 }
 
@@ -118,7 +179,9 @@ fn finite(vr: u32, value: f64) -> ModelResult<f64> {
     if value.is_finite() {
         Ok(value)
     } else {
-        Err(format!("value {value} for value reference {vr} is not finite"))
+        Err(format!(
+            "value {value} for value reference {vr} is not finite"
+        ))
     }
 }
 
@@ -129,12 +192,21 @@ impl FmiModel for Toy {
         if resources.ends_with("missing") {
             return Err(format!("no scene in {}", resources.display()));
         }
-        Ok(Toy { info: toy_info(), s: ToyState::start(), messages: vec![] })
+        Ok(Toy {
+            info: toy_info(),
+            s: ToyState::start(),
+            messages: vec![],
+        })
     }
     fn info(&self) -> &ModelInfo {
         &self.info
     }
-    fn setup_experiment(&mut self, start_time: f64, _stop: Option<f64>, _tol: Option<f64>) -> ModelResult<()> {
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop: Option<f64>,
+        _tol: Option<f64>,
+    ) -> ModelResult<()> {
         self.s.t = start_time;
         Ok(())
     }
@@ -204,7 +276,10 @@ impl FmiModel for Toy {
     }
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
         if step > self.s.max_step {
-            return Err(StepError::Discard(format!("step {step} longer than max_step {}", self.s.max_step)));
+            return Err(StepError::Discard(format!(
+                "step {step} longer than max_step {}",
+                self.s.max_step
+            )));
         }
         if !self.s.frozen {
             // semi-implicit Euler
@@ -213,7 +288,10 @@ impl FmiModel for Toy {
         }
         self.s.steps += 1;
         self.s.t = current_time + step;
-        self.msg(LogCategory::Contact, format!("toy: step to t = {}", self.s.t));
+        self.msg(
+            LogCategory::Contact,
+            format!("toy: step to t = {}", self.s.t),
+        );
         Ok(())
     }
     fn take_messages(&mut self) -> Vec<LogMessage> {
@@ -240,7 +318,8 @@ impl FmiModel for Toy {
         if b.len() < 4 + 48 + 5 || &b[..4] != b"TOY1" {
             return Err("not a toy state".into());
         }
-        let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap_or([0; 8]));
+        let f =
+            |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap_or([0; 8]));
         Ok(ToyState {
             t: f(0),
             x: f(1),
@@ -253,7 +332,12 @@ impl FmiModel for Toy {
             label: String::from_utf8(b[57..].to_vec()).map_err(|e| e.to_string())?,
         })
     }
-    fn directional_derivative(&mut self, unknowns: &[u32], knowns: &[u32], dv: &[f64]) -> ModelResult<Vec<f64>> {
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv: &[f64],
+    ) -> ModelResult<Vec<f64>> {
         let partial = |y: u32, x: u32| -> ModelResult<f64> {
             Ok(match (y, x) {
                 (0, 0) | (1, 1) | (4, 1) => 1.0,
@@ -264,7 +348,16 @@ impl FmiModel for Toy {
                 _ => return Err(format!("no derivative of {y}")),
             })
         };
-        unknowns.iter().map(|&y| knowns.iter().zip(dv).map(|(&x, d)| Ok(partial(y, x)? * d)).sum()).collect()
+        unknowns
+            .iter()
+            .map(|&y| {
+                knowns
+                    .iter()
+                    .zip(dv)
+                    .map(|(&x, d)| Ok(partial(y, x)? * d))
+                    .sum()
+            })
+            .collect()
     }
     fn number_of_states(&self) -> usize {
         2

@@ -39,7 +39,9 @@ pub enum UriError {
 
 /// Converts a `file:` URI to the path it names (trailing slash removed, except for `/`).
 pub fn resource_uri_to_path(uri: &str) -> Result<PathBuf, UriError> {
-    let scheme_end = uri.find(':').ok_or_else(|| UriError::NotFile(uri.to_owned()))?;
+    let scheme_end = uri
+        .find(':')
+        .ok_or_else(|| UriError::NotFile(uri.to_owned()))?;
     if !uri[..scheme_end].eq_ignore_ascii_case("file") {
         return Err(UriError::NotFile(uri.to_owned()));
     }
@@ -49,7 +51,10 @@ pub fn resource_uri_to_path(uri: &str) -> Result<PathBuf, UriError> {
         let slash = after.find('/').unwrap_or(after.len());
         let host = &after[..slash];
         if !(host.is_empty() || host.eq_ignore_ascii_case("localhost")) {
-            return Err(UriError::RemoteHost { uri: uri.to_owned(), host: host.to_owned() });
+            return Err(UriError::RemoteHost {
+                uri: uri.to_owned(),
+                host: host.to_owned(),
+            });
         }
         &after[slash..]
     } else {
@@ -59,8 +64,10 @@ pub fn resource_uri_to_path(uri: &str) -> Result<PathBuf, UriError> {
         return Err(UriError::NotAbsolute(uri.to_owned()));
     }
     let offset = uri.len() - path_part.len();
-    let mut bytes = percent_decode(path_part)
-        .map_err(|position| UriError::BadEscape { uri: uri.to_owned(), position: position + offset })?;
+    let mut bytes = percent_decode(path_part).map_err(|position| UriError::BadEscape {
+        uri: uri.to_owned(),
+        position: position + offset,
+    })?;
     while bytes.len() > 1 && bytes.last() == Some(&b'/') {
         bytes.pop();
     }
@@ -75,7 +82,10 @@ fn percent_decode(s: &str) -> Result<Vec<u8>, usize> {
     while i < b.len() {
         if b[i] == b'%' {
             let hex = |c: u8| (c as char).to_digit(16);
-            let (hi, lo) = match (b.get(i + 1).copied().and_then(hex), b.get(i + 2).copied().and_then(hex)) {
+            let (hi, lo) = match (
+                b.get(i + 1).copied().and_then(hex),
+                b.get(i + 2).copied().and_then(hex),
+            ) {
                 (Some(hi), Some(lo)) => (hi, lo),
                 _ => return Err(i),
             };
@@ -120,24 +130,42 @@ mod tests {
 
     #[test]
     fn triple_slash() {
-        assert_eq!(resource_uri_to_path("file:///tmp/tmpab12/resources"), Ok(p("/tmp/tmpab12/resources")));
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/tmpab12/resources"),
+            Ok(p("/tmp/tmpab12/resources"))
+        );
     }
 
     #[test]
     fn single_slash() {
-        assert_eq!(resource_uri_to_path("file:/tmp/x/resources"), Ok(p("/tmp/x/resources")));
+        assert_eq!(
+            resource_uri_to_path("file:/tmp/x/resources"),
+            Ok(p("/tmp/x/resources"))
+        );
     }
 
     #[test]
     fn localhost() {
-        assert_eq!(resource_uri_to_path("file://localhost/tmp/x/resources/"), Ok(p("/tmp/x/resources")));
-        assert_eq!(resource_uri_to_path("file://LOCALHOST/tmp/x"), Ok(p("/tmp/x")));
+        assert_eq!(
+            resource_uri_to_path("file://localhost/tmp/x/resources/"),
+            Ok(p("/tmp/x/resources"))
+        );
+        assert_eq!(
+            resource_uri_to_path("file://LOCALHOST/tmp/x"),
+            Ok(p("/tmp/x"))
+        );
     }
 
     #[test]
     fn trailing_slash_or_not() {
-        assert_eq!(resource_uri_to_path("file:///tmp/x/resources/"), Ok(p("/tmp/x/resources")));
-        assert_eq!(resource_uri_to_path("file:///tmp/x/resources//"), Ok(p("/tmp/x/resources")));
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/x/resources/"),
+            Ok(p("/tmp/x/resources"))
+        );
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/x/resources//"),
+            Ok(p("/tmp/x/resources"))
+        );
         assert_eq!(resource_uri_to_path("file:///"), Ok(p("/")));
     }
 
@@ -148,22 +176,49 @@ mod tests {
 
     #[test]
     fn percent_decoding() {
-        assert_eq!(resource_uri_to_path("file:///tmp/my%20dir/res%2Fx"), Ok(p("/tmp/my dir/res/x")));
-        assert_eq!(resource_uri_to_path("file:///tmp/%C3%A9t%c3%a9"), Ok(p("/tmp/été")));
-        assert_eq!(resource_uri_to_path("file:///tmp/100%25"), Ok(p("/tmp/100%")));
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/my%20dir/res%2Fx"),
+            Ok(p("/tmp/my dir/res/x"))
+        );
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/%C3%A9t%c3%a9"),
+            Ok(p("/tmp/été"))
+        );
+        assert_eq!(
+            resource_uri_to_path("file:///tmp/100%25"),
+            Ok(p("/tmp/100%"))
+        );
     }
 
     #[test]
     fn invalid_escapes() {
-        assert!(matches!(resource_uri_to_path("file:///tmp/a%2"), Err(UriError::BadEscape { position: 13, .. })));
-        assert!(matches!(resource_uri_to_path("file:///tmp/a%zz"), Err(UriError::BadEscape { .. })));
-        assert!(matches!(resource_uri_to_path("file:///tmp/a%"), Err(UriError::BadEscape { .. })));
-        assert!(matches!(resource_uri_to_path("file:///tmp/a%00b"), Err(UriError::BadEscape { .. })));
+        assert!(matches!(
+            resource_uri_to_path("file:///tmp/a%2"),
+            Err(UriError::BadEscape { position: 13, .. })
+        ));
+        assert!(matches!(
+            resource_uri_to_path("file:///tmp/a%zz"),
+            Err(UriError::BadEscape { .. })
+        ));
+        assert!(matches!(
+            resource_uri_to_path("file:///tmp/a%"),
+            Err(UriError::BadEscape { .. })
+        ));
+        assert!(matches!(
+            resource_uri_to_path("file:///tmp/a%00b"),
+            Err(UriError::BadEscape { .. })
+        ));
     }
 
     #[test]
     fn not_a_file_uri() {
-        for uri in ["http://example.com/res", "https:///tmp/x", "/tmp/x", "", "fil:///tmp"] {
+        for uri in [
+            "http://example.com/res",
+            "https:///tmp/x",
+            "/tmp/x",
+            "",
+            "fil:///tmp",
+        ] {
             let err = resource_uri_to_path(uri).unwrap_err();
             assert!(matches!(err, UriError::NotFile(_)), "{uri}: {err:?}");
             assert!(err.to_string().contains("not a file: URI"));
@@ -172,8 +227,17 @@ mod tests {
 
     #[test]
     fn remote_host_and_relative_paths() {
-        assert!(matches!(resource_uri_to_path("file://server/share/x"), Err(UriError::RemoteHost { .. })));
-        assert!(matches!(resource_uri_to_path("file:relative/x"), Err(UriError::NotAbsolute(_))));
-        assert!(matches!(resource_uri_to_path("file://"), Err(UriError::NotAbsolute(_))));
+        assert!(matches!(
+            resource_uri_to_path("file://server/share/x"),
+            Err(UriError::RemoteHost { .. })
+        ));
+        assert!(matches!(
+            resource_uri_to_path("file:relative/x"),
+            Err(UriError::NotAbsolute(_))
+        ));
+        assert!(matches!(
+            resource_uri_to_path("file://"),
+            Err(UriError::NotAbsolute(_))
+        ));
     }
 }

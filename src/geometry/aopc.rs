@@ -27,19 +27,39 @@ pub struct Aopc {
 
 impl PartialEq for Aopc {
     fn eq(&self, o: &Self) -> bool {
-        self.points == o.points && self.normals == o.normals && self.areas == o.areas && self.vertices == o.vertices && self.faces == o.faces
+        self.points == o.points
+            && self.normals == o.normals
+            && self.areas == o.areas
+            && self.vertices == o.vertices
+            && self.faces == o.faces
     }
 }
 
 impl Aopc {
     /// An AOPC from its parts.
-    pub fn new(points: Vec<Vector3<f64>>, normals: Vec<Vector3<f64>>, areas: Vec<f64>, vertices: Vec<Vector3<f64>>, faces: Vec<[u32; 4]>) -> Aopc {
-        Aopc { points, normals, areas, vertices, faces, bvh: OnceLock::new() }
+    pub fn new(
+        points: Vec<Vector3<f64>>,
+        normals: Vec<Vector3<f64>>,
+        areas: Vec<f64>,
+        vertices: Vec<Vector3<f64>>,
+        faces: Vec<[u32; 4]>,
+    ) -> Aopc {
+        Aopc {
+            points,
+            normals,
+            areas,
+            vertices,
+            faces,
+            bvh: OnceLock::new(),
+        }
     }
 
     /// The bounding-volume hierarchy over the points (built on first use).
     pub fn bvh(&self) -> &Bvh {
-        debug_assert!(self.bvh.get().is_none_or(|b| b.len() == self.points.len()), "AOPC changed after its BVH was built");
+        debug_assert!(
+            self.bvh.get().is_none_or(|b| b.len() == self.points.len()),
+            "AOPC changed after its BVH was built"
+        );
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
             b.set_surface(&self.points, &self.normals, &self.vertices, &self.faces);
@@ -65,7 +85,13 @@ impl Aopc {
     /// The same surface moved by `pose` (e.g. a geom's pose in its body).
     pub fn transformed(&self, pose: &Isometry3<f64>) -> Aopc {
         let tp = |v: &Vector3<f64>| (pose * Point3::from(*v)).coords;
-        Aopc::new(self.points.iter().map(tp).collect(), self.normals.iter().map(|n| pose.rotation * n).collect(), self.areas.clone(), self.vertices.iter().map(tp).collect(), self.faces.clone())
+        Aopc::new(
+            self.points.iter().map(tp).collect(),
+            self.normals.iter().map(|n| pose.rotation * n).collect(),
+            self.areas.clone(),
+            self.vertices.iter().map(tp).collect(),
+            self.faces.clone(),
+        )
     }
 
     /// Appends another AOPC (vertex indices renumbered).
@@ -76,13 +102,17 @@ impl Aopc {
         self.normals.extend_from_slice(&other.normals);
         self.areas.extend_from_slice(&other.areas);
         self.vertices.extend_from_slice(&other.vertices);
-        self.faces.extend(other.faces.iter().map(|f| f.map(|i| i + base)));
+        self.faces
+            .extend(other.faces.iter().map(|f| f.map(|i| i + base)));
     }
 
     /// The faces whose centre satisfies `keep` (vertices are kept whole; unused ones are
     /// harmless to the soft top-K, which weighs vertices by the faces that use them).
     pub fn retain(&self, keep: impl Fn(&Vector3<f64>) -> bool) -> Aopc {
-        let mut out = Aopc { vertices: self.vertices.clone(), ..Default::default() };
+        let mut out = Aopc {
+            vertices: self.vertices.clone(),
+            ..Default::default()
+        };
         for i in 0..self.len() {
             if keep(&self.points[i]) {
                 out.points.push(self.points[i]);
@@ -96,12 +126,22 @@ impl Aopc {
 
     /// `Σ n_i·area_i`: zero for a closed surface (divergence theorem).
     pub fn closure_defect(&self) -> Vector3<f64> {
-        self.normals.iter().zip(&self.areas).map(|(n, a)| n * *a).sum()
+        self.normals
+            .iter()
+            .zip(&self.areas)
+            .map(|(n, a)| n * *a)
+            .sum()
     }
 
     /// Enclosed volume `⅓ Σ (p_i·n_i) area_i` (divergence theorem on the faces).
     pub fn enclosed_volume(&self) -> f64 {
-        self.points.iter().zip(&self.normals).zip(&self.areas).map(|((p, n), a)| p.dot(n) * a).sum::<f64>() / 3.0
+        self.points
+            .iter()
+            .zip(&self.normals)
+            .zip(&self.areas)
+            .map(|((p, n), a)| p.dot(n) * a)
+            .sum::<f64>()
+            / 3.0
     }
 
     /// Median distance from a point to its nearest neighbour (m): the achieved spacing.
@@ -110,14 +150,22 @@ impl Aopc {
             return 0.0;
         }
         let bvh = self.bvh();
-        let mut nn: Vec<f64> = (0..bvh.len()).map(|k| bvh.nearest_except(&bvh.points[k], k).1.sqrt()).collect();
+        let mut nn: Vec<f64> = (0..bvh.len())
+            .map(|k| bvh.nearest_except(&bvh.points[k], k).1.sqrt())
+            .collect();
         nn.sort_by(|a, b| a.total_cmp(b));
         nn[nn.len() / 2]
     }
 
     /// Adds one face: its four corners (counter-clockwise seen from outside), the AOPC point
     /// and outward normal, and its area (m²).
-    pub fn push_face(&mut self, corners: [Vector3<f64>; 4], point: Vector3<f64>, normal: Vector3<f64>, area: f64) {
+    pub fn push_face(
+        &mut self,
+        corners: [Vector3<f64>; 4],
+        point: Vector3<f64>,
+        normal: Vector3<f64>,
+        area: f64,
+    ) {
         self.invalidate();
         let base = self.vertices.len() as u32;
         self.vertices.extend_from_slice(&corners);
@@ -133,9 +181,21 @@ impl Aopc {
         let cross = (c[2] - c[0]).cross(&(c[3] - c[1]));
         let area = 0.5 * cross.norm();
         // Area centroid of the two triangles (0,1,2) and (0,2,3).
-        let (t1, t2) = (0.5 * (c[1] - c[0]).cross(&(c[2] - c[0])).norm(), 0.5 * (c[2] - c[0]).cross(&(c[3] - c[0])).norm());
-        let centroid = if t1 + t2 > 0.0 { ((c[0] + c[1] + c[2]) * t1 + (c[0] + c[2] + c[3]) * t2) / (3.0 * (t1 + t2)) } else { (c[0] + c[1] + c[2] + c[3]) / 4.0 };
-        self.push_face(c, centroid, cross.try_normalize(0.0).unwrap_or_else(Vector3::z), area);
+        let (t1, t2) = (
+            0.5 * (c[1] - c[0]).cross(&(c[2] - c[0])).norm(),
+            0.5 * (c[2] - c[0]).cross(&(c[3] - c[0])).norm(),
+        );
+        let centroid = if t1 + t2 > 0.0 {
+            ((c[0] + c[1] + c[2]) * t1 + (c[0] + c[2] + c[3]) * t2) / (3.0 * (t1 + t2))
+        } else {
+            (c[0] + c[1] + c[2] + c[3]) / 4.0
+        };
+        self.push_face(
+            c,
+            centroid,
+            cross.try_normalize(0.0).unwrap_or_else(Vector3::z),
+            area,
+        );
     }
 
     /// Merges vertices closer than `tol` (m), so that neighbouring quads share them (the soft
@@ -185,7 +245,9 @@ impl Aopc {
 
 /// Rotation taking the z axis to `dir` (for shapes defined along z).
 pub fn z_to(dir: &Vector3<f64>) -> UnitQuaternion<f64> {
-    UnitQuaternion::rotation_between(&Vector3::z(), dir).unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI))
+    UnitQuaternion::rotation_between(&Vector3::z(), dir).unwrap_or_else(|| {
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+    })
 }
 
 #[cfg(test)]
@@ -205,7 +267,11 @@ mod tests {
         assert!(s.closure_defect().norm() < 1e-6 * 0.1 * 0.1);
         let v = Shape::Sphere { radius: 0.1 }.volume();
         assert!((s.enclosed_volume() - v).abs() < 1e-3 * v);
-        assert!((s.spacing() - 0.01).abs() < 0.004, "spacing {}", s.spacing());
+        assert!(
+            (s.spacing() - 0.01).abs() < 0.004,
+            "spacing {}",
+            s.spacing()
+        );
     }
 
     #[test]

@@ -138,10 +138,20 @@ impl Bvh {
     /// its flat patches and, for a sampled sphere or box, its radial or cuboid certificate
     /// (`points`, `normals`, `vertices`, `faces` in the cloud's own order, as in
     /// [`super::Aopc`]).
-    pub fn set_surface(&mut self, points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) {
+    pub fn set_surface(
+        &mut self,
+        points: &[Vector3<f64>],
+        normals: &[Vector3<f64>],
+        vertices: &[Vector3<f64>],
+        faces: &[[u32; 4]],
+    ) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
         self.cuboid = super::cuboid::find_cuboid(points, normals, vertices, faces, &of, &patches);
-        self.patch = self.index.iter().map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX)).collect();
+        self.patch = self
+            .index
+            .iter()
+            .map(|&i| of.get(i as usize).copied().unwrap_or(u32::MAX))
+            .collect();
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
     }
@@ -149,7 +159,9 @@ impl Bvh {
     /// The flat patch of the point `k` (leaf order), if any.
     #[inline]
     pub fn patch_of(&self, k: usize) -> Option<&super::patch::Patch> {
-        self.patch.get(k).and_then(|&p| self.patches.get(p as usize))
+        self.patch
+            .get(k)
+            .and_then(|&p| self.patches.get(p as usize))
     }
 
     /// Builds the hierarchy by median splits along the longest box axis.
@@ -161,7 +173,8 @@ impl Bvh {
             return bvh;
         }
         bvh.nodes.reserve(2 * n / LEAF_SIZE + 1);
-        bvh.nodes.push(Self::make_node(points, normals, &order, 0, n));
+        bvh.nodes
+            .push(Self::make_node(points, normals, &order, 0, n));
         let mut stack = vec![0usize];
         while let Some(ni) = stack.pop() {
             let (start, count) = (bvh.nodes[ni].start as usize, bvh.nodes[ni].count as usize);
@@ -179,11 +192,18 @@ impl Bvh {
             let mut mid = 0;
             if node.cos_cone < NORMAL_SPLIT_COS && n >= NORMAL_SPLIT_MIN_POINTS {
                 let next = node.nhi - node.nlo;
-                let k = if next.x >= next.y && next.x >= next.z { 0 } else if next.y >= next.z { 1 } else { 2 };
+                let k = if next.x >= next.y && next.x >= next.z {
+                    0
+                } else if next.y >= next.z {
+                    1
+                } else {
+                    2
+                };
                 let cut = 0.5 * (node.nlo[k] + node.nhi[k]);
                 let slice = &mut order[start..start + count];
                 // Stable partition (deterministic): normals below the cut first.
-                let (below, above): (Vec<u32>, Vec<u32>) = slice.iter().partition(|&&i| normals[i as usize][k] < cut);
+                let (below, above): (Vec<u32>, Vec<u32>) =
+                    slice.iter().partition(|&&i| normals[i as usize][k] < cut);
                 if !below.is_empty() && !above.is_empty() {
                     mid = below.len();
                     slice[..mid].copy_from_slice(&below);
@@ -192,13 +212,28 @@ impl Bvh {
             }
             if mid == 0 {
                 let ext = bvh.nodes[ni].hi - bvh.nodes[ni].lo;
-                let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+                let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                    0
+                } else if ext.y >= ext.z {
+                    1
+                } else {
+                    2
+                };
                 mid = count / 2;
-                order[start..start + count].select_nth_unstable_by(mid, |&a, &b| points[a as usize][axis].total_cmp(&points[b as usize][axis]));
+                order[start..start + count].select_nth_unstable_by(mid, |&a, &b| {
+                    points[a as usize][axis].total_cmp(&points[b as usize][axis])
+                });
             }
             let left = bvh.nodes.len();
-            bvh.nodes.push(Self::make_node(points, normals, &order, start, mid));
-            bvh.nodes.push(Self::make_node(points, normals, &order, start + mid, count - mid));
+            bvh.nodes
+                .push(Self::make_node(points, normals, &order, start, mid));
+            bvh.nodes.push(Self::make_node(
+                points,
+                normals,
+                &order,
+                start + mid,
+                count - mid,
+            ));
             bvh.nodes[ni].left = left as u32;
             stack.push(left);
             stack.push(left + 1);
@@ -207,12 +242,19 @@ impl Bvh {
         bvh.normals = order.iter().map(|&i| normals[i as usize]).collect();
         bvh.index = order;
         bvh.diameter = (bvh.nodes[0].hi - bvh.nodes[0].lo).norm();
-        bvh.max_norm = bvh.points.iter().map(|p| p.norm()).fold(0.0, f64::max) * (1.0 + 4.0 * f64::EPSILON);
+        bvh.max_norm =
+            bvh.points.iter().map(|p| p.norm()).fold(0.0, f64::max) * (1.0 + 4.0 * f64::EPSILON);
         bvh.log_terms = (n as f64 / PRUNE_TOLERANCE).ln();
         bvh
     }
 
-    fn make_node(points: &[Vector3<f64>], normals: &[Vector3<f64>], order: &[u32], start: usize, count: usize) -> Node {
+    fn make_node(
+        points: &[Vector3<f64>],
+        normals: &[Vector3<f64>],
+        order: &[u32],
+        start: usize,
+        count: usize,
+    ) -> Node {
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
         let mut nlo = Vector3::repeat(f64::INFINITY);
@@ -224,12 +266,27 @@ impl Bvh {
             nhi = nhi.sup(&normals[i as usize]);
         }
         let centre = (lo + hi) * 0.5;
-        let radius = order[start..start + count].iter().map(|&i| (points[i as usize] - centre).norm()).fold(0.0, f64::max);
+        let radius = order[start..start + count]
+            .iter()
+            .map(|&i| (points[i as usize] - centre).norm())
+            .fold(0.0, f64::max);
         // Rounding of the norm: the sphere must contain every point.
         let radius = radius * (1.0 + 4.0 * f64::EPSILON);
-        let mean: Vector3<f64> = order[start..start + count].iter().map(|&i| normals[i as usize]).sum();
-        let axis = if mean.norm() > 1e-6 * count as f64 { mean.normalize() } else { Vector3::z() };
-        let (mut slab_lo, mut slab_hi, mut cos_cone, mut support) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let mean: Vector3<f64> = order[start..start + count]
+            .iter()
+            .map(|&i| normals[i as usize])
+            .sum();
+        let axis = if mean.norm() > 1e-6 * count as f64 {
+            mean.normalize()
+        } else {
+            Vector3::z()
+        };
+        let (mut slab_lo, mut slab_hi, mut cos_cone, mut support) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        );
         for &i in &order[start..start + count] {
             let (y, n) = (points[i as usize] - centre, normals[i as usize]);
             let h = axis.dot(&y);
@@ -243,10 +300,34 @@ impl Bvh {
         // Outward rounding: a few ulps of the quantities involved (each is a 3-term dot
         // product of numbers at most `radius` or 1 in size), then a relative 1e-12 margin.
         let pad = 1e-12 * radius;
-        let (slab_lo, slab_hi, support) = ((slab_lo - pad).max(-radius), (slab_hi + pad).min(radius), support + pad);
+        let (slab_lo, slab_hi, support) = (
+            (slab_lo - pad).max(-radius),
+            (slab_hi + pad).min(radius),
+            support + pad,
+        );
         let cos_cone = (cos_cone - 1e-12).max(-1.0);
-        let sin_cone = if cos_cone <= 0.0 { 1.0 } else { ((1.0 - cos_cone * cos_cone).max(0.0).sqrt() + 1e-12).min(1.0) };
-        Node { lo, hi, centre, radius, nlo, nhi, axis, slab_lo, slab_hi, cos_cone, sin_cone, support, start: start as u32, count: count as u32, left: 0 }
+        let sin_cone = if cos_cone <= 0.0 {
+            1.0
+        } else {
+            ((1.0 - cos_cone * cos_cone).max(0.0).sqrt() + 1e-12).min(1.0)
+        };
+        Node {
+            lo,
+            hi,
+            centre,
+            radius,
+            nlo,
+            nhi,
+            axis,
+            slab_lo,
+            slab_hi,
+            cos_cone,
+            sin_cone,
+            support,
+            start: start as u32,
+            count: count as u32,
+            left: 0,
+        }
     }
 
     /// Number of points.
@@ -291,8 +372,15 @@ impl Bvh {
         }
         let mut node = &self.nodes[0];
         while !node.is_leaf() {
-            let (a, b) = (&self.nodes[node.left as usize], &self.nodes[node.left as usize + 1]);
-            node = if a.min_sq_dist(p) <= b.min_sq_dist(p) { a } else { b };
+            let (a, b) = (
+                &self.nodes[node.left as usize],
+                &self.nodes[node.left as usize + 1],
+            );
+            node = if a.min_sq_dist(p) <= b.min_sq_dist(p) {
+                a
+            } else {
+                b
+            };
         }
         for k in node.start as usize..(node.start + node.count) as usize {
             let d = (p - self.points[k]).norm_squared();
@@ -314,7 +402,13 @@ impl Bvh {
         self.nearest_from(p, skip, best, 0)
     }
 
-    fn nearest_from(&self, p: &Vector3<f64>, skip: usize, mut best: (usize, f64), root: u32) -> (usize, f64) {
+    fn nearest_from(
+        &self,
+        p: &Vector3<f64>,
+        skip: usize,
+        mut best: (usize, f64),
+        root: u32,
+    ) -> (usize, f64) {
         let mut stack: [u32; 64] = [root; 64];
         let mut top = 1usize;
         while top > 0 {
@@ -333,7 +427,10 @@ impl Bvh {
             } else {
                 // Nearer child last, so it is popped first.
                 let (a, b) = (node.left, node.left + 1);
-                let (da, db) = (self.nodes[a as usize].min_sq_dist(p), self.nodes[b as usize].min_sq_dist(p));
+                let (da, db) = (
+                    self.nodes[a as usize].min_sq_dist(p),
+                    self.nodes[b as usize].min_sq_dist(p),
+                );
                 let (first, second) = if da <= db { (a, b) } else { (b, a) };
                 stack[top] = second;
                 stack[top + 1] = first;
@@ -351,11 +448,15 @@ mod tests {
     fn cloud(n: usize) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
         let mut s = 12345u64;
         let mut r = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((s >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
         };
         let pts: Vec<_> = (0..n).map(|_| Vector3::new(r(), r(), r())).collect();
-        let nrm: Vec<_> = (0..n).map(|_| Vector3::new(r(), r(), r()).normalize()).collect();
+        let nrm: Vec<_> = (0..n)
+            .map(|_| Vector3::new(r(), r(), r()).normalize())
+            .collect();
         (pts, nrm)
     }
 
@@ -371,21 +472,34 @@ mod tests {
         for node in &bvh.nodes {
             for k in node.start as usize..(node.start + node.count) as usize {
                 let (p, n) = (bvh.points[k], bvh.normals[k]);
-                assert!((0..3).all(|a| p[a] >= node.lo[a] && p[a] <= node.hi[a] && n[a] >= node.nlo[a] && n[a] <= node.nhi[a]));
+                assert!((0..3).all(|a| p[a] >= node.lo[a]
+                    && p[a] <= node.hi[a]
+                    && n[a] >= node.nlo[a]
+                    && n[a] <= node.nhi[a]));
                 assert!((p - node.centre).norm() <= node.radius);
                 let h = node.axis.dot(&(p - node.centre));
                 assert!(h >= node.slab_lo && h <= node.slab_hi, "slab");
-                assert!(node.axis.dot(&n) / n.norm() >= node.cos_cone && node.cos_cone * node.cos_cone + node.sin_cone * node.sin_cone >= 1.0, "cone");
+                assert!(
+                    node.axis.dot(&n) / n.norm() >= node.cos_cone
+                        && node.cos_cone * node.cos_cone + node.sin_cone * node.sin_cone >= 1.0,
+                    "cone"
+                );
                 assert!(n.dot(&(p - node.centre)) <= node.support, "support");
             }
             if !node.is_leaf() {
-                let (l, r) = (&bvh.nodes[node.left as usize], &bvh.nodes[node.left as usize + 1]);
+                let (l, r) = (
+                    &bvh.nodes[node.left as usize],
+                    &bvh.nodes[node.left as usize + 1],
+                );
                 assert_eq!((l.start, l.count + r.count), (node.start, node.count));
             }
         }
         let (queries, _) = cloud(50);
         for q in queries.iter().map(|q| q * 3.0) {
-            let scan = pts.iter().map(|p| (q - p).norm_squared()).fold(f64::INFINITY, f64::min);
+            let scan = pts
+                .iter()
+                .map(|p| (q - p).norm_squared())
+                .fold(f64::INFINITY, f64::min);
             let (k, d) = bvh.nearest(&q);
             assert_eq!(d, scan);
             assert_eq!((q - bvh.points[k]).norm_squared(), d);

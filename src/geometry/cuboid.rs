@@ -85,7 +85,14 @@ impl Cuboid {
     /// has its plane above `need` (m) there, proven; `false` when not proven. The region is
     /// given by a box `[lo, hi]` holding its points' coordinates `x' = U x` and a bound `dist`
     /// on their `|x|`.
-    pub fn settles(&self, lo: &Vector3<f64>, hi: &Vector3<f64>, dist: f64, need: f64, m1: f64) -> bool {
+    pub fn settles(
+        &self,
+        lo: &Vector3<f64>,
+        hi: &Vector3<f64>,
+        dist: f64,
+        need: f64,
+        m1: f64,
+    ) -> bool {
         let far = dist + self.reach;
         let mut lb = [0.0; 6];
         for (f, face) in self.faces.iter().enumerate() {
@@ -123,7 +130,12 @@ impl Cuboid {
             if slo[k] > shi[k] {
                 continue;
             }
-            if !order.iter().filter(|&&g| g != f).take(2).any(|&g| self.gap(face, &self.faces[g], &slo, &shi) - slack > m1) {
+            if !order
+                .iter()
+                .filter(|&&g| g != f)
+                .take(2)
+                .any(|&g| self.gap(face, &self.faces[g], &slo, &shi) - slack > m1)
+            {
                 return false;
             }
         }
@@ -138,12 +150,20 @@ impl Cuboid {
         for j in 0..3 {
             let phi = |y: f64| {
                 let d = dist(y, f.lo[j], f.hi[j]);
-                let e = if j == g.axis { (y - g.lo[j]).abs().max((y - g.hi[j]).abs()) } else { dist(y, g.rect_lo[j], g.rect_hi[j]) + g.half[j] };
+                let e = if j == g.axis {
+                    (y - g.lo[j]).abs().max((y - g.hi[j]).abs())
+                } else {
+                    dist(y, g.rect_lo[j], g.rect_hi[j]) + g.half[j]
+                };
                 d * d - e * e
             };
             let (a, b) = (lo[j], hi[j]);
             let mut best = phi(a).min(phi(b));
-            let breaks = if j == g.axis { [f.lo[j], f.hi[j], 0.5 * (g.lo[j] + g.hi[j]), f64::NAN] } else { [f.lo[j], f.hi[j], g.rect_lo[j], g.rect_hi[j]] };
+            let breaks = if j == g.axis {
+                [f.lo[j], f.hi[j], 0.5 * (g.lo[j] + g.hi[j]), f64::NAN]
+            } else {
+                [f.lo[j], f.hi[j], g.rect_lo[j], g.rect_hi[j]]
+            };
             for y in breaks {
                 if y > a && y < b {
                     best = best.min(phi(y));
@@ -157,14 +177,29 @@ impl Cuboid {
 
 /// The certificate of a cloud (faces in the cloud's order, one point per face; `of` and
 /// `patches` as found by [`super::patch::find_patches`]), if it is a cuboid.
-pub fn find_cuboid(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]], of: &[u32], patches: &[super::patch::Patch]) -> Option<Cuboid> {
-    if patches.len() != 6 || points.is_empty() || of.len() != points.len() || faces.len() != points.len() || of.iter().any(|&p| p as usize >= 6) {
+pub fn find_cuboid(
+    points: &[Vector3<f64>],
+    normals: &[Vector3<f64>],
+    vertices: &[Vector3<f64>],
+    faces: &[[u32; 4]],
+    of: &[u32],
+    patches: &[super::patch::Patch],
+) -> Option<Cuboid> {
+    if patches.len() != 6
+        || points.is_empty()
+        || of.len() != points.len()
+        || faces.len() != points.len()
+        || of.iter().any(|&p| p as usize >= 6)
+    {
         return None;
     }
     // Three faces with orthogonal normals, and each one's opposite.
     let mut axes: Vec<usize> = Vec::new();
     for (p, patch) in patches.iter().enumerate() {
-        if axes.iter().all(|&a| patches[a].normal.dot(&patch.normal).abs() <= 1e-9) {
+        if axes
+            .iter()
+            .all(|&a| patches[a].normal.dot(&patch.normal).abs() <= 1e-9)
+        {
             axes.push(p);
         }
     }
@@ -195,7 +230,10 @@ pub fn find_cuboid(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
     for (p, patch) in patches.iter().enumerate() {
         let (k, sign) = side[p];
         let axis: Vector3<f64> = u.row(k).transpose() * sign;
-        let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        );
         let (mut half, mut normal_err) = (Vector3::zeros(), 0.0f64);
         for i in (0..points.len()).filter(|&i| of[i] as usize == p) {
             let q = u * points[i];
@@ -210,7 +248,10 @@ pub fn find_cuboid(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
         // The rectangle: the patch's edges lie along ±u_j, j ≠ k (a side may come as several
         // edges, nearly collinear hull vertices of a rotated face left in). An edge `mᵀz ≤ c`
         // holds wherever `±u_jᵀz ≤ c - |m ∓ u_j| Z`, `Z` bounding `|z|` on the face.
-        let (mut rect_lo, mut rect_hi) = (Vector3::repeat(f64::NEG_INFINITY), Vector3::repeat(f64::INFINITY));
+        let (mut rect_lo, mut rect_hi) = (
+            Vector3::repeat(f64::NEG_INFINITY),
+            Vector3::repeat(f64::INFINITY),
+        );
         for (m, c) in &patch.edges {
             let e = u * m;
             let j = e.iamax();
@@ -233,9 +274,25 @@ pub fn find_cuboid(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
         }
         let pad = 1e-12 * (reach + big);
         let top = if sign > 0.0 { hi[k] } else { -lo[k] } + pad;
-        out.push(Face { axis: k, sign, lo: lo.add_scalar(-pad), hi: hi.add_scalar(pad), top, rect_lo, rect_hi, half: half * (1.0 + 1e-12) + Vector3::repeat(pad + patch.thickness), normal_err: normal_err + 1e-12 });
+        out.push(Face {
+            axis: k,
+            sign,
+            lo: lo.add_scalar(-pad),
+            hi: hi.add_scalar(pad),
+            top,
+            rect_lo,
+            rect_hi,
+            half: half * (1.0 + 1e-12) + Vector3::repeat(pad + patch.thickness),
+            normal_err: normal_err + 1e-12,
+        });
     }
-    Some(Cuboid { axes: u, eta, reach, size: big, faces: out })
+    Some(Cuboid {
+        axes: u,
+        eta,
+        reach,
+        size: big,
+        faces: out,
+    })
 }
 
 #[cfg(test)]
@@ -246,43 +303,119 @@ mod tests {
     use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion};
 
     fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
     fn certificate(s: &Aopc) -> Option<Cuboid> {
-        let (of, patches) = crate::geometry::patch::find_patches(&s.points, &s.normals, &s.vertices, &s.faces);
+        let (of, patches) =
+            crate::geometry::patch::find_patches(&s.points, &s.normals, &s.vertices, &s.faces);
         find_cuboid(&s.points, &s.normals, &s.vertices, &s.faces, &of, &patches)
     }
 
     /// A box placed in its body by a rotation and an offset (a geom's `pos` and `quat`).
-    fn placed_box(half: Vector3<f64>, spacing: f64, angles: (f64, f64, f64), offset: Vector3<f64>) -> Aopc {
-        let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_euler_angles(angles.0, angles.1, angles.2));
-        sample_union(&[(Shape::Box { half }, Isometry3::from_parts(Translation3::from(offset), rot))], spacing)
+    fn placed_box(
+        half: Vector3<f64>,
+        spacing: f64,
+        angles: (f64, f64, f64),
+        offset: Vector3<f64>,
+    ) -> Aopc {
+        let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_euler_angles(
+            angles.0, angles.1, angles.2,
+        ));
+        sample_union(
+            &[(
+                Shape::Box { half },
+                Isometry3::from_parts(Translation3::from(offset), rot),
+            )],
+            spacing,
+        )
     }
 
     #[test]
     fn boxes_are_cuboids_and_other_shapes_are_not() {
-        for s in [Shape::Box { half: Vector3::new(0.1, 0.05, 0.02) }.sample(0.01), placed_box(Vector3::new(0.03, 0.04, 0.05), 0.005, (0.3, -0.7, 1.1), Vector3::new(0.01, -0.2, 0.03))] {
+        for s in [
+            Shape::Box {
+                half: Vector3::new(0.1, 0.05, 0.02),
+            }
+            .sample(0.01),
+            placed_box(
+                Vector3::new(0.03, 0.04, 0.05),
+                0.005,
+                (0.3, -0.7, 1.1),
+                Vector3::new(0.01, -0.2, 0.03),
+            ),
+        ] {
             let c = certificate(&s).expect("a box is a cuboid");
             assert!(c.eta < 1e-14, "{}", c.eta);
             let mut axes: Vec<(usize, f64)> = c.faces.iter().map(|f| (f.axis, f.sign)).collect();
             axes.sort_by(|a, b| a.partial_cmp(b).unwrap());
-            assert_eq!(axes, vec![(0, -1.0), (0, 1.0), (1, -1.0), (1, 1.0), (2, -1.0), (2, 1.0)]);
+            assert_eq!(
+                axes,
+                vec![
+                    (0, -1.0),
+                    (0, 1.0),
+                    (1, -1.0),
+                    (1, 1.0),
+                    (2, -1.0),
+                    (2, 1.0)
+                ]
+            );
             for f in &c.faces {
                 // The quads are half a spacing wide or less along each face, and the face's
                 // rectangle holds its points.
-                assert!(f.normal_err < 1e-9 && (0..3).filter(|&j| j != f.axis).all(|j| f.half[j] > 0.0 && f.half[j] <= 0.0051 && f.rect_lo[j] <= f.lo[j] + 1e-9 && f.rect_hi[j] >= f.hi[j] - 1e-9), "{f:?}");
+                assert!(
+                    f.normal_err < 1e-9
+                        && (0..3).filter(|&j| j != f.axis).all(|j| f.half[j] > 0.0
+                            && f.half[j] <= 0.0051
+                            && f.rect_lo[j] <= f.lo[j] + 1e-9
+                            && f.rect_hi[j] >= f.hi[j] - 1e-9),
+                    "{f:?}"
+                );
             }
         }
-        for shape in [Shape::Sphere { radius: 0.05 }, Shape::Ellipsoid { radii: Vector3::new(0.05, 0.04, 0.03) }, Shape::Capsule { radius: 0.03, half_length: 0.05 }, Shape::Cylinder { radius: 0.04, half_length: 0.05 }] {
+        for shape in [
+            Shape::Sphere { radius: 0.05 },
+            Shape::Ellipsoid {
+                radii: Vector3::new(0.05, 0.04, 0.03),
+            },
+            Shape::Capsule {
+                radius: 0.03,
+                half_length: 0.05,
+            },
+            Shape::Cylinder {
+                radius: 0.04,
+                half_length: 0.05,
+            },
+        ] {
             assert!(certificate(&shape.sample(0.005)).is_none(), "{shape:?}");
         }
         // The paper's T-block: two boxes of one body, one union; not a box.
-        let t = sample_union(&[(Shape::Box { half: Vector3::new(0.1, 0.02, 0.02) }, Isometry3::identity()), (Shape::Box { half: Vector3::new(0.02, 0.06, 0.02) }, Isometry3::translation(0.0, -0.06, 0.0))], 0.005);
+        let t = sample_union(
+            &[
+                (
+                    Shape::Box {
+                        half: Vector3::new(0.1, 0.02, 0.02),
+                    },
+                    Isometry3::identity(),
+                ),
+                (
+                    Shape::Box {
+                        half: Vector3::new(0.02, 0.06, 0.02),
+                    },
+                    Isometry3::translation(0.0, -0.06, 0.0),
+                ),
+            ],
+            0.005,
+        );
         assert!(certificate(&t).is_none());
         // A box with a quad missing (its face is no longer a patch).
-        let mut s = Shape::Box { half: Vector3::repeat(0.05) }.sample(0.01);
+        let mut s = Shape::Box {
+            half: Vector3::repeat(0.05),
+        }
+        .sample(0.01);
         s.points.pop();
         s.normals.pop();
         s.faces.pop();
@@ -299,9 +432,29 @@ mod tests {
     fn a_settled_region_has_every_relevant_plane_above_need() {
         let mut st = 3u64;
         let cases = [
-            (Shape::Box { half: Vector3::new(0.05, 0.03, 0.02) }.sample(0.004), 4.6e-8),
-            (Shape::Box { half: Vector3::new(0.05, 0.03, 0.02) }.sample(0.004), 1e-5),
-            (placed_box(Vector3::new(0.04, 0.03, 0.025), 0.003, (0.4, 0.2, -0.9), Vector3::new(0.02, -0.01, 0.05)), 1e-6),
+            (
+                Shape::Box {
+                    half: Vector3::new(0.05, 0.03, 0.02),
+                }
+                .sample(0.004),
+                4.6e-8,
+            ),
+            (
+                Shape::Box {
+                    half: Vector3::new(0.05, 0.03, 0.02),
+                }
+                .sample(0.004),
+                1e-5,
+            ),
+            (
+                placed_box(
+                    Vector3::new(0.04, 0.03, 0.025),
+                    0.003,
+                    (0.4, 0.2, -0.9),
+                    Vector3::new(0.02, -0.01, 0.05),
+                ),
+                1e-6,
+            ),
         ];
         let (mut settled, mut tight, mut refused, mut beside) = (0, 0, 0, 0);
         for (s, m1) in &cases {
@@ -311,17 +464,29 @@ mod tests {
             let rim: Vec<usize> = (0..s.points.len())
                 .filter(|&i| {
                     let q = u * s.points[i];
-                    let f = c.faces.iter().find(|f| (f.sign * q[f.axis] - f.top).abs() < 1e-9).unwrap();
-                    (0..3).any(|j| j != f.axis && (q[j] - f.lo[j] < 0.004 || f.hi[j] - q[j] < 0.004))
+                    let f = c
+                        .faces
+                        .iter()
+                        .find(|f| (f.sign * q[f.axis] - f.top).abs() < 1e-9)
+                        .unwrap();
+                    (0..3)
+                        .any(|j| j != f.axis && (q[j] - f.lo[j] < 0.004 || f.hi[j] - q[j] < 0.004))
                 })
                 .collect();
             for n in 0..1500 {
                 // Near a random point of the surface (every other one on a face's rim), pushed
                 // in or out.
-                let pick = |st: &mut u64, len: usize| ((lcg(st) + 1.0) * 0.5 * len as f64) as usize % len;
-                let k = if n % 2 == 0 { rim[pick(&mut st, rim.len())] } else { pick(&mut st, s.points.len()) };
+                let pick =
+                    |st: &mut u64, len: usize| ((lcg(st) + 1.0) * 0.5 * len as f64) as usize % len;
+                let k = if n % 2 == 0 {
+                    rim[pick(&mut st, rim.len())]
+                } else {
+                    pick(&mut st, s.points.len())
+                };
                 let dir = Vector3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)).normalize();
-                let centre = s.points[k] + s.normals[k] * 0.012 * lcg(&mut st) + dir * 0.015 * lcg(&mut st).abs();
+                let centre = s.points[k]
+                    + s.normals[k] * 0.012 * lcg(&mut st)
+                    + dir * 0.015 * lcg(&mut st).abs();
                 let r = 0.0003 + 0.012 * lcg(&mut st).abs().powi(2);
                 let need = 0.004 * lcg(&mut st);
                 let mid = u * centre;
@@ -332,13 +497,29 @@ mod tests {
                 }
                 settled += 1;
                 // Beside an edge or a corner: outside the box of the points along two axes.
-                let (plo, phi) = c.faces.iter().fold((Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)), |(a, b), f| (a.inf(&f.lo), b.sup(&f.hi)));
-                beside += usize::from((0..3).filter(|&j| mid[j] < plo[j] || mid[j] > phi[j]).count() >= 2);
+                let (plo, phi) = c.faces.iter().fold(
+                    (
+                        Vector3::repeat(f64::INFINITY),
+                        Vector3::repeat(f64::NEG_INFINITY),
+                    ),
+                    |(a, b), f| (a.inf(&f.lo), b.sup(&f.hi)),
+                );
+                beside += usize::from(
+                    (0..3)
+                        .filter(|&j| mid[j] < plo[j] || mid[j] > phi[j])
+                        .count()
+                        >= 2,
+                );
                 let mut closest = f64::INFINITY;
                 for n in 0..40 {
                     // Every other sample on the sphere, where the extremes are.
                     let y = Vector3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st));
-                    let x = centre + if n % 2 == 0 { y.normalize() * r } else { y * r / 3f64.sqrt() };
+                    let x = centre
+                        + if n % 2 == 0 {
+                            y.normalize() * r
+                        } else {
+                            y * r / 3f64.sqrt()
+                        };
                     let d: Vec<f64> = s.points.iter().map(|p| (x - p).norm_squared()).collect();
                     let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
                     for (i, di) in d.iter().enumerate() {

@@ -103,17 +103,33 @@ impl TriMesh {
     /// and warnings (e.g. an inward orientation that was fixed).
     pub fn load(path: &Path, scale: &Vector3<f64>) -> Result<(TriMesh, Vec<String>), MeshError> {
         let file = path.display().to_string();
-        let err = |problem| MeshError { file: file.clone(), problem };
-        let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+        let err = |problem| MeshError {
+            file: file.clone(),
+            problem,
+        };
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_lowercase())
+            .unwrap_or_default();
         if ext != "obj" && ext != "stl" {
             return Err(err(MeshProblem::Format(ext)));
         }
         let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
         // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
         // a parse error, never a crash of the host.
-        let parsed = std::panic::catch_unwind(|| if ext == "obj" { parse_obj(&bytes) } else { parse_stl(&bytes) }).unwrap_or_else(|_| Err("the parser failed on this file".into()));
+        let parsed = std::panic::catch_unwind(|| {
+            if ext == "obj" {
+                parse_obj(&bytes)
+            } else {
+                parse_stl(&bytes)
+            }
+        })
+        .unwrap_or_else(|_| Err("the parser failed on this file".into()));
         let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
-        let vertices = vertices.into_iter().map(|v| v.component_mul(scale)).collect();
+        let vertices = vertices
+            .into_iter()
+            .map(|v| v.component_mul(scale))
+            .collect();
         let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
         if scale.x * scale.y * scale.z < 0.0 {
             // A mirroring scale turns the surface inside out; `new` has already flipped it back.
@@ -126,16 +142,31 @@ impl TriMesh {
     /// Builds a mesh from vertices and triangles (any winding), merging duplicate vertices,
     /// checking that it is a closed manifold with consistent orientation and a volume, and
     /// turning inward-facing shells outward (with a warning).
-    pub fn new(file: &str, vertices: Vec<Vector3<f64>>, triangles: Vec<[u32; 3]>) -> Result<(TriMesh, Vec<String>), MeshError> {
-        let err = |problem| MeshError { file: file.to_string(), problem };
-        if let Some(i) = vertices.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+    pub fn new(
+        file: &str,
+        vertices: Vec<Vector3<f64>>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<(TriMesh, Vec<String>), MeshError> {
+        let err = |problem| MeshError {
+            file: file.to_string(),
+            problem,
+        };
+        if let Some(i) = vertices
+            .iter()
+            .position(|v| !v.iter().all(|x| x.is_finite()))
+        {
             return Err(err(MeshProblem::NonFinite(i)));
         }
         if triangles.is_empty() {
             return Err(err(MeshProblem::Empty));
         }
-        if let Some(t) = triangles.iter().position(|t| t.iter().any(|&i| i as usize >= vertices.len())) {
-            return Err(err(MeshProblem::Parse(format!("triangle {t} refers to a vertex that does not exist"))));
+        if let Some(t) = triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= vertices.len()))
+        {
+            return Err(err(MeshProblem::Parse(format!(
+                "triangle {t} refers to a vertex that does not exist"
+            ))));
         }
         // Merge vertices with equal coordinates (STL repeats them per triangle).
         let mut map: HashMap<[u64; 3], u32> = HashMap::new();
@@ -143,42 +174,69 @@ impl TriMesh {
         let remap: Vec<u32> = vertices
             .iter()
             .map(|v| {
-                *map.entry([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]).or_insert_with(|| {
-                    merged.push(*v);
-                    merged.len() as u32 - 1
-                })
+                *map.entry([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+                    .or_insert_with(|| {
+                        merged.push(*v);
+                        merged.len() as u32 - 1
+                    })
             })
             .collect();
-        let mut tris: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|i| remap[i as usize])).collect();
-        let lo = merged.iter().fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
-        let hi = merged.iter().fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
+        let mut tris: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| t.map(|i| remap[i as usize]))
+            .collect();
+        let lo = merged
+            .iter()
+            .fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
+        let hi = merged
+            .iter()
+            .fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
         let size = (hi - lo).norm();
         // Degenerate triangles.
         let degenerate: Vec<usize> = tris
             .iter()
             .enumerate()
-            .filter(|(_, t)| t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || tri_normal(&merged, t).norm() <= 1e-12 * size * size)
+            .filter(|(_, t)| {
+                t[0] == t[1]
+                    || t[1] == t[2]
+                    || t[0] == t[2]
+                    || tri_normal(&merged, t).norm() <= 1e-12 * size * size
+            })
             .map(|(i, _)| i)
             .collect();
         if let Some(&first) = degenerate.first() {
-            return Err(err(MeshProblem::Degenerate { count: degenerate.len(), first }));
+            return Err(err(MeshProblem::Degenerate {
+                count: degenerate.len(),
+                first,
+            }));
         }
         // Edges: each undirected edge in exactly two triangles, run in opposite directions.
         let mut edges: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
         for (ti, t) in tris.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                edges.entry((a.min(b), a.max(b))).or_default().push((ti, a < b));
+                edges
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push((ti, a < b));
             }
         }
         let mut keys: Vec<_> = edges.keys().copied().collect();
         keys.sort_unstable();
         let open: Vec<_> = keys.iter().filter(|k| edges[k].len() == 1).collect();
         if let Some(&&(a, b)) = open.first() {
-            return Err(err(MeshProblem::Open { count: open.len(), a, b }));
+            return Err(err(MeshProblem::Open {
+                count: open.len(),
+                a,
+                b,
+            }));
         }
         if let Some(&(a, b)) = keys.iter().find(|k| edges[k].len() > 2) {
-            return Err(err(MeshProblem::NonManifold { a, b, count: edges[&(a, b)].len() }));
+            return Err(err(MeshProblem::NonManifold {
+                a,
+                b,
+                count: edges[&(a, b)].len(),
+            }));
         }
         if let Some(&(a, b)) = keys.iter().find(|k| edges[k][0].1 == edges[k][1].1) {
             let e = &edges[&(a, b)];
@@ -205,15 +263,38 @@ impl TriMesh {
         shells.dedup();
         let mut warnings = Vec::new();
         let centre = (lo + hi) * 0.5;
-        let shell_volume = |tris: &[[u32; 3]], s: usize| -> f64 { tris.iter().zip(&roots).filter(|(_, &r)| r == s).map(|(t, _)| signed_tet_volume(&merged, t, &centre)).sum() };
+        let shell_volume = |tris: &[[u32; 3]], s: usize| -> f64 {
+            tris.iter()
+                .zip(&roots)
+                .filter(|(_, &r)| r == s)
+                .map(|(t, _)| signed_tet_volume(&merged, t, &centre))
+                .sum()
+        };
         for &s in &shells {
             if shell_volume(&tris, s) >= 0.0 {
                 continue;
             }
             // Inside another shell (an odd number of other shells around it): a cavity, whose
             // normals rightly point into it.
-            let probe = merged[tris[roots.iter().position(|&r| r == s).expect("a shell has triangles")][0] as usize];
-            let around: f64 = shells.iter().filter(|&&o| o != s).map(|&o| winding(&merged, tris.iter().zip(&roots).filter(|(_, &r)| r == o).map(|(t, _)| t), &probe).abs()).sum();
+            let probe = merged[tris[roots
+                .iter()
+                .position(|&r| r == s)
+                .expect("a shell has triangles")][0] as usize];
+            let around: f64 = shells
+                .iter()
+                .filter(|&&o| o != s)
+                .map(|&o| {
+                    winding(
+                        &merged,
+                        tris.iter()
+                            .zip(&roots)
+                            .filter(|(_, &r)| r == o)
+                            .map(|(t, _)| t),
+                        &probe,
+                    )
+                    .abs()
+                })
+                .sum();
             if around.round() as i64 % 2 == 1 {
                 continue;
             }
@@ -222,9 +303,16 @@ impl TriMesh {
                     t.swap(1, 2);
                 }
             }
-            warnings.push(format!("mesh {file}: {} triangles faced inward; their orientation was flipped", roots.iter().filter(|&&r| r == s).count()));
+            warnings.push(format!(
+                "mesh {file}: {} triangles faced inward; their orientation was flipped",
+                roots.iter().filter(|&&r| r == s).count()
+            ));
         }
-        let mesh = TriMesh { file: file.to_string(), vertices: merged, triangles: tris };
+        let mesh = TriMesh {
+            file: file.to_string(),
+            vertices: merged,
+            triangles: tris,
+        };
         let volume = mesh.mass_properties().volume;
         if volume <= 1e-9 * size.powi(3) {
             return Err(err(MeshProblem::ZeroVolume(volume)));
@@ -237,7 +325,8 @@ impl TriMesh {
     /// `D = aᵀ(b × c)`, volume `D/6`, first moment `D (a + b + c)/24` and second moment
     /// `∫ x xᵀ = D/120 (a aᵀ + b bᵀ + c cᵀ + s sᵀ)`, `s = a + b + c`.
     pub fn mass_properties(&self) -> MassProperties {
-        let o = self.vertices.iter().fold(Vector3::zeros(), |a, v| a + v) / self.vertices.len().max(1) as f64;
+        let o = self.vertices.iter().fold(Vector3::zeros(), |a, v| a + v)
+            / self.vertices.len().max(1) as f64;
         let (mut vol, mut first, mut second) = (0.0, Vector3::zeros(), Matrix3::zeros());
         for t in &self.triangles {
             let [a, b, c] = t.map(|i| self.vertices[i as usize] - o);
@@ -245,12 +334,22 @@ impl TriMesh {
             let s = a + b + c;
             vol += d / 6.0;
             first += s * (d / 24.0);
-            second += (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose()) * (d / 120.0);
+            second +=
+                (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose())
+                    * (d / 120.0);
         }
-        let com = if vol != 0.0 { first / vol } else { Vector3::zeros() };
+        let com = if vol != 0.0 {
+            first / vol
+        } else {
+            Vector3::zeros()
+        };
         let about_com = second - com * com.transpose() * vol;
         let inertia = Matrix3::identity() * about_com.trace() - about_com;
-        MassProperties { volume: vol, com: com + o, inertia }
+        MassProperties {
+            volume: vol,
+            com: com + o,
+            inertia,
+        }
     }
 
     /// Generalized winding number of the surface around `p`: 1 inside, 0 outside.
@@ -260,7 +359,14 @@ impl TriMesh {
 
     /// Exact signed distance (m): distance to the nearest triangle, negative inside.
     pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
-        let d = self.triangles.iter().map(|t| (closest_on_triangle(p, &t.map(|i| self.vertices[i as usize])) - p).norm_squared()).fold(f64::INFINITY, f64::min).sqrt();
+        let d = self
+            .triangles
+            .iter()
+            .map(|t| {
+                (closest_on_triangle(p, &t.map(|i| self.vertices[i as usize])) - p).norm_squared()
+            })
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
         if self.winding_number(p) > 0.5 {
             -d
         } else {
@@ -294,7 +400,11 @@ fn signed_tet_volume(v: &[Vector3<f64>], t: &[u32; 3], o: &Vector3<f64>) -> f64 
 }
 
 /// Σ of the triangles' solid angles seen from `p`, over 4π (Van Oosterom and Strackee).
-fn winding<'a>(v: &[Vector3<f64>], tris: impl Iterator<Item = &'a [u32; 3]>, p: &Vector3<f64>) -> f64 {
+fn winding<'a>(
+    v: &[Vector3<f64>],
+    tris: impl Iterator<Item = &'a [u32; 3]>,
+    p: &Vector3<f64>,
+) -> f64 {
     let mut total = 0.0;
     for t in tris {
         let [a, b, c] = t.map(|i| v[i as usize] - p);
@@ -343,14 +453,21 @@ fn closest_on_triangle(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> Vector3<f64> 
 /// Longest-edge bisection of a closed manifold mesh until no edge exceeds `max_len`: the
 /// longest edge is split at its midpoint together with both triangles on it (the mesh stays
 /// conforming and keeps its orientation and its shape).
-fn refine(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], max_len: f64) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
+fn refine(
+    vertices: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    max_len: f64,
+) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
     let mut v = vertices.to_vec();
     let mut t = triangles.to_vec();
     let key = |a: u32, b: u32| (a.min(b), a.max(b));
     let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (i, tri) in t.iter().enumerate() {
         for k in 0..3 {
-            edges.entry(key(tri[k], tri[(k + 1) % 3])).or_default().push(i as u32);
+            edges
+                .entry(key(tri[k], tri[(k + 1) % 3]))
+                .or_default()
+                .push(i as u32);
         }
     }
     // Max-heap of edges by length (bits of a positive f64 order like the value).
@@ -363,12 +480,16 @@ fn refine(vertices: &[Vector3<f64>], triangles: &[[u32; 3]], max_len: f64) -> (V
         }
     }
     while let Some((_, a, b)) = heap.pop() {
-        let Some(on) = edges.remove(&key(a, b)) else { continue };
+        let Some(on) = edges.remove(&key(a, b)) else {
+            continue;
+        };
         let m = v.len() as u32;
         v.push((v[a as usize] + v[b as usize]) * 0.5);
         for &ti in &on {
             let tri = t[ti as usize];
-            let k = (0..3).find(|&k| key(tri[k], tri[(k + 1) % 3]) == key(a, b)).expect("the edge belongs to the triangle");
+            let k = (0..3)
+                .find(|&k| key(tri[k], tri[(k + 1) % 3]) == key(a, b))
+                .expect("the edge belongs to the triangle");
             let (p, q, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
             // (p, q, c) becomes (p, m, c) in place and (m, q, c) as a new triangle.
             let tn = t.len() as u32;
@@ -405,15 +526,29 @@ type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
 
 /// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
 fn parse_obj(bytes: &[u8]) -> Parsed {
-    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     let mut reader = std::io::BufReader::new(bytes);
-    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default())).map_err(|e| e.to_string())?;
+    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default()))
+        .map_err(|e| e.to_string())?;
     let (mut verts, mut tris) = (Vec::new(), Vec::new());
     for m in &models {
         let base = verts.len() as u32;
         let p = &m.mesh.positions;
-        verts.extend(p.chunks_exact(3).map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)));
-        tris.extend(m.mesh.indices.chunks_exact(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
+        verts.extend(
+            p.chunks_exact(3)
+                .map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)),
+        );
+        tris.extend(
+            m.mesh
+                .indices
+                .chunks_exact(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
     }
     Ok((verts, tris))
 }
@@ -423,8 +558,16 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
 fn parse_stl(bytes: &[u8]) -> Parsed {
     let mut cursor = std::io::Cursor::new(bytes);
     let mesh = stl_io::read_stl(&mut cursor).map_err(|e| e.to_string())?;
-    let verts = mesh.vertices.iter().map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
-    let tris = mesh.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect();
+    let verts = mesh
+        .vertices
+        .iter()
+        .map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+        .collect();
+    let tris = mesh
+        .faces
+        .iter()
+        .map(|f| f.vertices.map(|i| i as u32))
+        .collect();
     Ok((verts, tris))
 }
 
@@ -434,9 +577,21 @@ mod tests {
 
     /// A unit cube as 12 triangles, outward.
     pub(crate) fn cube() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
-        let v: Vec<_> = (0..8).map(|i| Vector3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64)).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let t = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let v: Vec<_> = (0..8)
+            .map(|i| Vector3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let t = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
         (v, t)
     }
 
@@ -447,13 +602,20 @@ mod tests {
         assert!(w.is_empty(), "{w:?}");
         let mp = m.mass_properties();
         assert!((mp.volume - 1.0).abs() < 1e-12 && (mp.com - Vector3::repeat(0.5)).norm() < 1e-12);
-        assert!((mp.inertia - Matrix3::identity() / 6.0).norm() < 1e-12, "{}", mp.inertia);
+        assert!(
+            (mp.inertia - Matrix3::identity() / 6.0).norm() < 1e-12,
+            "{}",
+            mp.inertia
+        );
         let s = m.sample(0.1);
         assert!(s.closure_defect().norm() < 1e-12);
         assert!((s.enclosed_volume() - 1.0).abs() < 1e-12);
         assert!((s.spacing() - 0.1).abs() < 0.04, "spacing {}", s.spacing());
         // Quad edges follow the cube's edges: no quad normal is off an axis.
         assert!(s.normals.iter().all(|n| n.abs().max() > 1.0 - 1e-12));
-        assert!((m.sdf(&Vector3::new(0.5, 0.5, 0.2)) + 0.2).abs() < 1e-12 && (m.sdf(&Vector3::new(0.5, 0.5, 1.3)) - 0.3).abs() < 1e-12);
+        assert!(
+            (m.sdf(&Vector3::new(0.5, 0.5, 0.2)) + 0.2).abs() < 1e-12
+                && (m.sdf(&Vector3::new(0.5, 0.5, 1.3)) - 0.3).abs() < 1e-12
+        );
     }
 }

@@ -48,16 +48,36 @@ const MIN_POINTS: usize = 8;
 /// The flat patches of a quad mesh whose face `k` has centre `points[k]` and outward normal
 /// `normals[k]`: the patch index of each point (`u32::MAX` for none) and the patches.
 /// Empty when the faces do not match the points one to one.
-pub fn find_patches(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) -> (Vec<u32>, Vec<Patch>) {
+pub fn find_patches(
+    points: &[Vector3<f64>],
+    normals: &[Vector3<f64>],
+    vertices: &[Vector3<f64>],
+    faces: &[[u32; 4]],
+) -> (Vec<u32>, Vec<Patch>) {
     let mut of = vec![u32::MAX; points.len()];
     let mut patches = Vec::new();
-    if faces.len() != points.len() || faces.iter().flatten().any(|&v| v as usize >= vertices.len()) {
+    if faces.len() != points.len()
+        || faces
+            .iter()
+            .flatten()
+            .any(|&v| v as usize >= vertices.len())
+    {
         return (of, patches);
     }
     // Candidate groups: the same normal and plane offset to 1e-7 (quantised; a face split by
     // the quantisation only loses a patch, as each group is checked on its own). Sorting the
     // keys groups them without a hash map (a curved surface has one group per point).
-    let mut keyed: Vec<([i64; 4], u32)> = points.iter().zip(normals).enumerate().map(|(k, (p, n))| ([n.x, n.y, n.z, n.dot(p)].map(|v| (v * 1e7).round() as i64), k as u32)).collect();
+    let mut keyed: Vec<([i64; 4], u32)> = points
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .map(|(k, (p, n))| {
+            (
+                [n.x, n.y, n.z, n.dot(p)].map(|v| (v * 1e7).round() as i64),
+                k as u32,
+            )
+        })
+        .collect();
     keyed.sort_unstable();
     let mut members: Vec<usize> = Vec::new();
     for run in keyed.chunk_by(|a, b| a.0 == b.0) {
@@ -78,12 +98,25 @@ pub fn find_patches(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices:
 }
 
 /// The patch of one group, if its quads pass the checks of the module documentation.
-fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]], members: &[usize]) -> Option<Patch> {
-    let n = members.iter().fold(Vector3::zeros(), |s, &k| s + normals[k]).try_normalize(0.0)?;
+fn check(
+    points: &[Vector3<f64>],
+    normals: &[Vector3<f64>],
+    vertices: &[Vector3<f64>],
+    faces: &[[u32; 4]],
+    members: &[usize],
+) -> Option<Patch> {
+    let n = members
+        .iter()
+        .fold(Vector3::zeros(), |s, &k| s + normals[k])
+        .try_normalize(0.0)?;
     let offset = members.iter().map(|&k| n.dot(&points[k])).sum::<f64>() / members.len() as f64;
     // In-plane basis with e1 × e2 = n: counter-clockwise in (e1, e2) is counter-clockwise
     // seen from outside.
-    let e1 = if n.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let e1 = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     let e1 = (e1 - n * n.dot(&e1)).normalize();
     let e2 = n.cross(&e1);
     let flat = |v: &Vector3<f64>| Vector2::new(e1.dot(v), e2.dot(v));
@@ -119,14 +152,28 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
     let boundary: Vec<(u32, u32)> = directed
         .iter()
         .map(|&e| ((e >> 32) as u32, e as u32))
-        .filter(|&(a, b)| directed.binary_search(&((b as u64) << 32 | a as u64)).is_err())
+        .filter(|&(a, b)| {
+            directed
+                .binary_search(&((b as u64) << 32 | a as u64))
+                .is_err()
+        })
         .collect();
-    let hull = convex_hull(boundary.iter().map(|&(a, _)| flat(&vertices[a as usize])).collect());
+    let hull = convex_hull(
+        boundary
+            .iter()
+            .map(|&(a, _)| flat(&vertices[a as usize]))
+            .collect(),
+    );
     if hull.len() < 3 {
         return None;
     }
-    let hull_area: f64 = (0..hull.len()).map(|i| hull[i].perp(&hull[(i + 1) % hull.len()])).sum::<f64>() * 0.5;
-    let size = (0..hull.len()).map(|i| (hull[i] - hull[0]).norm()).fold(0.0, f64::max);
+    let hull_area: f64 = (0..hull.len())
+        .map(|i| hull[i].perp(&hull[(i + 1) % hull.len()]))
+        .sum::<f64>()
+        * 0.5;
+    let size = (0..hull.len())
+        .map(|i| (hull[i] - hull[0]).norm())
+        .fold(0.0, f64::max);
     if thickness > 1e-6 * size || (area - hull_area).abs() > 1e-9 * hull_area {
         return None;
     }
@@ -142,19 +189,31 @@ fn check(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<
     // Every boundary edge lies on one hull edge.
     for &(a, b) in &boundary {
         let (pa, pb) = (flat(&vertices[a as usize]), flat(&vertices[b as usize]));
-        if !lines.iter().any(|(m, c)| (m.dot(&pa) - c).abs() <= tol && (m.dot(&pb) - c).abs() <= tol) {
+        if !lines
+            .iter()
+            .any(|(m, c)| (m.dot(&pa) - c).abs() <= tol && (m.dot(&pb) - c).abs() <= tol)
+        {
             return None;
         }
     }
     let pad = 1e-12 * (size + scale) + tol;
-    let c = (0..lines.len()).map(|i| -lines[i].0.dot(&lines[(i + 1) % lines.len()].0)).fold(0.0, f64::max);
+    let c = (0..lines.len())
+        .map(|i| -lines[i].0.dot(&lines[(i + 1) % lines.len()].0))
+        .fold(0.0, f64::max);
     Some(Patch {
-        outside: if c <= 0.1 { (1.0 + 1e-12) / ((1.0 - c) * (1.0 - c)) } else { f64::INFINITY },
+        outside: if c <= 0.1 {
+            (1.0 + 1e-12) / ((1.0 - c) * (1.0 - c))
+        } else {
+            f64::INFINITY
+        },
         normal: n,
         offset,
         thickness: thickness * (1.0 + 1e-12) + pad,
         rho: rho * (1.0 + 1e-12) + pad,
-        edges: lines.iter().map(|(m, c)| (e1 * m.x + e2 * m.y, c + pad)).collect(),
+        edges: lines
+            .iter()
+            .map(|(m, c)| (e1 * m.x + e2 * m.y, c + pad))
+            .collect(),
     })
 }
 
@@ -169,9 +228,15 @@ fn convex_hull(mut p: Vec<Vector2<f64>>) -> Vec<Vector2<f64>> {
     let mut h: Vec<Vector2<f64>> = Vec::with_capacity(2 * p.len());
     for pass in 0..2 {
         let start = h.len();
-        let iter: Box<dyn Iterator<Item = &Vector2<f64>>> = if pass == 0 { Box::new(p.iter()) } else { Box::new(p.iter().rev()) };
+        let iter: Box<dyn Iterator<Item = &Vector2<f64>>> = if pass == 0 {
+            Box::new(p.iter())
+        } else {
+            Box::new(p.iter().rev())
+        };
         for q in iter {
-            while h.len() >= start + 2 && (h[h.len() - 1] - h[h.len() - 2]).perp(&(q - h[h.len() - 1])) <= 0.0 {
+            while h.len() >= start + 2
+                && (h[h.len() - 1] - h[h.len() - 2]).perp(&(q - h[h.len() - 1])) <= 0.0
+            {
                 h.pop();
             }
             h.push(*q);
@@ -188,7 +253,10 @@ mod tests {
 
     #[test]
     fn a_box_has_six_patches_that_cover_its_faces() {
-        let s = Shape::Box { half: Vector3::new(0.1, 0.05, 0.02) }.sample(0.01);
+        let s = Shape::Box {
+            half: Vector3::new(0.1, 0.05, 0.02),
+        }
+        .sample(0.01);
         let (of, patches) = find_patches(&s.points, &s.normals, &s.vertices, &s.faces);
         assert_eq!(patches.len(), 6);
         assert!(of.iter().all(|&p| p != u32::MAX));
@@ -215,8 +283,14 @@ mod tests {
     #[test]
     fn curved_surfaces_have_no_patches_and_a_cylinder_has_its_caps() {
         let s = Shape::Sphere { radius: 0.05 }.sample(0.01);
-        assert!(find_patches(&s.points, &s.normals, &s.vertices, &s.faces).1.is_empty());
-        let c = Shape::Cylinder { radius: 0.05, half_length: 0.1 }.sample(0.01);
+        assert!(find_patches(&s.points, &s.normals, &s.vertices, &s.faces)
+            .1
+            .is_empty());
+        let c = Shape::Cylinder {
+            radius: 0.05,
+            half_length: 0.1,
+        }
+        .sample(0.01);
         let (of, patches) = find_patches(&c.points, &c.normals, &c.vertices, &c.faces);
         assert_eq!(patches.len(), 2, "the two caps");
         for (k, &p) in of.iter().enumerate() {
@@ -231,9 +305,23 @@ mod tests {
     #[test]
     fn a_polygon_with_an_acute_corner_bounds_no_point_outside_it() {
         // A 3 × 3 grid of rhombi with 60° and 120° angles in z = 0.
-        let g: Vec<Vector3<f64>> = (0..16).map(|i| Vector3::new((i % 4) as f64 + 0.5 * (i / 4) as f64, 0.75f64.sqrt() * (i / 4) as f64, 0.0)).collect();
-        let faces: Vec<[u32; 4]> = (0..9).map(|q| (4 * (q / 3) + q % 3) as u32).map(|b| [b, b + 1, b + 5, b + 4]).collect();
-        let points: Vec<_> = faces.iter().map(|f| f.iter().fold(Vector3::zeros(), |s, &i| s + g[i as usize]) / 4.0).collect();
+        let g: Vec<Vector3<f64>> = (0..16)
+            .map(|i| {
+                Vector3::new(
+                    (i % 4) as f64 + 0.5 * (i / 4) as f64,
+                    0.75f64.sqrt() * (i / 4) as f64,
+                    0.0,
+                )
+            })
+            .collect();
+        let faces: Vec<[u32; 4]> = (0..9)
+            .map(|q| (4 * (q / 3) + q % 3) as u32)
+            .map(|b| [b, b + 1, b + 5, b + 4])
+            .collect();
+        let points: Vec<_> = faces
+            .iter()
+            .map(|f| f.iter().fold(Vector3::zeros(), |s, &i| s + g[i as usize]) / 4.0)
+            .collect();
         let (_, patches) = find_patches(&points, &vec![Vector3::z(); 9], &g, &faces);
         assert_eq!(patches.len(), 1, "the rhombi tile a rhombus");
         assert_eq!(patches[0].outside, f64::INFINITY);
@@ -243,20 +331,29 @@ mod tests {
     fn a_group_whose_quads_do_not_tile_a_convex_polygon_is_not_a_patch() {
         // A 3 × 3 grid of unit squares in z = 0 (normal +z) is a patch; without a corner
         // quad (an L) or the centre one (a hole), with a quad twice or one flipped, it is not.
-        let g: Vec<Vector3<f64>> = (0..16).map(|i| Vector3::new((i % 4) as f64, (i / 4) as f64, 0.0)).collect();
+        let g: Vec<Vector3<f64>> = (0..16)
+            .map(|i| Vector3::new((i % 4) as f64, (i / 4) as f64, 0.0))
+            .collect();
         let quad = |q: usize| {
             let b = (4 * (q / 3) + q % 3) as u32;
             [b, b + 1, b + 5, b + 4]
         };
-        let centre = |f: &[u32; 4]| f.iter().fold(Vector3::zeros(), |s, &i| s + g[i as usize]) / 4.0;
+        let centre =
+            |f: &[u32; 4]| f.iter().fold(Vector3::zeros(), |s, &i| s + g[i as usize]) / 4.0;
         let patches_of = |faces: &[[u32; 4]]| {
             let points: Vec<_> = faces.iter().map(centre).collect();
-            find_patches(&points, &vec![Vector3::z(); faces.len()], &g, faces).1.len()
+            find_patches(&points, &vec![Vector3::z(); faces.len()], &g, faces)
+                .1
+                .len()
         };
         let mut gf: Vec<[u32; 4]> = (0..9).map(quad).collect();
         assert_eq!(patches_of(&gf), 1);
         assert_eq!(patches_of(&(0..8).map(quad).collect::<Vec<_>>()), 0, "an L");
-        assert_eq!(patches_of(&(0..9).filter(|&q| q != 4).map(quad).collect::<Vec<_>>()), 0, "a hole");
+        assert_eq!(
+            patches_of(&(0..9).filter(|&q| q != 4).map(quad).collect::<Vec<_>>()),
+            0,
+            "a hole"
+        );
         let mut twice = gf.clone();
         twice.push(gf[4]);
         assert_eq!(patches_of(&twice), 0, "a quad twice");

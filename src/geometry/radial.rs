@@ -60,7 +60,12 @@ impl Radial {
 
 /// The certificate of a cloud (faces in the cloud's order, one point per face), if it is radial
 /// about the point nearest its normals' lines (least squares), with `|n_i - d_i| ≤ 1e-6`.
-pub fn find_radial(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: &[Vector3<f64>], faces: &[[u32; 4]]) -> Option<Radial> {
+pub fn find_radial(
+    points: &[Vector3<f64>],
+    normals: &[Vector3<f64>],
+    vertices: &[Vector3<f64>],
+    faces: &[[u32; 4]],
+) -> Option<Radial> {
     if points.is_empty() || points.len() != faces.len() || normals.len() != points.len() {
         return None;
     }
@@ -127,7 +132,13 @@ pub fn find_radial(points: &[Vector3<f64>], normals: &[Vector3<f64>], vertices: 
     if cos_cover <= 0.0 {
         return None;
     }
-    Some(Radial { centre, r_lo: r_lo * (1.0 - 1e-12), r_hi: r_hi * (1.0 + 1e-12), cos_cover, normal_err: normal_err + 1e-12 })
+    Some(Radial {
+        centre,
+        r_lo: r_lo * (1.0 - 1e-12),
+        r_hi: r_hi * (1.0 + 1e-12),
+        cos_cover,
+        normal_err: normal_err + 1e-12,
+    })
 }
 
 #[cfg(test)]
@@ -136,7 +147,9 @@ mod tests {
     use crate::geometry::Shape;
 
     fn lcg(state: &mut u64) -> f64 {
-        *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
@@ -144,16 +157,41 @@ mod tests {
     fn spheres_are_radial_and_other_shapes_are_not() {
         for spacing in [0.02, 0.005, 0.001] {
             let s = Shape::Sphere { radius: 0.05 }.sample(spacing);
-            let r = find_radial(&s.points, &s.normals, &s.vertices, &s.faces).expect("a sphere is radial");
+            let r = find_radial(&s.points, &s.normals, &s.vertices, &s.faces)
+                .expect("a sphere is radial");
             assert!(r.centre.norm() < 1e-15, "{:?}", r.centre);
-            assert!(r.r_lo <= 0.05 && r.r_hi >= 0.05 - 1e-12 && r.normal_err < 1e-9, "{r:?}");
+            assert!(
+                r.r_lo <= 0.05 && r.r_hi >= 0.05 - 1e-12 && r.normal_err < 1e-9,
+                "{r:?}"
+            );
             // The covering angle is about half a cell's diagonal.
             let alpha = r.cos_cover.acos();
-            assert!(alpha > 0.3 * spacing / 0.05 && alpha < 1.5 * spacing / 0.05, "{alpha} at {spacing}");
+            assert!(
+                alpha > 0.3 * spacing / 0.05 && alpha < 1.5 * spacing / 0.05,
+                "{alpha} at {spacing}"
+            );
         }
-        for shape in [Shape::Box { half: Vector3::repeat(0.05) }, Shape::Ellipsoid { radii: Vector3::new(0.05, 0.04, 0.03) }, Shape::Capsule { radius: 0.03, half_length: 0.05 }, Shape::Cylinder { radius: 0.04, half_length: 0.05 }] {
+        for shape in [
+            Shape::Box {
+                half: Vector3::repeat(0.05),
+            },
+            Shape::Ellipsoid {
+                radii: Vector3::new(0.05, 0.04, 0.03),
+            },
+            Shape::Capsule {
+                radius: 0.03,
+                half_length: 0.05,
+            },
+            Shape::Cylinder {
+                radius: 0.04,
+                half_length: 0.05,
+            },
+        ] {
             let s = shape.sample(0.005);
-            assert!(find_radial(&s.points, &s.normals, &s.vertices, &s.faces).is_none(), "{shape:?}");
+            assert!(
+                find_radial(&s.points, &s.normals, &s.vertices, &s.faces).is_none(),
+                "{shape:?}"
+            );
         }
     }
 
@@ -184,7 +222,15 @@ mod tests {
         // of sharp and scene ε: every point within m1 of the nearest has its plane above the bound.
         let mut st = 5u64;
         // A bumpy sphere too: points moved along their rays by up to ±20 % of a spacing.
-        for (spacing, m1, bump) in [(0.01, 4.6e-8, 0.0), (0.004, 4.6e-8, 0.0), (0.004, 4.6e-4, 0.0), (0.002, 1e-6, 0.0), (0.004, 4.6e-8, 0.2), (0.002, 1e-6, 0.2), (0.004, 1e-5, 0.2)] {
+        for (spacing, m1, bump) in [
+            (0.01, 4.6e-8, 0.0),
+            (0.004, 4.6e-8, 0.0),
+            (0.004, 4.6e-4, 0.0),
+            (0.002, 1e-6, 0.0),
+            (0.004, 4.6e-8, 0.2),
+            (0.002, 1e-6, 0.2),
+            (0.004, 1e-5, 0.2),
+        ] {
             let mut s = Shape::Sphere { radius: 0.05 }.sample(spacing);
             for p in s.points.iter_mut() {
                 *p *= 1.0 + bump * spacing / 0.05 * lcg(&mut st);
@@ -195,7 +241,8 @@ mod tests {
             for _ in 0..400 {
                 let e = Vector3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)).normalize();
                 // Half near the surface (where the bound is tight), half up to 15 mm off.
-                let dist = 0.05 * (1.0 + if lcg(&mut st) > 0.0 { 0.3 } else { 0.01 } * lcg(&mut st));
+                let dist =
+                    0.05 * (1.0 + if lcg(&mut st) > 0.0 { 0.3 } else { 0.01 } * lcg(&mut st));
                 let x = r.centre + e * dist;
                 let d: Vec<f64> = s.points.iter().map(|p| (x - p).norm_squared()).collect();
                 let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -210,7 +257,10 @@ mod tests {
             }
             // Not vacuous: on a true sphere the bound comes within a small part of the spacing
             // of some plane (a bumpy one is charged its spread of radii, twice).
-            assert!(tight < 0.2 * spacing + 2.5 * (r.r_hi - r.r_lo) + m1 / 0.05, "slack {tight} at spacing {spacing}, bump {bump}");
+            assert!(
+                tight < 0.2 * spacing + 2.5 * (r.r_hi - r.r_lo) + m1 / 0.05,
+                "slack {tight} at spacing {spacing}, bump {bump}"
+            );
         }
     }
 }

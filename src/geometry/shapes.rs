@@ -72,11 +72,17 @@ impl Shape {
                 let outside = q.map(|x| x.max(0.0)).norm();
                 outside + q.max().min(0.0)
             }
-            Shape::Capsule { radius, half_length } => {
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => {
                 let z = p.z.clamp(-half_length, *half_length);
                 (p - Vector3::new(0.0, 0.0, z)).norm() - radius
             }
-            Shape::Cylinder { radius, half_length } => {
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => {
                 let (dx, dz) = (p.xy().norm() - radius, p.z.abs() - half_length);
                 dx.max(dz).min(0.0) + (dx.max(0.0).powi(2) + dz.max(0.0).powi(2)).sqrt()
             }
@@ -115,8 +121,14 @@ impl Shape {
         match self {
             Shape::Sphere { radius } => *radius,
             Shape::Box { half } => half.norm(),
-            Shape::Capsule { radius, half_length } => radius + half_length,
-            Shape::Cylinder { radius, half_length } => radius.hypot(*half_length),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => radius + half_length,
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => radius.hypot(*half_length),
             Shape::Ellipsoid { radii } => radii.max(),
             Shape::Mesh(m) => m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max),
         }
@@ -125,7 +137,11 @@ impl Shape {
     /// Volume, centre of mass and inertia of the solid at unit density (closed forms; a mesh by
     /// its signed tetrahedra, exact for the polyhedron).
     pub fn mass_properties(&self) -> MassProperties {
-        let diag = |v: f64, i: Vector3<f64>| MassProperties { volume: v, com: Vector3::zeros(), inertia: Matrix3::from_diagonal(&i) };
+        let diag = |v: f64, i: Vector3<f64>| MassProperties {
+            volume: v,
+            com: Vector3::zeros(),
+            inertia: Matrix3::from_diagonal(&i),
+        };
         match self {
             Shape::Sphere { radius: r } => {
                 let v = 4.0 / 3.0 * PI * r.powi(3);
@@ -141,19 +157,26 @@ impl Shape {
                 let (x2, y2, z2) = (a.x * a.x, a.y * a.y, a.z * a.z);
                 diag(v, Vector3::new(y2 + z2, x2 + z2, x2 + y2) * (v / 5.0))
             }
-            Shape::Cylinder { radius: r, half_length: h } => {
+            Shape::Cylinder {
+                radius: r,
+                half_length: h,
+            } => {
                 let v = PI * r * r * 2.0 * h;
                 let t = v * (3.0 * r * r + 4.0 * h * h) / 12.0;
                 diag(v, Vector3::new(t, t, v * r * r / 2.0))
             }
-            Shape::Capsule { radius: r, half_length: h } => {
+            Shape::Capsule {
+                radius: r,
+                half_length: h,
+            } => {
                 // Cylinder plus two hemispheres. A hemisphere of mass m has the transverse
                 // inertia (2/5) m r² about its flat face's centre and its centre of mass 3r/8
                 // from it; moved to the capsule's centre (h + 3r/8 away):
                 // (2/5) m r² + m (h² + 3hr/4).
                 let vc = PI * r * r * 2.0 * h;
                 let vh = 2.0 / 3.0 * PI * r.powi(3);
-                let t = vc * (3.0 * r * r + 4.0 * h * h) / 12.0 + 2.0 * (0.4 * vh * r * r + vh * (h * h + 0.75 * h * r));
+                let t = vc * (3.0 * r * r + 4.0 * h * h) / 12.0
+                    + 2.0 * (0.4 * vh * r * r + vh * (h * h + 0.75 * h * r));
                 let a = vc * r * r / 2.0 + 2.0 * 0.4 * vh * r * r;
                 diag(vc + 2.0 * vh, Vector3::new(t, t, a))
             }
@@ -167,9 +190,19 @@ impl Shape {
         let mut out = match self {
             Shape::Sphere { radius } => sample_ellipsoid(&Vector3::repeat(*radius), spacing),
             Shape::Ellipsoid { radii } => sample_ellipsoid(radii, spacing),
-            Shape::Box { half } => sample_box(half, spacing, &[[vec![], vec![]], [vec![], vec![]], [vec![], vec![]]]),
-            Shape::Capsule { radius, half_length } => sample_capsule(*radius, *half_length, spacing),
-            Shape::Cylinder { radius, half_length } => sample_cylinder(*radius, *half_length, spacing),
+            Shape::Box { half } => sample_box(
+                half,
+                spacing,
+                &[[vec![], vec![]], [vec![], vec![]], [vec![], vec![]]],
+            ),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => sample_capsule(*radius, *half_length, spacing),
+            Shape::Cylinder {
+                radius,
+                half_length,
+            } => sample_cylinder(*radius, *half_length, spacing),
             Shape::Mesh(m) => m.sample(spacing),
         };
         out.weld(1e-9 * self.size().max(1e-9));
@@ -195,13 +228,26 @@ fn equi(s: f64) -> f64 {
 
 /// The six faces of the cube: normal axis index, sign, tangent axes `(t1, t2)` with
 /// `t1 × t2` = outward normal.
-const CUBE_FACES: [(usize, f64, usize, usize); 6] = [(0, 1.0, 1, 2), (0, -1.0, 2, 1), (1, 1.0, 2, 0), (1, -1.0, 0, 2), (2, 1.0, 0, 1), (2, -1.0, 1, 0)];
+const CUBE_FACES: [(usize, f64, usize, usize); 6] = [
+    (0, 1.0, 1, 2),
+    (0, -1.0, 2, 1),
+    (1, 1.0, 2, 0),
+    (1, -1.0, 0, 2),
+    (2, 1.0, 0, 1),
+    (2, -1.0, 1, 0),
+];
 
 /// Quads of a cubed sphere stretched to an ellipsoid of semi-axes `radii` with `cells[k]`
 /// cells along edges parallel to axis `k`, offset by `offset`; only quads whose centre
 /// direction satisfies `keep`. Points lie on the ellipsoid at the quads' parametric centres,
 /// normals are the ellipsoid's there; areas are the curved patches' (4×4 midpoint rule).
-fn push_cubed(out: &mut Aopc, radii: &Vector3<f64>, cells: [usize; 3], offset: &Vector3<f64>, keep: impl Fn(&Vector3<f64>) -> bool) {
+fn push_cubed(
+    out: &mut Aopc,
+    radii: &Vector3<f64>,
+    cells: [usize; 3],
+    offset: &Vector3<f64>,
+    keep: impl Fn(&Vector3<f64>) -> bool,
+) {
     for &(axis, sign, t1, t2) in &CUBE_FACES {
         let (n1, n2) = (cells[t1], cells[t2]);
         let dir = |a: f64, b: f64| {
@@ -220,16 +266,32 @@ fn push_cubed(out: &mut Aopc, radii: &Vector3<f64>, cells: [usize; 3], offset: &
                 if !keep(&dc) {
                     continue;
                 }
-                let corners = [on(&dir(a0, b0)), on(&dir(a1, b0)), on(&dir(a1, b1)), on(&dir(a0, b1))];
+                let corners = [
+                    on(&dir(a0, b0)),
+                    on(&dir(a1, b0)),
+                    on(&dir(a1, b1)),
+                    on(&dir(a0, b1)),
+                ];
                 let normal = dc.component_div(radii).normalize();
                 // Curved area: sum of small flat quads.
                 let k = 4;
                 let mut area = 0.0;
                 for u in 0..k {
                     for v in 0..k {
-                        let (s0, s1) = (a0 + (a1 - a0) * u as f64 / k as f64, a0 + (a1 - a0) * (u + 1) as f64 / k as f64);
-                        let (r0, r1) = (b0 + (b1 - b0) * v as f64 / k as f64, b0 + (b1 - b0) * (v + 1) as f64 / k as f64);
-                        let c = [on(&dir(s0, r0)), on(&dir(s1, r0)), on(&dir(s1, r1)), on(&dir(s0, r1))];
+                        let (s0, s1) = (
+                            a0 + (a1 - a0) * u as f64 / k as f64,
+                            a0 + (a1 - a0) * (u + 1) as f64 / k as f64,
+                        );
+                        let (r0, r1) = (
+                            b0 + (b1 - b0) * v as f64 / k as f64,
+                            b0 + (b1 - b0) * (v + 1) as f64 / k as f64,
+                        );
+                        let c = [
+                            on(&dir(s0, r0)),
+                            on(&dir(s1, r0)),
+                            on(&dir(s1, r1)),
+                            on(&dir(s0, r1)),
+                        ];
                         area += 0.5 * (c[2] - c[0]).cross(&(c[3] - c[1])).norm();
                     }
                 }
@@ -265,8 +327,20 @@ fn sample_capsule(r: f64, h: f64, spacing: f64) -> Aopc {
     let mut out = Aopc::default();
     let n = quarter_cells(r, spacing);
     let radii = Vector3::repeat(r);
-    push_cubed(&mut out, &radii, [n, n, n], &Vector3::new(0.0, 0.0, h), |d| d.z > 0.0);
-    push_cubed(&mut out, &radii, [n, n, n], &Vector3::new(0.0, 0.0, -h), |d| d.z < 0.0);
+    push_cubed(
+        &mut out,
+        &radii,
+        [n, n, n],
+        &Vector3::new(0.0, 0.0, h),
+        |d| d.z > 0.0,
+    );
+    push_cubed(
+        &mut out,
+        &radii,
+        [n, n, n],
+        &Vector3::new(0.0, 0.0, -h),
+        |d| d.z < 0.0,
+    );
     let hemi = 2.0 * PI * r * r;
     let total: f64 = out.areas.iter().sum();
     out.areas.iter_mut().for_each(|a| *a *= 2.0 * hemi / total);
@@ -287,10 +361,18 @@ fn push_side(out: &mut Aopc, r: f64, h: f64, n: usize, spacing: f64) {
     for k in 0..cols {
         for j in 0..rows {
             let (t0, t1) = (angle(k), angle(k + 1));
-            let (z0, z1) = (-h + 2.0 * h * j as f64 / rows as f64, -h + 2.0 * h * (j + 1) as f64 / rows as f64);
+            let (z0, z1) = (
+                -h + 2.0 * h * j as f64 / rows as f64,
+                -h + 2.0 * h * (j + 1) as f64 / rows as f64,
+            );
             let tc = 0.5 * (t0 + t1);
             let corners = [at(t0, z0), at(t1, z0), at(t1, z1), at(t0, z1)];
-            out.push_face(corners, at(tc, 0.5 * (z0 + z1)), Vector3::new(tc.cos(), tc.sin(), 0.0), r * (t1 - t0) * (z1 - z0));
+            out.push_face(
+                corners,
+                at(tc, 0.5 * (z0 + z1)),
+                Vector3::new(tc.cos(), tc.sin(), 0.0),
+                r * (t1 - t0) * (z1 - z0),
+            );
         }
     }
 }
@@ -318,7 +400,12 @@ fn sample_cylinder(r: f64, h: f64, spacing: f64) -> Aopc {
         let g = |i: usize| -a + 2.0 * a * i as f64 / n as f64;
         for i in 0..n {
             for j in 0..n {
-                quad([(g(i), g(j)), (g(i + 1), g(j)), (g(i + 1), g(j + 1)), (g(i), g(j + 1))]);
+                quad([
+                    (g(i), g(j)),
+                    (g(i + 1), g(j)),
+                    (g(i + 1), g(j + 1)),
+                    (g(i), g(j + 1)),
+                ]);
             }
         }
         for q in 0..4 {
@@ -359,13 +446,24 @@ pub(crate) fn sample_box(half: &Vector3<f64>, spacing: f64, breaks: &[[Vec<f64>;
             let side = if sign > 0.0 { 0 } else { 1 };
             let lines = |t: usize| {
                 let mut cuts = vec![-half[t], half[t]];
-                cuts.extend(breaks[t][side].iter().copied().filter(|&c| c > -half[t] && c < half[t]));
+                cuts.extend(
+                    breaks[t][side]
+                        .iter()
+                        .copied()
+                        .filter(|&c| c > -half[t] && c < half[t]),
+                );
                 cuts.sort_by(f64::total_cmp);
                 cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * half[t]);
                 let mut out = vec![cuts[0]];
                 for w in cuts.windows(2) {
                     let m = divisions(w[1] - w[0], spacing);
-                    out.extend((1..=m).map(|k| if k == m { w[1] } else { w[0] + (w[1] - w[0]) * k as f64 / m as f64 }));
+                    out.extend((1..=m).map(|k| {
+                        if k == m {
+                            w[1]
+                        } else {
+                            w[0] + (w[1] - w[0]) * k as f64 / m as f64
+                        }
+                    }));
                 }
                 out
             };
@@ -379,7 +477,12 @@ pub(crate) fn sample_box(half: &Vector3<f64>, spacing: f64, breaks: &[[Vec<f64>;
                         p[i2] = y;
                         p
                     };
-                    out.push_quad([corner(a[0], b[0]), corner(a[1], b[0]), corner(a[1], b[1]), corner(a[0], b[1])]);
+                    out.push_quad([
+                        corner(a[0], b[0]),
+                        corner(a[1], b[0]),
+                        corner(a[1], b[1]),
+                        corner(a[0], b[1]),
+                    ]);
                 }
             }
         }
@@ -395,9 +498,18 @@ fn ellipsoid_sdf(a: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
     // A zero coordinate along the shortest axis makes the root degenerate; a nudge of 1e-12
     // of the size changes the distance by at most that much.
     let y = p.abs().map(|v| v.max(1e-12 * scale));
-    let f = |t: f64| (0..3).map(|i| (a[i] * y[i] / (t + a[i] * a[i])).powi(2)).sum::<f64>() - 1.0;
+    let f = |t: f64| {
+        (0..3)
+            .map(|i| (a[i] * y[i] / (t + a[i] * a[i])).powi(2))
+            .sum::<f64>()
+            - 1.0
+    };
     let amin2 = a.min().powi(2);
-    let (mut lo, mut hi) = if f(0.0) > 0.0 { (0.0, y.norm() * scale + scale * scale) } else { (-amin2, 0.0) };
+    let (mut lo, mut hi) = if f(0.0) > 0.0 {
+        (0.0, y.norm() * scale + scale * scale)
+    } else {
+        (-amin2, 0.0)
+    };
     for _ in 0..200 {
         let m = 0.5 * (lo + hi);
         if m == lo || m == hi {

@@ -109,13 +109,21 @@ impl Relevant {
         // that order), so both give the same set bit for bit.
         let [xs, ys, zs] = &self.ball_xyz;
         self.dist.clear();
-        self.dist.extend(xs.iter().zip(ys).zip(zs).map(|((x, y), z)| {
-            let (dx, dy, dz) = (pr.x - x, pr.y - y, pr.z - z);
-            dx * dx + dy * dy + dz * dz
-        }));
-        (self.dmin, self.nearest) = nearest_of(self.ball.iter().copied().zip(self.dist.iter().copied()));
+        self.dist
+            .extend(xs.iter().zip(ys).zip(zs).map(|((x, y), z)| {
+                let (dx, dy, dz) = (pr.x - x, pr.y - y, pr.z - z);
+                dx * dx + dy * dy + dz * dz
+            }));
+        (self.dmin, self.nearest) =
+            nearest_of(self.ball.iter().copied().zip(self.dist.iter().copied()));
         let cutoff = cutoff(bvh, pr, eps1, self.dmin);
-        self.items.extend(self.ball.iter().zip(&self.dist).filter(|(_, &d)| d <= cutoff).map(|(&k, &d)| (k, d)));
+        self.items.extend(
+            self.ball
+                .iter()
+                .zip(&self.dist)
+                .filter(|(_, &d)| d <= cutoff)
+                .map(|(&k, &d)| (k, d)),
+        );
     }
 
     /// The relevant set at `pr` among `cands` (which must contain it).
@@ -127,7 +135,11 @@ impl Relevant {
             self.nearest = usize::MAX;
             return;
         }
-        self.items.extend(cands.iter().map(|&k| (k, (pr - bvh.points[k as usize]).norm_squared())));
+        self.items.extend(
+            cands
+                .iter()
+                .map(|&k| (k, (pr - bvh.points[k as usize]).norm_squared())),
+        );
         (self.dmin, self.nearest) = nearest_of(self.items.iter().copied());
         let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.retain(|&(_, d)| d <= cutoff);
@@ -162,7 +174,14 @@ fn cutoff(bvh: &super::bvh::Bvh, pr: &Vector3<f64>, eps1: f64, best: f64) -> f64
 /// `d_i(x) ≥ (|c - p_i| - r)²`, so a relevant `i` has
 /// `|c - p_i| ≤ r + √((√d_j(c) + r)² + K ε1)`. The walk applies that test with the best `d_j`
 /// so far (which only shrinks), then once more with the final one.
-fn gather(bvh: &super::bvh::Bvh, c: &Vector3<f64>, r: f64, eps1: f64, hint: usize, out: &mut Vec<u32>) {
+fn gather(
+    bvh: &super::bvh::Bvh,
+    c: &Vector3<f64>,
+    r: f64,
+    eps1: f64,
+    hint: usize,
+    out: &mut Vec<u32>,
+) {
     out.clear();
     if bvh.is_empty() {
         return;
@@ -173,7 +192,11 @@ fn gather(bvh: &super::bvh::Bvh, c: &Vector3<f64>, r: f64, eps1: f64, hint: usiz
         let x = r + ((best.sqrt() + r).powi(2) + slack).sqrt();
         x * x * (1.0 + 1e-12)
     };
-    let mut best = if hint < bvh.len() { (c - bvh.points[hint]).norm_squared() } else { f64::INFINITY };
+    let mut best = if hint < bvh.len() {
+        (c - bvh.points[hint]).norm_squared()
+    } else {
+        f64::INFINITY
+    };
     let mut limit = reach(best);
     let mut stack: [(u32, f64); 64] = [(0, 0.0); 64];
     let mut top = 1usize;
@@ -198,8 +221,15 @@ fn gather(bvh: &super::bvh::Bvh, c: &Vector3<f64>, r: f64, eps1: f64, hint: usiz
         } else {
             // Nearer child last, so that it is walked first and the limit drops early.
             let (a, b) = (node.left, node.left + 1);
-            let (da, db) = (bvh.nodes[a as usize].min_sq_dist(c), bvh.nodes[b as usize].min_sq_dist(c));
-            let (first, second) = if da <= db { ((a, da), (b, db)) } else { ((b, db), (a, da)) };
+            let (da, db) = (
+                bvh.nodes[a as usize].min_sq_dist(c),
+                bvh.nodes[b as usize].min_sq_dist(c),
+            );
+            let (first, second) = if da <= db {
+                ((a, da), (b, db))
+            } else {
+                ((b, db), (a, da))
+            };
             stack[top] = second;
             stack[top + 1] = first;
             top += 2;
@@ -211,7 +241,12 @@ fn gather(bvh: &super::bvh::Bvh, c: &Vector3<f64>, r: f64, eps1: f64, hint: usiz
 /// Calls `f(p_i, n_i)` for every point of `s` whose softmax weight at the query `pr` (real
 /// part, AOPC frame) is not provably negligible (see the module documentation). A convenience
 /// over [`Relevant`] (which the hot paths use, to reuse its buffer).
-pub fn visit_relevant(s: &Aopc, pr: &Vector3<f64>, eps1: f64, mut f: impl FnMut(&Vector3<f64>, &Vector3<f64>)) {
+pub fn visit_relevant(
+    s: &Aopc,
+    pr: &Vector3<f64>,
+    eps1: f64,
+    mut f: impl FnMut(&Vector3<f64>, &Vector3<f64>),
+) {
     let mut rel = Relevant::default();
     rel.find(s, pr, eps1, usize::MAX);
     let bvh = s.bvh();
@@ -272,7 +307,14 @@ impl GradientSink {
 /// With `eps3 > 0` it also bounds, from real parts, the point–plane springs these planes would
 /// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite.
 #[inline]
-pub fn ssdf_over<T: Scalar, S: SsdfSink>(s: &Aopc, p: &Vector3<T>, eps1: T, eps3: f64, rel: &Relevant, sink: &mut S) -> (T, T, f64) {
+pub fn ssdf_over<T: Scalar, S: SsdfSink>(
+    s: &Aopc,
+    p: &Vector3<T>,
+    eps1: T,
+    eps3: f64,
+    rel: &Relevant,
+    sink: &mut S,
+) -> (T, T, f64) {
     let bvh = s.bvh();
     let mut sum = SoftminSum::new(c(rel.dmin), eps1);
     let mut acc = T::zero();
@@ -291,7 +333,11 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(s: &Aopc, p: &Vector3<T>, eps1: T, eps3
         }
     }
     let weight = sum.weight;
-    (acc / weight, weight, springs.bound(rel.items.len(), weight.re()))
+    (
+        acc / weight,
+        weight,
+        springs.bound(rel.items.len(), weight.re()),
+    )
 }
 
 /// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` (m) over the terms of an SSDF sum, `σ_i` its
@@ -316,16 +362,27 @@ impl SpringBound {
     /// A bound for an SSDF sum with shift `dmin` (m²) and temperatures `eps1` (m²), `eps3` (m).
     #[inline]
     pub fn new(dmin: f64, eps1: f64, eps3: f64) -> Self {
-        SpringBound { dmin, inv_eps1: 1.0 / eps1, eps3, inv_eps3: 1.0 / eps3, exponent: f64::NEG_INFINITY, deep: 0.0 }
+        SpringBound {
+            dmin,
+            inv_eps1: 1.0 / eps1,
+            eps3,
+            inv_eps3: 1.0 / eps3,
+            exponent: f64::NEG_INFINITY,
+            deep: 0.0,
+        }
     }
 
     /// One term: squared distance `d` (m²), weight `w` and plane distance `phi` (m).
     #[inline]
     pub fn add(&mut self, d: f64, w: f64, phi: f64) {
         if phi >= 0.0 {
-            self.exponent = self.exponent.max(-(d - self.dmin) * self.inv_eps1 - phi * self.inv_eps3);
+            self.exponent = self
+                .exponent
+                .max(-(d - self.dmin) * self.inv_eps1 - phi * self.inv_eps3);
         } else {
-            self.deep = self.deep.max(w * (-phi + self.eps3 * std::f64::consts::LN_2));
+            self.deep = self
+                .deep
+                .max(w * (-phi + self.eps3 * std::f64::consts::LN_2));
         }
     }
 
@@ -335,7 +392,11 @@ impl SpringBound {
         if self.eps3.is_nan() || self.eps3 <= 0.0 {
             return f64::INFINITY;
         }
-        let shallow = if self.exponent > -745.0 { self.eps3 * self.exponent.exp() } else { 0.0 };
+        let shallow = if self.exponent > -745.0 {
+            self.eps3 * self.exponent.exp()
+        } else {
+            0.0
+        };
         terms as f64 * shallow.max(self.deep) / weight * (1.0 + 1e-12)
     }
 }
@@ -365,7 +426,11 @@ pub fn ssdf_naive<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> T {
         return c(f64::INFINITY);
     }
     let pr = crate::scalar::re3(p);
-    let dmin = s.points.iter().map(|q| (pr - q).norm_squared()).fold(f64::INFINITY, f64::min);
+    let dmin = s
+        .points
+        .iter()
+        .map(|q| (pr - q).norm_squared())
+        .fold(f64::INFINITY, f64::min);
     let mut sum = SoftminSum::new(c(dmin), eps1);
     let mut acc = T::zero();
     for (q, n) in s.points.iter().zip(&s.normals) {
@@ -384,16 +449,33 @@ mod tests {
 
     #[test]
     fn ssdf_of_a_single_plane_is_the_plane_distance() {
-        let s = Aopc::new(vec![Vector3::new(0.0, 0.0, 1.0)], vec![Vector3::z()], vec![1.0], vec![], vec![]);
+        let s = Aopc::new(
+            vec![Vector3::new(0.0, 0.0, 1.0)],
+            vec![Vector3::z()],
+            vec![1.0],
+            vec![],
+            vec![],
+        );
         assert_eq!(ssdf(&s, &Vector3::new(3.0, -2.0, 0.25), 1e-3), -0.75);
     }
 
     #[test]
     fn pruned_matches_naive_and_prunes() {
-        let s = Shape::Box { half: Vector3::new(0.1, 0.05, 0.03) }.sample(0.005);
-        for (p, eps1) in [(Vector3::new(0.03, 0.052, -0.01), 1e-5), (Vector3::new(0.5, -0.2, 0.1), 1e-6), (Vector3::zeros(), 1e-4), (Vector3::new(0.1, 0.05, 0.03), 1e-9)] {
+        let s = Shape::Box {
+            half: Vector3::new(0.1, 0.05, 0.03),
+        }
+        .sample(0.005);
+        for (p, eps1) in [
+            (Vector3::new(0.03, 0.052, -0.01), 1e-5),
+            (Vector3::new(0.5, -0.2, 0.1), 1e-6),
+            (Vector3::zeros(), 1e-4),
+            (Vector3::new(0.1, 0.05, 0.03), 1e-9),
+        ] {
             let (a, b): (f64, f64) = (ssdf(&s, &p, eps1), ssdf_naive(&s, &p, eps1));
-            assert!((a - b).abs() <= 1e-13 * (a.abs() + 0.1), "{p:?}: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 1e-13 * (a.abs() + 0.1),
+                "{p:?}: {a} vs {b}"
+            );
             let mut n = 0;
             visit_relevant(&s, &p, eps1, |_, _| n += 1);
             // At the centre with a wide ε1 most points matter; elsewhere few do.
@@ -405,7 +487,10 @@ mod tests {
 
     #[test]
     fn gradient_matches_central_differences() {
-        let s = Shape::Box { half: Vector3::new(0.1, 0.05, 0.03) }.sample(0.01);
+        let s = Shape::Box {
+            half: Vector3::new(0.1, 0.05, 0.03),
+        }
+        .sample(0.01);
         let p = Vector3::new(0.03, 0.052, -0.01);
         let eps1 = 1e-4;
         for k in 0..3 {
@@ -417,7 +502,10 @@ mod tests {
             a[k] += h;
             b[k] -= h;
             let fd = (ssdf(&s, &a, eps1) - ssdf(&s, &b, eps1)) / (2.0 * h);
-            assert!((g - fd).abs() < 1e-6 * (1.0 + fd.abs()), "axis {k}: {g} vs {fd}");
+            assert!(
+                (g - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                "axis {k}: {g} vs {fd}"
+            );
         }
     }
 
@@ -426,10 +514,15 @@ mod tests {
     /// for results that do not depend on which path a leaf takes).
     #[test]
     fn the_shared_ball_gives_each_point_its_own_relevant_set() {
-        let cloud = Shape::Box { half: Vector3::new(0.05, 0.03, 0.02) }.sample(0.004);
+        let cloud = Shape::Box {
+            half: Vector3::new(0.05, 0.03, 0.02),
+        }
+        .sample(0.004);
         let mut state = 5u64;
         let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / ((1u64 << 52) as f64) - 1.0
         };
         for eps1 in [1e-5, 1e-7, 1e-9] {
@@ -449,7 +542,10 @@ mod tests {
                         v
                     };
                     assert_eq!(sort(&shared.items), sort(&own.items));
-                    assert_eq!((shared.dmin.to_bits(), shared.nearest), (own.dmin.to_bits(), own.nearest));
+                    assert_eq!(
+                        (shared.dmin.to_bits(), shared.nearest),
+                        (own.dmin.to_bits(), own.nearest)
+                    );
                 }
             }
         }

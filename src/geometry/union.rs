@@ -19,33 +19,42 @@ use nalgebra::{Isometry3, Point3, Vector3};
 
 /// The union of `geoms` (shape and pose in the body frame) sampled at `spacing` (m).
 pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
-    let size = geoms.iter().map(|(s, p)| s.size() + p.translation.vector.norm()).fold(spacing, f64::max);
+    let size = geoms
+        .iter()
+        .map(|(s, p)| s.size() + p.translation.vector.norm())
+        .fold(spacing, f64::max);
     let tol = 1e-9 * size;
     let mut out = Aopc::default();
     for (k, (shape, pose)) in geoms.iter().enumerate() {
         let local = match shape {
-            Shape::Box { half } if geoms.len() > 1 => sample_box(half, spacing, &box_breaks(half, pose, geoms, k, tol)),
+            Shape::Box { half } if geoms.len() > 1 => {
+                sample_box(half, spacing, &box_breaks(half, pose, geoms, k, tol))
+            }
             _ => shape.sample(spacing),
         };
         let part = local.transformed(pose);
         let keep = |p: &Vector3<f64>, n: &Vector3<f64>| -> bool {
-            geoms.iter().enumerate().filter(|(m, _)| *m != k).all(|(m, (other, opose))| {
-                let q = (opose.inverse() * Point3::from(*p)).coords;
-                let d = other.sdf(&q);
-                if d < -tol {
-                    return false;
-                }
-                if d > tol {
-                    return true;
-                }
-                let g = opose.rotation * other.sdf_gradient(&q, 1e-6 * size);
-                let c = g.dot(n);
-                if c > 0.5 {
-                    k < m // coplanar duplicate: the first geom keeps it
-                } else {
-                    c >= -0.5 // face to face: inside the union
-                }
-            })
+            geoms
+                .iter()
+                .enumerate()
+                .filter(|(m, _)| *m != k)
+                .all(|(m, (other, opose))| {
+                    let q = (opose.inverse() * Point3::from(*p)).coords;
+                    let d = other.sdf(&q);
+                    if d < -tol {
+                        return false;
+                    }
+                    if d > tol {
+                        return true;
+                    }
+                    let g = opose.rotation * other.sdf_gradient(&q, 1e-6 * size);
+                    let c = g.dot(n);
+                    if c > 0.5 {
+                        k < m // coplanar duplicate: the first geom keeps it
+                    } else {
+                        c >= -0.5 // face to face: inside the union
+                    }
+                })
         };
         for (f, face) in part.faces.iter().enumerate() {
             let (p, n) = (part.points[f], part.normals[f]);
@@ -54,7 +63,10 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
             let subs: Vec<Vector3<f64>> = (0..16)
                 .map(|s| {
                     let (u, v) = ((s % 4) as f64 / 4.0 + 0.125, (s / 4) as f64 / 4.0 + 0.125);
-                    c[0] * ((1.0 - u) * (1.0 - v)) + c[1] * (u * (1.0 - v)) + c[2] * (u * v) + c[3] * ((1.0 - u) * v)
+                    c[0] * ((1.0 - u) * (1.0 - v))
+                        + c[1] * (u * (1.0 - v))
+                        + c[2] * (u * v)
+                        + c[3] * ((1.0 - u) * v)
                 })
                 .collect();
             let kept: Vec<bool> = subs.iter().map(|s| keep(s, &n)).collect();
@@ -64,7 +76,12 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
             } else if nk > 0 {
                 // Straddling: keep the part outside.
                 let all = subs.iter().fold(Vector3::zeros(), |a, s| a + s) / 16.0;
-                let mine = subs.iter().zip(&kept).filter(|(_, &b)| b).fold(Vector3::zeros(), |a, (s, _)| a + s) / nk as f64;
+                let mine = subs
+                    .iter()
+                    .zip(&kept)
+                    .filter(|(_, &b)| b)
+                    .fold(Vector3::zeros(), |a, (s, _)| a + s)
+                    / nk as f64;
                 out.push_face(c, p + (mine - all), n, part.areas[f] * nk as f64 / 16.0);
             }
         }
@@ -75,16 +92,26 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
 
 /// Extra grid lines for box `k` (half-extents `half`, pose `pose`): for every other box whose
 /// axes align with it, that box's extent along each axis, on the faces whose plane meets it.
-fn box_breaks(half: &Vector3<f64>, pose: &Isometry3<f64>, geoms: &[(Shape, Isometry3<f64>)], k: usize, tol: f64) -> [[Vec<f64>; 2]; 3] {
+fn box_breaks(
+    half: &Vector3<f64>,
+    pose: &Isometry3<f64>,
+    geoms: &[(Shape, Isometry3<f64>)],
+    k: usize,
+    tol: f64,
+) -> [[Vec<f64>; 2]; 3] {
     let mut breaks: [[Vec<f64>; 2]; 3] = Default::default();
     for (m, (other, opose)) in geoms.iter().enumerate() {
-        let Shape::Box { half: oh } = other else { continue };
+        let Shape::Box { half: oh } = other else {
+            continue;
+        };
         if m == k {
             continue;
         }
         let rel = pose.inverse() * opose;
         let r = rel.rotation.to_rotation_matrix().into_inner();
-        if r.iter().any(|x| x.abs() > 1e-9 && (x.abs() - 1.0).abs() > 1e-9) {
+        if r.iter()
+            .any(|x| x.abs() > 1e-9 && (x.abs() - 1.0).abs() > 1e-9)
+        {
             continue; // not aligned: straddling faces are cut by sub-sampling instead
         }
         let c = rel.translation.vector;
@@ -120,7 +147,9 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
             let Shape::Box { half } = s else { return None };
             let rel = frame.inverse() * p;
             let r = rel.rotation.to_rotation_matrix().into_inner();
-            if r.iter().any(|x| x.abs() > 1e-9 && (x.abs() - 1.0).abs() > 1e-9) {
+            if r.iter()
+                .any(|x| x.abs() > 1e-9 && (x.abs() - 1.0).abs() > 1e-9)
+            {
                 return None;
             }
             let e = r.abs() * half;
@@ -130,7 +159,10 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
     if let Some(b) = boxes.filter(|b| b.len() <= 16) {
         let mut total = 0.0;
         for mask in 1u32..(1 << b.len()) {
-            let (mut lo, mut hi) = (Vector3::repeat(f64::NEG_INFINITY), Vector3::repeat(f64::INFINITY));
+            let (mut lo, mut hi) = (
+                Vector3::repeat(f64::NEG_INFINITY),
+                Vector3::repeat(f64::INFINITY),
+            );
             for (i, (l, h)) in b.iter().enumerate() {
                 if mask & (1 << i) != 0 {
                     lo = lo.sup(l);
@@ -142,7 +174,10 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
         }
         return (total, true);
     }
-    let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+    let (mut lo, mut hi) = (
+        Vector3::repeat(f64::INFINITY),
+        Vector3::repeat(f64::NEG_INFINITY),
+    );
     for (s, p) in geoms {
         let c = p.translation.vector;
         lo = lo.inf(&(c - Vector3::repeat(s.size())));
@@ -154,8 +189,16 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
     for i in 0..n {
         for j in 0..n {
             for k in 0..n {
-                let x = lo + Vector3::new((i as f64 + 0.5) * step.x, (j as f64 + 0.5) * step.y, (k as f64 + 0.5) * step.z);
-                if geoms.iter().any(|(s, p)| s.contains(&(p.inverse() * Point3::from(x)).coords)) {
+                let x = lo
+                    + Vector3::new(
+                        (i as f64 + 0.5) * step.x,
+                        (j as f64 + 0.5) * step.y,
+                        (k as f64 + 0.5) * step.z,
+                    );
+                if geoms
+                    .iter()
+                    .any(|(s, p)| s.contains(&(p.inverse() * Point3::from(x)).coords))
+                {
                     inside += 1;
                 }
             }

@@ -33,7 +33,12 @@ fn esc(s: &str) -> String {
 }
 
 fn vec3(v: &nalgebra::Vector3<f64>) -> String {
-    format!("({}, {}, {})", format_real(v.x), format_real(v.y), format_real(v.z))
+    format!(
+        "({}, {}, {})",
+        format_real(v.x),
+        format_real(v.y),
+        format_real(v.z)
+    )
 }
 
 /// A table: header cells, then rows of cells (already escaped).
@@ -97,24 +102,58 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
         .iter()
         .enumerate()
         .map(|(b, body)| {
-            let joints: Vec<String> = body.joints.iter().map(|&j| esc(&tree.joints[j].name)).collect();
-            let geoms: Vec<String> = scene.geoms.iter().filter(|g| g.body == b).map(|g| esc(&format!("{}: {} at {}", g.name, g.shape.as_ref().map_or("plane".to_string(), shape_text), vec3(&g.pose.translation.vector)))).collect();
+            let joints: Vec<String> = body
+                .joints
+                .iter()
+                .map(|&j| esc(&tree.joints[j].name))
+                .collect();
+            let geoms: Vec<String> = scene
+                .geoms
+                .iter()
+                .filter(|g| g.body == b)
+                .map(|g| {
+                    esc(&format!(
+                        "{}: {} at {}",
+                        g.name,
+                        g.shape.as_ref().map_or("plane".to_string(), shape_text),
+                        vec3(&g.pose.translation.vector)
+                    ))
+                })
+                .collect();
             let collider = match &m.colliders[b] {
                 None => "none".to_string(),
-                Some(Collider::HalfSpace { normal, .. }) => format!("exact half-space, normal {}", vec3(normal)),
+                Some(Collider::HalfSpace { normal, .. }) => {
+                    format!("exact half-space, normal {}", vec3(normal))
+                }
                 Some(Collider::Aopc(s)) => format!("oriented point cloud of {} points", s.len()),
             };
             vec![
                 esc(&body.name),
-                body.parent.map_or("-".into(), |p| esc(&tree.bodies[p].name)),
-                if b == 0 { "-".into() } else { format_real(body.inertia.mass) },
+                body.parent
+                    .map_or("-".into(), |p| esc(&tree.bodies[p].name)),
+                if b == 0 {
+                    "-".into()
+                } else {
+                    format_real(body.inertia.mass)
+                },
                 joints.join(", "),
                 geoms.join("<br/>"),
                 collider,
             ]
         })
         .collect();
-    table(&mut o, &["body", "parent", "mass (kg)", "joints", "geoms (body frame, m)", "collider"], &rows);
+    table(
+        &mut o,
+        &[
+            "body",
+            "parent",
+            "mass (kg)",
+            "joints",
+            "geoms (body frame, m)",
+            "collider",
+        ],
+        &rows,
+    );
 
     o.push_str("<h2>Joints</h2>\n<p>Positions q and velocities v are the FMU's states. Free joints: position of the body origin and orientation quaternion (w, x, y, z); linear velocity in the world frame, angular velocity in the body frame (as MuJoCo).</p>\n");
     let rows: Vec<Vec<String>> = tree
@@ -131,7 +170,11 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
                 esc(&j.name),
                 kind.into(),
                 esc(&tree.bodies[j.body].name),
-                if matches!(j.kind, JointKind::Slide | JointKind::Hinge) { vec3(&j.axis) } else { "-".into() },
+                if matches!(j.kind, JointKind::Slide | JointKind::Hinge) {
+                    vec3(&j.axis)
+                } else {
+                    "-".into()
+                },
                 format_real(j.damping),
                 format_real(j.stiffness),
                 format_real(j.frictionloss),
@@ -139,7 +182,20 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
             ]
         })
         .collect();
-    table(&mut o, &["joint", "kind", "body", "axis", "damping", "stiffness", "frictionloss (smooth dry friction)", "armature"], &rows);
+    table(
+        &mut o,
+        &[
+            "joint",
+            "kind",
+            "body",
+            "axis",
+            "damping",
+            "stiffness",
+            "frictionloss (smooth dry friction)",
+            "armature",
+        ],
+        &rows,
+    );
 
     if !m.actuators.is_empty() {
         o.push_str("<h2>Actuators</h2>\n");
@@ -149,14 +205,32 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
             .map(|a| {
                 let law = match a.kind {
                     ActuatorKind::Motor => "motor: force = u".to_string(),
-                    ActuatorKind::Position { kp, kv } => format!("position: force = {} (u - gear q) - {} gear v", format_real(kp), format_real(kv)),
-                    ActuatorKind::Velocity { kv } => format!("velocity: force = {} (u - gear v)", format_real(kv)),
+                    ActuatorKind::Position { kp, kv } => format!(
+                        "position: force = {} (u - gear q) - {} gear v",
+                        format_real(kp),
+                        format_real(kv)
+                    ),
+                    ActuatorKind::Velocity { kv } => {
+                        format!("velocity: force = {} (u - gear v)", format_real(kv))
+                    }
                 };
-                let range = a.ctrlrange.map_or("unlimited".into(), |(lo, hi)| format!("[{}, {}] (clamped)", format_real(lo), format_real(hi)));
-                vec![format!("<code>{}.ctrl</code>", esc(&a.name)), esc(&tree.joints[a.joint].name), esc(&law), format_real(a.gear), esc(&range)]
+                let range = a.ctrlrange.map_or("unlimited".into(), |(lo, hi)| {
+                    format!("[{}, {}] (clamped)", format_real(lo), format_real(hi))
+                });
+                vec![
+                    format!("<code>{}.ctrl</code>", esc(&a.name)),
+                    esc(&tree.joints[a.joint].name),
+                    esc(&law),
+                    format_real(a.gear),
+                    esc(&range),
+                ]
             })
             .collect();
-        table(&mut o, &["input", "joint", "law", "gear", "control range"], &rows);
+        table(
+            &mut o,
+            &["input", "joint", "law", "gear", "control range"],
+            &rows,
+        );
     }
 
     o.push_str("<h2>Contact pairs</h2>\n");
@@ -168,24 +242,47 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
             .iter()
             .map(|p| {
                 let (a, b) = (esc(&tree.bodies[p.a].name), esc(&tree.bodies[p.b].name));
-                vec![a.clone(), b, format!("<code>contact.{a}.{}.*</code>", esc(&tree.bodies[p.b].name))]
+                vec![
+                    a.clone(),
+                    b,
+                    format!("<code>contact.{a}.{}.*</code>", esc(&tree.bodies[p.b].name)),
+                ]
             })
             .collect();
-        table(&mut o, &["first body (forces act on it)", "second body (receives the opposite)", "outputs"], &rows);
+        table(
+            &mut o,
+            &[
+                "first body (forces act on it)",
+                "second body (receives the opposite)",
+                "outputs",
+            ],
+            &rows,
+        );
     }
 
     o.push_str("<h2>Parameters</h2>\n<p>The contact parameters are tunable: they may be changed between steps (for example to anneal the smoothing during an optimization); <code>fmi2Reset</code> restores the start values below.</p>\n");
-    let start = |name: &str| info.variables.iter().find(|v| v.name == name).and_then(|v| match &v.var_type {
-        VarType::Real { start, .. } => start.map(format_real),
-        VarType::String { start } => start.clone(),
-        _ => None,
-    });
+    let start = |name: &str| {
+        info.variables
+            .iter()
+            .find(|v| v.name == name)
+            .and_then(|v| match &v.var_type {
+                VarType::Real { start, .. } => start.map(format_real),
+                VarType::String { start } => start.clone(),
+                _ => None,
+            })
+    };
     let mut rows: Vec<Vec<String>> = Param::ALL
         .iter()
         .map(|p| {
             let (name, unit, meaning) = p.describe();
             let full = format!("scm.{name}");
-            vec![format!("<code>{}</code>", esc(&full)), esc(unit), start(&full).unwrap_or_default(), "tunable".into(), esc(meaning)]
+            vec![
+                format!("<code>{}</code>", esc(&full)),
+                esc(unit),
+                start(&full).unwrap_or_default(),
+                "tunable".into(),
+                esc(meaning),
+            ]
         })
         .collect();
     for (name, unit, meaning) in [
@@ -195,7 +292,11 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
     ] {
         rows.push(vec![format!("<code>{name}</code>"), unit.into(), esc(&start(name).unwrap_or_default()), "fixed".into(), esc(meaning)]);
     }
-    table(&mut o, &["parameter", "unit", "start", "variability", "meaning"], &rows);
+    table(
+        &mut o,
+        &["parameter", "unit", "start", "variability", "meaning"],
+        &rows,
+    );
 
     let _ = write!(
         o,
@@ -218,7 +319,12 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
          with respect to states, inputs and (as initial unknowns) the contact parameters.</li>\n</ul>\n<h2>Log categories</h2>\n<ul>\n",
     );
     for c in LogCategory::ALL {
-        let _ = writeln!(o, "<li><code>{}</code>: {}</li>", c.name(), esc(c.description()));
+        let _ = writeln!(
+            o,
+            "<li><code>{}</code>: {}</li>",
+            c.name(),
+            esc(c.description())
+        );
     }
     o.push_str("</ul>\n<h2>Variables</h2>\n");
     let rows: Vec<Vec<String>> = info
@@ -226,10 +332,17 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
         .iter()
         .map(|v| {
             let (unit, start) = match &v.var_type {
-                VarType::Real { unit, start, .. } => (unit.unwrap_or(""), start.map(format_real).unwrap_or_default()),
+                VarType::Real { unit, start, .. } => (
+                    unit.unwrap_or(""),
+                    start.map(format_real).unwrap_or_default(),
+                ),
                 VarType::String { start } => ("", start.clone().unwrap_or_default()),
-                VarType::Integer { start } => ("", start.map(|s| s.to_string()).unwrap_or_default()),
-                VarType::Boolean { start } => ("", start.map(|s| s.to_string()).unwrap_or_default()),
+                VarType::Integer { start } => {
+                    ("", start.map(|s| s.to_string()).unwrap_or_default())
+                }
+                VarType::Boolean { start } => {
+                    ("", start.map(|s| s.to_string()).unwrap_or_default())
+                }
             };
             let causality = match v.causality {
                 Causality::Parameter => "parameter",
@@ -246,10 +359,30 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
                 Variability::Discrete => "discrete",
                 Variability::Continuous => "continuous",
             };
-            vec![format!("<code>{}</code>", esc(&v.name)), v.value_reference.to_string(), causality.into(), variability.into(), esc(unit), esc(&start), esc(&v.description)]
+            vec![
+                format!("<code>{}</code>", esc(&v.name)),
+                v.value_reference.to_string(),
+                causality.into(),
+                variability.into(),
+                esc(unit),
+                esc(&start),
+                esc(&v.description),
+            ]
         })
         .collect();
-    table(&mut o, &["name", "value reference", "causality", "variability", "unit", "start", "description"], &rows);
+    table(
+        &mut o,
+        &[
+            "name",
+            "value reference",
+            "causality",
+            "variability",
+            "unit",
+            "start",
+            "description",
+        ],
+        &rows,
+    );
     o.push_str("</body>\n</html>\n");
     o
 }
@@ -260,7 +393,10 @@ mod tests {
 
     #[test]
     fn escapes_markup() {
-        assert_eq!(esc("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
+        assert_eq!(
+            esc("a<b & \"c\" 'd'>"),
+            "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;"
+        );
     }
 
     #[test]

@@ -19,7 +19,10 @@ pub struct Element {
 impl Element {
     /// Value of an attribute.
     pub fn attr(&self, key: &str) -> Option<&str> {
-        self.attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
     }
 }
 
@@ -33,24 +36,51 @@ pub struct XmlError {
 }
 
 fn line_of(text: &str, pos: usize) -> usize {
-    text.as_bytes()[..pos.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..pos.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 fn element(text: &str, e: &BytesStart, pos: usize) -> Result<Element, XmlError> {
     let line = line_of(text, pos);
     let qname = e.name();
-    let name: String = { let n: &str = qname.as_ref(); n.to_owned() };
+    let name: String = {
+        let n: &str = qname.as_ref();
+        n.to_owned()
+    };
     let mut attrs = Vec::new();
     for a in e.attributes() {
-        let a = a.map_err(|err| XmlError { line, message: format!("bad attribute in <{name}>: {err}") })?;
-        let key: String = { let k: &str = a.key.as_ref(); k.to_owned() };
-        let value = a.normalized_value(quick_xml::XmlVersion::Implicit1_0).map_err(|err| XmlError { line, message: format!("bad value of {key} in <{name}>: {err}") })?.into_owned();
+        let a = a.map_err(|err| XmlError {
+            line,
+            message: format!("bad attribute in <{name}>: {err}"),
+        })?;
+        let key: String = {
+            let k: &str = a.key.as_ref();
+            k.to_owned()
+        };
+        let value = a
+            .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+            .map_err(|err| XmlError {
+                line,
+                message: format!("bad value of {key} in <{name}>: {err}"),
+            })?
+            .into_owned();
         if attrs.iter().any(|(k, _)| *k == key) {
-            return Err(XmlError { line, message: format!("attribute {key} repeated in <{name}>") });
+            return Err(XmlError {
+                line,
+                message: format!("attribute {key} repeated in <{name}>"),
+            });
         }
         attrs.push((key, value));
     }
-    Ok(Element { name, attrs, children: Vec::new(), line })
+    Ok(Element {
+        name,
+        attrs,
+        children: Vec::new(),
+        line,
+    })
 }
 
 /// Parses a document into its root element.
@@ -61,7 +91,10 @@ pub fn parse(text: &str) -> Result<Element, XmlError> {
     let mut root = None;
     loop {
         let pos = reader.buffer_position() as usize;
-        let ev = reader.read_event().map_err(|e| XmlError { line: line_of(text, reader.error_position() as usize), message: e.to_string() })?;
+        let ev = reader.read_event().map_err(|e| XmlError {
+            line: line_of(text, reader.error_position() as usize),
+            message: e.to_string(),
+        })?;
         match ev {
             Event::Start(e) => stack.push(element(text, &e, pos)?),
             Event::Empty(e) => {
@@ -69,7 +102,12 @@ pub fn parse(text: &str) -> Result<Element, XmlError> {
                 match stack.last_mut() {
                     Some(parent) => parent.children.push(el),
                     None if root.is_none() => root = Some(el),
-                    None => return Err(XmlError { line: el.line, message: "more than one root element".into() }),
+                    None => {
+                        return Err(XmlError {
+                            line: el.line,
+                            message: "more than one root element".into(),
+                        })
+                    }
                 }
             }
             Event::End(_) => {
@@ -77,13 +115,24 @@ pub fn parse(text: &str) -> Result<Element, XmlError> {
                 match stack.last_mut() {
                     Some(parent) => parent.children.push(el),
                     None if root.is_none() => root = Some(el),
-                    None => return Err(XmlError { line: el.line, message: "more than one root element".into() }),
+                    None => {
+                        return Err(XmlError {
+                            line: el.line,
+                            message: "more than one root element".into(),
+                        })
+                    }
                 }
             }
             Event::Text(t) => {
-                let s: String = { let raw: &str = t.as_ref(); raw.to_owned() };
+                let s: String = {
+                    let raw: &str = t.as_ref();
+                    raw.to_owned()
+                };
                 if !s.trim().is_empty() {
-                    return Err(XmlError { line: line_of(text, pos), message: format!("unexpected text '{}'", s.trim()) });
+                    return Err(XmlError {
+                        line: line_of(text, pos),
+                        message: format!("unexpected text '{}'", s.trim()),
+                    });
                 }
             }
             Event::Eof => break,
@@ -91,9 +140,15 @@ pub fn parse(text: &str) -> Result<Element, XmlError> {
         }
     }
     if let Some(open) = stack.last() {
-        return Err(XmlError { line: open.line, message: format!("<{}> is never closed", open.name) });
+        return Err(XmlError {
+            line: open.line,
+            message: format!("<{}> is never closed", open.name),
+        });
     }
-    root.ok_or(XmlError { line: 1, message: "no root element".into() })
+    root.ok_or(XmlError {
+        line: 1,
+        message: "no root element".into(),
+    })
 }
 
 #[cfg(test)]
@@ -112,7 +167,13 @@ mod tests {
     fn reports_the_line_of_an_error() {
         let err = parse("<a>\n<b>\n</a>").unwrap_err();
         assert!(err.line >= 2, "{err:?}");
-        assert_eq!(parse("<a/><b/>").unwrap_err().message, "more than one root element");
-        assert!(parse("<a>\n<b/>\n").unwrap_err().message.contains("never closed"));
+        assert_eq!(
+            parse("<a/><b/>").unwrap_err().message,
+            "more than one root element"
+        );
+        assert!(parse("<a>\n<b/>\n")
+            .unwrap_err()
+            .message
+            .contains("never closed"));
     }
 }

@@ -23,9 +23,20 @@ struct Seeded {
     prm: ContactParams<Dual64>,
 }
 
-fn seed(model: &Model, state: &SimState, knowns: &[Slot], dv: &[f64], model_exchange: bool) -> Result<Seeded, String> {
+fn seed(
+    model: &Model,
+    state: &SimState,
+    knowns: &[Slot],
+    dv: &[f64],
+    model_exchange: bool,
+) -> Result<Seeded, String> {
     let lift = |x: &[f64]| x.iter().map(|&x| c::<Dual64>(x)).collect::<Vec<_>>();
-    let mut s = Seeded { q: lift(&state.state.q), v: lift(&state.state.v), u: lift(&[state.ctrl.as_slice(), &state.mocap].concat()), prm: state.params.lift() };
+    let mut s = Seeded {
+        q: lift(&state.state.q),
+        v: lift(&state.state.v),
+        u: lift(&[state.ctrl.as_slice(), &state.mocap].concat()),
+        prm: state.params.lift(),
+    };
     for (&slot, &d) in knowns.iter().zip(dv) {
         // A known listed twice gets the sum of its directions (the derivative is linear in them).
         let x = match slot {
@@ -42,7 +53,9 @@ fn seed(model: &Model, state: &SimState, knowns: &[Slot], dv: &[f64], model_exch
                 Param::Friction => &mut s.prm.friction,
             },
             // In Model Exchange a mocap input is its body's pose now.
-            Slot::Mocap(m, k) if model_exchange => &mut s.u[model.actuators.len() + crate::dynamics::MOCAP_INPUTS * m + k],
+            Slot::Mocap(m, k) if model_exchange => {
+                &mut s.u[model.actuators.len() + crate::dynamics::MOCAP_INPUTS * m + k]
+            }
             // Nothing depends on time (the dynamics is autonomous), and in Co-Simulation a
             // mocap input is the pose its body reaches at the end of the next communication
             // step: nothing depends on it at the current time.
@@ -60,31 +73,65 @@ fn seed(model: &Model, state: &SimState, knowns: &[Slot], dv: &[f64], model_exch
 ///
 /// `model_exchange`: whether a mocap input acts at once (Model Exchange) or at the end of the
 /// next communication step (Co-Simulation: no instantaneous effect).
-pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot], knowns: &[Slot], dv: &[f64], model_exchange: bool) -> Result<Vec<f64>, String> {
+pub fn directional_derivative(
+    model: &Model,
+    state: &SimState,
+    unknowns: &[Slot],
+    knowns: &[Slot],
+    dv: &[f64],
+    model_exchange: bool,
+) -> Result<Vec<f64>, String> {
     let s = seed(model, state, knowns, dv, model_exchange)?;
     let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
-    let needs_contacts = unknowns.iter().any(|u| matches!(u, Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)));
+    let needs_contacts = unknowns.iter().any(|u| {
+        matches!(
+            u,
+            Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)
+        )
+    });
     let (vdot, contacts) = if needs_vdot {
-        let f = model.forward(&s.q, &s.v, &s.u, &s.prm).map_err(|e| e.to_string())?;
+        let f = model
+            .forward(&s.q, &s.v, &s.u, &s.prm)
+            .map_err(|e| e.to_string())?;
         (Some(f.vdot), Some(f.contacts))
     } else if needs_contacts {
-        let kin = model.tree.kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
+        let kin = model
+            .tree
+            .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
         (None, Some(model.contacts(&kin, &s.prm).1))
     } else {
         (None, None)
     };
-    let qdot = unknowns.iter().any(|u| matches!(u, Slot::QDot(_))).then(|| model.tree.qdot(&s.q, &s.v));
-    let points = unknowns.iter().any(|u| matches!(u, Slot::PairPoint(..))).then(|| {
-        let kin = model.tree.kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
-        model
-            .pairs
-            .iter()
-            .map(|pair| match (&model.colliders[pair.a], &model.colliders[pair.b]) {
-                (Some(a), Some(b)) => crate::collision::contact_points(a, &kin.frames[pair.a], b, &kin.frames[pair.b], s.prm.eps1, s.prm.eps2, model.contact_points),
-                _ => Vec::new(),
-            })
-            .collect::<Vec<_>>()
-    });
+    let qdot = unknowns
+        .iter()
+        .any(|u| matches!(u, Slot::QDot(_)))
+        .then(|| model.tree.qdot(&s.q, &s.v));
+    let points = unknowns
+        .iter()
+        .any(|u| matches!(u, Slot::PairPoint(..)))
+        .then(|| {
+            let kin = model
+                .tree
+                .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
+            model
+                .pairs
+                .iter()
+                .map(
+                    |pair| match (&model.colliders[pair.a], &model.colliders[pair.b]) {
+                        (Some(a), Some(b)) => crate::collision::contact_points(
+                            a,
+                            &kin.frames[pair.a],
+                            b,
+                            &kin.frames[pair.b],
+                            s.prm.eps1,
+                            s.prm.eps2,
+                            model.contact_points,
+                        ),
+                        _ => Vec::new(),
+                    },
+                )
+                .collect::<Vec<_>>()
+        });
     let missing = || "internal error: a needed evaluation was skipped".to_string();
     unknowns
         .iter()
@@ -97,7 +144,9 @@ pub fn directional_derivative(model: &Model, state: &SimState, unknowns: &[Slot]
                 Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],
                 Slot::PairTorque(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.torque[k],
                 Slot::PairDistance(p) => contacts.as_ref().ok_or_else(missing)?[p].distance,
-                Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p].get(k).map_or(Dual64::from(0.0), |c| c[i]),
+                Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p]
+                    .get(k)
+                    .map_or(Dual64::from(0.0), |c| c[i]),
                 _ => return Err(format!("{u:?} is not an unknown")),
             };
             // Out of contact the distance is +inf with a NaN dual part: report 0 (it does not

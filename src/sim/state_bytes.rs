@@ -24,8 +24,8 @@
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
 use super::{FmuState, Param, SimState};
-use crate::fmi::serial::Reader;
 use crate::dynamics::MOCAP_INPUTS;
+use crate::fmi::serial::Reader;
 use crate::integrate::{EnergyLedger, Integrator, State};
 use crate::model::Model;
 
@@ -35,13 +35,26 @@ pub const STATE_VERSION: u32 = 3;
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
     let s = &state.sim;
-    let mut b = Vec::with_capacity(64 + 8 * (s.state.q.len() + s.state.v.len() + s.ctrl.len() + 10));
+    let mut b =
+        Vec::with_capacity(64 + 8 * (s.state.q.len() + s.state.v.len() + s.ctrl.len() + 10));
     b.extend_from_slice(&STATE_VERSION.to_le_bytes());
-    for n in [s.state.q.len(), s.state.v.len(), s.ctrl.len(), s.mocap.len() / MOCAP_INPUTS] {
+    for n in [
+        s.state.q.len(),
+        s.state.v.len(),
+        s.ctrl.len(),
+        s.mocap.len() / MOCAP_INPUTS,
+    ] {
         b.extend_from_slice(&(n as u32).to_le_bytes());
     }
     let params = Param::ALL.map(|p| p.get(&s.params));
-    let values = std::iter::once(&s.time).chain(&s.state.q).chain(&s.state.v).chain(&s.ctrl).chain(&s.mocap).chain(&s.mocap_target).chain(params.iter()).chain([&state.step, &state.tolerance]);
+    let values = std::iter::once(&s.time)
+        .chain(&s.state.q)
+        .chain(&s.state.v)
+        .chain(&s.ctrl)
+        .chain(&s.mocap)
+        .chain(&s.mocap_target)
+        .chain(params.iter())
+        .chain([&state.step, &state.tolerance]);
     for x in values {
         b.extend_from_slice(&x.to_bits().to_le_bytes());
     }
@@ -53,7 +66,9 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
         None => b.push(0),
         Some((t, poses)) => {
             b.push(1);
-            std::iter::once(t).chain(poses).for_each(|&x| put(&mut b, x));
+            std::iter::once(t)
+                .chain(poses)
+                .for_each(|&x| put(&mut b, x));
         }
     }
     let (jacobian, left, ledger) = state.solver_cache.parts();
@@ -70,7 +85,10 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
         None => b.push(0),
         Some((st, h)) => {
             b.push(1);
-            st.q.iter().chain(&st.v).chain([h]).for_each(|&x| put(&mut b, x));
+            st.q.iter()
+                .chain(&st.v)
+                .chain([h])
+                .for_each(|&x| put(&mut b, x));
         }
     }
     match ledger {
@@ -78,7 +96,12 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
         Some(l) => {
             b.push(1);
             let params = Param::ALL.map(|p| p.get(&l.params));
-            l.at.q.iter().chain(&l.at.v).chain(&params).chain([&l.since, &l.reference, &l.work, &l.gross_work, &l.scale]).for_each(|&x| put(&mut b, x));
+            l.at.q
+                .iter()
+                .chain(&l.at.v)
+                .chain(&params)
+                .chain([&l.since, &l.reference, &l.work, &l.gross_work, &l.scale])
+                .for_each(|&x| put(&mut b, x));
         }
     }
     b
@@ -90,27 +113,55 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let mut r = Reader::new(bytes);
     let version = r.u32("the model state version")?;
     if version != STATE_VERSION {
-        return Err(format!("model state has layout version {version}; this FMU reads version {STATE_VERSION} only"));
+        return Err(format!(
+            "model state has layout version {version}; this FMU reads version {STATE_VERSION} only"
+        ));
     }
-    let (nq, nv, nc, nm) = (r.u32("nq")? as usize, r.u32("nv")? as usize, r.u32("the number of controls")? as usize, r.u32("the number of mocap bodies")? as usize);
-    let expected = (model.tree.nq, model.tree.nv, model.actuators.len(), model.tree.mocap.len());
+    let (nq, nv, nc, nm) = (
+        r.u32("nq")? as usize,
+        r.u32("nv")? as usize,
+        r.u32("the number of controls")? as usize,
+        r.u32("the number of mocap bodies")? as usize,
+    );
+    let expected = (
+        model.tree.nq,
+        model.tree.nv,
+        model.actuators.len(),
+        model.tree.mocap.len(),
+    );
     if (nq, nv, nc, nm) != expected {
-        return Err(format!("model state has (nq, nv, controls, mocap bodies) = {:?}, this scene has {expected:?}", (nq, nv, nc, nm)));
+        return Err(format!(
+            "model state has (nq, nv, controls, mocap bodies) = {:?}, this scene has {expected:?}",
+            (nq, nv, nc, nm)
+        ));
     }
     let time = finite(&mut r, "the time")?;
-    let q = (0..nq).map(|_| finite(&mut r, "a position")).collect::<Result<Vec<_>, _>>()?;
-    let v = (0..nv).map(|_| finite(&mut r, "a velocity")).collect::<Result<Vec<_>, _>>()?;
+    let q = (0..nq)
+        .map(|_| finite(&mut r, "a position"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let v = (0..nv)
+        .map(|_| finite(&mut r, "a velocity"))
+        .collect::<Result<Vec<_>, _>>()?;
     // A zero quaternion is not refused here: before initialization a host may set one (a
     // component at a time), save the state and serialize it, and the bytes must round-trip;
     // `fmi2ExitInitializationMode` refuses it, and a step from it is refused as non-finite.
-    let ctrl = (0..nc).map(|_| finite(&mut r, "a control")).collect::<Result<Vec<_>, _>>()?;
-    let mocap = (0..nm * MOCAP_INPUTS).map(|_| finite(&mut r, "a mocap pose or velocity")).collect::<Result<Vec<_>, _>>()?;
-    let mocap_target = (0..nm * 7).map(|_| finite(&mut r, "a mocap input")).collect::<Result<Vec<_>, _>>()?;
+    let ctrl = (0..nc)
+        .map(|_| finite(&mut r, "a control"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mocap = (0..nm * MOCAP_INPUTS)
+        .map(|_| finite(&mut r, "a mocap pose or velocity"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mocap_target = (0..nm * 7)
+        .map(|_| finite(&mut r, "a mocap input"))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut params = model.contact;
     for p in Param::ALL {
         let x = finite(&mut r, p.describe().0)?;
         if !p.accepts(x) {
-            return Err(format!("model state is corrupt: scm.{} = {x} is out of range", p.describe().0));
+            return Err(format!(
+                "model state is corrupt: scm.{} = {x} is out of range",
+                p.describe().0
+            ));
         }
         *p.slot(&mut params) = x;
     }
@@ -121,27 +172,39 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     }
     let n = r.u32("the integrator name length")? as usize;
     let name = r.take(n, "the integrator name")?;
-    let name = std::str::from_utf8(name).map_err(|_| "model state is corrupt: integrator name is not UTF-8".to_string())?;
-    let integrator = Integrator::from_name(name).ok_or_else(|| format!("model state names an unknown integrator {name:?}"))?;
+    let name = std::str::from_utf8(name)
+        .map_err(|_| "model state is corrupt: integrator name is not UTF-8".to_string())?;
+    let integrator = Integrator::from_name(name)
+        .ok_or_else(|| format!("model state names an unknown integrator {name:?}"))?;
     let mocap_sampled = match r.take(1, "the sampled mocap flag")?[0] {
         0 => None,
         1 => {
             let t = finite(&mut r, "the time mocap poses were sampled at")?;
-            Some((t, (0..nm * 7).map(|_| finite(&mut r, "a sampled mocap pose")).collect::<Result<Vec<_>, _>>()?))
+            Some((
+                t,
+                (0..nm * 7)
+                    .map(|_| finite(&mut r, "a sampled mocap pose"))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ))
         }
         f => return Err(format!("model state is corrupt: sampled mocap flag {f}")),
     };
     let jacobian = match r.take(1, "the solver cache flag")?[0] {
         0 => None,
         1 => {
-            let (rows, cols) = (r.u64("the Jacobian's rows")?, r.u64("the Jacobian's columns")?);
+            let (rows, cols) = (
+                r.u64("the Jacobian's rows")?,
+                r.u64("the Jacobian's columns")?,
+            );
             // The Newton Jacobian is square in the velocity coordinates or the whole state.
             let n = nq + 2 * nv;
             if rows != cols || rows > n as u64 || rows == 0 {
                 return Err(format!("model state is corrupt: a {rows} x {cols} Newton Jacobian for {nq} positions and {nv} velocities"));
             }
             let (rows, cols) = (rows as usize, cols as usize);
-            let entries = (0..rows * cols).map(|_| finite(&mut r, "a Newton Jacobian entry")).collect::<Result<Vec<_>, _>>()?;
+            let entries = (0..rows * cols)
+                .map(|_| finite(&mut r, "a Newton Jacobian entry"))
+                .collect::<Result<Vec<_>, _>>()?;
             Some(nalgebra::DMatrix::from_vec(rows, cols, entries))
         }
         f => return Err(format!("model state is corrupt: solver cache flag {f}")),
@@ -149,40 +212,87 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let left = match r.take(1, "the solver cache state flag")?[0] {
         0 => None,
         1 => {
-            let q = (0..nq).map(|_| finite(&mut r, "a cached position")).collect::<Result<Vec<_>, _>>()?;
-            let v = (0..nv).map(|_| finite(&mut r, "a cached velocity")).collect::<Result<Vec<_>, _>>()?;
+            let q = (0..nq)
+                .map(|_| finite(&mut r, "a cached position"))
+                .collect::<Result<Vec<_>, _>>()?;
+            let v = (0..nv)
+                .map(|_| finite(&mut r, "a cached velocity"))
+                .collect::<Result<Vec<_>, _>>()?;
             Some((State { q, v }, finite(&mut r, "the cached internal step")?))
         }
-        f => return Err(format!("model state is corrupt: solver cache state flag {f}")),
+        f => {
+            return Err(format!(
+                "model state is corrupt: solver cache state flag {f}"
+            ))
+        }
     };
     let ledger = match r.take(1, "the energy ledger flag")?[0] {
         0 => None,
         1 => {
-            let q = (0..nq).map(|_| finite(&mut r, "the energy ledger's position")).collect::<Result<Vec<_>, _>>()?;
-            let v = (0..nv).map(|_| finite(&mut r, "the energy ledger's velocity")).collect::<Result<Vec<_>, _>>()?;
+            let q = (0..nq)
+                .map(|_| finite(&mut r, "the energy ledger's position"))
+                .collect::<Result<Vec<_>, _>>()?;
+            let v = (0..nv)
+                .map(|_| finite(&mut r, "the energy ledger's velocity"))
+                .collect::<Result<Vec<_>, _>>()?;
             let mut params = model.contact;
             for p in Param::ALL {
                 let x = finite(&mut r, "the energy ledger's contact parameter")?;
                 if !p.accepts(x) {
-                    return Err(format!("model state is corrupt: the energy ledger's scm.{} = {x} is out of range", p.describe().0));
+                    return Err(format!(
+                        "model state is corrupt: the energy ledger's scm.{} = {x} is out of range",
+                        p.describe().0
+                    ));
                 }
                 *p.slot(&mut params) = x;
             }
             let mut next = |what| finite(&mut r, what);
-            let (since, reference, work) = (next("the energy ledger's start time")?, next("the energy ledger's reference energy")?, next("the energy ledger's work")?);
-            let (gross_work, scale) = (next("the energy ledger's gross work")?, next("the energy ledger's scale")?);
+            let (since, reference, work) = (
+                next("the energy ledger's start time")?,
+                next("the energy ledger's reference energy")?,
+                next("the energy ledger's work")?,
+            );
+            let (gross_work, scale) = (
+                next("the energy ledger's gross work")?,
+                next("the energy ledger's scale")?,
+            );
             if gross_work < 0.0 || scale < 0.0 || work.abs() > gross_work * (1.0 + 1e-9) {
                 return Err(format!("model state is corrupt: an energy ledger with work {work} J, gross work {gross_work} J and scale {scale} J"));
             }
-            Some(EnergyLedger { at: State { q, v }, params, since, reference, work, gross_work, scale })
+            Some(EnergyLedger {
+                at: State { q, v },
+                params,
+                since,
+                reference,
+                work,
+                gross_work,
+                scale,
+            })
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
     };
     let solver_cache = crate::integrate::SolverCache::from_parts(jacobian, left, ledger);
     if r.remaining() != 0 {
-        return Err(format!("model state is corrupt: {} unexpected bytes at the end", r.remaining()));
+        return Err(format!(
+            "model state is corrupt: {} unexpected bytes at the end",
+            r.remaining()
+        ));
     }
-    Ok(FmuState { sim: SimState { time, state: State { q, v }, ctrl, params, mocap, mocap_target, mocap_sampled }, integrator, step, tolerance, solver_cache })
+    Ok(FmuState {
+        sim: SimState {
+            time,
+            state: State { q, v },
+            ctrl,
+            params,
+            mocap,
+            mocap_target,
+            mocap_sampled,
+        },
+        integrator,
+        step,
+        tolerance,
+        solver_cache,
+    })
 }
 
 /// The next f64 of `r`, refused unless finite.

@@ -118,7 +118,10 @@ fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
     let both_clouds = matches!((ca, cb), (Collider::Aopc(_), Collider::Aopc(_)));
     let used: Vec<Param> = Param::ALL
         .into_iter()
-        .filter(|&p| (p != Param::Eps1 || both_clouds) && (!distance_only || matches!(p, Param::Eps1 | Param::Eps2)))
+        .filter(|&p| {
+            (p != Param::Eps1 || both_clouds)
+                && (!distance_only || matches!(p, Param::Eps1 | Param::Eps2))
+        })
         .collect();
     k.params = used.into_iter().map(param_index).collect();
     k
@@ -129,7 +132,9 @@ fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
 /// pair one of whose bodies is in the subtree.
 fn subtree_knowns(model: &Model, root: usize) -> Knowns {
     let tree = &model.tree;
-    let joints: Vec<usize> = (0..tree.joints.len()).filter(|&j| subtree_root(model, tree.joints[j].body) == root).collect();
+    let joints: Vec<usize> = (0..tree.joints.len())
+        .filter(|&j| subtree_root(model, tree.joints[j].body) == root)
+        .collect();
     let mut k = coordinates(model, &joints, true);
     for (a, act) in model.actuators.iter().enumerate() {
         if joints.contains(&act.joint) {
@@ -140,7 +145,9 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
         k.params.insert(param_index(Param::StictionVelocity));
     }
     for (p, pair) in model.pairs.iter().enumerate() {
-        let involved = [pair.a, pair.b].iter().any(|&b| b != 0 && tree.body_moves(b) && subtree_root(model, b) == root);
+        let involved = [pair.a, pair.b]
+            .iter()
+            .any(|&b| b != 0 && tree.body_moves(b) && subtree_root(model, b) == root);
         if involved {
             k.union(&pair_knowns(model, p, false));
         }
@@ -152,12 +159,26 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
 /// parameters, time, solver settings).
 pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
     let tree = &model.tree;
-    let joint_of_v = |i: usize| tree.joints.iter().find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&i));
-    let joint_of_q = |i: usize| tree.joints.iter().find(|j| (j.qadr..j.qadr + j.kind.nq()).contains(&i));
+    let joint_of_v = |i: usize| {
+        tree.joints
+            .iter()
+            .find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&i))
+    };
+    let joint_of_q = |i: usize| {
+        tree.joints
+            .iter()
+            .find(|j| (j.qadr..j.qadr + j.kind.nq()).contains(&i))
+    };
     Some(match slot {
         // A state as an output is the state itself.
-        Slot::Q(i) => Knowns { q: [i].into(), ..Knowns::default() },
-        Slot::V(i) => Knowns { v: [i].into(), ..Knowns::default() },
+        Slot::Q(i) => Knowns {
+            q: [i].into(),
+            ..Knowns::default()
+        },
+        Slot::V(i) => Knowns {
+            v: [i].into(),
+            ..Knowns::default()
+        },
         Slot::QDot(i) => {
             let j = joint_of_q(i)?;
             let quat = match j.kind {
@@ -168,9 +189,16 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
             match quat {
                 // q̇ = ½ q ⊗ (0, ω): each component is bilinear in the other three quaternion
                 // components and the three angular velocity components.
-                Some((qa, wa)) => Knowns { q: (qa..qa + 4).filter(|&c| c != i).collect(), v: (wa..wa + 3).collect(), ..Knowns::default() },
+                Some((qa, wa)) => Knowns {
+                    q: (qa..qa + 4).filter(|&c| c != i).collect(),
+                    v: (wa..wa + 3).collect(),
+                    ..Knowns::default()
+                },
                 // Positions: q̇ is the matching velocity (free joints: linvel, world frame).
-                None => Knowns { v: [j.dadr + (i - j.qadr)].into(), ..Knowns::default() },
+                None => Knowns {
+                    v: [j.dadr + (i - j.qadr)].into(),
+                    ..Knowns::default()
+                },
             }
         }
         Slot::VDot(i) => subtree_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
@@ -186,33 +214,55 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
 /// derivative (in the order of the continuous states), and the initial unknowns (calculated
 /// outputs and the state derivatives), each with its exact dependencies.
 pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructure {
-    let vr_of = |slot: Slot| rows.iter().find(|(_, s)| *s == slot).map(|(v, _)| v.value_reference);
+    let vr_of = |slot: Slot| {
+        rows.iter()
+            .find(|(_, s)| *s == slot)
+            .map(|(v, _)| v.value_reference)
+    };
     let to_vrs = |k: &Knowns, with_params: bool| -> Vec<u32> {
         let mut out: Vec<u32> = Vec::new();
         out.extend(k.q.iter().filter_map(|&i| vr_of(Slot::Q(i))));
         out.extend(k.v.iter().filter_map(|&i| vr_of(Slot::V(i))));
         out.extend(k.ctrl.iter().filter_map(|&i| vr_of(Slot::Ctrl(i))));
-        out.extend(k.mocap.iter().filter_map(|&(m, c)| vr_of(Slot::Mocap(m, c))));
+        out.extend(
+            k.mocap
+                .iter()
+                .filter_map(|&(m, c)| vr_of(Slot::Mocap(m, c))),
+        );
         if with_params {
-            out.extend(k.params.iter().filter_map(|&i| vr_of(Slot::Param(Param::ALL[i]))));
+            out.extend(
+                k.params
+                    .iter()
+                    .filter_map(|&i| vr_of(Slot::Param(Param::ALL[i]))),
+            );
         }
         out.sort_unstable();
         out
     };
     let mut structure = ModelStructure::default();
     for (v, slot) in rows {
-        let Some(k) = knowns_of(model, *slot) else { continue };
+        let Some(k) = knowns_of(model, *slot) else {
+            continue;
+        };
         if v.causality == Causality::Output {
-            structure.outputs.push((v.value_reference, Some(to_vrs(&k, false))));
+            structure
+                .outputs
+                .push((v.value_reference, Some(to_vrs(&k, false))));
         }
         if matches!(slot, Slot::QDot(_) | Slot::VDot(_)) {
-            structure.derivatives.push((v.value_reference, Some(to_vrs(&k, false))));
+            structure
+                .derivatives
+                .push((v.value_reference, Some(to_vrs(&k, false))));
         }
         // Initial unknowns: everything computed from the exact start values (states,
         // inputs, parameters).
         let calculated = v.initial.unwrap_or(Initial::Calculated) == Initial::Calculated;
-        if calculated && (v.causality == Causality::Output || matches!(slot, Slot::QDot(_) | Slot::VDot(_))) {
-            structure.initial_unknowns.push((v.value_reference, Some(to_vrs(&k, true))));
+        if calculated
+            && (v.causality == Causality::Output || matches!(slot, Slot::QDot(_) | Slot::VDot(_)))
+        {
+            structure
+                .initial_unknowns
+                .push((v.value_reference, Some(to_vrs(&k, true))));
         }
     }
     structure

@@ -41,7 +41,12 @@ impl Capture {
 
     /// The last message, or an empty one.
     pub fn last(&self) -> Logged {
-        self.all().last().cloned().unwrap_or(Logged { status: fmi2OK, category: String::new(), format: String::new(), message: String::new() })
+        self.all().last().cloned().unwrap_or(Logged {
+            status: fmi2OK,
+            category: String::new(),
+            format: String::new(),
+            message: String::new(),
+        })
     }
 
     /// Number of messages so far.
@@ -63,25 +68,59 @@ unsafe fn text(p: *const c_char) -> String {
     }
 }
 
-unsafe extern "C" fn recording_logger(env: *mut c_void, _instance: fmi2String, status: fmi2Status, category: fmi2String, format: fmi2String, arg: *const c_char) {
+unsafe extern "C" fn recording_logger(
+    env: *mut c_void,
+    _instance: fmi2String,
+    status: fmi2Status,
+    category: fmi2String,
+    format: fmi2String,
+    arg: *const c_char,
+) {
     let capture = unsafe { &*(env as *const Capture) };
-    let logged = unsafe { Logged { status, category: text(category), format: text(format), message: text(arg) } };
+    let logged = unsafe {
+        Logged {
+            status,
+            category: text(category),
+            format: text(format),
+            message: text(arg),
+        }
+    };
     capture.0.lock().unwrap().push(logged);
 }
 
-type Fixed = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, *const c_char);
-type Variadic = unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+type Fixed = unsafe extern "C" fn(
+    *mut c_void,
+    fmi2String,
+    fmi2Status,
+    fmi2String,
+    fmi2String,
+    *const c_char,
+);
+type Variadic =
+    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
 
 /// Callbacks whose logger records into `capture`.
 pub fn callbacks(capture: &Capture) -> fmi2CallbackFunctions {
     // SAFETY: see the module documentation: the arguments read travel in the same registers.
     let logger = unsafe { std::mem::transmute::<Fixed, Variadic>(recording_logger) };
-    fmi2CallbackFunctions { logger: Some(logger), allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: capture as *const Capture as *mut c_void }
+    fmi2CallbackFunctions {
+        logger: Some(logger),
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: capture as *const Capture as *mut c_void,
+    }
 }
 
 /// Callbacks without a logger.
 pub fn quiet() -> fmi2CallbackFunctions {
-    fmi2CallbackFunctions { logger: None, allocateMemory: None, freeMemory: None, stepFinished: None, componentEnvironment: std::ptr::null_mut() }
+    fmi2CallbackFunctions {
+        logger: None,
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: std::ptr::null_mut(),
+    }
 }
 
 /// An unpacked FMU's `resources/` folder.
@@ -103,7 +142,10 @@ fn made() -> &'static Mutex<HashSet<PathBuf>> {
 /// The `resources/` folder of a scene text (and the meshes, read from `meshes`: name inside
 /// `resources/` and bytes), under a folder named `tag`, made once per process and tag.
 pub fn resources_of(tag: &str, scene_text: &str, meshes: &[(String, Vec<u8>)]) -> Resources {
-    let dir = std::env::temp_dir().join(format!("scm-host-{}", std::process::id())).join(tag).join("resources");
+    let dir = std::env::temp_dir()
+        .join(format!("scm-host-{}", std::process::id()))
+        .join(tag)
+        .join("resources");
     let mut made = made().lock().unwrap();
     if !made.contains(&dir) {
         for (file, bytes) in meshes {
@@ -115,7 +157,11 @@ pub fn resources_of(tag: &str, scene_text: &str, meshes: &[(String, Vec<u8>)]) -
         std::fs::write(dir.join(scm::sim::SCENE_FILE), scene_text).unwrap();
         made.insert(dir.clone());
     }
-    Resources { uri: CString::new(format!("file://{}", dir.display())).unwrap(), guid: CString::new(scm::sim::guid(scene_text)).unwrap(), dir }
+    Resources {
+        uri: CString::new(format!("file://{}", dir.display())).unwrap(),
+        guid: CString::new(scm::sim::guid(scene_text)).unwrap(),
+        dir,
+    }
 }
 
 /// The `resources/` folder of a bundled scene, as `scm pack` lays it out.
@@ -127,7 +173,12 @@ pub fn resources(name: &str) -> Resources {
 /// Every bundled scene's name, sorted.
 pub fn scene_names() -> Vec<String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/scenes");
-    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "xml")).map(|p| p.file_stem().unwrap().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     names
 }
@@ -136,8 +187,22 @@ pub fn scene_names() -> Vec<String> {
 ///
 /// # Safety
 /// `callbacks` (and the capture it points to) must outlive the instance.
-pub unsafe fn instantiate(res: &Resources, fmu_type: fmi2Type, callbacks: &fmi2CallbackFunctions) -> fmi2Component {
-    unsafe { scm::fmi2Instantiate(c"test".as_ptr(), fmu_type, res.guid.as_ptr(), res.uri.as_ptr(), callbacks, fmi2False, fmi2False) }
+pub unsafe fn instantiate(
+    res: &Resources,
+    fmu_type: fmi2Type,
+    callbacks: &fmi2CallbackFunctions,
+) -> fmi2Component {
+    unsafe {
+        scm::fmi2Instantiate(
+            c"test".as_ptr(),
+            fmu_type,
+            res.guid.as_ptr(),
+            res.uri.as_ptr(),
+            callbacks,
+            fmi2False,
+            fmi2False,
+        )
+    }
 }
 
 /// The instance's current state, got with `fmi2GetFMUstate` and serialized (the state is left
@@ -152,8 +217,10 @@ pub unsafe fn serialize_current(c: fmi2Component) -> Vec<u8> {
         let mut size = 0;
         assert_eq!(scm::fmi2SerializedFMUstateSize(c, st, &mut size), fmi2OK);
         let mut bytes = vec![0u8; size];
-        assert_eq!(scm::fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size), fmi2OK);
+        assert_eq!(
+            scm::fmi2SerializeFMUstate(c, st, bytes.as_mut_ptr().cast(), size),
+            fmi2OK
+        );
         bytes
     }
 }
-

@@ -3,12 +3,17 @@
 
 use std::path::PathBuf;
 
-#[cfg(all(any(target_arch = "x86_64", target_arch = "aarch64"), target_os = "linux"))]
+#[cfg(all(
+    any(target_arch = "x86_64", target_arch = "aarch64"),
+    target_os = "linux"
+))]
 pub mod host;
 
 /// Path of a bundled scene.
 pub fn scene(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("resources/scenes").join(format!("{name}.xml"))
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("resources/scenes")
+        .join(format!("{name}.xml"))
 }
 
 /// Central difference of `f` at `x` along coordinate `k`.
@@ -26,7 +31,10 @@ pub struct Lcg(pub u64);
 impl Lcg {
     /// Next number in [0, 1).
     pub fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
     }
 
@@ -38,7 +46,11 @@ impl Lcg {
     /// A uniformly random unit vector.
     pub fn direction(&mut self) -> nalgebra::Vector3<f64> {
         loop {
-            let v = nalgebra::Vector3::new(self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0));
+            let v = nalgebra::Vector3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
             let n = v.norm();
             if n > 0.1 && n < 1.0 {
                 return v / n;
@@ -73,10 +85,17 @@ pub fn pair_outputs<T: scm::scalar::Scalar>(c: &scm::contact::PairContact<T>) ->
 /// height `z` (m), unrotated, at rest (v = 0, so d = 1 and no friction): the
 /// separation-weighted normal force `Σ W_f k s⁺(-Φ_f)`, `Φ_f = z + p_f.z` (N), written out
 /// independently of the dynamics code.
-pub fn static_lift(aopc: &scm::geometry::Aopc, prm: &scm::contact::ContactParams<f64>, z: f64) -> f64 {
+pub fn static_lift(
+    aopc: &scm::geometry::Aopc,
+    prm: &scm::contact::ContactParams<f64>,
+    z: f64,
+) -> f64 {
     let phis: Vec<f64> = aopc.points.iter().map(|p| z + p.z).collect();
     let min = phis.iter().cloned().fold(f64::INFINITY, f64::min);
     let w: Vec<f64> = phis.iter().map(|f| (-(f - min) / prm.eps2).exp()).collect();
     let sum: f64 = w.iter().sum();
-    phis.iter().zip(&w).map(|(f, w)| w / sum * prm.stiffness * scm::scalar::softplus(-f, prm.eps3)).sum::<f64>()
+    phis.iter()
+        .zip(&w)
+        .map(|(f, w)| w / sum * prm.stiffness * scm::scalar::softplus(-f, prm.eps3))
+        .sum::<f64>()
 }
