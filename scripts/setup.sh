@@ -24,7 +24,7 @@ fi
 
 # The venv records the requirements it was made from; a change reinstalls.
 if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/requirements.txt \
-   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy" 2>/dev/null; then
+   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy, mujoco, gymnasium" 2>/dev/null; then
   echo "setup: creating .venv"
   python3 -m venv .venv
   .venv/bin/pip install -q --upgrade pip

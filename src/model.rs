@@ -232,7 +232,9 @@ impl Model {
                 }
                 if j.stiffness != 0.0 {
                     match (j.kind, &theta) {
-                        (JointKind::Slide | JointKind::Hinge, _) => t -= q[j.qadr] * j.stiffness,
+                        (JointKind::Slide | JointKind::Hinge, _) => {
+                            t -= (q[j.qadr] - c::<T>(j.springref)) * j.stiffness
+                        }
                         (JointKind::Ball, Some(th)) => t -= th[k] * j.stiffness,
                         _ => {}
                     }
@@ -377,7 +379,8 @@ impl Model {
             }
             match j.kind {
                 JointKind::Slide | JointKind::Hinge => {
-                    springs += q[j.qadr] * q[j.qadr] * (0.5 * j.stiffness)
+                    let stretch = q[j.qadr] - c::<T>(j.springref);
+                    springs += stretch * stretch * (0.5 * j.stiffness)
                 }
                 JointKind::Ball if j.stiffness != 0.0 => {
                     let th = quat_log(&quat_from(&q[j.qadr..j.qadr + 4]));

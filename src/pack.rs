@@ -55,6 +55,17 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
             .map_err(|e| PackError::Write(format!("{}: {e}", m.path.display())))?;
         resources.push((name, bytes));
     }
+    for inc in &loaded.includes {
+        let name = packed_include_name(scene, &inc.path).map_err(|why| {
+            PackError::Write(format!("{}: include {}: {why}", scene.display(), inc.file))
+        })?;
+        if resources.iter().any(|(n, _)| *n == name) {
+            continue;
+        }
+        let bytes = std::fs::read(&inc.path)
+            .map_err(|e| PackError::Write(format!("{}: {e}", inc.path.display())))?;
+        resources.push((name, bytes));
+    }
     let sim = Simulation::new(loaded.clone(), &text);
     let model_description = crate::fmi::model_description::model_description_xml(sim.info());
     let documentation = documentation::index_html(&loaded, sim.info());
@@ -83,4 +94,33 @@ pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
         Some(&d.documentation),
     )
     .map_err(|e| PackError::Write(e.to_string()))
+}
+
+/// Where an included file goes under the FMU's `resources/`: its path relative to the scene's
+/// folder (the scene itself is `resources/scene.xml`), so that the include resolves there as
+/// it did beside the scene. A file outside the scene's folder cannot be packed.
+fn packed_include_name(scene: &Path, included: &Path) -> Result<String, String> {
+    let mut parts: Vec<String> = Vec::new();
+    let rel = included
+        .strip_prefix(crate::scene::scene_dir(scene))
+        .map_err(|_| "the file is outside the scene's folder: move it under that folder")?;
+    for c in rel.components() {
+        match c {
+            std::path::Component::Normal(n) => parts.push(n.to_string_lossy().into_owned()),
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                parts
+                    .pop()
+                    .ok_or("the path leaves the scene's folder: move the file under that folder")?;
+            }
+            _ => return Err("an absolute path cannot be packed".into()),
+        }
+    }
+    if parts.is_empty() || parts == [crate::sim::SCENE_FILE] {
+        return Err(format!(
+            "an included file cannot be named {}",
+            crate::sim::SCENE_FILE
+        ));
+    }
+    Ok(parts.join("/"))
 }

@@ -36,6 +36,7 @@ mod golden_model_description;
 mod host_fmi_crate;
 mod integrators;
 mod long_run;
+mod mjcf_compile;
 mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;

@@ -54,10 +54,10 @@ fn each_kind_of_mistake_is_named_with_its_line() {
         ),
         (
             r#"size="0.05" mass="1""#,
-            r#"size="0.05" mass="1" solmix="1""#,
+            r#"size="0.05" mass="1" fluidshape="ellipsoid""#,
             6,
             "geom",
-            "solmix",
+            "fluidshape",
         ),
         (
             r#"type="sphere""#,

@@ -11,7 +11,8 @@ const USAGE: &str = "usage:
   scm simulate SCENE.xml [--duration S] [--step S] [--integrator NAME] [-o OUT.csv]   run natively, write CSV
         (integrators: euler, semi_implicit_euler, rk4, implicit_euler, dopri5; default: the scene's)
   scm aopc SCENE.xml BODY                                print a body's AOPC as CSV (body frame)
-  scm check SCENE.xml                                    report the scene's contents and problems";
+  scm check SCENE.xml                                    report the scene's contents and problems
+  scm compile SCENE.xml                                  print the compiled model as JSON (MuJoCo's conventions)";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -74,6 +75,13 @@ fn run(args: &[String]) -> Result<(), String> {
             }
             let h = number(comm, "--step", sim.model.step.max(0.01))?;
             simulate(&mut sim, duration, h, out.map(PathBuf::from))
+        }
+        "compile" => {
+            let [scene] = positional(&args, &["SCENE.xml"])?;
+            let c = scm::scene::compile(Path::new(&scene)).map_err(|e| e.to_string())?;
+            let text = serde_json::to_string_pretty(&c.to_json()).map_err(|e| e.to_string())?;
+            println!("{text}");
+            Ok(())
         }
         "aopc" => {
             let [scene, body] = positional(&args, &["SCENE.xml", "BODY"])?;

@@ -67,8 +67,14 @@ pub struct Joint {
     pub anchor: Vector3<f64>,
     /// Viscous damping (N·s/m or N·m·s/rad).
     pub damping: f64,
-    /// Spring stiffness towards `q = 0` (N/m or N·m/rad), slide and hinge.
+    /// Spring stiffness towards `q = springref` (N/m or N·m/rad), slide and hinge; towards
+    /// the identity for ball joints.
     pub stiffness: f64,
+    /// Reference position of a slide or hinge joint (m or rad): the value of `q` at which the
+    /// body sits at its `offset` (MuJoCo's `ref`), and the initial `q`.
+    pub reference: f64,
+    /// Spring rest position of a slide or hinge joint (m or rad, MuJoCo's `springref`).
+    pub springref: f64,
     /// Dry friction force or torque (N or N·m), smoothed by the stiction velocity.
     pub frictionloss: f64,
     /// Armature: inertia added to the joint's DOFs (kg or kg·m²).
@@ -262,8 +268,8 @@ impl Tree {
         out
     }
 
-    /// Initial configuration: free joints at their body's offset, quaternions identity, the
-    /// rest zero.
+    /// Initial configuration: free joints at their body's offset, quaternions identity, slide
+    /// and hinge joints at their reference position.
     pub fn q0(&self) -> Vec<f64> {
         let mut q = vec![0.0; self.nq];
         for j in &self.joints {
@@ -275,7 +281,7 @@ impl Tree {
                     q[j.qadr..j.qadr + 7].copy_from_slice(&[t.x, t.y, t.z, r.w, r.i, r.j, r.k]);
                 }
                 JointKind::Ball => q[j.qadr] = 1.0,
-                _ => {}
+                JointKind::Slide | JointKind::Hinge => q[j.qadr] = j.reference,
             }
         }
         q
@@ -392,7 +398,7 @@ impl Tree {
                                 (
                                     Transform {
                                         rotation: Matrix3::identity(),
-                                        translation: a * q[qa],
+                                        translation: a * (q[qa] - c::<T>(j.reference)),
                                     },
                                     vec![spatial::spatial(&Vector3::zeros(), &a)],
                                     Vector6::zeros(),
@@ -401,7 +407,7 @@ impl Tree {
                             JointKind::Hinge => {
                                 let a = j.axis.map(c::<T>);
                                 let s = j.anchor.map(c::<T>);
-                                let r = axis_angle(&j.axis, q[qa]);
+                                let r = axis_angle(&j.axis, q[qa] - c::<T>(j.reference));
                                 (
                                     Transform {
                                         rotation: r,

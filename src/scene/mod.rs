@@ -5,16 +5,22 @@
 //! elements are skipped; a physics element or attribute we do not model is an error naming the
 //! file, the line and the element.
 
+pub mod canonical;
+pub mod defaults;
+pub mod filter;
+pub mod include;
+pub mod json;
 pub mod xml;
 
 use crate::collision::Collider;
 use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::spatial::Inertia;
-use crate::dynamics::{unit_quat, Body, Joint, JointKind, Tree};
+use crate::dynamics::{Body, Joint, JointKind, Tree};
 use crate::geometry::{Shape, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair};
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use canonical::Angles;
+use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use xml::Element;
@@ -42,11 +48,16 @@ pub struct Scene {
     pub geoms: Vec<Geom>,
     /// Things that were accepted but are not modelled exactly (for `scm check`).
     pub warnings: Vec<String>,
+    /// Elements and attributes accepted and unused by SCM: MuJoCo's renderer and solver
+    /// settings (for `scm check` and the FMU documentation).
+    pub unused: Vec<String>,
     /// Mesh assets the geoms use: name, the `file` attribute as written, and the resolved path.
     pub meshes: Vec<MeshAsset>,
     /// The compiler's mesh folder as written (`meshdir`, else `assetdir`), relative to the
     /// scene file.
     pub meshdir: Option<String>,
+    /// Files read through `<include>`, in order.
+    pub includes: Vec<include::IncludedFile>,
 }
 
 /// A mesh asset of a scene.
@@ -81,6 +92,10 @@ pub struct Geom {
     pub contype: u32,
     /// MuJoCo collision bits.
     pub conaffinity: u32,
+    /// The file that declares the geom.
+    pub file: String,
+    /// Its line there.
+    pub line: usize,
 }
 
 /// Default spacing between AOPC points when the scene gives no `scm_spacing` (m).
@@ -139,29 +154,235 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     load_str(&text, path)
 }
 
-/// Loads a scene from text; `path` names it in errors and anchors relative mesh paths.
-pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+/// A scene compiled as MuJoCo's compiler would (bodies, inertias, joints, geoms, actuators),
+/// before SCM builds its colliders: what the differential tests compare with MuJoCo's
+/// `MjModel`, and what `scm compile` prints.
+#[derive(Clone, Debug)]
+pub struct Compiled {
+    /// Bodies and joints.
+    pub tree: Tree,
+    /// Geoms, in file order.
+    pub geoms: Vec<Geom>,
+    /// Actuators.
+    pub actuators: Vec<Actuator>,
+    /// `<option timestep>` (s).
+    pub timestep: f64,
+    /// `<option integrator>` as SCM maps it.
+    pub integrator: Integrator,
+    /// Each joint's limits (m or rad), if limited.
+    pub limits: Vec<Option<(f64, f64)>>,
+    /// What SCM refuses to simulate, with file and line.
+    pub refused: Vec<SceneError>,
+    /// Accepted and unused by SCM.
+    pub unused: Vec<String>,
+    /// Accepted but modelled differently from MuJoCo.
+    pub warnings: Vec<String>,
+}
+
+/// Compiles a scene file without building colliders and without refusing: see [`Compiled`].
+pub fn compile(path: &Path) -> Result<Compiled, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: path.display().to_string(),
+        line: 0,
+        element: "mujoco".into(),
+        message: format!("cannot read the scene: {e}"),
+    })?;
+    let (b, _) = read(&text, path)?;
+    b.compiled()
+}
+
+/// Parses, expands includes, reads compiler and defaults, canonicalizes and reads the tree.
+fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>), SceneError> {
     let file = path.display().to_string();
-    let root = xml::parse(text).map_err(|e| SceneError {
+    let mut root = xml::parse(text, &file).map_err(|e| SceneError {
         file: file.clone(),
         line: e.line,
         element: "xml".into(),
         message: e.message,
     })?;
     let mut b = Builder::new(file);
+    if root.name != "mujoco" {
+        return Err(b.err(&root, "the root element must be <mujoco>"));
+    }
+    let includes = include::expand(&mut root, path)?;
+    let mut defaults = defaults::Defaults::default();
+    for el in &root.children {
+        match el.name.as_str() {
+            "compiler" => b.compiler(el)?,
+            "default" => defaults.read(el)?,
+            _ => {}
+        }
+    }
+    canonical::canonicalize(&mut root, &defaults, &b.angles)?;
     b.scene(&root)?;
-    b.finish()
+    Ok((b, includes))
 }
 
-struct Defaults {
-    joint: Vec<(String, String)>,
-    geom: Vec<(String, String)>,
-    general: Vec<(String, String)>,
+/// Loads a scene from text; `path` names it in errors and anchors relative paths (meshes,
+/// includes).
+///
+/// The pipeline: parse, expand `<include>`s, read the compiler settings and default classes,
+/// bring the tree into canonical form ([`canonical`]), then build the model from it.
+pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let (b, includes) = read(text, path)?;
+    let mut scene = b.finish()?;
+    scene.includes = includes;
+    Ok(scene)
 }
+
+/// How body inertias come from geoms (`<compiler inertiafromgeom>`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum InertiaFromGeom {
+    /// From the geoms unless the body has an `<inertial>` (MuJoCo's default).
+    Auto,
+    /// Always from the geoms; `<inertial>` is overridden.
+    Always,
+    /// Never: a body without `<inertial>` has no mass.
+    Never,
+}
+
+/// `<compiler>` settings that shape the model.
+#[derive(Clone, Copy, Debug)]
+struct CompilerSettings {
+    /// Joint and control ranges make a joint or control limited when `limited` is not given.
+    autolimits: bool,
+    inertia_from_geom: InertiaFromGeom,
+    /// Geom groups whose geoms add mass.
+    inertia_groups: (i64, i64),
+    /// Scale every mass and inertia so the bodies weigh this much in total (kg; off if <= 0).
+    total_mass: f64,
+    /// Least mass of a body (kg).
+    bound_mass: f64,
+    /// Least principal moment of inertia of a body (kg m²).
+    bound_inertia: f64,
+}
+
+impl Default for CompilerSettings {
+    fn default() -> Self {
+        CompilerSettings {
+            autolimits: true,
+            inertia_from_geom: InertiaFromGeom::Auto,
+            inertia_groups: (0, 5),
+            total_mass: -1.0,
+            bound_mass: 0.0,
+            bound_inertia: 0.0,
+        }
+    }
+}
+
+/// `<option><flag>` switches that change the physics (all on by default, as in MuJoCo).
+#[derive(Clone, Copy, Debug)]
+struct Flags {
+    gravity: bool,
+    contact: bool,
+    limit: bool,
+    equality: bool,
+    frictionloss: bool,
+    spring: bool,
+    damper: bool,
+    actuation: bool,
+    filterparent: bool,
+    clampctrl: bool,
+    eulerdamp: bool,
+}
+
+impl Default for Flags {
+    fn default() -> Self {
+        Flags {
+            gravity: true,
+            contact: true,
+            limit: true,
+            equality: true,
+            frictionloss: true,
+            spring: true,
+            damper: true,
+            actuation: true,
+            filterparent: true,
+            clampctrl: true,
+            eulerdamp: true,
+        }
+    }
+}
+
+/// Attributes that only configure MuJoCo's renderer or constraint solver (or carry user data):
+/// accepted anywhere and listed as unused by SCM, with why.
+const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
+    ("rgba", "renderer"),
+    ("material", "renderer"),
+    ("texture", "renderer"),
+    ("group", "renderer groups"),
+    ("user", "user data"),
+    ("margin", "MuJoCo's contact solver"),
+    ("gap", "MuJoCo's contact solver"),
+    (
+        "solref",
+        "MuJoCo's constraint solver; SCM's contact comes from its scm_ settings",
+    ),
+    (
+        "solimp",
+        "MuJoCo's constraint solver; SCM's contact comes from its scm_ settings",
+    ),
+    ("solmix", "MuJoCo's contact solver"),
+    ("priority", "MuJoCo's contact solver"),
+    ("solreflimit", "MuJoCo's constraint solver"),
+    ("solimplimit", "MuJoCo's constraint solver"),
+    ("solreffriction", "MuJoCo's constraint solver"),
+    ("solimpfriction", "MuJoCo's constraint solver"),
+    ("iterations", "MuJoCo's constraint solver"),
+    ("ls_iterations", "MuJoCo's constraint solver"),
+    ("noslip_iterations", "MuJoCo's constraint solver"),
+    ("ccd_iterations", "MuJoCo's collision detection"),
+    ("sdf_iterations", "MuJoCo's collision detection"),
+    ("sdf_initpoints", "MuJoCo's collision detection"),
+    ("tolerance", "MuJoCo's constraint solver"),
+    ("ls_tolerance", "MuJoCo's constraint solver"),
+    ("noslip_tolerance", "MuJoCo's constraint solver"),
+    ("ccd_tolerance", "MuJoCo's collision detection"),
+    ("impratio", "MuJoCo's friction cone"),
+    ("cone", "MuJoCo's friction cone"),
+    ("jacobian", "MuJoCo's constraint solver"),
+    ("solver", "MuJoCo's constraint solver"),
+    ("apirate", "MuJoCo's remote API"),
+    ("o_margin", "MuJoCo's contact override"),
+    ("o_solref", "MuJoCo's contact override"),
+    ("o_solimp", "MuJoCo's contact override"),
+    ("o_friction", "MuJoCo's contact override"),
+    ("actuatorgroupdisable", "MuJoCo's actuator groups"),
+    ("texturedir", "renderer"),
+    ("inertiagrouprange", "read"),
+    ("align", "renderer"),
+    ("mode", "camera tracking"),
+    ("target", "camera tracking"),
+];
+
+/// What to do instead, for an attribute SCM refuses, where there is a clear answer.
+fn advice(element: &str, attr: &str) -> &'static str {
+    match (element, attr) {
+        (_, "class") | (_, "childclass") => ": defaults should have been applied (report this)",
+        ("body", "gravcomp") => {
+            ": gravity compensation is not supported yet; remove it (or set gravity to 0)"
+        }
+        ("geom", "fluidshape") | ("geom", "fluidcoef") => {
+            ": fluid forces are not supported; remove them"
+        }
+        ("joint", "actuatorfrcrange") | ("joint", "actuatorfrclimited") => {
+            ": limit the actuators' forcerange instead"
+        }
+        _ => "",
+    }
+}
+
+const NO_INERTIA: Inertia = Inertia {
+    mass: 0.0,
+    com: Vector3::new(0.0, 0.0, 0.0),
+    rot: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+};
 
 struct Builder {
     file: String,
-    degrees: bool,
+    angles: Angles,
+    /// `<compiler>` settings that shape the model.
+    settings: CompilerSettings,
     meshdir: Option<String>,
     meshes: Vec<MeshAsset>,
     bodies: Vec<Body>,
@@ -173,12 +394,33 @@ struct Builder {
     option_integrator: Option<Integrator>,
     numeric: Vec<(String, f64, usize)>,
     text: Vec<(String, String, usize)>,
-    defaults: Defaults,
     explicit_pairs: Vec<(String, String, usize)>,
     excludes: Vec<(String, String, usize)>,
     /// Whether each body's inertia came from `<inertial>`.
     explicit_inertia: Vec<bool>,
+    /// Each body's inertia from its geoms (used as `inertiafromgeom` says).
+    geom_inertia: Vec<Inertia>,
     warnings: Vec<String>,
+    /// Elements and attributes accepted and unused by SCM (file:line: what, why).
+    unused: Vec<String>,
+    flags: Flags,
+    /// Refusals found while reading (reported after the whole file is read).
+    refused: Vec<SceneError>,
+    /// The `<option>` that asks for fluid forces, if any.
+    fluid: Option<Element>,
+    /// Whether each joint is limited (its `range` and line, in SI units) by `limited` or
+    /// `autolimits`.
+    limits: Vec<Option<(f64, f64, Element)>>,
+}
+
+/// An error at an element: its file, line and name.
+fn element_error(el: &Element, message: impl Into<String>) -> SceneError {
+    SceneError {
+        file: el.file.to_string(),
+        line: el.line,
+        element: el.name.clone(),
+        message: message.into(),
+    }
 }
 
 fn parse_floats(s: &str) -> Option<Vec<f64>> {
@@ -191,7 +433,8 @@ impl Builder {
     fn new(file: String) -> Self {
         Builder {
             file,
-            degrees: true,
+            angles: Angles::default(),
+            settings: CompilerSettings::default(),
             meshdir: None,
             meshes: vec![],
             bodies: vec![Body {
@@ -214,42 +457,59 @@ impl Builder {
             option_integrator: None,
             numeric: vec![],
             text: vec![],
-            defaults: Defaults {
-                joint: vec![],
-                geom: vec![],
-                general: vec![],
-            },
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],
+            geom_inertia: vec![NO_INERTIA],
             warnings: vec![],
+            unused: vec![],
+            flags: Flags::default(),
+            fluid: None,
+            refused: vec![],
+            limits: vec![],
         }
     }
 
     fn err(&self, el: &Element, message: impl Into<String>) -> SceneError {
-        SceneError {
-            file: self.file.clone(),
-            line: el.line,
-            element: el.name.clone(),
-            message: message.into(),
-        }
+        element_error(el, message)
     }
 
-    /// Rejects attributes outside `allowed` (after dropping visual-only ones).
-    fn check_attrs(&self, el: &Element, allowed: &[&str]) -> Result<(), SceneError> {
-        const VISUAL: [&str; 6] = ["rgba", "material", "group", "class", "user", "texture"];
+    /// Rejects attributes outside `allowed`; those in [`UNUSED_ATTRIBUTES`] are accepted and
+    /// noted as unused by SCM.
+    fn check_attrs(&mut self, el: &Element, allowed: &[&str]) -> Result<(), SceneError> {
+        let mut unused = Vec::new();
         for (k, _) in &el.attrs {
-            if k == "class" {
-                return Err(self.err(
-                    el,
-                    "default classes are not supported: use the top-level <default>",
-                ));
+            if allowed.contains(&k.as_str()) {
+                continue;
             }
-            if !allowed.contains(&k.as_str()) && !VISUAL.contains(&k.as_str()) {
-                return Err(self.err(el, format!("attribute '{k}' is not supported")));
+            match UNUSED_ATTRIBUTES.iter().find(|(a, _)| a == k) {
+                Some((a, why)) => unused.push(format!("{a} ({why})")),
+                None => {
+                    return Err(self.err(
+                        el,
+                        format!(
+                            "attribute '{k}' is not supported by SCM{}",
+                            advice(&el.name, k)
+                        ),
+                    ))
+                }
             }
         }
+        if !unused.is_empty() {
+            self.unused(el, unused.join(", "));
+        }
         Ok(())
+    }
+
+    /// Notes that `what` of `el` is accepted and unused by SCM.
+    fn unused(&mut self, el: &Element, what: impl Into<String>) {
+        self.unused.push(format!(
+            "{}:{}: <{}> {}",
+            el.file,
+            el.line,
+            el.name,
+            what.into()
+        ));
     }
 
     fn floats(&self, el: &Element, key: &str, n: usize) -> Result<Option<Vec<f64>>, SceneError> {
@@ -272,71 +532,17 @@ impl Builder {
             .map(|v| Vector3::new(v[0], v[1], v[2])))
     }
 
-    /// Orientation from `quat` (w x y z) or `euler` (intrinsic xyz, in the compiler's angle
-    /// unit); at most one of them.
-    fn orientation(&self, el: &Element) -> Result<UnitQuaternion<f64>, SceneError> {
-        for unsupported in ["axisangle", "xyaxes", "zaxis"] {
-            if el.attr(unsupported).is_some() {
-                return Err(self.err(
-                    el,
-                    format!("orientation by '{unsupported}' is not supported: use quat or euler"),
-                ));
-            }
-        }
-        match (self.floats(el, "quat", 4)?, self.floats(el, "euler", 3)?) {
-            (Some(_), Some(_)) => Err(self.err(el, "both quat and euler given")),
-            (Some(q), None) => {
-                if q.iter().map(|x| x * x).sum::<f64>() < 1e-20 {
-                    return Err(self.err(el, "quat is zero"));
-                }
-                Ok(unit_quat([q[0], q[1], q[2], q[3]]))
-            }
-            (None, Some(e)) => {
-                let k = if self.degrees {
-                    std::f64::consts::PI / 180.0
-                } else {
-                    1.0
-                };
-                Ok(
-                    UnitQuaternion::from_axis_angle(&Vector3::x_axis(), e[0] * k)
-                        * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), e[1] * k)
-                        * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), e[2] * k),
-                )
-            }
-            (None, None) => Ok(UnitQuaternion::identity()),
-        }
-    }
-
     fn pose(&self, el: &Element) -> Result<Isometry3<f64>, SceneError> {
-        let pos = self.vec3(el, "pos")?.unwrap_or_else(Vector3::zeros);
-        Ok(Isometry3::from_parts(
-            Translation3::from(pos),
-            self.orientation(el)?,
-        ))
-    }
-
-    /// The element with the top-level defaults of its kind filled in.
-    fn with_defaults(&self, el: &Element, defaults: &[(String, String)]) -> Element {
-        let mut out = el.clone();
-        for (k, v) in defaults {
-            if out.attr(k).is_none() {
-                out.attrs.push((k.clone(), v.clone()));
-            }
-        }
-        out
+        canonical::pose(el, &self.angles)
     }
 
     fn scene(&mut self, root: &Element) -> Result<(), SceneError> {
-        if root.name != "mujoco" {
-            return Err(self.err(root, "the root element must be <mujoco>"));
-        }
         self.check_attrs(root, &["model"])?;
-        // Settings and defaults first: they apply wherever they appear in the file.
+        // Settings first: they apply wherever they appear in the file (the compiler and the
+        // defaults were read before the tree was made canonical).
         for el in &root.children {
             match el.name.as_str() {
-                "compiler" => self.compiler(el)?,
                 "option" => self.option(el)?,
-                "default" => self.default(el)?,
                 "custom" => self.custom(el)?,
                 _ => {}
             }
@@ -345,15 +551,21 @@ impl Builder {
         for el in root.children.iter().filter(|e| e.name == "asset") {
             for a in &el.children {
                 match a.name.as_str() {
-                    "texture" | "material" | "hfield" | "skin" => {}
+                    "texture" | "material" | "skin" | "model" => self.unused(a, "renderer asset"),
                     "mesh" => self.mesh_asset(a)?,
-                    _ => return Err(self.err(a, "unsupported asset")),
+                    "hfield" => {
+                        return Err(self.err(
+                            a,
+                            "height fields are not supported by SCM: use a mesh or primitive geoms",
+                        ))
+                    }
+                    _ => return Err(self.err(a, "unknown asset")),
                 }
             }
         }
         for el in &root.children {
             match el.name.as_str() {
-                "compiler" | "option" | "default" | "custom" => {}
+                "compiler" | "option" | "default" | "custom" | "asset" => {}
                 "worldbody" => {
                     for child in &el.children {
                         self.body_child(child, 0)?;
@@ -365,41 +577,179 @@ impl Builder {
                     }
                 }
                 "contact" => self.contact(el)?,
-                "asset" => {}
-                "visual" | "statistic" | "size" | "keyframe" | "sensor" | "extension" => {}
+                "tendon" => {
+                    for t in &el.children {
+                        self.tendon(t)?;
+                    }
+                }
+                "equality" => {
+                    if let Some(e) = el.children.first() {
+                        if self.flags.equality {
+                            return Err(self.err(e, "equality constraints are not supported by SCM yet: remove them, or switch them off with <option><flag equality=\"disable\"/></option>"));
+                        }
+                        self.unused(
+                            el,
+                            "equality constraints switched off by <flag equality=\"disable\">",
+                        );
+                    }
+                }
+                "visual" | "statistic" | "size" | "extension" => {
+                    self.unused(el, "renderer and memory settings")
+                }
+                "sensor" => self.unused(el, "sensors (SCM's outputs are its FMU variables)"),
+                "keyframe" => self.unused(
+                    el,
+                    "keyframes (the initial state is the model's reference configuration)",
+                ),
                 _ => return Err(self.err(el, "unsupported element")),
             }
         }
         Ok(())
     }
 
+    /// `<compiler>`: read before the tree is made canonical (the angle unit and Euler
+    /// sequence decide how orientations read).
     fn compiler(&mut self, el: &Element) -> Result<(), SceneError> {
         self.check_attrs(
             el,
             &[
                 "angle",
+                "eulerseq",
+                "coordinate",
                 "meshdir",
+                "assetdir",
+                "texturedir",
                 "autolimits",
                 "inertiafromgeom",
-                "texturedir",
-                "assetdir",
+                "inertiagrouprange",
+                "settotalmass",
+                "boundmass",
+                "boundinertia",
+                "strippath",
+                "discardvisual",
+                "fusestatic",
+                "usethread",
+                "fitaabb",
+                "saveinertial",
+                "alignfree",
             ],
         )?;
         match el.attr("angle") {
-            None | Some("degree") => self.degrees = true,
-            Some("radian") => self.degrees = false,
+            None => {}
+            Some("degree") => self.angles.degrees = true,
+            Some("radian") => self.angles.degrees = false,
             Some(a) => {
                 return Err(self.err(el, format!("angle=\"{a}\": expected degree or radian")))
             }
         }
+        if let Some(seq) = el.attr("eulerseq") {
+            self.angles.eulerseq = Angles::parse_eulerseq(seq).ok_or_else(|| {
+                self.err(
+                    el,
+                    format!("eulerseq=\"{seq}\": expected three of x y z X Y Z"),
+                )
+            })?;
+        }
+        match el.attr("coordinate") {
+            None | Some("local") => {}
+            Some(c) => return Err(self.err(el, format!("coordinate=\"{c}\": MuJoCo only reads local coordinates (since 2.3.3): give every pose relative to its parent"))),
+        }
         if let Some(d) = el.attr("meshdir").or(el.attr("assetdir")) {
             self.meshdir = Some(d.to_string());
+        }
+        let flag = |key: &str| -> Result<Option<bool>, SceneError> {
+            match el.attr(key) {
+                None => Ok(None),
+                Some("true") => Ok(Some(true)),
+                Some("false") => Ok(Some(false)),
+                Some(v) => Err(element_error(
+                    el,
+                    format!("{key}=\"{v}\": expected true or false"),
+                )),
+            }
+        };
+        if let Some(a) = flag("autolimits")? {
+            self.settings.autolimits = a;
+        }
+        for (key, why) in [
+            (
+                "discardvisual",
+                "SCM keeps every geom; visual-only geoms never collide here either",
+            ),
+            ("fusestatic", "fusing static bodies changes no motion"),
+            ("strippath", "mesh paths are read as written"),
+            ("usethread", "compiler threading"),
+            ("saveinertial", "output only"),
+        ] {
+            if el.attr(key).is_some() {
+                self.unused(el, format!("{key} ({why})"));
+            }
+        }
+        if flag("alignfree")? == Some(true) {
+            return Err(self.err(el, "alignfree=\"true\" moves free bodies' frames to their inertia frames: not supported by SCM, leave it false"));
+        }
+        if el.attr("fitaabb").is_some() {
+            return Err(self.err(el, "fitaabb applies to mesh-fitted primitives, which SCM does not support: give primitive geoms their sizes"));
+        }
+        match el.attr("inertiafromgeom") {
+            None => {}
+            Some("auto") => self.settings.inertia_from_geom = InertiaFromGeom::Auto,
+            Some("true") => self.settings.inertia_from_geom = InertiaFromGeom::Always,
+            Some("false") => self.settings.inertia_from_geom = InertiaFromGeom::Never,
+            Some(v) => {
+                return Err(self.err(
+                    el,
+                    format!("inertiafromgeom=\"{v}\": expected true, false or auto"),
+                ))
+            }
+        }
+        if let Some(r) = el.attr("inertiagrouprange") {
+            let v: Option<Vec<i64>> = r.split_whitespace().map(|t| t.parse().ok()).collect();
+            match v.as_deref() {
+                Some([lo, hi]) => self.settings.inertia_groups = (*lo, *hi),
+                _ => {
+                    return Err(self.err(
+                        el,
+                        format!("inertiagrouprange=\"{r}\": expected two integers"),
+                    ))
+                }
+            }
+        }
+        for (key, slot) in [
+            ("settotalmass", &mut self.settings.total_mass),
+            ("boundmass", &mut self.settings.bound_mass),
+            ("boundinertia", &mut self.settings.bound_inertia),
+        ] {
+            if let Some(s) = el.attr(key) {
+                match parse_floats(s).as_deref() {
+                    Some([v]) => *slot = *v,
+                    _ => {
+                        return Err(SceneError {
+                            file: el.file.to_string(),
+                            line: el.line,
+                            element: el.name.clone(),
+                            message: format!("{key}=\"{s}\": expected one finite number"),
+                        })
+                    }
+                }
+            }
         }
         Ok(())
     }
 
     fn option(&mut self, el: &Element) -> Result<(), SceneError> {
-        self.check_attrs(el, &["timestep", "gravity", "integrator"])?;
+        self.check_attrs(
+            el,
+            &[
+                "timestep",
+                "gravity",
+                "integrator",
+                "density",
+                "viscosity",
+                "wind",
+                "magnetic",
+            ],
+        )?;
         if let Some(t) = self.float(el, "timestep")? {
             if t <= 0.0 {
                 return Err(self.err(el, format!("timestep=\"{t}\" must be positive")));
@@ -409,38 +759,84 @@ impl Builder {
         if let Some(g) = self.vec3(el, "gravity")? {
             self.gravity = g;
         }
-        self.option_integrator = match el.attr("integrator") {
-            None => None,
+        for key in ["density", "viscosity"] {
+            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
+                self.fluid = Some(el.clone());
+                let _ = key;
+            }
+        }
+        if el.attr("magnetic").is_some() {
+            self.unused(el, "magnetic (the magnetometer sensor's field)");
+        }
+        if el.attr("wind").is_some() && self.fluid.is_none() {
+            self.unused(
+                el,
+                "wind (acts only through fluid forces, off here: density and viscosity are 0)",
+            );
+        }
+        match el.attr("integrator") {
+            None => {}
             // MuJoCo's "Euler" is semi-implicit in velocity.
-            Some("Euler") => Some(Integrator::SemiImplicitEuler),
-            Some("RK4") => Some(Integrator::Rk4),
+            Some("Euler") => self.option_integrator = Some(Integrator::SemiImplicitEuler),
+            Some("RK4") => self.option_integrator = Some(Integrator::Rk4),
             // MuJoCo's implicit integrators are implicit in the velocity-dependent forces; SCM's
             // implicit Euler covers that and the stiff contact too.
-            Some("implicit") | Some("implicitfast") => Some(Integrator::ImplicitEuler),
+            Some("implicit") | Some("implicitfast") => {
+                self.option_integrator = Some(Integrator::ImplicitEuler)
+            }
             Some(i) => {
                 return Err(self.err(el, format!("integrator=\"{i}\" is not a MuJoCo integrator")))
             }
         };
+        for f in &el.children {
+            if f.name != "flag" {
+                return Err(self.err(f, "an <option> holds only <flag>"));
+            }
+            self.flag(f)?;
+        }
         Ok(())
     }
 
-    fn default(&mut self, el: &Element) -> Result<(), SceneError> {
-        if el.attr("class").is_some() {
-            return Err(self.err(
-                el,
-                "default classes are not supported: use the top-level <default>",
-            ));
-        }
-        for d in &el.children {
-            let target = match d.name.as_str() {
-                "joint" => &mut self.defaults.joint,
-                "geom" => &mut self.defaults.geom,
-                "general" | "motor" | "position" | "velocity" => &mut self.defaults.general,
-                "default" => return Err(self.err(d, "nested default classes are not supported")),
-                "site" | "camera" | "light" | "material" | "mesh" => continue,
-                _ => return Err(self.err(d, "unsupported default")),
+    /// `<option><flag>`: the switches that turn a force on or off are honoured; the rest
+    /// configure MuJoCo's solver and are noted as unused.
+    fn flag(&mut self, el: &Element) -> Result<(), SceneError> {
+        for (k, v) in &el.attrs {
+            let on = match v.as_str() {
+                "enable" => true,
+                "disable" => false,
+                _ => return Err(self.err(el, format!("{k}=\"{v}\": expected enable or disable"))),
             };
-            target.extend(d.attrs.iter().cloned());
+            let f = &mut self.flags;
+            match k.as_str() {
+                "gravity" => f.gravity = on,
+                "contact" => f.contact = on,
+                "limit" => f.limit = on,
+                "equality" => f.equality = on,
+                "frictionloss" => f.frictionloss = on,
+                "spring" => f.spring = on,
+                "damper" => f.damper = on,
+                "actuation" => f.actuation = on,
+                "filterparent" => f.filterparent = on,
+                "clampctrl" => f.clampctrl = on,
+                "eulerdamp" => f.eulerdamp = on,
+                "constraint" => {
+                    // Every constraint: contacts, limits, equalities, friction loss.
+                    f.contact &= on;
+                    f.limit &= on;
+                    f.equality &= on;
+                    f.frictionloss &= on;
+                }
+                "passive" => {
+                    f.spring &= on;
+                    f.damper &= on;
+                }
+                "warmstart" | "energy" | "sensor" | "midphase" | "island" | "nativeccd"
+                | "multiccd" | "refsafe" | "fwdinv" | "invdiscrete" | "autoreset" | "override" => {
+                    let why = format!("flag {k} (MuJoCo's solver and pipeline)");
+                    self.unused(el, why);
+                }
+                _ => return Err(self.err(el, format!("'{k}' is not a MuJoCo flag"))),
+            }
         }
         Ok(())
     }
@@ -494,18 +890,16 @@ impl Builder {
     }
 
     fn body(&mut self, el: &Element, parent: usize) -> Result<(), SceneError> {
-        self.check_attrs(
-            el,
-            &[
-                "name",
-                "pos",
-                "quat",
-                "euler",
-                "childclass",
-                "mocap",
-                "gravcomp",
-            ],
-        )?;
+        self.check_attrs(el, &["name", "pos", "quat", "mocap", "gravcomp"])?;
+        if self.float(el, "gravcomp")?.is_some_and(|g| g != 0.0) {
+            return Err(self.err(
+                el,
+                format!(
+                    "gravcomp is not supported by SCM yet{}",
+                    advice("body", "gravcomp")
+                ),
+            ));
+        }
         let mocap = match el.attr("mocap") {
             None | Some("false") => false,
             Some("true") => true,
@@ -542,6 +936,7 @@ impl Builder {
             mocap,
         });
         self.explicit_inertia.push(false);
+        self.geom_inertia.push(NO_INERTIA);
         for child in &el.children {
             self.body_child(child, index)?;
         }
@@ -549,28 +944,28 @@ impl Builder {
     }
 
     fn joint(&mut self, el: &Element, body: usize, free: bool) -> Result<(), SceneError> {
-        let el = &if free {
-            el.clone()
+        if free {
+            self.check_attrs(el, &["name", "align"])?;
         } else {
-            self.with_defaults(el, &self.defaults.joint)
-        };
-        self.check_attrs(
-            el,
-            &[
-                "name",
-                "type",
-                "axis",
-                "pos",
-                "damping",
-                "stiffness",
-                "frictionloss",
-                "armature",
-                "range",
-                "limited",
-                "ref",
-                "springref",
-            ],
-        )?;
+            self.check_attrs(
+                el,
+                &[
+                    "name",
+                    "type",
+                    "axis",
+                    "pos",
+                    "damping",
+                    "stiffness",
+                    "frictionloss",
+                    "armature",
+                    "range",
+                    "limited",
+                    "ref",
+                    "springref",
+                    "springdamper",
+                ],
+            )?;
+        }
         let kind = if free {
             JointKind::Free
         } else {
@@ -582,20 +977,63 @@ impl Builder {
                 t => return Err(self.err(el, format!("type=\"{t}\" is not a joint type"))),
             }
         };
-        for (key, what) in [
-            ("ref", "reference positions"),
-            ("springref", "spring reference positions"),
-        ] {
-            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
-                return Err(self.err(el, format!("{key}: {what} other than 0 are not supported")));
-            }
-        }
-        if el.attr("limited") == Some("true") {
-            self.warnings.push(format!(
-                "{}:{}: joint limits are not modelled by SCM (MuJoCo enforces them)",
-                self.file, el.line
+        if self
+            .floats(el, "springdamper", 2)?
+            .is_some_and(|v| v != [0.0, 0.0])
+        {
+            return Err(self.err(
+                el,
+                "springdamper is not supported by SCM: give stiffness and damping",
             ));
         }
+        // Hinge angles are read in the compiler's unit; ball ranges too.
+        let angular = |v: f64| {
+            if kind == JointKind::Hinge || kind == JointKind::Ball {
+                self.angles.radians(v)
+            } else {
+                v
+            }
+        };
+        let (mut reference, mut springref) = (0.0, 0.0);
+        for (key, slot) in [("ref", &mut reference), ("springref", &mut springref)] {
+            if let Some(v) = self.float(el, key)? {
+                if v != 0.0 && !matches!(kind, JointKind::Slide | JointKind::Hinge) {
+                    return Err(
+                        self.err(el, format!("{key} applies to slide and hinge joints only"))
+                    );
+                }
+                *slot = angular(v);
+            }
+        }
+        let range = self.floats(el, "range", 2)?;
+        let limited = match (el.attr("limited"), range.is_some()) {
+            (Some("true"), _) => true,
+            (Some("false"), _) => false,
+            (None | Some("auto"), has_range) => {
+                if has_range && !self.settings.autolimits && el.attr("limited").is_some() {
+                    return Err(
+                        self.err(el, "limited=\"auto\" needs <compiler autolimits=\"true\">")
+                    );
+                }
+                has_range && self.settings.autolimits
+            }
+            (Some(v), _) => {
+                return Err(self.err(el, format!("limited=\"{v}\": expected true, false or auto")))
+            }
+        };
+        let limit = match (limited, &range) {
+            (false, _) => None,
+            (true, None) => return Err(self.err(el, "limited joint without range")),
+            (true, Some(r)) => {
+                if r[0] >= r[1] && kind != JointKind::Ball {
+                    return Err(self.err(el, "range: the lower limit must be below the upper one"));
+                }
+                if kind == JointKind::Free {
+                    return Err(self.err(el, "a free joint cannot be limited"));
+                }
+                Some((angular(r[0]), angular(r[1]), el.clone()))
+            }
+        };
         let axis = self.vec3(el, "axis")?.unwrap_or_else(Vector3::z);
         if axis.norm() < 1e-12 {
             return Err(self.err(el, "axis is zero"));
@@ -632,17 +1070,19 @@ impl Builder {
             stiffness: scalar("stiffness")?,
             frictionloss: scalar("frictionloss")?,
             armature: scalar("armature")?,
+            reference,
+            springref,
             qadr: 0,
             dadr: 0,
             body,
         };
         self.joints.push(joint);
+        self.limits.push(limit);
         self.bodies[body].joints.push(index);
         Ok(())
     }
 
     fn geom(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
-        let el = &self.with_defaults(el, &self.defaults.geom);
         self.check_attrs(
             el,
             &[
@@ -651,26 +1091,31 @@ impl Builder {
                 "size",
                 "pos",
                 "quat",
-                "euler",
                 "fromto",
+                "group",
+                "shellinertia",
                 "mass",
                 "density",
                 "friction",
                 "contype",
                 "conaffinity",
                 "condim",
-                "margin",
-                "gap",
-                "solref",
-                "solimp",
-                "priority",
                 "mesh",
             ],
         )?;
-        for ignored in ["margin", "gap", "solref", "solimp", "condim", "priority"] {
-            if el.attr(ignored).is_some() {
-                self.warnings.push(format!("{}:{}: geom attribute '{ignored}' belongs to MuJoCo's contact model and is ignored by SCM", self.file, el.line));
-            }
+        if el.attr("shellinertia").is_some_and(|v| v != "false") {
+            return Err(self.err(
+                el,
+                "shellinertia is not supported by SCM: give the body an <inertial>",
+            ));
+        }
+        match el.attr("condim") {
+            None | Some("3") => {}
+            Some("1") => self.warnings.push(format!(
+                "{}:{}: condim=\"1\" (frictionless in MuJoCo): SCM applies scm_friction to every pair",
+                el.file, el.line
+            )),
+            Some(c) => self.unused(el, format!("condim=\"{c}\" (MuJoCo's torsional and rolling friction)")),
         }
         if el.attr("friction").is_some() {
             self.warnings.push(format!(
@@ -687,12 +1132,6 @@ impl Builder {
                 return Err(self.err(el, format!("fromto does not apply to a {kind}")))
             }
             Some(f) => {
-                if el.attr("pos").is_some()
-                    || el.attr("quat").is_some()
-                    || el.attr("euler").is_some()
-                {
-                    return Err(self.err(el, "give either fromto or pos/quat/euler, not both"));
-                }
                 let (a, b) = (
                     Vector3::new(f[0], f[1], f[2]),
                     Vector3::new(f[3], f[4], f[5]),
@@ -701,10 +1140,11 @@ impl Builder {
                 if axis.norm() < 1e-12 {
                     return Err(self.err(el, "fromto: the two points coincide"));
                 }
+                // MuJoCo points the geom's z axis from the second point to the first.
                 Some((
                     Isometry3::from_parts(
                         Translation3::from((a + b) * 0.5),
-                        crate::geometry::aopc::z_to(&axis.normalize()),
+                        canonical::z_to(&(a - b)),
                     ),
                     0.5 * axis.norm(),
                 ))
@@ -812,7 +1252,15 @@ impl Builder {
             )
         });
         if let Some(shape) = &shape {
-            if !self.explicit_inertia[body] && body != 0 {
+            let group: i64 = match el.attr("group") {
+                None => 0,
+                Some(g) => g
+                    .trim()
+                    .parse()
+                    .map_err(|_| self.err(el, format!("group=\"{g}\" must be an integer")))?,
+            };
+            let (lo, hi) = self.settings.inertia_groups;
+            if body != 0 && (lo..=hi).contains(&group) {
                 let mp = shape.mass_properties();
                 let mass = match (self.float(el, "mass")?, self.float(el, "density")?) {
                     (Some(m), _) if m < 0.0 => {
@@ -825,7 +1273,7 @@ impl Builder {
                     (None, d) => d.unwrap_or(1000.0) * mp.volume,
                 };
                 let gi = geom_inertia(&mp, mass, &pose);
-                self.bodies[body].inertia = self.bodies[body].inertia.add(&gi);
+                self.geom_inertia[body] = self.geom_inertia[body].add(&gi);
             }
         } else if body != 0 && !self.bodies[body].joints.is_empty() {
             return Err(self.err(el, "a plane can only belong to a static body"));
@@ -839,6 +1287,8 @@ impl Builder {
             pose,
             contype,
             conaffinity,
+            file: el.file.to_string(),
+            line: el.line,
         });
         Ok(())
     }
@@ -862,6 +1312,25 @@ impl Builder {
             if el.attr(unsupported).is_some() {
                 return Err(self.err(el, format!("{unsupported} is not supported")));
             }
+        }
+        // SCM computes the exact mass properties of the closed mesh, which is MuJoCo's
+        // inertia="exact"; its default ("legacy") and "convex" differ for non-convex meshes.
+        match el.attr("inertia") {
+            Some("exact") => {}
+            Some("shell") => {
+                return Err(self.err(el, "inertia=\"shell\" is not supported by SCM: use exact (a solid mesh), or give the body an <inertial>"))
+            }
+            Some("legacy" | "convex") => {}
+            Some(v) => {
+                return Err(self.err(el, format!("inertia=\"{v}\": expected exact, convex, legacy or shell")))
+            }
+            None => {}
+        }
+        if el.attr("inertia") != Some("exact") {
+            self.warnings.push(format!(
+                "{}:{}: mesh inertia=\"{}\": SCM computes the exact inertia of the closed mesh; MuJoCo's can differ for a non-convex mesh (write inertia=\"exact\" for the same masses in both)",
+                el.file, el.line, el.attr("inertia").unwrap_or("legacy")
+            ));
         }
         let file = el
             .attr("file")
@@ -914,10 +1383,7 @@ impl Builder {
     }
 
     fn inertial(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
-        self.check_attrs(
-            el,
-            &["pos", "quat", "euler", "mass", "diaginertia", "fullinertia"],
-        )?;
+        self.check_attrs(el, &["pos", "quat", "mass", "diaginertia", "fullinertia"])?;
         let mass = self
             .float(el, "mass")?
             .ok_or_else(|| self.err(el, "mass is required"))?;
@@ -947,7 +1413,12 @@ impl Builder {
     }
 
     fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
-        let el = &self.with_defaults(el, &self.defaults.general);
+        if el.attr("tendon").is_some() || el.attr("site").is_some() || el.attr("body").is_some() {
+            return Err(self.err(
+                el,
+                "only joint actuators are supported by SCM: give joint=\"NAME\"",
+            ));
+        }
         self.check_attrs(
             el,
             &[
@@ -962,8 +1433,8 @@ impl Builder {
                 "forcelimited",
             ],
         )?;
-        if el.attr("forcerange").is_some() && el.attr("forcelimited") != Some("false") {
-            return Err(self.err(el, "forcerange is not supported"));
+        if self.limited(el, "forcelimited", "forcerange")?.is_some() {
+            return Err(self.err(el, "forcerange is not supported by SCM yet: limit the control range (ctrlrange) instead"));
         }
         let jname = el
             .attr("joint")
@@ -1008,14 +1479,10 @@ impl Builder {
             },
             _ => return Err(self.err(el, "unsupported actuator: use motor, position or velocity")),
         };
-        let ctrlrange = match (self.floats(el, "ctrlrange", 2)?, el.attr("ctrllimited")) {
-            (Some(r), l) if l != Some("false") => {
-                if r[0] > r[1] {
-                    return Err(self.err(el, "ctrlrange is reversed"));
-                }
-                Some((r[0], r[1]))
-            }
-            _ => None,
+        let ctrlrange = match self.limited(el, "ctrllimited", "ctrlrange")? {
+            Some(r) if r.0 > r.1 => return Err(self.err(el, "ctrlrange is reversed")),
+            Some(_) if !self.flags.clampctrl => None,
+            r => r,
         };
         let name = el
             .attr("name")
@@ -1031,6 +1498,78 @@ impl Builder {
             gear,
             ctrlrange,
         });
+        Ok(())
+    }
+
+    /// A range that applies as MuJoCo's `limited` attribute (true, false, or auto: given
+    /// with `autolimits`) says.
+    fn limited(
+        &self,
+        el: &Element,
+        flag: &str,
+        range: &str,
+    ) -> Result<Option<(f64, f64)>, SceneError> {
+        let r = self.floats(el, range, 2)?;
+        let on = match el.attr(flag) {
+            Some("true") => true,
+            Some("false") => false,
+            None | Some("auto") => r.is_some() && self.settings.autolimits,
+            Some(v) => {
+                return Err(self.err(el, format!("{flag}=\"{v}\": expected true, false or auto")))
+            }
+        };
+        match (on, r) {
+            (true, None) => Err(self.err(el, format!("{flag} without {range}"))),
+            (true, Some(r)) => Ok(Some((r[0], r[1]))),
+            (false, _) => Ok(None),
+        }
+    }
+
+    /// `<fixed>` tendons are accepted where they add no force (no stiffness, damping, limits or
+    /// actuator); anything else is refused.
+    fn tendon(&mut self, el: &Element) -> Result<(), SceneError> {
+        if el.name != "fixed" {
+            return Err(self.err(
+                el,
+                "spatial tendons are not supported by SCM yet: remove the tendon and what uses it",
+            ));
+        }
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "stiffness",
+                "damping",
+                "range",
+                "limited",
+                "springlength",
+                "frictionloss",
+                "armature",
+            ],
+        )?;
+        for key in ["stiffness", "damping", "frictionloss", "armature"] {
+            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
+                return Err(self.err(el, format!("tendon {key} is not supported by SCM yet: remove it, or put the spring or damper on the joints")));
+            }
+        }
+        if self.limited(el, "limited", "range")?.is_some() && self.flags.limit {
+            return Err(self.err(el, "tendon limits are not supported by SCM yet: remove the range, or switch limits off with <option><flag limit=\"disable\"/></option>"));
+        }
+        for j in &el.children {
+            if j.name != "joint" {
+                return Err(self.err(j, "a fixed tendon holds <joint> elements"));
+            }
+            let name = j
+                .attr("joint")
+                .ok_or_else(|| self.err(j, "joint=\"NAME\" is required"))?;
+            if !self.joints.iter().any(|x| x.name == name) {
+                return Err(self.err(j, format!("no joint named '{name}'")));
+            }
+        }
+        self.unused(
+            el,
+            "fixed tendon without stiffness, damping, limits or actuator: it adds no force",
+        );
         Ok(())
     }
 
@@ -1076,7 +1615,118 @@ impl Builder {
         }
     }
 
+    /// Body inertias as `<compiler>` says: from the geoms or `<inertial>`, bounded, scaled to
+    /// the total mass.
+    fn compile_inertias(&mut self) {
+        let s = self.settings;
+        for b in 1..self.bodies.len() {
+            let from_geoms = match s.inertia_from_geom {
+                InertiaFromGeom::Always => true,
+                InertiaFromGeom::Auto => !self.explicit_inertia[b],
+                InertiaFromGeom::Never => false,
+            };
+            if from_geoms {
+                self.bodies[b].inertia = self.geom_inertia[b].clone();
+            }
+            let i = &mut self.bodies[b].inertia;
+            i.mass = i.mass.max(s.bound_mass);
+            if s.bound_inertia > 0.0 {
+                let e = i.rot.symmetric_eigen();
+                let d = e.eigenvalues.map(|x| x.max(s.bound_inertia));
+                i.rot = e.eigenvectors * Matrix3::from_diagonal(&d) * e.eigenvectors.transpose();
+            }
+        }
+        if s.total_mass > 0.0 {
+            let total: f64 = self.bodies.iter().map(|b| b.inertia.mass).sum();
+            if total > 0.0 {
+                let k = s.total_mass / total;
+                for b in self.bodies.iter_mut().skip(1) {
+                    b.inertia.mass *= k;
+                    b.inertia.rot *= k;
+                }
+            }
+        }
+    }
+
+    /// Applies the `<option><flag>` switches; returns what SCM refuses to simulate (features
+    /// that change the physics and that SCM does not model), first in file order first.
+    fn apply_flags(&mut self) -> Vec<SceneError> {
+        let mut refused = Vec::new();
+        let f = self.flags;
+        if !f.gravity {
+            self.gravity = Vector3::zeros();
+        }
+        for j in &mut self.joints {
+            if !f.frictionloss {
+                j.frictionloss = 0.0;
+            }
+            if !f.spring {
+                j.stiffness = 0.0;
+            }
+            if !f.damper {
+                j.damping = 0.0;
+            }
+        }
+        if let Some(el) = &self.fluid {
+            refused.push(self.err(
+                el,
+                "fluid forces (density, viscosity) are not supported by SCM yet: set both to 0",
+            ));
+        }
+        if f.limit {
+            for (_, _, el) in self.limits.iter().flatten() {
+                refused.push(self.err(el, "joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
+            }
+        }
+        if !f.actuation && !self.actuators.is_empty() {
+            refused.push(SceneError {
+                file: self.file.clone(),
+                line: 0,
+                element: "flag".into(),
+                message: "actuation=\"disable\" with actuators is not supported by SCM: remove the actuators instead".into(),
+            });
+        }
+        refused.extend(std::mem::take(&mut self.refused));
+        refused.sort_by(|a, b| (a.file.as_str(), a.line).cmp(&(b.file.as_str(), b.line)));
+        refused
+    }
+
+    /// The compiled model without colliders, and everything SCM would refuse about it.
+    fn compiled(mut self) -> Result<Compiled, SceneError> {
+        self.compile_inertias();
+        let refused = self.apply_flags();
+        let tree = self.tree()?;
+        Ok(Compiled {
+            tree,
+            geoms: self.geoms,
+            actuators: self.actuators,
+            timestep: self.timestep.unwrap_or(DEFAULT_STEP),
+            integrator: self.option_integrator.unwrap_or_default(),
+            limits: self
+                .limits
+                .into_iter()
+                .map(|l| l.map(|(lo, hi, _)| (lo, hi)))
+                .collect(),
+            refused,
+            unused: self.unused,
+            warnings: self.warnings,
+        })
+    }
+
+    fn tree(&self) -> Result<Tree, SceneError> {
+        Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| SceneError {
+            file: self.file.clone(),
+            line: 0,
+            element: "body".into(),
+            message: e.to_string(),
+        })
+    }
+
     fn finish(mut self) -> Result<Scene, SceneError> {
+        self.compile_inertias();
+        if let Some(first) = self.apply_flags().into_iter().next() {
+            return Err(first);
+        }
         let mut contact = ContactParams::default();
         let mut spacing = DEFAULT_SPACING;
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
@@ -1154,55 +1804,27 @@ impl Builder {
                 _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
             }
         }
-        // Colliders: the union of each body's geoms, minus the faces inside another geom of it.
-        let nb = self.bodies.len();
-        let mut colliders: Vec<Option<Collider>> = vec![None; nb];
-        for (b, slot) in colliders.iter_mut().enumerate() {
-            let geoms: Vec<&Geom> = self.geoms.iter().filter(|g| g.body == b).collect();
-            let planes: Vec<&&Geom> = geoms.iter().filter(|g| g.shape.is_none()).collect();
-            if let Some(p) = planes.first() {
-                if geoms.len() > 1 {
-                    let line = 0;
-                    return Err(SceneError { file: self.file.clone(), line, element: "geom".into(), message: format!("body '{}' has a plane and other geoms: give the plane a body of its own", self.bodies[b].name) });
-                }
-                *slot = Some(Collider::HalfSpace {
-                    point: p.pose.translation.vector,
-                    normal: p.pose.rotation * Vector3::z(),
-                });
-                continue;
+        // With contacts switched off (<flag contact="disable">) no body collides.
+        let (pairs, colliders) = if self.flags.contact {
+            self.split_static_planes();
+            let (pairs, colliding) = self.pairs()?;
+            let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
+            for (b, slot) in colliders.iter_mut().enumerate() {
+                *slot = self.collider(b, &colliding, spacing)?;
             }
-            if geoms.is_empty() {
-                continue;
-            }
-            let parts: Vec<(Shape, Isometry3<f64>)> = geoms
-                .iter()
-                .map(|g| (g.shape.clone().expect("planes handled above"), g.pose))
+            let pairs = pairs
+                .into_iter()
+                .filter(|p| match (&colliders[p.a], &colliders[p.b]) {
+                    (Some(Collider::HalfSpace { .. }), Some(Collider::HalfSpace { .. })) => false,
+                    (Some(_), Some(_)) => true,
+                    _ => false,
+                })
                 .collect();
-            let estimate: f64 = parts
-                .iter()
-                .map(|(shape, _)| estimated_points(shape, spacing))
-                .sum();
-            if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
-                return Err(SceneError {
-                    file: self.file.clone(),
-                    line: 0,
-                    element: "geom".into(),
-                    message: format!("body '{}' (geoms {}) would get about {estimate:.3e} AOPC points at scm_spacing = {spacing} m (at most {MAX_AOPC_POINTS:e}): increase scm_spacing or make the geoms smaller", self.bodies[b].name, geoms.iter().map(|g| format!("'{}'", g.name)).collect::<Vec<_>>().join(", ")),
-                });
-            }
-            let aopc = crate::geometry::union::sample_union(&parts, spacing);
-            *slot = Some(Collider::Aopc(aopc));
-        }
-        let tree =
-            Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| {
-                SceneError {
-                    file: self.file.clone(),
-                    line: 0,
-                    element: "body".into(),
-                    message: e.to_string(),
-                }
-            })?;
-        let pairs = self.pairs(&tree, &colliders)?;
+            (pairs, colliders)
+        } else {
+            (vec![], vec![None; self.bodies.len()])
+        };
+        let tree = self.tree()?;
         let name = Path::new(&self.file)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -1223,17 +1845,111 @@ impl Builder {
             model,
             geoms: self.geoms,
             warnings: self.warnings,
+            unused: self.unused,
             meshes: self.meshes,
             meshdir: self.meshdir,
+            includes: vec![],
         })
     }
 
-    /// Colliding pairs by MuJoCo's rules: contype/conaffinity bits, no parent–child pairs
-    /// (unless the parent is the world), explicit `<pair>` and `<exclude>`; per body pair.
-    fn pairs(&self, tree: &Tree, colliders: &[Option<Collider>]) -> Result<Vec<Pair>, SceneError> {
-        let nb = tree.bodies.len();
+    /// A static body (welded to the world) may hold planes beside other geoms, as MuJoCo's
+    /// worldbody usually does (floor and fixed obstacles); SCM's collider is one shape per
+    /// body, so each such plane moves to a static body of its own, named after the plane
+    /// (made unique), in the same frame. Nothing moves: the bodies are welded to the world.
+    fn split_static_planes(&mut self) {
+        let weld = filter::weld_bodies(&self.bodies);
+        for b in 0..self.bodies.len() {
+            if weld[b] != 0 {
+                continue;
+            }
+            let on_b: Vec<usize> = (0..self.geoms.len())
+                .filter(|&g| self.geoms[g].body == b)
+                .collect();
+            let planes: Vec<usize> = on_b
+                .iter()
+                .copied()
+                .filter(|&g| self.geoms[g].shape.is_none())
+                .collect();
+            if planes.is_empty() || (planes.len() == 1 && on_b.len() == 1) {
+                continue;
+            }
+            for g in planes {
+                let mut name = self.geoms[g].name.clone();
+                while self.bodies.iter().any(|x| x.name == name) {
+                    name.push('_');
+                }
+                let index = self.bodies.len();
+                self.bodies.push(Body {
+                    name,
+                    parent: Some(b),
+                    offset: Isometry3::identity(),
+                    inertia: NO_INERTIA,
+                    joints: vec![],
+                    mocap: false,
+                });
+                self.explicit_inertia.push(false);
+                self.geom_inertia.push(NO_INERTIA);
+                self.geoms[g].body = index;
+            }
+        }
+    }
+
+    /// A body's collider from its geoms that can touch something: the exact half-space of a
+    /// plane, or the AOPC of the union of the other geoms.
+    fn collider(
+        &self,
+        b: usize,
+        colliding: &[bool],
+        spacing: f64,
+    ) -> Result<Option<Collider>, SceneError> {
+        let geoms: Vec<&Geom> = self
+            .geoms
+            .iter()
+            .zip(colliding)
+            .filter(|(g, &c)| c && g.body == b)
+            .map(|(g, _)| g)
+            .collect();
+        if let Some(p) = geoms.iter().find(|g| g.shape.is_none()) {
+            if geoms.len() > 1 {
+                return Err(SceneError {
+                    file: p.file.clone(),
+                    line: p.line,
+                    element: "geom".into(),
+                    message: format!("plane '{}' shares moving body '{}' with other geoms: a plane belongs to a static body", p.name, self.bodies[b].name),
+                });
+            }
+            return Ok(Some(Collider::HalfSpace {
+                point: p.pose.translation.vector,
+                normal: p.pose.rotation * Vector3::z(),
+            }));
+        }
+        if geoms.is_empty() {
+            return Ok(None);
+        }
+        let parts: Vec<(Shape, Isometry3<f64>)> = geoms
+            .iter()
+            .map(|g| (g.shape.clone().expect("planes handled above"), g.pose))
+            .collect();
+        let estimate: f64 = parts
+            .iter()
+            .map(|(shape, _)| estimated_points(shape, spacing))
+            .sum();
+        if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
+            return Err(SceneError {
+                file: geoms[0].file.clone(),
+                line: geoms[0].line,
+                element: "geom".into(),
+                message: format!("body '{}' (geoms {}) would get about {estimate:.3e} AOPC points at scm_spacing = {spacing} m (at most {MAX_AOPC_POINTS:e}): increase scm_spacing or make the geoms smaller", self.bodies[b].name, geoms.iter().map(|g| format!("'{}'", g.name)).collect::<Vec<_>>().join(", ")),
+            });
+        }
+        let aopc = crate::geometry::union::sample_union(&parts, spacing);
+        Ok(Some(Collider::Aopc(aopc)))
+    }
+
+    /// Colliding body pairs by MuJoCo's rules ([`filter`]), and which geoms collide at all.
+    fn pairs(&mut self) -> Result<(Vec<Pair>, Vec<bool>), SceneError> {
         let body_of = |name: &str, line: usize, what: &str| -> Result<usize, SceneError> {
-            tree.bodies
+            self.bodies
                 .iter()
                 .position(|b| b.name == name)
                 .ok_or_else(|| SceneError {
@@ -1276,37 +1992,57 @@ impl Builder {
             }
             explicit.push((x.min(y), x.max(y)));
         }
-        let mut pairs = Vec::new();
+        let rules = filter::Rules {
+            bodies: &self.bodies,
+            geoms: &self.geoms,
+            filterparent: self.flags.filterparent,
+            excluded: &excluded,
+            explicit: &explicit,
+        };
+        let weld = filter::weld_bodies(&self.bodies);
+        // MuJoCo skips pairs where neither weld body has degrees of freedom (static or mocap).
+        let moves = |b: usize| weld[b] != 0 && !self.bodies[weld[b]].joints.is_empty();
+        let nb = self.bodies.len();
+        let mut body_pairs = Vec::new();
         for a in 0..nb {
             for b in a + 1..nb {
-                let (Some(ca), Some(cb)) = (&colliders[a], &colliders[b]) else {
-                    continue;
-                };
-                if matches!(
-                    (ca, cb),
-                    (Collider::HalfSpace { .. }, Collider::HalfSpace { .. })
-                ) {
-                    continue;
-                }
-                if !tree.body_moves(a) && !tree.body_moves(b) {
-                    continue;
-                }
-                let by_rules = {
-                    let compatible = self.geoms.iter().filter(|g| g.body == a).any(|ga| {
-                        self.geoms.iter().filter(|g| g.body == b).any(|gb| {
-                            (ga.contype & gb.conaffinity) != 0 || (gb.contype & ga.conaffinity) != 0
-                        })
-                    });
-                    let parent_child = (tree.bodies[b].parent == Some(a) && a != 0)
-                        || (tree.bodies[a].parent == Some(b) && b != 0);
-                    compatible && !parent_child && !excluded.contains(&(a, b))
-                };
-                if by_rules || explicit.contains(&(a, b)) {
-                    pairs.push(Pair { a, b });
+                if (moves(a) || moves(b)) && rules.pair(&weld, a, b) {
+                    body_pairs.push((a, b));
                 }
             }
         }
-        Ok(pairs)
+        let colliding = rules.colliding_geoms(&weld, &body_pairs);
+        // Say where whole-body contact reaches further than the bits.
+        let mut notes = Vec::new();
+        for &(a, b) in &body_pairs {
+            if explicit.contains(&(a, b)) {
+                continue;
+            }
+            for (g, _) in self
+                .geoms
+                .iter()
+                .zip(&colliding)
+                .filter(|(g, &c)| c && (g.body == a || g.body == b))
+            {
+                let other = if g.body == a { b } else { a };
+                let any = self
+                    .geoms
+                    .iter()
+                    .zip(&colliding)
+                    .any(|(h, &c)| c && h.body == other && filter::compatible(g, h));
+                if !any {
+                    notes.push(format!(
+                        "{}:{}: geom '{}' of body '{}' touches body '{}' in SCM although its contype/conaffinity exclude every geom of it (SCM's contact acts between whole bodies)",
+                        g.file, g.line, g.name, self.bodies[g.body].name, self.bodies[other].name
+                    ));
+                }
+            }
+        }
+        self.warnings.extend(notes);
+        Ok((
+            body_pairs.into_iter().map(|(a, b)| Pair { a, b }).collect(),
+            colliding,
+        ))
     }
 }
 

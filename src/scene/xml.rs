@@ -2,6 +2,7 @@
 
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
+use std::sync::Arc;
 
 /// An XML element with its attributes (in document order), children and source line.
 #[derive(Clone, Debug, PartialEq)]
@@ -14,6 +15,8 @@ pub struct Element {
     pub children: Vec<Element>,
     /// 1-based line of the start tag.
     pub line: usize,
+    /// The file the element was read from (an `<include>`d file names its own).
+    pub file: Arc<str>,
 }
 
 impl Element {
@@ -43,7 +46,7 @@ fn line_of(text: &str, pos: usize) -> usize {
         + 1
 }
 
-fn element(text: &str, e: &BytesStart, pos: usize) -> Result<Element, XmlError> {
+fn element(text: &str, file: &Arc<str>, e: &BytesStart, pos: usize) -> Result<Element, XmlError> {
     let line = line_of(text, pos);
     let qname = e.name();
     let name: String = {
@@ -80,11 +83,13 @@ fn element(text: &str, e: &BytesStart, pos: usize) -> Result<Element, XmlError> 
         attrs,
         children: Vec::new(),
         line,
+        file: file.clone(),
     })
 }
 
-/// Parses a document into its root element.
-pub fn parse(text: &str) -> Result<Element, XmlError> {
+/// Parses a document into its root element; `file` names it in every element.
+pub fn parse(text: &str, file: &str) -> Result<Element, XmlError> {
+    let file: Arc<str> = Arc::from(file);
     let mut reader = Reader::from_str(text);
     reader.config_mut().check_end_names = true;
     let mut stack: Vec<Element> = Vec::new();
@@ -96,9 +101,9 @@ pub fn parse(text: &str) -> Result<Element, XmlError> {
             message: e.to_string(),
         })?;
         match ev {
-            Event::Start(e) => stack.push(element(text, &e, pos)?),
+            Event::Start(e) => stack.push(element(text, &file, &e, pos)?),
             Event::Empty(e) => {
-                let el = element(text, &e, pos)?;
+                let el = element(text, &file, &e, pos)?;
                 match stack.last_mut() {
                     Some(parent) => parent.children.push(el),
                     None if root.is_none() => root = Some(el),
@@ -157,7 +162,11 @@ mod tests {
 
     #[test]
     fn keeps_lines_and_attributes() {
-        let doc = parse("<a>\n  <b x=\"1 &amp; 2\"/>\n  <c>\n    <d/>\n  </c>\n</a>").unwrap();
+        let doc = parse(
+            "<a>\n  <b x=\"1 &amp; 2\"/>\n  <c>\n    <d/>\n  </c>\n</a>",
+            "t.xml",
+        )
+        .unwrap();
         assert_eq!(doc.children[0].attr("x"), Some("1 & 2"));
         assert_eq!(doc.children[0].line, 2);
         assert_eq!(doc.children[1].children[0].line, 4);
@@ -165,13 +174,13 @@ mod tests {
 
     #[test]
     fn reports_the_line_of_an_error() {
-        let err = parse("<a>\n<b>\n</a>").unwrap_err();
+        let err = parse("<a>\n<b>\n</a>", "t.xml").unwrap_err();
         assert!(err.line >= 2, "{err:?}");
         assert_eq!(
-            parse("<a/><b/>").unwrap_err().message,
+            parse("<a/><b/>", "t.xml").unwrap_err().message,
             "more than one root element"
         );
-        assert!(parse("<a>\n<b/>\n")
+        assert!(parse("<a>\n<b/>\n", "t.xml")
             .unwrap_err()
             .message
             .contains("never closed"));

@@ -1,0 +1,125 @@
+//! The compiled model as JSON, in MuJoCo's conventions (`scm compile`): what the differential
+//! tests compare with MuJoCo's `MjModel`, field by field.
+//!
+//! Bodies: `pos`/`quat` in the parent's frame, `mass`, `ipos` (centre of mass) and `inertia`
+//! (the 3×3 rotational inertia about the centre of mass, body axes, row-major). Joints: `pos`
+//! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
+//! `springref`, passive properties and limits in SI units. Geoms: `size` as MuJoCo stores it
+//! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
+//! body frame.
+
+use super::{Compiled, Geom};
+use crate::dynamics::JointKind;
+use crate::geometry::Shape;
+use crate::model::ActuatorKind;
+use nalgebra::{Isometry3, Vector3};
+use serde_json::{json, Value};
+
+fn v3(v: &Vector3<f64>) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+fn pose(p: &Isometry3<f64>) -> (Value, Value) {
+    let q = p.rotation.quaternion();
+    (v3(&p.translation.vector), json!([q.w, q.i, q.j, q.k]))
+}
+
+fn geom(g: &Geom, bodies: &[String]) -> Value {
+    let (kind, size) = match &g.shape {
+        None => ("plane", json!(null)),
+        Some(Shape::Sphere { radius }) => ("sphere", json!([radius, 0.0, 0.0])),
+        Some(Shape::Capsule {
+            radius,
+            half_length,
+        }) => ("capsule", json!([radius, half_length, 0.0])),
+        Some(Shape::Cylinder {
+            radius,
+            half_length,
+        }) => ("cylinder", json!([radius, half_length, 0.0])),
+        Some(Shape::Box { half }) => ("box", v3(half)),
+        Some(Shape::Ellipsoid { radii }) => ("ellipsoid", v3(radii)),
+        Some(Shape::Mesh(_)) => ("mesh", json!(null)),
+    };
+    let (pos, quat) = pose(&g.pose);
+    json!({
+        "name": g.name, "body": bodies[g.body], "type": kind, "size": size,
+        "pos": pos, "quat": quat, "mesh": g.mesh,
+        "contype": g.contype, "conaffinity": g.conaffinity,
+    })
+}
+
+impl Compiled {
+    /// The model as JSON (see the module documentation).
+    pub fn to_json(&self) -> Value {
+        let t = &self.tree;
+        let names: Vec<String> = t.bodies.iter().map(|b| b.name.clone()).collect();
+        let bodies: Vec<Value> = t
+            .bodies
+            .iter()
+            .map(|b| {
+                let (pos, quat) = pose(&b.offset);
+                let i = &b.inertia;
+                json!({
+                    "name": b.name,
+                    "parent": b.parent.map(|p| names[p].clone()),
+                    "pos": pos, "quat": quat, "mass": i.mass, "ipos": v3(&i.com),
+                    "inertia": i.rot.transpose().as_slice().to_vec(),
+                    "mocap": b.mocap,
+                })
+            })
+            .collect();
+        let joints: Vec<Value> = t
+            .joints
+            .iter()
+            .zip(&self.limits)
+            .map(|(j, limit)| {
+                let kind = match j.kind {
+                    JointKind::Free => "free",
+                    JointKind::Ball => "ball",
+                    JointKind::Slide => "slide",
+                    JointKind::Hinge => "hinge",
+                };
+                json!({
+                    "name": j.name, "type": kind, "body": names[j.body],
+                    "pos": v3(&j.anchor), "axis": v3(&j.axis),
+                    "ref": j.reference, "springref": j.springref,
+                    "damping": j.damping, "stiffness": j.stiffness,
+                    "armature": j.armature, "frictionloss": j.frictionloss,
+                    "limited": limit.is_some(),
+                    "range": limit.map(|(a, b)| vec![a, b]),
+                })
+            })
+            .collect();
+        let actuators: Vec<Value> = self
+            .actuators
+            .iter()
+            .map(|a| {
+                let (kind, kp, kv) = match a.kind {
+                    ActuatorKind::Motor => ("motor", 0.0, 0.0),
+                    ActuatorKind::Position { kp, kv } => ("position", kp, kv),
+                    ActuatorKind::Velocity { kv } => ("velocity", 0.0, kv),
+                };
+                json!({
+                    "name": a.name, "joint": t.joints[a.joint].name, "gear": a.gear,
+                    "kind": kind, "kp": kp, "kv": kv,
+                    "ctrllimited": a.ctrlrange.is_some(),
+                    "ctrlrange": a.ctrlrange.map(|(lo, hi)| vec![lo, hi]),
+                })
+            })
+            .collect();
+        json!({
+            "option": {
+                "timestep": self.timestep,
+                "gravity": v3(&t.gravity),
+                "integrator": self.integrator.name(),
+            },
+            "bodies": bodies,
+            "joints": joints,
+            "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
+            "actuators": actuators,
+            "refused": self.refused.iter().map(|e| e.to_string()).collect::<Vec<_>>(),
+            "unused": self.unused,
+            "warnings": self.warnings,
+        })
+    }
+}

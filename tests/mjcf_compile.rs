@@ -1,0 +1,381 @@
+//! MJCF as MuJoCo compiles it: default classes, includes, frames, orientations, compiler
+//! settings, joint reference positions, option flags, and what is refused or noted as unused.
+//! (tests/python/test_mjcf_compiler.py checks the same against MuJoCo itself.)
+
+use nalgebra::{UnitQuaternion, Vector3};
+use scm::scene::{compile, load_str, Scene, SceneError};
+use std::path::{Path, PathBuf};
+
+fn load(text: &str) -> Scene {
+    load_str(text, Path::new("m.xml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn refuse(text: &str) -> SceneError {
+    load_str(text, Path::new("m.xml")).expect_err("must be refused")
+}
+
+fn joint<'a>(s: &'a Scene, name: &str) -> &'a scm::dynamics::Joint {
+    s.model
+        .tree
+        .joints
+        .iter()
+        .find(|j| j.name == name)
+        .unwrap_or_else(|| panic!("no joint {name}"))
+}
+
+fn body<'a>(s: &'a Scene, name: &str) -> &'a scm::dynamics::Body {
+    s.model
+        .tree
+        .bodies
+        .iter()
+        .find(|b| b.name == name)
+        .unwrap_or_else(|| panic!("no body {name}"))
+}
+
+/// A folder of its own under the system's temporary folder.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("scm-mjcf-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn nested_default_classes_and_childclass_apply_as_in_mujoco() {
+    let s = load(
+        r#"<mujoco>
+  <default>
+    <joint damping="1" armature="0.1"/>
+    <geom density="500"/>
+    <default class="leg">
+      <joint damping="2"/>
+      <default class="foot">
+        <joint stiffness="3"/>
+      </default>
+    </default>
+  </default>
+  <worldbody>
+    <body name="a" childclass="leg">
+      <joint name="inherits_leg" axis="0 1 0"/>
+      <joint name="own_class" class="foot" axis="0 1 0"/>
+      <joint name="own_value" damping="7" axis="0 1 0"/>
+      <geom type="sphere" size="0.1"/>
+      <body name="b">
+        <joint name="childclass_reaches_down" axis="1 0 0"/>
+        <geom type="sphere" size="0.1" class="main"/>
+      </body>
+    </body>
+    <body name="c" pos="1 0 0">
+      <joint name="main_only" axis="0 1 0"/>
+      <geom type="sphere" size="0.1"/>
+    </body>
+  </worldbody>
+</mujoco>"#,
+    );
+    let j = |n| {
+        let j = joint(&s, n);
+        (j.damping, j.armature, j.stiffness)
+    };
+    assert_eq!(j("inherits_leg"), (2.0, 0.1, 0.0));
+    assert_eq!(j("own_class"), (2.0, 0.1, 3.0));
+    assert_eq!(j("own_value"), (7.0, 0.1, 0.0));
+    assert_eq!(j("childclass_reaches_down"), (2.0, 0.1, 0.0));
+    assert_eq!(j("main_only"), (1.0, 0.1, 0.0));
+    // density 500 from main: a 10 cm sphere weighs 500 * 4/3 pi 0.001.
+    let m = 500.0 * 4.0 / 3.0 * std::f64::consts::PI * 1e-3;
+    assert!((body(&s, "c").inertia.mass - m).abs() < 1e-12);
+}
+
+#[test]
+fn an_unknown_class_is_refused_with_its_line() {
+    let e = refuse(
+        "<mujoco>\n<worldbody>\n<body>\n<joint class=\"nope\"/>\n<geom size=\"0.1\"/>\n</body>\n</worldbody>\n</mujoco>",
+    );
+    assert_eq!((e.line, e.element.as_str()), (4, "joint"), "{e}");
+    assert!(e.message.contains("nope"), "{e}");
+}
+
+#[test]
+fn includes_resolve_as_in_mujoco_travel_in_the_fmu_and_errors_name_them() {
+    let dir = scratch("include");
+    std::fs::create_dir_all(dir.join("parts")).unwrap();
+    std::fs::write(
+        dir.join("parts/arm.xml"),
+        "<mujoco>\n  <body name=\"arm\" pos=\"0 0 1\">\n    <joint name=\"hinge\" axis=\"0 1 0\"/>\n    <include file=\"hand.xml\"/>\n  </body>\n</mujoco>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("parts/hand.xml"),
+        "<mujoco>\n  <geom name=\"hand\" type=\"sphere\" size=\"0.05\"/>\n</mujoco>\n",
+    )
+    .unwrap();
+    let main = dir.join("scene.xml");
+    std::fs::write(
+        &main,
+        "<mujoco>\n  <worldbody>\n    <include file=\"parts/arm.xml\"/>\n  </worldbody>\n</mujoco>\n",
+    )
+    .unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    assert!(s.geoms.iter().any(|g| g.name == "hand"));
+    assert_eq!(joint(&s, "hinge").body, 1);
+    assert_eq!(s.includes.len(), 2);
+
+    // The FMU carries every included file where the include finds it again.
+    let d = scm::pack::describe(&main).unwrap();
+    let names: Vec<&str> = d.resources.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["parts/arm.xml", "parts/hand.xml"]);
+    let unpacked = dir.join("unpacked/resources");
+    std::fs::create_dir_all(unpacked.join("parts")).unwrap();
+    std::fs::write(unpacked.join("scene.xml"), &d.scene_text).unwrap();
+    for (name, bytes) in &d.resources {
+        std::fs::write(unpacked.join(name), bytes).unwrap();
+    }
+    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    assert_eq!(again.geoms, s.geoms);
+
+    // As in MuJoCo, a file beside the main scene wins over one beside the including file.
+    std::fs::write(
+        dir.join("hand.xml"),
+        "<mujoco>\n  <geom name=\"hand_main\" type=\"sphere\" size=\"0.05\"/>\n</mujoco>\n",
+    )
+    .unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    assert!(s.geoms.iter().any(|g| g.name == "hand_main"));
+    std::fs::remove_file(dir.join("hand.xml")).unwrap();
+
+    // A mistake inside an included file names that file and its line.
+    std::fs::write(
+        dir.join("parts/hand.xml"),
+        "<mujoco>\n\n  <geom name=\"hand\" type=\"blob\" size=\"0.05\"/>\n</mujoco>\n",
+    )
+    .unwrap();
+    let e = scm::scene::load(&main).unwrap_err();
+    assert!(e.file.ends_with("hand.xml"), "{e}");
+    assert_eq!(e.line, 3, "{e}");
+
+    // A cycle is refused, not followed for ever.
+    std::fs::write(
+        dir.join("parts/hand.xml"),
+        "<mujoco>\n  <include file=\"arm.xml\"/>\n</mujoco>\n",
+    )
+    .unwrap();
+    let e = scm::scene::load(&main).unwrap_err();
+    assert!(e.message.contains("includes itself"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn frames_compose_onto_what_they_hold() {
+    let s = load(
+        r#"<mujoco>
+  <compiler angle="degree"/>
+  <worldbody>
+    <frame pos="1 0 0" euler="0 0 90">
+      <body name="b" pos="1 0 0">
+        <freejoint/>
+        <geom name="g" type="sphere" size="0.1"/>
+      </body>
+      <geom name="fixed" type="box" size="0.1 0.1 0.1" pos="0 0 1"/>
+    </frame>
+  </worldbody>
+</mujoco>"#,
+    );
+    let b = body(&s, "b");
+    assert!((b.offset.translation.vector - Vector3::new(1.0, 1.0, 0.0)).norm() < 1e-12);
+    let quarter = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2);
+    assert!(b.offset.rotation.angle_to(&quarter) < 1e-12);
+    let g = s.geoms.iter().find(|g| g.name == "fixed").unwrap();
+    assert!((g.pose.translation.vector - Vector3::new(1.0, 0.0, 1.0)).norm() < 1e-12);
+}
+
+#[test]
+fn a_joint_reference_position_is_where_the_body_sits_as_written() {
+    // A hinge with ref 30 degrees: at q = ref the body is at its offset; springref sets the
+    // spring's rest angle.
+    let s = load(
+        r#"<mujoco>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" ref="30" springref="45" stiffness="2"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02"/>
+    </body>
+  </worldbody>
+</mujoco>"#,
+    );
+    let j = joint(&s, "h");
+    assert!((j.reference - 30f64.to_radians()).abs() < 1e-15);
+    assert!((j.springref - 45f64.to_radians()).abs() < 1e-15);
+    let q0 = s.model.tree.q0();
+    assert_eq!(q0, vec![30f64.to_radians()]);
+    let kin = s.model.tree.kinematics(&q0, &[0.0]);
+    let f = &kin.frames[1];
+    assert!((f.origin - Vector3::new(0.0, 0.0, 1.0)).norm() < 1e-15);
+    assert!((f.rotation - nalgebra::Matrix3::identity()).norm() < 1e-15);
+    // The spring pulls towards springref, not towards ref.
+    let at = |q: f64| s.model.passive_forces(&[q], &[0.0], 1e-3)[0];
+    assert!(at(45f64.to_radians()).abs() < 1e-15);
+    assert!((at(30f64.to_radians()) - 2.0 * 15f64.to_radians()).abs() < 1e-12);
+}
+
+#[test]
+fn compiler_mass_settings_apply() {
+    let scene = |compiler: &str| {
+        load(&format!(
+            r#"<mujoco>
+  <compiler {compiler}/>
+  <worldbody>
+    <body name="a"><freejoint/><geom type="box" size="0.1 0.1 0.1" density="1000"/>
+      <inertial pos="0 0 0" mass="3" diaginertia="1 1 1"/></body>
+    <body name="b" pos="1 0 0"><freejoint/><geom type="sphere" size="0.01" mass="0.001"/></body>
+  </worldbody>
+</mujoco>"#
+        ))
+    };
+    let mass = |s: &Scene, n| body(s, n).inertia.mass;
+    let auto = scene("");
+    assert_eq!(mass(&auto, "a"), 3.0);
+    let from_geoms = scene(r#"inertiafromgeom="true""#);
+    assert!((mass(&from_geoms, "a") - 8.0).abs() < 1e-12);
+    let bounded = scene(r#"boundmass="0.5" boundinertia="0.01""#);
+    assert_eq!(mass(&bounded, "b"), 0.5);
+    let e = body(&bounded, "b").inertia.rot.symmetric_eigenvalues();
+    assert!(e.iter().all(|&x| x >= 0.01 - 1e-15), "{e}");
+    let total = scene(r#"settotalmass="6.002""#);
+    assert!((mass(&total, "a") + mass(&total, "b") - 6.002).abs() < 1e-12);
+    assert!((mass(&total, "a") / mass(&total, "b") - 3000.0).abs() < 1e-6);
+}
+
+const LIMITED: &str = r#"<mujoco>
+  <compiler autolimits="AUTO"/>
+  <option>FLAGS</option>
+  <worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" range="-30 30"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+
+#[test]
+fn a_range_limits_a_joint_by_autolimits_and_limits_are_refused_until_switched_off() {
+    let with = |auto: &str, flags: &str| LIMITED.replace("AUTO", auto).replace("FLAGS", flags);
+    let e = refuse(&with("true", ""));
+    assert_eq!((e.line, e.element.as_str()), (7, "joint"), "{e}");
+    assert!(e.message.contains("limit=\"disable\""), "{e}");
+    // autolimits off: a range alone does not limit.
+    assert_eq!(load(&with("false", "")).model.tree.joints.len(), 1);
+    // limits switched off: accepted.
+    load(&with("true", r#"<flag limit="disable"/>"#));
+}
+
+#[test]
+fn option_flags_switch_forces_off() {
+    let s = load(
+        &LIMITED
+            .replace("AUTO", "true")
+            .replace(
+                "FLAGS",
+                r#"<flag gravity="disable" contact="disable" limit="disable" warmstart="disable"/>"#,
+            )
+            .replace("range=\"-30 30\"", "range=\"-30 30\" damping=\"3\" frictionloss=\"1\""),
+    );
+    assert_eq!(s.model.tree.gravity, Vector3::zeros());
+    assert!(s.model.pairs.is_empty());
+    assert!(s.model.colliders.iter().all(Option::is_none));
+    assert!(
+        s.unused.iter().any(|u| u.contains("warmstart")),
+        "{:?}",
+        s.unused
+    );
+    let s = load(
+        &LIMITED
+            .replace("AUTO", "false")
+            .replace(
+                "FLAGS",
+                r#"<flag damper="disable" frictionloss="disable"/>"#,
+            )
+            .replace("range=\"-30 30\"", "damping=\"3\" frictionloss=\"1\""),
+    );
+    assert_eq!(
+        (joint(&s, "h").damping, joint(&s, "h").frictionloss),
+        (0.0, 0.0)
+    );
+}
+
+#[test]
+fn solver_and_renderer_settings_are_accepted_and_listed_as_unused() {
+    let s = load(
+        r#"<mujoco>
+  <option iterations="50" solver="PGS" cone="elliptic" impratio="10"/>
+  <visual><map znear="0.02"/></visual>
+  <size nkey="5"/>
+  <worldbody>
+    <light pos="0 0 3"/>
+    <body name="b" pos="0 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.1" solref="0.02 1" solimp="0.9 0.95 0.001" margin="0.01" rgba="1 0 0 1"/>
+    </body>
+  </worldbody>
+</mujoco>"#,
+    );
+    let all = s.unused.join("\n");
+    for word in [
+        "iterations",
+        "solver",
+        "cone",
+        "impratio",
+        "solref",
+        "solimp",
+        "margin",
+        "visual",
+        "size",
+    ] {
+        assert!(all.contains(word), "'{word}' not listed as unused:\n{all}");
+    }
+    assert!(all.contains("m.xml:2:"), "{all}");
+}
+
+#[test]
+fn physics_that_scm_does_not_model_is_refused_with_what_to_do() {
+    let cases = [
+        (r#"<option density="1.2"/>"#, "option", "fluid"),
+        (r#"<compiler coordinate="global"/>"#, "compiler", "local"),
+        (
+            r#"<equality><weld body1="b"/></equality>"#,
+            "weld",
+            "equality",
+        ),
+    ];
+    for (extra, element, words) in cases {
+        let text = format!(
+            "<mujoco>\n{extra}\n<worldbody>\n<body name=\"b\"><freejoint/><geom size=\"0.1\"/></body>\n</worldbody>\n</mujoco>"
+        );
+        let e = refuse(&text);
+        assert_eq!(e.element, element, "{e}");
+        assert!(e.line >= 2, "{e}");
+        assert!(e.message.contains(words), "'{words}' not in {e}");
+    }
+}
+
+#[test]
+fn compile_reports_every_refusal_without_stopping() {
+    let dir = scratch("compile");
+    let path = dir.join("two_limits.xml");
+    std::fs::write(
+        &path,
+        LIMITED
+            .replace("AUTO", "true")
+            .replace("FLAGS", "")
+            .replace(
+                "<geom type=\"capsule\"",
+                "<joint name=\"h2\" axis=\"1 0 0\" range=\"-1 1\"/>\n      <geom type=\"capsule\"",
+            ),
+    )
+    .unwrap();
+    let c = compile(&path).unwrap();
+    assert_eq!(c.refused.len(), 2, "{:?}", c.refused);
+    assert_eq!(c.limits.iter().flatten().count(), 2);
+    let json = c.to_json();
+    assert_eq!(json["joints"][0]["limited"], true);
+    std::fs::remove_dir_all(&dir).ok();
+}

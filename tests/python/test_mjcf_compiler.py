@@ -1,0 +1,178 @@
+"""Compiler differential test: the model scm compiles from an MJCF file equals MuJoCo's compiled
+MjModel (MuJoCo's own Python package is the oracle), on every MuJoCo model that ships with
+gymnasium and on every bundled scene.
+
+Compared to 1e-9 (relative to the quantity's size where it is larger than 1): body frames,
+masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
+positions, passive properties and limits; geom kinds, sizes and poses (per body, in order);
+actuator joints, gears, gains and control ranges; the time step and gravity.
+"""
+import json
+import pathlib
+import subprocess
+
+import gymnasium
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import SCENES, SCM
+
+TOL = 1e-9
+
+CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
+CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
+BUNDLED = sorted(SCENES.glob("*.xml"))
+
+JOINT_TYPES = {
+    int(mujoco.mjtJoint.mjJNT_FREE): "free",
+    int(mujoco.mjtJoint.mjJNT_BALL): "ball",
+    int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
+    int(mujoco.mjtJoint.mjJNT_HINGE): "hinge",
+}
+GEOM_TYPES = {
+    int(mujoco.mjtGeom.mjGEOM_PLANE): "plane",
+    int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
+    int(mujoco.mjtGeom.mjGEOM_CAPSULE): "capsule",
+    int(mujoco.mjtGeom.mjGEOM_ELLIPSOID): "ellipsoid",
+    int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
+    int(mujoco.mjtGeom.mjGEOM_BOX): "box",
+    int(mujoco.mjtGeom.mjGEOM_MESH): "mesh",
+}
+
+
+def compiled(path):
+    """scm's compiled model of a file, as JSON."""
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def rot(quat):
+    m = np.zeros(9)
+    mujoco.mju_quat2Mat(m, np.asarray(quat, dtype=float) / np.linalg.norm(quat))
+    return m.reshape(3, 3)
+
+
+def close(what, ours, theirs, tol=TOL):
+    ours, theirs = np.asarray(ours, dtype=float), np.asarray(theirs, dtype=float)
+    assert ours.shape == theirs.shape, f"{what}: shape {ours.shape} vs MuJoCo's {theirs.shape}"
+    scale = np.maximum(1.0, np.abs(theirs))
+    err = np.max(np.abs(ours - theirs) / scale) if ours.size else 0.0
+    assert err <= tol, f"{what}: scm {ours.tolist()} vs MuJoCo {theirs.tolist()} (error {err:.2e})"
+
+
+def mesh_frame(m, g):
+    """MuJoCo moves a mesh geom's frame to the mesh's inertial frame; undo that, so the pose
+    compares with the geom frame as written (which scm keeps)."""
+    mesh = m.geom_dataid[g]
+    pos, quat = m.geom_pos[g].copy(), m.geom_quat[g].copy()
+    inv_pos, inv_quat = np.zeros(3), np.zeros(4)
+    mujoco.mju_negPose(inv_pos, inv_quat, m.mesh_pos[mesh], m.mesh_quat[mesh])
+    out_pos, out_quat = np.zeros(3), np.zeros(4)
+    mujoco.mju_mulPose(out_pos, out_quat, pos, quat, inv_pos, inv_quat)
+    return out_pos, out_quat
+
+
+def compare(path):
+    ours = compiled(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+
+    # Option.
+    close("timestep", ours["option"]["timestep"], m.opt.timestep)
+    close("gravity", ours["option"]["gravity"], m.opt.gravity)
+
+    # Bodies, in MuJoCo's order (depth first, file order): frames and inertias.
+    assert len(ours["bodies"]) == m.nbody, "body count"
+    for b, body in enumerate(ours["bodies"]):
+        tag = f"body {body['name']}"
+        if b > 0:
+            assert body["parent"] == ours["bodies"][m.body_parentid[b]]["name"], tag
+        close(f"{tag} pos", body["pos"], m.body_pos[b])
+        close(f"{tag} rotation", rot(body["quat"]), rot(m.body_quat[b]))
+        close(f"{tag} mass", body["mass"], m.body_mass[b])
+        if m.body_mass[b] > 0:
+            close(f"{tag} centre of mass", body["ipos"], m.body_ipos[b])
+            r = rot(m.body_iquat[b])
+            inertia = r @ np.diag(m.body_inertia[b]) @ r.T
+            close(f"{tag} inertia", np.reshape(body["inertia"], (3, 3)), inertia)
+
+    # Joints, in order.
+    assert len(ours["joints"]) == m.njnt, "joint count"
+    for j, joint in enumerate(ours["joints"]):
+        tag = f"joint {joint['name']}"
+        kind = JOINT_TYPES[int(m.jnt_type[j])]
+        assert joint["type"] == kind, tag
+        assert joint["body"] == ours["bodies"][m.jnt_bodyid[j]]["name"], tag
+        dof = m.jnt_dofadr[j]
+        close(f"{tag} damping", joint["damping"], m.dof_damping[dof])
+        close(f"{tag} armature", joint["armature"], m.dof_armature[dof])
+        close(f"{tag} frictionloss", joint["frictionloss"], m.dof_frictionloss[dof])
+        close(f"{tag} stiffness", joint["stiffness"], m.jnt_stiffness[j])
+        assert joint["limited"] == bool(m.jnt_limited[j]), f"{tag} limited"
+        if joint["limited"]:
+            close(f"{tag} range", joint["range"], m.jnt_range[j])
+        if kind in ("slide", "hinge"):
+            close(f"{tag} pos", joint["pos"], m.jnt_pos[j])
+            close(f"{tag} axis", joint["axis"], m.jnt_axis[j])
+            qadr = m.jnt_qposadr[j]
+            close(f"{tag} ref", joint["ref"], m.qpos0[qadr])
+            close(f"{tag} springref", joint["springref"], m.qpos_spring[qadr])
+        elif kind == "ball":
+            close(f"{tag} pos", joint["pos"], m.jnt_pos[j])
+
+    # Geoms, per body in order (MuJoCo numbers them body by body).
+    assert len(ours["geoms"]) == m.ngeom, "geom count"
+    for b, body in enumerate(ours["bodies"]):
+        mine = [g for g in ours["geoms"] if g["body"] == body["name"]]
+        theirs = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
+        assert len(mine) == len(theirs), f"geoms of body {body['name']}"
+        for geom, g in zip(mine, theirs):
+            tag = f"geom {geom['name']}"
+            kind = GEOM_TYPES[int(m.geom_type[g])]
+            assert geom["type"] == kind, tag
+            if kind == "mesh":
+                pos, quat = mesh_frame(m, g)
+            else:
+                pos, quat = m.geom_pos[g], m.geom_quat[g]
+                # The entries of size that the geom type reads (MuJoCo keeps the rest as written).
+                used = {"plane": 0, "sphere": 1, "capsule": 2, "cylinder": 2}.get(kind, 3)
+                if used:
+                    close(f"{tag} size", geom["size"][:used], m.geom_size[g][:used])
+            close(f"{tag} pos", geom["pos"], pos)
+            close(f"{tag} rotation", rot(geom["quat"]), rot(quat))
+            assert geom["contype"] == m.geom_contype[g], f"{tag} contype"
+            assert geom["conaffinity"] == m.geom_conaffinity[g], f"{tag} conaffinity"
+
+    # Actuators.
+    assert len(ours["actuators"]) == m.nu, "actuator count"
+    for a, act in enumerate(ours["actuators"]):
+        tag = f"actuator {act['name']}"
+        assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
+        assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
+        close(f"{tag} gear", act["gear"], m.actuator_gear[a, 0])
+        assert act["ctrllimited"] == bool(m.actuator_ctrllimited[a]), f"{tag} ctrllimited"
+        if act["ctrllimited"]:
+            close(f"{tag} ctrlrange", act["ctrlrange"], m.actuator_ctrlrange[a])
+        if act["kind"] == "motor":
+            close(f"{tag} gain", [1.0, 0.0, 0.0], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 1], m.actuator_biasprm[a, 2]])
+        elif act["kind"] == "position":
+            close(f"{tag} kp, kv", [act["kp"], -act["kp"], -act["kv"]], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 1], m.actuator_biasprm[a, 2]])
+        else:
+            close(f"{tag} kv", [act["kv"], -act["kv"]], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 2]])
+    return ours
+
+
+def test_the_corpus_is_there():
+    assert len(CORPUS) == 14, [p.name for p in CORPUS]
+
+
+@pytest.mark.parametrize("path", CORPUS, ids=[p.stem for p in CORPUS])
+def test_corpus_file_compiles_as_mujoco_compiles_it(path):
+    compare(path)
+
+
+@pytest.mark.parametrize("path", BUNDLED, ids=[p.stem for p in BUNDLED])
+def test_bundled_scene_compiles_as_mujoco_compiles_it(path):
+    ours = compare(path)
+    assert ours["refused"] == [], "a bundled scene must simulate"

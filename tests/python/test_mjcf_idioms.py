@@ -1,0 +1,126 @@
+"""MJCF idioms of everyday MuJoCo files behave as in MuJoCo: each is a small file run through
+its FMU in fmpy and in MuJoCo (the oracle), compared on what the idiom is about.
+
+Contact differs by design (SCM's soft contact against MuJoCo's constraint solver): resting
+heights and angles agree within a few millimetres or hundredths of a radian, which is what the
+SCM contact's own compliance at its default stiffness allows; contact-free motion agrees to
+rounding.
+"""
+import subprocess
+
+import mujoco
+import numpy as np
+from fmpy import simulate_fmu
+from fmpy.validation import validate_fmu
+
+from conftest import SCM
+
+
+def run(tmp_path, xml, outputs, stop, name="scene"):
+    """Packs `xml`, simulates its FMU in fmpy and the same file in MuJoCo; returns fmpy's last
+    row and MuJoCo's MjModel and MjData at `stop`."""
+    path = tmp_path / f"{name}.xml"
+    path.write_text(xml)
+    fmu = tmp_path / f"{name}.fmu"
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert validate_fmu(str(fmu)) == []
+    res = simulate_fmu(str(fmu), stop_time=stop, output_interval=0.01, output=outputs)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    while d.time < stop - 1e-9:
+        mujoco.mj_step(m, d)
+    return res[-1], m, d
+
+
+def test_a_visual_geom_does_not_collide(tmp_path):
+    # A 5 cm box carrying a 15 cm visual sphere (contype = conaffinity = 0) rests on its box.
+    xml = """<mujoco model="visual">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="box" pos="0 0 0.3">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+      <geom type="sphere" size="0.15" contype="0" conaffinity="0" mass="0.001"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["box.pos.z"], 1.5)
+    assert abs(d.qpos[2] - 0.05) < 2e-3
+    assert abs(ours["box.pos.z"] - d.qpos[2]) < 5e-3, (ours["box.pos.z"], d.qpos[2])
+
+
+def test_a_ground_whose_bits_do_not_match_lets_the_block_through(tmp_path):
+    xml = """<mujoco model="bits">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1" contype="2" conaffinity="2"/>
+    <body name="block" pos="0 0 0.3">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["block.pos.z"], 0.4)
+    assert d.qpos[2] < -0.4
+    assert abs(ours["block.pos.z"] - d.qpos[2]) < 1e-9, (ours["block.pos.z"], d.qpos[2])
+
+
+def test_a_lever_rests_on_a_support_of_its_jointless_parent(tmp_path):
+    # The stand has no joint: MuJoCo welds it to the world, so the parent filter does not keep
+    # the hinged lever off the stand's support.
+    xml = """<mujoco model="lever">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="stand" pos="0 0 0.5">
+      <geom name="support" type="box" size="0.05 0.05 0.02" pos="0.3 0 -0.05"/>
+      <body name="lever">
+        <joint name="hinge" type="hinge" axis="0 1 0" damping="0.02"/>
+        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.01" mass="0.2"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["hinge.q"], 2.0)
+    assert 0.04 < d.qpos[0] < 0.12, d.qpos[0]
+    assert abs(ours["hinge.q"] - d.qpos[0]) < 0.02, (ours["hinge.q"], d.qpos[0])
+
+
+def test_gravity_switched_off_by_a_flag(tmp_path):
+    xml = """<mujoco model="nograv">
+  <option timestep="0.002"><flag gravity="disable"/></option>
+  <worldbody>
+    <body name="ball" pos="0 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["ball.pos.z"], 0.5)
+    assert d.qpos[2] == 1.0
+    assert ours["ball.pos.z"] == 1.0
+
+
+def test_a_floor_and_fixed_obstacles_share_the_worldbody(tmp_path):
+    # The usual layout: the floor plane and a fixed step both in the worldbody; a box lands on
+    # the step.
+    xml = """<mujoco model="step">
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <geom name="step" type="box" size="0.2 0.2 0.05" pos="0 0 0.05"/>
+    <body name="box" pos="0 0 0.4">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+    </body>
+    <body name="other" pos="0.5 0 0.3">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["box.pos.z", "other.pos.z"], 1.5)
+    assert abs(d.qpos[2] - 0.15) < 2e-3 and abs(d.qpos[9] - 0.05) < 2e-3
+    assert abs(ours["box.pos.z"] - d.qpos[2]) < 5e-3, (ours["box.pos.z"], d.qpos[2])
+    assert abs(ours["other.pos.z"] - d.qpos[9]) < 5e-3, (ours["other.pos.z"], d.qpos[9])
