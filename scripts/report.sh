@@ -4,7 +4,7 @@
 # and PNG. Installs its own environment from nothing:
 #   - scripts/setup.sh (Debian packages, .venv, release build), valgrind for the profiles;
 #   - .venv-report: the packages of tests/python/requirements.txt plus scripts/report/requirements.txt
-#     (the pinned mujoco from PyPI, tqdm); MuJoCo stays out of the test venv;
+#     (the pinned mujoco from PyPI, tqdm); the test venv has the same mujoco, as the oracle of the MJCF tests;
 #   - the benches it runs: examples/report_host.rs (an FMI host over the crate's C ABI) and
 #     examples/step_cost.rs (step, fmi2DoStep, Jacobian timings).
 # Then packs the FMUs it needs and runs every study. Arguments go to the report:

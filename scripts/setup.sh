@@ -3,11 +3,17 @@
 #   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc and libc6-dev (the C
 #     host test compiles tests/c_host/cs_host.c), python3 with venv;
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
-#     (fmpy, numpy, pytest, matplotlib, libcosimpy: all wheels, no compiler needed);
+#     (fmpy, numpy, pytest, matplotlib, libcosimpy, and mujoco with gymnasium as the oracle of the
+#     MJCF differential tests: all wheels, no compiler needed);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "setup: cargo is not on PATH: install Rust (rustup, https://rustup.rs) first" >&2
+  exit 1
+fi
 
 need_apt=()
 dpkg -s libclang-dev >/dev/null 2>&1 || need_apt+=(libclang-dev)
@@ -32,4 +38,4 @@ if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/req
   cp tests/python/requirements.txt .venv/requirements.txt
 fi
 
-cargo build --release --locked -q 2>/dev/null || cargo build --release -q
+cargo build --release --locked -q

@@ -35,6 +35,13 @@ pub enum Integrator {
     /// Classic fourth-order Runge–Kutta. Stable for `h ω ≲ 2.8`; energy error `O(h⁴)`.
     /// MuJoCo's `RK4`.
     Rk4,
+    /// MuJoCo's `Euler`: semi-implicit Euler with the joints' viscous damping taken implicitly,
+    /// `(M + h D) v̇ = f(q, v)`, `v' = v + h v̇`, `q' = q ⊕ h v'`, where `D` holds each degree of
+    /// freedom's joint damping and `f` every force (the damping's `-D v` included). A damped
+    /// joint stays stable at any step; without damping it is `semi_implicit_euler`. MJCF's
+    /// `integrator="Euler"` maps to it (to `semi_implicit_euler` with
+    /// `<flag eulerdamp="disable">`).
+    DampedEuler,
     /// Implicit (backward) Euler: `v' = v + h v̇(q', v')`, `q' = q ⊕ h v'`, its step equation in
     /// `v'` solved by Newton iterations on the exact Jacobian from dual numbers. MuJoCo's
     /// `implicit` and `implicitfast` (implicit in velocity) map to it.
@@ -75,9 +82,10 @@ pub enum Integrator {
 
 impl Integrator {
     /// Every integrator.
-    pub const ALL: [Integrator; 5] = [
+    pub const ALL: [Integrator; 6] = [
         Integrator::Euler,
         Integrator::SemiImplicitEuler,
+        Integrator::DampedEuler,
         Integrator::Rk4,
         Integrator::ImplicitEuler,
         Integrator::Dopri5,
@@ -88,6 +96,7 @@ impl Integrator {
         match self {
             Integrator::Euler => "euler",
             Integrator::SemiImplicitEuler => "semi_implicit_euler",
+            Integrator::DampedEuler => "damped_euler",
             Integrator::Rk4 => "rk4",
             Integrator::ImplicitEuler => "implicit_euler",
             Integrator::Dopri5 => "dopri5",
@@ -112,7 +121,10 @@ impl Integrator {
     /// Order of accuracy.
     pub fn order(self) -> usize {
         match self {
-            Integrator::Euler | Integrator::SemiImplicitEuler | Integrator::ImplicitEuler => 1,
+            Integrator::Euler
+            | Integrator::SemiImplicitEuler
+            | Integrator::DampedEuler
+            | Integrator::ImplicitEuler => 1,
             Integrator::Rk4 => 4,
             Integrator::Dopri5 => 5,
         }
@@ -403,6 +415,21 @@ impl Model {
         Ok(self.forward(q, v, u, prm)?.vdot.iter().copied().collect())
     }
 
+    /// Accelerations with the joints' damping implicit over a step `h` (MuJoCo's `Euler`).
+    fn damped_accel<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<Vec<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        let tau = self.actuator_forces(q, v, ctrl);
+        let f = self.forward_damped(q, v, tau.as_slice(), mocap, prm, Some(h))?;
+        Ok(f.vdot.iter().copied().collect())
+    }
+
     /// One step of length `h` (s) of `integrator` from `state` with inputs `u` at the start of
     /// the step ([`Model::nu`]; mocap bodies move on with their velocity during the step). For
     /// `dopri5`, the 5th-order solution of one step of exactly this length (no error control:
@@ -435,6 +462,7 @@ impl Model {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         let dv1 = match a0 {
+            _ if integrator == Integrator::DampedEuler => self.damped_accel(q1, v1, u, prm, h)?,
             Some(a) => a,
             None => self.accel(q1, v1, u, prm)?,
         };
@@ -443,7 +471,7 @@ impl Model {
                 q: tree.integrate_q(q1, v1, h),
                 v: axpy(v1, h, &dv1),
             }),
-            Integrator::SemiImplicitEuler => {
+            Integrator::SemiImplicitEuler | Integrator::DampedEuler => {
                 let v = axpy(v1, h, &dv1);
                 Ok(State {
                     q: tree.integrate_q(q1, &v, h),

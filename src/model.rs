@@ -297,6 +297,22 @@ impl Model {
         mocap: &[T],
         prm: &ContactParams<T>,
     ) -> Result<Forward<T>, DynamicsError> {
+        self.forward_damped(q, v, tau, mocap, prm, None)
+    }
+
+    /// [`Model::forward_tau`], optionally with the joints' viscous damping taken implicitly
+    /// over a step `h`: `v̇ = (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, `D` the diagonal of the
+    /// joints' damping per degree of freedom (MuJoCo's `Euler`, see
+    /// [`Integrator::DampedEuler`](crate::integrate::Integrator::DampedEuler)).
+    pub fn forward_damped<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        tau: &[T],
+        mocap: &[T],
+        prm: &ContactParams<T>,
+        implicit_damping: Option<T>,
+    ) -> Result<Forward<T>, DynamicsError> {
         for j in &self.tree.joints {
             if q[j.qadr..j.qadr + j.kind.nq()]
                 .iter()
@@ -324,7 +340,14 @@ impl Model {
         let rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
-        let m = self.tree.mass_matrix(&kin);
+        let mut m = self.tree.mass_matrix(&kin);
+        if let Some(h) = implicit_damping {
+            for j in &self.tree.joints {
+                for k in 0..j.kind.nv() {
+                    m[(j.dadr + k, j.dadr + k)] += h * j.damping;
+                }
+            }
+        }
         let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
         Ok(Forward { vdot, contacts })
     }

@@ -14,6 +14,7 @@ use crate::scene::{self, Scene};
 use std::path::Path;
 
 pub mod jacobian;
+pub mod names;
 mod state_bytes;
 pub mod structure;
 
@@ -182,6 +183,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     );
     for j in &model.tree.joints {
         let body = &model.tree.bodies[j.body].name;
+        let jn = names::identifier(&j.name);
         let state = |push: &mut dyn FnMut(
             String,
             Causality,
@@ -215,7 +217,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 };
                 state(
                     &mut push,
-                    format!("{}.q", j.name),
+                    format!("{jn}.q"),
                     q0[j.qadr],
                     u,
                     format!(
@@ -231,7 +233,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 );
                 state(
                     &mut push,
-                    format!("{}.v", j.name),
+                    format!("{jn}.v"),
                     0.0,
                     uv,
                     format!("Velocity of joint {}", j.name),
@@ -248,7 +250,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                     for (k, a) in AXES.iter().enumerate() {
                         state(
                             &mut push,
-                            format!("{}.pos.{a}", j.name),
+                            format!("{jn}.pos.{a}"),
                             q0[j.qadr + k],
                             "m",
                             format!("Position of body {body} (world frame)"),
@@ -259,7 +261,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 for (k, a) in ["w", "x", "y", "z"].iter().enumerate() {
                     state(
                         &mut push,
-                        format!("{}.quat.{a}", j.name),
+                        format!("{jn}.quat.{a}"),
                         q0[qa + k],
                         "1",
                         format!(
@@ -272,7 +274,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                     for (k, a) in AXES.iter().enumerate() {
                         state(
                             &mut push,
-                            format!("{}.linvel.{a}", j.name),
+                            format!("{jn}.linvel.{a}"),
                             0.0,
                             "m/s",
                             format!("Velocity of the origin of body {body} (world frame)"),
@@ -286,7 +288,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 for (k, a) in AXES.iter().enumerate() {
                     state(
                         &mut push,
-                        format!("{}.angvel.{a}", j.name),
+                        format!("{jn}.angvel.{a}"),
                         0.0,
                         "rad/s",
                         format!("Angular velocity of body {body} (body frame)"),
@@ -299,7 +301,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     for (i, a) in model.actuators.iter().enumerate() {
         let jn = &model.tree.joints[a.joint].name;
         push(
-            format!("{}.ctrl", a.name),
+            format!("{}.ctrl", names::identifier(&a.name)),
             Causality::Input,
             Variability::Continuous,
             None,
@@ -315,12 +317,13 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     let mocap0 = model.tree.mocap0();
     for (m, &b) in model.tree.mocap.iter().enumerate() {
         let name = &model.tree.bodies[b].name;
+        let id = names::identifier(name);
         let start = |k: usize| mocap0[crate::dynamics::MOCAP_INPUTS * m + k];
         for (k, a) in AXES.iter().enumerate() {
-            push(format!("{name}.pos.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(k)), "m"), format!("Position of mocap body {name} (world frame), reached at the end of the next communication step"), Slot::Mocap(m, k));
+            push(format!("{id}.pos.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(k)), "m"), format!("Position of mocap body {name} (world frame), reached at the end of the next communication step"), Slot::Mocap(m, k));
         }
         for (k, a) in ["w", "x", "y", "z"].iter().enumerate() {
-            push(format!("{name}.quat.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(3 + k)), "1"), format!("Orientation quaternion of mocap body {name} (normalized on use), reached at the end of the next communication step"), Slot::Mocap(m, 3 + k));
+            push(format!("{id}.quat.{a}"), Causality::Input, Variability::Continuous, None, real(Some(start(3 + k)), "1"), format!("Orientation quaternion of mocap body {name} (normalized on use), reached at the end of the next communication step"), Slot::Mocap(m, 3 + k));
         }
     }
     for (p, pair) in model.pairs.iter().enumerate() {
@@ -328,9 +331,10 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             &model.tree.bodies[pair.a].name,
             &model.tree.bodies[pair.b].name,
         );
+        let (ia, ib) = (names::identifier(na), names::identifier(nb));
         for (k, a) in AXES.iter().enumerate() {
             push(
-                format!("contact.{na}.{nb}.force.{a}"),
+                format!("contact.{ia}.{ib}.force.{a}"),
                 Causality::Output,
                 Variability::Continuous,
                 Some(Initial::Calculated),
@@ -343,7 +347,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         }
         for (k, a) in AXES.iter().enumerate() {
             push(
-                format!("contact.{na}.{nb}.torque.{a}"),
+                format!("contact.{ia}.{ib}.torque.{a}"),
                 Causality::Output,
                 Variability::Continuous,
                 Some(Initial::Calculated),
@@ -353,7 +357,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             );
         }
         push(
-            format!("contact.{na}.{nb}.distance"),
+            format!("contact.{ia}.{ib}.distance"),
             Causality::Output,
             Variability::Continuous,
             Some(Initial::Calculated),
@@ -364,7 +368,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         for k in 0..model.contact_points {
             for (i, a) in AXES.iter().enumerate() {
                 push(
-                    format!("contact.{na}.{nb}.point{}.{a}", k + 1),
+                    format!("contact.{ia}.{ib}.point{}.{a}", k + 1),
                     Causality::Output,
                     Variability::Continuous,
                     Some(Initial::Calculated),
@@ -416,6 +420,16 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         "Local error tolerance of the adaptive integrator".into(),
         Slot::SolverTolerance,
     );
+    // Distinct MJCF names give distinct FMU names, except where two kinds of element share
+    // variable names (a free joint and a mocap body of one name): resolved, never refused.
+    let mut all: Vec<String> = rows.iter().map(|(v, _)| v.name.clone()).collect();
+    for (k, old) in names::make_unique(&mut all) {
+        rows[k].0.description = format!(
+            "{} (named {old} in the scene; renamed to be unique)",
+            rows[k].0.description
+        );
+        rows[k].0.name = std::mem::take(&mut all[k]);
+    }
     push_derivative_rows(&mut rows);
     rows
 }

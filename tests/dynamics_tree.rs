@@ -524,7 +524,7 @@ fn mujoco_integrator_options_map_to_ours() {
         )
     };
     for (mj, ours) in [
-        ("Euler", Integrator::SemiImplicitEuler),
+        ("Euler", Integrator::DampedEuler),
         ("RK4", Integrator::Rk4),
         ("implicit", Integrator::ImplicitEuler),
         ("implicitfast", Integrator::ImplicitEuler),

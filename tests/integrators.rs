@@ -400,7 +400,9 @@ fn communication_steps_land_exactly_on_their_end() {
                         z += dt * vz;
                         vz -= g * dt;
                     }
-                    Integrator::SemiImplicitEuler | Integrator::ImplicitEuler => {
+                    Integrator::SemiImplicitEuler
+                    | Integrator::DampedEuler
+                    | Integrator::ImplicitEuler => {
                         vz -= g * dt;
                         z += dt * vz;
                     }

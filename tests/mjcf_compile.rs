@@ -130,7 +130,16 @@ fn includes_resolve_as_in_mujoco_travel_in_the_fmu_and_errors_name_them() {
         std::fs::write(unpacked.join(name), bytes).unwrap();
     }
     let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
-    assert_eq!(again.geoms, s.geoms);
+    let shape = |s: &Scene| -> Vec<_> {
+        s.geoms
+            .iter()
+            .map(|g| (g.name.clone(), g.body, g.shape.clone(), g.pose))
+            .collect()
+    };
+    assert_eq!(shape(&again), shape(&s));
+    assert!(again.geoms[0]
+        .file
+        .ends_with("unpacked/resources/parts/hand.xml"));
 
     // As in MuJoCo, a file beside the main scene wins over one beside the including file.
     std::fs::write(

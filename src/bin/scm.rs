@@ -205,6 +205,24 @@ fn simulate(
 }
 
 fn check(path: &Path) -> Result<(), String> {
+    // Everything `scm pack` would refuse, all at once, before the colliders are built.
+    let compiled = scm::scene::compile(path).map_err(|e| e.to_string())?;
+    if !compiled.refused.is_empty() {
+        for w in &compiled.warnings {
+            println!("warning: {w}");
+        }
+        for u in &compiled.unused {
+            println!("unused: {u}");
+        }
+        for e in &compiled.refused {
+            println!("refused: {e}");
+        }
+        return Err(format!(
+            "{} refusal(s) in {}: scm pack would refuse this scene",
+            compiled.refused.len(),
+            path.display()
+        ));
+    }
     let sc = scm::scene::load(path).map_err(|e| e.to_string())?;
     let m = &sc.model;
     println!(
@@ -298,6 +316,9 @@ fn check(path: &Path) -> Result<(), String> {
     }
     for w in &sc.warnings {
         println!("warning: {w}");
+    }
+    for u in &sc.unused {
+        println!("unused: {u}");
     }
     for p in &problems {
         println!("problem: {p}");

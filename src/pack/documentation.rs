@@ -74,6 +74,7 @@ fn integrator_text(name: &str) -> String {
     match name {
         "euler" => "explicit Euler, as in the paper: q' = q ⊕ h v, v' = v + h v̇ (first order)".into(),
         "semi_implicit_euler" => "semi-implicit (symplectic) Euler: v' = v + h v̇, then q' = q ⊕ h v' (first order, no energy drift on oscillators)".into(),
+        "damped_euler" => "MuJoCo's Euler: semi-implicit Euler with the joints' viscous damping taken implicitly, (M + h D) v̇ = f, v' = v + h v̇, q' = q ⊕ h v' (first order)".into(),
         "rk4" => "classic fourth-order Runge–Kutta on (q, v), quaternions renormalized after each step".into(),
         other => format!("{other} (see the README of scm)"),
     }
@@ -245,7 +246,11 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
                 vec![
                     a.clone(),
                     b,
-                    format!("<code>contact.{a}.{}.*</code>", esc(&tree.bodies[p.b].name)),
+                    format!(
+                        "<code>contact.{}.{}.*</code>",
+                        esc(&crate::sim::names::identifier(&tree.bodies[p.a].name)),
+                        esc(&crate::sim::names::identifier(&tree.bodies[p.b].name))
+                    ),
                 ]
             })
             .collect();
@@ -311,6 +316,25 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
         format_real(m.step),
         format_real(QUATERNION_DRIFT_TOLERANCE),
     );
+
+    o.push_str("<h2>The scene file as SCM reads it</h2>\n");
+    if scene.warnings.is_empty() && scene.unused.is_empty() {
+        o.push_str("<p>Everything in the scene file means in SCM what it means in MuJoCo.</p>\n");
+    }
+    if !scene.warnings.is_empty() {
+        o.push_str("<p>Modelled differently from MuJoCo:</p>\n<ul>\n");
+        for w in &scene.warnings {
+            let _ = writeln!(o, "<li>{}</li>", esc(w));
+        }
+        o.push_str("</ul>\n");
+    }
+    if !scene.unused.is_empty() {
+        o.push_str("<p>Accepted and unused by SCM (MuJoCo's renderer and constraint-solver settings):</p>\n<ul>\n");
+        for u in &scene.unused {
+            let _ = writeln!(o, "<li>{}</li>", esc(u));
+        }
+        o.push_str("</ul>\n");
+    }
 
     o.push_str(
         "<h2>Capabilities</h2>\n<ul>\n<li>FMU state: <code>fmi2GetFMUstate</code>/<code>fmi2SetFMUstate</code>, and serialization into a versioned, checksummed byte string \

@@ -776,8 +776,9 @@ impl Builder {
         }
         match el.attr("integrator") {
             None => {}
-            // MuJoCo's "Euler" is semi-implicit in velocity.
-            Some("Euler") => self.option_integrator = Some(Integrator::SemiImplicitEuler),
+            // MuJoCo's "Euler" is semi-implicit in velocity, with joint damping implicit
+            // (unless <flag eulerdamp="disable">, applied in `apply_flags`).
+            Some("Euler") => self.option_integrator = Some(Integrator::DampedEuler),
             Some("RK4") => self.option_integrator = Some(Integrator::Rk4),
             // MuJoCo's implicit integrators are implicit in the velocity-dependent forces; SCM's
             // implicit Euler covers that and the stiff contact too.
@@ -1051,7 +1052,8 @@ impl Builder {
         let index = self.joints.len();
         let name = match el.attr("name") {
             Some(n) => n.to_string(),
-            None if free => self.bodies[body].name.clone(),
+            // A free joint without a name is named after its body, however it is written.
+            None if kind == JointKind::Free => self.bodies[body].name.clone(),
             None => format!(
                 "{}_joint{}",
                 self.bodies[body].name,
@@ -1653,6 +1655,11 @@ impl Builder {
     fn apply_flags(&mut self) -> Vec<SceneError> {
         let mut refused = Vec::new();
         let f = self.flags;
+        // MuJoCo's default integrator is its Euler.
+        let mujoco = self.option_integrator.unwrap_or(Integrator::DampedEuler);
+        if !f.eulerdamp && mujoco == Integrator::DampedEuler {
+            self.option_integrator = Some(Integrator::SemiImplicitEuler);
+        }
         if !f.gravity {
             self.gravity = Vector3::zeros();
         }
@@ -1701,7 +1708,7 @@ impl Builder {
             geoms: self.geoms,
             actuators: self.actuators,
             timestep: self.timestep.unwrap_or(DEFAULT_STEP),
-            integrator: self.option_integrator.unwrap_or_default(),
+            integrator: self.option_integrator.unwrap_or(Integrator::DampedEuler),
             limits: self
                 .limits
                 .into_iter()
@@ -1730,7 +1737,7 @@ impl Builder {
         let mut contact = ContactParams::default();
         let mut spacing = DEFAULT_SPACING;
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
-        let mut integrator = self.option_integrator.unwrap_or_default();
+        let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
         let mut contact_points = 0.0;
         for (name, value, line) in self.numeric.clone() {

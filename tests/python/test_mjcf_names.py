@@ -1,0 +1,111 @@
+"""Names from MJCF files give FMU variable names that FMI hosts accept: quoted where they are not
+plain identifiers, unique by construction, never a panic. fmpy's validate_fmu checks the
+structured naming convention."""
+import random
+import subprocess
+from xml.sax.saxutils import quoteattr
+
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from conftest import SCM
+
+
+def pack(tmp_path, xml, name="scene"):
+    path = tmp_path / f"{name}.xml"
+    path.write_text(xml, encoding="utf-8")
+    fmu = tmp_path / f"{name}.fmu"
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "panicked" not in out.stderr
+    return str(fmu)
+
+
+def arm(upper, lower, j1, j2, motor):
+    return f"""<mujoco model="arm">
+  <worldbody>
+    <body name={quoteattr(upper)} pos="0 0 1">
+      <joint name={quoteattr(j1)} axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      <body name={quoteattr(lower)} pos="0.3 0 0">
+        <joint name={quoteattr(j2)} axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><motor name={quoteattr(motor)} joint={quoteattr(j1)}/></actuator>
+</mujoco>"""
+
+
+def test_spaces_and_hyphens_give_names_that_validate(tmp_path):
+    fmu = pack(tmp_path, arm("left arm", "fore-arm", "hinge-1", "elbow joint", "motor 1"))
+    assert validate_fmu(fmu) == []
+    names = {v.name for v in read_model_description(fmu).modelVariables}
+    assert {"'hinge-1'.q", "'elbow joint'.v", "'motor 1'.ctrl"} <= names
+
+
+def test_dotted_body_names_do_not_collide(tmp_path):
+    # Bodies a.b and c beside a and b.c: their contact outputs stay apart.
+    xml = """<mujoco model="dots">
+  <worldbody>
+    <body name="a.b" pos="0 0 1"><freejoint/><geom type="sphere" size="0.1"/></body>
+    <body name="c" pos="0 0 2"><freejoint/><geom type="sphere" size="0.1"/></body>
+    <body name="a" pos="1 0 1"><freejoint/><geom type="sphere" size="0.1"/></body>
+    <body name="b.c" pos="1 0 2"><freejoint/><geom type="sphere" size="0.1"/></body>
+  </worldbody>
+</mujoco>"""
+    fmu = pack(tmp_path, xml)
+    assert validate_fmu(fmu) == []
+    names = [v.name for v in read_model_description(fmu).modelVariables]
+    assert len(names) == len(set(names))
+    assert "contact.'a.b'.c.distance" in names and "contact.a.'b.c'.distance" in names
+
+
+def test_an_unnamed_free_joint_is_named_after_its_body_either_way(tmp_path):
+    xml = """<mujoco model="free">
+  <worldbody>
+    <body name="one" pos="0 0 1"><freejoint/><geom type="sphere" size="0.1"/></body>
+    <body name="two" pos="1 0 1"><joint type="free"/><geom type="sphere" size="0.1"/></body>
+  </worldbody>
+</mujoco>"""
+    names = {v.name for v in read_model_description(pack(tmp_path, xml)).modelVariables}
+    assert {"one.pos.x", "two.pos.x"} <= names
+
+
+ALPHABET = "ab_Z09 .-'\\\"&<>äöλ日本→"
+
+
+def random_name(rng):
+    return "".join(rng.choice(ALPHABET) for _ in range(rng.randint(1, 6)))
+
+
+def test_generated_names_never_panic_and_always_validate(tmp_path):
+    rng = random.Random(20261125)
+    for case in range(12):
+        # Body, joint and actuator names from the same small pool, so that names repeat across
+        # kinds; a free joint and a mocap body share a name in every case.
+        pool = [random_name(rng) for _ in range(3)]
+        upper, lower = pool[0], pool[0] + "x" if rng.random() < 0.5 else pool[1]
+        shared = random_name(rng)
+        xml = f"""<mujoco model="names{case}">
+  <worldbody>
+    <body name={quoteattr(upper)} pos="0 0 1">
+      <joint name={quoteattr(pool[1])} axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      <body name={quoteattr(lower)} pos="0.3 0 0">
+        <joint name={quoteattr(pool[2])} axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      </body>
+    </body>
+    <body name={quoteattr(shared + "_free")} pos="2 0 1"><joint type="free" name={quoteattr(shared)}/><geom type="sphere" size="0.1"/></body>
+    <body name={quoteattr(shared)} mocap="true" pos="3 0 1"><geom type="box" size="0.1 0.1 0.1"/></body>
+  </worldbody>
+  <actuator><motor name={quoteattr(pool[0])} joint={quoteattr(pool[1])}/></actuator>
+</mujoco>"""
+        if upper == lower or pool[1] == pool[2]:
+            continue  # MuJoCo refuses repeated names of one kind; so does scm
+        fmu = pack(tmp_path, xml, f"names{case}")
+        problems = validate_fmu(fmu)
+        assert problems == [], (case, [upper, lower, pool, shared], problems)
+        names = [v.name for v in read_model_description(fmu).modelVariables]
+        assert len(names) == len(set(names)), case
