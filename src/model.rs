@@ -214,8 +214,9 @@ impl Model {
         (wrenches, out)
     }
 
-    /// Generalized passive forces (SPEC §2): viscous damping `-b v`, springs towards the zero
-    /// position (`-k q` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation
+    /// Generalized passive forces (SPEC §2): viscous damping `-b v`, joint limits (smooth
+    /// one-sided springs and dampers, [`crate::dynamics::limit`]), springs towards the rest
+    /// position (`-k (q - springref)` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation
     /// vector of the joint's quaternion: the exact gradient of `½ k |θ|²`), and smooth dry
     /// friction `-F v / sqrt(v_s² + v²)` per degree of freedom, with `v_s` the stiction velocity.
     pub fn passive_forces<T: Scalar>(&self, q: &[T], v: &[T], stiction_velocity: T) -> DVector<T> {
@@ -240,6 +241,9 @@ impl Model {
                     }
                 }
                 tau[j.dadr + k] += t;
+            }
+            if let Some(l) = &j.limit {
+                tau[j.dadr] += l.force(q[j.qadr], v[j.dadr]);
             }
         }
         tau
@@ -403,7 +407,10 @@ impl Model {
             match j.kind {
                 JointKind::Slide | JointKind::Hinge => {
                     let stretch = q[j.qadr] - c::<T>(j.springref);
-                    springs += stretch * stretch * (0.5 * j.stiffness)
+                    springs += stretch * stretch * (0.5 * j.stiffness);
+                    if let Some(l) = &j.limit {
+                        springs += l.energy(q[j.qadr]);
+                    }
                 }
                 JointKind::Ball if j.stiffness != 0.0 => {
                     let th = quat_log(&quat_from(&q[j.qadr..j.qadr + 4]));

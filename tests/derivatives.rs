@@ -261,6 +261,38 @@ fn forward_jacobians_match_central_differences() {
 }
 
 #[test]
+fn forward_jacobians_with_joint_limits_match_central_differences() {
+    // t_push with limits on the T-block's joints: x half-way into the onset (0.5 mm past its
+    // upper limit), y 0.5 mm below its lower limit, yaw 10 mrad past its upper limit (beyond
+    // the onset, on the linear law), all moving; the finger's joints far inside their ranges.
+    use scm::dynamics::limit::JointLimit;
+    let (mut model, point) = t_push_point(Dissipation::Smooth);
+    let limits = [
+        (-0.1, 0.0025),
+        (-0.0015, 0.1),
+        (-1.0, 0.04),
+        (-1.0, 1.0),
+        (-1.0, 1.0),
+    ];
+    for (j, &(lo, hi)) in model.tree.joints.iter_mut().zip(&limits) {
+        j.limit = Some(JointLimit::from_solref(lo, hi, [0.02, 1.0], 0.5));
+    }
+    let tau = model.passive_forces(&point.q, &point.v, point.params.stiction_velocity);
+    let mut free = model.clone();
+    for j in &mut free.tree.joints {
+        j.limit = None;
+    }
+    let without = free.passive_forces(&point.q, &point.v, point.params.stiction_velocity);
+    for k in 0..3 {
+        assert!((tau[k] - without[k]).abs() > 1e-3, "limit {k} must act");
+    }
+    for k in 3..5 {
+        assert_eq!(tau[k], without[k], "limit {k} must not act");
+    }
+    check_forward_jacobian("t_push with limits", &model, &point, Coordinates::Embedded);
+}
+
+#[test]
 fn step_jacobians_of_every_integrator_match_central_differences() {
     let (mut model, point) = mocap_point();
     // Damping on the free joint, so that damped_euler's implicit damping is exercised.

@@ -266,15 +266,20 @@ const LIMITED: &str = r#"<mujoco>
 </mujoco>"#;
 
 #[test]
-fn a_range_limits_a_joint_by_autolimits_and_limits_are_refused_until_switched_off() {
+fn a_range_limits_a_joint_by_autolimits_unless_limits_are_switched_off() {
     let with = |auto: &str, flags: &str| LIMITED.replace("AUTO", auto).replace("FLAGS", flags);
-    let e = refuse(&with("true", ""));
-    assert_eq!((e.line, e.element.as_str()), (7, "joint"), "{e}");
-    assert!(e.message.contains("limit=\"disable\""), "{e}");
+    let l = joint(&load(&with("true", "")), "h")
+        .limit
+        .expect("limited by autolimits");
+    assert!((l.lo + 30f64.to_radians()).abs() < 1e-15 && (l.hi - 30f64.to_radians()).abs() < 1e-15);
+    assert!(l.stiffness > 0.0 && l.damping > 0.0);
     // autolimits off: a range alone does not limit.
-    assert_eq!(load(&with("false", "")).model.tree.joints.len(), 1);
-    // limits switched off: accepted.
-    load(&with("true", r#"<flag limit="disable"/>"#));
+    assert_eq!(joint(&load(&with("false", "")), "h").limit, None);
+    // limits switched off.
+    assert_eq!(
+        joint(&load(&with("true", r#"<flag limit="disable"/>"#)), "h").limit,
+        None
+    );
 }
 
 #[test]
@@ -369,22 +374,58 @@ fn physics_that_scm_does_not_model_is_refused_with_what_to_do() {
 #[test]
 fn compile_reports_every_refusal_without_stopping() {
     let dir = scratch("compile");
-    let path = dir.join("two_limits.xml");
+    let path = dir.join("two_refusals.xml");
     std::fs::write(
         &path,
-        LIMITED
-            .replace("AUTO", "true")
-            .replace("FLAGS", "")
-            .replace(
-                "<geom type=\"capsule\"",
-                "<joint name=\"h2\" axis=\"1 0 0\" range=\"-1 1\"/>\n      <geom type=\"capsule\"",
-            ),
+        r#"<mujoco>
+  <option density="1.2"/>
+  <worldbody>
+    <body name="b" pos="0 0 1">
+      <joint name="ball" type="ball" range="0 30"/>
+      <geom type="sphere" size="0.1"/>
+    </body>
+  </worldbody>
+</mujoco>"#,
     )
     .unwrap();
     let c = compile(&path).unwrap();
-    assert_eq!(c.refused.len(), 2, "{:?}", c.refused);
-    assert_eq!(c.limits.iter().flatten().count(), 2);
+    let lines: Vec<usize> = c.refused.iter().map(|e| e.line).collect();
+    assert_eq!(lines, [2, 5], "{:?}", c.refused);
+    assert_eq!(c.limits.iter().flatten().count(), 1);
     let json = c.to_json();
     assert_eq!(json["joints"][0]["limited"], true);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_limited_pendulum_rests_against_its_limit() {
+    // A hinge pendulum released horizontally, limited to 30 degrees below horizontal: it comes
+    // to rest against the limit, past it by the static deflection of the limit's spring
+    // (k = I / 0.02² from MuJoCo's default solreflimit).
+    let text = r#"<mujoco>
+  <option timestep="0.001"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" range="-5 30" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+    let s = load(text);
+    let l = joint(&s, "h").limit.expect("the joint is limited");
+    assert!((l.hi - 30f64.to_radians()).abs() < 1e-15 && (l.lo + 5f64.to_radians()).abs() < 1e-15);
+    use scm::fmi::contract::FmiModel;
+    let mut sim = scm::sim::Simulation::new(s, text);
+    sim.do_step(0.0, 3.0).unwrap();
+    let (q, v) = (sim.current.state.q[0], sim.current.state.v[0]);
+    // Static balance: gravity's torque about the hinge equals the limit spring's.
+    let gravity_torque = 1.0 * 9.81 * 0.25 * q.cos();
+    let deflection = gravity_torque / l.stiffness + 0.5 * l.width;
+    assert!(v.abs() < 1e-6, "at rest: v = {v}");
+    assert!(
+        (q - l.hi - deflection).abs() < 1e-6,
+        "q - hi = {} vs the static deflection {deflection} (k = {})",
+        q - l.hi,
+        l.stiffness
+    );
 }

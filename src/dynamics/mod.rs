@@ -12,6 +12,7 @@
 //! Its pose and velocity enter [`Tree::kinematics_with`] as [`MOCAP_INPUTS`] numbers per mocap
 //! body (see [`Tree::mocap`]).
 
+pub mod limit;
 pub mod spatial;
 
 use crate::scalar::{c, Scalar};
@@ -75,6 +76,8 @@ pub struct Joint {
     pub reference: f64,
     /// Spring rest position of a slide or hinge joint (m or rad, MuJoCo's `springref`).
     pub springref: f64,
+    /// Limits of a slide or hinge joint, as smooth springs and dampers ([`limit`]).
+    pub limit: Option<limit::JointLimit>,
     /// Dry friction force or torque (N or N·m), smoothed by the stiction velocity.
     pub frictionloss: f64,
     /// Armature: inertia added to the joint's DOFs (kg or kg·m²).

@@ -324,7 +324,6 @@ const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ),
     ("solmix", "MuJoCo's contact solver"),
     ("priority", "MuJoCo's contact solver"),
-    ("solreflimit", "MuJoCo's constraint solver"),
     ("solimplimit", "MuJoCo's constraint solver"),
     ("solreffriction", "MuJoCo's constraint solver"),
     ("solimpfriction", "MuJoCo's constraint solver"),
@@ -411,6 +410,8 @@ struct Builder {
     /// Whether each joint is limited (its `range` and line, in SI units) by `limited` or
     /// `autolimits`.
     limits: Vec<Option<(f64, f64, Element)>>,
+    /// Each joint's `solreflimit` (MuJoCo's default `0.02 1`).
+    solreflimit: Vec<[f64; 2]>,
 }
 
 /// An error at an element: its file, line and name.
@@ -467,6 +468,7 @@ impl Builder {
             fluid: None,
             refused: vec![],
             limits: vec![],
+            solreflimit: vec![],
         }
     }
 
@@ -964,6 +966,7 @@ impl Builder {
                     "ref",
                     "springref",
                     "springdamper",
+                    "solreflimit",
                 ],
             )?;
         }
@@ -1074,12 +1077,17 @@ impl Builder {
             armature: scalar("armature")?,
             reference,
             springref,
+            limit: None,
             qadr: 0,
             dadr: 0,
             body,
         };
         self.joints.push(joint);
         self.limits.push(limit);
+        let solref = self
+            .floats(el, "solreflimit", 2)?
+            .unwrap_or(vec![0.02, 1.0]);
+        self.solreflimit.push([solref[0], solref[1]]);
         self.bodies[body].joints.push(index);
         Ok(())
     }
@@ -1681,8 +1689,15 @@ impl Builder {
             ));
         }
         if f.limit {
-            for (_, _, el) in self.limits.iter().flatten() {
-                refused.push(self.err(el, "joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
+            for (j, (_, _, el)) in self
+                .limits
+                .iter()
+                .enumerate()
+                .filter_map(|(j, l)| l.as_ref().map(|l| (j, l)))
+            {
+                if self.joints[j].kind == JointKind::Ball {
+                    refused.push(self.err(el, "ball joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
+                }
             }
         }
         if !f.actuation && !self.actuators.is_empty() {
@@ -1696,6 +1711,26 @@ impl Builder {
         refused.extend(std::mem::take(&mut self.refused));
         refused.sort_by(|a, b| (a.file.as_str(), a.line).cmp(&(b.file.as_str(), b.line)));
         refused
+    }
+
+    /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
+    /// effective inertia at the reference configuration ([`crate::dynamics::limit`]).
+    fn set_limits(&self, tree: &mut Tree) {
+        let q0 = tree.q0();
+        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+        let m = tree.mass_matrix(&kin);
+        for (j, limit) in self.limits.iter().enumerate() {
+            let joint = &mut tree.joints[j];
+            if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) = (limit, joint.kind) {
+                let inertia = m[(joint.dadr, joint.dadr)];
+                joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
+                    *lo,
+                    *hi,
+                    self.solreflimit[j],
+                    inertia,
+                ));
+            }
+        }
     }
 
     /// The compiled model without colliders, and everything SCM would refuse about it.
@@ -1831,7 +1866,10 @@ impl Builder {
         } else {
             (vec![], vec![None; self.bodies.len()])
         };
-        let tree = self.tree()?;
+        let mut tree = self.tree()?;
+        if self.flags.limit {
+            self.set_limits(&mut tree);
+        }
         let name = Path::new(&self.file)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
