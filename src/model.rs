@@ -19,6 +19,10 @@ pub struct Pair {
     pub a: usize,
     /// Second body.
     pub b: usize,
+    /// The pair's own friction coefficient (MuJoCo's combination of its geoms' `friction`, or
+    /// a `<pair friction>`), which the contact parameter `friction` does not change; `None`:
+    /// the pair uses the contact parameter.
+    pub friction: Option<f64>,
 }
 
 /// How an actuator turns its control into a joint force.
@@ -203,6 +207,17 @@ impl Model {
                     distance: c(f64::INFINITY),
                 });
                 continue;
+            };
+            let own;
+            let prm = match pair.friction {
+                Some(mu) => {
+                    own = ContactParams {
+                        friction: c(mu),
+                        ..*prm
+                    };
+                    &own
+                }
+                None => prm,
             };
             let pc = pair_contact(ca, &kin.frames[pair.a], cb, &kin.frames[pair.b], prm);
             for (b, w) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {

@@ -92,6 +92,10 @@ pub struct Geom {
     pub contype: u32,
     /// MuJoCo collision bits.
     pub conaffinity: u32,
+    /// Sliding friction coefficient (the first of MuJoCo's `friction`, default 1).
+    pub friction: f64,
+    /// MuJoCo's contact dimensionality (`condim`, default 3; 1 is frictionless).
+    pub condim: u32,
     /// The file that declares the geom.
     pub file: String,
     /// Its line there.
@@ -393,7 +397,8 @@ struct Builder {
     option_integrator: Option<Integrator>,
     numeric: Vec<(String, f64, usize)>,
     text: Vec<(String, String, usize)>,
-    explicit_pairs: Vec<(String, String, usize)>,
+    /// `<pair geom1 geom2 friction>`: the names, the sliding friction if given, the line.
+    explicit_pairs: Vec<(String, String, Option<f64>, usize)>,
     excludes: Vec<(String, String, usize)>,
     /// Whether each body's inertia came from `<inertial>`.
     explicit_inertia: Vec<bool>,
@@ -1119,20 +1124,39 @@ impl Builder {
                 "shellinertia is not supported by SCM: give the body an <inertial>",
             ));
         }
-        match el.attr("condim") {
-            None | Some("3") => {}
-            Some("1") => self.warnings.push(format!(
-                "{}:{}: condim=\"1\" (frictionless in MuJoCo): SCM applies scm_friction to every pair",
-                el.file, el.line
-            )),
-            Some(c) => self.unused(el, format!("condim=\"{c}\" (MuJoCo's torsional and rolling friction)")),
+        if matches!(el.attr("condim"), Some("4") | Some("6")) {
+            self.unused(
+                el,
+                "condim 4 and 6 (MuJoCo's torsional and rolling friction)",
+            );
         }
-        if el.attr("friction").is_some() {
-            self.warnings.push(format!(
-                "{}:{}: per-geom friction is ignored: SCM uses scm_friction for every pair",
-                self.file, el.line
-            ));
-        }
+        let friction = match el.attr("friction").map(parse_floats) {
+            None => 1.0,
+            Some(Some(v)) if (1..=3).contains(&v.len()) && v[0] >= 0.0 => {
+                if v[1..].iter().any(|&x| x != 0.0) {
+                    self.unused(el, "friction's torsional and rolling coefficients (SCM models sliding friction)");
+                }
+                v[0]
+            }
+            Some(_) => {
+                return Err(self.err(
+                    el,
+                    format!(
+                        "friction=\"{}\": expected 1 to 3 non-negative numbers",
+                        el.attr("friction").unwrap_or("")
+                    ),
+                ))
+            }
+        };
+        let condim: u32 = match el.attr("condim") {
+            None => 3,
+            Some(c) => c
+                .trim()
+                .parse()
+                .ok()
+                .filter(|c| [1, 3, 4, 6].contains(c))
+                .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6")))?,
+        };
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         let kind = el.attr("type").unwrap_or("sphere");
         let fromto = self.floats(el, "fromto", 6)?;
@@ -1297,6 +1321,8 @@ impl Builder {
             pose,
             contype,
             conaffinity,
+            friction,
+            condim,
             file: el.file.to_string(),
             line: el.line,
         });
@@ -1587,15 +1613,31 @@ impl Builder {
         for c in &el.children {
             match c.name.as_str() {
                 "pair" => {
+                    self.check_attrs(c, &["name", "geom1", "geom2", "friction", "condim"])?;
+                    let friction = match c.attr("friction").map(parse_floats) {
+                        None => None,
+                        Some(Some(v)) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => Some(v[0]),
+                        Some(_) => {
+                            return Err(
+                                self.err(c, "friction: expected 1 to 5 non-negative numbers")
+                            )
+                        }
+                    };
+                    let friction = match c.attr("condim") {
+                        Some("1") => Some(0.0),
+                        _ => friction,
+                    };
                     let g1 = c
                         .attr("geom1")
                         .ok_or_else(|| self.err(c, "geom1 is required"))?;
                     let g2 = c
                         .attr("geom2")
                         .ok_or_else(|| self.err(c, "geom2 is required"))?;
-                    self.explicit_pairs.push((g1.into(), g2.into(), c.line));
+                    self.explicit_pairs
+                        .push((g1.into(), g2.into(), friction, c.line));
                 }
                 "exclude" => {
+                    self.check_attrs(c, &["name", "body1", "body2"])?;
                     let b1 = c
                         .attr("body1")
                         .ok_or_else(|| self.err(c, "body1 is required"))?;
@@ -2013,7 +2055,8 @@ impl Builder {
             excluded.push((x.min(y), x.max(y)));
         }
         let mut explicit = Vec::new();
-        for (g1, g2, line) in &self.explicit_pairs {
+        let mut explicit_friction = Vec::new();
+        for (g1, g2, friction, line) in &self.explicit_pairs {
             let find = |g: &str| {
                 self.geoms
                     .iter()
@@ -2036,6 +2079,7 @@ impl Builder {
                 });
             }
             explicit.push((x.min(y), x.max(y)));
+            explicit_friction.push(((x.min(y), x.max(y)), *friction));
         }
         let rules = filter::Rules {
             bodies: &self.bodies,
@@ -2084,10 +2128,76 @@ impl Builder {
             }
         }
         self.warnings.extend(notes);
-        Ok((
-            body_pairs.into_iter().map(|(a, b)| Pair { a, b }).collect(),
-            colliding,
-        ))
+        let pairs = body_pairs
+            .into_iter()
+            .map(|(a, b)| {
+                let own = explicit_friction
+                    .iter()
+                    .find(|(k, _)| *k == (a, b))
+                    .and_then(|(_, f)| *f);
+                let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
+                Pair { a, b, friction }
+            })
+            .collect();
+        Ok((pairs, colliding))
+    }
+
+    /// A body pair's friction from its geoms as MuJoCo combines them: the larger of the two
+    /// geoms' sliding friction, none where both are frictionless (`condim="1"`); over a body's
+    /// geoms, the largest. `None` when the scene sets `scm_friction`, which then applies to
+    /// every pair without a `<pair friction>`.
+    fn geom_friction(&mut self, a: usize, b: usize, colliding: &[bool]) -> Option<f64> {
+        if self.numeric.iter().any(|(n, _, _)| n == "scm_friction") {
+            return None;
+        }
+        let of = |body: usize| -> Vec<&Geom> {
+            self.geoms
+                .iter()
+                .zip(colliding)
+                .filter(|(g, &c)| c && g.body == body)
+                .map(|(g, _)| g)
+                .collect()
+        };
+        let (ga, gb) = (of(a), of(b));
+        let combine = |x: &Geom, y: &Geom| {
+            if x.condim == 1 && y.condim == 1 {
+                0.0
+            } else {
+                x.friction.max(y.friction)
+            }
+        };
+        let mut values: Vec<f64> = ga
+            .iter()
+            .flat_map(|x| {
+                gb.iter()
+                    .filter(|y| filter::compatible(x, y))
+                    .map(|y| combine(x, y))
+            })
+            .collect();
+        if values.is_empty() {
+            // An explicit pair, or whole-body contact past the bits: every geom pair counts.
+            values = ga
+                .iter()
+                .flat_map(|x| gb.iter().map(|y| combine(x, y)))
+                .collect();
+        }
+        let mu = values
+            .iter()
+            .copied()
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        if values.iter().any(|&v| Some(v) != mu) {
+            let (na, nb) = (self.bodies[a].name.clone(), self.bodies[b].name.clone());
+            let list = values
+                .iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.warnings.push(format!(
+                "bodies '{na}' and '{nb}': their geoms combine to different friction coefficients ({list}); SCM's contact acts between whole bodies and uses the largest, {}",
+                mu.unwrap_or(1.0)
+            ));
+        }
+        Some(mu.unwrap_or(1.0))
     }
 }
 

@@ -103,6 +103,13 @@ STIFF = """<mujoco model="stiff">
 """
 
 
+#: fmpy's native logger proxy keeps one process-wide pointer to the last Python logger given to
+#: addLoggerProxy, and fmpy's default callbacks log through it; a logger freed after its run
+#: would leave that pointer dangling for every later FMU in the process (a segfault at the next
+#: log message, as soon as the memory is reused). So the loggers given to it live for the session.
+_LOGGERS_KEPT_ALIVE = []
+
+
 def run_stiff(path, integrator, steps):
     """Drives the FMU step by step (to see the refused step itself: simulate_fmu ends the run
     there, see the last test). Returns the heights reached, the exception of a refused step (or
@@ -119,6 +126,7 @@ def run_stiff(path, integrator, steps):
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
     addLoggerProxy(byref(callbacks))
+    _LOGGERS_KEPT_ALIVE.append((callbacks, logger))
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stiff")
     fmu.instantiate(callbacks=callbacks, loggingOn=True)
     fmu.setupExperiment(startTime=0.0)

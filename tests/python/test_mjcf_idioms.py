@@ -124,3 +124,62 @@ def test_a_floor_and_fixed_obstacles_share_the_worldbody(tmp_path):
     assert abs(d.qpos[2] - 0.15) < 2e-3 and abs(d.qpos[9] - 0.05) < 2e-3
     assert abs(ours["box.pos.z"] - d.qpos[2]) < 5e-3, (ours["box.pos.z"], d.qpos[2])
     assert abs(ours["other.pos.z"] - d.qpos[9]) < 5e-3, (ours["other.pos.z"], d.qpos[9])
+
+
+def test_geom_friction_sets_the_pair_friction_as_in_mujoco(tmp_path):
+    # A box on a 15 degree incline, both geoms with friction 0.2 (MuJoCo takes the larger of
+    # the two): it slides down at g (sin 15 - 0.2 cos 15) = 0.644 m/s2, about 0.3 m in 1 s.
+    # With friction 1 (MuJoCo's default) it would stick.
+    xml = """<mujoco model="incline">
+  <option timestep="0.001"/>
+  <worldbody>
+    <geom name="slope" type="plane" size="2 2 0.1" euler="0 15 0" friction="0.2"/>
+    <body name="box" pos="0.01320 0 0.04926" euler="0 15 0">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1" friction="0.2"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    outputs = ["box.pos.x", "box.pos.z"]
+    ours, m, d = run(tmp_path, xml, outputs, 1.0)
+    start = np.array([0.01320, 0.04926])
+    slid_mujoco = np.linalg.norm(d.qpos[[0, 2]] - start)
+    slid_ours = np.linalg.norm(np.array([ours["box.pos.x"], ours["box.pos.z"]]) - start)
+    theta = np.radians(15)
+    analytic = 0.5 * 9.81 * (np.sin(theta) - 0.2 * np.cos(theta)) * 1.0**2
+    assert abs(slid_mujoco - analytic) < 0.1 * analytic, (slid_mujoco, analytic)
+    assert abs(slid_ours - slid_mujoco) < 0.1 * slid_mujoco, (slid_ours, slid_mujoco)
+
+
+def test_t_push_written_mujocos_way_ignores_the_excluded_table(tmp_path):
+    # The bundled T-push with a table added the way MuJoCo files do: a plane whose contype and
+    # conaffinity share no bit with the block's and the finger's. It must change nothing: the
+    # pushes through the FMU equal those of the file without the table, and the block ends
+    # where MuJoCo's run of the same file ends, within what the two contact models allow.
+    from conftest import SCENES
+    base = (SCENES / "t_push.xml").read_text()
+    table = '<geom name="table" type="plane" size="1 1 0.1" pos="0 0 -0.02" contype="2" conaffinity="2"/>'
+    with_table = base.replace("<worldbody>", "<worldbody>\n    " + table, 1)
+    outputs = ["t_x.q", "t_y.q", "t_yaw.q", "finger_y.q"]
+    pushes = {"act_x.ctrl": 0.01, "act_y.ctrl": 0.2}
+    runs = {}
+    for name, xml in (("plain", base), ("table", with_table)):
+        path = tmp_path / f"{name}.xml"
+        path.write_text(xml)
+        fmu = tmp_path / f"{name}.fmu"
+        subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True, capture_output=True)
+        runs[name] = simulate_fmu(str(fmu), stop_time=2.0, output_interval=0.01, output=outputs,
+                                  start_values=pushes)
+    for v in outputs:
+        assert np.array_equal(runs["plain"][v], runs["table"][v]), v
+    m = mujoco.MjModel.from_xml_string(with_table)
+    d = mujoco.MjData(m)
+    d.ctrl[:] = [pushes["act_x.ctrl"], pushes["act_y.ctrl"]]
+    while d.time < 2.0 - 1e-9:
+        mujoco.mj_step(m, d)
+    ours = runs["table"][-1]
+    pushed = ours["t_y.q"]
+    print(f"T-push with an excluded table, after 2 s: scm x {ours['t_x.q']:.4f} y {pushed:.4f} "
+          f"yaw {ours['t_yaw.q']:.4f}; MuJoCo x {d.qpos[0]:.4f} y {d.qpos[1]:.4f} yaw {d.qpos[2]:.4f}")
+    assert pushed > 0.05 and d.qpos[1] > 0.05, "both push the block forward"
+    assert abs(pushed - d.qpos[1]) < 0.2 * d.qpos[1]
