@@ -82,6 +82,13 @@ pub struct Model {
     pub tolerance: f64,
     /// Number of soft top-K contact points output per pair (`scm_contact_points`; 0: none).
     pub contact_points: usize,
+    /// Initial positions: the reference configuration ([`Tree::q0`]), or a `<keyframe>`'s
+    /// `qpos` chosen by `scm_keyframe`.
+    pub q0: Vec<f64>,
+    /// Initial velocities (zero, or the chosen keyframe's `qvel`).
+    pub v0: Vec<f64>,
+    /// Initial controls (zero, or the chosen keyframe's `ctrl`).
+    pub ctrl0: Vec<f64>,
 }
 
 /// Result of forward dynamics.

@@ -146,7 +146,7 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 /// directional derivatives.
 pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
     let mut rows: Vec<(Variable, Slot)> = Vec::new();
-    let q0 = model.tree.q0();
+    let (q0, v0) = (&model.q0, &model.v0);
     let mut push =
         |name: String, causality, variability, initial, var_type, description: String, slot| {
             let value_reference = rows.len() as u32;
@@ -234,7 +234,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 state(
                     &mut push,
                     format!("{jn}.v"),
-                    0.0,
+                    v0[j.dadr],
                     uv,
                     format!("Velocity of joint {}", j.name),
                     Slot::V(j.dadr),
@@ -275,7 +275,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                         state(
                             &mut push,
                             format!("{jn}.linvel.{a}"),
-                            0.0,
+                            v0[j.dadr + k],
                             "m/s",
                             format!("Velocity of the origin of body {body} (world frame)"),
                             Slot::V(j.dadr + k),
@@ -289,7 +289,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                     state(
                         &mut push,
                         format!("{jn}.angvel.{a}"),
-                        0.0,
+                        v0[da + k],
                         "rad/s",
                         format!("Angular velocity of body {body} (body frame)"),
                         Slot::V(da + k),
@@ -306,7 +306,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             Variability::Continuous,
             None,
             VarType::Real {
-                start: Some(0.0),
+                start: Some(model.ctrl0[i]),
                 unit: None,
                 derivative: None,
             },
@@ -642,10 +642,10 @@ impl Simulation {
         let start = SimState {
             time: 0.0,
             state: State {
-                q: model.tree.q0(),
-                v: vec![0.0; model.tree.nv],
+                q: model.q0.clone(),
+                v: model.v0.clone(),
             },
-            ctrl: vec![0.0; model.actuators.len()],
+            ctrl: model.ctrl0.clone(),
             params: model.contact,
             mocap,
             mocap_target,

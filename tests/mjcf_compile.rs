@@ -429,3 +429,56 @@ fn a_limited_pendulum_rests_against_its_limit() {
         l.stiffness
     );
 }
+
+#[test]
+fn a_keyframe_chosen_by_scm_keyframe_is_the_initial_state() {
+    let scene = |choice: &str| {
+        format!(
+            r#"<mujoco>
+  <custom><text name="scm_keyframe" data="{choice}"/></custom>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+    </body>
+  </worldbody>
+  <actuator><motor name="m" joint="h"/></actuator>
+  <keyframe>
+    <key name="rest" qpos="0"/>
+    <key name="home" qpos="0.3" qvel="-1.5" ctrl="0.25"/>
+  </keyframe>
+</mujoco>"#
+        )
+    };
+    for choice in ["home", "1"] {
+        let s = load(&scene(choice));
+        assert_eq!(
+            (
+                s.model.q0.clone(),
+                s.model.v0.clone(),
+                s.model.ctrl0.clone()
+            ),
+            (vec![0.3], vec![-1.5], vec![0.25])
+        );
+        assert!(
+            s.unused.iter().any(|u| u.contains("keyframe not chosen")),
+            "{:?}",
+            s.unused
+        );
+        let sim = scm::sim::Simulation::new(s, &scene(choice));
+        assert_eq!(
+            (
+                sim.current.state.q[0],
+                sim.current.state.v[0],
+                sim.current.ctrl[0]
+            ),
+            (0.3, -1.5, 0.25)
+        );
+    }
+    let e = refuse(&scene("away"));
+    assert_eq!((e.line, e.element.as_str()), (2, "text"), "{e}");
+    assert!(e.message.contains("away"), "{e}");
+    let bad = scene("home").replace("qvel=\"-1.5\"", "qvel=\"-1.5 2\"");
+    let e = refuse(&bad);
+    assert_eq!((e.line, e.element.as_str()), (12, "key"), "{e}");
+}

@@ -45,6 +45,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         "name": g.name, "body": bodies[g.body], "type": kind, "size": size,
         "pos": pos, "quat": quat, "mesh": g.mesh,
         "contype": g.contype, "conaffinity": g.conaffinity,
+        "friction": g.friction, "condim": g.condim,
     })
 }
 

@@ -408,6 +408,8 @@ struct Builder {
     /// Elements and attributes accepted and unused by SCM (file:line: what, why).
     unused: Vec<String>,
     flags: Flags,
+    /// `<keyframe><key>` elements, in order; `scm_keyframe` picks the initial state.
+    keys: Vec<Element>,
     /// Refusals found while reading (reported after the whole file is read).
     refused: Vec<SceneError>,
     /// The `<option>` that asks for fluid forces, if any.
@@ -471,6 +473,7 @@ impl Builder {
             unused: vec![],
             flags: Flags::default(),
             fluid: None,
+            keys: vec![],
             refused: vec![],
             limits: vec![],
             solreflimit: vec![],
@@ -604,10 +607,20 @@ impl Builder {
                     self.unused(el, "renderer and memory settings")
                 }
                 "sensor" => self.unused(el, "sensors (SCM's outputs are its FMU variables)"),
-                "keyframe" => self.unused(
-                    el,
-                    "keyframes (the initial state is the model's reference configuration)",
-                ),
+                "keyframe" => {
+                    for k in &el.children {
+                        if k.name != "key" {
+                            return Err(self.err(k, "a <keyframe> holds <key> elements"));
+                        }
+                        self.check_attrs(
+                            k,
+                            &[
+                                "name", "time", "qpos", "qvel", "act", "ctrl", "mpos", "mquat",
+                            ],
+                        )?;
+                        self.keys.push(k.clone());
+                    }
+                }
                 _ => return Err(self.err(el, "unsupported element")),
             }
         }
@@ -1755,6 +1768,82 @@ impl Builder {
         refused
     }
 
+    /// The initial state: the reference configuration at rest with zero controls, or the
+    /// `<key>` that `scm_keyframe` names (by `name`, or by its index among the keys), whose
+    /// `qpos`, `qvel` and `ctrl` replace those they give. The other keys are noted as unused.
+    #[allow(clippy::type_complexity)]
+    fn initial_state(
+        &mut self,
+        tree: &Tree,
+        keyframe: Option<(String, usize)>,
+    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), SceneError> {
+        let mut q0 = tree.q0();
+        let mut v0 = vec![0.0; tree.nv];
+        let mut ctrl0 = vec![0.0; self.actuators.len()];
+        let chosen = match &keyframe {
+            None => None,
+            Some((want, line)) => {
+                let by_name = self
+                    .keys
+                    .iter()
+                    .position(|k| k.attr("name") == Some(want.as_str()));
+                let by_index = want
+                    .trim()
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&i| i < self.keys.len());
+                match by_name.or(by_index) {
+                    Some(i) => Some(i),
+                    None => {
+                        return Err(self.setting_error(
+                            *line,
+                            "scm_keyframe",
+                            format!("no <key> named '{want}' (and no key of that index): the scene has {} key(s)", self.keys.len()),
+                        ))
+                    }
+                }
+            }
+        };
+        for (i, key) in self.keys.clone().iter().enumerate() {
+            if Some(i) != chosen {
+                self.unused(
+                    key,
+                    "keyframe not chosen as the initial state (scm_keyframe picks one)",
+                );
+                continue;
+            }
+            for (attr, what) in [
+                ("act", "actuator activations"),
+                ("mpos", "mocap positions"),
+                ("mquat", "mocap orientations"),
+            ] {
+                if key.attr(attr).is_some() {
+                    return Err(self.err(key, format!("{attr}: {what} in the initial key are not supported by SCM: set the mocap inputs instead, or remove it")));
+                }
+            }
+            if self.float(key, "time")?.is_some_and(|t| t != 0.0) {
+                self.warnings.push(format!(
+                    "{}:{}: the key's time is not used: the FMU starts at the host's start time",
+                    key.file, key.line
+                ));
+            }
+            for (attr, target) in [("qpos", &mut q0), ("qvel", &mut v0), ("ctrl", &mut ctrl0)] {
+                if let Some(s) = key.attr(attr) {
+                    let v = parse_floats(s)
+                        .filter(|v| v.len() == target.len())
+                        .ok_or_else(|| {
+                            element_error(
+                                key,
+                                format!("{attr}: expected {} finite numbers", target.len()),
+                            )
+                        })?;
+                    *target = v;
+                }
+            }
+        }
+        Ok((q0, v0, ctrl0))
+    }
+
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
     /// effective inertia at the reference configuration ([`crate::dynamics::limit`]).
     fn set_limits(&self, tree: &mut Tree) {
@@ -1817,6 +1906,7 @@ impl Builder {
         let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
         let mut contact_points = 0.0;
+        let mut keyframe: Option<(String, usize)> = None;
         for (name, value, line) in self.numeric.clone() {
             let slot = match name.as_str() {
                 "scm_eps1" => &mut contact.eps1,
@@ -1885,6 +1975,7 @@ impl Builder {
                         )
                     })?
                 }
+                "scm_keyframe" => keyframe = Some((value, line)),
                 _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
             }
         }
@@ -1912,6 +2003,7 @@ impl Builder {
         if self.flags.limit {
             self.set_limits(&mut tree);
         }
+        let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let name = Path::new(&self.file)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -1927,6 +2019,9 @@ impl Builder {
             step,
             tolerance,
             contact_points: contact_points as usize,
+            q0,
+            v0,
+            ctrl0,
         };
         Ok(Scene {
             model,

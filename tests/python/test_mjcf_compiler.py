@@ -5,7 +5,8 @@ gymnasium and on every bundled scene.
 Compared to 1e-9 (relative to the quantity's size where it is larger than 1): body frames,
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
 positions, passive properties and limits; geom kinds, sizes and poses (per body, in order);
-actuator joints, gears, gains and control ranges; the time step and gravity.
+actuator joints, gears, gains and control ranges; the time step and gravity; geom sliding
+friction and condim.
 """
 import json
 import pathlib
@@ -143,6 +144,8 @@ def compare(path):
             close(f"{tag} rotation", rot(geom["quat"]), rot(quat))
             assert geom["contype"] == m.geom_contype[g], f"{tag} contype"
             assert geom["conaffinity"] == m.geom_conaffinity[g], f"{tag} conaffinity"
+            assert geom["condim"] == m.geom_condim[g], f"{tag} condim"
+            close(f"{tag} sliding friction", geom["friction"], m.geom_friction[g][0])
 
     # Actuators.
     assert len(ours["actuators"]) == m.nu, "actuator count"
