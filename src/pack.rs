@@ -43,27 +43,36 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
         message: format!("cannot read the scene: {e}"),
     })?;
     let loaded = crate::scene::load_str(&text, scene)?;
+    // The meshes under `meshes/`, the included files where the includes find them again.
+    let files = loaded
+        .meshes
+        .iter()
+        .map(|m| {
+            (
+                crate::scene::packed_mesh_name(&m.file),
+                "mesh",
+                &m.file,
+                &m.path,
+            )
+        })
+        .chain(loaded.includes.iter().map(|i| {
+            (
+                packed_include_name(scene, &i.path),
+                "include",
+                &i.file,
+                &i.path,
+            )
+        }));
     let mut resources: Vec<(String, Vec<u8>)> = Vec::new();
-    for m in &loaded.meshes {
-        let name = crate::scene::packed_mesh_name(&m.file).map_err(|why| {
-            PackError::Write(format!("{}: mesh {}: {why}", scene.display(), m.file))
+    for (name, kind, file, path) in files {
+        let name = name.map_err(|why| {
+            PackError::Write(format!("{}: {kind} {file}: {why}", scene.display()))
         })?;
         if resources.iter().any(|(n, _)| *n == name) {
             continue;
         }
-        let bytes = std::fs::read(&m.path)
-            .map_err(|e| PackError::Write(format!("{}: {e}", m.path.display())))?;
-        resources.push((name, bytes));
-    }
-    for inc in &loaded.includes {
-        let name = packed_include_name(scene, &inc.path).map_err(|why| {
-            PackError::Write(format!("{}: include {}: {why}", scene.display(), inc.file))
-        })?;
-        if resources.iter().any(|(n, _)| *n == name) {
-            continue;
-        }
-        let bytes = std::fs::read(&inc.path)
-            .map_err(|e| PackError::Write(format!("{}: {e}", inc.path.display())))?;
+        let bytes = std::fs::read(path)
+            .map_err(|e| PackError::Write(format!("{}: {e}", path.display())))?;
         resources.push((name, bytes));
     }
     let sim = Simulation::new(loaded.clone(), &text);
@@ -77,8 +86,8 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
     })
 }
 
-/// Packs `scene` with the FMU `library` into `out`: the scene file and the meshes it names go
-/// into `resources/`.
+/// Packs `scene` with the FMU `library` into `out`: the scene file, the meshes it names and
+/// the files it includes go into `resources/`.
 pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
     let d = describe(scene)?;
     if !library.is_file() {

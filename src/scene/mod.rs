@@ -782,7 +782,6 @@ impl Builder {
         for key in ["density", "viscosity"] {
             if self.float(el, key)?.is_some_and(|v| v != 0.0) {
                 self.fluid = Some(el.clone());
-                let _ = key;
             }
         }
         if el.attr("magnetic").is_some() {
