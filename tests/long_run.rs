@@ -2,7 +2,7 @@
 //! `t_push` (2000 s simulated, the finger making and breaking contact every second; about
 //! 3–4 minutes in release at ~0.2 ms per step) and 10⁴ steps of `box_stack` (three free boxes
 //! settling and resting). `cargo run --release --example long_run` runs the same code with
-//! progress lines, 10⁶ steps of each; its numbers are in README, Errors and limits.
+//! progress lines, 10⁶ steps of each; its numbers are in docs/fmu.md, Errors and limits.
 //!
 //! Memory: the live heap bytes of the stepping thread (a counting global allocator, so other
 //! tests running in parallel do not count) after the first tenth of the run and at every step

@@ -106,7 +106,7 @@ pub struct Geom {
 pub const DEFAULT_SPACING: f64 = 0.01;
 /// Most AOPC points one body may get, estimated from its geoms' surface area before sampling
 /// (a point per `scm_spacing`² of surface, at least three per mesh triangle). A body at the
-/// limit takes about 650 MB (about 320 bytes per point with its BVH, see README, Performance)
+/// limit takes about 650 MB (about 320 bytes per point with its BVH, see docs/performance.md)
 /// and a pair evaluation at the scenes' ε seconds to minutes; a scene beyond it (a spacing of
 /// 1e-9 m, a geom of a kilometre) would exhaust the host's memory, and an allocation failure
 /// aborts the host's process: refused with an error instead.
