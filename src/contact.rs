@@ -582,6 +582,31 @@ fn pair_sides<T: Scalar, S: ForceSink>(
 /// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each
 /// skipped summand is below the relative weight τ/N of the largest, and all of them together
 /// change the force by less than `τ M`, the torques by less than `τ M` times the bodies' size.
+///
+/// # Example
+///
+/// Two 10 cm boxes, one resting 1 mm into the other: the pair pushes them apart along z with
+/// equal and opposite forces, and nothing acts sideways.
+///
+/// ```
+/// use std::path::Path;
+/// use scm::contact::pair_contact;
+///
+/// let xml = r#"<mujoco><worldbody>
+///   <body name="low"><geom type="box" size="0.05 0.05 0.05"/></body>
+///   <body name="high" pos="0 0 0.099"><freejoint/><geom type="box" size="0.05 0.05 0.05"/></body>
+/// </worldbody></mujoco>"#;
+/// let model = scm::scene::load_str(xml, Path::new("boxes.xml"))?.model;
+/// let kin = model.tree.kinematics(&model.q0, &model.v0);
+/// let pair = &model.pairs[0];
+/// let (ca, cb) = (model.colliders[pair.a].as_ref(), model.colliders[pair.b].as_ref());
+/// let pc = pair_contact(ca.unwrap(), &kin.frames[pair.a], cb.unwrap(), &kin.frames[pair.b], &model.contact);
+/// let (fa, fb) = (pc.on_a.force, pc.on_b.force);
+/// assert!(fb.z > 0.0 && fa.z < 0.0, "the upper box is pushed up");
+/// assert!((fa + fb).norm() < 1e-9 * fb.norm(), "action = reaction");
+/// assert!(fb.x.abs() + fb.y.abs() < 1e-6 * fb.z, "no sideways force on a centred stack");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn pair_contact<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,

@@ -602,7 +602,35 @@ pub const QUATERNION_DRIFT_TOLERANCE: f64 = 1e-6;
 /// they belong to.
 type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 
-/// A simulation of a scene.
+/// A simulation of a scene: the model, its current state and what the FMU exposes of it.
+///
+/// # Example
+///
+/// A 0.1 kg sphere dropped onto a floor comes to rest on it, carried by the contact force:
+///
+/// ```
+/// use std::path::Path;
+/// use scm::sim::Simulation;
+///
+/// let xml = r#"<mujoco>
+///   <option timestep="0.001"/>
+///   <worldbody>
+///     <geom name="floor" type="plane" size="1 1 0.1"/>
+///     <body name="ball" pos="0 0 0.2">
+///       <freejoint/><geom type="sphere" size="0.05" mass="0.1"/>
+///     </body>
+///   </worldbody>
+/// </mujoco>"#;
+/// let scene = scm::scene::load_str(xml, Path::new("drop.xml"))?;
+/// let mut sim = Simulation::new(scene, xml);
+/// sim.advance(1.0)?;
+/// let z = sim.current.state.q[2];
+/// assert!((z - 0.05).abs() < 2e-3, "resting height {z}");
+/// // The floor (first body of the pair) carries the ball's weight.
+/// let on_floor = sim.contacts()[0].on_a.force.z;
+/// assert!((on_floor + 0.1 * 9.81).abs() < 1e-3, "floor force {on_floor}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Simulation {
     /// The model.
     pub model: Model,

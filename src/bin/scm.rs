@@ -185,7 +185,7 @@ fn simulate(
     for k in 0..=n {
         if k > 0 {
             sim.do_step((k - 1) as f64 * h, h)
-                .map_err(|e| format!("{e:?}"))?;
+                .map_err(|e| e.to_string())?;
         }
         let mut row = vec![format!("{}", k as f64 * h)];
         for (_, vr) in &outputs {

@@ -222,12 +222,14 @@ pub struct DefaultExperiment {
 }
 
 /// Why a step failed.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StepError {
     /// The step was refused (bad arguments); the state is unchanged (`fmi2Error`).
+    #[error("step refused: {0}")]
     Error(String),
     /// The step diverged; the state was rolled back to the start of the step (`fmi2Discard`),
     /// so the host may retry with a smaller step.
+    #[error("step discarded, the state is as before it: {0}")]
     Discard(String),
 }
 

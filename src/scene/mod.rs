@@ -1690,7 +1690,7 @@ impl Builder {
                 InertiaFromGeom::Never => false,
             };
             if from_geoms {
-                self.bodies[b].inertia = self.geom_inertia[b].clone();
+                self.bodies[b].inertia = self.geom_inertia[b];
             }
             let i = &mut self.bodies[b].inertia;
             i.mass = i.mass.max(s.bound_mass);
@@ -2039,8 +2039,9 @@ impl Builder {
     /// (made unique), in the same frame. Nothing moves: the bodies are welded to the world.
     fn split_static_planes(&mut self) {
         let weld = filter::weld_bodies(&self.bodies);
-        for b in 0..self.bodies.len() {
-            if weld[b] != 0 {
+        // New bodies are pushed below; only the bodies that existed before are visited.
+        for (b, &w) in weld.iter().enumerate() {
+            if w != 0 {
                 continue;
             }
             let on_b: Vec<usize> = (0..self.geoms.len())
