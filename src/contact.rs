@@ -153,6 +153,87 @@ impl ContactParams<f64> {
     }
 }
 
+/// A tunable contact parameter (`scm.<name>`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// ε1 (m²).
+    Eps1,
+    /// ε2 (m).
+    Eps2,
+    /// ε3 (m).
+    Eps3,
+    /// k (N/m).
+    Stiffness,
+    /// v_d (m/s).
+    DissipationVelocity,
+    /// v_s (m/s).
+    StictionVelocity,
+    /// μ (1).
+    Friction,
+}
+
+impl Param {
+    /// Every parameter, in table order.
+    pub const ALL: [Param; 7] = [
+        Param::Eps1,
+        Param::Eps2,
+        Param::Eps3,
+        Param::Stiffness,
+        Param::DissipationVelocity,
+        Param::StictionVelocity,
+        Param::Friction,
+    ];
+
+    /// `(name, unit, description)`.
+    pub fn describe(self) -> (&'static str, &'static str, &'static str) {
+        match self {
+            Param::Eps1 => ("eps1", "m2", "SSDF softmax temperature over squared distances (smaller: sharper surfaces)"),
+            Param::Eps2 => ("eps2", "m", "separation-distribution softmax temperature (smaller: force concentrates on the deepest points)"),
+            Param::Eps3 => ("eps3", "m", "softplus smoothing of the penetration (force at zero penetration is k*eps3*ln 2)"),
+            Param::Stiffness => ("stiffness", "N/m", "contact stiffness k"),
+            Param::DissipationVelocity => ("dissipation_velocity", "m/s", "approach speed at which damping cancels the spring (v_d)"),
+            Param::StictionVelocity => ("stiction_velocity", "m/s", "sliding speed below which friction fades (v_s); also smooths joint frictionloss"),
+            Param::Friction => ("friction", "1", "friction coefficient mu"),
+        }
+    }
+
+    /// The parameter's slot.
+    pub fn get<T: Copy>(self, p: &ContactParams<T>) -> T {
+        match self {
+            Param::Eps1 => p.eps1,
+            Param::Eps2 => p.eps2,
+            Param::Eps3 => p.eps3,
+            Param::Stiffness => p.stiffness,
+            Param::DissipationVelocity => p.dissipation_velocity,
+            Param::StictionVelocity => p.stiction_velocity,
+            Param::Friction => p.friction,
+        }
+    }
+
+    /// The parameter's slot, for writing.
+    pub fn slot<T>(self, p: &mut ContactParams<T>) -> &mut T {
+        match self {
+            Param::Eps1 => &mut p.eps1,
+            Param::Eps2 => &mut p.eps2,
+            Param::Eps3 => &mut p.eps3,
+            Param::Stiffness => &mut p.stiffness,
+            Param::DissipationVelocity => &mut p.dissipation_velocity,
+            Param::StictionVelocity => &mut p.stiction_velocity,
+            Param::Friction => &mut p.friction,
+        }
+    }
+
+    /// Whether `value` is allowed (finite; positive, or non-negative for friction).
+    pub fn accepts(self, value: f64) -> bool {
+        value.is_finite()
+            && if self == Param::Friction {
+                value >= 0.0
+            } else {
+                value > 0.0
+            }
+    }
+}
+
 /// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; SPEC §2) on a point at offset `r`
 /// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
 /// material point. Returns `λ`, which acts on the point; `-λ` acts on the plane's body.

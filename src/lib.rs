@@ -3,11 +3,17 @@
 //! The crate reads as the method: [`geometry`] (oriented point clouds and the soft signed
 //! distance function) → [`collision`] (separation field and distribution) → [`contact`]
 //! (point–plane, point–SSDF and SSDF–SSDF forces) → [`dynamics`] (kinematic trees, forward and
-//! inverse dynamics) → [`integrate`] (time stepping), with exact first and second derivatives of
-//! all of it in [`derivatives`]. [`scene`] (MJCF loader) and [`fmi`] (the
-//! FMI 2.0 C ABI) are the edges: the math never sees a file, a pointer or XML.
+//! inverse dynamics) → [`model`] (the whole scene's dynamics) → [`integrate`] (time stepping,
+//! the methods named in [`integrator`]), with exact first and second derivatives of all of it in
+//! [`derivatives`] (on the engines of [`autodiff`]). That is the engine; above it, in layers
+//! that import only downwards (checked by `tests/layers.rs`): [`scene`] (MJCF in, a [`Model`]
+//! out), [`sim`] (a running simulation and its variable table), [`fmi`] (the FMI 2.0 C ABI) and
+//! [`pack`] (the `.fmu` archive). The math never sees a file, a pointer or XML.
+//!
+//! [`Model`]: model::Model
 #![warn(missing_docs)]
 
+pub mod autodiff;
 pub mod collision;
 pub mod contact;
 pub mod derivatives;
@@ -15,6 +21,7 @@ pub mod dynamics;
 pub mod fmi;
 pub mod geometry;
 pub mod integrate;
+pub mod integrator;
 pub mod model;
 pub mod pack;
 pub mod scalar;

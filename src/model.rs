@@ -8,7 +8,7 @@
 use crate::collision::Collider;
 use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
-use crate::integrate::Integrator;
+use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
 use nalgebra::{DVector, Vector3};
 

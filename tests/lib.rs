@@ -35,6 +35,7 @@ mod geometry_ssdf;
 mod golden_model_description;
 mod host_fmi_crate;
 mod integrators;
+mod layers;
 mod long_run;
 mod mjcf_compile;
 mod mocap;

@@ -143,6 +143,9 @@ fn estimated_points(shape: &Shape, spacing: f64) -> f64 {
     area / (spacing * spacing)
 }
 
+/// Name of the scene file inside an FMU's `resources/` folder.
+pub const SCENE_FILE: &str = "scene.xml";
+
 /// Default internal step when neither `scm_step` nor `<option timestep>` is given (s).
 pub const DEFAULT_STEP: f64 = 0.002;
 
@@ -2327,9 +2330,7 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
         dir = dir.join(d);
     }
     let path = dir.join(f);
-    let in_fmu = scene
-        .file_name()
-        .is_some_and(|n| n == crate::sim::SCENE_FILE)
+    let in_fmu = scene.file_name().is_some_and(|n| n == SCENE_FILE)
         && scene_dir(scene)
             .file_name()
             .is_some_and(|n| n == "resources");

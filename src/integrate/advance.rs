@@ -1,0 +1,623 @@
+//! A communication step covered by internal steps that land exactly on its end, and the guard
+//! that refuses a step that diverges (non-finite state, energy growth no input explains).
+
+use crate::contact::ContactParams;
+use crate::dynamics::MOCAP_INPUTS;
+use crate::integrator::{Integrator, State};
+use crate::model::{DynamicsError, Model};
+use nalgebra::DMatrix;
+
+impl Model {
+    /// Name of the first non-finite coordinate of a state, if any ("the position of joint J" or
+    /// "the velocity of joint J").
+    pub fn first_non_finite(&self, s: &State<f64>) -> Option<String> {
+        for j in &self.tree.joints {
+            if (j.qadr..j.qadr + j.kind.nq()).any(|i| !s.q[i].is_finite()) {
+                return Some(format!("the position of joint {}", j.name));
+            }
+            if (j.dadr..j.dadr + j.kind.nv()).any(|i| !s.v[i].is_finite()) {
+                return Some(format!("the velocity of joint {}", j.name));
+            }
+        }
+        None
+    }
+
+    /// Power of the actuators `τ_act · v` (W).
+    fn actuator_power(&self, s: &State<f64>, ctrl: &[f64]) -> f64 {
+        self.actuator_forces(&s.q, &s.v, ctrl)
+            .iter()
+            .zip(&s.v)
+            .map(|(t, v)| t * v)
+            .sum()
+    }
+
+    /// The guard's state at the start of a call from `state` at time `t0` (s), with the contacts
+    /// there (`None`: none evaluated), continuing `ledger` if it was left at this state and
+    /// these parameters. `None` when the energy is not finite (it cannot be judged).
+    fn energy_monitor(
+        &self,
+        state: &State<f64>,
+        ctrl: &[f64],
+        prm: &ContactParams<f64>,
+        contacts: Option<&[crate::contact::PairContact<f64>]>,
+        t0: f64,
+        ledger: Option<&EnergyLedger>,
+    ) -> Option<EnergyMonitor> {
+        let e = self.energy(&state.q, &state.v);
+        let stored = contacts.map_or(0.0, |c| contact_energy(c, prm));
+        let moving = e.kinetic + stored;
+        let ledger = match ledger {
+            Some(l) if l.at == *state && l.params == *prm => EnergyLedger {
+                scale: l.scale.max(moving),
+                ..l.clone()
+            },
+            _ => EnergyLedger {
+                at: state.clone(),
+                params: *prm,
+                since: t0,
+                reference: e.total() + stored,
+                work: 0.0,
+                gross_work: 0.0,
+                scale: moving,
+            },
+        };
+        (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
+            ledger,
+            power: self.actuator_power(state, ctrl),
+            floor: self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4),
+        })
+    }
+
+    /// Advances `state` by `duration` (s) from time `t0` (s, for messages) with inputs `u` at the
+    /// start ([`Model::nu`]; mocap bodies move with their velocities): fixed-step methods in
+    /// `n = ⌈duration / step⌉` equal internal steps, `dopri5` in adaptive steps with the last one
+    /// clipped, so that the end lands exactly on `t0 + duration`.
+    ///
+    /// A step that produces a non-finite state, a dynamics error or (with
+    /// [`AdvanceOptions::energy_guard`]) an energy growth no input explains fails the whole
+    /// call: the caller keeps its state from before.
+    pub fn advance(
+        &self,
+        state: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        t0: f64,
+        duration: f64,
+        opts: &AdvanceOptions,
+    ) -> Result<Advanced, StepFailure> {
+        self.advance_cached(
+            state,
+            u,
+            prm,
+            t0,
+            duration,
+            opts,
+            &mut SolverCache::default(),
+        )
+    }
+
+    /// [`Model::advance`] with a cache carried from one call to the next (the implicit
+    /// method's Newton Jacobian): a caller that advances the state it got from the previous
+    /// call saves a Jacobian per call. The cache only changes where Newton's iterations start,
+    /// not what they converge to (to their tolerance); it is used only for the state and step
+    /// it was left for, so a run is reproducible from any state.
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance_cached(
+        &self,
+        state: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        t0: f64,
+        duration: f64,
+        opts: &AdvanceOptions,
+        cache: &mut SolverCache,
+    ) -> Result<Advanced, StepFailure> {
+        self.split_inputs(u)
+            .map_err(|error| StepFailure::Dynamics {
+                time: t0,
+                step: 0,
+                h: 0.0,
+                error,
+            })?;
+        let u = u.to_vec();
+        let ctrl = &u[..self.actuators.len()];
+        let mocap_moves = (0..self.tree.mocap.len()).any(|m| {
+            u[self.actuators.len() + MOCAP_INPUTS * m + 7..][..6]
+                .iter()
+                .any(|&x| x != 0.0)
+        });
+        let guard = opts.energy_guard && !mocap_moves;
+        // The first stage of the explicit methods is the forward dynamics at the start: computed
+        // once here, it also gives the contact state for the energy guard.
+        let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
+        let start = if needs_start {
+            Some(self.forward(&state.q, &state.v, &u, prm).map_err(|error| {
+                StepFailure::Dynamics {
+                    time: t0,
+                    step: 1,
+                    h: 0.0,
+                    error,
+                }
+            })?)
+        } else {
+            None
+        };
+        let mut monitor = guard
+            .then(|| {
+                self.energy_monitor(
+                    state,
+                    ctrl,
+                    prm,
+                    start.as_ref().map(|f| f.contacts.as_slice()),
+                    t0,
+                    cache.ledger.as_ref(),
+                )
+            })
+            .flatten();
+        let a0 = start.map(|f| f.vdot.iter().copied().collect::<Vec<f64>>());
+        let mut report = Advanced {
+            state: state.clone(),
+            steps: 0,
+            rejected: 0,
+            subdivided: 0,
+            min_step: f64::INFINITY,
+            max_step: 0.0,
+        };
+        let check = |monitor: &mut Option<EnergyMonitor>,
+                     s: &State<f64>,
+                     t: f64,
+                     step: usize,
+                     h: f64|
+         -> Result<(), StepFailure> {
+            if let Some(quantity) = self.first_non_finite(s) {
+                return Err(StepFailure::NonFinite {
+                    time: t,
+                    step,
+                    h,
+                    quantity,
+                });
+            }
+            if let Some(m) = monitor.as_mut() {
+                let e = self.energy(&s.q, &s.v);
+                let p = self.actuator_power(s, ctrl);
+                let dw = 0.5 * (m.power + p) * h;
+                m.ledger.work += dw;
+                m.ledger.gross_work += dw.abs();
+                m.power = p;
+                m.ledger.scale = m.ledger.scale.max(e.kinetic);
+                let total = e.total();
+                if !total.is_finite() || total > m.ledger.allowed(m.floor) {
+                    let l = &m.ledger;
+                    return Err(StepFailure::EnergyGrowth {
+                        time: t,
+                        step,
+                        h,
+                        since: l.since,
+                        from: l.reference,
+                        to: total,
+                        input: l.work,
+                        allowed: l.allowed(m.floor),
+                    });
+                }
+            }
+            Ok(())
+        };
+        // What the guard leaves for the next call: the balance so far, at the end state.
+        let leave = |monitor: Option<EnergyMonitor>, end: &State<f64>| {
+            monitor.map(|m| EnergyLedger {
+                at: end.clone(),
+                params: *prm,
+                ..m.ledger
+            })
+        };
+        if !self.integrator.is_adaptive() {
+            let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0);
+            // Refused before any work (the cast below would saturate, and internal steps would
+            // grow past `step`; a state that stays finite would run for ages).
+            if n.is_nan() || n > opts.max_steps as f64 {
+                return Err(StepFailure::TooLong {
+                    time: t0,
+                    duration,
+                    step: self.step,
+                    steps: opts.max_steps,
+                });
+            }
+            let n = n as usize;
+            let dt = duration / n as f64;
+            let mut s = state.clone();
+            let mut first = a0;
+            // The implicit method's Newton Jacobian, carried from step to step while it serves.
+            let mut jac = match cache.left {
+                Some((ref s_left, h_left)) if h_left == dt && s_left == state => {
+                    cache.jacobian.take()
+                }
+                _ => None,
+            };
+            for k in 0..n {
+                let t = t0 + (k + 1) as f64 * dt;
+                let uk = self.inputs_after(&u, k as f64 * dt);
+                let dyn_err = |error| StepFailure::Dynamics {
+                    time: t0 + k as f64 * dt,
+                    step: k + 1,
+                    h: dt,
+                    error,
+                };
+                s = match self.integrator {
+                    Integrator::ImplicitEuler => self
+                        .implicit_step_subdividing(
+                            &s,
+                            &uk,
+                            prm,
+                            dt,
+                            &mut jac,
+                            0,
+                            &mut report.subdivided,
+                        )
+                        .map_err(dyn_err)?,
+                    i => self
+                        .explicit_step(i, &s, &uk, prm, dt, first.take())
+                        .map_err(dyn_err)?,
+                };
+                check(&mut monitor, &s, t, k + 1, dt)?;
+            }
+            if self.integrator == Integrator::ImplicitEuler {
+                cache.jacobian = jac;
+                cache.left = Some((s.clone(), dt));
+            }
+            cache.ledger = leave(monitor, &s);
+            report.state = s;
+            report.steps = n;
+            report.min_step = dt;
+            report.max_step = dt;
+            return Ok(report);
+        }
+        // Adaptive Dormand–Prince.
+        let tol = self.tolerance;
+        let mut s = state.clone();
+        let mut elapsed = 0.0;
+        let mut h = self.step.min(duration);
+        let mut first = a0.map(|a| (self.tree.qdot(&state.q, &state.v), a));
+        let mut rejected_last = false;
+        loop {
+            let remaining = duration - elapsed;
+            let last = h >= remaining * (1.0 - 1e-9);
+            if last {
+                h = remaining;
+            }
+            let t = t0 + elapsed;
+            let uk = self.inputs_after(&u, elapsed);
+            let trial = self.dopri5_step(&s, &uk, prm, h, first.clone());
+            let cause;
+            let (err, out) = match trial {
+                Ok(out) => {
+                    cause = self
+                        .first_non_finite(&out.state)
+                        .map(|q| format!("made {q} non-finite"));
+                    let x0 = s.q.iter().chain(&s.v);
+                    let x1 = out.state.q.iter().chain(&out.state.v);
+                    let sum: f64 = out
+                        .error
+                        .iter()
+                        .zip(x0.zip(x1))
+                        .map(|(e, (a, b))| (e / (tol * (1.0 + a.abs().max(b.abs())))).powi(2))
+                        .sum();
+                    let err = (sum / out.error.len().max(1) as f64).sqrt();
+                    (if err.is_finite() { err } else { f64::INFINITY }, Some(out))
+                }
+                // A stage that cannot be evaluated (e.g. a non-finite stage state): reject.
+                Err(e) => {
+                    cause = Some(format!("failed: {e}"));
+                    (f64::INFINITY, None)
+                }
+            };
+            if report.steps + report.rejected >= opts.max_steps {
+                return Err(StepFailure::TooManySteps {
+                    time: t,
+                    steps: opts.max_steps,
+                });
+            }
+            match out {
+                Some(out) if err <= 1.0 => {
+                    report.steps += 1;
+                    report.min_step = report.min_step.min(h);
+                    report.max_step = report.max_step.max(h);
+                    elapsed = if last { duration } else { elapsed + h };
+                    check(&mut monitor, &out.state, t0 + elapsed, report.steps, h)?;
+                    s = out.state;
+                    first = Some(out.last);
+                    if last {
+                        cache.ledger = leave(monitor, &s);
+                        report.state = s;
+                        return Ok(report);
+                    }
+                    let grow = if err > 0.0 {
+                        (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                    } else {
+                        5.0
+                    };
+                    h = (h * if rejected_last { grow.min(1.0) } else { grow }).min(self.step);
+                    rejected_last = false;
+                }
+                _ => {
+                    report.rejected += 1;
+                    rejected_last = true;
+                    h *= if err.is_finite() {
+                        (0.9 * err.powf(-0.2)).clamp(0.1, 0.9)
+                    } else {
+                        0.1
+                    };
+                    if h < 1e-14 * (1.0 + t.abs()) || h < 1e-12 * duration {
+                        return Err(StepFailure::StepTooSmall {
+                            time: t,
+                            h,
+                            tolerance: tol,
+                            cause,
+                        });
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// What [`Model::advance_cached`] carries from one call to the next.
+///
+/// It changes the result in the last bits (Newton starts from another Jacobian) and which steps
+/// the energy guard refuses (its [`EnergyLedger`]), so an FMU state that must reproduce a rollout
+/// bit for bit, refusals included, carries it ([`SolverCache::parts`],
+/// [`SolverCache::from_parts`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverCache {
+    /// The implicit method's last Newton Jacobian.
+    jacobian: Option<DMatrix<f64>>,
+    /// The state and internal step the cache was left for.
+    left: Option<CacheMark>,
+    /// The energy guard's balance over the run so far.
+    ledger: Option<EnergyLedger>,
+}
+
+/// Where a [`SolverCache`] was left: the state and the internal step (s).
+pub type CacheMark = (State<f64>, f64);
+
+impl SolverCache {
+    /// The cached Newton Jacobian, the state and internal step (s) it was left for, and the
+    /// energy guard's ledger.
+    pub fn parts(
+        &self,
+    ) -> (
+        Option<&DMatrix<f64>>,
+        Option<&CacheMark>,
+        Option<&EnergyLedger>,
+    ) {
+        (
+            self.jacobian.as_ref(),
+            self.left.as_ref(),
+            self.ledger.as_ref(),
+        )
+    }
+
+    /// A cache from its [`parts`](SolverCache::parts).
+    pub fn from_parts(
+        jacobian: Option<DMatrix<f64>>,
+        left: Option<CacheMark>,
+        ledger: Option<EnergyLedger>,
+    ) -> SolverCache {
+        SolverCache {
+            jacobian,
+            left,
+            ledger,
+        }
+    }
+}
+
+/// The energy balance the guard keeps over a run (see [`AdvanceOptions::energy_guard`]):
+/// carried from one [`Model::advance_cached`] call to the next in the [`SolverCache`], so that
+/// an energy that grows a little in every communication step is seen as it adds up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnergyLedger {
+    /// The state the ledger was left at; a call from any other state starts a new ledger.
+    pub at: State<f64>,
+    /// The contact parameters it was kept with; other parameters start a new ledger (they
+    /// change the energy stored in contact).
+    pub params: ContactParams<f64>,
+    /// Time the ledger started (s, for messages).
+    pub since: f64,
+    /// Energy at the start, `E + U` (J): mechanical energy and the estimate of the energy
+    /// stored in contact ([`contact_energy`]).
+    pub reference: f64,
+    /// Work of the actuators since the start (J, trapezoidal rule on the internal steps).
+    pub work: f64,
+    /// Sum of the magnitudes of that work's increments (J): what its rounding scales with.
+    pub gross_work: f64,
+    /// Largest energy in motion seen: `T + U` at the start of each call, `T` after every
+    /// internal step (J).
+    pub scale: f64,
+}
+
+impl EnergyLedger {
+    /// The most mechanical energy a state may have (J), given the energy floor `floor` (J):
+    /// `E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor` ([`AdvanceOptions::energy_guard`]).
+    fn allowed(&self, floor: f64) -> f64 {
+        self.reference + self.work + 0.5 * (self.scale + self.gross_work) + floor
+    }
+}
+
+/// The guard's working state during one [`Model::advance`] call.
+struct EnergyMonitor {
+    /// The balance since the ledger started.
+    ledger: EnergyLedger,
+    /// Actuator power at the last internal step (W).
+    power: f64,
+    /// Energy below which growth is not judged (J).
+    floor: f64,
+}
+
+/// An estimate of the elastic energy stored in the contacts `contacts` (J), per pair the
+/// larger of `ε3 |F| + |F|²/(2k)` (`F`: the force between the two bodies) and `k D²` (`D < 0`:
+/// the smooth penetration).
+///
+/// A point–plane spring `k s`, `s = s⁺_ε3(-φ)`, stores `k ε3² P(φ/ε3)`, with
+/// `P(y) = ∫_y^∞ ln(1 + e^{-t}) dt = -Li₂(-e^{-y})` (the work its force does as the point
+/// leaves to infinity); `k (ε3 s + ½ s²)` has the same tails (`k ε3² e^{-y}` far out, `½ k φ²`
+/// deep in) and lies between 1.00 and 1.25 times it for every `φ` (checked numerically on
+/// `y ∈ [-20, 20]`). A pair's force is such springs averaged by the softmax weights, times the
+/// dissipation factor, so with `s = |F|/k` this is an estimate, not a bound: it reads high
+/// while the bodies approach (damping adds to `|F|`) and low where forces of one pair cancel
+/// (one body inside another: the `k D²` term covers that). The old per-step bound `k (D² + ε3²)`
+/// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
+/// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
+pub fn contact_energy(
+    contacts: &[crate::contact::PairContact<f64>],
+    prm: &ContactParams<f64>,
+) -> f64 {
+    let k = prm.stiffness;
+    contacts
+        .iter()
+        .filter(|pc| pc.distance.is_finite())
+        .map(|pc| {
+            let f = pc.on_a.force.norm();
+            let deep = (-pc.distance).max(0.0);
+            (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep)
+        })
+        .sum()
+}
+
+/// Options of [`Model::advance`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdvanceOptions {
+    /// Refuse a communication step whose mechanical energy grows beyond what was put in.
+    ///
+    /// Without mocap motion, the energy `H = T + V_gravity + V_springs + U` (`U`: the elastic
+    /// energy stored in contact) can only grow by the actuators' work `W = ∫ τ_act·v dt`
+    /// (contact damping, friction, joint damping and frictionloss dissipate). An explicit
+    /// integrator on stiff contact adds energy at every bounce; this guard refuses the step
+    /// long before the state overflows, and, since it keeps its balance over the whole run
+    /// ([`EnergyLedger`], carried in the [`SolverCache`]), also when the energy grows by a
+    /// little in every communication step. The test, after every internal step, is
+    /// `E > E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor`, with `E₀ + U₀` the energy where the ledger
+    /// started (`U` estimated by [`contact_energy`]), `S` the largest energy in motion seen
+    /// since (`T + U` at the start of each call, `T` after each internal step), `Σ|ΔW|` the
+    /// actuators' work counted without sign and `E_floor` the energy of raising every moving
+    /// body by 1 mm and moving it at 1 cm/s. The half margin covers the integrators' legitimate
+    /// energy errors (trapezoidal work, `O(hᵖ)` drift, the estimate of `U`); a blow-up creates
+    /// energy in motion from nothing and exceeds it once that is about twice what the run had
+    /// before. The ledger restarts whenever a call starts from another state than the last one
+    /// ended at, or with other contact parameters (the host set them: energy the guard cannot
+    /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one
+    /// moves.
+    pub energy_guard: bool,
+    /// Most internal steps (accepted and rejected) an adaptive advance may take, and most
+    /// internal steps a fixed-step advance may be split into.
+    pub max_steps: usize,
+}
+
+impl Default for AdvanceOptions {
+    fn default() -> Self {
+        AdvanceOptions {
+            energy_guard: true,
+            max_steps: 1_000_000,
+        }
+    }
+}
+
+/// Result of [`Model::advance`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Advanced {
+    /// State at the end.
+    pub state: State<f64>,
+    /// Accepted internal steps.
+    pub steps: usize,
+    /// Rejected internal steps (adaptive only).
+    pub rejected: usize,
+    /// Implicit steps redone as two halves because Newton's iterations failed.
+    pub subdivided: usize,
+    /// Smallest accepted internal step (s).
+    pub min_step: f64,
+    /// Largest accepted internal step (s).
+    pub max_step: f64,
+}
+
+/// Why [`Model::advance`] refused to go on; times are absolute (s).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepFailure {
+    /// The dynamics could not be evaluated.
+    #[error("internal step {step} (h = {h} s) from t = {time} s failed: {error}")]
+    Dynamics {
+        /// Start of the internal step (s).
+        time: f64,
+        /// Internal step (1-based).
+        step: usize,
+        /// Internal step size (s).
+        h: f64,
+        /// The error.
+        error: DynamicsError,
+    },
+    /// A coordinate of the state became NaN or infinite.
+    #[error("the state diverged: {quantity} became non-finite at t = {time} s (internal step {step}, h = {h} s)")]
+    NonFinite {
+        /// End of the internal step (s).
+        time: f64,
+        /// Internal step (1-based).
+        step: usize,
+        /// Internal step size (s).
+        h: f64,
+        /// Which coordinate ("the velocity of joint J").
+        quantity: String,
+    },
+    /// The mechanical energy grew beyond what inputs and stored contact energy explain.
+    #[error("the integration is unstable: the energy was {from:.6e} J at t = {since} s (stored contact energy included); by t = {time} s (internal step {step}, h = {h} s) it reached {to:.6e} J, above the {allowed:.6e} J that the actuators' work ({input:.3e} J) and the guard's margin allow")]
+    EnergyGrowth {
+        /// End of the internal step (s).
+        time: f64,
+        /// Internal step (1-based).
+        step: usize,
+        /// Internal step size (s).
+        h: f64,
+        /// Time the energy balance started (s).
+        since: f64,
+        /// Energy where the balance started, stored contact energy included (J).
+        from: f64,
+        /// Energy reached (J).
+        to: f64,
+        /// Actuators' work since then (J).
+        input: f64,
+        /// Most energy allowed (J).
+        allowed: f64,
+    },
+    /// The adaptive step fell to a size that can no longer advance.
+    #[error("the adaptive step fell to {h:e} s at t = {time} s without meeting the tolerance {tolerance:e}{}", cause.as_ref().map(|c| format!(": the last trial step {c}")).unwrap_or_else(|| " (stiff contact? try implicit_euler)".into()))]
+    StepTooSmall {
+        /// Time reached (s).
+        time: f64,
+        /// Last step tried (s).
+        h: f64,
+        /// `solver.tolerance`.
+        tolerance: f64,
+        /// What went wrong in the last trial, if more than the tolerance ("made the velocity of
+        /// joint J non-finite", "failed: …").
+        cause: Option<String>,
+    },
+    /// A fixed-step advance would need more than [`AdvanceOptions::max_steps`] internal steps;
+    /// refused before any step is taken.
+    #[error("a step of {duration:e} s from t = {time} s would need more than {steps} internal steps of {step:e} s: split it into shorter communication steps")]
+    TooLong {
+        /// Start of the refused advance (s).
+        time: f64,
+        /// The requested duration (s).
+        duration: f64,
+        /// The internal step (s).
+        step: f64,
+        /// The limit.
+        steps: usize,
+    },
+    /// The adaptive method needed too many steps.
+    #[error(
+        "more than {steps} internal steps by t = {time} s (stiff contact? try implicit_euler)"
+    )]
+    TooManySteps {
+        /// Time reached (s).
+        time: f64,
+        /// The limit.
+        steps: usize,
+    },
+}

@@ -1,0 +1,26 @@
+//! Time stepping: one enumeration of integrators (SPEC §2), the same names in code, scenes
+//! (`scm_integrator`), the command line (`scm simulate --integrator`) and the FMU
+//! (`solver.integrator`); one step of any of them ([`Model::step_with`], generic over the scalar,
+//! so its exact derivatives come from the same code), and [`Model::advance`], which covers a
+//! communication step with internal steps that land exactly on its end, refusing a step that
+//! diverges.
+//!
+//! Positions live on a manifold (quaternions for free and ball joints). The one-step methods
+//! move them with [`Tree::integrate_q`](crate::dynamics::Tree::integrate_q) (the exponential map)
+//! or, for the Runge–Kutta methods, combine `q̇ = ½ q ⊗ (0, ω)` stages additively and normalize
+//! the quaternions at the end of the step.
+//!
+//! Mocap bodies move with the constant velocity their inputs carry (see
+//!
+//! Files: [`crate::integrator`] names the integrators; `step` holds one internal step of each (generic
+//! over the scalar); `advance` covers a communication step and guards it (non-finite
+//! states, energy growth no input explains).
+
+mod advance;
+mod step;
+
+pub use crate::integrator::{Integrator, State};
+pub use advance::{
+    contact_energy, AdvanceOptions, Advanced, CacheMark, EnergyLedger, SolverCache, StepFailure,
+};
+pub use step::Dopri5Step;

@@ -1,0 +1,530 @@
+//! One internal step of each integrator, generic over the scalar so that exact derivatives of a
+//! step come from the same code.
+
+use crate::autodiff::{jacobian, VectorFunction};
+use crate::contact::ContactParams;
+use crate::integrator::{Integrator, State};
+use crate::model::{DynamicsError, Model};
+use crate::scalar::{c, Scalar};
+use nalgebra::DMatrix;
+use std::any::TypeId;
+
+fn axpy<T: Scalar>(x: &[T], a: T, y: &[T]) -> Vec<T> {
+    x.iter().zip(y).map(|(&xi, &yi)| xi + a * yi).collect()
+}
+
+/// `x + h Σ_j b_j k_j` for the non-zero `b_j`.
+fn combine<T: Scalar>(x: &[T], h: T, terms: &[(f64, &[T])]) -> Vec<T> {
+    let mut out = x.to_vec();
+    for (b, k) in terms {
+        if *b != 0.0 {
+            let hb = h * *b;
+            for (o, ki) in out.iter_mut().zip(k.iter()) {
+                *o += hb * *ki;
+            }
+        }
+    }
+    out
+}
+
+/// Dormand–Prince 5(4) tableau: nodes, stage coefficients, 5th-order weights and error weights
+/// (5th minus 4th order).
+mod dp {
+    pub const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+    pub const A: [&[f64]; 7] = [
+        &[],
+        &[1.0 / 5.0],
+        &[3.0 / 40.0, 9.0 / 40.0],
+        &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
+        &[
+            19372.0 / 6561.0,
+            -25360.0 / 2187.0,
+            64448.0 / 6561.0,
+            -212.0 / 729.0,
+        ],
+        &[
+            9017.0 / 3168.0,
+            -355.0 / 33.0,
+            46732.0 / 5247.0,
+            49.0 / 176.0,
+            -5103.0 / 18656.0,
+        ],
+        &[
+            35.0 / 384.0,
+            0.0,
+            500.0 / 1113.0,
+            125.0 / 192.0,
+            -2187.0 / 6784.0,
+            11.0 / 84.0,
+        ],
+    ];
+    pub const B: [f64; 7] = [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+        0.0,
+    ];
+    pub const E: [f64; 7] = [
+        71.0 / 57600.0,
+        0.0,
+        -71.0 / 16695.0,
+        71.0 / 1920.0,
+        -17253.0 / 339200.0,
+        22.0 / 525.0,
+        -1.0 / 40.0,
+    ];
+}
+
+/// A Dormand–Prince step: the 5th-order solution, the error estimate (`nq + nv`), and the
+/// acceleration at the solution (the first stage of the next step).
+pub struct Dopri5Step<T> {
+    /// 5th-order solution, quaternions normalized.
+    pub state: State<T>,
+    /// Embedded error estimate `h Σ (b_j - b*_j) k_j`, positions then velocities.
+    pub error: Vec<T>,
+    /// `q̇` and `v̇` at the solution (inputs at the end of the step).
+    pub last: (Vec<T>, Vec<T>),
+}
+
+/// Newton iterations of an implicit stage: tolerance and limits.
+const NEWTON_TOL: f64 = 1e-10;
+const NEWTON_MAX_ITER: usize = 40;
+
+/// The residual of the implicit Euler step equation `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` as a
+/// function of the new velocity `V`, on real numbers (for its Jacobian).
+struct StepResidual<'a> {
+    model: &'a Model,
+    q0: Vec<f64>,
+    v0: Vec<f64>,
+    h: f64,
+    u: Vec<f64>,
+    prm: ContactParams<f64>,
+}
+
+impl VectorFunction for StepResidual<'_> {
+    fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
+        let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
+        step_residual(
+            self.model,
+            &lift(&self.q0),
+            &lift(&self.v0),
+            c(self.h),
+            &lift(&self.u),
+            &self.prm.lift(),
+            x,
+        )
+    }
+}
+
+fn step_residual<T: Scalar>(
+    model: &Model,
+    q0: &[T],
+    v0: &[T],
+    h: T,
+    u: &[T],
+    prm: &ContactParams<T>,
+    vs: &[T],
+) -> Result<Vec<T>, DynamicsError> {
+    let q = model.tree.integrate_q(q0, vs, h);
+    let a = model.forward(&q, vs, u, prm)?.vdot;
+    Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
+}
+
+/// A residual function of the implicit step, on the scalar type.
+type Residual<'a, T> = dyn Fn(&[T]) -> Result<Vec<T>, DynamicsError> + 'a;
+/// The Jacobian of a residual at real values.
+type RealJacobian<'a> = dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError> + 'a;
+
+/// Newton's method for `residual(x) = 0` from `guess`, with a real Jacobian (see
+/// [`Integrator::ImplicitEuler`]): backtracking line search; in `f64` a Jacobian is kept (also from
+/// the caller's `jac`) while the iterations contract by 4 or more per step; with dual numbers a
+/// fresh one every iteration.
+fn newton<T: Scalar>(
+    residual: &Residual<T>,
+    real_jacobian: &RealJacobian,
+    guess: Vec<T>,
+    jac: &mut Option<DMatrix<f64>>,
+) -> Result<Vec<T>, DynamicsError> {
+    let n = guess.len();
+    if n == 0 {
+        return Ok(guess);
+    }
+    let exact_each_iteration = TypeId::of::<T>() != TypeId::of::<f64>();
+    let fail = |iterations: usize, r: &[T]| DynamicsError::NewtonFailed {
+        iterations,
+        residual: inf_norm(&re_vec(r)),
+    };
+    let mut x = guess;
+    let mut r = residual(&x)?;
+    if jac.as_ref().is_some_and(|j| j.nrows() != n) {
+        *jac = None;
+    }
+    // `inverse`: the inverse of the Jacobian in use; `refresh`: take a new Jacobian at the
+    // current iterate before the next update.
+    let mut inverse: Option<DMatrix<f64>> = None;
+    let mut refresh = jac.is_none();
+    let mut last_dx = f64::INFINITY;
+    let mut crawling = 0;
+    for it in 1..=NEWTON_MAX_ITER {
+        let fresh = refresh || exact_each_iteration;
+        if fresh {
+            *jac = Some(real_jacobian(&re_vec(&x))?);
+            inverse = None;
+            refresh = false;
+        }
+        if inverse.is_none() {
+            let j = jac.as_ref().expect("a Jacobian was computed");
+            inverse = Some(j.clone().lu().try_inverse().ok_or_else(|| fail(it, &r))?);
+        }
+        let jinv = inverse.as_ref().expect("inverted above");
+        // dx = J⁻¹ r, in the scalar type (J is real).
+        let dx: Vec<T> = (0..n)
+            .map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)]))
+            .collect();
+        let dx_re = inf_norm(&re_vec(&dx));
+        // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
+        // halve the step while the merit does not decrease enough.
+        let merit = sq_norm(&re_vec(&r));
+        let mut alpha = 1.0;
+        let (mut x_new, mut r_new);
+        loop {
+            x_new = (0..n).map(|i| x[i] - dx[i] * alpha).collect::<Vec<T>>();
+            r_new = residual(&x_new);
+            let ok = match &r_new {
+                Ok(rn) => {
+                    let m = sq_norm(&re_vec(rn));
+                    m.is_finite()
+                        && (m <= (1.0 - 1e-4 * alpha) * merit || m <= 1e-24 * (1.0 + merit))
+                }
+                Err(_) => false,
+            };
+            if ok || alpha < 1e-3 {
+                break;
+            }
+            alpha *= 0.5;
+        }
+        let r_next = r_new?;
+        let scale = 1.0 + inf_norm(&re_vec(&x_new));
+        let step = dx_re * alpha;
+        x = x_new;
+        r = r_next;
+        if !inf_norm(&re_vec(&r)).is_finite() {
+            return Err(fail(it, &r));
+        }
+        // Converged: a tiny full Newton step, or (with a Jacobian taken at this iterate) a small
+        // one that no longer contracts: the rounding floor of a stiff residual.
+        let contraction = step / last_dx;
+        if alpha == 1.0
+            && (step <= NEWTON_TOL * scale || (fresh && step <= 1e-7 * scale && contraction > 0.5))
+        {
+            return Ok(x);
+        }
+        // Slow contraction or a damped step: a fresh Jacobian next time.
+        if alpha < 1.0 || contraction > 0.25 {
+            refresh = true;
+        }
+        // Heavily damped steps one after another: the iterate is far from the solution's basin
+        // (contact onset within the step); give up early, the caller subdivides the step.
+        crawling = if alpha < 1.0 / 64.0 { crawling + 1 } else { 0 };
+        if crawling >= 4 {
+            return Err(fail(it, &r));
+        }
+        last_dx = step;
+    }
+    Err(fail(NEWTON_MAX_ITER, &r))
+}
+
+fn re_vec<T: Scalar>(x: &[T]) -> Vec<f64> {
+    x.iter().map(|a| a.re()).collect()
+}
+
+fn re_params<T: Scalar>(p: &ContactParams<T>) -> ContactParams<f64> {
+    ContactParams {
+        eps1: p.eps1.re(),
+        eps2: p.eps2.re(),
+        eps3: p.eps3.re(),
+        stiffness: p.stiffness.re(),
+        dissipation_velocity: p.dissipation_velocity.re(),
+        stiction_velocity: p.stiction_velocity.re(),
+        friction: p.friction.re(),
+        dissipation: p.dissipation,
+    }
+}
+
+fn sq_norm(x: &[f64]) -> f64 {
+    x.iter().map(|a| a * a).sum()
+}
+
+fn inf_norm(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, a| m.max(a.abs()))
+}
+
+impl Model {
+    /// One internal step of length `h` (s) with the model's integrator.
+    pub fn step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<State<T>, DynamicsError> {
+        self.step_with(self.integrator, state, u, prm, h)
+    }
+
+    fn accel<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+    ) -> Result<Vec<T>, DynamicsError> {
+        Ok(self.forward(q, v, u, prm)?.vdot.iter().copied().collect())
+    }
+
+    /// Accelerations with the joints' damping implicit over a step `h` (MuJoCo's `Euler`).
+    fn damped_accel<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<Vec<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        let tau = self.actuator_forces(q, v, ctrl);
+        let f = self.forward_damped(q, v, tau.as_slice(), mocap, prm, Some(h))?;
+        Ok(f.vdot.iter().copied().collect())
+    }
+
+    /// One step of length `h` (s) of `integrator` from `state` with inputs `u` at the start of
+    /// the step ([`Model::nu`]; mocap bodies move on with their velocity during the step). For
+    /// `dopri5`, the 5th-order solution of one step of exactly this length (no error control:
+    /// that is [`Model::advance`]).
+    pub fn step_with<T: Scalar>(
+        &self,
+        integrator: Integrator,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+    ) -> Result<State<T>, DynamicsError> {
+        match integrator {
+            Integrator::ImplicitEuler => self.implicit_euler_step(state, u, prm, h, &mut None),
+            Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
+            _ => self.explicit_step(integrator, state, u, prm, h, None),
+        }
+    }
+
+    /// Euler, semi-implicit Euler or RK4; `a0`: the acceleration at the start, if known.
+    pub(super) fn explicit_step<T: Scalar>(
+        &self,
+        integrator: Integrator,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        a0: Option<Vec<T>>,
+    ) -> Result<State<T>, DynamicsError> {
+        let tree = &self.tree;
+        let (q1, v1) = (&state.q, &state.v);
+        let dv1 = match a0 {
+            _ if integrator == Integrator::DampedEuler => self.damped_accel(q1, v1, u, prm, h)?,
+            Some(a) => a,
+            None => self.accel(q1, v1, u, prm)?,
+        };
+        match integrator {
+            Integrator::Euler => Ok(State {
+                q: tree.integrate_q(q1, v1, h),
+                v: axpy(v1, h, &dv1),
+            }),
+            Integrator::SemiImplicitEuler | Integrator::DampedEuler => {
+                let v = axpy(v1, h, &dv1);
+                Ok(State {
+                    q: tree.integrate_q(q1, &v, h),
+                    v,
+                })
+            }
+            _ => {
+                let half = h * 0.5;
+                let (u_half, u_end) = (self.inputs_after(u, half), self.inputs_after(u, h));
+                let dq1 = tree.qdot(q1, v1);
+                let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
+                let (dq2, dv2) = (tree.qdot(&q2, &v2), self.accel(&q2, &v2, &u_half, prm)?);
+                let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
+                let (dq3, dv3) = (tree.qdot(&q3, &v3), self.accel(&q3, &v3, &u_half, prm)?);
+                let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
+                let (dq4, dv4) = (tree.qdot(&q4, &v4), self.accel(&q4, &v4, &u_end, prm)?);
+                let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
+                let mut q = combine(
+                    q1,
+                    h,
+                    &[(w[0], &dq1), (w[1], &dq2), (w[2], &dq3), (w[3], &dq4)],
+                );
+                tree.normalize_q(&mut q);
+                Ok(State {
+                    q,
+                    v: combine(
+                        v1,
+                        h,
+                        &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)],
+                    ),
+                })
+            }
+        }
+    }
+
+    /// One Dormand–Prince 5(4) step of length `h`; `first`: `(q̇, v̇)` at the start if known
+    /// (the last stage of the previous step).
+    pub fn dopri5_step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        first: Option<(Vec<T>, Vec<T>)>,
+    ) -> Result<Dopri5Step<T>, DynamicsError> {
+        let tree = &self.tree;
+        let (nq, nv) = (tree.nq, tree.nv);
+        let mut kq: Vec<Vec<T>> = Vec::with_capacity(7);
+        let mut kv: Vec<Vec<T>> = Vec::with_capacity(7);
+        let (dq0, dv0) = match first {
+            Some(f) => f,
+            None => (
+                tree.qdot(&state.q, &state.v),
+                self.accel(&state.q, &state.v, u, prm)?,
+            ),
+        };
+        kq.push(dq0);
+        kv.push(dv0);
+        for s in 1..6 {
+            let a = dp::A[s];
+            let tq: Vec<(f64, &[T])> = a.iter().zip(&kq).map(|(&x, k)| (x, k.as_slice())).collect();
+            let tv: Vec<(f64, &[T])> = a.iter().zip(&kv).map(|(&x, k)| (x, k.as_slice())).collect();
+            let q = combine(&state.q, h, &tq);
+            let v = combine(&state.v, h, &tv);
+            let us = self.inputs_after(u, h * dp::C[s]);
+            kq.push(tree.qdot(&q, &v));
+            kv.push(self.accel(&q, &v, &us, prm)?);
+        }
+        let tq: Vec<(f64, &[T])> = dp::B
+            .iter()
+            .zip(&kq)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let tv: Vec<(f64, &[T])> = dp::B
+            .iter()
+            .zip(&kv)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let mut q = combine(&state.q, h, &tq);
+        tree.normalize_q(&mut q);
+        let v = combine(&state.v, h, &tv);
+        let u_end = self.inputs_after(u, h);
+        let last = (tree.qdot(&q, &v), self.accel(&q, &v, &u_end, prm)?);
+        kq.push(last.0.clone());
+        kv.push(last.1.clone());
+        let zq = vec![T::zero(); nq];
+        let zv = vec![T::zero(); nv];
+        let eq: Vec<(f64, &[T])> = dp::E
+            .iter()
+            .zip(&kq)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let ev: Vec<(f64, &[T])> = dp::E
+            .iter()
+            .zip(&kv)
+            .map(|(&x, k)| (x, k.as_slice()))
+            .collect();
+        let mut error = combine(&zq, h, &eq);
+        error.extend(combine(&zv, h, &ev));
+        Ok(Dopri5Step {
+            state: State { q, v },
+            error,
+            last,
+        })
+    }
+
+    /// One implicit Euler step ([`Integrator::ImplicitEuler`]): `V` solves
+    /// `V = v0 + h v̇(q0 ⊕ h V, V)` with the inputs at the end of the step; the result is
+    /// `(q0 ⊕ h V, V)`.
+    ///
+    /// Newton's method uses the exact Jacobian `∂r/∂V` from dual numbers (evaluated on real
+    /// parts), a backtracking line search, and, in `f64`, keeps a Jacobian while the iterations
+    /// contract fast. With a dual-number scalar every iteration takes a fresh Jacobian, so the
+    /// dual parts of the converged solution are the implicit-function derivative of the step.
+    ///
+    /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
+    /// and replaced when the iterations contract slowly; updated here.
+    fn implicit_euler_step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        jac: &mut Option<DMatrix<f64>>,
+    ) -> Result<State<T>, DynamicsError> {
+        let u1 = self.inputs_after(u, h);
+        let residual = |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x);
+        let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
+            let f = StepResidual {
+                model: self,
+                q0: re_vec(&state.q),
+                v0: re_vec(&state.v),
+                h: h.re(),
+                u: re_vec(&u1),
+                prm: re_params(prm),
+            };
+            Ok(jacobian(&f, x)?.1)
+        };
+        let v = newton(&residual, &real_jacobian, state.v.clone(), jac)?;
+        Ok(State {
+            q: self.tree.integrate_q(&state.q, &v, h),
+            v,
+        })
+    }
+
+    /// An implicit step of `h`; when Newton's iterations fail (typically when contact starts
+    /// within a step much longer than the contact's period), the step is done as two halves,
+    /// recursively, down to `h / 2⁸`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn implicit_step_subdividing(
+        &self,
+        s: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        jac: &mut Option<DMatrix<f64>>,
+        depth: usize,
+        subdivided: &mut usize,
+    ) -> Result<State<f64>, DynamicsError> {
+        match self.implicit_euler_step(s, u, prm, h, jac) {
+            Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
+                *subdivided += 1;
+                let half = 0.5 * h;
+                let mut sub = None;
+                let mid = self.implicit_step_subdividing(
+                    s,
+                    u,
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                )?;
+                self.implicit_step_subdividing(
+                    &mid,
+                    &self.inputs_after(u, half),
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                )
+            }
+            other => other,
+        }
+    }
+}

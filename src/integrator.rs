@@ -1,0 +1,121 @@
+//! The integration methods by name, and the state they advance ([`crate::integrate`] steps
+//! them). A leaf: the model names its integrator without depending on the stepping code.
+
+/// Integration method of the internal steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Integrator {
+    /// Explicit Euler, as in the paper: `q' = q ⊕ h v`, `v' = v + h v̇(q, v)`. First order;
+    /// grows the energy of every oscillation.
+    Euler,
+    /// Semi-implicit (symplectic) Euler: `v' = v + h v̇(q, v)`, `q' = q ⊕ h v'`. First order,
+    /// no energy drift on conservative systems; stable for `h ω < 2` (ω: the stiffest
+    /// frequency, `sqrt(k/m)` in contact). MuJoCo's `Euler`.
+    #[default]
+    SemiImplicitEuler,
+    /// Classic fourth-order Runge–Kutta. Stable for `h ω ≲ 2.8`; energy error `O(h⁴)`.
+    /// MuJoCo's `RK4`.
+    Rk4,
+    /// MuJoCo's `Euler`: semi-implicit Euler with the joints' viscous damping taken implicitly,
+    /// `(M + h D) v̇ = f(q, v)`, `v' = v + h v̇`, `q' = q ⊕ h v'`, where `D` holds each degree of
+    /// freedom's joint damping and `f` every force (the damping's `-D v` included). A damped
+    /// joint stays stable at any step; without damping it is `semi_implicit_euler`. MJCF's
+    /// `integrator="Euler"` maps to it (to `semi_implicit_euler` with
+    /// `<flag eulerdamp="disable">`).
+    DampedEuler,
+    /// Implicit (backward) Euler: `v' = v + h v̇(q', v')`, `q' = q ⊕ h v'`, its step equation in
+    /// `v'` solved by Newton iterations on the exact Jacobian from dual numbers. MuJoCo's
+    /// `implicit` and `implicitfast` (implicit in velocity) map to it.
+    ///
+    /// Why this method: contact is stiff (`k` up to 1e9 N/m, so `ω = sqrt(k/m)` reaches 3e4
+    /// rad/s for 1 kg) and steps go up to 50 ms, so `h ω` reaches 1e3.
+    /// - Explicit methods are unstable there. Implicit midpoint and the trapezoidal rule are
+    ///   A-stable, but their amplification tends to -1 for stiff modes, which then ring for ever
+    ///   instead of settling. Implicit Euler is **L-stable** (`R(∞) = 0`): unresolved contact
+    ///   vibrations die within a step and the state lands on the quasi-static equilibrium, which
+    ///   is the physical answer at that step size.
+    /// - It takes **impacts without creating energy or penetrating**. Contact starting within a
+    ///   step is where higher-order implicit methods fail. Measured over 40 drops of a 1 kg
+    ///   sphere (k = 1e6 and 1e9 N/m, h = 8 to 50 ms, drops of 1 to 30 mm while sliding at
+    ///   0.1 m/s; energy after each step against the energy before the impact, and the deepest
+    ///   end-of-step position below the resting one): implicit Euler ≤ 0.99 of the energy, 38 µm;
+    ///   2-stage Radau IIA (order 3, B-stable) ≤ 1.0 but ends impact steps up to 10.7 mm deep,
+    ///   because its last stage's force does not move its last position (`(A²)_22 = 0`); the
+    ///   L-stable SDIRK of order 2 (γ = 1 - 1/√2) gains 29 % and 2.4 mm, with γ = 1 + 1/√2 5.7 %;
+    ///   TR-BDF2 20-fold; Lobatto IIIC found a spurious stage solution with a 1e12-fold gain.
+    /// - Energy of resolved motion: first order, it damps an oscillation at `hω = y` by
+    ///   `1/(1 + y²)` in energy per step (a pendulum at `hω = 0.01` loses 1e-4 of its energy per
+    ///   step). That is the price of the above; `rk4` or `dopri5` keep the energy of resolved
+    ///   motion, and a smaller step shrinks the damping quadratically.
+    /// - One Newton system of size `nv`; its Jacobian is kept from step to step while the
+    ///   iterations contract fast (at rest one Jacobian serves many steps). When contact starts
+    ///   within a step far longer than the contact's period, Newton's iterations may fail from
+    ///   the contact-free guess: [`Model::advance`] then does that step as two halves,
+    ///   recursively.
+    ImplicitEuler,
+    /// Adaptive explicit Dormand–Prince 5(4) with local error control: a step is accepted when
+    /// the embedded error estimate is below `solver.tolerance` (absolute plus relative, RMS over
+    /// the state), the next step size follows the usual `0.9 err^(-1/5)` controller;
+    /// `solver.step` is the first and largest internal step. Stiff contact makes it take small
+    /// steps rather than diverge.
+    Dopri5,
+}
+
+impl Integrator {
+    /// Every integrator.
+    pub const ALL: [Integrator; 6] = [
+        Integrator::Euler,
+        Integrator::SemiImplicitEuler,
+        Integrator::DampedEuler,
+        Integrator::Rk4,
+        Integrator::ImplicitEuler,
+        Integrator::Dopri5,
+    ];
+
+    /// Name used in scenes (`scm_integrator`), the command line and the FMU.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Euler => "euler",
+            Integrator::SemiImplicitEuler => "semi_implicit_euler",
+            Integrator::DampedEuler => "damped_euler",
+            Integrator::Rk4 => "rk4",
+            Integrator::ImplicitEuler => "implicit_euler",
+            Integrator::Dopri5 => "dopri5",
+        }
+    }
+
+    /// Parses a name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|i| i.name() == name)
+    }
+
+    /// Whether the method is explicit (its stability is limited by the stiffest frequency).
+    pub fn is_explicit(self) -> bool {
+        self != Integrator::ImplicitEuler
+    }
+
+    /// Whether the method chooses its internal steps by error control.
+    pub fn is_adaptive(self) -> bool {
+        self == Integrator::Dopri5
+    }
+
+    /// Order of accuracy.
+    pub fn order(self) -> usize {
+        match self {
+            Integrator::Euler
+            | Integrator::SemiImplicitEuler
+            | Integrator::DampedEuler
+            | Integrator::ImplicitEuler => 1,
+            Integrator::Rk4 => 4,
+            Integrator::Dopri5 => 5,
+        }
+    }
+}
+
+/// Positions and velocities.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State<T> {
+    /// Generalized positions `q`.
+    pub q: Vec<T>,
+    /// Generalized velocities `v`.
+    pub v: Vec<T>,
+}
