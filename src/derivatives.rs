@@ -35,9 +35,9 @@
 //! composed with the exponential chart at the point.
 //!
 //! # How
-//! Jacobians are computed in passes of [`DualSVec64`] with up to 8 directions each (so a Jacobian
+//! Jacobians are computed in passes of [`DualSVec64`](num_dual::DualSVec64) with up to 8 directions each (so a Jacobian
 //! with `n` columns costs `⌈n/8⌉` passes of the vector-dual code); Hessians in blocks of 4×4 with
-//! [`HyperDualSVec64`]`<4, 4>` (`⌈n/4⌉(⌈n/4⌉+1)/2` passes). `DualDVec64` (dynamic width) is not
+//! [`HyperDualSVec64`](num_dual::HyperDualSVec64)`<4, 4>` (`⌈n/4⌉(⌈n/4⌉+1)/2` passes). `DualDVec64` (dynamic width) is not
 //! `Copy`, so it does not satisfy [`Scalar`]; nested duals do not either. The scalar types that
 //! do: `f64`, `Dual64`, `DualSVec64<N>`, `Dual2_64`, `Dual2SVec64<N>`, `HyperDual64`,
 //! `HyperDualSVec64<M, N>` (checked by a test).

@@ -49,7 +49,7 @@ pub enum Integrator {
     /// - One Newton system of size `nv`; its Jacobian is kept from step to step while the
     ///   iterations contract fast (at rest one Jacobian serves many steps). When contact starts
     ///   within a step far longer than the contact's period, Newton's iterations may fail from
-    ///   the contact-free guess: [`Model::advance`] then does that step as two halves,
+    ///   the contact-free guess: [`Model::advance`](crate::model::Model::advance) then does that step as two halves,
     ///   recursively.
     ImplicitEuler,
     /// Adaptive explicit Dormand–Prince 5(4) with local error control: a step is accepted when

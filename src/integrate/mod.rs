@@ -16,6 +16,11 @@
 //! over the scalar); `advance` covers a communication step and guards it (non-finite
 //! states, energy growth no input explains).
 
+//!
+//! [`Model::step_with`]: crate::model::Model::step_with
+//! [`Model::advance`]: crate::model::Model::advance
+//! [`Model::inputs_after`]: crate::model::Model::inputs_after
+
 mod advance;
 mod step;
 
