@@ -236,6 +236,23 @@ impl Model {
         (wrenches, out)
     }
 
+    /// Adds each body's gravity compensation (`-gravcomp · m g` at its centre of mass, see
+    /// [`Body::gravcomp`](crate::dynamics::Body::gravcomp)) to the wrenches `w` (world frame,
+    /// about the body origin), as MuJoCo applies it: a passive force on the body, not a change
+    /// of gravity, so its generalized force is `Jᵀ f` through the tree.
+    fn add_gravcomp<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
+        for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
+            if body.gravcomp == 0.0 {
+                continue;
+            }
+            let f = &kin.frames[b];
+            let force = (self.tree.gravity * (-body.gravcomp * body.inertia.mass)).map(c::<T>);
+            let arm = f.rotation * body.inertia.com.map(c::<T>);
+            w[b].torque += arm.cross(&force);
+            w[b].force += force;
+        }
+    }
+
     /// Generalized passive forces (SPEC §2): viscous damping `-b v`, joint limits (smooth
     /// one-sided springs and dampers, [`crate::dynamics::limit`]), springs towards the rest
     /// position (`-k (q - springref)` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation
@@ -389,7 +406,8 @@ impl Model {
             }
         }
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (wrenches, contacts) = self.contacts(&kin, prm);
+        let (mut wrenches, contacts) = self.contacts(&kin, prm);
+        self.add_gravcomp(&kin, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
         let rhs = DVector::from_column_slice(tau)
@@ -419,7 +437,8 @@ impl Model {
         prm: &ContactParams<T>,
     ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (wrenches, _) = self.contacts(&kin, prm);
+        let (mut wrenches, _) = self.contacts(&kin, prm);
+        self.add_gravcomp(&kin, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia.
@@ -432,7 +451,8 @@ impl Model {
     }
 
     /// Mechanical energy of a state, computed from the bodies' motion (not from `M`): kinetic
-    /// energy `Σ ½ m |v_com|² + ½ ωᵀ I_c ω + Σ ½ armature v²`, gravity `-Σ m gᵀ x_com`, springs
+    /// energy `Σ ½ m |v_com|² + ½ ωᵀ I_c ω + Σ ½ armature v²`, gravity `-Σ (1 - gravcomp) m gᵀ
+    /// x_com`, springs
     /// `½ k q²` (slide, hinge) and `½ k |θ|²` (ball). Mocap bodies are not counted.
     pub fn energy<T: Scalar>(&self, q: &[T], v: &[T]) -> Energy<T> {
         let kin = self.tree.kinematics(q, v);
@@ -449,7 +469,8 @@ impl Model {
             let m = c::<T>(body.inertia.mass);
             kinetic +=
                 m * vcom.dot(&vcom) * 0.5 + wb.dot(&(body.inertia.rot.map(c::<T>) * wb)) * 0.5;
-            gravity -= m * g.dot(&(f.origin + arm));
+            // Gravity compensation is a conservative force too: it scales the weight.
+            gravity -= m * g.dot(&(f.origin + arm)) * (1.0 - body.gravcomp);
         }
         for j in &self.tree.joints {
             for k in 0..j.kind.nv() {

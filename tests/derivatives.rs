@@ -185,6 +185,18 @@ fn mocap_point() -> (Model, Point) {
 }
 
 fn check_forward_jacobian(label: &str, model: &Model, point: &Point, coords: Coordinates) {
+    check_forward_jacobian_step(label, model, point, coords, 1e-6);
+}
+
+/// [`check_forward_jacobian`] with central differences of relative step `rel` (of the
+/// coordinate, or of its floor: 1e-3 for states).
+fn check_forward_jacobian_step(
+    label: &str,
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+    rel: f64,
+) {
     let jac = forward_jacobian(model, point, coords).unwrap();
     let z = z0(model, point, coords);
     let n_state_inputs = z.len() - 7;
@@ -198,7 +210,7 @@ fn check_forward_jacobian(label: &str, model: &Model, point: &Point, coords: Coo
             .copied()
             .collect()
     };
-    let fd = fd_jacobian(&f, &z, 1e-6, &floors(&z, n_state_inputs));
+    let fd = fd_jacobian(&f, &z, rel, &floors(&z, n_state_inputs));
     let scales = floors(&z, n_state_inputs);
     let value = DVector::from_vec(f(&z));
     assert!(
@@ -649,4 +661,53 @@ fn smooth_dissipation_gives_continuous_second_derivatives() {
     );
     assert!(jumps[0] > 100.0, "the paper's d(s) should show its C¹ kink");
     assert!(jumps[1] < 1e-6 * jumps[0], "the smooth d(s) must be C²");
+}
+
+#[test]
+fn forward_jacobians_with_gravity_compensation_match_central_differences() {
+    // An arm whose links carry partial gravity compensation (a force at each centre of mass,
+    // whose torque depends on the configuration), and a compensated free body, all moving.
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="upper" pos="0 0 1" gravcomp="0.8">
+      <joint name="shoulder" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+      <body name="lower" pos="0.3 0 0.1" gravcomp="0.5">
+        <joint name="elbow" type="ball"/>
+        <geom type="box" size="0.1 0.02 0.03" pos="0.12 0.02 0"/>
+      </body>
+    </body>
+    <body name="balloon" pos="3 0 1" gravcomp="1.2">
+      <freejoint/>
+      <geom type="box" size="0.2 0.15 0.1" pos="0.005 0.003 0"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+    // The free body's angular acceleration does not depend on its orientation (every force
+    // acts at its centre of mass), but the compensation's torque about the body origin and
+    // gravity's cancel in rounding: a large body with a small offset keeps that noise small,
+    // and steps of 1e-4 (1e-7 rad in tangent coordinates) keep central differences from
+    // amplifying it (accelerations here reach 65 rad/s², so a 1e-9 step sees 1e-5 of noise).
+    let model = scm::scene::load_str(xml, std::path::Path::new("gravcomp.xml"))
+        .unwrap()
+        .model;
+    let mut p = Point::start(&model);
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.2, 0.4));
+    let rb = UnitQuaternion::from_scaled_axis(Vector3::new(-0.5, 0.1, 0.7));
+    p.q = vec![
+        0.4, r.w, r.i, r.j, r.k, 3.0, 0.1, 1.2, rb.w, rb.i, rb.j, rb.k,
+    ];
+    p.v = vec![0.3, -0.5, 0.2, 0.7, 0.1, 0.15, -0.2, 0.4, 0.9, -0.3];
+    // The compensation acts: the forward dynamics differ from those without it.
+    let mut plain = model.clone();
+    for b in &mut plain.tree.bodies {
+        b.gravcomp = 0.0;
+    }
+    let with = model.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    let without = plain.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    assert!((with - without).amax() > 1.0);
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        check_forward_jacobian_step(&format!("plain {coords:?}"), &plain, &p, coords, 1e-4);
+        check_forward_jacobian_step(&format!("gravcomp {coords:?}"), &model, &p, coords, 1e-4);
+    }
 }

@@ -314,6 +314,17 @@ fn option_flags_switch_forces_off() {
         (joint(&s, "h").damping, joint(&s, "h").frictionloss),
         (0.0, 0.0)
     );
+    // Gravity compensation goes with the passive forces: off only when springs and dampers
+    // both are (MuJoCo 4.0's rule).
+    let arm = |flags: &str| {
+        load(&format!(
+            r#"<mujoco><option>{flags}</option><worldbody><body name="b" gravcomp="0.7"><freejoint/><geom size="0.1"/></body></worldbody></mujoco>"#
+        ))
+    };
+    assert_eq!(body(&arm(""), "b").gravcomp, 0.7);
+    assert_eq!(body(&arm(r#"<flag spring="disable"/>"#), "b").gravcomp, 0.7);
+    let off = arm(r#"<flag spring="disable" damper="disable"/>"#);
+    assert_eq!(body(&off, "b").gravcomp, 0.0);
 }
 
 #[test]
@@ -358,6 +369,16 @@ fn physics_that_scm_does_not_model_is_refused_with_what_to_do() {
             r#"<equality><weld body1="b"/></equality>"#,
             "weld",
             "equality",
+        ),
+        (
+            r#"<option><flag passive="disable"/></option>"#,
+            "flag",
+            "spring=\"disable\" damper=\"disable\"",
+        ),
+        (
+            r#"<option integrator="discrete"/>"#,
+            "option",
+            "implicitfast",
         ),
     ];
     for (extra, element, words) in cases {

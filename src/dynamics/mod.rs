@@ -105,6 +105,9 @@ pub struct Body {
     pub joints: Vec<usize>,
     /// Whether the body is a mocap body: top-level, no joints, pose and velocity from inputs.
     pub mocap: bool,
+    /// Gravity compensation: the body also receives the force `-gravcomp · m g` at its centre
+    /// of mass (MuJoCo's `gravcomp`: 1 cancels its weight, 0 leaves it).
+    pub gravcomp: f64,
 }
 
 /// Numbers per mocap body in an input vector: position (3, m, world frame), orientation

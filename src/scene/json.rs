@@ -66,6 +66,7 @@ impl Compiled {
                     "pos": pos, "quat": quat, "mass": i.mass, "ipos": v3(&i.com),
                     "inertia": i.rot.transpose().as_slice().to_vec(),
                     "mocap": b.mocap,
+                    "gravcomp": b.gravcomp,
                 })
             })
             .collect();

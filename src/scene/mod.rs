@@ -365,14 +365,14 @@ const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
 fn advice(element: &str, attr: &str) -> &'static str {
     match (element, attr) {
         (_, "class") | (_, "childclass") => ": defaults should have been applied (report this)",
-        ("body", "gravcomp") => {
-            ": gravity compensation is not supported yet; remove it (or set gravity to 0)"
-        }
         ("geom", "fluidshape") | ("geom", "fluidcoef") => {
             ": fluid forces are not supported; remove them"
         }
         ("joint", "actuatorfrcrange") | ("joint", "actuatorfrclimited") => {
             ": limit the actuators' forcerange instead"
+        }
+        ("joint", "actuatorgravcomp") => {
+            ": gravity compensation through the actuators is not modelled; remove it (the bodies' gravcomp then acts as a passive force, MuJoCo's default)"
         }
         _ => "",
     }
@@ -459,6 +459,7 @@ impl Builder {
                 },
                 joints: vec![],
                 mocap: false,
+                gravcomp: 0.0,
             }],
             joints: vec![],
             geoms: vec![],
@@ -807,6 +808,7 @@ impl Builder {
             Some("implicit") | Some("implicitfast") => {
                 self.option_integrator = Some(Integrator::ImplicitEuler)
             }
+            Some("discrete") => return Err(self.err(el, "integrator=\"discrete\" (MuJoCo 4's discrete-time integrator) is not supported by SCM: use Euler, RK4 or implicitfast, or choose one of SCM's with <custom><text name=\"scm_integrator\">")),
             Some(i) => {
                 return Err(self.err(el, format!("integrator=\"{i}\" is not a MuJoCo integrator")))
             }
@@ -849,12 +851,10 @@ impl Builder {
                     f.equality &= on;
                     f.frictionloss &= on;
                 }
-                "passive" => {
-                    f.spring &= on;
-                    f.damper &= on;
-                }
+                "passive" => return Err(self.err(el, "flag passive was MuJoCo 2's; MuJoCo 3 and 4 refuse it: use spring=\"disable\" damper=\"disable\"")),
                 "warmstart" | "energy" | "sensor" | "midphase" | "island" | "nativeccd"
-                | "multiccd" | "refsafe" | "fwdinv" | "invdiscrete" | "autoreset" | "override" => {
+                | "multiccd" | "refsafe" | "fwdinv" | "invdiscrete" | "autoreset" | "override"
+                | "sleep" | "diagexact" | "speculative" | "ipc" => {
                     let why = format!("flag {k} (MuJoCo's solver and pipeline)");
                     self.unused(el, why);
                 }
@@ -914,15 +914,7 @@ impl Builder {
 
     fn body(&mut self, el: &Element, parent: usize) -> Result<(), SceneError> {
         self.check_attrs(el, &["name", "pos", "quat", "mocap", "gravcomp"])?;
-        if self.float(el, "gravcomp")?.is_some_and(|g| g != 0.0) {
-            return Err(self.err(
-                el,
-                format!(
-                    "gravcomp is not supported by SCM yet{}",
-                    advice("body", "gravcomp")
-                ),
-            ));
-        }
+        let gravcomp = self.float(el, "gravcomp")?.unwrap_or(0.0);
         let mocap = match el.attr("mocap") {
             None | Some("false") => false,
             Some("true") => true,
@@ -957,6 +949,7 @@ impl Builder {
             },
             joints: vec![],
             mocap,
+            gravcomp,
         });
         self.explicit_inertia.push(false);
         self.geom_inertia.push(NO_INERTIA);
@@ -1728,6 +1721,13 @@ impl Builder {
         if !f.gravity {
             self.gravity = Vector3::zeros();
         }
+        // MuJoCo (3, 4) computes gravity compensation with the passive forces, which it skips
+        // when both springs and dampers are disabled (measured in MuJoCo 4.0).
+        if !f.spring && !f.damper {
+            for b in &mut self.bodies {
+                b.gravcomp = 0.0;
+            }
+        }
         for j in &mut self.joints {
             if !f.frictionloss {
                 j.frictionloss = 0.0;
@@ -2071,6 +2071,7 @@ impl Builder {
                     inertia: NO_INERTIA,
                     joints: vec![],
                     mocap: false,
+                    gravcomp: 0.0,
                 });
                 self.explicit_inertia.push(false);
                 self.geom_inertia.push(NO_INERTIA);

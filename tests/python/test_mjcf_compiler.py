@@ -92,6 +92,10 @@ def compare(path):
         close(f"{tag} pos", body["pos"], m.body_pos[b])
         close(f"{tag} rotation", rot(body["quat"]), rot(m.body_quat[b]))
         close(f"{tag} mass", body["mass"], m.body_mass[b])
+        # SCM drops gravity compensation where MuJoCo skips it at run time.
+        passive_off = mujoco.mjtDisableBit.mjDSBL_SPRING | mujoco.mjtDisableBit.mjDSBL_DAMPER
+        if m.opt.disableflags & passive_off != passive_off:
+            close(f"{tag} gravcomp", body["gravcomp"], m.body_gravcomp[b])
         if m.body_mass[b] > 0:
             close(f"{tag} centre of mass", body["ipos"], m.body_ipos[b])
             r = rot(m.body_iquat[b])

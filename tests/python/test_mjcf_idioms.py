@@ -183,3 +183,44 @@ def test_t_push_written_mujocos_way_ignores_the_excluded_table(tmp_path):
           f"yaw {ours['t_yaw.q']:.4f}; MuJoCo x {d.qpos[0]:.4f} y {d.qpos[1]:.4f} yaw {d.qpos[2]:.4f}")
     assert pushed > 0.05 and d.qpos[1] > 0.05, "both push the block forward"
     assert abs(pushed - d.qpos[1]) < 0.2 * d.qpos[1]
+
+
+GRAVCOMP_ARM = """<mujoco model="gravcomp">
+  <option timestep="0.002">{flags}</option>
+  <worldbody>
+    <body name="upper" pos="0 0 1" gravcomp="1">
+      <joint name="shoulder" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+      <body name="lower" pos="0.3 0 0.1" gravcomp="0.5">
+        <joint name="elbow" type="hinge" axis="0.3 1 0"/>
+        <geom type="box" size="0.1 0.02 0.03" pos="0.12 0.02 0"/>
+      </body>
+    </body>
+    <body name="balloon" pos="1 0 1" gravcomp="1">
+      <freejoint/>
+      <geom type="sphere" size="0.05" pos="0.02 0 0"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_gravcomp_as_in_mujoco(tmp_path):
+    # Gravity compensation is a force -gravcomp m g at each body's centre of mass: the fully
+    # compensated balloon (centre of mass off its frame's origin) stays where it is, the arm
+    # moves under the half-compensated lower link only; no contact, so it agrees to rounding.
+    outputs = ["shoulder.q", "elbow.q", "balloon.pos.z"]
+    ours, m, d = run(tmp_path, GRAVCOMP_ARM.format(flags=""), outputs, 0.5)
+    assert abs(d.qpos[0]) > 0.05, "the half-compensated link moves the arm"
+    assert abs(ours["balloon.pos.z"] - 1.0) < 1e-12
+    assert abs(ours["shoulder.q"] - d.qpos[0]) < 1e-6, (ours["shoulder.q"], d.qpos[0])
+    assert abs(ours["elbow.q"] - d.qpos[1]) < 1e-6, (ours["elbow.q"], d.qpos[1])
+
+
+def test_gravcomp_off_with_springs_and_dampers(tmp_path):
+    # MuJoCo computes gravity compensation with the passive forces, all skipped when both
+    # springs and dampers are disabled.
+    xml = GRAVCOMP_ARM.format(flags='<flag spring="disable" damper="disable"/>')
+    ours, m, d = run(tmp_path, xml, ["shoulder.q", "balloon.pos.z"], 0.3)
+    assert d.qpos[4] < 0.6, "MuJoCo drops the balloon"
+    assert abs(ours["balloon.pos.z"] - d.qpos[4]) < 1e-6
+    assert abs(ours["shoulder.q"] - d.qpos[0]) < 1e-6
