@@ -7,6 +7,7 @@
 
 use crate::collision::Collider;
 use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
+use crate::dynamics::fluid::Fluid;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
 use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
@@ -89,6 +90,9 @@ pub struct Model {
     pub v0: Vec<f64>,
     /// Initial controls (zero, or the chosen keyframe's `ctrl`).
     pub ctrl0: Vec<f64>,
+    /// Fluid forces (MuJoCo's inertia-box model), if the scene's medium has a density or a
+    /// viscosity.
+    pub fluid: Option<Fluid>,
 }
 
 /// Result of forward dynamics.
@@ -236,11 +240,15 @@ impl Model {
         (wrenches, out)
     }
 
-    /// Adds each body's gravity compensation (`-gravcomp · m g` at its centre of mass, see
-    /// [`Body::gravcomp`](crate::dynamics::Body::gravcomp)) to the wrenches `w` (world frame,
-    /// about the body origin), as MuJoCo applies it: a passive force on the body, not a change
-    /// of gravity, so its generalized force is `Jᵀ f` through the tree.
-    fn add_gravcomp<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
+    /// Adds the passive forces that act on bodies to the wrenches `w` (world frame, about the
+    /// body origin): the fluid's ([`Fluid`]) and each body's gravity compensation (`-gravcomp ·
+    /// m g` at its centre of mass, see [`Body::gravcomp`](crate::dynamics::Body::gravcomp)), as
+    /// MuJoCo applies it: a passive force on the body, not a change of gravity, so its
+    /// generalized force is `Jᵀ f` through the tree.
+    fn add_body_forces<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
+        if let Some(fluid) = &self.fluid {
+            fluid.add_wrenches(&kin.frames, |b| self.tree.bodies[b].inertia.com, w);
+        }
         for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
             if body.gravcomp == 0.0 {
                 continue;
@@ -407,7 +415,7 @@ impl Model {
         }
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (mut wrenches, contacts) = self.contacts(&kin, prm);
-        self.add_gravcomp(&kin, &mut wrenches);
+        self.add_body_forces(&kin, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
         let rhs = DVector::from_column_slice(tau)
@@ -438,7 +446,7 @@ impl Model {
     ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (mut wrenches, _) = self.contacts(&kin, prm);
-        self.add_gravcomp(&kin, &mut wrenches);
+        self.add_body_forces(&kin, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia.

@@ -547,3 +547,46 @@ fn mujoco_integrator_options_map_to_ours() {
     let e = load_str(&scene(r#"integrator="leapfrog""#, ""), Path::new("bad.xml")).unwrap_err();
     assert!(e.to_string().contains("leapfrog"), "{e}");
 }
+
+#[test]
+fn fluid_forces_only_dissipate_and_follow_the_box_formulas() {
+    use scm::dynamics::fluid::FluidBody;
+    // A box's equivalent inertia box is the box itself: sides 0.4, 0.1, 0.06.
+    let xml = r#"<mujoco>
+  <option density="1000" viscosity="0.2"/>
+  <worldbody>
+    <body name="box" pos="0 0 1"><freejoint/><geom type="box" size="0.2 0.05 0.03"/></body>
+  </worldbody>
+</mujoco>"#;
+    let model = model_of(xml);
+    let fluid = model.fluid.as_ref().unwrap();
+    let fb: &FluidBody = &fluid.bodies[0];
+    let mut sides: Vec<f64> = fb.sides.iter().copied().collect();
+    sides.sort_by(f64::total_cmp);
+    for (s, want) in sides.iter().zip([0.06, 0.1, 0.4]) {
+        assert!((s - want).abs() < 1e-12, "{sides:?}");
+    }
+    // Sliding along its long axis at 2 m/s (no gravity in the force, only the fluid's): drag
+    // -3π β d v - ½ ρ b_y b_z v², d the mean side.
+    let kin = model
+        .tree
+        .kinematics(&model.q0, &[2.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let mut w = vec![Wrench::zero(); 2];
+    fluid.add_wrenches(&kin.frames, |b| model.tree.bodies[b].inertia.com, &mut w);
+    let d = (0.4 + 0.1 + 0.06) / 3.0;
+    let want = -3.0 * std::f64::consts::PI * d * 0.2 * 2.0 - 0.5 * 1000.0 * 0.1 * 0.06 * 4.0;
+    assert!(
+        (w[1].force.x - want).abs() < 1e-12 * want.abs(),
+        "{} vs {want}",
+        w[1].force.x
+    );
+    assert!(w[1].force.y.abs() + w[1].force.z.abs() + w[1].torque.norm() < 1e-12);
+    // Whatever the motion, the power of the fluid forces is negative.
+    let mut rng = Lcg(7);
+    for _ in 0..50 {
+        let (q, v, _) = random_point(&model, &mut rng, 3.0);
+        let kin = model.tree.kinematics(&q, &v);
+        let p: f64 = fluid.power(&kin.frames, |b| model.tree.bodies[b].inertia.com);
+        assert!(p < 0.0, "power {p} at v = {v:?}");
+    }
+}

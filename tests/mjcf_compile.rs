@@ -363,7 +363,7 @@ fn solver_and_renderer_settings_are_accepted_and_listed_as_unused() {
 #[test]
 fn physics_that_scm_does_not_model_is_refused_with_what_to_do() {
     let cases = [
-        (r#"<option density="1.2"/>"#, "option", "fluid"),
+        (r#"<option density="1.2" wind="1 0 0"/>"#, "option", "wind"),
         (r#"<compiler coordinate="global"/>"#, "compiler", "local"),
         (
             r#"<equality><weld body1="b"/></equality>"#,
@@ -399,7 +399,7 @@ fn compile_reports_every_refusal_without_stopping() {
     std::fs::write(
         &path,
         r#"<mujoco>
-  <option density="1.2"/>
+  <option density="1.2" wind="0 0 1"/>
   <worldbody>
     <body name="b" pos="0 0 1">
       <joint name="ball" type="ball" range="0 30"/>
@@ -502,4 +502,15 @@ fn a_keyframe_chosen_by_scm_keyframe_is_the_initial_state() {
     let bad = scene("home").replace("qvel=\"-1.5\"", "qvel=\"-1.5 2\"");
     let e = refuse(&bad);
     assert_eq!((e.line, e.element.as_str()), (12, "key"), "{e}");
+}
+
+#[test]
+fn an_inertia_no_rigid_body_has_is_refused_as_mujoco_refuses_it() {
+    let e = refuse(
+        r#"<mujoco><worldbody><body name="b"><freejoint/>
+<inertial pos="0 0 0" mass="1" diaginertia="0.05 0.02 0.01"/>
+</body></worldbody></mujoco>"#,
+    );
+    assert_eq!((e.element.as_str(), e.line), ("inertial", 2), "{e}");
+    assert!(e.message.contains("A + B >= C"), "{e}");
 }

@@ -14,13 +14,14 @@ pub mod xml;
 
 use crate::collision::Collider;
 use crate::contact::{ContactParams, Dissipation};
+use crate::dynamics::fluid::{Fluid, FluidBody};
 use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{Body, Joint, JointKind, Tree};
 use crate::geometry::{Shape, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair};
 use canonical::Angles;
-use nalgebra::{Isometry3, Matrix3, Translation3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use xml::Element;
@@ -417,6 +418,14 @@ struct Builder {
     refused: Vec<SceneError>,
     /// The `<option>` that asks for fluid forces, if any.
     fluid: Option<Element>,
+    /// `<option density viscosity>`.
+    medium: (f64, f64),
+    /// `<option wind>`.
+    wind: Vector3<f64>,
+    /// Orientation of each `<inertial diaginertia>` (its principal axes).
+    inertial_axes: std::collections::BTreeMap<usize, UnitQuaternion<f64>>,
+    /// Orientation of each geom that gives its body mass, per body.
+    mass_geom_frames: std::collections::BTreeMap<usize, Vec<UnitQuaternion<f64>>>,
     /// Whether each joint is limited (its `range` and line, in SI units) by `limited` or
     /// `autolimits`.
     limits: Vec<Option<(f64, f64, Element)>>,
@@ -477,6 +486,10 @@ impl Builder {
             unused: vec![],
             flags: Flags::default(),
             fluid: None,
+            medium: (0.0, 0.0),
+            wind: Vector3::zeros(),
+            inertial_axes: Default::default(),
+            mass_geom_frames: Default::default(),
             keys: vec![],
             refused: vec![],
             limits: vec![],
@@ -783,10 +796,23 @@ impl Builder {
         if let Some(g) = self.vec3(el, "gravity")? {
             self.gravity = g;
         }
-        for key in ["density", "viscosity"] {
-            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
-                self.fluid = Some(el.clone());
+        for (k, key) in ["density", "viscosity"].into_iter().enumerate() {
+            if let Some(v) = self.float(el, key)? {
+                if v < 0.0 {
+                    return Err(self.err(el, format!("{key}=\"{v}\" must not be negative")));
+                }
+                if k == 0 {
+                    self.medium.0 = v;
+                } else {
+                    self.medium.1 = v;
+                }
             }
+        }
+        if self.medium != (0.0, 0.0) {
+            self.fluid = Some(el.clone());
+        }
+        if let Some(w) = self.vec3(el, "wind")? {
+            self.wind = w;
         }
         if el.attr("magnetic").is_some() {
             self.unused(el, "magnetic (the magnetometer sensor's field)");
@@ -1316,6 +1342,10 @@ impl Builder {
                 };
                 let gi = geom_inertia(&mp, mass, &pose);
                 self.geom_inertia[body] = self.geom_inertia[body].add(&gi);
+                self.mass_geom_frames
+                    .entry(body)
+                    .or_default()
+                    .push(pose.rotation);
             }
         } else if body != 0 && !self.bodies[body].joints.is_empty() {
             return Err(self.err(el, "a plane can only belong to a static body"));
@@ -1439,12 +1469,21 @@ impl Builder {
             self.vec3(el, "diaginertia")?,
             self.floats(el, "fullinertia", 6)?,
         ) {
-            (Some(d), None) => Matrix3::from_diagonal(&d),
+            (Some(d), None) => {
+                self.inertial_axes.insert(body, pose.rotation);
+                Matrix3::from_diagonal(&d)
+            }
             (None, Some(f)) => Matrix3::new(f[0], f[3], f[4], f[3], f[1], f[5], f[4], f[5], f[2]),
             _ => return Err(self.err(el, "give exactly one of diaginertia and fullinertia")),
         };
-        if rot.symmetric_eigenvalues().min() <= 0.0 {
+        let e = rot.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
             return Err(self.err(el, "the inertia is not positive definite"));
+        }
+        // A rigid body's principal moments satisfy the triangle inequality; MuJoCo's compiler
+        // refuses an inertia that does not (rounding aside).
+        if e.sum() - e.max() < e.max() * (1.0 - 1e-12) {
+            return Err(self.err(el, format!("the principal moments {:?} violate A + B >= C, which no rigid body does (MuJoCo refuses them too): correct the inertia", e.as_slice())));
         }
         let r = pose.rotation.to_rotation_matrix().into_inner();
         self.bodies[body].inertia = Inertia {
@@ -1740,10 +1779,12 @@ impl Builder {
             }
         }
         if let Some(el) = &self.fluid {
-            refused.push(self.err(
-                el,
-                "fluid forces (density, viscosity) are not supported by SCM yet: set both to 0",
-            ));
+            if self.wind != Vector3::zeros() {
+                refused.push(self.err(
+                    el,
+                    "wind is not supported by SCM's fluid forces yet: remove it (the fluid is then still)",
+                ));
+            }
         }
         if f.limit {
             for (j, (_, _, el)) in self
@@ -2006,6 +2047,7 @@ impl Builder {
             self.set_limits(&mut tree);
         }
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
+        let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -2024,6 +2066,7 @@ impl Builder {
             q0,
             v0,
             ctrl0,
+            fluid,
         };
         Ok(Scene {
             model,
@@ -2033,6 +2076,48 @@ impl Builder {
             meshes: self.meshes,
             meshdir: self.meshdir,
             includes: vec![],
+        })
+    }
+
+    /// MuJoCo's inertia-box fluid model for the moving bodies with mass, when the medium has a
+    /// density or a viscosity (and the passive forces are on: MuJoCo skips them all when
+    /// springs and dampers are both disabled). Each body's box is taken in its principal axes
+    /// as MuJoCo's compiler orients them: an `<inertial diaginertia>`'s frame, the frame of the
+    /// body's one massive geom, else the eigenvectors of its inertia (for a body whose moments
+    /// are equal in two axes, the quadratic drag then depends on which axes are taken, and
+    /// MuJoCo's choice may differ).
+    fn fluid_model(&self, tree: &Tree) -> Option<Fluid> {
+        if self.medium == (0.0, 0.0) || (!self.flags.spring && !self.flags.damper) {
+            return None;
+        }
+        let mut bodies = Vec::new();
+        for (b, body) in tree.bodies.iter().enumerate().skip(1) {
+            let i = &body.inertia;
+            if !tree.body_moves(b) || i.mass < 1e-15 {
+                continue;
+            }
+            let from_geoms = match self.settings.inertia_from_geom {
+                InertiaFromGeom::Always => true,
+                InertiaFromGeom::Auto => !self.explicit_inertia[b],
+                InertiaFromGeom::Never => false,
+            };
+            let one_geom = self.mass_geom_frames.get(&b).filter(|f| f.len() == 1);
+            let frame = match (from_geoms, self.inertial_axes.get(&b), one_geom) {
+                (false, Some(q), _) => Some(*q),
+                (true, _, Some(f)) => Some(f[0]),
+                _ => None,
+            };
+            let axes = match frame {
+                Some(q) => q.to_rotation_matrix().into_inner(),
+                None => i.rot.symmetric_eigen().eigenvectors,
+            };
+            let moments = (axes.transpose() * i.rot * axes).diagonal();
+            bodies.push(FluidBody::new(b, i.mass, axes, moments));
+        }
+        Some(Fluid {
+            density: self.medium.0,
+            viscosity: self.medium.1,
+            bodies,
         })
     }
 

@@ -1,9 +1,9 @@
 """The MuJoCo models that ship with gymnasium, as a user brings them: each packs into an FMU that
 passes fmpy's validation, and simulates 1 s with zero inputs, contact and joint limits on,
-without refusal or NaN; where SCM refuses, the test holds the reason.
+without refusal or NaN (swimmer with its fluid forces); where SCM refuses, the test holds the
+reason.
 
 Known today, measured (see docs/mjcf.md):
-- swimmer asks for fluid forces (density, viscosity), which SCM refuses;
 - walker2d and walker2d_v5: with RK4 at their 2 ms step, SCM's contact at its default stiffness
   is too stiff for the explicit method when the feet land: the energy grows from 136 J to 426 J
   by 0.18 s (walker2d_v5: 5.7e4 J by 0.11 s), and the guard refuses a real blow-up. With SCM's
@@ -24,7 +24,7 @@ from conftest import SCM
 
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
-REFUSED = {"swimmer": "fluid forces"}
+REFUSED = {}
 EXPLICIT_TOO_STIFF = {"walker2d", "walker2d_v5"}
 NOT_SIMULATED = {"humanoid", "humanoidstandup"}
 

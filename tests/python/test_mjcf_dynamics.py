@@ -23,7 +23,7 @@ from conftest import SCM
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
 #: Files SCM refuses even with those flags, and why (the test checks the refusal says so).
-REFUSED = {"swimmer": "fluid forces"}
+REFUSED = {}
 DURATION = 0.2
 TOL = 1e-5
 
