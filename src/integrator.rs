@@ -18,7 +18,11 @@ pub enum Integrator {
     /// MuJoCo's `Euler`: semi-implicit Euler with the joints' viscous damping taken implicitly,
     /// `(M + h D) v̇ = f(q, v)`, `v' = v + h v̇`, `q' = q ⊕ h v'`, where `D` holds each degree of
     /// freedom's joint damping and `f` every force (the damping's `-D v` included). A damped
-    /// joint stays stable at any step; without damping it is `semi_implicit_euler`. MJCF's
+    /// joint stays stable at any step; without damping it is `semi_implicit_euler`. Where a
+    /// joint has frictionloss, `D` also holds the slope `F v_s² / (v_s² + v²)^{3/2}` of SCM's
+    /// smooth dry friction `-F v / sqrt(v_s² + v²)` (a damper as stiff as `F / v_s` near rest):
+    /// MuJoCo solves frictionloss as a constraint, implicitly, and so takes it at any step;
+    /// with the slope implicit, SCM does too (linearly implicit Euler on that term). MJCF's
     /// `integrator="Euler"` maps to it (to `semi_implicit_euler` with
     /// `<flag eulerdamp="disable">`).
     DampedEuler,

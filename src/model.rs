@@ -382,7 +382,8 @@ impl Model {
 
     /// [`Model::forward_tau`], optionally with the joints' viscous damping taken implicitly
     /// over a step `h`: `v̇ = (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, `D` the diagonal of the
-    /// joints' damping per degree of freedom (MuJoCo's `Euler`, see
+    /// joints' damping per degree of freedom plus the slope of their smooth frictionloss at `v`
+    /// (MuJoCo's `Euler`, see
     /// [`Integrator::DampedEuler`]).
     pub fn forward_damped<T: Scalar>(
         &self,
@@ -423,9 +424,19 @@ impl Model {
             - bias;
         let mut m = self.tree.mass_matrix(&kin);
         if let Some(h) = implicit_damping {
+            let vs2 = prm.stiction_velocity * prm.stiction_velocity;
             for j in &self.tree.joints {
                 for k in 0..j.kind.nv() {
-                    m[(j.dadr + k, j.dadr + k)] += h * j.damping;
+                    let mut d = c::<T>(j.damping);
+                    if j.frictionloss > 0.0 {
+                        // The smooth frictionloss -F v / sqrt(v_s² + v²) is a damper of slope
+                        // F v_s² / (v_s² + v²)^{3/2} near rest: stiff (F/v_s) when v_s is small,
+                        // where MuJoCo's frictionloss is a constraint, solved implicitly.
+                        let vi = v[j.dadr + k];
+                        let r = vs2 + vi * vi;
+                        d += vs2 * j.frictionloss / (r * r.sqrt());
+                    }
+                    m[(j.dadr + k, j.dadr + k)] += h * d;
                 }
             }
         }
