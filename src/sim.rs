@@ -43,6 +43,8 @@ pub enum Slot {
     PairTorque(usize, usize),
     /// Smooth separation distance of a pair.
     PairDistance(usize),
+    /// Generalized force of joint `j`'s limit (N or N·m).
+    LimitForce(usize),
     /// Soft top-K contact point `k` of a pair, world axis (scenes with `scm_contact_points`).
     PairPoint(usize, usize, usize),
     /// Internal step.
@@ -217,6 +219,26 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 }
             }
         }
+    }
+    for (j, jt) in model.tree.joints.iter().enumerate() {
+        let Some(limit) = &jt.limit else { continue };
+        let unit = if jt.kind == JointKind::Slide {
+            "N"
+        } else {
+            "N.m"
+        };
+        push(
+            format!("{}.limit.force", names::identifier(&jt.name)),
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            real(None, unit),
+            format!(
+                "Force of joint {}'s limit [{}, {}] along the joint (positive towards larger values): a smooth one-sided spring and damper, zero inside the range",
+                jt.name, limit.lo, limit.hi
+            ),
+            Slot::LimitForce(j),
+        );
     }
     for (i, a) in model.actuators.iter().enumerate() {
         let jn = &model.tree.joints[a.joint].name;
@@ -1075,6 +1097,13 @@ impl FmiModel for Simulation {
             Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
             Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
             Slot::PairDistance(p) => self.contacts()[p].distance,
+            Slot::LimitForce(j) => {
+                let jt = &self.model.tree.joints[j];
+                let s = &self.current.state;
+                jt.limit
+                    .as_ref()
+                    .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
+            }
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,

@@ -449,6 +449,40 @@ fn a_limited_pendulum_rests_against_its_limit() {
         q - l.hi,
         l.stiffness
     );
+    // The limit's force is an FMU output: at rest it holds gravity's torque.
+    let var = |name: &str| {
+        let v = sim.info().variables.iter().find(|v| v.name == name);
+        v.unwrap_or_else(|| panic!("no variable {name}"))
+            .value_reference
+    };
+    let (f, hq, hv) = (var("h.limit.force"), var("h.q"), var("h.v"));
+    let force = sim.get_real(f).unwrap();
+    assert!(
+        (force + gravity_torque).abs() < 1e-6 * gravity_torque,
+        "{force} vs -{gravity_torque}"
+    );
+    // Its ModelStructure dependencies are the joint's angle and velocity.
+    let deps = &sim.info().structure.outputs;
+    let (_, d) = deps.iter().find(|(o, _)| *o == f).unwrap();
+    assert_eq!(d.as_deref(), Some(&[hq, hv][..]));
+    // Its directional derivatives match central differences of the output, past the onset
+    // (moving) and inside the onset, where the force is C² but curved.
+    for (q, v) in [(l.hi + 0.01, 0.2), (l.hi + 0.3 * l.width, -0.1)] {
+        let at = |sim: &mut scm::sim::Simulation, q: f64, v: f64| {
+            sim.current.state.q[0] = q;
+            sim.current.state.v[0] = v;
+            sim.get_real(f).unwrap()
+        };
+        for (known, dq, dv) in [(hq, 1e-7, 0.0), (hv, 0.0, 1e-7)] {
+            at(&mut sim, q, v);
+            let exact = sim.directional_derivative(&[f], &[known], &[1.0]).unwrap()[0];
+            let fd = (at(&mut sim, q + dq, v + dv) - at(&mut sim, q - dq, v - dv)) / 2e-7;
+            assert!(
+                exact != 0.0 && (exact - fd).abs() < 1e-6 * exact.abs(),
+                "{exact} vs {fd}"
+            );
+        }
+    }
 }
 
 #[test]

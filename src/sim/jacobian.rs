@@ -144,6 +144,12 @@ pub fn directional_derivative(
                 Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],
                 Slot::PairTorque(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.torque[k],
                 Slot::PairDistance(p) => contacts.as_ref().ok_or_else(missing)?[p].distance,
+                Slot::LimitForce(j) => {
+                    let jt = &model.tree.joints[j];
+                    jt.limit
+                        .as_ref()
+                        .map_or(Dual64::from(0.0), |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
+                }
                 Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p]
                     .get(k)
                     .map_or(Dual64::from(0.0), |c| c[i]),

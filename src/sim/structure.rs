@@ -204,6 +204,15 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
         }
         Slot::VDot(i) => subtree_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
         Slot::PairForce(p, _) | Slot::PairTorque(p, _) => pair_knowns(model, p, false),
+        // A limit's force depends on its joint's coordinate and velocity alone.
+        Slot::LimitForce(j) => {
+            let jt = &model.tree.joints[j];
+            Knowns {
+                q: [jt.qadr].into(),
+                v: [jt.dadr].into(),
+                ..Knowns::default()
+            }
+        }
         // The smooth distance and the soft top-K contact points both come from the separation
         // distribution alone: positions, ε1 (two point clouds) and ε2.
         Slot::PairDistance(p) | Slot::PairPoint(p, _, _) => pair_knowns(model, p, true),
