@@ -1,5 +1,6 @@
 //! Integration tests, compiled as one binary.
 
+mod cli;
 mod common;
 mod contact_pair;
 mod derivatives;

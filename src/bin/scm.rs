@@ -1,22 +1,91 @@
-//! `scm`: pack scenes into FMUs, inspect their point clouds, check and simulate them (SPEC §6).
+//! `scm`: pack scenes into FMUs, inspect their point clouds, check and simulate them
+//! (`scm --help`, `scm COMMAND --help`).
 
-use scm::fmi::contract::{FmiModel, VarType};
+use clap::{Parser, Subcommand};
+use scm::fmi::contract::{FmiModel, Phase, VarType};
 use scm::sim::Simulation;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-const USAGE: &str = "usage:
-  scm pack SCENE.xml -o OUT.fmu [--lib PATH/libscm.so]   build an FMU of the scene
-  scm simulate SCENE.xml [--duration S] [--step S] [--integrator NAME] [-o OUT.csv]   run natively, write CSV
-        (integrators: euler, semi_implicit_euler, rk4, implicit_euler, dopri5; default: the scene's)
-  scm aopc SCENE.xml BODY                                print a body's AOPC as CSV (body frame)
-  scm check SCENE.xml                                    report the scene's contents and problems
-  scm compile SCENE.xml                                  print the compiled model as JSON (MuJoCo's conventions)";
+/// Soft-minimum contact (SCM): MJCF scenes as FMI 2.0 FMUs.
+#[derive(Parser)]
+#[command(name = "scm", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build an FMU (Co-Simulation and Model Exchange) of a scene, carrying only what it needs.
+    Pack {
+        /// The scene (MJCF).
+        scene: PathBuf,
+        /// The FMU to write.
+        #[arg(short, long, value_name = "OUT.fmu")]
+        output: PathBuf,
+        /// The FMU binary to pack (default: libscm.so next to this program).
+        #[arg(long, value_name = "PATH")]
+        lib: Option<PathBuf>,
+    },
+    /// Simulate a scene natively through the FMU's own code; write every output as CSV (full
+    /// precision), one row per output interval.
+    Simulate {
+        /// The scene (MJCF).
+        scene: PathBuf,
+        /// Simulated time (s).
+        #[arg(long, default_value_t = 1.0, value_parser = positive, allow_hyphen_values = true)]
+        duration: f64,
+        /// Time between CSV rows, each one communication step (s; default: the scene's
+        /// internal step, at least 0.01 s).
+        #[arg(long, value_name = "S", value_parser = positive, allow_hyphen_values = true)]
+        output_interval: Option<f64>,
+        /// Internal step of the integrator (s; default: the scene's), i.e. `solver.step`.
+        #[arg(long, value_name = "S", value_parser = positive, allow_hyphen_values = true)]
+        step: Option<f64>,
+        /// Integrator: euler, semi_implicit_euler, damped_euler, rk4, implicit_euler, dopri5
+        /// (default: the scene's), i.e. `solver.integrator`.
+        #[arg(long, value_name = "NAME")]
+        integrator: Option<String>,
+        /// Set an FMU variable before the run: a parameter (`scm.stiffness=1e5`), an initial
+        /// state (`hinge.q=0.3`, `ball.linvel.z=-1`) or an input (`act.ctrl=0.5`). Repeatable.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        sets: Vec<String>,
+        /// The CSV file (default: standard output).
+        #[arg(short, long, value_name = "OUT.csv")]
+        output: Option<PathBuf>,
+    },
+    /// Print a body's oriented point cloud as CSV x,y,z,nx,ny,nz (body frame).
+    Aopc {
+        /// The scene (MJCF).
+        scene: PathBuf,
+        /// The body's name.
+        body: String,
+    },
+    /// Report a scene's bodies, point clouds, pairs, warnings, what SCM leaves unused, and
+    /// every refusal with file and line (exactly what `pack` would refuse).
+    Check {
+        /// The scene (MJCF).
+        scene: PathBuf,
+    },
+    /// Print the compiled model as JSON, in MuJoCo's conventions.
+    Compile {
+        /// The scene (MJCF).
+        scene: PathBuf,
+    },
+}
+
+fn positive(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .ok_or_else(|| format!("'{s}' is not a positive number"))
+}
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match run(&args) {
+    let cli = Cli::parse();
+    match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("scm: {e}");
@@ -25,74 +94,46 @@ fn main() -> ExitCode {
     }
 }
 
-/// Value of `--flag VALUE` (or `-f VALUE`), removing both from `args`.
-fn take_opt(args: &mut Vec<String>, names: &[&str]) -> Result<Option<String>, String> {
-    match args.iter().position(|a| names.contains(&a.as_str())) {
-        None => Ok(None),
-        Some(i) if i + 1 < args.len() => {
-            let v = args.remove(i + 1);
-            args.remove(i);
-            Ok(Some(v))
-        }
-        Some(i) => Err(format!("{} needs a value", args[i])),
-    }
-}
-
-fn number(s: Option<String>, name: &str, default: f64) -> Result<f64, String> {
-    match s {
-        None => Ok(default),
-        Some(s) => s
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .ok_or_else(|| format!("{name} {s}: expected a positive number")),
-    }
-}
-
-fn run(args: &[String]) -> Result<(), String> {
-    let mut args = args.to_vec();
-    if args.is_empty() || args[0] == "-h" || args[0] == "--help" {
-        println!("{USAGE}");
-        return Ok(());
-    }
-    let cmd = args.remove(0);
-    match cmd.as_str() {
-        "simulate" => {
-            let duration = number(take_opt(&mut args, &["--duration"])?, "--duration", 1.0)?;
-            let out = take_opt(&mut args, &["-o", "--output"])?;
-            let comm = take_opt(&mut args, &["--step"])?;
-            let integrator = take_opt(&mut args, &["--integrator"])?;
-            let [scene] = positional(&args, &["SCENE.xml"])?;
-            let mut sim = Simulation::from_file(Path::new(&scene)).map_err(|e| e.to_string())?;
+fn run(command: Command) -> Result<(), String> {
+    match command {
+        Command::Simulate {
+            scene,
+            duration,
+            output_interval,
+            step,
+            integrator,
+            sets,
+            output,
+        } => {
+            let mut sim = Simulation::from_file(&scene).map_err(|e| e.to_string())?;
+            let mut sets = sets;
             if let Some(name) = integrator {
-                sim.model.integrator =
-                    scm::integrate::Integrator::from_name(&name).ok_or_else(|| {
-                        format!(
-                            "--integrator {name}: known integrators are {}",
-                            scm::integrate::Integrator::ALL.map(|i| i.name()).join(", ")
-                        )
-                    })?;
+                sets.insert(0, format!("solver.integrator={name}"));
             }
-            let h = number(comm, "--step", sim.model.step.max(0.01))?;
-            simulate(&mut sim, duration, h, out.map(PathBuf::from))
+            if let Some(h) = step {
+                sets.insert(0, format!("solver.step={h}"));
+            }
+            for s in &sets {
+                set_variable(&mut sim, s)?;
+            }
+            let h = output_interval.unwrap_or(sim.model.step.max(0.01));
+            simulate(&mut sim, duration, h, output)
         }
-        "compile" => {
-            let [scene] = positional(&args, &["SCENE.xml"])?;
-            let c = scm::scene::compile(Path::new(&scene)).map_err(|e| e.to_string())?;
+        Command::Compile { scene } => {
+            let c = scm::scene::compile(&scene).map_err(|e| e.to_string())?;
             let text = serde_json::to_string_pretty(&c.to_json()).map_err(|e| e.to_string())?;
             println!("{text}");
             Ok(())
         }
-        "aopc" => {
-            let [scene, body] = positional(&args, &["SCENE.xml", "BODY"])?;
-            let sc = scm::scene::load(Path::new(&scene)).map_err(|e| e.to_string())?;
+        Command::Aopc { scene, body } => {
+            let sc = scm::scene::load(&scene).map_err(|e| e.to_string())?;
             let b = sc
                 .model
                 .tree
                 .bodies
                 .iter()
                 .position(|b| b.name == body)
-                .ok_or_else(|| format!("{scene}: no body named '{body}'"))?;
+                .ok_or_else(|| format!("{}: no body named '{body}'", scene.display()))?;
             let stdout = std::io::stdout();
             let mut w = stdout.lock();
             writeln!(w, "x,y,z,nx,ny,nz").map_err(|e| e.to_string())?;
@@ -112,32 +153,53 @@ fn run(args: &[String]) -> Result<(), String> {
             }
             Ok(())
         }
-        "check" => {
-            let [scene] = positional(&args, &["SCENE.xml"])?;
-            check(Path::new(&scene))
-        }
-        "pack" => {
-            let out = take_opt(&mut args, &["-o", "--output"])?.ok_or("pack needs -o OUT.fmu")?;
-            let lib = take_opt(&mut args, &["--lib"])?;
-            let [scene] = positional(&args, &["SCENE.xml"])?;
+        Command::Check { scene } => check(&scene),
+        Command::Pack { scene, output, lib } => {
             let lib = match lib {
-                Some(l) => PathBuf::from(l),
+                Some(l) => l,
                 None => default_library()?,
             };
-            scm::pack::pack(Path::new(&scene), &lib, Path::new(&out)).map_err(|e| e.to_string())?;
-            eprintln!("wrote {out}");
+            scm::pack::pack(&scene, &lib, &output).map_err(|e| e.to_string())?;
+            eprintln!("wrote {}", output.display());
             Ok(())
         }
-        other => Err(format!("unknown command '{other}'\n{USAGE}")),
     }
 }
 
-fn positional<const N: usize>(args: &[String], names: &[&str; N]) -> Result<[String; N], String> {
-    if let Some(flag) = args.iter().find(|a| a.starts_with('-')) {
-        return Err(format!("unknown option {flag}\n{USAGE}"));
-    }
-    <[String; N]>::try_from(args.to_vec())
-        .map_err(|_| format!("expected {}\n{USAGE}", names.join(" ")))
+/// `NAME=VALUE` for an FMU variable, set before initialization as a host would (so its checks
+/// apply: a fixed parameter, a non-finite value or an unknown integrator is refused).
+fn set_variable(sim: &mut Simulation, assignment: &str) -> Result<(), String> {
+    let (name, value) = assignment
+        .split_once('=')
+        .ok_or_else(|| format!("--set {assignment}: expected NAME=VALUE"))?;
+    let var = sim.info().variables.iter().find(|v| v.name == name);
+    let Some(var) = var else {
+        let close: Vec<&str> = sim
+            .info()
+            .variables
+            .iter()
+            .map(|v| v.name.as_str())
+            .filter(|n| n.split('.').next() == name.split('.').next())
+            .collect();
+        let hint = if close.is_empty() {
+            "see `scm check` and the FMU's modelDescription.xml for the names".to_string()
+        } else {
+            format!("variables of that name: {}", close.join(", "))
+        };
+        return Err(format!("--set {assignment}: no variable '{name}' ({hint})"));
+    };
+    let vr = var.value_reference;
+    let result = match var.var_type {
+        VarType::Real { .. } => {
+            let x: f64 = value
+                .parse()
+                .map_err(|_| format!("--set {assignment}: '{value}' is not a number"))?;
+            sim.set_real(vr, x, Phase::Instantiated)
+        }
+        VarType::String { .. } => sim.set_string(vr, value, Phase::Instantiated),
+        _ => Err(format!("{name} cannot be set from the command line")),
+    };
+    result.map_err(|e| format!("--set {assignment}: {e}"))
 }
 
 /// `libscm.so` next to this executable (cargo puts both in `target/<profile>/`).
@@ -180,14 +242,16 @@ fn simulate(
         .chain(outputs.iter().map(|(n, _)| n.as_str()))
         .collect();
     writeln!(w, "{}", header.join(",")).map_err(|e| e.to_string())?;
-    let n = (duration / h).round() as usize;
+    // Rows every `h`, the last one exactly at `duration` (its step may be shorter).
+    let n = (duration / h * (1.0 - 1e-12)).ceil().max(1.0) as usize;
+    let at = |k: usize| (k as f64 * h).min(duration);
     let start = std::time::Instant::now();
     for k in 0..=n {
         if k > 0 {
-            sim.do_step((k - 1) as f64 * h, h)
+            sim.do_step(at(k - 1), at(k) - at(k - 1))
                 .map_err(|e| e.to_string())?;
         }
-        let mut row = vec![format!("{}", k as f64 * h)];
+        let mut row = vec![format!("{}", at(k))];
         for (_, vr) in &outputs {
             row.push(format!("{}", sim.get_real(*vr)?));
         }
