@@ -1,4 +1,4 @@
-//! Soft collision detection (paper, Methods A.3; SPEC §2): the separation field of two
+//! Soft collision detection (paper, Methods A.3; docs/method.md): the separation field of two
 //! colliders, the separation distribution over it and the smooth separation distance.
 //!
 //! Two evaluations, as for the SSDF:
@@ -12,7 +12,7 @@
 //! Let `Φ_best` be the smallest field value evaluated so far (so `Φ_min ≤ Φ_best`),
 //! `N = I1 + I2` and `M2 = ln(N/τ)` with `τ` = [`PRUNE_TOLERANCE`]. A node of query points is
 //! skipped only once it is proven that `Φ_f > Φ_best + M2 ε2` for each of its points, so the
-//! weight of each skipped point relative to the largest is below `e^{-M2} = τ/N` (SPEC §3), and
+//! weight of each skipped point relative to the largest is below `e^{-M2} = τ/N` (docs/method.md, numerical rules), and
 //! all of them together below τ. Each skipped point also has `Φ_f - Φ_min = s ε2` with
 //! `s > M2`, so its share of `D = WᵀΦ` is `W_f |Φ_f - D| ≤ e^{-s} (s ε2 + |D - Φ_min|)`, and all
 //! of them change `D` by less than `τ (M2 ε2 + 2|D - Φ_min|)`. Because every skipped point lies
@@ -1028,7 +1028,7 @@ impl<T: Scalar> SeparationDistribution<T> {
 /// carrying twice the weight of another is preferred by a factor `2^(1/t) = 1024`.
 pub const TOPK_TEMPERATURE: f64 = 0.1;
 
-/// Soft top-K contact points (paper eq. 16; SPEC §2): the separation distribution `W` moved
+/// Soft top-K contact points (paper eq. 16; docs/method.md): the separation distribution `W` moved
 /// from faces to their vertices, `z_v = Σ_f [v ∈ f] W_f`, then `c_k = Σ_v Γ_kv y_v` with the
 /// successive softmax `Γ_k = softmax(ℓ_k)`, `ℓ_1 = ln z / t` ([`TOPK_TEMPERATURE`]),
 /// `ℓ_{k+1} = ℓ_k + ln(1 - Γ_k)`: closed form and smooth, no iterative solver. Points are in

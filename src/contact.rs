@@ -1,4 +1,4 @@
-//! The soft-minimum contact model (paper, Methods B; SPEC §2): the point–plane force, and its
+//! The soft-minimum contact model (paper, Methods B; docs/method.md): the point–plane force, and its
 //! soft-minimum averages over an SSDF (point–SSDF) and over a separation distribution
 //! (SSDF–SSDF), giving the wrench each body of a pair receives.
 //!
@@ -234,7 +234,7 @@ impl Param {
     }
 }
 
-/// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; SPEC §2) on a point at offset `r`
+/// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; docs/method.md) on a point at offset `r`
 /// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
 /// material point. Returns `λ`, which acts on the point; `-λ` acts on the plane's body.
 #[inline]
@@ -330,7 +330,7 @@ impl ForceSink for NoForceSink {
     }
 }
 
-/// Point–SSDF force (paper eq. 23–24 with the sign corrected, SPEC §2): the softmin-weighted
+/// Point–SSDF force (paper eq. 23–24 with the sign corrected, docs/method.md): the softmin-weighted
 /// average of point–plane forces on a query point `x` with velocity `v_point` (plane body's
 /// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
 /// planes `rel` found relevant at `x` (the SSDF's pruning bound, [`Relevant`]).
@@ -630,11 +630,11 @@ fn pair_sides<T: Scalar, S: ForceSink>(
     PairParts { sums, band, dist }
 }
 
-/// SSDF–SSDF contact (paper eq. 25; SPEC §2) between collider `a` on a body with pose/motion
+/// SSDF–SSDF contact (paper eq. 25; docs/method.md) between collider `a` on a body with pose/motion
 /// `fa` and collider `b` with `fb`: points of `a` against the planes of `b` and points of `b`
 /// against the planes of `a`, weighted by the separation distribution.
 ///
-/// Pruned to proven bounds (SPEC §3): only the query points of the [`separation_band`](crate::collision::separation_band) are
+/// Pruned to proven bounds (docs/method.md, numerical rules): only the query points of the [`separation_band`](crate::collision::separation_band) are
 /// visited (whole BVH nodes of points whose separation weight is below τ/(I1 + I2) relative to
 /// the largest are never evaluated), each SSDF sums only the planes of [`Relevant`], and only
 /// the point forces that can matter are evaluated: a point force whose bound is provably below

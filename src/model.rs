@@ -261,7 +261,7 @@ impl Model {
         }
     }
 
-    /// Generalized passive forces (SPEC §2): viscous damping `-b v`, joint limits (smooth
+    /// Generalized passive forces (docs/method.md): viscous damping `-b v`, joint limits (smooth
     /// one-sided springs and dampers, [`crate::dynamics::limit`]), springs towards the rest
     /// position (`-k (q - springref)` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation
     /// vector of the joint's quaternion: the exact gradient of `½ k |θ|²`), and smooth dry

@@ -153,7 +153,7 @@ pub fn re3<T: Scalar>(v: &Vector3<T>) -> Vector3<f64> {
 }
 
 /// Softplus `s⁺_ε(x) = ε·log(1 + exp(x/ε))`, evaluated as `max(x,0) + ε·log1p(exp(-|x|/ε))`
-/// so it neither overflows for large `x/ε` nor loses the tail for small ones (SPEC §2).
+/// so it neither overflows for large `x/ε` nor loses the tail for small ones (docs/method.md).
 #[inline]
 pub fn softplus<T: Scalar>(x: T, eps: T) -> T {
     let (pos, abs) = if x.re() > 0.0 {
@@ -215,7 +215,7 @@ impl<T: Scalar> SoftminSum<T> {
     }
 }
 
-/// Relative weight below which a softmax term may be skipped (SPEC §3).
+/// Relative weight below which a softmax term may be skipped (docs/method.md, numerical rules).
 pub const PRUNE_TOLERANCE: f64 = 1e-15;
 
 /// `-ln(PRUNE_TOLERANCE)`: a term whose key exceeds the minimum by more than `ε` times this has a

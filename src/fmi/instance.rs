@@ -31,7 +31,7 @@ pub trait LogSink {
 }
 
 /// `currentCommunicationPoint` of `fmi2DoStep` may differ from the instance's time by at most
-/// this much, relative to the larger of the time and the step size (SPEC §7).
+/// this much, relative to the larger of the time and the step size (docs/fmu.md).
 pub const COMMUNICATION_POINT_RELATIVE_TOLERANCE: f64 = 1e-9;
 
 /// Whether a communication step of `step` (s) ending at `end` (s) passes `stop` (s), the

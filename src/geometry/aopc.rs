@@ -5,7 +5,7 @@ use super::bvh::Bvh;
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use std::sync::{Arc, OnceLock};
 
-/// A closed surface as oriented planes `(p_i, n_i)` in its body's frame (SPEC §2, AOPC).
+/// A closed surface as oriented planes `(p_i, n_i)` in its body's frame (docs/method.md, AOPC).
 ///
 /// A bounding-volume hierarchy over the points is built on first use (pruned queries) and kept;
 /// change the fields only before the first query, or call [`Aopc::invalidate`].

@@ -1,4 +1,4 @@
-//! A bounding-volume hierarchy over the points of an AOPC, for exact pruning (SPEC §3).
+//! A bounding-volume hierarchy over the points of an AOPC, for exact pruning (docs/method.md, numerical rules).
 //!
 //! Every node stores an axis-aligned box of its points, a bounding sphere (for query nodes, whose
 //! boxes rotate with their body), a box of its normals (for bounding `nᵢᵀ(x - pᵢ)` over a

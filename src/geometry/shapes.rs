@@ -1,4 +1,4 @@
-//! Shapes of MJCF geoms (SPEC §4) in their own frame (centred at the origin; capsule and
+//! Shapes of MJCF geoms (docs/mjcf.md) in their own frame (centred at the origin; capsule and
 //! cylinder along z): exact signed distance, mass properties, and AOPC sampling as a quad mesh
 //! whose edges follow the shape's sharp edges (box edges, cylinder rims) and whose points are
 //! evenly spaced.

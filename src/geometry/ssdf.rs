@@ -1,4 +1,4 @@
-//! Soft signed distance function (paper eq. 8, SPEC §2):
+//! Soft signed distance function (paper eq. 8, docs/method.md):
 //! `φ̂_S(p) = Σ_i σ_ε1(-d)_i · n_iᵀ(p - p_i)`, with `d_i = |p - p_i|²` (so ε1 is in m²).
 //!
 //! Two evaluations of the same sum:
@@ -14,7 +14,7 @@
 //! `ℓ = √d_min + √ε1`. A term is skipped only if
 //! `(d_i - d_min)/ε1 > ln(I/τ) + ln(1 + √d_i/ℓ)`, so its weight relative to the largest
 //! (which is 1, at `d_min`) is `w_i < (τ/I)/(1 + √d_i/ℓ)`: every skipped term is below the
-//! relative weight τ/I ≤ τ (SPEC §3). Summed over at most `I` skipped terms:
+//! relative weight τ/I ≤ τ (docs/method.md, numerical rules). Summed over at most `I` skipped terms:
 //! `Σ_skip w_i < τ` and `Σ_skip w_i |v_i| < τ ℓ`, because `|v_i| = |n_iᵀ(p - p_i)| ≤ √d_i`.
 //! With `A = Σ w_i v_i`, `Z = Σ w_i ≥ 1` and the skipped parts `A_s`, `Z_s`, the pruned value
 //! differs from the full one by `|(Z_s φ̂ - A_s)/(Z - Z_s)| < τ (|φ̂| + ℓ)/(1 - τ)`: relative to

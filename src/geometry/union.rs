@@ -1,4 +1,4 @@
-//! The AOPC of a body made of several geoms: the surface of their union (SPEC §2, AOPC).
+//! The AOPC of a body made of several geoms: the surface of their union (docs/method.md, AOPC).
 //!
 //! Each geom is sampled on its own, then every face is classified against the other geoms:
 //! - strictly inside another geom: dropped (interior points ruin the SSDF, paper Experiments A);

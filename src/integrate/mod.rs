@@ -1,4 +1,4 @@
-//! Time stepping: one enumeration of integrators (SPEC §2), the same names in code, scenes
+//! Time stepping: one enumeration of integrators (docs/method.md), the same names in code, scenes
 //! (`scm_integrator`), the command line (`scm simulate --integrator`) and the FMU
 //! (`solver.integrator`); one step of any of them ([`Model::step_with`], generic over the scalar,
 //! so its exact derivatives come from the same code), and [`Model::advance`], which covers a

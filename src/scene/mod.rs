@@ -1,4 +1,4 @@
-//! Scene loader: a subset of MuJoCo's MJCF (SPEC §4), so the same file runs in MuJoCo and here.
+//! Scene loader: a subset of MuJoCo's MJCF (docs/mjcf.md), so the same file runs in MuJoCo and here.
 //!
 //! SCM settings come as `<custom><numeric name="scm_..." data="..."/>` (numbers) or
 //! `<custom><text name="scm_..." data="..."/>` (names), which MuJoCo ignores. Visual-only
