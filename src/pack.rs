@@ -36,12 +36,7 @@ pub struct Described {
 /// Loads `scene` and generates its `modelDescription.xml` and documentation: what `scm pack`
 /// writes; the golden files under `modelDescription/` are checked against the former.
 pub fn describe(scene: &Path) -> Result<Described, PackError> {
-    let text = std::fs::read_to_string(scene).map_err(|e| crate::scene::SceneError {
-        file: scene.display().to_string(),
-        line: 0,
-        element: "mujoco".into(),
-        message: format!("cannot read the scene: {e}"),
-    })?;
+    let text = crate::scene::read_text(scene)?;
     let loaded = crate::scene::load_str(&text, scene)?;
     // The meshes under `meshes/`, the included files where the includes find them again.
     let files = loaded

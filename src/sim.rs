@@ -685,12 +685,7 @@ impl Simulation {
 
     /// Loads a scene file and starts a simulation of it.
     pub fn from_file(path: &Path) -> Result<Simulation, scene::SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|e| scene::SceneError {
-            file: path.display().to_string(),
-            line: 0,
-            element: "mujoco".into(),
-            message: format!("cannot read the scene: {e}"),
-        })?;
+        let text = scene::read_text(path)?;
         Ok(Simulation::new(scene::load_str(&text, path)?, &text))
     }
 

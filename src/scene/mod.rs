@@ -152,14 +152,17 @@ pub const DEFAULT_STEP: f64 = 0.002;
 
 /// Loads a scene file.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-        file: file.clone(),
+    load_str(&read_text(path)?, path)
+}
+
+/// The text of a scene file; an unreadable file is a [`SceneError`] naming it.
+pub fn read_text(path: &Path) -> Result<String, SceneError> {
+    std::fs::read_to_string(path).map_err(|e| SceneError {
+        file: path.display().to_string(),
         line: 0,
         element: "mujoco".into(),
         message: format!("cannot read the scene: {e}"),
-    })?;
-    load_str(&text, path)
+    })
 }
 
 /// A scene compiled as MuJoCo's compiler would (bodies, inertias, joints, geoms, actuators),
@@ -189,12 +192,7 @@ pub struct Compiled {
 
 /// Compiles a scene file without building colliders and without refusing: see [`Compiled`].
 pub fn compile(path: &Path) -> Result<Compiled, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-        file: path.display().to_string(),
-        line: 0,
-        element: "mujoco".into(),
-        message: format!("cannot read the scene: {e}"),
-    })?;
+    let text = read_text(path)?;
     let (b, _) = read(&text, path)?;
     b.compiled()
 }
