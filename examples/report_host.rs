@@ -19,50 +19,16 @@
 //! `k` holds their values during communication step `k` (the last row is held). A non-finite
 //! output is written as `null`: the report treats it as a bug and stops.
 //!
-//! The logger is a non-variadic function transmuted to the variadic type, as in
-//! `src/fmi/exports_tests.rs` (x86_64 / AArch64 Linux: the message after the `"%s"` format
-//! arrives in the register of a sixth fixed pointer argument).
+//! The FMU's messages are collected by the crate's host-side [`scm::fmi::host_log`]
+//! (x86_64 / AArch64 Linux).
 
 use scm::fmi::ffi::*;
+use scm::fmi::host_log::LogCapture;
 use scm::*;
-use std::ffi::{c_char, c_void, CStr, CString};
+use std::ffi::CString;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::time::Instant;
-
-type Messages = Mutex<Vec<String>>;
-
-unsafe extern "C" fn logger(
-    env: *mut c_void,
-    _instance: fmi2String,
-    status: fmi2Status,
-    category: fmi2String,
-    _format: fmi2String,
-    message: *const c_char,
-) {
-    let text = |p: *const c_char| {
-        if p.is_null() {
-            String::new()
-        } else {
-            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-        }
-    };
-    let env = unsafe { &*(env as *const Messages) };
-    let line = format!("[{status}] {}: {}", text(category), text(message));
-    env.lock().unwrap_or_else(|e| e.into_inner()).push(line);
-}
-
-type Fixed = unsafe extern "C" fn(
-    *mut c_void,
-    fmi2String,
-    fmi2Status,
-    fmi2String,
-    fmi2String,
-    *const c_char,
-);
-type Variadic =
-    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -264,16 +230,8 @@ fn run(args: &[String]) -> Result<String, String> {
         None => (vec![], vec![]),
     };
 
-    let messages: Messages = Mutex::new(Vec::new());
-    // SAFETY: see the module documentation.
-    let log = unsafe { std::mem::transmute::<Fixed, Variadic>(logger) };
-    let callbacks = fmi2CallbackFunctions {
-        logger: Some(log),
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: &messages as *const Messages as *mut c_void,
-    };
+    let messages = LogCapture::default();
+    let callbacks = messages.callbacks();
     let uri = CString::new(format!("file://{}", job.dir.join("resources").display()))
         .map_err(|e| e.to_string())?;
     let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
@@ -283,12 +241,9 @@ fn run(args: &[String]) -> Result<String, String> {
     let mut y_out: Vec<Vec<f64>> = Vec::with_capacity(n_steps + 1);
     let mut wall = 0.0;
     let mut status = "ok";
-    let last_message = |m: &Messages| {
-        m.lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .last()
-            .cloned()
-            .unwrap_or_default()
+    let last_message = |m: &LogCapture| match m.all().last() {
+        Some(l) => format!("[{}] {}: {}", l.status, l.category, l.message),
+        None => String::new(),
     };
     // SAFETY: every pointer passed below is valid for the length given with it, strings are
     // NUL-terminated and outlive the instance, and the instance is freed before they drop.

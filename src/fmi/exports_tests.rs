@@ -1,90 +1,29 @@
-//! Tests of the C ABI through the generic functions, with a logger written in Rust.
-//!
-//! The FMI logger is variadic, which stable Rust cannot define. The test logger is a
-//! non-variadic `extern "C"` function with one extra `*const c_char` parameter, transmuted to the
-//! variadic pointer type: on x86_64 System V (and AArch64 Linux), the first variadic pointer
-//! argument is passed in the same register as a sixth fixed pointer argument, so the logger
-//! reads the message that follows the `"%s"` format. Tests are limited to those targets.
+//! Tests of the C ABI through the generic functions, with the logger of [`crate::fmi::host_log`]
+//! (x86_64 and AArch64 Linux only, as that module).
 #![cfg(all(
     any(target_arch = "x86_64", target_arch = "aarch64"),
     target_os = "linux"
 ))]
 
-use std::ffi::{c_char, c_void, CStr, CString};
+use std::ffi::{CStr, CString};
 use std::ptr::{null, null_mut};
-use std::sync::Mutex;
 
 use super::*;
+use crate::fmi::host_log::{LogCapture, Logged};
 use crate::fmi::toy_model::{Toy, GUID};
 
-#[derive(Debug, Clone, PartialEq)]
-struct Record {
-    instance: String,
-    status: fmi2Status,
-    category: String,
-    format: String,
-    message: String,
-}
-
-type Env = Mutex<Vec<Record>>;
-
-unsafe fn text(p: *const c_char) -> String {
-    if p.is_null() {
-        "<NULL>".into()
-    } else {
-        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-    }
-}
-
-unsafe extern "C" fn test_logger(
-    env: *mut c_void,
-    instance: fmi2String,
-    status: fmi2Status,
-    category: fmi2String,
-    format: fmi2String,
-    arg: *const c_char,
-) {
-    let env = unsafe { &*(env as *const Env) };
-    let record = unsafe {
-        Record {
-            instance: text(instance),
-            status,
-            category: text(category),
-            format: text(format),
-            message: text(arg),
-        }
-    };
-    env.lock().unwrap().push(record);
-}
-
-type Fixed = unsafe extern "C" fn(
-    *mut c_void,
-    fmi2String,
-    fmi2Status,
-    fmi2String,
-    fmi2String,
-    *const c_char,
-);
-type Variadic =
-    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+/// The log of a test: the crate's host-side capture.
+type Env = LogCapture;
 
 fn callbacks(env: &Env) -> fmi2CallbackFunctions {
-    // SAFETY: see the module documentation: same registers for the arguments we read.
-    let logger = unsafe { std::mem::transmute::<Fixed, Variadic>(test_logger) };
-    fmi2CallbackFunctions {
-        logger: Some(logger),
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: env as *const Env as *mut c_void,
-    }
+    env.callbacks()
 }
 
-fn records(env: &Env) -> Vec<Record> {
-    env.lock().unwrap().clone()
+fn records(env: &Env) -> Vec<Logged> {
+    env.all()
 }
 
-fn last(env: &Env) -> Record {
+fn last(env: &Env) -> Logged {
     records(env).last().cloned().expect("something was logged")
 }
 
@@ -263,7 +202,7 @@ fn co_simulation_through_the_c_abi() {
         // strings
         let mut s: fmi2String = null();
         assert_eq!(get_string::<Toy>(c, [0u32].as_ptr(), 1, &mut s), fmi2OK);
-        assert_eq!(text(s), "toy");
+        assert_eq!(CStr::from_ptr(s).to_str().unwrap(), "toy");
         // debug logging through C strings
         let cats = [c"logContact".as_ptr()];
         assert_eq!(

@@ -12,6 +12,11 @@
 pub mod contract;
 pub mod exports;
 pub mod ffi;
+#[cfg(all(
+    any(target_arch = "x86_64", target_arch = "aarch64"),
+    target_os = "linux"
+))]
+pub mod host_log;
 pub mod instance;
 pub mod model_description;
 pub mod pack;

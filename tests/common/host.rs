@@ -2,114 +2,21 @@
 //! `resources/` folders laid out as `scm pack` lays them out, and a logger that records what the
 //! FMU logs.
 //!
-//! The FMI logger is variadic, which stable Rust cannot define. The recording logger is a
-//! non-variadic `extern "C"` function with one extra `*const c_char` parameter, transmuted to
-//! the variadic pointer type: on x86_64 System V and AArch64 Linux, the first variadic pointer
-//! argument travels in the same register as a sixth fixed pointer argument, so the logger reads
-//! the message that follows the `"%s"` format (the FMU always logs `"%s"` plus the text). The
-//! same trick as `src/fmi/exports_tests.rs`; modules that use it are limited to those targets.
+//! The recording logger is the crate's [`scm::fmi::host_log`] (x86_64 and AArch64 Linux only:
+//! modules that use it are limited to those targets).
 #![allow(dead_code)]
 
 use scm::fmi::ffi::*;
 use std::collections::HashSet;
-use std::ffi::{c_char, c_void, CStr, CString};
+use std::ffi::CString;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
-/// One message the FMU sent to the logger.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Logged {
-    /// Status of the message.
-    pub status: fmi2Status,
-    /// Category.
-    pub category: String,
-    /// The format argument (always `"%s"`).
-    pub format: String,
-    /// The text.
-    pub message: String,
-}
-
-/// What the recording logger collects; keep it alive (and in place) while the instance lives.
-#[derive(Default)]
-pub struct Capture(Mutex<Vec<Logged>>);
-
-impl Capture {
-    /// Everything logged so far.
-    pub fn all(&self) -> Vec<Logged> {
-        self.0.lock().unwrap().clone()
-    }
-
-    /// The last message, or an empty one.
-    pub fn last(&self) -> Logged {
-        self.all().last().cloned().unwrap_or(Logged {
-            status: fmi2OK,
-            category: String::new(),
-            format: String::new(),
-            message: String::new(),
-        })
-    }
-
-    /// Number of messages so far.
-    pub fn len(&self) -> usize {
-        self.0.lock().unwrap().len()
-    }
-
-    /// Messages after the first `from`.
-    pub fn since(&self, from: usize) -> Vec<Logged> {
-        self.all().into_iter().skip(from).collect()
-    }
-}
-
-unsafe fn text(p: *const c_char) -> String {
-    if p.is_null() {
-        "<NULL>".into()
-    } else {
-        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-    }
-}
-
-unsafe extern "C" fn recording_logger(
-    env: *mut c_void,
-    _instance: fmi2String,
-    status: fmi2Status,
-    category: fmi2String,
-    format: fmi2String,
-    arg: *const c_char,
-) {
-    let capture = unsafe { &*(env as *const Capture) };
-    let logged = unsafe {
-        Logged {
-            status,
-            category: text(category),
-            format: text(format),
-            message: text(arg),
-        }
-    };
-    capture.0.lock().unwrap().push(logged);
-}
-
-type Fixed = unsafe extern "C" fn(
-    *mut c_void,
-    fmi2String,
-    fmi2Status,
-    fmi2String,
-    fmi2String,
-    *const c_char,
-);
-type Variadic =
-    unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+pub use scm::fmi::host_log::LogCapture as Capture;
 
 /// Callbacks whose logger records into `capture`.
 pub fn callbacks(capture: &Capture) -> fmi2CallbackFunctions {
-    // SAFETY: see the module documentation: the arguments read travel in the same registers.
-    let logger = unsafe { std::mem::transmute::<Fixed, Variadic>(recording_logger) };
-    fmi2CallbackFunctions {
-        logger: Some(logger),
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: capture as *const Capture as *mut c_void,
-    }
+    capture.callbacks()
 }
 
 /// Callbacks without a logger.
