@@ -1,0 +1,209 @@
+//! Actuators, joint limits' settings, tendons and the `<contact>` section (`exclude`, `pair`).
+
+use super::*;
+
+impl Builder {
+    pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
+        if el.attr("tendon").is_some() || el.attr("site").is_some() || el.attr("body").is_some() {
+            return Err(self.err(
+                el,
+                "only joint actuators are supported by SCM: give joint=\"NAME\"",
+            ));
+        }
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "joint",
+                "gear",
+                "kp",
+                "kv",
+                "ctrlrange",
+                "ctrllimited",
+                "forcerange",
+                "forcelimited",
+            ],
+        )?;
+        if self.limited(el, "forcelimited", "forcerange")?.is_some() {
+            return Err(self.err(el, "forcerange is not supported by SCM yet: limit the control range (ctrlrange) instead"));
+        }
+        let jname = el
+            .attr("joint")
+            .ok_or_else(|| self.err(el, "only joint actuators are supported: joint is required"))?;
+        let joint = self
+            .joints
+            .iter()
+            .position(|j| j.name == jname)
+            .ok_or_else(|| self.err(el, format!("no joint named '{jname}'")))?;
+        if self.joints[joint].kind.nv() != 1 {
+            return Err(self.err(
+                el,
+                format!("joint '{jname}' has more than one degree of freedom"),
+            ));
+        }
+        let gear = match el.attr("gear") {
+            None => 1.0,
+            Some(s) => match parse_floats(s) {
+                Some(v) if !v.is_empty() && v[1..].iter().all(|&x| x == 0.0) => v[0],
+                _ => {
+                    return Err(
+                        self.err(el, format!("gear=\"{s}\": only a scalar gear is supported"))
+                    )
+                }
+            },
+        };
+        let gain = |key: &str, default: f64| -> Result<f64, SceneError> {
+            let v = self.float(el, key)?.unwrap_or(default);
+            if v < 0.0 {
+                return Err(self.err(el, format!("{key}=\"{v}\" must not be negative")));
+            }
+            Ok(v)
+        };
+        let kind = match el.name.as_str() {
+            "motor" => ActuatorKind::Motor,
+            "position" => ActuatorKind::Position {
+                kp: gain("kp", 1.0)?,
+                kv: gain("kv", 0.0)?,
+            },
+            "velocity" => ActuatorKind::Velocity {
+                kv: gain("kv", 1.0)?,
+            },
+            _ => return Err(self.err(el, "unsupported actuator: use motor, position or velocity")),
+        };
+        let ctrlrange = match self.limited(el, "ctrllimited", "ctrlrange")? {
+            Some(r) if r.0 > r.1 => return Err(self.err(el, "ctrlrange is reversed")),
+            Some(_) if !self.flags.clampctrl => None,
+            r => r,
+        };
+        let name = el
+            .attr("name")
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("actuator{}", self.actuators.len()));
+        if self.actuators.iter().any(|a| a.name == name) {
+            return Err(self.err(el, format!("actuator name '{name}' is used twice")));
+        }
+        self.actuators.push(Actuator {
+            name,
+            kind,
+            joint,
+            gear,
+            ctrlrange,
+        });
+        Ok(())
+    }
+
+    /// A range that applies as MuJoCo's `limited` attribute (true, false, or auto: given
+    /// with `autolimits`) says.
+    pub(super) fn limited(
+        &self,
+        el: &Element,
+        flag: &str,
+        range: &str,
+    ) -> Result<Option<(f64, f64)>, SceneError> {
+        let r = self.floats(el, range, 2)?;
+        let on = match el.attr(flag) {
+            Some("true") => true,
+            Some("false") => false,
+            None | Some("auto") => r.is_some() && self.settings.autolimits,
+            Some(v) => {
+                return Err(self.err(el, format!("{flag}=\"{v}\": expected true, false or auto")))
+            }
+        };
+        match (on, r) {
+            (true, None) => Err(self.err(el, format!("{flag} without {range}"))),
+            (true, Some(r)) => Ok(Some((r[0], r[1]))),
+            (false, _) => Ok(None),
+        }
+    }
+
+    /// `<fixed>` tendons are accepted where they add no force (no stiffness, damping, limits or
+    /// actuator); anything else is refused.
+    pub(super) fn tendon(&mut self, el: &Element) -> Result<(), SceneError> {
+        if el.name != "fixed" {
+            return Err(self.err(
+                el,
+                "spatial tendons are not supported by SCM yet: remove the tendon and what uses it",
+            ));
+        }
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "stiffness",
+                "damping",
+                "range",
+                "limited",
+                "springlength",
+                "frictionloss",
+                "armature",
+            ],
+        )?;
+        for key in ["stiffness", "damping", "frictionloss", "armature"] {
+            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
+                return Err(self.err(el, format!("tendon {key} is not supported by SCM yet: remove it, or put the spring or damper on the joints")));
+            }
+        }
+        if self.limited(el, "limited", "range")?.is_some() && self.flags.limit {
+            return Err(self.err(el, "tendon limits are not supported by SCM yet: remove the range, or switch limits off with <option><flag limit=\"disable\"/></option>"));
+        }
+        for j in &el.children {
+            if j.name != "joint" {
+                return Err(self.err(j, "a fixed tendon holds <joint> elements"));
+            }
+            let name = j
+                .attr("joint")
+                .ok_or_else(|| self.err(j, "joint=\"NAME\" is required"))?;
+            if !self.joints.iter().any(|x| x.name == name) {
+                return Err(self.err(j, format!("no joint named '{name}'")));
+            }
+        }
+        self.unused(
+            el,
+            "fixed tendon without stiffness, damping, limits or actuator: it adds no force",
+        );
+        Ok(())
+    }
+
+    pub(super) fn contact(&mut self, el: &Element) -> Result<(), SceneError> {
+        for c in &el.children {
+            match c.name.as_str() {
+                "pair" => {
+                    self.check_attrs(c, &["name", "geom1", "geom2", "friction", "condim"])?;
+                    let friction = match c.attr("friction").map(parse_floats) {
+                        None => None,
+                        Some(Some(v)) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => Some(v[0]),
+                        Some(_) => {
+                            return Err(
+                                self.err(c, "friction: expected 1 to 5 non-negative numbers")
+                            )
+                        }
+                    };
+                    let friction = match c.attr("condim") {
+                        Some("1") => Some(0.0),
+                        _ => friction,
+                    };
+                    let g1 = c
+                        .attr("geom1")
+                        .ok_or_else(|| self.err(c, "geom1 is required"))?;
+                    let g2 = c
+                        .attr("geom2")
+                        .ok_or_else(|| self.err(c, "geom2 is required"))?;
+                    self.explicit_pairs
+                        .push((g1.into(), g2.into(), friction, c.line));
+                }
+                "exclude" => {
+                    self.check_attrs(c, &["name", "body1", "body2"])?;
+                    let b1 = c
+                        .attr("body1")
+                        .ok_or_else(|| self.err(c, "body1 is required"))?;
+                    let b2 = c
+                        .attr("body2")
+                        .ok_or_else(|| self.err(c, "body2 is required"))?;
+                    self.excludes.push((b1.into(), b2.into(), c.line));
+                }
+                _ => return Err(self.err(c, "unsupported contact element")),
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,413 @@
+//! From what was read to the engine's model: inertias as the compiler settings say, option
+//! flags applied, the initial state, joint limits, fluid forces and the finished `Model`.
+
+use super::*;
+
+impl Builder {
+    /// Body inertias as `<compiler>` says: from the geoms or `<inertial>`, bounded, scaled to
+    /// the total mass.
+    pub(super) fn compile_inertias(&mut self) {
+        let s = self.settings;
+        for b in 1..self.bodies.len() {
+            let from_geoms = match s.inertia_from_geom {
+                InertiaFromGeom::Always => true,
+                InertiaFromGeom::Auto => !self.explicit_inertia[b],
+                InertiaFromGeom::Never => false,
+            };
+            if from_geoms {
+                self.bodies[b].inertia = self.geom_inertia[b];
+            }
+            let i = &mut self.bodies[b].inertia;
+            i.mass = i.mass.max(s.bound_mass);
+            if s.bound_inertia > 0.0 {
+                let e = i.rot.symmetric_eigen();
+                let d = e.eigenvalues.map(|x| x.max(s.bound_inertia));
+                i.rot = e.eigenvectors * Matrix3::from_diagonal(&d) * e.eigenvectors.transpose();
+            }
+        }
+        if s.total_mass > 0.0 {
+            let total: f64 = self.bodies.iter().map(|b| b.inertia.mass).sum();
+            if total > 0.0 {
+                let k = s.total_mass / total;
+                for b in self.bodies.iter_mut().skip(1) {
+                    b.inertia.mass *= k;
+                    b.inertia.rot *= k;
+                }
+            }
+        }
+    }
+
+    /// Applies the `<option><flag>` switches; returns what SCM refuses to simulate (features
+    /// that change the physics and that SCM does not model), first in file order first.
+    pub(super) fn apply_flags(&mut self) -> Vec<SceneError> {
+        let mut refused = Vec::new();
+        let f = self.flags;
+        // MuJoCo's default integrator is its Euler.
+        let mujoco = self.option_integrator.unwrap_or(Integrator::DampedEuler);
+        if !f.eulerdamp && mujoco == Integrator::DampedEuler {
+            self.option_integrator = Some(Integrator::SemiImplicitEuler);
+        }
+        if !f.gravity {
+            self.gravity = Vector3::zeros();
+        }
+        // MuJoCo (3, 4) computes gravity compensation with the passive forces, which it skips
+        // when both springs and dampers are disabled (measured in MuJoCo 4.0).
+        if !f.spring && !f.damper {
+            for b in &mut self.bodies {
+                b.gravcomp = 0.0;
+            }
+        }
+        for j in &mut self.joints {
+            if !f.frictionloss {
+                j.frictionloss = 0.0;
+            }
+            if !f.spring {
+                j.stiffness = 0.0;
+            }
+            if !f.damper {
+                j.damping = 0.0;
+            }
+        }
+        if let Some(el) = &self.fluid {
+            if self.wind != Vector3::zeros() {
+                refused.push(self.err(
+                    el,
+                    "wind is not supported by SCM's fluid forces yet: remove it (the fluid is then still)",
+                ));
+            }
+        }
+        if f.limit {
+            for (j, (_, _, el)) in self
+                .limits
+                .iter()
+                .enumerate()
+                .filter_map(|(j, l)| l.as_ref().map(|l| (j, l)))
+            {
+                if self.joints[j].kind == JointKind::Ball {
+                    refused.push(self.err(el, "ball joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
+                }
+            }
+        }
+        if !f.actuation && !self.actuators.is_empty() {
+            refused.push(SceneError {
+                file: self.file.clone(),
+                line: 0,
+                element: "flag".into(),
+                message: "actuation=\"disable\" with actuators is not supported by SCM: remove the actuators instead".into(),
+            });
+        }
+        refused.extend(std::mem::take(&mut self.refused));
+        refused.sort_by(|a, b| (a.file.as_str(), a.line).cmp(&(b.file.as_str(), b.line)));
+        refused
+    }
+
+    /// The initial state: the reference configuration at rest with zero controls, or the
+    /// `<key>` that `scm_keyframe` names (by `name`, or by its index among the keys), whose
+    /// `qpos`, `qvel` and `ctrl` replace those they give. The other keys are noted as unused.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn initial_state(
+        &mut self,
+        tree: &Tree,
+        keyframe: Option<(String, usize)>,
+    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), SceneError> {
+        let mut q0 = tree.q0();
+        let mut v0 = vec![0.0; tree.nv];
+        let mut ctrl0 = vec![0.0; self.actuators.len()];
+        let chosen = match &keyframe {
+            None => None,
+            Some((want, line)) => {
+                let by_name = self
+                    .keys
+                    .iter()
+                    .position(|k| k.attr("name") == Some(want.as_str()));
+                let by_index = want
+                    .trim()
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&i| i < self.keys.len());
+                match by_name.or(by_index) {
+                    Some(i) => Some(i),
+                    None => {
+                        return Err(self.setting_error(
+                            *line,
+                            "scm_keyframe",
+                            format!("no <key> named '{want}' (and no key of that index): the scene has {} key(s)", self.keys.len()),
+                        ))
+                    }
+                }
+            }
+        };
+        for (i, key) in self.keys.clone().iter().enumerate() {
+            if Some(i) != chosen {
+                self.unused(
+                    key,
+                    "keyframe not chosen as the initial state (scm_keyframe picks one)",
+                );
+                continue;
+            }
+            for (attr, what) in [
+                ("act", "actuator activations"),
+                ("mpos", "mocap positions"),
+                ("mquat", "mocap orientations"),
+            ] {
+                if key.attr(attr).is_some() {
+                    return Err(self.err(key, format!("{attr}: {what} in the initial key are not supported by SCM: set the mocap inputs instead, or remove it")));
+                }
+            }
+            if self.float(key, "time")?.is_some_and(|t| t != 0.0) {
+                self.warnings.push(format!(
+                    "{}:{}: the key's time is not used: the FMU starts at the host's start time",
+                    key.file, key.line
+                ));
+            }
+            for (attr, target) in [("qpos", &mut q0), ("qvel", &mut v0), ("ctrl", &mut ctrl0)] {
+                if let Some(s) = key.attr(attr) {
+                    let v = parse_floats(s)
+                        .filter(|v| v.len() == target.len())
+                        .ok_or_else(|| {
+                            element_error(
+                                key,
+                                format!("{attr}: expected {} finite numbers", target.len()),
+                            )
+                        })?;
+                    *target = v;
+                }
+            }
+        }
+        Ok((q0, v0, ctrl0))
+    }
+
+    /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
+    /// effective inertia at the reference configuration ([`crate::dynamics::limit`]).
+    pub(super) fn set_limits(&self, tree: &mut Tree) {
+        let q0 = tree.q0();
+        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+        let m = tree.mass_matrix(&kin);
+        for (j, limit) in self.limits.iter().enumerate() {
+            let joint = &mut tree.joints[j];
+            if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) = (limit, joint.kind) {
+                let inertia = m[(joint.dadr, joint.dadr)];
+                joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
+                    *lo,
+                    *hi,
+                    self.solreflimit[j],
+                    inertia,
+                ));
+            }
+        }
+    }
+
+    /// The compiled model without colliders, and everything SCM would refuse about it.
+    pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
+        self.compile_inertias();
+        let refused = self.apply_flags();
+        let tree = self.tree()?;
+        Ok(Compiled {
+            tree,
+            geoms: self.geoms,
+            actuators: self.actuators,
+            timestep: self.timestep.unwrap_or(DEFAULT_STEP),
+            integrator: self.option_integrator.unwrap_or(Integrator::DampedEuler),
+            limits: self
+                .limits
+                .into_iter()
+                .map(|l| l.map(|(lo, hi, _)| (lo, hi)))
+                .collect(),
+            refused,
+            unused: self.unused,
+            warnings: self.warnings,
+        })
+    }
+
+    pub(super) fn tree(&self) -> Result<Tree, SceneError> {
+        Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| SceneError {
+            file: self.file.clone(),
+            line: 0,
+            element: "body".into(),
+            message: e.to_string(),
+        })
+    }
+
+    pub(super) fn finish(mut self) -> Result<Scene, SceneError> {
+        self.compile_inertias();
+        if let Some(first) = self.apply_flags().into_iter().next() {
+            return Err(first);
+        }
+        let mut contact = ContactParams::default();
+        let mut spacing = DEFAULT_SPACING;
+        let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
+        let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
+        let mut tolerance = 1e-6;
+        let mut contact_points = 0.0;
+        let mut keyframe: Option<(String, usize)> = None;
+        for (name, value, line) in self.numeric.clone() {
+            let slot = match name.as_str() {
+                "scm_eps1" => &mut contact.eps1,
+                "scm_eps2" => &mut contact.eps2,
+                "scm_eps3" => &mut contact.eps3,
+                "scm_stiffness" => &mut contact.stiffness,
+                "scm_dissipation_velocity" => &mut contact.dissipation_velocity,
+                "scm_stiction_velocity" => &mut contact.stiction_velocity,
+                "scm_friction" => &mut contact.friction,
+                "scm_spacing" => &mut spacing,
+                "scm_step" => &mut step,
+                "scm_tolerance" => &mut tolerance,
+                "scm_contact_points" => &mut contact_points,
+                _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
+            };
+            if name == "scm_contact_points"
+                && !(value.fract() == 0.0 && (0.0..=64.0).contains(&value))
+            {
+                return Err(self.setting_error(
+                    line,
+                    &name,
+                    format!("{value} must be a whole number of contact points from 0 to 64"),
+                ));
+            }
+            let ok = if name == "scm_friction" || name == "scm_contact_points" {
+                value >= 0.0
+            } else {
+                value > 0.0
+            };
+            if !ok {
+                return Err(self.setting_error(
+                    line,
+                    &name,
+                    format!(
+                        "{value} is out of range (must be {})",
+                        if name == "scm_friction" {
+                            "non-negative"
+                        } else {
+                            "positive"
+                        }
+                    ),
+                ));
+            }
+            *slot = value;
+        }
+        for (name, value, line) in self.text.clone() {
+            match name.as_str() {
+                "scm_integrator" => {
+                    integrator = Integrator::from_name(&value).ok_or_else(|| {
+                        self.setting_error(
+                            line,
+                            &name,
+                            format!(
+                                "unknown integrator '{value}' (known: {})",
+                                Integrator::ALL.map(|i| i.name()).join(", ")
+                            ),
+                        )
+                    })?
+                }
+                "scm_dissipation" => {
+                    contact.dissipation = Dissipation::from_name(&value).ok_or_else(|| {
+                        self.setting_error(
+                            line,
+                            &name,
+                            format!("'{value}' must be 'paper' or 'smooth'"),
+                        )
+                    })?
+                }
+                "scm_keyframe" => keyframe = Some((value, line)),
+                _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
+            }
+        }
+        // With contacts switched off (<flag contact="disable">) no body collides.
+        let (pairs, colliders) = if self.flags.contact {
+            self.split_static_planes();
+            let (pairs, colliding) = self.pairs()?;
+            let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
+            for (b, slot) in colliders.iter_mut().enumerate() {
+                *slot = self.collider(b, &colliding, spacing)?;
+            }
+            let pairs = pairs
+                .into_iter()
+                .filter(|p| match (&colliders[p.a], &colliders[p.b]) {
+                    (Some(Collider::HalfSpace { .. }), Some(Collider::HalfSpace { .. })) => false,
+                    (Some(_), Some(_)) => true,
+                    _ => false,
+                })
+                .collect();
+            (pairs, colliders)
+        } else {
+            (vec![], vec![None; self.bodies.len()])
+        };
+        let mut tree = self.tree()?;
+        if self.flags.limit {
+            self.set_limits(&mut tree);
+        }
+        let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
+        let fluid = self.fluid_model(&tree);
+        let name = Path::new(&self.file)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        let model = Model {
+            name,
+            tree,
+            colliders,
+            pairs,
+            actuators: std::mem::take(&mut self.actuators),
+            contact,
+            integrator,
+            step,
+            tolerance,
+            contact_points: contact_points as usize,
+            q0,
+            v0,
+            ctrl0,
+            fluid,
+        };
+        Ok(Scene {
+            model,
+            geoms: self.geoms,
+            warnings: self.warnings,
+            unused: self.unused,
+            meshes: self.meshes,
+            meshdir: self.meshdir,
+            includes: vec![],
+        })
+    }
+
+    /// MuJoCo's inertia-box fluid model for the moving bodies with mass, when the medium has a
+    /// density or a viscosity (and the passive forces are on: MuJoCo skips them all when
+    /// springs and dampers are both disabled). Each body's box is taken in its principal axes
+    /// as MuJoCo's compiler orients them: an `<inertial diaginertia>`'s frame, the frame of the
+    /// body's one massive geom, else the eigenvectors of its inertia (for a body whose moments
+    /// are equal in two axes, the quadratic drag then depends on which axes are taken, and
+    /// MuJoCo's choice may differ).
+    pub(super) fn fluid_model(&self, tree: &Tree) -> Option<Fluid> {
+        if self.medium == (0.0, 0.0) || (!self.flags.spring && !self.flags.damper) {
+            return None;
+        }
+        let mut bodies = Vec::new();
+        for (b, body) in tree.bodies.iter().enumerate().skip(1) {
+            let i = &body.inertia;
+            if !tree.body_moves(b) || i.mass < 1e-15 {
+                continue;
+            }
+            let from_geoms = match self.settings.inertia_from_geom {
+                InertiaFromGeom::Always => true,
+                InertiaFromGeom::Auto => !self.explicit_inertia[b],
+                InertiaFromGeom::Never => false,
+            };
+            let one_geom = self.mass_geom_frames.get(&b).filter(|f| f.len() == 1);
+            let frame = match (from_geoms, self.inertial_axes.get(&b), one_geom) {
+                (false, Some(q), _) => Some(*q),
+                (true, _, Some(f)) => Some(f[0]),
+                _ => None,
+            };
+            let axes = match frame {
+                Some(q) => q.to_rotation_matrix().into_inner(),
+                None => i.rot.symmetric_eigen().eigenvectors,
+            };
+            let moments = (axes.transpose() * i.rot * axes).diagonal();
+            bodies.push(FluidBody::new(b, i.mass, axes, moments));
+        }
+        Some(Fluid {
+            density: self.medium.0,
+            viscosity: self.medium.1,
+            bodies,
+        })
+    }
+}

@@ -1,0 +1,268 @@
+//! Bodies, joints and inertials: the kinematic tree as the file writes it.
+
+use super::*;
+
+impl Builder {
+    pub(super) fn body_child(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
+        match el.name.as_str() {
+            "body" => self.body(el, body),
+            "geom" => self.geom(el, body),
+            "joint" | "freejoint" if body == 0 => Err(self.err(el, "the world body cannot have joints")),
+            "joint" | "freejoint" if self.bodies[body].mocap => {
+                Err(self.err(el, format!("mocap body '{}' cannot have joints: its pose comes from the inputs {0}.pos and {0}.quat", self.bodies[body].name)))
+            }
+            "joint" => self.joint(el, body, false),
+            "freejoint" => self.joint(el, body, true),
+            "inertial" if body == 0 => Err(self.err(el, "the world body has no inertia")),
+            "inertial" => self.inertial(el, body),
+            "site" | "camera" | "light" => Ok(()),
+            _ => Err(self.err(el, "unsupported element in a body")),
+        }
+    }
+
+    pub(super) fn body(&mut self, el: &Element, parent: usize) -> Result<(), SceneError> {
+        self.check_attrs(el, &["name", "pos", "quat", "mocap", "gravcomp"])?;
+        let gravcomp = self.float(el, "gravcomp")?.unwrap_or(0.0);
+        let mocap = match el.attr("mocap") {
+            None | Some("false") => false,
+            Some("true") => true,
+            Some(m) => return Err(self.err(el, format!("mocap=\"{m}\": expected true or false"))),
+        };
+        if mocap && parent != 0 {
+            return Err(self.err(
+                el,
+                "a mocap body must be a child of the worldbody (MuJoCo's rule)",
+            ));
+        }
+        if parent != 0 && self.bodies[parent].mocap {
+            return Err(self.err(el, format!("body inside mocap body '{}': a mocap body cannot have child bodies (put its geoms in it directly)", self.bodies[parent].name)));
+        }
+        let index = self.bodies.len();
+        let name = el
+            .attr("name")
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("body{index}"));
+        if self.bodies.iter().any(|b| b.name == name) {
+            return Err(self.err(el, format!("body name '{name}' is used twice")));
+        }
+        let offset = self.pose(el)?;
+        self.bodies.push(Body {
+            name,
+            parent: Some(parent),
+            offset,
+            inertia: Inertia {
+                mass: 0.0,
+                com: Vector3::zeros(),
+                rot: Matrix3::zeros(),
+            },
+            joints: vec![],
+            mocap,
+            gravcomp,
+        });
+        self.explicit_inertia.push(false);
+        self.geom_inertia.push(NO_INERTIA);
+        for child in &el.children {
+            self.body_child(child, index)?;
+        }
+        Ok(())
+    }
+
+    pub(super) fn joint(
+        &mut self,
+        el: &Element,
+        body: usize,
+        free: bool,
+    ) -> Result<(), SceneError> {
+        if free {
+            self.check_attrs(el, &["name", "align"])?;
+        } else {
+            self.check_attrs(
+                el,
+                &[
+                    "name",
+                    "type",
+                    "axis",
+                    "pos",
+                    "damping",
+                    "stiffness",
+                    "frictionloss",
+                    "armature",
+                    "range",
+                    "limited",
+                    "ref",
+                    "springref",
+                    "springdamper",
+                    "solreflimit",
+                ],
+            )?;
+        }
+        let kind = if free {
+            JointKind::Free
+        } else {
+            match el.attr("type").unwrap_or("hinge") {
+                "free" => JointKind::Free,
+                "ball" => JointKind::Ball,
+                "slide" => JointKind::Slide,
+                "hinge" => JointKind::Hinge,
+                t => return Err(self.err(el, format!("type=\"{t}\" is not a joint type"))),
+            }
+        };
+        if self
+            .floats(el, "springdamper", 2)?
+            .is_some_and(|v| v != [0.0, 0.0])
+        {
+            return Err(self.err(
+                el,
+                "springdamper is not supported by SCM: give stiffness and damping",
+            ));
+        }
+        // Hinge angles are read in the compiler's unit; ball ranges too.
+        let angular = |v: f64| {
+            if kind == JointKind::Hinge || kind == JointKind::Ball {
+                self.angles.radians(v)
+            } else {
+                v
+            }
+        };
+        let (mut reference, mut springref) = (0.0, 0.0);
+        for (key, slot) in [("ref", &mut reference), ("springref", &mut springref)] {
+            if let Some(v) = self.float(el, key)? {
+                if v != 0.0 && !matches!(kind, JointKind::Slide | JointKind::Hinge) {
+                    return Err(
+                        self.err(el, format!("{key} applies to slide and hinge joints only"))
+                    );
+                }
+                *slot = angular(v);
+            }
+        }
+        let range = self.floats(el, "range", 2)?;
+        let limited = match (el.attr("limited"), range.is_some()) {
+            (Some("true"), _) => true,
+            (Some("false"), _) => false,
+            (None | Some("auto"), has_range) => {
+                if has_range && !self.settings.autolimits && el.attr("limited").is_some() {
+                    return Err(
+                        self.err(el, "limited=\"auto\" needs <compiler autolimits=\"true\">")
+                    );
+                }
+                has_range && self.settings.autolimits
+            }
+            (Some(v), _) => {
+                return Err(self.err(el, format!("limited=\"{v}\": expected true, false or auto")))
+            }
+        };
+        let limit = match (limited, &range) {
+            (false, _) => None,
+            (true, None) => return Err(self.err(el, "limited joint without range")),
+            (true, Some(r)) => {
+                if r[0] >= r[1] && kind != JointKind::Ball {
+                    return Err(self.err(el, "range: the lower limit must be below the upper one"));
+                }
+                if kind == JointKind::Free {
+                    return Err(self.err(el, "a free joint cannot be limited"));
+                }
+                Some((angular(r[0]), angular(r[1]), el.clone()))
+            }
+        };
+        let axis = self.vec3(el, "axis")?.unwrap_or_else(Vector3::z);
+        if axis.norm() < 1e-12 {
+            return Err(self.err(el, "axis is zero"));
+        }
+        let scalar = |key: &str| -> Result<f64, SceneError> {
+            let v = self.float(el, key)?.unwrap_or(0.0);
+            if v < 0.0 {
+                return Err(self.err(el, format!("{key}=\"{v}\" must not be negative")));
+            }
+            Ok(v)
+        };
+        if kind == JointKind::Free && self.float(el, "stiffness")?.is_some_and(|k| k != 0.0) {
+            return Err(self.err(el, "stiffness on a free joint is not supported (springs act on slide, hinge and ball joints)"));
+        }
+        let index = self.joints.len();
+        let name = match el.attr("name") {
+            Some(n) => n.to_string(),
+            // A free joint without a name is named after its body, however it is written.
+            None if kind == JointKind::Free => self.bodies[body].name.clone(),
+            None => format!(
+                "{}_joint{}",
+                self.bodies[body].name,
+                self.bodies[body].joints.len()
+            ),
+        };
+        if self.joints.iter().any(|j| j.name == name) {
+            return Err(self.err(el, format!("joint name '{name}' is used twice")));
+        }
+        let joint = Joint {
+            name,
+            kind,
+            axis: axis.normalize(),
+            anchor: self.vec3(el, "pos")?.unwrap_or_else(Vector3::zeros),
+            damping: scalar("damping")?,
+            stiffness: scalar("stiffness")?,
+            frictionloss: scalar("frictionloss")?,
+            armature: scalar("armature")?,
+            reference,
+            springref,
+            limit: None,
+            qadr: 0,
+            dadr: 0,
+            body,
+        };
+        self.joints.push(joint);
+        self.limits.push(limit);
+        let solref = self
+            .floats(el, "solreflimit", 2)?
+            .unwrap_or(vec![0.02, 1.0]);
+        self.solreflimit.push([solref[0], solref[1]]);
+        self.bodies[body].joints.push(index);
+        Ok(())
+    }
+
+    pub(super) fn inertial(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
+        self.check_attrs(el, &["pos", "quat", "mass", "diaginertia", "fullinertia"])?;
+        let mass = self
+            .float(el, "mass")?
+            .ok_or_else(|| self.err(el, "mass is required"))?;
+        if mass <= 0.0 {
+            return Err(self.err(el, format!("mass=\"{mass}\" must be positive")));
+        }
+        let pose = self.pose(el)?;
+        let rot = match (
+            self.vec3(el, "diaginertia")?,
+            self.floats(el, "fullinertia", 6)?,
+        ) {
+            (Some(d), None) => {
+                self.inertial_axes.insert(body, pose.rotation);
+                Matrix3::from_diagonal(&d)
+            }
+            (None, Some(f)) => Matrix3::new(f[0], f[3], f[4], f[3], f[1], f[5], f[4], f[5], f[2]),
+            _ => return Err(self.err(el, "give exactly one of diaginertia and fullinertia")),
+        };
+        let e = rot.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
+            return Err(self.err(el, "the inertia is not positive definite"));
+        }
+        // A rigid body's principal moments satisfy the triangle inequality; MuJoCo's compiler
+        // refuses an inertia that does not (rounding aside).
+        if e.sum() - e.max() < e.max() * (1.0 - 1e-12) {
+            return Err(self.err(el, format!("the principal moments {:?} violate A + B >= C, which no rigid body does (MuJoCo refuses them too): correct the inertia", e.as_slice())));
+        }
+        let r = pose.rotation.to_rotation_matrix().into_inner();
+        self.bodies[body].inertia = Inertia {
+            mass,
+            com: pose.translation.vector,
+            rot: r * rot * r.transpose(),
+        };
+        self.explicit_inertia[body] = true;
+        Ok(())
+    }
+
+    pub(super) fn bits(&self, el: &Element, key: &str) -> Result<u32, SceneError> {
+        match el.attr(key) {
+            None => Ok(1),
+            Some(s) => s
+                .parse::<u32>()
+                .map_err(|_| self.err(el, format!("{key}=\"{s}\" must be a non-negative integer"))),
+        }
+    }
+}

@@ -1,0 +1,269 @@
+//! Colliders and colliding pairs: one collider per body, MuJoCo's filters, and the pairs'
+//! friction.
+
+use super::*;
+
+impl Builder {
+    /// A static body (welded to the world) may hold planes beside other geoms, as MuJoCo's
+    /// worldbody usually does (floor and fixed obstacles); SCM's collider is one shape per
+    /// body, so each such plane moves to a static body of its own, named after the plane
+    /// (made unique), in the same frame. Nothing moves: the bodies are welded to the world.
+    pub(super) fn split_static_planes(&mut self) {
+        let weld = filter::weld_bodies(&self.bodies);
+        // New bodies are pushed below; only the bodies that existed before are visited.
+        for (b, &w) in weld.iter().enumerate() {
+            if w != 0 {
+                continue;
+            }
+            let on_b: Vec<usize> = (0..self.geoms.len())
+                .filter(|&g| self.geoms[g].body == b)
+                .collect();
+            let planes: Vec<usize> = on_b
+                .iter()
+                .copied()
+                .filter(|&g| self.geoms[g].shape.is_none())
+                .collect();
+            if planes.is_empty() || (planes.len() == 1 && on_b.len() == 1) {
+                continue;
+            }
+            for g in planes {
+                let mut name = self.geoms[g].name.clone();
+                while self.bodies.iter().any(|x| x.name == name) {
+                    name.push('_');
+                }
+                let index = self.bodies.len();
+                self.bodies.push(Body {
+                    name,
+                    parent: Some(b),
+                    offset: Isometry3::identity(),
+                    inertia: NO_INERTIA,
+                    joints: vec![],
+                    mocap: false,
+                    gravcomp: 0.0,
+                });
+                self.explicit_inertia.push(false);
+                self.geom_inertia.push(NO_INERTIA);
+                self.geoms[g].body = index;
+            }
+        }
+    }
+
+    /// A body's collider from its geoms that can touch something: the exact half-space of a
+    /// plane, or the AOPC of the union of the other geoms.
+    pub(super) fn collider(
+        &self,
+        b: usize,
+        colliding: &[bool],
+        spacing: f64,
+    ) -> Result<Option<Collider>, SceneError> {
+        let geoms: Vec<&Geom> = self
+            .geoms
+            .iter()
+            .zip(colliding)
+            .filter(|(g, &c)| c && g.body == b)
+            .map(|(g, _)| g)
+            .collect();
+        if let Some(p) = geoms.iter().find(|g| g.shape.is_none()) {
+            if geoms.len() > 1 {
+                return Err(SceneError {
+                    file: p.file.clone(),
+                    line: p.line,
+                    element: "geom".into(),
+                    message: format!("plane '{}' shares moving body '{}' with other geoms: a plane belongs to a static body", p.name, self.bodies[b].name),
+                });
+            }
+            return Ok(Some(Collider::HalfSpace {
+                point: p.pose.translation.vector,
+                normal: p.pose.rotation * Vector3::z(),
+            }));
+        }
+        if geoms.is_empty() {
+            return Ok(None);
+        }
+        let parts: Vec<(Shape, Isometry3<f64>)> = geoms
+            .iter()
+            .map(|g| (g.shape.clone().expect("planes handled above"), g.pose))
+            .collect();
+        let estimate: f64 = parts
+            .iter()
+            .map(|(shape, _)| estimated_points(shape, spacing))
+            .sum();
+        if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
+            return Err(SceneError {
+                file: geoms[0].file.clone(),
+                line: geoms[0].line,
+                element: "geom".into(),
+                message: format!("body '{}' (geoms {}) would get about {estimate:.3e} AOPC points at scm_spacing = {spacing} m (at most {MAX_AOPC_POINTS:e}): increase scm_spacing or make the geoms smaller", self.bodies[b].name, geoms.iter().map(|g| format!("'{}'", g.name)).collect::<Vec<_>>().join(", ")),
+            });
+        }
+        let aopc = crate::geometry::union::sample_union(&parts, spacing);
+        Ok(Some(Collider::Aopc(aopc)))
+    }
+
+    /// Colliding body pairs by MuJoCo's rules ([`filter`]), and which geoms collide at all.
+    pub(super) fn pairs(&mut self) -> Result<(Vec<Pair>, Vec<bool>), SceneError> {
+        let body_of = |name: &str, line: usize, what: &str| -> Result<usize, SceneError> {
+            self.bodies
+                .iter()
+                .position(|b| b.name == name)
+                .ok_or_else(|| SceneError {
+                    file: self.file.clone(),
+                    line,
+                    element: what.into(),
+                    message: format!("no body named '{name}'"),
+                })
+        };
+        let mut excluded = Vec::new();
+        for (b1, b2, line) in &self.excludes {
+            let (x, y) = (
+                body_of(b1, *line, "exclude")?,
+                body_of(b2, *line, "exclude")?,
+            );
+            excluded.push((x.min(y), x.max(y)));
+        }
+        let mut explicit = Vec::new();
+        let mut explicit_friction = Vec::new();
+        for (g1, g2, friction, line) in &self.explicit_pairs {
+            let find = |g: &str| {
+                self.geoms
+                    .iter()
+                    .find(|x| x.name == g)
+                    .map(|x| x.body)
+                    .ok_or_else(|| SceneError {
+                        file: self.file.clone(),
+                        line: *line,
+                        element: "pair".into(),
+                        message: format!("no geom named '{g}'"),
+                    })
+            };
+            let (x, y) = (find(g1)?, find(g2)?);
+            if x == y {
+                return Err(SceneError {
+                    file: self.file.clone(),
+                    line: *line,
+                    element: "pair".into(),
+                    message: "both geoms belong to the same body".into(),
+                });
+            }
+            explicit.push((x.min(y), x.max(y)));
+            explicit_friction.push(((x.min(y), x.max(y)), *friction));
+        }
+        let rules = filter::Rules {
+            bodies: &self.bodies,
+            geoms: &self.geoms,
+            filterparent: self.flags.filterparent,
+            excluded: &excluded,
+            explicit: &explicit,
+        };
+        let weld = filter::weld_bodies(&self.bodies);
+        // MuJoCo skips pairs where neither weld body has degrees of freedom (static or mocap).
+        let moves = |b: usize| weld[b] != 0 && !self.bodies[weld[b]].joints.is_empty();
+        let nb = self.bodies.len();
+        let mut body_pairs = Vec::new();
+        for a in 0..nb {
+            for b in a + 1..nb {
+                if (moves(a) || moves(b)) && rules.pair(&weld, a, b) {
+                    body_pairs.push((a, b));
+                }
+            }
+        }
+        let colliding = rules.colliding_geoms(&weld, &body_pairs);
+        // Say where whole-body contact reaches further than the bits.
+        let mut notes = Vec::new();
+        for &(a, b) in &body_pairs {
+            if explicit.contains(&(a, b)) {
+                continue;
+            }
+            for (g, _) in self
+                .geoms
+                .iter()
+                .zip(&colliding)
+                .filter(|(g, &c)| c && (g.body == a || g.body == b))
+            {
+                let other = if g.body == a { b } else { a };
+                let any = self
+                    .geoms
+                    .iter()
+                    .zip(&colliding)
+                    .any(|(h, &c)| c && h.body == other && filter::compatible(g, h));
+                if !any {
+                    notes.push(format!(
+                        "{}:{}: geom '{}' of body '{}' touches body '{}' in SCM although its contype/conaffinity exclude every geom of it (SCM's contact acts between whole bodies)",
+                        g.file, g.line, g.name, self.bodies[g.body].name, self.bodies[other].name
+                    ));
+                }
+            }
+        }
+        self.warnings.extend(notes);
+        let pairs = body_pairs
+            .into_iter()
+            .map(|(a, b)| {
+                let own = explicit_friction
+                    .iter()
+                    .find(|(k, _)| *k == (a, b))
+                    .and_then(|(_, f)| *f);
+                let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
+                Pair { a, b, friction }
+            })
+            .collect();
+        Ok((pairs, colliding))
+    }
+
+    /// A body pair's friction from its geoms as MuJoCo combines them: the larger of the two
+    /// geoms' sliding friction, none where both are frictionless (`condim="1"`); over a body's
+    /// geoms, the largest. `None` when the scene sets `scm_friction`, which then applies to
+    /// every pair without a `<pair friction>`.
+    pub(super) fn geom_friction(&mut self, a: usize, b: usize, colliding: &[bool]) -> Option<f64> {
+        if self.numeric.iter().any(|(n, _, _)| n == "scm_friction") {
+            return None;
+        }
+        let of = |body: usize| -> Vec<&Geom> {
+            self.geoms
+                .iter()
+                .zip(colliding)
+                .filter(|(g, &c)| c && g.body == body)
+                .map(|(g, _)| g)
+                .collect()
+        };
+        let (ga, gb) = (of(a), of(b));
+        let combine = |x: &Geom, y: &Geom| {
+            if x.condim == 1 && y.condim == 1 {
+                0.0
+            } else {
+                x.friction.max(y.friction)
+            }
+        };
+        let mut values: Vec<f64> = ga
+            .iter()
+            .flat_map(|x| {
+                gb.iter()
+                    .filter(|y| filter::compatible(x, y))
+                    .map(|y| combine(x, y))
+            })
+            .collect();
+        if values.is_empty() {
+            // An explicit pair, or whole-body contact past the bits: every geom pair counts.
+            values = ga
+                .iter()
+                .flat_map(|x| gb.iter().map(|y| combine(x, y)))
+                .collect();
+        }
+        let mu = values
+            .iter()
+            .copied()
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        if values.iter().any(|&v| Some(v) != mu) {
+            let (na, nb) = (self.bodies[a].name.clone(), self.bodies[b].name.clone());
+            let list = values
+                .iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.warnings.push(format!(
+                "bodies '{na}' and '{nb}': their geoms combine to different friction coefficients ({list}); SCM's contact acts between whole bodies and uses the largest, {}",
+                mu.unwrap_or(1.0)
+            ));
+        }
+        Some(mu.unwrap_or(1.0))
+    }
+}

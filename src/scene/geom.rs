@@ -1,0 +1,321 @@
+//! Geoms and mesh assets: shapes, their mass and inertia, and what they collide with.
+
+use super::*;
+
+impl Builder {
+    pub(super) fn geom(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "type",
+                "size",
+                "pos",
+                "quat",
+                "fromto",
+                "group",
+                "shellinertia",
+                "mass",
+                "density",
+                "friction",
+                "contype",
+                "conaffinity",
+                "condim",
+                "mesh",
+            ],
+        )?;
+        if el.attr("shellinertia").is_some_and(|v| v != "false") {
+            return Err(self.err(
+                el,
+                "shellinertia is not supported by SCM: give the body an <inertial>",
+            ));
+        }
+        if matches!(el.attr("condim"), Some("4") | Some("6")) {
+            self.unused(
+                el,
+                "condim 4 and 6 (MuJoCo's torsional and rolling friction)",
+            );
+        }
+        let friction = match el.attr("friction").map(parse_floats) {
+            None => 1.0,
+            Some(Some(v)) if (1..=3).contains(&v.len()) && v[0] >= 0.0 => {
+                if v[1..].iter().any(|&x| x != 0.0) {
+                    self.unused(el, "friction's torsional and rolling coefficients (SCM models sliding friction)");
+                }
+                v[0]
+            }
+            Some(_) => {
+                return Err(self.err(
+                    el,
+                    format!(
+                        "friction=\"{}\": expected 1 to 3 non-negative numbers",
+                        el.attr("friction").unwrap_or("")
+                    ),
+                ))
+            }
+        };
+        let condim: u32 = match el.attr("condim") {
+            None => 3,
+            Some(c) => c
+                .trim()
+                .parse()
+                .ok()
+                .filter(|c| [1, 3, 4, 6].contains(c))
+                .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6")))?,
+        };
+        let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
+        let kind = el.attr("type").unwrap_or("sphere");
+        let fromto = self.floats(el, "fromto", 6)?;
+        // With fromto, the geom runs from one point to the other along its z axis.
+        let from_to = match fromto {
+            Some(_) if !matches!(kind, "capsule" | "cylinder" | "box" | "ellipsoid") => {
+                return Err(self.err(el, format!("fromto does not apply to a {kind}")))
+            }
+            Some(f) => {
+                let (a, b) = (
+                    Vector3::new(f[0], f[1], f[2]),
+                    Vector3::new(f[3], f[4], f[5]),
+                );
+                let axis = b - a;
+                if axis.norm() < 1e-12 {
+                    return Err(self.err(el, "fromto: the two points coincide"));
+                }
+                // MuJoCo points the geom's z axis from the second point to the first.
+                Some((
+                    Isometry3::from_parts(
+                        Translation3::from((a + b) * 0.5),
+                        canonical::z_to(&(a - b)),
+                    ),
+                    0.5 * axis.norm(),
+                ))
+            }
+            None => None,
+        };
+        let need = |n: usize| -> Result<(), SceneError> {
+            if size.len() < n || size[..n].iter().any(|&s| s <= 0.0) {
+                return Err(self.err(
+                    el,
+                    format!(
+                        "size needs {n} positive number(s), got \"{}\"",
+                        el.attr("size").unwrap_or("")
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        // Half-length along z: from fromto, else the size entry at `k`.
+        let half_z = |k: usize| -> Result<f64, SceneError> {
+            match from_to {
+                Some((_, h)) => Ok(h),
+                None => {
+                    need(k + 1)?;
+                    Ok(size[k])
+                }
+            }
+        };
+        let mut mesh_name = None;
+        let shape = match kind {
+            "sphere" => {
+                need(1)?;
+                Some(Shape::Sphere { radius: size[0] })
+            }
+            "box" => {
+                need(2)?;
+                let hz = half_z(2)?;
+                Some(Shape::Box {
+                    half: Vector3::new(size[0], size[1], hz),
+                })
+            }
+            "capsule" => {
+                need(1)?;
+                Some(Shape::Capsule {
+                    radius: size[0],
+                    half_length: half_z(1)?,
+                })
+            }
+            "cylinder" => {
+                need(1)?;
+                Some(Shape::Cylinder {
+                    radius: size[0],
+                    half_length: half_z(1)?,
+                })
+            }
+            "ellipsoid" => {
+                need(2)?;
+                let hz = half_z(2)?;
+                Some(Shape::Ellipsoid {
+                    radii: Vector3::new(size[0], size[1], hz),
+                })
+            }
+            "mesh" => {
+                let name = el.attr("mesh").ok_or_else(|| {
+                    self.err(el, "a mesh geom needs mesh=\"NAME\" naming a <mesh> asset")
+                })?;
+                let asset = self
+                    .meshes
+                    .iter_mut()
+                    .find(|m| m.name == name)
+                    .ok_or_else(|| SceneError {
+                        file: self.file.clone(),
+                        line: el.line,
+                        element: el.name.clone(),
+                        message: format!("no mesh asset named '{name}'"),
+                    })?;
+                asset.used = true;
+                mesh_name = Some(name.to_string());
+                Some(Shape::Mesh(asset.mesh.clone()))
+            }
+            "plane" => None,
+            t @ ("hfield" | "sdf") => {
+                return Err(self.err(el, format!("geom type {t} is not supported")))
+            }
+            t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
+        };
+        if el.attr("mesh").is_some() && kind != "mesh" {
+            return Err(self.err(
+                el,
+                format!(
+                    "mesh=\"{}\" given for a {kind} geom: add type=\"mesh\"",
+                    el.attr("mesh").unwrap_or("")
+                ),
+            ));
+        }
+        let pose = match from_to {
+            Some((p, _)) => p,
+            None => self.pose(el)?,
+        };
+        let name = el.attr("name").map(str::to_string).unwrap_or_else(|| {
+            format!(
+                "{}_geom{}",
+                self.bodies[body].name,
+                self.geoms.iter().filter(|g| g.body == body).count()
+            )
+        });
+        if let Some(shape) = &shape {
+            let group: i64 = match el.attr("group") {
+                None => 0,
+                Some(g) => g
+                    .trim()
+                    .parse()
+                    .map_err(|_| self.err(el, format!("group=\"{g}\" must be an integer")))?,
+            };
+            let (lo, hi) = self.settings.inertia_groups;
+            if body != 0 && (lo..=hi).contains(&group) {
+                let mp = shape.mass_properties();
+                let mass = match (self.float(el, "mass")?, self.float(el, "density")?) {
+                    (Some(m), _) if m < 0.0 => {
+                        return Err(self.err(el, format!("mass=\"{m}\" must not be negative")))
+                    }
+                    (Some(m), _) => m,
+                    (None, Some(d)) if d < 0.0 => {
+                        return Err(self.err(el, format!("density=\"{d}\" must not be negative")))
+                    }
+                    (None, d) => d.unwrap_or(1000.0) * mp.volume,
+                };
+                let gi = geom_inertia(&mp, mass, &pose);
+                self.geom_inertia[body] = self.geom_inertia[body].add(&gi);
+                self.mass_geom_frames
+                    .entry(body)
+                    .or_default()
+                    .push(pose.rotation);
+            }
+        } else if body != 0 && !self.bodies[body].joints.is_empty() {
+            return Err(self.err(el, "a plane can only belong to a static body"));
+        }
+        let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
+        self.geoms.push(Geom {
+            name,
+            body,
+            shape,
+            mesh: mesh_name,
+            pose,
+            contype,
+            conaffinity,
+            friction,
+            condim,
+            file: el.file.to_string(),
+            line: el.line,
+        });
+        Ok(())
+    }
+
+    /// `<mesh name file scale>`: loads and checks the file at once (paths relative to the scene
+    /// file's folder and the compiler's `meshdir`), so that problems name the asset's line.
+    pub(super) fn mesh_asset(&mut self, el: &Element) -> Result<(), SceneError> {
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "file",
+                "scale",
+                "inertia",
+                "maxhullvert",
+                "refpos",
+                "refquat",
+            ],
+        )?;
+        for unsupported in ["refpos", "refquat"] {
+            if el.attr(unsupported).is_some() {
+                return Err(self.err(el, format!("{unsupported} is not supported")));
+            }
+        }
+        // SCM computes the exact mass properties of the closed mesh, which is MuJoCo's
+        // inertia="exact"; its default ("legacy") and "convex" differ for non-convex meshes.
+        match el.attr("inertia") {
+            Some("exact") => {}
+            Some("shell") => {
+                return Err(self.err(el, "inertia=\"shell\" is not supported by SCM: use exact (a solid mesh), or give the body an <inertial>"))
+            }
+            Some("legacy" | "convex") => {}
+            Some(v) => {
+                return Err(self.err(el, format!("inertia=\"{v}\": expected exact, convex, legacy or shell")))
+            }
+            None => {}
+        }
+        if el.attr("inertia") != Some("exact") {
+            self.warnings.push(format!(
+                "{}:{}: mesh inertia=\"{}\": SCM computes the exact inertia of the closed mesh; MuJoCo's can differ for a non-convex mesh (write inertia=\"exact\" for the same masses in both)",
+                el.file, el.line, el.attr("inertia").unwrap_or("legacy")
+            ));
+        }
+        let file = el
+            .attr("file")
+            .ok_or_else(|| {
+                self.err(
+                    el,
+                    "a mesh needs file=\"...\" (OBJ or STL); inline vertices are not supported",
+                )
+            })?
+            .to_string();
+        let name = el.attr("name").map(str::to_string).unwrap_or_else(|| {
+            Path::new(&file)
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        });
+        if self.meshes.iter().any(|m| m.name == name) {
+            return Err(self.err(el, format!("mesh name '{name}' is used twice")));
+        }
+        let scale = self
+            .vec3(el, "scale")?
+            .unwrap_or_else(|| Vector3::repeat(1.0));
+        if scale.iter().any(|&x| x == 0.0) {
+            return Err(self.err(el, "scale has a zero component"));
+        }
+        let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
+        let (mesh, warnings) =
+            TriMesh::load(&path, &scale).map_err(|e| self.err(el, e.to_string()))?;
+        for w in warnings {
+            self.warnings
+                .push(format!("{}:{}: {w}", self.file, el.line));
+        }
+        self.meshes.push(MeshAsset {
+            name,
+            file,
+            path,
+            mesh: Arc::new(mesh),
+            used: false,
+        });
+        Ok(())
+    }
+}
