@@ -1,0 +1,414 @@
+//! The FMI contract of a simulation: how each `fmi2*` call reads, writes and steps it.
+
+use super::*;
+use crate::dynamics::JointKind;
+use crate::fmi::contract::{
+    FmiModel, LogCategory, LogMessage, ModelInfo, ModelResult, Phase, StepError,
+};
+use std::path::Path;
+
+impl FmiModel for Simulation {
+    type State = FmuState;
+
+    fn instantiate(resources: &Path) -> ModelResult<Self> {
+        let path = resources.join(SCENE_FILE);
+        Simulation::from_file(&path).map_err(|e| e.to_string())
+    }
+
+    fn info(&self) -> &ModelInfo {
+        &self.info
+    }
+
+    /// The start time only: the plumbing owns `stopTime` (it refuses a step past it before
+    /// calling [`FmiModel::do_step`], and saves it with the FMU state).
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop_time: Option<f64>,
+        _tolerance: Option<f64>,
+    ) -> ModelResult<()> {
+        Self::check_finite("startTime", start_time)?;
+        // Only the current time: `fmi2Reset` goes back to the instantiated state (t = 0).
+        self.current.time = start_time;
+        Ok(())
+    }
+
+    fn enter_initialization(&mut self) -> ModelResult<()> {
+        Ok(())
+    }
+
+    fn exit_initialization(&mut self) -> ModelResult<()> {
+        // Normalize the quaternions the host set; a zero quaternion is an error.
+        for j in &self.model.tree.joints {
+            let qa = match j.kind {
+                JointKind::Free => j.qadr + 3,
+                JointKind::Ball => j.qadr,
+                _ => continue,
+            };
+            let q = &mut self.current.state.q[qa..qa + 4];
+            // Scale by the largest component first, so huge components do not overflow.
+            let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if m.is_nan() || m <= 0.0 {
+                return Err(format!(
+                    "{}.quat is zero: set a non-zero orientation quaternion",
+                    j.name
+                ));
+            }
+            q.iter_mut().for_each(|x| *x /= m);
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            q.iter_mut().for_each(|x| *x /= n);
+        }
+        self.outputs = None;
+        self.messages.push(LogMessage {
+            category: LogCategory::Events,
+            text: format!(
+                "initialized {} at t = {} s",
+                self.model.name, self.current.time
+            ),
+        });
+        if self.model_exchange {
+            // Mocap velocities are rates between completed integrator steps from here on.
+            self.sample_mocap();
+        }
+        Ok(())
+    }
+
+    fn interface_chosen(&mut self, model_exchange: bool) {
+        self.model_exchange = model_exchange;
+    }
+
+    fn reset(&mut self) -> ModelResult<()> {
+        self.current = self.start.clone();
+        (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
+        self.cache = Default::default();
+        self.outputs = None;
+        self.messages.push(LogMessage {
+            category: LogCategory::Events,
+            text: "reset to the start values".into(),
+        });
+        Ok(())
+    }
+
+    fn time(&self) -> f64 {
+        self.current.time
+    }
+
+    fn get_real(&mut self, vr: u32) -> ModelResult<f64> {
+        let slot = self.row(vr)?.1;
+        Ok(match slot {
+            Slot::Time => self.current.time,
+            Slot::Q(i) => self.current.state.q[i],
+            Slot::V(i) => self.current.state.v[i],
+            Slot::Ctrl(i) => self.current.ctrl[i],
+            Slot::Mocap(m, k) => self.current.mocap_target[7 * m + k],
+            Slot::Param(p) => p.get(&self.current.params),
+            Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
+            Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
+            Slot::PairDistance(p) => self.contacts()[p].distance,
+            Slot::LimitForce(j) => {
+                let jt = &self.model.tree.joints[j];
+                let s = &self.current.state;
+                jt.limit
+                    .as_ref()
+                    .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
+            }
+            Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
+            Slot::SolverStep => self.model.step,
+            Slot::SolverTolerance => self.model.tolerance,
+            Slot::SolverIntegrator => {
+                return Err(format!(
+                    "solver.integrator (value reference {vr}) is a String variable"
+                ))
+            }
+            Slot::QDot(i) => self
+                .model
+                .tree
+                .qdot(&self.current.state.q, &self.current.state.v)[i],
+            Slot::VDot(i) => self.accelerations()?[i],
+        })
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64, phase: Phase) -> ModelResult<()> {
+        let (var, slot) = self.row(vr)?.clone();
+        Self::check_finite(&var.name, value)?;
+        let before_init = phase != Phase::Simulation;
+        match slot {
+            Slot::Q(i) | Slot::V(i) if before_init => {
+                if matches!(slot, Slot::Q(_)) {
+                    self.current.state.q[i] = value;
+                } else {
+                    self.current.state.v[i] = value;
+                }
+            }
+            Slot::Ctrl(i) => self.current.ctrl[i] = value,
+            Slot::Mocap(m, k) => {
+                // Before initialization the pose is set at once (at rest). Later, in
+                // Co-Simulation it is the target the next communication step moves to; in
+                // Model Exchange the pose at the current time (its velocity is estimated at the
+                // host's completed integrator steps, see `Simulation::sample_mocap`).
+                self.current.mocap_target[7 * m + k] = value;
+                if self.model_exchange && !before_init {
+                    self.current.mocap[crate::dynamics::MOCAP_INPUTS * m + k] = value;
+                } else if before_init {
+                    let o = crate::dynamics::MOCAP_INPUTS * m;
+                    self.current.mocap[o + k] = value;
+                    self.current.mocap[o + 7..o + 13].fill(0.0);
+                }
+            }
+            Slot::Param(p) => {
+                if !p.accepts(value) {
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be {}",
+                        var.name,
+                        if p == Param::Friction {
+                            "non-negative"
+                        } else {
+                            "positive"
+                        }
+                    ));
+                }
+                // Tunable at any time; `fmi2Reset` restores the scene's value.
+                *p.slot(&mut self.current.params) = value;
+                if let Some(text) = self.smoothing_warning(p, value) {
+                    self.messages.push(LogMessage {
+                        category: LogCategory::StatusWarning,
+                        text,
+                    });
+                }
+            }
+            Slot::SolverStep | Slot::SolverTolerance if before_init => {
+                if value.is_nan() || value <= 0.0 {
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be positive",
+                        var.name
+                    ));
+                }
+                if slot == Slot::SolverStep {
+                    self.model.step = value;
+                } else {
+                    self.model.tolerance = value;
+                }
+            }
+            _ => {
+                return Err(format!(
+                    "{} (value reference {vr}) cannot be set {}",
+                    var.name,
+                    if before_init {
+                        ""
+                    } else {
+                        "after initialization"
+                    }
+                )
+                .trim_end()
+                .to_string())
+            }
+        }
+        self.outputs = None;
+        Ok(())
+    }
+
+    fn get_string(&mut self, vr: u32) -> ModelResult<String> {
+        match self.row(vr)?.1 {
+            Slot::SolverIntegrator => Ok(self.model.integrator.name().into()),
+            _ => Err(format!("value reference {vr} is not a String variable")),
+        }
+    }
+
+    fn set_string(&mut self, vr: u32, value: &str, phase: Phase) -> ModelResult<()> {
+        match self.row(vr)?.1 {
+            Slot::SolverIntegrator if phase != Phase::Simulation => {
+                self.model.integrator =
+                    crate::integrate::Integrator::from_name(value).ok_or_else(|| {
+                        format!(
+                            "solver.integrator = \"{value}\" refused: known integrators are {}",
+                            crate::integrate::Integrator::ALL
+                                .map(|i| i.name())
+                                .join(", ")
+                        )
+                    })?;
+                Ok(())
+            }
+            Slot::SolverIntegrator => {
+                Err("solver.integrator cannot be set after initialization".into())
+            }
+            _ => Err(format!("value reference {vr} is not a String variable")),
+        }
+    }
+
+    fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
+        if !step.is_finite() || step <= 0.0 {
+            return Err(StepError::Error(format!(
+                "communicationStepSize = {step} refused: it must be positive and finite"
+            )));
+        }
+        let before = self.current.time;
+        self.current.time = current_time;
+        if let Err(e) = self.advance(step) {
+            self.current.time = before;
+            return Err(e);
+        }
+        self.current.time = current_time + step;
+        self.log_contacts();
+        Ok(())
+    }
+
+    fn take_messages(&mut self) -> Vec<LogMessage> {
+        std::mem::take(&mut self.messages)
+    }
+
+    fn get_state(&self) -> ModelResult<FmuState> {
+        Ok(FmuState {
+            sim: self.current.clone(),
+            integrator: self.model.integrator,
+            step: self.model.step,
+            tolerance: self.model.tolerance,
+            solver_cache: self.cache.clone(),
+        })
+    }
+
+    fn set_state(&mut self, state: &FmuState) -> ModelResult<()> {
+        let s = &state.sim;
+        if (s.state.q.len(), s.state.v.len(), s.ctrl.len())
+            != (
+                self.model.tree.nq,
+                self.model.tree.nv,
+                self.model.actuators.len(),
+            )
+        {
+            return Err("the FMU state belongs to another scene (its sizes differ)".into());
+        }
+        self.current = state.sim.clone();
+        (self.model.integrator, self.model.step, self.model.tolerance) =
+            (state.integrator, state.step, state.tolerance);
+        self.cache = state.solver_cache.clone();
+        self.outputs = None;
+        Ok(())
+    }
+
+    fn serialize_state(&self, state: &FmuState) -> ModelResult<Vec<u8>> {
+        Ok(state_bytes::encode(state))
+    }
+
+    fn deserialize_state(&self, bytes: &[u8]) -> ModelResult<FmuState> {
+        state_bytes::decode(&self.model, bytes)
+    }
+
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv_known: &[f64],
+    ) -> ModelResult<Vec<f64>> {
+        let mut u = Vec::with_capacity(unknowns.len());
+        for &vr in unknowns {
+            let (var, slot) = self.row(vr)?;
+            if structure::knowns_of(&self.model, *slot).is_none() {
+                return Err(format!("{} (value reference {vr}) is not an unknown: the unknowns are the outputs and the state derivatives", var.name));
+            }
+            u.push(*slot);
+        }
+        let mut k = Vec::with_capacity(knowns.len());
+        for &vr in knowns {
+            let (var, slot) = self.row(vr)?;
+            if !matches!(
+                slot,
+                Slot::Q(_)
+                    | Slot::V(_)
+                    | Slot::Ctrl(_)
+                    | Slot::Mocap(..)
+                    | Slot::Param(_)
+                    | Slot::Time
+            ) {
+                return Err(format!("{} (value reference {vr}) is not a known: the knowns are the states, the inputs and the contact parameters", var.name));
+            }
+            k.push(*slot);
+        }
+        if let Some(i) = dv_known.iter().position(|d| !d.is_finite()) {
+            return Err(format!("dvKnown[{i}] = {} is not finite", dv_known[i]));
+        }
+        jacobian::directional_derivative(
+            &self.model,
+            &self.current,
+            &u,
+            &k,
+            dv_known,
+            self.model_exchange,
+        )
+    }
+
+    fn number_of_states(&self) -> usize {
+        self.model.tree.nq + self.model.tree.nv
+    }
+
+    fn set_time(&mut self, time: f64) -> ModelResult<()> {
+        // Nothing depends on time explicitly: no cache to drop.
+        self.current.time = time;
+        Ok(())
+    }
+
+    fn get_continuous_states(&mut self) -> ModelResult<Vec<f64>> {
+        Ok(self.continuous_states())
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> ModelResult<()> {
+        let nq = self.model.tree.nq;
+        for (j, qa) in self.model.tree.joints.iter().filter_map(|j| match j.kind {
+            JointKind::Free => Some((j, j.qadr + 3)),
+            JointKind::Ball => Some((j, j.qadr)),
+            _ => None,
+        }) {
+            if x[qa..qa + 4].iter().all(|&c| c == 0.0) {
+                return Err(format!("the quaternion of joint {} (x[{qa}..{}]) is zero: it has no orientation; the states are unchanged", j.name, qa + 4));
+            }
+        }
+        self.current.state.q.copy_from_slice(&x[..nq]);
+        self.current.state.v.copy_from_slice(&x[nq..]);
+        self.outputs = None;
+        Ok(())
+    }
+
+    fn get_derivatives(&mut self) -> ModelResult<Vec<f64>> {
+        let mut dx = self
+            .model
+            .tree
+            .qdot(&self.current.state.q, &self.current.state.v);
+        dx.extend_from_slice(self.accelerations()?);
+        if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
+            return Err(format!(
+                "the derivative of state {i} is {} at t = {} s",
+                dx[i], self.current.time
+            ));
+        }
+        Ok(dx)
+    }
+
+    fn completed_integrator_step(&mut self) -> ModelResult<bool> {
+        self.sample_mocap();
+        self.log_contacts();
+        Ok(self.quaternion_drift() > QUATERNION_DRIFT_TOLERANCE)
+    }
+
+    fn event_update(&mut self) -> ModelResult<bool> {
+        // Project the quaternions that left the unit sphere; one already unit (to rounding)
+        // keeps its bits, so an event without drift changes no state.
+        let mut changed = false;
+        for i in self.quaternions() {
+            let q = &mut self.current.state.q[i..i + 4];
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if (n - 1.0).abs() > 4.0 * f64::EPSILON {
+                q.iter_mut().for_each(|x| *x /= n);
+                changed = true;
+            }
+        }
+        if changed {
+            self.outputs = None;
+        }
+        Ok(changed)
+    }
+
+    fn logging_changed(&mut self, category: LogCategory, on: bool) {
+        if category == LogCategory::Contact {
+            self.log_contact = on;
+        }
+    }
+}
