@@ -95,7 +95,7 @@ const DOUBLE_PENDULUM: &str = r#"<mujoco model="double_pendulum">
       <inertial pos="0 0 -0.3" mass="1.5" diaginertia="0.02 0.03 0.01"/>
       <body name="link2" pos="0 0 -0.5">
         <joint name="j2" type="hinge" axis="0 1 0"/>
-        <inertial pos="0 0 -0.2" mass="0.7" diaginertia="0.005 0.008 0.002"/>
+        <inertial pos="0 0 -0.2" mass="0.7" diaginertia="0.005 0.008 0.004"/>
       </body>
     </body>
   </worldbody>
