@@ -1,0 +1,281 @@
+//! The separation band: the entries of the separation field whose weight can matter, found by
+//! walking both bodies' bounding-volume hierarchies with the proven bounds of `bounds.rs`.
+
+use super::bounds::*;
+use super::*;
+
+/// One evaluated entry of the separation field: a query point and its SSDF w.r.t. the other
+/// body.
+#[derive(Clone, Copy, Debug)]
+pub struct BandEntry<T> {
+    /// 0: a point of `a` against the planes of `b`; 1: a point of `b` against those of `a`.
+    pub side: u8,
+    /// The point's position in its AOPC's BVH leaf order (`bvh().index[k]` is its face).
+    pub k: u32,
+    /// `Φ_f` (m).
+    pub phi: T,
+    /// Smallest squared distance from the point to the other body's points (m², real part;
+    /// the SSDF's softmax shift). Infinite against a half-space.
+    pub dmin: f64,
+    /// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` over the planes the SSDF summed (m, real part;
+    /// [`SpringBound`](crate::geometry::ssdf::SpringBound)): times the stiffness, it bounds the
+    /// springs of this point's force. Infinite when the band was built without ε3.
+    pub springs: f64,
+    /// Leaf-order index of the other body's point nearest to this one (`u32::MAX` against a
+    /// half-space).
+    pub nearest: u32,
+}
+
+/// The part of the separation field that can carry weight (module documentation): every
+/// entry whose weight is not provably below τ/(I1 + I2) relative to the largest.
+#[derive(Clone, Debug)]
+pub struct SeparationBand<T> {
+    /// Evaluated entries (a superset of the band: some may turn out negligible).
+    pub entries: Vec<BandEntry<T>>,
+    /// `Φ_min`: the smallest entry (real part), the same as the full field's.
+    pub min: f64,
+    /// Number of query points skipped without evaluation.
+    pub skipped: usize,
+    /// `M2 = ln((I1 + I2)/τ)`: entries with `(Φ_f - Φ_min)/ε2 > M2` weigh less than τ/(I1 + I2).
+    pub margin: f64,
+}
+
+/// Soft collision detection with pruning: the entries of the separation field that matter
+/// (module documentation). `eps1` in m², `eps2` in m.
+pub fn separation_band<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+    eps2: T,
+) -> SeparationBand<T> {
+    let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    band_of(a, b, &rels, eps1, eps2, 0.0, &mut Relevant::default(), None)
+}
+
+/// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
+/// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
+/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). With `grads`, the
+/// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
+/// real parts) is pushed, in the order of the entries.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn band_of<T: Scalar>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    eps1: T,
+    eps2: T,
+    eps3: f64,
+    scratch: &mut Relevant,
+    mut grads: Option<&mut Vec<Vector3<f64>>>,
+) -> SeparationBand<T> {
+    let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
+    let mut band = SeparationBand {
+        entries: Vec::new(),
+        min: f64::INFINITY,
+        skipped: 0,
+        margin,
+    };
+    let (e1, e2) = (re(eps1), re(eps2));
+    // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
+    // nearer-first to the other body's centre (where the deepest points usually are), so that
+    // both sides' walks start from a small Φ_best: a walk of the first side no longer proves
+    // its nodes against a Φ_best that only the second side would lower. The main pass walks
+    // both hierarchies and leaves the seed leaves out (their entries are already in; a
+    // skipped ancestor does not count them again). Which leaves are seeds depends on the
+    // poses only, so the band is as deterministic as before.
+    // `seeds[side]`: the seed leaf's node index, and whether its points were evaluated.
+    let mut seeds = [(u32::MAX, false); 2];
+    let (mut arena, mut front): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
+    for pass in 0..2 {
+        for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
+            let Collider::Aopc(s) = query else { continue };
+            if s.is_empty() || matches!(planes, Collider::Aopc(o) if o.is_empty()) {
+                continue;
+            }
+            let rot = rel.rotation.map(re);
+            let tr = crate::scalar::re3(&rel.translation);
+            let bvh = s.bvh();
+            // Children are visited nearer-first to the other body's centre, so that a small Φ is
+            // found early and prunes the rest.
+            let target = match planes {
+                Collider::Aopc(o) => o.bvh().nodes[0].centre,
+                Collider::HalfSpace { point, normal } => {
+                    point - normal * 1e3 * bvh.diameter.max(1.0)
+                }
+            };
+            // A bound on |x - p_i| for every query point of this side and every point of the
+            // other body (the two root spheres), for `need` to be one threshold for the walk.
+            let vmax = match planes {
+                Collider::Aopc(o) => {
+                    let (qr, or) = (&bvh.nodes[0], &o.bvh().nodes[0]);
+                    ((rot * qr.centre + tr - or.centre).norm() + qr.radius + or.radius)
+                        * (1.0 + 1e-12)
+                }
+                Collider::HalfSpace { .. } => f64::NAN,
+            };
+            // Each entry: node, the witness of its parent's bound (a start for the next search),
+            // and the parent's open nodes of the other hierarchy (`arena[from..to]`; see
+            // `aopc_exceeds`): a node walks only what its parent left open. The arena grows and
+            // shrinks with the depth-first walk.
+            arena.clear();
+            arena.push(0);
+            let mut stack = vec![(0u32, u32::MAX, 0u32, 1u32)];
+            if pass == 0 {
+                let mut ni = 0u32;
+                while !bvh.nodes[ni as usize].is_leaf() {
+                    let (l, r) = (bvh.nodes[ni as usize].left, bvh.nodes[ni as usize].left + 1);
+                    let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
+                    let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
+                    ni = if dl <= dr { l } else { r };
+                }
+                seeds[side as usize] = (ni, false);
+                stack[0].0 = ni;
+            }
+            let seed = seeds[side as usize];
+            while let Some((ni, hint, from, to)) = stack.pop() {
+                let node = &bvh.nodes[ni as usize];
+                if pass == 1 && ni == seed.0 {
+                    continue; // done in the seed pass
+                }
+                arena.truncate(to as usize);
+                let centre = rot * node.centre + tr;
+                let mut witness = u32::MAX;
+                let (mut cfrom, mut cto) = (from, to);
+                if band.min.is_finite() {
+                    // The node's points lie in its ball cut by the slab along its normal cone's axis.
+                    let region = QueryRegion {
+                        centre,
+                        radius: node.radius,
+                        m: rot * node.axis,
+                        lo: node.slab_lo,
+                        hi: node.slab_hi,
+                    };
+                    let t = band.min + margin * e2;
+                    let (exceeds, j) = match planes {
+                        Collider::Aopc(o) => {
+                            front.clear();
+                            front.extend_from_slice(&arena[from as usize..to as usize]);
+                            let r = aopc_exceeds(
+                                o,
+                                &region,
+                                t,
+                                e1,
+                                hint as usize,
+                                Some(vmax),
+                                &front,
+                                &mut arena,
+                            );
+                            (cfrom, cto) = (to, arena.len() as u32);
+                            r
+                        }
+                        Collider::HalfSpace { .. } => {
+                            ssdf_exceeds_over(planes, &region, t, e1, usize::MAX)
+                        }
+                    };
+                    if exceeds {
+                        let seed_node = &bvh.nodes[seed.0 as usize];
+                        let holds_seed = pass == 1
+                            && seed.1
+                            && (node.start..node.start + node.count).contains(&seed_node.start);
+                        band.skipped +=
+                            (node.count - if holds_seed { seed_node.count } else { 0 }) as usize;
+                        continue;
+                    }
+                    witness = j as u32;
+                }
+                if node.is_leaf() {
+                    if pass == 0 {
+                        seeds[side as usize].1 = true;
+                    }
+                    // One walk of the other body's hierarchy for the whole leaf when the leaf is
+                    // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
+                    // candidates are then about the points each query needs anyway. A leaf wider
+                    // than that (sharp ε1) would gather far more candidates than any one point
+                    // keeps, so each point walks on its own, from its neighbour's nearest point.
+                    // Both give the same relevant set ([`Relevant`]).
+                    let share = match planes {
+                        Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
+                        Collider::HalfSpace { .. } => false,
+                    };
+                    if let (true, Collider::Aopc(o)) = (share, planes) {
+                        scratch.find_ball(
+                            o,
+                            &centre,
+                            node.radius * (1.0 + 1e-12) + 1e-12 * centre.norm(),
+                            e1,
+                        );
+                    }
+                    for k in node.start..node.start + node.count {
+                        let x =
+                            rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
+                        let entry = match planes {
+                            Collider::Aopc(o) => {
+                                if share {
+                                    scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                                } else {
+                                    let hint = scratch.nearest;
+                                    scratch.find(o, &crate::scalar::re3(&x), e1, hint);
+                                }
+                                let (phi, springs) = match grads.as_deref_mut() {
+                                    Some(g) => {
+                                        let mut sink = GradientSink::default();
+                                        let (phi, w, springs) =
+                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut sink);
+                                        g.push(sink.gradient(phi.re(), w.re(), e1));
+                                        (phi, springs)
+                                    }
+                                    None => {
+                                        let (phi, _, springs) =
+                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut NoSink);
+                                        (phi, springs)
+                                    }
+                                };
+                                BandEntry {
+                                    side,
+                                    k,
+                                    phi,
+                                    dmin: scratch.dmin,
+                                    springs,
+                                    nearest: scratch.nearest as u32,
+                                }
+                            }
+                            Collider::HalfSpace { normal, .. } => {
+                                let phi = planes.signed_distance(&x, eps1);
+                                if let Some(g) = grads.as_deref_mut() {
+                                    g.push(*normal);
+                                }
+                                let springs = if eps3 > 0.0 {
+                                    crate::scalar::softplus(-phi.re(), eps3) * (1.0 + 1e-12)
+                                } else {
+                                    f64::INFINITY
+                                };
+                                BandEntry {
+                                    side,
+                                    k,
+                                    phi,
+                                    dmin: f64::INFINITY,
+                                    springs,
+                                    nearest: u32::MAX,
+                                }
+                            }
+                        };
+                        band.min = band.min.min(entry.phi.re());
+                        band.entries.push(entry);
+                    }
+                } else {
+                    let (l, r) = (node.left, node.left + 1);
+                    let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
+                    let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
+                    if dl <= dr {
+                        stack.extend([(r, witness, cfrom, cto), (l, witness, cfrom, cto)]);
+                    } else {
+                        stack.extend([(l, witness, cfrom, cto), (r, witness, cfrom, cto)]);
+                    }
+                }
+            }
+        }
+    }
+    band
+}

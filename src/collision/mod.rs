@@ -1,0 +1,289 @@
+//! Soft collision detection (paper, Methods A.3; docs/method.md): the separation field of two
+//! colliders, the separation distribution over it and the smooth separation distance.
+//!
+//! Two evaluations, as for the SSDF:
+//! - [`separation_field`] + [`SeparationDistribution::new`]: every point of both bodies (the
+//!   reference; memory O(I1 + I2), one scalar per point);
+//! - [`separation_band`]: only the points whose weight in the separation distribution can
+//!   matter, found by walking each body's bounding-volume hierarchy and proving, node by node,
+//!   that the other body's SSDF is large over a whole node ([`ssdf_exceeds`]).
+//!
+//! # The band bound
+//! Let `Φ_best` be the smallest field value evaluated so far (so `Φ_min ≤ Φ_best`),
+//! `N = I1 + I2` and `M2 = ln(N/τ)` with `τ` = [`PRUNE_TOLERANCE`]. A node of query points is
+//! skipped only once it is proven that `Φ_f > Φ_best + M2 ε2` for each of its points, so the
+//! weight of each skipped point relative to the largest is below `e^{-M2} = τ/N` (docs/method.md, numerical rules), and
+//! all of them together below τ. Each skipped point also has `Φ_f - Φ_min = s ε2` with
+//! `s > M2`, so its share of `D = WᵀΦ` is `W_f |Φ_f - D| ≤ e^{-s} (s ε2 + |D - Φ_min|)`, and all
+//! of them change `D` by less than `τ (M2 ε2 + 2|D - Φ_min|)`. Because every skipped point lies
+//! above `Φ_best + M2 ε2`, the smallest evaluated value is the true `Φ_min`, so the softmax
+//! shift is the same as the reference's.
+
+use crate::geometry::ssdf::{ssdf_over, GradientSink, NoSink, Relevant};
+use crate::geometry::{ssdf, ssdf_naive, Aopc};
+use crate::scalar::{c, lift3, re, Scalar, PRUNE_TOLERANCE};
+use nalgebra::{Matrix3, Vector3};
+
+mod band;
+mod bounds;
+#[cfg(test)]
+mod tests;
+mod topk;
+
+pub(crate) use band::band_of;
+pub use band::{separation_band, BandEntry, SeparationBand};
+pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
+pub use topk::{contact_points, TOPK_TEMPERATURE};
+
+/// What a body collides with: its AOPC, or (for planes) an exact half-space.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Collider {
+    /// A closed surface sampled as an oriented point cloud (body frame).
+    Aopc(Aopc),
+    /// The half-space below the plane through `point` with outward `normal` (body frame). Its
+    /// SSDF is exact: `nᵀ(p - point)`; it contributes no points to the separation field.
+    HalfSpace {
+        /// A point on the plane (m).
+        point: Vector3<f64>,
+        /// Outward unit normal.
+        normal: Vector3<f64>,
+    },
+}
+
+impl Collider {
+    /// Number of points the collider contributes to a separation field.
+    pub fn len(&self) -> usize {
+        match self {
+            Collider::Aopc(s) => s.len(),
+            Collider::HalfSpace { .. } => 0,
+        }
+    }
+
+    /// Whether it contributes no points (a half-space, or an empty AOPC).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Signed distance (soft for an AOPC, exact for a half-space) of a point in the collider's
+    /// frame (pruned SSDF, exact to the bound of [`mod@crate::geometry::ssdf`]).
+    pub fn signed_distance<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
+        match self {
+            Collider::Aopc(s) => ssdf(s, p, eps1),
+            Collider::HalfSpace { point, normal } => {
+                (p - point.map(c::<T>)).dot(&normal.map(c::<T>))
+            }
+        }
+    }
+
+    /// [`Collider::signed_distance`] summed over every point (the reference).
+    pub fn signed_distance_naive<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
+        match self {
+            Collider::Aopc(s) => ssdf_naive(s, p, eps1),
+            Collider::HalfSpace { .. } => self.signed_distance(p, eps1),
+        }
+    }
+}
+
+/// Pose and velocity of a body, world frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame<T: Scalar> {
+    /// Orientation: world coordinates of the body axes (columns).
+    pub rotation: Matrix3<T>,
+    /// Position of the body origin (m).
+    pub origin: Vector3<T>,
+    /// Velocity of the body origin (m/s).
+    pub linvel: Vector3<T>,
+    /// Angular velocity (rad/s).
+    pub angvel: Vector3<T>,
+}
+
+/// Motion of a query body seen from a plane body, in the plane body's frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Relative<T: Scalar> {
+    /// Rotation from query-body to plane-body coordinates.
+    pub rotation: Matrix3<T>,
+    /// Query-body origin in plane-body coordinates.
+    pub translation: Vector3<T>,
+    /// Velocity of the query-body origin relative to the plane-body origin.
+    pub linvel: Vector3<T>,
+    /// Angular velocity of the query body.
+    pub angvel: Vector3<T>,
+    /// Angular velocity of the plane body.
+    pub angvel_planes: Vector3<T>,
+}
+
+impl<T: Scalar> Relative<T> {
+    /// Real parts.
+    pub fn re(&self) -> Relative<f64> {
+        Relative {
+            rotation: self.rotation.map(|x| x.re()),
+            translation: crate::scalar::re3(&self.translation),
+            linvel: crate::scalar::re3(&self.linvel),
+            angvel: crate::scalar::re3(&self.angvel),
+            angvel_planes: crate::scalar::re3(&self.angvel_planes),
+        }
+    }
+}
+
+impl<T: Scalar> Frame<T> {
+    /// A body at rest at the world origin (the world itself).
+    pub fn identity() -> Self {
+        Frame {
+            rotation: Matrix3::identity(),
+            origin: Vector3::zeros(),
+            linvel: Vector3::zeros(),
+            angvel: Vector3::zeros(),
+        }
+    }
+
+    /// This body's motion in the frame of `planes`. Differences of world positions are taken
+    /// once here, so bodies far from the world origin lose no precision in the pair math.
+    pub fn relative_to(&self, planes: &Frame<T>) -> Relative<T> {
+        let rt = planes.rotation.transpose();
+        Relative {
+            rotation: rt * self.rotation,
+            translation: rt * (self.origin - planes.origin),
+            linvel: rt * (self.linvel - planes.linvel),
+            angvel: rt * self.angvel,
+            angvel_planes: rt * planes.angvel,
+        }
+    }
+}
+
+/// The separation field `Φ` (paper eq. 14): SSDFs of the points of `a` w.r.t. `b` (`of_a`)
+/// followed by those of the points of `b` w.r.t. `a` (`of_b`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeparationField<T> {
+    /// `φ̂_b(p_i)` for the points of `a`, in order (m).
+    pub of_a: Vec<T>,
+    /// `φ̂_a(p'_j)` for the points of `b`, in order (m).
+    pub of_b: Vec<T>,
+}
+
+impl<T: Scalar> SeparationField<T> {
+    /// All entries, `a`'s then `b`'s.
+    pub fn iter(&self) -> impl Iterator<Item = &T> + Clone {
+        self.of_a.iter().chain(&self.of_b)
+    }
+}
+
+/// Points of `query` (with frame `fq`) in the frame of the other body `fp`, and their SSDFs
+/// with respect to `planes`.
+fn field_one_side<T: Scalar>(
+    query: &Collider,
+    fq: &Frame<T>,
+    planes: &Collider,
+    fp: &Frame<T>,
+    eps1: T,
+    naive: bool,
+) -> Vec<T> {
+    let Collider::Aopc(s) = query else {
+        return Vec::new();
+    };
+    let rel = fq.relative_to(fp);
+    s.points
+        .iter()
+        .map(|p| {
+            let x = rel.rotation * p.map(c::<T>) + rel.translation;
+            if naive {
+                planes.signed_distance_naive(&x, eps1)
+            } else {
+                planes.signed_distance(&x, eps1)
+            }
+        })
+        .collect()
+}
+
+/// Soft collision detection between two colliders: the separation field, every entry (each
+/// SSDF pruned to its bound).
+pub fn separation_field<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+) -> SeparationField<T> {
+    SeparationField {
+        of_a: field_one_side(a, fa, b, fb, eps1, false),
+        of_b: field_one_side(b, fb, a, fa, eps1, false),
+    }
+}
+
+/// [`separation_field`] with every SSDF summed over every point (the reference).
+pub fn separation_field_naive<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    eps1: T,
+) -> SeparationField<T> {
+    SeparationField {
+        of_a: field_one_side(a, fa, b, fb, eps1, true),
+        of_b: field_one_side(b, fb, a, fa, eps1, true),
+    }
+}
+
+/// The separation distribution `W = σ_ε2(-Φ)` (paper eq. 15) without storing it: its
+/// normaliser, and the smooth separation distance `D = WᵀΦ`.
+#[derive(Clone, Copy, Debug)]
+pub struct SeparationDistribution<T: Scalar> {
+    /// Smallest entry of the field (real part; the softmax shift).
+    pub min: f64,
+    /// Temperature ε2 (m).
+    pub eps: T,
+    /// `Σ exp(-(Φ_f - min)/ε2)`.
+    pub normaliser: T,
+    /// Smooth separation distance `D` (m).
+    pub distance: T,
+}
+
+impl<T: Scalar> SeparationDistribution<T> {
+    /// Builds the distribution of a field (two streamed passes over it).
+    pub fn new(field: &SeparationField<T>, eps2: T) -> Self {
+        Self::from_values(field.iter().copied(), eps2)
+    }
+
+    /// Builds the distribution of the entries of a [`SeparationBand`].
+    pub fn from_band(band: &SeparationBand<T>, eps2: T) -> Self {
+        Self::from_values(band.entries.iter().map(|e| e.phi), eps2)
+    }
+
+    /// Builds the distribution of field values (two streamed passes).
+    pub fn from_values<I: Iterator<Item = T> + Clone>(values: I, eps2: T) -> Self {
+        let min = values.clone().map(|p| p.re()).fold(f64::INFINITY, f64::min);
+        if !min.is_finite() {
+            // Empty field, or nothing to collide with: no contact.
+            return SeparationDistribution {
+                min,
+                eps: eps2,
+                normaliser: T::one(),
+                distance: c(f64::INFINITY),
+            };
+        }
+        let inv = eps2.recip();
+        let (mut sum, mut acc) = (T::zero(), T::zero());
+        let e2 = eps2.re();
+        for phi in values {
+            // Past 746 ε2 the weight underflows to exactly 0 (derivatives too): skip exp's slow
+            // underflow path; the sums are bit-for-bit the same.
+            if phi.re() - min > 746.0 * e2 {
+                continue;
+            }
+            let w = (-(phi - min) * inv).exp();
+            sum += w;
+            acc += w * phi;
+        }
+        SeparationDistribution {
+            min,
+            eps: eps2,
+            normaliser: sum,
+            distance: acc / sum,
+        }
+    }
+
+    /// `W_f` for entry `f` whose value is `phi`.
+    #[inline]
+    pub fn weight(&self, _f: usize, phi: T) -> T {
+        (-(phi - self.min) / self.eps).exp() / self.normaliser
+    }
+}
