@@ -1,0 +1,576 @@
+//! The soft-minimum contact model (paper, Methods B; docs/method.md): the point–plane force, and its
+//! soft-minimum averages over an SSDF (point–SSDF) and over a separation distribution
+//! (SSDF–SSDF), giving the wrench each body of a pair receives.
+//!
+//! Naming follows `quantity_shape1_shape2`: [`point_plane_force`] is the force between a point
+//! and a plane, [`pair_contact`] the contact between two colliders.
+
+use crate::collision::{
+    band_of, separation_field_naive, Collider, Frame, Relative, SeparationBand,
+    SeparationDistribution,
+};
+use crate::geometry::ssdf::Relevant;
+use crate::geometry::Aopc;
+use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum, PRUNE_TOLERANCE};
+use nalgebra::{Matrix3, Vector3};
+
+mod jacobian;
+mod params;
+#[cfg(test)]
+mod tests;
+
+use jacobian::pair_contact_chained;
+pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
+pub use params::{ContactParams, Dissipation, Param};
+
+/// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; docs/method.md) on a point at offset `r`
+/// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
+/// material point. Returns `λ`, which acts on the point; `-λ` acts on the plane's body.
+#[inline]
+pub fn point_plane_force<T: Scalar>(
+    r: &Vector3<T>,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
+    let phi = n.dot(r);
+    // Far outside the plane the spring term underflows to exactly zero, and the whole force
+    // (normal and friction both scale with it) with it: return that zero without the work.
+    if phi.re() > 746.0 * prm.eps3.re() {
+        return Vector3::zeros();
+    }
+    let spring = prm.stiffness * softplus(-phi, prm.eps3);
+    let vn = n.dot(v);
+    let lambda_n = spring * prm.dissipation.factor(vn / prm.dissipation_velocity);
+    let vt = v - n * vn;
+    let lambda_t = vt * (-prm.friction * lambda_n / smooth_norm(&vt, prm.stiction_velocity));
+    n * lambda_n + lambda_t
+}
+
+/// A rigid-body wrench in the world frame: force, and torque about the body's origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wrench<T: Scalar> {
+    /// Force (N, world frame).
+    pub force: Vector3<T>,
+    /// Torque about the body's origin (N·m, world frame).
+    pub torque: Vector3<T>,
+}
+
+impl<T: Scalar> Wrench<T> {
+    /// The zero wrench.
+    pub fn zero() -> Self {
+        Wrench {
+            force: Vector3::zeros(),
+            torque: Vector3::zeros(),
+        }
+    }
+}
+
+/// Result of the contact between the bodies `a` and `b` of a pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairContact<T: Scalar> {
+    /// Wrench on body `a`.
+    pub on_a: Wrench<T>,
+    /// Wrench on body `b`.
+    pub on_b: Wrench<T>,
+    /// Smooth separation distance `D = Wᵀ Φ` (m).
+    pub distance: T,
+}
+
+/// Accumulated point–SSDF force on one query point: `F = Σ σ_i λ_i` and the moment about the
+/// plane body's origin of the reactions, `G = Σ σ_i p_i × λ_i` (plane body's frame).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PointForce<T: Scalar> {
+    force: Vector3<T>,
+    moment: Vector3<T>,
+}
+
+/// Receives the real parts of every term of a point–SSDF force, for derivatives computed
+/// alongside the value (`LocalJacobian`).
+pub(super) trait ForceSink {
+    /// Whether the sink does anything (when `false`, the calls compile away).
+    const ON: bool;
+    /// One term: softmax weight `w` (1 for a half-space), offset `r = x - p` from the plane
+    /// point `p` with normal `n`, and the velocity `v` of the query point relative to the
+    /// plane's material point.
+    fn term(
+        &mut self,
+        w: f64,
+        r: &Vector3<f64>,
+        n: &Vector3<f64>,
+        p: &Vector3<f64>,
+        v: &Vector3<f64>,
+    );
+}
+
+pub(super) struct NoForceSink;
+
+impl ForceSink for NoForceSink {
+    const ON: bool = false;
+    #[inline(always)]
+    fn term(
+        &mut self,
+        _: f64,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+    ) {
+    }
+}
+
+/// Point–SSDF force (paper eq. 23–24 with the sign corrected, docs/method.md): the softmin-weighted
+/// average of point–plane forces on a query point `x` with velocity `v_point` (plane body's
+/// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
+/// planes `rel` found relevant at `x` (the SSDF's pruning bound, [`Relevant`]).
+#[inline]
+pub(super) fn point_force<T: Scalar, S: ForceSink>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+    rel: &Relevant,
+    sink: &mut S,
+) -> PointForce<T> {
+    match planes {
+        Collider::HalfSpace { point, normal } => {
+            let p = lift3::<T>(point);
+            let v = v_point - angvel_planes.cross(&p);
+            let r = x - p;
+            let lambda = point_plane_force(&r, &lift3(normal), &v, prm);
+            if S::ON {
+                sink.term(1.0, &re3(&r), normal, point, &re3(&v));
+            }
+            PointForce {
+                force: lambda,
+                moment: p.cross(&lambda),
+            }
+        }
+        Collider::Aopc(s) => {
+            let bvh = s.bvh();
+            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
+            let mut sum = SoftminSum::new(c(rel.dmin), prm.eps1);
+            for &(k, _) in &rel.items {
+                let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
+                let p = lift3::<T>(q);
+                let r = x - p;
+                let w = sum.add(r.dot(&r));
+                let v = v_point - angvel_planes.cross(&p);
+                let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
+                force += lambda;
+                moment += p.cross(&lambda);
+                if S::ON {
+                    sink.term(w.re(), &re3(&r), nq, q, &re3(&v));
+                }
+            }
+            let inv = sum.weight.recip();
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
+        }
+    }
+}
+
+/// [`point_force`] summed over every plane (the reference for [`pair_contact_naive`]).
+pub(super) fn point_force_naive<T: Scalar>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> PointForce<T> {
+    match planes {
+        Collider::HalfSpace { .. } => point_force(
+            planes,
+            x,
+            v_point,
+            angvel_planes,
+            prm,
+            &Relevant::default(),
+            &mut NoForceSink,
+        ),
+        Collider::Aopc(s) => {
+            let xr = re3(x);
+            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
+            let dmin = s
+                .points
+                .iter()
+                .map(|q| (xr - q).norm_squared())
+                .fold(f64::INFINITY, f64::min);
+            let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            for (q, nq) in s.points.iter().zip(&s.normals) {
+                let p = lift3::<T>(q);
+                let r = x - p;
+                let w = sum.add(r.dot(&r));
+                let v = v_point - angvel_planes.cross(&p);
+                let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
+                force += lambda;
+                moment += p.cross(&lambda);
+            }
+            let inv = sum.weight.recip();
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
+        }
+    }
+}
+
+/// Accumulated wrenches of one side of a pair (query points of one body against the planes of
+/// the other), in the plane body's frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SideSums<T: Scalar> {
+    f_q: Vector3<T>,
+    t_q: Vector3<T>,
+    f_p: Vector3<T>,
+    t_p: Vector3<T>,
+}
+
+impl<T: Scalar> SideSums<T> {
+    fn zero() -> Self {
+        SideSums {
+            f_q: Vector3::zeros(),
+            t_q: Vector3::zeros(),
+            f_p: Vector3::zeros(),
+            t_p: Vector3::zeros(),
+        }
+    }
+
+    /// Adds the point force `pf` of query point `arm` (relative to the query body's origin,
+    /// plane body's axes) with separation weight `w`.
+    fn add(&mut self, arm: &Vector3<T>, pf: &PointForce<T>, w: T) {
+        let fw = pf.force * w;
+        self.f_q += fw;
+        self.t_q += arm.cross(&fw);
+        self.f_p -= fw;
+        self.t_p -= pf.moment * w;
+    }
+
+    /// Adds these sums, rotated from the plane body's frame to the world, to the pair's
+    /// wrenches.
+    fn finish(self, pf: &Frame<T>, q_is_a: bool, on_a: &mut Wrench<T>, on_b: &mut Wrench<T>) {
+        let r = &pf.rotation;
+        let wq = Wrench {
+            force: r * self.f_q,
+            torque: r * self.t_q,
+        };
+        let wp = Wrench {
+            force: r * self.f_p,
+            torque: r * self.t_p,
+        };
+        let (wa, wb) = if q_is_a { (wq, wp) } else { (wp, wq) };
+        on_a.force += wa.force;
+        on_a.torque += wa.torque;
+        on_b.force += wb.force;
+        on_b.torque += wb.torque;
+    }
+
+    /// The twelve numbers `f_q, t_q, f_p, t_p`.
+    fn flat(&self) -> [T; 12] {
+        let mut out = [T::zero(); 12];
+        for (i, v) in [&self.f_q, &self.t_q, &self.f_p, &self.t_p]
+            .into_iter()
+            .enumerate()
+        {
+            out[3 * i..3 * i + 3].copy_from_slice(v.as_slice());
+        }
+        out
+    }
+
+    fn from_flat(x: &[T]) -> Self {
+        let v = |i: usize| Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+        SideSums {
+            f_q: v(0),
+            t_q: v(1),
+            f_p: v(2),
+            t_p: v(3),
+        }
+    }
+}
+
+/// The point forces of a pair that can matter (the force bound of [`pair_contact`]): calls
+/// `eval(i)` for each entry `i` of the band whose force is evaluated, the one with the largest
+/// bound first; `eval` returns the size of that entry's summand `W_f |F_f|` (real part).
+/// `bounds` is scratch space.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn for_each_force<T: Scalar>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    band: &SeparationBand<T>,
+    dist: &SeparationDistribution<T>,
+    prm: &ContactParams<T>,
+    bounds: &mut Vec<(usize, f64)>,
+    mut eval: impl FnMut(usize) -> f64,
+) {
+    let prm_re = prm.re();
+    let cutoff = dist.min + band.margin * dist.eps.re();
+    let fric = (1.0 + prm_re.friction * prm_re.friction).sqrt();
+    let inv_vd = 1.0 / prm_re.dissipation_velocity.abs();
+    let (e2, norm) = (dist.eps.re(), dist.normaliser.re());
+    // Per side: rotation, origin velocity, angular velocities (real parts), the query AOPC and
+    // the largest distance of a plane point from its body's origin.
+    type Side<'s> = Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>, f64, &'s Aopc)>;
+    let sides: [Side; 2] = [(a, b, &rels[0]), (b, a, &rels[1])].map(|(q, p, rel)| {
+        let Collider::Aopc(s) = q else { return None };
+        let reach = match p {
+            Collider::Aopc(o) => o.bvh().max_norm,
+            Collider::HalfSpace { point, .. } => point.norm(),
+        };
+        Some((
+            rel.rotation.map(|x| x.re()),
+            re3(&rel.linvel),
+            re3(&rel.angvel),
+            re3(&rel.angvel_planes).norm() * reach,
+            s,
+        ))
+    });
+    bounds.clear();
+    for (i, e) in band.entries.iter().enumerate() {
+        let phi = e.phi.re();
+        if phi > cutoff {
+            continue;
+        }
+        let Some((rot, u, wq, spin, s)) = &sides[e.side as usize] else {
+            continue;
+        };
+        let w = (-(phi - dist.min) / e2).exp() / norm;
+        let spring = prm_re.stiffness.abs() * e.springs;
+        if w == 0.0 || spring == 0.0 {
+            continue; // zero or subnormal (doc of `pair_contact`)
+        }
+        let arm = rot * s.bvh().points[e.k as usize];
+        let speed = (u + wq.cross(&arm)).norm() + spin;
+        bounds.push((i, w * spring * (1.0 + speed * inv_vd) * fric));
+    }
+    let Some(first) = (0..bounds.len()).max_by(|&x, &y| bounds[x].1.total_cmp(&bounds[y].1)) else {
+        return;
+    };
+    let tol = PRUNE_TOLERANCE / bounds.len() as f64;
+    let mut largest = eval(bounds[first].0);
+    for (j, &(i, bound)) in bounds.iter().enumerate() {
+        if j != first && bound >= tol * largest {
+            largest = largest.max(eval(i));
+        }
+    }
+}
+
+/// What [`pair_sides`] leaves besides the wrenches: the band, its distribution, and (for
+/// derivatives) the entries whose force was evaluated.
+pub(super) struct PairParts<T: Scalar> {
+    sums: [SideSums<T>; 2],
+    band: SeparationBand<T>,
+    dist: SeparationDistribution<T>,
+}
+
+/// The SSDF–SSDF contact of a pair in the plane frames of both sides (module documentation of
+/// [`pair_contact`]), given each body's motion in the other's frame. `on_force(i, W_f, F, s)`
+/// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
+/// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
+    a: &Collider,
+    b: &Collider,
+    rels: &[Relative<T>; 2],
+    prm: &ContactParams<T>,
+    scratch: &mut Relevant,
+    grads: Option<&mut Vec<Vector3<f64>>>,
+    mut sink: impl FnMut() -> S,
+    mut on_force: impl FnMut(usize, T, &PointForce<T>, S),
+) -> PairParts<T> {
+    let band = band_of(
+        a,
+        b,
+        rels,
+        prm.eps1,
+        prm.eps2,
+        prm.eps3.re(),
+        scratch,
+        grads,
+    );
+    let dist = SeparationDistribution::from_band(&band, prm.eps2);
+    let mut sums = [SideSums::zero(), SideSums::zero()];
+    if !dist.min.is_finite() {
+        return PairParts { sums, band, dist };
+    }
+    let mut bounds = Vec::new();
+    for_each_force(a, b, rels, &band, &dist, prm, &mut bounds, |i| {
+        let e = &band.entries[i];
+        let side = e.side as usize;
+        let (query, planes) = if side == 0 { (a, b) } else { (b, a) };
+        let Collider::Aopc(s) = query else { return 0.0 };
+        let rel = &rels[side];
+        let arm = rel.rotation * lift3::<T>(&s.bvh().points[e.k as usize]);
+        let x = arm + rel.translation;
+        let v = rel.linvel + rel.angvel.cross(&arm);
+        if let Collider::Aopc(o) = planes {
+            scratch.find(o, &re3(&x), prm.eps1.re(), e.nearest as usize);
+        }
+        let mut snk = sink();
+        let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, scratch, &mut snk);
+        let w = dist.weight(0, e.phi);
+        sums[side].add(&arm, &pf, w);
+        let size = w.re() * re3(&pf.force).norm();
+        on_force(i, w, &pf, snk);
+        size
+    });
+    PairParts { sums, band, dist }
+}
+
+/// SSDF–SSDF contact (paper eq. 25; docs/method.md) between collider `a` on a body with pose/motion
+/// `fa` and collider `b` with `fb`: points of `a` against the planes of `b` and points of `b`
+/// against the planes of `a`, weighted by the separation distribution.
+///
+/// Pruned to proven bounds (docs/method.md, numerical rules): only the query points of the [`separation_band`](crate::collision::separation_band) are
+/// visited (whole BVH nodes of points whose separation weight is below τ/(I1 + I2) relative to
+/// the largest are never evaluated), each SSDF sums only the planes of [`Relevant`], and only
+/// the point forces that can matter are evaluated: a point force whose bound is provably below
+/// τ/N of the largest evaluated one, or exactly zero, is skipped (see the bound below). Skipped
+/// forces total less than τ times the largest point force. Memory is O(I1 + I2) at most (the
+/// band), never I1×I2. [`pair_contact_naive`] is the unpruned reference.
+///
+/// With a first-order dual scalar (`Dual64`, `DualSVec64<N>`) and constant contact parameters,
+/// the derivatives are not carried through every term: the wrenches' exact Jacobian with
+/// respect to the two bodies' relative motion is computed once in `f64` (hand-derived,
+/// [`pair_jacobian`]) and chained with the duals' derivative parts ([`ChainRule`](crate::scalar::ChainRule)). Every other
+/// scalar runs [`pair_contact_generic`].
+///
+/// # The force bound
+/// An entry of the band contributes `W_f F_f` to the force on each body (and `W_f arm_f × F_f`,
+/// `W_f G_f` to the torques), where `F_f = Σ_i σ_i λ_i` is its point–SSDF force and
+/// `G_f = Σ_i σ_i p_i × λ_i`. Each `|λ_i| = c_i d(s_i) |n_i - μ u_i|` with the spring
+/// `c_i = k s⁺_ε3(-φ_i)`, `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`|v_i| ≤ V_f = |v_f| + |ω_p|
+/// max_i |p_i|`) and `|n_i - μ u_i| ≤ √(1 + μ²)` (`u_i ⊥ n_i`, `|u_i| < 1`), so
+/// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f max_i |p_i|`, with
+/// `B_f ≥ Σ_i σ_i s⁺_ε3(-φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`](crate::collision::BandEntry::springs)).
+/// An entry is skipped when its separation weight is below the band's cutoff, when `W_f Λ_f`
+/// is zero in `f64` (every term's `w_i e^{-φ_i/ε3}` is below e^-745, so its force is zero or
+/// subnormal: `B_f < I ε3 e^-745`), or when
+/// `W_f Λ_f < (τ/N) M`, `M` the largest summand `W_g |F_g|` evaluated so far (the entry with
+/// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each
+/// skipped summand is below the relative weight τ/N of the largest, and all of them together
+/// change the force by less than `τ M`, the torques by less than `τ M` times the bodies' size.
+///
+/// # Example
+///
+/// Two 10 cm boxes, one resting 1 mm into the other: the pair pushes them apart along z with
+/// equal and opposite forces, and nothing acts sideways.
+///
+/// ```
+/// use std::path::Path;
+/// use scm::contact::pair_contact;
+///
+/// let xml = r#"<mujoco><worldbody>
+///   <body name="low"><geom type="box" size="0.05 0.05 0.05"/></body>
+///   <body name="high" pos="0 0 0.099"><freejoint/><geom type="box" size="0.05 0.05 0.05"/></body>
+/// </worldbody></mujoco>"#;
+/// let model = scm::scene::load_str(xml, Path::new("boxes.xml"))?.model;
+/// let kin = model.tree.kinematics(&model.q0, &model.v0);
+/// let pair = &model.pairs[0];
+/// let (ca, cb) = (model.colliders[pair.a].as_ref(), model.colliders[pair.b].as_ref());
+/// let pc = pair_contact(ca.unwrap(), &kin.frames[pair.a], cb.unwrap(), &kin.frames[pair.b], &model.contact);
+/// let (fa, fb) = (pc.on_a.force, pc.on_b.force);
+/// assert!(fb.z > 0.0 && fa.z < 0.0, "the upper box is pushed up");
+/// assert!((fa + fb).norm() < 1e-9 * fb.norm(), "action = reaction");
+/// assert!(fb.x.abs() + fb.y.abs() < 1e-6 * fb.z, "no sideways force on a centred stack");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn pair_contact<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
+    let constant = [
+        prm.eps1,
+        prm.eps2,
+        prm.eps3,
+        prm.stiffness,
+        prm.dissipation_velocity,
+        prm.stiction_velocity,
+        prm.friction,
+    ]
+    .iter()
+    .all(|x| x.is_constant());
+    if T::FIRST_ORDER && constant {
+        pair_contact_chained(a, fa, b, fb, prm)
+    } else {
+        pair_contact_generic(a, fa, b, fb, prm)
+    }
+}
+
+/// [`pair_contact`] with every derivative carried by the scalar type through every term (no
+/// chain rule): the reference for [`pair_jacobian`], and the path of second-order scalars.
+pub fn pair_contact_generic<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
+    let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    let parts = pair_sides(
+        a,
+        b,
+        &rels,
+        prm,
+        &mut Relevant::default(),
+        None,
+        || NoForceSink,
+        |_, _, _, _| {},
+    );
+    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
+    let [s0, s1] = parts.sums;
+    s0.finish(fb, true, &mut on_a, &mut on_b);
+    s1.finish(fa, false, &mut on_a, &mut on_b);
+    PairContact {
+        on_a,
+        on_b,
+        distance: parts.dist.distance,
+    }
+}
+
+/// [`pair_contact`] without any pruning: every point of both bodies, every plane (the
+/// reference; O(I1·I2) time, O(I1 + I2) memory).
+pub fn pair_contact_naive<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+) -> PairContact<T> {
+    let field = separation_field_naive(a, fa, b, fb, prm.eps1);
+    let dist = SeparationDistribution::new(&field, prm.eps2);
+    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
+    if !dist.min.is_finite() {
+        return PairContact {
+            on_a,
+            on_b,
+            distance: dist.distance,
+        };
+    }
+    for (query, qf, planes, pf, phis, q_is_a) in [
+        (a, fa, b, fb, &field.of_a, true),
+        (b, fb, a, fa, &field.of_b, false),
+    ] {
+        let Collider::Aopc(s) = query else { continue };
+        let rel = qf.relative_to(pf);
+        let mut sums = SideSums::zero();
+        for (p, &phi) in s.points.iter().zip(phis) {
+            let arm = rel.rotation * lift3::<T>(p);
+            let x = arm + rel.translation;
+            let v = rel.linvel + rel.angvel.cross(&arm);
+            let pf = point_force_naive(planes, &x, &v, &rel.angvel_planes, prm);
+            sums.add(&arm, &pf, dist.weight(0, phi));
+        }
+        sums.finish(pf, q_is_a, &mut on_a, &mut on_b);
+    }
+    PairContact {
+        on_a,
+        on_b,
+        distance: dist.distance,
+    }
+}

@@ -1,0 +1,223 @@
+//! The contact parameters (the FMU's tunable `scm.*`) and the dissipation factor's variants.
+
+use super::*;
+
+/// The dissipation factor `d(s)` of the point–plane force, `s = v_n / v_d`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Dissipation {
+    /// The paper's (and IDTO's) piecewise `d`: `1 - s` for `s ≤ 0`, `(s - 2)²/4` on `(0, 2]`,
+    /// `0` after. Only C¹: its second derivative jumps at `s = 0` and `s = 2`.
+    #[default]
+    Paper,
+    /// C² variant: the same values and slopes at both ends, joined by
+    /// `1 - s + s³/4 - s⁴/16` on `[0, 2]`, whose second derivative vanishes at both ends.
+    Smooth,
+}
+
+impl Dissipation {
+    /// Name used in scenes (`scm_dissipation`) and the FMU.
+    pub fn name(self) -> &'static str {
+        match self {
+            Dissipation::Paper => "paper",
+            Dissipation::Smooth => "smooth",
+        }
+    }
+
+    /// Parses a scene's `scm_dissipation` value.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Dissipation::Paper),
+            "smooth" => Some(Dissipation::Smooth),
+            _ => None,
+        }
+    }
+
+    /// `d(s)`.
+    #[inline]
+    pub fn factor<T: Scalar>(self, s: T) -> T {
+        let x = s.re();
+        if x <= 0.0 {
+            T::one() - s
+        } else if x <= 2.0 {
+            match self {
+                Dissipation::Paper => (s - 2.0) * (s - 2.0) * 0.25,
+                Dissipation::Smooth => {
+                    let s2 = s * s;
+                    T::one() - s + s2 * s * 0.25 - s2 * s2 * (1.0 / 16.0)
+                }
+            }
+        } else {
+            T::zero()
+        }
+    }
+
+    /// `d(s)` and `d'(s)` in `f64`.
+    pub fn factor_slope(self, s: f64) -> (f64, f64) {
+        if s <= 0.0 {
+            (1.0 - s, -1.0)
+        } else if s <= 2.0 {
+            match self {
+                Dissipation::Paper => ((s - 2.0) * (s - 2.0) * 0.25, (s - 2.0) * 0.5),
+                Dissipation::Smooth => {
+                    let s2 = s * s;
+                    (
+                        1.0 - s + s2 * s * 0.25 - s2 * s2 * (1.0 / 16.0),
+                        -1.0 + 0.75 * s2 - 0.25 * s2 * s,
+                    )
+                }
+            }
+        } else {
+            (0.0, 0.0)
+        }
+    }
+}
+
+/// Parameters of the contact model. Every field but `dissipation` is a scalar so that
+/// derivatives with respect to it come out of the same code.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams<T> {
+    /// SSDF softmax temperature ε1 (m²).
+    pub eps1: T,
+    /// Separation-distribution softmax temperature ε2 (m).
+    pub eps2: T,
+    /// Softplus smoothing of the penetration ε3 (m).
+    pub eps3: T,
+    /// Contact stiffness k (N/m).
+    pub stiffness: T,
+    /// Dissipation velocity v_d (m/s): the approach speed at which damping cancels the spring.
+    pub dissipation_velocity: T,
+    /// Stiction velocity v_s (m/s): the sliding speed below which friction fades to zero.
+    pub stiction_velocity: T,
+    /// Friction coefficient μ (1).
+    pub friction: T,
+    /// Which dissipation factor `d(s)` to use.
+    pub dissipation: Dissipation,
+}
+
+impl Default for ContactParams<f64> {
+    fn default() -> Self {
+        ContactParams {
+            eps1: 1e-5,
+            eps2: 1e-3,
+            eps3: 1e-4,
+            stiffness: 1e4,
+            dissipation_velocity: 0.1,
+            stiction_velocity: 1e-2,
+            friction: 0.5,
+            dissipation: Dissipation::Paper,
+        }
+    }
+}
+
+impl<T: Scalar> ContactParams<T> {
+    /// Real parts.
+    pub fn re(&self) -> ContactParams<f64> {
+        ContactParams {
+            eps1: self.eps1.re(),
+            eps2: self.eps2.re(),
+            eps3: self.eps3.re(),
+            stiffness: self.stiffness.re(),
+            dissipation_velocity: self.dissipation_velocity.re(),
+            stiction_velocity: self.stiction_velocity.re(),
+            friction: self.friction.re(),
+            dissipation: self.dissipation,
+        }
+    }
+}
+
+impl ContactParams<f64> {
+    /// The same parameters in another scalar type (constants: zero derivative).
+    pub fn lift<T: Scalar>(&self) -> ContactParams<T> {
+        ContactParams {
+            eps1: c(self.eps1),
+            eps2: c(self.eps2),
+            eps3: c(self.eps3),
+            stiffness: c(self.stiffness),
+            dissipation_velocity: c(self.dissipation_velocity),
+            stiction_velocity: c(self.stiction_velocity),
+            friction: c(self.friction),
+            dissipation: self.dissipation,
+        }
+    }
+}
+
+/// A tunable contact parameter (`scm.<name>`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// ε1 (m²).
+    Eps1,
+    /// ε2 (m).
+    Eps2,
+    /// ε3 (m).
+    Eps3,
+    /// k (N/m).
+    Stiffness,
+    /// v_d (m/s).
+    DissipationVelocity,
+    /// v_s (m/s).
+    StictionVelocity,
+    /// μ (1).
+    Friction,
+}
+
+impl Param {
+    /// Every parameter, in table order.
+    pub const ALL: [Param; 7] = [
+        Param::Eps1,
+        Param::Eps2,
+        Param::Eps3,
+        Param::Stiffness,
+        Param::DissipationVelocity,
+        Param::StictionVelocity,
+        Param::Friction,
+    ];
+
+    /// `(name, unit, description)`.
+    pub fn describe(self) -> (&'static str, &'static str, &'static str) {
+        match self {
+            Param::Eps1 => ("eps1", "m2", "SSDF softmax temperature over squared distances (smaller: sharper surfaces)"),
+            Param::Eps2 => ("eps2", "m", "separation-distribution softmax temperature (smaller: force concentrates on the deepest points)"),
+            Param::Eps3 => ("eps3", "m", "softplus smoothing of the penetration (force at zero penetration is k*eps3*ln 2)"),
+            Param::Stiffness => ("stiffness", "N/m", "contact stiffness k"),
+            Param::DissipationVelocity => ("dissipation_velocity", "m/s", "approach speed at which damping cancels the spring (v_d)"),
+            Param::StictionVelocity => ("stiction_velocity", "m/s", "sliding speed below which friction fades (v_s); also smooths joint frictionloss"),
+            Param::Friction => ("friction", "1", "friction coefficient mu"),
+        }
+    }
+
+    /// The parameter's slot.
+    pub fn get<T: Copy>(self, p: &ContactParams<T>) -> T {
+        match self {
+            Param::Eps1 => p.eps1,
+            Param::Eps2 => p.eps2,
+            Param::Eps3 => p.eps3,
+            Param::Stiffness => p.stiffness,
+            Param::DissipationVelocity => p.dissipation_velocity,
+            Param::StictionVelocity => p.stiction_velocity,
+            Param::Friction => p.friction,
+        }
+    }
+
+    /// The parameter's slot, for writing.
+    pub fn slot<T>(self, p: &mut ContactParams<T>) -> &mut T {
+        match self {
+            Param::Eps1 => &mut p.eps1,
+            Param::Eps2 => &mut p.eps2,
+            Param::Eps3 => &mut p.eps3,
+            Param::Stiffness => &mut p.stiffness,
+            Param::DissipationVelocity => &mut p.dissipation_velocity,
+            Param::StictionVelocity => &mut p.stiction_velocity,
+            Param::Friction => &mut p.friction,
+        }
+    }
+
+    /// Whether `value` is allowed (finite; positive, or non-negative for friction).
+    pub fn accepts(self, value: f64) -> bool {
+        value.is_finite()
+            && if self == Param::Friction {
+                value >= 0.0
+            } else {
+                value > 0.0
+            }
+    }
+}
