@@ -247,7 +247,7 @@ impl Model {
     /// generalized force is `Jᵀ f` through the tree.
     fn add_body_forces<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
         if let Some(fluid) = &self.fluid {
-            fluid.add_wrenches(&kin.frames, |b| self.tree.bodies[b].inertia.com, w);
+            fluid.add_wrenches(&kin.frames, w);
         }
         for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
             if body.gravcomp == 0.0 {

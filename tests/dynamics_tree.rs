@@ -572,7 +572,7 @@ fn fluid_forces_only_dissipate_and_follow_the_box_formulas() {
         .tree
         .kinematics(&model.q0, &[2.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     let mut w = vec![Wrench::zero(); 2];
-    fluid.add_wrenches(&kin.frames, |b| model.tree.bodies[b].inertia.com, &mut w);
+    fluid.add_wrenches(&kin.frames, &mut w);
     let d = (0.4 + 0.1 + 0.06) / 3.0;
     let want = -3.0 * std::f64::consts::PI * d * 0.2 * 2.0 - 0.5 * 1000.0 * 0.1 * 0.06 * 4.0;
     assert!(
@@ -586,7 +586,7 @@ fn fluid_forces_only_dissipate_and_follow_the_box_formulas() {
     for _ in 0..50 {
         let (q, v, _) = random_point(&model, &mut rng, 3.0);
         let kin = model.tree.kinematics(&q, &v);
-        let p: f64 = fluid.power(&kin.frames, |b| model.tree.bodies[b].inertia.com);
+        let p: f64 = fluid.power(&kin.frames);
         assert!(p < 0.0, "power {p} at v = {v:?}");
     }
 }

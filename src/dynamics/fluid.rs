@@ -23,6 +23,8 @@ use nalgebra::{Matrix3, Vector3};
 pub struct FluidBody {
     /// Body index.
     pub body: usize,
+    /// Centre of mass, body coordinates (m).
+    pub com: Vector3<f64>,
     /// Principal axes of the body's inertia, as columns, in body coordinates.
     pub axes: Matrix3<f64>,
     /// Sides of the equivalent inertia box along those axes (m).
@@ -33,12 +35,19 @@ impl FluidBody {
     /// The body's equivalent inertia box: principal moments `I` (in the order of `axes`) and
     /// mass `m` give sides `b_i = √(6 (I_j + I_k - I_i) / m)` (a difference below 1e-15 counts
     /// as 1e-15, as in MuJoCo, so a rod or a point mass keeps a finite box).
-    pub fn new(body: usize, mass: f64, axes: Matrix3<f64>, moments: Vector3<f64>) -> FluidBody {
+    pub fn new(
+        body: usize,
+        mass: f64,
+        com: Vector3<f64>,
+        axes: Matrix3<f64>,
+        moments: Vector3<f64>,
+    ) -> FluidBody {
         let side = |i: usize, j: usize, k: usize| {
             ((moments[j] + moments[k] - moments[i]).max(1e-15) / mass * 6.0).sqrt()
         };
         FluidBody {
             body,
+            com,
             axes,
             sides: Vector3::new(side(0, 1, 2), side(1, 0, 2), side(2, 0, 1)),
         }
@@ -67,20 +76,14 @@ fn signed_square<T: Scalar>(x: T) -> T {
 
 impl Fluid {
     /// Adds the fluid's wrench on every body to `out` (world frame, torque about the body
-    /// origin). `frames`: the bodies' poses and velocities; `com`: each body's centre of mass
-    /// in body coordinates.
-    pub fn add_wrenches<T: Scalar>(
-        &self,
-        frames: &[Frame<T>],
-        com: impl Fn(usize) -> Vector3<f64>,
-        out: &mut [Wrench<T>],
-    ) {
+    /// origin). `frames`: the bodies' poses and velocities.
+    pub fn add_wrenches<T: Scalar>(&self, frames: &[Frame<T>], out: &mut [Wrench<T>]) {
         let (rho, beta) = (self.density, self.viscosity);
         for fb in &self.bodies {
             let f = &frames[fb.body];
             // Principal axes in world coordinates, and the centre of mass's offset.
             let axes = f.rotation * fb.axes.map(c::<T>);
-            let arm = f.rotation * com(fb.body).map(c::<T>);
+            let arm = f.rotation * fb.com.map(c::<T>);
             let v = axes.transpose() * (f.linvel + f.angvel.cross(&arm));
             let w = axes.transpose() * f.angvel;
             let b = &fb.sides;
@@ -106,9 +109,9 @@ impl Fluid {
     }
 
     /// Power of the fluid forces (W, never positive in a still medium).
-    pub fn power<T: Scalar>(&self, frames: &[Frame<T>], com: impl Fn(usize) -> Vector3<f64>) -> T {
+    pub fn power<T: Scalar>(&self, frames: &[Frame<T>]) -> T {
         let mut w = vec![Wrench::zero(); frames.len()];
-        self.add_wrenches(frames, com, &mut w);
+        self.add_wrenches(frames, &mut w);
         w.iter().zip(frames).fold(T::zero(), |p, (w, f)| {
             p + w.force.dot(&f.linvel) + w.torque.dot(&f.angvel)
         })

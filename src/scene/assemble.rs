@@ -4,17 +4,22 @@
 use super::*;
 
 impl Builder {
+    /// Whether body `b`'s inertia comes from its geoms (`<compiler inertiafromgeom>`, and
+    /// whether the body has an `<inertial>`).
+    fn inertia_from_geoms(&self, b: usize) -> bool {
+        match self.settings.inertia_from_geom {
+            InertiaFromGeom::Always => true,
+            InertiaFromGeom::Auto => !self.explicit_inertia[b],
+            InertiaFromGeom::Never => false,
+        }
+    }
+
     /// Body inertias as `<compiler>` says: from the geoms or `<inertial>`, bounded, scaled to
     /// the total mass.
     pub(super) fn compile_inertias(&mut self) {
         let s = self.settings;
         for b in 1..self.bodies.len() {
-            let from_geoms = match s.inertia_from_geom {
-                InertiaFromGeom::Always => true,
-                InertiaFromGeom::Auto => !self.explicit_inertia[b],
-                InertiaFromGeom::Never => false,
-            };
-            if from_geoms {
+            if self.inertia_from_geoms(b) {
                 self.bodies[b].inertia = self.geom_inertia[b];
             }
             let i = &mut self.bodies[b].inertia;
@@ -386,11 +391,7 @@ impl Builder {
             if !tree.body_moves(b) || i.mass < 1e-15 {
                 continue;
             }
-            let from_geoms = match self.settings.inertia_from_geom {
-                InertiaFromGeom::Always => true,
-                InertiaFromGeom::Auto => !self.explicit_inertia[b],
-                InertiaFromGeom::Never => false,
-            };
+            let from_geoms = self.inertia_from_geoms(b);
             let one_geom = self.mass_geom_frames.get(&b).filter(|f| f.len() == 1);
             let frame = match (from_geoms, self.inertial_axes.get(&b), one_geom) {
                 (false, Some(q), _) => Some(*q),
@@ -402,7 +403,7 @@ impl Builder {
                 None => i.rot.symmetric_eigen().eigenvectors,
             };
             let moments = (axes.transpose() * i.rot * axes).diagonal();
-            bodies.push(FluidBody::new(b, i.mass, axes, moments));
+            bodies.push(FluidBody::new(b, i.mass, i.com, axes, moments));
         }
         Some(Fluid {
             density: self.medium.0,
