@@ -5,7 +5,7 @@
 //! The model is immutable; all that changes lives in the caller's state (MuJoCo's
 //! `mjModel`/`mjData` split).
 
-use crate::collision::Collider;
+use crate::collision::{out_of_reach, Collider};
 use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
 use crate::dynamics::fluid::Fluid;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
@@ -100,8 +100,10 @@ pub struct Model {
 pub struct Forward<T: Scalar> {
     /// Accelerations `v̇`.
     pub vdot: DVector<T>,
-    /// Contact per pair, in the order of `Model::pairs`.
-    pub contacts: Vec<PairContact<T>>,
+    /// Contact per pair, in the order of `Model::pairs` (see [`Model::contact_forces`]):
+    /// `None` for a pair out of reach, whose wrenches are zero and whose smooth distance was
+    /// not evaluated.
+    pub contacts: Vec<Option<PairContact<T>>>,
 }
 
 /// Why the dynamics could not be evaluated.
@@ -202,42 +204,86 @@ impl Model {
         out
     }
 
-    /// Contact of every pair and the wrench each body receives (world frame, about its origin).
+    /// Contact of every pair and the wrench each body receives (world frame, about its origin),
+    /// every pair evaluated in full, its smooth distance included: what the outputs read.
     pub fn contacts<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        let mut out = Vec::with_capacity(self.pairs.len());
-        for pair in &self.pairs {
-            let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
-                out.push(PairContact {
-                    on_a: Wrench::zero(),
-                    on_b: Wrench::zero(),
-                    distance: c(f64::INFINITY),
-                });
-                continue;
-            };
-            let own;
-            let prm = match pair.friction {
-                Some(mu) => {
-                    own = ContactParams {
-                        friction: c(mu),
-                        ..*prm
-                    };
-                    &own
-                }
-                None => prm,
-            };
-            let pc = pair_contact(ca, &kin.frames[pair.a], cb, &kin.frames[pair.b], prm);
-            for (b, w) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
-                wrenches[b].force += w.force;
-                wrenches[b].torque += w.torque;
-            }
-            out.push(pc);
-        }
+        let out = self
+            .pairs
+            .iter()
+            .map(|pair| {
+                let pc = self.pair_contact_of(pair, kin, prm, false);
+                add_pair_wrenches(&mut wrenches, pair, pc.as_ref());
+                pc.unwrap_or_else(PairContact::none)
+            })
+            .collect();
         (wrenches, out)
+    }
+
+    /// The contact wrenches for the dynamics: as [`Model::contacts`], except that a pair proven
+    /// out of reach ([`out_of_reach`]: every force of the pair below τ times the force scale
+    /// `k ε3`, see there) costs only that proof and is `None`: zero wrenches, its smooth
+    /// distance not evaluated (the outputs ask [`Model::contacts`] for it).
+    pub fn contact_forces<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+    ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
+        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
+        let out = self
+            .pairs
+            .iter()
+            .map(|pair| {
+                let pc = self.pair_contact_of(pair, kin, prm, true);
+                add_pair_wrenches(&mut wrenches, pair, pc.as_ref());
+                pc
+            })
+            .collect();
+        (wrenches, out)
+    }
+
+    /// One pair's contact, with the pair's own friction if it has one; `None` when `prune` and
+    /// the pair is out of reach.
+    fn pair_contact_of<T: Scalar>(
+        &self,
+        pair: &Pair,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        prune: bool,
+    ) -> Option<PairContact<T>> {
+        let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+            return Some(PairContact::none());
+        };
+        let prm = match pair.friction {
+            Some(mu) => ContactParams {
+                friction: c(mu),
+                ..*prm
+            },
+            None => *prm,
+        };
+        let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
+        if prune {
+            let (ra, rb) = (fa.re(), fb.re());
+            let p = prm.re();
+            let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
+            let far = out_of_reach(
+                ca,
+                cb,
+                &rels,
+                p.eps1,
+                p.eps3,
+                p.dissipation_velocity,
+                p.friction,
+            );
+            if far {
+                return None;
+            }
+        }
+        Some(pair_contact(ca, fa, cb, fb, &prm))
     }
 
     /// Adds the passive forces that act on bodies to the wrenches `w` (world frame, about the
@@ -415,7 +461,7 @@ impl Model {
             }
         }
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (mut wrenches, contacts) = self.contacts(&kin, prm);
+        let (mut wrenches, contacts) = self.contact_forces(&kin, prm);
         self.add_body_forces(&kin, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
@@ -456,7 +502,7 @@ impl Model {
         prm: &ContactParams<T>,
     ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (mut wrenches, _) = self.contacts(&kin, prm);
+        let (mut wrenches, _) = self.contact_forces(&kin, prm);
         self.add_body_forces(&kin, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
@@ -523,5 +569,15 @@ impl Model {
             .filter(|&b| self.tree.body_moves(b))
             .map(|b| self.tree.bodies[b].inertia.mass)
             .sum()
+    }
+}
+
+/// Adds a pair's wrenches to its bodies' (nothing for a pair out of reach).
+fn add_pair_wrenches<T: Scalar>(w: &mut [Wrench<T>], pair: &Pair, pc: Option<&PairContact<T>>) {
+    if let Some(pc) = pc {
+        for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
+            w[b].force += x.force;
+            w[b].torque += x.torque;
+        }
     }
 }

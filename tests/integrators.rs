@@ -665,7 +665,8 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
         let work: f64 = (0..n)
             .map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz)
             .sum();
-        let estimate = scm::integrate::contact_energy(&at(z), &prm);
+        let in_reach: Vec<_> = at(z).into_iter().map(Some).collect();
+        let estimate = scm::integrate::contact_energy(&in_reach, &prm);
         println!(
             "{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}",
             depth * 1e3,

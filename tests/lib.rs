@@ -3,6 +3,7 @@
 mod cli;
 mod common;
 mod contact_pair;
+mod contact_reach;
 mod derivatives;
 mod dynamics_tree;
 mod extremes;

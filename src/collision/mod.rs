@@ -26,6 +26,7 @@ use nalgebra::{Matrix3, Vector3};
 
 mod band;
 mod bounds;
+mod reach;
 #[cfg(test)]
 mod tests;
 mod topk;
@@ -33,6 +34,7 @@ mod topk;
 pub(crate) use band::band_of;
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
+pub use reach::{cloud_beyond, out_of_reach, reach_distance, REACH_BUDGET};
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.
@@ -133,6 +135,16 @@ impl<T: Scalar> Frame<T> {
             origin: Vector3::zeros(),
             linvel: Vector3::zeros(),
             angvel: Vector3::zeros(),
+        }
+    }
+
+    /// Real parts.
+    pub fn re(&self) -> Frame<f64> {
+        Frame {
+            rotation: self.rotation.map(|x| x.re()),
+            origin: crate::scalar::re3(&self.origin),
+            linvel: crate::scalar::re3(&self.linvel),
+            angvel: crate::scalar::re3(&self.angvel),
         }
     }
 

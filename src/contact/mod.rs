@@ -77,6 +77,18 @@ pub struct PairContact<T: Scalar> {
     pub distance: T,
 }
 
+impl<T: Scalar> PairContact<T> {
+    /// The contact of a pair that has nothing to collide (a collider missing, or no points):
+    /// no wrenches, the distance infinite.
+    pub fn none() -> Self {
+        PairContact {
+            on_a: Wrench::zero(),
+            on_b: Wrench::zero(),
+            distance: c(f64::INFINITY),
+        }
+    }
+}
+
 /// Accumulated point–SSDF force on one query point: `F = Σ σ_i λ_i` and the moment about the
 /// plane body's origin of the reactions, `G = Σ σ_i p_i × λ_i` (plane body's frame).
 #[derive(Clone, Copy, Debug)]

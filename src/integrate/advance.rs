@@ -39,7 +39,7 @@ impl Model {
         state: &State<f64>,
         ctrl: &[f64],
         prm: &ContactParams<f64>,
-        contacts: Option<&[crate::contact::PairContact<f64>]>,
+        contacts: Option<&[Option<crate::contact::PairContact<f64>>]>,
         t0: f64,
         ledger: Option<&EnergyLedger>,
     ) -> Option<EnergyMonitor> {
@@ -454,7 +454,8 @@ struct EnergyMonitor {
 
 /// An estimate of the elastic energy stored in the contacts `contacts` (J), per pair the
 /// larger of `ε3 |F| + |F|²/(2k)` (`F`: the force between the two bodies) and `k D²` (`D < 0`:
-/// the smooth penetration).
+/// the smooth penetration). A pair out of reach (`None`, see
+/// [`Model::contact_forces`](crate::model::Model::contact_forces)) stores nothing.
 ///
 /// A point–plane spring `k s`, `s = s⁺_ε3(-φ)`, stores `k ε3² P(φ/ε3)`, with
 /// `P(y) = ∫_y^∞ ln(1 + e^{-t}) dt = -Li₂(-e^{-y})` (the work its force does as the point
@@ -467,12 +468,13 @@ struct EnergyMonitor {
 /// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
 /// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
 pub fn contact_energy(
-    contacts: &[crate::contact::PairContact<f64>],
+    contacts: &[Option<crate::contact::PairContact<f64>>],
     prm: &ContactParams<f64>,
 ) -> f64 {
     let k = prm.stiffness;
     contacts
         .iter()
+        .flatten()
         .filter(|pc| pc.distance.is_finite())
         .map(|pc| {
             let f = pc.on_a.force.norm();

@@ -10,7 +10,7 @@
 use num_dual::Dual64;
 
 use super::{Param, SimState, Slot};
-use crate::contact::ContactParams;
+use crate::contact::{ContactParams, PairContact};
 use crate::model::Model;
 use crate::scalar::c;
 
@@ -93,7 +93,23 @@ pub fn directional_derivative(
         let f = model
             .forward(&s.q, &s.v, &s.u, &s.prm)
             .map_err(|e| e.to_string())?;
-        (Some(f.vdot), Some(f.contacts))
+        // A pair out of reach has zero wrenches (and derivatives) but no distance: only
+        // when one of those distances is asked are the pairs evaluated in full.
+        let skipped_distance = unknowns
+            .iter()
+            .any(|u| matches!(u, Slot::PairDistance(p) if f.contacts[*p].is_none()));
+        let contacts = if skipped_distance {
+            let kin = model
+                .tree
+                .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
+            model.contacts(&kin, &s.prm).1
+        } else {
+            f.contacts
+                .into_iter()
+                .map(|c| c.unwrap_or_else(PairContact::none))
+                .collect()
+        };
+        (Some(f.vdot), Some(contacts))
     } else if needs_contacts {
         let kin = model
             .tree

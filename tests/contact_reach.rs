@@ -1,0 +1,262 @@
+//! Pairs out of reach (`collision::out_of_reach`): whenever the proof says a pair cannot push,
+//! the unpruned reference pushes less than the documented bound; the proof settles pairs a few
+//! `ε3` beyond the reach distance, not only far ones; and the dynamics skip such pairs while
+//! the outputs still give their smooth distance.
+
+use crate::common::Lcg;
+use nalgebra::{Rotation3, Unit, Vector3};
+use scm::collision::{out_of_reach, reach_distance, Collider, Frame};
+use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation};
+use scm::geometry::Shape;
+use scm::scalar::PRUNE_TOLERANCE;
+use std::path::Path;
+
+fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
+    ContactParams {
+        eps1,
+        eps2: 1e-3,
+        eps3,
+        stiffness: 1e4,
+        dissipation_velocity: 0.1,
+        stiction_velocity: 0.05,
+        friction: 0.5,
+        dissipation: Dissipation::Paper,
+    }
+}
+
+fn is_far(
+    a: &Collider,
+    fa: &Frame<f64>,
+    b: &Collider,
+    fb: &Frame<f64>,
+    p: &ContactParams<f64>,
+) -> bool {
+    let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    out_of_reach(
+        a,
+        b,
+        &rels,
+        p.eps1,
+        p.eps3,
+        p.dissipation_velocity,
+        p.friction,
+    )
+}
+
+/// The bound of `out_of_reach` on every force of a pair it settles:
+/// `τ k (ε3 + (ℓ + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`, with `ℓ` and `V` taken generously here
+/// (the two bodies' bounding spheres, every speed summed).
+fn force_bound(p: &ContactParams<f64>, ell: f64, speed: f64) -> f64 {
+    let factor = (1.0 + speed / p.dissipation_velocity) * (1.0 + p.friction * p.friction).sqrt();
+    PRUNE_TOLERANCE * p.stiffness * (p.eps3 + (ell + p.eps3 * std::f64::consts::LN_2) * factor)
+}
+
+#[test]
+fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
+    let mut rng = Lcg(2026);
+    let shapes = [
+        (Shape::Sphere { radius: 0.05 }, 0.05),
+        (
+            Shape::Box {
+                half: Vector3::new(0.08, 0.05, 0.03),
+            },
+            0.1,
+        ),
+        (
+            Shape::Capsule {
+                radius: 0.03,
+                half_length: 0.05,
+            },
+            0.08,
+        ),
+        (
+            Shape::Cylinder {
+                radius: 0.04,
+                half_length: 0.03,
+            },
+            0.05,
+        ),
+    ];
+    let colliders: Vec<(Collider, f64)> = shapes
+        .iter()
+        .map(|(s, r)| (Collider::Aopc(s.sample(0.01)), *r))
+        .collect();
+    let plane = Collider::HalfSpace {
+        point: Vector3::zeros(),
+        normal: Vector3::z(),
+    };
+    let (mut proven, mut beyond, mut worst) = (0, 0, 0.0f64);
+    for case in 0..240 {
+        let (a, ra) = &colliders[case % colliders.len()];
+        let against_plane = case % 5 == 4;
+        let (b, rb) = if against_plane {
+            (&plane, 0.0)
+        } else {
+            let (b, rb) = &colliders[(case / 4) % colliders.len()];
+            (b, *rb)
+        };
+        let p = [(1e-5, 1e-4), (1e-6, 1e-3), (1e-8, 1e-5)][case % 3];
+        let prm = params(p.0, p.1);
+        // Gaps between the bounding spheres from touching to 5 cm: most pairs are within a few
+        // reach distances, where the proof has to be sharp to settle anything.
+        let gap = rng.range(0.0, 0.05);
+        let dir = if against_plane {
+            Vector3::z()
+        } else {
+            rng.direction()
+        };
+        let rot = |rng: &mut Lcg| {
+            Rotation3::from_axis_angle(&Unit::new_normalize(rng.direction()), rng.range(-3.0, 3.0))
+                .into_inner()
+        };
+        let fa = Frame {
+            rotation: rot(&mut rng),
+            origin: dir * (ra + rb + gap),
+            linvel: rng.direction() * rng.range(0.0, 1.0),
+            angvel: rng.direction() * rng.range(0.0, 3.0),
+        };
+        let fb = if against_plane {
+            Frame::identity()
+        } else {
+            Frame {
+                rotation: rot(&mut rng),
+                origin: Vector3::zeros(),
+                linvel: rng.direction() * rng.range(0.0, 1.0),
+                angvel: rng.direction() * rng.range(0.0, 3.0),
+            }
+        };
+        let far = is_far(a, &fa, b, &fb, &prm);
+        let speed = (fa.linvel - fb.linvel).norm()
+            + (fa.angvel.norm() + fb.angvel.norm()) * (ra + rb + gap + 0.1);
+        let t = reach_distance(prm.eps3, speed, prm.dissipation_velocity, prm.friction).unwrap();
+        if gap > 2.0 * t + 0.005 {
+            beyond += 1;
+            proven += far as usize;
+        }
+        if !far {
+            continue;
+        }
+        let bound = force_bound(&prm, 2.0 * (ra + rb) + gap, speed);
+        let n = pair_contact_naive(a, &fa, b, &fb, &prm);
+        for (w, what) in [(&n.on_a, "a"), (&n.on_b, "b")] {
+            let f = w.force.norm();
+            let m = w.torque.norm();
+            worst = worst.max(f / bound);
+            assert!(
+                f <= bound && m <= bound * (ra + rb + gap + 0.1),
+                "case {case}: gap {gap}, eps3 {}: out of reach, yet the reference pushes {what} with {f:e} N, {m:e} N m (bound {bound:e} N)",
+                prm.eps3
+            );
+        }
+        // The pruned evaluation (what the dynamics would have used) is below the bound too.
+        let pc = pair_contact(a, &fa, b, &fb, &prm);
+        assert!(
+            pc.on_a.force.norm() <= bound,
+            "case {case}: pruned force {:e}",
+            pc.on_a.force.norm()
+        );
+    }
+    println!("settled {proven} of {beyond} pairs more than 2 reach distances + 5 mm apart; largest force / bound {worst:e}");
+    assert!(
+        proven * 10 >= beyond * 9,
+        "the proof settles too few pairs that are clearly apart: {proven} of {beyond}"
+    );
+}
+
+/// Two bodies face to face at rest: touching, they are in reach; apart, the proof settles
+/// them within a few reach distances (3.7 mm at ε3 = 0.1 mm at rest) for a sphere, but only
+/// from about 4 cm for two aligned boxes. Their top faces are then coplanar: the other box's
+/// top-face planes near its edge stay relevant at a top-edge point (their softmax weight is
+/// about `e^{-2 g s / ε1}`, `s` the spacing, far above τ/I at a gap `g` of 1 cm) and lie at
+/// `φ ≈ 0`; the proof bounds each relevant plane's distance, not its weight times its spring,
+/// so it cannot settle them, though the reference force there is below 1e-20 N.
+#[test]
+fn bodies_a_few_reach_distances_apart_are_settled() {
+    let prm = params(1e-5, 1e-4);
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
+    let ball = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
+    let t = reach_distance(prm.eps3, 0.0, prm.dissipation_velocity, prm.friction).unwrap();
+    assert!((3e-3..5e-3).contains(&t), "reach distance {t}");
+    for (name, b, settled_by) in [("sphere", &ball, 2.0 * t + 2e-3), ("box", &cube, 0.04)] {
+        let at = |gap: f64| Frame {
+            origin: Vector3::new(0.1 + gap, 0.0, 0.0),
+            ..Frame::identity()
+        };
+        let far = |gap: f64| is_far(b, &at(gap), &cube, &Frame::identity(), &prm);
+        assert!(!far(0.0), "{name}: touching is in reach");
+        assert!(!far(0.5 * t), "{name}: half the reach distance apart");
+        let settled = (1..=100)
+            .map(|k| k as f64 * 5e-4)
+            .find(|&g| far(g))
+            .expect("settled within 5 cm");
+        println!(
+            "{name} beside a box: reach distance {t:.4e} m; settled from a gap of {settled} m"
+        );
+        assert!(
+            settled <= settled_by,
+            "{name}: settled only from {settled} m"
+        );
+        let n = pair_contact_naive(b, &at(settled), &cube, &Frame::identity(), &prm);
+        let scale = PRUNE_TOLERANCE * prm.stiffness * prm.eps3;
+        assert!(
+            n.on_a.force.norm() < scale,
+            "{name}: {:e}",
+            n.on_a.force.norm()
+        );
+    }
+}
+
+/// Three bodies floating apart above a floor: the dynamics skip every pair (no contact is
+/// evaluated, and the accelerations are exactly the contact-free ones), while the outputs
+/// still give each pair's smooth distance, equal to the pair's own evaluation.
+#[test]
+fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
+    let xml = r#"<mujoco>
+      <worldbody>
+        <geom name="floor" type="plane" size="2 2 0.1"/>
+        <body name="a" pos="0 0 0.5"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="1"/></body>
+        <body name="b" pos="0.5 0 0.5"><freejoint/><geom type="sphere" size="0.05" mass="1"/></body>
+        <body name="c" pos="0 0.5 0.5"><freejoint/><geom type="capsule" size="0.03 0.05" mass="1"/></body>
+      </worldbody>
+    </mujoco>"#;
+    let model = scm::scene::load_str(xml, Path::new("float.xml"))
+        .unwrap()
+        .model;
+    assert_eq!(model.pairs.len(), 6);
+    let mut v = model.v0.clone();
+    v[0] = 0.3; // a moves, so the proof's speed bound is not zero
+    v[4] = -2.0;
+    let f = model
+        .forward(&model.q0, &v, &model.u0(), &model.contact)
+        .unwrap();
+    assert!(
+        f.contacts.iter().all(Option::is_none),
+        "every pair is out of reach"
+    );
+    for body in 0..3 {
+        let az = f.vdot[6 * body + 2];
+        assert_eq!(az, -9.81, "body {body} falls freely");
+    }
+    let kin = model.tree.kinematics(&model.q0, &v);
+    let (_, full) = model.contacts(&kin, &model.contact);
+    for (pair, pc) in model.pairs.iter().zip(&full) {
+        let (ca, cb) = (
+            model.colliders[pair.a].as_ref().unwrap(),
+            model.colliders[pair.b].as_ref().unwrap(),
+        );
+        let own = pair_contact(
+            ca,
+            &kin.frames[pair.a],
+            cb,
+            &kin.frames[pair.b],
+            &model.contact,
+        );
+        assert_eq!(pc.distance, own.distance);
+        assert!(pc.distance > 0.3, "{}", pc.distance);
+    }
+}
