@@ -2,13 +2,14 @@
 //! the contact pipeline's speed):
 //!
 //! ```text
-//! pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]
+//! pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--naive] [--profile pair|step|jacobian N]
 //! ```
 //! The state is reached by simulating `--warmup` seconds with the `--set` values (e.g.
 //! `--set act_y.ctrl=0.13 --warmup 0.5` presses the finger of `t_push.xml` against the T, as
 //! the report's speed study does). Printed: per pair the band statistics (query points
-//! evaluated and skipped, plane terms visited) and the time of one pruned pair evaluation and
-//! of one naive one; then the time of one `Model::step` (the scene's integrator, `f64`) and of
+//! evaluated and skipped, plane terms visited), whether it is out of reach
+//! (`collision::out_of_reach`), the time of that proof and of one pruned pair evaluation, and
+//! with `--naive` of one naive one; then the time of one `Model::step` (the scene's integrator, `f64`) and of
 //! the full step Jacobian with respect to `(q, v, u)` (`derivatives::step_jacobian`), all timed
 //! in interleaved rounds. With `--profile`, only that quantity runs N times (for callgrind).
 use scm::collision::separation_band;
@@ -28,6 +29,7 @@ fn main() {
     let path = args.get(1).expect("usage: pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]");
     let mut sim = Simulation::from_file(std::path::Path::new(path)).expect("scene");
     let (mut warmup, mut profile): (f64, Option<(String, usize)>) = (0.0, None);
+    let mut long = false;
     let mut i = 2;
     while i < args.len() {
         match args[i].as_str() {
@@ -44,6 +46,10 @@ fn main() {
                     .expect("set");
             }
             "--warmup" => warmup = args[i + 1].parse().expect("seconds"),
+            "--naive" => {
+                long = true;
+                i -= 1;
+            }
             "--profile" => {
                 profile = Some((
                     args[i + 1].clone(),
@@ -151,6 +157,46 @@ fn main() {
             pc.distance,
             pc.on_a.force.as_slice()
         );
+        let own = match p.friction {
+            Some(mu) => scm::contact::ContactParams {
+                friction: mu,
+                ..prm
+            },
+            None => prm,
+        };
+        let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+        let proof = || {
+            scm::collision::out_of_reach(
+                a,
+                b,
+                &rels,
+                own.eps1,
+                own.eps3,
+                own.dissipation_velocity,
+                own.friction,
+            )
+        };
+        let far = proof();
+        let times = time_interleaved(
+            0.05,
+            &mut [
+                &mut || {
+                    black_box(proof());
+                },
+                &mut || {
+                    black_box(pair_contact(a, fa, b, fb, &own));
+                },
+            ],
+        );
+        println!(
+            "  {}: proof {:.2} µs, pruned pair evaluation {:.2} µs",
+            if far { "out of reach" } else { "in reach" },
+            times[0] * 1e6,
+            times[1] * 1e6
+        );
+        if !long {
+            continue;
+        }
         let t = Instant::now();
         let nn = 5;
         for _ in 0..nn {
