@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! step_cost FMU_DIR --h S [--integrators a,b|all] [--set NAME=VALUE]... [--warmup S]
-//!           [--budget S] [--profile step|jacobian --iterations N]
+//!           [--budget S] [--steps-only] [--profile step|jacobian --iterations N]
 //! ```
 //! `FMU_DIR` is an unpacked FMU. The state at which everything is measured is reached by
 //! simulating `--warmup` seconds from the start with the `--set` values (e.g. a constant finger
@@ -24,6 +24,9 @@
 //! - accuracy: `jacobian_vs_fd_rel` = max |J_dual − J_fd| / max |J_dual| at the relative FD step
 //!   of 1e-4 … 1e-8 that agrees best (`fd_rel_step`; `fd_s` is timed at 1e-6),
 //!   and `dualvec_vs_dual64` (should be rounding only).
+//!
+//! With `--steps-only`, only `model_step_s` and `ffi_step_s` are measured (the benchmark
+//! against MuJoCo, `scripts/bench.sh`).
 //!
 //! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
 //! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
@@ -57,6 +60,8 @@ struct Args {
     warmup: f64,
     budget: f64,
     profile: Option<(String, usize)>,
+    /// Time the steps only (no Jacobians, no finite differences): `--steps-only`.
+    steps_only: bool,
 }
 
 fn parse() -> Result<Args, String> {
@@ -70,12 +75,17 @@ fn parse() -> Result<Args, String> {
         warmup: 0.0,
         budget: 0.3,
         profile: None,
+        steps_only: false,
     };
     let mut iterations = 100;
     let mut profile = None;
     let mut it = raw[1..].iter();
     let num = |s: &str| s.parse::<f64>().map_err(|_| format!("not a number: {s}"));
     while let Some(flag) = it.next() {
+        if flag == "--steps-only" {
+            a.steps_only = true;
+            continue;
+        }
         let v = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
         match flag.as_str() {
             "--h" => a.h = num(v)?,
@@ -417,6 +427,37 @@ fn run() -> Result<String, String> {
             if fmi2GetFMUstate(c, &mut fmu_state) != fmi2OK {
                 return Err("fmi2GetFMUstate failed".into());
             }
+        }
+        if a.steps_only {
+            let times = time_interleaved(
+                a.budget * 3.0,
+                &mut [
+                    &mut || {
+                        black_box(model.step(black_box(&state), &ctrl, &prm, h).expect("step"));
+                    },
+                    &mut || unsafe {
+                        assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                    },
+                    &mut || unsafe {
+                        assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
+                        let s = fmi2DoStep(c, 0.0, h, fmi2True);
+                        assert_eq!(s, fmi2OK, "fmi2DoStep");
+                    },
+                ],
+            );
+            let [model_step, restore, ffi_with_restore] = times[..] else {
+                unreachable!()
+            };
+            unsafe {
+                fmi2FreeFMUstate(c, &mut fmu_state);
+                fmi2FreeInstance(c);
+            }
+            items.push(format!(
+                "{{\"integrator\": \"{}\", \"h\": {h:e}, \"model_step_s\": {model_step:e}, \"ffi_step_s\": {:e}, \"ffi_restore_s\": {restore:e}}}",
+                integrator.name(),
+                (ffi_with_restore - restore).max(0.0)
+            ));
+            continue;
         }
         let j64 = jacobian_dual64(&model, &prm, h, nq, nv, &x);
         let j4 = jacobian_vec::<4>(&model, &prm, h, nq, nv, &x);
