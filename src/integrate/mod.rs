@@ -11,21 +11,21 @@
 //! the quaternions at the end of the step.
 //!
 //! Mocap bodies move with the constant velocity their inputs carry (see
+//! [`Model::inputs_after`]).
 //!
-//! Files: [`crate::integrator`] names the integrators; `step` holds one internal step of each (generic
-//! over the scalar); `advance` covers a communication step and guards it (non-finite
-//! states, energy growth no input explains).
-
+//! Files: [`crate::integrator`] names the integrators; `step` holds one internal step of each
+//! (generic over the scalar); `advance` covers a communication step and guards it against
+//! non-finite states; `guard` keeps the energy balance that refuses growth no input explains.
 //!
 //! [`Model::step_with`]: crate::model::Model::step_with
 //! [`Model::advance`]: crate::model::Model::advance
 //! [`Model::inputs_after`]: crate::model::Model::inputs_after
 
 mod advance;
+mod guard;
 mod step;
 
 pub use crate::integrator::{Integrator, State};
-pub use advance::{
-    contact_energy, AdvanceOptions, Advanced, CacheMark, EnergyLedger, SolverCache, StepFailure,
-};
+pub use advance::{AdvanceOptions, Advanced, CacheMark, SolverCache, StepFailure};
+pub use guard::{contact_energy, EnergyLedger};
 pub use step::Dopri5Step;

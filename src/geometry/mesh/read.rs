@@ -1,0 +1,96 @@
+//! Reading a mesh file: OBJ through tobj, STL through stl_io, each parser guarded so that a
+//! panic on untrusted bytes becomes an error; then the checks of [`TriMesh::new`].
+
+use super::*;
+
+impl TriMesh {
+    /// Loads an OBJ or STL file, scales it, checks it and orients it outward. Returns the mesh
+    /// and warnings (e.g. an inward orientation that was fixed).
+    pub fn load(path: &Path, scale: &Vector3<f64>) -> Result<(TriMesh, Vec<String>), MeshError> {
+        let file = path.display().to_string();
+        let err = |problem| MeshError {
+            file: file.clone(),
+            problem,
+        };
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_lowercase())
+            .unwrap_or_default();
+        if ext != "obj" && ext != "stl" {
+            return Err(err(MeshProblem::Format(ext)));
+        }
+        let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
+        // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
+        // a parse error, never a crash of the host.
+        let parsed = std::panic::catch_unwind(|| {
+            if ext == "obj" {
+                parse_obj(&bytes)
+            } else {
+                parse_stl(&bytes)
+            }
+        })
+        .unwrap_or_else(|_| Err("the parser failed on this file".into()));
+        let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
+        let vertices = vertices
+            .into_iter()
+            .map(|v| v.component_mul(scale))
+            .collect();
+        let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
+        if scale.x * scale.y * scale.z < 0.0 {
+            // A mirroring scale turns the surface inside out; `new` has already flipped it back.
+            warnings.retain(|w| !w.contains("inward"));
+        }
+        mesh.file = file;
+        Ok((mesh, warnings))
+    }
+}
+
+/// Vertices and triangles of a parsed file, or what is wrong with it.
+type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
+
+/// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
+fn parse_obj(bytes: &[u8]) -> Parsed {
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let mut reader = std::io::BufReader::new(bytes);
+    let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default()))
+        .map_err(|e| e.to_string())?;
+    let (mut verts, mut tris) = (Vec::new(), Vec::new());
+    for m in &models {
+        let base = verts.len() as u32;
+        let p = &m.mesh.positions;
+        verts.extend(
+            p.chunks_exact(3)
+                .map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)),
+        );
+        tris.extend(
+            m.mesh
+                .indices
+                .chunks_exact(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
+    }
+    Ok((verts, tris))
+}
+
+/// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
+/// winding decides the orientation.
+fn parse_stl(bytes: &[u8]) -> Parsed {
+    let mut cursor = std::io::Cursor::new(bytes);
+    let mesh = stl_io::read_stl(&mut cursor).map_err(|e| e.to_string())?;
+    let verts = mesh
+        .vertices
+        .iter()
+        .map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+        .collect();
+    let tris = mesh
+        .faces
+        .iter()
+        .map(|f| f.vertices.map(|i| i as u32))
+        .collect();
+    Ok((verts, tris))
+}

@@ -1,0 +1,129 @@
+//! The energy guard of [`Model::advance`](crate::model::Model::advance) (see [`AdvanceOptions::energy_guard`](crate::integrate::AdvanceOptions::energy_guard)): the balance
+//! it keeps over a run ([`EnergyLedger`]), its working state during one call, and the estimate
+//! of the energy stored in contact ([`contact_energy`]).
+
+use crate::contact::ContactParams;
+use crate::integrator::State;
+use crate::model::Model;
+
+impl Model {
+    /// Power of the actuators `τ_act · v` (W).
+    pub(super) fn actuator_power(&self, s: &State<f64>, ctrl: &[f64]) -> f64 {
+        self.actuator_forces(&s.q, &s.v, ctrl)
+            .iter()
+            .zip(&s.v)
+            .map(|(t, v)| t * v)
+            .sum()
+    }
+
+    /// The guard's state at the start of a call from `state` at time `t0` (s), with the contacts
+    /// there (`None`: none evaluated), continuing `ledger` if it was left at this state and
+    /// these parameters. `None` when the energy is not finite (it cannot be judged).
+    pub(super) fn energy_monitor(
+        &self,
+        state: &State<f64>,
+        ctrl: &[f64],
+        prm: &ContactParams<f64>,
+        contacts: Option<&[Option<crate::contact::PairContact<f64>>]>,
+        t0: f64,
+        ledger: Option<&EnergyLedger>,
+    ) -> Option<EnergyMonitor> {
+        let e = self.energy(&state.q, &state.v);
+        let stored = contacts.map_or(0.0, |c| contact_energy(c, prm));
+        let moving = e.kinetic + stored;
+        let ledger = match ledger {
+            Some(l) if l.at == *state && l.params == *prm => EnergyLedger {
+                scale: l.scale.max(moving),
+                ..l.clone()
+            },
+            _ => EnergyLedger {
+                at: state.clone(),
+                params: *prm,
+                since: t0,
+                reference: e.total() + stored,
+                work: 0.0,
+                gross_work: 0.0,
+                scale: moving,
+            },
+        };
+        (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
+            ledger,
+            power: self.actuator_power(state, ctrl),
+            floor: self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4),
+        })
+    }
+}
+
+/// The energy balance the guard keeps over a run (see [`AdvanceOptions::energy_guard`](crate::integrate::AdvanceOptions::energy_guard)):
+/// carried from one [`Model::advance_cached`](crate::model::Model::advance_cached) call to the next in the [`SolverCache`](crate::integrate::SolverCache), so that
+/// an energy that grows a little in every communication step is seen as it adds up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnergyLedger {
+    /// The state the ledger was left at; a call from any other state starts a new ledger.
+    pub at: State<f64>,
+    /// The contact parameters it was kept with; other parameters start a new ledger (they
+    /// change the energy stored in contact).
+    pub params: ContactParams<f64>,
+    /// Time the ledger started (s, for messages).
+    pub since: f64,
+    /// Energy at the start, `E + U` (J): mechanical energy and the estimate of the energy
+    /// stored in contact ([`contact_energy`]).
+    pub reference: f64,
+    /// Work of the actuators since the start (J, trapezoidal rule on the internal steps).
+    pub work: f64,
+    /// Sum of the magnitudes of that work's increments (J): what its rounding scales with.
+    pub gross_work: f64,
+    /// Largest energy in motion seen: `T + U` at the start of each call, `T` after every
+    /// internal step (J).
+    pub scale: f64,
+}
+
+impl EnergyLedger {
+    /// The most mechanical energy a state may have (J), given the energy floor `floor` (J):
+    /// `E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor` ([`AdvanceOptions::energy_guard`](crate::integrate::AdvanceOptions::energy_guard)).
+    pub(super) fn allowed(&self, floor: f64) -> f64 {
+        self.reference + self.work + 0.5 * (self.scale + self.gross_work) + floor
+    }
+}
+
+/// The guard's working state during one [`Model::advance`](crate::model::Model::advance) call.
+pub(super) struct EnergyMonitor {
+    /// The balance since the ledger started.
+    pub(super) ledger: EnergyLedger,
+    /// Actuator power at the last internal step (W).
+    pub(super) power: f64,
+    /// Energy below which growth is not judged (J).
+    pub(super) floor: f64,
+}
+
+/// An estimate of the elastic energy stored in the contacts `contacts` (J), per pair the
+/// larger of `ε3 |F| + |F|²/(2k)` (`F`: the force between the two bodies) and `k D²` (`D < 0`:
+/// the smooth penetration). A pair out of reach (`None`, see
+/// [`Model::contact_forces`](crate::model::Model::contact_forces)) stores nothing.
+///
+/// A point–plane spring `k s`, `s = s⁺_ε3(-φ)`, stores `k ε3² P(φ/ε3)`, with
+/// `P(y) = ∫_y^∞ ln(1 + e^{-t}) dt = -Li₂(-e^{-y})` (the work its force does as the point
+/// leaves to infinity); `k (ε3 s + ½ s²)` has the same tails (`k ε3² e^{-y}` far out, `½ k φ²`
+/// deep in) and lies between 1.00 and 1.25 times it for every `φ` (checked numerically on
+/// `y ∈ [-20, 20]`). A pair's force is such springs averaged by the softmax weights, times the
+/// dissipation factor, so with `s = |F|/k` this is an estimate, not a bound: it reads high
+/// while the bodies approach (damping adds to `|F|`) and low where forces of one pair cancel
+/// (one body inside another: the `k D²` term covers that). The old per-step bound `k (D² + ε3²)`
+/// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
+/// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
+pub fn contact_energy(
+    contacts: &[Option<crate::contact::PairContact<f64>>],
+    prm: &ContactParams<f64>,
+) -> f64 {
+    let k = prm.stiffness;
+    contacts
+        .iter()
+        .flatten()
+        .filter(|pc| pc.distance.is_finite())
+        .map(|pc| {
+            let f = pc.on_a.force.norm();
+            let deep = (-pc.distance).max(0.0);
+            (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep)
+        })
+        .sum()
+}
