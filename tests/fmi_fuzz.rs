@@ -291,7 +291,11 @@ impl Model {
             return false;
         }
         match slot {
-            Slot::Q(_) | Slot::V(_) => self.before_init(),
+            // Model Exchange also takes the states by value reference after initialization
+            // (as `fmi2SetContinuousStates` does; CasADi relies on it).
+            Slot::Q(_) | Slot::V(_) => {
+                self.before_init() || matches!(self.phase, Phase::Event | Phase::Continuous)
+            }
             Slot::Ctrl(_) | Slot::Mocap(..) => true,
             Slot::Param(Param::Friction) => value >= 0.0,
             Slot::Param(_) => value > 0.0,

@@ -133,7 +133,12 @@ impl FmiModel for Simulation {
         Self::check_finite(&var.name, value)?;
         let before_init = phase != Phase::Simulation;
         match slot {
-            Slot::Q(i) | Slot::V(i) if before_init => {
+            // In Model Exchange the states may also be set by value reference after
+            // initialization, as `fmi2SetContinuousStates` sets them: hosts that evaluate the
+            // right-hand side at states of their own choosing (CasADi's `DaeBuilder` calls
+            // `fmi2SetReal` on the states in Event Mode) rely on it, and Modelica tools' FMUs
+            // accept it. A Co-Simulation instance owns its state between steps.
+            Slot::Q(i) | Slot::V(i) if before_init || self.model_exchange => {
                 if matches!(slot, Slot::Q(_)) {
                     self.current.state.q[i] = value;
                 } else {
