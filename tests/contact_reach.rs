@@ -164,12 +164,13 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
 }
 
 /// Two bodies face to face at rest: touching, they are in reach; apart, the proof settles
-/// them within a few reach distances (3.7 mm at ε3 = 0.1 mm at rest) for a sphere, but only
-/// from about 4 cm for two aligned boxes. Their top faces are then coplanar: the other box's
-/// top-face planes near its edge stay relevant at a top-edge point (their softmax weight is
-/// about `e^{-2 g s / ε1}`, `s` the spacing, far above τ/I at a gap `g` of 1 cm) and lie at
-/// `φ ≈ 0`; the proof bounds each relevant plane's distance, not its weight times its spring,
-/// so it cannot settle them, though the reference force there is below 1e-20 N.
+/// them within a few reach distances (3.5 mm at ε3 = 0.1 mm at rest) for a sphere, but only
+/// from about 4 cm for two boxes side by side, and rightly: the edge points of one box lie a
+/// half spacing behind the planes of the other's top and bottom faces, whose weights there are
+/// about `e^{-g s/ε1}` (`g` the gap, `s` the spacing), so each such point is pushed with a
+/// force that fades only over centimetres. Aligned, those pushes cancel (the reference force is
+/// 1e-21 N at 1 cm); with one box 3 mm higher they do not: 1.2e-5 N at a gap of 1 cm, 5.5e-10 N
+/// at 2 cm, 2.5e-14 N at 3 cm (τ k ε3 = 1e-15 N).
 #[test]
 fn bodies_a_few_reach_distances_apart_are_settled() {
     let prm = params(1e-5, 1e-4);
