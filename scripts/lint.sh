@@ -24,3 +24,5 @@ echo "lint: cargo clippy --all-targets -- -D warnings"
 cargo clippy --release --all-targets --locked -q -- -D warnings
 echo "lint: cargo doc (warnings denied)"
 RUSTDOCFLAGS="-D warnings" cargo doc --release --no-deps --locked -q
+echo "lint: the engine, loader and simulation without features (no fmi2* symbols, no clap)"
+cargo clippy --release --lib --no-default-features --locked -q -- -D warnings

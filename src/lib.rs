@@ -10,6 +10,15 @@
 //! out), [`sim`] (a running simulation and its variable table), [`fmi`] (the FMI 2.0 C ABI) and
 //! [`pack`] (the `.fmu` archive). The math never sees a file, a pointer or XML.
 //!
+//! # Features
+//! - `fmu` (default): the FMI 2.0 functions (`fmi2Instantiate`, …) exported by the cdylib,
+//!   which make `libscm.so` an FMU binary.
+//! - `cli` (default): the `scm` command line.
+//!
+//! With `default-features = false` the crate is a plain Rust library: load a scene with
+//! [`scene::load_str`] or [`scene::load`], step its [`Model`] or a [`sim::Simulation`], with no
+//! C symbol exported (checked in CI by `scripts/lint.sh`).
+//!
 //! [`Model`]: model::Model
 #![warn(missing_docs)]
 
@@ -29,5 +38,6 @@ pub mod scene;
 pub mod sim;
 
 // The FMI 2.0 C ABI of the FMU binary: every `fmi2*` function, for scenes simulated by
-// `sim::Simulation`.
+// `sim::Simulation` (feature `fmu`, on by default; without it the crate is a plain library).
+#[cfg(feature = "fmu")]
 fmi2_exports!(crate::sim::Simulation);
