@@ -13,7 +13,7 @@ use std::collections::BTreeSet;
 use super::{Param, Slot};
 use crate::collision::Collider;
 use crate::dynamics::JointKind;
-use crate::fmi::contract::{Causality, Initial, ModelStructure, Variable};
+use crate::fmi::contract::{Causality, Initial, ModelStructure, VarType, Variable};
 use crate::model::Model;
 
 /// A set of knowns, by what they are (not yet by value reference).
@@ -259,7 +259,14 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
                 .outputs
                 .push((v.value_reference, Some(to_vrs(&k, false))));
         }
-        if matches!(slot, Slot::QDot(_) | Slot::VDot(_)) {
+        let is_derivative = matches!(
+            v.var_type,
+            VarType::Real {
+                derivative: Some(_),
+                ..
+            }
+        );
+        if is_derivative {
             structure
                 .derivatives
                 .push((v.value_reference, Some(to_vrs(&k, false))));
@@ -267,9 +274,7 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
         // Initial unknowns: everything computed from the exact start values (states,
         // inputs, parameters).
         let calculated = v.initial.unwrap_or(Initial::Calculated) == Initial::Calculated;
-        if calculated
-            && (v.causality == Causality::Output || matches!(slot, Slot::QDot(_) | Slot::VDot(_)))
-        {
+        if calculated && (v.causality == Causality::Output || is_derivative) {
             structure
                 .initial_unknowns
                 .push((v.value_reference, Some(to_vrs(&k, true))));

@@ -365,8 +365,11 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
 }
 
 /// Appends the state derivatives `der(<state>)` of every position and velocity coordinate, in
-/// coordinate order (`q` then `v`, which is the order of the continuous states). Position
-/// derivatives are local; velocity derivatives (accelerations) are outputs.
+/// coordinate order (`q` then `v`, which is the order of the continuous states), all local;
+/// then the accelerations as outputs of their own (`<joint>.a`, `<body>.linacc.*`,
+/// `<body>.angacc.*`), the same values as the velocity derivatives. A state derivative that is
+/// also an output is legal FMI, but hosts that list derivatives and outputs together (CasADi's
+/// `DaeBuilder`, `['ode', 'y']`) then see one variable twice and refuse.
 fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
     let mut states: Vec<(Slot, u32, String, Option<&'static str>)> = rows
         .iter()
@@ -388,6 +391,7 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
         Slot::V(i) => usize::MAX / 2 + i,
         _ => usize::MAX,
     });
+    let mut accelerations = Vec::new();
     for (slot, state_vr, name, unit) in states {
         let (unit, slot, causality, what) = match (slot, unit) {
             (Slot::Q(i), Some("m")) => ("m/s", Slot::QDot(i), Causality::Local, "Time derivative"),
@@ -398,13 +402,13 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
             (Slot::V(i), Some("m/s")) => (
                 "m/s2",
                 Slot::VDot(i),
-                Causality::Output,
+                Causality::Local,
                 "Acceleration (time derivative)",
             ),
             (Slot::V(i), _) => (
                 "rad/s2",
                 Slot::VDot(i),
-                Causality::Output,
+                Causality::Local,
                 "Acceleration (time derivative)",
             ),
             _ => continue,
@@ -417,6 +421,9 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
             unit: Some(unit),
             derivative: Some(state_vr),
         };
+        if let Slot::VDot(_) = slot {
+            accelerations.push((slot, name.clone(), unit));
+        }
         rows.push((
             Variable {
                 name: format!("der({name})"),
@@ -430,6 +437,51 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
             slot,
         ));
     }
+    let first = rows.len();
+    for (slot, state, unit) in accelerations {
+        let value_reference = rows.len() as u32;
+        rows.push((
+            Variable {
+                name: acceleration_name(&state),
+                value_reference,
+                causality: Causality::Output,
+                variability: Variability::Continuous,
+                initial: None,
+                var_type: VarType::Real {
+                    start: None,
+                    unit: Some(unit),
+                    derivative: None,
+                },
+                description: format!("Acceleration: the time derivative of {state} (der({state}))"),
+            },
+            slot,
+        ));
+    }
+    // An acceleration's name may meet a name the scene already gave: renamed, as any other.
+    let mut all: Vec<String> = rows.iter().map(|(v, _)| v.name.clone()).collect();
+    for (k, old) in names::make_unique(&mut all) {
+        if k >= first {
+            rows[k].0.description = format!(
+                "{} (named {old} at first; renamed to be unique)",
+                rows[k].0.description
+            );
+            rows[k].0.name = std::mem::take(&mut all[k]);
+        }
+    }
+}
+
+/// The name of the acceleration output of a velocity state: `<joint>.v` → `<joint>.a`,
+/// `<body>.linvel.x` → `<body>.linacc.x`, `<body>.angvel.x` → `<body>.angacc.x`.
+fn acceleration_name(state: &str) -> String {
+    if let Some(joint) = state.strip_suffix(".v") {
+        return format!("{joint}.a");
+    }
+    for (vel, acc) in [(".linvel.", ".linacc."), (".angvel.", ".angacc.")] {
+        if let Some(at) = state.rfind(vel) {
+            return format!("{}{acc}{}", &state[..at], &state[at + vel.len()..]);
+        }
+    }
+    format!("{state}.acc")
 }
 
 /// 64-bit FNV-1a (the GUID uses two lanes of it); see [`crate::fmi::serial::fnv1a`].
