@@ -13,10 +13,12 @@ import pathlib
 import subprocess
 import sys
 import tempfile
-import time
 import zipfile
 
 import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from report.speed import mujoco_step_time  # noqa: E402  (one MuJoCo timing, shared with the report)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCM = ROOT / "target" / "release" / "scm"
@@ -85,25 +87,6 @@ def scm_step(xml, sets, warmup, work):
     return r["ffi_step_s"]
 
 
-def mujoco_step(xml, sets, warmup):
-    import mujoco
-    m = mujoco.MjModel.from_xml_path(str(xml))
-    d = mujoco.MjData(m)
-    m.opt.timestep = H
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
-    for name, x in sets.items():
-        if name.endswith(".ctrl"):
-            d.ctrl[m.actuator(name[:-5]).id] = x
-    mujoco.mj_step(m, d, nstep=max(1, int(round(warmup / H))))
-    n = 2000
-    samples = []
-    for _ in range(9):
-        t0 = time.perf_counter()
-        mujoco.mj_step(m, d, nstep=n)
-        samples.append((time.perf_counter() - t0) / n)
-    return float(np.median(samples)), int(d.ncon)
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "reports")
@@ -123,7 +106,7 @@ def main():
         for xml, sets, warmup, name in cases:
             print(f"bench: {name}", file=sys.stderr, flush=True)
             ours = scm_step(xml, sets, warmup, work)
-            theirs, ncon = mujoco_step(xml, sets, warmup)
+            theirs, ncon = mujoco_step_time(xml, sets, warmup, h=H)
             rows.append((name, ours, theirs, ncon))
     lines = ["# Step cost against MuJoCo", "",
              "Written by `scripts/bench.sh` (one run; medians of interleaved rounds). One internal step of "

@@ -211,17 +211,12 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        let out = self
-            .pairs
-            .iter()
-            .map(|pair| {
-                let pc = self.pair_contact_of(pair, kin, prm, false);
-                add_pair_wrenches(&mut wrenches, pair, pc.as_ref());
-                pc.unwrap_or_else(PairContact::none)
-            })
+        let (wrenches, pairs) = self.contacts_with(kin, prm, false);
+        let pairs = pairs
+            .into_iter()
+            .map(|pc| pc.unwrap_or_else(PairContact::none))
             .collect();
-        (wrenches, out)
+        (wrenches, pairs)
     }
 
     /// The contact wrenches for the dynamics: as [`Model::contacts`], except that a pair proven
@@ -233,13 +228,28 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
+        self.contacts_with(kin, prm, true)
+    }
+
+    /// Every pair's contact ([`Model::pair_contact_of`]) and the wrenches they add up to.
+    fn contacts_with<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        prune: bool,
+    ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let out = self
             .pairs
             .iter()
             .map(|pair| {
-                let pc = self.pair_contact_of(pair, kin, prm, true);
-                add_pair_wrenches(&mut wrenches, pair, pc.as_ref());
+                let pc = self.pair_contact_of(pair, kin, prm, prune);
+                if let Some(pc) = &pc {
+                    for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
+                        wrenches[b].force += x.force;
+                        wrenches[b].torque += x.torque;
+                    }
+                }
                 pc
             })
             .collect();
@@ -569,15 +579,5 @@ impl Model {
             .filter(|&b| self.tree.body_moves(b))
             .map(|b| self.tree.bodies[b].inertia.mass)
             .sum()
-    }
-}
-
-/// Adds a pair's wrenches to its bodies' (nothing for a pair out of reach).
-fn add_pair_wrenches<T: Scalar>(w: &mut [Wrench<T>], pair: &Pair, pc: Option<&PairContact<T>>) {
-    if let Some(pc) = pc {
-        for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
-            w[b].force += x.force;
-            w[b].torque += x.torque;
-        }
     }
 }

@@ -36,21 +36,28 @@ def step_cost(ctx, variant, sets, warmup, extra=()):
 
 def mujoco_step(ctx, xml, sets, warmup):
     """MuJoCo's time per step (Euler, 2 ms) on the same scene, from the same kind of state."""
+    return mujoco_step_time(xml, sets, warmup, 200 if ctx.quick else 2000)
+
+
+def mujoco_step_time(xml, sets, warmup, n=2000, h=H):
+    """MuJoCo's time per step (median of 9 rounds of `n` steps, `Euler` at `h`) and its contact
+    count, after `warmup` s from the start with the `.ctrl` values of `sets` (also the
+    benchmark's, scripts/bench.py)."""
     import mujoco
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)
-    m.opt.timestep = H
+    m.opt.timestep = h
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     for name, x in sets.items():
         if name.endswith(".ctrl"):
             d.ctrl[m.actuator(name[:-5]).id] = x
-    mujoco.mj_step(m, d, nstep=max(1, int(round(warmup / H))))
-    n = 200 if ctx.quick else 2000
+    mujoco.mj_step(m, d, nstep=max(1, int(round(warmup / h))))
     samples = []
     for _ in range(9):
         t0 = time.perf_counter()
         mujoco.mj_step(m, d, nstep=n)
         samples.append((time.perf_counter() - t0) / n)
-    return float(np.median(samples)), d.ncon
+    return float(np.median(samples)), int(d.ncon)
 
 
 def profile(ctx, variant, sets, warmup, what, iterations):

@@ -59,6 +59,7 @@ pub fn cloud_beyond(
     // and the parent's open nodes of the other hierarchy (`arena[from..to]`).
     let mut arena: Vec<u32> = vec![0];
     let mut front: Vec<u32> = Vec::new();
+    let mut unsettled: Vec<u32> = Vec::new();
     let mut stack = vec![(0u32, usize::MAX, 0u32, 1u32)];
     let mut tests = 0;
     while let Some((ni, hint, from, to)) = stack.pop() {
@@ -108,9 +109,9 @@ pub fn cloud_beyond(
                 let one = QueryRegion::ball(x, 1e-12 * (x.norm() + 1.0));
                 let ok = match planes {
                     Collider::Aopc(o) => {
-                        let mut open = Vec::new();
+                        unsettled.clear();
                         let front = &arena[cfrom as usize..cto as usize];
-                        aopc_exceeds(o, &one, t, eps1, witness, Some(vmax), front, &mut open).0
+                        aopc_exceeds(o, &one, t, eps1, witness, Some(vmax), front, &mut unsettled).0
                     }
                     Collider::HalfSpace { .. } => {
                         ssdf_exceeds_over(planes, &one, t, eps1, usize::MAX).0
