@@ -14,8 +14,8 @@
 //! `d²/2 - w d/2 + 3w²/20` beyond; the damper only dissipates (`b σ ḋ² ≥ 0`).
 //!
 //! Stiffness and damping come from MuJoCo's `solreflimit` (time constant `τ`, damping ratio
-//! `ζ`; default 0.02 s and 1) and the joint's effective inertia `I` (the diagonal of the mass
-//! matrix, armature included, at the reference configuration): `k = I / (τ ζ)²`, `b = 2 I / τ`,
+//! `ζ`; default 0.02 s and 1) and the joint's effective inertia `I` (`1 / (M⁻¹)ᵢᵢ`, armature
+//! included, at the reference configuration: MuJoCo's `1 / dof_invweight0`): `k = I / (τ ζ)²`, `b = 2 I / τ`,
 //! the constants of MuJoCo's reference acceleration for a unit impedance. A negative `solref`
 //! gives them directly as `k = -solref[0] I`, `b = -solref[1] I`.
 

@@ -183,15 +183,29 @@ impl Builder {
     }
 
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
-    /// effective inertia at the reference configuration ([`crate::dynamics::limit`]).
+    /// effective inertia at the reference configuration ([`crate::dynamics::limit`]): the
+    /// inverse of the diagonal of `M⁻¹` there, MuJoCo's `1 / dof_invweight0`, i.e. the inertia
+    /// the joint's coordinate shows when every other coordinate is free. (The diagonal of `M`
+    /// itself would be the inertia with every other joint locked: for a hip of a floating
+    /// walker it is 56 times larger, and a limit stiffened by it is too stiff for the file's
+    /// step.)
     pub(super) fn set_limits(&self, tree: &mut Tree) {
         let q0 = tree.q0();
         let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
         let m = tree.mass_matrix(&kin);
+        let m_inv = m.clone().cholesky().map(|ch| ch.inverse());
         for (j, limit) in self.limits.iter().enumerate() {
-            let joint = &mut tree.joints[j];
-            if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) = (limit, joint.kind) {
-                let inertia = m[(joint.dadr, joint.dadr)];
+            if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
+                (limit, tree.joints[j].kind)
+            {
+                let d = tree.joints[j].dadr;
+                let inertia = match (slider_body_mass(tree, j), &m_inv) {
+                    (Some(mass), _) => mass,
+                    (None, Some(inv)) if inv[(d, d)] > 0.0 => 1.0 / inv[(d, d)],
+                    // A singular mass matrix (a massless chain): the locked-joint inertia.
+                    _ => m[(d, d)],
+                };
+                let joint = &mut tree.joints[j];
                 joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
                     *lo,
                     *hi,
@@ -206,7 +220,10 @@ impl Builder {
     pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
         self.compile_inertias();
         let refused = self.apply_flags();
-        let tree = self.tree()?;
+        let mut tree = self.tree()?;
+        if self.flags.limit {
+            self.set_limits(&mut tree);
+        }
         Ok(Compiled {
             tree,
             geoms: self.geoms,
@@ -411,4 +428,32 @@ impl Builder {
             bodies,
         })
     }
+}
+
+/// The mass MuJoCo takes as the inertia of joint `j` when its body is what MuJoCo's compiler
+/// calls a simple body with sliders only (`body_simple = 2`): every joint of the body a slide
+/// at the body origin along a coordinate axis, no child body, the parent the world or a
+/// jointless child of it, and the inertia's frame the body frame (centre of mass at the
+/// origin, diagonal inertia). For such a body MuJoCo's `dof_invweight0` is `1 / mass`: the
+/// joints' armature is left out (for other joints it is in). `None` for every other joint.
+fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
+    let b = tree.joints[j].body;
+    let body = &tree.bodies[b];
+    let at_origin_on_an_axis = |k: &usize| {
+        let joint = &tree.joints[*k];
+        joint.kind == JointKind::Slide
+            && joint.anchor.norm() == 0.0
+            && joint.axis.iter().filter(|a| a.abs() > 1e-14).count() == 1
+    };
+    let parent_fixed = match body.parent {
+        Some(0) => true,
+        Some(p) => tree.bodies[p].parent == Some(0) && tree.bodies[p].joints.is_empty(),
+        None => false,
+    };
+    let i = &body.inertia;
+    let same_frame =
+        i.com.norm() == 0.0 && (0..3).all(|r| (0..3).all(|c| r == c || i.rot[(r, c)] == 0.0));
+    let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
+    (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
+        .then_some(i.mass)
 }

@@ -4,7 +4,8 @@
 //! Bodies: `pos`/`quat` in the parent's frame, `mass`, `ipos` (centre of mass) and `inertia`
 //! (the 3×3 rotational inertia about the centre of mass, body axes, row-major). Joints: `pos`
 //! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
-//! `springref`, passive properties and limits in SI units. Geoms: `size` as MuJoCo stores it
+//! `springref`, passive properties and limits in SI units, with the limit spring's stiffness and
+//! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`). Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
 //! body frame.
 
@@ -89,6 +90,8 @@ impl Compiled {
                     "armature": j.armature, "frictionloss": j.frictionloss,
                     "limited": limit.is_some(),
                     "range": limit.map(|(a, b)| vec![a, b]),
+                    "limit_stiffness": j.limit.map(|l| l.stiffness),
+                    "limit_damping": j.limit.map(|l| l.damping),
                 })
             })
             .collect();

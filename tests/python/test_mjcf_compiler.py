@@ -4,7 +4,8 @@ gymnasium and on every bundled scene.
 
 Compared to 1e-9 (relative to the quantity's size where it is larger than 1): body frames,
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
-positions, passive properties and limits; geom kinds, sizes and poses (per body, in order);
+positions, passive properties, limits and the limit springs' stiffness and damping; geom kinds,
+sizes and poses (per body, in order);
 actuator joints, gears, gains and control ranges; the time step and gravity; geom sliding
 friction and condim.
 """
@@ -63,6 +64,11 @@ def close(what, ours, theirs, tol=TOL):
     assert err <= tol, f"{what}: scm {ours.tolist()} vs MuJoCo {theirs.tolist()} (error {err:.2e})"
 
 
+def disabled(m, flag):
+    """Whether the file's <option><flag> switched `flag` (mjDSBL_<flag>) off."""
+    return bool(m.opt.disableflags & int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}")))
+
+
 def mesh_frame(m, g):
     """MuJoCo moves a mesh geom's frame to the mesh's inertial frame; undo that, so the pose
     compares with the geom frame as written (which scm keeps)."""
@@ -117,6 +123,17 @@ def compare(path):
         assert joint["limited"] == bool(m.jnt_limited[j]), f"{tag} limited"
         if joint["limited"]:
             close(f"{tag} range", joint["range"], m.jnt_range[j])
+        if joint["limited"] and kind in ("slide", "hinge") and not disabled(m, "LIMIT"):
+            # The limit spring and damper: MuJoCo's reference acceleration for the joint's
+            # solreflimit, times the inertia its constraint sees (1 / dof_invweight0).
+            tau, zeta = m.jnt_solref[j]
+            inertia = 1.0 / m.dof_invweight0[dof]
+            if tau > 0:
+                k, b = inertia / (tau * zeta) ** 2, 2 * inertia / tau
+            else:
+                k, b = -tau * inertia, -zeta * inertia
+            close(f"{tag} limit stiffness", joint["limit_stiffness"], k)
+            close(f"{tag} limit damping", joint["limit_damping"], b)
         if kind in ("slide", "hinge"):
             close(f"{tag} pos", joint["pos"], m.jnt_pos[j])
             close(f"{tag} axis", joint["axis"], m.jnt_axis[j])
