@@ -134,11 +134,11 @@ impl Model {
             }
             if let Some(m) = monitor.as_mut() {
                 let e = self.energy(&s.q, &s.v);
-                let p = self.actuator_power(s, ctrl);
-                let dw = 0.5 * (m.power + p) * h;
+                let now = self.held(s, ctrl);
+                let dw = self.step_work(&m.last, &now, h);
                 m.ledger.work += dw;
                 m.ledger.gross_work += dw.abs();
-                m.power = p;
+                m.last = now;
                 m.ledger.scale = m.ledger.scale.max(e.kinetic);
                 let total = e.total();
                 if !total.is_finite() || total > m.ledger.allowed(m.floor) {
@@ -382,7 +382,7 @@ pub struct AdvanceOptions {
     /// since (`T + U` at the start of each call, `T` after each internal step), `Σ|ΔW|` the
     /// actuators' work counted without sign and `E_floor` the energy of raising every moving
     /// body by 1 mm and moving it at 1 cm/s. The half margin covers the integrators' legitimate
-    /// energy errors (trapezoidal work, `O(hᵖ)` drift, the estimate of `U`); a blow-up creates
+    /// energy errors (the work's estimate, `O(hᵖ)` drift, the estimate of `U`); a blow-up creates
     /// energy in motion from nothing and exceeds it once that is about twice what the run had
     /// before. The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
