@@ -450,6 +450,23 @@ impl Model {
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
     ) -> Result<Forward<T>, DynamicsError> {
+        self.forward_contact_at(q, v, None, tau, mocap, prm, implicit_damping)
+    }
+
+    /// [`Model::forward_damped`] with the contact forces taken at the velocity `v_contact`
+    /// (`None`: at `v`) and everything else at `v`: the acceleration whose root in `v_contact`
+    /// is damped Euler's velocity-implicit contact ([`Integrator::DampedEuler`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn forward_contact_at<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        v_contact: Option<&[T]>,
+        tau: &[T],
+        mocap: &[T],
+        prm: &ContactParams<T>,
+        implicit_damping: Option<T>,
+    ) -> Result<Forward<T>, DynamicsError> {
         for j in &self.tree.joints {
             if q[j.qadr..j.qadr + j.kind.nq()]
                 .iter()
@@ -471,7 +488,11 @@ impl Model {
             }
         }
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (mut wrenches, contacts) = self.contact_forces(&kin, prm);
+        let (mut wrenches, contacts) = match v_contact {
+            // The same positions, so the wrenches are in the same frames.
+            Some(vc) => self.contact_forces(&self.tree.kinematics_with(q, vc, mocap), prm),
+            None => self.contact_forces(&kin, prm),
+        };
         self.add_body_forces(&kin, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);

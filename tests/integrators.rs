@@ -739,3 +739,66 @@ fn damped_euler_takes_stiff_frictionloss_at_mujocos_step() {
         "semi-implicit Euler should ring ({flips} sign changes)"
     );
 }
+
+#[test]
+fn damped_euler_takes_stiff_contact_friction_at_mujocos_step() {
+    // A flat 0.1 kg box (10 x 10 x 2 cm, so it does not tip) sliding at 1 m/s on a floor with
+    // friction 1 and a stiction velocity of 1 mm/s: near rest SCM's friction is a damper of
+    // mu m g / v_s, h mu g / v_s = 19.6 at MuJoCo's 2 ms step, ten times past semi-implicit
+    // Euler's limit. Coulomb stops the box after v0² / (2 mu g) = 5.1 cm. damped_euler, with
+    // the contact velocity-implicit, stops it there (to 2 %: the smooth friction) and it
+    // settles (its rocking on the contact, a 26 ms period, dies out); semi-implicit Euler
+    // rings about rest for ever, the velocity changing sign at every step.
+    let scene = |integrator: &str| {
+        model_of(&format!(
+            r#"<mujoco>
+  <option timestep="0.002"/>
+  <custom>
+    <numeric name="scm_stiction_velocity" data="0.001"/>
+    <numeric name="scm_friction" data="1"/>
+    <text name="scm_integrator" data="{integrator}"/>
+  </custom>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="b" pos="0 0 0.01"><freejoint/>
+      <geom type="box" size="0.05 0.05 0.01" mass="0.1"/></body>
+  </worldbody>
+</mujoco>"#
+        ))
+    };
+    // The state after 0.3 s and the largest sliding speed over its last 0.1 s.
+    let run = |model: &Model| {
+        let mut s = State {
+            q: model.tree.q0(),
+            v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        };
+        let mut late = 0.0_f64;
+        for k in 0..150 {
+            s = model
+                .advance(
+                    &s,
+                    &[],
+                    &model.contact,
+                    k as f64 * 0.002,
+                    0.002,
+                    &AdvanceOptions::default(),
+                )
+                .unwrap()
+                .state;
+            if k >= 100 {
+                late = late.max(s.v[0].abs());
+            }
+        }
+        (s, late)
+    };
+    let (s, late) = run(&scene("damped_euler"));
+    assert!(late < 1e-3, "settled: |v| up to {late} m/s after 0.2 s");
+    let coulomb = 1.0 / (2.0 * 9.81);
+    assert!(
+        (s.q[0] - coulomb).abs() < 0.03 * coulomb,
+        "stops after {} m (Coulomb: {coulomb} m)",
+        s.q[0]
+    );
+    let (_, late) = run(&scene("semi_implicit_euler"));
+    assert!(late > 3e-3, "semi-implicit Euler should ring ({late} m/s)");
+}

@@ -119,6 +119,38 @@ impl VectorFunction for StepResidual<'_> {
     }
 }
 
+/// Damped Euler's step equation in the end velocity, on real values (for its Jacobian): see
+/// [`Model::damped_euler_velocity`].
+struct ContactImplicitResidual<'a> {
+    model: &'a Model,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    tau: Vec<f64>,
+    mocap: Vec<f64>,
+    prm: ContactParams<f64>,
+    h: f64,
+}
+
+impl VectorFunction for ContactImplicitResidual<'_> {
+    fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
+        let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
+        let (q, v) = (lift(&self.q), lift(&self.v));
+        let a = self
+            .model
+            .forward_contact_at(
+                &q,
+                &v,
+                Some(x),
+                &lift(&self.tau),
+                &lift(&self.mocap),
+                &self.prm.lift(),
+                Some(c(self.h)),
+            )?
+            .vdot;
+        Ok((0..x.len()).map(|k| x[k] - v[k] - a[k] * self.h).collect())
+    }
+}
+
 fn step_residual<T: Scalar>(
     model: &Model,
     q0: &[T],
@@ -284,8 +316,19 @@ impl Model {
         Ok(self.forward(q, v, u, prm)?.vdot.iter().copied().collect())
     }
 
-    /// Accelerations with the joints' damping implicit over a step `h` (MuJoCo's `Euler`).
-    fn damped_accel<T: Scalar>(
+    /// Damped Euler's velocity at the end of a step `h` ([`Integrator::DampedEuler`]): `V`
+    /// solves `(M + h D)(V - v) = h (τ + τ_passive - c + Σ Λ(q, V))`, every term at the start
+    /// `(q, v)` but the contact forces `Λ`, taken at `V`. The joints' damping is implicit as in
+    /// MuJoCo's `Euler`; the contact's velocity dependence (its damping, and friction, which is
+    /// a damper `μ F / v_s` near rest) is implicit as MuJoCo's constraint solver makes it: a
+    /// stiff position actuator pressing a light finger on a block (`μ F / (v_s m)` in the
+    /// thousands per second at 2 ms steps) rings and blows up with the contact explicit.
+    ///
+    /// Without a pair in reach at the start, the step is explicit (contact-free, it is
+    /// MuJoCo's `Euler` exactly). Otherwise Newton's iterations from the explicit step, on
+    /// the real Jacobian from dual numbers, as [`Integrator::ImplicitEuler`]'s (with dual
+    /// numbers a fresh one at every iteration, so the derivatives of the step are exact).
+    fn damped_euler_velocity<T: Scalar>(
         &self,
         q: &[T],
         v: &[T],
@@ -294,9 +337,30 @@ impl Model {
         h: T,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
-        let tau = self.actuator_forces(q, v, ctrl);
-        let f = self.forward_damped(q, v, tau.as_slice(), mocap, prm, Some(h))?;
-        Ok(f.vdot.iter().copied().collect())
+        let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
+        let start = self.forward_damped(q, v, &tau, mocap, prm, Some(h))?;
+        let explicit = axpy(v, h, start.vdot.as_slice());
+        if start.contacts.iter().all(Option::is_none) {
+            return Ok(explicit);
+        }
+        let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
+            let a = self
+                .forward_contact_at(q, v, Some(x), &tau, mocap, prm, Some(h))?
+                .vdot;
+            Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
+        };
+        let real = ContactImplicitResidual {
+            model: self,
+            q: re_vec(q),
+            v: re_vec(v),
+            tau: re_vec(&tau),
+            mocap: re_vec(mocap),
+            prm: re_params(prm),
+            h: h.re(),
+        };
+        let real_jacobian =
+            |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(&real, x)?.1) };
+        newton(&residual, &real_jacobian, explicit, &mut None)
     }
 
     /// One step of length `h` (s) of `integrator` from `state` with inputs `u` at the start of
@@ -330,8 +394,14 @@ impl Model {
     ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
+        if integrator == Integrator::DampedEuler {
+            let v = self.damped_euler_velocity(q1, v1, u, prm, h)?;
+            return Ok(State {
+                q: tree.integrate_q(q1, &v, h),
+                v,
+            });
+        }
         let dv1 = match a0 {
-            _ if integrator == Integrator::DampedEuler => self.damped_accel(q1, v1, u, prm, h)?,
             Some(a) => a,
             None => self.accel(q1, v1, u, prm)?,
         };
@@ -340,7 +410,7 @@ impl Model {
                 q: tree.integrate_q(q1, v1, h),
                 v: axpy(v1, h, &dv1),
             }),
-            Integrator::SemiImplicitEuler | Integrator::DampedEuler => {
+            Integrator::SemiImplicitEuler => {
                 let v = axpy(v1, h, &dv1);
                 Ok(State {
                     q: tree.integrate_q(q1, &v, h),
