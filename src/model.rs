@@ -43,6 +43,28 @@ pub enum ActuatorKind {
         /// Velocity gain.
         kv: f64,
     },
+    /// MuJoCo's `<general>` without activation: `force = (g₀ + g₁ L + g₂ L̇) u + b₀ + b₁ L +
+    /// b₂ L̇`, with the actuator's length `L = gear·q` and velocity `L̇ = gear·v` (`gaintype` and
+    /// `biastype` `fixed`/`none` leave the terms past `g₀` and `b` zero).
+    General {
+        /// Gain `g₀ g₁ g₂` (MuJoCo's `gainprm`).
+        gain: [f64; 3],
+        /// Bias `b₀ b₁ b₂` (MuJoCo's `biasprm`).
+        bias: [f64; 3],
+    },
+}
+
+impl ActuatorKind {
+    /// MuJoCo's `gainprm` and `biasprm` (their first three entries) for this actuator: every
+    /// kind is the affine law of [`ActuatorKind::General`] with these parameters.
+    pub fn gain_bias(&self) -> ([f64; 3], [f64; 3]) {
+        match *self {
+            ActuatorKind::Motor => ([1.0, 0.0, 0.0], [0.0; 3]),
+            ActuatorKind::Position { kp, kv } => ([kp, 0.0, 0.0], [0.0, -kp, -kv]),
+            ActuatorKind::Velocity { kv } => ([kv, 0.0, 0.0], [0.0, 0.0, -kv]),
+            ActuatorKind::General { gain, bias } => (gain, bias),
+        }
+    }
 }
 
 /// An actuator on a 1-DOF joint. The generalized force is `gear · force`.
@@ -58,6 +80,9 @@ pub struct Actuator {
     pub gear: f64,
     /// Control range, if limited (controls are clamped to it).
     pub ctrlrange: Option<(f64, f64)>,
+    /// Force range, if limited (the force is clamped to it, as MuJoCo clamps it; the
+    /// derivatives of a clamped force are zero).
+    pub forcerange: Option<(f64, f64)>,
 }
 
 /// The complete, immutable model of a scene.
@@ -353,7 +378,8 @@ impl Model {
     }
 
     /// Generalized actuator forces for controls `ctrl` (clamped to their ranges: the derivative
-    /// with respect to a clamped control is zero).
+    /// with respect to a clamped control is zero), each force clamped to its actuator's
+    /// `forcerange`.
     pub fn actuator_forces<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T]) -> DVector<T> {
         let mut tau = DVector::zeros(self.tree.nv);
         for (a, &u) in self.actuators.iter().zip(ctrl) {
@@ -368,6 +394,18 @@ impl Model {
                 ActuatorKind::Motor => u,
                 ActuatorKind::Position { kp, kv } => (u - qj * a.gear) * kp - vj * (kv * a.gear),
                 ActuatorKind::Velocity { kv } => (u - vj * a.gear) * kv,
+                ActuatorKind::General { gain, bias } => {
+                    let (l, ldot) = (qj * a.gear, vj * a.gear);
+                    (l * gain[1] + ldot * gain[2] + gain[0]) * u
+                        + l * bias[1]
+                        + ldot * bias[2]
+                        + bias[0]
+                }
+            };
+            let force = match a.forcerange {
+                Some((lo, _)) if force.re() < lo => c(lo),
+                Some((_, hi)) if force.re() > hi => c(hi),
+                _ => force,
             };
             tau[j.dadr] += force * a.gear;
         }

@@ -790,3 +790,44 @@ fn forward_jacobians_with_fluid_forces_match_central_differences() {
         check_forward_jacobian_step(&format!("fluid {coords:?}"), &model, &p, coords, 1e-4);
     }
 }
+
+#[test]
+fn forward_jacobians_with_general_actuators_match_central_differences() {
+    // An affine gain and bias on a geared hinge (the force depends on the control, the
+    // position and the velocity together), a servo written as a <general>, and a motor whose
+    // force range clamps (its derivatives beyond the range are zero, exactly and in the
+    // differences).
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" contype="0" conaffinity="0"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025" contype="0" conaffinity="0"/>
+        <body name="tip" pos="0.25 0 0">
+          <joint name="reach" type="slide" axis="1 0 0"/>
+          <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <general joint="shoulder" gainprm="50" biastype="affine" biasprm="0 -50 -5" forcerange="-30 30"/>
+    <general joint="elbow" gear="1.5" gaintype="affine" gainprm="2 0.5 0.1" biastype="affine" biasprm="0.1 -1 -0.2"/>
+    <motor joint="reach" forcerange="-0.5 0.5"/>
+  </actuator>
+</mujoco>"#;
+    let model = scm::scene::load_str(xml, std::path::Path::new("general.xml"))
+        .unwrap()
+        .model;
+    let mut p = Point::start(&model);
+    p.q = vec![0.3, -0.4, 0.01];
+    p.v = vec![0.5, -0.7, 0.2];
+    p.u = vec![0.2, -0.6, 2.0];
+    // Every actuator acts, and the motor's force is clamped.
+    let tau = model.actuator_forces(&p.q, &p.v, &p.u);
+    assert!(tau.iter().all(|t| t.abs() > 1e-3), "{tau}");
+    assert_eq!(tau[2], 0.5);
+    check_forward_jacobian("general actuators", &model, &p, Coordinates::Embedded);
+}

@@ -214,6 +214,23 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
                     ActuatorKind::Velocity { kv } => {
                         format!("velocity: force = {} (u - gear v)", format_real(kv))
                     }
+                    ActuatorKind::General { gain: g, bias: b } => format!(
+                        "general: force = ({} + {} L + {} L') u + {} + {} L + {} L', L = gear q, L' = gear v",
+                        format_real(g[0]),
+                        format_real(g[1]),
+                        format_real(g[2]),
+                        format_real(b[0]),
+                        format_real(b[1]),
+                        format_real(b[2])
+                    ),
+                };
+                let law = match a.forcerange {
+                    Some((lo, hi)) => format!(
+                        "{law}; force clamped to [{}, {}]",
+                        format_real(lo),
+                        format_real(hi)
+                    ),
+                    None => law,
                 };
                 let range = a.ctrlrange.map_or("unlimited".into(), |(lo, hi)| {
                     format!("[{}, {}] (clamped)", format_real(lo), format_real(hi))

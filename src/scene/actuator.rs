@@ -22,11 +22,18 @@ impl Builder {
                 "ctrllimited",
                 "forcerange",
                 "forcelimited",
+                "dyntype",
+                "gaintype",
+                "biastype",
+                "dynprm",
+                "gainprm",
+                "biasprm",
             ],
         )?;
-        if self.limited(el, "forcelimited", "forcerange")?.is_some() {
-            return Err(self.err(el, "forcerange is not supported by SCM yet: limit the control range (ctrlrange) instead"));
-        }
+        let forcerange = match self.limited(el, "forcelimited", "forcerange")? {
+            Some(r) if r.0 > r.1 => return Err(self.err(el, "forcerange is reversed")),
+            r => r,
+        };
         let jname = el
             .attr("joint")
             .ok_or_else(|| self.err(el, "only joint actuators are supported: joint is required"))?;
@@ -68,8 +75,17 @@ impl Builder {
             "velocity" => ActuatorKind::Velocity {
                 kv: gain("kv", 1.0)?,
             },
-            _ => return Err(self.err(el, "unsupported actuator: use motor, position or velocity")),
+            "general" => self.general(el)?,
+            _ => {
+                return Err(self.err(
+                    el,
+                    "unsupported actuator: use motor, position, velocity or general",
+                ))
+            }
         };
+        // On a shortcut (motor, position, velocity), dyntype, gaintype, biastype and the
+        // parameter vectors can only come from a <general> default of its class, and MuJoCo's
+        // shortcut overwrites them with its own: so does SCM, by ignoring them.
         let ctrlrange = match self.limited(el, "ctrllimited", "ctrlrange")? {
             Some(r) if r.0 > r.1 => return Err(self.err(el, "ctrlrange is reversed")),
             Some(_) if !self.flags.clampctrl => None,
@@ -88,8 +104,73 @@ impl Builder {
             joint,
             gear,
             ctrlrange,
+            forcerange,
         });
+        if el.name == "general" && el.attr("dynprm").is_some() {
+            self.unused(
+                el,
+                "dynprm: MuJoCo reads it only for an activation (dyntype), which SCM's actuators do not have",
+            );
+        }
         Ok(())
+    }
+
+    /// A `<general>` actuator without activation: fixed or affine gain and bias.
+    fn general(&self, el: &Element) -> Result<ActuatorKind, SceneError> {
+        // kp or kv on a <general> come from a <position> or <velocity> default of its class,
+        // which in MuJoCo sets the default's gain and bias: which of the two set them is not
+        // kept, so SCM asks for them in writing.
+        if let Some(key) = ["kp", "kv"].into_iter().find(|k| el.attr(k).is_some()) {
+            return Err(self.err(
+                el,
+                format!("this <general> inherits {key} from a <position> or <velocity> default of its class: write its gainprm and biasprm (and gaintype, biastype) on it"),
+            ));
+        }
+        if let Some(d) = el.attr("dyntype").filter(|d| *d != "none") {
+            return Err(self.err(
+                el,
+                format!("dyntype=\"{d}\": SCM's actuators have no activation state: use dyntype=\"none\" (the force follows the control at once)"),
+            ));
+        }
+        // MuJoCo pads the parameter vectors with zeros (gainprm with "1 0 0 ...").
+        let params = |key: &str, default: [f64; 3]| -> Result<[f64; 3], SceneError> {
+            match el.attr(key) {
+                None => Ok(default),
+                Some(s) => match parse_floats(s) {
+                    Some(v) if v.len() <= 10 => {
+                        let mut out = [0.0; 3];
+                        for (o, x) in out.iter_mut().zip(&v) {
+                            *o = *x;
+                        }
+                        Ok(out)
+                    }
+                    _ => Err(self.err(el, format!("{key}: expected at most 10 finite numbers"))),
+                },
+            }
+        };
+        let mut gain = params("gainprm", [1.0, 0.0, 0.0])?;
+        let mut bias = params("biasprm", [0.0; 3])?;
+        match el.attr("gaintype").unwrap_or("fixed") {
+            "fixed" => gain = [gain[0], 0.0, 0.0],
+            "affine" => {}
+            g => {
+                return Err(self.err(
+                    el,
+                    format!("gaintype=\"{g}\" is not supported by SCM: use fixed or affine"),
+                ))
+            }
+        }
+        match el.attr("biastype").unwrap_or("none") {
+            "none" => bias = [0.0; 3],
+            "affine" => {}
+            b => {
+                return Err(self.err(
+                    el,
+                    format!("biastype=\"{b}\" is not supported by SCM: use none or affine"),
+                ))
+            }
+        }
+        Ok(ActuatorKind::General { gain, bias })
     }
 
     /// A range that applies as MuJoCo's `limited` attribute (true, false, or auto: given

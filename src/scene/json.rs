@@ -99,16 +99,20 @@ impl Compiled {
             .actuators
             .iter()
             .map(|a| {
-                let (kind, kp, kv) = match a.kind {
-                    ActuatorKind::Motor => ("motor", 0.0, 0.0),
-                    ActuatorKind::Position { kp, kv } => ("position", kp, kv),
-                    ActuatorKind::Velocity { kv } => ("velocity", 0.0, kv),
+                let kind = match a.kind {
+                    ActuatorKind::Motor => "motor",
+                    ActuatorKind::Position { .. } => "position",
+                    ActuatorKind::Velocity { .. } => "velocity",
+                    ActuatorKind::General { .. } => "general",
                 };
+                let (gain, bias) = a.kind.gain_bias();
                 json!({
                     "name": a.name, "joint": t.joints[a.joint].name, "gear": a.gear,
-                    "kind": kind, "kp": kp, "kv": kv,
+                    "kind": kind, "gainprm": gain, "biasprm": bias,
                     "ctrllimited": a.ctrlrange.is_some(),
                     "ctrlrange": a.ctrlrange.map(|(lo, hi)| vec![lo, hi]),
+                    "forcelimited": a.forcerange.is_some(),
+                    "forcerange": a.forcerange.map(|(lo, hi)| vec![lo, hi]),
                 })
             })
             .collect();

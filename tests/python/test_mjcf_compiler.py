@@ -6,7 +6,7 @@ Compared to 1e-9 (relative to the quantity's size where it is larger than 1): bo
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
 positions, passive properties, limits and the limit springs' stiffness and damping; geom kinds,
 sizes and poses (per body, in order);
-actuator joints, gears, gains and control ranges; the time step and gravity; geom sliding
+actuator joints, gears, gains and biases, control and force ranges; the time step and gravity; geom sliding
 friction and condim.
 """
 import json
@@ -178,12 +178,18 @@ def compare(path):
         assert act["ctrllimited"] == bool(m.actuator_ctrllimited[a]), f"{tag} ctrllimited"
         if act["ctrllimited"]:
             close(f"{tag} ctrlrange", act["ctrlrange"], m.actuator_ctrlrange[a])
-        if act["kind"] == "motor":
-            close(f"{tag} gain", [1.0, 0.0, 0.0], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 1], m.actuator_biasprm[a, 2]])
-        elif act["kind"] == "position":
-            close(f"{tag} kp, kv", [act["kp"], -act["kp"], -act["kv"]], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 1], m.actuator_biasprm[a, 2]])
-        else:
-            close(f"{tag} kv", [act["kv"], -act["kv"]], [m.actuator_gainprm[a, 0], m.actuator_biasprm[a, 2]])
+        # Every kind as MuJoCo stores it: the affine law's gain and bias (what MuJoCo reads of
+        # them: the first entry of a fixed gain, nothing of a bias of type none).
+        assert int(m.actuator_dyntype[a]) == int(mujoco.mjtDyn.mjDYN_NONE), tag
+        affine_gain = int(m.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_AFFINE)
+        affine_bias = int(m.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
+        gain = m.actuator_gainprm[a, :3] if affine_gain else [m.actuator_gainprm[a, 0], 0, 0]
+        bias = m.actuator_biasprm[a, :3] if affine_bias else [0, 0, 0]
+        close(f"{tag} gain", act["gainprm"], gain)
+        close(f"{tag} bias", act["biasprm"], bias)
+        assert act["forcelimited"] == bool(m.actuator_forcelimited[a]), f"{tag} forcelimited"
+        if act["forcelimited"]:
+            close(f"{tag} forcerange", act["forcerange"], m.actuator_forcerange[a])
     return ours
 
 

@@ -365,3 +365,67 @@ def test_t_push_mujocos_way_runs_every_finger_path(tmp_path):
     assert abs(left["t_yaw.q"]) > 0.01, "an off-centre push turns the T"
     explicit = runs("semi_implicit_euler")
     assert any(res["time"][-1] < 1.0 for res in explicit), "explicit contact is refused"
+
+
+GENERAL_ACTUATORS = """<mujoco model="general">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0" damping="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" contype="0" conaffinity="0"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025" contype="0" conaffinity="0"/>
+        <body name="tip" pos="0.25 0 0">
+          <joint name="reach" type="slide" axis="1 0 0" ref="0.02"/>
+          <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <general name="servo" joint="shoulder" gainprm="50" biastype="affine" biasprm="0 -50 -5"
+             ctrlrange="-1 1" forcerange="-3 3"/>
+    <general name="affine" joint="elbow" gear="1.5" gaintype="affine" gainprm="2 0.5 0.1"
+             biastype="affine" biasprm="0.1 -1 -0.2"/>
+    <motor name="push" joint="reach" forcerange="-0.5 0.5"/>
+  </actuator>
+  <keyframe><key name="go" ctrl="0.8 -0.4 2"/></keyframe>
+  <custom><text name="scm_keyframe" data="go"/></custom>
+</mujoco>"""
+
+
+def test_general_actuators_and_force_ranges_as_in_mujoco(tmp_path):
+    # MuJoCo's <general> actuators without activation (a servo written as an affine bias, an
+    # affine gain and bias on a geared joint) and force ranges that clamp (3 N m on the servo,
+    # which asks 40 N m at the start; 0.5 N on a motor asked for 2 N): contact-free, so the
+    # motion equals MuJoCo's Euler to rounding at every output point.
+    path = tmp_path / "general.xml"
+    path.write_text(GENERAL_ACTUATORS)
+    fmu = tmp_path / "general.fmu"
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert validate_fmu(str(fmu)) == []
+    names = ["shoulder.q", "elbow.q", "reach.q"]
+    res = simulate_fmu(str(fmu), stop_time=0.5, output_interval=0.01, output=names)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    theirs, clamped = [], set()
+    while d.time < 0.5 - 1e-9:
+        mujoco.mj_step(m, d)
+        clamped |= {a for a in range(m.nu) if abs(abs(d.actuator_force[a]) - m.actuator_forcerange[a, 1]) < 1e-12}
+        if abs(d.time / 0.01 - round(d.time / 0.01)) < 1e-6:
+            theirs.append(d.qpos.copy())
+    assert clamped == {0, 2}, "both force ranges clamp in MuJoCo's run"
+    ours = np.column_stack([res[n] for n in names])[1:]
+    assert np.max(np.abs(ours - np.array(theirs))) < 1e-9
+
+
+def test_general_actuator_with_activation_is_refused(tmp_path):
+    xml = GENERAL_ACTUATORS.replace('name="servo" joint="shoulder"', 'name="servo" joint="shoulder" dyntype="filter" dynprm="0.05"')
+    path = tmp_path / "filter.xml"
+    path.write_text(xml)
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "f.fmu")], capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "filter.xml:18" in out.stderr and "dyntype" in out.stderr and "none" in out.stderr, out.stderr
