@@ -118,6 +118,9 @@ pub struct Model {
     /// Fluid forces (MuJoCo's inertia-box model), if the scene's medium has a density or a
     /// viscosity.
     pub fluid: Option<Fluid>,
+    /// Fixed tendons (`<tendon><fixed>`), each with its spring, damper, dry friction and
+    /// limits (all zero for a tendon that only measures a length).
+    pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
 }
 
 /// Result of forward dynamics.
@@ -374,6 +377,12 @@ impl Model {
                 tau[j.dadr] += l.force(q[j.qadr], v[j.dadr]);
             }
         }
+        for t in self.tendons.iter().filter(|t| t.acts()) {
+            let f = t.force(q, v, stiction_velocity);
+            for &(_, vi, coef) in &t.joints {
+                tau[vi] += f * coef;
+            }
+        }
         tau
     }
 
@@ -624,6 +633,9 @@ impl Model {
                 }
                 _ => {}
             }
+        }
+        for t in self.tendons.iter().filter(|t| t.acts()) {
+            springs += t.energy(q);
         }
         Energy {
             kinetic,

@@ -220,7 +220,81 @@ fn capability_flags_are_declared_and_provided() {
 #[test]
 fn directional_derivatives_match_central_differences_and_dependencies_are_complete() {
     for name in scenes() {
-        let mut sim = in_contact(&name);
+        check_dependencies(&name, &mut in_contact(&name));
+    }
+}
+
+/// Fixed tendons tie subtrees together: an arm's accelerations depend on the coordinates of
+/// the other arm its tendon holds (spring, damper, dry friction and limit), and on nothing
+/// else; the declared dependencies say so, exactly.
+#[test]
+fn dependencies_follow_tendons_across_subtrees() {
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="ja" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="b" pos="0.5 0 1">
+      <joint name="jb" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="c" pos="1 0 1">
+      <joint name="jc" type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="tie" stiffness="5" damping="0.3" frictionloss="0.1" range="-0.2 0.05">
+      <joint joint="ja" coef="1"/>
+      <joint joint="jb" coef="-0.5"/>
+    </fixed>
+  </tendon>
+</mujoco>"#;
+    let dir = std::env::temp_dir().join(format!("scm_tendon_deps_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("tendons.xml");
+    std::fs::write(&path, xml).unwrap();
+    let mut sim = Simulation::from_file(&path).unwrap();
+    // Past the limit, moving: every term of the tendon's force acts.
+    sim.current.state.q = vec![0.2, -0.1, 0.0];
+    sim.current.state.v = vec![0.3, -0.2, 0.1];
+    let x = sim.continuous_states();
+    sim.set_continuous_states(&x).unwrap();
+    let deps = |unknown: &str| -> Vec<String> {
+        let info = sim.info();
+        let vr = vr(info, unknown);
+        let d = info
+            .structure
+            .derivatives
+            .iter()
+            .find(|(u, _)| *u == vr)
+            .and_then(|(_, d)| d.clone())
+            .unwrap();
+        let names = |r: &u32| {
+            info.variables
+                .iter()
+                .find(|v| v.value_reference == *r)
+                .unwrap()
+                .name
+                .clone()
+        };
+        d.iter().map(names).collect()
+    };
+    let a = deps("der(ja.v)");
+    assert!(
+        a.contains(&"jb.q".to_string()) && a.contains(&"jb.v".to_string()),
+        "{a:?}"
+    );
+    assert!(!a.iter().any(|n| n.starts_with("jc.")), "{a:?}");
+    check_dependencies("tendons", &mut sim);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Every declared (unknown, known) pair of `sim`'s `<ModelStructure>` against central
+/// differences; every pair that is not declared exactly zero.
+fn check_dependencies(name: &str, sim: &mut Simulation) {
+    {
         let info = sim.info().clone();
         let rows: Vec<_> = sim.rows().to_vec();
         let unknowns: Vec<(u32, Slot, String)> = rows
@@ -252,10 +326,10 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
             let x0 = sim.get_real(*kvr).unwrap();
             let h = known_step(*kslot, x0);
             let mut eval = |x: f64| -> Vec<f64> {
-                set_known(&mut sim, *kslot, *kvr, x);
+                set_known(sim, *kslot, *kvr, x);
                 let out = uvrs.iter().map(|&u| sim.get_real(u).unwrap()).collect();
                 sim.current = base.clone();
-                set_known(&mut sim, *kslot, *kvr, x0);
+                set_known(sim, *kslot, *kvr, x0);
                 out
             };
             let (plus, minus) = (eval(x0 + h), eval(x0 - h));

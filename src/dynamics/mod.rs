@@ -18,6 +18,7 @@ pub mod limit;
 
 pub use kinematics::Kinematics;
 pub mod spatial;
+pub mod tendon;
 
 use crate::scalar::{c, Scalar};
 use nalgebra::{

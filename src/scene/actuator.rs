@@ -197,8 +197,9 @@ impl Builder {
         }
     }
 
-    /// `<fixed>` tendons are accepted where they add no force (no stiffness, damping, limits or
-    /// actuator); anything else is refused.
+    /// A `<fixed>` tendon: its joints and coefficients, spring (with MuJoCo's spring-length
+    /// deadband), damper, dry friction and limits. Spatial tendons and tendon armature are
+    /// refused.
     pub(super) fn tendon(&mut self, el: &Element) -> Result<(), SceneError> {
         if el.name != "fixed" {
             return Err(self.err(
@@ -217,31 +218,87 @@ impl Builder {
                 "springlength",
                 "frictionloss",
                 "armature",
+                "solreflimit",
             ],
         )?;
-        for key in ["stiffness", "damping", "frictionloss", "armature"] {
-            if self.float(el, key)?.is_some_and(|v| v != 0.0) {
-                return Err(self.err(el, format!("tendon {key} is not supported by SCM yet: remove it, or put the spring or damper on the joints")));
+        if self.float(el, "armature")?.is_some_and(|v| v != 0.0) {
+            return Err(self.err(el, "tendon armature is not supported by SCM yet: put the armature on the tendon's joints"));
+        }
+        let scalar = |key: &str| -> Result<f64, SceneError> {
+            match el.attr(key).map(parse_floats) {
+                None => Ok(0.0),
+                Some(Some(v)) if v.len() == 1 && v[0] >= 0.0 => Ok(v[0]),
+                Some(_) => Err(self.err(el, format!("{key}: expected one non-negative number (SCM has no polynomial tendon springs or dampers)"))),
             }
-        }
-        if self.limited(el, "limited", "range")?.is_some() && self.flags.limit {
-            return Err(self.err(el, "tendon limits are not supported by SCM yet: remove the range, or switch limits off with <option><flag limit=\"disable\"/></option>"));
-        }
+        };
+        let (stiffness, damping, frictionloss) = (
+            scalar("stiffness")?,
+            scalar("damping")?,
+            scalar("frictionloss")?,
+        );
+        // MuJoCo's springlength: one length, or a deadband "lo hi"; "-1 -1" (the default) is
+        // the length with every joint at its springref.
+        let spring_length = match el.attr("springlength").map(parse_floats) {
+            None => None,
+            Some(Some(v)) if v.len() == 1 => (v[0] != -1.0).then_some((v[0], v[0])),
+            Some(Some(v)) if v.len() == 2 && v[0] <= v[1] => {
+                (v != [-1.0, -1.0]).then_some((v[0], v[1]))
+            }
+            Some(_) => {
+                return Err(self.err(
+                    el,
+                    "springlength: expected one length or an increasing pair",
+                ))
+            }
+        };
+        let range = match self.limited(el, "limited", "range")? {
+            Some(r) if r.0 > r.1 => return Err(self.err(el, "range is reversed")),
+            r => r,
+        };
+        let solref = self
+            .floats(el, "solreflimit", 2)?
+            .unwrap_or(vec![0.02, 1.0]);
+        let mut joints = Vec::new();
         for j in &el.children {
             if j.name != "joint" {
                 return Err(self.err(j, "a fixed tendon holds <joint> elements"));
             }
+            self.check_attrs(j, &["joint", "coef"])?;
             let name = j
                 .attr("joint")
                 .ok_or_else(|| self.err(j, "joint=\"NAME\" is required"))?;
-            if !self.joints.iter().any(|x| x.name == name) {
-                return Err(self.err(j, format!("no joint named '{name}'")));
+            let index = self
+                .joints
+                .iter()
+                .position(|x| x.name == name)
+                .ok_or_else(|| self.err(j, format!("no joint named '{name}'")))?;
+            if !matches!(self.joints[index].kind, JointKind::Slide | JointKind::Hinge) {
+                return Err(self.err(
+                    j,
+                    format!(
+                        "joint '{name}' is not a slide or hinge joint: a fixed tendon's joints are"
+                    ),
+                ));
             }
+            joints.push((index, self.float(j, "coef")?.unwrap_or(1.0)));
         }
-        self.unused(
-            el,
-            "fixed tendon without stiffness, damping, limits or actuator: it adds no force",
-        );
+        if joints.is_empty() {
+            return Err(self.err(el, "a fixed tendon needs at least one <joint>"));
+        }
+        let name = el
+            .attr("name")
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("tendon{}", self.tendons.len()));
+        self.tendons.push(TendonSpec {
+            name,
+            joints,
+            stiffness,
+            spring_length,
+            damping,
+            frictionloss,
+            range,
+            solreflimit: [solref[0], solref[1]],
+        });
         Ok(())
     }
 

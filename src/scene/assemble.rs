@@ -2,6 +2,8 @@
 //! flags applied, the initial state, joint limits, fluid forces and the finished `Model`.
 
 use super::*;
+use crate::dynamics::limit::JointLimit;
+use crate::dynamics::tendon::FixedTendon;
 
 impl Builder {
     /// Whether body `b`'s inertia comes from its geoms (`<compiler inertiafromgeom>`, and
@@ -216,6 +218,62 @@ impl Builder {
         }
     }
 
+    /// The fixed tendons over `tree`'s coordinates, with the option flags applied: the spring
+    /// length defaults to the length with every joint at its `springref`, and a limit is stiffened
+    /// by the tendon's effective inertia there, `1 / (c M⁻¹ cᵀ)` (MuJoCo's
+    /// `1 / tendon_invweight0`; `c` the coefficients over the degrees of freedom).
+    fn fixed_tendons(&self, tree: &Tree) -> Vec<FixedTendon> {
+        let q0 = tree.q0();
+        let limited = self.flags.limit && self.tendons.iter().any(|t| t.range.is_some());
+        let m_inv = limited
+            .then(|| {
+                let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+                tree.mass_matrix(&kin).cholesky().map(|ch| ch.inverse())
+            })
+            .flatten();
+        self.tendons
+            .iter()
+            .map(|t| {
+                let joints: Vec<(usize, usize, f64)> = t
+                    .joints
+                    .iter()
+                    .map(|&(j, coef)| (tree.joints[j].qadr, tree.joints[j].dadr, coef))
+                    .collect();
+                // MuJoCo measures the default spring length in the springs' rest configuration
+                // (qpos_spring: each joint at its springref), not at qpos0.
+                let length0: f64 = t
+                    .joints
+                    .iter()
+                    .map(|&(j, coef)| tree.joints[j].springref * coef)
+                    .sum();
+                let limit = match (t.range, &m_inv) {
+                    (Some((lo, hi)), Some(inv)) => {
+                        let inv_weight: f64 = joints
+                            .iter()
+                            .flat_map(|&(_, a, ca)| {
+                                joints.iter().map(move |&(_, b, cb)| ca * cb * inv[(a, b)])
+                            })
+                            .sum();
+                        (inv_weight > 0.0).then(|| {
+                            JointLimit::from_solref(lo, hi, t.solreflimit, 1.0 / inv_weight)
+                        })
+                    }
+                    _ => None,
+                };
+                let on = |flag: bool, x: f64| if flag { x } else { 0.0 };
+                FixedTendon {
+                    name: t.name.clone(),
+                    joints,
+                    stiffness: on(self.flags.spring, t.stiffness),
+                    spring_length: t.spring_length.unwrap_or((length0, length0)),
+                    damping: on(self.flags.damper, t.damping),
+                    frictionloss: on(self.flags.frictionloss, t.frictionloss),
+                    limit,
+                }
+            })
+            .collect()
+    }
+
     /// The compiled model without colliders, and everything SCM would refuse about it.
     pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
         self.compile_inertias();
@@ -224,8 +282,10 @@ impl Builder {
         if self.flags.limit {
             self.set_limits(&mut tree);
         }
+        let tendons = self.fixed_tendons(&tree);
         Ok(Compiled {
             tree,
+            tendons,
             geoms: self.geoms,
             actuators: self.actuators,
             timestep: self.timestep.unwrap_or(DEFAULT_STEP),
@@ -358,6 +418,7 @@ impl Builder {
         if self.flags.limit {
             self.set_limits(&mut tree);
         }
+        let tendons = self.fixed_tendons(&tree);
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)
@@ -379,6 +440,7 @@ impl Builder {
             v0,
             ctrl0,
             fluid,
+            tendons,
         };
         Ok(Scene {
             model,

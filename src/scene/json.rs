@@ -5,7 +5,8 @@
 //! (the 3×3 rotational inertia about the centre of mass, body axes, row-major). Joints: `pos`
 //! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
 //! `springref`, passive properties and limits in SI units, with the limit spring's stiffness and
-//! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`). Geoms: `size` as MuJoCo stores it
+//! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`). Fixed tendons: joints and
+//! coefficients, spring, damper, friction, spring length and limits. Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
 //! body frame.
 
@@ -116,7 +117,32 @@ impl Compiled {
                 })
             })
             .collect();
+        let tendons: Vec<Value> = self
+            .tendons
+            .iter()
+            .map(|tendon| {
+                let joints: Vec<Value> = tendon
+                    .joints
+                    .iter()
+                    .map(|&(qi, _, coef)| {
+                        let j = t.joints.iter().find(|j| j.qadr == qi);
+                        json!([j.map(|j| j.name.clone()), coef])
+                    })
+                    .collect();
+                json!({
+                    "name": tendon.name, "joints": joints,
+                    "stiffness": tendon.stiffness, "damping": tendon.damping,
+                    "frictionloss": tendon.frictionloss,
+                    "springlength": [tendon.spring_length.0, tendon.spring_length.1],
+                    "limited": tendon.limit.is_some(),
+                    "range": tendon.limit.map(|l| vec![l.lo, l.hi]),
+                    "limit_stiffness": tendon.limit.map(|l| l.stiffness),
+                    "limit_damping": tendon.limit.map(|l| l.damping),
+                })
+            })
+            .collect();
         json!({
+            "tendons": tendons,
             "option": {
                 "timestep": self.timestep,
                 "gravity": v3(&t.gravity),

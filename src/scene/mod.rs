@@ -191,6 +191,8 @@ pub struct Compiled {
     pub integrator: Integrator,
     /// Each joint's limits (m or rad), if limited.
     pub limits: Vec<Option<(f64, f64)>>,
+    /// Fixed tendons.
+    pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// What SCM refuses to simulate, with file and line.
     pub refused: Vec<SceneError>,
     /// Accepted and unused by SCM.
@@ -297,6 +299,24 @@ struct Builder {
     limits: Vec<Option<(f64, f64, Element)>>,
     /// Each joint's `solreflimit` (MuJoCo's default `0.02 1`).
     solreflimit: Vec<[f64; 2]>,
+    /// `<tendon><fixed>` elements, as read.
+    tendons: Vec<TendonSpec>,
+}
+
+/// A fixed tendon as read, before the tree gives its joints' coordinates.
+#[derive(Clone, Debug)]
+struct TendonSpec {
+    name: String,
+    /// `(joint index, coefficient)`.
+    joints: Vec<(usize, f64)>,
+    stiffness: f64,
+    /// `springlength`, unless it is MuJoCo's default (the length with every joint at its springref).
+    spring_length: Option<(f64, f64)>,
+    damping: f64,
+    frictionloss: f64,
+    /// The length's range, if limited.
+    range: Option<(f64, f64)>,
+    solreflimit: [f64; 2],
 }
 
 /// An error at an element: its file, line and name.
@@ -360,6 +380,7 @@ impl Builder {
             refused: vec![],
             limits: vec![],
             solreflimit: vec![],
+            tendons: vec![],
         }
     }
 

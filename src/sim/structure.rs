@@ -156,6 +156,45 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
     k
 }
 
+/// What the accelerations of the subtree rooted at `root` depend on: its own knowns
+/// ([`subtree_knowns`]) and those of every subtree a tendon that exerts force ties to it
+/// (directly or through other tendons), since the tendon's force on each of its joints
+/// depends on all of them.
+fn coupled_knowns(model: &Model, root: usize) -> Knowns {
+    let tree = &model.tree;
+    let root_of_dof = |d: usize| {
+        let j = tree
+            .joints
+            .iter()
+            .find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&d))
+            .expect("a tendon's dof belongs to a joint");
+        subtree_root(model, j.body)
+    };
+    let mut roots: BTreeSet<usize> = [root].into();
+    let mut friction = false;
+    loop {
+        let before = roots.len();
+        for t in model.tendons.iter().filter(|t| t.acts()) {
+            let tied: Vec<usize> = t.joints.iter().map(|&(_, d, _)| root_of_dof(d)).collect();
+            if tied.iter().any(|r| roots.contains(r)) {
+                roots.extend(tied);
+                friction |= t.frictionloss > 0.0;
+            }
+        }
+        if roots.len() == before {
+            break;
+        }
+    }
+    let mut k = Knowns::default();
+    for r in roots {
+        k.union(&subtree_knowns(model, r));
+    }
+    if friction {
+        k.params.insert(param_index(Param::StictionVelocity));
+    }
+    k
+}
+
 /// The knowns an unknown in `slot` depends on; `None` if the slot is not an unknown (inputs,
 /// parameters, time, solver settings).
 pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
@@ -202,7 +241,7 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
                 },
             }
         }
-        Slot::VDot(i) => subtree_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
+        Slot::VDot(i) => coupled_knowns(model, subtree_root(model, joint_of_v(i)?.body)),
         Slot::PairForce(p, _) | Slot::PairTorque(p, _) => pair_knowns(model, p, false),
         // A limit's force depends on its joint's coordinate and velocity alone.
         Slot::LimitForce(j) => {

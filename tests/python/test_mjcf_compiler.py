@@ -5,7 +5,8 @@ gymnasium and on every bundled scene.
 Compared to 1e-9 (relative to the quantity's size where it is larger than 1): body frames,
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
 positions, passive properties, limits and the limit springs' stiffness and damping; geom kinds,
-sizes and poses (per body, in order);
+sizes and poses (per body, in order); fixed tendons (joints, coefficients, spring, damper,
+friction, spring length, limits);
 actuator joints, gears, gains and biases, control and force ranges; the time step and gravity; geom sliding
 friction and condim.
 """
@@ -190,6 +191,31 @@ def compare(path):
         assert act["forcelimited"] == bool(m.actuator_forcelimited[a]), f"{tag} forcelimited"
         if act["forcelimited"]:
             close(f"{tag} forcerange", act["forcerange"], m.actuator_forcerange[a])
+
+    # Fixed tendons: joints and coefficients, spring, damper, friction, spring length (MuJoCo's
+    # default is the length at qpos0), and the limit spring from solreflimit and
+    # 1 / tendon_invweight0. Forces that a flag switches off are zero in SCM's model.
+    assert len(ours["tendons"]) == m.ntendon, "tendon count"
+    for i, ten in enumerate(ours["tendons"]):
+        tag = f"tendon {ten['name']}"
+        adr, num = m.tendon_adr[i], m.tendon_num[i]
+        assert all(int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) for w in range(adr, adr + num)), tag
+        assert [j for j, _ in ten["joints"]] == [ours["joints"][m.wrap_objid[w]]["name"] for w in range(adr, adr + num)], tag
+        close(f"{tag} coefficients", [c for _, c in ten["joints"]], m.wrap_prm[adr:adr + num])
+        on = lambda flag, x: 0.0 if disabled(m, flag) else x
+        close(f"{tag} stiffness", ten["stiffness"], on("SPRING", m.tendon_stiffness[i]))
+        close(f"{tag} damping", ten["damping"], on("DAMPER", m.tendon_damping[i]))
+        close(f"{tag} frictionloss", ten["frictionloss"], on("FRICTIONLOSS", m.tendon_frictionloss[i]))
+        close(f"{tag} springlength", ten["springlength"], m.tendon_lengthspring[i])
+        limited = bool(m.tendon_limited[i]) and not disabled(m, "LIMIT")
+        assert ten["limited"] == limited, f"{tag} limited"
+        if limited:
+            close(f"{tag} range", ten["range"], m.tendon_range[i])
+            tau, zeta = m.tendon_solref_lim[i]
+            inertia = 1.0 / m.tendon_invweight0[i]
+            k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
+            close(f"{tag} limit stiffness", ten["limit_stiffness"], k)
+            close(f"{tag} limit damping", ten["limit_damping"], b)
     return ours
 
 

@@ -429,3 +429,91 @@ def test_general_actuator_with_activation_is_refused(tmp_path):
     out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "f.fmu")], capture_output=True, text=True)
     assert out.returncode != 0
     assert "filter.xml:18" in out.stderr and "dyntype" in out.stderr and "none" in out.stderr, out.stderr
+
+
+TENDONS = """<mujoco model="tendons">
+  <option timestep="0.002" integrator="{integrator}"/>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="ja" type="hinge" axis="0 1 0" ref="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="b" pos="0.5 0 1">
+      <joint name="jb" type="hinge" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <body name="c" pos="0.25 0 0">
+        <joint name="jc" type="slide" axis="1 0 0"/>
+        <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="couple" stiffness="5" damping="0.3" springlength="0.05">
+      <joint joint="ja" coef="1"/>
+      <joint joint="jb" coef="-0.5"/>
+    </fixed>
+    <fixed name="band" stiffness="20" springlength="0 0.02">
+      <joint joint="jc" coef="2"/>
+      <joint joint="jb" coef="0.3"/>
+    </fixed>
+    <fixed name="rest" stiffness="3">
+      <joint joint="ja" coef="0.5"/>
+    </fixed>
+  </tendon>
+</mujoco>"""
+
+
+def test_fixed_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
+    # Two arms in separate subtrees tied by a tendon spring and damper, a spring with MuJoCo's
+    # deadband (springlength "0 0.02") across a hinge and a slide, and one resting at the
+    # length of the reference configuration (no springlength): contact-free, so the motion
+    # equals MuJoCo's to rounding with Euler and RK4.
+    names = ["ja.q", "jb.q", "jc.q"]
+    for integrator in ("Euler", "RK4"):
+        path = tmp_path / f"tendons_{integrator}.xml"
+        path.write_text(TENDONS.format(integrator=integrator))
+        fmu = tmp_path / f"tendons_{integrator}.fmu"
+        out = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        assert validate_fmu(str(fmu)) == []
+        res = simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=names)
+        m = mujoco.MjModel.from_xml_path(str(path))
+        d = mujoco.MjData(m)
+        theirs = []
+        while d.time < 1.0 - 1e-9:
+            mujoco.mj_step(m, d)
+            if abs(d.time / 0.01 - round(d.time / 0.01)) < 1e-6:
+                theirs.append(d.qpos.copy())
+        ours = np.column_stack([res[n] for n in names])[1:]
+        # The tendons act: the arms move apart from where they would fall alone.
+        assert np.max(np.abs(np.array(theirs)[:, 2])) > 1e-3
+        assert np.max(np.abs(ours - np.array(theirs))) < 1e-9, integrator
+
+
+def test_a_tendon_limit_holds_a_pendulum_as_in_mujoco(tmp_path):
+    # A pendulum whose tendon (coefficient 2 on its hinge) may not exceed 0.6: it falls from
+    # horizontal and comes to rest against the limit, at q = 0.3 rad, in MuJoCo (a constraint)
+    # and in SCM (a smooth spring of MuJoCo's solreflimit time constant on the tendon's
+    # inertia 1 / tendon_invweight0, past the limit by its static deflection F/k + w/2).
+    xml = """<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 1 0" damping="0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="strap" range="-1 0.6"><joint joint="hinge" coef="2"/></fixed>
+  </tendon>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml, ["hinge.q"], 2.0, name="strap")
+    assert abs(d.qpos[0] - 0.3) < 0.01, d.qpos[0]
+    k = (1.0 / m.tendon_invweight0[0]) / 0.02 ** 2
+    d.qpos[0] = ours["hinge.q"]
+    d.qvel[0] = 0.0
+    mujoco.mj_forward(m, d)
+    force = abs(d.qfrc_bias[0]) / 2.0  # the weight's torque, carried by the tendon (coefficient 2)
+    past = (force / k + 0.5e-3) / 2.0
+    assert past > 0.01, "a deflection this test can see"
+    assert abs(ours["hinge.q"] - (0.3 + past)) < 1e-3, (ours["hinge.q"], 0.3 + past)
