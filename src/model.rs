@@ -54,6 +54,28 @@ pub enum ActuatorKind {
     },
 }
 
+impl Model {
+    /// What actuator `a` drives, for people: `joint NAME` or `tendon NAME`.
+    pub fn actuator_target(&self, a: &Actuator) -> String {
+        match a.target {
+            Transmission::Joint(j) => format!("joint {}", self.tree.joints[j].name),
+            Transmission::Tendon(t) => format!("tendon {}", self.tendons[t].name),
+        }
+    }
+
+    /// The joints (by index) whose forces actuator `a` sets.
+    pub fn actuator_joints(&self, a: &Actuator) -> Vec<usize> {
+        match a.target {
+            Transmission::Joint(j) => vec![j],
+            Transmission::Tendon(t) => self.tendons[t]
+                .joints
+                .iter()
+                .filter_map(|&(_, d, _)| self.tree.joints.iter().position(|j| j.dadr == d))
+                .collect(),
+        }
+    }
+}
+
 impl ActuatorKind {
     /// MuJoCo's `gainprm` and `biasprm` (their first three entries) for this actuator: every
     /// kind is the affine law of [`ActuatorKind::General`] with these parameters.
@@ -67,15 +89,26 @@ impl ActuatorKind {
     }
 }
 
-/// An actuator on a 1-DOF joint. The generalized force is `gear · force`.
+/// What an actuator drives (MuJoCo's transmission).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transmission {
+    /// A slide or hinge joint (by index): its length is `gear · q`.
+    Joint(usize),
+    /// A fixed tendon (by index into [`Model::tendons`]): its length is `gear · L`, and the
+    /// force acts on each of the tendon's joints through its coefficient.
+    Tendon(usize),
+}
+
+/// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
+/// (times the tendon's coefficients for a tendon).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Actuator {
     /// Name (the FMU input is `<name>.ctrl`).
     pub name: String,
     /// Kind and gains.
     pub kind: ActuatorKind,
-    /// Joint index.
-    pub joint: usize,
+    /// The joint or tendon it drives.
+    pub target: Transmission,
     /// Gear ratio.
     pub gear: f64,
     /// Control range, if limited (controls are clamped to it).
@@ -397,8 +430,16 @@ impl Model {
                 Some((_, hi)) if u.re() > hi => c(hi),
                 _ => u,
             };
-            let j = &self.tree.joints[a.joint];
-            let (qj, vj) = (q[j.qadr], v[j.dadr]);
+            let (qj, vj) = match a.target {
+                Transmission::Joint(j) => {
+                    let j = &self.tree.joints[j];
+                    (q[j.qadr], v[j.dadr])
+                }
+                Transmission::Tendon(t) => {
+                    let t = &self.tendons[t];
+                    (t.length(q), t.velocity(v))
+                }
+            };
             let force = match a.kind {
                 ActuatorKind::Motor => u,
                 ActuatorKind::Position { kp, kv } => (u - qj * a.gear) * kp - vj * (kv * a.gear),
@@ -416,7 +457,14 @@ impl Model {
                 Some((_, hi)) if force.re() > hi => c(hi),
                 _ => force,
             };
-            tau[j.dadr] += force * a.gear;
+            match a.target {
+                Transmission::Joint(j) => tau[self.tree.joints[j].dadr] += force * a.gear,
+                Transmission::Tendon(t) => {
+                    for &(_, vi, coef) in &self.tendons[t].joints {
+                        tau[vi] += force * (a.gear * coef);
+                    }
+                }
+            }
         }
         tau
     }

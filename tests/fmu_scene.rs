@@ -225,8 +225,9 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
 }
 
 /// Fixed tendons tie subtrees together: an arm's accelerations depend on the coordinates of
-/// the other arm its tendon holds (spring, damper, dry friction and limit), and on nothing
-/// else; the declared dependencies say so, exactly.
+/// the other arm its tendon holds (spring, damper, dry friction, limit and a servo on the
+/// tendon) and on the servo's control, and on nothing else; the declared dependencies say so,
+/// exactly.
 #[test]
 fn dependencies_follow_tendons_across_subtrees() {
     let xml = r#"<mujoco>
@@ -250,6 +251,9 @@ fn dependencies_follow_tendons_across_subtrees() {
       <joint joint="jb" coef="-0.5"/>
     </fixed>
   </tendon>
+  <actuator>
+    <position name="servo" tendon="tie" kp="2" kv="0.1"/>
+  </actuator>
 </mujoco>"#;
     let dir = std::env::temp_dir().join(format!("scm_tendon_deps_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -287,6 +291,9 @@ fn dependencies_follow_tendons_across_subtrees() {
         "{a:?}"
     );
     assert!(!a.iter().any(|n| n.starts_with("jc.")), "{a:?}");
+    let b = deps("der(jb.v)");
+    assert!(b.contains(&"servo.ctrl".to_string()), "{b:?}");
+    assert!(!deps("der(jc.v)").contains(&"servo.ctrl".to_string()));
     check_dependencies("tendons", &mut sim);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -237,7 +237,7 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
                 });
                 vec![
                     format!("<code>{}.ctrl</code>", esc(&a.name)),
-                    esc(&tree.joints[a.joint].name),
+                    esc(&m.actuator_target(a)),
                     esc(&law),
                     format_real(a.gear),
                     esc(&range),
@@ -246,7 +246,7 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
             .collect();
         table(
             &mut o,
-            &["input", "joint", "law", "gear", "control range"],
+            &["input", "drives", "law", "gear", "control range"],
             &rows,
         );
     }

@@ -4,10 +4,10 @@ use super::*;
 
 impl Builder {
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
-        if el.attr("tendon").is_some() || el.attr("site").is_some() || el.attr("body").is_some() {
+        if el.attr("site").is_some() || el.attr("body").is_some() {
             return Err(self.err(
                 el,
-                "only joint actuators are supported by SCM: give joint=\"NAME\"",
+                "site and body transmissions are not supported by SCM: drive a joint (joint=\"NAME\") or a fixed tendon (tendon=\"NAME\")",
             ));
         }
         self.check_attrs(
@@ -15,6 +15,7 @@ impl Builder {
             &[
                 "name",
                 "joint",
+                "tendon",
                 "gear",
                 "kp",
                 "kv",
@@ -34,20 +35,34 @@ impl Builder {
             Some(r) if r.0 > r.1 => return Err(self.err(el, "forcerange is reversed")),
             r => r,
         };
-        let jname = el
-            .attr("joint")
-            .ok_or_else(|| self.err(el, "only joint actuators are supported: joint is required"))?;
-        let joint = self
-            .joints
-            .iter()
-            .position(|j| j.name == jname)
-            .ok_or_else(|| self.err(el, format!("no joint named '{jname}'")))?;
-        if self.joints[joint].kind.nv() != 1 {
-            return Err(self.err(
-                el,
-                format!("joint '{jname}' has more than one degree of freedom"),
-            ));
-        }
+        let target = match (el.attr("joint"), el.attr("tendon")) {
+            (Some(jname), None) => {
+                let joint = self
+                    .joints
+                    .iter()
+                    .position(|j| j.name == jname)
+                    .ok_or_else(|| self.err(el, format!("no joint named '{jname}'")))?;
+                if self.joints[joint].kind.nv() != 1 {
+                    return Err(self.err(
+                        el,
+                        format!("joint '{jname}' has more than one degree of freedom"),
+                    ));
+                }
+                Transmission::Joint(joint)
+            }
+            (None, Some(tname)) => Transmission::Tendon(
+                self.tendons
+                    .iter()
+                    .position(|t| t.name == tname)
+                    .ok_or_else(|| self.err(el, format!("no tendon named '{tname}'")))?,
+            ),
+            _ => {
+                return Err(self.err(
+                    el,
+                    "an actuator drives one joint (joint=\"NAME\") or one fixed tendon (tendon=\"NAME\")",
+                ))
+            }
+        };
         let gear = match el.attr("gear") {
             None => 1.0,
             Some(s) => match parse_floats(s) {
@@ -101,7 +116,7 @@ impl Builder {
         self.actuators.push(Actuator {
             name,
             kind,
-            joint,
+            target,
             gear,
             ctrlrange,
             forcerange,

@@ -13,7 +13,7 @@
 use super::{Compiled, Geom};
 use crate::dynamics::JointKind;
 use crate::geometry::Shape;
-use crate::model::ActuatorKind;
+use crate::model::{ActuatorKind, Transmission};
 use nalgebra::{Isometry3, Vector3};
 use serde_json::{json, Value};
 
@@ -108,7 +108,15 @@ impl Compiled {
                 };
                 let (gain, bias) = a.kind.gain_bias();
                 json!({
-                    "name": a.name, "joint": t.joints[a.joint].name, "gear": a.gear,
+                    "name": a.name, "gear": a.gear,
+                    "joint": match a.target {
+                        Transmission::Joint(j) => Some(t.joints[j].name.clone()),
+                        Transmission::Tendon(_) => None,
+                    },
+                    "tendon": match a.target {
+                        Transmission::Tendon(i) => Some(self.tendons[i].name.clone()),
+                        Transmission::Joint(_) => None,
+                    },
                     "kind": kind, "gainprm": gain, "biasprm": bias,
                     "ctrllimited": a.ctrlrange.is_some(),
                     "ctrlrange": a.ctrlrange.map(|(lo, hi)| vec![lo, hi]),

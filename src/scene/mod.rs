@@ -28,7 +28,7 @@ use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{Body, Joint, JointKind, Tree};
 use crate::geometry::{Shape, TriMesh};
 use crate::integrate::Integrator;
-use crate::model::{Actuator, ActuatorKind, Model, Pair};
+use crate::model::{Actuator, ActuatorKind, Model, Pair, Transmission};
 use canonical::Angles;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::{Path, PathBuf};
@@ -485,11 +485,9 @@ impl Builder {
                         self.body_child(child, 0)?;
                     }
                 }
-                "actuator" => {
-                    for a in &el.children {
-                        self.actuator(a)?;
-                    }
-                }
+                // After everything else: an actuator names joints and tendons wherever they
+                // are declared, as MuJoCo resolves names after reading the whole file.
+                "actuator" => {}
                 "contact" => self.contact(el)?,
                 "tendon" => {
                     for t in &el.children {
@@ -526,6 +524,11 @@ impl Builder {
                     }
                 }
                 _ => return Err(self.err(el, "unsupported element")),
+            }
+        }
+        for el in root.children.iter().filter(|el| el.name == "actuator") {
+            for a in &el.children {
+                self.actuator(a)?;
             }
         }
         Ok(())

@@ -138,7 +138,11 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
         .collect();
     let mut k = coordinates(model, &joints, true);
     for (a, act) in model.actuators.iter().enumerate() {
-        if joints.contains(&act.joint) {
+        if model
+            .actuator_joints(act)
+            .iter()
+            .any(|j| joints.contains(j))
+        {
             k.ctrl.insert(a);
         }
     }
@@ -157,7 +161,8 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
 }
 
 /// What the accelerations of the subtree rooted at `root` depend on: its own knowns
-/// ([`subtree_knowns`]) and those of every subtree a tendon that exerts force ties to it
+/// ([`subtree_knowns`]) and those of every subtree a tendon that exerts force (or that an
+/// actuator drives) ties to it
 /// (directly or through other tendons), since the tendon's force on each of its joints
 /// depends on all of them.
 fn coupled_knowns(model: &Model, root: usize) -> Knowns {
@@ -174,7 +179,13 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
     let mut friction = false;
     loop {
         let before = roots.len();
-        for t in model.tendons.iter().filter(|t| t.acts()) {
+        let actuated = |t: usize| {
+            model
+                .actuators
+                .iter()
+                .any(|a| a.target == crate::model::Transmission::Tendon(t))
+        };
+        for (_, t) in (model.tendons.iter().enumerate()).filter(|(i, t)| t.acts() || actuated(*i)) {
             let tied: Vec<usize> = t.joints.iter().map(|&(_, d, _)| root_of_dof(d)).collect();
             if tied.iter().any(|r| roots.contains(r)) {
                 roots.extend(tied);

@@ -229,7 +229,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         );
     }
     for (i, a) in model.actuators.iter().enumerate() {
-        let jn = &model.tree.joints[a.joint].name;
+        let target = model.actuator_target(a);
         push(
             format!("{}.ctrl", names::identifier(&a.name)),
             Causality::Input,
@@ -240,7 +240,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 unit: None,
                 derivative: None,
             },
-            format!("Control of actuator {} on joint {jn}", a.name),
+            format!("Control of actuator {} on {target}", a.name),
             Slot::Ctrl(i),
         );
     }

@@ -173,8 +173,11 @@ def compare(path):
     assert len(ours["actuators"]) == m.nu, "actuator count"
     for a, act in enumerate(ours["actuators"]):
         tag = f"actuator {act['name']}"
-        assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
-        assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
+        if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON):
+            assert act["tendon"] == ours["tendons"][m.actuator_trnid[a, 0]]["name"], tag
+        else:
+            assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
+            assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
         close(f"{tag} gear", act["gear"], m.actuator_gear[a, 0])
         assert act["ctrllimited"] == bool(m.actuator_ctrllimited[a]), f"{tag} ctrllimited"
         if act["ctrllimited"]:
@@ -232,3 +235,11 @@ def test_corpus_file_compiles_as_mujoco_compiles_it(path):
 def test_bundled_scene_compiles_as_mujoco_compiles_it(path):
     ours = compare(path)
     assert ours["refused"] == [], "a bundled scene must simulate"
+
+
+def test_tendons_and_tendon_actuators_compile_as_mujoco_compiles_them(tmp_path):
+    from test_mjcf_idioms import TENDONS
+    path = tmp_path / "tendons.xml"
+    path.write_text(TENDONS.format(integrator="Euler"))
+    ours = compare(path)
+    assert [a.get("tendon") for a in ours["actuators"]] == ["couple", "band"]

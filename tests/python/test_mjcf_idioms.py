@@ -447,6 +447,12 @@ TENDONS = """<mujoco model="tendons">
       </body>
     </body>
   </worldbody>
+  <actuator>
+    <position name="servo" tendon="couple" kp="3" kv="0.2"/>
+    <motor name="pull" tendon="band" gear="2" forcerange="-0.1 0.1"/>
+  </actuator>
+  <keyframe><key name="k" ctrl="0.2 0.3"/></keyframe>
+  <custom><text name="scm_keyframe" data="k"/></custom>
   <tendon>
     <fixed name="couple" stiffness="5" damping="0.3" springlength="0.05">
       <joint joint="ja" coef="1"/>
@@ -466,8 +472,9 @@ TENDONS = """<mujoco model="tendons">
 def test_fixed_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
     # Two arms in separate subtrees tied by a tendon spring and damper, a spring with MuJoCo's
     # deadband (springlength "0 0.02") across a hinge and a slide, and one resting at the
-    # length of the reference configuration (no springlength): contact-free, so the motion
-    # equals MuJoCo's to rounding with Euler and RK4.
+    # length of the springs' rest configuration (no springlength); a position servo and a
+    # geared, force-limited motor on tendons (declared before the tendons, as MuJoCo allows):
+    # contact-free, so the motion equals MuJoCo's to rounding with Euler and RK4.
     names = ["ja.q", "jb.q", "jc.q"]
     for integrator in ("Euler", "RK4"):
         path = tmp_path / f"tendons_{integrator}.xml"
@@ -479,6 +486,7 @@ def test_fixed_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
         res = simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=names)
         m = mujoco.MjModel.from_xml_path(str(path))
         d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, 0)
         theirs = []
         while d.time < 1.0 - 1e-9:
             mujoco.mj_step(m, d)
