@@ -154,6 +154,8 @@ pub struct Model {
     /// Fixed tendons (`<tendon><fixed>`), each with its spring, damper, dry friction and
     /// limits (all zero for a tendon that only measures a length).
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
+    /// Joint and tendon equality constraints, as springs and dampers.
+    pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
 }
 
 /// Result of forward dynamics.
@@ -415,6 +417,9 @@ impl Model {
             for &(_, vi, coef) in &t.joints {
                 tau[vi] += f * coef;
             }
+        }
+        for e in &self.equalities {
+            e.add_force(q, v, tau.as_mut_slice());
         }
         tau
     }
@@ -684,6 +689,9 @@ impl Model {
         }
         for t in self.tendons.iter().filter(|t| t.acts()) {
             springs += t.energy(q);
+        }
+        for e in &self.equalities {
+            springs += e.energy(q);
         }
         Energy {
             kinetic,

@@ -226,8 +226,8 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
 
 /// Fixed tendons tie subtrees together: an arm's accelerations depend on the coordinates of
 /// the other arm its tendon holds (spring, damper, dry friction, limit and a servo on the
-/// tendon) and on the servo's control, and on nothing else; the declared dependencies say so,
-/// exactly.
+/// tendon) and on the servo's control, a joint equality ties a fourth arm to them, and
+/// nothing else; the declared dependencies say so, exactly.
 #[test]
 fn dependencies_follow_tendons_across_subtrees() {
     let xml = r#"<mujoco>
@@ -244,7 +244,12 @@ fn dependencies_follow_tendons_across_subtrees() {
       <joint name="jc" type="slide" axis="1 0 0"/>
       <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
     </body>
+    <body name="d" pos="1.5 0 1">
+      <joint name="jd" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
   </worldbody>
+  <equality><joint joint1="jd" joint2="jb" polycoef="0.1 0.5 0.3 0 0"/></equality>
   <tendon>
     <fixed name="tie" stiffness="5" damping="0.3" frictionloss="0.1" range="-0.2 0.05">
       <joint joint="ja" coef="1"/>
@@ -261,8 +266,8 @@ fn dependencies_follow_tendons_across_subtrees() {
     std::fs::write(&path, xml).unwrap();
     let mut sim = Simulation::from_file(&path).unwrap();
     // Past the limit, moving: every term of the tendon's force acts.
-    sim.current.state.q = vec![0.2, -0.1, 0.0];
-    sim.current.state.v = vec![0.3, -0.2, 0.1];
+    sim.current.state.q = vec![0.2, -0.1, 0.0, 0.4];
+    sim.current.state.v = vec![0.3, -0.2, 0.1, -0.3];
     let x = sim.continuous_states();
     sim.set_continuous_states(&x).unwrap();
     let deps = |unknown: &str| -> Vec<String> {
@@ -294,6 +299,13 @@ fn dependencies_follow_tendons_across_subtrees() {
     let b = deps("der(jb.v)");
     assert!(b.contains(&"servo.ctrl".to_string()), "{b:?}");
     assert!(!deps("der(jc.v)").contains(&"servo.ctrl".to_string()));
+    // The joint equality ties the fourth arm to the second (and through the tendon, the first).
+    let d = deps("der(jd.v)");
+    assert!(
+        d.contains(&"jb.q".to_string()) && d.contains(&"ja.q".to_string()),
+        "{d:?}"
+    );
+    assert!(deps("der(jb.v)").contains(&"jd.q".to_string()));
     check_dependencies("tendons", &mut sim);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -66,6 +66,19 @@ pub fn ramp_energy<T: Scalar>(d: T, w: f64) -> T {
     (t4 * 0.25 - t4 * t * 0.1) * (w * w)
 }
 
+/// The stiffness and damping `(k, b)` of a spring and damper that give a coordinate of
+/// effective inertia `inertia` MuJoCo's reference acceleration for `solref`: with a time
+/// constant and damping ratio `(τ, ζ)`, `k = I / (τ ζ)²`, `b = 2 I / τ`; with negative values
+/// `(-k', -b')`, `k = k' I`, `b = b' I`.
+pub fn solref_gains(solref: [f64; 2], inertia: f64) -> (f64, f64) {
+    if solref[0] > 0.0 {
+        let (tau, zeta) = (solref[0], solref[1].max(1e-12));
+        (inertia / (tau * zeta).powi(2), 2.0 * inertia / tau)
+    } else {
+        (-solref[0] * inertia, -solref[1] * inertia)
+    }
+}
+
 impl JointLimit {
     /// The limit's generalized force at position `q` and velocity `v`.
     pub fn force<T: Scalar>(&self, q: T, v: T) -> T {
@@ -83,12 +96,7 @@ impl JointLimit {
 
     /// Stiffness and damping from MuJoCo's `solref` and the joint's effective inertia.
     pub fn from_solref(lo: f64, hi: f64, solref: [f64; 2], inertia: f64) -> JointLimit {
-        let (stiffness, damping) = if solref[0] > 0.0 {
-            let (tau, zeta) = (solref[0], solref[1].max(1e-12));
-            (inertia / (tau * zeta).powi(2), 2.0 * inertia / tau)
-        } else {
-            (-solref[0] * inertia, -solref[1] * inertia)
-        };
+        let (stiffness, damping) = solref_gains(solref, inertia);
         JointLimit {
             lo,
             hi,

@@ -12,6 +12,7 @@
 //! Its pose and velocity enter [`Tree::kinematics_with`] as [`MOCAP_INPUTS`] numbers per mocap
 //! body (see [`Tree::mocap`]).
 
+pub mod equality;
 pub mod fluid;
 mod kinematics;
 pub mod limit;

@@ -317,6 +317,74 @@ impl Builder {
         Ok(())
     }
 
+    /// An `<equality>` element: `joint` and `tendon` couplings become springs and dampers
+    /// ([`crate::dynamics::equality`]); `connect`, `weld` and `flex` are refused.
+    pub(super) fn equality(&mut self, el: &Element) -> Result<(), SceneError> {
+        let tendons = match el.name.as_str() {
+            "joint" => false,
+            "tendon" => true,
+            "connect" | "weld" => {
+                return Err(self.err(el, format!("<{}> equality constraints are not supported by SCM yet: remove it, or switch equality constraints off with <option><flag equality=\"disable\"/></option>", el.name)))
+            }
+            _ => return Err(self.err(el, "unsupported equality constraint: SCM supports <joint> and <tendon> equalities")),
+        };
+        let (key1, key2) = if tendons {
+            ("tendon1", "tendon2")
+        } else {
+            ("joint1", "joint2")
+        };
+        self.check_attrs(el, &["name", key1, key2, "polycoef", "solref", "active"])?;
+        match el.attr("active") {
+            None | Some("true") => {}
+            Some("false") => {
+                self.unused(el, "inactive equality constraint (active=\"false\"): SCM has no way to switch it on");
+                return Ok(());
+            }
+            Some(v) => return Err(self.err(el, format!("active=\"{v}\": expected true or false"))),
+        }
+        let find = |key: &str| -> Result<Option<usize>, SceneError> {
+            let Some(name) = el.attr(key) else {
+                return Ok(None);
+            };
+            let found = if tendons {
+                self.tendons.iter().position(|t| t.name == name)
+            } else {
+                self.joints.iter().position(|j| {
+                    j.name == name && matches!(j.kind, JointKind::Slide | JointKind::Hinge)
+                })
+            };
+            found.map(Some).ok_or_else(|| {
+                let what = if tendons {
+                    "fixed tendon"
+                } else {
+                    "slide or hinge joint"
+                };
+                self.err(el, format!("{key}: no {what} named '{name}'"))
+            })
+        };
+        let first = find(key1)?.ok_or_else(|| self.err(el, format!("{key1} is required")))?;
+        let second = find(key2)?;
+        let poly = match el.attr("polycoef").map(parse_floats) {
+            None => [0.0, 1.0, 0.0, 0.0, 0.0],
+            Some(Some(v)) if v.len() == 5 => [v[0], v[1], v[2], v[3], v[4]],
+            Some(_) => return Err(self.err(el, "polycoef: expected 5 numbers")),
+        };
+        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        let name = el
+            .attr("name")
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("equality{}", self.equalities.len()));
+        self.equalities.push(EqualitySpec {
+            name,
+            tendons,
+            first,
+            second,
+            poly,
+            solref: [solref[0], solref[1]],
+        });
+        Ok(())
+    }
+
     pub(super) fn contact(&mut self, el: &Element) -> Result<(), SceneError> {
         for c in &el.children {
             match c.name.as_str() {

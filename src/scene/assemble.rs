@@ -2,7 +2,8 @@
 //! flags applied, the initial state, joint limits, fluid forces and the finished `Model`.
 
 use super::*;
-use crate::dynamics::limit::JointLimit;
+use crate::dynamics::equality::{Linear, ScalarEquality};
+use crate::dynamics::limit::{solref_gains, JointLimit};
 use crate::dynamics::tendon::FixedTendon;
 
 impl Builder {
@@ -274,6 +275,58 @@ impl Builder {
             .collect()
     }
 
+    /// The joint and tendon equalities over `tree`'s coordinates, as springs and dampers
+    /// ([`crate::dynamics::equality`]): each object's value at `qpos0` is its reference, and
+    /// the stiffness and damping come from `solref` and `1 / (w₁ + w₂)`, with `w` MuJoCo's
+    /// `dof_invweight0` or `tendon_invweight0` at `qpos0`.
+    fn scalar_equalities(&self, tree: &Tree, tendons: &[FixedTendon]) -> Vec<ScalarEquality> {
+        if self.equalities.is_empty() {
+            return vec![];
+        }
+        let q0 = tree.q0();
+        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+        let m = tree.mass_matrix(&kin);
+        let Some(inv) = m.clone().cholesky().map(|ch| ch.inverse()) else {
+            return vec![];
+        };
+        let object = |tendon: bool, i: usize| -> Linear {
+            if tendon {
+                tendons[i].joints.clone()
+            } else {
+                let j = &tree.joints[i];
+                vec![(j.qadr, j.dadr, 1.0)]
+            }
+        };
+        let inv = &inv;
+        let weight = |x: &Linear| -> f64 {
+            x.iter()
+                .flat_map(|&(_, a, ca)| x.iter().map(move |&(_, b, cb)| ca * cb * inv[(a, b)]))
+                .sum()
+        };
+        let at_q0 = |x: &Linear| -> f64 { x.iter().map(|&(qi, _, c)| q0[qi] * c).sum() };
+        self.equalities
+            .iter()
+            .map(|e| {
+                let first = object(e.tendons, e.first);
+                let second = e.second.map(|i| object(e.tendons, i));
+                let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
+                let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
+                let (stiffness, damping) = solref_gains(e.solref, inertia);
+                ScalarEquality {
+                    name: e.name.clone(),
+                    first: (first.clone(), at_q0(&first)),
+                    second: second.map(|x| {
+                        let r = at_q0(&x);
+                        (x, r)
+                    }),
+                    poly: e.poly,
+                    stiffness,
+                    damping,
+                }
+            })
+            .collect()
+    }
+
     /// The compiled model without colliders, and everything SCM would refuse about it.
     pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
         self.compile_inertias();
@@ -283,9 +336,11 @@ impl Builder {
             self.set_limits(&mut tree);
         }
         let tendons = self.fixed_tendons(&tree);
+        let equalities = self.scalar_equalities(&tree, &tendons);
         Ok(Compiled {
             tree,
             tendons,
+            equalities,
             geoms: self.geoms,
             actuators: self.actuators,
             timestep: self.timestep.unwrap_or(DEFAULT_STEP),
@@ -419,6 +474,7 @@ impl Builder {
             self.set_limits(&mut tree);
         }
         let tendons = self.fixed_tendons(&tree);
+        let equalities = self.scalar_equalities(&tree, &tendons);
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)
@@ -441,6 +497,7 @@ impl Builder {
             ctrl0,
             fluid,
             tendons,
+            equalities,
         };
         Ok(Scene {
             model,

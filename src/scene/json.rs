@@ -149,8 +149,20 @@ impl Compiled {
                 })
             })
             .collect();
+        let equalities: Vec<Value> = self
+            .equalities
+            .iter()
+            .map(|e| {
+                json!({
+                    "name": e.name, "poly": e.poly,
+                    "reference": [Some(e.first.1), e.second.as_ref().map(|s| s.1)],
+                    "stiffness": e.stiffness, "damping": e.damping,
+                })
+            })
+            .collect();
         json!({
             "tendons": tendons,
+            "equalities": equalities,
             "option": {
                 "timestep": self.timestep,
                 "gravity": v3(&t.gravity),

@@ -193,6 +193,8 @@ pub struct Compiled {
     pub limits: Vec<Option<(f64, f64)>>,
     /// Fixed tendons.
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
+    /// Joint and tendon equalities.
+    pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// What SCM refuses to simulate, with file and line.
     pub refused: Vec<SceneError>,
     /// Accepted and unused by SCM.
@@ -301,6 +303,21 @@ struct Builder {
     solreflimit: Vec<[f64; 2]>,
     /// `<tendon><fixed>` elements, as read.
     tendons: Vec<TendonSpec>,
+    /// `<equality><joint>` and `<equality><tendon>` elements, as read.
+    equalities: Vec<EqualitySpec>,
+}
+
+/// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
+/// `polycoef` and `solref`.
+#[derive(Clone, Debug)]
+struct EqualitySpec {
+    name: String,
+    /// Whether the objects are tendons (else joints).
+    tendons: bool,
+    first: usize,
+    second: Option<usize>,
+    poly: [f64; 5],
+    solref: [f64; 2],
 }
 
 /// A fixed tendon as read, before the tree gives its joints' coordinates.
@@ -381,6 +398,7 @@ impl Builder {
             limits: vec![],
             solreflimit: vec![],
             tendons: vec![],
+            equalities: vec![],
         }
     }
 
@@ -494,17 +512,8 @@ impl Builder {
                         self.tendon(t)?;
                     }
                 }
-                "equality" => {
-                    if let Some(e) = el.children.first() {
-                        if self.flags.equality {
-                            return Err(self.err(e, "equality constraints are not supported by SCM yet: remove them, or switch them off with <option><flag equality=\"disable\"/></option>"));
-                        }
-                        self.unused(
-                            el,
-                            "equality constraints switched off by <flag equality=\"disable\">",
-                        );
-                    }
-                }
+                // After the tendons: a tendon equality names them (see below).
+                "equality" => {}
                 "visual" | "statistic" | "size" | "extension" => {
                     self.unused(el, "renderer and memory settings")
                 }
@@ -524,6 +533,18 @@ impl Builder {
                     }
                 }
                 _ => return Err(self.err(el, "unsupported element")),
+            }
+        }
+        for el in root.children.iter().filter(|el| el.name == "equality") {
+            if !self.flags.equality && !el.children.is_empty() {
+                self.unused(
+                    el,
+                    "equality constraints switched off by <flag equality=\"disable\">",
+                );
+                continue;
+            }
+            for e in &el.children {
+                self.equality(e)?;
             }
         }
         for el in root.children.iter().filter(|el| el.name == "actuator") {

@@ -162,7 +162,7 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
 
 /// What the accelerations of the subtree rooted at `root` depend on: its own knowns
 /// ([`subtree_knowns`]) and those of every subtree a tendon that exerts force (or that an
-/// actuator drives) ties to it
+/// actuator drives) or an equality constraint ties to it
 /// (directly or through other tendons), since the tendon's force on each of its joints
 /// depends on all of them.
 fn coupled_knowns(model: &Model, root: usize) -> Knowns {
@@ -190,6 +190,12 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
             if tied.iter().any(|r| roots.contains(r)) {
                 roots.extend(tied);
                 friction |= t.frictionloss > 0.0;
+            }
+        }
+        for e in &model.equalities {
+            let tied: Vec<usize> = e.dofs().map(root_of_dof).collect();
+            if tied.iter().any(|r| roots.contains(r)) {
+                roots.extend(tied);
             }
         }
         if roots.len() == before {

@@ -6,7 +6,7 @@ Compared to 1e-9 (relative to the quantity's size where it is larger than 1): bo
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
 positions, passive properties, limits and the limit springs' stiffness and damping; geom kinds,
 sizes and poses (per body, in order); fixed tendons (joints, coefficients, spring, damper,
-friction, spring length, limits);
+friction, spring length, limits); joint and tendon equalities (polynomial, spring and damper);
 actuator joints, gears, gains and biases, control and force ranges; the time step and gravity; geom sliding
 friction and condim.
 """
@@ -219,6 +219,28 @@ def compare(path):
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k)
             close(f"{tag} limit damping", ten["limit_damping"], b)
+
+    # Joint and tendon equalities: the polynomial, and the spring and damper from solref and
+    # MuJoCo's inverse weights of both objects.
+    eqs = [e for e in range(m.neq) if not disabled(m, "EQUALITY") and m.eq_active0[e]]
+    assert len(ours["equalities"]) == len(eqs), "equality count"
+    for e, eq in zip(eqs, ours["equalities"]):
+        tag = f"equality {eq['name']}"
+        kind = int(m.eq_type[e])
+        assert kind in (int(mujoco.mjtEq.mjEQ_JOINT), int(mujoco.mjtEq.mjEQ_TENDON)), tag
+        close(f"{tag} polycoef", eq["poly"], m.eq_data[e, :5])
+        joint = kind == int(mujoco.mjtEq.mjEQ_JOINT)
+        # Each object's value at qpos0: a joint's reference, a tendon's length there.
+        at_qpos0 = lambda i: m.qpos0[m.jnt_qposadr[i]] if joint else m.tendon_length0[i]
+        close(f"{tag} reference", eq["reference"][0], at_qpos0(m.eq_obj1id[e]))
+        if m.eq_obj2id[e] >= 0:
+            close(f"{tag} reference 2", eq["reference"][1], at_qpos0(m.eq_obj2id[e]))
+        weight = lambda i: m.dof_invweight0[m.jnt_dofadr[i]] if joint else m.tendon_invweight0[i]
+        w = weight(m.eq_obj1id[e]) + (weight(m.eq_obj2id[e]) if m.eq_obj2id[e] >= 0 else 0.0)
+        tau, zeta = m.eq_solref[e]
+        k, b = (1 / w / (tau * zeta) ** 2, 2 / w / tau) if tau > 0 else (-tau / w, -zeta / w)
+        close(f"{tag} stiffness", eq["stiffness"], k)
+        close(f"{tag} damping", eq["damping"], b)
     return ours
 
 
@@ -243,3 +265,18 @@ def test_tendons_and_tendon_actuators_compile_as_mujoco_compiles_them(tmp_path):
     path.write_text(TENDONS.format(integrator="Euler"))
     ours = compare(path)
     assert [a.get("tendon") for a in ours["actuators"]] == ["couple", "band"]
+
+
+def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
+    from test_mjcf_idioms import GEARED_PENDULUMS, TENDONS
+    path = tmp_path / "gear.xml"
+    path.write_text(GEARED_PENDULUMS)
+    assert len(compare(path)["equalities"]) == 1
+    coupled = TENDONS.format(integrator="Euler").replace("</tendon>", """</tendon>
+  <equality>
+    <tendon tendon1="couple" tendon2="band" polycoef="0.01 -0.5 0.2 0 0" solref="0.05 0.8"/>
+    <joint joint1="jc" polycoef="0.02 0 0 0 0" solref="-200 -3"/>
+  </equality>""")
+    path = tmp_path / "coupled.xml"
+    path.write_text(coupled)
+    assert len(compare(path)["equalities"]) == 2

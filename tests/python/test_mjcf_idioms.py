@@ -525,3 +525,52 @@ def test_a_tendon_limit_holds_a_pendulum_as_in_mujoco(tmp_path):
     past = (force / k + 0.5e-3) / 2.0
     assert past > 0.01, "a deflection this test can see"
     assert abs(ours["hinge.q"] - (0.3 + past)) < 1e-3, (ours["hinge.q"], 0.3 + past)
+
+
+GEARED_PENDULUMS = """<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="ja" type="hinge" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="b" pos="0.6 0 1">
+      <joint name="jb" type="hinge" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <equality><joint name="gear" joint1="ja" joint2="jb" polycoef="0 0.5 0 0 0"/></equality>
+</mujoco>"""
+
+
+def test_a_joint_equality_gears_two_pendulums_as_in_mujoco(tmp_path):
+    # ja = 0.5 jb: two pendulums in separate subtrees geared by a joint equality fall and
+    # settle together. MuJoCo solves the equality as a soft constraint; SCM applies a spring and
+    # damper of MuJoCo's solref on the constraint's inertia 1 / (dof_invweight0 of both), so at
+    # rest its error is the static deflection G/k (G: the weight's torque on ja that the
+    # coupling carries), 0.036 rad here; MuJoCo's impedance (0.9 to 0.95) makes its own error
+    # about 19 times smaller. The settled angles agree within that deflection.
+    ours, m, d = run(tmp_path, GEARED_PENDULUMS, ["ja.q", "jb.q"], 4.0, name="gear")
+    assert abs(d.qpos[0] - 0.5 * d.qpos[1]) < 5e-3, d.qpos
+    k = 1.0 / (m.dof_invweight0[0] + m.dof_invweight0[1]) / 0.02 ** 2
+    d.qpos[:] = [ours["ja.q"], ours["jb.q"]]
+    d.qvel[:] = 0.0
+    mujoco.mj_forward(m, d)
+    deflection = -d.qfrc_bias[0] / k
+    error = ours["ja.q"] - 0.5 * ours["jb.q"]
+    assert abs(deflection) > 0.01, "a deflection this test can see"
+    assert abs(error - deflection) < 2e-3, (error, deflection)
+    theirs = mujoco.MjData(m)
+    while theirs.time < 4.0 - 1e-9:
+        mujoco.mj_step(m, theirs)
+    assert np.max(np.abs(theirs.qpos - [ours["ja.q"], ours["jb.q"]])) < 0.05
+
+
+def test_connect_and_weld_equalities_are_refused_with_what_to_do(tmp_path):
+    xml = GEARED_PENDULUMS.replace('<joint name="gear" joint1="ja" joint2="jb" polycoef="0 0.5 0 0 0"/>',
+                                   '<connect body1="a" body2="b" anchor="0.3 0 0"/>')
+    path = tmp_path / "connect.xml"
+    path.write_text(xml)
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "c.fmu")], capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "connect.xml:13" in out.stderr and 'equality="disable"' in out.stderr, out.stderr
