@@ -156,6 +156,8 @@ pub struct Model {
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// Joint and tendon equality constraints, as springs and dampers.
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
+    /// Connect equality constraints, as springs and dampers between two points.
+    pub connects: Vec<crate::dynamics::equality::Connect>,
 }
 
 /// Result of forward dynamics.
@@ -367,6 +369,9 @@ impl Model {
     fn add_body_forces<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
         if let Some(fluid) = &self.fluid {
             fluid.add_wrenches(&kin.frames, w);
+        }
+        for c in &self.connects {
+            c.add_wrenches(&kin.frames, w);
         }
         for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
             if body.gravcomp == 0.0 {
@@ -692,6 +697,9 @@ impl Model {
         }
         for e in &self.equalities {
             springs += e.energy(q);
+        }
+        for c in &self.connects {
+            springs += c.energy(&kin.frames);
         }
         Energy {
             kinetic,

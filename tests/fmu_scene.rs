@@ -226,8 +226,8 @@ fn directional_derivatives_match_central_differences_and_dependencies_are_comple
 
 /// Fixed tendons tie subtrees together: an arm's accelerations depend on the coordinates of
 /// the other arm its tendon holds (spring, damper, dry friction, limit and a servo on the
-/// tendon) and on the servo's control, a joint equality ties a fourth arm to them, and
-/// nothing else; the declared dependencies say so, exactly.
+/// tendon) and on the servo's control, a joint equality ties a fourth arm to them and a
+/// connect a fifth, and nothing else; the declared dependencies say so, exactly.
 #[test]
 fn dependencies_follow_tendons_across_subtrees() {
     let xml = r#"<mujoco>
@@ -248,8 +248,15 @@ fn dependencies_follow_tendons_across_subtrees() {
       <joint name="jd" type="hinge" axis="0 1 0"/>
       <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
     </body>
+    <body name="e" pos="1.7 0 1">
+      <joint name="je" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.02" contype="0" conaffinity="0"/>
+    </body>
   </worldbody>
-  <equality><joint joint1="jd" joint2="jb" polycoef="0.1 0.5 0.3 0 0"/></equality>
+  <equality>
+    <joint joint1="jd" joint2="jb" polycoef="0.1 0.5 0.3 0 0"/>
+    <connect body1="e" body2="d" anchor="0 0 -0.2"/>
+  </equality>
   <tendon>
     <fixed name="tie" stiffness="5" damping="0.3" frictionloss="0.1" range="-0.2 0.05">
       <joint joint="ja" coef="1"/>
@@ -266,8 +273,8 @@ fn dependencies_follow_tendons_across_subtrees() {
     std::fs::write(&path, xml).unwrap();
     let mut sim = Simulation::from_file(&path).unwrap();
     // Past the limit, moving: every term of the tendon's force acts.
-    sim.current.state.q = vec![0.2, -0.1, 0.0, 0.4];
-    sim.current.state.v = vec![0.3, -0.2, 0.1, -0.3];
+    sim.current.state.q = vec![0.2, -0.1, 0.0, 0.4, -0.2];
+    sim.current.state.v = vec![0.3, -0.2, 0.1, -0.3, 0.5];
     let x = sim.continuous_states();
     sim.set_continuous_states(&x).unwrap();
     let deps = |unknown: &str| -> Vec<String> {
@@ -306,6 +313,9 @@ fn dependencies_follow_tendons_across_subtrees() {
         "{d:?}"
     );
     assert!(deps("der(jb.v)").contains(&"jd.q".to_string()));
+    // The connect ties a fifth arm to the fourth.
+    assert!(deps("der(je.v)").contains(&"jd.q".to_string()));
+    assert!(deps("der(jd.v)").contains(&"je.v".to_string()));
     check_dependencies("tendons", &mut sim);
     std::fs::remove_dir_all(&dir).ok();
 }

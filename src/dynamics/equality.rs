@@ -149,3 +149,70 @@ mod tests {
         assert!(power < 0.0, "{power}");
     }
 }
+
+/// MuJoCo's `<equality><connect>`: a point of one body held at a point of another (or of the
+/// world), as a spring and damper between the two points.
+///
+/// The points are `p₁ = x₁ + R₁ a₁` and `p₂ = x₂ + R₂ a₂`, with `a₂` the place of `p₁` in
+/// body 2's frame at `qpos0` (as MuJoCo's compiler sets it), so the error `e = p₁ - p₂` is
+/// zero there. The force `F = -(k e + b ė)` acts at `p₁` on body 1 and `-F` at `p₂` on body 2;
+/// `k` and `b` come from `solref` and the inertia `1 / (w₁ + w₂)`, with `w` MuJoCo's
+/// translational `body_invweight0`. The spring stores `½ k |e|²`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Connect {
+    /// Name (from the scene, or MuJoCo's `equalityN`).
+    pub name: String,
+    /// Body 1 and the anchor in its frame.
+    pub first: (usize, nalgebra::Vector3<f64>),
+    /// Body 2 (0: the world) and the anchor in its frame.
+    pub second: (usize, nalgebra::Vector3<f64>),
+    /// Spring stiffness `k` (N/m).
+    pub stiffness: f64,
+    /// Damping `b` (N·s/m).
+    pub damping: f64,
+}
+
+impl Connect {
+    /// The two points and their velocities, world frame.
+    #[allow(clippy::type_complexity)]
+    fn points<T: crate::scalar::Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+    ) -> [(
+        nalgebra::Vector3<T>,
+        nalgebra::Vector3<T>,
+        nalgebra::Vector3<T>,
+    ); 2] {
+        [self.first, self.second].map(|(b, a)| {
+            let f = &frames[b];
+            let arm = f.rotation * a.map(crate::scalar::c::<T>);
+            (f.origin + arm, f.linvel + f.angvel.cross(&arm), arm)
+        })
+    }
+
+    /// Adds the two point forces to the bodies' wrenches (force, and torque about the body
+    /// origin, world axes).
+    pub fn add_wrenches<T: crate::scalar::Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+        w: &mut [crate::contact::Wrench<T>],
+    ) {
+        let [(p1, v1, arm1), (p2, v2, arm2)] = self.points(frames);
+        let (k, b) = (
+            crate::scalar::c::<T>(self.stiffness),
+            crate::scalar::c::<T>(self.damping),
+        );
+        let force = -((p1 - p2) * k + (v1 - v2) * b);
+        w[self.first.0].force += force;
+        w[self.first.0].torque += arm1.cross(&force);
+        w[self.second.0].force -= force;
+        w[self.second.0].torque -= arm2.cross(&force);
+    }
+
+    /// The spring's energy `½ k |e|²`.
+    pub fn energy<T: crate::scalar::Scalar>(&self, frames: &[crate::collision::Frame<T>]) -> T {
+        let [(p1, _, _), (p2, _, _), ..] = self.points(frames);
+        let e = p1 - p2;
+        e.dot(&e) * (0.5 * self.stiffness)
+    }
+}

@@ -323,10 +323,11 @@ impl Builder {
         let tendons = match el.name.as_str() {
             "joint" => false,
             "tendon" => true,
-            "connect" | "weld" => {
+            "connect" => return self.connect(el),
+            "weld" => {
                 return Err(self.err(el, format!("<{}> equality constraints are not supported by SCM yet: remove it, or switch equality constraints off with <option><flag equality=\"disable\"/></option>", el.name)))
             }
-            _ => return Err(self.err(el, "unsupported equality constraint: SCM supports <joint> and <tendon> equalities")),
+            _ => return Err(self.err(el, "unsupported equality constraint: SCM supports <connect>, <joint> and <tendon> equalities")),
         };
         let (key1, key2) = if tendons {
             ("tendon1", "tendon2")
@@ -373,13 +374,64 @@ impl Builder {
         let name = el
             .attr("name")
             .map(str::to_string)
-            .unwrap_or_else(|| format!("equality{}", self.equalities.len()));
+            .unwrap_or_else(|| format!("equality{}", self.equalities.len() + self.connects.len()));
         self.equalities.push(EqualitySpec {
             name,
             tendons,
             first,
             second,
             poly,
+            solref: [solref[0], solref[1]],
+        });
+        Ok(())
+    }
+
+    /// `<equality><connect body1 body2 anchor>`: a point of body 1 held to body 2 (default the
+    /// world) by a spring and damper ([`crate::dynamics::equality::Connect`]).
+    fn connect(&mut self, el: &Element) -> Result<(), SceneError> {
+        self.check_attrs(
+            el,
+            &["name", "body1", "body2", "anchor", "solref", "active"],
+        )?;
+        if el.attr("site1").is_some() || el.attr("site2").is_some() {
+            return Err(self.err(
+                el,
+                "a connect between sites is not supported by SCM yet: give body1, body2 and anchor",
+            ));
+        }
+        match el.attr("active") {
+            None | Some("true") => {}
+            Some("false") => {
+                self.unused(el, "inactive equality constraint (active=\"false\"): SCM has no way to switch it on");
+                return Ok(());
+            }
+            Some(v) => return Err(self.err(el, format!("active=\"{v}\": expected true or false"))),
+        }
+        let body = |key: &str| -> Result<Option<usize>, SceneError> {
+            let Some(name) = el.attr(key) else {
+                return Ok(None);
+            };
+            self.bodies
+                .iter()
+                .position(|b| b.name == name)
+                .map(Some)
+                .ok_or_else(|| self.err(el, format!("{key}: no body named '{name}'")))
+        };
+        let body1 = body("body1")?.ok_or_else(|| self.err(el, "body1 is required"))?;
+        let body2 = body("body2")?.unwrap_or(0);
+        let anchor = self
+            .floats(el, "anchor", 3)?
+            .ok_or_else(|| self.err(el, "anchor is required"))?;
+        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        let name = el
+            .attr("name")
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("equality{}", self.equalities.len() + self.connects.len()));
+        self.connects.push(ConnectSpec {
+            name,
+            body1,
+            body2,
+            anchor: Vector3::new(anchor[0], anchor[1], anchor[2]),
             solref: [solref[0], solref[1]],
         });
         Ok(())

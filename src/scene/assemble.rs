@@ -2,7 +2,7 @@
 //! flags applied, the initial state, joint limits, fluid forces and the finished `Model`.
 
 use super::*;
-use crate::dynamics::equality::{Linear, ScalarEquality};
+use crate::dynamics::equality::{Connect, Linear, ScalarEquality};
 use crate::dynamics::limit::{solref_gains, JointLimit};
 use crate::dynamics::tendon::FixedTendon;
 
@@ -327,6 +327,76 @@ impl Builder {
             .collect()
     }
 
+    /// The connect equalities over `tree`, as springs and dampers: body 2's anchor is where
+    /// body 1's is at `qpos0` (as MuJoCo's compiler puts it), and the stiffness and damping
+    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`
+    /// (zero for a body that cannot move, `1 / mass` for a top-level body of sliders, else the
+    /// mean of the diagonal of `J M⁻¹ Jᵀ` for the Jacobian `J` of its centre of mass).
+    fn connects(&self, tree: &Tree) -> Vec<Connect> {
+        if self.connects.is_empty() {
+            return vec![];
+        }
+        let q0 = tree.q0();
+        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+        let m = tree.mass_matrix(&kin);
+        let inv = m.cholesky().map(|ch| ch.inverse());
+        // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
+        // each degree of freedom.
+        let columns: Vec<_> = (0..tree.nv)
+            .map(|k| {
+                let mut v = vec![0.0; tree.nv];
+                v[k] = 1.0;
+                tree.kinematics(&q0, &v)
+            })
+            .collect();
+        let weight = |b: usize| -> f64 {
+            if b == 0 || !tree.body_moves(b) {
+                return 0.0;
+            }
+            if let Some(mass) = tree.bodies[b]
+                .joints
+                .first()
+                .and_then(|&j| slider_body_mass(tree, j))
+            {
+                return 1.0 / mass;
+            }
+            let Some(inv) = &inv else { return 0.0 };
+            let com = tree.bodies[b].inertia.com;
+            let jac: Vec<nalgebra::Vector3<f64>> = columns
+                .iter()
+                .map(|k| {
+                    let f = &k.frames[b];
+                    f.linvel + f.angvel.cross(&(f.rotation * com))
+                })
+                .collect();
+            let mut trace = 0.0;
+            for (a, ja) in jac.iter().enumerate() {
+                for (c, jc) in jac.iter().enumerate() {
+                    trace += ja.dot(jc) * inv[(a, c)];
+                }
+            }
+            trace / 3.0
+        };
+        self.connects
+            .iter()
+            .map(|c| {
+                let (f1, f2) = (&kin.frames[c.body1], &kin.frames[c.body2]);
+                let p1 = f1.origin + f1.rotation * c.anchor;
+                let anchor2 = f2.rotation.transpose() * (p1 - f2.origin);
+                let w = weight(c.body1) + weight(c.body2);
+                let (stiffness, damping) =
+                    solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
+                Connect {
+                    name: c.name.clone(),
+                    first: (c.body1, c.anchor),
+                    second: (c.body2, anchor2),
+                    stiffness,
+                    damping,
+                }
+            })
+            .collect()
+    }
+
     /// The compiled model without colliders, and everything SCM would refuse about it.
     pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
         self.compile_inertias();
@@ -337,10 +407,12 @@ impl Builder {
         }
         let tendons = self.fixed_tendons(&tree);
         let equalities = self.scalar_equalities(&tree, &tendons);
+        let connects = self.connects(&tree);
         Ok(Compiled {
             tree,
             tendons,
             equalities,
+            connects,
             geoms: self.geoms,
             actuators: self.actuators,
             timestep: self.timestep.unwrap_or(DEFAULT_STEP),
@@ -475,6 +547,7 @@ impl Builder {
         }
         let tendons = self.fixed_tendons(&tree);
         let equalities = self.scalar_equalities(&tree, &tendons);
+        let connects = self.connects(&tree);
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)
@@ -498,6 +571,7 @@ impl Builder {
             fluid,
             tendons,
             equalities,
+            connects,
         };
         Ok(Scene {
             model,

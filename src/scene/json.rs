@@ -160,9 +160,22 @@ impl Compiled {
                 })
             })
             .collect();
+        let connects: Vec<Value> = self
+            .connects
+            .iter()
+            .map(|c| {
+                json!({
+                    "name": c.name,
+                    "body1": names[c.first.0], "anchor1": v3(&c.first.1),
+                    "body2": names[c.second.0], "anchor2": v3(&c.second.1),
+                    "stiffness": c.stiffness, "damping": c.damping,
+                })
+            })
+            .collect();
         json!({
             "tendons": tendons,
             "equalities": equalities,
+            "connects": connects,
             "option": {
                 "timestep": self.timestep,
                 "gravity": v3(&t.gravity),

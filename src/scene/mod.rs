@@ -195,6 +195,8 @@ pub struct Compiled {
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// Joint and tendon equalities.
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
+    /// Connect equalities.
+    pub connects: Vec<crate::dynamics::equality::Connect>,
     /// What SCM refuses to simulate, with file and line.
     pub refused: Vec<SceneError>,
     /// Accepted and unused by SCM.
@@ -305,6 +307,18 @@ struct Builder {
     tendons: Vec<TendonSpec>,
     /// `<equality><joint>` and `<equality><tendon>` elements, as read.
     equalities: Vec<EqualitySpec>,
+    /// `<equality><connect>` elements, as read.
+    connects: Vec<ConnectSpec>,
+}
+
+/// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
+#[derive(Clone, Debug)]
+struct ConnectSpec {
+    name: String,
+    body1: usize,
+    body2: usize,
+    anchor: Vector3<f64>,
+    solref: [f64; 2],
 }
 
 /// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
@@ -399,6 +413,7 @@ impl Builder {
             solreflimit: vec![],
             tendons: vec![],
             equalities: vec![],
+            connects: vec![],
         }
     }
 

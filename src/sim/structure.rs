@@ -192,6 +192,16 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
                 friction |= t.frictionloss > 0.0;
             }
         }
+        for c in &model.connects {
+            let tied: Vec<usize> = [c.first.0, c.second.0]
+                .into_iter()
+                .filter(|&b| b != 0 && tree.body_moves(b))
+                .map(|b| subtree_root(model, b))
+                .collect();
+            if tied.iter().any(|r| roots.contains(r)) {
+                roots.extend(tied);
+            }
+        }
         for e in &model.equalities {
             let tied: Vec<usize> = e.dofs().map(root_of_dof).collect();
             if tied.iter().any(|r| roots.contains(r)) {

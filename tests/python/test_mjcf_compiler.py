@@ -6,7 +6,8 @@ Compared to 1e-9 (relative to the quantity's size where it is larger than 1): bo
 masses, centres of mass and inertias; joint kinds, anchors, axes, reference and spring
 positions, passive properties, limits and the limit springs' stiffness and damping; geom kinds,
 sizes and poses (per body, in order); fixed tendons (joints, coefficients, spring, damper,
-friction, spring length, limits); joint and tendon equalities (polynomial, spring and damper);
+friction, spring length, limits); joint and tendon equalities (polynomial, spring and damper); connect equalities (bodies, anchors,
+spring and damper);
 actuator joints, gears, gains and biases, control and force ranges; the time step and gravity; geom sliding
 friction and condim.
 """
@@ -222,7 +223,23 @@ def compare(path):
 
     # Joint and tendon equalities: the polynomial, and the spring and damper from solref and
     # MuJoCo's inverse weights of both objects.
-    eqs = [e for e in range(m.neq) if not disabled(m, "EQUALITY") and m.eq_active0[e]]
+    on = [e for e in range(m.neq) if not disabled(m, "EQUALITY") and m.eq_active0[e]]
+    connects = [e for e in on if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_CONNECT)]
+    eqs = [e for e in on if e not in connects]
+    # Connects: the bodies, both anchors (body 2's as MuJoCo's compiler computes it at qpos0),
+    # and the spring and damper from solref and the bodies' translational inverse weights.
+    assert len(ours["connects"]) == len(connects), "connect count"
+    for e, con in zip(connects, ours["connects"]):
+        tag = f"connect {con['name']}"
+        assert con["body1"] == ours["bodies"][m.eq_obj1id[e]]["name"], tag
+        assert con["body2"] == ours["bodies"][max(m.eq_obj2id[e], 0)]["name"], tag
+        close(f"{tag} anchor1", con["anchor1"], m.eq_data[e, 0:3])
+        close(f"{tag} anchor2", con["anchor2"], m.eq_data[e, 3:6])
+        w = m.body_invweight0[m.eq_obj1id[e], 0] + (m.body_invweight0[m.eq_obj2id[e], 0] if m.eq_obj2id[e] > 0 else 0.0)
+        tau, zeta = m.eq_solref[e]
+        k, b = (1 / w / (tau * zeta) ** 2, 2 / w / tau) if tau > 0 else (-tau / w, -zeta / w)
+        close(f"{tag} stiffness", con["stiffness"], k)
+        close(f"{tag} damping", con["damping"], b)
     assert len(ours["equalities"]) == len(eqs), "equality count"
     for e, eq in zip(eqs, ours["equalities"]):
         tag = f"equality {eq['name']}"
@@ -268,7 +285,7 @@ def test_tendons_and_tendon_actuators_compile_as_mujoco_compiles_them(tmp_path):
 
 
 def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
-    from test_mjcf_idioms import GEARED_PENDULUMS, TENDONS
+    from test_mjcf_idioms import FOUR_BAR, GEARED_PENDULUMS, TENDONS
     path = tmp_path / "gear.xml"
     path.write_text(GEARED_PENDULUMS)
     assert len(compare(path)["equalities"]) == 1
@@ -280,3 +297,6 @@ def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
     path = tmp_path / "coupled.xml"
     path.write_text(coupled)
     assert len(compare(path)["equalities"]) == 2
+    path = tmp_path / "four_bar.xml"
+    path.write_text(FOUR_BAR)
+    assert len(compare(path)["connects"]) == 1

@@ -566,11 +566,55 @@ def test_a_joint_equality_gears_two_pendulums_as_in_mujoco(tmp_path):
     assert np.max(np.abs(theirs.qpos - [ours["ja.q"], ours["jb.q"]])) < 0.05
 
 
-def test_connect_and_weld_equalities_are_refused_with_what_to_do(tmp_path):
+FOUR_BAR = """<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="crank" pos="0 0 1">
+      <joint name="j1" type="hinge" axis="0 1 0" damping="0.02"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.015" contype="0" conaffinity="0"/>
+      <body name="coupler" pos="0.2 0 0">
+        <joint name="j2" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.015" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+    <body name="rocker" pos="0.4 0 1">
+      <joint name="j3" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.015" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <equality><connect name="pin" body1="coupler" body2="rocker" anchor="0 0 -0.3"/></equality>
+</mujoco>"""
+
+
+def test_a_connect_closes_a_four_bar_linkage_as_in_mujoco(tmp_path):
+    # A crank and a rocker from the world, joined by a coupler whose end a connect pins to the
+    # rocker, at the point of the rocker where that end is at qpos0 (MuJoCo's compiler puts
+    # body 2's anchor there). MuJoCo's soft constraint and SCM's spring of its solref on
+    # 1 / (body_invweight0 of both) close the loop while the linkage swings under gravity: the
+    # pin opens by millimetres at most in both, and the crank moves alike.
+    names = ["j1.q", "j2.q", "j3.q"]
+    ours, m, d = run(tmp_path, FOUR_BAR, names, 1.0, name="four_bar")
+
+    def gap(data):
+        p1 = data.xpos[2] + data.xmat[2].reshape(3, 3) @ m.eq_data[0, 0:3]
+        p2 = data.xpos[3] + data.xmat[3].reshape(3, 3) @ m.eq_data[0, 3:6]
+        return np.linalg.norm(p1 - p2)
+
+    mine = mujoco.MjData(m)
+    mine.qpos[:] = [ours[n] for n in names]
+    mujoco.mj_kinematics(m, mine)
+    print(f"four-bar after 1 s: pin gap MuJoCo {gap(d):.2e} m, SCM {gap(mine):.2e} m; "
+          f"crank MuJoCo {d.qpos[0]:.4f}, SCM {ours['j1.q']:.4f} rad")
+    assert abs(d.qpos[0]) > 0.5, "the linkage swings"
+    assert gap(d) < 5e-3 and gap(mine) < 5e-3
+    assert abs(ours["j1.q"] - d.qpos[0]) < 0.05
+
+
+def test_weld_equalities_are_refused_with_what_to_do(tmp_path):
     xml = GEARED_PENDULUMS.replace('<joint name="gear" joint1="ja" joint2="jb" polycoef="0 0.5 0 0 0"/>',
-                                   '<connect body1="a" body2="b" anchor="0.3 0 0"/>')
-    path = tmp_path / "connect.xml"
+                                   '<weld body1="a" body2="b"/>')
+    path = tmp_path / "weld.xml"
     path.write_text(xml)
     out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "c.fmu")], capture_output=True, text=True)
     assert out.returncode != 0
-    assert "connect.xml:13" in out.stderr and 'equality="disable"' in out.stderr, out.stderr
+    assert "weld.xml:13" in out.stderr and 'equality="disable"' in out.stderr, out.stderr
