@@ -57,7 +57,21 @@ fn each_kind_of_mistake_is_named_with_its_line() {
             r#"size="0.05" mass="1" fluidshape="ellipsoid""#,
             6,
             "geom",
-            "fluidshape",
+            "inertia-box",
+        ),
+        (
+            r#"<freejoint/>"#,
+            r#"<freejoint/><replicate count="3"/>"#,
+            5,
+            "replicate",
+            "write the copies out",
+        ),
+        (
+            r#"<freejoint/>"#,
+            r#"<freejoint/><composite type="grid"/>"#,
+            5,
+            "composite",
+            "rigid bodies",
         ),
         (
             r#"type="sphere""#,

@@ -16,7 +16,12 @@ impl Builder {
             "inertial" if body == 0 => Err(self.err(el, "the world body has no inertia")),
             "inertial" => self.inertial(el, body),
             "site" | "camera" | "light" => Ok(()),
-            _ => Err(self.err(el, "unsupported element in a body")),
+            "replicate" => Err(self.err(el, "MuJoCo's <replicate> is not supported by SCM yet: write the copies out (MuJoCo's mj_saveLastXML writes the compiled model with them)")),
+            "composite" | "flexcomp" | "skin" | "attach" | "plugin" => Err(self.err(
+                el,
+                format!("<{}> is not supported by SCM: SCM simulates rigid bodies with body, joint, geom, inertial (sites, cameras and lights are accepted)", el.name),
+            )),
+            _ => Err(self.err(el, "unsupported element in a body: SCM reads body, joint, freejoint, geom, inertial, site, camera and light")),
         }
     }
 

@@ -22,8 +22,25 @@ impl Builder {
                 "conaffinity",
                 "condim",
                 "mesh",
+                "fluidshape",
+                "fluidcoef",
             ],
         )?;
+        // MuJoCo's default fluid model is the bodies' inertia boxes (fluidshape="none"), which
+        // SCM has; the per-geom ellipsoid model it does not.
+        match el.attr("fluidshape") {
+            None | Some("none") => {
+                if el.attr("fluidcoef").is_some() {
+                    self.unused(el, "fluidcoef (read by MuJoCo only with fluidshape=\"ellipsoid\")");
+                }
+            }
+            Some(v) => {
+                return Err(self.err(
+                    el,
+                    format!("fluidshape=\"{v}\": MuJoCo's ellipsoid fluid model is not supported by SCM: remove fluidshape to use the inertia-box model (MuJoCo's default), which SCM has"),
+                ))
+            }
+        }
         if el.attr("shellinertia").is_some_and(|v| v != "false") {
             return Err(self.err(
                 el,

@@ -103,6 +103,14 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("iterations", "MuJoCo's constraint solver"),
     ("ls_iterations", "MuJoCo's constraint solver"),
     ("noslip_iterations", "MuJoCo's constraint solver"),
+    (
+        "sleep_tolerance",
+        "MuJoCo's sleeping of resting bodies, a speed setting",
+    ),
+    (
+        "sleep",
+        "MuJoCo's sleeping policy of a body, a speed setting",
+    ),
     ("ccd_iterations", "MuJoCo's collision detection"),
     ("sdf_iterations", "MuJoCo's collision detection"),
     ("sdf_initpoints", "MuJoCo's collision detection"),
@@ -131,8 +139,14 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
 pub(super) fn advice(element: &str, attr: &str) -> &'static str {
     match (element, attr) {
         (_, "class") | (_, "childclass") => ": defaults should have been applied (report this)",
-        ("geom", "fluidshape") | ("geom", "fluidcoef") => {
-            ": fluid forces are not supported; remove them"
+        (_, "cranksite") | (_, "slidersite") | (_, "cranklength") => {
+            ": slider-crank transmissions are not supported; drive a joint or a fixed tendon"
+        }
+        ("mesh", "builtin") => {
+            ": MuJoCo's built-in procedural meshes are not supported; use primitive geoms or a mesh file"
+        }
+        ("mesh", "vertex") | ("mesh", "face") | ("mesh", "normal") | ("mesh", "texcoord") => {
+            ": meshes given inline are not supported yet; write the mesh to an OBJ or STL file and give file=\"...\""
         }
         ("joint", "actuatorfrcrange") | ("joint", "actuatorfrclimited") => {
             ": limit the actuators' forcerange instead"

@@ -618,3 +618,24 @@ def test_weld_equalities_are_refused_with_what_to_do(tmp_path):
     out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "c.fmu")], capture_output=True, text=True)
     assert out.returncode != 0
     assert "weld.xml:13" in out.stderr and 'equality="disable"' in out.stderr, out.stderr
+
+
+def test_fluidshape_none_is_mujocos_default_and_the_ellipsoid_model_is_refused(tmp_path):
+    # MuJoCo's own balloons model writes fluidshape on its geoms; "none" (the default, the
+    # inertia-box model) is what SCM has and runs as MuJoCo does; "ellipsoid" is refused with
+    # what to do.
+    xml = """<mujoco>
+  <option density="1.2" viscosity="1e-3" timestep="0.002"/>
+  <worldbody>
+    <body name="ball" pos="0 0 1"><freejoint/>
+      <geom type="sphere" size="0.1" mass="0.05" fluidshape="{shape}" fluidcoef="0.5 0.25 1.5 1 1"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+    ours, m, d = run(tmp_path, xml.format(shape="none"), ["ball.pos.z"], 0.5, name="none")
+    assert abs(ours["ball.pos.z"] - d.qpos[2]) < 1e-6, (ours["ball.pos.z"], d.qpos[2])
+    assert 1.0 - d.qpos[2] < 0.5 * 9.81 * 0.25 * 0.99, "the air slows the fall"
+    path = tmp_path / "ellipsoid.xml"
+    path.write_text(xml.format(shape="ellipsoid"))
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "e.fmu")], capture_output=True, text=True)
+    assert out.returncode != 0 and "ellipsoid.xml:5" in out.stderr and "inertia-box" in out.stderr, out.stderr
