@@ -335,13 +335,8 @@ impl Builder {
             ("joint1", "joint2")
         };
         self.check_attrs(el, &["name", key1, key2, "polycoef", "solref", "active"])?;
-        match el.attr("active") {
-            None | Some("true") => {}
-            Some("false") => {
-                self.unused(el, "inactive equality constraint (active=\"false\"): SCM has no way to switch it on");
-                return Ok(());
-            }
-            Some(v) => return Err(self.err(el, format!("active=\"{v}\": expected true or false"))),
+        if !self.equality_active(el)? {
+            return Ok(());
         }
         let find = |key: &str| -> Result<Option<usize>, SceneError> {
             let Some(name) = el.attr(key) else {
@@ -399,13 +394,8 @@ impl Builder {
                 "a connect between sites is not supported by SCM yet: give body1, body2 and anchor",
             ));
         }
-        match el.attr("active") {
-            None | Some("true") => {}
-            Some("false") => {
-                self.unused(el, "inactive equality constraint (active=\"false\"): SCM has no way to switch it on");
-                return Ok(());
-            }
-            Some(v) => return Err(self.err(el, format!("active=\"{v}\": expected true or false"))),
+        if !self.equality_active(el)? {
+            return Ok(());
         }
         let body = |key: &str| -> Result<Option<usize>, SceneError> {
             let Some(name) = el.attr(key) else {
@@ -435,6 +425,19 @@ impl Builder {
             solref: [solref[0], solref[1]],
         });
         Ok(())
+    }
+
+    /// An equality's `active`: `false` is listed as unused (SCM cannot switch a constraint on
+    /// during a run) and the constraint left out.
+    fn equality_active(&mut self, el: &Element) -> Result<bool, SceneError> {
+        match el.attr("active") {
+            None | Some("true") => Ok(true),
+            Some("false") => {
+                self.unused(el, "inactive equality constraint (active=\"false\"): SCM has no way to switch it on");
+                Ok(false)
+            }
+            Some(v) => Err(self.err(el, format!("active=\"{v}\": expected true or false"))),
+        }
     }
 
     pub(super) fn contact(&mut self, el: &Element) -> Result<(), SceneError> {

@@ -193,10 +193,7 @@ impl Builder {
     /// walker it is 56 times larger, and a limit stiffened by it is too stiff for the file's
     /// step.)
     pub(super) fn set_limits(&self, tree: &mut Tree) {
-        let q0 = tree.q0();
-        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
-        let m = tree.mass_matrix(&kin);
-        let m_inv = m.clone().cholesky().map(|ch| ch.inverse());
+        let (m, m_inv) = mass_at_q0(tree);
         for (j, limit) in self.limits.iter().enumerate() {
             if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
                 (limit, tree.joints[j].kind)
@@ -224,14 +221,8 @@ impl Builder {
     /// by the tendon's effective inertia there, `1 / (c M⁻¹ cᵀ)` (MuJoCo's
     /// `1 / tendon_invweight0`; `c` the coefficients over the degrees of freedom).
     fn fixed_tendons(&self, tree: &Tree) -> Vec<FixedTendon> {
-        let q0 = tree.q0();
         let limited = self.flags.limit && self.tendons.iter().any(|t| t.range.is_some());
-        let m_inv = limited
-            .then(|| {
-                let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
-                tree.mass_matrix(&kin).cholesky().map(|ch| ch.inverse())
-            })
-            .flatten();
+        let m_inv = limited.then(|| mass_at_q0(tree).1).flatten();
         self.tendons
             .iter()
             .map(|t| {
@@ -284,9 +275,7 @@ impl Builder {
             return vec![];
         }
         let q0 = tree.q0();
-        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
-        let m = tree.mass_matrix(&kin);
-        let Some(inv) = m.clone().cholesky().map(|ch| ch.inverse()) else {
+        let Some(inv) = mass_at_q0(tree).1 else {
             return vec![];
         };
         let object = |tendon: bool, i: usize| -> Linear {
@@ -338,8 +327,7 @@ impl Builder {
         }
         let q0 = tree.q0();
         let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
-        let m = tree.mass_matrix(&kin);
-        let inv = m.cholesky().map(|ch| ch.inverse());
+        let inv = mass_at_q0(tree).1;
         // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
         // each degree of freedom.
         let columns: Vec<_> = (0..tree.nv)
@@ -397,10 +385,12 @@ impl Builder {
             .collect()
     }
 
-    /// The compiled model without colliders, and everything SCM would refuse about it.
-    pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
-        self.compile_inertias();
-        let refused = self.apply_flags();
+    /// The tree with its joint limits, the fixed tendons, and the equality constraints: the
+    /// mechanics of the model, with the option flags applied.
+    #[allow(clippy::type_complexity)]
+    fn mechanics(
+        &self,
+    ) -> Result<(Tree, Vec<FixedTendon>, Vec<ScalarEquality>, Vec<Connect>), SceneError> {
         let mut tree = self.tree()?;
         if self.flags.limit {
             self.set_limits(&mut tree);
@@ -408,6 +398,14 @@ impl Builder {
         let tendons = self.fixed_tendons(&tree);
         let equalities = self.scalar_equalities(&tree, &tendons);
         let connects = self.connects(&tree);
+        Ok((tree, tendons, equalities, connects))
+    }
+
+    /// The compiled model without colliders, and everything SCM would refuse about it.
+    pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
+        self.compile_inertias();
+        let refused = self.apply_flags();
+        let (tree, tendons, equalities, connects) = self.mechanics()?;
         Ok(Compiled {
             tree,
             tendons,
@@ -541,13 +539,7 @@ impl Builder {
         } else {
             (vec![], vec![None; self.bodies.len()])
         };
-        let mut tree = self.tree()?;
-        if self.flags.limit {
-            self.set_limits(&mut tree);
-        }
-        let tendons = self.fixed_tendons(&tree);
-        let equalities = self.scalar_equalities(&tree, &tendons);
-        let connects = self.connects(&tree);
+        let (tree, tendons, equalities, connects) = self.mechanics()?;
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)
@@ -649,4 +641,14 @@ fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
     let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
     (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
         .then_some(i.mass)
+}
+
+/// The mass matrix at the reference configuration `qpos0` and its inverse (`None` when it is
+/// singular: a massless chain), for the effective inertias MuJoCo's compiler takes there.
+fn mass_at_q0(tree: &Tree) -> (nalgebra::DMatrix<f64>, Option<nalgebra::DMatrix<f64>>) {
+    let q0 = tree.q0();
+    let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+    let m = tree.mass_matrix(&kin);
+    let inv = m.clone().cholesky().map(|ch| ch.inverse());
+    (m, inv)
 }
