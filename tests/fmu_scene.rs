@@ -277,6 +277,31 @@ fn dependencies_follow_tendons_across_subtrees() {
     sim.current.state.v = vec![0.3, -0.2, 0.1, -0.3, 0.5];
     let x = sim.continuous_states();
     sim.set_continuous_states(&x).unwrap();
+    // The tendon's limit force is an output, depending on its joints' coordinates and
+    // velocities alone, and acting here (the tendon is past its upper limit).
+    let info = sim.info().clone();
+    let force = vr(&info, "tendon.tie.limit.force");
+    assert!(sim.get_real(force).unwrap() < -1e-3);
+    let (_, d) = info
+        .structure
+        .outputs
+        .iter()
+        .find(|(u, _)| *u == force)
+        .unwrap()
+        .clone();
+    let d: Vec<String> = d
+        .unwrap()
+        .iter()
+        .map(|r| {
+            info.variables
+                .iter()
+                .find(|v| v.value_reference == *r)
+                .unwrap()
+                .name
+                .clone()
+        })
+        .collect();
+    assert_eq!(d, ["ja.q", "ja.v", "jb.q", "jb.v"]);
     let deps = |unknown: &str| -> Vec<String> {
         let info = sim.info();
         let vr = vr(info, unknown);

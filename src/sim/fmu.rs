@@ -112,6 +112,14 @@ impl FmiModel for Simulation {
                     .as_ref()
                     .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
             }
+            Slot::TendonLimitForce(t) => {
+                let tendon = &self.model.tendons[t];
+                let s = &self.current.state;
+                tendon
+                    .limit
+                    .as_ref()
+                    .map_or(0.0, |l| l.force(tendon.length(&s.q), tendon.velocity(&s.v)))
+            }
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,

@@ -166,6 +166,12 @@ pub fn directional_derivative(
                         .as_ref()
                         .map_or(Dual64::from(0.0), |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
                 }
+                Slot::TendonLimitForce(t) => {
+                    let tendon = &model.tendons[t];
+                    tendon.limit.as_ref().map_or(Dual64::from(0.0), |l| {
+                        l.force(tendon.length(&s.q), tendon.velocity(&s.v))
+                    })
+                }
                 Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p]
                     .get(k)
                     .map_or(Dual64::from(0.0), |c| c[i]),

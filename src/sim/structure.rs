@@ -279,6 +279,20 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
                 ..Knowns::default()
             }
         }
+        // A tendon limit's force depends on the coordinates and velocities of its joints.
+        Slot::TendonLimitForce(t) => Knowns {
+            q: model.tendons[t]
+                .joints
+                .iter()
+                .map(|&(qi, _, _)| qi)
+                .collect(),
+            v: model.tendons[t]
+                .joints
+                .iter()
+                .map(|&(_, vi, _)| vi)
+                .collect(),
+            ..Knowns::default()
+        },
         // The smooth distance and the soft top-K contact points both come from the separation
         // distribution alone: positions, ε1 (two point clouds) and ε2.
         Slot::PairDistance(p) | Slot::PairPoint(p, _, _) => pair_knowns(model, p, true),

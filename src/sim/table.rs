@@ -33,6 +33,8 @@ pub enum Slot {
     PairDistance(usize),
     /// Generalized force of joint `j`'s limit (N or N·m).
     LimitForce(usize),
+    /// Force of fixed tendon `t`'s limit along the tendon.
+    TendonLimitForce(usize),
     /// Soft top-K contact point `k` of a pair, world axis (scenes with `scm_contact_points`).
     PairPoint(usize, usize, usize),
     /// Internal step.
@@ -226,6 +228,26 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 jt.name, limit.lo, limit.hi
             ),
             Slot::LimitForce(j),
+        );
+    }
+    for (t, tendon) in model.tendons.iter().enumerate() {
+        let Some(limit) = &tendon.limit else { continue };
+        push(
+            format!("tendon.{}.limit.force", names::identifier(&tendon.name)),
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            // No unit: a tendon's length mixes its joints' (m and rad) through its coefficients.
+            VarType::Real {
+                start: None,
+                unit: None,
+                derivative: None,
+            },
+            format!(
+                "Force of fixed tendon {}'s limit [{}, {}] along the tendon (positive towards longer): a smooth one-sided spring and damper, zero inside the range",
+                tendon.name, limit.lo, limit.hi
+            ),
+            Slot::TendonLimitForce(t),
         );
     }
     for (i, a) in model.actuators.iter().enumerate() {

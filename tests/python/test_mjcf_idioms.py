@@ -515,7 +515,7 @@ def test_a_tendon_limit_holds_a_pendulum_as_in_mujoco(tmp_path):
     <fixed name="strap" range="-1 0.6"><joint joint="hinge" coef="2"/></fixed>
   </tendon>
 </mujoco>"""
-    ours, m, d = run(tmp_path, xml, ["hinge.q"], 2.0, name="strap")
+    ours, m, d = run(tmp_path, xml, ["hinge.q", "tendon.strap.limit.force"], 2.0, name="strap")
     assert abs(d.qpos[0] - 0.3) < 0.01, d.qpos[0]
     k = (1.0 / m.tendon_invweight0[0]) / 0.02 ** 2
     d.qpos[0] = ours["hinge.q"]
@@ -525,6 +525,9 @@ def test_a_tendon_limit_holds_a_pendulum_as_in_mujoco(tmp_path):
     past = (force / k + 0.5e-3) / 2.0
     assert past > 0.01, "a deflection this test can see"
     assert abs(ours["hinge.q"] - (0.3 + past)) < 1e-3, (ours["hinge.q"], 0.3 + past)
+    # The limit's force, an FMU output, carries the weight (pushing the tendon shorter).
+    limit = ours["tendon.strap.limit.force"]
+    assert abs(limit + force) < 0.02 * force, (limit, force)
 
 
 GEARED_PENDULUMS = """<mujoco>
