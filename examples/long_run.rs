@@ -15,9 +15,10 @@
 //! not grow and the norms stay at 1 to rounding.
 
 use scm::fmi::ffi::*;
+#[path = "support/host.rs"]
+mod host;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::ffi::CString;
 use std::path::Path;
 
 /// The system allocator, counting the bytes live per thread (allocations minus frees on the
@@ -76,9 +77,7 @@ pub fn rss_bytes() -> usize {
 /// An instance of a bundled scene through the C ABI, its resources unpacked into a temporary
 /// folder as `scm pack` lays them out.
 pub struct Run {
-    c: fmi2Component,
-    names: Vec<String>,
-    _callbacks: Box<fmi2CallbackFunctions>,
+    fmu: host::Instance,
 }
 
 impl Run {
@@ -87,68 +86,23 @@ impl Run {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("resources/scenes")
             .join(format!("{scene}.xml"));
-        let d = scm::pack::describe(&path).unwrap();
-        let dir = std::env::temp_dir()
-            .join(format!(
-                "scm-long-run-{}-{scene}-{:?}",
-                std::process::id(),
-                std::thread::current().id()
-            ))
-            .join("resources");
-        for (file, bytes) in &d.resources {
-            let p = dir.join(file);
-            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
-            std::fs::write(p, bytes).unwrap();
-        }
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join(scm::sim::SCENE_FILE), &d.scene_text).unwrap();
-        let uri = CString::new(format!("file://{}", dir.display())).unwrap();
-        let guid = CString::new(scm::sim::guid(&d.scene_text)).unwrap();
-        let names = scm::sim::Simulation::from_file(&path)
-            .unwrap()
-            .rows()
-            .iter()
-            .map(|(v, _)| v.name.clone())
-            .collect();
-        let callbacks = Box::new(fmi2CallbackFunctions {
-            logger: None,
-            allocateMemory: None,
-            freeMemory: None,
-            stepFinished: None,
-            componentEnvironment: std::ptr::null_mut(),
-        });
-        unsafe {
-            let c = scm::fmi2Instantiate(
-                c"long".as_ptr(),
-                fmi2CoSimulation,
-                guid.as_ptr(),
-                uri.as_ptr(),
-                &*callbacks,
-                0,
-                0,
-            );
-            assert!(!c.is_null(), "{scene}: fmi2Instantiate failed");
-            assert_eq!(scm::fmi2EnterInitializationMode(c), fmi2OK);
-            assert_eq!(scm::fmi2ExitInitializationMode(c), fmi2OK);
-            Run {
-                c,
-                names,
-                _callbacks: callbacks,
-            }
-        }
+        let tag = format!("long-run-{scene}-{:?}", std::thread::current().id());
+        let dir = host::unpack_scene(&path, &tag).unwrap();
+        let fmu = host::Instance::new(&dir, fmi2CoSimulation, host::quiet())
+            .unwrap_or_else(|e| panic!("{scene}: {e}"));
+        fmu.initialize().unwrap();
+        Run { fmu }
     }
 
     /// Value reference of a variable.
     pub fn vr(&self, name: &str) -> u32 {
-        self.names
-            .iter()
-            .position(|n| n == name)
-            .unwrap_or_else(|| panic!("no variable {name}")) as u32
+        self.fmu.vr(name).unwrap()
     }
 
     /// Every value reference whose name ends with `suffix`.
     pub fn vrs_ending(&self, suffix: &str) -> Vec<u32> {
-        self.names
+        self.fmu
+            .names()
             .iter()
             .enumerate()
             .filter(|(_, n)| n.ends_with(suffix))
@@ -158,26 +112,17 @@ impl Run {
 
     /// Reads a Real.
     pub fn get(&self, vr: u32) -> f64 {
-        let mut v = f64::NAN;
-        assert_eq!(unsafe { scm::fmi2GetReal(self.c, &vr, 1, &mut v) }, fmi2OK);
-        v
+        self.fmu.get_real(&[vr]).unwrap()[0]
     }
 
     /// Sets a Real.
     pub fn set(&self, vr: u32, v: f64) {
-        assert_eq!(unsafe { scm::fmi2SetReal(self.c, &vr, 1, &v) }, fmi2OK);
+        self.fmu.set_real(&[vr], &[v]).unwrap();
     }
 
     /// One communication step from `t` by `h`; panics on anything but `fmi2OK`.
     pub fn step(&self, t: f64, h: f64) {
-        let s = unsafe { scm::fmi2DoStep(self.c, t, h, fmi2True) };
-        assert_eq!(s, fmi2OK, "fmi2DoStep at t = {t}");
-    }
-}
-
-impl Drop for Run {
-    fn drop(&mut self) {
-        unsafe { scm::fmi2FreeInstance(self.c) };
+        assert_eq!(self.fmu.do_step(t, h), fmi2OK, "fmi2DoStep at t = {t}");
     }
 }
 
@@ -215,7 +160,8 @@ pub fn phase(
     let w: Vec<u32> = run.vrs_ending(".quat.w");
     let distances = run.vrs_ending(".distance");
     let positions: Vec<u32> = run
-        .names
+        .fmu
+        .names()
         .iter()
         .enumerate()
         .filter(|(_, n)| n.ends_with(".q") || n.contains(".pos."))

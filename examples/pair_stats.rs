@@ -14,9 +14,8 @@
 //! in interleaved rounds. With `--profile`, only that quantity runs N times (for callgrind).
 use scm::collision::separation_band;
 use scm::contact::{pair_contact, pair_contact_naive};
-use scm::fmi::contract::{FmiModel, Phase};
 use scm::integrate::State;
-use scm::sim::Simulation;
+use scm::sim::{Simulation, Value};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -35,14 +34,7 @@ fn main() {
         match args[i].as_str() {
             "--set" => {
                 let (n, x) = args[i + 1].split_once('=').expect("NAME=VALUE");
-                let vr = sim
-                    .rows()
-                    .iter()
-                    .find(|(v, _)| v.name == n)
-                    .expect("variable")
-                    .0
-                    .value_reference;
-                sim.set_real(vr, x.parse().expect("number"), Phase::Instantiated)
+                sim.set(n, Value::Real(x.parse().expect("number")))
                     .expect("set");
             }
             "--warmup" => warmup = args[i + 1].parse().expect("seconds"),
@@ -61,10 +53,10 @@ fn main() {
         }
         i += 2;
     }
-    sim.exit_initialization().expect("init");
+    sim.initialize().expect("init");
     let n = (warmup / 0.002).round() as usize;
-    for k in 0..n {
-        sim.do_step(k as f64 * 0.002, 0.002).expect("warm-up step");
+    for _ in 0..n {
+        sim.step(0.002).expect("warm-up step");
     }
     let m = sim.model.clone();
     let state = sim.current.state.clone();

@@ -24,8 +24,8 @@
 
 use scm::fmi::ffi::*;
 use scm::fmi::host_log::LogCapture;
-use scm::*;
-use std::ffi::CString;
+#[path = "support/host.rs"]
+mod host;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -196,152 +196,67 @@ fn parse_job(args: &[String]) -> Result<Job, String> {
 
 fn run(args: &[String]) -> Result<String, String> {
     let job = parse_job(args)?;
-    let scene = job.dir.join("resources").join(scm::sim::SCENE_FILE);
-    let text = std::fs::read_to_string(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
-    // The variable table is the FMU's (same code): names to value references.
-    let sim = scm::sim::Simulation::from_file(&scene).map_err(|e| e.to_string())?;
-    let vr = |name: &str| -> Result<u32, String> {
-        sim.rows()
-            .iter()
-            .find(|(v, _)| v.name == name)
-            .map(|(v, _)| v.value_reference)
-            .ok_or_else(|| format!("the FMU has no variable {name}"))
-    };
-    let out_vrs = job
-        .outputs
-        .iter()
-        .map(|n| vr(n))
-        .collect::<Result<Vec<_>, _>>()?;
-    let real_vrs = job
-        .reals
-        .iter()
-        .map(|(n, _)| vr(n))
-        .collect::<Result<Vec<_>, _>>()?;
-    let string_vrs = job
-        .strings
-        .iter()
-        .map(|(n, _)| vr(n))
-        .collect::<Result<Vec<_>, _>>()?;
-    let (in_vrs, in_rows) = match &job.inputs {
-        Some((names, rows)) => (
-            names.iter().map(|n| vr(n)).collect::<Result<Vec<_>, _>>()?,
-            rows.clone(),
-        ),
-        None => (vec![], vec![]),
-    };
-
     let messages = LogCapture::default();
-    let callbacks = messages.callbacks();
-    let uri = CString::new(format!("file://{}", job.dir.join("resources").display()))
-        .map_err(|e| e.to_string())?;
-    let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
-    let name = CString::new("report").map_err(|e| e.to_string())?;
-    let n_steps = (job.duration / job.comm).round() as usize;
-    let mut t_out = Vec::with_capacity(n_steps + 1);
-    let mut y_out: Vec<Vec<f64>> = Vec::with_capacity(n_steps + 1);
-    let mut wall = 0.0;
-    let mut status = "ok";
     let last_message = |m: &LogCapture| match m.all().last() {
         Some(l) => format!("[{}] {}: {}", l.status, l.category, l.message),
         None => String::new(),
     };
-    // SAFETY: every pointer passed below is valid for the length given with it, strings are
-    // NUL-terminated and outlive the instance, and the instance is freed before they drop.
-    unsafe {
-        let c = fmi2Instantiate(
-            name.as_ptr(),
-            fmi2CoSimulation,
-            guid.as_ptr(),
-            uri.as_ptr(),
-            &callbacks,
-            fmi2False,
-            fmi2False,
-        );
-        if c.is_null() {
-            return Err(format!(
-                "fmi2Instantiate failed: {}",
-                last_message(&messages)
-            ));
+    let with_message = |e: String| format!("{e}: {}", last_message(&messages));
+    let fmu = host::Instance::new(
+        &job.dir.join("resources"),
+        fmi2CoSimulation,
+        messages.callbacks(),
+    )
+    .map_err(with_message)?;
+    let vrs = |names: &mut dyn Iterator<Item = &String>| -> Result<Vec<u32>, String> {
+        names.map(|n| fmu.vr(n)).collect()
+    };
+    let out_vrs = vrs(&mut job.outputs.iter())?;
+    let (in_vrs, in_rows) = match &job.inputs {
+        Some((names, rows)) => (vrs(&mut names.iter())?, rows.clone()),
+        None => (vec![], vec![]),
+    };
+    let n_steps = (job.duration / job.comm).round() as usize;
+    fmu.setup(Some(n_steps as f64 * job.comm))
+        .map_err(with_message)?;
+    for (n, v) in &job.reals {
+        fmu.set_real(&[fmu.vr(n)?], &[*v])
+            .map_err(|e| with_message(format!("{e} ({n})")))?;
+    }
+    for (n, v) in &job.strings {
+        fmu.set_string(fmu.vr(n)?, v)
+            .map_err(|e| with_message(format!("{e} ({n})")))?;
+    }
+    fmu.initialize().map_err(with_message)?;
+
+    let mut t_out = Vec::with_capacity(n_steps + 1);
+    let mut y_out: Vec<Vec<f64>> = Vec::with_capacity(n_steps + 1);
+    let mut y = vec![0.0; out_vrs.len()];
+    let mut wall = 0.0;
+    let mut status = "ok";
+    for k in 0..=n_steps {
+        if let Some(row) = in_rows.get(k.min(in_rows.len().saturating_sub(1))) {
+            fmu.set_real(&in_vrs, row)
+                .map_err(|e| with_message(format!("{e} (inputs)")))?;
         }
-        let check = |s: fmi2Status, what: &str| -> Result<(), String> {
-            if s <= fmi2Warning {
-                Ok(())
-            } else {
-                Err(format!("{what} returned {s}: {}", last_message(&messages)))
-            }
-        };
-        let setup = (|| -> Result<(), String> {
-            check(
-                fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2True, n_steps as f64 * job.comm),
-                "fmi2SetupExperiment",
-            )?;
-            for ((vr, (n, _)), v) in real_vrs
-                .iter()
-                .zip(&job.reals)
-                .zip(job.reals.iter().map(|(_, v)| *v))
-            {
-                check(fmi2SetReal(c, vr, 1, &v), &format!("fmi2SetReal({n})"))?;
-            }
-            for (vr, (n, v)) in string_vrs.iter().zip(&job.strings) {
-                let s = CString::new(v.as_str()).map_err(|e| e.to_string())?;
-                let p = s.as_ptr();
-                check(fmi2SetString(c, vr, 1, &p), &format!("fmi2SetString({n})"))?;
-            }
-            check(
-                fmi2EnterInitializationMode(c),
-                "fmi2EnterInitializationMode",
-            )?;
-            check(fmi2ExitInitializationMode(c), "fmi2ExitInitializationMode")
-        })();
-        if let Err(e) = setup {
-            fmi2FreeInstance(c);
-            return Err(e);
+        fmu.get_real_into(&out_vrs, &mut y).map_err(with_message)?;
+        t_out.push(k as f64 * job.comm);
+        y_out.push(y.clone());
+        if k == n_steps {
+            break;
         }
-        let mut y = vec![0.0; out_vrs.len()];
-        let mut read =
-            |t: f64, t_out: &mut Vec<f64>, y_out: &mut Vec<Vec<f64>>| -> Result<(), String> {
-                check(
-                    fmi2GetReal(c, out_vrs.as_ptr(), out_vrs.len(), y.as_mut_ptr()),
-                    "fmi2GetReal",
-                )?;
-                t_out.push(t);
-                y_out.push(y.clone());
-                Ok(())
-            };
-        let mut failure = None;
-        for k in 0..=n_steps {
-            if let Some(row) = in_rows.get(k.min(in_rows.len().saturating_sub(1))) {
-                if let Err(e) = check(
-                    fmi2SetReal(c, in_vrs.as_ptr(), in_vrs.len(), row.as_ptr()),
-                    "fmi2SetReal(inputs)",
-                ) {
-                    failure = Some(e);
-                    break;
-                }
-            }
-            if let Err(e) = read(k as f64 * job.comm, &mut t_out, &mut y_out) {
-                failure = Some(e);
-                break;
-            }
-            if k == n_steps {
-                break;
-            }
-            let start = Instant::now();
-            let s = fmi2DoStep(c, k as f64 * job.comm, job.comm, fmi2True);
-            wall += start.elapsed().as_secs_f64();
-            if s == fmi2Discard {
-                status = "discard";
-                break;
-            } else if s > fmi2Warning {
-                status = "error";
-                break;
-            }
-        }
-        fmi2FreeInstance(c);
-        if let Some(e) = failure {
-            return Err(e);
+        let start = Instant::now();
+        let s = fmu.do_step(k as f64 * job.comm, job.comm);
+        wall += start.elapsed().as_secs_f64();
+        if s == fmi2Discard {
+            status = "discard";
+            break;
+        } else if s > fmi2Warning {
+            status = "error";
+            break;
         }
     }
+    drop(fmu);
     let message = if status == "ok" {
         String::new()
     } else {

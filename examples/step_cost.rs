@@ -37,17 +37,17 @@ use nalgebra::{Const, U1};
 use num_dual::{Derivative, Dual64, DualSVec64};
 use scm::contact::ContactParams;
 use scm::derivatives::{step_jacobian_state, Coordinates, Point};
-use scm::fmi::contract::FmiModel;
 use scm::fmi::ffi::*;
 use scm::integrate::{Integrator, State};
 use scm::model::Model;
 use scm::scalar::Scalar;
-use scm::sim::{Simulation, Slot};
+use scm::sim::{Simulation, Slot, Value};
 use scm::*;
-use std::ffi::CString;
 use std::hint::black_box;
 use std::path::PathBuf;
 
+#[path = "support/host.rs"]
+mod host;
 #[path = "support/timing.rs"]
 mod timing;
 use timing::time_interleaved;
@@ -124,30 +124,18 @@ fn warmed_up(
     integrator: Integrator,
 ) -> Result<Simulation, String> {
     let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
-    apply_sets(&mut sim, &a.sets)?;
+    for (name, value) in &a.sets {
+        sim.set(name, Value::Real(*value))?;
+    }
     sim.model.step = 1e-3;
-    sim.exit_initialization()?;
+    sim.initialize()?;
     let n = (a.warmup / 0.01).round() as usize;
-    for k in 0..n {
-        sim.do_step(k as f64 * 0.01, 0.01)
-            .map_err(|e| format!("warm-up: {e:?}"))?;
+    for _ in 0..n {
+        sim.step(0.01).map_err(|e| format!("warm-up: {e}"))?;
     }
     sim.model.integrator = integrator;
     sim.model.step = a.h;
     Ok(sim)
-}
-
-fn apply_sets(sim: &mut Simulation, sets: &[(String, f64)]) -> Result<(), String> {
-    for (name, value) in sets {
-        let vr = sim
-            .rows()
-            .iter()
-            .find(|(v, _)| &v.name == name)
-            .map(|(v, _)| v.value_reference)
-            .ok_or_else(|| format!("no variable {name}"))?;
-        sim.set_real(vr, *value, scm::fmi::contract::Phase::Instantiated)?;
-    }
-    Ok(())
 }
 
 /// The step map `x' = step(x, u)` on a flat vector `[q, v, u]` → `[q', v']`.
@@ -315,7 +303,6 @@ fn main() {
 fn run() -> Result<String, String> {
     let a = parse()?;
     let scene = a.dir.join("resources").join(scm::sim::SCENE_FILE);
-    let text = std::fs::read_to_string(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
     let mut items = Vec::new();
     for &integrator in &a.integrators {
         let sim0 = warmed_up(&a, &scene, integrator)?;
@@ -337,67 +324,34 @@ fn run() -> Result<String, String> {
 
         // Through the C ABI: a fresh instance whose start values are the warmed-up state and
         // controls, with solver.step = h, so one fmi2DoStep(h) is one internal step of h.
-        let uri = CString::new(format!("file://{}", a.dir.join("resources").display()))
-            .map_err(|e| e.to_string())?;
-        let guid = CString::new(scm::sim::guid(&text)).map_err(|e| e.to_string())?;
-        let name = CString::new("step_cost").map_err(|e| e.to_string())?;
-        let callbacks = fmi2CallbackFunctions {
-            logger: None,
-            allocateMemory: None,
-            freeMemory: None,
-            stepFinished: None,
-            componentEnvironment: std::ptr::null_mut(),
-        };
-        let mut starts: Vec<(u32, f64)> = Vec::new();
+        let fmu = host::Instance::new(&a.dir.join("resources"), fmi2CoSimulation, host::quiet())?;
+        let (mut vrs, mut starts) = (Vec::new(), Vec::new());
         let (mut vr_step, mut vr_int) = (None, None);
         for (var, slot) in sim0.rows() {
-            match *slot {
-                Slot::Q(i) => starts.push((var.value_reference, state.q[i])),
-                Slot::V(i) => starts.push((var.value_reference, state.v[i])),
-                Slot::Ctrl(i) => starts.push((var.value_reference, ctrl[i])),
-                Slot::Param(p) => starts.push((var.value_reference, p.get(&prm))),
-                Slot::SolverStep => vr_step = Some(var.value_reference),
-                Slot::SolverIntegrator => vr_int = Some(var.value_reference),
-                _ => {}
-            }
-        }
-        let (vr_step, vr_int) = (
-            vr_step.ok_or("no solver.step")?,
-            vr_int.ok_or("no solver.integrator")?,
-        );
-        let int_name = CString::new(integrator.name()).map_err(|e| e.to_string())?;
-        // SAFETY: pointers valid for the lengths given; strings outlive the instance.
-        let c = unsafe {
-            let c = fmi2Instantiate(
-                name.as_ptr(),
-                fmi2CoSimulation,
-                guid.as_ptr(),
-                uri.as_ptr(),
-                &callbacks,
-                fmi2False,
-                fmi2False,
-            );
-            if c.is_null() {
-                return Err("fmi2Instantiate failed".into());
-            }
-            let ok = |s: fmi2Status| {
-                if s == fmi2OK {
-                    Ok(())
-                } else {
-                    Err(format!("FMI call returned {s}"))
+            let start = match *slot {
+                Slot::Q(i) => state.q[i],
+                Slot::V(i) => state.v[i],
+                Slot::Ctrl(i) => ctrl[i],
+                Slot::Param(p) => p.get(&prm),
+                Slot::SolverStep => {
+                    vr_step = Some(var.value_reference);
+                    continue;
                 }
+                Slot::SolverIntegrator => {
+                    vr_int = Some(var.value_reference);
+                    continue;
+                }
+                _ => continue,
             };
-            ok(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0))?;
-            for (vr, v) in &starts {
-                ok(fmi2SetReal(c, vr, 1, v))?;
-            }
-            let p = int_name.as_ptr();
-            ok(fmi2SetString(c, &vr_int, 1, &p))?;
-            ok(fmi2SetReal(c, &vr_step, 1, &h))?;
-            ok(fmi2EnterInitializationMode(c))?;
-            ok(fmi2ExitInitializationMode(c))?;
-            c
-        };
+            vrs.push(var.value_reference);
+            starts.push(start);
+        }
+        fmu.setup(None)?;
+        fmu.set_real(&vrs, &starts)?;
+        fmu.set_string(vr_int.ok_or("no solver.integrator")?, integrator.name())?;
+        fmu.set_real(&[vr_step.ok_or("no solver.step")?], &[h])?;
+        fmu.initialize()?;
+        let c = fmu.raw();
 
         if let Some((what, iterations)) = &a.profile {
             profiled_section(
@@ -412,7 +366,6 @@ fn run() -> Result<String, String> {
                 nv,
                 &x,
             )?;
-            unsafe { fmi2FreeInstance(c) };
             return Ok(format!(
                 "{{\"profiled\": \"{what}\", \"iterations\": {iterations}}}"
             ));
@@ -450,7 +403,6 @@ fn run() -> Result<String, String> {
             };
             unsafe {
                 fmi2FreeFMUstate(c, &mut fmu_state);
-                fmi2FreeInstance(c);
             }
             items.push(format!(
                 "{{\"integrator\": \"{}\", \"h\": {h:e}, \"model_step_s\": {model_step:e}, \"ffi_step_s\": {:e}, \"ffi_restore_s\": {restore:e}}}",
@@ -505,7 +457,7 @@ fn run() -> Result<String, String> {
                 &mut || {
                     // Restart from the same state each time, so every call times the same step.
                     sim.current.state.clone_from(&saved.state);
-                    sim.advance(h).expect("advance");
+                    sim.step(h).expect("step");
                 },
                 &mut || unsafe {
                     assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
@@ -540,7 +492,6 @@ fn run() -> Result<String, String> {
         let ffi_step = (ffi_with_restore - restore).max(0.0);
         unsafe {
             fmi2FreeFMUstate(c, &mut fmu_state);
-            fmi2FreeInstance(c);
         }
         let scale = max_abs(&j64).max(1e-300);
         let vec_err = max_diff(&j64, &j4).max(max_diff(&j64, &j16)) / scale;

@@ -7,9 +7,8 @@
 //! `solver.step` = 2 ms as its largest). Reported: wall time per 2 ms step, over the contact-free
 //! approach and over the push, and the ratio to semi-implicit Euler.
 
-use scm::fmi::contract::{FmiModel, Phase};
 use scm::integrate::Integrator;
-use scm::sim::Simulation;
+use scm::sim::{Simulation, Value};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -21,25 +20,16 @@ fn main() {
         let mut sim = Simulation::from_file(&path).expect("t_push loads");
         sim.model.integrator = integrator;
         sim.model.step = h;
-        let vr = |sim: &Simulation, name: &str| {
-            sim.rows()
-                .iter()
-                .find(|(v, _)| v.name == name)
-                .expect("variable")
-                .0
-                .value_reference
-        };
-        let (ax, ay) = (vr(&sim, "act_x.ctrl"), vr(&sim, "act_y.ctrl"));
         let (mut free, mut contact) = (0.0, 0.0);
         let n = (2.5 / h).round() as usize;
         for k in 0..n {
             let t = k as f64 * h;
-            sim.set_real(ax, 0.01, Phase::Simulation).expect("input");
-            sim.set_real(ay, (0.1 * t).min(0.25), Phase::Simulation)
+            sim.set("act_x.ctrl", Value::Real(0.01)).expect("input");
+            sim.set("act_y.ctrl", Value::Real((0.1 * t).min(0.25)))
                 .expect("input");
             let start = Instant::now();
-            if let Err(e) = sim.do_step(t, h) {
-                println!("{}: refused at t = {t}: {e:?}", integrator.name());
+            if let Err(e) = sim.step(h) {
+                println!("{}: refused at t = {t}: {e}", integrator.name());
                 break;
             }
             let dt = start.elapsed().as_secs_f64();

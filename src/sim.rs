@@ -11,6 +11,7 @@ use crate::model::Model;
 use crate::scene::{self, Scene};
 use std::path::Path;
 
+mod access;
 mod fmu;
 pub mod jacobian;
 pub mod names;
@@ -21,6 +22,7 @@ mod table;
 pub use crate::contact::Param;
 pub use crate::scene::SCENE_FILE;
 
+pub use access::Value;
 pub use table::{guid, model_info, variable_table, Slot};
 
 /// The time-varying part of a simulation: what `fmi2GetFMUstate` saves.
@@ -92,7 +94,7 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 /// </mujoco>"#;
 /// let scene = scm::scene::load_str(xml, Path::new("drop.xml"))?;
 /// let mut sim = Simulation::new(scene, xml);
-/// sim.advance(1.0)?;
+/// sim.step(1.0)?;
 /// let z = sim.current.state.q[2];
 /// assert!((z - 0.05).abs() < 2e-3, "resting height {z}");
 /// // The floor (first body of the pair) carries the ball's weight.
@@ -123,6 +125,10 @@ pub struct Simulation {
     log_contact: bool,
     /// Whether the host instantiated Model Exchange (mocap inputs then act at once).
     model_exchange: bool,
+    /// Whether the simulation is initialized or has stepped: from then on
+    /// [`Simulation::set`] sets inputs and tunable parameters only, as after an FMU's
+    /// initialization.
+    started: bool,
 }
 
 impl Simulation {
@@ -171,6 +177,7 @@ impl Simulation {
             start_solver,
             log_contact: false,
             model_exchange: false,
+            started: false,
         };
         for p in [Param::Eps1, Param::Eps2, Param::Eps3] {
             if let Some(text) = sim.smoothing_warning(p, p.get(&sim.current.params)) {
@@ -297,7 +304,7 @@ impl Simulation {
     ///
     /// On failure (a non-finite state, an energy blow-up, a dynamics error) the simulation keeps
     /// everything from before the call and the error says what went wrong and when.
-    pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
+    pub fn step(&mut self, h: f64) -> Result<(), StepError> {
         if !h.is_finite() || h <= 0.0 {
             return Err(StepError::Error(format!(
                 "a step of {h} s refused: it must be positive and finite"
@@ -339,6 +346,7 @@ impl Simulation {
         }
         self.current.time += h;
         self.outputs = None;
+        self.started = true;
         Ok(())
     }
 

@@ -86,7 +86,7 @@ fn simulate_sets_variables_and_writes_rows_at_the_output_interval() {
 fn errors_are_one_readable_line() {
     let drop = scene("sphere_drop");
     let drop = drop.to_str().unwrap();
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 5] = [
         (
             &["simulate", drop, "--set", "ball.pos.q=1"],
             "no variable 'ball.pos.q'",
@@ -94,6 +94,10 @@ fn errors_are_one_readable_line() {
         (
             &["simulate", drop, "--set", "scm.stiffness=-1"],
             "must be positive",
+        ),
+        (
+            &["simulate", drop, "--set", "ball.linacc.z=1"],
+            "ball.linacc.z (value reference",
         ),
         (
             &["simulate", drop, "--integrator", "foo"],

@@ -44,3 +44,4 @@ mod mocap;
 mod scene_errors;
 mod scene_sphere_drop;
 mod scenes_dynamics;
+mod sim_facade;

@@ -2,8 +2,8 @@
 //! (`scm --help`, `scm COMMAND --help`).
 
 use clap::{Parser, Subcommand};
-use scm::fmi::contract::{FmiModel, Phase, VarType};
-use scm::sim::Simulation;
+use scm::fmi::contract::VarType;
+use scm::sim::{Simulation, Value};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -166,38 +166,19 @@ fn run(command: Command) -> Result<(), String> {
     }
 }
 
-/// `NAME=VALUE` for an FMU variable, set before initialization as a host would (so its checks
-/// apply: a fixed parameter, a non-finite value or an unknown integrator is refused).
+/// `NAME=VALUE` for an FMU variable, set as a host sets it before initialization (so its
+/// checks apply: an output, a non-finite value or an unknown integrator is refused).
 fn set_variable(sim: &mut Simulation, assignment: &str) -> Result<(), String> {
     let (name, value) = assignment
         .split_once('=')
         .ok_or_else(|| format!("--set {assignment}: expected NAME=VALUE"))?;
-    let var = sim.info().variables.iter().find(|v| v.name == name);
-    let Some(var) = var else {
-        let close: Vec<&str> = sim
-            .info()
-            .variables
-            .iter()
-            .map(|v| v.name.as_str())
-            .filter(|n| n.split('.').next() == name.split('.').next())
-            .collect();
-        let hint = if close.is_empty() {
-            "see `scm check` and the FMU's modelDescription.xml for the names".to_string()
-        } else {
-            format!("variables of that name: {}", close.join(", "))
-        };
-        return Err(format!("--set {assignment}: no variable '{name}' ({hint})"));
-    };
-    let vr = var.value_reference;
-    let result = match var.var_type {
-        VarType::Real { .. } => {
-            let x: f64 = value
-                .parse()
-                .map_err(|_| format!("--set {assignment}: '{value}' is not a number"))?;
-            sim.set_real(vr, x, Phase::Instantiated)
-        }
-        VarType::String { .. } => sim.set_string(vr, value, Phase::Instantiated),
-        _ => Err(format!("{name} cannot be set from the command line")),
+    let result = match sim.variable(name).map(|(v, _)| &v.var_type) {
+        Ok(VarType::String { .. }) => sim.set(name, Value::Text(value)),
+        Ok(_) => match value.trim().parse::<f64>() {
+            Ok(x) => sim.set(name, Value::Real(x)),
+            Err(_) => Err(format!("'{value}' is not a number")),
+        },
+        Err(e) => Err(e),
     };
     result.map_err(|e| format!("--set {assignment}: {e}"))
 }
@@ -222,25 +203,14 @@ fn simulate(
     h: f64,
     out: Option<PathBuf>,
 ) -> Result<(), String> {
-    let outputs: Vec<(String, u32)> = sim
-        .info()
-        .variables
-        .iter()
-        .filter(|v| {
-            matches!(v.var_type, VarType::Real { .. })
-                && v.causality == scm::fmi::contract::Causality::Output
-        })
-        .map(|v| (v.name.clone(), v.value_reference))
-        .collect();
+    sim.initialize()?;
     let mut w: Box<dyn Write> = match &out {
         Some(p) => Box::new(std::io::BufWriter::new(
             std::fs::File::create(p).map_err(|e| format!("{}: {e}", p.display()))?,
         )),
         None => Box::new(std::io::stdout().lock()),
     };
-    let header: Vec<&str> = std::iter::once("time")
-        .chain(outputs.iter().map(|(n, _)| n.as_str()))
-        .collect();
+    let header: Vec<&str> = std::iter::once("time").chain(sim.output_names()).collect();
     writeln!(w, "{}", header.join(",")).map_err(|e| e.to_string())?;
     // Rows every `h`, the last one exactly at `duration` (its step may be shorter).
     let n = (duration / h * (1.0 - 1e-12)).ceil().max(1.0) as usize;
@@ -248,13 +218,13 @@ fn simulate(
     let start = std::time::Instant::now();
     for k in 0..=n {
         if k > 0 {
-            sim.do_step(at(k - 1), at(k) - at(k - 1))
-                .map_err(|e| e.to_string())?;
+            sim.step(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
         }
-        let mut row = vec![format!("{}", at(k))];
-        for (_, vr) in &outputs {
-            row.push(format!("{}", sim.get_real(*vr)?));
-        }
+        // `{}` of an f64 is the shortest text that reads back to the same number.
+        let row: Vec<String> = std::iter::once(at(k))
+            .chain(sim.outputs()?)
+            .map(|x| x.to_string())
+            .collect();
         writeln!(w, "{}", row.join(",")).map_err(|e| e.to_string())?;
     }
     if let Some(p) = out {

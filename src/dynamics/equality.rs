@@ -14,13 +14,7 @@
 /// A linear combination of coordinates: `(position index, velocity index, coefficient)`.
 pub type Linear = Vec<(usize, usize, f64)>;
 
-fn value<T: crate::scalar::Scalar>(x: &Linear, q: &[T]) -> T {
-    x.iter().fold(T::zero(), |s, &(qi, _, c)| s + q[qi] * c)
-}
-
-fn rate<T: crate::scalar::Scalar>(x: &Linear, v: &[T]) -> T {
-    x.iter().fold(T::zero(), |s, &(_, vi, c)| s + v[vi] * c)
-}
+use super::tendon::{linear_rate as rate, linear_value as value};
 
 /// A joint or tendon equality.
 #[derive(Clone, Debug, PartialEq)]

@@ -35,16 +35,12 @@ pub struct FixedTendon {
 impl FixedTendon {
     /// `L = Σ cᵢ qᵢ`.
     pub fn length<T: Scalar>(&self, q: &[T]) -> T {
-        self.joints
-            .iter()
-            .fold(T::zero(), |l, &(qi, _, coef)| l + q[qi] * coef)
+        linear_value(&self.joints, q)
     }
 
     /// `L̇ = Σ cᵢ vᵢ`.
     pub fn velocity<T: Scalar>(&self, v: &[T]) -> T {
-        self.joints
-            .iter()
-            .fold(T::zero(), |l, &(_, vi, coef)| l + v[vi] * coef)
+        linear_rate(&self.joints, v)
     }
 
     /// Whether the tendon exerts any force.
@@ -88,6 +84,17 @@ impl FixedTendon {
         let limit = self.limit.map_or(T::zero(), |lim| lim.energy(l));
         x * x * (0.5 * self.stiffness) + limit
     }
+}
+
+/// `Σ cᵢ qᵢ` of a linear coordinate given as `(position index, velocity index, cᵢ)`: a fixed
+/// tendon's length, or a joint or tendon equality's coordinate.
+pub fn linear_value<T: Scalar>(x: &[(usize, usize, f64)], q: &[T]) -> T {
+    x.iter().fold(T::zero(), |s, &(qi, _, c)| s + q[qi] * c)
+}
+
+/// `Σ cᵢ vᵢ`: the rate of [`linear_value`].
+pub fn linear_rate<T: Scalar>(x: &[(usize, usize, f64)], v: &[T]) -> T {
+    x.iter().fold(T::zero(), |s, &(_, vi, c)| s + v[vi] * c)
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@ pub mod filter;
 mod geom;
 pub mod include;
 pub mod json;
+mod mechanics;
 mod paths;
 mod settings;
 pub use paths::{mesh_path, packed_mesh_name, scene_dir};

@@ -38,34 +38,7 @@ impl FmiModel for Simulation {
     }
 
     fn exit_initialization(&mut self) -> ModelResult<()> {
-        // Normalize the quaternions the host set; a zero quaternion is an error.
-        for j in &self.model.tree.joints {
-            let qa = match j.kind {
-                JointKind::Free => j.qadr + 3,
-                JointKind::Ball => j.qadr,
-                _ => continue,
-            };
-            let q = &mut self.current.state.q[qa..qa + 4];
-            // Scale by the largest component first, so huge components do not overflow.
-            let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            if m.is_nan() || m <= 0.0 {
-                return Err(format!(
-                    "{}.quat is zero: set a non-zero orientation quaternion",
-                    j.name
-                ));
-            }
-            q.iter_mut().for_each(|x| *x /= m);
-            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-            q.iter_mut().for_each(|x| *x /= n);
-        }
-        self.outputs = None;
-        self.messages.push(LogMessage {
-            category: LogCategory::Events,
-            text: format!(
-                "initialized {} at t = {} s",
-                self.model.name, self.current.time
-            ),
-        });
+        self.initialize()?;
         if self.model_exchange {
             // Mocap velocities are rates between completed integrator steps from here on.
             self.sample_mocap();
@@ -82,6 +55,7 @@ impl FmiModel for Simulation {
         (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
         self.cache = Default::default();
         self.outputs = None;
+        self.started = false;
         self.messages.push(LogMessage {
             category: LogCategory::Events,
             text: "reset to the start values".into(),
@@ -95,129 +69,12 @@ impl FmiModel for Simulation {
 
     fn get_real(&mut self, vr: u32) -> ModelResult<f64> {
         let slot = self.row(vr)?.1;
-        Ok(match slot {
-            Slot::Time => self.current.time,
-            Slot::Q(i) => self.current.state.q[i],
-            Slot::V(i) => self.current.state.v[i],
-            Slot::Ctrl(i) => self.current.ctrl[i],
-            Slot::Mocap(m, k) => self.current.mocap_target[7 * m + k],
-            Slot::Param(p) => p.get(&self.current.params),
-            Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
-            Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
-            Slot::PairDistance(p) => self.contacts()[p].distance,
-            Slot::LimitForce(j) => {
-                let jt = &self.model.tree.joints[j];
-                let s = &self.current.state;
-                jt.limit
-                    .as_ref()
-                    .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
-            }
-            Slot::TendonLimitForce(t) => {
-                let tendon = &self.model.tendons[t];
-                let s = &self.current.state;
-                tendon
-                    .limit
-                    .as_ref()
-                    .map_or(0.0, |l| l.force(tendon.length(&s.q), tendon.velocity(&s.v)))
-            }
-            Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
-            Slot::SolverStep => self.model.step,
-            Slot::SolverTolerance => self.model.tolerance,
-            Slot::SolverIntegrator => {
-                return Err(format!(
-                    "solver.integrator (value reference {vr}) is a String variable"
-                ))
-            }
-            Slot::QDot(i) => self
-                .model
-                .tree
-                .qdot(&self.current.state.q, &self.current.state.v)[i],
-            Slot::VDot(i) => self.accelerations()?[i],
-        })
+        self.read(slot)
     }
 
     fn set_real(&mut self, vr: u32, value: f64, phase: Phase) -> ModelResult<()> {
-        let (var, slot) = self.row(vr)?.clone();
-        Self::check_finite(&var.name, value)?;
-        let before_init = phase != Phase::Simulation;
-        match slot {
-            // In Model Exchange the states may also be set by value reference after
-            // initialization, as `fmi2SetContinuousStates` sets them: hosts that evaluate the
-            // right-hand side at states of their own choosing (CasADi's `DaeBuilder` calls
-            // `fmi2SetReal` on the states in Event Mode) rely on it, and Modelica tools' FMUs
-            // accept it. A Co-Simulation instance owns its state between steps.
-            Slot::Q(i) | Slot::V(i) if before_init || self.model_exchange => {
-                if matches!(slot, Slot::Q(_)) {
-                    self.current.state.q[i] = value;
-                } else {
-                    self.current.state.v[i] = value;
-                }
-            }
-            Slot::Ctrl(i) => self.current.ctrl[i] = value,
-            Slot::Mocap(m, k) => {
-                // Before initialization the pose is set at once (at rest). Later, in
-                // Co-Simulation it is the target the next communication step moves to; in
-                // Model Exchange the pose at the current time (its velocity is estimated at the
-                // host's completed integrator steps, see `Simulation::sample_mocap`).
-                self.current.mocap_target[7 * m + k] = value;
-                if self.model_exchange && !before_init {
-                    self.current.mocap[crate::dynamics::MOCAP_INPUTS * m + k] = value;
-                } else if before_init {
-                    let o = crate::dynamics::MOCAP_INPUTS * m;
-                    self.current.mocap[o + k] = value;
-                    self.current.mocap[o + 7..o + 13].fill(0.0);
-                }
-            }
-            Slot::Param(p) => {
-                if !p.accepts(value) {
-                    return Err(format!(
-                        "{} = {value:?} refused: it must be {}",
-                        var.name,
-                        if p == Param::Friction {
-                            "non-negative"
-                        } else {
-                            "positive"
-                        }
-                    ));
-                }
-                // Tunable at any time; `fmi2Reset` restores the scene's value.
-                *p.slot(&mut self.current.params) = value;
-                if let Some(text) = self.smoothing_warning(p, value) {
-                    self.messages.push(LogMessage {
-                        category: LogCategory::StatusWarning,
-                        text,
-                    });
-                }
-            }
-            Slot::SolverStep | Slot::SolverTolerance if before_init => {
-                if value.is_nan() || value <= 0.0 {
-                    return Err(format!(
-                        "{} = {value:?} refused: it must be positive",
-                        var.name
-                    ));
-                }
-                if slot == Slot::SolverStep {
-                    self.model.step = value;
-                } else {
-                    self.model.tolerance = value;
-                }
-            }
-            _ => {
-                return Err(format!(
-                    "{} (value reference {vr}) cannot be set {}",
-                    var.name,
-                    if before_init {
-                        ""
-                    } else {
-                        "after initialization"
-                    }
-                )
-                .trim_end()
-                .to_string())
-            }
-        }
-        self.outputs = None;
-        Ok(())
+        let row = self.row(vr)?.clone();
+        self.write(&row, value, phase != Phase::Simulation)
     }
 
     fn get_string(&mut self, vr: u32) -> ModelResult<String> {
@@ -228,24 +85,8 @@ impl FmiModel for Simulation {
     }
 
     fn set_string(&mut self, vr: u32, value: &str, phase: Phase) -> ModelResult<()> {
-        match self.row(vr)?.1 {
-            Slot::SolverIntegrator if phase != Phase::Simulation => {
-                self.model.integrator =
-                    crate::integrate::Integrator::from_name(value).ok_or_else(|| {
-                        format!(
-                            "solver.integrator = \"{value}\" refused: known integrators are {}",
-                            crate::integrate::Integrator::ALL
-                                .map(|i| i.name())
-                                .join(", ")
-                        )
-                    })?;
-                Ok(())
-            }
-            Slot::SolverIntegrator => {
-                Err("solver.integrator cannot be set after initialization".into())
-            }
-            _ => Err(format!("value reference {vr} is not a String variable")),
-        }
+        let row = self.row(vr)?.clone();
+        self.write_text(&row, value, phase != Phase::Simulation)
     }
 
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
@@ -256,7 +97,7 @@ impl FmiModel for Simulation {
         }
         let before = self.current.time;
         self.current.time = current_time;
-        if let Err(e) = self.advance(step) {
+        if let Err(e) = self.step(step) {
             self.current.time = before;
             return Err(e);
         }

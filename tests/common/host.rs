@@ -14,20 +14,15 @@ use std::sync::{Mutex, OnceLock};
 
 pub use scm::fmi::host_log::LogCapture as Capture;
 
+// The same file is also a module of the long-run example, which a test includes.
+#[allow(clippy::duplicate_mod)]
+#[path = "../../examples/support/host.rs"]
+mod shared;
+pub use shared::{quiet, unpack_scene, write_resources, Instance};
+
 /// Callbacks whose logger records into `capture`.
 pub fn callbacks(capture: &Capture) -> fmi2CallbackFunctions {
     capture.callbacks()
-}
-
-/// Callbacks without a logger.
-pub fn quiet() -> fmi2CallbackFunctions {
-    fmi2CallbackFunctions {
-        logger: None,
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: std::ptr::null_mut(),
-    }
 }
 
 /// An unpacked FMU's `resources/` folder.
@@ -55,13 +50,7 @@ pub fn resources_of(tag: &str, scene_text: &str, meshes: &[(String, Vec<u8>)]) -
         .join("resources");
     let mut made = made().lock().unwrap();
     if !made.contains(&dir) {
-        for (file, bytes) in meshes {
-            let path = dir.join(file);
-            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-            std::fs::write(path, bytes).unwrap();
-        }
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join(scm::sim::SCENE_FILE), scene_text).unwrap();
+        write_resources(&dir, scene_text, meshes).unwrap();
         made.insert(dir.clone());
     }
     Resources {

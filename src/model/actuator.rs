@@ -1,0 +1,151 @@
+//! Actuators: what an actuator drives (a joint or a fixed tendon), its force law (MuJoCo's
+//! motor, position, velocity and affine `<general>` actuators) and the generalized forces of
+//! the controls.
+
+use super::Model;
+use crate::scalar::{c, Scalar};
+use nalgebra::DVector;
+
+/// How an actuator turns its control into a joint force.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ActuatorKind {
+    /// `force = u`.
+    Motor,
+    /// `force = kp (u - gear·q) - kv gear·v`.
+    Position {
+        /// Position gain (N/m or N·m/rad).
+        kp: f64,
+        /// Velocity gain (N·s/m or N·m·s/rad).
+        kv: f64,
+    },
+    /// `force = kv (u - gear·v)`.
+    Velocity {
+        /// Velocity gain.
+        kv: f64,
+    },
+    /// MuJoCo's `<general>` without activation: `force = (g₀ + g₁ L + g₂ L̇) u + b₀ + b₁ L +
+    /// b₂ L̇`, with the actuator's length `L = gear·q` and velocity `L̇ = gear·v` (`gaintype` and
+    /// `biastype` `fixed`/`none` leave the terms past `g₀` and `b` zero).
+    General {
+        /// Gain `g₀ g₁ g₂` (MuJoCo's `gainprm`).
+        gain: [f64; 3],
+        /// Bias `b₀ b₁ b₂` (MuJoCo's `biasprm`).
+        bias: [f64; 3],
+    },
+}
+
+impl Model {
+    /// What actuator `a` drives, for people: `joint NAME` or `tendon NAME`.
+    pub fn actuator_target(&self, a: &Actuator) -> String {
+        match a.target {
+            Transmission::Joint(j) => format!("joint {}", self.tree.joints[j].name),
+            Transmission::Tendon(t) => format!("tendon {}", self.tendons[t].name),
+        }
+    }
+
+    /// The joints (by index) whose forces actuator `a` sets.
+    pub fn actuator_joints(&self, a: &Actuator) -> Vec<usize> {
+        match a.target {
+            Transmission::Joint(j) => vec![j],
+            Transmission::Tendon(t) => self.tendons[t]
+                .joints
+                .iter()
+                .filter_map(|&(_, d, _)| self.tree.joints.iter().position(|j| j.dadr == d))
+                .collect(),
+        }
+    }
+}
+
+impl ActuatorKind {
+    /// MuJoCo's `gainprm` and `biasprm` (their first three entries) for this actuator: every
+    /// kind is the affine law of [`ActuatorKind::General`] with these parameters.
+    pub fn gain_bias(&self) -> ([f64; 3], [f64; 3]) {
+        match *self {
+            ActuatorKind::Motor => ([1.0, 0.0, 0.0], [0.0; 3]),
+            ActuatorKind::Position { kp, kv } => ([kp, 0.0, 0.0], [0.0, -kp, -kv]),
+            ActuatorKind::Velocity { kv } => ([kv, 0.0, 0.0], [0.0, 0.0, -kv]),
+            ActuatorKind::General { gain, bias } => (gain, bias),
+        }
+    }
+}
+
+/// What an actuator drives (MuJoCo's transmission).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transmission {
+    /// A slide or hinge joint (by index): its length is `gear · q`.
+    Joint(usize),
+    /// A fixed tendon (by index into [`Model::tendons`]): its length is `gear · L`, and the
+    /// force acts on each of the tendon's joints through its coefficient.
+    Tendon(usize),
+}
+
+/// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
+/// (times the tendon's coefficients for a tendon).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Actuator {
+    /// Name (the FMU input is `<name>.ctrl`).
+    pub name: String,
+    /// Kind and gains.
+    pub kind: ActuatorKind,
+    /// The joint or tendon it drives.
+    pub target: Transmission,
+    /// Gear ratio.
+    pub gear: f64,
+    /// Control range, if limited (controls are clamped to it).
+    pub ctrlrange: Option<(f64, f64)>,
+    /// Force range, if limited (the force is clamped to it, as MuJoCo clamps it; the
+    /// derivatives of a clamped force are zero).
+    pub forcerange: Option<(f64, f64)>,
+}
+
+impl Model {
+    /// Generalized actuator forces for controls `ctrl` (clamped to their ranges: the derivative
+    /// with respect to a clamped control is zero), each force clamped to its actuator's
+    /// `forcerange`.
+    pub fn actuator_forces<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T]) -> DVector<T> {
+        let mut tau = DVector::zeros(self.tree.nv);
+        for (a, &u) in self.actuators.iter().zip(ctrl) {
+            let u = match a.ctrlrange {
+                Some((lo, _)) if u.re() < lo => c(lo),
+                Some((_, hi)) if u.re() > hi => c(hi),
+                _ => u,
+            };
+            let (qj, vj) = match a.target {
+                Transmission::Joint(j) => {
+                    let j = &self.tree.joints[j];
+                    (q[j.qadr], v[j.dadr])
+                }
+                Transmission::Tendon(t) => {
+                    let t = &self.tendons[t];
+                    (t.length(q), t.velocity(v))
+                }
+            };
+            let force = match a.kind {
+                ActuatorKind::Motor => u,
+                ActuatorKind::Position { kp, kv } => (u - qj * a.gear) * kp - vj * (kv * a.gear),
+                ActuatorKind::Velocity { kv } => (u - vj * a.gear) * kv,
+                ActuatorKind::General { gain, bias } => {
+                    let (l, ldot) = (qj * a.gear, vj * a.gear);
+                    (l * gain[1] + ldot * gain[2] + gain[0]) * u
+                        + l * bias[1]
+                        + ldot * bias[2]
+                        + bias[0]
+                }
+            };
+            let force = match a.forcerange {
+                Some((lo, _)) if force.re() < lo => c(lo),
+                Some((_, hi)) if force.re() > hi => c(hi),
+                _ => force,
+            };
+            match a.target {
+                Transmission::Joint(j) => tau[self.tree.joints[j].dadr] += force * a.gear,
+                Transmission::Tendon(t) => {
+                    for &(_, vi, coef) in &self.tendons[t].joints {
+                        tau[vi] += force * (a.gear * coef);
+                    }
+                }
+            }
+        }
+        tau
+    }
+}

@@ -1,0 +1,264 @@
+//! The model's mechanics as MuJoCo's compiler makes them: the tree with its joint limits, the
+//! fixed tendons and the equality constraints, each a spring and damper of its `solref`
+//! stiffened by the effective inertia MuJoCo computes at the reference configuration.
+
+use super::*;
+use crate::dynamics::equality::{Connect, Linear, ScalarEquality};
+use crate::dynamics::limit::{solref_gains, JointLimit};
+use crate::dynamics::tendon::FixedTendon;
+
+impl Builder {
+    /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
+    /// effective inertia at the reference configuration ([`crate::dynamics::limit`]): the
+    /// inverse of the diagonal of `M⁻¹` there, MuJoCo's `1 / dof_invweight0`, i.e. the inertia
+    /// the joint's coordinate shows when every other coordinate is free. (The diagonal of `M`
+    /// itself would be the inertia with every other joint locked: for a hip of a floating
+    /// walker it is 56 times larger, and a limit stiffened by it is too stiff for the file's
+    /// step.)
+    pub(super) fn set_limits(&self, tree: &mut Tree) {
+        let (m, m_inv) = mass_at_q0(tree);
+        for (j, limit) in self.limits.iter().enumerate() {
+            if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
+                (limit, tree.joints[j].kind)
+            {
+                let d = tree.joints[j].dadr;
+                let inertia = match (slider_body_mass(tree, j), &m_inv) {
+                    (Some(mass), _) => mass,
+                    (None, Some(inv)) if inv[(d, d)] > 0.0 => 1.0 / inv[(d, d)],
+                    // A singular mass matrix (a massless chain): the locked-joint inertia.
+                    _ => m[(d, d)],
+                };
+                let joint = &mut tree.joints[j];
+                joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
+                    *lo,
+                    *hi,
+                    self.solreflimit[j],
+                    inertia,
+                ));
+            }
+        }
+    }
+
+    /// The fixed tendons over `tree`'s coordinates, with the option flags applied: the spring
+    /// length defaults to the length with every joint at its `springref`, and a limit is stiffened
+    /// by the tendon's effective inertia there, `1 / (c M⁻¹ cᵀ)` (MuJoCo's
+    /// `1 / tendon_invweight0`; `c` the coefficients over the degrees of freedom).
+    fn fixed_tendons(&self, tree: &Tree) -> Vec<FixedTendon> {
+        let limited = self.flags.limit && self.tendons.iter().any(|t| t.range.is_some());
+        let m_inv = limited.then(|| mass_at_q0(tree).1).flatten();
+        self.tendons
+            .iter()
+            .map(|t| {
+                let joints: Vec<(usize, usize, f64)> = t
+                    .joints
+                    .iter()
+                    .map(|&(j, coef)| (tree.joints[j].qadr, tree.joints[j].dadr, coef))
+                    .collect();
+                // MuJoCo measures the default spring length in the springs' rest configuration
+                // (qpos_spring: each joint at its springref), not at qpos0.
+                let length0: f64 = t
+                    .joints
+                    .iter()
+                    .map(|&(j, coef)| tree.joints[j].springref * coef)
+                    .sum();
+                let limit = match (t.range, &m_inv) {
+                    (Some((lo, hi)), Some(inv)) => {
+                        let inv_weight: f64 = joints
+                            .iter()
+                            .flat_map(|&(_, a, ca)| {
+                                joints.iter().map(move |&(_, b, cb)| ca * cb * inv[(a, b)])
+                            })
+                            .sum();
+                        (inv_weight > 0.0).then(|| {
+                            JointLimit::from_solref(lo, hi, t.solreflimit, 1.0 / inv_weight)
+                        })
+                    }
+                    _ => None,
+                };
+                let on = |flag: bool, x: f64| if flag { x } else { 0.0 };
+                FixedTendon {
+                    name: t.name.clone(),
+                    joints,
+                    stiffness: on(self.flags.spring, t.stiffness),
+                    spring_length: t.spring_length.unwrap_or((length0, length0)),
+                    damping: on(self.flags.damper, t.damping),
+                    frictionloss: on(self.flags.frictionloss, t.frictionloss),
+                    limit,
+                }
+            })
+            .collect()
+    }
+
+    /// The joint and tendon equalities over `tree`'s coordinates, as springs and dampers
+    /// ([`crate::dynamics::equality`]): each object's value at `qpos0` is its reference, and
+    /// the stiffness and damping come from `solref` and `1 / (w₁ + w₂)`, with `w` MuJoCo's
+    /// `dof_invweight0` or `tendon_invweight0` at `qpos0`.
+    fn scalar_equalities(&self, tree: &Tree, tendons: &[FixedTendon]) -> Vec<ScalarEquality> {
+        if self.equalities.is_empty() {
+            return vec![];
+        }
+        let q0 = tree.q0();
+        let Some(inv) = mass_at_q0(tree).1 else {
+            return vec![];
+        };
+        let object = |tendon: bool, i: usize| -> Linear {
+            if tendon {
+                tendons[i].joints.clone()
+            } else {
+                let j = &tree.joints[i];
+                vec![(j.qadr, j.dadr, 1.0)]
+            }
+        };
+        let inv = &inv;
+        let weight = |x: &Linear| -> f64 {
+            x.iter()
+                .flat_map(|&(_, a, ca)| x.iter().map(move |&(_, b, cb)| ca * cb * inv[(a, b)]))
+                .sum()
+        };
+        let at_q0 = |x: &Linear| -> f64 { x.iter().map(|&(qi, _, c)| q0[qi] * c).sum() };
+        self.equalities
+            .iter()
+            .map(|e| {
+                let first = object(e.tendons, e.first);
+                let second = e.second.map(|i| object(e.tendons, i));
+                let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
+                let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
+                let (stiffness, damping) = solref_gains(e.solref, inertia);
+                ScalarEquality {
+                    name: e.name.clone(),
+                    first: (first.clone(), at_q0(&first)),
+                    second: second.map(|x| {
+                        let r = at_q0(&x);
+                        (x, r)
+                    }),
+                    poly: e.poly,
+                    stiffness,
+                    damping,
+                }
+            })
+            .collect()
+    }
+
+    /// The connect equalities over `tree`, as springs and dampers: body 2's anchor is where
+    /// body 1's is at `qpos0` (as MuJoCo's compiler puts it), and the stiffness and damping
+    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`
+    /// (zero for a body that cannot move, `1 / mass` for a top-level body of sliders, else the
+    /// mean of the diagonal of `J M⁻¹ Jᵀ` for the Jacobian `J` of its centre of mass).
+    fn connects(&self, tree: &Tree) -> Vec<Connect> {
+        if self.connects.is_empty() {
+            return vec![];
+        }
+        let q0 = tree.q0();
+        let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+        let inv = mass_at_q0(tree).1;
+        // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
+        // each degree of freedom.
+        let columns: Vec<_> = (0..tree.nv)
+            .map(|k| {
+                let mut v = vec![0.0; tree.nv];
+                v[k] = 1.0;
+                tree.kinematics(&q0, &v)
+            })
+            .collect();
+        let weight = |b: usize| -> f64 {
+            if b == 0 || !tree.body_moves(b) {
+                return 0.0;
+            }
+            if let Some(mass) = tree.bodies[b]
+                .joints
+                .first()
+                .and_then(|&j| slider_body_mass(tree, j))
+            {
+                return 1.0 / mass;
+            }
+            let Some(inv) = &inv else { return 0.0 };
+            let com = tree.bodies[b].inertia.com;
+            let jac: Vec<nalgebra::Vector3<f64>> = columns
+                .iter()
+                .map(|k| {
+                    let f = &k.frames[b];
+                    f.linvel + f.angvel.cross(&(f.rotation * com))
+                })
+                .collect();
+            let mut trace = 0.0;
+            for (a, ja) in jac.iter().enumerate() {
+                for (c, jc) in jac.iter().enumerate() {
+                    trace += ja.dot(jc) * inv[(a, c)];
+                }
+            }
+            trace / 3.0
+        };
+        self.connects
+            .iter()
+            .map(|c| {
+                let (f1, f2) = (&kin.frames[c.body1], &kin.frames[c.body2]);
+                let p1 = f1.origin + f1.rotation * c.anchor;
+                let anchor2 = f2.rotation.transpose() * (p1 - f2.origin);
+                let w = weight(c.body1) + weight(c.body2);
+                let (stiffness, damping) =
+                    solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
+                Connect {
+                    name: c.name.clone(),
+                    first: (c.body1, c.anchor),
+                    second: (c.body2, anchor2),
+                    stiffness,
+                    damping,
+                }
+            })
+            .collect()
+    }
+
+    /// The tree with its joint limits, the fixed tendons, and the equality constraints: the
+    /// mechanics of the model, with the option flags applied.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn mechanics(
+        &self,
+    ) -> Result<(Tree, Vec<FixedTendon>, Vec<ScalarEquality>, Vec<Connect>), SceneError> {
+        let mut tree = self.tree()?;
+        if self.flags.limit {
+            self.set_limits(&mut tree);
+        }
+        let tendons = self.fixed_tendons(&tree);
+        let equalities = self.scalar_equalities(&tree, &tendons);
+        let connects = self.connects(&tree);
+        Ok((tree, tendons, equalities, connects))
+    }
+}
+
+/// The mass MuJoCo takes as the inertia of joint `j` when its body is what MuJoCo's compiler
+/// calls a simple body with sliders only (`body_simple = 2`): every joint of the body a slide
+/// at the body origin along a coordinate axis, no child body, the parent the world or a
+/// jointless child of it, and the inertia's frame the body frame (centre of mass at the
+/// origin, diagonal inertia). For such a body MuJoCo's `dof_invweight0` is `1 / mass`: the
+/// joints' armature is left out (for other joints it is in). `None` for every other joint.
+fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
+    let b = tree.joints[j].body;
+    let body = &tree.bodies[b];
+    let at_origin_on_an_axis = |k: &usize| {
+        let joint = &tree.joints[*k];
+        joint.kind == JointKind::Slide
+            && joint.anchor.norm() == 0.0
+            && joint.axis.iter().filter(|a| a.abs() > 1e-14).count() == 1
+    };
+    let parent_fixed = match body.parent {
+        Some(0) => true,
+        Some(p) => tree.bodies[p].parent == Some(0) && tree.bodies[p].joints.is_empty(),
+        None => false,
+    };
+    let i = &body.inertia;
+    let same_frame =
+        i.com.norm() == 0.0 && (0..3).all(|r| (0..3).all(|c| r == c || i.rot[(r, c)] == 0.0));
+    let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
+    (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
+        .then_some(i.mass)
+}
+
+/// The mass matrix at the reference configuration `qpos0` and its inverse (`None` when it is
+/// singular: a massless chain), for the effective inertias MuJoCo's compiler takes there.
+fn mass_at_q0(tree: &Tree) -> (nalgebra::DMatrix<f64>, Option<nalgebra::DMatrix<f64>>) {
+    let q0 = tree.q0();
+    let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
+    let m = tree.mass_matrix(&kin);
+    let inv = m.clone().cholesky().map(|ch| ch.inverse());
+    (m, inv)
+}

@@ -1,0 +1,274 @@
+//! The simulation's variables: read and written by slot (what the FMU's value references
+//! name) and, for Rust callers and the command line, by name. One code path for both, so the
+//! command line refuses what a host would be refused and reads what a host would read.
+
+use super::*;
+use crate::fmi::contract::{Causality, VarType};
+
+/// A value for [`Simulation::set`]: FMU variables are Real, except `solver.integrator`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value<'a> {
+    /// A Real variable's value.
+    Real(f64),
+    /// A String variable's value.
+    Text(&'a str),
+}
+
+/// The small facade a Rust caller (and the command line) uses: names instead of value
+/// references, no FMI state machine.
+impl Simulation {
+    /// The variable named `name` (its FMU name, e.g. `ball.pos.z`, `scm.eps1`) and its slot.
+    pub fn variable(&self, name: &str) -> Result<&(Variable, Slot), String> {
+        self.rows.iter().find(|(v, _)| v.name == name).ok_or_else(|| {
+            let stem = name.split('.').next();
+            let close: Vec<&str> = self
+                .rows
+                .iter()
+                .map(|(v, _)| v.name.as_str())
+                .filter(|n| n.split('.').next() == stem)
+                .collect();
+            if close.is_empty() {
+                format!("no variable '{name}' (`scm check` and the FMU's modelDescription.xml list the names)")
+            } else {
+                format!("no variable '{name}' (variables of that name: {})", close.join(", "))
+            }
+        })
+    }
+
+    /// The current value of a Real variable by name.
+    pub fn get(&mut self, name: &str) -> ModelResult<f64> {
+        let slot = self.variable(name)?.1;
+        self.read(slot)
+    }
+
+    /// Sets a variable by name, with an FMU host's rules: before [`Simulation::initialize`]
+    /// or the first step, start values of the states, parameters, solver settings and inputs;
+    /// after it, inputs (a mocap pose is then the target the next step reaches) and tunable
+    /// parameters. The same checks apply: a non-finite value, a zero step, an unknown
+    /// integrator or an output is refused with the reason, and nothing changes.
+    pub fn set(&mut self, name: &str, value: Value) -> ModelResult<()> {
+        let row = self.variable(name)?.clone();
+        let before_start = !self.started;
+        match value {
+            Value::Real(x) => self.write(&row, x, before_start),
+            Value::Text(s) => self.write_text(&row, s, before_start),
+        }
+    }
+
+    /// Sets a contact parameter (tunable at any time: between steps too).
+    pub fn set_param(&mut self, p: Param, value: f64) -> ModelResult<()> {
+        Self::check_finite(&format!("scm.{}", p.describe().0), value)?;
+        if !p.accepts(value) {
+            return Err(format!(
+                "scm.{} = {value:?} refused: it must be {}",
+                p.describe().0,
+                if p == Param::Friction {
+                    "non-negative"
+                } else {
+                    "positive"
+                }
+            ));
+        }
+        *p.slot(&mut self.current.params) = value;
+        if let Some(text) = self.smoothing_warning(p, value) {
+            self.messages.push(LogMessage {
+                category: LogCategory::StatusWarning,
+                text,
+            });
+        }
+        self.outputs = None;
+        Ok(())
+    }
+
+    /// The names of the Real outputs, in the order of [`Simulation::outputs`].
+    pub fn output_names(&self) -> Vec<&str> {
+        self.output_rows().map(|(v, _)| v.name.as_str()).collect()
+    }
+
+    /// The Real outputs at the current state (contact forces, distances, limit forces,
+    /// accelerations, ...), in the order of [`Simulation::output_names`].
+    pub fn outputs(&mut self) -> ModelResult<Vec<f64>> {
+        let slots: Vec<Slot> = self.output_rows().map(|(_, s)| *s).collect();
+        slots.into_iter().map(|s| self.read(s)).collect()
+    }
+
+    fn output_rows(&self) -> impl Iterator<Item = &(Variable, Slot)> {
+        self.rows.iter().filter(|(v, _)| {
+            v.causality == Causality::Output && matches!(v.var_type, VarType::Real { .. })
+        })
+    }
+
+    /// Ends the setting of start values: quaternions set by the caller are normalized (a zero
+    /// one is refused). Stepping without it is allowed; the FMU calls it at
+    /// `fmi2ExitInitializationMode`.
+    pub fn initialize(&mut self) -> ModelResult<()> {
+        for j in &self.model.tree.joints {
+            let qa = match j.kind {
+                JointKind::Free => j.qadr + 3,
+                JointKind::Ball => j.qadr,
+                _ => continue,
+            };
+            let q = &mut self.current.state.q[qa..qa + 4];
+            // Scale by the largest component first, so huge components do not overflow.
+            let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if m.is_nan() || m <= 0.0 {
+                return Err(format!(
+                    "{}.quat is zero: set a non-zero orientation quaternion",
+                    j.name
+                ));
+            }
+            q.iter_mut().for_each(|x| *x /= m);
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            q.iter_mut().for_each(|x| *x /= n);
+        }
+        self.outputs = None;
+        self.messages.push(LogMessage {
+            category: LogCategory::Events,
+            text: format!(
+                "initialized {} at t = {} s",
+                self.model.name, self.current.time
+            ),
+        });
+        self.started = true;
+        Ok(())
+    }
+}
+
+/// Reading and writing by slot: what both the facade above and the FMU's value references use.
+impl Simulation {
+    /// The value a Real slot holds at the current state.
+    pub(crate) fn read(&mut self, slot: Slot) -> ModelResult<f64> {
+        Ok(match slot {
+            Slot::Time => self.current.time,
+            Slot::Q(i) => self.current.state.q[i],
+            Slot::V(i) => self.current.state.v[i],
+            Slot::Ctrl(i) => self.current.ctrl[i],
+            Slot::Mocap(m, k) => self.current.mocap_target[7 * m + k],
+            Slot::Param(p) => p.get(&self.current.params),
+            Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
+            Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
+            Slot::PairDistance(p) => self.contacts()[p].distance,
+            Slot::LimitForce(j) => {
+                let jt = &self.model.tree.joints[j];
+                let s = &self.current.state;
+                jt.limit
+                    .as_ref()
+                    .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
+            }
+            Slot::TendonLimitForce(t) => {
+                let tendon = &self.model.tendons[t];
+                let s = &self.current.state;
+                tendon
+                    .limit
+                    .as_ref()
+                    .map_or(0.0, |l| l.force(tendon.length(&s.q), tendon.velocity(&s.v)))
+            }
+            Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
+            Slot::SolverStep => self.model.step,
+            Slot::SolverTolerance => self.model.tolerance,
+            Slot::SolverIntegrator => return Err("solver.integrator is a String variable".into()),
+            Slot::QDot(i) => self
+                .model
+                .tree
+                .qdot(&self.current.state.q, &self.current.state.v)[i],
+            Slot::VDot(i) => self.accelerations()?[i],
+        })
+    }
+
+    /// Writes a Real row; `before_init`: start values, fixed parameters and solver settings
+    /// may be set (before the FMU's initialization, or through the facade).
+    pub(crate) fn write(
+        &mut self,
+        (var, slot): &(Variable, Slot),
+        value: f64,
+        before_init: bool,
+    ) -> ModelResult<()> {
+        Self::check_finite(&var.name, value)?;
+        match *slot {
+            // In Model Exchange the states may also be set by value reference after
+            // initialization, as `fmi2SetContinuousStates` sets them: hosts that evaluate the
+            // right-hand side at states of their own choosing (CasADi's `DaeBuilder` calls
+            // `fmi2SetReal` on the states in Event Mode) rely on it, and Modelica tools' FMUs
+            // accept it. A Co-Simulation instance owns its state between steps.
+            Slot::Q(i) if before_init || self.model_exchange => self.current.state.q[i] = value,
+            Slot::V(i) if before_init || self.model_exchange => self.current.state.v[i] = value,
+            Slot::Ctrl(i) => self.current.ctrl[i] = value,
+            Slot::Mocap(m, k) => {
+                // Before initialization the pose is set at once (at rest). Later, in
+                // Co-Simulation it is the target the next communication step moves to; in
+                // Model Exchange the pose at the current time (its velocity is estimated at the
+                // host's completed integrator steps, see `Simulation::sample_mocap`).
+                self.current.mocap_target[7 * m + k] = value;
+                let o = crate::dynamics::MOCAP_INPUTS * m;
+                if self.model_exchange && !before_init {
+                    self.current.mocap[o + k] = value;
+                } else if before_init {
+                    self.current.mocap[o + k] = value;
+                    self.current.mocap[o + 7..o + 13].fill(0.0);
+                }
+            }
+            // Tunable at any time; `fmi2Reset` restores the scene's value.
+            Slot::Param(p) => return self.set_param(p, value),
+            Slot::SolverStep | Slot::SolverTolerance if before_init => {
+                if value.is_nan() || value <= 0.0 {
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be positive",
+                        var.name
+                    ));
+                }
+                if *slot == Slot::SolverStep {
+                    self.model.step = value;
+                } else {
+                    self.model.tolerance = value;
+                }
+            }
+            Slot::SolverIntegrator => {
+                return Err(format!("{} is a String variable", var.name));
+            }
+            _ => {
+                return Err(format!(
+                    "{} (value reference {}) cannot be set{}",
+                    var.name,
+                    var.value_reference,
+                    if before_init {
+                        ""
+                    } else {
+                        " after initialization"
+                    }
+                ))
+            }
+        }
+        self.outputs = None;
+        Ok(())
+    }
+
+    /// Writes a String row (`solver.integrator`, before initialization only).
+    pub(crate) fn write_text(
+        &mut self,
+        (var, slot): &(Variable, Slot),
+        value: &str,
+        before_init: bool,
+    ) -> ModelResult<()> {
+        match slot {
+            Slot::SolverIntegrator if before_init => {
+                self.model.integrator =
+                    crate::integrate::Integrator::from_name(value).ok_or_else(|| {
+                        format!(
+                            "solver.integrator = \"{value}\" refused: known integrators are {}",
+                            crate::integrate::Integrator::ALL
+                                .map(|i| i.name())
+                                .join(", ")
+                        )
+                    })?;
+                Ok(())
+            }
+            Slot::SolverIntegrator => {
+                Err("solver.integrator cannot be set after initialization".into())
+            }
+            _ => Err(format!(
+                "{} (value reference {}) is not a String variable",
+                var.name, var.value_reference
+            )),
+        }
+    }
+}

@@ -1,0 +1,113 @@
+//! The small facade a Rust caller and the command line use (`Simulation::set`, `set_param`,
+//! `step`, `outputs`): it is the FMU's own code path, so a run through it equals, bit for bit,
+//! the same run through the C ABI, and it refuses what a host would be refused.
+
+use crate::common::host::{self, Instance};
+use crate::common::scene;
+use scm::contact::Param;
+use scm::fmi::ffi::*;
+use scm::sim::{Simulation, Value};
+
+/// t_push with its finger driven along a path, a tuned contact parameter and a start value,
+/// run through the facade and through `fmi2*`: every output at every communication point
+/// agrees to the bit.
+#[test]
+fn the_facade_runs_as_the_fmu_does_to_the_bit() {
+    let path = scene("t_push");
+    let h = 0.01;
+    let steps = 40;
+    let input = |k: usize| [0.005 + 0.002 * k as f64, 0.25f64.min(0.01 * k as f64)];
+
+    let mut sim = Simulation::from_file(&path).unwrap();
+    let names: Vec<String> = sim.output_names().iter().map(|n| n.to_string()).collect();
+    assert!(names.iter().any(|n| n.ends_with(".force.y")), "{names:?}");
+    sim.set("t_yaw.q", Value::Real(0.1)).unwrap();
+    sim.set("solver.integrator", Value::Text("rk4")).unwrap();
+    sim.set_param(Param::Friction, 0.4).unwrap();
+    sim.initialize().unwrap();
+    let mut via_facade = vec![sim.outputs().unwrap()];
+    for k in 0..steps {
+        let [x, y] = input(k);
+        sim.set("act_x.ctrl", Value::Real(x)).unwrap();
+        sim.set("act_y.ctrl", Value::Real(y)).unwrap();
+        sim.step(h).unwrap();
+        via_facade.push(sim.outputs().unwrap());
+    }
+
+    let dir = host::unpack_scene(&path, "facade").unwrap();
+    let fmu = Instance::new(&dir, fmi2CoSimulation, host::quiet()).unwrap();
+    let vr = |n: &str| fmu.vr(n).unwrap();
+    let outs: Vec<u32> = names.iter().map(|n| vr(n)).collect();
+    fmu.setup(None).unwrap();
+    fmu.set_real(&[vr("t_yaw.q"), vr("scm.friction")], &[0.1, 0.4])
+        .unwrap();
+    fmu.set_string(vr("solver.integrator"), "rk4").unwrap();
+    fmu.initialize().unwrap();
+    let mut via_fmu = vec![fmu.get_real(&outs).unwrap()];
+    for k in 0..steps {
+        fmu.set_real(&[vr("act_x.ctrl"), vr("act_y.ctrl")], &input(k))
+            .unwrap();
+        assert_eq!(fmu.do_step(k as f64 * h, h), fmi2OK);
+        via_fmu.push(fmu.get_real(&outs).unwrap());
+    }
+    for (k, (a, b)) in via_facade.iter().zip(&via_fmu).enumerate() {
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert_eq!(
+                x.to_bits(),
+                y.to_bits(),
+                "t = {} s, {}",
+                k as f64 * h,
+                names[i]
+            );
+        }
+    }
+    // The finger reached the T: the run is not trivially at rest.
+    let force = names.iter().position(|n| n.ends_with(".force.y")).unwrap();
+    assert!(via_fmu.iter().any(|r| r[force].abs() > 0.1));
+}
+
+/// Every refusal names the variable and the reason, and leaves the simulation as it was.
+#[test]
+fn the_facade_refuses_with_the_reason_and_changes_nothing() {
+    let mut sim = Simulation::from_file(&scene("sphere_drop")).unwrap();
+    let before = sim.current.clone();
+    let cases: [(&str, Value, &str); 6] = [
+        (
+            "ball.pos.q",
+            Value::Real(1.0),
+            "variables of that name: ball.pos.x",
+        ),
+        ("nothing", Value::Real(1.0), "no variable 'nothing'"),
+        ("ball.pos.z", Value::Real(f64::NAN), "must be finite"),
+        ("scm.eps1", Value::Real(-1.0), "must be positive"),
+        (
+            "solver.integrator",
+            Value::Text("euler2"),
+            "known integrators are",
+        ),
+        ("ball.linacc.z", Value::Real(1.0), "cannot be set"),
+    ];
+    for (name, value, words) in cases {
+        let err = sim.set(name, value.clone()).unwrap_err();
+        assert!(
+            err.contains(words),
+            "{name} = {value:?}: '{words}' not in {err}"
+        );
+        assert_eq!(
+            sim.current, before,
+            "{name}: a refused value changed the state"
+        );
+    }
+    assert!(sim.set_param(Param::Friction, -0.1).is_err());
+    assert_eq!(sim.current, before);
+
+    // Once started, the states belong to the simulation (as in Co-Simulation); a tunable
+    // parameter still takes effect.
+    sim.set("ball.pos.z", Value::Real(0.3)).unwrap();
+    sim.step(0.01).unwrap();
+    let err = sim.set("ball.pos.z", Value::Real(0.5)).unwrap_err();
+    assert!(err.contains("after initialization"), "{err}");
+    sim.set("scm.stiffness", Value::Real(2e4)).unwrap();
+    assert_eq!(sim.get("scm.stiffness").unwrap(), 2e4);
+    assert!(sim.get("ball.pos.z").unwrap() < 0.3, "the ball falls");
+}
