@@ -59,7 +59,7 @@ pub struct FmuState {
     pub step: f64,
     /// Local error tolerance.
     pub tolerance: f64,
-    /// What the integrator carries between communication steps (the implicit method's Newton
+    /// What the integrator carries between communication steps (the implicit methods' Newton
     /// Jacobian): part of the state, since the next step's last bits depend on it.
     pub solver_cache: crate::integrate::SolverCache,
 }

@@ -749,23 +749,7 @@ fn damped_euler_takes_stiff_contact_friction_at_mujocos_step() {
     // the contact velocity-implicit, stops it there (to 2 %: the smooth friction) and it
     // settles (its rocking on the contact, a 26 ms period, dies out); semi-implicit Euler
     // rings about rest for ever, the velocity changing sign at every step.
-    let scene = |integrator: &str| {
-        model_of(&format!(
-            r#"<mujoco>
-  <option timestep="0.002"/>
-  <custom>
-    <numeric name="scm_stiction_velocity" data="0.001"/>
-    <numeric name="scm_friction" data="1"/>
-    <text name="scm_integrator" data="{integrator}"/>
-  </custom>
-  <worldbody>
-    <geom name="floor" type="plane" size="1 1 0.1"/>
-    <body name="b" pos="0 0 0.01"><freejoint/>
-      <geom type="box" size="0.05 0.05 0.01" mass="0.1"/></body>
-  </worldbody>
-</mujoco>"#
-        ))
-    };
+    let scene = sliding_box;
     // The state after 0.3 s and the largest sliding speed over its last 0.1 s.
     let run = |model: &Model| {
         let mut s = State {
@@ -801,4 +785,69 @@ fn damped_euler_takes_stiff_contact_friction_at_mujocos_step() {
     );
     let (_, late) = run(&scene("semi_implicit_euler"));
     assert!(late > 3e-3, "semi-implicit Euler should ring ({late} m/s)");
+}
+
+/// A flat 0.1 kg box sliding at 1 m/s on a floor with friction 1 and a stiction velocity of
+/// 1 mm/s (see the test above), under `integrator`.
+fn sliding_box(integrator: &str) -> Model {
+    model_of(&format!(
+        r#"<mujoco>
+  <option timestep="0.002"/>
+  <custom>
+    <numeric name="scm_stiction_velocity" data="0.001"/>
+    <numeric name="scm_friction" data="1"/>
+    <text name="scm_integrator" data="{integrator}"/>
+  </custom>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="b" pos="0 0 0.01"><freejoint/>
+      <geom type="box" size="0.05 0.05 0.01" mass="0.1"/></body>
+  </worldbody>
+</mujoco>"#
+    ))
+}
+
+#[test]
+fn damped_euler_carries_its_newton_jacobian_and_a_restored_cache_replays_to_the_bit() {
+    // In contact, damped Euler solves its step equation by Newton's iterations; the real
+    // Jacobian is kept from step to step in the solver cache while the iterations contract.
+    // Carried or fresh, the steps agree to the Newton tolerance; a cache saved and restored
+    // (as an FMU state carries it) replays the rest of the run bit for bit.
+    let model = sliding_box("damped_euler");
+    let opts = AdvanceOptions::default();
+    let h = 0.002;
+    let start = State {
+        q: model.tree.q0(),
+        v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    };
+    let step = |s: &State<f64>, k: usize, cache: &mut scm::integrate::SolverCache| {
+        model
+            .advance_cached(s, &[], &model.contact, k as f64 * h, h, &opts, cache)
+            .unwrap()
+            .state
+    };
+    let mut cache = scm::integrate::SolverCache::default();
+    let (mut carried, mut fresh) = (start.clone(), start);
+    let mut saved = None;
+    let mut largest = 0.0f64;
+    for k in 0..150 {
+        if k == 50 {
+            saved = Some((carried.clone(), cache.clone()));
+        }
+        carried = step(&carried, k, &mut cache);
+        fresh = step(&fresh, k, &mut Default::default());
+        assert!(cache.parts().0.is_some(), "step {k}: no Jacobian carried");
+        for (a, b) in carried.q.iter().zip(&fresh.q) {
+            largest = largest.max((a - b).abs());
+        }
+    }
+    assert!(
+        largest < 1e-9,
+        "carried and fresh Jacobians differ by {largest} m"
+    );
+    let (mut again, mut restored) = saved.unwrap();
+    for k in 50..150 {
+        again = step(&again, k, &mut restored);
+    }
+    assert_eq!(again, carried, "the restored cache replays bit for bit");
 }

@@ -181,7 +181,8 @@ impl Model {
             let dt = duration / n as f64;
             let mut s = state.clone();
             let mut first = a0;
-            // The implicit method's Newton Jacobian, carried from step to step while it serves.
+            // The Newton Jacobian of implicit Euler, or of damped Euler in contact, carried
+            // from step to step while it serves.
             let mut jac = match cache.left {
                 Some((ref s_left, h_left)) if h_left == dt && s_left == state => {
                     cache.jacobian.take()
@@ -210,12 +211,15 @@ impl Model {
                         )
                         .map_err(dyn_err)?,
                     i => self
-                        .explicit_step(i, &s, &uk, prm, dt, first.take())
+                        .explicit_step(i, &s, &uk, prm, dt, first.take(), &mut jac)
                         .map_err(dyn_err)?,
                 };
                 check(&mut monitor, &s, t, k + 1, dt)?;
             }
-            if self.integrator == Integrator::ImplicitEuler {
+            if matches!(
+                self.integrator,
+                Integrator::ImplicitEuler | Integrator::DampedEuler
+            ) {
                 cache.jacobian = jac;
                 cache.left = Some((s.clone(), dt));
             }
@@ -323,7 +327,7 @@ impl Model {
 /// [`SolverCache::from_parts`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SolverCache {
-    /// The implicit method's last Newton Jacobian.
+    /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact.
     jacobian: Option<DMatrix<f64>>,
     /// The state and internal step the cache was left for.
     left: Option<CacheMark>,

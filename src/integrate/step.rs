@@ -327,7 +327,9 @@ impl Model {
     /// Without a pair in reach at the start, the step is explicit (contact-free, it is
     /// MuJoCo's `Euler` exactly). Otherwise Newton's iterations from the explicit step, on
     /// the real Jacobian from dual numbers, as [`Integrator::ImplicitEuler`]'s (with dual
-    /// numbers a fresh one at every iteration, so the derivatives of the step are exact).
+    /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
+    /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
+    /// takes a fresh one when the iterations stop contracting), as for implicit Euler.
     fn damped_euler_velocity<T: Scalar>(
         &self,
         q: &[T],
@@ -335,6 +337,7 @@ impl Model {
         u: &[T],
         prm: &ContactParams<T>,
         h: T,
+        jac: &mut Option<DMatrix<f64>>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
@@ -360,7 +363,7 @@ impl Model {
         };
         let real_jacobian =
             |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(&real, x)?.1) };
-        newton(&residual, &real_jacobian, explicit, &mut None)
+        newton(&residual, &real_jacobian, explicit, jac)
     }
 
     /// One step of length `h` (s) of `integrator` from `state` with inputs `u` at the start of
@@ -378,11 +381,13 @@ impl Model {
         match integrator {
             Integrator::ImplicitEuler => self.implicit_euler_step(state, u, prm, h, &mut None),
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
-            _ => self.explicit_step(integrator, state, u, prm, h, None),
+            _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None),
         }
     }
 
-    /// Euler, semi-implicit Euler or RK4; `a0`: the acceleration at the start, if known.
+    /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
+    /// known; `jac`: damped Euler's Newton Jacobian, carried between steps.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn explicit_step<T: Scalar>(
         &self,
         integrator: Integrator,
@@ -391,11 +396,12 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
         a0: Option<Vec<T>>,
+        jac: &mut Option<DMatrix<f64>>,
     ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(q1, v1, u, prm, h)?;
+            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,
