@@ -75,13 +75,21 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 
 /// A simulation of a scene: the model, its current state and what the FMU exposes of it.
 ///
+/// The model is the engine's [`Model`] (its option settings, integrator and step, may be set
+/// before the start, as MuJoCo's `mjModel.opt`); the state that changes is
+/// [`SimState`] (MuJoCo's `mjData`), with the caches of the outputs and of the integrator. The
+/// FMU and the command line use the same small facade: variables by name
+/// ([`Simulation::set`], [`Simulation::get`], [`Simulation::set_param`]),
+/// [`Simulation::step`] and [`Simulation::outputs`].
+///
 /// # Example
 ///
 /// A 0.1 kg sphere dropped onto a floor comes to rest on it, carried by the contact force:
 ///
 /// ```
 /// use std::path::Path;
-/// use scm::sim::Simulation;
+/// use scm::contact::Param;
+/// use scm::sim::{Simulation, Value};
 ///
 /// let xml = r#"<mujoco>
 ///   <option timestep="0.001"/>
@@ -92,13 +100,16 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 ///     </body>
 ///   </worldbody>
 /// </mujoco>"#;
-/// let scene = scm::scene::load_str(xml, Path::new("drop.xml"))?;
-/// let mut sim = Simulation::new(scene, xml);
+/// let mut sim = Simulation::new(scm::scene::load_str(xml, Path::new("drop.xml"))?, xml);
+/// sim.set("ball.pos.z", Value::Real(0.1))?; // a start value, by its FMU name
+/// sim.set_param(Param::Friction, 1.0)?; // a contact parameter (tunable at any time)
 /// sim.step(1.0)?;
-/// let z = sim.current.state.q[2];
+/// let z = sim.get("ball.pos.z")?; // and every output: sim.output_names(), sim.outputs()
 /// assert!((z - 0.05).abs() < 2e-3, "resting height {z}");
-/// // The floor (first body of the pair) carries the ball's weight.
-/// let on_floor = sim.contacts()[0].on_a.force.z;
+/// // The outputs by name: the floor (first body of the pair) carries the ball's weight.
+/// let names = sim.output_names();
+/// let fz = names.iter().position(|n| *n == "contact.world.ball.force.z").unwrap();
+/// let on_floor = sim.outputs()?[fz];
 /// assert!((on_floor + 0.1 * 9.81).abs() < 1e-3, "floor force {on_floor}");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

@@ -19,20 +19,28 @@ pub enum Value<'a> {
 impl Simulation {
     /// The variable named `name` (its FMU name, e.g. `ball.pos.z`, `scm.eps1`) and its slot.
     pub fn variable(&self, name: &str) -> Result<&(Variable, Slot), String> {
-        self.rows.iter().find(|(v, _)| v.name == name).ok_or_else(|| {
-            let stem = name.split('.').next();
-            let close: Vec<&str> = self
-                .rows
-                .iter()
-                .map(|(v, _)| v.name.as_str())
-                .filter(|n| n.split('.').next() == stem)
-                .collect();
-            if close.is_empty() {
-                format!("no variable '{name}' (`scm check` and the FMU's modelDescription.xml list the names)")
-            } else {
-                format!("no variable '{name}' (variables of that name: {})", close.join(", "))
-            }
-        })
+        self.rows
+            .iter()
+            .find(|(v, _)| v.name == name)
+            .ok_or_else(|| {
+                let stem = name.split('.').next();
+                let close: Vec<&str> = self
+                    .rows
+                    .iter()
+                    .map(|(v, _)| v.name.as_str())
+                    .filter(|n| n.split('.').next() == stem)
+                    .collect();
+                if close.is_empty() {
+                    format!(
+                        "no variable '{name}' (the FMU's modelDescription.xml lists every name)"
+                    )
+                } else {
+                    format!(
+                        "no variable '{name}' (variables of that name: {})",
+                        close.join(", ")
+                    )
+                }
+            })
     }
 
     /// The current value of a Real variable by name.

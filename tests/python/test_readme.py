@@ -36,6 +36,16 @@ def test_the_python_example_runs(tmp_path):
     assert force > 4.0, force
 
 
+def test_the_rust_example_is_the_doc_test_of_simulation():
+    # The README's Rust lines are taken from the documentation example of `Simulation`, which
+    # `cargo test --doc` runs: each must still be there, word for word.
+    doc = [l.strip()[4:] for l in (ROOT / "src" / "sim.rs").read_text().splitlines() if l.strip().startswith("/// ")]
+    lines = [l for l in block("rust").splitlines() if l.strip()]
+    assert len(lines) >= 4
+    for line in lines:
+        assert line in doc, f"README.md's Rust line is not in the doc test of Simulation: {line}"
+
+
 def test_the_c_example_runs_like_fmpy(fmu, tmp_path):
     gcc = shutil.which("gcc")
     assert gcc, "gcc is needed (scripts/setup.sh installs it)"
