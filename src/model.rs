@@ -14,7 +14,9 @@ use crate::scalar::{c, Scalar};
 use nalgebra::{DVector, Vector3};
 
 mod actuator;
+mod frozen;
 pub use actuator::{Actuator, ActuatorKind, Transmission};
+pub use frozen::FrozenForward;
 
 /// A pair of bodies whose colliders interact.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,6 +29,19 @@ pub struct Pair {
     /// a `<pair friction>`), which the contact parameter `friction` does not change; `None`:
     /// the pair uses the contact parameter.
     pub friction: Option<f64>,
+}
+
+impl Pair {
+    /// The contact parameters of this pair: `prm` with the pair's own friction, if it has one.
+    pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
+        match self.friction {
+            Some(mu) => ContactParams {
+                friction: c(mu),
+                ..*prm
+            },
+            None => *prm,
+        }
+    }
 }
 
 /// The complete, immutable model of a scene.
@@ -244,32 +259,36 @@ impl Model {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return Some(PairContact::none());
         };
-        let prm = match pair.friction {
-            Some(mu) => ContactParams {
-                friction: c(mu),
-                ..*prm
-            },
-            None => *prm,
-        };
-        let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
-        if prune {
-            let (ra, rb) = (fa.re(), fb.re());
-            let p = prm.re();
-            let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
-            let far = out_of_reach(
-                ca,
-                cb,
-                &rels,
-                p.eps1,
-                p.eps3,
-                p.dissipation_velocity,
-                p.friction,
-            );
-            if far {
-                return None;
-            }
+        let prm = pair.params(prm);
+        if prune && self.out_of_reach(pair, kin, &prm) {
+            return None;
         }
+        let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
         Some(pair_contact(ca, fa, cb, fb, &prm))
+    }
+
+    /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters.
+    pub(crate) fn out_of_reach<T: Scalar>(
+        &self,
+        pair: &Pair,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+    ) -> bool {
+        let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+            return true;
+        };
+        let (ra, rb) = (kin.frames[pair.a].re(), kin.frames[pair.b].re());
+        let p = prm.re();
+        let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
+        out_of_reach(
+            ca,
+            cb,
+            &rels,
+            p.eps1,
+            p.eps3,
+            p.dissipation_velocity,
+            p.friction,
+        )
     }
 
     /// Adds the passive forces that act on bodies to the wrenches `w` (world frame, about the
@@ -423,7 +442,7 @@ impl Model {
     /// (`None`: at `v`) and everything else at `v`: the acceleration whose root in `v_contact`
     /// is damped Euler's velocity-implicit contact ([`Integrator::DampedEuler`]).
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn forward_contact_at<T: Scalar>(
+    pub fn forward_contact_at<T: Scalar>(
         &self,
         q: &[T],
         v: &[T],
@@ -433,26 +452,7 @@ impl Model {
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
     ) -> Result<Forward<T>, DynamicsError> {
-        for j in &self.tree.joints {
-            if q[j.qadr..j.qadr + j.kind.nq()]
-                .iter()
-                .any(|x| !x.re().is_finite())
-            {
-                return Err(DynamicsError::NonFinite(format!(
-                    "the position of joint {}",
-                    j.name
-                )));
-            }
-            if v[j.dadr..j.dadr + j.kind.nv()]
-                .iter()
-                .any(|x| !x.re().is_finite())
-            {
-                return Err(DynamicsError::NonFinite(format!(
-                    "the velocity of joint {}",
-                    j.name
-                )));
-            }
-        }
+        self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (mut wrenches, contacts) = match v_contact {
             // The same positions, so the wrenches are in the same frames.
@@ -465,7 +465,41 @@ impl Model {
         let rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
-        let mut m = self.tree.mass_matrix(&kin);
+        let m = self.damped_mass_matrix(&kin, v, prm, implicit_damping);
+        let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
+        Ok(Forward { vdot, contacts })
+    }
+
+    /// An error naming the first joint whose position or velocity is not finite.
+    pub(crate) fn check_finite<T: Scalar>(&self, q: &[T], v: &[T]) -> Result<(), DynamicsError> {
+        for j in &self.tree.joints {
+            let bad = |x: &[T]| x.iter().any(|x| !x.re().is_finite());
+            if bad(&q[j.qadr..j.qadr + j.kind.nq()]) {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the position of joint {}",
+                    j.name
+                )));
+            }
+            if bad(&v[j.dadr..j.dadr + j.kind.nv()]) {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the velocity of joint {}",
+                    j.name
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The mass matrix at `kin`, with `h D` added when `implicit_damping` is `Some(h)`: `D` the
+    /// joints' viscous damping plus the slope of their smooth frictionloss at `v`.
+    pub(crate) fn damped_mass_matrix<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        v: &[T],
+        prm: &ContactParams<T>,
+        implicit_damping: Option<T>,
+    ) -> nalgebra::DMatrix<T> {
+        let mut m = self.tree.mass_matrix(kin);
         if let Some(h) = implicit_damping {
             let vs2 = prm.stiction_velocity * prm.stiction_velocity;
             for j in &self.tree.joints {
@@ -483,8 +517,7 @@ impl Model {
                 }
             }
         }
-        let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
-        Ok(Forward { vdot, contacts })
+        m
     }
 
     /// Inverse dynamics (paper eq. 27): the generalized actuation `τ = ID(q, v, v̇) = M v̇ + c -

@@ -16,12 +16,14 @@ use nalgebra::{Matrix3, Vector3};
 
 mod jacobian;
 mod params;
+mod tape;
 #[cfg(test)]
 mod tests;
 
 use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
+pub use tape::PairTape;
 
 /// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; docs/method.md) on a point at offset `r`
 /// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's

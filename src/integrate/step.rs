@@ -341,17 +341,6 @@ impl Model {
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
-        let start = self.forward_damped(q, v, &tau, mocap, prm, Some(h))?;
-        let explicit = axpy(v, h, start.vdot.as_slice());
-        if start.contacts.iter().all(Option::is_none) {
-            return Ok(explicit);
-        }
-        let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
-            let a = self
-                .forward_contact_at(q, v, Some(x), &tau, mocap, prm, Some(h))?
-                .vdot;
-            Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
-        };
         let real = ContactImplicitResidual {
             model: self,
             q: re_vec(q),
@@ -363,6 +352,42 @@ impl Model {
         };
         let real_jacobian =
             |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(&real, x)?.1) };
+        if TypeId::of::<T>() == TypeId::of::<f64>() {
+            // Values only: everything but the contact's velocities is frozen at the start of the
+            // step, each pair's contact terms recorded there and replayed at each trial end
+            // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
+            let (frozen, a0) = self.frozen_forward(
+                &real.q,
+                &real.v,
+                &real.v,
+                &real.tau,
+                &real.mocap,
+                &real.prm,
+                real.h,
+            )?;
+            let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
+            if frozen.contact_free() {
+                return Ok(explicit);
+            }
+            let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
+                let a = frozen.vdot(&re_vec(x));
+                Ok((0..x.len())
+                    .map(|k| x[k] - v[k] - h * c::<T>(a[k]))
+                    .collect())
+            };
+            return newton(&residual, &real_jacobian, explicit, jac);
+        }
+        let start = self.forward_damped(q, v, &tau, mocap, prm, Some(h))?;
+        let explicit = axpy(v, h, start.vdot.as_slice());
+        if start.contacts.iter().all(Option::is_none) {
+            return Ok(explicit);
+        }
+        let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
+            let a = self
+                .forward_contact_at(q, v, Some(x), &tau, mocap, prm, Some(h))?
+                .vdot;
+            Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
+        };
         newton(&residual, &real_jacobian, explicit, jac)
     }
 

@@ -1,0 +1,118 @@
+//! The forward dynamics of damped Euler's step equation at one configuration: positions,
+//! start velocity and inputs fixed, the contact forces taken at a trial end velocity `V`
+//! (`Model::forward_contact_at` with `v_contact = V`). Newton's iterations evaluate it at
+//! several `V` per step; here everything that does not depend on `V` is computed once: the
+//! kinematics, the damped mass matrix and its factorization, the passive and actuator forces,
+//! and each pair's contact terms ([`PairTape`]), so an evaluation costs the point–plane forces
+//! and one pass of the tree.
+
+use super::*;
+use crate::contact::PairTape;
+use nalgebra::{Cholesky, Dyn};
+
+/// [`Model::forward_contact_at`] on `f64`, frozen at a configuration (see the module).
+pub struct FrozenForward<'m> {
+    model: &'m Model,
+    q: Vec<f64>,
+    mocap: Vec<f64>,
+    /// Kinematics at the start velocity (what every term but the contact is taken at).
+    kin: Kinematics<f64>,
+    rhs: DVector<f64>,
+    mass: Cholesky<f64, Dyn>,
+    /// Each pair in reach: its bodies, its parameters and its recorded contact.
+    tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
+}
+
+impl Model {
+    /// Freezes `forward_contact_at(q, v, Some(V), tau, mocap, prm, Some(h))` at everything but
+    /// `V`; the pairs in reach and their contact terms are those at `v_record`. Returns it with
+    /// its accelerations at `V = v_record`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn frozen_forward(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        v_record: &[f64],
+        tau: &[f64],
+        mocap: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+        self.check_finite(q, v)?;
+        let kin = self.tree.kinematics_with(q, v, mocap);
+        let rhs =
+            DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
+        let mass = self
+            .damped_mass_matrix(&kin, v, prm, Some(h))
+            .cholesky()
+            .ok_or(DynamicsError::Singular)?;
+        let at = self.tree.kinematics_with(q, v_record, mocap);
+        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
+        let mut tapes = Vec::new();
+        for pair in &self.pairs {
+            let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+                continue;
+            };
+            let p = pair.params(prm);
+            if self.out_of_reach(pair, &at, &p) {
+                continue;
+            }
+            let (fa, fb) = (&at.frames[pair.a], &at.frames[pair.b]);
+            let (tape, w) = PairTape::record(ca, fa, cb, fb, &p);
+            add(&mut wrenches, pair.a, pair.b, &w);
+            tapes.push((pair.a, pair.b, p, tape));
+        }
+        let frozen = FrozenForward {
+            model: self,
+            q: q.to_vec(),
+            mocap: mocap.to_vec(),
+            kin,
+            rhs,
+            mass,
+            tapes,
+        };
+        let vdot = frozen.solve(wrenches);
+        Ok((frozen, vdot))
+    }
+}
+
+impl FrozenForward<'_> {
+    /// Whether no pair was in reach where the contact was recorded (no force depends on the
+    /// end velocity).
+    pub fn contact_free(&self) -> bool {
+        self.tapes.is_empty()
+    }
+
+    /// The accelerations with the contact forces taken at the end velocity `v_contact`.
+    pub fn vdot(&self, v_contact: &[f64]) -> Vec<f64> {
+        let m = self.model;
+        let at = m.tree.kinematics_with(&self.q, v_contact, &self.mocap);
+        let mut wrenches = vec![Wrench::zero(); m.tree.bodies.len()];
+        for (a, b, p, tape) in &self.tapes {
+            add(
+                &mut wrenches,
+                *a,
+                *b,
+                &tape.replay(&at.frames[*a], &at.frames[*b], p),
+            );
+        }
+        self.solve(wrenches)
+    }
+
+    /// `(M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)` for the contact wrenches `wrenches`.
+    fn solve(&self, mut wrenches: Vec<Wrench<f64>>) -> Vec<f64> {
+        let m = self.model;
+        m.add_body_forces(&self.kin, &mut wrenches);
+        let zero = vec![0.0; m.tree.nv];
+        let bias = m.tree.rnea(&self.kin, &zero, &wrenches);
+        let rhs = &self.rhs - bias;
+        self.mass.solve(&rhs).as_slice().to_vec()
+    }
+}
+
+fn add(wrenches: &mut [Wrench<f64>], a: usize, b: usize, w: &[Wrench<f64>; 2]) {
+    for (body, x) in [(a, &w[0]), (b, &w[1])] {
+        wrenches[body].force += x.force;
+        wrenches[body].torque += x.torque;
+    }
+}
