@@ -23,6 +23,7 @@
 
 mod advance;
 mod guard;
+mod newton;
 mod step;
 
 pub use crate::integrator::{Integrator, State};
