@@ -880,9 +880,7 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
     );
     let (h, tau, prm) = (0.002, vec![0.0; 12], model.contact);
     let mut rng = crate::common::Lcg(3);
-    let (frozen, at_v) = model
-        .frozen_forward(&q, &v, &v, &tau, &[], &prm, h)
-        .unwrap();
+    let (frozen, at_v) = model.frozen_forward(&q, &v, &tau, &[], &prm, h).unwrap();
     let full = |x: &[f64]| {
         model
             .forward_contact_at(&q, &v, Some(x), &tau, &[], &prm, Some(h))

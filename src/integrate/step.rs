@@ -224,15 +224,8 @@ impl Model {
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
             // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
-            let (frozen, a0) = self.frozen_forward(
-                &real.q,
-                &real.v,
-                &real.v,
-                &real.tau,
-                &real.mocap,
-                &real.prm,
-                real.h,
-            )?;
+            let (frozen, a0) =
+                self.frozen_forward(&real.q, &real.v, &real.tau, &real.mocap, &real.prm, real.h)?;
             let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {
                 return Ok(explicit);

@@ -25,14 +25,13 @@ pub struct FrozenForward<'m> {
 
 impl Model {
     /// Freezes `forward_contact_at(q, v, Some(V), tau, mocap, prm, Some(h))` at everything but
-    /// `V`; the pairs in reach and their contact terms are those at `v_record`. Returns it with
-    /// its accelerations at `V = v_record`.
+    /// `V`; the pairs in reach and their contact terms are recorded at `V = v`. Returns it with
+    /// its accelerations there.
     #[allow(clippy::too_many_arguments)]
     pub fn frozen_forward(
         &self,
         q: &[f64],
         v: &[f64],
-        v_record: &[f64],
         tau: &[f64],
         mocap: &[f64],
         prm: &ContactParams<f64>,
@@ -46,7 +45,6 @@ impl Model {
             .damped_mass_matrix(&kin, v, prm, Some(h))
             .cholesky()
             .ok_or(DynamicsError::Singular)?;
-        let at = self.tree.kinematics_with(q, v_record, mocap);
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let mut tapes = Vec::new();
         for pair in &self.pairs {
@@ -54,10 +52,10 @@ impl Model {
                 continue;
             };
             let p = pair.params(prm);
-            if self.out_of_reach(pair, &at, &p) {
+            if self.out_of_reach(pair, &kin, &p) {
                 continue;
             }
-            let (fa, fb) = (&at.frames[pair.a], &at.frames[pair.b]);
+            let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
             let (tape, w) = PairTape::record(ca, fa, cb, fb, &p);
             add(&mut wrenches, pair.a, pair.b, &w);
             tapes.push((pair.a, pair.b, p, tape));
