@@ -3,7 +3,7 @@
 #   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc and libc6-dev (the C
 #     host test compiles tests/c_host/cs_host.c), python3 with venv;
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
-#     (fmpy, numpy, pytest, matplotlib, libcosimpy, and mujoco with gymnasium as the oracle of the
+#     (fmpy, numpy, pytest, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
@@ -30,7 +30,7 @@ fi
 
 # The venv records the requirements it was made from; a change reinstalls.
 if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/requirements.txt \
-   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy, mujoco, gymnasium" 2>/dev/null; then
+   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy, mujoco, gymnasium, scipy" 2>/dev/null; then
   echo "setup: creating .venv"
   python3 -m venv .venv
   .venv/bin/pip install -q --upgrade pip

@@ -1,0 +1,82 @@
+"""The inference examples (issue 21) in small deterministic versions: system identification
+(examples/inference/sysid.py) and trajectory optimization (examples/inference/trajopt.py), both
+through the t_push FMU, and the exact sensitivities they stand on."""
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("scipy")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "examples" / "inference"))
+import fmu_rollout  # noqa: E402
+import sysid  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def t_push(tmp_path_factory):
+    return fmu_rollout.pack(sysid.scene_xml(), tmp_path_factory.mktemp("inference"), "t_push")
+
+
+def test_the_rollout_is_the_co_simulation_step_and_its_sensitivities_are_exact(t_push):
+    # The example's semi-implicit Euler on the Model Exchange FMU is the Co-Simulation FMU's
+    # own step: the same trajectory to rounding (equal here, bit for bit, on this machine).
+    U = sysid.controls(sysid.PUSHES["stem, sideways"], 1.6)
+    r = fmu_rollout.Rollout(t_push, sysid.H)
+    X, S, _ = r.rollout(r.x0(), U, sensitivities=sysid.PARAMS)
+    cs = fmu_rollout.co_simulation(t_push, sysid.H, U, outputs=r.states)
+    assert np.abs(X - cs).max() <= 1e-12
+    assert np.abs(X[-1, :3]).max() > 0.1, "the finger turned the block"
+    assert r.calls["directional"] == len(sysid.PARAMS) * len(U)
+    # dX/dp against central differences of whole trajectories (relative step 1e-5): the
+    # truncation error is O(1e-10) relative, well inside 1e-6 of each column's size.
+    for j, name in enumerate(sysid.PARAMS):
+        p = float(r.start[name])
+        d = 1e-5 * p
+        r.set_parameters({name: p + d})
+        hi = r.rollout(r.x0(), U)[0]
+        r.set_parameters({name: p - d})
+        lo = r.rollout(r.x0(), U)[0]
+        r.set_parameters({name: p})
+        fd = (hi - lo) / (2 * d)
+        assert np.abs(fd - S[:, :, j]).max() <= 1e-6 * np.abs(S[:, :, j]).max(), name
+    # A full step Jacobian, the adjoint's input, is the same derivative.
+    _, _, J = r.rollout(r.x0(), U[:700], jacobians=True)
+    k = 650  # 1.3 s: the finger presses on the stem
+    x = r.rollout(r.x0(), U[:k])[0][-1]
+    block_v, finger_q = [r.states.index(n) for n in ("t_x.v", "t_y.v", "t_yaw.v")], [3, 4]
+    assert r.states[3:5] == ["finger_x.q", "finger_y.q"]
+    assert np.abs(J[k][np.ix_(block_v, finger_q)]).max() > 1e-3, "the contact couples finger and block"
+    for j in range(r.nx + r.nu):
+        e = 1e-7 * max(1.0, abs(x[j])) if j < r.nx else 1e-7
+        def step(dx):
+            xs, us = x.copy(), U[k].copy()
+            if j < r.nx:
+                xs[j] += dx
+            else:
+                us[j - r.nx] += dx
+            return r.rollout(xs, us[None, :])[0][-1]
+        fd = (step(e) - step(-e)) / (2 * e)
+        assert np.abs(fd - J[k, :, j]).max() <= 1e-6 * max(np.abs(J[k]).max(), 1.0), j
+    r.close()
+
+
+def test_system_identification_recovers_known_parameters():
+    # One push of the T, data from the Co-Simulation FMU at known parameters, fitted from the
+    # scene's (0.5, 1e4 N/m, 0.05 m/s): least squares on the exact Jacobian and on finite
+    # differences both reach the truth to 1e-6 relative (the data has no noise; the residual
+    # at the answer is rounding, below 1e-9 m); Nelder-Mead reaches it to 1e-4.
+    res = sysid.run([(sysid.PUSHES["stem, sideways"], 1.6)], quick=True)
+    (name, r), = res.items()
+    assert r["start_rms"] > 1e-4, "the scene's parameters do not fit the data"
+    rows = {row["method"]: row for row in r["rows"]}
+    for method, tol in [("exact", 1e-6), ("finite differences (2-point)", 1e-6),
+                        ("finite differences (3-point)", 1e-6), ("Nelder-Mead", 1e-4)]:
+        row = rows[method]
+        for p, truth in sysid.TRUTH.items():
+            assert row["params"][p] == pytest.approx(truth, rel=tol), (method, p)
+        if tol == 1e-6:
+            assert row["rms"] < 1e-9, method
+    exact = rows["exact"]
+    assert exact["calls"]["directional"] > 0 and exact["rollouts"]["with sensitivities"] > 0
+    assert rows["finite differences (2-point)"]["calls"]["directional"] == 0
