@@ -213,7 +213,7 @@ def write_report(results, out, pushes):
                          f"{row['calls']['derivatives']} + {row['calls']['directional']} | {row['wall']:.2f} | "
                          f"{row['rms']:.3g} | " + " | ".join(f"{row['params'][p]:.6g}" for p in PARAMS) + " |")
         if "known" in name:
-            lines.append("| (truth) | | | | | | " + " | ".join(f"{TRUTH[p]:.6g}" for p in PARAMS) + " |")
+            lines.append("| (truth) | – | – | – | – | – | " + " | ".join(f"{TRUTH[p]:.6g}" for p in PARAMS) + " |")
         exact = res["rows"][0]
         lines.append("")
         for row in res["rows"][1:]:
@@ -241,13 +241,18 @@ def write_report(results, out, pushes):
     (out / "system_identification.md").write_text("\n".join(lines))
 
 
+def default_pushes(quick):
+    """(waypoints, duration) of every push; with `quick`, the sideways push alone."""
+    pushes = [(w, 1.6) for w in PUSHES.values()]
+    return pushes[1:2] if quick else pushes
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="one push, SCM's own data only")
     ap.add_argument("--out", default=str(ROOT / "reports"), help="folder of the report (default reports/)")
     args = ap.parse_args()
-    pushes = [(w, 1.6) for w in PUSHES.values()]
-    run(pushes[1:2] if args.quick else pushes, quick=args.quick, out=args.out)
+    run(default_pushes(args.quick), quick=args.quick, out=args.out)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import pathlib
 import sys
 import time
 
-from . import mujoco_side, speed, stability, workprec
+from . import inference, mujoco_side, speed, stability, workprec
 from .common import HAVE_MUJOCO, ROOT, Context, log, machine_line
 
 STUDIES = {
@@ -21,6 +21,8 @@ STUDIES = {
     "pushing": ("planar_pushing.md", "Planar pushing against MuJoCo (Table I)", mujoco_side.pushing),
     "work_precision": ("work_precision.md", "Work–precision: error against run time", workprec.run),
     "stability": ("stability.md", "Stability maps: stiffness and ε × step × integrator", stability.run),
+    "system_identification": ("system_identification.md", "System identification through the FMU: exact sensitivities against finite differences and Nelder-Mead", inference.system_identification),
+    "trajectory_optimization": ("trajectory_optimization.md", "Trajectory optimization through the FMU: adjoint gradients against finite differences and the cross-entropy method", inference.trajectory_optimization),
 }
 
 

@@ -16,8 +16,10 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HAVE_MUJOCO = importlib.util.find_spec("mujoco") is not None
 
-STUDY_FILES = ["derivatives_and_speed.md", "force_profile.md", "planar_pushing.md", "work_precision.md", "stability.md"]
-ALWAYS_PNG = ["force_profile.png", "pushing_top_view.png", "work_precision_sphere_drop.png", "work_precision_t_push.png"]
+STUDY_FILES = ["derivatives_and_speed.md", "force_profile.md", "planar_pushing.md", "work_precision.md", "stability.md",
+               "system_identification.md", "trajectory_optimization.md"]
+ALWAYS_PNG = ["force_profile.png", "pushing_top_view.png", "work_precision_sphere_drop.png", "work_precision_t_push.png",
+              "system_identification.png", "trajectory_optimization.png"]
 
 
 @pytest.fixture(scope="module")
