@@ -164,7 +164,8 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
 }
 
 /// Two bodies face to face at rest: touching, they are in reach; apart, the proof settles
-/// them within a few reach distances (3.5 mm at ε3 = 0.1 mm at rest) for a sphere, but only
+/// them within a few reach distances (3.5 mm at ε3 = 0.1 mm at rest) for a sphere or a
+/// capsule (the closed-form bounds of `geometry::radial` and `geometry::spine`), but only
 /// from about 4 cm for two boxes side by side, and rightly: the edge points of one box lie a
 /// half spacing behind the planes of the other's top and bottom faces, whose weights there are
 /// about `e^{-g s/ε1}` (`g` the gap, `s` the spacing), so each such point is pushed with a
@@ -181,28 +182,40 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
         .sample(0.01),
     );
     let ball = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
+    // A capsule across the x axis (its side faces the other body), of the sphere's radius.
+    let capsule = Collider::Aopc(
+        Shape::Capsule {
+            radius: 0.05,
+            half_length: 0.04,
+        }
+        .sample(0.01),
+    );
     let t = reach_distance(prm.eps3, 0.0, prm.dissipation_velocity, prm.friction).unwrap();
     assert!((3e-3..5e-3).contains(&t), "reach distance {t}");
-    for (name, b, settled_by) in [("sphere", &ball, 2.0 * t + 2e-3), ("box", &cube, 0.04)] {
+    // A capsule's side beside a box reaches as far as a box does (its points beyond the box's
+    // top and bottom lie behind those faces' planes); beside a sphere, only its own reach.
+    for (name, b, other, settled_by) in [
+        ("sphere beside a box", &ball, &cube, 2.0 * t + 2e-3),
+        ("capsule beside a sphere", &capsule, &ball, 2.0 * t + 2e-3),
+        ("box beside a box", &cube, &cube, 0.04),
+    ] {
         let at = |gap: f64| Frame {
             origin: Vector3::new(0.1 + gap, 0.0, 0.0),
             ..Frame::identity()
         };
-        let far = |gap: f64| is_far(b, &at(gap), &cube, &Frame::identity(), &prm);
+        let far = |gap: f64| is_far(b, &at(gap), other, &Frame::identity(), &prm);
         assert!(!far(0.0), "{name}: touching is in reach");
         assert!(!far(0.5 * t), "{name}: half the reach distance apart");
         let settled = (1..=100)
             .map(|k| k as f64 * 5e-4)
             .find(|&g| far(g))
             .expect("settled within 5 cm");
-        println!(
-            "{name} beside a box: reach distance {t:.4e} m; settled from a gap of {settled} m"
-        );
+        println!("{name}: reach distance {t:.4e} m; settled from a gap of {settled} m");
         assert!(
             settled <= settled_by,
             "{name}: settled only from {settled} m"
         );
-        let n = pair_contact_naive(b, &at(settled), &cube, &Frame::identity(), &prm);
+        let n = pair_contact_naive(b, &at(settled), other, &Frame::identity(), &prm);
         let scale = PRUNE_TOLERANCE * prm.stiffness * prm.eps3;
         assert!(
             n.on_a.force.norm() < scale,

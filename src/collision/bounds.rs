@@ -179,7 +179,8 @@ pub(super) fn band_need(t: f64, vmax: f64) -> f64 {
 /// ε: 12.1 M instructions without, 1.1 M with; 1k points: 3.0 M and 0.63 M). Over a
 /// sampled box ([`crate::geometry::cuboid`]) its face-by-face bound is tried the same way
 /// (box–box at sharp ε, 100k points: 9.8 M without, 0.94 M with; 1k points: 1.90 M and
-/// 0.37 M).
+/// 0.37 M). A sampled capsule ([`crate::geometry::spine`]) has the sphere's bound in the
+/// distance to its segment.
 ///
 /// In a band walk, a region at least four times as wide as the softmax's reach `√(M1 ε1)`
 /// gives up at the first cluster it cannot settle that is smaller than [`GIVE_UP_RATIO`]
@@ -215,6 +216,22 @@ pub(super) fn aopc_exceeds(
             0.0
         };
         if rad.plane_bound(s_lo, m1) > band_need(t, v) {
+            return (true, hint);
+        }
+    }
+    // So does a sampled capsule (`geometry::spine`), at the region's point nearest its segment:
+    // with `a` the segment's point nearest the centre and `w` the unit vector from it, every
+    // point `x` is at least `wᵀ(x - a)` from the segment (`a` is the nearest point of a convex
+    // set to the centre, so `wᵀ(y - a) ≤ 0` for every `y` of it).
+    if let (Some(v), Some(sp)) = (vmax, &bvh.spine) {
+        let ac = c - sp.nearest(c);
+        let l = ac.norm();
+        let s_lo = if l > 0.0 {
+            l + q.min_lin(&(ac / l))
+        } else {
+            0.0
+        };
+        if sp.plane_bound(s_lo, m1) > band_need(t, v) {
             return (true, hint);
         }
     }

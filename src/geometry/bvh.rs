@@ -131,6 +131,9 @@ pub struct Bvh {
     /// The cloud's cuboid certificate, if it is a sampled box ([`super::cuboid`]); `None`
     /// until [`Bvh::set_surface`].
     pub cuboid: Option<super::cuboid::Cuboid>,
+    /// The cloud's spine certificate, if it is a sampled capsule ([`super::spine`]); `None`
+    /// until [`Bvh::set_surface`].
+    pub spine: Option<super::spine::Spine>,
 }
 
 impl Bvh {
@@ -154,6 +157,7 @@ impl Bvh {
             .collect();
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
+        self.spine = super::spine::find_spine(points, normals, vertices, faces);
     }
 
     /// The flat patch of the point `k` (leaf order), if any.

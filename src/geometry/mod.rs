@@ -10,6 +10,7 @@ pub mod mesh;
 pub mod patch;
 pub mod radial;
 pub mod shapes;
+pub mod spine;
 pub mod ssdf;
 pub mod union;
 
