@@ -466,7 +466,11 @@ impl Model {
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
         let m = self.damped_mass_matrix(&kin, v, prm, implicit_damping);
-        let vdot = m.cholesky().ok_or(DynamicsError::Singular)?.solve(&rhs);
+        let vdot = self
+            .tree
+            .factor(m)
+            .ok_or(DynamicsError::Singular)?
+            .solve(&rhs);
         Ok(Forward { vdot, contacts })
     }
 

@@ -13,10 +13,12 @@
 //! body (see [`Tree::mocap`]).
 
 pub mod equality;
+mod factor;
 pub mod fluid;
 mod kinematics;
 pub mod limit;
 
+pub use factor::MassFactor;
 pub use kinematics::Kinematics;
 pub mod spatial;
 pub mod tendon;
@@ -150,6 +152,8 @@ pub struct Tree {
     nodes: Vec<Node>,
     /// Node whose frame is the body frame, per body (`None` for the world).
     body_node: Vec<Option<usize>>,
+    /// Velocity coordinates of each subtree of the world ([`Tree::factor`]).
+    blocks: Vec<Vec<usize>>,
 }
 
 /// Why a tree cannot be built.
@@ -237,7 +241,7 @@ impl Tree {
             }
             body_node[b] = Some(nodes.len() - 1);
         }
-        let tree = Tree {
+        let mut tree = Tree {
             bodies,
             joints,
             gravity,
@@ -246,7 +250,9 @@ impl Tree {
             mocap,
             nodes,
             body_node,
+            blocks: Vec::new(),
         };
+        tree.blocks = tree.subtree_dofs();
         for (b, body) in tree.bodies.iter().enumerate().skip(1) {
             let moves = tree.body_moves(b);
             let i = &body.inertia;

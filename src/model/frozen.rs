@@ -8,7 +8,7 @@
 
 use super::*;
 use crate::contact::PairTape;
-use nalgebra::{Cholesky, Dyn};
+use crate::dynamics::MassFactor;
 
 /// [`Model::forward_contact_at`] on `f64`, frozen at a configuration (see the module).
 pub struct FrozenForward<'m> {
@@ -18,7 +18,7 @@ pub struct FrozenForward<'m> {
     /// Kinematics at the start velocity (what every term but the contact is taken at).
     kin: Kinematics<f64>,
     rhs: DVector<f64>,
-    mass: Cholesky<f64, Dyn>,
+    mass: MassFactor<f64>,
     /// Each pair in reach: its bodies, its parameters and its recorded contact.
     tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
 }
@@ -42,8 +42,8 @@ impl Model {
         let rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let mass = self
-            .damped_mass_matrix(&kin, v, prm, Some(h))
-            .cholesky()
+            .tree
+            .factor(self.damped_mass_matrix(&kin, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let mut tapes = Vec::new();
