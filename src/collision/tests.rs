@@ -4,13 +4,7 @@ use super::bounds::*;
 use super::*;
 use crate::geometry::Shape;
 
-/// Uniform numbers in [-1, 1) (a fixed LCG: the test is the same every run).
-fn lcg(state: &mut u64) -> f64 {
-    *state = state
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    ((*state >> 11) as f64) / ((1u64 << 52) as f64) - 1.0
-}
+use crate::geometry::lcg;
 
 fn vec3(s: &mut u64) -> Vector3<f64> {
     Vector3::new(lcg(s), lcg(s), lcg(s))

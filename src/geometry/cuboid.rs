@@ -302,12 +302,7 @@ mod tests {
     use crate::geometry::{Aopc, Shape};
     use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion};
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
+    use crate::geometry::lcg;
 
     fn certificate(s: &Aopc) -> Option<Cuboid> {
         let (of, patches) =

@@ -58,6 +58,15 @@ impl Radial {
     }
 }
 
+/// Whether the directed edges `a << 32 | b` of a quad mesh close a surface: every edge once,
+/// with its reversed twin.
+pub(super) fn closed(mut edges: Vec<u64>) -> bool {
+    let mut twins: Vec<u64> = edges.iter().map(|e| e.rotate_left(32)).collect();
+    edges.sort_unstable();
+    twins.sort_unstable();
+    !edges.windows(2).any(|w| w[0] == w[1]) && edges == twins
+}
+
 /// The certificate of a cloud (faces in the cloud's order, one point per face), if it is radial
 /// about the point nearest its normals' lines (least squares), with `|n_i - d_i| ≤ 1e-6`.
 pub fn find_radial(
@@ -121,10 +130,7 @@ pub fn find_radial(
             edges.push((a as u64) << 32 | b as u64);
         }
     }
-    let mut twins: Vec<u64> = edges.iter().map(|e| e.rotate_left(32)).collect();
-    edges.sort_unstable();
-    twins.sort_unstable();
-    if edges.windows(2).any(|w| w[0] == w[1]) || edges != twins {
+    if !closed(edges) {
         return None;
     }
     // Round outwards: the distances and angles above carry a few ulps.
@@ -146,12 +152,7 @@ mod tests {
     use super::*;
     use crate::geometry::Shape;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
+    use crate::geometry::lcg;
 
     #[test]
     fn spheres_are_radial_and_other_shapes_are_not() {
@@ -198,22 +199,9 @@ mod tests {
     #[test]
     fn a_broken_sphere_has_no_certificate() {
         let s = Shape::Sphere { radius: 0.05 }.sample(0.005);
-        // A hole (one quad missing): edges without twins.
-        let mut faces = s.faces.clone();
-        let mut points = s.points.clone();
-        let mut normals = s.normals.clone();
-        faces.pop();
-        points.pop();
-        normals.pop();
-        assert!(find_radial(&points, &normals, &s.vertices, &faces).is_none());
-        // A tilted normal.
-        let mut normals = s.normals.clone();
-        normals[7] = (normals[7] + Vector3::new(1e-3, 0.0, 0.0)).normalize();
-        assert!(find_radial(&s.points, &normals, &s.vertices, &s.faces).is_none());
-        // A quad turned inside out.
-        let mut faces = s.faces.clone();
-        faces[3].reverse();
-        assert!(find_radial(&s.points, &s.normals, &s.vertices, &faces).is_none());
+        for (points, normals, faces) in crate::geometry::broken_copies(&s) {
+            assert!(find_radial(&points, &normals, &s.vertices, &faces).is_none());
+        }
     }
 
     #[test]

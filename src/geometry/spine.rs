@@ -198,10 +198,7 @@ pub fn find_spine(
             edges.push((a as u64) << 32 | b as u64);
         }
     }
-    let mut twins: Vec<u64> = edges.iter().map(|e| e.rotate_left(32)).collect();
-    edges.sort_unstable();
-    twins.sort_unstable();
-    if edges.windows(2).any(|w| w[0] == w[1]) || edges != twins {
+    if !super::radial::closed(edges) {
         return None;
     }
     let cos_cover = cos_cover - 1e-12;
@@ -225,12 +222,7 @@ mod tests {
     use super::*;
     use crate::geometry::Shape;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
+    use crate::geometry::lcg;
 
     fn capsule(radius: f64, half_length: f64, spacing: f64) -> crate::geometry::Aopc {
         Shape::Capsule {
@@ -287,19 +279,9 @@ mod tests {
     #[test]
     fn a_broken_capsule_has_no_spine() {
         let s = capsule(0.03, 0.05, 0.005);
-        let mut faces = s.faces.clone();
-        let mut points = s.points.clone();
-        let mut normals = s.normals.clone();
-        faces.pop();
-        points.pop();
-        normals.pop();
-        assert!(find_spine(&points, &normals, &s.vertices, &faces).is_none());
-        let mut normals = s.normals.clone();
-        normals[7] = (normals[7] + Vector3::new(1e-3, 0.0, 0.0)).normalize();
-        assert!(find_spine(&s.points, &normals, &s.vertices, &s.faces).is_none());
-        let mut faces = s.faces.clone();
-        faces[3].reverse();
-        assert!(find_spine(&s.points, &s.normals, &s.vertices, &faces).is_none());
+        for (points, normals, faces) in crate::geometry::broken_copies(&s) {
+            assert!(find_spine(&points, &normals, &s.vertices, &faces).is_none());
+        }
     }
 
     #[test]
