@@ -37,7 +37,8 @@ PARAMS = ["scm.friction", "scm.stiffness", "scm.stiction_velocity"]
 #: Bounds (friction, stiffness N/m, stiction velocity m/s), where the explicit 2 ms step stays
 #: stable: the T's smoothed yaw friction is a damper F / v_s on its inertia I, inside
 #: semi-implicit Euler's limit h F / (v_s I) < 2 for v_s > 0.039 m/s (0.2 N m, 5.2e-3 kg m²);
-#: the contact spring on the 1 kg finger has h sqrt(k / m) = 0.63 at 1e5 N/m (limit 2).
+#: the contact spring on the 1 kg finger has h sqrt(k / m) = 0.63 at 1e5 N/m (limit 2). The
+#: friction's range is a choice (materials between 0.05 and 2), not a stability limit.
 BOUNDS = [(0.05, 2.0), (1e3, 1e5), (0.04, 0.5)]
 TRUTH = {"scm.friction": 0.35, "scm.stiffness": 5000.0, "scm.stiction_velocity": 0.07}
 YAW_ARM = 0.1  # m: the yaw residual is the motion of a point this far from the centre

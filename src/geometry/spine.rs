@@ -29,8 +29,8 @@
 //! point lies under one of them. A triangle whose corners all have the segment's end as spine
 //! point (a cap's) maps to directions from that end inside the corners' cone; one whose corners'
 //! directions are all across the segment (a side's) maps to points whose spine coordinate lies
-//! between its corners' and whose directions lie between theirs. Every other triangle refuses
-//! the certificate. So `cos α = min_f min_a d_fᵀu_a` and `η = max_f max_a |σ_a - σ_f|` (`u_a`,
+//! between its corners' and whose directions lie between theirs; a cap's point and corners must
+//! look out of its end (`±d·u ≥ 0`). Every other triangle refuses the certificate. So `cos α = min_f min_a d_fᵀu_a` and `η = max_f max_a |σ_a - σ_f|` (`u_a`,
 //! `σ_a`: a corner's direction and spine coordinate).
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
@@ -175,7 +175,19 @@ pub fn find_spine(
         let corners = f.map(|i| vspine.get(i as usize).copied());
         let corners: Option<Vec<(f64, Vector3<f64>)>> = corners.into_iter().collect();
         let corners = corners?;
-        let cap = at_end(sf) && corners.iter().all(|(s, _)| (s - sf).abs() <= FIT * radius);
+        // A cap's point and corners also look out of its end (not back along the segment), so
+        // that its triangles map onto the cap alone.
+        let outward = if (sf - s_max).abs() <= FIT * radius {
+            1.0
+        } else {
+            -1.0
+        };
+        let beyond = |d: &Vector3<f64>| outward * d.dot(&u) >= -FIT;
+        let cap = at_end(sf)
+            && beyond(df)
+            && corners
+                .iter()
+                .all(|(s, d)| (s - sf).abs() <= FIT * radius && beyond(d));
         let side = across_u(df) && corners.iter().all(|(_, d)| across_u(d));
         if !(cap || side) {
             return None;
@@ -297,16 +309,33 @@ mod tests {
             (0.02, 0.1, 0.002, 1e-6),
             (0.05, 0.01, 0.004, 1e-5),
         ] {
-            let s = capsule(r, h, spacing);
+            // Turned and moved, as a body frame holds a capsule given by `fromto`.
+            let mut s = capsule(r, h, spacing);
+            let axis = Vector3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st));
+            let pose = nalgebra::Isometry3::new(Vector3::new(0.3, -0.1, 0.2), axis);
+            for p in s.points.iter_mut().chain(s.vertices.iter_mut()) {
+                *p = pose.transform_point(&(*p).into()).coords;
+            }
+            for n in s.normals.iter_mut() {
+                *n = pose.rotation * *n;
+            }
             let c = find_spine(&s.points, &s.normals, &s.vertices, &s.faces).unwrap();
             let mut tight = f64::INFINITY;
-            for _ in 0..400 {
+            for k in 0..600 {
                 let e = Vector3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)).normalize();
                 let along = Vector3::new(0.0, 0.0, h * 1.2 * lcg(&mut st));
-                let dist = r * (1.0 + if lcg(&mut st) > 0.0 { 0.3 } else { 0.01 } * lcg(&mut st));
-                // A point at `dist` from the spine point nearest `along + e`.
-                let a = c.nearest(&(along + e));
-                let x = a + (along + e - a).normalize() * dist;
+                // Near the surface (where the bound is tight), up to 0.3 R off, and inside.
+                let dist = r * match k % 3 {
+                    0 => 1.0 + 0.01 * lcg(&mut st),
+                    1 => 1.0 + 0.3 * lcg(&mut st),
+                    _ => 0.35 * (1.0 + lcg(&mut st)),
+                };
+                // A point at `dist` from the spine point nearest `along + e` (capsule frame).
+                let local = c.nearest(&pose.transform_point(&(along + e).into()).coords);
+                let a = pose.inverse_transform_point(&local.into()).coords;
+                let x = pose
+                    .transform_point(&(a + (along + e - a).normalize() * dist).into())
+                    .coords;
                 let s_x = (x - c.nearest(&x)).norm();
                 let d: Vec<f64> = s.points.iter().map(|p| (x - p).norm_squared()).collect();
                 let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
