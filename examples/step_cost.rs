@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! step_cost FMU_DIR --h S [--integrators a,b|all] [--set NAME=VALUE]... [--warmup S]
-//!           [--budget S] [--steps-only] [--profile step|jacobian --iterations N]
+//!           [--budget S] [--steps-only [--error T]] [--profile step|jacobian --iterations N]
 //! ```
 //! `FMU_DIR` is an unpacked FMU. The state at which everything is measured is reached by
 //! simulating `--warmup` seconds from the start with the `--set` values (e.g. a constant finger
@@ -12,7 +12,9 @@
 //! - `engine_step_s`: `Simulation::advance(h)` with `solver.step = h` (one internal step, with
 //!   the non-finite check and state bookkeeping the FMU does);
 //! - `ffi_step_s`: `fmi2DoStep(h)` through the crate's exported `extern "C"` function (the
-//!   same code path a host calling `scm.so` runs), `solver.step = h`;
+//!   same code path a host calling `scm.so` runs), `solver.step = h`, each timed step restored
+//!   to the instance's state a few steps after the warm-up (so what a running simulation
+//!   carries from step to step, the implicit methods' Newton Jacobian, is there);
 //! - `jacobian_*_s`: the full Jacobian of one step `x' = step(x, u)`, `x = (q, v)`, `u` the
 //!   controls, with forward-mode dual numbers through the generic `Model::step`: `dual64`
 //!   (n = nq + nv + nu passes of `Dual64`), `dualvec4` (`DualSVec64<4>`, ⌈n/4⌉ passes),
@@ -26,7 +28,9 @@
 //!   and `dualvec_vs_dual64` (should be rounding only).
 //!
 //! With `--steps-only`, only `model_step_s` and `ffi_step_s` are measured (the benchmark
-//! against MuJoCo, `scripts/bench.sh`).
+//! against MuJoCo, `scripts/bench.sh`), and with `--error T` the accuracy of the run:
+//! `error_pos_m` and `error_rot_rad`, the largest error of a body's position and orientation
+//! after `T` s from the warmed-up state at `--h`, against `rk4` at `h / 16` from the same state.
 //!
 //! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
 //! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
@@ -41,7 +45,7 @@ use scm::fmi::ffi::*;
 use scm::integrate::{Integrator, State};
 use scm::model::Model;
 use scm::scalar::Scalar;
-use scm::sim::{Simulation, Slot, Value};
+use scm::sim::{SimState, Simulation, Slot, Value};
 use scm::*;
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -62,6 +66,8 @@ struct Args {
     profile: Option<(String, usize)>,
     /// Time the steps only (no Jacobians, no finite differences): `--steps-only`.
     steps_only: bool,
+    /// `--error T`: also the pose error after `T` s against a converged reference.
+    error: Option<f64>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -76,6 +82,7 @@ fn parse() -> Result<Args, String> {
         budget: 0.3,
         profile: None,
         steps_only: false,
+        error: None,
     };
     let mut iterations = 100;
     let mut profile = None;
@@ -91,6 +98,7 @@ fn parse() -> Result<Args, String> {
             "--h" => a.h = num(v)?,
             "--warmup" => a.warmup = num(v)?,
             "--budget" => a.budget = num(v)?,
+            "--error" => a.error = Some(num(v)?),
             "--iterations" => iterations = num(v)? as usize,
             "--profile" => profile = Some(v.clone()),
             "--set" => {
@@ -115,27 +123,93 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// The scene's simulation with the `--set` values applied, advanced by the warm-up (with the
+/// The state reached by simulating the warm-up from the start with the `--set` values (with the
 /// scene's own integrator at 1 ms internal steps, so every integrator is measured at the same
-/// state), then switched to `integrator` with internal step `h`.
-fn warmed_up(
-    a: &Args,
-    scene: &std::path::Path,
-    integrator: Integrator,
-) -> Result<Simulation, String> {
-    let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
-    for (name, value) in &a.sets {
-        sim.set(name, Value::Real(*value))?;
-    }
+/// state). Done once per run: on a large model (gymnasium's humanoid) it is most of the run.
+fn warm_state(a: &Args, scene: &std::path::Path) -> Result<SimState, String> {
+    let mut sim = started(a, scene)?;
     sim.model.step = 1e-3;
-    sim.initialize()?;
     let n = (a.warmup / 0.01).round() as usize;
     for _ in 0..n {
         sim.step(0.01).map_err(|e| format!("warm-up: {e}"))?;
     }
-    sim.model.integrator = integrator;
-    sim.model.step = a.h;
+    Ok(sim.current)
+}
+
+/// The scene's simulation with the `--set` values applied, initialized.
+fn started(a: &Args, scene: &std::path::Path) -> Result<Simulation, String> {
+    let mut sim = Simulation::from_file(scene).map_err(|e| e.to_string())?;
+    for (name, value) in &a.sets {
+        sim.set(name, Value::Real(*value))?;
+    }
+    sim.initialize()?;
     Ok(sim)
+}
+
+/// The scene's simulation at the warmed-up state `warm`, switched to `integrator` with internal
+/// step `h` (s).
+fn simulation_at(
+    a: &Args,
+    scene: &std::path::Path,
+    warm: &SimState,
+    integrator: Integrator,
+    h: f64,
+) -> Result<Simulation, String> {
+    let mut sim = started(a, scene)?;
+    sim.current = warm.clone();
+    sim.model.integrator = integrator;
+    sim.model.step = h;
+    Ok(sim)
+}
+
+/// The reference of `--error`: classic Runge–Kutta at `h / REFERENCE_DIVISIONS`. Converged
+/// there: on `t_push` while pushing, `rk4` at 2 ms and at 1/8 ms end 0.2 s apart by 2e-12 m,
+/// and a fourth-order method's error shrinks 65536-fold from there.
+const REFERENCE_DIVISIONS: f64 = 16.0;
+
+/// The poses of every body (world frames) after `t` s from the warmed-up state with
+/// `integrator` at internal step `h`, in communication steps of `--h` (so the inputs, constant
+/// controls and mocap paths, are the same for every run).
+fn poses_after(
+    a: &Args,
+    scene: &std::path::Path,
+    warm: &SimState,
+    integrator: Integrator,
+    h: f64,
+    t: f64,
+) -> Result<Vec<scm::collision::Frame<f64>>, String> {
+    let mut sim = simulation_at(a, scene, warm, integrator, h)?;
+    for _ in 0..(t / a.h).round() as usize {
+        sim.step(a.h)
+            .map_err(|e| format!("--error run ({}, h = {h} s): {e}", integrator.name()))?;
+    }
+    Ok(sim
+        .model
+        .tree
+        .kinematics(&sim.current.state.q, &sim.current.state.v)
+        .frames)
+}
+
+/// The largest difference of a body's pose between two sets of poses: (position of the body's
+/// origin (m), rotation angle (rad)).
+fn pose_error(
+    ours: &[scm::collision::Frame<f64>],
+    reference: &[scm::collision::Frame<f64>],
+) -> (f64, f64) {
+    ours.iter()
+        .zip(reference)
+        .fold((0.0f64, 0.0f64), |(p, r), (x, y)| {
+            // The angle of the relative rotation D from its sine and cosine (|axial(D - Dᵀ)| =
+            // 2 sin θ, tr D - 1 = 2 cos θ): exact down to small angles, where acos loses them.
+            let d = x.rotation.transpose() * y.rotation;
+            let axial = nalgebra::Vector3::new(
+                d[(2, 1)] - d[(1, 2)],
+                d[(0, 2)] - d[(2, 0)],
+                d[(1, 0)] - d[(0, 1)],
+            );
+            let angle = axial.norm().atan2(d.trace() - 1.0);
+            (p.max((x.origin - y.origin).norm()), r.max(angle))
+        })
 }
 
 /// The step map `x' = step(x, u)` on a flat vector `[q, v, u]` → `[q', v']`.
@@ -246,6 +320,10 @@ fn jacobian_fd(
     jac
 }
 
+/// Steps an instance takes from the warmed-up state before the state the FFI timing restores is
+/// saved.
+const FMU_WARM_STEPS: usize = 3;
+
 /// Relative steps of the central differences the accuracy is checked with.
 const FD_STEPS: [f64; 5] = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
 
@@ -304,8 +382,21 @@ fn run() -> Result<String, String> {
     let a = parse()?;
     let scene = a.dir.join("resources").join(scm::sim::SCENE_FILE);
     let mut items = Vec::new();
+    let warm = warm_state(&a, &scene)?;
+    // The `--error` reference, computed once for all integrators.
+    let reference = match a.error {
+        Some(t) => Some(poses_after(
+            &a,
+            &scene,
+            &warm,
+            Integrator::Rk4,
+            a.h / REFERENCE_DIVISIONS,
+            t,
+        )?),
+        None => None,
+    };
     for &integrator in &a.integrators {
-        let sim0 = warmed_up(&a, &scene, integrator)?;
+        let sim0 = simulation_at(&a, &scene, &warm, integrator, a.h)?;
         let model = sim0.model.clone();
         let prm = sim0.current.params;
         let (nq, nv) = (model.tree.nq, model.tree.nv);
@@ -351,6 +442,14 @@ fn run() -> Result<String, String> {
         fmu.set_string(vr_int.ok_or("no solver.integrator")?, integrator.name())?;
         fmu.set_real(&[vr_step.ok_or("no solver.step")?], &[h])?;
         fmu.initialize()?;
+        // A few steps before the state is saved, so the instance carries what a running
+        // simulation carries from step to step (the implicit methods' Newton Jacobian, in the
+        // saved FMU state too): each timed fmi2DoStep is a step in a running simulation.
+        let mut t_saved = 0.0;
+        for _ in 0..FMU_WARM_STEPS {
+            host::check(fmu.do_step(t_saved, h), "fmi2DoStep (warm-up)")?;
+            t_saved += h;
+        }
         let c = fmu.raw();
 
         if let Some((what, iterations)) = &a.profile {
@@ -371,7 +470,7 @@ fn run() -> Result<String, String> {
             ));
         }
 
-        let mut sim = warmed_up(&a, &scene, integrator)?;
+        let mut sim = simulation_at(&a, &scene, &warm, integrator, a.h)?;
         let saved = sim.current.clone();
         // FFI: fmi2DoStep advances the instance; to time the same step each time, restore its
         // state with fmi2SetFMUstate (itself timed and subtracted).
@@ -393,7 +492,7 @@ fn run() -> Result<String, String> {
                     },
                     &mut || unsafe {
                         assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
-                        let s = fmi2DoStep(c, 0.0, h, fmi2True);
+                        let s = fmi2DoStep(c, t_saved, h, fmi2True);
                         assert_eq!(s, fmi2OK, "fmi2DoStep");
                     },
                 ],
@@ -401,11 +500,19 @@ fn run() -> Result<String, String> {
             let [model_step, restore, ffi_with_restore] = times[..] else {
                 unreachable!()
             };
+            let error = match (a.error, &reference) {
+                (Some(t), Some(reference)) => {
+                    let ours = poses_after(&a, &scene, &warm, integrator, a.h, t)?;
+                    let (pos, rot) = pose_error(&ours, reference);
+                    format!(", \"error_t_s\": {t:e}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}")
+                }
+                _ => String::new(),
+            };
             unsafe {
                 fmi2FreeFMUstate(c, &mut fmu_state);
             }
             items.push(format!(
-                "{{\"integrator\": \"{}\", \"h\": {h:e}, \"model_step_s\": {model_step:e}, \"ffi_step_s\": {:e}, \"ffi_restore_s\": {restore:e}}}",
+                "{{\"integrator\": \"{}\", \"h\": {h:e}, \"model_step_s\": {model_step:e}, \"ffi_step_s\": {:e}, \"ffi_restore_s\": {restore:e}{error}}}",
                 integrator.name(),
                 (ffi_with_restore - restore).max(0.0)
             ));
@@ -464,7 +571,7 @@ fn run() -> Result<String, String> {
                 },
                 &mut || unsafe {
                     assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);
-                    let s = fmi2DoStep(c, 0.0, h, fmi2True);
+                    let s = fmi2DoStep(c, t_saved, h, fmi2True);
                     assert_eq!(s, fmi2OK, "fmi2DoStep");
                 },
                 &mut || {

@@ -1,13 +1,22 @@
-"""Step cost against MuJoCo, measured in one run (issue 20's benchmark): every bundled scene and
-a few generated ones, each through the FMU's C ABI (`fmi2DoStep` of one internal step, in
-examples/step_cost.rs) and through MuJoCo's `mj_step` on the same file, from the same warm-up,
-at the same step and with the same kind of integrator (semi-implicit Euler; MuJoCo's `Euler`).
+"""Step cost against MuJoCo, measured in one run (issue 20's benchmark): every bundled scene, a
+few generated ones and MuJoCo's own model files (the ones gymnasium ships), each through the
+FMU's C ABI (`fmi2DoStep` of one internal step, in examples/step_cost.rs) and through MuJoCo's
+`mj_step` on the same file, from the same warm-up, at the same step and with the same method:
+semi-implicit Euler (MuJoCo's `Euler` with its implicit joint damping switched off, which is
+exactly that method).
+
+With each time, the error of the run: the largest error of a body's position and orientation
+after ERROR_T s from the warmed-up state at the benchmark's step, against a converged reference
+of the same engine from the same state (SCM: `rk4` at h/16, examples/step_cost.rs; MuJoCo: its
+`RK4` at h/16). Also SCM's implicit Euler step (a step in a running simulation, its Newton
+Jacobian carried over) against its explicit one.
 
 Run by scripts/bench.sh. Writes reports/bench.md (table) and reports/bench.png (plot), or
 --out DIR. Times are medians over interleaved rounds on each side; the ratio is SCM / MuJoCo.
 Nothing here is a pass/fail test: the figures are what the targets of issue 20 are read from.
 """
 import argparse
+import copy
 import json
 import pathlib
 import subprocess
@@ -18,12 +27,22 @@ import zipfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from report.speed import mujoco_step_time  # noqa: E402  (one MuJoCo timing, shared with the report)
+from report.speed import mujoco_step_time, mujoco_warmed  # noqa: E402  (shared with the report)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCM = ROOT / "target" / "release" / "scm"
 STEP_COST = ROOT / "target" / "release" / "examples" / "step_cost"
 H = 0.002
+# The error of a run is measured ERROR_T s after the warm-up, against the same engine at H / 16.
+ERROR_T = 0.1
+REFERENCE_DIVISIONS = 16
+GYMNASIUM = pathlib.Path(sys.prefix) / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / \
+    "site-packages" / "gymnasium" / "envs" / "mujoco" / "assets"
+# MuJoCo's own files (gymnasium's models, unchanged: their timestep and integrator are replaced by
+# the benchmark's, both engines alike), from rest at their initial pose, no control: the robots
+# fall onto the floor during the warm-up and lie or stand on it.
+FILES = ["inverted_pendulum", "reacher", "swimmer", "hopper", "walker2d", "half_cheetah", "ant",
+         "humanoid"]
 
 # Bundled scenes: (scene, --set values that put it in contact, warm-up s).
 BUNDLED = [
@@ -69,6 +88,7 @@ def resting_boxes(n):
 
 
 def scm_step(xml, sets, warmup, work):
+    """SCM's step times (s) and errors: {integrator: result of step_cost}."""
     fmu = work / (xml.stem + ".fmu")
     p = subprocess.run([str(SCM), "pack", str(xml), "-o", str(fmu)], capture_output=True, text=True)
     if p.returncode != 0:
@@ -77,22 +97,53 @@ def scm_step(xml, sets, warmup, work):
     with zipfile.ZipFile(fmu) as z:
         z.extractall(unpacked)
     args = [str(STEP_COST), str(unpacked), "--h", repr(H), "--warmup", repr(warmup),
-            "--integrators", "semi_implicit_euler", "--steps-only", "--budget", "0.3"]
+            "--integrators", "semi_implicit_euler,implicit_euler", "--steps-only", "--budget", "0.3",
+            "--error", repr(ERROR_T)]
     for n, x in sets.items():
         args += ["--set", f"{n}={x!r}"]
     p = subprocess.run(args, capture_output=True, text=True)
     if p.returncode != 0:
         raise SystemExit(f"bench: step_cost {xml}: {p.stderr.strip()}")
-    r = json.loads(p.stdout)["results"][0]
-    return r["ffi_step_s"]
+    return {r["integrator"]: r for r in json.loads(p.stdout)["results"]}
+
+
+def mujoco_error(xml, sets, warmup):
+    """MuJoCo's error after ERROR_T s from its warmed-up state (semi-implicit Euler at H) against
+    its RK4 at H / 16 from the same state: (position (m), rotation angle (rad)), the largest over
+    bodies."""
+    import mujoco
+    m, d = mujoco_warmed(xml, sets, warmup, H, eulerdamp=False)
+    ref = copy.deepcopy(d)
+    n = int(round(ERROR_T / H))
+    mujoco.mj_step(m, d, nstep=n)
+    m.opt.timestep = H / REFERENCE_DIVISIONS
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    mujoco.mj_step(m, ref, nstep=n * REFERENCE_DIVISIONS)
+    for x in (d, ref):  # the poses of the final state (mj_step leaves those of the one before)
+        mujoco.mj_kinematics(m, x)
+    pos = float(np.max(np.linalg.norm(d.xpos - ref.xpos, axis=1)))
+    rot = 0.0
+    for a, b in zip(d.xmat.reshape(-1, 3, 3), ref.xmat.reshape(-1, 3, 3)):
+        r = a.T @ b  # the angle from its sine and cosine, exact down to small angles
+        axial = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+        rot = max(rot, float(np.arctan2(np.linalg.norm(axial), np.trace(r) - 1.0)))
+    return pos, rot
+
+
+def error_cell(pos, rot):
+    """A pose error for the table: position in µm, rotation in µrad."""
+    return f"{pos * 1e6:.3g} µm, {rot * 1e6:.3g} µrad"
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=pathlib.Path, default=ROOT / "reports")
     ap.add_argument("--boxes", default="2,8,32", help="numbers of resting boxes (scaling)")
+    ap.add_argument("--files", default=",".join(FILES),
+                    help="MuJoCo model files among gymnasium's (names without .xml), or 'none'")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
+    files = [] if a.files == "none" else a.files.split(",")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
@@ -103,21 +154,40 @@ def main():
             path = work / f"{name}.xml"
             path.write_text(text)
             cases.append((path, {}, w, name))
+        for f in files:
+            path = GYMNASIUM / f"{f}.xml"
+            if not path.exists():
+                raise SystemExit(f"bench: {path}: no such MuJoCo model (gymnasium's assets)")
+            cases.append((path, {}, 0.3, f))
         for xml, sets, warmup, name in cases:
             print(f"bench: {name}", file=sys.stderr, flush=True)
             ours = scm_step(xml, sets, warmup, work)
-            theirs, ncon = mujoco_step_time(xml, sets, warmup, h=H)
-            rows.append((name, ours, theirs, ncon))
+            theirs, ncon = mujoco_step_time(xml, sets, warmup, h=H, eulerdamp=False)
+            rows.append(dict(name=name, ours=ours, theirs=theirs, ncon=ncon,
+                             theirs_error=mujoco_error(xml, sets, warmup)))
     lines = ["# Step cost against MuJoCo", "",
              "Written by `scripts/bench.sh` (one run; medians of interleaved rounds). One internal step of "
-             f"{H * 1e3:g} ms, semi-implicit Euler: SCM through the FMU's C ABI (`fmi2DoStep`), MuJoCo 4's "
-             "`mj_step` (`Euler`) on the same file from the same warm-up. `floating3`: three bodies 0.5 m apart "
-             "above a floor, nothing in reach; `boxesN`: N boxes resting on a floor 30 cm apart.", "",
-             "| scene | SCM step (µs) | MuJoCo step (µs) | SCM / MuJoCo | MuJoCo contacts |",
-             "| --- | --- | --- | --- | --- |"]
-    for name, ours, theirs, ncon in rows:
-        lines.append(f"| {name} | {ours * 1e6:.1f} | {theirs * 1e6:.2f} | {ours / theirs:.1f} | {ncon} |")
-    boxes = [(int(r[0][5:]), r[1], r[2]) for r in rows if r[0].startswith("boxes")]
+             f"{H * 1e3:g} ms, semi-implicit Euler: SCM through the FMU's C ABI (`fmi2DoStep`, a step in a running "
+             "simulation), MuJoCo 4's `mj_step` (`Euler` with `eulerdamp` disabled: the same method) on the same file "
+             "from the same warm-up. `floating3`: three bodies 0.5 m apart above a floor, nothing in reach; "
+             "`boxesN`: N boxes resting on a floor 30 cm apart; below them, MuJoCo's model files that gymnasium ships, "
+             "unchanged but for the step and the method, from rest with no control.", "",
+             f"Error: the largest error of a body's position and orientation {ERROR_T:g} s after the warm-up, "
+             f"against the same engine's RK4 at h/{REFERENCE_DIVISIONS} from the same state (each engine's own "
+             "reference: the two models differ in their contact, so this is how well each integrates its own "
+             "model). `implicit_euler`: SCM's implicit Euler step at the same state and step, its Newton Jacobian "
+             "carried from step to step; `impl. / expl.` divides it by SCM's semi-implicit Euler step.", "",
+             "| scene | SCM step (µs) | MuJoCo step (µs) | SCM / MuJoCo | SCM error | MuJoCo error "
+             "| SCM implicit_euler (µs) | impl. / expl. | MuJoCo contacts |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        e, i = r["ours"]["semi_implicit_euler"], r["ours"]["implicit_euler"]
+        lines.append(f"| {r['name']} | {e['ffi_step_s'] * 1e6:.1f} | {r['theirs'] * 1e6:.2f} | "
+                     f"{e['ffi_step_s'] / r['theirs']:.1f} | {error_cell(e['error_pos_m'], e['error_rot_rad'])} | "
+                     f"{error_cell(*r['theirs_error'])} | {i['ffi_step_s'] * 1e6:.1f} | "
+                     f"{i['ffi_step_s'] / e['ffi_step_s']:.1f} | {r['ncon']} |")
+    boxes = [(int(r["name"][5:]), r["ours"]["semi_implicit_euler"]["ffi_step_s"], r["theirs"])
+             for r in rows if r["name"].startswith("boxes")]
     if boxes:
         lines += ["", "Cost per body (resting boxes): " + ", ".join(
             f"{n}: SCM {o / n * 1e6:.1f} µs, MuJoCo {t / n * 1e6:.2f} µs" for n, o, t in boxes) + "."]
@@ -126,14 +196,24 @@ def main():
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(8, 4))
+        fig, (ax, bx) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
         x = np.arange(len(rows))
-        ax.bar(x - 0.2, [r[1] * 1e6 for r in rows], 0.4, label="SCM (fmi2DoStep)")
-        ax.bar(x + 0.2, [r[2] * 1e6 for r in rows], 0.4, label="MuJoCo (mj_step)")
+        ax.bar(x - 0.2, [r["ours"]["semi_implicit_euler"]["ffi_step_s"] * 1e6 for r in rows], 0.4,
+               label="SCM (fmi2DoStep)")
+        ax.bar(x + 0.2, [r["theirs"] * 1e6 for r in rows], 0.4, label="MuJoCo (mj_step)")
         ax.set_yscale("log")
-        ax.set_xticks(x, [r[0] for r in rows], rotation=30, ha="right")
         ax.set_ylabel("time per step (µs)")
         ax.legend()
+        # Errors below 1 nm are drawn at 1 nm (the bottom of the axis): at rest both are rounding.
+        floor = 1e-9
+        bx.bar(x - 0.2, [max(r["ours"]["semi_implicit_euler"]["error_pos_m"], floor) * 1e6 for r in rows],
+               0.4, label="SCM")
+        bx.bar(x + 0.2, [max(r["theirs_error"][0], floor) * 1e6 for r in rows], 0.4, label="MuJoCo")
+        bx.set_yscale("log")
+        bx.set_ylim(bottom=floor * 1e6)
+        bx.set_ylabel(f"position error after {ERROR_T:g} s (µm)")
+        bx.set_xticks(x, [r["name"] for r in rows], rotation=30, ha="right")
+        bx.legend()
         fig.tight_layout()
         fig.savefig(a.out / "bench.png", dpi=120)
     except ImportError:

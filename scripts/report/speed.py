@@ -39,19 +39,52 @@ def mujoco_step(ctx, xml, sets, warmup):
     return mujoco_step_time(xml, sets, warmup, 200 if ctx.quick else 2000)
 
 
-def mujoco_step_time(xml, sets, warmup, n=2000, h=H):
-    """MuJoCo's time per step (median of 9 rounds of `n` steps, `Euler` at `h`) and its contact
-    count, after `warmup` s from the start with the `.ctrl` values of `sets` (also the
-    benchmark's, scripts/bench.py)."""
+def mujoco_apply_sets(m, d, sets):
+    """The step_cost `--set` values on MuJoCo's model data: controls (`NAME.ctrl`), joint
+    coordinates (`JOINT.q`) and a free body's position (`BODY.pos.x|y|z`), so both engines start
+    their warm-up from the same state. Any other name stops the run: a value one side ignores
+    would compare different motions."""
+    import mujoco
+    for name, x in sets.items():
+        if name.endswith(".ctrl"):
+            d.ctrl[m.actuator(name[:-5]).id] = x
+        elif name.endswith(".q"):
+            d.qpos[m.jnt_qposadr[m.joint(name[:-2]).id]] = x
+        elif ".pos." in name:
+            body, axis = name.split(".pos.")
+            j = m.body_jntadr[m.body(body).id]
+            if j < 0 or m.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+                raise ReportBug(f"{name}: body {body} has no free joint in MuJoCo's model")
+            d.qpos[m.jnt_qposadr[j] + "xyz".index(axis)] = x
+        else:
+            raise ReportBug(f"{name}: no MuJoCo equivalent known to the benchmark")
+    mujoco.mj_forward(m, d)
+
+
+def mujoco_warmed(xml, sets, warmup, h=H, eulerdamp=True):
+    """MuJoCo's model and data on `xml`, `Euler` at `h` (with its implicit joint damping unless
+    `eulerdamp` is False: then it is semi-implicit Euler, SCM's `semi_implicit_euler`), the `sets`
+    applied, advanced by `warmup` s."""
     import mujoco
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)
     m.opt.timestep = h
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
-    for name, x in sets.items():
-        if name.endswith(".ctrl"):
-            d.ctrl[m.actuator(name[:-5]).id] = x
+    if not eulerdamp:
+        m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
+    mujoco_apply_sets(m, d, sets)
     mujoco.mj_step(m, d, nstep=max(1, int(round(warmup / h))))
+    return m, d
+
+
+def mujoco_step_time(xml, sets, warmup, n=2000, h=H, eulerdamp=True, integrator=None):
+    """MuJoCo's time per step (median of 9 rounds of `n` steps, `Euler` at `h`, or `integrator`
+    after the warm-up) and its contact count, after `warmup` s from the start with the `sets`
+    (also the benchmark's, scripts/bench.py)."""
+    import mujoco
+    m, d = mujoco_warmed(xml, sets, warmup, h, eulerdamp)
+    if integrator is not None:
+        m.opt.integrator = integrator
     samples = []
     for _ in range(9):
         t0 = time.perf_counter()
