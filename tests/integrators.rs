@@ -853,6 +853,91 @@ fn damped_euler_carries_its_newton_jacobian_and_a_restored_cache_replays_to_the_
 }
 
 #[test]
+fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it() {
+    // Implicit Euler keeps its Newton Jacobian and its last velocity change V - v from step to
+    // step; Newton starts from v + (V - v). Carried or fresh (from v, a new Jacobian), the
+    // steps agree to the Newton tolerance; the carried change is the last step's; a cache
+    // saved and restored replays the rest of the run bit for bit, also through the FMU
+    // state's bytes.
+    let model = sliding_box("implicit_euler");
+    let opts = AdvanceOptions::default();
+    let h = 0.002;
+    let start = State {
+        q: model.tree.q0(),
+        v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    };
+    let step = |s: &State<f64>, k: usize, cache: &mut scm::integrate::SolverCache| {
+        model
+            .advance_cached(s, &[], &model.contact, k as f64 * h, h, &opts, cache)
+            .unwrap()
+            .state
+    };
+    let mut cache = scm::integrate::SolverCache::default();
+    let (mut carried, mut fresh) = (start.clone(), start);
+    let mut saved = None;
+    let mut largest = 0.0f64;
+    for k in 0..150 {
+        if k == 50 {
+            saved = Some((carried.clone(), cache.clone()));
+        }
+        let before = carried.clone();
+        carried = step(&carried, k, &mut cache);
+        fresh = step(&fresh, k, &mut Default::default());
+        let (jacobian, _, _, change) = cache.parts();
+        assert!(jacobian.is_some(), "step {k}: no Jacobian carried");
+        let change = change.expect("a velocity change carried");
+        for (i, &dv) in change.iter().enumerate() {
+            assert_eq!(dv, carried.v[i] - before.v[i], "step {k}, velocity {i}");
+        }
+        for (a, b) in carried.q.iter().zip(&fresh.q) {
+            largest = largest.max((a - b).abs());
+        }
+    }
+    assert!(
+        largest < 1e-9,
+        "carried and fresh starts differ by {largest} m"
+    );
+    let (mut again, mut restored) = saved.unwrap();
+    for k in 50..150 {
+        again = step(&again, k, &mut restored);
+    }
+    assert_eq!(again, carried, "the restored cache replays bit for bit");
+
+    // Through the FMU state's bytes: the change is in them, and the run replays.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/resources/scenes/sphere_drop.xml"
+    ))
+    .unwrap();
+    let scene = scm::scene::load_str(&text, std::path::Path::new("sphere_drop.xml")).unwrap();
+    let mut sim = Simulation::new(scene, &text);
+    sim.model.integrator = Integrator::ImplicitEuler;
+    sim.initialize().unwrap();
+    let dt = sim.model.step;
+    for k in 0..20 {
+        sim.do_step(k as f64 * dt, dt).unwrap();
+    }
+    let saved = sim.get_state().unwrap();
+    assert!(
+        saved.solver_cache.parts().3.is_some(),
+        "the velocity change is part of the state"
+    );
+    let restored = sim
+        .deserialize_state(&sim.serialize_state(&saved).unwrap())
+        .unwrap();
+    assert_eq!(restored, saved, "the state round-trips through bytes");
+    for k in 20..60 {
+        sim.do_step(k as f64 * dt, dt).unwrap();
+    }
+    let end = sim.current.clone();
+    sim.set_state(&restored).unwrap();
+    for k in 20..60 {
+        sim.do_step(k as f64 * dt, dt).unwrap();
+    }
+    assert_eq!(sim.current, end, "the restored run replays bit for bit");
+}
+
+#[test]
 fn damped_euler_frozen_contact_equals_the_full_evaluation() {
     // Damped Euler's Newton iterations evaluate the contact at many end velocities of one
     // configuration through `FrozenForward` (each pair's contact terms recorded once). Against

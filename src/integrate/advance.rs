@@ -183,11 +183,12 @@ impl Model {
             let mut first = a0;
             // The Newton Jacobian of implicit Euler, or of damped Euler in contact, carried
             // from step to step while it serves.
-            let mut jac = match cache.left {
+            // With it, implicit Euler's last velocity change V - v, its next start guess.
+            let (mut jac, mut dv) = match cache.left {
                 Some((ref s_left, h_left)) if h_left == dt && s_left == state => {
-                    cache.jacobian.take()
+                    (cache.jacobian.take(), cache.velocity_change.take())
                 }
-                _ => None,
+                _ => (None, None),
             };
             for k in 0..n {
                 let t = t0 + (k + 1) as f64 * dt;
@@ -200,13 +201,13 @@ impl Model {
                 };
                 s = match self.integrator {
                     Integrator::ImplicitEuler => self
-                        .implicit_step_subdividing(
+                        .implicit_step_extrapolating(
                             &s,
                             &uk,
                             prm,
                             dt,
                             &mut jac,
-                            0,
+                            &mut dv,
                             &mut report.subdivided,
                         )
                         .map_err(dyn_err)?,
@@ -221,6 +222,7 @@ impl Model {
                 Integrator::ImplicitEuler | Integrator::DampedEuler
             ) {
                 cache.jacobian = jac;
+                cache.velocity_change = dv;
                 cache.left = Some((s.clone(), dt));
             }
             cache.ledger = leave(monitor, &s);
@@ -329,6 +331,9 @@ impl Model {
 pub struct SolverCache {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact.
     jacobian: Option<DMatrix<f64>>,
+    /// Implicit Euler's last velocity change `V - v`: the next step's Newton iterations start
+    /// from `v + (V - v)` (the acceleration held), an `O(h²)` guess instead of `v`'s `O(h)`.
+    velocity_change: Option<Vec<f64>>,
     /// The state and internal step the cache was left for.
     left: Option<CacheMark>,
     /// The energy guard's balance over the run so far.
@@ -338,20 +343,24 @@ pub struct SolverCache {
 /// Where a [`SolverCache`] was left: the state and the internal step (s).
 pub type CacheMark = (State<f64>, f64);
 
+/// A [`SolverCache`]'s parts, borrowed ([`SolverCache::parts`]): the Newton Jacobian, where the
+/// cache was left, the energy guard's ledger, implicit Euler's last velocity change.
+pub type CacheParts<'a> = (
+    Option<&'a DMatrix<f64>>,
+    Option<&'a CacheMark>,
+    Option<&'a EnergyLedger>,
+    Option<&'a [f64]>,
+);
+
 impl SolverCache {
-    /// The cached Newton Jacobian, the state and internal step (s) it was left for, and the
-    /// energy guard's ledger.
-    pub fn parts(
-        &self,
-    ) -> (
-        Option<&DMatrix<f64>>,
-        Option<&CacheMark>,
-        Option<&EnergyLedger>,
-    ) {
+    /// The cached Newton Jacobian, the state and internal step (s) it was left for, the
+    /// energy guard's ledger, and implicit Euler's last velocity change.
+    pub fn parts(&self) -> CacheParts<'_> {
         (
             self.jacobian.as_ref(),
             self.left.as_ref(),
             self.ledger.as_ref(),
+            self.velocity_change.as_deref(),
         )
     }
 
@@ -360,9 +369,11 @@ impl SolverCache {
         jacobian: Option<DMatrix<f64>>,
         left: Option<CacheMark>,
         ledger: Option<EnergyLedger>,
+        velocity_change: Option<Vec<f64>>,
     ) -> SolverCache {
         SolverCache {
             jacobian,
+            velocity_change,
             left,
             ledger,
         }

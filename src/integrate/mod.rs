@@ -27,6 +27,6 @@ mod newton;
 mod step;
 
 pub use crate::integrator::{Integrator, State};
-pub use advance::{AdvanceOptions, Advanced, CacheMark, SolverCache, StepFailure};
+pub use advance::{AdvanceOptions, Advanced, CacheMark, CacheParts, SolverCache, StepFailure};
 pub use guard::{contact_energy, EnergyLedger};
 pub use step::Dopri5Step;

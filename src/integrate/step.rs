@@ -265,7 +265,9 @@ impl Model {
         h: T,
     ) -> Result<State<T>, DynamicsError> {
         match integrator {
-            Integrator::ImplicitEuler => self.implicit_euler_step(state, u, prm, h, &mut None),
+            Integrator::ImplicitEuler => {
+                self.implicit_euler_step(state, u, prm, h, &mut None, None)
+            }
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
             _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None),
         }
@@ -419,7 +421,8 @@ impl Model {
     /// dual parts of the converged solution are the implicit-function derivative of the step.
     ///
     /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
-    /// and replaced when the iterations contract slowly; updated here.
+    /// and replaced when the iterations contract slowly; updated here. `guess`: the velocity
+    /// change `V - v` Newton starts from (none: `V = v`).
     fn implicit_euler_step<T: Scalar>(
         &self,
         state: &State<T>,
@@ -427,6 +430,7 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
         jac: &mut Option<DMatrix<f64>>,
+        guess: Option<&[f64]>,
     ) -> Result<State<T>, DynamicsError> {
         let u1 = self.inputs_after(u, h);
         let residual = |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x);
@@ -441,16 +445,48 @@ impl Model {
             };
             Ok(jacobian(&f, x)?.1)
         };
-        let v = newton(&residual, &real_jacobian, state.v.clone(), jac)?;
+        let start = match guess {
+            Some(dv) if dv.len() == state.v.len() => {
+                (0..dv.len()).map(|k| state.v[k] + c::<T>(dv[k])).collect()
+            }
+            _ => state.v.clone(),
+        };
+        let v = newton(&residual, &real_jacobian, start, jac)?;
         Ok(State {
             q: self.tree.integrate_q(&state.q, &v, h),
             v,
         })
     }
 
-    /// An implicit step of `h`; when Newton's iterations fail (typically when contact starts
-    /// within a step much longer than the contact's period), the step is done as two halves,
-    /// recursively, down to `h / 2⁸`.
+    /// An implicit step of `h` from the carried Newton Jacobian `jac` and, in `dv`, the last
+    /// step's velocity change `V - v`: Newton starts from `v + dv` (the acceleration held over
+    /// the step: the start is `O(h²)` from the solution where motion is smooth, where `v` is
+    /// `O(h)`). `dv` is left with this step's change, or none when the step was subdivided
+    /// (its halves' changes say nothing of the next full step).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn implicit_step_extrapolating(
+        &self,
+        s: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        jac: &mut Option<DMatrix<f64>>,
+        dv: &mut Option<Vec<f64>>,
+        subdivided: &mut usize,
+    ) -> Result<State<f64>, DynamicsError> {
+        let before = *subdivided;
+        let guess = dv.take();
+        let next =
+            self.implicit_step_subdividing(s, u, prm, h, jac, guess.as_deref(), 0, subdivided)?;
+        *dv =
+            (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
+        Ok(next)
+    }
+
+    /// An implicit step of `h`, Newton starting from `v + guess` (or `v`); when Newton's
+    /// iterations fail (typically when contact starts within a step much longer than the
+    /// contact's period), the step is done as two halves from `v`, recursively, down to
+    /// `h / 2⁸`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_subdividing(
         &self,
@@ -459,10 +495,11 @@ impl Model {
         prm: &ContactParams<f64>,
         h: f64,
         jac: &mut Option<DMatrix<f64>>,
+        guess: Option<&[f64]>,
         depth: usize,
         subdivided: &mut usize,
     ) -> Result<State<f64>, DynamicsError> {
-        match self.implicit_euler_step(s, u, prm, h, jac) {
+        match self.implicit_euler_step(s, u, prm, h, jac, guess) {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
                 *subdivided += 1;
                 let half = 0.5 * h;
@@ -473,6 +510,7 @@ impl Model {
                     prm,
                     half,
                     &mut sub,
+                    None,
                     depth + 1,
                     subdivided,
                 )?;
@@ -482,6 +520,7 @@ impl Model {
                     prm,
                     half,
                     &mut sub,
+                    None,
                     depth + 1,
                     subdivided,
                 )

@@ -18,7 +18,7 @@
 //! | 8 × 2 | internal step (s), tolerance |
 //! | 4 + n | integrator name: length, UTF-8 bytes |
 //! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
-//! | 1 (+ 8 (nq + nv + 1)) | the state and internal step that Jacobian was left for: 0, or 1, `q`, `v`, step |
+//! | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
 //! | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
@@ -71,7 +71,7 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
                 .for_each(|&x| put(&mut b, x));
         }
     }
-    let (jacobian, left, ledger) = state.solver_cache.parts();
+    let (jacobian, left, ledger, velocity_change) = state.solver_cache.parts();
     match jacobian {
         None => b.push(0),
         Some(j) => {
@@ -84,10 +84,11 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
     match left {
         None => b.push(0),
         Some((st, h)) => {
-            b.push(1);
+            b.push(if velocity_change.is_some() { 2 } else { 1 });
             st.q.iter()
                 .chain(&st.v)
                 .chain([h])
+                .chain(velocity_change.unwrap_or_default())
                 .for_each(|&x| put(&mut b, x));
         }
     }
@@ -209,16 +210,25 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         }
         f => return Err(format!("model state is corrupt: solver cache flag {f}")),
     };
+    let mut velocity_change = None;
     let left = match r.take(1, "the solver cache state flag")?[0] {
         0 => None,
-        1 => {
+        f @ (1 | 2) => {
             let q = (0..nq)
                 .map(|_| finite(&mut r, "a cached position"))
                 .collect::<Result<Vec<_>, _>>()?;
             let v = (0..nv)
                 .map(|_| finite(&mut r, "a cached velocity"))
                 .collect::<Result<Vec<_>, _>>()?;
-            Some((State { q, v }, finite(&mut r, "the cached internal step")?))
+            let h = finite(&mut r, "the cached internal step")?;
+            if f == 2 {
+                velocity_change = Some(
+                    (0..nv)
+                        .map(|_| finite(&mut r, "a cached velocity change"))
+                        .collect::<Result<Vec<_>, _>>()?,
+                );
+            }
+            Some((State { q, v }, h))
         }
         f => {
             return Err(format!(
@@ -271,7 +281,8 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
     };
-    let solver_cache = crate::integrate::SolverCache::from_parts(jacobian, left, ledger);
+    let solver_cache =
+        crate::integrate::SolverCache::from_parts(jacobian, left, ledger, velocity_change);
     if r.remaining() != 0 {
         return Err(format!(
             "model state is corrupt: {} unexpected bytes at the end",
