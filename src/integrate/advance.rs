@@ -2,6 +2,7 @@
 //! that refuses a step that diverges (non-finite state, energy growth no input explains).
 
 use super::guard::{EnergyLedger, EnergyMonitor};
+use super::newton::KeptJacobian;
 use crate::contact::ContactParams;
 use crate::dynamics::MOCAP_INPUTS;
 use crate::integrator::{Integrator, State};
@@ -330,7 +331,7 @@ impl Model {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SolverCache {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact.
-    jacobian: Option<DMatrix<f64>>,
+    jacobian: Option<KeptJacobian>,
     /// Implicit Euler's last velocity change `V - v`: the next step's Newton iterations start
     /// from `v + (V - v)` (the acceleration held), an `O(h²)` guess instead of `v`'s `O(h)`.
     velocity_change: Option<Vec<f64>>,
@@ -357,7 +358,7 @@ impl SolverCache {
     /// energy guard's ledger, and implicit Euler's last velocity change.
     pub fn parts(&self) -> CacheParts<'_> {
         (
-            self.jacobian.as_ref(),
+            self.jacobian.as_ref().map(KeptJacobian::matrix),
             self.left.as_ref(),
             self.ledger.as_ref(),
             self.velocity_change.as_deref(),
@@ -372,7 +373,7 @@ impl SolverCache {
         velocity_change: Option<Vec<f64>>,
     ) -> SolverCache {
         SolverCache {
-            jacobian,
+            jacobian: jacobian.map(KeptJacobian::new),
             velocity_change,
             left,
             ledger,

@@ -1,7 +1,7 @@
 //! One internal step of each integrator, generic over the scalar so that exact derivatives of a
 //! step come from the same code.
 
-use super::newton::{newton, re_params, re_vec};
+use super::newton::{newton, re_params, re_vec, KeptJacobian};
 use crate::autodiff::{jacobian, VectorFunction};
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
@@ -205,7 +205,7 @@ impl Model {
         u: &[T],
         prm: &ContactParams<T>,
         h: T,
-        jac: &mut Option<DMatrix<f64>>,
+        jac: &mut Option<KeptJacobian>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
@@ -284,7 +284,7 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
         a0: Option<Vec<T>>,
-        jac: &mut Option<DMatrix<f64>>,
+        jac: &mut Option<KeptJacobian>,
     ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
@@ -429,7 +429,7 @@ impl Model {
         u: &[T],
         prm: &ContactParams<T>,
         h: T,
-        jac: &mut Option<DMatrix<f64>>,
+        jac: &mut Option<KeptJacobian>,
         guess: Option<&[f64]>,
     ) -> Result<State<T>, DynamicsError> {
         let u1 = self.inputs_after(u, h);
@@ -470,7 +470,7 @@ impl Model {
         u: &[f64],
         prm: &ContactParams<f64>,
         h: f64,
-        jac: &mut Option<DMatrix<f64>>,
+        jac: &mut Option<KeptJacobian>,
         dv: &mut Option<Vec<f64>>,
         subdivided: &mut usize,
     ) -> Result<State<f64>, DynamicsError> {
@@ -494,7 +494,7 @@ impl Model {
         u: &[f64],
         prm: &ContactParams<f64>,
         h: f64,
-        jac: &mut Option<DMatrix<f64>>,
+        jac: &mut Option<KeptJacobian>,
         guess: Option<&[f64]>,
         depth: usize,
         subdivided: &mut usize,
