@@ -66,6 +66,22 @@ impl QueryRegion {
         // The slack covers the rounding of these few operations (and of |m| = 1 to rounding).
         alpha * s - beta * (r * r - s * s).max(0.0).sqrt() - 1e-12 * (len * r)
     }
+
+    /// A lower bound of the distance from the region's points to a convex set, given `a`, the
+    /// set's point nearest the centre: with `w` the unit vector from `a` to the centre, every
+    /// point `x` of the region is at least `wᵀ(x - a)` from the set (`wᵀ(y - a) ≤ 0` for every
+    /// `y` of the set, `a` being its nearest point to the centre), and the least of that over
+    /// the region is `|centre - a| + min_lin(w)`. Zero when the centre is in the set.
+    #[inline]
+    pub fn lower_distance_to(&self, a: &Vector3<f64>) -> f64 {
+        let ac = self.centre - a;
+        let l = ac.norm();
+        if l > 0.0 {
+            l + self.min_lin(&(ac / l))
+        } else {
+            0.0
+        }
+    }
 }
 
 /// [`ssdf_exceeds`] over a [`QueryRegion`], with `hint` a leaf-order index of a point of the
@@ -205,33 +221,17 @@ pub(super) fn aopc_exceeds(
     }
     let (c, r) = (&q.centre, q.radius);
     let m1 = bvh.log_terms * eps1;
-    // A sampled sphere bounds its planes in closed form (`geometry::radial`): if that bound
-    // clears the threshold at the region's point nearest the centre, every cluster is settled.
+    // A sampled sphere bounds its planes in closed form (`geometry::radial`) in the distance from
+    // its centre: if that bound clears the threshold at the region's lowest distance, every
+    // cluster is settled.
     if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
-        let oc = c - rad.centre;
-        let l = oc.norm();
-        let s_lo = if l > 0.0 {
-            l + q.min_lin(&(oc / l))
-        } else {
-            0.0
-        };
-        if rad.plane_bound(s_lo, m1) > band_need(t, v) {
+        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > band_need(t, v) {
             return (true, hint);
         }
     }
-    // So does a sampled capsule (`geometry::spine`), at the region's point nearest its segment:
-    // with `a` the segment's point nearest the centre and `w` the unit vector from it, every
-    // point `x` is at least `wᵀ(x - a)` from the segment (`a` is the nearest point of a convex
-    // set to the centre, so `wᵀ(y - a) ≤ 0` for every `y` of it).
+    // So does a sampled capsule (`geometry::spine`), in the distance from its segment.
     if let (Some(v), Some(sp)) = (vmax, &bvh.spine) {
-        let ac = c - sp.nearest(c);
-        let l = ac.norm();
-        let s_lo = if l > 0.0 {
-            l + q.min_lin(&(ac / l))
-        } else {
-            0.0
-        };
-        if sp.plane_bound(s_lo, m1) > band_need(t, v) {
+        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > band_need(t, v) {
             return (true, hint);
         }
     }

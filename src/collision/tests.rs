@@ -77,6 +77,55 @@ fn min_lin_is_the_minimum_over_the_ball_cut_by_the_slab() {
 }
 
 #[test]
+fn lower_distance_to_a_convex_set_holds_over_the_region() {
+    // A point (a sphere's centre) and a segment (a capsule's spine): the bound from the set's
+    // point nearest the centre is below the distance of every sampled point of the region, and
+    // zero when the centre is in the set.
+    let mut s = 11u64;
+    let nearest_on = |a: &Vector3<f64>, b: &Vector3<f64>, x: &Vector3<f64>| {
+        let d = b - a;
+        let t = if d.norm_squared() > 0.0 {
+            ((x - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        a + d * t
+    };
+    for k in 0..1000 {
+        let r = 0.01 + 0.3 * lcg(&mut s).abs();
+        let m = vec3(&mut s).normalize();
+        let (lo, hi) = (lcg(&mut s) * r, lcg(&mut s) * r);
+        let q = QueryRegion {
+            centre: vec3(&mut s),
+            radius: r,
+            m,
+            lo: lo.min(hi),
+            hi: lo.max(hi),
+        };
+        // Every other case a segment, else a point.
+        let a = vec3(&mut s) * 0.5;
+        let b = if k % 2 == 0 {
+            a + vec3(&mut s) * 0.4
+        } else {
+            a
+        };
+        let bound = q.lower_distance_to(&nearest_on(&a, &b, &q.centre));
+        for _ in 0..40 {
+            let x = sample_region(&q, &mut s);
+            let d = (x - nearest_on(&a, &b, &x)).norm();
+            assert!(
+                d >= bound - 1e-12,
+                "case {k}: distance {d} below the bound {bound}"
+            );
+        }
+    }
+    let q = QueryRegion::ball(Vector3::new(0.1, 0.0, 0.0), 0.05);
+    assert_eq!(q.lower_distance_to(&q.centre.clone()), 0.0);
+    // A whole ball of radius 0.05 at 0.1 from a point: 0.05 exactly (to rounding).
+    assert!((q.lower_distance_to(&Vector3::zeros()) - 0.05).abs() < 1e-12);
+}
+
+#[test]
 fn cone_bound_is_a_lower_bound_of_every_plane_of_a_cluster_over_the_region() {
     // Curved (sphere, cylinder) and flat (box) clusters at several levels, regions near and
     // far, thin (a slab) and full balls.
