@@ -30,7 +30,11 @@
 //! With `--steps-only`, only `model_step_s` and `ffi_step_s` are measured (the benchmark
 //! against MuJoCo, `scripts/bench.sh`), and with `--error T` the accuracy of the run:
 //! `error_pos_m` and `error_rot_rad`, the largest error of a body's position and orientation
-//! after `T` s from the warmed-up state at `--h`, against `rk4` at `h / 16` from the same state.
+//! after `T` s from the warmed-up state at `--h`, against `rk4` at `h / 16` from the same state
+//! (`reference_divisions`), and `reference_check_*`, the same difference between `rk4` at
+//! `h / 8` and at `h / 16` (the reference's own error is about a fifteenth of it). `model_step_s`
+//! is timed at the warmed-up state without a solver cache (no carried Newton Jacobian), the
+//! FFI step a few steps later with one.
 //!
 //! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
 //! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
@@ -118,6 +122,9 @@ fn parse() -> Result<Args, String> {
             }
             other => return Err(format!("unknown option {other}")),
         }
+    }
+    if a.error.is_some() && !a.steps_only {
+        return Err("--error is measured with --steps-only only".into());
     }
     a.profile = profile.map(|p| (p, iterations));
     Ok(a)
@@ -383,17 +390,18 @@ fn run() -> Result<String, String> {
     let scene = a.dir.join("resources").join(scm::sim::SCENE_FILE);
     let mut items = Vec::new();
     let warm = warm_state(&a, &scene)?;
-    // The `--error` reference, computed once for all integrators.
-    let reference = match a.error {
-        Some(t) => Some(poses_after(
-            &a,
-            &scene,
-            &warm,
-            Integrator::Rk4,
-            a.h / REFERENCE_DIVISIONS,
-            t,
-        )?),
-        None => None,
+    // The `--error` reference, computed once for all integrators, and how far the same
+    // reference at twice its step is from it (its own error is about a fifteenth of that).
+    let (reference, reference_check) = match a.error {
+        Some(t) => {
+            let at = |divisions: f64| {
+                poses_after(&a, &scene, &warm, Integrator::Rk4, a.h / divisions, t)
+            };
+            let reference = at(REFERENCE_DIVISIONS)?;
+            let check = pose_error(&at(REFERENCE_DIVISIONS / 2.0)?, &reference);
+            (Some(reference), check)
+        }
+        None => (None, (0.0, 0.0)),
     };
     for &integrator in &a.integrators {
         let sim0 = simulation_at(&a, &scene, &warm, integrator, a.h)?;
@@ -504,7 +512,12 @@ fn run() -> Result<String, String> {
                 (Some(t), Some(reference)) => {
                     let ours = poses_after(&a, &scene, &warm, integrator, a.h, t)?;
                     let (pos, rot) = pose_error(&ours, reference);
-                    format!(", \"error_t_s\": {t:e}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}")
+                    let (check_pos, check_rot) = reference_check;
+                    format!(
+                        ", \"error_t_s\": {t:e}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}, \
+                         \"reference_divisions\": {REFERENCE_DIVISIONS}, \"reference_check_pos_m\": {check_pos:e}, \
+                         \"reference_check_rot_rad\": {check_rot:e}"
+                    )
                 }
                 _ => String::new(),
             };

@@ -1,15 +1,17 @@
 """Step cost against MuJoCo, measured in one run (issue 20's benchmark): every bundled scene, a
 few generated ones and MuJoCo's own model files (the ones gymnasium ships), each through the
 FMU's C ABI (`fmi2DoStep` of one internal step, in examples/step_cost.rs) and through MuJoCo's
-`mj_step` on the same file, from the same warm-up, at the same step and with the same method:
-semi-implicit Euler (MuJoCo's `Euler` with its implicit joint damping switched off, which is
-exactly that method).
+`mj_step` on the same file, from the same start and warm-up time, at the same step and with the
+same time stepping: semi-implicit Euler (MuJoCo's `Euler` with its implicit joint damping
+switched off). The contact models differ (SCM's forces against MuJoCo's constraint solver), and
+so do the warm-ups' integrators (SCM's scene integrator at 1 ms, MuJoCo's Euler at the step).
 
 With each time, the error of the run: the largest error of a body's position and orientation
 after ERROR_T s from the warmed-up state at the benchmark's step, against a converged reference
 of the same engine from the same state (SCM: `rk4` at h/16, examples/step_cost.rs; MuJoCo: its
-`RK4` at h/16). Also SCM's implicit Euler step (a step in a running simulation, its Newton
-Jacobian carried over) against its explicit one.
+`RK4` at h/16), with the distance of each reference from the same at h/8 as its check. Also SCM's
+implicit Euler step (a step in a running simulation, its Newton Jacobian carried over) against
+its explicit one.
 
 Run by scripts/bench.sh. Writes reports/bench.md (table) and reports/bench.png (plot), or
 --out DIR. Times are medians over interleaved rounds on each side; the ratio is SCM / MuJoCo.
@@ -17,6 +19,7 @@ Nothing here is a pass/fail test: the figures are what the targets of issue 20 a
 """
 import argparse
 import copy
+import importlib.util
 import json
 import pathlib
 import subprocess
@@ -33,14 +36,17 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCM = ROOT / "target" / "release" / "scm"
 STEP_COST = ROOT / "target" / "release" / "examples" / "step_cost"
 H = 0.002
-# The error of a run is measured ERROR_T s after the warm-up, against the same engine at H / 16.
+# The error of a run is measured ERROR_T s after the warm-up, against the same engine's RK4 at
+# H / n, n as step_cost reports it (`reference_divisions`).
 ERROR_T = 0.1
-REFERENCE_DIVISIONS = 16
-GYMNASIUM = pathlib.Path(sys.prefix) / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / \
-    "site-packages" / "gymnasium" / "envs" / "mujoco" / "assets"
+GYMNASIUM_SPEC = importlib.util.find_spec("gymnasium")
+GYMNASIUM = pathlib.Path(GYMNASIUM_SPEC.origin).parent / "envs" / "mujoco" / "assets" if GYMNASIUM_SPEC else None
 # MuJoCo's own files (gymnasium's models, unchanged: their timestep and integrator are replaced by
-# the benchmark's, both engines alike), from rest at their initial pose, no control: the robots
-# fall onto the floor during the warm-up and lie or stand on it.
+# the benchmark's, both engines alike), from their initial pose: those that stand on a floor fall
+# onto it without control, so their steps are timed in contact; the pendulum falls from its top;
+# the reacher and the swimmer, which nothing moves in their plane, get every actuator at half its
+# upper control limit (CONTROLLED).
+CONTROLLED = {"reacher", "swimmer"}
 FILES = ["inverted_pendulum", "reacher", "swimmer", "hopper", "walker2d", "half_cheetah", "ant",
          "humanoid"]
 
@@ -107,27 +113,47 @@ def scm_step(xml, sets, warmup, work):
     return {r["integrator"]: r for r in json.loads(p.stdout)["results"]}
 
 
-def mujoco_error(xml, sets, warmup):
-    """MuJoCo's error after ERROR_T s from its warmed-up state (semi-implicit Euler at H) against
-    its RK4 at H / 16 from the same state: (position (m), rotation angle (rad)), the largest over
-    bodies."""
+def file_controls(xml):
+    """Every actuator of a MuJoCo file at half its upper control limit (1 where unlimited), by
+    SCM's names for them (`actuatorN` where the file names none)."""
     import mujoco
-    m, d = mujoco_warmed(xml, sets, warmup, H, eulerdamp=False)
-    ref = copy.deepcopy(d)
-    n = int(round(ERROR_T / H))
-    mujoco.mj_step(m, d, nstep=n)
-    m.opt.timestep = H / REFERENCE_DIVISIONS
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
-    mujoco.mj_step(m, ref, nstep=n * REFERENCE_DIVISIONS)
-    for x in (d, ref):  # the poses of the final state (mj_step leaves those of the one before)
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    sets = {}
+    for i in range(m.nu):
+        name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, i) or f"actuator{i}"
+        sets[f"{name}.ctrl"] = 0.5 * float(m.actuator_ctrlrange[i][1]) if m.actuator_ctrllimited[i] else 1.0
+    return sets
+
+
+def pose_difference(m, a, b):
+    """The largest difference of a body's pose between two MjData: (position (m), rotation angle
+    (rad)), from the poses of their current states."""
+    import mujoco
+    for x in (a, b):  # the poses of the final state (mj_step leaves those of the one before)
         mujoco.mj_kinematics(m, x)
-    pos = float(np.max(np.linalg.norm(d.xpos - ref.xpos, axis=1)))
+    pos = float(np.max(np.linalg.norm(a.xpos - b.xpos, axis=1)))
     rot = 0.0
-    for a, b in zip(d.xmat.reshape(-1, 3, 3), ref.xmat.reshape(-1, 3, 3)):
-        r = a.T @ b  # the angle from its sine and cosine, exact down to small angles
+    for p, q in zip(a.xmat.reshape(-1, 3, 3), b.xmat.reshape(-1, 3, 3)):
+        r = p.T @ q  # the angle from its sine and cosine, exact down to small angles
         axial = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
         rot = max(rot, float(np.arctan2(np.linalg.norm(axial), np.trace(r) - 1.0)))
     return pos, rot
+
+
+def mujoco_error(xml, sets, warmup, divisions):
+    """MuJoCo's error after ERROR_T s from its warmed-up state (semi-implicit Euler at H) against
+    its RK4 at H / divisions from the same state, and that reference's distance from the same at
+    H / (divisions / 2): two (position (m), rotation angle (rad)), the largest over bodies."""
+    import mujoco
+    m, d = mujoco_warmed(xml, sets, warmup, H, eulerdamp=False)
+    ref, coarse = copy.deepcopy(d), copy.deepcopy(d)
+    n = int(round(ERROR_T / H))
+    mujoco.mj_step(m, d, nstep=n)
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    for x, k in ((ref, divisions), (coarse, divisions // 2)):
+        m.opt.timestep = H / k
+        mujoco.mj_step(m, x, nstep=n * k)
+    return pose_difference(m, d, ref), pose_difference(m, coarse, ref)
 
 
 def error_cell(pos, rot):
@@ -155,16 +181,21 @@ def main():
             path.write_text(text)
             cases.append((path, {}, w, name))
         for f in files:
+            if GYMNASIUM is None:
+                raise SystemExit("bench: gymnasium is not installed (scripts/setup.sh installs it): "
+                                 "no MuJoCo model files; --files none runs without them")
             path = GYMNASIUM / f"{f}.xml"
             if not path.exists():
                 raise SystemExit(f"bench: {path}: no such MuJoCo model (gymnasium's assets)")
-            cases.append((path, {}, 0.3, f))
+            cases.append((path, file_controls(path) if f in CONTROLLED else {}, 0.3, f))
         for xml, sets, warmup, name in cases:
             print(f"bench: {name}", file=sys.stderr, flush=True)
             ours = scm_step(xml, sets, warmup, work)
             theirs, ncon = mujoco_step_time(xml, sets, warmup, h=H, eulerdamp=False)
-            rows.append(dict(name=name, ours=ours, theirs=theirs, ncon=ncon,
-                             theirs_error=mujoco_error(xml, sets, warmup)))
+            divisions = int(ours["semi_implicit_euler"]["reference_divisions"])
+            error, check = mujoco_error(xml, sets, warmup, divisions)
+            rows.append(dict(name=name, ours=ours, theirs=theirs, ncon=ncon, theirs_error=error,
+                             theirs_check=check))
     lines = ["# Step cost against MuJoCo", "",
              "Written by `scripts/bench.sh` (one run; medians of interleaved rounds). One internal step of "
              f"{H * 1e3:g} ms, semi-implicit Euler: SCM through the FMU's C ABI (`fmi2DoStep`, a step in a running "
@@ -173,18 +204,24 @@ def main():
              "`boxesN`: N boxes resting on a floor 30 cm apart; below them, MuJoCo's model files that gymnasium ships, "
              "unchanged but for the step and the method, from rest with no control.", "",
              f"Error: the largest error of a body's position and orientation {ERROR_T:g} s after the warm-up, "
-             f"against the same engine's RK4 at h/{REFERENCE_DIVISIONS} from the same state (each engine's own "
+             "against the same engine's RK4 at h/16 from the same state (each engine's own "
              "reference: the two models differ in their contact, so this is how well each integrates its own "
-             "model). `implicit_euler`: SCM's implicit Euler step at the same state and step, its Newton Jacobian "
-             "carried from step to step; `impl. / expl.` divides it by SCM's semi-implicit Euler step.", "",
+             "model); `reference check`: the largest position difference of each reference (SCM, MuJoCo) from "
+             "the same at h/8 (a fourth-order reference's own error is about a fifteenth of it). "
+             "`implicit_euler`: SCM's implicit Euler step at the same state and step, its Newton Jacobian "
+             "carried from step to step; `impl. / expl.` divides it by SCM's semi-implicit Euler step. "
+             "MuJoCo's steps are timed in runs of 100 from its warmed-up state, where its contacts are counted. "
+             "Gymnasium's robots fall onto their floor without control; the reacher and the swimmer run with "
+             "every actuator at half its upper control limit.", "",
              "| scene | SCM step (µs) | MuJoCo step (µs) | SCM / MuJoCo | SCM error | MuJoCo error "
-             "| SCM implicit_euler (µs) | impl. / expl. | MuJoCo contacts |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| reference check (µm) | SCM implicit_euler (µs) | impl. / expl. | MuJoCo contacts |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         e, i = r["ours"]["semi_implicit_euler"], r["ours"]["implicit_euler"]
+        check = f"{e['reference_check_pos_m'] * 1e6:.2g}, {r['theirs_check'][0] * 1e6:.2g}"
         lines.append(f"| {r['name']} | {e['ffi_step_s'] * 1e6:.1f} | {r['theirs'] * 1e6:.2f} | "
                      f"{e['ffi_step_s'] / r['theirs']:.1f} | {error_cell(e['error_pos_m'], e['error_rot_rad'])} | "
-                     f"{error_cell(*r['theirs_error'])} | {i['ffi_step_s'] * 1e6:.1f} | "
+                     f"{error_cell(*r['theirs_error'])} | {check} | {i['ffi_step_s'] * 1e6:.1f} | "
                      f"{i['ffi_step_s'] / e['ffi_step_s']:.1f} | {r['ncon']} |")
     boxes = [(int(r["name"][5:]), r["ours"]["semi_implicit_euler"]["ffi_step_s"], r["theirs"])
              for r in rows if r["name"].startswith("boxes")]

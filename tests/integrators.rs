@@ -935,6 +935,27 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
         sim.do_step(k as f64 * dt, dt).unwrap();
     }
     assert_eq!(sim.current, end, "the restored run replays bit for bit");
+
+    // Layout version 3 (before the velocity change) still loads where it has none, e.g. a
+    // damped Euler state (its cache entry has flag 1); a flag 2 under version 3 is refused.
+    let as_version_3 = |bytes: &[u8]| [&3u32.to_le_bytes()[..], &bytes[4..]].concat();
+    let version_4 = sim.serialize_state(&saved).unwrap();
+    assert_eq!(version_4[..4], 4u32.to_le_bytes());
+    let refused = sim
+        .deserialize_state(&as_version_3(&version_4))
+        .unwrap_err();
+    assert!(refused.to_string().contains("corrupt"), "{refused}");
+    let scene = scm::scene::load_str(&text, std::path::Path::new("sphere_drop.xml")).unwrap();
+    let mut damped = Simulation::new(scene, &text);
+    damped.model.integrator = Integrator::DampedEuler;
+    damped.initialize().unwrap();
+    for k in 0..20 {
+        damped.do_step(k as f64 * dt, dt).unwrap();
+    }
+    let state = damped.get_state().unwrap();
+    assert!(state.solver_cache.parts().1.is_some() && state.solver_cache.parts().3.is_none());
+    let old = as_version_3(&damped.serialize_state(&state).unwrap());
+    assert_eq!(damped.deserialize_state(&old).unwrap(), state);
 }
 
 #[test]

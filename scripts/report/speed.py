@@ -39,6 +39,21 @@ def mujoco_step(ctx, xml, sets, warmup):
     return mujoco_step_time(xml, sets, warmup, 200 if ctx.quick else 2000)
 
 
+def mujoco_actuator(m, name):
+    """The index of an actuator by SCM's name for it: its MJCF name, or `actuatorN` for the N-th
+    actuator when it has none (gymnasium's files name none)."""
+    import mujoco
+    try:
+        return m.actuator(name).id
+    except KeyError:
+        pass
+    match = re.fullmatch(r"actuator(\d+)", name)
+    if match and int(match.group(1)) < m.nu and \
+            not mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, int(match.group(1))):
+        return int(match.group(1))
+    raise ReportBug(f"{name}: no such actuator in MuJoCo's model")
+
+
 def mujoco_apply_sets(m, d, sets):
     """The step_cost `--set` values on MuJoCo's model data: controls (`NAME.ctrl`), joint
     coordinates (`JOINT.q`) and a free body's position (`BODY.pos.x|y|z`), so both engines start
@@ -47,7 +62,7 @@ def mujoco_apply_sets(m, d, sets):
     import mujoco
     for name, x in sets.items():
         if name.endswith(".ctrl"):
-            d.ctrl[m.actuator(name[:-5]).id] = x
+            d.ctrl[mujoco_actuator(m, name[:-5])] = x
         elif name.endswith(".q"):
             d.qpos[m.jnt_qposadr[m.joint(name[:-2]).id]] = x
         elif ".pos." in name:
@@ -77,20 +92,29 @@ def mujoco_warmed(xml, sets, warmup, h=H, eulerdamp=True):
     return m, d
 
 
-def mujoco_step_time(xml, sets, warmup, n=2000, h=H, eulerdamp=True, integrator=None):
-    """MuJoCo's time per step (median of 9 rounds of `n` steps, `Euler` at `h`, or `integrator`
-    after the warm-up) and its contact count, after `warmup` s from the start with the `sets`
-    (also the benchmark's, scripts/bench.py)."""
+def mujoco_step_time(xml, sets, warmup, n=2000, h=H, eulerdamp=True):
+    """MuJoCo's time per step (`Euler` at `h`) at the state reached after `warmup` s from the
+    start with the `sets`, and its contact count there (also the benchmark's, scripts/bench.py).
+    Each of 9 rounds restores that state and times runs of 100 steps (`n` steps per round in
+    all), less the restore's own time, so the steps timed stay near the state the contacts are
+    counted at (as SCM's step is timed at one state), not tens of seconds later."""
     import mujoco
     m, d = mujoco_warmed(xml, sets, warmup, h, eulerdamp)
-    if integrator is not None:
-        m.opt.integrator = integrator
+    warm = mujoco.MjData(m)
+    mujoco.mj_copyData(warm, m, d)
+    runs, length = max(1, n // 100), 100
     samples = []
     for _ in range(9):
         t0 = time.perf_counter()
-        mujoco.mj_step(m, d, nstep=n)
-        samples.append((time.perf_counter() - t0) / n)
-    return float(np.median(samples)), int(d.ncon)
+        for _ in range(runs):
+            mujoco.mj_copyData(d, m, warm)
+        t1 = time.perf_counter()
+        for _ in range(runs):
+            mujoco.mj_copyData(d, m, warm)
+            mujoco.mj_step(m, d, nstep=length)
+        t2 = time.perf_counter()
+        samples.append(((t2 - t1) - (t1 - t0)) / (runs * length))
+    return float(np.median(samples)), int(warm.ncon)
 
 
 def profile(ctx, variant, sets, warmup, what, iterations):

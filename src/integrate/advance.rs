@@ -223,7 +223,8 @@ impl Model {
                 Integrator::ImplicitEuler | Integrator::DampedEuler
             ) {
                 cache.jacobian = jac;
-                cache.velocity_change = dv;
+                // Only implicit Euler's steps write (and read) the velocity change.
+                cache.velocity_change = dv.filter(|_| self.integrator == Integrator::ImplicitEuler);
                 cache.left = Some((s.clone(), dt));
             }
             cache.ledger = leave(monitor, &s);

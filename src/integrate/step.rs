@@ -461,8 +461,10 @@ impl Model {
     /// An implicit step of `h` from the carried Newton Jacobian `jac` and, in `dv`, the last
     /// step's velocity change `V - v`: Newton starts from `v + dv` (the acceleration held over
     /// the step: the start is `O(h²)` from the solution where motion is smooth, where `v` is
-    /// `O(h)`). `dv` is left with this step's change, or none when the step was subdivided
-    /// (its halves' changes say nothing of the next full step).
+    /// `O(h)`). Where Newton fails from there (after an impact the last change says little),
+    /// the step is tried again from `v`, then subdivided as without a guess. `dv` is left with
+    /// this step's change, or none when the step was subdivided (its halves' changes say
+    /// nothing of the next full step).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_extrapolating(
         &self,
@@ -474,19 +476,26 @@ impl Model {
         dv: &mut Option<Vec<f64>>,
         subdivided: &mut usize,
     ) -> Result<State<f64>, DynamicsError> {
+        let guessed = match dv.take() {
+            Some(guess) => match self.implicit_euler_step(s, u, prm, h, jac, Some(&guess)) {
+                Err(DynamicsError::NewtonFailed { .. }) => None,
+                other => Some(other?),
+            },
+            None => None,
+        };
         let before = *subdivided;
-        let guess = dv.take();
-        let next =
-            self.implicit_step_subdividing(s, u, prm, h, jac, guess.as_deref(), 0, subdivided)?;
+        let next = match guessed {
+            Some(next) => next,
+            None => self.implicit_step_subdividing(s, u, prm, h, jac, 0, subdivided)?,
+        };
         *dv =
             (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
         Ok(next)
     }
 
-    /// An implicit step of `h`, Newton starting from `v + guess` (or `v`); when Newton's
-    /// iterations fail (typically when contact starts within a step much longer than the
-    /// contact's period), the step is done as two halves from `v`, recursively, down to
-    /// `h / 2⁸`.
+    /// An implicit step of `h`; when Newton's iterations fail (typically when contact starts
+    /// within a step much longer than the contact's period), the step is done as two halves,
+    /// recursively, down to `h / 2⁸`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_subdividing(
         &self,
@@ -495,11 +504,10 @@ impl Model {
         prm: &ContactParams<f64>,
         h: f64,
         jac: &mut Option<KeptJacobian>,
-        guess: Option<&[f64]>,
         depth: usize,
         subdivided: &mut usize,
     ) -> Result<State<f64>, DynamicsError> {
-        match self.implicit_euler_step(s, u, prm, h, jac, guess) {
+        match self.implicit_euler_step(s, u, prm, h, jac, None) {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
                 *subdivided += 1;
                 let half = 0.5 * h;
@@ -510,7 +518,6 @@ impl Model {
                     prm,
                     half,
                     &mut sub,
-                    None,
                     depth + 1,
                     subdivided,
                 )?;
@@ -520,7 +527,6 @@ impl Model {
                     prm,
                     half,
                     &mut sub,
-                    None,
                     depth + 1,
                     subdivided,
                 )

@@ -29,8 +29,10 @@ use crate::fmi::serial::Reader;
 use crate::integrate::{EnergyLedger, Integrator, State};
 use crate::model::Model;
 
-/// Version of the layout written by [`encode`].
-pub const STATE_VERSION: u32 = 3;
+/// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
+/// 2 (implicit Euler's last velocity change); [`decode`] also reads version 3, which never has
+/// it.
+pub const STATE_VERSION: u32 = 4;
 
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
@@ -113,9 +115,9 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
 pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let mut r = Reader::new(bytes);
     let version = r.u32("the model state version")?;
-    if version != STATE_VERSION {
+    if version != STATE_VERSION && version != 3 {
         return Err(format!(
-            "model state has layout version {version}; this FMU reads version {STATE_VERSION} only"
+            "model state has layout version {version}; this FMU reads versions 3 and {STATE_VERSION}"
         ));
     }
     let (nq, nv, nc, nm) = (
@@ -213,7 +215,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let mut velocity_change = None;
     let left = match r.take(1, "the solver cache state flag")?[0] {
         0 => None,
-        f @ (1 | 2) => {
+        f @ (1 | 2) if f == 1 || version >= 4 => {
             let q = (0..nq)
                 .map(|_| finite(&mut r, "a cached position"))
                 .collect::<Result<Vec<_>, _>>()?;
