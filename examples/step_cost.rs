@@ -10,7 +10,8 @@
 //! target that presses the finger into the T), so contact is active. Per integrator:
 //! - `model_step_s`: `Model::step::<f64>`, one internal step of `h` (the bare method);
 //! - `engine_step_s`: `Simulation::advance(h)` with `solver.step = h` (one internal step, with
-//!   the non-finite check and state bookkeeping the FMU does);
+//!   the non-finite check and state bookkeeping the FMU does), from the same state as the FFI
+//!   step (its whole state, solver cache included, restored before each timed step);
 //! - `ffi_step_s`: `fmi2DoStep(h)` through the crate's exported `extern "C"` function (the
 //!   same code path a host calling `scm.so` runs), `solver.step = h`, each timed step restored
 //!   to the instance's state a few steps after the warm-up (so what a running simulation
@@ -45,6 +46,7 @@ use nalgebra::{Const, U1};
 use num_dual::{Derivative, Dual64, DualSVec64};
 use scm::contact::ContactParams;
 use scm::derivatives::{step_jacobian_state, Coordinates, Point};
+use scm::fmi::contract::FmiModel;
 use scm::fmi::ffi::*;
 use scm::integrate::{Integrator, State};
 use scm::model::Model;
@@ -478,8 +480,16 @@ fn run() -> Result<String, String> {
             ));
         }
 
+        // The engine's simulation, a few steps on like the instance, its whole state (the
+        // solver cache with it) saved to be restored before each timed step.
         let mut sim = simulation_at(&a, &scene, &warm, integrator, a.h)?;
-        let saved = sim.current.clone();
+        for _ in 0..FMU_WARM_STEPS {
+            sim.step(h)
+                .map_err(|e| format!("engine warm-up step: {e}"))?;
+        }
+        let saved = sim.get_state().map_err(|e| e.to_string())?;
+        // Two timed closures use it (the restore alone, and the restore with a step).
+        let sim = std::cell::RefCell::new(sim);
         // FFI: fmi2DoStep advances the instance; to time the same step each time, restore its
         // state with fmi2SetFMUstate (itself timed and subtracted).
         let mut fmu_state: fmi2FMUstate = std::ptr::null_mut();
@@ -575,8 +585,12 @@ fn run() -> Result<String, String> {
                     black_box(model.step(black_box(&state), &ctrl, &prm, h).expect("step"));
                 },
                 &mut || {
+                    sim.borrow_mut().set_state(&saved).expect("restore");
+                },
+                &mut || {
                     // Restart from the same state each time, so every call times the same step.
-                    sim.current.state.clone_from(&saved.state);
+                    let mut sim = sim.borrow_mut();
+                    sim.set_state(&saved).expect("restore");
                     sim.step(h).expect("step");
                 },
                 &mut || unsafe {
@@ -604,11 +618,12 @@ fn run() -> Result<String, String> {
                 },
             ],
         );
-        let [model_step, engine_step, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd, t_crate] =
+        let [model_step, engine_restore, engine_with_restore, restore, ffi_with_restore, t_j64, t_j4, t_j16, t_fd, t_crate] =
             times[..]
         else {
             unreachable!()
         };
+        let engine_step = (engine_with_restore - engine_restore).max(0.0);
         let ffi_step = (ffi_with_restore - restore).max(0.0);
         unsafe {
             fmi2FreeFMUstate(c, &mut fmu_state);
