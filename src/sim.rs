@@ -4,7 +4,7 @@
 //! pointer and knows nothing of C.
 
 use crate::contact::{ContactParams, PairContact};
-use crate::dynamics::JointKind;
+use crate::dynamics::{JointKind, Tree};
 use crate::fmi::contract::{LogCategory, LogMessage, ModelInfo, ModelResult, StepError, Variable};
 use crate::integrate::{Integrator, State};
 use crate::model::Model;
@@ -460,15 +460,9 @@ impl Simulation {
 
     /// Start index in `q` of every quaternion (free and ball joints).
     fn quaternions(&self) -> Vec<usize> {
-        self.model
-            .tree
-            .joints
-            .iter()
-            .filter_map(|j| match j.kind {
-                JointKind::Free => Some(j.qadr + 3),
-                JointKind::Ball => Some(j.qadr),
-                _ => None,
-            })
+        named_quaternions(&self.model.tree)
+            .into_iter()
+            .map(|(i, _)| i)
             .collect()
     }
 
@@ -538,4 +532,30 @@ impl Simulation {
             });
         }
     }
+}
+
+/// Start index in `q` and joint name of every quaternion (free and ball joints).
+fn named_quaternions(tree: &Tree) -> Vec<(usize, &str)> {
+    tree.joints
+        .iter()
+        .filter_map(|j| match j.kind {
+            JointKind::Free => Some((j.qadr + 3, j.name.as_str())),
+            JointKind::Ball => Some((j.qadr, j.name.as_str())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Scales a quaternion to unit length in place, by its largest component first so that huge
+/// components do not overflow and tiny ones do not underflow. A zero (or non-finite) quaternion
+/// has no direction: it is left as it is and `false` returned.
+fn normalize_quaternion(q: &mut [f64]) -> bool {
+    let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(m.is_finite() && m > 0.0) {
+        return false;
+    }
+    q.iter_mut().for_each(|x| *x /= m);
+    let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+    q.iter_mut().for_each(|x| *x /= n);
+    true
 }

@@ -938,6 +938,37 @@ proptest! {
     }
 }
 
+/// Found by the fuzz: in Model Exchange the states may be set by value reference at an event,
+/// a component at a time, so a quaternion can be zero when the host asks for the event update.
+/// The update leaves it as set (it has no direction to project onto) instead of dividing by its
+/// zero norm: the states stay finite, and the forward dynamics refuses the state until the host
+/// sets an orientation.
+#[test]
+fn a_zero_quaternion_set_at_an_event_is_left_as_set_by_the_event_update() {
+    // vr 4 is ball.quat.w of sphere_drop: the start quaternion is (1, 0, 0, 0).
+    assert!(matches!(fixture(0).slots[4].0, Slot::Q(3)));
+    run(
+        0,
+        true,
+        &[
+            Op::EnterInit,
+            Op::ExitInit,
+            Op::SetReal { vr: 4, value: 0.0 },
+            Op::SaveState,
+            Op::NewDiscreteStates,
+            Op::GetStates,
+            Op::GetDerivatives,
+            // An orientation set again, the event projects it and the model runs on.
+            Op::SetReal { vr: 5, value: 2.0 },
+            Op::NewDiscreteStates,
+            Op::GetStates,
+            Op::EnterContinuousTimeMode,
+            Op::GetDerivatives,
+        ],
+    )
+    .unwrap();
+}
+
 /// Found by the fuzz: a zero quaternion set before initialization, saved and serialized, must
 /// deserialize (the FMU's own bytes round-trip); initialization then refuses it.
 #[test]

@@ -642,6 +642,46 @@ fn model_exchange_states_derivatives_and_quaternion_projection() {
     assert_eq!(now, x);
 }
 
+/// At an event a Model Exchange host may set the states by value reference, a component at a
+/// time, so a quaternion can be zero when it asks for the event update: the update leaves it as
+/// set (there is no direction to project onto) and warns, the forward dynamics refuses it, and
+/// once an orientation is set the next update projects it and the model runs on.
+#[test]
+fn a_zero_quaternion_at_an_event_is_left_as_set_and_warned_about() {
+    let (mut me, log) = initialized("sphere_drop", Interface::ModelExchange);
+    let info = me.model().info().clone();
+    let n = me.model().number_of_states();
+    let (w, y) = (vr(&info, "ball.quat.w"), vr(&info, "ball.quat.y"));
+    assert_eq!(me.set_debug_logging(true, &["logStatusWarning"]), fmi2OK);
+    let mut ev = fmi2EventInfo::default();
+    assert_eq!(me.set_real(&[w], &[0.0]), fmi2OK);
+    assert_eq!(me.new_discrete_states(&mut ev), fmi2OK);
+    assert_eq!(ev.valuesOfContinuousStatesChanged, fmi2False);
+    let warned = log
+        .lock()
+        .unwrap()
+        .iter()
+        .any(|l| l.0 == fmi2Warning && l.2.contains("ball.quat is zero"));
+    assert!(warned, "{:?}", log.lock().unwrap().last());
+    let mut x = vec![f64::NAN; n];
+    assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+    assert_eq!(&x[3..7], &[0.0; 4]);
+    assert!(x.iter().all(|v| v.is_finite()), "{x:?}");
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    let mut dx = vec![0.0; n];
+    assert_eq!(me.get_derivatives(&mut dx), fmi2Error);
+    // An orientation set again: projected at the next event, and the derivatives are back.
+    assert_eq!(me.enter_event_mode(), fmi2OK);
+    assert_eq!(me.set_real(&[y], &[-3.0]), fmi2OK);
+    assert_eq!(me.new_discrete_states(&mut ev), fmi2OK);
+    assert_eq!(ev.valuesOfContinuousStatesChanged, fmi2True);
+    assert_eq!(me.get_continuous_states(&mut x), fmi2OK);
+    assert_eq!(&x[3..7], &[0.0, 0.0, -1.0, 0.0]);
+    assert_eq!(me.enter_continuous_time_mode(), fmi2OK);
+    assert_eq!(me.get_derivatives(&mut dx), fmi2OK);
+    assert!((dx[7 + 2] + 9.81).abs() < 1e-12, "{dx:?}");
+}
+
 /// A spinning, tumbling body integrated by a host's explicit solver (Euler on the FMU's
 /// derivatives, projected at the events the FMU asks for) keeps unit quaternions.
 #[test]

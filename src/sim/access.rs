@@ -110,24 +110,21 @@ impl Simulation {
     /// one is refused). Stepping without it is allowed; the FMU calls it at
     /// `fmi2ExitInitializationMode`.
     pub fn initialize(&mut self) -> ModelResult<()> {
-        for j in &self.model.tree.joints {
-            let qa = match j.kind {
-                JointKind::Free => j.qadr + 3,
-                JointKind::Ball => j.qadr,
-                _ => continue,
-            };
-            let q = &mut self.current.state.q[qa..qa + 4];
-            // Scale by the largest component first, so huge components do not overflow.
-            let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            if m.is_nan() || m <= 0.0 {
-                return Err(format!(
-                    "{}.quat is zero: set a non-zero orientation quaternion",
-                    j.name
-                ));
-            }
-            q.iter_mut().for_each(|x| *x /= m);
-            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-            q.iter_mut().for_each(|x| *x /= n);
+        let quaternions: Vec<(usize, String)> = named_quaternions(&self.model.tree)
+            .into_iter()
+            .map(|(i, name)| (i, name.to_string()))
+            .collect();
+        // Checked before any is changed, so a refusal leaves every quaternion as set.
+        if let Some((_, name)) = quaternions
+            .iter()
+            .find(|(i, _)| !normalize_quaternion(&mut self.current.state.q[*i..*i + 4].to_vec()))
+        {
+            return Err(format!(
+                "{name}.quat is zero: set a non-zero orientation quaternion"
+            ));
+        }
+        for (i, _) in &quaternions {
+            normalize_quaternion(&mut self.current.state.q[*i..*i + 4]);
         }
         self.outputs = None;
         self.messages.push(LogMessage {

@@ -245,14 +245,27 @@ impl FmiModel for Simulation {
     fn event_update(&mut self) -> ModelResult<bool> {
         // Project the quaternions that left the unit sphere; one already unit (to rounding)
         // keeps its bits, so an event without drift changes no state.
+        // A zero quaternion (set a component at a time by value reference) has no direction:
+        // it is left as set, said in the log, and the forward dynamics refuses it until the
+        // host sets an orientation.
         let mut changed = false;
-        for i in self.quaternions() {
+        let mut zero = Vec::new();
+        for (i, name) in named_quaternions(&self.model.tree) {
             let q = &mut self.current.state.q[i..i + 4];
             let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
             if (n - 1.0).abs() > 4.0 * f64::EPSILON {
-                q.iter_mut().for_each(|x| *x /= n);
-                changed = true;
+                if normalize_quaternion(q) {
+                    changed = true;
+                } else {
+                    zero.push(name.to_string());
+                }
             }
+        }
+        for name in zero {
+            self.messages.push(LogMessage {
+                category: LogCategory::StatusWarning,
+                text: format!("{name}.quat is zero at the event: left as set; set a non-zero orientation quaternion before the next step"),
+            });
         }
         if changed {
             self.outputs = None;
