@@ -225,6 +225,116 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
     }
 }
 
+/// Unions of spheres and capsules (gymnasium's humanoid's torso and lower arm, `geometry::rounded`):
+/// whenever the proof settles the pair, the unpruned reference pushes less than the bound, and
+/// the proof settles them from a few centimetres apart (before the union certificate it needed
+/// thousands of region tests at 16 cm, and gave up).
+#[test]
+fn unions_of_spheres_and_capsules_are_settled_from_a_few_centimetres() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use scm::geometry::union::sample_union;
+    let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| {
+        let axis = b - a;
+        (
+            Shape::Capsule {
+                radius,
+                half_length: axis.norm() / 2.0,
+            },
+            Isometry3::from_parts(
+                Translation3::from((a + b) / 2.0),
+                UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
+            ),
+        )
+    };
+    let sphere = |c: Vector3<f64>, radius: f64| {
+        (
+            Shape::Sphere { radius },
+            Isometry3::translation(c.x, c.y, c.z),
+        )
+    };
+    let v = Vector3::new;
+    let torso_geoms = vec![
+        capsule(v(0.0, -0.07, 0.0), v(0.0, 0.07, 0.0), 0.07),
+        sphere(v(0.0, 0.0, 0.19), 0.09),
+        capsule(v(-0.01, -0.06, -0.12), v(-0.01, 0.06, -0.12), 0.06),
+    ];
+    let arm_geoms = vec![
+        capsule(v(0.01, 0.01, 0.01), v(0.17, 0.17, 0.17), 0.031),
+        sphere(v(0.18, 0.18, 0.18), 0.04),
+    ];
+    let torso_sdf = |x: &Vector3<f64>| {
+        torso_geoms
+            .iter()
+            .map(|(s, p)| s.sdf(&p.inverse_transform_vector(&(x - p.translation.vector))))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let spacing = 0.01;
+    let torso = Collider::Aopc(sample_union(&torso_geoms, spacing));
+    let arm_cloud = sample_union(&arm_geoms, spacing);
+    let arm = Collider::Aopc(arm_cloud.clone());
+    let prm = params(1e-5, 1e-4);
+    let mut rng = Lcg(16);
+    let (mut apart, mut settled, mut proven) = (0, 0, 0);
+    for case in 0..48 {
+        let rotation =
+            Rotation3::from_axis_angle(&Unit::new_normalize(rng.direction()), rng.range(-3.0, 3.0))
+                .into_inner();
+        let dir = rng.direction();
+        // Push the arm out along `dir` until it clears the torso by the case's gap.
+        let want = rng.range(0.0, 0.2);
+        let gap_at = |d: f64| {
+            arm_cloud
+                .points
+                .iter()
+                .map(|p| torso_sdf(&(rotation * p + dir * d)))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if gap_at(mid) < want {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let fa = Frame {
+            rotation,
+            origin: dir * hi,
+            linvel: rng.direction() * rng.range(0.0, 0.3),
+            angvel: rng.direction() * rng.range(0.0, 1.0),
+        };
+        let fb = Frame::identity();
+        let far = is_far(&arm, &fa, &torso, &fb, &prm);
+        if want > 0.05 {
+            apart += 1;
+            settled += far as usize;
+        }
+        if !far {
+            continue;
+        }
+        proven += 1;
+        if want > 0.08 {
+            continue; // the reference costs I1·I2: checked where the proof is least obvious
+        }
+        let speed = fa.linvel.norm() + fa.angvel.norm() * 0.6;
+        let bound = force_bound(&prm, 0.6 + want, speed);
+        let n = pair_contact_naive(&arm, &fa, &torso, &fb, &prm);
+        for w in [&n.on_a, &n.on_b] {
+            assert!(
+                w.force.norm() <= bound && w.torque.norm() <= bound * 0.6,
+                "case {case}: gap {want}: out of reach, yet the reference pushes with {:e} N (bound {bound:e} N)",
+                w.force.norm()
+            );
+        }
+    }
+    println!("unions: settled {settled} of {apart} more than 5 cm apart; {proven} proven in all");
+    assert!(
+        settled * 10 >= apart * 9,
+        "unions more than 5 cm apart: only {settled} of {apart} settled"
+    );
+}
+
 /// Three bodies floating apart above a floor: the dynamics skip every pair (no contact is
 /// evaluated, and the accelerations are exactly the contact-free ones), while the outputs
 /// still give each pair's smooth distance, equal to the pair's own evaluation.

@@ -235,6 +235,13 @@ pub(super) fn aopc_exceeds(
             return (true, hint);
         }
     }
+    // So does a union of spheres and capsules (`geometry::rounded`), member by member, over a
+    // region outside all of them.
+    if let (Some(v), Some(un)) = (vmax, &bvh.rounded) {
+        if un.settles(c, |a| q.lower_distance_to(a), m1, band_need(t, v)) {
+            return (true, hint);
+        }
+    }
     // So does a sampled box, face by face (`geometry::cuboid`), over the box of the region's
     // coordinates along the box's axes.
     if let (Some(v), Some(cub)) = (vmax, &bvh.cuboid) {

@@ -23,6 +23,9 @@ pub struct Aopc {
     pub faces: Vec<[u32; 4]>,
     /// The hierarchy over `points`, built on first use.
     bvh: OnceLock<Arc<Bvh>>,
+    /// The certificate of a union of spheres and capsules ([`super::rounded`]), set by
+    /// [`super::union::sample_union`]; dropped by any change of the points.
+    rounded: Option<Arc<super::rounded::Rounded>>,
 }
 
 impl PartialEq for Aopc {
@@ -51,6 +54,7 @@ impl Aopc {
             vertices,
             faces,
             bvh: OnceLock::new(),
+            rounded: None,
         }
     }
 
@@ -63,13 +67,22 @@ impl Aopc {
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
             b.set_surface(&self.points, &self.normals, &self.vertices, &self.faces);
+            b.rounded = self.rounded.clone();
             Arc::new(b)
         })
     }
 
-    /// Forgets the hierarchy (after changing the points or normals).
+    /// Forgets the hierarchy (after changing the points or normals), and the rounded union's
+    /// certificate, which held for the old points only.
     pub fn invalidate(&mut self) {
         self.bvh = OnceLock::new();
+        self.rounded = None;
+    }
+
+    /// Attaches the certificate of a rounded union (before the hierarchy is built).
+    pub(super) fn set_rounded(&mut self, rounded: Option<super::rounded::Rounded>) {
+        self.bvh = OnceLock::new();
+        self.rounded = rounded.map(Arc::new);
     }
 
     /// Number of points `I`.

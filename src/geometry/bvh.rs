@@ -134,6 +134,9 @@ pub struct Bvh {
     /// The cloud's spine certificate, if it is a sampled capsule ([`super::spine`]); `None`
     /// until [`Bvh::set_surface`].
     pub spine: Option<super::spine::Spine>,
+    /// The certificate of a union of spheres and capsules ([`super::rounded`]), if the cloud
+    /// is one.
+    pub rounded: Option<std::sync::Arc<super::rounded::Rounded>>,
 }
 
 impl Bvh {

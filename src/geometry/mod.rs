@@ -9,6 +9,7 @@ pub mod cuboid;
 pub mod mesh;
 pub mod patch;
 pub mod radial;
+pub mod rounded;
 pub mod shapes;
 pub mod spine;
 pub mod ssdf;

@@ -13,6 +13,7 @@
 //! them, so that no quad straddles it: the union of aligned boxes (the T-block) is meshed exactly,
 //! with the same quads as one box wherever the union is one box.
 
+use super::rounded::{find_rounded, MemberSampling};
 use super::shapes::{sample_box, Shape};
 use super::Aopc;
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -25,6 +26,8 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
         .fold(spacing, f64::max);
     let tol = 1e-9 * size;
     let mut out = Aopc::default();
+    // Per geom: its full sampling and what became of each quad (the rounded certificate).
+    let mut fates: Vec<(Aopc, Vec<Option<Vector3<f64>>>)> = Vec::new();
     for (k, (shape, pose)) in geoms.iter().enumerate() {
         let local = match shape {
             Shape::Box { half } if geoms.len() > 1 => {
@@ -56,6 +59,7 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
                     }
                 })
         };
+        let mut fate = Vec::with_capacity(part.faces.len());
         for (f, face) in part.faces.iter().enumerate() {
             let (p, n) = (part.points[f], part.normals[f]);
             let c = face.map(|i| part.vertices[i as usize]);
@@ -73,6 +77,7 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
             let nk = kept.iter().filter(|&&b| b).count();
             if nk == 16 && keep(&p, &n) {
                 out.push_face(c, p, n, part.areas[f]);
+                fate.push(Some(p));
             } else if nk > 0 {
                 // Straddling: keep the part outside.
                 let all = subs.iter().fold(Vector3::zeros(), |a, s| a + s) / 16.0;
@@ -83,10 +88,28 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
                     .fold(Vector3::zeros(), |a, (s, _)| a + s)
                     / nk as f64;
                 out.push_face(c, p + (mine - all), n, part.areas[f] * nk as f64 / 16.0);
+                fate.push(Some(p + (mine - all)));
+            } else {
+                fate.push(None);
             }
         }
+        fates.push((part, fate));
     }
     out.weld(tol);
+    if geoms.len() > 1 {
+        let members: Vec<MemberSampling> = geoms
+            .iter()
+            .zip(fates)
+            .map(|((shape, pose), (full, kept))| MemberSampling {
+                shape,
+                pose,
+                full,
+                kept,
+            })
+            .collect();
+        let rounded = find_rounded(&members, &out.points);
+        out.set_rounded(rounded);
+    }
     out
 }
 
