@@ -24,8 +24,9 @@ pub struct Aopc {
     /// The hierarchy over `points`, built on first use.
     bvh: OnceLock<Arc<Bvh>>,
     /// The certificate of a union of spheres and capsules ([`super::rounded`]), set by
-    /// [`super::union::sample_union`]; dropped by any change of the points.
-    rounded: Option<Arc<super::rounded::Rounded>>,
+    /// [`super::union::sample_union`], with a fingerprint of the points and normals it holds
+    /// for: the hierarchy takes it only while they are unchanged (the fields are public).
+    rounded: Option<(u64, Arc<super::rounded::Rounded>)>,
 }
 
 impl PartialEq for Aopc {
@@ -67,7 +68,11 @@ impl Aopc {
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
             b.set_surface(&self.points, &self.normals, &self.vertices, &self.faces);
-            b.rounded = self.rounded.clone();
+            b.rounded = self
+                .rounded
+                .as_ref()
+                .filter(|(f, _)| *f == fingerprint(&self.points, &self.normals))
+                .map(|(_, r)| r.clone());
             Arc::new(b)
         })
     }
@@ -82,7 +87,8 @@ impl Aopc {
     /// Attaches the certificate of a rounded union (before the hierarchy is built).
     pub(super) fn set_rounded(&mut self, rounded: Option<super::rounded::Rounded>) {
         self.bvh = OnceLock::new();
-        self.rounded = rounded.map(Arc::new);
+        let f = fingerprint(&self.points, &self.normals);
+        self.rounded = rounded.map(|r| (f, Arc::new(r)));
     }
 
     /// Number of points `I`.
@@ -261,6 +267,18 @@ pub fn z_to(dir: &Vector3<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::rotation_between(&Vector3::z(), dir).unwrap_or_else(|| {
         UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
     })
+}
+
+/// A hash of the bits of `points` and `normals` (and their number): what a certificate computed
+/// from them was computed from.
+fn fingerprint(points: &[Vector3<f64>], normals: &[Vector3<f64>]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    points.len().hash(&mut h);
+    for v in points.iter().chain(normals) {
+        v.iter().for_each(|x| x.to_bits().hash(&mut h));
+    }
+    h.finish()
 }
 
 #[cfg(test)]
