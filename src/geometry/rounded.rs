@@ -44,7 +44,7 @@
 use super::bvh::Bvh;
 use super::radial::find_radial;
 use super::shapes::Shape;
-use super::spine::find_spine;
+use super::spine::{find_spine, nearest_on_segment};
 use super::Aopc;
 use nalgebra::{Isometry3, Point3, Vector3};
 
@@ -79,13 +79,7 @@ pub struct Rounded {
 impl RoundMember {
     /// The point of the segment nearest to `x`.
     pub fn nearest(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        let axis = self.end - self.start;
-        let len2 = axis.norm_squared();
-        if len2 == 0.0 {
-            return self.start;
-        }
-        let t = (axis.dot(&(x - self.start)) / len2).clamp(0.0, 1.0);
-        self.start + axis * t
+        nearest_on_segment(&self.start, &self.end, x)
     }
 
     /// A lower bound of `n_iᵀ(x - p_i)` over this member's points that can carry weight at

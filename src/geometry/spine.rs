@@ -58,13 +58,7 @@ pub struct Spine {
 impl Spine {
     /// The point of the segment nearest to `x`.
     pub fn nearest(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        let axis = self.end - self.start;
-        let len2 = axis.norm_squared();
-        if len2 == 0.0 {
-            return self.start;
-        }
-        let t = (axis.dot(&(x - self.start)) / len2).clamp(0.0, 1.0);
-        self.start + axis * t
+        nearest_on_segment(&self.start, &self.end, x)
     }
 
     /// A lower bound of `n_iᵀ(x - p_i)` over the points `i` that can carry weight at `x`
@@ -81,6 +75,21 @@ impl Spine {
         }
         s_lo.max(0.0) * slope - constant - 1e-12 * (s_lo.abs() + constant.abs())
     }
+}
+
+/// The point of the segment from `start` to `end` nearest to `x` (`start` when they coincide).
+pub fn nearest_on_segment(
+    start: &Vector3<f64>,
+    end: &Vector3<f64>,
+    x: &Vector3<f64>,
+) -> Vector3<f64> {
+    let axis = end - start;
+    let len2 = axis.norm_squared();
+    if len2 == 0.0 {
+        return *start;
+    }
+    let t = (axis.dot(&(x - start)) / len2).clamp(0.0, 1.0);
+    start + axis * t
 }
 
 /// Relative tolerance of the spine points' fit: a point's `p_i - R n_i` must lie this close
