@@ -260,8 +260,26 @@ impl<T: Scalar> SeparationDistribution<T> {
         Self::from_values(band.entries.iter().map(|e| e.phi), eps2)
     }
 
+    /// [`SeparationDistribution::from_band`], and each entry's weight before normalisation,
+    /// `exp(-(Φ_f - min)/ε2)` (0 where it underflows), computed once for the normaliser and
+    /// kept for the forces: `W_f` is that over [`SeparationDistribution::normaliser`].
+    pub fn from_band_weights(band: &SeparationBand<T>, eps2: T) -> (Self, Vec<T>) {
+        let mut weights = Vec::with_capacity(band.entries.len());
+        let dist = Self::build(band.entries.iter().map(|e| e.phi), eps2, |w| {
+            weights.push(w)
+        });
+        weights.resize(band.entries.len(), T::zero());
+        (dist, weights)
+    }
+
     /// Builds the distribution of field values (two streamed passes).
     pub fn from_values<I: Iterator<Item = T> + Clone>(values: I, eps2: T) -> Self {
+        Self::build(values, eps2, |_| {})
+    }
+
+    /// [`SeparationDistribution::from_values`], handing each value's weight before
+    /// normalisation to `keep` in order (none when the field is empty).
+    fn build<I: Iterator<Item = T> + Clone>(values: I, eps2: T, mut keep: impl FnMut(T)) -> Self {
         let min = values.clone().map(|p| p.re()).fold(f64::INFINITY, f64::min);
         if !min.is_finite() {
             // Empty field, or nothing to collide with: no contact.
@@ -279,9 +297,11 @@ impl<T: Scalar> SeparationDistribution<T> {
             // Past 746 ε2 the weight underflows to exactly 0 (derivatives too): skip exp's slow
             // underflow path; the sums are bit-for-bit the same.
             if phi.re() - min > 746.0 * e2 {
+                keep(T::zero());
                 continue;
             }
             let w = (-(phi - min) * inv).exp();
+            keep(w);
             sum += w;
             acc += w * phi;
         }

@@ -315,6 +315,7 @@ pub(super) fn for_each_force<T: Scalar>(
     rels: &[Relative<T>; 2],
     band: &SeparationBand<T>,
     dist: &SeparationDistribution<T>,
+    weights: &[T],
     prm: &ContactParams<T>,
     bounds: &mut Vec<(usize, f64)>,
     mut eval: impl FnMut(usize) -> f64,
@@ -323,7 +324,7 @@ pub(super) fn for_each_force<T: Scalar>(
     let cutoff = dist.min + band.margin * dist.eps.re();
     let fric = (1.0 + prm_re.friction * prm_re.friction).sqrt();
     let inv_vd = 1.0 / prm_re.dissipation_velocity.abs();
-    let (e2, norm) = (dist.eps.re(), dist.normaliser.re());
+    let norm = dist.normaliser.re();
     // Per side: rotation, origin velocity, angular velocities (real parts), the query AOPC and
     // the largest distance of a plane point from its body's origin.
     type Side<'s> = Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>, f64, &'s Aopc)>;
@@ -350,7 +351,7 @@ pub(super) fn for_each_force<T: Scalar>(
         let Some((rot, u, wq, spin, s)) = &sides[e.side as usize] else {
             continue;
         };
-        let w = (-(phi - dist.min) / e2).exp() / norm;
+        let w = weights[i].re() / norm;
         let spring = prm_re.stiffness.abs() * e.springs;
         if w == 0.0 || spring == 0.0 {
             continue; // zero or subnormal (doc of `pair_contact`)
@@ -404,13 +405,13 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         scratch,
         grads,
     );
-    let dist = SeparationDistribution::from_band(&band, prm.eps2);
+    let (dist, weights) = SeparationDistribution::from_band_weights(&band, prm.eps2);
     let mut sums = [SideSums::zero(), SideSums::zero()];
     if !dist.min.is_finite() {
         return PairParts { sums, band, dist };
     }
     let mut bounds = Vec::new();
-    for_each_force(a, b, rels, &band, &dist, prm, &mut bounds, |i| {
+    for_each_force(a, b, rels, &band, &dist, &weights, prm, &mut bounds, |i| {
         let e = &band.entries[i];
         let side = e.side as usize;
         let (query, planes) = if side == 0 { (a, b) } else { (b, a) };
@@ -424,7 +425,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         }
         let mut snk = sink();
         let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, scratch, &mut snk);
-        let w = dist.weight(0, e.phi);
+        let w = weights[i] / dist.normaliser;
         sums[side].add(&arm, &pf, w);
         let size = w.re() * re3(&pf.force).norm();
         on_force(i, w, &pf, snk);
