@@ -155,6 +155,86 @@ fn pruned_pair_matches_naive_on_random_configurations() {
     );
 }
 
+/// Unions of spheres and capsules (gymnasium's humanoid's torso and lower arm, whose planes the
+/// band walk bounds in closed form member by member, `geometry::rounded`): against each other and
+/// against a floor, from 2 cm deep to 20 cm apart, at sharp and scene ε.
+#[test]
+fn pruned_pair_of_rounded_unions_matches_naive() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use scm::geometry::union::sample_union;
+    let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| {
+        let axis = b - a;
+        (
+            Shape::Capsule {
+                radius,
+                half_length: axis.norm() / 2.0,
+            },
+            Isometry3::from_parts(
+                Translation3::from((a + b) / 2.0),
+                UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
+            ),
+        )
+    };
+    let v = Vector3::new;
+    let torso = Collider::Aopc(sample_union(
+        &[
+            capsule(v(0.0, -0.07, 0.0), v(0.0, 0.07, 0.0), 0.07),
+            (
+                Shape::Sphere { radius: 0.09 },
+                Isometry3::translation(0.0, 0.0, 0.19),
+            ),
+            capsule(v(-0.01, -0.06, -0.12), v(-0.01, 0.06, -0.12), 0.06),
+        ],
+        0.012,
+    ));
+    let arm = Collider::Aopc(sample_union(
+        &[
+            capsule(v(0.01, 0.01, 0.01), v(0.17, 0.17, 0.17), 0.031),
+            (
+                Shape::Sphere { radius: 0.04 },
+                Isometry3::translation(0.18, 0.18, 0.18),
+            ),
+        ],
+        0.012,
+    ));
+    let plane = Collider::HalfSpace {
+        point: Vector3::zeros(),
+        normal: Vector3::z(),
+    };
+    let Collider::Aopc(t) = &torso else {
+        unreachable!()
+    };
+    assert!(t.bvh().rounded.is_some(), "the torso is a rounded union");
+    let mut rng = Lcg(21);
+    for case in 0..12 {
+        let fb = random_frame(&mut rng, Vector3::zeros());
+        let (b, fb) = if case % 3 == 2 {
+            (&plane, Frame::identity())
+        } else {
+            (&torso, fb)
+        };
+        // The arm's centre 0.2 to 0.5 m from the torso's (deep in it to well apart), or the
+        // arm 2 cm into the floor to 20 cm above it.
+        let origin = if case % 3 == 2 {
+            v(0.0, 0.0, rng.range(0.12, 0.45))
+        } else {
+            rng.direction() * rng.range(0.2, 0.5)
+        };
+        let fa = random_frame(&mut rng, origin);
+        for (eps1, eps2) in [(1e-5, 1e-3), (1e-7, 1e-5)] {
+            let prm = params(eps1, eps2);
+            let p = pair_contact(&arm, &fa, b, &fb, &prm);
+            let n = pair_contact_naive(&arm, &fa, b, &fb, &prm);
+            assert_close(
+                &p,
+                &n,
+                eps2,
+                &format!("case {case}, at {origin:?}, eps {eps1:e}/{eps2:e}"),
+            );
+        }
+    }
+}
+
 /// Fine spheres (whose planes the band walk bounds in closed form, `geometry::radial`) on a
 /// box and on a sphere, from just touching to 2 cm deep, at sharp and scene ε.
 #[test]
