@@ -63,31 +63,58 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
         for (f, face) in part.faces.iter().enumerate() {
             let (p, n) = (part.points[f], part.normals[f]);
             let c = face.map(|i| part.vertices[i as usize]);
-            // 4×4 sub-samples of the face (bilinear in its corners).
-            let subs: Vec<Vector3<f64>> = (0..16)
-                .map(|s| {
-                    let (u, v) = ((s % 4) as f64 / 4.0 + 0.125, (s / 4) as f64 / 4.0 + 0.125);
-                    c[0] * ((1.0 - u) * (1.0 - v))
-                        + c[1] * (u * (1.0 - v))
-                        + c[2] * (u * v)
-                        + c[3] * ((1.0 - u) * v)
-                })
-                .collect();
-            let kept: Vec<bool> = subs.iter().map(|s| keep(s, &n)).collect();
-            let nk = kept.iter().filter(|&&b| b).count();
-            if nk == 16 && keep(&p, &n) {
+            // Sub-samples of the face (bilinear in its corners), on a curved shape moved onto its
+            // surface: a chord's points lie inside by the sagitta, so where another geom's
+            // surface coincides with this one (two capsules' caps around one joint) they read as
+            // inside it, and the face was dropped from both geoms. 4×4 of them classify the
+            // face; one that straddles another geom is measured again with 16×16, so that the
+            // part kept (its area, its centroid) is within a sixteenth of a row of the cut.
+            let sub_samples = |rows: usize| -> Vec<Vector3<f64>> {
+                (0..rows * rows)
+                    .map(|s| {
+                        let (u, v) = (
+                            ((s % rows) as f64 + 0.5) / rows as f64,
+                            ((s / rows) as f64 + 0.5) / rows as f64,
+                        );
+                        onto_surface(
+                            shape,
+                            pose,
+                            c[0] * ((1.0 - u) * (1.0 - v))
+                                + c[1] * (u * (1.0 - v))
+                                + c[2] * (u * v)
+                                + c[3] * ((1.0 - u) * v),
+                            size,
+                        )
+                    })
+                    .collect()
+            };
+            let mut subs = sub_samples(4);
+            let mut kept: Vec<bool> = subs.iter().map(|s| keep(s, &n)).collect();
+            let mut nk = kept.iter().filter(|&&b| b).count();
+            if nk > 0 && nk < 16 {
+                subs = sub_samples(16);
+                kept = subs.iter().map(|s| keep(s, &n)).collect();
+                nk = kept.iter().filter(|&&b| b).count().max(1);
+            }
+            let rows2 = subs.len();
+            if nk == rows2 && keep(&p, &n) {
                 out.push_face(c, p, n, part.areas[f]);
                 fate.push(Some(p));
             } else if nk > 0 {
                 // Straddling: keep the part outside.
-                let all = subs.iter().fold(Vector3::zeros(), |a, s| a + s) / 16.0;
+                let all = subs.iter().fold(Vector3::zeros(), |a, s| a + s) / rows2 as f64;
                 let mine = subs
                     .iter()
                     .zip(&kept)
                     .filter(|(_, &b)| b)
                     .fold(Vector3::zeros(), |a, (s, _)| a + s)
-                    / nk as f64;
-                out.push_face(c, p + (mine - all), n, part.areas[f] * nk as f64 / 16.0);
+                    / kept.iter().filter(|&&b| b).count().max(1) as f64;
+                out.push_face(
+                    c,
+                    p + (mine - all),
+                    n,
+                    part.areas[f] * nk as f64 / rows2 as f64,
+                );
                 fate.push(Some(p + (mine - all)));
             } else {
                 fate.push(None);
@@ -111,6 +138,20 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
         out.set_rounded(rounded);
     }
     out
+}
+
+/// `x` (body frame) moved along the shape's SDF gradient onto its surface, for the shapes whose
+/// SDF is exact and whose surface is curved (sphere, capsule, cylinder); `x` itself otherwise.
+fn onto_surface(shape: &Shape, pose: &Isometry3<f64>, x: Vector3<f64>, size: f64) -> Vector3<f64> {
+    if !matches!(
+        shape,
+        Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. }
+    ) {
+        return x;
+    }
+    let q = (pose.inverse() * Point3::from(x)).coords;
+    let g = shape.sdf_gradient(&q, 1e-6 * size);
+    (pose * Point3::from(q - g * shape.sdf(&q))).coords
 }
 
 /// Extra grid lines for box `k` (half-extents `half`, pose `pose`): for every other box whose
