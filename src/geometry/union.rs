@@ -3,11 +3,16 @@
 //! Each geom is sampled on its own, then every face is classified against the other geoms:
 //! - strictly inside another geom: dropped (interior points ruin the SSDF, paper Experiments A);
 //! - on another geom's surface with the same outward normal (coplanar duplicate, e.g. two boxes
-//!   flush on one side): kept once, by the geom that comes first;
+//!   flush on one side, or the caps of two capsules of one radius meeting at a joint): kept
+//!   once, by the geom that comes first;
 //! - on another geom's surface with the opposite normal (two geoms touching face to face): that
 //!   surface is inside the union, dropped from both;
 //! - straddling another geom's boundary: only the part outside is kept (the face's area is cut
-//!   to it and its point moved to that part's centroid, from a 4×4 sub-sampling).
+//!   to it and its point moved to that part's centroid, from a 16×16 sub-sampling).
+//!
+//! A face is classified by 4×4 sub-samples, those of a sphere, capsule or cylinder moved onto
+//! its surface (a chord's points lie inside it, and would read as inside a coinciding surface);
+//! a face that straddles is measured again on 16×16.
 //!
 //! Boxes whose axes align with another box get extra grid lines where that box's faces cross
 //! them, so that no quad straddles it: the union of aligned boxes (the T-block) is meshed exactly,
