@@ -461,6 +461,14 @@ fn capsules_meeting_at_their_ends_keep_the_joint_once() {
         capsule(v(0.0, 0.1, 0.0), v(0.1, 0.1, 0.0)),
     ];
     let s = sample_union(&parts, 0.0078);
+    // Every point on the union's surface (to the chord's sagitta), none inside or astray.
+    for p in &s.points {
+        let d = parts
+            .iter()
+            .map(|(shape, pose)| shape.sdf(&(pose.inverse() * nalgebra::Point3::from(*p)).coords))
+            .fold(f64::INFINITY, f64::min);
+        assert!(d.abs() < 1e-3, "a point {d} m off the surface: {p:?}");
+    }
     let (exact, _) = union_volume(&parts);
     let volume = s.enclosed_volume();
     assert!(

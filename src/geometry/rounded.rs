@@ -311,6 +311,13 @@ mod tests {
         for geoms in unions() {
             for spacing in [0.02, 0.008] {
                 let s = sample_union(&geoms, spacing);
+                // Every point on the union's surface (to the chord's sagitta).
+                for p in &s.points {
+                    assert!(
+                        outside(&geoms, p).abs() < spacing,
+                        "a point off the surface"
+                    );
+                }
                 let c = s.bvh().rounded.as_ref().expect("a rounded union");
                 assert_eq!(c.members.len(), geoms.len());
                 // The covering radius is about a cell, more where the cut moved points.

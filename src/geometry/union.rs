@@ -97,9 +97,14 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
             let mut kept: Vec<bool> = subs.iter().map(|s| keep(s, &n)).collect();
             let mut nk = kept.iter().filter(|&&b| b).count();
             if nk > 0 && nk < 16 {
-                subs = sub_samples(16);
-                kept = subs.iter().map(|s| keep(s, &n)).collect();
-                nk = kept.iter().filter(|&&b| b).count().max(1);
+                let fine = sub_samples(16);
+                let fine_kept: Vec<bool> = fine.iter().map(|s| keep(s, &n)).collect();
+                let fine_nk = fine_kept.iter().filter(|&&b| b).count();
+                // A sliver the finer grid misses keeps the coarse measure (a part kept must
+                // have kept sub-samples to place its point at).
+                if fine_nk > 0 {
+                    (subs, kept, nk) = (fine, fine_kept, fine_nk);
+                }
             }
             let rows2 = subs.len();
             if nk == rows2 && keep(&p, &n) {
@@ -113,7 +118,7 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
                     .zip(&kept)
                     .filter(|(_, &b)| b)
                     .fold(Vector3::zeros(), |a, (s, _)| a + s)
-                    / kept.iter().filter(|&&b| b).count().max(1) as f64;
+                    / nk as f64;
                 out.push_face(
                     c,
                     p + (mine - all),
