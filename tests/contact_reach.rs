@@ -231,37 +231,9 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
 /// thousands of region tests at 16 cm, and gave up).
 #[test]
 fn unions_of_spheres_and_capsules_are_settled_from_a_few_centimetres() {
-    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use crate::common::{humanoid_lower_arm, humanoid_torso};
     use scm::geometry::union::sample_union;
-    let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| {
-        let axis = b - a;
-        (
-            Shape::Capsule {
-                radius,
-                half_length: axis.norm() / 2.0,
-            },
-            Isometry3::from_parts(
-                Translation3::from((a + b) / 2.0),
-                UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
-            ),
-        )
-    };
-    let sphere = |c: Vector3<f64>, radius: f64| {
-        (
-            Shape::Sphere { radius },
-            Isometry3::translation(c.x, c.y, c.z),
-        )
-    };
-    let v = Vector3::new;
-    let torso_geoms = vec![
-        capsule(v(0.0, -0.07, 0.0), v(0.0, 0.07, 0.0), 0.07),
-        sphere(v(0.0, 0.0, 0.19), 0.09),
-        capsule(v(-0.01, -0.06, -0.12), v(-0.01, 0.06, -0.12), 0.06),
-    ];
-    let arm_geoms = vec![
-        capsule(v(0.01, 0.01, 0.01), v(0.17, 0.17, 0.17), 0.031),
-        sphere(v(0.18, 0.18, 0.18), 0.04),
-    ];
+    let (torso_geoms, arm_geoms) = (humanoid_torso(), humanoid_lower_arm());
     let torso_sdf = |x: &Vector3<f64>| {
         torso_geoms
             .iter()

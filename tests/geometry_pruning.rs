@@ -160,43 +160,11 @@ fn pruned_pair_matches_naive_on_random_configurations() {
 /// against a floor, from 2 cm deep to 20 cm apart, at sharp and scene ε.
 #[test]
 fn pruned_pair_of_rounded_unions_matches_naive() {
-    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use crate::common::{humanoid_lower_arm, humanoid_torso};
     use scm::geometry::union::sample_union;
-    let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| {
-        let axis = b - a;
-        (
-            Shape::Capsule {
-                radius,
-                half_length: axis.norm() / 2.0,
-            },
-            Isometry3::from_parts(
-                Translation3::from((a + b) / 2.0),
-                UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
-            ),
-        )
-    };
     let v = Vector3::new;
-    let torso = Collider::Aopc(sample_union(
-        &[
-            capsule(v(0.0, -0.07, 0.0), v(0.0, 0.07, 0.0), 0.07),
-            (
-                Shape::Sphere { radius: 0.09 },
-                Isometry3::translation(0.0, 0.0, 0.19),
-            ),
-            capsule(v(-0.01, -0.06, -0.12), v(-0.01, 0.06, -0.12), 0.06),
-        ],
-        0.012,
-    ));
-    let arm = Collider::Aopc(sample_union(
-        &[
-            capsule(v(0.01, 0.01, 0.01), v(0.17, 0.17, 0.17), 0.031),
-            (
-                Shape::Sphere { radius: 0.04 },
-                Isometry3::translation(0.18, 0.18, 0.18),
-            ),
-        ],
-        0.012,
-    ));
+    let torso = Collider::Aopc(sample_union(&humanoid_torso(), 0.012));
+    let arm = Collider::Aopc(sample_union(&humanoid_lower_arm(), 0.012));
     let plane = Collider::HalfSpace {
         point: Vector3::zeros(),
         normal: Vector3::z(),

@@ -441,19 +441,7 @@ fn union_with_curved_geoms_drops_inside_faces() {
 /// chord's sagitta, and the gripper lost 14.5 % of its volume), and the surface closes.
 #[test]
 fn capsules_meeting_at_their_ends_keep_the_joint_once() {
-    let capsule = |a: Vector3<f64>, b: Vector3<f64>| {
-        let axis = b - a;
-        (
-            Shape::Capsule {
-                radius: 0.02,
-                half_length: axis.norm() / 2.0,
-            },
-            Isometry3::from_parts(
-                Translation3::from((a + b) / 2.0),
-                UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
-            ),
-        )
-    };
+    let capsule = |a, b| crate::common::capsule(a, b, 0.02);
     let v = Vector3::new;
     let parts = [
         capsule(v(0.0, -0.1, 0.0), v(0.0, 0.1, 0.0)),

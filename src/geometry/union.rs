@@ -150,18 +150,26 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
     out
 }
 
-/// `x` (body frame) moved along the shape's SDF gradient onto its surface, for the shapes whose
-/// SDF is exact and whose surface is curved (sphere, capsule, cylinder); `x` itself otherwise.
+/// `x` (body frame) moved onto the shape's curved surface: along the SDF gradient for a sphere
+/// or a capsule (their SDFs are exact and smooth off the centre and the axis), radially for a
+/// point of a cylinder's side (inside, its SDF is the nearer of side and cap, which near the
+/// rim would move a side's point onto the cap's plane); `x` itself otherwise (flat faces).
 fn onto_surface(shape: &Shape, pose: &Isometry3<f64>, x: Vector3<f64>, size: f64) -> Vector3<f64> {
-    if !matches!(
-        shape,
-        Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Cylinder { .. }
-    ) {
-        return x;
-    }
     let q = (pose.inverse() * Point3::from(x)).coords;
-    let g = shape.sdf_gradient(&q, 1e-6 * size);
-    (pose * Point3::from(q - g * shape.sdf(&q))).coords
+    let on = match shape {
+        Shape::Sphere { .. } | Shape::Capsule { .. } => {
+            q - shape.sdf_gradient(&q, 1e-6 * size) * shape.sdf(&q)
+        }
+        Shape::Cylinder {
+            radius,
+            half_length,
+        } if q.z.abs() < half_length * (1.0 - 1e-9) && q.xy().norm() > 0.0 => {
+            let s = radius / q.xy().norm();
+            Vector3::new(q.x * s, q.y * s, q.z)
+        }
+        _ => return x,
+    };
+    (pose * Point3::from(on)).coords
 }
 
 /// Extra grid lines for box `k` (half-extents `half`, pose `pose`): for every other box whose

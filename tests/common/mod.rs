@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use scm::geometry::Shape;
 use std::path::PathBuf;
 
 #[cfg(all(
@@ -98,4 +100,47 @@ pub fn static_lift(
         .zip(&w)
         .map(|(f, w)| w / sum * prm.stiffness * scm::scalar::softplus(-f, prm.eps3))
         .sum::<f64>()
+}
+
+/// A capsule between two points (body frame), as MuJoCo's `fromto` gives one.
+pub fn capsule(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
+    let axis = b - a;
+    (
+        Shape::Capsule {
+            radius,
+            half_length: axis.norm() / 2.0,
+        },
+        Isometry3::from_parts(
+            Translation3::from((a + b) / 2.0),
+            UnitQuaternion::rotation_between(&Vector3::z(), &axis).unwrap(),
+        ),
+    )
+}
+
+/// A sphere at `c` (body frame).
+pub fn sphere(c: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
+    (
+        Shape::Sphere { radius },
+        Isometry3::translation(c.x, c.y, c.z),
+    )
+}
+
+/// Gymnasium's humanoid's torso: a capsule, the head's sphere apart from it, and the upper
+/// waist's capsule cutting into it.
+pub fn humanoid_torso() -> Vec<(Shape, Isometry3<f64>)> {
+    let v = Vector3::new;
+    vec![
+        capsule(v(0.0, -0.07, 0.0), v(0.0, 0.07, 0.0), 0.07),
+        sphere(v(0.0, 0.0, 0.19), 0.09),
+        capsule(v(-0.01, -0.06, -0.12), v(-0.01, 0.06, -0.12), 0.06),
+    ]
+}
+
+/// Gymnasium's humanoid's lower arm: a capsule and the hand's sphere, overlapping.
+pub fn humanoid_lower_arm() -> Vec<(Shape, Isometry3<f64>)> {
+    let v = Vector3::new;
+    vec![
+        capsule(v(0.01, 0.01, 0.01), v(0.17, 0.17, 0.17), 0.031),
+        sphere(v(0.18, 0.18, 0.18), 0.04),
+    ]
 }
