@@ -550,12 +550,24 @@ fn named_quaternions(tree: &Tree) -> Vec<(usize, &str)> {
 /// components do not overflow and tiny ones do not underflow. A zero (or non-finite) quaternion
 /// has no direction: it is left as it is and `false` returned.
 fn normalize_quaternion(q: &mut [f64]) -> bool {
-    let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    if !(m.is_finite() && m > 0.0) {
+    if !has_direction(q) {
         return false;
     }
+    let m = largest(q);
     q.iter_mut().for_each(|x| *x /= m);
     let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
     q.iter_mut().for_each(|x| *x /= n);
     true
+}
+
+/// The largest magnitude of a quaternion's components (NaN components ignored).
+fn largest(q: &[f64]) -> f64 {
+    q.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// Whether [`normalize_quaternion`] can scale `q` to unit length (its largest component is
+/// finite and not zero).
+fn has_direction(q: &[f64]) -> bool {
+    let m = largest(q);
+    m.is_finite() && m > 0.0
 }

@@ -133,7 +133,11 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
         fates.push((part, fate));
     }
     out.weld(tol);
-    if geoms.len() > 1 {
+    // Only a union of spheres and capsules has the rounded certificate: no work for others.
+    let rounded = geoms
+        .iter()
+        .all(|(s, _)| matches!(s, Shape::Sphere { .. } | Shape::Capsule { .. }));
+    if geoms.len() > 1 && rounded {
         let members: Vec<MemberSampling> = geoms
             .iter()
             .zip(fates)

@@ -110,21 +110,18 @@ impl Simulation {
     /// one is refused). Stepping without it is allowed; the FMU calls it at
     /// `fmi2ExitInitializationMode`.
     pub fn initialize(&mut self) -> ModelResult<()> {
-        let quaternions: Vec<(usize, String)> = named_quaternions(&self.model.tree)
-            .into_iter()
-            .map(|(i, name)| (i, name.to_string()))
-            .collect();
+        let quaternions: Vec<usize> = self.quaternions();
         // Checked before any is changed, so a refusal leaves every quaternion as set.
-        if let Some((_, name)) = quaternions
-            .iter()
-            .find(|(i, _)| !normalize_quaternion(&mut self.current.state.q[*i..*i + 4].to_vec()))
+        if let Some((_, name)) = named_quaternions(&self.model.tree)
+            .into_iter()
+            .find(|(i, _)| !has_direction(&self.current.state.q[*i..*i + 4]))
         {
             return Err(format!(
                 "{name}.quat is zero: set a non-zero orientation quaternion"
             ));
         }
-        for (i, _) in &quaternions {
-            normalize_quaternion(&mut self.current.state.q[*i..*i + 4]);
+        for i in quaternions {
+            normalize_quaternion(&mut self.current.state.q[i..i + 4]);
         }
         self.outputs = None;
         self.messages.push(LogMessage {
