@@ -24,6 +24,11 @@ pub struct BandEntry<T> {
     /// Leaf-order index of the other body's point nearest to this one (`u32::MAX` against a
     /// half-space).
     pub nearest: u32,
+    /// The SSDF's terms at this point, `SeparationBand::terms[start..end]`, when the band was
+    /// asked to keep them and the entry could still be within the band's cutoff when it was
+    /// evaluated (every entry that ends within it is); `None` otherwise and against a
+    /// half-space.
+    pub terms: Option<(u32, u32)>,
 }
 
 /// The part of the separation field that can carry weight (module documentation): every
@@ -38,6 +43,11 @@ pub struct SeparationBand<T> {
     pub skipped: usize,
     /// `M2 = ln((I1 + I2)/τ)`: entries with `(Φ_f - Φ_min)/ε2 > M2` weigh less than τ/(I1 + I2).
     pub margin: f64,
+    /// The kept SSDF terms of the entries ([`BandEntry::terms`]): each plane's leaf-order index
+    /// and softmax weight `w_i = exp(-(d_i - d_min)/ε1)`, in summation order. The point–SSDF
+    /// force of an entry sums the same planes with the same weights, so it reads them here
+    /// instead of walking the hierarchy and computing each weight again.
+    pub terms: Vec<(u32, T)>,
 }
 
 /// Soft collision detection with pruning: the entries of the separation field that matter
@@ -51,12 +61,24 @@ pub fn separation_band<T: Scalar>(
     eps2: T,
 ) -> SeparationBand<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-    band_of(a, b, &rels, eps1, eps2, 0.0, &mut Relevant::default(), None)
+    band_of(
+        a,
+        b,
+        &rels,
+        eps1,
+        eps2,
+        0.0,
+        false,
+        &mut Relevant::default(),
+        None,
+    )
 }
 
 /// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
 /// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
-/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). With `grads`, the
+/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). With `keep_terms`,
+/// the SSDF terms of the entries that can end within the cutoff are kept
+/// ([`SeparationBand::terms`]). With `grads`, the
 /// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
 /// real parts) is pushed, in the order of the entries.
 #[allow(clippy::too_many_arguments)]
@@ -67,6 +89,7 @@ pub(crate) fn band_of<T: Scalar>(
     eps1: T,
     eps2: T,
     eps3: f64,
+    keep_terms: bool,
     scratch: &mut Relevant,
     mut grads: Option<&mut Vec<Vector3<f64>>>,
 ) -> SeparationBand<T> {
@@ -76,6 +99,7 @@ pub(crate) fn band_of<T: Scalar>(
         min: f64::INFINITY,
         skipped: 0,
         margin,
+        terms: Vec::new(),
     };
     let (e1, e2) = (re(eps1), re(eps2));
     // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
@@ -218,20 +242,37 @@ pub(crate) fn band_of<T: Scalar>(
                                     let hint = scratch.nearest;
                                     scratch.find(o, &crate::scalar::re3(&x), e1, hint);
                                 }
+                                let start = band.terms.len();
+                                let keep = keep_terms.then_some(&mut band.terms);
                                 let (phi, springs) = match grads.as_deref_mut() {
                                     Some(g) => {
                                         let mut sink = GradientSink::default();
                                         let (phi, w, springs) =
-                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut sink);
+                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut sink, keep);
                                         g.push(sink.gradient(phi.re(), w.re(), e1));
                                         (phi, springs)
                                     }
                                     None => {
-                                        let (phi, _, springs) =
-                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut NoSink);
+                                        let (phi, _, springs) = ssdf_over(
+                                            o,
+                                            &x,
+                                            eps1,
+                                            eps3,
+                                            scratch,
+                                            &mut NoSink,
+                                            keep,
+                                        );
                                         (phi, springs)
                                     }
                                 };
+                                // The minimum only falls, so an entry above the running
+                                // cutoff now stays above the final one: its terms are dropped.
+                                let terms = (keep_terms
+                                    && phi.re() <= band.min.min(phi.re()) + margin * e2)
+                                    .then_some((start as u32, band.terms.len() as u32));
+                                if terms.is_none() {
+                                    band.terms.truncate(start);
+                                }
                                 BandEntry {
                                     side,
                                     k,
@@ -239,6 +280,7 @@ pub(crate) fn band_of<T: Scalar>(
                                     dmin: scratch.dmin,
                                     springs,
                                     nearest: scratch.nearest as u32,
+                                    terms,
                                 }
                             }
                             Collider::HalfSpace { normal, .. } => {
@@ -258,6 +300,7 @@ pub(crate) fn band_of<T: Scalar>(
                                     dmin: f64::INFINITY,
                                     springs,
                                     nearest: u32::MAX,
+                                    terms: None,
                                 }
                             }
                         };

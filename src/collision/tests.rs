@@ -367,3 +367,95 @@ fn the_covering_bound_keeps_a_point_nearer_than_the_quads_reach() {
     }
     assert_eq!(tested, 40);
 }
+
+#[test]
+fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
+    // `band_of` with `keep_terms`: every entry that ends within the cutoff Φ_min + M2 ε2 (the
+    // entries whose point force can be evaluated) keeps its SSDF's terms, and they are that
+    // point's relevant set (as `Relevant::find` gives it alone) with the weights
+    // exp(-(d_i - d_min)/ε1), summing to the entry's Φ. A sharp ε1 (each point walks on its
+    // own) and a soft one (a leaf shares one ball), a sphere against a box at random
+    // overlapping poses.
+    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.006));
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.04, 0.03, 0.05),
+        }
+        .sample(0.006),
+    );
+    let mut s = 5u64;
+    let (mut kept, mut dropped) = (0, 0);
+    for case in 0..24 {
+        let eps1 = if case % 2 == 0 { 1e-7 } else { 3e-5 };
+        let eps2 = 2e-3;
+        let axis = vec3(&mut s).normalize();
+        let fa = Frame::<f64>::identity();
+        let fb = Frame {
+            rotation: *nalgebra::Rotation3::from_axis_angle(
+                &nalgebra::Unit::new_normalize(axis),
+                3.0 * lcg(&mut s),
+            )
+            .matrix(),
+            origin: vec3(&mut s) * 0.02 + Vector3::new(0.0, 0.0, 0.08),
+            ..Frame::identity()
+        };
+        let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+        let band = band_of(
+            &sphere,
+            &cube,
+            &rels,
+            eps1,
+            eps2,
+            1e-4,
+            true,
+            &mut Relevant::default(),
+            None,
+        );
+        let cutoff = band.min + band.margin * eps2;
+        for e in &band.entries {
+            let Some((from, to)) = e.terms else {
+                assert!(
+                    e.phi > cutoff,
+                    "case {case}: an entry within the cutoff lost its terms"
+                );
+                dropped += 1;
+                continue;
+            };
+            kept += 1;
+            let terms = &band.terms[from as usize..to as usize];
+            let (query, planes) = if e.side == 0 {
+                (&sphere, &cube)
+            } else {
+                (&cube, &sphere)
+            };
+            let (Collider::Aopc(q), Collider::Aopc(o)) = (query, planes) else {
+                unreachable!()
+            };
+            let rel = &rels[e.side as usize];
+            let x = rel.rotation * q.bvh().points[e.k as usize] + rel.translation;
+            let mut alone = Relevant::default();
+            alone.find(o, &x, eps1, usize::MAX);
+            let mut want: Vec<u32> = alone.items.iter().map(|&(k, _)| k).collect();
+            let mut got: Vec<u32> = terms.iter().map(|&(k, _)| k).collect();
+            want.sort_unstable();
+            got.sort_unstable();
+            assert_eq!(
+                got, want,
+                "case {case}: the kept planes are the relevant set"
+            );
+            let (mut z, mut acc) = (0.0, 0.0);
+            for &(k, w) in terms {
+                let r = x - o.bvh().points[k as usize];
+                let expect = (-(r.norm_squared() - alone.dmin) / eps1).exp();
+                assert!(
+                    (w - expect).abs() <= 1e-12 * expect.max(1e-300),
+                    "{w} vs {expect}"
+                );
+                z += w;
+                acc += w * o.bvh().normals[k as usize].dot(&r);
+            }
+            assert!((acc / z - e.phi).abs() <= 1e-12 * (1.0 + e.phi.abs()));
+        }
+    }
+    assert!(kept > 100 && dropped > 0, "kept {kept}, dropped {dropped}");
+}

@@ -136,7 +136,9 @@ impl ForceSink for NoForceSink {
 /// Point–SSDF force (paper eq. 23–24 with the sign corrected, docs/method.md): the softmin-weighted
 /// average of point–plane forces on a query point `x` with velocity `v_point` (plane body's
 /// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
-/// planes `rel` found relevant at `x` (the SSDF's pruning bound, [`Relevant`]).
+/// `terms` of the SSDF at `x`: each relevant plane's leaf-order index and softmax weight, as
+/// [`ssdf_over`] gives them (the SSDF's pruning bound, [`Relevant`]). Unused against a
+/// half-space.
 #[inline]
 pub(super) fn point_force<T: Scalar, S: ForceSink>(
     planes: &Collider,
@@ -144,7 +146,7 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
     v_point: &Vector3<T>,
     angvel_planes: &Vector3<T>,
     prm: &ContactParams<T>,
-    rel: &Relevant,
+    terms: &[(u32, T)],
     sink: &mut S,
 ) -> PointForce<T> {
     match planes {
@@ -163,13 +165,13 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
         }
         Collider::Aopc(s) => {
             let bvh = s.bvh();
-            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
-            let mut sum = SoftminSum::new(c(rel.dmin), prm.eps1);
-            for &(k, _) in &rel.items {
+            let (mut force, mut moment, mut weight) =
+                (Vector3::zeros(), Vector3::zeros(), T::zero());
+            for &(k, w) in terms {
                 let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
                 let p = lift3::<T>(q);
                 let r = x - p;
-                let w = sum.add(r.dot(&r));
+                weight += w;
                 let v = v_point - angvel_planes.cross(&p);
                 let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
                 force += lambda;
@@ -178,7 +180,7 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
                     sink.term(w.re(), &re3(&r), nq, q, &re3(&v));
                 }
             }
-            let inv = sum.weight.recip();
+            let inv = weight.recip();
             PointForce {
                 force: force * inv,
                 moment: moment * inv,
@@ -202,7 +204,7 @@ pub(super) fn point_force_naive<T: Scalar>(
             v_point,
             angvel_planes,
             prm,
-            &Relevant::default(),
+            &[],
             &mut NoForceSink,
         ),
         Collider::Aopc(s) => {
@@ -402,6 +404,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         prm.eps1,
         prm.eps2,
         prm.eps3.re(),
+        true,
         scratch,
         grads,
     );
@@ -420,11 +423,17 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         let arm = rel.rotation * lift3::<T>(&s.bvh().points[e.k as usize]);
         let x = arm + rel.translation;
         let v = rel.linvel + rel.angvel.cross(&arm);
-        if let Collider::Aopc(o) = planes {
-            scratch.find(o, &re3(&x), prm.eps1.re(), e.nearest as usize);
-        }
+        // The SSDF's terms, kept by the band for every entry that can end within its cutoff
+        // (`for_each_force` evaluates no other).
+        let terms = match (e.terms, planes) {
+            (Some((from, to)), _) => &band.terms[from as usize..to as usize],
+            (None, Collider::HalfSpace { .. }) => &[],
+            (None, Collider::Aopc(_)) => {
+                unreachable!("the band keeps the terms of every entry within its cutoff")
+            }
+        };
         let mut snk = sink();
-        let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, scratch, &mut snk);
+        let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, terms, &mut snk);
         let w = weights[i] / dist.normaliser;
         sums[side].add(&arm, &pf, w);
         let size = w.re() * re3(&pf.force).norm();

@@ -305,7 +305,9 @@ impl GradientSink {
 /// `(φ̂, Σ_i w_i)` with `w_i = exp(-(d_i - d_min)/ε1)`.
 ///
 /// With `eps3 > 0` it also bounds, from real parts, the point–plane springs these planes would
-/// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite.
+/// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite. With
+/// `terms`, each term's leaf-order index and weight `w_i` are pushed in summation order (the
+/// point–SSDF force at `p` sums the same terms with the same weights; `contact`).
 #[inline]
 pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     s: &Aopc,
@@ -314,6 +316,7 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     eps3: f64,
     rel: &Relevant,
     sink: &mut S,
+    mut terms: Option<&mut Vec<(u32, T)>>,
 ) -> (T, T, f64) {
     let bvh = s.bvh();
     let mut sum = SoftminSum::new(c(rel.dmin), eps1);
@@ -330,6 +333,9 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
         }
         if S::ON {
             sink.term(w.re(), &re3(&r), n, phi.re());
+        }
+        if let Some(t) = terms.as_deref_mut() {
+            t.push((k, w));
         }
     }
     let weight = sum.weight;
@@ -416,7 +422,7 @@ pub fn ssdf_weights_sum<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> (T, T) 
     }
     let mut rel = Relevant::default();
     rel.find(s, &re3(p), eps1.re(), usize::MAX);
-    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, &rel, &mut NoSink);
+    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, &rel, &mut NoSink, None);
     (phi, w)
 }
 
