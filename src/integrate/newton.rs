@@ -102,13 +102,34 @@ pub(super) fn newton<T: Scalar>(
             .map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)]))
             .collect();
         let dx_re = inf_norm(&re_vec(&dx));
+        // Converged, tested on the full step before the residual at its end is evaluated (that
+        // residual would serve the line search only; the caller's next step evaluates its first
+        // residual there): a full step within the tolerance; or, where this and the last full
+        // step with the same Jacobian show the iterations contracting at a rate θ < 1, the
+        // step's end within the tolerance of the solution, at most θ/(1-θ) times the step
+        // from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta codes,
+        // which saves the last iteration when the rate is fast).
+        let x_end: Vec<T> = (0..n).map(|i| x[i] - dx[i]).collect();
+        let scale_end = 1.0 + inf_norm(&re_vec(&x_end));
+        let theta = dx_re / last_dx;
+        let tail_small = last_full
+            && !fresh
+            && theta < 1.0
+            && theta / (1.0 - theta) * dx_re <= NEWTON_TOL * scale_end;
+        if dx_re <= NEWTON_TOL * scale_end || tail_small {
+            return Ok(x_end);
+        }
         // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
         // halve the step while the merit does not decrease enough.
         let merit = sq_norm(&re_vec(&r));
         let mut alpha = 1.0;
         let (mut x_new, mut r_new);
         loop {
-            x_new = (0..n).map(|i| x[i] - dx[i] * alpha).collect::<Vec<T>>();
+            x_new = if alpha == 1.0 {
+                x_end.clone()
+            } else {
+                (0..n).map(|i| x[i] - dx[i] * alpha).collect::<Vec<T>>()
+            };
             r_new = residual(&x_new);
             let ok = match &r_new {
                 Ok(rn) => {
@@ -131,23 +152,10 @@ pub(super) fn newton<T: Scalar>(
         if !inf_norm(&re_vec(&r)).is_finite() {
             return Err(fail(it, &r));
         }
-        // Converged: a tiny full Newton step; or, where two full steps in a row with the same
-        // Jacobian show the iterations contracting at a rate θ < 1, the new iterate's distance
-        // from the solution,
-        // at most θ/(1-θ) times the last step (a contraction's tail), tiny (the stopping rule of
-        // the implicit Runge–Kutta codes: it saves the last iteration when the rate is fast);
-        // or (with a Jacobian taken at this iterate) a small step that no longer contracts: the
-        // rounding floor of a stiff residual.
+        // Also converged: with a Jacobian taken at the last iterate, a small full step that no
+        // longer contracts (the rounding floor of a stiff residual).
         let contraction = step / last_dx;
-        let tail_small = last_full
-            && !fresh
-            && contraction < 1.0
-            && contraction / (1.0 - contraction) * step <= NEWTON_TOL * scale;
-        if alpha == 1.0
-            && (step <= NEWTON_TOL * scale
-                || tail_small
-                || (fresh && step <= 1e-7 * scale && contraction > 0.5))
-        {
+        if alpha == 1.0 && fresh && step <= 1e-7 * scale && contraction > 0.5 {
             return Ok(x);
         }
         // Slow contraction or a damped step: a fresh Jacobian next time.
@@ -261,5 +269,34 @@ mod tests {
                 evaluations.get()
             );
         }
+    }
+
+    /// Convergence is tested on the full step before the residual at its end is evaluated:
+    /// a linear residual with its exact Jacobian costs two residuals (the start, and the
+    /// solution, whose next step is below the tolerance), not a third at the last step's end;
+    /// a nonlinear one from a near start costs one per update taken.
+    #[test]
+    fn no_residual_is_evaluated_at_the_accepted_point() {
+        let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.0, 1.0, 3.0, -1.0, 0.0, -1.0, 2.0]);
+        let b = nalgebra::DVector::from_vec(vec![1.0, -2.0, 0.5]);
+        let evaluations = Cell::new(0);
+        let residual = |x: &[f64]| -> Result<Vec<f64>, DynamicsError> {
+            evaluations.set(evaluations.get() + 1);
+            let r = &a * nalgebra::DVector::from_column_slice(x) - &b;
+            Ok(r.iter().copied().collect())
+        };
+        let exact = |_: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(a.clone()) };
+        let mut jac = None;
+        let x = newton(&residual, &exact, vec![3.0, -1.0, 7.0], &mut jac).unwrap();
+        let solution = a.clone().lu().solve(&b).unwrap();
+        for i in 0..3 {
+            assert!((x[i] - solution[i]).abs() <= 1e-12);
+        }
+        assert_eq!(evaluations.get(), 2, "the start and the first update's end");
+        // From the solution itself: its first step is within the tolerance, one residual.
+        evaluations.set(0);
+        let again = newton(&residual, &exact, x.clone(), &mut jac).unwrap();
+        assert_eq!(evaluations.get(), 1);
+        assert!((0..3).all(|i| (again[i] - x[i]).abs() <= 1e-12));
     }
 }
