@@ -26,6 +26,22 @@ use super::*;
 /// the proof adds to a pair that is near without touching.
 pub const REACH_BUDGET: usize = 256;
 
+/// Scratch space of [`cloud_beyond`]'s walk. A step proves several pairs out of reach, each
+/// proof a short walk: kept per thread, the walk allocates nothing once its vectors have grown
+/// (with bodies out of reach, allocating them was a tenth of the step).
+#[derive(Default)]
+struct Walk {
+    /// Open nodes of the other hierarchy, per entry of the stack (see the walk).
+    arena: Vec<u32>,
+    front: Vec<u32>,
+    unsettled: Vec<u32>,
+    stack: Vec<(u32, usize, u32, u32)>,
+}
+
+thread_local! {
+    static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
+}
+
 /// Whether the SSDF of `planes` (the bound of [`ssdf_exceeds_over`], which also bounds every
 /// relevant plane: `n_iᵀ(x - p_i) > t`) exceeds `t` (m) at every point of `query`, whose
 /// points are mapped into the frame of `planes` by `x = rot p + tr`; proven, or `false`.
@@ -55,12 +71,33 @@ pub fn cloud_beyond(
     if matches!(planes, Collider::Aopc(_)) && !vmax.is_finite() || !t.is_finite() {
         return false;
     }
+    WALK.with(|w| walk(planes, bvh, rot, tr, t, eps1, vmax, &mut w.borrow_mut()))
+}
+
+/// The walk of [`cloud_beyond`] over the hierarchy of the query cloud.
+#[allow(clippy::too_many_arguments)]
+fn walk(
+    planes: &Collider,
+    bvh: &crate::geometry::bvh::Bvh,
+    rot: &Matrix3<f64>,
+    tr: &Vector3<f64>,
+    t: f64,
+    eps1: f64,
+    vmax: f64,
+    w: &mut Walk,
+) -> bool {
     // Depth first, as the band walk: each entry is a node, the witness of its parent's test
     // and the parent's open nodes of the other hierarchy (`arena[from..to]`).
-    let mut arena: Vec<u32> = vec![0];
-    let mut front: Vec<u32> = Vec::new();
-    let mut unsettled: Vec<u32> = Vec::new();
-    let mut stack = vec![(0u32, usize::MAX, 0u32, 1u32)];
+    let Walk {
+        arena,
+        front,
+        unsettled,
+        stack,
+    } = w;
+    arena.clear();
+    arena.push(0);
+    stack.clear();
+    stack.push((0u32, usize::MAX, 0u32, 1u32));
     let mut tests = 0;
     while let Some((ni, hint, from, to)) = stack.pop() {
         tests += 1;
@@ -85,8 +122,7 @@ pub fn cloud_beyond(
             Collider::Aopc(o) => {
                 front.clear();
                 front.extend_from_slice(&arena[from as usize..to as usize]);
-                let (ok, j) =
-                    aopc_exceeds(o, &region, t, eps1, hint, Some(vmax), &front, &mut arena);
+                let (ok, j) = aopc_exceeds(o, &region, t, eps1, hint, Some(vmax), front, arena);
                 (ok, j, (to, arena.len() as u32))
             }
             Collider::HalfSpace { .. } => {
@@ -111,7 +147,7 @@ pub fn cloud_beyond(
                     Collider::Aopc(o) => {
                         unsettled.clear();
                         let front = &arena[cfrom as usize..cto as usize];
-                        aopc_exceeds(o, &one, t, eps1, witness, Some(vmax), front, &mut unsettled).0
+                        aopc_exceeds(o, &one, t, eps1, witness, Some(vmax), front, unsettled).0
                     }
                     Collider::HalfSpace { .. } => {
                         ssdf_exceeds_over(planes, &one, t, eps1, usize::MAX).0
