@@ -107,15 +107,23 @@ impl Relevant {
         }
         // The same squared distances as `filter` (`(pr - p).norm_squared()`, x² + y² + z² in
         // that order), so both give the same set bit for bit.
+        // Indexed over equal lengths so that the loop vectorizes; the smallest distance is
+        // then found with its first index, as `nearest_of` would.
         let [xs, ys, zs] = &self.ball_xyz;
-        self.dist.clear();
-        self.dist
-            .extend(xs.iter().zip(ys).zip(zs).map(|((x, y), z)| {
-                let (dx, dy, dz) = (pr.x - x, pr.y - y, pr.z - z);
-                dx * dx + dy * dy + dz * dz
-            }));
-        (self.dmin, self.nearest) =
-            nearest_of(self.ball.iter().copied().zip(self.dist.iter().copied()));
+        let n = self.ball.len();
+        let (xs, ys, zs) = (&xs[..n], &ys[..n], &zs[..n]);
+        self.dist.resize(n, 0.0);
+        let dist = &mut self.dist[..n];
+        for i in 0..n {
+            let (dx, dy, dz) = (pr.x - xs[i], pr.y - ys[i], pr.z - zs[i]);
+            dist[i] = dx * dx + dy * dy + dz * dz;
+        }
+        let best = dist.iter().copied().fold(f64::INFINITY, f64::min);
+        self.dmin = best;
+        self.nearest = match dist.iter().position(|&d| d == best) {
+            Some(i) if best < f64::INFINITY => self.ball[i] as usize,
+            _ => usize::MAX,
+        };
         let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.extend(
             self.ball
