@@ -137,8 +137,8 @@ impl ForceSink for NoForceSink {
 /// average of point–plane forces on a query point `x` with velocity `v_point` (plane body's
 /// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
 /// `terms` of the SSDF at `x`: each relevant plane's leaf-order index and softmax weight, as
-/// [`ssdf_over`] gives them (the SSDF's pruning bound, [`Relevant`]). Unused against a
-/// half-space.
+/// [`ssdf_over`](crate::geometry::ssdf::ssdf_over) gives them (the SSDF's pruning bound,
+/// [`Relevant`]). Unused against a half-space.
 #[inline]
 pub(super) fn point_force<T: Scalar, S: ForceSink>(
     planes: &Collider,

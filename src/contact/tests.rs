@@ -123,3 +123,47 @@ fn point_plane_force_pushes_out_and_opposes_sliding() {
     let f = point_plane_force(&r, &n, &Vector3::new(0.0, 0.0, 1.0), &prm);
     assert_eq!(f, Vector3::zeros());
 }
+
+#[test]
+fn a_nan_temperature_gives_a_nan_contact_not_a_panic() {
+    // ε2 = NaN makes the band's cutoff NaN: no entry is above it, so every entry is kept with
+    // its terms (the band's test is the force's, "not above") and evaluated; the contact comes
+    // out NaN for the guard to refuse, on the plain and on the chained (dual) path.
+    use crate::geometry::Shape;
+    use num_dual::Dual64;
+    let a = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
+    let b = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::repeat(0.1),
+        }
+        .sample(0.01),
+    );
+    let fa = Frame {
+        origin: Vector3::new(0.0, 0.0, 0.149),
+        ..Frame::identity()
+    };
+    let prm = ContactParams {
+        eps2: f64::NAN,
+        ..ContactParams::default()
+    };
+    let pc = pair_contact(&a, &fa, &b, &Frame::identity(), &prm);
+    assert!(pc.distance.is_nan() || pc.on_a.force.iter().any(|x| x.is_nan()));
+    let lift = |f: &Frame<f64>| Frame {
+        rotation: f.rotation.map(Dual64::from),
+        origin: f.origin.map(Dual64::from),
+        linvel: f.linvel.map(Dual64::from),
+        angvel: f.angvel.map(Dual64::from),
+    };
+    let prm_d = ContactParams {
+        eps1: Dual64::from(prm.eps1),
+        eps2: Dual64::from(prm.eps2),
+        eps3: Dual64::from(prm.eps3),
+        stiffness: Dual64::from(prm.stiffness),
+        dissipation_velocity: Dual64::from(prm.dissipation_velocity),
+        stiction_velocity: Dual64::from(prm.stiction_velocity),
+        friction: Dual64::from(prm.friction),
+        dissipation: prm.dissipation,
+    };
+    let pd = pair_contact(&a, &lift(&fa), &b, &Frame::identity(), &prm_d);
+    assert!(pd.distance.re.is_nan() || pd.on_a.force.iter().any(|x| x.re.is_nan()));
+}

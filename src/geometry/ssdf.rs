@@ -54,6 +54,8 @@ pub struct Relevant {
     pub nearest: usize,
     /// Candidates of the last ball query (leaf-order indices).
     ball: Vec<u32>,
+    /// Candidates of the last [`Relevant::find`] (scratch; the ball's are kept apart).
+    walk: Vec<u32>,
     /// The ball's candidate points, coordinate by coordinate: contiguous, so that the squared
     /// distances of [`Relevant::find_within`] (every point of a leaf against the shared
     /// ball's candidates) are a plain loop rather than a gather through the indices.
@@ -74,10 +76,10 @@ impl Relevant {
     pub fn find(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, hint: usize) {
         let bvh = s.bvh();
         self.items.clear();
-        let mut cands = std::mem::take(&mut self.ball);
+        let mut cands = std::mem::take(&mut self.walk);
         gather(bvh, pr, 0.0, eps1, hint, &mut cands);
         self.filter(s, pr, eps1, &cands);
-        self.ball = cands;
+        self.walk = cands;
     }
 
     /// Finds the points of `s` that can be relevant at some point of the ball of radius `r`

@@ -103,12 +103,15 @@ pub(super) fn newton<T: Scalar>(
             .collect();
         let dx_re = inf_norm(&re_vec(&dx));
         // Converged, tested on the full step before the residual at its end is evaluated (that
-        // residual would serve the line search only; the caller's next step evaluates its first
-        // residual there): a full step within the tolerance; or, where this and the last full
-        // step with the same Jacobian show the iterations contracting at a rate θ < 1, the
-        // step's end within the tolerance of the solution, at most θ/(1-θ) times the step
-        // from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta codes,
-        // which saves the last iteration when the rate is fast).
+        // residual would serve the line search only): a full step within the tolerance, taken
+        // with a Jacobian at this iterate or after a full step (a Jacobian kept from an earlier
+        // step that is much stiffer than the residual's makes a small step where the residual
+        // is not small: that first step goes through the line search); or, where this and the
+        // last full step with the same Jacobian show the iterations contracting at a rate
+        // θ < 1, the step's end within the tolerance of the solution, at most θ/(1-θ) times the
+        // step from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta
+        // codes, which saves the last iteration when the rate is fast). A NaN step passes
+        // neither (`inf_norm` keeps NaN).
         let x_end: Vec<T> = (0..n).map(|i| x[i] - dx[i]).collect();
         let scale_end = 1.0 + inf_norm(&re_vec(&x_end));
         let theta = dx_re / last_dx;
@@ -116,7 +119,7 @@ pub(super) fn newton<T: Scalar>(
             && !fresh
             && theta < 1.0
             && theta / (1.0 - theta) * dx_re <= NEWTON_TOL * scale_end;
-        if dx_re <= NEWTON_TOL * scale_end || tail_small {
+        if ((fresh || last_full) && dx_re <= NEWTON_TOL * scale_end) || tail_small {
             return Ok(x_end);
         }
         // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
@@ -195,8 +198,12 @@ fn sq_norm(x: &[f64]) -> f64 {
     x.iter().map(|a| a * a).sum()
 }
 
+/// The largest magnitude; NaN if any entry is NaN (`f64::max` would skip it, and a NaN step
+/// would then read as converged).
 fn inf_norm(x: &[f64]) -> f64 {
-    x.iter().fold(0.0f64, |m, a| m.max(a.abs()))
+    x.iter()
+        .map(|a| a.abs())
+        .fold(0.0f64, |m, a| if a > m || a.is_nan() { a } else { m })
 }
 
 #[cfg(test)]
@@ -273,8 +280,10 @@ mod tests {
 
     /// Convergence is tested on the full step before the residual at its end is evaluated:
     /// a linear residual with its exact Jacobian costs two residuals (the start, and the
-    /// solution, whose next step is below the tolerance), not a third at the last step's end;
-    /// a nonlinear one from a near start costs one per update taken.
+    /// solution, whose next step is below the tolerance), not a third at the last step's end.
+    /// Started at the solution with that Jacobian kept, the first (tiny) step still goes
+    /// through the line search (a kept Jacobian's small step is not trusted alone): two.
+    /// A NaN residual is a failure, not a converged NaN.
     #[test]
     fn no_residual_is_evaluated_at_the_accepted_point() {
         let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.0, 1.0, 3.0, -1.0, 0.0, -1.0, 2.0]);
@@ -293,10 +302,15 @@ mod tests {
             assert!((x[i] - solution[i]).abs() <= 1e-12);
         }
         assert_eq!(evaluations.get(), 2, "the start and the first update's end");
-        // From the solution itself: its first step is within the tolerance, one residual.
+        // From the solution itself, with the Jacobian kept: two.
         evaluations.set(0);
         let again = newton(&residual, &exact, x.clone(), &mut jac).unwrap();
-        assert_eq!(evaluations.get(), 1);
+        assert_eq!(evaluations.get(), 2);
         assert!((0..3).all(|i| (again[i] - x[i]).abs() <= 1e-12));
+        // A residual that turns NaN: an error, with a fresh Jacobian and with a kept one.
+        let nan = |_: &[f64]| -> Result<Vec<f64>, DynamicsError> { Ok(vec![f64::NAN, 0.0, 0.0]) };
+        for mut kept in [None, Some(KeptJacobian::new(a.clone()))] {
+            assert!(newton(&nan, &exact, vec![1.0, 2.0, 3.0], &mut kept).is_err());
+        }
     }
 }
