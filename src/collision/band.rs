@@ -267,10 +267,10 @@ pub(crate) fn band_of<T: Scalar>(
                                 };
                                 // The minimum only falls, so an entry above the running
                                 // cutoff now stays above the final one: its terms are dropped.
-                                // (Written as "not above", as the force's test is, so that a
-                                // NaN Φ or cutoff keeps them: NaN is never above.)
-                                let terms = (keep_terms
-                                    && !(phi.re() > band.min.min(phi.re()) + margin * e2))
+                                // ("Not above", as the force's test is, so that a NaN Φ or
+                                // cutoff keeps them: NaN is never above.)
+                                let above = phi.re() > band.min.min(phi.re()) + margin * e2;
+                                let terms = (keep_terms && !above)
                                     .then_some((start as u32, band.terms.len() as u32));
                                 if terms.is_none() {
                                     band.terms.truncate(start);
