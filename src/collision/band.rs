@@ -21,9 +21,6 @@ pub struct BandEntry<T> {
     /// [`SpringBound`](crate::geometry::ssdf::SpringBound)): times the stiffness, it bounds the
     /// springs of this point's force. Infinite when the band was built without ε3.
     pub springs: f64,
-    /// Leaf-order index of the other body's point nearest to this one (`u32::MAX` against a
-    /// half-space).
-    pub nearest: u32,
     /// The SSDF's terms at this point, `SeparationBand::terms[start..end]`, when the band was
     /// asked to keep them and the entry could still be within the band's cutoff when it was
     /// evaluated (every entry that ends within it is); `None` otherwise and against a
@@ -281,7 +278,6 @@ pub(crate) fn band_of<T: Scalar>(
                                     phi,
                                     dmin: scratch.dmin,
                                     springs,
-                                    nearest: scratch.nearest as u32,
                                     terms,
                                 }
                             }
@@ -301,7 +297,6 @@ pub(crate) fn band_of<T: Scalar>(
                                     phi,
                                     dmin: f64::INFINITY,
                                     springs,
-                                    nearest: u32::MAX,
                                     terms: None,
                                 }
                             }

@@ -109,8 +109,7 @@ impl Relevant {
         }
         // The same squared distances as `filter` (`(pr - p).norm_squared()`, x² + y² + z² in
         // that order), so both give the same set bit for bit.
-        // Indexed over equal lengths so that the loop vectorizes; the smallest distance is
-        // then found with its first index, as `nearest_of` would.
+        // Indexed over equal lengths so that the loop vectorizes.
         let [xs, ys, zs] = &self.ball_xyz;
         let n = self.ball.len();
         let (xs, ys, zs) = (&xs[..n], &ys[..n], &zs[..n]);
@@ -120,12 +119,7 @@ impl Relevant {
             let (dx, dy, dz) = (pr.x - xs[i], pr.y - ys[i], pr.z - zs[i]);
             dist[i] = dx * dx + dy * dy + dz * dz;
         }
-        let best = dist.iter().copied().fold(f64::INFINITY, f64::min);
-        self.dmin = best;
-        self.nearest = match dist.iter().position(|&d| d == best) {
-            Some(i) if best < f64::INFINITY => self.ball[i] as usize,
-            _ => usize::MAX,
-        };
+        (self.dmin, self.nearest) = nearest_of(self.ball.iter().copied().zip(dist.iter().copied()));
         let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.extend(
             self.ball

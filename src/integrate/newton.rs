@@ -112,7 +112,7 @@ pub(super) fn newton<T: Scalar>(
         // step from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta
         // codes, which saves the last iteration when the rate is fast). A NaN step passes
         // neither (`inf_norm` keeps NaN).
-        let x_end: Vec<T> = (0..n).map(|i| x[i] - dx[i]).collect();
+        let mut x_end: Vec<T> = (0..n).map(|i| x[i] - dx[i]).collect();
         let scale_end = 1.0 + inf_norm(&re_vec(&x_end));
         let theta = dx_re / last_dx;
         let tail_small = last_full
@@ -129,7 +129,7 @@ pub(super) fn newton<T: Scalar>(
         let (mut x_new, mut r_new);
         loop {
             x_new = if alpha == 1.0 {
-                x_end.clone()
+                std::mem::take(&mut x_end)
             } else {
                 (0..n).map(|i| x[i] - dx[i] * alpha).collect::<Vec<T>>()
             };
