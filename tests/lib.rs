@@ -42,6 +42,7 @@ mod long_run;
 mod mjcf_compile;
 mod mocap;
 mod scene_errors;
+mod scene_spacing;
 mod scene_sphere_drop;
 mod scenes_dynamics;
 mod sim_facade;

@@ -302,11 +302,21 @@ fn check(path: &Path) -> Result<(), String> {
                     .filter(|g| g.body == b)
                     .filter_map(|g| g.shape.clone().map(|s| (s, g.pose)))
                     .collect();
+                let spacings = sc
+                    .geoms
+                    .iter()
+                    .filter(|g| g.body == b)
+                    .filter_map(|g| {
+                        g.spacing
+                            .map(|h| format!("{} {}", g.name, scm::scene::spacing_text(&h)))
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ");
                 let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
                 let closure = s.closure_defect().norm();
                 let volume = s.enclosed_volume();
                 println!(
-                    "body {}: {} geom(s), {} points, {} quads, {} vertices, spacing {:.4} m, |Σ n·area| = {:.2e} m², enclosed volume {:.4e} m³ ({} {:.4e} m³, {:+.2} %)",
+                    "body {}: {} geom(s) (sampled at: {spacings}), {} points, {} quads, {} vertices, mean spacing {:.4} m, |Σ n·area| = {:.2e} m², enclosed volume {:.4e} m³ ({} {:.4e} m³, {:+.2} %)",
                     body.name,
                     parts.len(),
                     s.len(),

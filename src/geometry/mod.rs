@@ -17,7 +17,7 @@ pub mod union;
 
 pub use aopc::Aopc;
 pub use mesh::{MeshError, TriMesh};
-pub use shapes::{MassProperties, Shape};
+pub use shapes::{MassProperties, Shape, Spacing};
 pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};
 
 /// Uniform numbers in [-1, 1) for the unit tests (a fixed linear congruential sequence: a test

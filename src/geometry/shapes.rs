@@ -184,12 +184,49 @@ impl Shape {
         }
     }
 
+    /// The length (m) that sets how finely the shape must be sampled (docs/geometry.md,
+    /// "Spacing per geom"), per axis of its frame: a box's half-extent along each axis (its
+    /// faces are flat, so only the distance to their edges matters); the smallest radius of
+    /// curvature of a curved shape on every axis (a sphere's, capsule's or cylinder's radius,
+    /// an ellipsoid's `min r² / max r`); zero for a mesh, whose smallest feature is not known
+    /// from its size, so that it is sampled at the scene's spacing.
+    pub fn feature_length(&self) -> Vector3<f64> {
+        match self {
+            Shape::Box { half } => *half,
+            Shape::Sphere { radius }
+            | Shape::Capsule { radius, .. }
+            | Shape::Cylinder { radius, .. } => Vector3::repeat(*radius),
+            Shape::Ellipsoid { radii } => Vector3::repeat(radii.min().powi(2) / radii.max()),
+            Shape::Mesh(_) => Vector3::zeros(),
+        }
+    }
+
+    /// How finely the shape is sampled when its scene asks for `spacing` (m) between points
+    /// and `resolution` quads per feature length (docs/geometry.md, "Spacing per geom"): on
+    /// each axis the larger of `spacing` and [`feature_length`](Self::feature_length) /
+    /// `resolution`, `spacing` itself at a box's edges. A small shape gets `spacing`
+    /// everywhere; a large one as many quads as a shape of `resolution × spacing` would (plus a
+    /// box's graded rows), so that a 3 m table top is not sampled at 1 cm.
+    pub fn spacing_for(&self, spacing: f64, resolution: f64) -> Spacing {
+        Spacing {
+            fine: spacing,
+            coarse: self.feature_length().map(|l| (l / resolution).max(spacing)),
+        }
+    }
+
     /// Samples the surface as an AOPC with faces about `spacing` (m) apart (see the module
     /// documentation). Vertices shared by neighbouring quads are merged.
     pub fn sample(&self, spacing: f64) -> Aopc {
+        self.sample_spaced(&Spacing::uniform(spacing))
+    }
+
+    /// [`sample`](Self::sample) at a [`Spacing`]: a box on graded grids (`sample_box`), a
+    /// curved shape or a mesh evenly at the smallest coarse spacing.
+    pub fn sample_spaced(&self, spacing: &Spacing) -> Aopc {
+        let uniform = spacing.coarse.min();
         let mut out = match self {
-            Shape::Sphere { radius } => sample_ellipsoid(&Vector3::repeat(*radius), spacing),
-            Shape::Ellipsoid { radii } => sample_ellipsoid(radii, spacing),
+            Shape::Sphere { radius } => sample_ellipsoid(&Vector3::repeat(*radius), uniform),
+            Shape::Ellipsoid { radii } => sample_ellipsoid(radii, uniform),
             Shape::Box { half } => sample_box(
                 half,
                 spacing,
@@ -198,12 +235,12 @@ impl Shape {
             Shape::Capsule {
                 radius,
                 half_length,
-            } => sample_capsule(*radius, *half_length, spacing),
+            } => sample_capsule(*radius, *half_length, uniform),
             Shape::Cylinder {
                 radius,
                 half_length,
-            } => sample_cylinder(*radius, *half_length, spacing),
-            Shape::Mesh(m) => m.sample(spacing),
+            } => sample_cylinder(*radius, *half_length, uniform),
+            Shape::Mesh(m) => m.sample(uniform),
         };
         out.weld(1e-9 * self.size().max(1e-9));
         out
@@ -213,6 +250,59 @@ impl Shape {
 /// Number of quads along a length so that they are about `spacing` long (at least 1).
 pub(crate) fn divisions(length: f64, spacing: f64) -> usize {
     ((length / spacing).round() as usize).max(1)
+}
+
+/// How finely a shape is sampled (docs/geometry.md, "Spacing per geom").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spacing {
+    /// Quad length (m) at a box's edges and at the grid lines another geom of its body adds.
+    pub fine: f64,
+    /// Quad length (m) per axis of the shape's frame away from them; a curved shape or a mesh
+    /// is sampled evenly at the smallest entry.
+    pub coarse: Vector3<f64>,
+}
+
+impl Spacing {
+    /// `spacing` (m) everywhere.
+    pub fn uniform(spacing: f64) -> Self {
+        Spacing {
+            fine: spacing,
+            coarse: Vector3::repeat(spacing),
+        }
+    }
+}
+
+/// Largest ratio of neighbouring quad lengths on a graded grid. Below 2, a point over a face
+/// at `a` from its edge lies in a quad at most `2a` long (beyond the first, `fine`, one), so
+/// its own face's nearest quad centre is no farther than the neighbouring face's nearest one:
+/// the SSDF near an edge is what even sampling at `fine` gives (docs/geometry.md).
+const GROWTH: f64 = 1.5;
+
+/// Quad lengths along a grid window of `length` (m): `fine` at both ends, growing by at most
+/// [`GROWTH`] per quad towards `coarse` in the middle; `divisions(length, fine)` equal quads
+/// when `coarse` is not above `fine` or the window is too short to grow. Returns the ramp from
+/// one end (mirrored at the other), then the number and the length of the middle quads (a
+/// count, as `f64`, so that an estimate never allocates it).
+pub(crate) fn graded(length: f64, fine: f64, coarse: f64) -> (Vec<f64>, f64, f64) {
+    let mut ramp = Vec::new();
+    let mut rest = length;
+    let mut w = fine;
+    // Each step leaves at least one more quad's length for the middle.
+    while w < coarse && rest >= 3.0 * w {
+        ramp.push(w);
+        rest -= 2.0 * w;
+        w = (w * GROWTH).min(coarse);
+    }
+    match ramp.last() {
+        Some(&last) => {
+            let m = (rest / coarse.min(GROWTH * last)).ceil().max(1.0);
+            (ramp, m, rest / m)
+        }
+        None => {
+            let m = divisions(length, fine) as f64;
+            (ramp, m, length / m)
+        }
+    }
 }
 
 /// Cells per quarter turn of an arc of radius `r` (even, at least 2).
@@ -433,10 +523,16 @@ fn sample_cylinder(r: f64, h: f64, spacing: f64) -> Aopc {
     out
 }
 
-/// Box: each face cut into a grid of quads, so quad edges lie on the box's edges and corners.
+/// Box: each face cut into a grid of quads, so quad edges lie on the box's edges and corners,
+/// about `spacing[k]` long along axis `k` (one set of grid lines per axis, shared by the four
+/// faces it crosses, so neighbouring faces meet quad edge to quad edge).
 /// `breaks[axis][0|1]` lists extra grid lines (coordinates along `axis`) on the faces that span
 /// that axis: where another geom's boundary crosses them, so no quad straddles it.
-pub(crate) fn sample_box(half: &Vector3<f64>, spacing: f64, breaks: &[[Vec<f64>; 2]; 3]) -> Aopc {
+pub(crate) fn sample_box(
+    half: &Vector3<f64>,
+    spacing: &Spacing,
+    breaks: &[[Vec<f64>; 2]; 3],
+) -> Aopc {
     let mut out = Aopc::default();
     for axis in 0..3 {
         for sign in [1.0, -1.0] {
@@ -456,14 +552,25 @@ pub(crate) fn sample_box(half: &Vector3<f64>, spacing: f64, breaks: &[[Vec<f64>;
                 cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * half[t]);
                 let mut out = vec![cuts[0]];
                 for w in cuts.windows(2) {
-                    let m = divisions(w[1] - w[0], spacing);
-                    out.extend((1..=m).map(|k| {
-                        if k == m {
-                            w[1]
-                        } else {
-                            w[0] + (w[1] - w[0]) * k as f64 / m as f64
-                        }
-                    }));
+                    let (ramp, m, _) = graded(w[1] - w[0], spacing.fine, spacing.coarse[t]);
+                    // The ramps from both ends, summed from the ends; the middle in equal parts.
+                    let (mut lo, mut hi) = (w[0], w[1]);
+                    let mut top = Vec::with_capacity(ramp.len());
+                    for r in &ramp {
+                        lo += r;
+                        out.push(lo);
+                        top.push(hi);
+                        hi -= r;
+                    }
+                    let m = m as usize;
+                    out.extend((1..m).map(|k| lo + (hi - lo) * k as f64 / m as f64));
+                    if ramp.is_empty() {
+                        out.push(w[1]);
+                    } else {
+                        out.push(hi);
+                        out.extend(top[1..].iter().rev());
+                        out.push(w[1]);
+                    }
                 }
                 out
             };
@@ -528,5 +635,106 @@ fn ellipsoid_sdf(a: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
         -d
     } else {
         d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn graded_grids_tile_the_window_fine_at_its_ends_and_grow_slowly() {
+        for (length, fine, coarse) in [
+            (3.0, 0.01, 0.09375),
+            (2.0, 0.01, 0.0625),
+            (0.2, 0.01, 0.05),
+            (0.05, 0.01, 0.5),
+            (10.0, 0.001, 0.3),
+            (0.021, 0.01, 0.2),
+        ] {
+            let (ramp, m, mid) = graded(length, fine, coarse);
+            let mut cells = ramp.clone();
+            cells.extend(std::iter::repeat_n(mid, m as usize));
+            cells.extend(ramp.iter().rev());
+            let total: f64 = cells.iter().sum();
+            assert!(
+                (total - length).abs() < 1e-12 * length,
+                "{total} vs {length}"
+            );
+            assert!(cells
+                .iter()
+                .all(|&w| w > 0.0 && w <= coarse * (1.0 + 1e-12)));
+            if !ramp.is_empty() {
+                assert_eq!(ramp[0], fine, "{length} {fine} {coarse}");
+            }
+            // Neighbours within [1/2, GROWTH], and the property the SSDF needs: a quad other
+            // than the two end ones, x from the nearer end, is at most 2x long.
+            let mut x = 0.0f64;
+            for (k, w) in cells.iter().enumerate() {
+                if k > 0 {
+                    let r = w / cells[k - 1];
+                    assert!((0.5..=GROWTH * (1.0 + 1e-12)).contains(&r), "{r} at {k}");
+                }
+                if k > 0 && k + 1 < cells.len() {
+                    let from_end = x.min(length - x - w);
+                    assert!(*w <= 2.0 * from_end + 1e-12, "quad {k}: {w} at {from_end}");
+                }
+                x += w;
+            }
+        }
+        // Not coarser than fine, or too short to grow: even quads, as `divisions` makes them.
+        assert_eq!(graded(0.3, 0.01, 0.01), (vec![], 30.0, 0.3 / 30.0));
+        assert_eq!(graded(0.025, 0.01, 0.1).0, Vec::<f64>::new());
+        // A long window costs a ramp of logarithmic length and its middle at the coarse spacing.
+        let (ramp, m, mid) = graded(3.0, 0.01, 0.09375);
+        assert!(
+            ramp.len() <= 6 && (mid - 0.09375).abs() < 0.01,
+            "{ramp:?} {m} {mid}"
+        );
+    }
+
+    #[test]
+    fn spacing_follows_the_feature_length_and_never_goes_below_the_scenes() {
+        let table = Shape::Box {
+            half: Vector3::new(1.5, 1.0, 0.02),
+        };
+        assert_eq!(
+            table.spacing_for(0.01, 16.0),
+            Spacing {
+                fine: 0.01,
+                coarse: Vector3::new(1.5 / 16.0, 1.0 / 16.0, 0.01)
+            }
+        );
+        let big = Shape::Sphere { radius: 0.8 };
+        assert_eq!(big.spacing_for(0.01, 16.0).coarse, Vector3::repeat(0.05));
+        let small = Shape::Capsule {
+            radius: 0.05,
+            half_length: 2.0,
+        };
+        assert_eq!(small.spacing_for(0.01, 16.0), Spacing::uniform(0.01));
+        // An ellipsoid by its sharpest curvature: radii 1, 1, 0.2 curve with radius 0.04.
+        let lens = Shape::Ellipsoid {
+            radii: Vector3::new(1.0, 1.0, 0.2),
+        };
+        assert!((lens.feature_length().x - 0.04).abs() < 1e-15);
+        assert!((lens.spacing_for(0.001, 16.0).coarse - Vector3::repeat(0.0025)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn a_graded_box_is_closed_and_meets_itself_edge_to_edge() {
+        let half = Vector3::new(1.5, 1.0, 0.02);
+        let s = Shape::Box { half }.sample_spaced(&Shape::Box { half }.spacing_for(0.01, 16.0));
+        let area: f64 = s.areas.iter().sum();
+        let exact = 8.0 * (half.x * half.y + half.y * half.z + half.x * half.z);
+        assert!((area - exact).abs() < 1e-12 * exact, "{area} vs {exact}");
+        assert!(s.closure_defect().norm() < 1e-12 * exact);
+        // Welded: every vertex is shared by the quads around it, as on an even grid (a quad
+        // edge meeting a neighbour's vertex halfway would leave more vertices than that).
+        assert_eq!(
+            s.vertices.len(),
+            s.faces.len() + 2,
+            "a closed quad mesh of genus 0"
+        );
+        assert!(s.len() < 4000, "{} points", s.len());
     }
 }

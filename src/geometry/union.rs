@@ -19,26 +19,34 @@
 //! with the same quads as one box wherever the union is one box.
 
 use super::rounded::{find_rounded, MemberSampling};
-use super::shapes::{sample_box, Shape};
+use super::shapes::{sample_box, Shape, Spacing};
 use super::Aopc;
 use nalgebra::{Isometry3, Point3, Vector3};
 
 /// The union of `geoms` (shape and pose in the body frame) sampled at `spacing` (m).
 pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
+    sample_union_spaced(geoms, &vec![Spacing::uniform(spacing); geoms.len()])
+}
+
+/// The union of `geoms`, each sampled at its own spacing (`spacings[k]`, as
+/// [`Shape::sample_spaced`]).
+pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacing]) -> Aopc {
+    assert_eq!(geoms.len(), spacings.len(), "one spacing per geom");
     let size = geoms
         .iter()
-        .map(|(s, p)| s.size() + p.translation.vector.norm())
-        .fold(spacing, f64::max);
+        .zip(spacings)
+        .map(|((s, p), h)| (s.size() + p.translation.vector.norm()).max(h.coarse.max()))
+        .fold(0.0, f64::max);
     let tol = 1e-9 * size;
     let mut out = Aopc::default();
     // Per geom: its full sampling and what became of each quad (the rounded certificate).
     let mut fates: Vec<(Aopc, Vec<Option<Vector3<f64>>>)> = Vec::new();
-    for (k, (shape, pose)) in geoms.iter().enumerate() {
+    for (k, ((shape, pose), spacing)) in geoms.iter().zip(spacings).enumerate() {
         let local = match shape {
             Shape::Box { half } if geoms.len() > 1 => {
                 sample_box(half, spacing, &box_breaks(half, pose, geoms, k, tol))
             }
-            _ => shape.sample(spacing),
+            _ => shape.sample_spaced(spacing),
         };
         let part = local.transformed(pose);
         let keep = |p: &Vector3<f64>, n: &Vector3<f64>| -> bool {

@@ -224,12 +224,25 @@ impl Builder {
         }
         let mut contact = ContactParams::default();
         let mut spacing = DEFAULT_SPACING;
+        let mut resolution = DEFAULT_RESOLUTION;
+        let mut spacing_overrides: Vec<(String, f64, usize)> = Vec::new();
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
         let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
         let mut contact_points = 0.0;
         let mut keyframe: Option<(String, usize)> = None;
         for (name, value, line) in self.numeric.clone() {
+            if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
+                if value <= 0.0 {
+                    return Err(self.setting_error(
+                        line,
+                        &name,
+                        format!("{value} is out of range (must be positive)"),
+                    ));
+                }
+                spacing_overrides.push((geom.to_string(), value, line));
+                continue;
+            }
             let slot = match name.as_str() {
                 "scm_eps1" => &mut contact.eps1,
                 "scm_eps2" => &mut contact.eps2,
@@ -239,6 +252,7 @@ impl Builder {
                 "scm_stiction_velocity" => &mut contact.stiction_velocity,
                 "scm_friction" => &mut contact.friction,
                 "scm_spacing" => &mut spacing,
+                "scm_resolution" => &mut resolution,
                 "scm_step" => &mut step,
                 "scm_tolerance" => &mut tolerance,
                 "scm_contact_points" => &mut contact_points,
@@ -305,9 +319,10 @@ impl Builder {
         let (pairs, colliders) = if self.flags.contact {
             self.split_static_planes();
             let (pairs, colliding) = self.pairs()?;
+            self.assign_spacings(spacing, resolution, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
             for (b, slot) in colliders.iter_mut().enumerate() {
-                *slot = self.collider(b, &colliding, spacing)?;
+                *slot = self.collider(b, &colliding)?;
             }
             let pairs = pairs
                 .into_iter()
@@ -319,6 +334,13 @@ impl Builder {
                 .collect();
             (pairs, colliders)
         } else {
+            // Nothing is sampled: per-geom spacings are checked and reported unused.
+            self.assign_spacings(
+                spacing,
+                resolution,
+                &spacing_overrides,
+                &vec![false; self.geoms.len()],
+            )?;
             (vec![], vec![None; self.bodies.len()])
         };
         let (tree, tendons, equalities, connects) = self.mechanics()?;

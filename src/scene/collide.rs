@@ -49,12 +49,12 @@ impl Builder {
     }
 
     /// A body's collider from its geoms that can touch something: the exact half-space of a
-    /// plane, or the AOPC of the union of the other geoms.
+    /// plane, or the AOPC of the union of the other geoms, each at its own spacing
+    /// ([`Geom::spacing`], set by [`Builder::assign_spacings`]).
     pub(super) fn collider(
         &self,
         b: usize,
         colliding: &[bool],
-        spacing: f64,
     ) -> Result<Option<Collider>, SceneError> {
         let geoms: Vec<&Geom> = self
             .geoms
@@ -84,20 +84,82 @@ impl Builder {
             .iter()
             .map(|g| (g.shape.clone().expect("planes handled above"), g.pose))
             .collect();
+        let spacings: Vec<Spacing> = geoms
+            .iter()
+            .map(|g| g.spacing.expect("a colliding geom has its spacing"))
+            .collect();
         let estimate: f64 = parts
             .iter()
-            .map(|(shape, _)| estimated_points(shape, spacing))
+            .zip(&spacings)
+            .map(|((shape, _), h)| estimated_points(shape, h))
             .sum();
         if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
+            let listed = geoms
+                .iter()
+                .zip(&spacings)
+                .map(|(g, h)| format!("'{}' at {}", g.name, spacing_text(h)))
+                .collect::<Vec<_>>()
+                .join(", ");
             return Err(SceneError {
                 file: geoms[0].file.clone(),
                 line: geoms[0].line,
                 element: "geom".into(),
-                message: format!("body '{}' (geoms {}) would get about {estimate:.3e} AOPC points at scm_spacing = {spacing} m (at most {MAX_AOPC_POINTS:e}): increase scm_spacing or make the geoms smaller", self.bodies[b].name, geoms.iter().map(|g| format!("'{}'", g.name)).collect::<Vec<_>>().join(", ")),
+                message: format!("body '{}' (geoms {listed}) would get about {estimate:.3e} AOPC points (at most {MAX_AOPC_POINTS:e}): increase scm_spacing, sample large geoms coarsely away from their edges with scm_resolution (16 quads per radius or half-extent: <numeric name=\"scm_resolution\" data=\"16\"/>), give a geom its own spacing with scm_spacing:NAME, or make the geoms smaller", self.bodies[b].name),
             });
         }
-        let aopc = crate::geometry::union::sample_union(&parts, spacing);
+        let aopc = crate::geometry::union::sample_union_spaced(&parts, &spacings);
         Ok(Some(Collider::Aopc(aopc)))
+    }
+
+    /// Sets every colliding geom's spacing (docs/geometry.md, "Spacing per geom"): its own
+    /// `scm_spacing:NAME` when the scene gives one, else [`Shape::spacing_for`] the scene's
+    /// `spacing` and `resolution`. A per-geom setting that names no geom, or a plane (exact, not
+    /// sampled), is an error; one for a geom that collides with nothing is a warning (unused).
+    pub(super) fn assign_spacings(
+        &mut self,
+        spacing: f64,
+        resolution: f64,
+        overrides: &[(String, f64, usize)],
+        colliding: &[bool],
+    ) -> Result<(), SceneError> {
+        for (name, _, line) in overrides {
+            let setting = format!("{GEOM_SPACING_PREFIX}{name}");
+            let Some(g) = self.geoms.iter().position(|g| g.name == *name) else {
+                return Err(self.setting_error(
+                    *line,
+                    &setting,
+                    format!("no geom is named '{name}' (the name after '{GEOM_SPACING_PREFIX}' is a geom's name attribute)"),
+                ));
+            };
+            if self.geoms[g].shape.is_none() {
+                return Err(self.setting_error(
+                    *line,
+                    &setting,
+                    format!("geom '{name}' is a plane, an exact half-space that is not sampled: remove the setting"),
+                ));
+            }
+            if !colliding[g] {
+                self.warnings.push(format!(
+                    "{setting} (line {line}): geom '{name}' collides with nothing, so its spacing is unused"
+                ));
+            }
+        }
+        for (g, geom) in self.geoms.iter_mut().enumerate() {
+            geom.spacing = match (&geom.shape, colliding[g]) {
+                (Some(shape), true) => Some(
+                    overrides
+                        .iter()
+                        .rev()
+                        .find(|(n, _, _)| *n == geom.name)
+                        .map_or_else(
+                            || shape.spacing_for(spacing, resolution),
+                            |(_, v, _)| Spacing::uniform(*v),
+                        ),
+                ),
+                _ => None,
+            };
+        }
+        Ok(())
     }
 
     /// Colliding body pairs by MuJoCo's rules ([`filter`]), and which geoms collide at all.
@@ -265,5 +327,16 @@ impl Builder {
             ));
         }
         Some(mu.unwrap_or(1.0))
+    }
+}
+
+/// A geom's spacing for messages: one number when it samples evenly, else its fine spacing
+/// and the coarse one per axis.
+pub fn spacing_text(h: &Spacing) -> String {
+    let c = h.coarse;
+    if c.x == h.fine && c.y == h.fine && c.z == h.fine {
+        format!("{} m", h.fine)
+    } else {
+        format!("{} m, up to {} × {} × {} m", h.fine, c.x, c.y, c.z)
     }
 }

@@ -252,6 +252,7 @@ impl Builder {
             condim,
             file: el.file.to_string(),
             line: el.line,
+            spacing: None,
         });
         Ok(())
     }

@@ -18,6 +18,7 @@ pub mod json;
 mod mechanics;
 mod paths;
 mod settings;
+pub use collide::spacing_text;
 pub use paths::{mesh_path, packed_mesh_name, scene_dir};
 use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUTES};
 pub mod xml;
@@ -27,7 +28,7 @@ use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::fluid::{Fluid, FluidBody};
 use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{Body, Joint, JointKind, Tree};
-use crate::geometry::{Shape, TriMesh};
+use crate::geometry::{Shape, Spacing, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair, Transmission};
 use canonical::Angles;
@@ -111,10 +112,21 @@ pub struct Geom {
     pub file: String,
     /// Its line there.
     pub line: usize,
+    /// The spacing its AOPC is sampled at, `None` for a plane or a geom that collides with
+    /// nothing (docs/geometry.md, "Spacing per geom").
+    pub spacing: Option<Spacing>,
 }
 
 /// Default spacing between AOPC points when the scene gives no `scm_spacing` (m).
 pub const DEFAULT_SPACING: f64 = 0.01;
+/// Quads per feature length when the scene gives no `scm_resolution`: infinitely many, so that
+/// every geom is sampled at `scm_spacing` unless the scene asks otherwise. With
+/// `scm_resolution` = N, a geom whose feature length is above `N × scm_spacing` is sampled
+/// more coarsely, at N quads per radius of curvature or per box half-extent (docs/geometry.md,
+/// "Spacing per geom", with what that costs in accuracy).
+pub const DEFAULT_RESOLUTION: f64 = f64::INFINITY;
+/// Prefix of a per-geom spacing setting: `<numeric name="scm_spacing:GEOM" data="0.05"/>`.
+pub const GEOM_SPACING_PREFIX: &str = "scm_spacing:";
 /// Most AOPC points one body may get, estimated from its geoms' surface area before sampling
 /// (a point per `scm_spacing`² of surface, at least three per mesh triangle). A body at the
 /// limit takes about 650 MB (about 320 bytes per point with its BVH, see docs/performance.md)
@@ -123,13 +135,28 @@ pub const DEFAULT_SPACING: f64 = 0.01;
 /// aborts the host's process: refused with an error instead.
 pub const MAX_AOPC_POINTS: f64 = 2e6;
 
-/// Estimated AOPC point count of a shape sampled at `spacing` (m): surface area / spacing², at
-/// least three points per mesh triangle (an upper bound for the ellipsoid: its bounding sphere).
-fn estimated_points(shape: &Shape, spacing: f64) -> f64 {
+/// Estimated AOPC point count of a shape sampled at `sampling` ([`Shape::sample_spaced`]):
+/// surface area / spacing², a box's faces counted on its grids (without the lines other geoms
+/// add), at least three points per mesh triangle (an upper bound for the ellipsoid: its
+/// bounding sphere).
+fn estimated_points(shape: &Shape, sampling: &Spacing) -> f64 {
+    use crate::geometry::shapes::graded;
     use std::f64::consts::PI;
+    let spacing = sampling.coarse.min();
     let area = match shape {
         Shape::Sphere { radius } => 4.0 * PI * radius * radius,
-        Shape::Box { half } => 8.0 * (half.x * half.y + half.y * half.z + half.x * half.z),
+        Shape::Box { half } => {
+            // The two faces across each axis: the quads of the other two axes' grids.
+            let cells = (0..3)
+                .map(|k| {
+                    let (ramp, m, _) = graded(2.0 * half[k], sampling.fine, sampling.coarse[k]);
+                    2.0 * ramp.len() as f64 + m
+                })
+                .collect::<Vec<f64>>();
+            return (0..3)
+                .map(|k| 2.0 * cells[(k + 1) % 3] * cells[(k + 2) % 3])
+                .sum();
+        }
         Shape::Capsule {
             radius,
             half_length,
