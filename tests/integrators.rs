@@ -917,11 +917,27 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
 
     // Layout version 3 (before the velocity change) still loads where it has none, e.g. a
     // damped Euler state (its cache entry has flag 1); a flag 2 under version 3 is refused.
-    let as_version_3 = |bytes: &[u8]| [&3u32.to_le_bytes()[..], &bytes[4..]].concat();
-    let version_4 = sim.serialize_state(&saved).unwrap();
-    assert_eq!(version_4[..4], 4u32.to_le_bytes());
+    // Versions 3 and 4 end without the ledger's kinetic energy (the last 8 bytes, the ledger
+    // being last), which decoding computes again: the same state, bit for bit.
+    assert!(saved.solver_cache.parts().2.is_some(), "a ledger is kept");
+    let as_version = |version: u32, bytes: &[u8]| {
+        [&version.to_le_bytes()[..], &bytes[4..bytes.len() - 8]].concat()
+    };
+    let version_5 = sim.serialize_state(&saved).unwrap();
+    assert_eq!(version_5[..4], 5u32.to_le_bytes());
+    assert_eq!(
+        sim.deserialize_state(&as_version(4, &version_5)).unwrap(),
+        saved
+    );
+    // A kinetic energy below zero or above the ledger's scale is corrupt.
+    for bad in [-1.0f64, 1e6] {
+        let n = version_5.len();
+        let forged = [&version_5[..n - 8], &bad.to_bits().to_le_bytes()[..]].concat();
+        let err = sim.deserialize_state(&forged).unwrap_err();
+        assert!(err.to_string().contains("kinetic energy"), "{err}");
+    }
     let refused = sim
-        .deserialize_state(&as_version_3(&version_4))
+        .deserialize_state(&as_version(3, &version_5))
         .unwrap_err();
     assert!(refused.to_string().contains("corrupt"), "{refused}");
     let scene = scm::scene::load_str(&text, std::path::Path::new("sphere_drop.xml")).unwrap();
@@ -933,7 +949,7 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     }
     let state = damped.get_state().unwrap();
     assert!(state.solver_cache.parts().1.is_some() && state.solver_cache.parts().3.is_none());
-    let old = as_version_3(&damped.serialize_state(&state).unwrap());
+    let old = as_version(3, &damped.serialize_state(&state).unwrap());
     assert_eq!(damped.deserialize_state(&old).unwrap(), state);
 }
 

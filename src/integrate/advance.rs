@@ -141,6 +141,7 @@ impl Model {
                 m.ledger.gross_work += dw.abs();
                 m.last = now;
                 m.ledger.scale = m.ledger.scale.max(e.kinetic);
+                m.ledger.kinetic = e.kinetic;
                 let total = e.total();
                 if !total.is_finite() || total > m.ledger.allowed(m.floor) {
                     let l = &m.ledger;

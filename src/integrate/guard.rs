@@ -51,23 +51,27 @@ impl Model {
         t0: f64,
         ledger: Option<&EnergyLedger>,
     ) -> Option<EnergyMonitor> {
-        let e = self.energy(&state.q, &state.v);
         let stored = contacts.map_or(0.0, |c| contact_energy(c, prm));
-        let moving = e.kinetic + stored;
         let ledger = match ledger {
+            // Carried on: the kinetic energy at this state is the one the last call's final
+            // check computed, kept with the ledger.
             Some(l) if l.at == *state && l.params == *prm => EnergyLedger {
-                scale: l.scale.max(moving),
+                scale: l.scale.max(l.kinetic + stored),
                 ..l.clone()
             },
-            _ => EnergyLedger {
-                at: state.clone(),
-                params: *prm,
-                since: t0,
-                reference: e.total() + stored,
-                work: 0.0,
-                gross_work: 0.0,
-                scale: moving,
-            },
+            _ => {
+                let e = self.energy(&state.q, &state.v);
+                EnergyLedger {
+                    at: state.clone(),
+                    params: *prm,
+                    since: t0,
+                    reference: e.total() + stored,
+                    work: 0.0,
+                    gross_work: 0.0,
+                    scale: e.kinetic + stored,
+                    kinetic: e.kinetic,
+                }
+            }
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
             ledger,
@@ -99,6 +103,9 @@ pub struct EnergyLedger {
     /// Largest energy in motion seen: `T + U` at the start of each call, `T` after every
     /// internal step (J).
     pub scale: f64,
+    /// Kinetic energy `T` at `at` (J), as the guard computed it there: a call that carries the
+    /// ledger on starts from it instead of evaluating the energy again.
+    pub kinetic: f64,
 }
 
 impl EnergyLedger {

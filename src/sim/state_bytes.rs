@@ -19,7 +19,7 @@
 //! | 4 + n | integrator name: length, UTF-8 bytes |
 //! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
 //! | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
-//! | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale |
+//! | 1 (+ 8 (nq + nv + 7 + 7)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
@@ -30,9 +30,9 @@ use crate::integrate::{EnergyLedger, Integrator, State};
 use crate::model::Model;
 
 /// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
-/// 2 (implicit Euler's last velocity change); [`decode`] also reads version 3, which never has
-/// it.
-pub const STATE_VERSION: u32 = 4;
+/// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy;
+/// [`decode`] also reads versions 3 (never flag 2) and 4.
+pub const STATE_VERSION: u32 = 5;
 
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
@@ -103,7 +103,14 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
                 .iter()
                 .chain(&l.at.v)
                 .chain(&params)
-                .chain([&l.since, &l.reference, &l.work, &l.gross_work, &l.scale])
+                .chain([
+                    &l.since,
+                    &l.reference,
+                    &l.work,
+                    &l.gross_work,
+                    &l.scale,
+                    &l.kinetic,
+                ])
                 .for_each(|&x| put(&mut b, x));
         }
     }
@@ -115,9 +122,9 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
 pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let mut r = Reader::new(bytes);
     let version = r.u32("the model state version")?;
-    if version != STATE_VERSION && version != 3 {
+    if !(3..=STATE_VERSION).contains(&version) {
         return Err(format!(
-            "model state has layout version {version}; this FMU reads versions 3 and {STATE_VERSION}"
+            "model state has layout version {version}; this FMU reads versions 3 to {STATE_VERSION}"
         ));
     }
     let (nq, nv, nc, nm) = (
@@ -268,8 +275,17 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 next("the energy ledger's gross work")?,
                 next("the energy ledger's scale")?,
             );
+            // Versions before 5 did not keep the kinetic energy: the same function gives it.
+            let kinetic = if version >= 5 {
+                next("the energy ledger's kinetic energy")?
+            } else {
+                model.energy(&q, &v).kinetic
+            };
             if gross_work < 0.0 || scale < 0.0 || work.abs() > gross_work * (1.0 + 1e-9) {
                 return Err(format!("model state is corrupt: an energy ledger with work {work} J, gross work {gross_work} J and scale {scale} J"));
+            }
+            if !(0.0..=scale * (1.0 + 1e-9)).contains(&kinetic) {
+                return Err(format!("model state is corrupt: an energy ledger with kinetic energy {kinetic} J above its scale {scale} J"));
             }
             Some(EnergyLedger {
                 at: State { q, v },
@@ -279,6 +295,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 work,
                 gross_work,
                 scale,
+                kinetic,
             })
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),

@@ -21,10 +21,12 @@ impl<M: FmiModel> Instance<M> {
                 ..fmi2EventInfo::default()
             };
             if changed {
-                this.log_event(&format!(
+                this.log_event(|| {
+                    format!(
                     "fmi2NewDiscreteStates: the model changed its continuous states at t = {:?}",
                     this.model.time()
-                ));
+                )
+                });
             }
             Ok(fmi2OK)
         })

@@ -208,10 +208,12 @@ impl<M: FmiModel> Instance<M> {
         for category in LogCategory::ALL {
             instance.model.logging_changed(category, logging_on);
         }
-        instance.log_event(&format!(
-            "fmi2Instantiate: instance {instance_name:?} created ({interface:?}) from {}",
-            resources.display()
-        ));
+        instance.log_event(|| {
+            format!(
+                "fmi2Instantiate: instance {instance_name:?} created ({interface:?}) from {}",
+                resources.display()
+            )
+        });
         instance.forward_messages();
         Ok(instance)
     }
@@ -265,9 +267,11 @@ impl<M: FmiModel> Instance<M> {
         self.log(fmi2Error, LogCategory::StatusError, message);
     }
 
-    fn log_event(&self, message: &str) {
+    /// Logs an event; the message is formatted only when the host listens to events (a host
+    /// that saves and restores states every step pays nothing for the text otherwise).
+    fn log_event(&self, message: impl FnOnce() -> String) {
         if self.is_logging(LogCategory::Events) {
-            self.log(fmi2OK, LogCategory::Events, message);
+            self.log(fmi2OK, LogCategory::Events, &message());
         }
     }
 
@@ -441,7 +445,7 @@ impl<M: FmiModel> Instance<M> {
         self.run(Function::EnterInitializationMode, |this| {
             this.model.enter_initialization()?;
             this.state = ModelState::InitializationMode;
-            this.log_event("fmi2EnterInitializationMode: entered initialization mode");
+            this.log_event(|| "fmi2EnterInitializationMode: entered initialization mode".into());
             Ok(fmi2OK)
         })
     }
@@ -455,10 +459,12 @@ impl<M: FmiModel> Instance<M> {
                 Interface::ModelExchange => ModelState::EventMode,
             };
             this.last_successful_time = this.model.time();
-            this.log_event(&format!(
-                "fmi2ExitInitializationMode: initialized at t = {:?}",
-                this.last_successful_time
-            ));
+            this.log_event(|| {
+                format!(
+                    "fmi2ExitInitializationMode: initialized at t = {:?}",
+                    this.last_successful_time
+                )
+            });
             Ok(fmi2OK)
         })
     }
@@ -468,7 +474,7 @@ impl<M: FmiModel> Instance<M> {
         self.run(Function::Terminate, |this| {
             this.model.terminate()?;
             this.state = ModelState::Terminated;
-            this.log_event("fmi2Terminate: terminated");
+            this.log_event(|| "fmi2Terminate: terminated".into());
             Ok(fmi2OK)
         })
     }
@@ -486,7 +492,7 @@ impl<M: FmiModel> Instance<M> {
                     .default_experiment
                     .start_time
                     .unwrap_or(0.0);
-                this.log_event("fmi2Reset: reset to the instantiated state");
+                this.log_event(|| "fmi2Reset: reset to the instantiated state".into());
                 Ok(fmi2OK)
             }
             Err(e) => {

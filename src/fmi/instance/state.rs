@@ -61,11 +61,13 @@ impl<M: FmiModel> Instance<M> {
             let handle = slot.unwrap_or_else(new_handle);
             this.saved.insert(handle, saved);
             *slot = Some(handle);
-            this.log_event(&format!(
-                "fmi2GetFMUstate: saved state {:#x} at t = {:?}",
-                handle.0,
-                this.model.time()
-            ));
+            this.log_event(|| {
+                format!(
+                    "fmi2GetFMUstate: saved state {:#x} at t = {:?}",
+                    handle.0,
+                    this.model.time()
+                )
+            });
             Ok(fmi2OK)
         })
     }
@@ -83,11 +85,13 @@ impl<M: FmiModel> Instance<M> {
             this.state = saved.machine;
             this.last_successful_time = saved.last_successful_time;
             this.stop_time = saved.stop_time;
-            this.log_event(&format!(
-                "fmi2SetFMUstate: restored state {:#x}, t = {:?}",
-                h.0,
-                this.model.time()
-            ));
+            this.log_event(|| {
+                format!(
+                    "fmi2SetFMUstate: restored state {:#x}, t = {:?}",
+                    h.0,
+                    this.model.time()
+                )
+            });
             Ok(fmi2OK)
         })
     }
