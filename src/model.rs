@@ -5,7 +5,7 @@
 //! The model is immutable; all that changes lives in the caller's state (MuJoCo's
 //! `mjModel`/`mjData` split).
 
-use crate::collision::{out_of_reach, Collider};
+use crate::collision::{out_of_reach, out_of_reach_kept, Collider, KeptReach};
 use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
 use crate::dynamics::fluid::Fluid;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
@@ -202,7 +202,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let (wrenches, pairs) = self.contacts_with(kin, prm, false);
+        let (wrenches, pairs) = self.contacts_with(kin, prm, false, None);
         let pairs = pairs
             .into_iter()
             .map(|pc| pc.unwrap_or_else(PairContact::none))
@@ -219,7 +219,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
-        self.contacts_with(kin, prm, true)
+        self.contacts_with(kin, prm, true, None)
     }
 
     /// Every pair's contact ([`Model::pair_contact_of`]) and the wrenches they add up to.
@@ -228,13 +228,16 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
+        mut kept: Option<&mut [Option<KeptReach>]>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let out = self
             .pairs
             .iter()
-            .map(|pair| {
-                let pc = self.pair_contact_of(pair, kin, prm, prune);
+            .enumerate()
+            .map(|(k, pair)| {
+                let kept_k = kept.as_deref_mut().map(|all| &mut all[k]);
+                let pc = self.pair_contact_of(pair, kin, prm, prune, kept_k);
                 if let Some(pc) = &pc {
                     for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
                         wrenches[b].force += x.force;
@@ -255,12 +258,13 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
+        kept: Option<&mut Option<KeptReach>>,
     ) -> Option<PairContact<T>> {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return Some(PairContact::none());
         };
         let prm = pair.params(prm);
-        if prune && self.out_of_reach(pair, kin, &prm) {
+        if prune && self.out_of_reach_with(pair, kin, &prm, kept) {
             return None;
         }
         let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
@@ -274,21 +278,46 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> bool {
+        self.out_of_reach_with(pair, kin, prm, None)
+    }
+
+    /// [`Model::out_of_reach`], with the pair's kept proof if given ([`out_of_reach_kept`]).
+    fn out_of_reach_with<T: Scalar>(
+        &self,
+        pair: &Pair,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        kept: Option<&mut Option<KeptReach>>,
+    ) -> bool {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return true;
         };
         let (ra, rb) = (kin.frames[pair.a].re(), kin.frames[pair.b].re());
         let p = prm.re();
         let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
-        out_of_reach(
-            ca,
-            cb,
-            &rels,
-            p.eps1,
-            p.eps3,
-            p.dissipation_velocity,
-            p.friction,
-        )
+        match kept {
+            Some(kept) => out_of_reach_kept(
+                ca,
+                cb,
+                &rels,
+                p.eps1,
+                p.eps3,
+                p.dissipation_velocity,
+                p.friction,
+                kept,
+                // A kept proof is worth making if it serves two internal steps.
+                2.0 * self.step,
+            ),
+            None => out_of_reach(
+                ca,
+                cb,
+                &rels,
+                p.eps1,
+                p.eps3,
+                p.dissipation_velocity,
+                p.friction,
+            ),
+        }
     }
 
     /// Adds the passive forces that act on bodies to the wrenches `w` (world frame, about the
@@ -452,13 +481,45 @@ impl Model {
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
     ) -> Result<Forward<T>, DynamicsError> {
+        self.forward_kept_at(q, v, v_contact, tau, mocap, prm, implicit_damping, None)
+    }
+
+    /// [`Model::forward`], keeping out-of-reach proofs across calls in `kept` (one entry per
+    /// pair; resized to the pairs if it is not: [`out_of_reach_kept`]). The result can differ
+    /// from [`Model::forward`]'s only where a pair's forces are below the bound of
+    /// [`out_of_reach`] (a kept proof switches off a pair that a fresh proof might not).
+    pub fn forward_kept(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        kept: &mut Vec<Option<KeptReach>>,
+    ) -> Result<Forward<f64>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        kept.resize(self.pairs.len(), None);
+        let tau = self.actuator_forces(q, v, ctrl);
+        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, Some(kept))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn forward_kept_at<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        v_contact: Option<&[T]>,
+        tau: &[T],
+        mocap: &[T],
+        prm: &ContactParams<T>,
+        implicit_damping: Option<T>,
+        kept: Option<&mut [Option<KeptReach>]>,
+    ) -> Result<Forward<T>, DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (mut wrenches, contacts) = match v_contact {
-            // The same positions, so the wrenches are in the same frames.
-            Some(vc) => self.contact_forces(&self.tree.kinematics_with(q, vc, mocap), prm),
-            None => self.contact_forces(&kin, prm),
-        };
+        let contact_kin = v_contact.map(|vc| self.tree.kinematics_with(q, vc, mocap));
+        // With `v_contact`, the same positions, so the wrenches are in the same frames.
+        let (mut wrenches, contacts) =
+            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, kept);
         self.add_body_forces(&kin, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);

@@ -34,7 +34,10 @@ mod topk;
 pub(crate) use band::band_of;
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
-pub use reach::{cloud_beyond, out_of_reach, reach_distance, REACH_BUDGET};
+pub use reach::{
+    cloud_beyond, kept_reach_holds, out_of_reach, out_of_reach_kept, reach_distance, KeptReach,
+    KeptSide, REACH_BUDGET,
+};
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.

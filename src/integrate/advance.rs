@@ -3,6 +3,7 @@
 
 use super::guard::{EnergyLedger, EnergyMonitor};
 use super::newton::KeptJacobian;
+use crate::collision::KeptReach;
 use crate::contact::ContactParams;
 use crate::dynamics::MOCAP_INPUTS;
 use crate::integrator::{Integrator, State};
@@ -87,14 +88,15 @@ impl Model {
         // once here, it also gives the contact state for the energy guard.
         let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
         let start = if needs_start {
-            Some(self.forward(&state.q, &state.v, &u, prm).map_err(|error| {
-                StepFailure::Dynamics {
-                    time: t0,
-                    step: 1,
-                    h: 0.0,
-                    error,
-                }
-            })?)
+            Some(
+                self.forward_kept(&state.q, &state.v, &u, prm, &mut cache.reach)
+                    .map_err(|error| StepFailure::Dynamics {
+                        time: t0,
+                        step: 1,
+                        h: 0.0,
+                        error,
+                    })?,
+            )
         } else {
             None
         };
@@ -213,9 +215,23 @@ impl Model {
                             &mut report.subdivided,
                         )
                         .map_err(dyn_err)?,
-                    i => self
-                        .explicit_step(i, &s, &uk, prm, dt, first.take(), &mut jac)
-                        .map_err(dyn_err)?,
+                    i => {
+                        // Every internal step's first stage with the kept out-of-reach proofs
+                        // (the first one's is the start's forward dynamics).
+                        let a = match first.take() {
+                            None if i != Integrator::DampedEuler => Some(
+                                self.forward_kept(&s.q, &s.v, &uk, prm, &mut cache.reach)
+                                    .map_err(dyn_err)?
+                                    .vdot
+                                    .iter()
+                                    .copied()
+                                    .collect(),
+                            ),
+                            a => a,
+                        };
+                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac)
+                            .map_err(dyn_err)?
+                    }
                 };
                 check(&mut monitor, &s, t, k + 1, dt)?;
             }
@@ -341,29 +357,36 @@ pub struct SolverCache {
     left: Option<CacheMark>,
     /// The energy guard's balance over the run so far.
     ledger: Option<EnergyLedger>,
+    /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]): which pairs
+    /// a step switches off depends on it.
+    reach: Vec<Option<KeptReach>>,
 }
 
 /// Where a [`SolverCache`] was left: the state and the internal step (s).
 pub type CacheMark = (State<f64>, f64);
 
 /// A [`SolverCache`]'s parts, borrowed ([`SolverCache::parts`]): the Newton Jacobian, where the
-/// cache was left, the energy guard's ledger, implicit Euler's last velocity change.
+/// cache was left, the energy guard's ledger, implicit Euler's last velocity change, the kept
+/// out-of-reach proofs.
 pub type CacheParts<'a> = (
     Option<&'a DMatrix<f64>>,
     Option<&'a CacheMark>,
     Option<&'a EnergyLedger>,
     Option<&'a [f64]>,
+    &'a [Option<KeptReach>],
 );
 
 impl SolverCache {
     /// The cached Newton Jacobian, the state and internal step (s) it was left for, the
-    /// energy guard's ledger, and implicit Euler's last velocity change.
+    /// energy guard's ledger, implicit Euler's last velocity change, and the kept out-of-reach
+    /// proofs (one per pair, or none).
     pub fn parts(&self) -> CacheParts<'_> {
         (
             self.jacobian.as_ref().map(KeptJacobian::matrix),
             self.left.as_ref(),
             self.ledger.as_ref(),
             self.velocity_change.as_deref(),
+            &self.reach,
         )
     }
 
@@ -373,12 +396,14 @@ impl SolverCache {
         left: Option<CacheMark>,
         ledger: Option<EnergyLedger>,
         velocity_change: Option<Vec<f64>>,
+        reach: Vec<Option<KeptReach>>,
     ) -> SolverCache {
         SolverCache {
             jacobian: jacobian.map(KeptJacobian::new),
             velocity_change,
             left,
             ledger,
+            reach,
         }
     }
 }

@@ -20,19 +20,23 @@
 //! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
 //! | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
 //! | 1 (+ 8 (nq + nv + 7 + 7)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
+//! | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`KeptReach`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
 use super::{FmuState, Param, SimState};
+use crate::collision::{kept_reach_holds, KeptReach, KeptSide};
 use crate::dynamics::MOCAP_INPUTS;
 use crate::fmi::serial::Reader;
 use crate::integrate::{EnergyLedger, Integrator, State};
 use crate::model::Model;
+use nalgebra::{Matrix3, Vector3};
 
 /// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
-/// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy;
-/// [`decode`] also reads versions 3 (never flag 2) and 4.
-pub const STATE_VERSION: u32 = 5;
+/// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy,
+/// version 6 the kept out-of-reach proofs; [`decode`] also reads versions 3 (never flag 2), 4
+/// and 5 (no kept proofs).
+pub const STATE_VERSION: u32 = 6;
 
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
@@ -73,7 +77,7 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
                 .for_each(|&x| put(&mut b, x));
         }
     }
-    let (jacobian, left, ledger, velocity_change) = state.solver_cache.parts();
+    let (jacobian, left, ledger, velocity_change, reach) = state.solver_cache.parts();
     match jacobian {
         None => b.push(0),
         Some(j) => {
@@ -112,6 +116,28 @@ pub fn encode(state: &FmuState) -> Vec<u8> {
                     &l.kinetic,
                 ])
                 .for_each(|&x| put(&mut b, x));
+        }
+    }
+    b.extend_from_slice(&(reach.len() as u32).to_le_bytes());
+    for kept in reach {
+        match kept {
+            None => b.push(0),
+            Some(k) => {
+                b.push(1);
+                for side in &k.sides {
+                    match side {
+                        None => b.push(0),
+                        Some(ks) => {
+                            b.push(1);
+                            ks.rotation
+                                .iter()
+                                .chain(&ks.translation)
+                                .chain([&ks.t, &ks.m1])
+                                .for_each(|&x| put(&mut b, x));
+                        }
+                    }
+                }
+            }
         }
     }
     b
@@ -300,8 +326,13 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
     };
+    let reach = if version >= 6 {
+        kept_reach(model, &mut r)?
+    } else {
+        vec![]
+    };
     let solver_cache =
-        crate::integrate::SolverCache::from_parts(jacobian, left, ledger, velocity_change);
+        crate::integrate::SolverCache::from_parts(jacobian, left, ledger, velocity_change, reach);
     if r.remaining() != 0 {
         return Err(format!(
             "model state is corrupt: {} unexpected bytes at the end",
@@ -323,6 +354,63 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         tolerance,
         solver_cache,
     })
+}
+
+/// The kept out-of-reach proofs of a state (version 6 on): none, or one entry per pair, each
+/// proven again at its own pose before it is accepted (a forged proof would switch a contact
+/// off).
+fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, String> {
+    let n = r.u32("the number of kept out-of-reach proofs")? as usize;
+    if n != 0 && n != model.pairs.len() {
+        return Err(format!(
+            "model state is corrupt: {n} kept out-of-reach proofs for {} pairs",
+            model.pairs.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(n);
+    for pair in model.pairs.iter().take(n) {
+        match r.take(1, "a kept out-of-reach proof's flag")?[0] {
+            0 => out.push(None),
+            1 => {
+                let mut sides = [None, None];
+                for side in &mut sides {
+                    match r.take(1, "a kept proof's side flag")?[0] {
+                        0 => {}
+                        1 => {
+                            let mut x = [0.0; 14];
+                            for v in &mut x {
+                                *v = finite(r, "a kept out-of-reach proof's value")?;
+                            }
+                            *side = Some(KeptSide {
+                                rotation: Matrix3::from_column_slice(&x[..9]),
+                                translation: Vector3::new(x[9], x[10], x[11]),
+                                t: x[12],
+                                m1: x[13],
+                            });
+                        }
+                        f => {
+                            return Err(format!("model state is corrupt: kept proof side flag {f}"))
+                        }
+                    }
+                }
+                let kept = KeptReach { sides };
+                let holds = match (&model.colliders[pair.a], &model.colliders[pair.b]) {
+                    (Some(a), Some(b)) => kept_reach_holds(a, b, &kept),
+                    _ => false,
+                };
+                if !holds {
+                    return Err(format!("model state is corrupt: the kept out-of-reach proof of bodies '{}' and '{}' does not hold", model.tree.bodies[pair.a].name, model.tree.bodies[pair.b].name));
+                }
+                out.push(Some(kept));
+            }
+            f => {
+                return Err(format!(
+                    "model state is corrupt: kept out-of-reach proof flag {f}"
+                ))
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// The next f64 of `r`, refused unless finite.
