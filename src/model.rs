@@ -271,18 +271,9 @@ impl Model {
         Some(pair_contact(ca, fa, cb, fb, &prm))
     }
 
-    /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters.
-    pub(crate) fn out_of_reach<T: Scalar>(
-        &self,
-        pair: &Pair,
-        kin: &Kinematics<T>,
-        prm: &ContactParams<T>,
-    ) -> bool {
-        self.out_of_reach_with(pair, kin, prm, None)
-    }
-
-    /// [`Model::out_of_reach`], with the pair's kept proof if given ([`out_of_reach_kept`]).
-    fn out_of_reach_with<T: Scalar>(
+    /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
+    /// with the pair's kept proof if given ([`out_of_reach_kept`]).
+    pub(crate) fn out_of_reach_with<T: Scalar>(
         &self,
         pair: &Pair,
         kin: &Kinematics<T>,

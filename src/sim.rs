@@ -314,7 +314,9 @@ impl Simulation {
     /// the outputs at `time + h`.
     ///
     /// On failure (a non-finite state, an energy blow-up, a dynamics error) the simulation keeps
-    /// everything from before the call and the error says what went wrong and when.
+    /// its state, time and inputs from before the call and the error says what went wrong and
+    /// when; its solver cache may have changed ([`Model::advance_cached`]), which no later
+    /// step's validity depends on.
     pub fn step(&mut self, h: f64) -> Result<(), StepError> {
         if !h.is_finite() || h <= 0.0 {
             return Err(StepError::Error(format!(

@@ -551,4 +551,27 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
         .deserialize_state(&sim.serialize_state(&state).unwrap())
         .unwrap_err();
     assert!(err.to_string().contains("does not hold"), "{err}");
+    // A matrix that is not a rotation (the bounds assume one), a distance that is not
+    // positive: refused before any proof.
+    let mut bad = reach.to_vec();
+    let side = bad[pair].as_mut().unwrap().sides[0].as_mut().unwrap();
+    side.rotation *= 2.0;
+    let mut negative = reach.to_vec();
+    negative[pair].as_mut().unwrap().sides[0]
+        .as_mut()
+        .unwrap()
+        .t = -1.0;
+    for forged in [bad, negative] {
+        state.solver_cache = scm::integrate::SolverCache::from_parts(
+            j.cloned(),
+            left.cloned(),
+            ledger.cloned(),
+            dv.map(<[f64]>::to_vec),
+            forged,
+        );
+        let err = sim
+            .deserialize_state(&sim.serialize_state(&state).unwrap())
+            .unwrap_err();
+        assert!(err.to_string().contains("orthonormal"), "{err}");
+    }
 }

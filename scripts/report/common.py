@@ -196,7 +196,7 @@ class Variant:
             p = subprocess.run([str(SCM), "check", str(self.xml)], capture_output=True, text=True)
             if p.returncode != 0:
                 raise ReportBug(f"scm check {self.xml}: {p.stderr.strip()}")
-            self._points = {m.group(1): int(m.group(2)) for m in re.finditer(r"body (\S+): (?:\d+ geom\(s\), )?(\d+) points", p.stdout)}
+            self._points = {m.group(1): int(m.group(2)) for m in re.finditer(r"body (\S+): (?:\d+ geom\(s\)(?: \(sampled at: [^)]*\))?, )?(\d+) points", p.stdout)}
             if not self._points:
                 raise ReportBug(f"cannot read point counts from `scm check {self.xml}`:\n{p.stdout}")
         return self._points

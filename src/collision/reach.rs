@@ -239,6 +239,8 @@ impl Side<'_> {
     fn margins(&self) -> (f64, f64, f64) {
         let (c, r) = self.root();
         match self.planes {
+            // No planes: nothing to be near; no room to choose (`with_room` gives none).
+            Collider::Aopc(o) if o.is_empty() => (0.0, 0.0, f64::INFINITY),
             Collider::Aopc(o) => {
                 let (oc, or) = (&o.bvh().nodes[0].centre, o.bvh().nodes[0].radius);
                 let d = (c - oc).norm();

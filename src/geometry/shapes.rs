@@ -524,8 +524,8 @@ fn sample_cylinder(r: f64, h: f64, spacing: f64) -> Aopc {
 }
 
 /// Box: each face cut into a grid of quads, so quad edges lie on the box's edges and corners,
-/// about `spacing[k]` long along axis `k` (one set of grid lines per axis, shared by the four
-/// faces it crosses, so neighbouring faces meet quad edge to quad edge).
+/// on graded grids ([`graded`]): per axis and side, one set of grid lines shared by the faces
+/// on that side, so that without `breaks` neighbouring faces meet quad edge to quad edge.
 /// `breaks[axis][0|1]` lists extra grid lines (coordinates along `axis`) on the faces that span
 /// that axis: where another geom's boundary crosses them, so no quad straddles it.
 pub(crate) fn sample_box(
@@ -541,15 +541,7 @@ pub(crate) fn sample_box(
             let (i1, i2) = if sign > 0.0 { (i1, i2) } else { (i2, i1) };
             let side = if sign > 0.0 { 0 } else { 1 };
             let lines = |t: usize| {
-                let mut cuts = vec![-half[t], half[t]];
-                cuts.extend(
-                    breaks[t][side]
-                        .iter()
-                        .copied()
-                        .filter(|&c| c > -half[t] && c < half[t]),
-                );
-                cuts.sort_by(f64::total_cmp);
-                cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * half[t]);
+                let cuts = box_cuts(half[t], &breaks[t][side]);
                 let mut out = vec![cuts[0]];
                 for w in cuts.windows(2) {
                     let (ramp, m, _) = graded(w[1] - w[0], spacing.fine, spacing.coarse[t]);
@@ -595,6 +587,38 @@ pub(crate) fn sample_box(
         }
     }
     out
+}
+
+/// The grid lines a box face must have along an axis of half-extent `half`: its two ends and
+/// the `breaks` between them, sorted, near-duplicates merged.
+fn box_cuts(half: f64, breaks: &[f64]) -> Vec<f64> {
+    let mut cuts = vec![-half, half];
+    cuts.extend(breaks.iter().copied().filter(|&c| c > -half && c < half));
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * half);
+    cuts
+}
+
+/// The number of quads [`sample_box`] makes, counted without making them (as `f64`: an
+/// estimate of a huge count must not overflow or allocate).
+pub(crate) fn box_quads(
+    half: &Vector3<f64>,
+    spacing: &Spacing,
+    breaks: &[[Vec<f64>; 2]; 3],
+) -> f64 {
+    let cells = |t: usize, side: usize| -> f64 {
+        box_cuts(half[t], &breaks[t][side])
+            .windows(2)
+            .map(|w| {
+                let (ramp, m, _) = graded(w[1] - w[0], spacing.fine, spacing.coarse[t]);
+                2.0 * ramp.len() as f64 + m
+            })
+            .sum()
+    };
+    (0..3)
+        .flat_map(|axis| [(axis, 0), (axis, 1)])
+        .map(|(axis, side)| cells((axis + 1) % 3, side) * cells((axis + 2) % 3, side))
+        .sum()
 }
 
 /// Exact signed distance to an ellipsoid: the closest point `x_i = a_i² y_i/(t + a_i²)` with
@@ -736,5 +760,27 @@ mod tests {
             "a closed quad mesh of genus 0"
         );
         assert!(s.len() < 4000, "{} points", s.len());
+    }
+
+    #[test]
+    fn box_quads_counts_what_sample_box_makes() {
+        let half = Vector3::new(1.5, 1.0, 0.02);
+        let graded = Shape::Box { half }.spacing_for(0.01, 16.0);
+        let none: [[Vec<f64>; 2]; 3] = Default::default();
+        // Grid lines of other boxes on some sides: each window graded from both of its ends.
+        let mut some = none.clone();
+        some[0][0] = vec![-0.4, 0.2, 0.2 + 1e-15, 7.0];
+        some[1][1] = vec![0.5];
+        some[2][0] = vec![0.0];
+        for spacing in [graded, Spacing::uniform(0.01), Spacing::uniform(0.3)] {
+            for breaks in [&none, &some] {
+                let made = sample_box(&half, &spacing, breaks).faces.len() as f64;
+                assert_eq!(
+                    box_quads(&half, &spacing, breaks),
+                    made,
+                    "{spacing:?} {breaks:?}"
+                );
+            }
+        }
     }
 }

@@ -32,12 +32,7 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
 /// [`Shape::sample_spaced`]).
 pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacing]) -> Aopc {
     assert_eq!(geoms.len(), spacings.len(), "one spacing per geom");
-    let size = geoms
-        .iter()
-        .zip(spacings)
-        .map(|((s, p), h)| (s.size() + p.translation.vector.norm()).max(h.coarse.max()))
-        .fold(0.0, f64::max);
-    let tol = 1e-9 * size;
+    let (size, tol) = size_and_tolerance(geoms, spacings);
     let mut out = Aopc::default();
     // Per geom: its full sampling and what became of each quad (the rounded certificate).
     let mut fates: Vec<(Aopc, Vec<Option<Vector3<f64>>>)> = Vec::new();
@@ -160,6 +155,31 @@ pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacin
         out.set_rounded(rounded);
     }
     out
+}
+
+/// The union's size (m: the farthest reach of a geom from the body origin, at least the
+/// coarsest spacing) and the tolerance its classification uses (1e-9 of it).
+fn size_and_tolerance(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacing]) -> (f64, f64) {
+    let size = geoms
+        .iter()
+        .zip(spacings)
+        .map(|((s, p), h)| (s.size() + p.translation.vector.norm()).max(h.coarse.max()))
+        .fold(0.0, f64::max);
+    (size, 1e-9 * size)
+}
+
+/// The number of quads box `k` of the union is sampled into, before the classification drops
+/// any: on the grid lines the other boxes add ([`box_breaks`]), counted without making them.
+pub(crate) fn box_quads_in_union(
+    geoms: &[(Shape, Isometry3<f64>)],
+    spacings: &[Spacing],
+    k: usize,
+) -> f64 {
+    let (Shape::Box { half }, pose) = &geoms[k] else {
+        return 0.0;
+    };
+    let (_, tol) = size_and_tolerance(geoms, spacings);
+    super::shapes::box_quads(half, &spacings[k], &box_breaks(half, pose, geoms, k, tol))
 }
 
 /// `x` (body frame) moved onto the shape's curved surface: along the SDF gradient for a sphere

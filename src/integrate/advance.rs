@@ -54,10 +54,16 @@ impl Model {
     }
 
     /// [`Model::advance`] with a cache carried from one call to the next (the implicit
-    /// method's Newton Jacobian): a caller that advances the state it got from the previous
-    /// call saves a Jacobian per call. The cache only changes where Newton's iterations start,
-    /// not what they converge to (to their tolerance); it is used only for the state and step
-    /// it was left for, so a run is reproducible from any state.
+    /// method's Newton Jacobian, the guard's ledger, the kept out-of-reach proofs): a caller
+    /// that advances the state it got from the previous call saves a Jacobian per call and the
+    /// proofs of pairs that stay out of reach. The Jacobian only changes where Newton's
+    /// iterations start, not what they converge to (to their tolerance), and is used only for
+    /// the state and step it was left for; a kept proof can switch a pair off where a fresh
+    /// proof would not, which changes its forces by less than the bound of
+    /// [`out_of_reach`](crate::collision::out_of_reach). So a run is reproducible bit for bit
+    /// from a state and its cache (an FMU state carries both), and to that bound from the
+    /// state alone. A call that fails leaves the state to the caller; the cache may have
+    /// changed (a Jacobian dropped, proofs kept), which is still valid for any state.
     #[allow(clippy::too_many_arguments)]
     pub fn advance_cached(
         &self,
@@ -229,7 +235,7 @@ impl Model {
                             ),
                             a => a,
                         };
-                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac)
+                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac, Some(&mut cache.reach))
                             .map_err(dyn_err)?
                     }
                 };

@@ -3,6 +3,7 @@
 
 use super::newton::{newton, re_params, re_vec, KeptJacobian};
 use crate::autodiff::{jacobian, VectorFunction};
+use crate::collision::KeptReach;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
@@ -197,7 +198,9 @@ impl Model {
     /// the real Jacobian from dual numbers, as [`Integrator::ImplicitEuler`]'s (with dual
     /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
     /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
-    /// takes a fresh one when the iterations stop contracting), as for implicit Euler.
+    /// takes a fresh one when the iterations stop contracting), as for implicit Euler; `kept`,
+    /// the pairs' kept out-of-reach proofs, serves the frozen contact.
+    #[allow(clippy::too_many_arguments)]
     fn damped_euler_velocity<T: Scalar>(
         &self,
         q: &[T],
@@ -206,6 +209,7 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
         jac: &mut Option<KeptJacobian>,
+        kept: Option<&mut Vec<Option<KeptReach>>>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
@@ -224,8 +228,19 @@ impl Model {
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
             // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
-            let (frozen, a0) =
-                self.frozen_forward(&real.q, &real.v, &real.tau, &real.mocap, &real.prm, real.h)?;
+            let kept = kept.map(|all| {
+                all.resize(self.pairs.len(), None);
+                all.as_mut_slice()
+            });
+            let (frozen, a0) = self.frozen_forward_kept(
+                &real.q,
+                &real.v,
+                &real.tau,
+                &real.mocap,
+                &real.prm,
+                real.h,
+                kept,
+            )?;
             let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {
                 return Ok(explicit);
@@ -269,12 +284,13 @@ impl Model {
                 self.implicit_euler_step(state, u, prm, h, &mut None, None)
             }
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
-            _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None),
+            _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None, None),
         }
     }
 
     /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
-    /// known; `jac`: damped Euler's Newton Jacobian, carried between steps.
+    /// known; `jac`: damped Euler's Newton Jacobian, carried between steps; `kept`: the pairs'
+    /// kept out-of-reach proofs, used by damped Euler's frozen contact (values only).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn explicit_step<T: Scalar>(
         &self,
@@ -285,11 +301,12 @@ impl Model {
         h: T,
         a0: Option<Vec<T>>,
         jac: &mut Option<KeptJacobian>,
+        kept: Option<&mut Vec<Option<KeptReach>>>,
     ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac)?;
+            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac, kept)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,

@@ -37,6 +37,22 @@ impl Model {
         prm: &ContactParams<f64>,
         h: f64,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+        self.frozen_forward_kept(q, v, tau, mocap, prm, h, None)
+    }
+
+    /// [`Model::frozen_forward`], with the pairs' kept out-of-reach proofs if given (one entry
+    /// per pair, [`out_of_reach_kept`](crate::collision::out_of_reach_kept)).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn frozen_forward_kept(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        tau: &[f64],
+        mocap: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        mut kept: Option<&mut [Option<KeptReach>]>,
+    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
         let rhs =
@@ -47,12 +63,12 @@ impl Model {
             .ok_or(DynamicsError::Singular)?;
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let mut tapes = Vec::new();
-        for pair in &self.pairs {
+        for (k, pair) in self.pairs.iter().enumerate() {
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
                 continue;
             };
             let p = pair.params(prm);
-            if self.out_of_reach(pair, &kin, &p) {
+            if self.out_of_reach_with(pair, &kin, &p, kept.as_deref_mut().map(|all| &mut all[k])) {
                 continue;
             }
             let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);

@@ -88,10 +88,18 @@ impl Builder {
             .iter()
             .map(|g| g.spacing.expect("a colliding geom has its spacing"))
             .collect();
+        // A box of a union is cut again where the other boxes cross it (more windows, each
+        // graded from both ends): counted on its own grid lines.
         let estimate: f64 = parts
             .iter()
             .zip(&spacings)
-            .map(|((shape, _), h)| estimated_points(shape, h))
+            .enumerate()
+            .map(|(k, ((shape, _), h))| match shape {
+                Shape::Box { .. } if parts.len() > 1 => {
+                    crate::geometry::union::box_quads_in_union(&parts, &spacings, k)
+                }
+                _ => estimated_points(shape, h),
+            })
             .sum();
         if estimate.is_nan() || estimate > MAX_AOPC_POINTS {
             let listed = geoms
@@ -122,8 +130,15 @@ impl Builder {
         overrides: &[(String, f64, usize)],
         colliding: &[bool],
     ) -> Result<(), SceneError> {
-        for (name, _, line) in overrides {
+        for (k, (name, _, line)) in overrides.iter().enumerate() {
             let setting = format!("{GEOM_SPACING_PREFIX}{name}");
+            if let Some((_, _, first)) = overrides[..k].iter().find(|(n, _, _)| n == name) {
+                return Err(self.setting_error(
+                    *line,
+                    &setting,
+                    format!("given twice (first on line {first}): keep one"),
+                ));
+            }
             let Some(g) = self.geoms.iter().position(|g| g.name == *name) else {
                 return Err(self.setting_error(
                     *line,
@@ -140,7 +155,8 @@ impl Builder {
             }
             if !colliding[g] {
                 self.warnings.push(format!(
-                    "{setting} (line {line}): geom '{name}' collides with nothing, so its spacing is unused"
+                    "{}:{line}: {setting}: geom '{name}' collides with nothing, so its spacing is unused",
+                    self.file
                 ));
             }
         }

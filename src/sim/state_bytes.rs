@@ -19,7 +19,7 @@
 //! | 4 + n | integrator name: length, UTF-8 bytes |
 //! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
 //! | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
-//! | 1 (+ 8 (nq + nv + 7 + 7)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
+//! | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
 //! | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`KeptReach`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
@@ -311,7 +311,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 return Err(format!("model state is corrupt: an energy ledger with work {work} J, gross work {gross_work} J and scale {scale} J"));
             }
             if !(0.0..=scale * (1.0 + 1e-9)).contains(&kinetic) {
-                return Err(format!("model state is corrupt: an energy ledger with kinetic energy {kinetic} J above its scale {scale} J"));
+                return Err(format!("model state is corrupt: an energy ledger with kinetic energy {kinetic} J outside [0, {scale}] J (its scale)"));
             }
             Some(EnergyLedger {
                 at: State { q, v },
@@ -381,8 +381,20 @@ fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, S
                             for v in &mut x {
                                 *v = finite(r, "a kept out-of-reach proof's value")?;
                             }
+                            let rotation = Matrix3::from_column_slice(&x[..9]);
+                            // The proof's bounds assume a rotation (unit axes, lengths kept),
+                            // a positive distance and a margin that is not negative.
+                            let skew =
+                                (rotation.transpose() * rotation - Matrix3::identity()).norm();
+                            if !(skew <= 1e-9
+                                && rotation.determinant() > 0.0
+                                && x[12] > 0.0
+                                && x[13] >= 0.0)
+                            {
+                                return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m²", x[12], x[13]));
+                            }
                             *side = Some(KeptSide {
-                                rotation: Matrix3::from_column_slice(&x[..9]),
+                                rotation,
                                 translation: Vector3::new(x[9], x[10], x[11]),
                                 t: x[12],
                                 m1: x[13],
