@@ -51,10 +51,9 @@ fn force_bound(p: &ContactParams<f64>, ell: f64, speed: f64) -> f64 {
     PRUNE_TOLERANCE * p.stiffness * (p.eps3 + (ell + p.eps3 * std::f64::consts::LN_2) * factor)
 }
 
-#[test]
-fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
-    let mut rng = Lcg(2026);
-    let shapes = [
+/// A sphere, a box, a capsule and a cylinder sampled at 1 cm, each with its bounding radius (m).
+fn sampled_shapes() -> Vec<(Collider, f64)> {
+    [
         (Shape::Sphere { radius: 0.05 }, 0.05),
         (
             Shape::Box {
@@ -76,15 +75,25 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
             },
             0.05,
         ),
-    ];
-    let colliders: Vec<(Collider, f64)> = shapes
-        .iter()
-        .map(|(s, r)| (Collider::Aopc(s.sample(0.01)), *r))
-        .collect();
-    let plane = Collider::HalfSpace {
+    ]
+    .iter()
+    .map(|(s, r)| (Collider::Aopc(s.sample(0.01)), *r))
+    .collect()
+}
+
+/// The plane z = 0.
+fn floor() -> Collider {
+    Collider::HalfSpace {
         point: Vector3::zeros(),
         normal: Vector3::z(),
-    };
+    }
+}
+
+#[test]
+fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
+    let mut rng = Lcg(2026);
+    let colliders = sampled_shapes();
+    let plane = floor();
     let (mut proven, mut beyond, mut worst) = (0, 0, 0.0f64);
     for case in 0..240 {
         let (a, ra) = &colliders[case % colliders.len()];
@@ -366,30 +375,10 @@ fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
 #[test]
 fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
     let mut rng = Lcg(7);
-    let shapes = [
-        (Shape::Sphere { radius: 0.05 }, 0.05),
-        (
-            Shape::Box {
-                half: Vector3::new(0.08, 0.05, 0.03),
-            },
-            0.1,
-        ),
-        (
-            Shape::Capsule {
-                radius: 0.03,
-                half_length: 0.05,
-            },
-            0.08,
-        ),
-    ];
-    let colliders: Vec<(Collider, f64)> = shapes
-        .iter()
-        .map(|(s, r)| (Collider::Aopc(s.sample(0.01)), *r))
-        .collect();
-    let plane = Collider::HalfSpace {
-        point: Vector3::zeros(),
-        normal: Vector3::z(),
-    };
+    // Sphere, box and capsule.
+    let mut colliders = sampled_shapes();
+    colliders.truncate(3);
+    let plane = floor();
     let turn = |rng: &mut Lcg, lo: f64, hi: f64| {
         let axis = Unit::new_normalize(rng.direction());
         Rotation3::from_axis_angle(&axis, rng.range(lo, hi)).into_inner()
