@@ -517,40 +517,20 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     }
     assert_eq!(sim.current, end, "the restored run replays bit for bit");
 
-    // The box-sphere proof moved onto the box: it cannot be proven there.
+    // Forged proofs of the box-sphere pair: moved onto the box (it cannot be proven there); a
+    // matrix that is not a rotation (the bounds assume one) and a distance that is not
+    // positive (both refused before any proof).
     let (j, left, ledger, dv, reach) = saved.solver_cache.parts();
-    let mut forged = reach.to_vec();
     let pair = sim
         .model
         .pairs
         .iter()
         .position(|p| p.a != 0 && p.b != 0)
         .unwrap();
-    let side = forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap();
-    side.translation = Vector3::new(0.09, 0.0, 0.0);
-    let mut state = saved.clone();
-    state.solver_cache = scm::integrate::SolverCache::from_parts(
-        j.cloned(),
-        left.cloned(),
-        ledger.cloned(),
-        dv.map(<[f64]>::to_vec),
-        forged,
-    );
-    let err = sim
-        .deserialize_state(&sim.serialize_state(&state).unwrap())
-        .unwrap_err();
-    assert!(err.to_string().contains("does not hold"), "{err}");
-    // A matrix that is not a rotation (the bounds assume one), a distance that is not
-    // positive: refused before any proof.
-    let mut bad = reach.to_vec();
-    let side = bad[pair].as_mut().unwrap().sides[0].as_mut().unwrap();
-    side.rotation *= 2.0;
-    let mut negative = reach.to_vec();
-    negative[pair].as_mut().unwrap().sides[0]
-        .as_mut()
-        .unwrap()
-        .t = -1.0;
-    for forged in [bad, negative] {
+    let forge = |change: &dyn Fn(&mut scm::collision::KeptSide)| {
+        let mut forged = reach.to_vec();
+        change(forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap());
+        let mut state = saved.clone();
         state.solver_cache = scm::integrate::SolverCache::from_parts(
             j.cloned(),
             left.cloned(),
@@ -558,9 +538,15 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
             dv.map(<[f64]>::to_vec),
             forged,
         );
-        let err = sim
-            .deserialize_state(&sim.serialize_state(&state).unwrap())
-            .unwrap_err();
-        assert!(err.to_string().contains("orthonormal"), "{err}");
+        sim.deserialize_state(&sim.serialize_state(&state).unwrap())
+            .unwrap_err()
+            .to_string()
+    };
+    let onto = forge(&|s| s.translation = Vector3::new(0.09, 0.0, 0.0));
+    assert!(onto.contains("does not hold"), "{onto}");
+    let scaled = forge(&|s| s.rotation *= 2.0);
+    let negative = forge(&|s| s.t = -1.0);
+    for err in [scaled, negative] {
+        assert!(err.contains("orthonormal"), "{err}");
     }
 }
