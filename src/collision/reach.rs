@@ -257,6 +257,19 @@ impl Side<'_> {
     }
 }
 
+/// A pair's sides with points, by index (no allocation: every pair of every step has them).
+struct Sides<'a>([Option<(usize, Side<'a>)>; 2]);
+
+impl<'a> Sides<'a> {
+    fn iter(&self) -> impl Iterator<Item = &(usize, Side<'a>)> {
+        self.0.iter().flatten()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.iter().next().is_none()
+    }
+}
+
 /// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
 /// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
 /// (nothing can be proven).
@@ -268,11 +281,11 @@ fn sides<'a>(
     eps3: f64,
     dissipation_velocity: f64,
     friction: f64,
-) -> Option<Vec<(usize, Side<'a>)>> {
+) -> Option<Sides<'a>> {
     if eps1.is_nan() || eps1 <= 0.0 {
         return None;
     }
-    let mut out = Vec::with_capacity(2);
+    let mut out = Sides([None, None]);
     for (k, (query, planes, rel)) in [(a, b, &rels[0]), (b, a, &rels[1])].into_iter().enumerate() {
         let Collider::Aopc(s) = query else { continue };
         if s.is_empty() {
@@ -286,7 +299,7 @@ fn sides<'a>(
             + rel.angvel.norm() * s.bvh().max_norm
             + rel.angvel_planes.norm() * reach;
         let t = reach_distance(eps3, speed, dissipation_velocity, friction)?;
-        out.push((
+        out.0[k] = Some((
             k,
             Side {
                 query: s,

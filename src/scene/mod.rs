@@ -140,22 +140,12 @@ pub const MAX_AOPC_POINTS: f64 = 2e6;
 /// add), at least three points per mesh triangle (an upper bound for the ellipsoid: its
 /// bounding sphere).
 fn estimated_points(shape: &Shape, sampling: &Spacing) -> f64 {
-    use crate::geometry::shapes::graded;
     use std::f64::consts::PI;
     let spacing = sampling.coarse.min();
     let area = match shape {
         Shape::Sphere { radius } => 4.0 * PI * radius * radius,
         Shape::Box { half } => {
-            // The two faces across each axis: the quads of the other two axes' grids.
-            let cells = (0..3)
-                .map(|k| {
-                    let (ramp, m, _) = graded(2.0 * half[k], sampling.fine, sampling.coarse[k]);
-                    2.0 * ramp.len() as f64 + m
-                })
-                .collect::<Vec<f64>>();
-            return (0..3)
-                .map(|k| 2.0 * cells[(k + 1) % 3] * cells[(k + 2) % 3])
-                .sum();
+            return crate::geometry::shapes::box_quads(half, sampling, &Default::default())
         }
         Shape::Capsule {
             radius,
