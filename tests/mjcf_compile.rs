@@ -548,3 +548,77 @@ fn an_inertia_no_rigid_body_has_is_refused_as_mujoco_refuses_it() {
     assert_eq!((e.element.as_str(), e.line), ("inertial", 2), "{e}");
     assert!(e.message.contains("A + B >= C"), "{e}");
 }
+
+/// A name repeated across an `<include>` and an SCM setting inside an included file are
+/// reported at the included file's line, and an unnamed object never takes a name the file
+/// gives (MuJoCo accepts such a file: names only clash between given names).
+#[test]
+fn names_and_settings_in_included_files_name_those_files() {
+    let dir = scratch("include-names");
+    let main = dir.join("scene.xml");
+    let write_main = |extra: &str| {
+        std::fs::write(
+            &main,
+            format!("<mujoco>\n  <include file=\"parts.xml\"/>\n  <worldbody>\n    <body name=\"ball\" pos=\"0 0 1\"><freejoint/><geom name=\"g\" size=\"0.1\"/></body>\n{extra}  </worldbody>\n</mujoco>\n"),
+        )
+        .unwrap();
+    };
+    let parts = dir.join("parts.xml");
+    // A setting out of range, three lines into the included file.
+    std::fs::write(
+        &parts,
+        "<mujoco>\n  <custom>\n    <numeric name=\"scm_eps1\" data=\"-1\"/>\n  </custom>\n</mujoco>\n",
+    )
+    .unwrap();
+    write_main("");
+    let e = scm::scene::load(&main).unwrap_err();
+    assert!(e.file.ends_with("parts.xml") && e.line == 3, "{e}");
+    assert!(e.message.contains("scm_eps1"), "{e}");
+    // A per-geom spacing for a geom that collides with nothing: the warning names parts.xml.
+    std::fs::write(
+        &parts,
+        "<mujoco>\n  <custom>\n    <numeric name=\"scm_spacing:g\" data=\"0.02\"/>\n  </custom>\n</mujoco>\n",
+    )
+    .unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("parts.xml:3") && w.contains("scm_spacing:g")),
+        "{:?}",
+        s.warnings
+    );
+    // A geom name given in the included file and again in the main file.
+    std::fs::write(
+        &parts,
+        "<mujoco>\n  <worldbody>\n\n    <geom name=\"g\" type=\"plane\" size=\"1 1 0.1\"/>\n  </worldbody>\n</mujoco>\n",
+    )
+    .unwrap();
+    let e = scm::scene::load(&main).unwrap_err();
+    assert!(e.file.ends_with("scene.xml") && e.line == 4, "{e}");
+    assert!(
+        e.message.contains("geom name 'g' is given twice") && e.message.contains("parts.xml:4"),
+        "{e}"
+    );
+    // Unnamed objects next to given names they would otherwise be called by.
+    std::fs::write(&parts, "<mujoco/>\n").unwrap();
+    write_main("    <body pos=\"1 0 1\"><joint axis=\"0 1 0\"/><geom size=\"0.1\"/></body>\n    <body name=\"body2\" pos=\"2 0 1\"><joint name=\"body2_2_joint0\" axis=\"0 1 0\"/><geom name=\"body2_geom0\" size=\"0.1\"/></body>\n");
+    let s = scm::scene::load(&main).unwrap();
+    let bodies: Vec<&str> = s
+        .model
+        .tree
+        .bodies
+        .iter()
+        .map(|b| b.name.as_str())
+        .collect();
+    assert_eq!(bodies, ["world", "ball", "body2_2", "body2"]);
+    let joints: Vec<&str> = s
+        .model
+        .tree
+        .joints
+        .iter()
+        .map(|j| j.name.as_str())
+        .collect();
+    assert_eq!(joints, ["ball", "body2_2_joint0_2", "body2_2_joint0"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -181,7 +181,9 @@ fn structural_mistakes_are_refused() {
         "</body>",
         "</body>\n    <body name=\"ball\"><geom size=\"0.1\"/></body>",
     );
-    assert!(err(&twice).to_string().contains("used twice"));
+    assert!(err(&twice)
+        .to_string()
+        .contains("body name 'ball' is given twice"));
     // A moving body without mass.
     let massless = GOOD.replace(
         r#"<geom type="sphere" size="0.05" mass="1"/>"#,

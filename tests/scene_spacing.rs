@@ -189,7 +189,7 @@ fn per_geom_spacings_that_name_nothing_useful_are_refused_or_reported() {
         (r#"<numeric name="scm_resolution" data="0"/>"#, "positive"),
         (
             r#"<numeric name="scm_spacing:top" data="0.02"/><numeric name="scm_spacing:top" data="0.03"/>"#,
-            "given twice (first on line 4)",
+            "numeric name 'scm_spacing:top' is given twice (first: <numeric> at table.xml:4)",
         ),
     ] {
         let err = with(entry).unwrap_err();

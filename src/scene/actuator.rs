@@ -106,13 +106,12 @@ impl Builder {
             Some(_) if !self.flags.clampctrl => None,
             r => r,
         };
-        let name = el
-            .attr("name")
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("actuator{}", self.actuators.len()));
-        if self.actuators.iter().any(|a| a.name == name) {
-            return Err(self.err(el, format!("actuator name '{name}' is used twice")));
-        }
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => self
+                .names
+                .make("actuator", format!("actuator{}", self.actuators.len())),
+        };
         self.actuators.push(Actuator {
             name,
             kind,
@@ -295,15 +294,21 @@ impl Builder {
                     ),
                 ));
             }
-            joints.push((index, self.float(j, "coef")?.unwrap_or(1.0)));
+            // MuJoCo requires the coefficient (it has no default): so does SCM.
+            let coef = self.float(j, "coef")?.ok_or_else(|| {
+                self.err(j, "coef is required (the joint's coefficient in the tendon's length; MuJoCo has no default for it)")
+            })?;
+            joints.push((index, coef));
         }
         if joints.is_empty() {
             return Err(self.err(el, "a fixed tendon needs at least one <joint>"));
         }
-        let name = el
-            .attr("name")
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("tendon{}", self.tendons.len()));
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => self
+                .names
+                .make("tendon", format!("tendon{}", self.tendons.len())),
+        };
         self.tendons.push(TendonSpec {
             name,
             joints,
@@ -366,10 +371,13 @@ impl Builder {
             Some(_) => return Err(self.err(el, "polycoef: expected 5 numbers")),
         };
         let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
-        let name = el
-            .attr("name")
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("equality{}", self.equalities.len() + self.connects.len()));
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => {
+                let base = format!("equality{}", self.equalities.len() + self.connects.len());
+                self.names.make("equality", base)
+            }
+        };
         self.equalities.push(EqualitySpec {
             name,
             tendons,
@@ -413,10 +421,13 @@ impl Builder {
             .floats(el, "anchor", 3)?
             .ok_or_else(|| self.err(el, "anchor is required"))?;
         let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
-        let name = el
-            .attr("name")
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("equality{}", self.equalities.len() + self.connects.len()));
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => {
+                let base = format!("equality{}", self.equalities.len() + self.connects.len());
+                self.names.make("equality", base)
+            }
+        };
         self.connects.push(ConnectSpec {
             name,
             body1,

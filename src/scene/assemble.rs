@@ -114,14 +114,14 @@ impl Builder {
     pub(super) fn initial_state(
         &mut self,
         tree: &Tree,
-        keyframe: Option<(String, usize)>,
+        keyframe: Option<(String, Place)>,
     ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), SceneError> {
         let mut q0 = tree.q0();
         let mut v0 = vec![0.0; tree.nv];
         let mut ctrl0 = vec![0.0; self.actuators.len()];
         let chosen = match &keyframe {
             None => None,
-            Some((want, line)) => {
+            Some((want, at)) => {
                 let by_name = self
                     .keys
                     .iter()
@@ -135,7 +135,7 @@ impl Builder {
                     Some(i) => Some(i),
                     None => {
                         return Err(self.setting_error(
-                            *line,
+                            at,
                             "scm_keyframe",
                             format!("no <key> named '{want}' (and no key of that index): the scene has {} key(s)", self.keys.len()),
                         ))
@@ -225,22 +225,22 @@ impl Builder {
         let mut contact = ContactParams::default();
         let mut spacing = DEFAULT_SPACING;
         let mut resolution = DEFAULT_RESOLUTION;
-        let mut spacing_overrides: Vec<(String, f64, usize)> = Vec::new();
+        let mut spacing_overrides: Vec<(String, f64, Place)> = Vec::new();
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
         let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
         let mut contact_points = 0.0;
-        let mut keyframe: Option<(String, usize)> = None;
-        for (name, value, line) in self.numeric.clone() {
+        let mut keyframe: Option<(String, Place)> = None;
+        for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
                 if value <= 0.0 {
                     return Err(self.setting_error(
-                        line,
+                        &at,
                         &name,
                         format!("{value} is out of range (must be positive)"),
                     ));
                 }
-                spacing_overrides.push((geom.to_string(), value, line));
+                spacing_overrides.push((geom.to_string(), value, at));
                 continue;
             }
             let slot = match name.as_str() {
@@ -256,13 +256,13 @@ impl Builder {
                 "scm_step" => &mut step,
                 "scm_tolerance" => &mut tolerance,
                 "scm_contact_points" => &mut contact_points,
-                _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
+                _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             };
             if name == "scm_contact_points"
                 && !(value.fract() == 0.0 && (0.0..=64.0).contains(&value))
             {
                 return Err(self.setting_error(
-                    line,
+                    &at,
                     &name,
                     format!("{value} must be a whole number of contact points from 0 to 64"),
                 ));
@@ -274,7 +274,7 @@ impl Builder {
             };
             if !ok {
                 return Err(self.setting_error(
-                    line,
+                    &at,
                     &name,
                     format!(
                         "{value} is out of range (must be {})",
@@ -288,12 +288,12 @@ impl Builder {
             }
             *slot = value;
         }
-        for (name, value, line) in self.text.clone() {
+        for (name, value, at) in self.text.clone() {
             match name.as_str() {
                 "scm_integrator" => {
                     integrator = Integrator::from_name(&value).ok_or_else(|| {
                         self.setting_error(
-                            line,
+                            &at,
                             &name,
                             format!(
                                 "unknown integrator '{value}' (known: {})",
@@ -305,14 +305,14 @@ impl Builder {
                 "scm_dissipation" => {
                     contact.dissipation = Dissipation::from_name(&value).ok_or_else(|| {
                         self.setting_error(
-                            line,
+                            &at,
                             &name,
                             format!("'{value}' must be 'paper' or 'smooth'"),
                         )
                     })?
                 }
-                "scm_keyframe" => keyframe = Some((value, line)),
-                _ => return Err(self.setting_error(line, &name, "unknown SCM setting".into())),
+                "scm_keyframe" => keyframe = Some((value, at)),
+                _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             }
         }
         // With contacts switched off (<flag contact="disable">) no body collides.

@@ -43,13 +43,10 @@ impl Builder {
             return Err(self.err(el, format!("body inside mocap body '{}': a mocap body cannot have child bodies (put its geoms in it directly)", self.bodies[parent].name)));
         }
         let index = self.bodies.len();
-        let name = el
-            .attr("name")
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("body{index}"));
-        if self.bodies.iter().any(|b| b.name == name) {
-            return Err(self.err(el, format!("body name '{name}' is used twice")));
-        }
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => self.names.make("body", format!("body{index}")),
+        };
         let offset = self.pose(el)?;
         self.bodies.push(Body {
             name,
@@ -173,6 +170,22 @@ impl Builder {
         if axis.norm() < 1e-12 {
             return Err(self.err(el, "axis is zero"));
         }
+        let index = self.joints.len();
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            // A free joint without a name is named after its body, however it is written.
+            None if kind == JointKind::Free => {
+                self.names.make("joint", self.bodies[body].name.clone())
+            }
+            None => {
+                let base = format!(
+                    "{}_joint{}",
+                    self.bodies[body].name,
+                    self.bodies[body].joints.len()
+                );
+                self.names.make("joint", base)
+            }
+        };
         let scalar = |key: &str| -> Result<f64, SceneError> {
             let v = self.float(el, key)?.unwrap_or(0.0);
             if v < 0.0 {
@@ -182,20 +195,6 @@ impl Builder {
         };
         if kind == JointKind::Free && self.float(el, "stiffness")?.is_some_and(|k| k != 0.0) {
             return Err(self.err(el, "stiffness on a free joint is not supported (springs act on slide, hinge and ball joints)"));
-        }
-        let index = self.joints.len();
-        let name = match el.attr("name") {
-            Some(n) => n.to_string(),
-            // A free joint without a name is named after its body, however it is written.
-            None if kind == JointKind::Free => self.bodies[body].name.clone(),
-            None => format!(
-                "{}_joint{}",
-                self.bodies[body].name,
-                self.bodies[body].joints.len()
-            ),
-        };
-        if self.joints.iter().any(|j| j.name == name) {
-            return Err(self.err(el, format!("joint name '{name}' is used twice")));
         }
         let joint = Joint {
             name,

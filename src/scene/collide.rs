@@ -127,36 +127,29 @@ impl Builder {
         &mut self,
         spacing: f64,
         resolution: f64,
-        overrides: &[(String, f64, usize)],
+        overrides: &[(String, f64, Place)],
         colliding: &[bool],
     ) -> Result<(), SceneError> {
-        for (k, (name, _, line)) in overrides.iter().enumerate() {
+        // A setting given twice is a <numeric> name given twice: refused with the names.
+        for (name, _, at) in overrides {
             let setting = format!("{GEOM_SPACING_PREFIX}{name}");
-            if let Some((_, _, first)) = overrides[..k].iter().find(|(n, _, _)| n == name) {
-                return Err(self.setting_error(
-                    *line,
-                    &setting,
-                    format!("given twice (first on line {first}): keep one"),
-                ));
-            }
             let Some(g) = self.geoms.iter().position(|g| g.name == *name) else {
                 return Err(self.setting_error(
-                    *line,
+                    at,
                     &setting,
                     format!("no geom is named '{name}' (the name after '{GEOM_SPACING_PREFIX}' is a geom's name attribute)"),
                 ));
             };
             if self.geoms[g].shape.is_none() {
                 return Err(self.setting_error(
-                    *line,
+                    at,
                     &setting,
                     format!("geom '{name}' is a plane, an exact half-space that is not sampled: remove the setting"),
                 ));
             }
             if !colliding[g] {
                 self.warnings.push(format!(
-                    "{}:{line}: {setting}: geom '{name}' collides with nothing, so its spacing is unused",
-                    self.file
+                    "{at}: {setting}: geom '{name}' collides with nothing, so its spacing is unused"
                 ));
             }
         }

@@ -201,13 +201,17 @@ impl Builder {
             Some((p, _)) => p,
             None => self.pose(el)?,
         };
-        let name = el.attr("name").map(str::to_string).unwrap_or_else(|| {
-            format!(
-                "{}_geom{}",
-                self.bodies[body].name,
-                self.geoms.iter().filter(|g| g.body == body).count()
-            )
-        });
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => {
+                let base = format!(
+                    "{}_geom{}",
+                    self.bodies[body].name,
+                    self.geoms.iter().filter(|g| g.body == body).count()
+                );
+                self.names.make("geom", base)
+            }
+        };
         if let Some(shape) = &shape {
             let group: i64 = match el.attr("group") {
                 None => 0,

@@ -16,6 +16,7 @@ mod geom;
 pub mod include;
 pub mod json;
 mod mechanics;
+mod names;
 mod paths;
 mod settings;
 pub use collide::spacing_text;
@@ -244,6 +245,7 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
         return Err(b.err(&root, "the root element must be <mujoco>"));
     }
     let includes = include::expand(&mut root, path)?;
+    b.names = names::Names::read(&root)?;
     let mut defaults = defaults::Defaults::default();
     for el in &root.children {
         match el.name.as_str() {
@@ -289,8 +291,9 @@ struct Builder {
     gravity: Vector3<f64>,
     timestep: Option<f64>,
     option_integrator: Option<Integrator>,
-    numeric: Vec<(String, f64, usize)>,
-    text: Vec<(String, String, usize)>,
+    /// `<custom><numeric>` and `<text>` SCM settings: name, value, where they were read.
+    numeric: Vec<(String, f64, Place)>,
+    text: Vec<(String, String, Place)>,
     /// `<pair geom1 geom2 friction>`: the names, the sliding friction if given, the line.
     explicit_pairs: Vec<(String, String, Option<f64>, usize)>,
     excludes: Vec<(String, String, usize)>,
@@ -327,6 +330,8 @@ struct Builder {
     equalities: Vec<EqualitySpec>,
     /// `<equality><connect>` elements, as read.
     connects: Vec<ConnectSpec>,
+    /// The names the scene gives, per kind (and those made up for unnamed objects).
+    names: names::Names,
 }
 
 /// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
@@ -385,6 +390,14 @@ fn parse_floats(s: &str) -> Option<Vec<f64>> {
 }
 
 impl Builder {
+    /// The name an element gives (`None` when it gives none, or an empty one: MuJoCo treats
+    /// `name=""` as no name).
+    fn given_name(el: &Element) -> Option<String> {
+        el.attr("name")
+            .filter(|n| !n.is_empty())
+            .map(str::to_string)
+    }
+
     fn new(file: String) -> Self {
         Builder {
             file,
@@ -413,6 +426,7 @@ impl Builder {
             option_integrator: None,
             numeric: vec![],
             text: vec![],
+            names: names::Names::default(),
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],
@@ -589,18 +603,41 @@ impl Builder {
     }
 
     /// An error in an SCM setting, naming its `<numeric>` or `<text>` element.
-    fn setting_error(&self, line: usize, name: &str, message: String) -> SceneError {
-        let element = if self.text.iter().any(|(n, _, l)| n == name && *l == line) {
+    fn setting_error(&self, at: &Place, name: &str, message: String) -> SceneError {
+        let element = if self.text.iter().any(|(n, _, p)| n == name && p == at) {
             "text"
         } else {
             "numeric"
         };
         SceneError {
-            file: self.file.clone(),
-            line,
+            file: at.file.to_string(),
+            line: at.line,
             element: element.into(),
             message: format!("{name}: {message}"),
         }
+    }
+}
+
+/// Where an element was read: its file (the scene's, or the `<include>`d file that holds it)
+/// and line, for messages about settings read before they are used.
+#[derive(Clone, Debug, PartialEq)]
+struct Place {
+    file: Arc<str>,
+    line: usize,
+}
+
+impl Place {
+    fn of(el: &Element) -> Self {
+        Place {
+            file: el.file.clone(),
+            line: el.line,
+        }
+    }
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}", self.file, self.line)
     }
 }
 

@@ -421,12 +421,12 @@ impl Builder {
                                 format!("{name}: data=\"{data}\" must be one finite number"),
                             )
                         })?;
-                        self.numeric.push((name, v[0], n.line));
+                        self.numeric.push((name, v[0], Place::of(n)));
                     }
                 }
                 "text" => {
                     if name.starts_with("scm_") {
-                        self.text.push((name, data.to_string(), n.line));
+                        self.text.push((name, data.to_string(), Place::of(n)));
                     }
                 }
                 "tuple" => {}

@@ -109,3 +109,49 @@ def test_generated_names_never_panic_and_always_validate(tmp_path):
         assert problems == [], (case, [upper, lower, pool, shared], problems)
         names = [v.name for v in read_model_description(fmu).modelVariables]
         assert len(names) == len(set(names)), case
+
+
+BALL = '<body pos="0 0 1"><freejoint/><geom type="sphere" size="0.1"/></body>'
+HINGE = '<body name="arm" pos="0 0 1"><joint name="h" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body>'
+# Each case: a file, and whether MuJoCo's compiler takes it (asserted below, so the table
+# cannot drift from MuJoCo).
+NAME_CASES = {
+    "repeated geom": (f'<worldbody><geom name="a" type="plane" size="1 1 .1"/><body pos="0 0 1"><freejoint/><geom name="a" size=".1"/></body></worldbody>', False),
+    "repeated site": (f'<worldbody><site name="s"/><site name="s"/>{BALL}</worldbody>', False),
+    "repeated body in a frame": (f'<worldbody><body name="b"><geom size=".1"/></body><frame><body name="b"><geom size=".1"/></body></frame></worldbody>', False),
+    "a body named world": ('<worldbody><body name="world"><geom size=".1"/></body></worldbody>', False),
+    "repeated tendon": (f'<worldbody>{HINGE}</worldbody><tendon><fixed name="t"><joint joint="h" coef="1"/></fixed><fixed name="t"><joint joint="h" coef="2"/></fixed></tendon>', False),
+    "repeated equality": (f'<worldbody>{HINGE}</worldbody><equality><joint name="q" joint1="h"/><joint name="q" joint1="h"/></equality>', False),
+    "repeated numeric": (f'<custom><numeric name="n" data="1"/><numeric name="n" data="2"/></custom><worldbody>{BALL}</worldbody>', False),
+    "repeated sensor": (f'<worldbody>{HINGE}</worldbody><sensor><jointpos name="s" joint="h"/><jointvel name="s" joint="h"/></sensor>', False),
+    "a tendon joint without coef": (f'<worldbody>{HINGE}</worldbody><tendon><fixed><joint joint="h"/></fixed></tendon>', False),
+    "one name across kinds": ('<worldbody><body name="x" pos="0 0 1"><joint name="x" axis="0 1 0"/><geom name="x" size=".1"/><site name="x"/></body></worldbody><actuator><motor name="x" joint="x"/></actuator>', True),
+    "empty names are no names": (f'<worldbody><geom name="" type="plane" size="1 1 .1"/><body name="" pos="0 0 1"><freejoint name=""/><geom name="" size=".1"/></body></worldbody>', True),
+    "a given name that SCM would make up": ('<worldbody><body pos="0 0 1"><joint axis="0 1 0"/><geom size=".1"/></body><body name="body1" pos="1 0 1"><joint name="body1_joint0" axis="0 1 0"/><geom name="body1_geom0" size=".1"/></body></worldbody><actuator><motor joint="body1_joint0"/><motor name="actuator0" joint="body1_joint0"/></actuator>', True),
+}
+
+
+def test_names_are_refused_and_accepted_as_mujoco_does(tmp_path):
+    import mujoco
+    for label, (body, accepted) in NAME_CASES.items():
+        xml = f'<mujoco model="names">\n  {body}\n</mujoco>\n'
+        try:
+            mujoco.MjModel.from_xml_string(xml)
+            theirs = True
+        except ValueError:
+            theirs = False
+        assert theirs == accepted, f"{label}: MuJoCo {'takes' if theirs else 'refuses'} it"
+        path = tmp_path / "names.xml"
+        path.write_text(xml)
+        out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+        assert (out.returncode == 0) == accepted, (label, out.stderr)
+        assert "panicked" not in out.stderr
+        if not accepted:
+            # The refusal names the file and the element's line.
+            assert f"{path}:2:" in out.stderr, (label, out.stderr)
+        else:
+            # Accepted: the FMU's variable names are unique and validate.
+            fmu = pack(tmp_path, xml, "accepted")
+            assert validate_fmu(fmu) == [], label
+            names = [v.name for v in read_model_description(fmu).modelVariables]
+            assert len(names) == len(set(names)), label
