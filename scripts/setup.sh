@@ -5,6 +5,7 @@
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
 #     (fmpy, numpy, pytest, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
+#   - the MJCF files of dm_control's suite (from its wheel, unpacked in .venv/dm_control_suite);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
 set -euo pipefail
@@ -36,6 +37,27 @@ if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/req
   .venv/bin/pip install -q --upgrade pip
   .venv/bin/pip install -q -r tests/python/requirements.txt
   cp tests/python/requirements.txt .venv/requirements.txt
+fi
+
+# dm_control's suite models, a second corpus of the MJCF differential tests: only its MJCF
+# files and their assets, from the package's wheel (not installed: it pins a MuJoCo of its own).
+DMC=dm_control==1.0.50
+DMC_DIR=.venv/dm_control_suite
+if [ "$(cat "$DMC_DIR/.version" 2>/dev/null)" != "$DMC" ]; then
+  echo "setup: fetching the MJCF files of $DMC"
+  tmp=$(mktemp -d)
+  .venv/bin/pip download -q --no-deps "$DMC" -d "$tmp"
+  rm -rf "$DMC_DIR"
+  .venv/bin/python - "$tmp"/*.whl "$DMC_DIR" <<'PY'
+import sys, zipfile
+wheel, out = sys.argv[1], sys.argv[2]
+with zipfile.ZipFile(wheel) as z:
+    for n in z.namelist():
+        if n.startswith("dm_control/suite/") and not n.endswith(".py"):
+            z.extract(n, out)
+PY
+  echo "$DMC" > "$DMC_DIR/.version"
+  rm -rf "$tmp"
 fi
 
 cargo build --release --locked -q

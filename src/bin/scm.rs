@@ -300,6 +300,8 @@ fn check(path: &Path) -> Result<(), String> {
                     .geoms
                     .iter()
                     .filter(|g| g.body == b)
+                    // The colliding geoms (those given a spacing): the others are not sampled.
+                    .filter(|g| g.spacing.is_some())
                     .filter_map(|g| g.shape.clone().map(|s| (s, g.pose)))
                     .collect();
                 let spacings = sc
@@ -336,8 +338,9 @@ fn check(path: &Path) -> Result<(), String> {
                 let area: f64 = s.areas.iter().sum();
                 if closure > 1e-3 * area {
                     problems.push(format!(
-                        "body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m²)",
-                        body.name
+                        "body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m², {:.2} % of its area): a spacing too coarse for its geoms (set a smaller scm_spacing, or scm_spacing:GEOM for the small ones), or interior or missing faces",
+                        body.name,
+                        100.0 * closure / area
                     ));
                 }
                 let allowed = if is_exact { 0.02 } else { 0.05 };

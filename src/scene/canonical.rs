@@ -358,6 +358,7 @@ mod tests {
             children: vec![],
             line: 1,
             file: "t.xml".into(),
+            text: vec![],
         }
     }
 

@@ -246,6 +246,7 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
     }
     let includes = include::expand(&mut root, path)?;
     b.names = names::Names::read(&root)?;
+    b.stray_text(&root);
     let mut defaults = defaults::Defaults::default();
     for el in &root.children {
         match el.name.as_str() {
@@ -513,6 +514,23 @@ impl Builder {
 
     fn pose(&self, el: &Element) -> Result<Isometry3<f64>, SceneError> {
         canonical::pose(el, &self.angles)
+    }
+
+    /// Lists stray text between elements (a typing slip such as `</visual>>`) as unused:
+    /// MuJoCo reads past it, and so does SCM, saying so. Before the tree is made canonical,
+    /// which folds frames away.
+    fn stray_text(&mut self, root: &Element) {
+        let mut stack = vec![root];
+        while let Some(el) = stack.pop() {
+            for (line, t) in &el.text {
+                let shown: String = t.chars().take(40).collect();
+                self.unused.push(format!(
+                    "{}:{line}: text '{shown}' inside <{}> (MuJoCo ignores text between elements)",
+                    el.file, el.name
+                ));
+            }
+            stack.extend(el.children.iter().rev());
+        }
     }
 
     fn scene(&mut self, root: &Element) -> Result<(), SceneError> {

@@ -84,6 +84,7 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("material", "renderer"),
     ("texture", "renderer"),
     ("group", "renderer groups"),
+    ("width", "renderer (a tendon's drawn width)"),
     ("user", "user data"),
     ("margin", "MuJoCo's contact solver"),
     ("gap", "MuJoCo's contact solver"),

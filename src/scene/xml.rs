@@ -17,6 +17,9 @@ pub struct Element {
     pub line: usize,
     /// The file the element was read from (an `<include>`d file names its own).
     pub file: Arc<str>,
+    /// Text directly inside the element other than white space (line, trimmed text): no MJCF
+    /// element has any, and MuJoCo ignores it; the loader lists it as unused.
+    pub text: Vec<(usize, String)>,
 }
 
 impl Element {
@@ -84,6 +87,7 @@ fn element(text: &str, file: &Arc<str>, e: &BytesStart, pos: usize) -> Result<El
         children: Vec::new(),
         line,
         file: file.clone(),
+        text: Vec::new(),
     })
 }
 
@@ -134,10 +138,15 @@ pub fn parse(text: &str, file: &str) -> Result<Element, XmlError> {
                     raw.to_owned()
                 };
                 if !s.trim().is_empty() {
-                    return Err(XmlError {
-                        line: line_of(text, pos),
-                        message: format!("unexpected text '{}'", s.trim()),
-                    });
+                    match stack.last_mut() {
+                        Some(parent) => parent.text.push((line_of(text, pos), s.trim().into())),
+                        None => {
+                            return Err(XmlError {
+                                line: line_of(text, pos),
+                                message: format!("text '{}' outside the root element", s.trim()),
+                            })
+                        }
+                    }
                 }
             }
             Event::Eof => break,

@@ -12,6 +12,18 @@ SCM = ROOT / "target" / "release" / "scm"
 #: test parametrized over this list).
 ALL_SCENES = sorted(p.stem for p in SCENES.glob("*.xml"))
 
+#: dm_control's suite models, a second corpus of MJCF files as users bring them (unpacked from
+#: its wheel by scripts/setup.sh).
+DM_CONTROL_DIR = ROOT / ".venv" / "dm_control_suite" / "dm_control" / "suite"
+DM_CONTROL = sorted(DM_CONTROL_DIR.glob("*.xml"))
+#: The suite files SCM refuses, and the reason its message must give (at the file and line of
+#: the element). Everything else in the suite loads.
+DM_CONTROL_REFUSED = {
+    "ball_in_cup": ("ball_in_cup.xml:47: <spatial>", "spatial tendons are not supported"),
+    "dog": ("dog.xml:304: <mesh>", "the mesh is not manifold"),
+    "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
+}
+
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
