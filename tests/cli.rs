@@ -126,3 +126,30 @@ fn errors_are_one_readable_line() {
     assert!(err.contains(&format!("{}:3:", bad.display())), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scm check` measures a body's sampled surface against its colliding geoms only: a
+/// decoration that collides with nothing (dm_control's finger) is not part of the cloud, and
+/// counting its volume made a well-sampled body a "problem".
+#[test]
+fn check_compares_a_body_with_its_colliding_geoms_only() {
+    let dir = std::env::temp_dir().join(format!("scm-cli-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("finger.xml");
+    let body = |decoration: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <geom type=\"plane\" size=\"1 1 0.1\"/>\n    <body pos=\"0 0 0.5\">\n      <joint axis=\"0 1 0\"/>\n      <geom type=\"capsule\" size=\"0.03\" fromto=\"0 0 -0.13 0 0 -0.16\"/>\n      <geom type=\"capsule\" size=\"0.028\" fromto=\"0 0 0 0 0 -0.16\"{decoration}/>\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    std::fs::write(&path, body(" contype=\"0\" conaffinity=\"0\"")).unwrap();
+    let out = scm(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("1 geom(s) (sampled at: body1_geom0 0.01 m)"));
+    // Both colliding: both are sampled and measured.
+    std::fs::write(&path, body("")).unwrap();
+    let out = scm(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("2 geom(s)"),
+        "{}",
+        text(&out.stdout)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

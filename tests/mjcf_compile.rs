@@ -622,3 +622,17 @@ fn names_and_settings_in_included_files_name_those_files() {
     assert_eq!(joints, ["ball", "body2_2_joint0_2", "body2_2_joint0"]);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A typing slip MuJoCo reads past (dm_control's stacker.xml has `</visual>>`) loads, and the
+/// stray text is listed as unused with its file and line.
+#[test]
+fn stray_text_between_elements_is_listed_not_refused() {
+    let s = load("<mujoco>\n  <visual/>>\n  <worldbody>\n    <geom type=\"plane\" size=\"1 1 0.1\"/>\n  </worldbody>\n</mujoco>\n");
+    assert!(
+        s.unused
+            .iter()
+            .any(|u| u.starts_with("m.xml:2: text '>' inside <mujoco>")),
+        "{:?}",
+        s.unused
+    );
+}

@@ -194,4 +194,14 @@ mod tests {
             .message
             .contains("never closed"));
     }
+
+    /// Text between elements (MuJoCo reads past it) is kept with its line for the loader to
+    /// list; text outside the root is a malformed document.
+    #[test]
+    fn keeps_stray_text_with_its_line() {
+        let doc = parse("<a>\n  <b/>>\n  <c> x </c>\n</a>", "t.xml").unwrap();
+        assert_eq!(doc.text, [(2, ">".to_string())]);
+        assert_eq!(doc.children[1].text, [(3, "x".to_string())]);
+        assert!(parse("<a/>\ny", "t.xml").is_err());
+    }
 }
