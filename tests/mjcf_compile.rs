@@ -636,3 +636,20 @@ fn stray_text_between_elements_is_listed_not_refused() {
         s.unused
     );
 }
+
+/// `<custom>` as MuJoCo reads it: a tuple holds `<element>`s and no data, a numeric may give
+/// a size instead of data; entries other than SCM's settings are the user's data, listed as
+/// unused. An SCM setting still needs its data.
+#[test]
+fn custom_data_for_the_user_is_read_past_and_listed() {
+    let s = load("<mujoco>\n  <custom>\n    <numeric name=\"gains\" size=\"3\"/>\n    <text name=\"note\" data=\"abc\"/>\n    <tuple name=\"t\">\n      <element objtype=\"body\" objname=\"world\" prm=\"1\"/>\n    </tuple>\n  </custom>\n  <worldbody/>\n</mujoco>\n");
+    for line in ["m.xml:3: <numeric>", "m.xml:4: <text>", "m.xml:5: <tuple>"] {
+        assert!(
+            s.unused.iter().any(|u| u.starts_with(line)),
+            "{line}: {:?}",
+            s.unused
+        );
+    }
+    let e = refuse("<mujoco>\n  <custom>\n    <numeric name=\"scm_eps1\" size=\"1\"/>\n  </custom>\n  <worldbody/>\n</mujoco>\n");
+    assert!(e.line == 3 && e.message.contains("missing data"), "{e}");
+}

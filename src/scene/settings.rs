@@ -412,7 +412,21 @@ impl Builder {
                 .attr("name")
                 .ok_or_else(|| self.err(n, "missing name"))?
                 .to_string();
-            let data = n.attr("data").ok_or_else(|| self.err(n, "missing data"))?;
+            // MuJoCo: a numeric needs `data` or a positive `size` (zeros), a text its `data`;
+            // a tuple holds `<element>` children and no data.
+            let data = match (n.name.as_str(), n.attr("data")) {
+                (_, Some(d)) => d,
+                ("tuple", None) => "",
+                ("numeric", None)
+                    if n.attr("size")
+                        .and_then(|s| s.trim().parse::<u32>().ok())
+                        .is_some_and(|s| s > 0)
+                        && !name.starts_with("scm_") =>
+                {
+                    ""
+                }
+                _ => return Err(self.err(n, "missing data")),
+            };
             match n.name.as_str() {
                 "numeric" => {
                     if name.starts_with("scm_") {
@@ -423,14 +437,18 @@ impl Builder {
                             )
                         })?;
                         self.numeric.push((name, v[0], Place::of(n)));
+                    } else {
+                        self.unused(n, "custom data (for the user's code; no physics reads it)");
                     }
                 }
                 "text" => {
                     if name.starts_with("scm_") {
                         self.text.push((name, data.to_string(), Place::of(n)));
+                    } else {
+                        self.unused(n, "custom data (for the user's code; no physics reads it)");
                     }
                 }
-                "tuple" => {}
+                "tuple" => self.unused(n, "custom data (for the user's code; no physics reads it)"),
                 _ => return Err(self.err(n, "unsupported custom element")),
             }
         }
