@@ -653,3 +653,40 @@ fn custom_data_for_the_user_is_read_past_and_listed() {
     let e = refuse("<mujoco>\n  <custom>\n    <numeric name=\"scm_eps1\" size=\"1\"/>\n  </custom>\n  <worldbody/>\n</mujoco>\n");
     assert!(e.line == 3 && e.message.contains("missing data"), "{e}");
 }
+
+/// A position actuator's `dampratio` gives critical damping at ζ = 1 for the inertia it
+/// drives: on a lone slider of mass m (with armature a) `kv = 2 ζ √(kp (m + a))`; refused
+/// where MuJoCo refuses it. (tests/python/test_mjcf_compiler.py compares chains and tendons
+/// with MuJoCo's compiled kv.)
+#[test]
+fn position_dampratio_sets_kv_from_the_driven_inertia() {
+    let scene = |act: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <joint name=\"s\" type=\"slide\" axis=\"1 0 0\" armature=\"0.5\"/>\n      <geom type=\"box\" size=\"0.1 0.1 0.1\" mass=\"2\"/>\n    </body>\n  </worldbody>\n  <actuator>\n    {act}\n  </actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(
+        r#"<position joint="s" kp="10" dampratio="0.5" gear="2"/>"#,
+    ));
+    let scm::model::ActuatorKind::Position { kp, kv } = s.model.actuators[0].kind else {
+        panic!("a position actuator")
+    };
+    // Moment 2 through the inertia 2.5: m = 2.5 / 4.
+    let want = 2.0 * 0.5 * (kp * 2.5 / 4.0_f64).sqrt();
+    assert!((kv - want).abs() < 1e-12 * want, "{kv} vs {want}");
+    for (act, says) in [
+        (
+            r#"<position joint="s" kv="1" dampratio="1"/>"#,
+            "cannot both",
+        ),
+        (
+            r#"<position joint="s" dampratio="-1"/>"#,
+            "must not be negative",
+        ),
+        (
+            r#"<motor joint="s" dampratio="1"/>"#,
+            "belongs to a <position>",
+        ),
+    ] {
+        let e = refuse(&scene(act));
+        assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
+    }
+}

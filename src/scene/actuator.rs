@@ -19,6 +19,7 @@ impl Builder {
                 "gear",
                 "kp",
                 "kv",
+                "dampratio",
                 "ctrlrange",
                 "ctrllimited",
                 "forcerange",
@@ -81,6 +82,22 @@ impl Builder {
             }
             Ok(v)
         };
+        // A position actuator's damping as a ratio of critical damping: kv comes from the
+        // actuator's inertia at qpos0 once the tree is built (`apply_dampratios`).
+        let dampratio = match (el.name.as_str(), self.float(el, "dampratio")?) {
+            (_, None) => None,
+            ("position", Some(_)) if el.attr("kv").is_some() => {
+                return Err(self.err(
+                    el,
+                    "kv and dampratio cannot both be given (MuJoCo refuses it too): keep one",
+                ))
+            }
+            ("position", Some(z)) if z < 0.0 => {
+                return Err(self.err(el, format!("dampratio=\"{z}\" must not be negative")))
+            }
+            ("position", Some(z)) => Some((z, Place::of(el))),
+            (_, Some(_)) => return Err(self.err(el, "dampratio belongs to a <position> actuator")),
+        };
         let kind = match el.name.as_str() {
             "motor" => ActuatorKind::Motor,
             "position" => ActuatorKind::Position {
@@ -120,6 +137,7 @@ impl Builder {
             ctrlrange,
             forcerange,
         });
+        self.dampratios.push(dampratio);
         if el.name == "general" && el.attr("dynprm").is_some() {
             self.unused(
                 el,

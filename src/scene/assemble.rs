@@ -188,6 +188,7 @@ impl Builder {
         self.compile_inertias();
         let refused = self.apply_flags();
         let (tree, tendons, equalities, connects) = self.mechanics()?;
+        self.apply_dampratios(&tree)?;
         Ok(Compiled {
             tree,
             tendons,
@@ -344,6 +345,7 @@ impl Builder {
             (vec![], vec![None; self.bodies.len()])
         };
         let (tree, tendons, equalities, connects) = self.mechanics()?;
+        self.apply_dampratios(&tree)?;
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let name = Path::new(&self.file)

@@ -208,6 +208,48 @@ impl Builder {
             .collect()
     }
 
+    /// Sets `kv` of every position actuator that gives `dampratio` ζ as MuJoCo's compiler does:
+    /// `kv = 2 ζ √(kp m)` with `m = 1 / (gᵀ M⁻¹ g)` the inertia the actuator drives at `qpos0`,
+    /// `g` its moment over the degrees of freedom (the gear on its joint, or the gear times a
+    /// fixed tendon's coefficients). Compared with MuJoCo's compiled `actuator_biasprm`.
+    pub(super) fn apply_dampratios(&mut self, tree: &Tree) -> Result<(), SceneError> {
+        if self.dampratios.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        let inv = mass_at_q0(tree).1;
+        for (a, z) in self.dampratios.iter().enumerate() {
+            let Some((z, at)) = z else { continue };
+            let actuator = &self.actuators[a];
+            let moment: Vec<(usize, f64)> = match actuator.target {
+                Transmission::Joint(j) => vec![(tree.joints[j].dadr, actuator.gear)],
+                Transmission::Tendon(t) => self.tendons[t]
+                    .joints
+                    .iter()
+                    .map(|&(j, c)| (tree.joints[j].dadr, actuator.gear * c))
+                    .collect(),
+            };
+            let w: f64 = match &inv {
+                Some(inv) => moment
+                    .iter()
+                    .flat_map(|&(i, gi)| moment.iter().map(move |&(k, gk)| gi * gk * inv[(i, k)]))
+                    .sum(),
+                None => f64::NAN,
+            };
+            if !(w > 0.0) {
+                return Err(SceneError {
+                    file: at.file.to_string(),
+                    line: at.line,
+                    element: "position".into(),
+                    message: format!("actuator '{}': dampratio needs the inertia it drives, and the mass matrix at qpos0 gives none (a massless chain, or a zero gear): give kv instead", actuator.name),
+                });
+            }
+            if let ActuatorKind::Position { kp, kv } = &mut self.actuators[a].kind {
+                *kv = 2.0 * *z * (*kp / w).sqrt();
+            }
+        }
+        Ok(())
+    }
+
     /// The tree with its joint limits, the fixed tendons, and the equality constraints: the
     /// mechanics of the model, with the option flags applied.
     #[allow(clippy::type_complexity)]

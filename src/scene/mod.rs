@@ -333,6 +333,9 @@ struct Builder {
     connects: Vec<ConnectSpec>,
     /// The names the scene gives, per kind (and those made up for unnamed objects).
     names: names::Names,
+    /// Each actuator's `dampratio` (position actuators that give one), indexed like
+    /// `actuators`.
+    dampratios: Vec<Option<(f64, Place)>>,
 }
 
 /// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
@@ -428,6 +431,7 @@ impl Builder {
             numeric: vec![],
             text: vec![],
             names: names::Names::default(),
+            dampratios: vec![],
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],

@@ -318,3 +318,36 @@ def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
     path = tmp_path / "four_bar.xml"
     path.write_text(FOUR_BAR)
     assert len(compare(path)["connects"]) == 1
+
+
+def test_position_dampratio_compiles_as_mujoco_compiles_it(tmp_path):
+    """`dampratio` sets kv from the inertia the actuator drives at qpos0 (its moment through
+    M⁻¹), on a joint with a gear and on a fixed tendon; the compared biasprm holds kv."""
+    path = tmp_path / "dampratio.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body name="cart" pos="0 0 1">
+      <joint name="s" type="slide" axis="1 0 0" armature="0.01"/>
+      <geom type="box" size=".1 .1 .1"/>
+      <body name="b1">
+        <joint name="j1" axis="0 1 0" armature="0.05"/>
+        <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+        <body name="b2" pos=".3 0 0">
+          <joint name="j2" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/></fixed></tendon>
+  <default><position kp="40" dampratio="0.7"/></default>
+  <actuator>
+    <position joint="s" kp="100" dampratio="1"/>
+    <position joint="j2" gear="2"/>
+    <position tendon="t" kp="30" dampratio="1.5" gear="2"/>
+  </actuator>
+</mujoco>
+""")
+    ours = compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert all(m.actuator_biasprm[:, 2] < 0) and len(ours["actuators"]) == 3
