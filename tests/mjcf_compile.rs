@@ -690,3 +690,23 @@ fn position_dampratio_sets_kv_from_the_driven_inertia() {
         assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
     }
 }
+
+/// `springdamper` on a lone slider body of mass m: `k = m/(τζ)²`, `b = 2m/τ` replace the
+/// joint's stiffness and damping (MuJoCo's `dof_invweight0` of such a "simple" body leaves
+/// the armature out: MuJoCo gives 600 and 30 here); non-positive values refused.
+#[test]
+fn joint_springdamper_sets_stiffness_and_damping_from_the_inertia() {
+    let scene = |attrs: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <geom type=\"box\" size=\"0.1 0.1 0.1\" mass=\"2\"/>\n      <body>\n        <joint name=\"s\" type=\"slide\" axis=\"1 0 0\" armature=\"0.5\" stiffness=\"7\" {attrs}/>\n        <geom type=\"sphere\" size=\"0.05\" mass=\"1.5\"/>\n      </body>\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    let s = load(&scene(r#"springdamper="0.1 0.5""#));
+    let j = joint(&s, "s");
+    assert!(
+        (j.stiffness - 1.5 / (0.1f64 * 0.5).powi(2)).abs() < 1e-9,
+        "{}",
+        j.stiffness
+    );
+    assert!((j.damping - 2.0 * 1.5 / 0.1).abs() < 1e-12, "{}", j.damping);
+    let e = refuse(&scene(r#"springdamper="0 1""#));
+    assert!(e.line == 6 && e.message.contains("must be positive"), "{e}");
+}

@@ -186,6 +186,7 @@ impl Builder {
     /// The compiled model without colliders, and everything SCM would refuse about it.
     pub(super) fn compiled(mut self) -> Result<Compiled, SceneError> {
         self.compile_inertias();
+        self.apply_springdampers()?;
         let refused = self.apply_flags();
         let (tree, tendons, equalities, connects) = self.mechanics()?;
         self.apply_dampratios(&tree)?;
@@ -220,6 +221,7 @@ impl Builder {
 
     pub(super) fn finish(mut self) -> Result<Scene, SceneError> {
         self.compile_inertias();
+        self.apply_springdampers()?;
         if let Some(first) = self.apply_flags().into_iter().next() {
             return Err(first);
         }

@@ -109,15 +109,24 @@ impl Builder {
                 t => return Err(self.err(el, format!("type=\"{t}\" is not a joint type"))),
             }
         };
-        if self
-            .floats(el, "springdamper", 2)?
-            .is_some_and(|v| v != [0.0, 0.0])
-        {
-            return Err(self.err(
-                el,
-                "springdamper is not supported by SCM: give stiffness and damping",
-            ));
-        }
+        // `springdamper="τ ζ"`: stiffness and damping from the joint's inertia at qpos0, once
+        // the tree is known (`apply_springdampers`); "0 0" (MuJoCo's default) is none.
+        let springdamper = match self.floats(el, "springdamper", 2)? {
+            Some(v) if v == [0.0, 0.0] => None,
+            Some(v) if v[0] > 0.0 && v[1] > 0.0 => {
+                if !matches!(kind, JointKind::Slide | JointKind::Hinge) {
+                    return Err(self.err(el, "springdamper on a free or ball joint is not supported by SCM: give stiffness and damping"));
+                }
+                Some((v[0], v[1]))
+            }
+            Some(_) => {
+                return Err(self.err(
+                    el,
+                    "springdamper: both values (time constant, damping ratio) must be positive (MuJoCo refuses it too)",
+                ))
+            }
+            None => None,
+        };
         // Hinge angles are read in the compiler's unit; ball ranges too.
         let angular = |v: f64| {
             if kind == JointKind::Hinge || kind == JointKind::Ball {
@@ -212,6 +221,9 @@ impl Builder {
             dadr: 0,
             body,
         };
+        if let Some((tau, zeta)) = springdamper {
+            self.springdampers.push((self.joints.len(), tau, zeta));
+        }
         self.joints.push(joint);
         self.limits.push(limit);
         let solref = self

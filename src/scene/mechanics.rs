@@ -21,13 +21,7 @@ impl Builder {
             if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
                 (limit, tree.joints[j].kind)
             {
-                let d = tree.joints[j].dadr;
-                let inertia = match (slider_body_mass(tree, j), &m_inv) {
-                    (Some(mass), _) => mass,
-                    (None, Some(inv)) if inv[(d, d)] > 0.0 => 1.0 / inv[(d, d)],
-                    // A singular mass matrix (a massless chain): the locked-joint inertia.
-                    _ => m[(d, d)],
-                };
+                let inertia = joint_inertia(tree, j, &m, &m_inv);
                 let joint = &mut tree.joints[j];
                 joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
                     *lo,
@@ -208,6 +202,25 @@ impl Builder {
             .collect()
     }
 
+    /// Sets the stiffness and damping of every joint that gives `springdamper="τ ζ"` as MuJoCo's
+    /// compiler does: `k = I/(τ ζ)²`, `b = 2 I/τ` with `I` the joint's inertia at `qpos0`
+    /// (`1 / dof_invweight0`, as for its limit), replacing `stiffness` and `damping`. Before the
+    /// option flags, which may then switch them off.
+    pub(super) fn apply_springdampers(&mut self) -> Result<(), SceneError> {
+        if self.springdampers.is_empty() {
+            return Ok(());
+        }
+        let tree = self.tree()?;
+        let (m, m_inv) = mass_at_q0(&tree);
+        for &(j, tau, zeta) in &self.springdampers {
+            let inertia = joint_inertia(&tree, j, &m, &m_inv);
+            let (k, b) = solref_gains([tau, zeta], inertia);
+            self.joints[j].stiffness = k;
+            self.joints[j].damping = b;
+        }
+        Ok(())
+    }
+
     /// Sets `kv` of every position actuator that gives `dampratio` ζ as MuJoCo's compiler does:
     /// `kv = 2 ζ √(kp m)` with `m = 1 / (gᵀ M⁻¹ g)` the inertia the actuator drives at `qpos0`,
     /// `g` its moment over the degrees of freedom (the gear on its joint, or the gear times a
@@ -264,6 +277,24 @@ impl Builder {
         let equalities = self.scalar_equalities(&tree, &tendons);
         let connects = self.connects(&tree);
         Ok((tree, tendons, equalities, connects))
+    }
+}
+
+/// The inertia of slide or hinge joint `j` at `qpos0` as MuJoCo's compiler takes it (its
+/// `1 / dof_invweight0`; see [`Builder::set_limits`]), given the mass matrix there and its
+/// inverse.
+fn joint_inertia(
+    tree: &Tree,
+    j: usize,
+    m: &nalgebra::DMatrix<f64>,
+    m_inv: &Option<nalgebra::DMatrix<f64>>,
+) -> f64 {
+    let d = tree.joints[j].dadr;
+    match (slider_body_mass(tree, j), m_inv) {
+        (Some(mass), _) => mass,
+        (None, Some(inv)) if inv[(d, d)] > 0.0 => 1.0 / inv[(d, d)],
+        // A singular mass matrix (a massless chain): the locked-joint inertia.
+        _ => m[(d, d)],
     }
 }
 

@@ -336,6 +336,8 @@ struct Builder {
     /// Each actuator's `dampratio` (position actuators that give one), indexed like
     /// `actuators`.
     dampratios: Vec<Option<(f64, Place)>>,
+    /// Joints with `springdamper="τ ζ"`: index, time constant, damping ratio.
+    springdampers: Vec<(usize, f64, f64)>,
 }
 
 /// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
@@ -432,6 +434,7 @@ impl Builder {
             text: vec![],
             names: names::Names::default(),
             dampratios: vec![],
+            springdampers: vec![],
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],

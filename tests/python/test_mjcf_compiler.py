@@ -351,3 +351,25 @@ def test_position_dampratio_compiles_as_mujoco_compiles_it(tmp_path):
     ours = compare(path)
     m = mujoco.MjModel.from_xml_path(str(path))
     assert all(m.actuator_biasprm[:, 2] < 0) and len(ours["actuators"]) == 3
+
+
+def test_joint_springdamper_compiles_as_mujoco_compiles_it(tmp_path):
+    """`springdamper="τ ζ"` replaces stiffness and damping with `I/(τζ)²` and `2I/τ`, `I` the
+    joint's inertia at qpos0 (MuJoCo's 1/dof_invweight0), on coupled slide and hinge joints."""
+    path = tmp_path / "springdamper.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body name="cart" pos="0 0 1">
+      <joint name="s" type="slide" axis="1 0 0" armature="0.02" springdamper="0.1 0.7"/>
+      <geom type="box" size=".1 .1 .1"/>
+      <body name="arm">
+        <joint name="h" axis="0 1 0" armature="0.05" stiffness="5" springdamper="0.2 1.3"/>
+        <geom type="capsule" fromto="0 0 0 .3 0 -.2" size=".02"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert m.jnt_stiffness[1] != 5
