@@ -710,3 +710,26 @@ fn joint_springdamper_sets_stiffness_and_damping_from_the_inertia() {
     let e = refuse(&scene(r#"springdamper="0 1""#));
     assert!(e.line == 6 && e.message.contains("must be positive"), "{e}");
 }
+
+/// A damper without a control range, or with a negative one, is refused as MuJoCo refuses it.
+#[test]
+fn a_damper_needs_a_non_negative_control_range() {
+    let scene = |act: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\"/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n    </body>\n  </worldbody>\n  <actuator>\n    {act}\n  </actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(r#"<damper joint="h" kv="2" ctrlrange="0 1"/>"#));
+    assert!(matches!(
+        s.model.actuators[0].kind,
+        scm::model::ActuatorKind::General { gain: [0.0, 0.0, g], bias: [0.0, 0.0, 0.0] } if g == -2.0
+    ));
+    for (act, says) in [
+        (r#"<damper joint="h" kv="2"/>"#, "needs a ctrlrange"),
+        (
+            r#"<damper joint="h" kv="2" ctrlrange="-1 1"/>"#,
+            "cannot be negative",
+        ),
+    ] {
+        let e = refuse(&scene(act));
+        assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
+    }
+}

@@ -107,11 +107,28 @@ impl Builder {
             "velocity" => ActuatorKind::Velocity {
                 kv: gain("kv", 1.0)?,
             },
+            // MuJoCo's damper: an affine gain on the velocity, `force = -kv L̇ u`, with a
+            // control range that must be given and not negative.
+            "damper" => {
+                match self.limited(el, "ctrllimited", "ctrlrange")? {
+                    Some((lo, _)) if lo < 0.0 => {
+                        return Err(self.err(el, "a damper's ctrlrange cannot be negative (MuJoCo refuses it too)"))
+                    }
+                    Some(_) => {}
+                    None => {
+                        return Err(self.err(el, "a damper needs a ctrlrange (MuJoCo refuses it without): give ctrlrange=\"0 1\", say"))
+                    }
+                }
+                ActuatorKind::General {
+                    gain: [0.0, 0.0, -gain("kv", 0.0)?],
+                    bias: [0.0; 3],
+                }
+            }
             "general" => self.general(el)?,
             _ => {
                 return Err(self.err(
                     el,
-                    "unsupported actuator: use motor, position, velocity or general",
+                    "unsupported actuator: use motor, position, velocity, damper or general",
                 ))
             }
         };

@@ -373,3 +373,29 @@ def test_joint_springdamper_compiles_as_mujoco_compiles_it(tmp_path):
     compare(path)
     m = mujoco.MjModel.from_xml_path(str(path))
     assert m.jnt_stiffness[1] != 5
+
+
+def test_damper_actuators_compile_as_mujoco_compiles_them(tmp_path):
+    """A damper is an affine gain on the actuator's velocity (`force = -kv L̇ u`), on a joint
+    and on a fixed tendon; its kv defaults as MuJoCo's."""
+    path = tmp_path / "damper.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body name="b1" pos="0 0 1">
+      <joint name="j1" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+      <body name="b2" pos=".3 0 0">
+        <joint name="j2" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="j1" coef="1"/><joint joint="j2" coef="1"/></fixed></tendon>
+  <actuator>
+    <damper joint="j1" kv="3" ctrlrange="0 1"/>
+    <damper tendon="t" gear="2" ctrlrange="0 2"/>
+  </actuator>
+</mujoco>
+""")
+    ours = compare(path)
+    assert [a["gainprm"][2] for a in ours["actuators"]] == [-3.0, 0.0]
