@@ -84,6 +84,9 @@ pub struct Model {
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// Connect equality constraints, as springs and dampers between two points.
     pub connects: Vec<crate::dynamics::equality::Connect>,
+    /// Degrees of freedom whose total actuator force is clamped (MuJoCo's joint
+    /// `actuatorfrcrange`): the velocity index and the range (N or N·m).
+    pub actuator_ranges: Vec<(usize, f64, f64)>,
 }
 
 /// Result of forward dynamics.

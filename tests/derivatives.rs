@@ -831,3 +831,45 @@ fn forward_jacobians_with_general_actuators_match_central_differences() {
     assert_eq!(tau[2], 0.5);
     check_forward_jacobian("general actuators", &model, &p, Coordinates::Embedded);
 }
+
+#[test]
+fn forward_jacobians_with_joint_actuator_force_ranges_match_central_differences() {
+    // Two actuators on one hinge (one through a tendon) whose sum a joint `actuatorfrcrange`
+    // clamps, and a geared motor on a slider within its joint's range: the clamped total's
+    // derivatives are zero, exactly and in the differences; the other passes through.
+    let xml = r#"<mujoco>
+  <compiler autolimits="true"/>
+  <worldbody>
+    <body name="cart" pos="0 0 1">
+      <joint name="s" type="slide" axis="1 0 0" actuatorfrcrange="-2 2"/>
+      <geom type="box" size="0.1 0.1 0.1" contype="0" conaffinity="0"/>
+      <body name="arm">
+        <joint name="h" axis="0 1 0" actuatorfrcrange="-0.05 0.1"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="h" coef="2"/></fixed></tendon>
+  <actuator>
+    <motor joint="s" gear="3"/>
+    <position joint="h" kp="4"/>
+    <motor tendon="t"/>
+  </actuator>
+</mujoco>"#;
+    let model = scm::scene::load_str(xml, std::path::Path::new("frcrange.xml"))
+        .unwrap()
+        .model;
+    let mut p = Point::start(&model);
+    p.q = vec![0.02, 0.3];
+    p.v = vec![0.1, -0.2];
+    p.u = vec![0.4, 0.5, 0.3];
+    let tau = model.actuator_forces(&p.q, &p.v, &p.u);
+    assert!((tau[0] - 1.2).abs() < 1e-15, "{tau}");
+    assert_eq!(tau[1], 0.1, "the hinge's total (0.8 + 0.6) is clamped");
+    check_forward_jacobian(
+        "joint actuator force ranges",
+        &model,
+        &p,
+        Coordinates::Embedded,
+    );
+}

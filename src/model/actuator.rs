@@ -101,9 +101,10 @@ pub struct Actuator {
 impl Model {
     /// Generalized actuator forces for controls `ctrl` (clamped to their ranges: the derivative
     /// with respect to a clamped control is zero), each force clamped to its actuator's
-    /// `forcerange`.
+    /// `forcerange`, then the total on a joint with an actuator force range clamped to it (as
+    /// MuJoCo clamps `qfrc_actuator`; its derivatives beyond the range are zero).
     pub fn actuator_forces<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T]) -> DVector<T> {
-        let mut tau = DVector::zeros(self.tree.nv);
+        let mut tau: DVector<T> = DVector::zeros(self.tree.nv);
         for (a, &u) in self.actuators.iter().zip(ctrl) {
             let u = match a.ctrlrange {
                 Some((lo, _)) if u.re() < lo => c(lo),
@@ -144,6 +145,13 @@ impl Model {
                         tau[vi] += force * (a.gear * coef);
                     }
                 }
+            }
+        }
+        for &(d, lo, hi) in &self.actuator_ranges {
+            if tau[d].re() < lo {
+                tau[d] = c(lo);
+            } else if tau[d].re() > hi {
+                tau[d] = c(hi);
             }
         }
         tau

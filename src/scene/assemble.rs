@@ -204,6 +204,14 @@ impl Builder {
                 .into_iter()
                 .map(|l| l.map(|(lo, hi, _)| (lo, hi)))
                 .collect(),
+            actuator_ranges: (0..self.joints.len())
+                .map(|j| {
+                    self.actuator_ranges
+                        .iter()
+                        .find(|r| r.0 == j)
+                        .map(|&(_, lo, hi)| (lo, hi))
+                })
+                .collect(),
             refused,
             unused: self.unused,
             warnings: self.warnings,
@@ -350,6 +358,7 @@ impl Builder {
         self.apply_dampratios(&tree)?;
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
+        let actuator_ranges = self.actuator_dof_ranges(&tree);
         let name = Path::new(&self.file)
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -372,6 +381,7 @@ impl Builder {
             tendons,
             equalities,
             connects,
+            actuator_ranges,
         };
         Ok(Scene {
             model,

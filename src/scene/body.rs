@@ -95,6 +95,8 @@ impl Builder {
                     "springref",
                     "springdamper",
                     "solreflimit",
+                    "actuatorfrcrange",
+                    "actuatorfrclimited",
                 ],
             )?;
         }
@@ -223,6 +225,20 @@ impl Builder {
         };
         if let Some((tau, zeta)) = springdamper {
             self.springdampers.push((self.joints.len(), tau, zeta));
+        }
+        // MuJoCo clamps the total actuator force on a limited slide or hinge joint; it ignores
+        // the range on a ball or free joint, and a reversed one.
+        match self.limited(el, "actuatorfrclimited", "actuatorfrcrange")? {
+            None => {}
+            Some(_) if !matches!(kind, JointKind::Slide | JointKind::Hinge) => self.unused(
+                el,
+                "actuatorfrcrange: MuJoCo clamps actuator forces on slide and hinge joints only",
+            ),
+            Some((lo, hi)) if lo > hi => self.unused(
+                el,
+                "actuatorfrcrange: reversed, so MuJoCo does not limit the joint's actuator force (nor does SCM)",
+            ),
+            Some((lo, hi)) => self.actuator_ranges.push((self.joints.len(), lo, hi)),
         }
         self.joints.push(joint);
         self.limits.push(limit);

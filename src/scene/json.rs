@@ -76,7 +76,8 @@ impl Compiled {
             .joints
             .iter()
             .zip(&self.limits)
-            .map(|(j, limit)| {
+            .zip(&self.actuator_ranges)
+            .map(|((j, limit), actuator_range)| {
                 let kind = match j.kind {
                     JointKind::Free => "free",
                     JointKind::Ball => "ball",
@@ -93,6 +94,7 @@ impl Compiled {
                     "range": limit.map(|(a, b)| vec![a, b]),
                     "limit_stiffness": j.limit.map(|l| l.stiffness),
                     "limit_damping": j.limit.map(|l| l.damping),
+                    "actuatorfrcrange": actuator_range.map(|(a, b)| vec![a, b]),
                 })
             })
             .collect();

@@ -202,6 +202,15 @@ impl Builder {
             .collect()
     }
 
+    /// The degree of freedom and range of every joint whose total actuator force is limited
+    /// (`actuatorfrcrange`), for [`Model::actuator_ranges`].
+    pub(super) fn actuator_dof_ranges(&self, tree: &Tree) -> Vec<(usize, f64, f64)> {
+        self.actuator_ranges
+            .iter()
+            .map(|&(j, lo, hi)| (tree.joints[j].dadr, lo, hi))
+            .collect()
+    }
+
     /// Sets the stiffness and damping of every joint that gives `springdamper="τ ζ"` as MuJoCo's
     /// compiler does: `k = I/(τ ζ)²`, `b = 2 I/τ` with `I` the joint's inertia at `qpos0`
     /// (`1 / dof_invweight0`, as for its limit), replacing `stiffness` and `damping`. Before the

@@ -210,6 +210,8 @@ pub struct Compiled {
     pub integrator: Integrator,
     /// Each joint's limits (m or rad), if limited.
     pub limits: Vec<Option<(f64, f64)>>,
+    /// Each joint's range of its total actuator force (`actuatorfrcrange`), if limited.
+    pub actuator_ranges: Vec<Option<(f64, f64)>>,
     /// Fixed tendons.
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// Joint and tendon equalities.
@@ -338,6 +340,8 @@ struct Builder {
     dampratios: Vec<Option<(f64, Place)>>,
     /// Joints with `springdamper="τ ζ"`: index, time constant, damping ratio.
     springdampers: Vec<(usize, f64, f64)>,
+    /// Joints whose total actuator force is limited (`actuatorfrcrange`): index, range.
+    actuator_ranges: Vec<(usize, f64, f64)>,
 }
 
 /// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
@@ -435,6 +439,7 @@ impl Builder {
             names: names::Names::default(),
             dampratios: vec![],
             springdampers: vec![],
+            actuator_ranges: vec![],
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],

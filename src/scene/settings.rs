@@ -149,9 +149,6 @@ pub(super) fn advice(element: &str, attr: &str) -> &'static str {
         ("mesh", "vertex") | ("mesh", "face") | ("mesh", "normal") | ("mesh", "texcoord") => {
             ": meshes given inline are not supported yet; write the mesh to an OBJ or STL file and give file=\"...\""
         }
-        ("joint", "actuatorfrcrange") | ("joint", "actuatorfrclimited") => {
-            ": limit the actuators' forcerange instead"
-        }
         ("joint", "actuatorgravcomp") => {
             ": gravity compensation through the actuators is not modelled; remove it (the bodies' gravcomp then acts as a passive force, MuJoCo's default)"
         }

@@ -8,7 +8,7 @@ positions, passive properties, limits and the limit springs' stiffness and dampi
 sizes and poses (per body, in order); fixed tendons (joints, coefficients, spring, damper,
 friction, spring length, limits); joint and tendon equalities (polynomial, spring and damper); connect equalities (bodies, anchors,
 spring and damper);
-actuator joints, gears, gains and biases, control and force ranges; the time step and gravity; geom sliding
+actuator joints, gears, gains and biases, control and force ranges, joints' actuator force ranges; the time step and gravity; geom sliding
 friction and condim.
 """
 import json
@@ -128,6 +128,9 @@ def compare(path):
         assert joint["limited"] == bool(m.jnt_limited[j]), f"{tag} limited"
         if joint["limited"]:
             close(f"{tag} range", joint["range"], m.jnt_range[j])
+        assert (joint["actuatorfrcrange"] is not None) == bool(m.jnt_actfrclimited[j]), f"{tag} actuatorfrclimited"
+        if joint["actuatorfrcrange"] is not None:
+            close(f"{tag} actuatorfrcrange", joint["actuatorfrcrange"], m.jnt_actfrcrange[j])
         if joint["limited"] and kind in ("slide", "hinge") and not disabled(m, "LIMIT"):
             # The limit spring and damper: MuJoCo's reference acceleration for the joint's
             # solreflimit, times the inertia its constraint sees (1 / dof_invweight0).

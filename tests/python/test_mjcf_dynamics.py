@@ -76,6 +76,40 @@ DM_LOADED = [p for p in DM_CONTROL if p.stem not in DM_CONTROL_REFUSED and p.ste
 @pytest.mark.parametrize("path", CORPUS + DM_LOADED,
                          ids=[p.stem for p in CORPUS] + [f"dm_control-{p.stem}" for p in DM_LOADED])
 def test_contact_free_motion_matches_mujoco(path, tmp_path):
+    matches_mujoco(path, tmp_path)
+
+
+def test_joint_actuator_force_ranges_clamp_as_in_mujoco(tmp_path):
+    """`actuatorfrcrange` clamps the total actuator force on a joint (two motors on one hinge,
+    one through a tendon; a gear on the slider): the motion matches MuJoCo's while the sums
+    exceed the ranges."""
+    path = tmp_path / "frcrange.xml"
+    path.write_text("""<mujoco>
+  <compiler autolimits="true"/>
+  <worldbody>
+    <body name="cart" pos="0 0 1">
+      <joint name="s" type="slide" axis="1 0 0" actuatorfrcrange="-0.3 0.2"/>
+      <geom type="box" size=".1 .1 .1"/>
+      <body name="arm">
+        <joint name="h" axis="0 1 0" actuatorfrcrange="-0.05 0.1"/>
+        <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="h" coef="2"/></fixed></tendon>
+  <actuator>
+    <motor joint="s" gear="3" ctrlrange="-1 1"/>
+    <motor joint="h" ctrlrange="-1 1"/>
+    <motor tendon="t" ctrlrange="-1 1"/>
+  </actuator>
+</mujoco>
+""")
+    matches_mujoco(path, tmp_path)
+
+
+def matches_mujoco(path, tmp_path):
+    """The body of the differential test: `path`'s contact-free copy through its FMU in fmpy
+    against MuJoCo's run of the same copy."""
     copy = contact_free_copy(path, tmp_path)
     fmu = tmp_path / f"{path.stem}.fmu"
     packed = subprocess.run([str(SCM), "pack", str(copy), "-o", str(fmu)], capture_output=True, text=True)
