@@ -257,7 +257,7 @@ impl Builder {
                     .sum(),
                 None => f64::NAN,
             };
-            if !(w > 0.0) {
+            if w.is_nan() || w <= 0.0 {
                 return Err(SceneError {
                     file: at.file.to_string(),
                     line: at.line,
