@@ -402,3 +402,62 @@ def test_damper_actuators_compile_as_mujoco_compiles_them(tmp_path):
 """)
     ours = compare(path)
     assert [a["gainprm"][2] for a in ours["actuators"]] == [-3.0, 0.0]
+
+
+def mujoco_body_pairs(m):
+    """The body pairs MuJoCo's collision filter lets touch, by its rules (contype/conaffinity
+    bits, weld bodies, the parent filter, excludes, explicit pairs), where contact can move
+    something: none with constraints or contact switched off, none between two bodies that
+    do not move (the world, static and mocap bodies)."""
+    off = m.opt.disableflags
+    if off & int(mujoco.mjtDisableBit.mjDSBL_CONTACT) or off & int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT):
+        return set()
+    filterparent = not off & int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
+    weld, parent = m.body_weldid, m.body_parentid
+    moves = lambda b: m.body_dofnum[weld[b]] > 0 or any(m.body_dofnum[k] > 0 for k in range(m.nbody) if k != b and _ancestor(m, b, k))
+    excluded = {(s >> 16, s & 0xFFFF) for s in m.exclude_signature[:m.nexclude]}
+    pairs = set()
+    for g1 in range(m.ngeom):
+        for g2 in range(g1 + 1, m.ngeom):
+            b1, b2 = m.geom_bodyid[g1], m.geom_bodyid[g2]
+            w1, w2 = weld[b1], weld[b2]
+            if w1 == w2:
+                continue
+            if filterparent and w1 and w2 and (w1 == weld[parent[w2]] or w2 == weld[parent[w1]]):
+                continue
+            if not (m.geom_contype[g1] & m.geom_conaffinity[g2] or m.geom_contype[g2] & m.geom_conaffinity[g1]):
+                continue
+            if (min(b1, b2), max(b1, b2)) in excluded:
+                continue
+            pairs.add((b1, b2))
+    pairs |= {(m.geom_bodyid[a], m.geom_bodyid[b]) for a, b in zip(m.pair_geom1, m.pair_geom2)}
+    return {frozenset((int(a), int(b))) for a, b in pairs if moves(a) or moves(b)}
+
+
+def _ancestor(m, b, k):
+    """Whether body k is an ancestor of body b."""
+    while b:
+        b = m.body_parentid[b]
+        if b == k:
+            return True
+    return False
+
+
+COLLIDING = CORPUS + [p for p in DM_CONTROL if p.stem not in DM_CONTROL_REFUSED] + BUNDLED
+
+
+@pytest.mark.parametrize("path", COLLIDING, ids=[f"{p.parent.name}-{p.stem}" for p in COLLIDING])
+def test_the_bodies_that_collide_are_those_mujoco_lets_touch(path):
+    """SCM's pairs (scm check) against MuJoCo's filter on the same file, bodies by SCM's
+    names (in MuJoCo's order; an unnamed body gets a made-up one). SCM gives each of several
+    static planes a body of its own named after the geom (`split_static_planes`); those count
+    as the world here."""
+    m = mujoco.MjModel.from_xml_path(str(path))
+    names = [b["name"] for b in compiled(path)["bodies"]]
+    assert len(names) == m.nbody
+    out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    as_mujoco = lambda b: b if b in names else names[0]
+    ours = {frozenset(map(as_mujoco, line[5:].split(" - "))) for line in out.stdout.splitlines()
+            if line.startswith("pair ")}
+    theirs = {frozenset(names[b] for b in pair) for pair in mujoco_body_pairs(m)}
+    assert ours == theirs, (sorted(map(sorted, ours - theirs)), sorted(map(sorted, theirs - ours)))
