@@ -733,3 +733,52 @@ fn a_damper_needs_a_non_negative_control_range() {
         assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
     }
 }
+
+/// Files as gymnasium-robotics writes them: an included file rooted at `<mujocoinclude>`, a
+/// tendon declared (in an include) before the joints it names, and an open visual mesh used
+/// by a geom that neither collides nor carries mass (left out, listed as unused), while the
+/// same mesh on a colliding geom is refused naming both the mesh and the geom.
+#[test]
+fn robotics_files_include_roots_late_joints_and_visual_meshes() {
+    let dir = scratch("robotics");
+    // A tetrahedron with one face missing: open.
+    std::fs::write(
+        dir.join("open.obj"),
+        "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("shared.xml"),
+        "<mujocoinclude>\n  <tendon>\n    <fixed name=\"t\"><joint joint=\"h\" coef=\"1\"/></fixed>\n  </tendon>\n  <asset><mesh name=\"shell\" file=\"open.obj\"/></asset>\n</mujocoinclude>\n",
+    )
+    .unwrap();
+    let main = dir.join("robot.xml");
+    let scene = |visual: &str| {
+        format!("<mujoco>\n  <include file=\"shared.xml\"/>\n  <worldbody>\n    <body name=\"arm\" pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\"/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n      <geom type=\"mesh\" mesh=\"shell\" {visual}/>\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    std::fs::write(&main, scene(r#"contype="0" conaffinity="0" mass="0""#)).unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    assert_eq!(s.model.tendons.len(), 1);
+    assert_eq!(s.geoms.len(), 1, "the visual mesh geom is left out");
+    assert!(
+        s.unused
+            .iter()
+            .any(|u| u.contains("robot.xml:7: <geom> geom left out") && u.contains("open")),
+        "{:?}",
+        s.unused
+    );
+    // Colliding, or carrying mass: the mesh is needed, and refused where it is declared.
+    for visual in [r#"mass="0""#, r#"contype="0" conaffinity="0""#] {
+        std::fs::write(&main, scene(visual)).unwrap();
+        let e = scm::scene::load(&main).unwrap_err();
+        assert!(
+            e.file.ends_with("shared.xml") && e.line == 5,
+            "{visual}: {e}"
+        );
+        assert!(
+            e.message.contains("the mesh is open") && e.message.contains("robot.xml:7"),
+            "{visual}: {e}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -275,13 +275,22 @@ fn check(path: &Path) -> Result<(), String> {
         m.step
     );
     for a in &sc.meshes {
-        let mp = a.mesh.mass_properties();
+        let Some(mesh) = &a.mesh else {
+            // Its problem is listed with the geoms left out (unused).
+            println!(
+                "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
+                a.name,
+                a.path.display()
+            );
+            continue;
+        };
+        let mp = mesh.mass_properties();
         println!(
             "mesh {} ({}): {} vertices, {} triangles, volume {:.4e} m³{}",
             a.name,
             a.path.display(),
-            a.mesh.vertices.len(),
-            a.mesh.triangles.len(),
+            mesh.vertices.len(),
+            mesh.triangles.len(),
             mp.volume,
             if a.used { "" } else { " (unused)" }
         );

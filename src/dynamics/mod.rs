@@ -253,14 +253,43 @@ impl Tree {
             blocks: Vec::new(),
         };
         tree.blocks = tree.subtree_dofs();
+        // MuJoCo's rule: every body with joints, together with the jointless bodies welded to
+        // it (they move as one), has a mass and a rotational inertia; a welded body alone may
+        // have none (a body that only holds a site, or a massless frame around the geoms).
         for (b, body) in tree.bodies.iter().enumerate().skip(1) {
-            let moves = tree.body_moves(b);
-            let i = &body.inertia;
-            if moves && (i.mass <= 0.0 || i.rot.symmetric_eigenvalues().min() <= 0.0) {
+            if body.joints.is_empty() {
+                continue;
+            }
+            let i = tree.welded_inertia(b);
+            if i.mass <= 0.0 || i.rot.symmetric_eigenvalues().min() <= 0.0 {
                 return Err(TreeError::Massless(body.name.clone()));
             }
         }
         Ok(tree)
+    }
+
+    /// The inertia of body `b` with every jointless body welded below it, in `b`'s frame.
+    fn welded_inertia(&self, b: usize) -> Inertia {
+        let mut total = self.bodies[b].inertia;
+        // (body, its pose in b's frame), walking jointless children.
+        let mut stack = vec![(b, Isometry3::identity())];
+        while let Some((p, pose)) = stack.pop() {
+            for (k, child) in self.bodies.iter().enumerate() {
+                if child.parent != Some(p) || !child.joints.is_empty() || k == p {
+                    continue;
+                }
+                let at = pose * child.offset;
+                let r = at.rotation.to_rotation_matrix().into_inner();
+                let i = &child.inertia;
+                total = total.add(&Inertia {
+                    mass: i.mass,
+                    com: (at * nalgebra::Point3::from(i.com)).coords,
+                    rot: r * i.rot * r.transpose(),
+                });
+                stack.push((k, at));
+            }
+        }
+        total
     }
 
     /// Whether a body has a joint on its path to the world.

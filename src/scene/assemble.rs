@@ -7,7 +7,7 @@ use super::*;
 impl Builder {
     /// Whether body `b`'s inertia comes from its geoms (`<compiler inertiafromgeom>`, and
     /// whether the body has an `<inertial>`).
-    fn inertia_from_geoms(&self, b: usize) -> bool {
+    pub(super) fn inertia_from_geoms(&self, b: usize) -> bool {
         match self.settings.inertia_from_geom {
             InertiaFromGeom::Always => true,
             InertiaFromGeom::Auto => !self.explicit_inertia[b],

@@ -61,7 +61,10 @@ impl Builder {
             mocap,
             gravcomp,
         });
-        self.explicit_inertia.push(false);
+        // Known before the geoms are read (an <inertial> may come after them): whether the
+        // body's mass comes from its geoms decides whether a geom's mesh must be closed.
+        self.explicit_inertia
+            .push(el.children.iter().any(|c| c.name == "inertial"));
         self.geom_inertia.push(NO_INERTIA);
         for child in &el.children {
             self.body_child(child, index)?;

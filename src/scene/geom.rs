@@ -178,9 +178,18 @@ impl Builder {
                         element: el.name.clone(),
                         message: format!("no mesh asset named '{name}'"),
                     })?;
-                asset.used = true;
-                mesh_name = Some(name.to_string());
-                Some(Shape::Mesh(asset.mesh.clone()))
+                match (&asset.mesh, &asset.problem) {
+                    (Some(mesh), _) => {
+                        asset.used = true;
+                        mesh_name = Some(name.to_string());
+                        Some(Shape::Mesh(mesh.clone()))
+                    }
+                    (None, Some(problem)) => {
+                        let problem = problem.clone();
+                        return self.geom_without_its_mesh(el, body, problem);
+                    }
+                    (None, None) => unreachable!("a mesh asset has its mesh or its problem"),
+                }
             }
             "plane" => None,
             t @ ("hfield" | "sdf") => {
@@ -261,6 +270,51 @@ impl Builder {
         Ok(())
     }
 
+    /// A geom whose mesh has no closed surface (`problem`): left out of the model when it
+    /// neither collides (`contype` and `conaffinity` both 0) nor gives its body mass (a zero
+    /// mass or density, a group outside `inertiagrouprange`, or a body whose inertia does not
+    /// come from its geoms), and listed as unused; otherwise the mesh's problem is the error,
+    /// naming the geom that needs it.
+    fn geom_without_its_mesh(
+        &mut self,
+        el: &Element,
+        body: usize,
+        problem: SceneError,
+    ) -> Result<(), SceneError> {
+        let collides = self.bits(el, "contype")? != 0 || self.bits(el, "conaffinity")? != 0;
+        let group: i64 = el
+            .attr("group")
+            .and_then(|g| g.trim().parse().ok())
+            .unwrap_or(0);
+        let (lo, hi) = self.settings.inertia_groups;
+        let massless = matches!(self.float(el, "mass")?, Some(m) if m == 0.0)
+            || matches!((self.float(el, "mass")?, self.float(el, "density")?), (None, Some(d)) if d == 0.0);
+        let gives_mass =
+            body != 0 && (lo..=hi).contains(&group) && !massless && self.inertia_from_geoms(body);
+        if collides || gives_mass {
+            let why = if collides {
+                "it collides (contype/conaffinity): SCM samples its surface"
+            } else {
+                "it gives its body mass: SCM needs its volume"
+            };
+            return Err(SceneError {
+                message: format!(
+                    "{} (used by the <geom> at {}:{}, where {why}; a geom that only shows the mesh, with contype=\"0\" conaffinity=\"0\" and no mass, does not need it)",
+                    problem.message, el.file, el.line
+                ),
+                ..problem
+            });
+        }
+        self.unused(
+            el,
+            format!(
+                "geom left out: its mesh is not a closed surface ({}), and it neither collides nor carries mass",
+                problem.message
+            ),
+        );
+        Ok(())
+    }
+
     /// `<mesh name file scale>`: loads and checks the file at once (paths relative to the scene
     /// file's folder and the compiler's `meshdir`), so that problems name the asset's line.
     pub(super) fn mesh_asset(&mut self, el: &Element) -> Result<(), SceneError> {
@@ -325,17 +379,25 @@ impl Builder {
             return Err(self.err(el, "scale has a zero component"));
         }
         let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
-        let (mesh, warnings) =
-            TriMesh::load(&path, &scale).map_err(|e| self.err(el, e.to_string()))?;
-        for w in warnings {
-            self.warnings
-                .push(format!("{}:{}: {w}", self.file, el.line));
-        }
+        // A file that cannot be read is an error at once (MuJoCo's too); a surface that is
+        // not closed is one only where a geom needs it (`MeshAsset::problem`).
+        let (mesh, problem) = match TriMesh::load(&path, &scale) {
+            Ok((mesh, warnings)) => {
+                for w in warnings {
+                    self.warnings
+                        .push(format!("{}:{}: {w}", self.file, el.line));
+                }
+                (Some(Arc::new(mesh)), None)
+            }
+            Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
+            Err(e) => return Err(self.err(el, e.to_string())),
+        };
         self.meshes.push(MeshAsset {
             name,
             file,
             path,
-            mesh: Arc::new(mesh),
+            mesh,
+            problem,
             used: false,
         });
         Ok(())

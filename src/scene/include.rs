@@ -84,12 +84,14 @@ fn expand_in(
             element: "xml".into(),
             message: e.message,
         })?;
-        if root.name != "mujoco" {
+        // `<mujocoinclude>` is the root older files give an included file; MuJoCo takes both.
+        if root.name != "mujoco" && root.name != "mujocoinclude" {
             return Err(SceneError {
                 file: shown,
                 line: root.line,
                 element: root.name.clone(),
-                message: "an included file's root element must be <mujoco>".into(),
+                message: "an included file's root element must be <mujoco> (or <mujocoinclude>)"
+                    .into(),
             });
         }
         read.push(IncludedFile {

@@ -82,8 +82,14 @@ pub struct MeshAsset {
     pub file: String,
     /// The file, resolved against the scene's folder and `meshdir`.
     pub path: PathBuf,
-    /// The checked mesh (scaled), shared by every geom that uses it.
-    pub mesh: Arc<TriMesh>,
+    /// The checked mesh (scaled), shared by every geom that uses it; `None` when the file's
+    /// surface is not a closed manifold ([`MeshAsset::problem`]).
+    pub mesh: Option<Arc<TriMesh>>,
+    /// What is wrong with the surface (open, not manifold, degenerate triangles, ...), with
+    /// the asset's file and line. MuJoCo takes such meshes; SCM needs the closed surface only
+    /// where a geom collides or gives its body mass, and refuses the mesh there (a geom that
+    /// does neither is left out and listed as unused).
+    pub problem: Option<SceneError>,
     /// Whether a geom uses it.
     pub used: bool,
 }
@@ -584,11 +590,9 @@ impl Builder {
                 // are declared, as MuJoCo resolves names after reading the whole file.
                 "actuator" => {}
                 "contact" => self.contact(el)?,
-                "tendon" => {
-                    for t in &el.children {
-                        self.tendon(t)?;
-                    }
-                }
+                // After the bodies: a tendon names joints wherever they are declared (an
+                // included file may declare the tendons before the joints, as MuJoCo allows).
+                "tendon" => {}
                 // After the tendons: a tendon equality names them (see below).
                 "equality" => {}
                 "visual" | "statistic" | "size" | "extension" => {
@@ -610,6 +614,11 @@ impl Builder {
                     }
                 }
                 _ => return Err(self.err(el, "unsupported element")),
+            }
+        }
+        for el in root.children.iter().filter(|el| el.name == "tendon") {
+            for t in &el.children {
+                self.tendon(t)?;
             }
         }
         for el in root.children.iter().filter(|el| el.name == "equality") {

@@ -145,3 +145,42 @@ def matches_mujoco(path, tmp_path):
     moved = np.max(np.abs(d.qpos - m.qpos0))
     assert moved > 1e-4, "the joints must move for the comparison to mean something"
     print(f"{path.stem}: largest difference {worst:.2e} over {steps} steps, motion {moved:.3e}")
+
+
+def test_massless_welded_bodies_move_as_in_mujoco(tmp_path):
+    """MuJoCo's mass rule is per weld body: a free body whose mass is in a jointless child
+    (gymnasium-robotics' kettle), and a body that only holds a site, both load and move as
+    MuJoCo's; a massless hinge whose child has its own joint is refused by both."""
+    path = tmp_path / "welded.xml"
+    path.write_text("""<mujoco>
+  <option gravity="0 -3 -9.81"/>
+  <worldbody>
+    <body name="kettle" pos="0 0 1">
+      <freejoint name="kettle"/>
+      <body name="kettleroot" pos="0.1 0 0" euler="0 30 0">
+        <geom type="box" size="0.1 0.05 0.02" mass="0.8"/>
+        <geom type="capsule" fromto="0 0 0 0 0.1 0.1" size="0.02" mass="0.1"/>
+      </body>
+    </body>
+    <body name="arm" pos="0 0 2">
+      <joint name="hinge" axis="0 1 0" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+      <body name="marker" pos="0.3 0 0"><site name="tip"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    matches_mujoco(path, tmp_path)
+    refused = tmp_path / "massless_chain.xml"
+    refused.write_text("""<mujoco>
+  <worldbody>
+    <body name="link"><joint axis="0 1 0"/>
+      <body name="tip" pos=".3 0 0"><joint axis="0 1 0"/><geom size=".1"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    with pytest.raises(ValueError):
+        mujoco.MjModel.from_xml_path(str(refused))
+    out = subprocess.run([str(SCM), "check", str(refused)], capture_output=True, text=True)
+    assert out.returncode != 0 and "body 'link' moves but has no mass" in out.stderr, out.stderr

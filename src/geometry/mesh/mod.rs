@@ -87,6 +87,21 @@ pub enum MeshProblem {
     ZeroVolume(f64),
 }
 
+impl MeshProblem {
+    /// Whether the file was read but its surface is not a closed, oriented manifold with a
+    /// volume (as opposed to a file that cannot be read or parsed).
+    pub fn is_of_the_surface(&self) -> bool {
+        matches!(
+            self,
+            MeshProblem::Degenerate { .. }
+                | MeshProblem::Open { .. }
+                | MeshProblem::NonManifold { .. }
+                | MeshProblem::Inconsistent { .. }
+                | MeshProblem::ZeroVolume(_)
+        )
+    }
+}
+
 /// A closed, consistently outward-oriented triangle mesh (m, mesh frame).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
