@@ -34,35 +34,30 @@ def states(fmu):
 
 @pytest.mark.parametrize("path", CORPUS, ids=[p.stem for p in CORPUS])
 def test_corpus_file_packs_validates_and_runs(path, tmp_path):
-    fmu = str(tmp_path / f"{path.stem}.fmu")
-    packed = subprocess.run([str(SCM), "pack", str(path), "-o", fmu], capture_output=True, text=True)
-    if path.stem in REFUSED:
-        assert packed.returncode != 0 and REFUSED[path.stem] in packed.stderr, packed.stderr
-        assert f"{path.name}:" in packed.stderr, "the refusal names the file and line"
-        return
-    assert packed.returncode == 0, packed.stderr
-    assert validate_fmu(fmu) == []
-    outputs = states(fmu)
-    res = simulate_fmu(fmu, stop_time=1.0, output_interval=0.01, output=outputs)
-    assert res["time"][-1] == pytest.approx(1.0)
-    for name in outputs:
-        assert np.all(np.isfinite(res[name])), name
+    refusal = (f"{path.name}:", REFUSED[path.stem]) if path.stem in REFUSED else None
+    packs_validates_and_runs(path, tmp_path, 1.0, refusal)
 
 
 @pytest.mark.parametrize("path", DM_CONTROL, ids=[p.stem for p in DM_CONTROL])
 def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
     """dm_control's suite the same way, for 0.1 s (its humanoid_CMU takes 15 s for that on one
     core: 31 bodies besides the world, contact on); the refused files name file, line and reason."""
+    packs_validates_and_runs(path, tmp_path, 0.1, DM_CONTROL_REFUSED.get(path.stem))
+
+
+def packs_validates_and_runs(path, tmp_path, seconds, refusal):
+    """`path` packs into an FMU that fmpy validates and simulates for `seconds` with finite
+    states; or, with `refusal` = (where, why), the packing is refused saying both."""
     fmu = str(tmp_path / f"{path.stem}.fmu")
     packed = subprocess.run([str(SCM), "pack", str(path), "-o", fmu], capture_output=True, text=True)
-    if path.stem in DM_CONTROL_REFUSED:
-        where, why = DM_CONTROL_REFUSED[path.stem]
+    if refusal is not None:
+        where, why = refusal
         assert packed.returncode != 0 and where in packed.stderr and why in packed.stderr, packed.stderr
         return
     assert packed.returncode == 0, packed.stderr
     assert validate_fmu(fmu) == []
     outputs = states(fmu)
-    res = simulate_fmu(fmu, stop_time=0.1, output_interval=0.01, output=outputs)
-    assert res["time"][-1] == pytest.approx(0.1)
+    res = simulate_fmu(fmu, stop_time=seconds, output_interval=0.01, output=outputs)
+    assert res["time"][-1] == pytest.approx(seconds)
     for name in outputs:
         assert np.all(np.isfinite(res[name])), name
