@@ -681,14 +681,20 @@ fn position_dampratio_sets_kv_from_the_driven_inertia() {
             r#"<position joint="s" dampratio="-1"/>"#,
             "must not be negative",
         ),
-        (
-            r#"<motor joint="s" dampratio="1"/>"#,
-            "belongs to a <position>",
-        ),
     ] {
         let e = refuse(&scene(act));
         assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
     }
+    // A default class's dampratio reaches a <motor> too (shortcuts share one default per
+    // class); MuJoCo ignores it there, and SCM lists it as unused.
+    let s = load(&scene(r#"<motor joint="s" dampratio="1"/>"#));
+    assert!(
+        s.unused
+            .iter()
+            .any(|u| u.contains("dampratio: read by <position>")),
+        "{:?}",
+        s.unused
+    );
 }
 
 /// `springdamper` on a lone slider body of mass m: `k = m/(τζ)²`, `b = 2m/τ` replace the
@@ -781,4 +787,35 @@ fn robotics_files_include_roots_late_joints_and_visual_meshes() {
         );
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// MuJoCo's edges of `actuatorfrcrange` and a damper's control range: an empty range (lo =
+/// hi) limits nothing under autolimits, a reversed one written limited is refused, and a
+/// damper's control is limited by its ctrlrange even with autolimits off.
+#[test]
+fn actuator_force_and_damper_ranges_at_their_edges() {
+    let scene = |compiler: &str, joint: &str, act: &str| {
+        format!("<mujoco>\n  <compiler {compiler}/>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\" {joint}/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n    </body>\n  </worldbody>\n  <actuator>\n    {act}\n  </actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(
+        r#"autolimits="true""#,
+        r#"actuatorfrcrange="1 1""#,
+        r#"<motor joint="h"/>"#,
+    ));
+    assert!(
+        s.model.actuator_ranges.is_empty(),
+        "an empty range limits nothing"
+    );
+    let e = refuse(&scene(
+        r#"autolimits="true""#,
+        r#"actuatorfrcrange="1 -1" actuatorfrclimited="true""#,
+        r#"<motor joint="h"/>"#,
+    ));
+    assert!(e.line == 5 && e.message.contains("reversed"), "{e}");
+    let s = load(&scene(
+        r#"autolimits="false""#,
+        "",
+        r#"<damper joint="h" kv="2" ctrlrange="0 1"/>"#,
+    ));
+    assert_eq!(s.model.actuators[0].ctrlrange, Some((0.0, 1.0)));
 }

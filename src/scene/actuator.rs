@@ -96,7 +96,9 @@ impl Builder {
                 return Err(self.err(el, format!("dampratio=\"{z}\" must not be negative")))
             }
             ("position", Some(z)) => Some((z, Place::of(el))),
-            (_, Some(_)) => return Err(self.err(el, "dampratio belongs to a <position> actuator")),
+            // Only from a default class (shortcuts share one per class; MuJoCo's schema has no
+            // dampratio on other elements), where MuJoCo ignores it.
+            (_, Some(_)) => None,
         };
         let kind = match el.name.as_str() {
             "motor" => ActuatorKind::Motor,
@@ -110,7 +112,9 @@ impl Builder {
             // MuJoCo's damper: an affine gain on the velocity, `force = -kv L̇ u`, with a
             // control range that must be given and not negative.
             "damper" => {
-                match self.limited(el, "ctrllimited", "ctrlrange")? {
+                // MuJoCo always limits a damper's control by its ctrlrange, whatever
+                // ctrllimited and autolimits say.
+                match self.floats(el, "ctrlrange", 2)?.map(|r| (r[0], r[1])) {
                     Some((lo, _)) if lo < 0.0 => {
                         return Err(self.err(el, "a damper's ctrlrange cannot be negative (MuJoCo refuses it too)"))
                     }
@@ -135,7 +139,15 @@ impl Builder {
         // On a shortcut (motor, position, velocity), dyntype, gaintype, biastype and the
         // parameter vectors can only come from a <general> default of its class, and MuJoCo's
         // shortcut overwrites them with its own: so does SCM, by ignoring them.
-        let ctrlrange = match self.limited(el, "ctrllimited", "ctrlrange")? {
+        if el.name != "position" && el.attr("dampratio").is_some() {
+            self.unused(el, "dampratio: read by <position> actuators only");
+        }
+        let written = if el.name == "damper" {
+            self.floats(el, "ctrlrange", 2)?.map(|r| (r[0], r[1]))
+        } else {
+            self.limited(el, "ctrllimited", "ctrlrange")?
+        };
+        let ctrlrange = match written {
             Some(r) if r.0 > r.1 => return Err(self.err(el, "ctrlrange is reversed")),
             Some(_) if !self.flags.clampctrl => None,
             r => r,

@@ -237,9 +237,14 @@ impl Builder {
                 el,
                 "actuatorfrcrange: MuJoCo clamps actuator forces on slide and hinge joints only",
             ),
-            Some((lo, hi)) if lo > hi => self.unused(
+            // Written limited and reversed: MuJoCo refuses it.
+            Some((lo, hi)) if lo > hi && el.attr("actuatorfrclimited") == Some("true") => {
+                return Err(self.err(el, "actuatorfrcrange is reversed (MuJoCo refuses it too)"))
+            }
+            // Limited by autolimits, an empty or reversed range limits nothing in MuJoCo.
+            Some((lo, hi)) if lo >= hi => self.unused(
                 el,
-                "actuatorfrcrange: reversed, so MuJoCo does not limit the joint's actuator force (nor does SCM)",
+                "actuatorfrcrange: empty or reversed, so MuJoCo does not limit the joint's actuator force (nor does SCM)",
             ),
             Some((lo, hi)) => self.actuator_ranges.push((self.joints.len(), lo, hi)),
         }

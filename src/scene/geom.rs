@@ -363,7 +363,7 @@ impl Builder {
                 )
             })?
             .to_string();
-        let name = el.attr("name").map(str::to_string).unwrap_or_else(|| {
+        let name = Self::given_name(el).unwrap_or_else(|| {
             Path::new(&file)
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
