@@ -685,15 +685,77 @@ fn position_dampratio_sets_kv_from_the_driven_inertia() {
         let e = refuse(&scene(act));
         assert!(e.line == 9 && e.message.contains(says), "{act}: {e}");
     }
-    // A default class's dampratio reaches a <motor> too (shortcuts share one default per
-    // class); MuJoCo ignores it there, and SCM lists it as unused.
-    let s = load(&scene(r#"<motor joint="s" dampratio="1"/>"#));
+    // MuJoCo's schema has dampratio on a position only.
+    let e = refuse(&scene(r#"<motor joint="s" dampratio="1"/>"#));
     assert!(
-        s.unused
-            .iter()
-            .any(|u| u.contains("dampratio: read by <position>")),
-        "{:?}",
-        s.unused
+        e.line == 9 && e.message.contains("not an attribute of <motor>"),
+        "{e}"
+    );
+    // A <general> whose bias is a position servo's reads a positive biasprm[2] as a damping
+    // ratio, as MuJoCo's compiler does.
+    let s = load(&scene(
+        r#"<general joint="s" gainprm="10" biastype="affine" biasprm="0 -10 0.5" gear="2"/>"#,
+    ));
+    let scm::model::ActuatorKind::General { bias, .. } = s.model.actuators[0].kind else {
+        panic!("a general actuator")
+    };
+    assert!((bias[2] + want).abs() < 1e-12 * want, "{bias:?} vs {want}");
+}
+
+/// Actuator defaults as MuJoCo 4 resolves them: a shortcut's parameters come from a default of
+/// its own kind, or from a `<general>` default whose gain it reads, never from a default of
+/// another shortcut (whose shared attributes, gear and ranges, still reach it).
+/// (test_mjcf_compiler.py checks many more combinations against MuJoCo itself.)
+#[test]
+fn actuator_defaults_give_parameters_by_kind() {
+    let gains = |defaults: &str, act: &str| {
+        let s = load(&format!("<mujoco>\n  <default>{defaults}</default>\n  <worldbody>\n    <body>\n      <joint name=\"s\" type=\"slide\"/>\n      <geom size=\"0.1\" mass=\"2\"/>\n    </body>\n  </worldbody>\n  <actuator>{act}</actuator>\n</mujoco>\n"));
+        let a = &s.model.actuators[0];
+        (a.kind, a.gear)
+    };
+    use scm::model::ActuatorKind::*;
+    let velocity = r#"<velocity kv="10" gear="3"/>"#;
+    let (kind, gear) = gains(velocity, r#"<position joint="s"/>"#);
+    assert!(
+        matches!(kind, Position { kp: 1.0, kv: 0.0 }) && gear == 3.0,
+        "{kind:?}"
+    );
+    let (kind, _) = gains(velocity, r#"<damper joint="s" ctrlrange="0 1"/>"#);
+    assert!(
+        matches!(kind, General { gain: [0.0, 0.0, g], .. } if g == 0.0),
+        "{kind:?}"
+    );
+    let (kind, _) = gains(velocity, r#"<velocity joint="s"/>"#);
+    assert!(matches!(kind, Velocity { kv: 10.0 }), "{kind:?}");
+    // A <general> element takes the parameters the default left.
+    let (kind, _) = gains(velocity, r#"<general joint="s"/>"#);
+    assert!(
+        matches!(
+            kind,
+            General {
+                gain: [10.0, 0.0, 0.0],
+                bias: [0.0, 0.0, -10.0]
+            }
+        ),
+        "{kind:?}"
+    );
+    // A position reads kp from a <general> default's fixed gain and keeps its biasprm[2].
+    let general = r#"<general gainprm="5" biastype="affine" biasprm="0 0 -2"/>"#;
+    let (kind, _) = gains(general, r#"<position joint="s"/>"#);
+    assert!(matches!(kind, Position { kp: 5.0, kv: 2.0 }), "{kind:?}");
+    // A nested class's default of another kind leaves the parent's position default visible.
+    let nested = r#"<position kp="7" kv="1"/><default class="c"><velocity kv="3"/></default>"#;
+    let (kind, _) = gains(nested, r#"<position joint="s" class="c"/>"#);
+    assert!(matches!(kind, Position { kp: 7.0, kv: 1.0 }), "{kind:?}");
+    // MuJoCo's schema: one default of a kind per class, and a kind's own attributes only.
+    let e = refuse(
+        "<mujoco>\n  <default>\n    <motor/>\n    <motor gear=\"2\"/>\n  </default>\n</mujoco>\n",
+    );
+    assert!(e.line == 4 && e.message.contains("once"), "{e}");
+    let e = refuse("<mujoco>\n  <default>\n    <velocity kp=\"2\"/>\n  </default>\n</mujoco>\n");
+    assert!(
+        e.line == 3 && e.message.contains("not an attribute of <velocity>"),
+        "{e}"
     );
 }
 

@@ -10,6 +10,14 @@ impl Builder {
                 "site and body transmissions are not supported by SCM: drive a joint (joint=\"NAME\") or a fixed tendon (tendon=\"NAME\")",
             ));
         }
+        // The defaults gave every shortcut its parameters in the attributes read below
+        // (`super::actuator_defaults`): a position has kp and either kv or dampratio.
+        if el.name == "position" && el.attr("timeconst").is_some() {
+            return Err(self.err(
+                el,
+                "timeconst gives a position actuator activation dynamics (MuJoCo's filterexact), which SCM's actuators do not have: remove it (the force follows the control at once)",
+            ));
+        }
         self.check_attrs(
             el,
             &[
@@ -82,24 +90,6 @@ impl Builder {
             }
             Ok(v)
         };
-        // A position actuator's damping as a ratio of critical damping: kv comes from the
-        // actuator's inertia at qpos0 once the tree is built (`apply_dampratios`).
-        let dampratio = match (el.name.as_str(), self.float(el, "dampratio")?) {
-            (_, None) => None,
-            ("position", Some(_)) if el.attr("kv").is_some() => {
-                return Err(self.err(
-                    el,
-                    "kv and dampratio cannot both be given (MuJoCo refuses it too): keep one",
-                ))
-            }
-            ("position", Some(z)) if z < 0.0 => {
-                return Err(self.err(el, format!("dampratio=\"{z}\" must not be negative")))
-            }
-            ("position", Some(z)) => Some((z, Place::of(el))),
-            // Only from a default class (shortcuts share one per class; MuJoCo's schema has no
-            // dampratio on other elements), where MuJoCo ignores it.
-            (_, Some(_)) => None,
-        };
         let kind = match el.name.as_str() {
             "motor" => ActuatorKind::Motor,
             "position" => ActuatorKind::Position {
@@ -136,12 +126,6 @@ impl Builder {
                 ))
             }
         };
-        // On a shortcut (motor, position, velocity), dyntype, gaintype, biastype and the
-        // parameter vectors can only come from a <general> default of its class, and MuJoCo's
-        // shortcut overwrites them with its own: so does SCM, by ignoring them.
-        if el.name != "position" && el.attr("dampratio").is_some() {
-            self.unused(el, "dampratio: read by <position> actuators only");
-        }
         let written = if el.name == "damper" {
             self.floats(el, "ctrlrange", 2)?.map(|r| (r[0], r[1]))
         } else {
@@ -158,6 +142,8 @@ impl Builder {
                 .names
                 .make("actuator", format!("actuator{}", self.actuators.len())),
         };
+        self.dampratios
+            .push(dampratio(&kind, el, self.float(el, "dampratio")?));
         self.actuators.push(Actuator {
             name,
             kind,
@@ -166,7 +152,6 @@ impl Builder {
             ctrlrange,
             forcerange,
         });
-        self.dampratios.push(dampratio);
         if el.name == "general" && el.attr("dynprm").is_some() {
             self.unused(
                 el,
@@ -178,15 +163,6 @@ impl Builder {
 
     /// A `<general>` actuator without activation: fixed or affine gain and bias.
     fn general(&self, el: &Element) -> Result<ActuatorKind, SceneError> {
-        // kp or kv on a <general> come from a <position> or <velocity> default of its class,
-        // which in MuJoCo sets the default's gain and bias: which of the two set them is not
-        // kept, so SCM asks for them in writing.
-        if let Some(key) = ["kp", "kv"].into_iter().find(|k| el.attr(k).is_some()) {
-            return Err(self.err(
-                el,
-                format!("this <general> inherits {key} from a <position> or <velocity> default of its class: write its gainprm and biasprm (and gaintype, biastype) on it"),
-            ));
-        }
         if let Some(d) = el.attr("dyntype").filter(|d| *d != "none") {
             return Err(self.err(
                 el,
@@ -540,4 +516,16 @@ impl Builder {
         }
         Ok(())
     }
+}
+
+/// The damping ratio an actuator's `kv` is to be set from once the tree is built
+/// (`apply_dampratios`): a position's `dampratio`, or, as MuJoCo reads any actuator whose bias
+/// is a position servo's (`biasprm[1] = -gainprm[0]`), a positive `biasprm[2]`.
+fn dampratio(kind: &ActuatorKind, el: &Element, written: Option<f64>) -> Option<(f64, Place)> {
+    let z = match kind {
+        ActuatorKind::Position { .. } => written?,
+        ActuatorKind::General { gain, bias } if gain[0] == -bias[1] && bias[2] > 0.0 => bias[2],
+        _ => return None,
+    };
+    Some((z, Place::of(el)))
 }

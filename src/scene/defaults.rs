@@ -3,9 +3,12 @@
 //! takes the class named by its `class` attribute, else the `childclass` of its nearest body or
 //! frame that has one, else `main`; attributes it does not set come from that class.
 //!
-//! The actuator shortcuts (`general`, `motor`, `position`, `velocity`, ...) share one default
-//! per class, as in MuJoCo: a `<motor ctrlrange>` default also reaches `<position>` elements.
+//! The actuator kinds (`general`, `motor`, `position`, `velocity`, ...) share the attributes
+//! of one default per class, as in MuJoCo: a `<motor ctrlrange>` default also reaches
+//! `<position>` elements. Their gain, bias and dynamics parameters follow MuJoCo's own rules
+//! (docs/mjcf.md, "Actuator defaults").
 
+use super::actuator_defaults::{is_kept_with_parameters, ActuatorDefaults};
 use super::xml::Element;
 use super::SceneError;
 use std::collections::HashMap;
@@ -33,6 +36,7 @@ pub fn slot(element: &str) -> Option<&'static str> {
 #[derive(Clone, Debug, Default)]
 struct Class {
     slots: HashMap<&'static str, Vec<(String, String)>>,
+    actuator: ActuatorDefaults,
 }
 
 /// Every default class of a model.
@@ -84,7 +88,13 @@ impl Defaults {
                 ));
             }
         }
-        for child in &el.children {
+        for (i, child) in el.children.iter().enumerate() {
+            if child.name != "default" && el.children[..i].iter().any(|c| c.name == child.name) {
+                return Err(error(
+                    child,
+                    format!("a default class gives <{}> once (MuJoCo refuses a repeat too): merge the two", child.name),
+                ));
+            }
             if child.name == "default" {
                 let sub = child
                     .attr("class")
@@ -96,7 +106,11 @@ impl Defaults {
                         format!("default class '{sub}' is defined twice"),
                     ));
                 }
-                let inherited = self.classes[name].clone();
+                let parent = &self.classes[name];
+                let inherited = Class {
+                    slots: parent.slots.clone(),
+                    actuator: parent.actuator.inherit(),
+                };
                 self.classes.insert(sub.clone(), inherited);
                 self.read_class(child, &sub)?;
                 continue;
@@ -111,8 +125,14 @@ impl Defaults {
                 return Err(error(child, "a default cannot have child elements".into()));
             }
             let class = self.classes.get_mut(name).expect("class inserted before");
+            if slot == "actuator" {
+                class.actuator.read(child)?;
+            }
             let attrs = class.slots.entry(slot).or_default();
             for (k, v) in &child.attrs {
+                if slot == "actuator" && is_kept_with_parameters(&child.name, k) {
+                    continue;
+                }
                 match attrs.iter_mut().find(|(key, _)| key == k) {
                     Some(entry) => entry.1 = v.clone(),
                     None => attrs.push((k.clone(), v.clone())),
@@ -145,6 +165,9 @@ impl Defaults {
                     el.attrs.push((k.clone(), v.clone()));
                 }
             }
+        }
+        if slot == "actuator" {
+            found.actuator.resolve(el)?;
         }
         Ok(())
     }

@@ -230,7 +230,9 @@ impl Builder {
         Ok(())
     }
 
-    /// Sets `kv` of every position actuator that gives `dampratio` ζ as MuJoCo's compiler does:
+    /// Sets `kv` of every position actuator that gives `dampratio` ζ (and the damping of every
+    /// `<general>` whose bias is a position servo's with a positive `biasprm[2]` = ζ) as
+    /// MuJoCo's compiler does:
     /// `kv = 2 ζ √(kp m)` with `m = 1 / (gᵀ M⁻¹ g)` the inertia the actuator drives at `qpos0`,
     /// `g` its moment over the degrees of freedom (the gear on its joint, or the gear times a
     /// fixed tendon's coefficients). Compared with MuJoCo's compiled `actuator_biasprm`.
@@ -257,16 +259,27 @@ impl Builder {
                     .sum(),
                 None => f64::NAN,
             };
-            if w.is_nan() || w <= 0.0 {
+            let kp = match &self.actuators[a].kind {
+                ActuatorKind::Position { kp, .. } => *kp,
+                ActuatorKind::General { gain, .. } => gain[0],
+                _ => 0.0,
+            };
+            if w.is_nan() || w <= 0.0 || kp < 0.0 {
                 return Err(SceneError {
                     file: at.file.to_string(),
                     line: at.line,
-                    element: "position".into(),
-                    message: format!("actuator '{}': dampratio needs the inertia it drives, and the mass matrix at qpos0 gives none (a massless chain, or a zero gear): give kv instead", actuator.name),
+                    element: "actuator".into(),
+                    message: if kp < 0.0 {
+                        format!("actuator '{}': a damping ratio needs a gain that is not negative (here {kp}): give kv instead", actuator.name)
+                    } else {
+                        format!("actuator '{}': a damping ratio needs the inertia it drives, and the mass matrix at qpos0 gives none (a massless chain, or a zero gear): give kv instead", actuator.name)
+                    },
                 });
             }
-            if let ActuatorKind::Position { kp, kv } = &mut self.actuators[a].kind {
-                *kv = 2.0 * *z * (*kp / w).sqrt();
+            match &mut self.actuators[a].kind {
+                ActuatorKind::Position { kp, kv } => *kv = 2.0 * *z * (*kp / w).sqrt(),
+                ActuatorKind::General { gain, bias } => bias[2] = -2.0 * *z * (gain[0] / w).sqrt(),
+                _ => {}
             }
         }
         Ok(())

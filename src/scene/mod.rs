@@ -6,6 +6,7 @@
 //! file, the line and the element.
 
 mod actuator;
+mod actuator_defaults;
 mod assemble;
 mod body;
 pub mod canonical;

@@ -404,6 +404,198 @@ def test_damper_actuators_compile_as_mujoco_compiles_them(tmp_path):
     assert [a["gainprm"][2] for a in ours["actuators"]] == [-3.0, 0.0]
 
 
+ACTUATOR_KINDS = ["general", "motor", "position", "velocity", "damper"]
+
+
+def _actuator_attributes(rng, kind):
+    """Attributes an actuator of `kind` may be given in a default or on the element."""
+    a = {}
+    if kind == "position":
+        if rng.random() < 0.5:
+            a["kp"] = rng.choice(["3", "10"])
+        x = rng.random()
+        if x < 0.3:
+            a["kv"] = rng.choice(["0", "2"])
+        elif x < 0.5:
+            a["dampratio"] = rng.choice(["0.5", "1"])
+    elif kind in ("velocity", "damper") and rng.random() < 0.5:
+        a["kv"] = rng.choice(["0", "4"])
+    elif kind == "general":
+        if rng.random() < 0.4:
+            a["gaintype"] = rng.choice(["fixed", "affine"])
+        if rng.random() < 0.5:
+            a["gainprm"] = rng.choice(["5", "5 0 -3", "7 1 2", "0 0 -2"])
+        if rng.random() < 0.4:
+            a["biastype"] = rng.choice(["none", "affine"])
+        if rng.random() < 0.5:
+            a["biasprm"] = rng.choice(["0 -5 -1", "1 2 3", "0 -7 2", "0 0 -6"])
+    if rng.random() < 0.2:
+        a["gear"] = rng.choice(["2", "3"])
+    if kind == "damper" or rng.random() < 0.2:
+        a["ctrlrange"] = rng.choice(["0 1", "0 2"])
+    return a
+
+
+def _actuator_element(kind, attributes, extra=""):
+    return "<%s %s %s/>" % (kind, " ".join(f'{k}="{v}"' for k, v in attributes.items()), extra)
+
+
+def _actuator_defaults_cases(n, seed=20261127):
+    """`n` files: three nested default classes, each with up to three actuator defaults of
+    distinct kinds in random order, and one actuator of a random kind in a random class."""
+    import random
+    rng = random.Random(seed)
+    block = lambda: "".join(_actuator_element(k, _actuator_attributes(rng, k)) for k in rng.sample(ACTUATOR_KINDS, rng.randint(0, 3)))
+    for _ in range(n):
+        kind = rng.choice(ACTUATOR_KINDS)
+        cls = rng.choice(["", 'class="c"', 'class="d"'])
+        act = _actuator_element(kind, _actuator_attributes(rng, kind), f'joint="j" {cls}')
+        yield f"""<mujoco>
+  <default>{block()}<default class="c">{block()}<default class="d">{block()}</default></default></default>
+  <worldbody><body><joint name="j" type="slide"/><geom size=".1" mass="2"/></body></worldbody>
+  <actuator>{act}</actuator>
+</mujoco>
+"""
+
+
+# (defaults, actuator): the cases the rules of docs/mjcf.md ("Actuator defaults") were read
+# from, one MuJoCo behaviour each.
+ACTUATOR_DEFAULTS_CASES = [
+    ('<general gainprm="5 0 -3"/>', '<damper ctrlrange="0 1"/>'),
+    ('<general gaintype="affine" gainprm="5 0 -3"/><default class="c"><general gaintype="fixed"/></default>', '<damper class="c" ctrlrange="0 1"/>'),
+    ('<velocity kv="10"/>', '<position/>'),
+    ('<position kp="10" kv="2"/>', '<velocity/>'),
+    ('<velocity kv="10"/>', '<damper ctrlrange="0 1"/>'),
+    ('<damper kv="4" ctrlrange="0 1"/>', '<damper/>'),
+    ('<position kp="10" kv="1"/>', '<general/>'),
+    ('<damper kv="4" ctrlrange="0 1"/>', '<motor/>'),
+    ('<position kp="10" dampratio="1"/>', '<position kv="3"/>'),
+    ('<position kp="10" dampratio="1"/>', '<position/>'),
+    ('<position kp="10" dampratio="1"/>', '<general/>'),
+    ('<general gainprm="5" biastype="affine" biasprm="1 2 3"/>', '<position/>'),
+    ('<position kp="10" kv="1"/><velocity kv="3"/>', '<position/>'),
+    ('<velocity kv="3"/><position kp="10"/>', '<position/>'),
+    ('<position kp="10" kv="2"/><motor/>', '<position/>'),
+    ('<velocity kv="10" gear="2"/>', '<motor/>'),
+    ('<muscle/>', '<position/>'),
+    ('<cylinder area="2"/>', '<general/>'),
+    ('<default class="c"><velocity kv="10"/></default>', '<velocity class="c"/>'),
+    ('<default class="c"><velocity kv="10"/></default>', '<position class="c"/>'),
+    ('<default class="c"><velocity kv="10"/></default>', '<general class="c"/>'),
+    ('<default class="c"><position kp="10" kv="2"/></default>', '<velocity class="c"/>'),
+    ('<default class="c"><position kp="10" kv="2"/></default>', '<position class="c"/>'),
+    ('<default class="c"><general gainprm="5" biastype="affine" biasprm="0 -5 -2"/></default>', '<position class="c"/>'),
+    ('<default class="c"><general gainprm="5" biastype="affine" biasprm="0 -5 -2"/></default>', '<velocity class="c"/>'),
+    ('<default class="c"><motor gear="3"/></default>', '<position class="c"/>'),
+    ('<position kp="10" kv="2"/><general ctrlrange="-1 1"/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/><general ctrlrange="-1 1"/>', '<position/>'),
+    ('<general gainprm="5"/><position kv="2"/>', '<position/>'),
+    ('<general gainprm="5" biasprm="0 0 -9" biastype="affine"/><position kp="7"/>', '<position/>'),
+    ('<general gainprm="5" biastype="affine" biasprm="0 -5 -2"/>', '<damper ctrlrange="0 1"/>'),
+    ('<damper kv="4" ctrlrange="0 1"/>', '<general/>'),
+    ('<position kp="10" kv="2"/><default class="c"><velocity kv="3"/></default>', '<position class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><general ctrlrange="0 1"/></default>', '<position class="c"/>'),
+    ('<velocity kv="3"/><default class="c"><position kp="7"/></default>', '<velocity class="c"/>'),
+    ('<velocity kv="3"/><default class="c"><position kp="7"/></default>', '<position class="c"/>'),
+    ('<position kp="10" kv="2"/>', '<position kv="5"/>'),
+    ('<intvelocity kp="10"/>', '<position/>'),
+    ('<damper kv="4" ctrlrange="0 1"/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/><general gainprm="3"/>', '<position/>'),
+    ('<position kp="10" kv="2"/><general gainprm="3"/>', '<velocity/>'),
+    ('<velocity kv="3"/><general ctrlrange="-1 1"/>', '<position/>'),
+    ('<position kp="10" dampratio="1"/>', '<general biasprm="0 -10 -1"/>'),
+    ('<position kp="10" kv="2" gear="2" forcerange="-1 1"/>', '<motor/>'),
+    ('<position kp="10" kv="2"/><default class="c"><velocity kv="3" ctrlrange="0 1" gear="2"/></default>', '<position class="c"/>'),
+    ('', '<general gainprm="10" biastype="affine" biasprm="0 -10 1"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><position kp="20"/></default>', '<position class="c"/>'),
+    ('<general ctrlrange="0 1"/><default class="c"><position kp="20"/></default>', '<velocity class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><velocity kv="3"/><general gear="2"/></default>', '<position class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><velocity kv="3"/><general gear="2"/></default>', '<motor class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><velocity kv="3"/></default>', '<general class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"><general gear="2"/></default>', '<velocity class="c"/>'),
+    ('<position kp="10" kv="2"/><default class="c"/>', '<velocity class="c"/>'),
+    ('<velocity kv="3"/><default class="c"><position kp="20"/></default>', '<general class="c"/>'),
+    ('<general gainprm="4" dyntype="filter"/>', '<position/>'),
+    ('<general gainprm="4" dyntype="filter"/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/><position kp="20"/>', '<position/>'),
+    ('<velocity kv="3" ctrlrange="0 1"/><position kp="10"/>', '<velocity/>'),
+    ('<position kp="10" timeconst="0.1"/>', '<position/>'),
+    ('<general gainprm="5 6 7" gaintype="affine" biasprm="1 2 3 4" biastype="affine"/>', '<velocity/>'),
+    ('<general gainprm="5 6 7" gaintype="affine" biasprm="1 -5 -3 4" biastype="affine"/>', '<position/>'),
+    ('', '<velocity kp="3"/>'),
+    ('', '<motor dampratio="3"/>'),
+    ('', '<general kp="3"/>'),
+    ('<general gainprm="5 6 7" gaintype="affine" biasprm="1 -5 -3 4" biastype="affine" dyntype="filter" dynprm="0.5 2"/>', '<motor/>'),
+    ('<general gainprm="5 6 7" gaintype="affine" biasprm="1 -5 -3 4" biastype="affine" dyntype="filter" dynprm="0.5 2"/>', '<damper ctrlrange="0 1"/>'),
+    ('<general gainprm="5"/>', '<general gainprm="7"/>'),
+    ('<general gainprm="5 6"/>', '<general biasprm="7"/>'),
+    ('<position kp="10" kv="1"/>', '<general gainprm="7"/>'),
+    ('', '<general gainprm="7 1" gaintype="affine" biasprm="0 -7 2" biastype="affine"/>'),
+    ('', '<general gainprm="0" biasprm="0 0 2" biastype="affine"/>'),
+    ('<position kp="10" dampratio="1"/><default class="c"><general biasprm="0 -10 -1"/></default>', '<position class="c"/>'),
+    ('<position kp="10" kv="2"/><general ctrlrange="-1 1"/>', '<velocity/>'),
+    ('<general ctrlrange="-1 1"/><position kp="10" kv="2"/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/><general/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/>', '<velocity/>'),
+    ('<position kp="10" kv="2"/><general gear="2"/>', '<damper ctrlrange="0 1"/>'),
+    ('<damper kv="4" ctrlrange="0 1"/><general/>', '<velocity/>'),
+    ('<damper kv="4" ctrlrange="0 1"/><general/>', '<position/>'),
+    ('<position kp="10"/><general gaintype="affine"/>', '<velocity/>'),
+    ('<general gainprm="5"/><default class="c"><damper kv="1" ctrlrange="0 1"/><general gainprm="7 1 2"/></default>', '<position class="c"/>'),
+    ('<default class="c"><damper kv="1" ctrlrange="0 1"/><general gainprm="7 1 2"/></default>', '<position class="c"/>'),
+    ('<default class="c"><damper kv="1" ctrlrange="0 1"/><general gainprm="7 1 2"/></default>', '<general class="c"/>'),
+    ('<general gainprm="5"/><default class="c"><damper kv="1" ctrlrange="0 1"/><general gainprm="7 1 2"/></default>', '<velocity class="c"/>'),
+    ('<general gainprm="5"/><default class="c"><damper kv="1" ctrlrange="0 1"/></default>', '<position class="c"/>'),
+    ('<general gainprm="5"/><motor/>', '<position/>'),
+    ('<general gainprm="5"/><default class="c"><motor/></default>', '<position class="c"/>'),
+]
+
+
+def _compiles_as_mujoco_or_both_refuse(path, text):
+    """Compares SCM's compiled model of `path` with MuJoCo's; where MuJoCo refuses the file,
+    or gives the actuator activation dynamics (which SCM has not), SCM must refuse it, saying
+    where. Returns whether it compared."""
+    try:
+        m = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError:
+        m = None
+    if m is None or any(int(d) != int(mujoco.mjtDyn.mjDYN_NONE) for d in m.actuator_dyntype):
+        out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+        assert out.returncode != 0, f"MuJoCo refuses or adds dynamics, SCM takes:\n{text}"
+        assert f"{path}:" in out.stderr, out.stderr
+        return False
+    try:
+        compare(path)
+    except AssertionError as e:
+        raise AssertionError(f"{e}\n{text}") from e
+    return True
+
+
+def test_actuator_defaults_compile_as_mujoco_compiles_them(tmp_path):
+    """MuJoCo 4 gives a shortcut's gain and bias from a default of its kind or from a
+    <general> default whose gain it reads, never from a default of another shortcut, while
+    ranges and gear are shared by all kinds; a <general> takes what the defaults left, and
+    reads a position servo's positive biasprm[2] as a damping ratio. The cases the rules were
+    read from, then 300 files mixing defaults of every kind SCM simulates in three nested
+    classes: each compiles as MuJoCo compiles it, or both refuse it (a negative damper kv)."""
+    for i, (defaults, act) in enumerate(ACTUATOR_DEFAULTS_CASES):
+        path = tmp_path / f"case_{i}.xml"
+        text = f"""<mujoco>
+  <default>{defaults}</default>
+  <worldbody><body><joint name="j" type="slide" range="-1 1"/><geom size=".1" mass="2"/></body></worldbody>
+  <actuator>{act.replace("/>", ' joint="j"/>')}</actuator>
+</mujoco>
+"""
+        path.write_text(text)
+        _compiles_as_mujoco_or_both_refuse(path, text)
+    compared = 0
+    for i, text in enumerate(_actuator_defaults_cases(300)):
+        path = tmp_path / f"random_{i}.xml"
+        path.write_text(text)
+        compared += _compiles_as_mujoco_or_both_refuse(path, text)
+    assert compared > 250, compared
+
+
 def mujoco_body_pairs(m):
     """The body pairs MuJoCo's collision filter lets touch, by its rules (contype/conaffinity
     bits, weld bodies, the parent filter, excludes, explicit pairs), where contact can move
