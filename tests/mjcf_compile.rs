@@ -803,23 +803,24 @@ fn a_damper_needs_a_non_negative_control_range() {
 }
 
 /// Files as gymnasium-robotics writes them: an included file rooted at `<mujocoinclude>`, a
-/// tendon declared (in an include) before the joints it names, and an open visual mesh used
-/// by a geom that neither collides nor carries mass (left out, listed as unused), while the
-/// same mesh on a colliding geom is refused naming both the mesh and the geom.
+/// tendon declared (in an include) before the joints it names, and an open mesh: left out
+/// (listed as unused) on a geom that neither collides nor carries mass; on a colliding geom
+/// sampled by its convex hull, as MuJoCo collides it (a warning says so); on a geom that gives
+/// its body mass refused naming both the mesh and the geom, unless the mesh asks for the
+/// hull's mass (`inertia="convex"`, MuJoCo's choice then).
 #[test]
-fn robotics_files_include_roots_late_joints_and_visual_meshes() {
+fn robotics_files_include_roots_late_joints_and_open_meshes() {
     let dir = scratch("robotics");
-    // A tetrahedron with one face missing: open.
+    // A tetrahedron with one face missing: open; its hull is the whole tetrahedron.
     std::fs::write(
         dir.join("open.obj"),
         "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n",
     )
     .unwrap();
-    std::fs::write(
-        dir.join("shared.xml"),
-        "<mujocoinclude>\n  <tendon>\n    <fixed name=\"t\"><joint joint=\"h\" coef=\"1\"/></fixed>\n  </tendon>\n  <asset><mesh name=\"shell\" file=\"open.obj\"/></asset>\n</mujocoinclude>\n",
-    )
-    .unwrap();
+    let shared = |inertia: &str| {
+        format!("<mujocoinclude>\n  <tendon>\n    <fixed name=\"t\"><joint joint=\"h\" coef=\"1\"/></fixed>\n  </tendon>\n  <asset><mesh name=\"shell\" file=\"open.obj\" {inertia}/></asset>\n</mujocoinclude>\n")
+    };
+    std::fs::write(dir.join("shared.xml"), shared("")).unwrap();
     let main = dir.join("robot.xml");
     let scene = |visual: &str| {
         format!("<mujoco>\n  <include file=\"shared.xml\"/>\n  <worldbody>\n    <body name=\"arm\" pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\"/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n      <geom type=\"mesh\" mesh=\"shell\" {visual}/>\n    </body>\n  </worldbody>\n</mujoco>\n")
@@ -835,8 +836,24 @@ fn robotics_files_include_roots_late_joints_and_visual_meshes() {
         "{:?}",
         s.unused
     );
-    // Colliding, or carrying mass: the mesh is needed, and refused where it is declared.
-    for visual in [r#"mass="0""#, r#"contype="0" conaffinity="0""#] {
+    // Colliding without mass: the convex hull, a closed tetrahedron of volume 0.1³/6.
+    std::fs::write(&main, scene(r#"mass="0""#)).unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    let hull = match &s.geoms[1].shape {
+        Some(scm::geometry::Shape::Mesh(m)) => m.mass_properties(),
+        other => panic!("{other:?}"),
+    };
+    // (OBJ coordinates are read as f32.)
+    assert!((hull.volume - 1e-3 / 6.0).abs() < 1e-10, "{}", hull.volume);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("robot.xml:7") && w.contains("convex hull") && w.contains("open")),
+        "{:?}",
+        s.warnings
+    );
+    // Carrying mass: the mesh's volume is needed, and refused where it is declared.
+    for visual in ["", r#"contype="0" conaffinity="0""#] {
         std::fs::write(&main, scene(visual)).unwrap();
         let e = scm::scene::load(&main).unwrap_err();
         assert!(
@@ -844,10 +861,21 @@ fn robotics_files_include_roots_late_joints_and_visual_meshes() {
             "{visual}: {e}"
         );
         assert!(
-            e.message.contains("the mesh is open") && e.message.contains("robot.xml:7"),
+            e.message.contains("the mesh is open")
+                && e.message.contains("robot.xml:7")
+                && e.message.contains("inertia=\"convex\""),
             "{visual}: {e}"
         );
     }
+    // ... unless the mesh asks for its hull's mass, as MuJoCo then takes it.
+    std::fs::write(dir.join("shared.xml"), shared(r#"inertia="convex""#)).unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    let capsule = std::f64::consts::PI * 0.02f64.powi(2) * (0.3 + 4.0 / 3.0 * 0.02);
+    let mass = body(&s, "arm").inertia.mass;
+    assert!(
+        (mass - 1000.0 * (capsule + 1e-3 / 6.0)).abs() < 1e-7,
+        "{mass}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -275,18 +275,23 @@ fn check(path: &Path) -> Result<(), String> {
         m.step
     );
     for a in &sc.meshes {
-        let Some(mesh) = &a.mesh else {
-            // Its problem is listed with the geoms left out (unused).
-            println!(
-                "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
-                a.name,
-                a.path.display()
-            );
-            continue;
+        // A mesh whose surface is not closed is used by its convex hull (listed with the
+        // warnings), or by no geom (its problem is listed with the geoms left out).
+        let (mesh, what) = match (&a.mesh, &a.hull) {
+            (Some(mesh), _) => (mesh, ""),
+            (None, Some(hull)) if a.used => (hull, "not a closed surface, its convex hull: "),
+            _ => {
+                println!(
+                    "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
+                    a.name,
+                    a.path.display()
+                );
+                continue;
+            }
         };
         let mp = mesh.mass_properties();
         println!(
-            "mesh {} ({}): {} vertices, {} triangles, volume {:.4e} m³{}",
+            "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{}",
             a.name,
             a.path.display(),
             mesh.vertices.len(),

@@ -263,25 +263,36 @@ impl Builder {
         let mass = self
             .float(el, "mass")?
             .ok_or_else(|| self.err(el, "mass is required"))?;
-        if mass <= 0.0 {
-            return Err(self.err(el, format!("mass=\"{mass}\" must be positive")));
+        // A zero mass (and inertia) is MuJoCo's massless frame: allowed on a body welded to
+        // one that carries the mass; a moving body without mass is refused with the tree.
+        if mass < 0.0 {
+            return Err(self.err(el, format!("mass=\"{mass}\" must not be negative")));
         }
         let pose = self.pose(el)?;
         let rot = match (
             self.vec3(el, "diaginertia")?,
             self.floats(el, "fullinertia", 6)?,
         ) {
+            (Some(d), None) if d.min() < 0.0 => {
+                return Err(self.err(el, "diaginertia must not be negative"))
+            }
             (Some(d), None) => {
                 self.inertial_axes.insert(body, pose.rotation);
                 Matrix3::from_diagonal(&d)
             }
-            (None, Some(f)) => Matrix3::new(f[0], f[3], f[4], f[3], f[1], f[5], f[4], f[5], f[2]),
+            (None, Some(f)) => {
+                let full = Matrix3::new(f[0], f[3], f[4], f[3], f[1], f[5], f[4], f[5], f[2]);
+                if full.symmetric_eigenvalues().min() <= 0.0 {
+                    return Err(self.err(
+                        el,
+                        "fullinertia is not positive definite (MuJoCo refuses it too)",
+                    ));
+                }
+                full
+            }
             _ => return Err(self.err(el, "give exactly one of diaginertia and fullinertia")),
         };
         let e = rot.symmetric_eigenvalues();
-        if e.min() <= 0.0 {
-            return Err(self.err(el, "the inertia is not positive definite"));
-        }
         // A rigid body's principal moments satisfy the triangle inequality; MuJoCo's compiler
         // refuses an inertia that does not (rounding aside).
         if e.sum() - e.max() < e.max() * (1.0 - 1e-12) {

@@ -185,8 +185,17 @@ impl Builder {
                         Some(Shape::Mesh(mesh.clone()))
                     }
                     (None, Some(problem)) => {
-                        let problem = problem.clone();
-                        return self.geom_without_its_mesh(el, body, problem);
+                        let (problem, hull) = (problem.clone(), asset.hull.clone());
+                        let convex_inertia = asset.convex_inertia;
+                        match self.geom_without_its_mesh(el, body, problem, hull, convex_inertia)? {
+                            Some(hull) => {
+                                let asset = self.meshes.iter_mut().find(|m| m.name == name);
+                                asset.expect("found above").used = true;
+                                mesh_name = Some(name.to_string());
+                                Some(Shape::Mesh(hull))
+                            }
+                            None => return Ok(()),
+                        }
                     }
                     (None, None) => unreachable!("a mesh asset has its mesh or its problem"),
                 }
@@ -270,17 +279,23 @@ impl Builder {
         Ok(())
     }
 
-    /// A geom whose mesh has no closed surface (`problem`): left out of the model when it
-    /// neither collides (`contype` and `conaffinity` both 0) nor gives its body mass (a zero
-    /// mass or density, a group outside `inertiagrouprange`, or a body whose inertia does not
-    /// come from its geoms), and listed as unused; otherwise the mesh's problem is the error,
-    /// naming the geom that needs it.
+    /// A geom whose mesh has no closed surface (`problem`), and the convex hull of its
+    /// vertices (`hull`, if they span a volume). A geom that collides samples the hull, which
+    /// is what MuJoCo collides every mesh by (noted as a warning); its mass, if it gives its
+    /// body mass, is the hull's where the mesh says `inertia="convex"` (MuJoCo's choice then),
+    /// and otherwise the mesh's problem is the error, naming the geom. A geom that neither
+    /// collides (`contype` and `conaffinity` both 0) nor gives its body mass (a zero mass or
+    /// density, a group outside `inertiagrouprange`, or a body whose inertia does not come from
+    /// its geoms) is left out of the model and listed as unused. Returns the shape the geom
+    /// takes, `None` when it is left out.
     fn geom_without_its_mesh(
         &mut self,
         el: &Element,
         body: usize,
         problem: SceneError,
-    ) -> Result<(), SceneError> {
+        hull: Option<Arc<TriMesh>>,
+        convex_inertia: bool,
+    ) -> Result<Option<Arc<TriMesh>>, SceneError> {
         let collides = self.bits(el, "contype")? != 0 || self.bits(el, "conaffinity")? != 0;
         let group: i64 = el
             .attr("group")
@@ -291,19 +306,32 @@ impl Builder {
             || matches!((self.float(el, "mass")?, self.float(el, "density")?), (None, Some(d)) if d == 0.0);
         let gives_mass =
             body != 0 && (lo..=hi).contains(&group) && !massless && self.inertia_from_geoms(body);
+        let refuse = |why: &str| {
+            SceneError {
+            message: format!(
+                "{} (used by the <geom> at {}:{}, where {why}; a geom that only shows the mesh, with contype=\"0\" conaffinity=\"0\" and no mass, does not need it)",
+                problem.message, el.file, el.line
+            ),
+            ..problem.clone()
+        }
+        };
+        if gives_mass && !convex_inertia {
+            return Err(refuse("it gives its body mass: SCM needs its volume (write inertia=\"convex\" on the mesh for the mass of its convex hull, as MuJoCo takes it then, or give the body an <inertial>)"));
+        }
         if collides || gives_mass {
-            let why = if collides {
-                "it collides (contype/conaffinity): SCM samples its surface"
-            } else {
-                "it gives its body mass: SCM needs its volume"
+            let Some(hull) = hull else {
+                return Err(refuse(
+                    "it collides, and its vertices lie in one plane: SCM samples a closed surface",
+                ));
             };
-            return Err(SceneError {
-                message: format!(
-                    "{} (used by the <geom> at {}:{}, where {why}; a geom that only shows the mesh, with contype=\"0\" conaffinity=\"0\" and no mass, does not need it)",
-                    problem.message, el.file, el.line
-                ),
-                ..problem
-            });
+            self.warnings.push(format!(
+                "{}:{}: <geom> collides by the convex hull of its mesh ({}), as MuJoCo collides every mesh{}",
+                el.file,
+                el.line,
+                problem.message,
+                if gives_mass { ", and takes the hull's mass (inertia=\"convex\")" } else { "" }
+            ));
+            return Ok(Some(hull));
         }
         self.unused(
             el,
@@ -312,7 +340,7 @@ impl Builder {
                 problem.message
             ),
         );
-        Ok(())
+        Ok(None)
     }
 
     /// `<mesh name file scale>`: loads and checks the file at once (paths relative to the scene
@@ -392,12 +420,18 @@ impl Builder {
             Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
             Err(e) => return Err(self.err(el, e.to_string())),
         };
+        let hull = match problem {
+            Some(_) => TriMesh::load_hull(&path, &scale).ok().map(Arc::new),
+            None => None,
+        };
         self.meshes.push(MeshAsset {
             name,
             file,
             path,
             mesh,
             problem,
+            hull,
+            convex_inertia: el.attr("inertia") == Some("convex"),
             used: false,
         });
         Ok(())

@@ -91,6 +91,11 @@ pub struct MeshAsset {
     /// where a geom collides or gives its body mass, and refuses the mesh there (a geom that
     /// does neither is left out and listed as unused).
     pub problem: Option<SceneError>,
+    /// The convex hull of the vertices of a mesh with a `problem` (what MuJoCo collides it
+    /// by), where they span a volume: what a colliding geom samples instead of the surface.
+    pub hull: Option<Arc<TriMesh>>,
+    /// `inertia="convex"`: MuJoCo takes the mass of the convex hull.
+    pub convex_inertia: bool,
     /// Whether a geom uses it.
     pub used: bool,
 }

@@ -596,6 +596,42 @@ def test_actuator_defaults_compile_as_mujoco_compiles_them(tmp_path):
     assert compared > 250, compared
 
 
+OPEN_BOX = "".join(f"v {x} {y} {z}\n" for z in (0, 0.2) for y in (0, 0.1) for x in (0, 0.3)) + """f 1 3 4
+f 1 4 2
+f 1 2 6
+f 1 6 5
+f 2 4 8
+f 2 8 6
+f 4 3 7
+f 4 7 8
+f 3 1 5
+f 3 5 7
+"""
+
+
+def test_an_open_mesh_collides_and_weighs_by_its_convex_hull_as_in_mujoco(tmp_path):
+    """A box without its lid: MuJoCo collides it by its convex hull, and with
+    inertia="convex" weighs it by the hull too; SCM samples and weighs the same hull (the
+    compared model has the hull's mass, inertia and mesh frame)."""
+    (tmp_path / "open_box.obj").write_text(OPEN_BOX)
+    path = tmp_path / "open_mesh.xml"
+    path.write_text("""<mujoco>
+  <asset><mesh name="tray" file="open_box.obj" inertia="convex"/></asset>
+  <worldbody>
+    <body name="tray" pos="0 0 1" euler="10 20 30">
+      <freejoint/>
+      <geom type="mesh" mesh="tray" density="500"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert abs(m.body_mass[1] - 500 * 0.3 * 0.1 * 0.2) < 1e-6 * m.body_mass[1]
+    out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    assert out.returncode == 0 and "convex hull" in out.stdout, out.stdout + out.stderr
+
+
 def mujoco_body_pairs(m):
     """The body pairs MuJoCo's collision filter lets touch, by its rules (contype/conaffinity
     bits, weld bodies, the parent filter, excludes, explicit pairs), where contact can move

@@ -85,6 +85,9 @@ pub enum MeshProblem {
     /// The enclosed volume is zero (a flat or doubled surface).
     #[error("the mesh encloses no volume ({0:.3e} m³)")]
     ZeroVolume(f64),
+    /// The vertices have no convex hull with a volume (they lie in one plane or on one line).
+    #[error("its vertices have no convex hull with a volume ({0})")]
+    NoHull(String),
 }
 
 impl MeshProblem {
@@ -496,6 +499,7 @@ fn refine(
     (v, t)
 }
 
+mod hull;
 mod read;
 
 #[cfg(test)]

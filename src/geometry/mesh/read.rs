@@ -7,34 +7,7 @@ impl TriMesh {
     /// Loads an OBJ or STL file, scales it, checks it and orients it outward. Returns the mesh
     /// and warnings (e.g. an inward orientation that was fixed).
     pub fn load(path: &Path, scale: &Vector3<f64>) -> Result<(TriMesh, Vec<String>), MeshError> {
-        let file = path.display().to_string();
-        let err = |problem| MeshError {
-            file: file.clone(),
-            problem,
-        };
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_lowercase())
-            .unwrap_or_default();
-        if ext != "obj" && ext != "stl" {
-            return Err(err(MeshProblem::Format(ext)));
-        }
-        let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
-        // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
-        // a parse error, never a crash of the host.
-        let parsed = std::panic::catch_unwind(|| {
-            if ext == "obj" {
-                parse_obj(&bytes)
-            } else {
-                parse_stl(&bytes)
-            }
-        })
-        .unwrap_or_else(|_| Err("the parser failed on this file".into()));
-        let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
-        let vertices = vertices
-            .into_iter()
-            .map(|v| v.component_mul(scale))
-            .collect();
+        let (file, vertices, triangles) = read(path, scale)?;
         let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
         if scale.x * scale.y * scale.z < 0.0 {
             // A mirroring scale turns the surface inside out; `new` has already flipped it back.
@@ -43,6 +16,50 @@ impl TriMesh {
         mesh.file = file;
         Ok((mesh, warnings))
     }
+
+    /// The convex hull of an OBJ or STL file's vertices (scaled), whatever its surface: what
+    /// MuJoCo collides a mesh by. Fails where the file cannot be read or its vertices span no
+    /// volume (all in one plane).
+    pub fn load_hull(path: &Path, scale: &Vector3<f64>) -> Result<TriMesh, MeshError> {
+        let (file, vertices, _) = read(path, scale)?;
+        TriMesh::convex_hull(&file, &vertices)
+    }
+}
+
+/// A file's name, its vertices (scaled) and triangles.
+type Read = (String, Vec<Vector3<f64>>, Vec<[u32; 3]>);
+
+/// The file's name, its vertices (scaled) and triangles.
+fn read(path: &Path, scale: &Vector3<f64>) -> Result<Read, MeshError> {
+    let file = path.display().to_string();
+    let err = |problem| MeshError {
+        file: file.clone(),
+        problem,
+    };
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if ext != "obj" && ext != "stl" {
+        return Err(err(MeshProblem::Format(ext)));
+    }
+    let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
+    // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
+    // a parse error, never a crash of the host.
+    let parsed = std::panic::catch_unwind(|| {
+        if ext == "obj" {
+            parse_obj(&bytes)
+        } else {
+            parse_stl(&bytes)
+        }
+    })
+    .unwrap_or_else(|_| Err("the parser failed on this file".into()));
+    let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
+    let vertices = vertices
+        .into_iter()
+        .map(|v| v.component_mul(scale))
+        .collect();
+    Ok((file, vertices, triangles))
 }
 
 /// Vertices and triangles of a parsed file, or what is wrong with it.
