@@ -909,3 +909,20 @@ fn actuator_force_and_damper_ranges_at_their_edges() {
     ));
     assert_eq!(s.model.actuators[0].ctrlrange, Some((0.0, 1.0)));
 }
+
+/// `<inertial mass="0">` is MuJoCo's massless frame (a camera mount in a robot file): taken on
+/// a body welded to one that moves with mass; a moving body with nothing else is refused, as
+/// MuJoCo refuses it, and so is a negative mass.
+#[test]
+fn a_zero_inertial_is_a_massless_frame() {
+    let scene = |joint: &str, inertial: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body name=\"arm\" pos=\"0 0 1\">\n      <joint axis=\"0 1 0\"/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n      <body name=\"frame\" pos=\"0.3 0 0\">\n        {joint}\n        <inertial pos=\"0 0 0\" {inertial}/>\n      </body>\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    let zero = r#"mass="0" diaginertia="0 0 0""#;
+    let s = load(&scene("", zero));
+    assert_eq!(body(&s, "frame").inertia.mass, 0.0);
+    let e = refuse(&scene(r#"<joint axis="0 1 0"/>"#, zero));
+    assert!(e.message.contains("frame"), "{e}");
+    let e = refuse(&scene("", r#"mass="-1" diaginertia="1 1 1""#));
+    assert!(e.line == 8 && e.message.contains("must not be negative"), "{e}");
+}
