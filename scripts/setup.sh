@@ -5,7 +5,8 @@
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
 #     (fmpy, numpy, pytest, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
-#   - the MJCF files of dm_control's suite (from its wheel, unpacked in .venv/dm_control_suite);
+#   - the MJCF files of dm_control's suite (from its wheel, unpacked in .venv/dm_control_suite)
+#     and gymnasium-robotics' models (from its wheel, in .venv/gymnasium_robotics_assets);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
 set -euo pipefail
@@ -57,6 +58,27 @@ with zipfile.ZipFile(wheel) as z:
             z.extract(n, out)
 PY
   echo "$DMC" > "$DMC_DIR/.version"
+  rm -rf "$tmp"
+fi
+
+# gymnasium-robotics' models (hands, Fetch, the Franka kitchen), a third corpus: its MJCF files
+# and meshes only, from the package's wheel (not installed: the tests need none of its code).
+GR=gymnasium-robotics==1.4.2
+GR_DIR=.venv/gymnasium_robotics_assets
+if [ "$(cat "$GR_DIR/.version" 2>/dev/null)" != "$GR" ]; then
+  echo "setup: fetching the MJCF files of $GR"
+  tmp=$(mktemp -d)
+  .venv/bin/pip download -q --no-deps "$GR" -d "$tmp"
+  rm -rf "$GR_DIR"
+  .venv/bin/python - "$tmp"/*.whl "$GR_DIR" <<'PY'
+import sys, zipfile
+wheel, out = sys.argv[1], sys.argv[2]
+with zipfile.ZipFile(wheel) as z:
+    for n in z.namelist():
+        if n.startswith("gymnasium_robotics/envs/assets/"):
+            z.extract(n, out)
+PY
+  echo "$GR" > "$GR_DIR/.version"
   rm -rf "$tmp"
 fi
 

@@ -59,15 +59,27 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
             )
         }));
     let mut resources: Vec<(String, Vec<u8>)> = Vec::new();
+    // Each name's file: the same file twice is packed once; two files under one name (a
+    // `_parent_` folder written as such and a `..`) are refused, never one silently dropped.
+    let mut packed: Vec<(String, &std::path::PathBuf)> = Vec::new();
     for (name, kind, file, path) in files {
         let name = name.map_err(|why| {
             PackError::Write(format!("{}: {kind} {file}: {why}", scene.display()))
         })?;
-        if resources.iter().any(|(n, _)| *n == name) {
+        if let Some((_, first)) = packed.iter().find(|(n, _)| *n == name) {
+            let same = |p: &std::path::Path| p.canonicalize().ok();
+            if same(first) != same(path) {
+                return Err(PackError::Write(format!(
+                    "{}: {kind} {file}: packs as resources/{name}, as {} does: rename one",
+                    scene.display(),
+                    first.display()
+                )));
+            }
             continue;
         }
         let bytes = std::fs::read(path)
             .map_err(|e| PackError::Write(format!("{}: {e}", path.display())))?;
+        packed.push((name.clone(), path));
         resources.push((name, bytes));
     }
     let sim = Simulation::new(loaded.clone(), &text);
@@ -104,27 +116,18 @@ pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
 /// folder (the scene itself is `resources/scene.xml`), so that the include resolves there as
 /// it did beside the scene. A file outside the scene's folder cannot be packed.
 fn packed_include_name(scene: &Path, included: &Path) -> Result<String, String> {
-    let mut parts: Vec<String> = Vec::new();
     let rel = included
         .strip_prefix(crate::scene::scene_dir(scene))
         .map_err(|_| "the file is outside the scene's folder: move it under that folder")?;
-    for c in rel.components() {
-        match c {
-            std::path::Component::Normal(n) => parts.push(n.to_string_lossy().into_owned()),
-            std::path::Component::CurDir => {}
-            std::path::Component::ParentDir => {
-                parts
-                    .pop()
-                    .ok_or("the path leaves the scene's folder: move the file under that folder")?;
-            }
-            _ => return Err("an absolute path cannot be packed".into()),
-        }
+    if rel.is_absolute() {
+        return Err("an absolute path cannot be packed".into());
     }
-    if parts.is_empty() || parts == [crate::sim::SCENE_FILE] {
+    let name = crate::scene::packed_relative(&rel.to_string_lossy())?;
+    if name == crate::sim::SCENE_FILE {
         return Err(format!(
             "an included file cannot be named {}",
             crate::sim::SCENE_FILE
         ));
     }
-    Ok(parts.join("/"))
+    Ok(name)
 }

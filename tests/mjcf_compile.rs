@@ -85,6 +85,102 @@ fn nested_default_classes_and_childclass_apply_as_in_mujoco() {
     assert!((body(&s, "c").inertia.mass - m).abs() < 1e-12);
 }
 
+/// Files a scene names through `..` out of its folder (an include `../parts/arm.xml`, a mesh
+/// `../meshes/box.obj` from a `meshdir` beside the scene, as the Franka kitchen's files do)
+/// travel in the FMU under `_parent_` folders, and the same names find them there again; two
+/// different files that would share a packed name are refused.
+#[test]
+fn files_named_out_of_their_folder_travel_in_the_fmu() {
+    let dir = scratch("parent");
+    for sub in ["scenes", "parts", "meshes", "assets"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+    }
+    let cube = "v 0 0 0\nv 0.1 0 0\nv 0.1 0.1 0\nv 0 0.1 0\nv 0 0 0.1\nv 0.1 0 0.1\nv 0.1 0.1 0.1\nv 0 0.1 0.1\nf 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    std::fs::write(dir.join("meshes/box.obj"), cube).unwrap();
+    std::fs::write(
+        dir.join("parts/arm.xml"),
+        "<mujoco>\n  <body name=\"arm\" pos=\"0 0 1\">\n    <joint name=\"hinge\" axis=\"0 1 0\"/>\n    <include file=\"hand.xml\"/>\n  </body>\n</mujoco>\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("parts/hand.xml"),
+        "<mujoco>\n  <geom name=\"hand\" type=\"mesh\" mesh=\"box\"/>\n</mujoco>\n",
+    )
+    .unwrap();
+    let main = dir.join("scenes/main.xml");
+    let scene = |mesh: &str| {
+        format!("<mujoco>\n  <compiler meshdir=\"../assets\"/>\n  <asset>{mesh}</asset>\n  <worldbody>\n    <include file=\"../parts/arm.xml\"/>\n  </worldbody>\n</mujoco>\n")
+    };
+    std::fs::write(
+        &main,
+        scene(r#"<mesh name="box" file="../meshes/box.obj"/>"#),
+    )
+    .unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    let d = scm::pack::describe(&main).unwrap();
+    let mut names: Vec<&str> = d.resources.iter().map(|(n, _)| n.as_str()).collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "_parent_/parts/arm.xml",
+            "_parent_/parts/hand.xml",
+            "meshes/_parent_/meshes/box.obj"
+        ]
+    );
+    let unpacked = dir.join("unpacked/resources");
+    std::fs::write(
+        {
+            std::fs::create_dir_all(&unpacked).unwrap();
+            unpacked.join("scene.xml")
+        },
+        &d.scene_text,
+    )
+    .unwrap();
+    for (name, bytes) in &d.resources {
+        let to = unpacked.join(name);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::write(to, bytes).unwrap();
+    }
+    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    // The same geoms, the mesh read from its packed copy.
+    let shape = |s: &Scene| -> Vec<_> {
+        s.geoms
+            .iter()
+            .map(|g| match &g.shape {
+                Some(scm::geometry::Shape::Mesh(m)) => (
+                    g.name.clone(),
+                    g.body,
+                    m.vertices.clone(),
+                    m.triangles.clone(),
+                ),
+                other => panic!("{other:?}"),
+            })
+            .collect()
+    };
+    assert_eq!(shape(&again), shape(&s));
+    // `_parent_/box.obj` written as such and `../box.obj` would be one packed file.
+    std::fs::create_dir_all(dir.join("assets/_parent_")).unwrap();
+    std::fs::write(dir.join("assets/_parent_/box.obj"), cube).unwrap();
+    std::fs::write(dir.join("box.obj"), cube).unwrap();
+    std::fs::write(
+        &main,
+        scene(
+            r#"<mesh name="box" file="_parent_/box.obj"/><mesh name="other" file="../box.obj"/>"#,
+        ),
+    )
+    .unwrap();
+    let e = match scm::pack::describe(&main) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("two files under one packed name must be refused"),
+    };
+    assert!(
+        e.contains("meshes/_parent_/box.obj") && e.contains("rename"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn an_unknown_class_is_refused_with_its_line() {
     let e = refuse(
@@ -924,5 +1020,8 @@ fn a_zero_inertial_is_a_massless_frame() {
     let e = refuse(&scene(r#"<joint axis="0 1 0"/>"#, zero));
     assert!(e.message.contains("frame"), "{e}");
     let e = refuse(&scene("", r#"mass="-1" diaginertia="1 1 1""#));
-    assert!(e.line == 8 && e.message.contains("must not be negative"), "{e}");
+    assert!(
+        e.line == 8 && e.message.contains("must not be negative"),
+        "{e}"
+    );
 }

@@ -30,6 +30,16 @@ pub fn expand(root: &mut Element, path: &Path) -> Result<Vec<IncludedFile>, Scen
     Ok(read)
 }
 
+/// Where `scm pack` put `wanted` (a path under the unpacked FMU's `resources/` folder `main`,
+/// lexically) if the scene is an FMU's and the file is there.
+fn in_fmu(main: &Path, wanted: &Path) -> Option<PathBuf> {
+    let is_fmu =
+        main.file_name().is_some_and(|n| n == "resources") && main.join(super::SCENE_FILE).exists();
+    let rel = wanted.strip_prefix(main).ok()?;
+    let packed = main.join(super::paths::packed_relative(&rel.to_string_lossy()).ok()?);
+    (is_fmu && packed.exists()).then_some(packed)
+}
+
 fn expand_in(
     el: &mut Element,
     main: &Path,
@@ -61,9 +71,17 @@ fn expand_in(
             return Err(err("an include cannot have child elements".into()));
         }
         let here = super::scene_dir(path).join(&file);
-        let target = match main.join(&file) {
-            t if t.exists() || !here.exists() => t,
-            _ => here,
+        let first = main.join(&file);
+        let target = if first.exists() {
+            first
+        } else if here.exists() {
+            here
+        } else {
+            // Inside an FMU, a file the scene reached through `..` out of its folder is where
+            // `scm pack` put it (`super::paths::packed_relative`), in the same order.
+            in_fmu(main, &first)
+                .or_else(|| in_fmu(main, &here))
+                .unwrap_or(first)
         };
         if chain.iter().any(|p| p == &target) || chain.len() > MAX_DEPTH {
             return Err(err(format!(

@@ -21,7 +21,7 @@ mod names;
 mod paths;
 mod settings;
 pub use collide::spacing_text;
-pub use paths::{mesh_path, packed_mesh_name, scene_dir};
+pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
 use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUTES};
 pub mod xml;
 

@@ -35,29 +35,40 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
 }
 
 /// The name under an FMU's `resources/` of a mesh whose `file` attribute is `file`:
-/// `meshes/<file>`, with `.` and `..` resolved (a path that leaves the mesh folder, or an
-/// absolute one, cannot be packed).
+/// `meshes/<file>`, with `.` and `..` resolved ([`packed_relative`]: a `..` that leaves the
+/// mesh folder, as in `../../meshes/hood.stl` relative to `meshdir`, becomes a folder named
+/// `_parent_`). An absolute path cannot be packed.
 pub fn packed_mesh_name(file: &str) -> Result<String, String> {
     if Path::new(file).is_absolute() {
         return Err("an absolute path cannot be packed: give the file relative to meshdir".into());
     }
+    Ok(format!("meshes/{}", packed_relative(file)?))
+}
+
+/// A relative path with `.` and `..` resolved, `/`-separated, each `..` that would leave its
+/// starting folder kept as a folder named `_parent_`: where `scm pack` puts a file that a
+/// scene names by such a path, so that the same path finds it again inside the FMU.
+pub fn packed_relative(path: &str) -> Result<String, String> {
     let mut parts: Vec<&str> = Vec::new();
-    for c in file.split(['/', '\\']) {
+    for c in path.split(['/', '\\']) {
         match c {
             "" | "." => {}
-            ".." => {
-                parts
-                    .pop()
-                    .ok_or("the path leaves the mesh folder: give the file relative to meshdir")?;
+            ".." if parts.last().is_some_and(|p| *p != PARENT) => {
+                parts.pop();
             }
+            ".." => parts.push(PARENT),
             c => parts.push(c),
         }
     }
     if parts.is_empty() {
         return Err("empty file name".into());
     }
-    Ok(format!("meshes/{}", parts.join("/")))
+    Ok(parts.join("/"))
 }
+
+/// The folder that stands for a `..` leaving its starting folder in a packed file's name
+/// ([`packed_relative`]); `scm pack` refuses two different files that would share a name.
+pub const PARENT: &str = "_parent_";
 
 /// The folder a scene's relative paths start from.
 pub fn scene_dir(path: &Path) -> PathBuf {

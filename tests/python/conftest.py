@@ -24,6 +24,27 @@ DM_CONTROL_REFUSED = {
     "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
 }
 
+#: gymnasium-robotics' models, a third corpus (unpacked from its wheel by scripts/setup.sh): the
+#: files its environments load (the others are included by these).
+ROBOTICS_DIR = ROOT / ".venv" / "gymnasium_robotics_assets" / "gymnasium_robotics" / "envs" / "assets"
+ROBOTICS = sorted(
+    p for pattern in ("adroit_hand/adroit_*.xml", "fetch/*.xml", "hand/*.xml", "point/point.xml",
+                      "kitchen_franka/kitchen_assets/kitchen_env_model.xml")
+    for p in ROBOTICS_DIR.glob(pattern)
+    if p.stem not in ("adroit_assets", "adroit_model", "robot", "shared", "shared_asset",
+                      "robot_touch_sensors_92", "shared_touch_sensors_92")
+)
+#: The robotics files SCM refuses, and the reason its message must give.
+ROBOTICS_REFUSED = {
+    name: ("shared.xml:39: <weld>", "<weld> equality constraints are not supported")
+    for name in ("pick_and_place", "push", "reach_fetch", "slide")
+}
+
+
+def robotics_id(path):
+    """A test id for a robotics file: its name, with the folder where names repeat."""
+    return f"{path.stem}_fetch" if path.parent.name == "fetch" and path.stem == "reach" else path.stem
+
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):

@@ -19,7 +19,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import DM_CONTROL, DM_CONTROL_REFUSED, SCM
+from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, robotics_id
 
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
@@ -45,9 +45,19 @@ def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
     packs_validates_and_runs(path, tmp_path, 0.1, DM_CONTROL_REFUSED.get(path.stem))
 
 
+@pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])
+def test_robotics_file_packs_and_validates(path, tmp_path):
+    """gymnasium-robotics' files pack (the Franka kitchen's meshes and includes named through
+    `..` out of their folders too) and fmpy validates them; Fetch's are refused at their weld.
+    Only the point maze is run: with contact on, a step of the shadow hand takes seconds and
+    the Adroit hand's first steps blow up (measured, in docs/mjcf.md), which is issue 20's."""
+    packs_validates_and_runs(path, tmp_path, 0.1 if path.stem == "point" else None,
+                             ROBOTICS_REFUSED.get(robotics_id(path)))
+
+
 def packs_validates_and_runs(path, tmp_path, seconds, refusal):
-    """`path` packs into an FMU that fmpy validates and simulates for `seconds` with finite
-    states; or, with `refusal` = (where, why), the packing is refused saying both."""
+    """`path` packs into an FMU that fmpy validates and simulates for `seconds` (unless None)
+    with finite states; or, with `refusal` = (where, why), the packing is refused saying both."""
     fmu = str(tmp_path / f"{path.stem}.fmu")
     packed = subprocess.run([str(SCM), "pack", str(path), "-o", fmu], capture_output=True, text=True)
     if refusal is not None:
@@ -56,6 +66,8 @@ def packs_validates_and_runs(path, tmp_path, seconds, refusal):
         return
     assert packed.returncode == 0, packed.stderr
     assert validate_fmu(fmu) == []
+    if seconds is None:
+        return
     outputs = states(fmu)
     res = simulate_fmu(fmu, stop_time=seconds, output_interval=0.01, output=outputs)
     assert res["time"][-1] == pytest.approx(seconds)

@@ -10,6 +10,7 @@ joint springs and damping, and the integrators (RK4; MuJoCo's Euler with implici
 """
 import json
 import pathlib
+import re
 import subprocess
 import xml.etree.ElementTree as ET
 
@@ -19,7 +20,7 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from conftest import DM_CONTROL, DM_CONTROL_REFUSED, SCM
+from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, robotics_id
 
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
@@ -41,20 +42,27 @@ def contact_free_copy(path, folder):
         flag = ET.SubElement(option, "flag")
     for key in ("contact", "limit", "equality", "frictionloss"):
         flag.set(key, "disable")
-    out = folder / path.name
+    # Beside the original, so that what it reads by relative paths (included files, meshes,
+    # `meshdir="../stls"`) is found from the copy too; named after the test's folder, and
+    # removed by the caller.
+    out = path.parent / f".{folder.name}.{path.name}"
     tree.write(out)
-    # What the file reads beside it (included files, meshes) is found from the copy too.
-    for sibling in path.parent.iterdir():
-        if sibling.is_dir() and not (folder / sibling.name).exists():
-            (folder / sibling.name).symlink_to(sibling)
     return out
+
+
+def fmu_name(name):
+    """An MJCF name as an FMU name component: as it is if an identifier, else quoted (FMI 2.0's
+    structured naming; the printable ASCII names of these corpora need no other escape)."""
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        return name
+    return "'" + name.replace("\\", "\\\\").replace("'", "\\'") + "'"
 
 
 def coordinate_names(m):
     """scm's FMU variable of every entry of MuJoCo's qpos, in qpos order."""
     names = []
     for j in range(m.njnt):
-        name = m.joint(j).name or m.body(m.jnt_bodyid[j]).name
+        name = fmu_name(m.joint(j).name or m.body(m.jnt_bodyid[j]).name)
         kind = m.jnt_type[j]
         if kind == mujoco.mjtJoint.mjJNT_FREE:
             names += [f"{name}.pos.{a}" for a in "xyz"] + [f"{name}.quat.{a}" for a in "wxyz"]
@@ -76,6 +84,15 @@ DM_LOADED = [p for p in DM_CONTROL if p.stem not in DM_CONTROL_REFUSED and p.ste
 @pytest.mark.parametrize("path", CORPUS + DM_LOADED,
                          ids=[p.stem for p in CORPUS] + [f"dm_control-{p.stem}" for p in DM_LOADED])
 def test_contact_free_motion_matches_mujoco(path, tmp_path):
+    matches_mujoco(path, tmp_path)
+
+
+ROBOTICS_LOADED = [p for p in ROBOTICS if robotics_id(p) not in ROBOTICS_REFUSED]
+
+
+@pytest.mark.parametrize("path", ROBOTICS_LOADED, ids=[f"robotics-{robotics_id(p)}" for p in ROBOTICS_LOADED])
+def test_robotics_contact_free_motion_matches_mujoco(path, tmp_path):
+    """gymnasium-robotics' hands, the Franka kitchen and the point maze, without contact."""
     matches_mujoco(path, tmp_path)
 
 
@@ -111,6 +128,14 @@ def matches_mujoco(path, tmp_path):
     """The body of the differential test: `path`'s contact-free copy through its FMU in fmpy
     against MuJoCo's run of the same copy."""
     copy = contact_free_copy(path, tmp_path)
+    try:
+        compare_runs(path, copy, tmp_path)
+    finally:
+        copy.unlink()
+
+
+def compare_runs(path, copy, tmp_path):
+    """`copy` of `path` through its FMU in fmpy against MuJoCo's run of it."""
     fmu = tmp_path / f"{path.stem}.fmu"
     packed = subprocess.run([str(SCM), "pack", str(copy), "-o", str(fmu)], capture_output=True, text=True)
     if path.stem in REFUSED:
@@ -126,7 +151,7 @@ def matches_mujoco(path, tmp_path):
     for a, act in enumerate(actuators):
         lo, hi = act["ctrlrange"] if act["ctrllimited"] else (-1.0, 1.0)
         d.ctrl[a] = 0.5 * (hi if a % 2 == 0 else lo)
-        start[f"{act['name']}.ctrl"] = d.ctrl[a]
+        start[f"{fmu_name(act['name'])}.ctrl"] = d.ctrl[a]
     steps = round(DURATION / m.opt.timestep)
     every = max(1, round(0.01 / m.opt.timestep))
     names = coordinate_names(m)
