@@ -178,6 +178,31 @@ fn files_named_out_of_their_folder_travel_in_the_fmu() {
         e.contains("meshes/_parent_/box.obj") && e.contains("rename"),
         "{e}"
     );
+    // Inside the FMU a mesh is found by its packed name first: `meshes/a.obj` written (packed
+    // as `meshes/meshes/a.obj`) is not `a.obj` packed as `meshes/a.obj`.
+    std::fs::write(dir.join("assets/a.obj"), cube).unwrap();
+    std::fs::create_dir_all(dir.join("assets/meshes")).unwrap();
+    std::fs::write(dir.join("assets/meshes/a.obj"), cube.replace("0.1", "0.2")).unwrap();
+    std::fs::write(
+        &main,
+        scene(r#"<mesh name="box" file="a.obj"/><mesh name="big" file="meshes/a.obj"/>"#).replace(
+            "<worldbody>",
+            "<worldbody>\n    <body name=\"big\"><geom type=\"mesh\" mesh=\"big\"/></body>",
+        ),
+    )
+    .unwrap();
+    let s = scm::scene::load(&main).unwrap();
+    let d = scm::pack::describe(&main).unwrap();
+    let unpacked = dir.join("unpacked2/resources");
+    std::fs::create_dir_all(&unpacked).unwrap();
+    std::fs::write(unpacked.join("scene.xml"), &d.scene_text).unwrap();
+    for (name, bytes) in &d.resources {
+        let to = unpacked.join(name);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::write(to, bytes).unwrap();
+    }
+    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    assert_eq!(shape(&again), shape(&s));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -173,8 +173,16 @@ fn vector(el: &Element, key: &str) -> Result<Option<Vec<f64>>, SceneError> {
     }
 }
 
-/// Refuses a parameter attribute that `el`'s kind does not have.
-fn check_parameters(el: &Element) -> Result<(), SceneError> {
+/// Refuses a parameter attribute that `el`'s kind does not have (and a damper's
+/// `ctrllimited`: MuJoCo's schema has none, a damper's control is always limited). For an
+/// element, called on what it writes itself, before its class's attributes are filled in.
+pub fn check_parameters(el: &Element) -> Result<(), SceneError> {
+    if el.name == "damper" && el.attr("ctrllimited").is_some() {
+        return Err(error(
+            el,
+            "'ctrllimited' is not an attribute of <damper> (MuJoCo refuses it too): a damper's control is always limited by its ctrlrange".into(),
+        ));
+    }
     let Some((_, own)) = PARAMETERS.iter().find(|(k, _)| *k == el.name) else {
         return Ok(());
     };
@@ -222,9 +230,8 @@ fn general(mut p: Parameters, el: &Element) -> Result<Parameters, SceneError> {
 }
 
 /// The parameters a shortcut of kind `el.name` sets from its attributes, starting from
-/// `start` (one whose gain it reads, see [`ActuatorDefaults::start`]), which a default of the
-/// same kind wrote (`same`) or not.
-fn shortcut(start: &Parameters, same: bool, el: &Element) -> Result<Parameters, SceneError> {
+/// `start` (one whose gain it reads, see [`ActuatorDefaults::start`]).
+fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> {
     let mut p = Parameters::default();
     match el.name.as_str() {
         "motor" => {}
@@ -257,7 +264,9 @@ fn shortcut(start: &Parameters, same: bool, el: &Element) -> Result<Parameters, 
                     p.dynprm[0] = t;
                 }
                 Some(_) => {}
-                None if same => {
+                // MuJoCo 4 keeps a position's first-order filter (its own timeconst's, or a
+                // <general>'s filterexact) and drops other dynamics.
+                None if start.dyntype == "filterexact" => {
                     p.dyntype = start.dyntype.clone();
                     p.dynprm = start.dynprm;
                 }
@@ -330,26 +339,24 @@ impl ActuatorDefaults {
     }
 
     /// Where a shortcut of kind `kind` starts (`el` is it, for a refusal): the nearest class's
-    /// parameters that its kind wrote (`true`) or that a `<general>` wrote with a gain it reads
-    /// (`false`), else MuJoCo's defaults.
-    fn start(&self, kind: &str, el: &Element) -> Result<(Parameters, bool), SceneError> {
+    /// parameters that its kind wrote or that a `<general>` wrote with a gain it reads, else
+    /// MuJoCo's defaults.
+    fn start(&self, kind: &str, el: &Element) -> Result<Parameters, SceneError> {
         for (written_by, state) in self.chain.iter().flatten() {
             let reads = |p: &Parameters| match kind {
                 "damper" => p.gaintype == "affine",
                 _ => p.gaintype == "fixed",
             };
             match state {
-                State::Known(p) if written_by == kind => return Ok(((**p).clone(), true)),
-                State::Known(p) if written_by == "general" && reads(p) => {
-                    return Ok(((**p).clone(), false))
-                }
+                State::Known(p) if written_by == kind => return Ok((**p).clone()),
+                State::Known(p) if written_by == "general" && reads(p) => return Ok((**p).clone()),
                 State::Other(other) if written_by == "general" && kind != "motor" => {
                     return Err(inherits_other(el, other))
                 }
                 _ => {}
             }
         }
-        Ok((Parameters::default(), false))
+        Ok(Parameters::default())
     }
 
     /// Reads an actuator default (a child of `<default>`) into the class.
@@ -362,8 +369,11 @@ impl ActuatorDefaults {
                 other => other,
             }
         } else if PARAMETERS.iter().any(|(k, _)| *k == kind) {
-            let (start, same) = self.start(kind, el)?;
-            State::Known(Box::new(shortcut(&start, same, el)?))
+            if kind == "damper" {
+                damper_range(el)?;
+            }
+            let start = self.start(kind, el)?;
+            State::Known(Box::new(shortcut(&start, el)?))
         } else {
             State::Other(kind.to_string())
         };
@@ -371,12 +381,12 @@ impl ActuatorDefaults {
         Ok(())
     }
 
-    /// Writes on an actuator element the parameters it ends up with, in the attributes SCM's
+    /// Writes on an actuator element (checked by [`check_parameters`], then given its class's
+    /// shared attributes) the parameters it ends up with, in the attributes SCM's
     /// loader reads: `kp` with `kv` or `dampratio` (and `timeconst` if the position has
     /// dynamics) for a position, `kv` for a velocity or a damper, gain, bias and dynamics for
     /// a `<general>`. Elements of kinds SCM does not simulate are left as they are.
     pub fn resolve(&self, el: &mut Element) -> Result<(), SceneError> {
-        check_parameters(el)?;
         let kind = el.name.clone();
         let resolved = match kind.as_str() {
             "general" => match self.current() {
@@ -384,8 +394,8 @@ impl ActuatorDefaults {
                 State::Other(other) => return Err(inherits_other(el, &other)),
             },
             "motor" | "position" | "velocity" | "damper" => {
-                let (start, same) = self.start(&kind, el)?;
-                shortcut(&start, same, el)?
+                let start = self.start(&kind, el)?;
+                shortcut(&start, el)?
             }
             _ => return Ok(()),
         };
@@ -419,6 +429,32 @@ impl ActuatorDefaults {
             _ => {}
         }
         Ok(())
+    }
+}
+
+/// A damper default's control range, which MuJoCo refuses negative as on the element.
+fn damper_range(el: &Element) -> Result<(), SceneError> {
+    let Some(s) = el.attr("ctrlrange") else {
+        return Ok(());
+    };
+    match s
+        .split_whitespace()
+        .map(str::parse::<f64>)
+        .collect::<Result<Vec<_>, _>>()
+    {
+        Ok(r) if r.len() == 2 && r.iter().all(|x| x.is_finite()) => {
+            if r.iter().any(|&x| x < 0.0) {
+                return Err(error(
+                    el,
+                    "a damper's ctrlrange cannot be negative (MuJoCo refuses it too)".into(),
+                ));
+            }
+            Ok(())
+        }
+        _ => Err(error(
+            el,
+            format!("ctrlrange=\"{s}\": expected two numbers"),
+        )),
     }
 }
 

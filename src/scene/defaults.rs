@@ -8,7 +8,7 @@
 //! `<position>` elements. Their gain, bias and dynamics parameters follow MuJoCo's own rules
 //! (docs/mjcf.md, "Actuator defaults").
 
-use super::actuator_defaults::{is_kept_with_parameters, ActuatorDefaults};
+use super::actuator_defaults::{check_parameters, is_kept_with_parameters, ActuatorDefaults};
 use super::xml::Element;
 use super::SceneError;
 use std::collections::HashMap;
@@ -88,13 +88,19 @@ impl Defaults {
                 ));
             }
         }
-        for (i, child) in el.children.iter().enumerate() {
-            if child.name != "default" && el.children[..i].iter().any(|c| c.name == child.name) {
+        // As MuJoCo reads them: the class's own defaults first, then its nested classes
+        // (which inherit all of them, wherever they are written).
+        let (nested, own): (Vec<&Element>, Vec<&Element>) =
+            el.children.iter().partition(|c| c.name == "default");
+        for (i, child) in own.iter().enumerate() {
+            if own[..i].iter().any(|c| c.name == child.name) {
                 return Err(error(
                     child,
                     format!("a default class gives <{}> once (MuJoCo refuses a repeat too): merge the two", child.name),
                 ));
             }
+        }
+        for child in own.into_iter().chain(nested) {
             if child.name == "default" {
                 let sub = child
                     .attr("class")
@@ -138,6 +144,12 @@ impl Defaults {
                     None => attrs.push((k.clone(), v.clone())),
                 }
             }
+            // MuJoCo's damper and adhesion defaults switch the control limit on for the whole
+            // class (every kind), whatever was written.
+            if matches!(child.name.as_str(), "damper" | "adhesion") {
+                attrs.retain(|(k, _)| k != "ctrllimited");
+                attrs.push(("ctrllimited".into(), "true".into()));
+            }
         }
         Ok(())
     }
@@ -159,6 +171,9 @@ impl Defaults {
         let Some(slot) = slot(&el.name) else {
             return Ok(());
         };
+        if slot == "actuator" {
+            check_parameters(el)?;
+        }
         if let Some(attrs) = found.slots.get(slot) {
             for (k, v) in attrs {
                 if el.attr(k).is_none() && !overridden_by(el, k) {

@@ -186,6 +186,7 @@ impl Builder {
                     }
                     (None, Some(problem)) => {
                         let (problem, hull) = (problem.clone(), asset.hull.clone());
+                        let hull = hull.map(|h| (h, asset.maxhullvert));
                         let convex_inertia = asset.convex_inertia;
                         match self.geom_without_its_mesh(el, body, problem, hull, convex_inertia)? {
                             Some(hull) => {
@@ -293,7 +294,7 @@ impl Builder {
         el: &Element,
         body: usize,
         problem: SceneError,
-        hull: Option<Arc<TriMesh>>,
+        hull: Option<(Arc<TriMesh>, Option<i64>)>,
         convex_inertia: bool,
     ) -> Result<Option<Arc<TriMesh>>, SceneError> {
         let collides = self.bits(el, "contype")? != 0 || self.bits(el, "conaffinity")? != 0;
@@ -319,17 +320,26 @@ impl Builder {
             return Err(refuse("it gives its body mass: SCM needs its volume (write inertia=\"convex\" on the mesh for the mass of its convex hull, as MuJoCo takes it then, or give the body an <inertial>)"));
         }
         if collides || gives_mass {
-            let Some(hull) = hull else {
-                return Err(refuse(
-                    "it collides, and its vertices lie in one plane: SCM samples a closed surface",
-                ));
+            let (hull, maxhullvert) = match hull {
+                Some(h) => h,
+                None if collides => {
+                    return Err(refuse(
+                        "it collides, and its vertices lie in one plane: SCM samples a closed surface",
+                    ))
+                }
+                None => return Err(refuse("it gives its body mass, and its vertices lie in one plane: its convex hull has no volume")),
+            };
+            if let Some(n) = maxhullvert {
+                return Err(refuse(&format!("SCM takes its convex hull, which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both")));
+            }
+            let what = match (collides, gives_mass) {
+                (true, true) => "collides and weighs (inertia=\"convex\") by the convex hull of its mesh, as MuJoCo does",
+                (true, false) => "collides by the convex hull of its mesh, as MuJoCo collides every mesh",
+                _ => "weighs by the convex hull of its mesh (inertia=\"convex\"), as MuJoCo does",
             };
             self.warnings.push(format!(
-                "{}:{}: <geom> collides by the convex hull of its mesh ({}), as MuJoCo collides every mesh{}",
-                el.file,
-                el.line,
-                problem.message,
-                if gives_mass { ", and takes the hull's mass (inertia=\"convex\")" } else { "" }
+                "{}:{}: <geom> {what} ({})",
+                el.file, el.line, problem.message
             ));
             return Ok(Some(hull));
         }
@@ -376,12 +386,18 @@ impl Builder {
             }
             None => {}
         }
-        if el.attr("inertia") != Some("exact") {
-            self.warnings.push(format!(
-                "{}:{}: mesh inertia=\"{}\": SCM computes the exact inertia of the closed mesh; MuJoCo's can differ for a non-convex mesh (write inertia=\"exact\" for the same masses in both)",
-                el.file, el.line, el.attr("inertia").unwrap_or("legacy")
-            ));
-        }
+        // MuJoCo's hull keeps at most maxhullvert vertices; SCM's hull (used where the surface
+        // is not closed) keeps them all, and refuses it there (`geom_without_its_mesh`).
+        let maxhullvert = match el.attr("maxhullvert").map(|v| v.trim().parse::<i64>()) {
+            None | Some(Ok(-1)) => None,
+            Some(Ok(n)) if n > 3 => Some(n),
+            Some(_) => {
+                return Err(self.err(
+                    el,
+                    "maxhullvert must be -1 or an integer above 3 (MuJoCo refuses it too)",
+                ))
+            }
+        };
         let file = el
             .attr("file")
             .ok_or_else(|| {
@@ -424,6 +440,20 @@ impl Builder {
             Some(_) => TriMesh::load_hull(&path, &scale).ok().map(Arc::new),
             None => None,
         };
+        let convex_inertia = el.attr("inertia") == Some("convex");
+        // An open mesh with inertia="convex" weighs as its hull, as in MuJoCo.
+        if el.attr("inertia") != Some("exact") && !(problem.is_some() && convex_inertia) {
+            self.warnings.push(format!(
+                "{}:{}: mesh inertia=\"{}\": SCM computes the exact inertia of the closed mesh; MuJoCo's can differ for a non-convex mesh (write inertia=\"exact\" for the same masses in both)",
+                el.file, el.line, el.attr("inertia").unwrap_or("legacy")
+            ));
+        }
+        if maxhullvert.is_some() && problem.is_none() {
+            self.unused(
+                el,
+                "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",
+            );
+        }
         self.meshes.push(MeshAsset {
             name,
             file,
@@ -431,7 +461,8 @@ impl Builder {
             mesh,
             problem,
             hull,
-            convex_inertia: el.attr("inertia") == Some("convex"),
+            convex_inertia,
+            maxhullvert,
             used: false,
         });
         Ok(())

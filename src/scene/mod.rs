@@ -96,6 +96,8 @@ pub struct MeshAsset {
     pub hull: Option<Arc<TriMesh>>,
     /// `inertia="convex"`: MuJoCo takes the mass of the convex hull.
     pub convex_inertia: bool,
+    /// `maxhullvert`, when it limits MuJoCo's hull (not -1).
+    pub maxhullvert: Option<i64>,
     /// Whether a geom uses it.
     pub used: bool,
 }

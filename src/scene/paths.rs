@@ -7,23 +7,19 @@ use std::path::{Path, PathBuf};
 /// Where a mesh file is: absolute as given, else relative to the scene file's folder joined
 /// with `meshdir` (itself relative to the scene's folder unless absolute), as MuJoCo does.
 ///
-/// Inside an unpacked FMU (the scene is `resources/scene.xml`), a mesh that is not found there
-/// is looked up where `scm pack` puts it: `resources/` + [`packed_mesh_name`].
+/// Inside an unpacked FMU (the scene is `resources/scene.xml`), a mesh is looked up first
+/// where `scm pack` puts it, `resources/` + [`packed_mesh_name`]: the path as written could
+/// name another packed mesh there (`meshes/a.obj` written, `a.obj` packed as `meshes/a.obj`).
 pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
     let f = Path::new(file);
     if f.is_absolute() {
         return f.to_path_buf();
     }
-    let mut dir = scene_dir(scene);
-    if let Some(d) = meshdir {
-        dir = dir.join(d);
-    }
-    let path = dir.join(f);
     let in_fmu = scene.file_name().is_some_and(|n| n == SCENE_FILE)
         && scene_dir(scene)
             .file_name()
             .is_some_and(|n| n == "resources");
-    if !path.exists() && in_fmu {
+    if in_fmu {
         if let Ok(packed) = packed_mesh_name(file) {
             let p = scene_dir(scene).join(packed);
             if p.exists() {
@@ -31,7 +27,11 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
             }
         }
     }
-    path
+    let mut dir = scene_dir(scene);
+    if let Some(d) = meshdir {
+        dir = dir.join(d);
+    }
+    dir.join(f)
 }
 
 /// The name under an FMU's `resources/` of a mesh whose `file` attribute is `file`:

@@ -494,6 +494,16 @@ def _actuator_defaults_cases(n, seed=20261127):
 # (defaults, actuator): the cases the rules of docs/mjcf.md ("Actuator defaults") were read
 # from, one MuJoCo behaviour each.
 ACTUATOR_DEFAULTS_CASES = [
+    # A damper default switches the control limit on for its whole class.
+    ('<motor ctrllimited="false"/><damper kv="1" ctrlrange="0 1"/>', '<position kp="5" ctrlrange="-1 1"/>'),
+    ('<damper kv="4"/>', '<motor/>'),
+    ('<damper ctrlrange="-1 1"/>', '<motor ctrlrange="0 1"/>'),
+    # A position keeps a first-order filter from a <general> default (SCM refuses it).
+    ('<position kp="10" timeconst="0.1"/><general gainprm="3"/>', '<position/>'),
+    ('<general dyntype="filterexact" dynprm="0.2"/>', '<position/>'),
+    ('<general dyntype="filter" dynprm="0.2"/>', '<position/>'),
+    # A nested class written before its parent's own defaults inherits them all.
+    ('<default class="c"/><position kp="10" kv="2" gear="3"/>', '<position class="c"/>'),
     ('<general gainprm="5 0 -3"/>', '<damper ctrlrange="0 1"/>'),
     ('<general gaintype="affine" gainprm="5 0 -3"/><default class="c"><general gaintype="fixed"/></default>', '<damper class="c" ctrlrange="0 1"/>'),
     ('<velocity kv="10"/>', '<position/>'),
@@ -663,6 +673,17 @@ def test_an_open_mesh_collides_and_weighs_by_its_convex_hull_as_in_mujoco(tmp_pa
     assert abs(m.body_mass[1] - 500 * 0.3 * 0.1 * 0.2) < 1e-6 * m.body_mass[1]
     out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
     assert out.returncode == 0 and "convex hull" in out.stdout, out.stdout + out.stderr
+    # A vertex that no face uses (the last one) is still a vertex of MuJoCo's hull. (A new
+    # file name: MuJoCo caches meshes by file within a process.)
+    (tmp_path / "open_box_apex.obj").write_text(OPEN_BOX + "v 0.15 0.05 1.0\n")
+    text = path.read_text().replace("open_box.obj", "open_box_apex.obj")
+    path.write_text(text)
+    compare(path)
+    assert mujoco.MjModel.from_xml_path(str(path)).body_mass[1] > 500 * 0.3 * 0.1 * 0.2 * 1.5
+    # MuJoCo reduces its hull to maxhullvert vertices; SCM does not, and refuses it.
+    path.write_text(text.replace('inertia="convex"', 'inertia="convex" maxhullvert="5"'))
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and "maxhullvert" in out.stderr, out.stderr
 
 
 def mujoco_body_pairs(m):

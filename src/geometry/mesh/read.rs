@@ -18,10 +18,24 @@ impl TriMesh {
     }
 
     /// The convex hull of an OBJ or STL file's vertices (scaled), whatever its surface: what
-    /// MuJoCo collides a mesh by. Fails where the file cannot be read or its vertices span no
-    /// volume (all in one plane).
+    /// MuJoCo collides a mesh by. Every vertex counts, as in MuJoCo, also an OBJ's vertices
+    /// that no face uses. Fails where the file cannot be read or its vertices span no volume
+    /// (all in one plane).
     pub fn load_hull(path: &Path, scale: &Vector3<f64>) -> Result<TriMesh, MeshError> {
-        let (file, vertices, _) = read(path, scale)?;
+        let (file, mut vertices, _) = read(path, scale)?;
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+        {
+            let bytes = std::fs::read(path).map_err(|e| MeshError {
+                file: file.clone(),
+                problem: MeshProblem::Missing(e.to_string()),
+            })?;
+            vertices = obj_positions(&bytes)
+                .into_iter()
+                .map(|v| v.component_mul(scale))
+                .collect();
+        }
         TriMesh::convex_hull(&file, &vertices)
     }
 }
@@ -64,6 +78,23 @@ fn read(path: &Path, scale: &Vector3<f64>) -> Result<Read, MeshError> {
 
 /// Vertices and triangles of a parsed file, or what is wrong with it.
 type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
+
+/// Every vertex position (`v x y z`) of an OBJ file, whether a face uses it or not (the parser
+/// keeps only those faces use), read in single precision as the parser reads them. Lines that
+/// do not parse are skipped: the file has been parsed whole before.
+fn obj_positions(bytes: &[u8]) -> Vec<Vector3<f64>> {
+    String::from_utf8_lossy(bytes)
+        .lines()
+        .filter_map(|line| {
+            let mut words = line.split_whitespace();
+            if words.next() != Some("v") {
+                return None;
+            }
+            let mut xyz = words.take(3).map(|w| w.parse::<f32>().ok().map(f64::from));
+            Some(Vector3::new(xyz.next()??, xyz.next()??, xyz.next()??))
+        })
+        .collect()
+}
 
 /// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
 fn parse_obj(bytes: &[u8]) -> Parsed {
