@@ -40,46 +40,31 @@ if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/req
   cp tests/python/requirements.txt .venv/requirements.txt
 fi
 
-# dm_control's suite models, a second corpus of the MJCF differential tests: only its MJCF
-# files and their assets, from the package's wheel (not installed: it pins a MuJoCo of its own).
-DMC=dm_control==1.0.50
-DMC_DIR=.venv/dm_control_suite
-if [ "$(cat "$DMC_DIR/.version" 2>/dev/null)" != "$DMC" ]; then
-  echo "setup: fetching the MJCF files of $DMC"
-  tmp=$(mktemp -d)
-  .venv/bin/pip download -q --no-deps "$DMC" -d "$tmp"
-  rm -rf "$DMC_DIR"
-  .venv/bin/python - "$tmp"/*.whl "$DMC_DIR" <<'PY'
+# The MJCF corpora of the differential tests beyond gymnasium's: only the model files (and
+# meshes) of a package's wheel, unpacked, not installed (dm_control pins a MuJoCo of its own,
+# and the tests need no code of either). Once per pinned version.
+wheel_files() { # SPEC DIR PREFIX: the files under PREFIX (no Python) of SPEC's wheel, in DIR
+  local spec=$1 dir=$2 prefix=$3 tmp
+  if [ "$(cat "$dir/.version" 2>/dev/null)" != "$spec" ]; then
+    echo "setup: fetching the MJCF files of $spec"
+    tmp=$(mktemp -d)
+    .venv/bin/pip download -q --no-deps "$spec" -d "$tmp"
+    rm -rf "$dir"
+    .venv/bin/python - "$tmp"/*.whl "$dir" "$prefix" <<'PY'
 import sys, zipfile
-wheel, out = sys.argv[1], sys.argv[2]
+wheel, out, prefix = sys.argv[1:4]
 with zipfile.ZipFile(wheel) as z:
     for n in z.namelist():
-        if n.startswith("dm_control/suite/") and not n.endswith(".py"):
+        if n.startswith(prefix) and not n.endswith(".py"):
             z.extract(n, out)
 PY
-  echo "$DMC" > "$DMC_DIR/.version"
-  rm -rf "$tmp"
-fi
-
-# gymnasium-robotics' models (hands, Fetch, the Franka kitchen), a third corpus: its MJCF files
-# and meshes only, from the package's wheel (not installed: the tests need none of its code).
-GR=gymnasium-robotics==1.4.2
-GR_DIR=.venv/gymnasium_robotics_assets
-if [ "$(cat "$GR_DIR/.version" 2>/dev/null)" != "$GR" ]; then
-  echo "setup: fetching the MJCF files of $GR"
-  tmp=$(mktemp -d)
-  .venv/bin/pip download -q --no-deps "$GR" -d "$tmp"
-  rm -rf "$GR_DIR"
-  .venv/bin/python - "$tmp"/*.whl "$GR_DIR" <<'PY'
-import sys, zipfile
-wheel, out = sys.argv[1], sys.argv[2]
-with zipfile.ZipFile(wheel) as z:
-    for n in z.namelist():
-        if n.startswith("gymnasium_robotics/envs/assets/"):
-            z.extract(n, out)
-PY
-  echo "$GR" > "$GR_DIR/.version"
-  rm -rf "$tmp"
-fi
+    echo "$spec" > "$dir/.version"
+    rm -rf "$tmp"
+  fi
+}
+# dm_control's suite (a second corpus) and gymnasium-robotics' models (hands, Fetch, the
+# Franka kitchen: a third).
+wheel_files dm_control==1.0.50 .venv/dm_control_suite dm_control/suite/
+wheel_files gymnasium-robotics==1.4.2 .venv/gymnasium_robotics_assets gymnasium_robotics/envs/assets/
 
 cargo build --release --locked -q

@@ -32,6 +32,20 @@ fn body<'a>(s: &'a Scene, name: &str) -> &'a scm::dynamics::Body {
         .unwrap_or_else(|| panic!("no body {name}"))
 }
 
+/// Writes what `scm pack` would put in an FMU's `resources/` under `fmu/resources/`, as a
+/// host unpacks it; returns the scene's path there.
+fn unpack(d: &scm::pack::Described, fmu: &Path) -> PathBuf {
+    let resources = fmu.join("resources");
+    std::fs::create_dir_all(&resources).unwrap();
+    std::fs::write(resources.join("scene.xml"), &d.scene_text).unwrap();
+    for (name, bytes) in &d.resources {
+        let to = resources.join(name);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::write(to, bytes).unwrap();
+    }
+    resources.join("scene.xml")
+}
+
 /// A folder of its own under the system's temporary folder.
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("scm-mjcf-{name}-{}", std::process::id()));
@@ -128,21 +142,7 @@ fn files_named_out_of_their_folder_travel_in_the_fmu() {
             "meshes/_parent_/meshes/box.obj"
         ]
     );
-    let unpacked = dir.join("unpacked/resources");
-    std::fs::write(
-        {
-            std::fs::create_dir_all(&unpacked).unwrap();
-            unpacked.join("scene.xml")
-        },
-        &d.scene_text,
-    )
-    .unwrap();
-    for (name, bytes) in &d.resources {
-        let to = unpacked.join(name);
-        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-        std::fs::write(to, bytes).unwrap();
-    }
-    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    let again = scm::scene::load(&unpack(&d, &dir.join("unpacked"))).unwrap();
     // The same geoms, the mesh read from its packed copy.
     let shape = |s: &Scene| -> Vec<_> {
         s.geoms
@@ -193,15 +193,7 @@ fn files_named_out_of_their_folder_travel_in_the_fmu() {
     .unwrap();
     let s = scm::scene::load(&main).unwrap();
     let d = scm::pack::describe(&main).unwrap();
-    let unpacked = dir.join("unpacked2/resources");
-    std::fs::create_dir_all(&unpacked).unwrap();
-    std::fs::write(unpacked.join("scene.xml"), &d.scene_text).unwrap();
-    for (name, bytes) in &d.resources {
-        let to = unpacked.join(name);
-        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
-        std::fs::write(to, bytes).unwrap();
-    }
-    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    let again = scm::scene::load(&unpack(&d, &dir.join("unpacked2"))).unwrap();
     assert_eq!(shape(&again), shape(&s));
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -244,13 +236,7 @@ fn includes_resolve_as_in_mujoco_travel_in_the_fmu_and_errors_name_them() {
     let d = scm::pack::describe(&main).unwrap();
     let names: Vec<&str> = d.resources.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["parts/arm.xml", "parts/hand.xml"]);
-    let unpacked = dir.join("unpacked/resources");
-    std::fs::create_dir_all(unpacked.join("parts")).unwrap();
-    std::fs::write(unpacked.join("scene.xml"), &d.scene_text).unwrap();
-    for (name, bytes) in &d.resources {
-        std::fs::write(unpacked.join(name), bytes).unwrap();
-    }
-    let again = scm::scene::load(&unpacked.join("scene.xml")).unwrap();
+    let again = scm::scene::load(&unpack(&d, &dir.join("unpacked"))).unwrap();
     let shape = |s: &Scene| -> Vec<_> {
         s.geoms
             .iter()

@@ -18,6 +18,7 @@
 //! off MuJoCo 4.0's compiled models; the differential test
 //! `test_actuator_defaults_compile_as_mujoco_compiles_them` holds them to it.
 
+use super::canonical::error;
 use super::xml::Element;
 use super::SceneError;
 
@@ -131,15 +132,6 @@ impl Default for ActuatorDefaults {
     }
 }
 
-fn error(el: &Element, message: String) -> SceneError {
-    SceneError {
-        file: el.file.to_string(),
-        line: el.line,
-        element: el.name.clone(),
-        message,
-    }
-}
-
 /// The value of a one-number attribute, if written.
 fn number(el: &Element, key: &str) -> Result<Option<f64>, SceneError> {
     match el.attr(key) {
@@ -180,7 +172,7 @@ pub fn check_parameters(el: &Element) -> Result<(), SceneError> {
     if el.name == "damper" && el.attr("ctrllimited").is_some() {
         return Err(error(
             el,
-            "'ctrllimited' is not an attribute of <damper> (MuJoCo refuses it too): a damper's control is always limited by its ctrlrange".into(),
+            "'ctrllimited' is not an attribute of <damper> (MuJoCo refuses it too): a damper's control is always limited by its ctrlrange",
         ));
     }
     let Some((_, own)) = PARAMETERS.iter().find(|(k, _)| *k == el.name) else {
@@ -241,8 +233,7 @@ fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> 
                 match (number(el, "kv")?, number(el, "dampratio")?) {
                     (Some(_), Some(_)) => return Err(error(
                         el,
-                        "kv and dampratio cannot both be given (MuJoCo refuses it too): keep one"
-                            .into(),
+                        "kv and dampratio cannot both be given (MuJoCo refuses it too): keep one",
                     )),
                     (Some(kv), None) if kv < 0.0 => {
                         return Err(error(el, format!("kv=\"{kv}\" must not be negative")))
@@ -446,7 +437,7 @@ fn damper_range(el: &Element) -> Result<(), SceneError> {
             if r.iter().any(|&x| x < 0.0) {
                 return Err(error(
                     el,
-                    "a damper's ctrlrange cannot be negative (MuJoCo refuses it too)".into(),
+                    "a damper's ctrlrange cannot be negative (MuJoCo refuses it too)",
                 ));
             }
             Ok(())

@@ -56,7 +56,8 @@ impl Angles {
     }
 }
 
-fn error(el: &Element, message: impl Into<String>) -> SceneError {
+/// The refusal of `el` at its file and line.
+pub(super) fn error(el: &Element, message: impl Into<String>) -> SceneError {
     SceneError {
         file: el.file.to_string(),
         line: el.line,

@@ -9,6 +9,7 @@
 //! (docs/mjcf.md, "Actuator defaults").
 
 use super::actuator_defaults::{check_parameters, is_kept_with_parameters, ActuatorDefaults};
+use super::canonical::error;
 use super::xml::Element;
 use super::SceneError;
 use std::collections::HashMap;
@@ -56,15 +57,6 @@ impl Default for Defaults {
 /// Name of the top-level class.
 pub const MAIN: &str = "main";
 
-fn error(el: &Element, message: String) -> SceneError {
-    SceneError {
-        file: el.file.to_string(),
-        line: el.line,
-        element: el.name.clone(),
-        message,
-    }
-}
-
 impl Defaults {
     /// Reads a top-level `<default>` element (there may be several: later ones add to `main`).
     pub fn read(&mut self, el: &Element) -> Result<(), SceneError> {
@@ -104,7 +96,7 @@ impl Defaults {
             if child.name == "default" {
                 let sub = child
                     .attr("class")
-                    .ok_or_else(|| error(child, "a nested <default> needs class=\"NAME\"".into()))?
+                    .ok_or_else(|| error(child, "a nested <default> needs class=\"NAME\""))?
                     .to_string();
                 if self.classes.contains_key(&sub) {
                     return Err(error(
@@ -128,7 +120,7 @@ impl Defaults {
                 ));
             };
             if !child.children.is_empty() {
-                return Err(error(child, "a default cannot have child elements".into()));
+                return Err(error(child, "a default cannot have child elements"));
             }
             let class = self.classes.get_mut(name).expect("class inserted before");
             if slot == "actuator" {
