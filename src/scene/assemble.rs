@@ -219,11 +219,18 @@ impl Builder {
     }
 
     pub(super) fn tree(&self) -> Result<Tree, SceneError> {
-        Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| SceneError {
-            file: self.file.clone(),
-            line: 0,
-            element: "body".into(),
-            message: e.to_string(),
+        Tree::new(self.bodies.clone(), self.joints.clone(), self.gravity).map_err(|e| {
+            // A body's problem names the body where it is written.
+            let at = match &e {
+                TreeError::Massless(name) | TreeError::Order(name) => self.body_places.get(name),
+                _ => None,
+            };
+            SceneError {
+                file: at.map_or_else(|| self.file.clone(), |p| p.file.to_string()),
+                line: at.map_or(0, |p| p.line),
+                element: "body".into(),
+                message: e.to_string(),
+            }
         })
     }
 

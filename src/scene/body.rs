@@ -48,6 +48,7 @@ impl Builder {
             None => self.names.make("body", format!("body{index}")),
         };
         let offset = self.pose(el)?;
+        self.body_places.insert(name.clone(), Place::of(el));
         self.bodies.push(Body {
             name,
             parent: Some(parent),

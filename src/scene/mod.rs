@@ -29,12 +29,13 @@ use crate::collision::Collider;
 use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::fluid::{Fluid, FluidBody};
 use crate::dynamics::spatial::Inertia;
-use crate::dynamics::{Body, Joint, JointKind, Tree};
+use crate::dynamics::{Body, Joint, JointKind, Tree, TreeError};
 use crate::geometry::{Shape, Spacing, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair, Transmission};
 use canonical::Angles;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use xml::Element;
@@ -302,6 +303,8 @@ struct Builder {
     meshdir: Option<String>,
     meshes: Vec<MeshAsset>,
     bodies: Vec<Body>,
+    /// Where each body is written, by name (for errors the tree finds).
+    body_places: HashMap<String, Place>,
     joints: Vec<Joint>,
     geoms: Vec<Geom>,
     actuators: Vec<Actuator>,
@@ -429,6 +432,7 @@ impl Builder {
             settings: CompilerSettings::default(),
             meshdir: None,
             meshes: vec![],
+            body_places: HashMap::new(),
             bodies: vec![Body {
                 name: "world".into(),
                 parent: None,
