@@ -1036,3 +1036,26 @@ fn a_zero_inertial_is_a_massless_frame() {
         "{e}"
     );
 }
+
+/// A position's `inheritrange` r: its control range is the middle of its target's range ± r
+/// times the half-width (a hinge's range in degrees read in radians; a fixed tendon's length
+/// range), as MuJoCo compiles it; refused on a target without a range, as MuJoCo refuses it.
+#[test]
+fn inheritrange_takes_the_control_range_from_the_target() {
+    let scene = |joint: &str, act: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\" {joint}/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.02\"/>\n    </body>\n  </worldbody>\n  <tendon><fixed name=\"t\" range=\"0 4\"><joint joint=\"h\" coef=\"2\"/></fixed></tendon>\n  <actuator>\n    {act}\n  </actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(
+        r#"range="-30 90""#,
+        r#"<position joint="h" inheritrange="0.5"/><position tendon="t" inheritrange="1"/>"#,
+    ));
+    let (lo, hi) = s.model.actuators[0].ctrlrange.expect("limited");
+    let (mid, half) = (30f64.to_radians(), 60f64.to_radians());
+    assert!((lo - (mid - 0.5 * half)).abs() < 1e-12 && (hi - (mid + 0.5 * half)).abs() < 1e-12);
+    assert_eq!(s.model.actuators[1].ctrlrange, Some((0.0, 4.0)));
+    let e = refuse(&scene("", r#"<position joint="h" inheritrange="1"/>"#));
+    assert!(
+        e.line == 10 && e.message.contains("inheritrange needs"),
+        "{e}"
+    );
+}

@@ -28,6 +28,7 @@ impl Builder {
                 "kp",
                 "kv",
                 "dampratio",
+                "inheritrange",
                 "ctrlrange",
                 "ctrllimited",
                 "forcerange",
@@ -128,6 +129,19 @@ impl Builder {
         };
         let written = if el.name == "damper" {
             self.floats(el, "ctrlrange", 2)?.map(|r| (r[0], r[1]))
+        } else if let Some(r) = self.float(el, "inheritrange")?.filter(|&r| r > 0.0) {
+            // MuJoCo's inheritrange: the control range around the middle of the target's
+            // range, r times its half-width (the defaults passed it over where the element
+            // writes its own ctrlrange).
+            let range = match target {
+                Transmission::Joint(j) => self.limits[j].as_ref().map(|(lo, hi, _)| (*lo, *hi)),
+                Transmission::Tendon(t) => self.tendons[t].range,
+            };
+            let Some((lo, hi)) = range else {
+                return Err(self.err(el, "inheritrange needs the range of the joint or tendon it drives (a limited one): give that range, or a ctrlrange"));
+            };
+            let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+            Some((mid - r * half, mid + r * half))
         } else {
             self.limited(el, "ctrllimited", "ctrlrange")?
         };

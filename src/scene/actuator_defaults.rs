@@ -48,7 +48,6 @@ const COMMON: &[&str] = &[
     "slidersite",
     "actdim",
     "actearly",
-    "inheritrange",
 ];
 
 /// The parameter attributes of the kinds SCM reads; a parameter attribute written on a kind
@@ -57,11 +56,20 @@ const PARAMETERS: &[(&str, &[&str])] = &[
     (
         "general",
         &[
-            "gaintype", "gainprm", "biastype", "biasprm", "dyntype", "dynprm",
+            "gaintype",
+            "gainprm",
+            "biastype",
+            "biasprm",
+            "dyntype",
+            "dynprm",
+            "inheritrange",
         ],
     ),
     ("motor", &[]),
-    ("position", &["kp", "kv", "dampratio", "timeconst"]),
+    (
+        "position",
+        &["kp", "kv", "dampratio", "timeconst", "inheritrange"],
+    ),
     ("velocity", &["kv"]),
     ("damper", &["kv"]),
 ];
@@ -94,6 +102,8 @@ struct Parameters {
     biasprm: [f64; N],
     dyntype: String,
     dynprm: [f64; N],
+    /// A position's control range as a fraction of its target's range (0: none).
+    inheritrange: f64,
 }
 
 impl Default for Parameters {
@@ -108,6 +118,7 @@ impl Default for Parameters {
             biasprm: [0.0; N],
             dyntype: "none".into(),
             dynprm: unit,
+            inheritrange: 0.0,
         }
     }
 }
@@ -218,6 +229,9 @@ fn general(mut p: Parameters, el: &Element) -> Result<Parameters, SceneError> {
             slot[..v.len()].copy_from_slice(&v);
         }
     }
+    if let Some(r) = number(el, "inheritrange")? {
+        p.inheritrange = r;
+    }
     Ok(p)
 }
 
@@ -267,6 +281,7 @@ fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> 
             p.biastype = "affine".into();
             p.biasprm[1] = -kp;
             p.biasprm[2] = damping;
+            p.inheritrange = number(el, "inheritrange")?.unwrap_or(start.inheritrange);
         }
         "velocity" => {
             let kv = number(el, "kv")?.unwrap_or(start.gainprm[0]);
@@ -377,7 +392,7 @@ impl ActuatorDefaults {
     /// loader reads: `kp` with `kv` or `dampratio` (and `timeconst` if the position has
     /// dynamics) for a position, `kv` for a velocity or a damper, gain, bias and dynamics for
     /// a `<general>`. Elements of kinds SCM does not simulate are left as they are.
-    pub fn resolve(&self, el: &mut Element) -> Result<(), SceneError> {
+    pub fn resolve(&self, el: &mut Element, written_ctrlrange: bool) -> Result<(), SceneError> {
         let kind = el.name.clone();
         let resolved = match kind.as_str() {
             "general" => match self.current() {
@@ -390,7 +405,22 @@ impl ActuatorDefaults {
             }
             _ => return Ok(()),
         };
+        // A position's inheritrange: refused with a ctrlrange written beside it, passed over
+        // for one the element writes itself, and over the class's ctrlrange otherwise.
+        let inherits = kind == "position" && resolved.inheritrange > 0.0 && !written_ctrlrange;
+        if kind == "position" && el.attr("inheritrange").is_some() && written_ctrlrange {
+            return Err(error(
+                el,
+                "ctrlrange and inheritrange cannot both be given (MuJoCo refuses it too): keep one",
+            ));
+        }
         el.attrs.retain(|(k, _)| !is_parameter(k));
+        if inherits {
+            el.attrs
+                .retain(|(k, _)| k != "ctrlrange" && k != "ctrllimited");
+            el.attrs
+                .push(("inheritrange".into(), text(resolved.inheritrange)));
+        }
         let mut put = |k: &str, v: String| el.attrs.push((k.to_string(), v));
         match kind.as_str() {
             "position" => {

@@ -163,6 +163,7 @@ impl Defaults {
         let Some(slot) = slot(&el.name) else {
             return Ok(());
         };
+        let written_ctrlrange = el.attr("ctrlrange").is_some();
         if slot == "actuator" {
             check_parameters(el)?;
         }
@@ -174,7 +175,7 @@ impl Defaults {
             }
         }
         if slot == "actuator" {
-            found.actuator.resolve(el)?;
+            found.actuator.resolve(el, written_ctrlrange)?;
         }
         Ok(())
     }

@@ -494,6 +494,14 @@ def _actuator_defaults_cases(n, seed=20261127):
 # (defaults, actuator): the cases the rules of docs/mjcf.md ("Actuator defaults") were read
 # from, one MuJoCo behaviour each.
 ACTUATOR_DEFAULTS_CASES = [
+    # A position's inheritrange: its control range from its target's range.
+    ('', '<position inheritrange="0.5"/>'),
+    ('<position inheritrange="1"/>', '<motor/>'),
+    ('<position inheritrange="1"/>', '<position ctrlrange="0 1"/>'),
+    ('<position ctrlrange="0 0.5"/>', '<position inheritrange="1"/>'),
+    ('', '<position inheritrange="1" ctrlrange="0 1"/>'),
+    ('<general inheritrange="0.5"/>', '<position/>'),
+    ('', '<general inheritrange="1"/>'),
     # A damper default switches the control limit on for its whole class.
     ('<motor ctrllimited="false"/><damper kv="1" ctrlrange="0 1"/>', '<position kp="5" ctrlrange="-1 1"/>'),
     ('<damper kv="4"/>', '<motor/>'),
