@@ -185,10 +185,8 @@ impl Builder {
                         Some(Shape::Mesh(mesh.clone()))
                     }
                     (None, Some(problem)) => {
-                        let (problem, hull) = (problem.clone(), asset.hull.clone());
-                        let hull = hull.map(|h| (h, asset.maxhullvert));
-                        let convex_inertia = asset.convex_inertia;
-                        match self.geom_without_its_mesh(el, body, problem, hull, convex_inertia)? {
+                        let (problem, convex_inertia) = (problem.clone(), asset.convex_inertia);
+                        match self.geom_without_its_mesh(el, body, problem, name, convex_inertia)? {
                             Some(hull) => {
                                 let asset = self.meshes.iter_mut().find(|m| m.name == name);
                                 asset.expect("found above").used = true;
@@ -294,7 +292,7 @@ impl Builder {
         el: &Element,
         body: usize,
         problem: SceneError,
-        hull: Option<(Arc<TriMesh>, Option<i64>)>,
+        mesh: &str,
         convex_inertia: bool,
     ) -> Result<Option<Arc<TriMesh>>, SceneError> {
         let collides = self.bits(el, "contype")? != 0 || self.bits(el, "conaffinity")? != 0;
@@ -320,7 +318,7 @@ impl Builder {
             return Err(refuse("it gives its body mass: SCM needs its volume (write inertia=\"convex\" on the mesh for the mass of its convex hull, as MuJoCo takes it then, or give the body an <inertial>)"));
         }
         if collides || gives_mass {
-            let (hull, maxhullvert) = match hull {
+            let (hull, maxhullvert) = match self.hull_of(mesh) {
                 Some(h) => h,
                 None if collides => {
                     return Err(refuse(
@@ -351,6 +349,18 @@ impl Builder {
             ),
         );
         Ok(None)
+    }
+
+    /// The convex hull of mesh asset `mesh`'s vertices and its `maxhullvert`: read once, for
+    /// the first geom that collides or weighs by it (a visual mesh never needs it).
+    fn hull_of(&mut self, mesh: &str) -> Option<(Arc<TriMesh>, Option<i64>)> {
+        let asset = self.meshes.iter_mut().find(|m| m.name == mesh)?;
+        if asset.hull.is_none() {
+            asset.hull = TriMesh::load_hull(&asset.path, &asset.scale)
+                .ok()
+                .map(Arc::new);
+        }
+        asset.hull.clone().map(|h| (h, asset.maxhullvert))
     }
 
     /// `<mesh name file scale>`: loads and checks the file at once (paths relative to the scene
@@ -436,10 +446,6 @@ impl Builder {
             Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
             Err(e) => return Err(self.err(el, e.to_string())),
         };
-        let hull = match problem {
-            Some(_) => TriMesh::load_hull(&path, &scale).ok().map(Arc::new),
-            None => None,
-        };
         let convex_inertia = el.attr("inertia") == Some("convex");
         // An open mesh with inertia="convex" weighs as its hull, as in MuJoCo.
         if el.attr("inertia") != Some("exact") && !(problem.is_some() && convex_inertia) {
@@ -460,7 +466,8 @@ impl Builder {
             path,
             mesh,
             problem,
-            hull,
+            hull: None,
+            scale,
             convex_inertia,
             maxhullvert,
             used: false,

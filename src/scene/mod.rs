@@ -94,7 +94,10 @@ pub struct MeshAsset {
     pub problem: Option<SceneError>,
     /// The convex hull of the vertices of a mesh with a `problem` (what MuJoCo collides it
     /// by), where they span a volume: what a colliding geom samples instead of the surface.
+    /// Computed when the first geom needs it (a visual mesh never does).
     pub hull: Option<Arc<TriMesh>>,
+    /// The `scale` the file is read with (for the hull).
+    pub scale: Vector3<f64>,
     /// `inertia="convex"`: MuJoCo takes the mass of the convex hull.
     pub convex_inertia: bool,
     /// `maxhullvert`, when it limits MuJoCo's hull (not -1).
