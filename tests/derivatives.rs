@@ -755,6 +755,67 @@ fn forward_jacobians_with_gravity_compensation_match_central_differences() {
 }
 
 #[test]
+fn forward_jacobians_with_welds_and_connects_match_central_differences() {
+    // A free box welded to a hinged arm (body semantics, held pose from qpos0), a second free
+    // body welded to the world by relpose and torquescale 0.5, a weld and a connect between
+    // sites: all away from their held poses and moving, so that every spring, damper and
+    // rotational term acts.
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+      <site name="tip" pos="0.3 0 0.1" euler="10 20 0"/>
+    </body>
+    <body name="box" pos="0.35 0 1.1" euler="0 0 20">
+      <freejoint/>
+      <geom type="box" size="0.06 0.04 0.03" pos="0.02 0 0"/>
+      <site name="corner" pos="0.06 0.04 0" euler="0 30 0"/>
+    </body>
+    <body name="puck" pos="1 0 1">
+      <freejoint/>
+      <geom type="box" size="0.05 0.03 0.02" pos="0 0.01 0"/>
+    </body>
+  </worldbody>
+  <equality>
+    <weld body1="arm" body2="box" solref="0.05 0.5"/>
+    <weld body1="puck" relpose="1 0 1.1 1 0.2 0 0" torquescale="0.5" solref="0.1 0.3"/>
+    <weld site1="tip" site2="corner" solref="0.2 0.4"/>
+    <connect site1="corner" site2="tip" solref="0.1 0.8"/>
+  </equality>
+</mujoco>"#;
+    let model = scm::scene::load_str(xml, std::path::Path::new("welds.xml"))
+        .unwrap()
+        .model;
+    assert_eq!(model.connects.len(), 4);
+    assert_eq!(
+        model
+            .connects
+            .iter()
+            .filter(|c| c.orientation.is_some())
+            .count(),
+        3
+    );
+    let mut p = Point::start(&model);
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.4, 0.6));
+    let rb = UnitQuaternion::from_scaled_axis(Vector3::new(-0.5, 0.1, 0.7));
+    p.q = vec![
+        0.4, 0.4, 0.05, 1.0, r.w, r.i, r.j, r.k, 1.1, -0.1, 0.9, rb.w, rb.i, rb.j, rb.k,
+    ];
+    p.v = vec![
+        1.3, 0.4, -0.7, 0.5, 2.1, -1.6, 0.9, -0.3, 0.2, 0.6, 0.8, -1.2, 0.4,
+    ];
+    let mut free = model.clone();
+    free.connects.clear();
+    let with = model.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    let without = free.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    assert!((with - without).amax() > 1.0, "the welds act");
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        check_forward_jacobian_step(&format!("welds {coords:?}"), &model, &p, coords, 1e-4);
+    }
+}
+
+#[test]
 fn forward_jacobians_with_fluid_forces_match_central_differences() {
     // MuJoCo's inertia-box fluid model (viscous and quadratic drag) on a hinged arm and a free
     // body whose inertia comes from two geoms (principal axes from the eigenvectors), moving in

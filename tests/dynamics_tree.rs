@@ -640,3 +640,77 @@ fn fluid_forces_only_dissipate_and_follow_the_box_formulas() {
         assert!(p < 0.0, "power {p} at v = {v:?}");
     }
 }
+
+/// Welds and connects are conservative springs plus dampers that only dissipate: without
+/// damping (`solref="-k 0"`) RK4 keeps the total energy (the welds' springs counted) to its
+/// truncation error while the bodies swing and tumble through large angles; with damping it
+/// only decreases.
+#[test]
+fn welds_store_what_they_take_and_their_dampers_only_dissipate() {
+    let xml = |solref: &str| {
+        format!(
+            r#"<mujoco>
+  <option><flag contact="disable"/></option>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+      <site name="tip" pos="0.3 0 0.1"/>
+    </body>
+    <body name="box" pos="0.35 0 1.1" euler="0 0 20">
+      <freejoint/>
+      <geom type="box" size="0.06 0.04 0.03" pos="0.02 0 0"/>
+      <site name="corner" pos="0.06 0.04 0" euler="0 30 0"/>
+    </body>
+  </worldbody>
+  <equality>
+    <weld body1="arm" body2="box" solref="{solref}"/>
+    <weld site1="corner" site2="tip" solref="{solref}"/>
+    <connect body1="box" anchor="0.1 0 0" solref="{solref}"/>
+  </equality>
+</mujoco>"#
+        )
+    };
+    let run = |solref: &str| {
+        let mut m = load_str(&xml(solref), Path::new("welds.xml"))
+            .unwrap()
+            .model;
+        m.integrator = Integrator::Rk4;
+        m.step = 2.5e-4;
+        let mut state = State {
+            q: m.tree.q0(),
+            v: vec![3.0, 0.5, -0.4, 0.8, 2.0, -3.0, 1.5],
+        };
+        let u = vec![0.0; m.nu()];
+        let opts = AdvanceOptions {
+            energy_guard: false,
+            ..Default::default()
+        };
+        let mut energies = vec![m.energy(&state.q, &state.v)];
+        for k in 0..20 {
+            let t = 0.05 * k as f64;
+            state = m
+                .advance(&state, &u, &m.contact, t, t + 0.05, &opts)
+                .unwrap()
+                .state;
+            energies.push(m.energy(&state.q, &state.v));
+        }
+        energies
+    };
+    let kept = run("-2000 0");
+    let total: Vec<f64> = kept.iter().map(|e| e.total()).collect();
+    let swing = kept.iter().map(|e| e.springs).fold(0.0, f64::max);
+    let drift = total
+        .iter()
+        .map(|e| (e - total[0]).abs())
+        .fold(0.0, f64::max);
+    println!("welds without damping: spring energy up to {swing:.3e} J, drift {drift:.2e} J");
+    assert!(swing > 0.1, "the welds must work: {swing}");
+    assert!(drift < 1e-6 * swing, "{drift} vs {swing}");
+    let damped: Vec<f64> = run("-2000 -3").iter().map(|e| e.total()).collect();
+    assert!(damped.windows(2).all(|w| w[1] < w[0]), "{damped:?}");
+    assert!(
+        damped[0] - damped[20] > 0.5 * kept[0].kinetic,
+        "the dampers take most of the motion: {damped:?}"
+    );
+}

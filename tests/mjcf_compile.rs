@@ -473,8 +473,8 @@ fn physics_that_scm_does_not_model_is_refused_with_what_to_do() {
         (r#"<option density="1.2" wind="1 0 0"/>"#, "option", "wind"),
         (r#"<compiler coordinate="global"/>"#, "compiler", "local"),
         (
-            r#"<equality><weld body1="b"/></equality>"#,
-            "weld",
+            r#"<equality><flex flex="f"/></equality>"#,
+            "flex",
             "equality",
         ),
         (
@@ -1058,4 +1058,101 @@ fn inheritrange_takes_the_control_range_from_the_target() {
         e.line == 10 && e.message.contains("inheritrange needs"),
         "{e}"
     );
+}
+
+/// Welds as MuJoCo reads them: body semantics hold the pose at `qpos0` (a zero `relpose`
+/// quaternion is MuJoCo's "not given"), `relpose` gives body 1's point and the held rotation,
+/// sites give both points and frames, `torquescale="0"` frees the rotation; what would hold
+/// nothing or cannot be placed is refused at its line.
+#[test]
+fn welds_are_read_as_mujoco_reads_them() {
+    let scene = |equality: &str| {
+        format!(
+            r#"<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1" euler="0 30 0">
+      <freejoint/>
+      <geom type="box" size="0.1 0.05 0.05"/>
+      <site name="s" pos="0.1 0 0" quat="0 1 0 0"/>
+    </body>
+    <body name="b" pos="0.5 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.05"/>
+      <site name="fromto" type="capsule" size="0.01" fromto="0 0 0 0 0 0.1"/><site name="t" pos="0 0.05 0"/>
+    </body>
+  </worldbody>
+  <equality>{equality}</equality>
+</mujoco>"#
+        )
+    };
+    let held = load(&scene(
+        r#"<weld body1="a" body2="b" relpose="0 0 0 0 0 0 0"/>"#,
+    ));
+    let c = &held.model.connects[0];
+    let o = c
+        .orientation
+        .as_ref()
+        .expect("a weld holds the orientation");
+    // Body 1's point is body 2's origin (the anchor's default) as seen from body 1 at qpos0,
+    // and the held rotation is body 2's relative to body 1's there: the 30° about y undone.
+    let turn = UnitQuaternion::from_euler_angles(0.0, 30f64.to_radians(), 0.0);
+    let expected = turn.inverse() * Vector3::new(0.5, 0.0, 0.0);
+    assert!((c.first.1 - expected).norm() < 1e-12, "{}", c.first.1);
+    assert!(c.second.1.norm() < 1e-12);
+    assert!((o.relative - turn.inverse().to_rotation_matrix().matrix()).amax() < 1e-12);
+    let given = load(&scene(
+        r#"<weld body1="a" body2="b" relpose="0.1 0.2 0.3 0 0 0 2" anchor="0 0 0.05"/>"#,
+    ));
+    let c = &given.model.connects[0];
+    let half = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::PI);
+    assert_eq!(c.first.1, Vector3::new(0.1, 0.2, 0.3));
+    assert_eq!(c.second.1, Vector3::new(0.0, 0.0, 0.05));
+    let o = c.orientation.as_ref().unwrap();
+    assert!((o.relative - half.to_rotation_matrix().matrix()).amax() < 1e-12);
+    let free = load(&scene(r#"<weld body1="a" body2="b" torquescale="0"/>"#));
+    assert!(free.model.connects[0].orientation.is_none());
+    assert!(free.warnings.is_empty(), "{:?}", free.warnings);
+    let scaled = load(&scene(r#"<weld body1="a" torquescale="3"/>"#));
+    assert_eq!(
+        scaled.model.connects[0].second.0, 0,
+        "body 2 defaults to the world"
+    );
+    assert!(
+        scaled
+            .warnings
+            .iter()
+            .any(|w| w.contains("m.xml:14") && w.contains("torquescale=\"3\"")),
+        "{:?}",
+        scaled.warnings
+    );
+    // Sites: the points are the sites, the held rotation site 1's frame on site 2's.
+    let sites = load(&scene(r#"<weld site1="s" site2="t"/>"#));
+    let c = &sites.model.connects[0];
+    assert_eq!((c.first.0, c.second.0), (1, 2));
+    assert_eq!(
+        (c.first.1, c.second.1),
+        (Vector3::new(0.1, 0.0, 0.0), Vector3::new(0.0, 0.05, 0.0))
+    );
+    let flip = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
+    assert!(
+        (c.orientation.as_ref().unwrap().relative - flip.to_rotation_matrix().matrix()).amax()
+            < 1e-12
+    );
+    for (equality, why) in [
+        (r#"<weld body1="a" body2="a"/>"#, "the same body"),
+        (r#"<weld body1="a" torquescale="-1"/>"#, "torquescale"),
+        (r#"<weld site1="s" site2="fromto"/>"#, "placed by fromto"),
+        (r#"<weld site1="s"/>"#, "site2 is required"),
+        (
+            r#"<weld site1="s" site2="nowhere"/>"#,
+            "no site named 'nowhere'",
+        ),
+        (r#"<weld body2="b"/>"#, "body2 without body1"),
+        (r#"<connect body1="a" body2="b"/>"#, "needs an anchor"),
+        (r#"<weld body1="a" relpose="0 0 0 1 0 0"/>"#, "relpose"),
+        (r#"<flex flex="f"/>"#, "unsupported equality"),
+    ] {
+        let e = refuse(&scene(equality)).to_string();
+        assert!(e.contains("m.xml:14") && e.contains(why), "{equality}: {e}");
+    }
 }

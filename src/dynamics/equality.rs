@@ -144,14 +144,19 @@ mod tests {
     }
 }
 
-/// MuJoCo's `<equality><connect>`: a point of one body held at a point of another (or of the
-/// world), as a spring and damper between the two points.
+/// MuJoCo's `<equality><connect>` and `<equality><weld>`: a point of one body held at a point
+/// of another (or of the world), as a spring and damper between the two points; a weld also
+/// holds the two bodies' relative orientation, by a rotational spring and damper.
 ///
-/// The points are `p₁ = x₁ + R₁ a₁` and `p₂ = x₂ + R₂ a₂`, with `a₂` the place of `p₁` in
-/// body 2's frame at `qpos0` (as MuJoCo's compiler sets it), so the error `e = p₁ - p₂` is
-/// zero there. The force `F = -(k e + b ė)` acts at `p₁` on body 1 and `-F` at `p₂` on body 2;
-/// `k` and `b` come from `solref` and the inertia `1 / (w₁ + w₂)`, with `w` MuJoCo's
-/// translational `body_invweight0`. The spring stores `½ k |e|²`.
+/// The points are `p₁ = x₁ + R₁ a₁` and `p₂ = x₂ + R₂ a₂`, placed as MuJoCo's compiler places
+/// them (for a body connect, `a₂` is where `p₁` is in body 2's frame at `qpos0`; for a body weld,
+/// `a₁` is where `p₂` is in body 1's frame), so the error `e = p₁ - p₂` is zero there. The force
+/// `F = -(k e + b ė)` acts at `p₁` on body 1 and `-F` at `p₂` on body 2; `k` and `b` come from
+/// `solref` and the inertia `1 / (w₁ + w₂)`, with `w` MuJoCo's translational `body_invweight0`.
+/// The spring stores `½ k |e|²`.
+///
+/// The orientation ([`Orientation`], see there) is a spring on the angle between body 1's
+/// frame turned by the held relative rotation and body 2's frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Connect {
     /// Name (from the scene, or MuJoCo's `equalityN`).
@@ -164,6 +169,68 @@ pub struct Connect {
     pub stiffness: f64,
     /// Damping `b` (N·s/m).
     pub damping: f64,
+    /// For a weld, the orientation it holds; `None` for a connect.
+    pub orientation: Option<Orientation>,
+}
+
+/// The rotational part of a weld: body 1's frame turned by `relative` is held to body 2's.
+///
+/// With `M = R₁ Q R₂ᵀ` (`Q` the relative rotation; `M = I` when the orientation is held) and
+/// `θ` the angle of `M`, the spring stores `E = (κ/2)(3 - tr M) = κ (1 - cos θ)`: a quadratic
+/// in MuJoCo's rotational residual, the vector part `r` of the error quaternion, as
+/// `|r|² = sin²(θ/2)` makes `E = 2κ |r|²`. Its torque on body 1 is `-(κ/2) vee(M - Mᵀ) =
+/// -κ sin θ n` (`n` the axis), and the opposite on body 2. The damper dissipates `2β |ṙ|²`, a
+/// quadratic in the residual's rate: the torque `-(β/4)((3 + tr M) I - M - Mᵀ)(ω₁ - ω₂)` on
+/// body 1, `-β (ω₁ - ω₂)` at the held orientation. So for small angles the
+/// weld is a torsion spring `κ` and damper `β` on the angle, whatever MuJoCo's
+/// `torquescale` (which scales residual and Jacobian alike); see `docs/mjcf.md`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Orientation {
+    /// The held rotation of body 2's frame seen from body 1's (`R₁ᵀ R₂` when held).
+    pub relative: nalgebra::Matrix3<f64>,
+    /// Angular stiffness `κ` (N·m/rad).
+    pub stiffness: f64,
+    /// Angular damping `β` (N·m·s/rad).
+    pub damping: f64,
+}
+
+impl Orientation {
+    /// `M = R₁ Q R₂ᵀ`, world frame.
+    fn error<T: crate::scalar::Scalar>(
+        &self,
+        r1: &nalgebra::Matrix3<T>,
+        r2: &nalgebra::Matrix3<T>,
+    ) -> nalgebra::Matrix3<T> {
+        r1 * self.relative.map(crate::scalar::c::<T>) * r2.transpose()
+    }
+
+    /// The torque on body 1 (body 2 takes its opposite), world axes.
+    fn torque<T: crate::scalar::Scalar>(
+        &self,
+        f1: &crate::collision::Frame<T>,
+        f2: &crate::collision::Frame<T>,
+    ) -> nalgebra::Vector3<T> {
+        let m = self.error(&f1.rotation, &f2.rotation);
+        let skew = m - m.transpose();
+        let vee = nalgebra::Vector3::new(skew[(2, 1)], skew[(0, 2)], skew[(1, 0)]);
+        let spring = vee * crate::scalar::c::<T>(-0.5 * self.stiffness);
+        if self.damping == 0.0 {
+            return spring;
+        }
+        let w = f1.angvel - f2.angvel;
+        let sym = m + m.transpose();
+        let scale = w * (m.trace() + 3.0) - sym * w;
+        spring + scale * crate::scalar::c::<T>(-0.25 * self.damping)
+    }
+
+    /// The spring's energy `(κ/2)(3 - tr M)`.
+    fn energy<T: crate::scalar::Scalar>(
+        &self,
+        r1: &nalgebra::Matrix3<T>,
+        r2: &nalgebra::Matrix3<T>,
+    ) -> T {
+        (crate::scalar::c::<T>(3.0) - self.error(r1, r2).trace()) * (0.5 * self.stiffness)
+    }
 }
 
 impl Connect {
@@ -184,8 +251,8 @@ impl Connect {
         })
     }
 
-    /// Adds the two point forces to the bodies' wrenches (force, and torque about the body
-    /// origin, world axes).
+    /// Adds the two point forces, and a weld's torques, to the bodies' wrenches (force, and
+    /// torque about the body origin, world axes).
     pub fn add_wrenches<T: crate::scalar::Scalar>(
         &self,
         frames: &[crate::collision::Frame<T>],
@@ -197,16 +264,174 @@ impl Connect {
             crate::scalar::c::<T>(self.damping),
         );
         let force = -((p1 - p2) * k + (v1 - v2) * b);
-        w[self.first.0].force += force;
-        w[self.first.0].torque += arm1.cross(&force);
-        w[self.second.0].force -= force;
-        w[self.second.0].torque -= arm2.cross(&force);
+        let (b1, b2) = (self.first.0, self.second.0);
+        w[b1].force += force;
+        w[b1].torque += arm1.cross(&force);
+        w[b2].force -= force;
+        w[b2].torque -= arm2.cross(&force);
+        if let Some(o) = &self.orientation {
+            let torque = o.torque(&frames[b1], &frames[b2]);
+            w[b1].torque += torque;
+            w[b2].torque -= torque;
+        }
     }
 
-    /// The spring's energy `½ k |e|²`.
+    /// The springs' energy `½ k |e|²`, and a weld's rotational spring's.
     pub fn energy<T: crate::scalar::Scalar>(&self, frames: &[crate::collision::Frame<T>]) -> T {
         let [(p1, _, _), (p2, _, _), ..] = self.points(frames);
         let e = p1 - p2;
-        e.dot(&e) * (0.5 * self.stiffness)
+        let mut energy = e.dot(&e) * (0.5 * self.stiffness);
+        if let Some(o) = &self.orientation {
+            energy += o.energy(
+                &frames[self.first.0].rotation,
+                &frames[self.second.0].rotation,
+            );
+        }
+        energy
+    }
+}
+
+#[cfg(test)]
+mod weld_tests {
+    use super::*;
+    use crate::collision::Frame;
+    use nalgebra::{Rotation3, Vector3};
+
+    fn frame(axis: Vector3<f64>, origin: Vector3<f64>, w: Vector3<f64>) -> Frame<f64> {
+        Frame {
+            rotation: *Rotation3::new(axis).matrix(),
+            origin,
+            linvel: Vector3::new(0.1, -0.2, 0.3),
+            angvel: w,
+        }
+    }
+
+    fn weld(damping: f64) -> Connect {
+        Connect {
+            name: "w".into(),
+            first: (1, Vector3::new(0.1, 0.0, -0.2)),
+            second: (2, Vector3::new(0.0, 0.3, 0.1)),
+            stiffness: 50.0,
+            damping,
+            orientation: Some(Orientation {
+                relative: *Rotation3::new(Vector3::new(0.3, -0.5, 0.2)).matrix(),
+                stiffness: 7.0,
+                damping,
+            }),
+        }
+    }
+
+    fn frames() -> Vec<Frame<f64>> {
+        vec![
+            frame(Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
+            frame(
+                Vector3::new(0.4, 0.1, -0.3),
+                Vector3::new(0.2, 0.0, 1.0),
+                Vector3::new(1.0, -0.5, 0.2),
+            ),
+            frame(
+                Vector3::new(-0.2, 0.9, 0.5),
+                Vector3::new(0.5, 0.1, 0.8),
+                Vector3::new(-0.3, 0.4, 0.7),
+            ),
+        ]
+    }
+
+    fn wrenches(c: &Connect, f: &[Frame<f64>]) -> Vec<crate::contact::Wrench<f64>> {
+        let mut w = vec![crate::contact::Wrench::<f64>::zero(); f.len()];
+        c.add_wrenches(f, &mut w);
+        w
+    }
+
+    #[test]
+    fn the_weld_is_the_gradient_of_its_energy() {
+        // Turning either body by a small world rotation about each axis, or moving it along
+        // each axis, changes the energy by minus the torque (force) times the step: central
+        // differences against the analytic wrench, including the far-from-held orientation.
+        let c = weld(0.0);
+        let f = frames();
+        let w = wrenches(&c, &f);
+        let h = 1e-6;
+        for b in [1, 2] {
+            for k in 0..3 {
+                let step = |s: f64, turn: bool| {
+                    let mut g = f.clone();
+                    let d = Vector3::ith(k, s);
+                    if turn {
+                        g[b].rotation = Rotation3::new(d).matrix() * g[b].rotation;
+                    } else {
+                        g[b].origin += d;
+                    }
+                    c.energy(&g)
+                };
+                let torque = -(step(h, true) - step(-h, true)) / (2.0 * h);
+                let force = -(step(h, false) - step(-h, false)) / (2.0 * h);
+                assert!(
+                    (w[b].torque[k] - torque).abs() < 1e-6,
+                    "body {b} torque {k}: {} vs {torque}",
+                    w[b].torque[k]
+                );
+                assert!(
+                    (w[b].force[k] - force).abs() < 1e-6,
+                    "body {b} force {k}: {} vs {force}",
+                    w[b].force[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn near_the_held_orientation_the_weld_is_a_torsion_spring_and_damper() {
+        // Body 2 held where body 1's frame turned by Q puts it, then turned by a small angle θ
+        // about n: torque -κ θ n on body 1 to first order, and the damper -β (ω₁ - ω₂).
+        let c = weld(3.0);
+        let o = c.orientation.as_ref().unwrap();
+        let mut f = frames();
+        let n = Vector3::new(1.0, 2.0, -2.0) / 3.0;
+        let theta = 1e-4;
+        f[2].rotation = Rotation3::new(n * theta).matrix() * f[1].rotation * o.relative;
+        let m = o.error(&f[1].rotation, &f[2].rotation);
+        let spring = o.torque(
+            &Frame {
+                angvel: Vector3::zeros(),
+                ..f[1]
+            },
+            &Frame {
+                angvel: Vector3::zeros(),
+                ..f[2]
+            },
+        );
+        assert!(
+            (spring - n * (o.stiffness * theta)).norm() < 1e-10 * o.stiffness,
+            "{spring} {m}"
+        );
+        assert!(
+            (o.energy(&f[1].rotation, &f[2].rotation) - 0.5 * o.stiffness * theta * theta).abs()
+                < 1e-14
+        );
+        f[2].rotation = f[1].rotation * o.relative;
+        let damper = o.torque(&f[1], &f[2]);
+        let expected = -(f[1].angvel - f[2].angvel) * o.damping;
+        assert!((damper - expected).norm() < 1e-12, "{damper} vs {expected}");
+    }
+
+    #[test]
+    fn the_weld_damper_only_dissipates() {
+        // With the springs off, the power of the wrenches over the bodies' motion is negative,
+        // at a held orientation and far from it.
+        let mut c = weld(2.0);
+        c.stiffness = 0.0;
+        c.orientation.as_mut().unwrap().stiffness = 0.0;
+        for turn in [0.0, 0.7, 2.5] {
+            let mut f = frames();
+            let q = c.orientation.as_ref().unwrap().relative;
+            f[2].rotation =
+                Rotation3::new(Vector3::new(0.0, turn, 0.3 * turn)).matrix() * f[1].rotation * q;
+            let w = wrenches(&c, &f);
+            let power: f64 = (1..3)
+                .map(|b| w[b].force.dot(&f[b].linvel) + w[b].torque.dot(&f[b].angvel))
+                .sum();
+            assert!(power < 0.0, "turn {turn}: {power}");
+        }
     }
 }

@@ -359,17 +359,14 @@ impl Builder {
         Ok(())
     }
 
-    /// An `<equality>` element: `joint` and `tendon` couplings become springs and dampers
-    /// ([`crate::dynamics::equality`]); `connect`, `weld` and `flex` are refused.
+    /// An `<equality>` element: `joint` and `tendon` couplings, `connect` and `weld` become
+    /// springs and dampers ([`crate::dynamics::equality`]); flex equalities are refused.
     pub(super) fn equality(&mut self, el: &Element) -> Result<(), SceneError> {
         let tendons = match el.name.as_str() {
             "joint" => false,
             "tendon" => true,
-            "connect" => return self.connect(el),
-            "weld" => {
-                return Err(self.err(el, format!("<{}> equality constraints are not supported by SCM yet: remove it, or switch equality constraints off with <option><flag equality=\"disable\"/></option>", el.name)))
-            }
-            _ => return Err(self.err(el, "unsupported equality constraint: SCM supports <connect>, <joint> and <tendon> equalities")),
+            "connect" | "weld" => return self.connect(el),
+            _ => return Err(self.err(el, "unsupported equality constraint: SCM supports <connect>, <weld>, <joint> and <tendon> equalities (or switch equality constraints off with <option><flag equality=\"disable\"/></option>)")),
         };
         let (key1, key2) = if tendons {
             ("tendon1", "tendon2")
@@ -426,37 +423,113 @@ impl Builder {
         Ok(())
     }
 
-    /// `<equality><connect body1 body2 anchor>`: a point of body 1 held to body 2 (default the
-    /// world) by a spring and damper ([`crate::dynamics::equality::Connect`]).
+    /// `<equality><connect>` and `<equality><weld>`: a point of body 1 held to body 2 (default
+    /// the world) by a spring and damper, and for a weld the relative orientation too
+    /// ([`crate::dynamics::equality::Connect`]). Body semantics (`body1`, and for a connect
+    /// `anchor`) or site semantics (`site1`, `site2`), as MuJoCo reads them.
     fn connect(&mut self, el: &Element) -> Result<(), SceneError> {
-        self.check_attrs(
-            el,
-            &["name", "body1", "body2", "anchor", "solref", "active"],
-        )?;
-        if el.attr("site1").is_some() || el.attr("site2").is_some() {
-            return Err(self.err(
-                el,
-                "a connect between sites is not supported by SCM yet: give body1, body2 and anchor",
-            ));
+        let weld = el.name == "weld";
+        let mut allowed = vec![
+            "name", "body1", "body2", "site1", "site2", "anchor", "solref", "active",
+        ];
+        if weld {
+            allowed.extend(["relpose", "torquescale"]);
         }
+        self.check_attrs(el, &allowed)?;
         if !self.equality_active(el)? {
             return Ok(());
         }
-        let body = |key: &str| -> Result<Option<usize>, SceneError> {
-            let Some(name) = el.attr(key) else {
-                return Ok(None);
+        let anchor = self.vec3(el, "anchor")?;
+        // MuJoCo's rule: bodies when body1 is given (and, for a connect, an anchor), else sites.
+        let bodies = el.attr("body1").is_some() && (weld || anchor.is_some());
+        let (body1, body2, anchors) = if bodies {
+            if let Some(k) = ["site1", "site2"]
+                .into_iter()
+                .find(|k| el.attr(k).is_some())
+            {
+                return Err(self.err(
+                    el,
+                    format!("{k} beside body1: give bodies or sites, not both"),
+                ));
+            }
+            let body = |key: &str| -> Result<Option<usize>, SceneError> {
+                let Some(name) = el.attr(key) else {
+                    return Ok(None);
+                };
+                self.bodies
+                    .iter()
+                    .position(|b| b.name == name)
+                    .map(Some)
+                    .ok_or_else(|| self.err(el, format!("{key}: no body named '{name}'")))
             };
-            self.bodies
-                .iter()
-                .position(|b| b.name == name)
-                .map(Some)
-                .ok_or_else(|| self.err(el, format!("{key}: no body named '{name}'")))
+            let relpose = match self.floats(el, "relpose", 7)? {
+                // MuJoCo's default (a zero quaternion) means "as at qpos0".
+                Some(p) if p[3..].iter().any(|&x| x != 0.0) => {
+                    let q = nalgebra::Quaternion::new(p[3], p[4], p[5], p[6]);
+                    Some(Isometry3::from_parts(
+                        nalgebra::Translation3::new(p[0], p[1], p[2]),
+                        UnitQuaternion::from_quaternion(q),
+                    ))
+                }
+                _ => None,
+            };
+            let anchors = Anchors::Bodies {
+                anchor: anchor.unwrap_or_else(Vector3::zeros),
+                relpose,
+            };
+            (
+                body("body1")?.expect("body1 given"),
+                body("body2")?.unwrap_or(0),
+                anchors,
+            )
+        } else {
+            if el.attr("body1").is_some() {
+                return Err(self.err(el, "a connect between bodies needs an anchor (in body 1's frame); or give site1 and site2"));
+            }
+            if el.attr("body2").is_some() {
+                return Err(self.err(el, "body2 without body1: give body1 (and an anchor for a connect), or site1 and site2"));
+            }
+            let site = |key: &str| -> Result<(usize, Isometry3<f64>), SceneError> {
+                let name = el.attr(key).ok_or_else(|| {
+                    self.err(el, format!("{key} is required: give body1 (and an anchor for a connect), or site1 and site2"))
+                })?;
+                match self.sites.get(name) {
+                    Some(Some(place)) => Ok(*place),
+                    Some(None) => Err(self.err(el, format!("{key}: site '{name}' is placed by fromto, which SCM does not place yet: give it pos and an orientation"))),
+                    None => Err(self.err(el, format!("{key}: no site named '{name}'"))),
+                }
+            };
+            let ((b1, s1), (b2, s2)) = (site("site1")?, site("site2")?);
+            if let Some(k) = ["anchor", "relpose"]
+                .into_iter()
+                .find(|k| el.attr(k).is_some())
+            {
+                self.unused(
+                    el,
+                    format!("{k} (MuJoCo reads it only for an equality between bodies)"),
+                );
+            }
+            (b1, b2, Anchors::Sites(s1, s2))
         };
-        let body1 = body("body1")?.ok_or_else(|| self.err(el, "body1 is required"))?;
-        let body2 = body("body2")?.unwrap_or(0);
-        let anchor = self
-            .floats(el, "anchor", 3)?
-            .ok_or_else(|| self.err(el, "anchor is required"))?;
+        if body1 == body2 {
+            return Err(self.err(
+                el,
+                "body 1 and body 2 are the same body: the constraint would hold nothing",
+            ));
+        }
+        let torquescale = match self.float(el, "torquescale")? {
+            Some(s) if s < 0.0 => {
+                return Err(self.err(el, format!("torquescale=\"{s}\": expected a number >= 0")))
+            }
+            Some(s) if s != 0.0 && s != 1.0 => {
+                self.warnings.push(format!(
+                    "{}:{}: <weld> torquescale=\"{s}\": SCM holds the orientation with the time constant of solref for any positive torquescale; MuJoCo's soft constraint makes the rotation stiffer or softer with it",
+                    el.file, el.line
+                ));
+                s
+            }
+            s => s.unwrap_or(1.0),
+        };
         let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
         let name = match Self::given_name(el) {
             Some(n) => n,
@@ -469,8 +542,9 @@ impl Builder {
             name,
             body1,
             body2,
-            anchor: Vector3::new(anchor[0], anchor[1], anchor[2]),
+            anchors,
             solref: [solref[0], solref[1]],
+            weld: weld.then_some(torquescale),
         });
         Ok(())
     }

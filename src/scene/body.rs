@@ -15,7 +15,8 @@ impl Builder {
             "freejoint" => self.joint(el, body, true),
             "inertial" if body == 0 => Err(self.err(el, "the world body has no inertia")),
             "inertial" => self.inertial(el, body),
-            "site" | "camera" | "light" => Ok(()),
+            "site" => self.site(el, body),
+            "camera" | "light" => Ok(()),
             "replicate" => Err(self.err(el, "MuJoCo's <replicate> is not supported by SCM yet: write the copies out (MuJoCo's mj_saveLastXML writes the compiled model with them)")),
             "composite" | "flexcomp" | "skin" | "attach" | "plugin" => Err(self.err(
                 el,
@@ -23,6 +24,22 @@ impl Builder {
             )),
             _ => Err(self.err(el, "unsupported element in a body: SCM reads body, joint, freejoint, geom, inertial, site, camera and light")),
         }
+    }
+
+    /// A `<site>`: its body and pose are kept under its name, for the equalities that name it;
+    /// a site is not simulated otherwise (its other attributes are not read).
+    fn site(&mut self, el: &Element, body: usize) -> Result<(), SceneError> {
+        let Some(name) = Self::given_name(el) else {
+            return Ok(());
+        };
+        // A fromto site's frame follows from its type; SCM does not place one yet and says so
+        // where an equality names it.
+        let place = match el.attr("fromto") {
+            None => Some((body, self.pose(el)?)),
+            Some(_) => None,
+        };
+        self.sites.insert(name, place);
+        Ok(())
     }
 
     pub(super) fn body(&mut self, el: &Element, parent: usize) -> Result<(), SceneError> {

@@ -166,11 +166,22 @@ impl Compiled {
             .connects
             .iter()
             .map(|c| {
+                // A weld's held orientation as a unit quaternion (w x y z), and its angular
+                // spring and damper.
+                let orientation = c.orientation.as_ref().map(|o| {
+                    let r = nalgebra::Rotation3::from_matrix_unchecked(o.relative);
+                    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&r);
+                    json!({
+                        "relative": [q.w, q.i, q.j, q.k],
+                        "stiffness": o.stiffness, "damping": o.damping,
+                    })
+                });
                 json!({
                     "name": c.name,
                     "body1": names[c.first.0], "anchor1": v3(&c.first.1),
                     "body2": names[c.second.0], "anchor2": v3(&c.second.1),
                     "stiffness": c.stiffness, "damping": c.damping,
+                    "orientation": orientation,
                 })
             })
             .collect();

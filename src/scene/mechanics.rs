@@ -3,7 +3,7 @@
 //! stiffened by the effective inertia MuJoCo computes at the reference configuration.
 
 use super::*;
-use crate::dynamics::equality::{Connect, Linear, ScalarEquality};
+use crate::dynamics::equality::{Connect, Linear, Orientation, ScalarEquality};
 use crate::dynamics::limit::{solref_gains, JointLimit};
 use crate::dynamics::tendon::FixedTendon;
 
@@ -133,11 +133,14 @@ impl Builder {
             .collect()
     }
 
-    /// The connect equalities over `tree`, as springs and dampers: body 2's anchor is where
-    /// body 1's is at `qpos0` (as MuJoCo's compiler puts it), and the stiffness and damping
-    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`
-    /// (zero for a body that cannot move, `1 / mass` for a top-level body of sliders, else the
-    /// mean of the diagonal of `J M⁻¹ Jᵀ` for the Jacobian `J` of its centre of mass).
+    /// The connect and weld equalities over `tree`, as springs and dampers. Their points and a
+    /// weld's held orientation are placed as MuJoCo's compiler places them (body semantics: the
+    /// point not written is where the written one is at `qpos0`, a weld's orientation the one
+    /// there unless `relpose` gives it; site semantics: the sites). The stiffness and damping
+    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's `body_invweight0`: translational
+    /// for the points, rotational for a weld's orientation. A body's weights are zero if it
+    /// cannot move, `(1 / mass, 0)` for a top-level body of sliders, else the means of the
+    /// diagonals of `J M⁻¹ Jᵀ` for the linear and angular Jacobians `J` of its centre of mass.
     fn connects(&self, tree: &Tree) -> Vec<Connect> {
         if self.connects.is_empty() {
             return vec![];
@@ -154,49 +157,95 @@ impl Builder {
                 tree.kinematics(&q0, &v)
             })
             .collect();
-        let weight = |b: usize| -> f64 {
+        let weight = |b: usize| -> (f64, f64) {
             if b == 0 || !tree.body_moves(b) {
-                return 0.0;
+                return (0.0, 0.0);
             }
             if let Some(mass) = tree.bodies[b]
                 .joints
                 .first()
                 .and_then(|&j| slider_body_mass(tree, j))
             {
-                return 1.0 / mass;
+                return (1.0 / mass, 0.0);
             }
-            let Some(inv) = &inv else { return 0.0 };
+            let Some(inv) = &inv else { return (0.0, 0.0) };
             let com = tree.bodies[b].inertia.com;
-            let jac: Vec<nalgebra::Vector3<f64>> = columns
+            let (linear, angular): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = columns
                 .iter()
                 .map(|k| {
                     let f = &k.frames[b];
-                    f.linvel + f.angvel.cross(&(f.rotation * com))
+                    (f.linvel + f.angvel.cross(&(f.rotation * com)), f.angvel)
                 })
-                .collect();
-            let mut trace = 0.0;
-            for (a, ja) in jac.iter().enumerate() {
-                for (c, jc) in jac.iter().enumerate() {
-                    trace += ja.dot(jc) * inv[(a, c)];
+                .unzip();
+            let mean = |jac: &[Vector3<f64>]| {
+                let mut trace = 0.0;
+                for (a, ja) in jac.iter().enumerate() {
+                    for (c, jc) in jac.iter().enumerate() {
+                        trace += ja.dot(jc) * inv[(a, c)];
+                    }
                 }
-            }
-            trace / 3.0
+                trace / 3.0
+            };
+            (mean(&linear), mean(&angular))
         };
         self.connects
             .iter()
             .map(|c| {
                 let (f1, f2) = (&kin.frames[c.body1], &kin.frames[c.body2]);
-                let p1 = f1.origin + f1.rotation * c.anchor;
-                let anchor2 = f2.rotation.transpose() * (p1 - f2.origin);
-                let w = weight(c.body1) + weight(c.body2);
-                let (stiffness, damping) =
-                    solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
+                let (anchor1, anchor2, relative) = match &c.anchors {
+                    Anchors::Bodies { anchor, relpose: _ } if c.weld.is_none() => {
+                        let p1 = f1.origin + f1.rotation * anchor;
+                        (*anchor, f2.rotation.transpose() * (p1 - f2.origin), None)
+                    }
+                    Anchors::Bodies {
+                        anchor,
+                        relpose: None,
+                    } => {
+                        let p2 = f2.origin + f2.rotation * anchor;
+                        let a1 = f1.rotation.transpose() * (p2 - f1.origin);
+                        (a1, *anchor, Some(f1.rotation.transpose() * f2.rotation))
+                    }
+                    Anchors::Bodies {
+                        anchor,
+                        relpose: Some(pose),
+                    } => (
+                        pose.translation.vector,
+                        *anchor,
+                        Some(*pose.rotation.to_rotation_matrix().matrix()),
+                    ),
+                    Anchors::Sites(s1, s2) => (
+                        s1.translation.vector,
+                        s2.translation.vector,
+                        Some(
+                            *(s1.rotation * s2.rotation.inverse())
+                                .to_rotation_matrix()
+                                .matrix(),
+                        ),
+                    ),
+                };
+                let ((t1, r1), (t2, r2)) = (weight(c.body1), weight(c.body2));
+                let gains = |w: f64| solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
+                let (stiffness, damping) = gains(t1 + t2);
+                // torquescale 0 frees the rotation; any other value scales MuJoCo's residual
+                // and its Jacobian alike, so it leaves the spring on the angle unchanged.
+                let orientation = match (relative, c.weld) {
+                    (Some(relative), Some(scale)) if scale != 0.0 => {
+                        let (stiffness, damping) = gains(r1 + r2);
+                        Some(Orientation {
+                            relative,
+                            stiffness,
+                            damping,
+                        })
+                    }
+                    _ => None,
+                };
                 Connect {
                     name: c.name.clone(),
-                    first: (c.body1, c.anchor),
+                    first: (c.body1, anchor1),
                     second: (c.body2, anchor2),
                     stiffness,
                     damping,
+                    orientation,
                 }
             })
             .collect()

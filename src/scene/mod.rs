@@ -234,7 +234,7 @@ pub struct Compiled {
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// Joint and tendon equalities.
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
-    /// Connect equalities.
+    /// Connect and weld equalities.
     pub connects: Vec<crate::dynamics::equality::Connect>,
     /// What SCM refuses to simulate, with file and line.
     pub refused: Vec<SceneError>,
@@ -351,8 +351,11 @@ struct Builder {
     tendons: Vec<TendonSpec>,
     /// `<equality><joint>` and `<equality><tendon>` elements, as read.
     equalities: Vec<EqualitySpec>,
-    /// `<equality><connect>` elements, as read.
+    /// `<equality><connect>` and `<equality><weld>` elements, as read.
     connects: Vec<ConnectSpec>,
+    /// Named sites: body and pose in its frame (what connects and welds between sites read);
+    /// `None` for a site placed by `fromto`.
+    sites: std::collections::HashMap<String, Option<(usize, Isometry3<f64>)>>,
     /// The names the scene gives, per kind (and those made up for unnamed objects).
     names: names::Names,
     /// Each actuator's `dampratio` (position actuators that give one), indexed like
@@ -364,14 +367,32 @@ struct Builder {
     actuator_ranges: Vec<(usize, f64, f64)>,
 }
 
-/// A connect equality as read: the two bodies, the anchor in body 1's frame, `solref`.
+/// A connect or weld equality as read: the two bodies, where its points are, `solref`, and
+/// for a weld its `torquescale`.
 #[derive(Clone, Debug)]
 struct ConnectSpec {
     name: String,
     body1: usize,
     body2: usize,
-    anchor: Vector3<f64>,
+    anchors: Anchors,
     solref: [f64; 2],
+    /// `Some(torquescale)` for a weld, `None` for a connect.
+    weld: Option<f64>,
+}
+
+/// Where a connect's or weld's points (and a weld's orientations) are, as MuJoCo reads them.
+#[derive(Clone, Debug)]
+enum Anchors {
+    /// Body semantics: `anchor` in body 1's frame (connect) or body 2's (weld); the other
+    /// body's point, and a weld's relative orientation, are where they are at `qpos0`, unless
+    /// a weld gives `relpose` (body 1's point and the relative orientation).
+    Bodies {
+        anchor: Vector3<f64>,
+        relpose: Option<Isometry3<f64>>,
+    },
+    /// Site semantics: each site's pose in its body's frame; the points are the sites, a
+    /// weld's held orientation that of site 2 on site 1.
+    Sites(Isometry3<f64>, Isometry3<f64>),
 }
 
 /// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
@@ -480,6 +501,7 @@ impl Builder {
             tendons: vec![],
             equalities: vec![],
             connects: vec![],
+            sites: Default::default(),
         }
     }
 

@@ -246,22 +246,55 @@ def compare(path):
     # Joint and tendon equalities: the polynomial, and the spring and damper from solref and
     # MuJoCo's inverse weights of both objects.
     on = [e for e in range(m.neq) if not disabled(m, "EQUALITY") and m.eq_active0[e]]
-    connects = [e for e in on if int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_CONNECT)]
+    pointed = (int(mujoco.mjtEq.mjEQ_CONNECT), int(mujoco.mjtEq.mjEQ_WELD))
+    connects = [e for e in on if int(m.eq_type[e]) in pointed]
     eqs = [e for e in on if e not in connects]
-    # Connects: the bodies, both anchors (body 2's as MuJoCo's compiler computes it at qpos0),
-    # and the spring and damper from solref and the bodies' translational inverse weights.
+    # Connects and welds: the bodies, both anchors (the one not written as MuJoCo's compiler
+    # computes it at qpos0; a site's position for site semantics), a weld's held orientation,
+    # and the springs and dampers from solref and the bodies' translational (rotational for a
+    # weld's orientation) inverse weights.
     assert len(ours["connects"]) == len(connects), "connect count"
     for e, con in zip(connects, ours["connects"]):
-        tag = f"connect {con['name']}"
-        assert con["body1"] == ours["bodies"][m.eq_obj1id[e]]["name"], tag
-        assert con["body2"] == ours["bodies"][max(m.eq_obj2id[e], 0)]["name"], tag
-        close(f"{tag} anchor1", con["anchor1"], m.eq_data[e, 0:3])
-        close(f"{tag} anchor2", con["anchor2"], m.eq_data[e, 3:6])
-        w = m.body_invweight0[m.eq_obj1id[e], 0] + (m.body_invweight0[m.eq_obj2id[e], 0] if m.eq_obj2id[e] > 0 else 0.0)
-        tau, zeta = m.eq_solref[e]
-        k, b = (1 / w / (tau * zeta) ** 2, 2 / w / tau) if tau > 0 else (-tau / w, -zeta / w)
+        tag = f"{mujoco.mjtEq(m.eq_type[e]).name} {con['name']}"
+        weld = int(m.eq_type[e]) == int(mujoco.mjtEq.mjEQ_WELD)
+        sites = int(m.eq_objtype[e]) == int(mujoco.mjtObj.mjOBJ_SITE)
+        obj1, obj2 = m.eq_obj1id[e], max(m.eq_obj2id[e], 0)
+        b1, b2 = (m.site_bodyid[obj1], m.site_bodyid[obj2]) if sites else (obj1, obj2)
+        assert con["body1"] == ours["bodies"][b1]["name"], tag
+        assert con["body2"] == ours["bodies"][b2]["name"], tag
+        data = m.eq_data[e]
+        if sites:
+            anchors = m.site_pos[obj1], m.site_pos[obj2]
+        else:
+            anchors = (data[3:6], data[0:3]) if weld else (data[0:3], data[3:6])
+        close(f"{tag} anchor1", con["anchor1"], anchors[0])
+        close(f"{tag} anchor2", con["anchor2"], anchors[1])
+        solref = m.eq_solref[e]
+
+        def gains(w):
+            if w == 0.0:  # neither body can move (or turn) that way: nothing to hold
+                return 0.0, 0.0
+            tau, zeta = solref
+            return (1 / w / (tau * zeta) ** 2, 2 / w / tau) if tau > 0 else (-tau / w, -zeta / w)
+
+        k, b = gains(m.body_invweight0[b1, 0] + (m.body_invweight0[b2, 0] if b2 > 0 else 0.0))
         close(f"{tag} stiffness", con["stiffness"], k)
         close(f"{tag} damping", con["damping"], b)
+        held = weld and data[10] != 0.0
+        assert (con["orientation"] is not None) == held, f"{tag}: orientation held"
+        if held:
+            if sites:
+                relative = np.zeros(4)
+                neg = np.zeros(4)
+                mujoco.mju_negQuat(neg, m.site_quat[obj2])
+                mujoco.mju_mulQuat(relative, m.site_quat[obj1], neg)
+            else:
+                relative = data[6:10]
+            quat = np.asarray(con["orientation"]["relative"])
+            close(f"{tag} orientation", quat * np.sign(quat @ relative), relative)
+            k, b = gains(m.body_invweight0[b1, 1] + (m.body_invweight0[b2, 1] if b2 > 0 else 0.0))
+            close(f"{tag} angular stiffness", con["orientation"]["stiffness"], k)
+            close(f"{tag} angular damping", con["orientation"]["damping"], b)
     assert len(ours["equalities"]) == len(eqs), "equality count"
     for e, eq in zip(eqs, ours["equalities"]):
         tag = f"equality {eq['name']}"
@@ -314,7 +347,7 @@ def test_the_robotics_corpus_is_there():
 @pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])
 def test_robotics_file_compiles_as_mujoco_compiles_it_or_is_refused_saying_why(path):
     """gymnasium-robotics' files: the hands (their visual meshes, open surfaces, left out),
-    Fetch (refused at its weld equality), the Franka kitchen, the point maze."""
+    Fetch (its gripper held to a mocap body by a weld), the Franka kitchen, the point maze."""
     mujoco.MjModel.from_xml_path(str(path))
     if robotics_id(path) in ROBOTICS_REFUSED:
         where, why = ROBOTICS_REFUSED[robotics_id(path)]
@@ -354,6 +387,54 @@ def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
     path = tmp_path / "four_bar.xml"
     path.write_text(FOUR_BAR)
     assert len(compare(path)["connects"]) == 1
+
+
+WELDS = """<mujoco>
+  <worldbody>
+    <body name="hand" mocap="true" pos="0.3 0 1.2" euler="0 20 0"/>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0"/>
+      <joint name="twist" axis="1 0 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.04"/>
+      <site name="wrist" pos="0.3 0 0" euler="10 0 30"/>
+      <body name="palm" pos="0.3 0 0" euler="0 0 15">
+        <joint name="flex" axis="0 0 1"/>
+        <geom type="box" size="0.05 0.03 0.02"/>
+        <site name="tip" pos="0.05 0.01 0" euler="0 -40 0"/>
+      </body>
+    </body>
+    <body name="puck" pos="0.6 0.2 0.5" euler="5 10 15">
+      <freejoint/>
+      <geom type="box" size="0.04 0.05 0.03" pos="0.01 0 0"/>
+      <site name="top" pos="0 0 0.03"/>
+    </body>
+    <body name="slider" pos="-0.5 0 0.2">
+      <joint type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+  <equality>
+    <weld body1="hand" body2="palm" solref="0.02 1"/>
+    <weld name="at" body1="puck" body2="arm" anchor="0.1 0.02 -0.03" torquescale="2" solref="0.05 0.7"/>
+    <weld body1="puck" relpose="0.1 0.2 0.3 1 0.5 0 0" anchor="0.4 0.2 0.6"/>
+    <weld body1="arm" body2="puck" torquescale="0"/>
+    <weld site1="tip" site2="top" solref="-500 -20"/>
+    <weld site1="wrist" site2="tip"/>
+    <connect site1="wrist" site2="top"/>
+    <weld body1="slider"/>
+  </equality>
+</mujoco>"""
+
+
+def test_welds_compile_as_mujoco_compiles_them(tmp_path):
+    """Welds between bodies (to a mocap body, to the world, with an anchor, with relpose, with
+    torquescale 0 and 2) and between sites, and a connect between sites: points, held
+    orientations and the springs on MuJoCo's translational and rotational inverse weights."""
+    path = tmp_path / "welds.xml"
+    path.write_text(WELDS)
+    ours = compare(path)
+    assert [w for w in ours["warnings"] if 'torquescale="2"' in w and "welds.xml:27" in w], ours["warnings"]
+    assert [c["orientation"] is not None for c in ours["connects"]] == [True, True, True, False, True, True, False, True]
 
 
 def test_position_dampratio_compiles_as_mujoco_compiles_it(tmp_path):

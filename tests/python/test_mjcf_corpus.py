@@ -48,7 +48,7 @@ def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
 @pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])
 def test_robotics_file_packs_and_validates(path, tmp_path):
     """gymnasium-robotics' files pack (the Franka kitchen's meshes and includes named through
-    `..` out of their folders too) and fmpy validates them; Fetch's are refused at their weld.
+    `..` out of their folders too) and fmpy validates them, Fetch's weld to its mocap body too.
     Only the point maze is run: with contact on, a step of the shadow hand takes seconds and
     the Adroit hand's first steps blow up (measured, in docs/mjcf.md), which is issue 20's."""
     packs_validates_and_runs(path, tmp_path, 0.1 if path.stem == "point" else None,

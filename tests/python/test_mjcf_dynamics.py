@@ -30,8 +30,9 @@ DURATION = 0.2
 TOL = 1e-5
 
 
-def contact_free_copy(path, folder):
-    """The file with contact, limit, equality and frictionloss switched off."""
+def contact_free_copy(path, folder, off=("contact", "limit", "equality", "frictionloss")):
+    """The file with contact, limit, equality and frictionloss (or the flags `off`) switched
+    off."""
     tree = ET.parse(path)
     root = tree.getroot()
     option = root.find("option")
@@ -40,7 +41,7 @@ def contact_free_copy(path, folder):
     flag = option.find("flag")
     if flag is None:
         flag = ET.SubElement(option, "flag")
-    for key in ("contact", "limit", "equality", "frictionloss"):
+    for key in off:
         flag.set(key, "disable")
     # Beside the original, so that what it reads by relative paths (included files, meshes,
     # `meshdir="../stls"`) is found from the copy too; named after the test's folder, and
@@ -94,6 +95,46 @@ ROBOTICS_LOADED = [p for p in ROBOTICS if robotics_id(p) not in ROBOTICS_REFUSED
 def test_robotics_contact_free_motion_matches_mujoco(path, tmp_path):
     """gymnasium-robotics' hands, the Franka kitchen and the point maze, without contact."""
     matches_mujoco(path, tmp_path)
+
+
+def test_fetch_gripper_follows_its_mocap_as_in_mujoco(tmp_path):
+    """Fetch's gripper hangs from a mocap body by a weld (gymnasium-robotics drives the arm this
+    way). Without contact, the mocap input lowered 10 cm over 1 s through the FMU, the gripper
+    follows as in MuJoCo (its mocap moved at the same times): it ends within 5 mm and 2
+    degrees of MuJoCo's. SCM's weld is a spring of the file's solref (0.02 s), so the gripper
+    hangs lower by its deflection (3 mm at rest); MuJoCo's soft constraint holds it tighter."""
+    path = next(p for p in ROBOTICS if robotics_id(p) == "reach_fetch")
+    copy = contact_free_copy(path, tmp_path, off=("contact",))
+    try:
+        fmu = tmp_path / "fetch.fmu"
+        subprocess.run([str(SCM), "pack", str(copy), "-o", str(fmu)], capture_output=True, check=True)
+        m = mujoco.MjModel.from_xml_path(str(copy))
+    finally:
+        copy.unlink()
+    target = lambda t: -0.1 * np.clip(t, 0.0, 1.0)
+    t = np.linspace(0.0, 1.5, 151)
+    signal = np.zeros(len(t), dtype=[("time", np.float64), ("'robot0:mocap'.pos.z", np.float64)])
+    signal["time"], signal["'robot0:mocap'.pos.z"] = t, target(t)
+    names = coordinate_names(m)
+    res = simulate_fmu(str(fmu), stop_time=1.5, output_interval=0.01, input=signal, output=names)
+    d = mujoco.MjData(m)
+    gripper = m.body("robot0:gripper_link").id
+    mujoco.mj_forward(m, d)
+    start = d.xpos[gripper].copy()
+    while d.time < 1.5 - 1e-9:
+        # The FMU's mocap reaches the pose set at a communication point at the next one, moving
+        # there at constant velocity: MuJoCo's mocap is placed on the same straight path.
+        d.mocap_pos[0, 2] = target(d.time + m.opt.timestep - 0.01)
+        mujoco.mj_step(m, d)
+    ours = mujoco.MjData(m)
+    ours.qpos[:] = [res[-1][n] for n in names]
+    mujoco.mj_forward(m, ours)
+    gap = np.linalg.norm(ours.xpos[gripper] - d.xpos[gripper])
+    turn = np.degrees(2 * np.arccos(min(1.0, abs(ours.xquat[gripper] @ d.xquat[gripper]))))
+    print(f"Fetch gripper lowered by MuJoCo {start[2] - d.xpos[gripper][2]:.4f} m, SCM "
+          f"{start[2] - ours.xpos[gripper][2]:.4f} m; apart {gap * 1e3:.2f} mm, {turn:.2f} deg")
+    assert start[2] - d.xpos[gripper][2] > 0.09, "MuJoCo's gripper follows the mocap down"
+    assert gap < 5e-3 and turn < 2.0
 
 
 def test_joint_actuator_force_ranges_clamp_as_in_mujoco(tmp_path):

@@ -613,16 +613,99 @@ def test_a_connect_closes_a_four_bar_linkage_as_in_mujoco(tmp_path):
     assert abs(ours["j1.q"] - d.qpos[0]) < 0.05
 
 
-def test_weld_equalities_are_refused_with_what_to_do(tmp_path):
-    xml = GEARED_PENDULUMS.replace('<joint name="gear" joint1="ja" joint2="jb" polycoef="0 0.5 0 0 0"/>',
-                                   '<weld body1="a" body2="b"/>')
-    path = tmp_path / "weld.xml"
-    path.write_text(xml)
-    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "c.fmu")], capture_output=True, text=True)
-    assert out.returncode != 0
-    assert "weld.xml:13" in out.stderr and 'equality="disable"' in out.stderr, out.stderr
+HANGING_BOX = """<mujoco model="hang">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="box" pos="0.3 0 1">
+      <freejoint/>
+      <geom type="box" size="0.06 0.04 0.03" pos="0.05 0 0" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <equality><weld name="grip" body1="box" anchor="0.3 0 1"/></equality>
+</mujoco>"""
 
 
+def test_a_weld_holds_a_box_where_its_springs_put_it(tmp_path):
+    # A box welded to the world at its origin, its centre of mass 5 cm out along x. SCM's weld
+    # is a spring and damper of solref (0.02 s, critically damped) on MuJoCo's inverse
+    # weights: at rest the point sags by the weight over k = 1/(w_t τ²), i.e. g τ² = 3.92 mm,
+    # and the box tips until the rotational spring κ sin θ carries the weight's torque
+    # m g d cos θ, κ = 1/(w_r τ²): tan θ = m g d w_r τ². Both exactly, to the settling left
+    # after 1 s. MuJoCo's soft constraint holds it tighter (its impedance): printed.
+    names = ["box.pos.z", "box.quat.w", "box.quat.y"]
+    ours, m, d = run(tmp_path, HANGING_BOX, names, 1.0, name="hang")
+    tau, g, arm = 0.02, 9.81, 0.05
+    sag = 1.0 - ours["box.pos.z"]
+    theta = 2 * np.arctan2(ours["box.quat.y"], ours["box.quat.w"])
+    predicted = np.arctan(m.body_mass[1] * g * arm * m.body_invweight0[1, 1] * tau ** 2)
+    mj_theta = 2 * np.arctan2(d.qpos[5], d.qpos[3])
+    print(f"hanging weld: sag SCM {sag * 1e3:.3f} mm (g τ² {g * tau ** 2 * 1e3:.3f}), MuJoCo "
+          f"{(1 - d.qpos[2]) * 1e3:.3f} mm; tilt SCM {theta:.4f} rad (predicted {predicted:.4f}), "
+          f"MuJoCo {mj_theta:.4f}")
+    assert sag == pytest.approx(g * tau ** 2, rel=1e-3)
+    assert theta == pytest.approx(predicted, rel=1e-3)
+    assert 0 < 1.0 - d.qpos[2] < sag and 0 < mj_theta < theta, "MuJoCo sags the same way, less"
+
+
+SWINGING_WELD = """<mujoco model="swing">
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03" contype="0" conaffinity="0"/>
+    </body>
+    <body name="box" pos="0.45 0 1.02" euler="0 0 20">
+      <freejoint/>
+      <geom type="box" size="0.06 0.04 0.03" pos="0.02 0 0" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <equality><weld name="grip" body1="arm" body2="box"/></equality>
+</mujoco>"""
+
+
+def test_a_weld_carries_a_box_on_a_swinging_arm_as_in_mujoco(tmp_path):
+    # A free box welded to a pendulum arm (the pose at qpos0 held) swings with it: the arm
+    # moves as in MuJoCo, and the weld's errors (MuJoCo's residual: the gap between the
+    # points, the vector part of the error quaternion) stay within the spring's deflection
+    # under the swing's loads (g τ² = 4 mm at rest) in SCM, tighter in MuJoCo.
+    names = ["shoulder.q"] + [f"box.pos.{a}" for a in "xyz"] + [f"box.quat.{a}" for a in "wxyz"]
+    ours, m, d = run(tmp_path, SWINGING_WELD, names, 1.0, name="swing")
+
+    def residual(qpos):
+        data = mujoco.MjData(m)
+        data.qpos[:] = qpos
+        mujoco.mj_forward(m, data)
+        return np.linalg.norm(data.efc_pos[0:3]), np.linalg.norm(data.efc_pos[3:6])
+
+    (gap, turn), (mj_gap, mj_turn) = residual([ours[n] for n in names]), residual(d.qpos)
+    print(f"swinging weld after 1 s: shoulder SCM {ours['shoulder.q']:.4f}, MuJoCo {d.qpos[0]:.4f} rad; "
+          f"gap SCM {gap * 1e3:.2f} mm, MuJoCo {mj_gap * 1e3:.3f} mm; quaternion residual SCM {turn:.4f}, "
+          f"MuJoCo {mj_turn:.4f}")
+    assert abs(d.qpos[0]) > 1.0, "the arm swings"
+    assert abs(ours["shoulder.q"] - d.qpos[0]) < 0.05
+    assert gap < 0.015 and turn < 0.05
+    assert mj_gap < 1e-3 and mj_turn < 0.02
+
+
+def test_equalities_scm_cannot_place_are_refused_with_what_to_do(tmp_path):
+    # A connect between bodies without an anchor (MuJoCo would read it as between sites and
+    # fail), and a weld to a site placed by fromto: refused at their line, saying what to give.
+    cases = [
+        ('<connect body1="a" body2="b"/>', "needs an anchor"),
+        ('<weld site1="s" site2="t"/>', "placed by fromto"),
+        ('<weld body1="a" site1="s"/>', "give bodies or sites, not both"),
+    ]
+    for i, (element, why) in enumerate(cases):
+        xml = GEARED_PENDULUMS.replace(
+            '<joint name="gear" joint1="ja" joint2="jb" polycoef="0 0.5 0 0 0"/>', element).replace(
+            '<geom type="capsule" fromto="0 0 0 0.3 0 0"',
+            '<site name="s" pos="0.1 0 0"/><site name="t" type="capsule" size="0.01" fromto="0 0 0 0 0 1"/>'
+            '<geom type="capsule" fromto="0 0 0 0.3 0 0"')
+        path = tmp_path / f"equality{i}.xml"
+        path.write_text(xml)
+        out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "c.fmu")], capture_output=True, text=True)
+        assert out.returncode != 0, element
+        assert f"equality{i}.xml:13" in out.stderr and why in out.stderr, out.stderr
 def test_fluidshape_none_is_mujocos_default_and_the_ellipsoid_model_is_refused(tmp_path):
     # MuJoCo's own balloons model writes fluidshape on its geoms; "none" (the default, the
     # inertia-box model) is what SCM has and runs as MuJoCo does; "ellipsoid" is refused with
