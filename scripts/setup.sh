@@ -5,7 +5,8 @@
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
 #     (fmpy, numpy, pytest, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
-#   - the MJCF files of dm_control's suite (from its wheel, unpacked in .venv/dm_control_suite)
+#   - the MJCF files of dm_control (its suite, walkers, props; from its wheel, unpacked in
+#     .venv/dm_control_assets)
 #     and gymnasium-robotics' models (from its wheel, in .venv/gymnasium_robotics_assets);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
@@ -45,7 +46,7 @@ fi
 # and the tests need no code of either). Once per pinned version.
 wheel_files() { # SPEC DIR PREFIX: the files under PREFIX (no Python) of SPEC's wheel, in DIR
   local spec=$1 dir=$2 prefix=$3 tmp
-  if [ "$(cat "$dir/.version" 2>/dev/null)" != "$spec" ]; then
+  if [ "$(cat "$dir/.version" 2>/dev/null)" != "$spec $prefix" ]; then
     echo "setup: fetching the MJCF files of $spec"
     tmp=$(mktemp -d)
     .venv/bin/pip download -q --no-deps "$spec" -d "$tmp"
@@ -58,13 +59,13 @@ with zipfile.ZipFile(wheel) as z:
         if n.startswith(prefix) and not n.endswith(".py"):
             z.extract(n, out)
 PY
-    echo "$spec" > "$dir/.version"
+    echo "$spec $prefix" > "$dir/.version"
     rm -rf "$tmp"
   fi
 }
 # dm_control's suite (a second corpus) and gymnasium-robotics' models (hands, Fetch, the
 # Franka kitchen: a third).
-wheel_files dm_control==1.0.50 .venv/dm_control_suite dm_control/suite/
+wheel_files dm_control==1.0.50 .venv/dm_control_assets dm_control/
 wheel_files gymnasium-robotics==1.4.2 .venv/gymnasium_robotics_assets gymnasium_robotics/envs/assets/
 
 cargo build --release --locked -q

@@ -113,8 +113,10 @@ pub fn pack(scene: &Path, library: &Path, out: &Path) -> Result<(), PackError> {
 }
 
 /// Where an included file goes under the FMU's `resources/`: its path relative to the scene's
-/// folder (the scene itself is `resources/scene.xml`), so that the include resolves there as
-/// it did beside the scene. A file outside the scene's folder cannot be packed.
+/// folder (the scene itself is `resources/scene.xml`), with each `..` that leaves that folder
+/// kept as a `_parent_` folder ([`crate::scene::packed_relative`]), so that the include
+/// resolves there as it did beside the scene. A path that does not start with the scene's
+/// folder as written (an absolute path elsewhere) cannot be packed.
 fn packed_include_name(scene: &Path, included: &Path) -> Result<String, String> {
     let rel = included
         .strip_prefix(crate::scene::scene_dir(scene))

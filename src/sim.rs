@@ -353,7 +353,7 @@ impl Simulation {
         self.current.mocap = mocap;
         for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
             let o = crate::dynamics::MOCAP_INPUTS * m;
-            let q = crate::dynamics::quat_from(&target[3..7]);
+            let q = unit_target(&target[3..7]);
             self.current.mocap[o..o + 7]
                 .copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
         }
@@ -411,11 +411,17 @@ impl Simulation {
                 )));
             }
             let q0 = crate::dynamics::quat_from(&out[o + 3..o + 7]);
-            let q1 = crate::dynamics::quat_from(&target[3..7]);
+            let q1 = unit_target(&target[3..7]);
             let w = crate::dynamics::quat_log(&(q0.conjugate() * q1)) / h;
             for k in 0..3 {
                 out[o + 7 + k] = (target[k] - out[o + k]) / h;
                 out[o + 10 + k] = w[k];
+            }
+            // A step so short that the move overflows (h near the smallest double).
+            if out[o + 7..o + 13].iter().any(|v| !v.is_finite()) {
+                return Err(StepError::Discard(format!(
+                    "{name}: reaching its target pose in a step of {h:e} s takes an infinite speed: take a longer step, or a nearer target"
+                )));
             }
         }
         Ok(out)
@@ -430,6 +436,15 @@ impl Simulation {
             ))
         }
     }
+}
+
+/// A mocap target orientation (non-zero, as [`Simulation::mocap_path`] checks) as a unit
+/// quaternion, scaled by its largest component first so that neither huge nor tiny
+/// components overflow or vanish in the norm.
+fn unit_target(q: &[f64]) -> nalgebra::Quaternion<f64> {
+    let largest = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let scaled: Vec<f64> = q.iter().map(|x| x / largest).collect();
+    crate::dynamics::quat_from(&scaled)
 }
 
 /// Name of the first non-finite coordinate of a state, if any (see

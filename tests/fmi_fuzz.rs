@@ -992,3 +992,61 @@ fn a_zero_quaternion_saved_before_initialization_round_trips() {
     )
     .unwrap();
 }
+
+/// Found by the fuzz (mocap_push, scene 1): a mocap target set and a communication step so
+/// short that the move overflows (5e-324 s) made the mocap velocity infinite, accepted by the
+/// step and then refused by the FMU's own state bytes. Such a step is discarded, saying why;
+/// the state kept serializes.
+#[test]
+fn a_mocap_move_in_a_vanishing_step_is_discarded_and_the_state_kept() {
+    assert!(matches!(fixture(1).slots[14].0, Slot::Mocap(0, _)));
+    run(
+        1,
+        false,
+        &[
+            Op::EnterInit,
+            Op::ExitInit,
+            Op::SetReal { vr: 14, value: 0.0 },
+            Op::DoStep {
+                offset: 0.0,
+                h: 5e-324,
+            },
+            Op::SaveState,
+            Op::Serialize {
+                slot: 0,
+                damage: Damage::None,
+            },
+        ],
+    )
+    .unwrap();
+}
+
+/// Found by the fuzz: a mocap target orientation with huge (1e300) or tiny (-1e-300)
+/// components overflowed or vanished when normalized, giving an infinite pose after the step.
+/// It is scaled first; the step lands on the unit quaternion, and the state serializes.
+#[test]
+fn a_mocap_target_orientation_of_any_scale_lands_as_a_unit_quaternion() {
+    assert!(matches!(fixture(1).slots[17].0, Slot::Mocap(0, _)));
+    for value in [1e300, -1e-300] {
+        run(
+            1,
+            false,
+            &[
+                Op::EnterInit,
+                Op::ExitInit,
+                Op::SetReal { vr: 17, value },
+                Op::SaveState,
+                Op::DoStep {
+                    offset: 0.0,
+                    h: 1e-4,
+                },
+                Op::SaveState,
+                Op::Serialize {
+                    slot: 1,
+                    damage: Damage::None,
+                },
+            ],
+        )
+        .unwrap();
+    }
+}

@@ -1125,6 +1125,22 @@ fn welds_are_read_as_mujoco_reads_them() {
         "{:?}",
         scaled.warnings
     );
+    // A negative torquescale is its magnitude (MuJoCo flips residual and Jacobian together);
+    // two sites of one body hold nothing, in MuJoCo too: left out, and said so.
+    let flipped = load(&scene(r#"<weld body1="a" torquescale="-1"/>"#));
+    assert!(flipped.model.connects[0].orientation.is_some() && flipped.warnings.is_empty());
+    let nothing = load(&scene(
+        r#"<weld site1="s" site2="s"/><connect site1="t" site2="t"/>"#,
+    ));
+    assert!(nothing.model.connects.is_empty());
+    assert_eq!(
+        nothing
+            .unused
+            .iter()
+            .filter(|u| u.contains("holds nothing"))
+            .count(),
+        2
+    );
     // Sites: the points are the sites, the held rotation site 1's frame on site 2's.
     let sites = load(&scene(r#"<weld site1="s" site2="t"/>"#));
     let c = &sites.model.connects[0];
@@ -1140,7 +1156,11 @@ fn welds_are_read_as_mujoco_reads_them() {
     );
     for (equality, why) in [
         (r#"<weld body1="a" body2="a"/>"#, "the same body"),
-        (r#"<weld body1="a" torquescale="-1"/>"#, "torquescale"),
+        (
+            r#"<weld body1="a" body2="a" active="false"/>"#,
+            "the same body",
+        ),
+        (r#"<connect body1="a" active="false"/>"#, "needs an anchor"),
         (r#"<weld site1="s" site2="fromto"/>"#, "placed by fromto"),
         (r#"<weld site1="s"/>"#, "site2 is required"),
         (

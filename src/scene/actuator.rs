@@ -374,9 +374,8 @@ impl Builder {
             ("joint1", "joint2")
         };
         self.check_attrs(el, &["name", key1, key2, "polycoef", "solref", "active"])?;
-        if !self.equality_active(el)? {
-            return Ok(());
-        }
+        // Read in full even when inactive: MuJoCo refuses an inactive constraint that is wrong.
+        let active = self.equality_active(el)?;
         let find = |key: &str| -> Result<Option<usize>, SceneError> {
             let Some(name) = el.attr(key) else {
                 return Ok(None);
@@ -405,6 +404,9 @@ impl Builder {
             Some(_) => return Err(self.err(el, "polycoef: expected 5 numbers")),
         };
         let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        if !active {
+            return Ok(());
+        }
         let name = match Self::given_name(el) {
             Some(n) => n,
             None => {
@@ -436,9 +438,8 @@ impl Builder {
             allowed.extend(["relpose", "torquescale"]);
         }
         self.check_attrs(el, &allowed)?;
-        if !self.equality_active(el)? {
-            return Ok(());
-        }
+        // Read in full even when inactive: MuJoCo refuses an inactive constraint that is wrong.
+        let active = self.equality_active(el)?;
         let anchor = self.vec3(el, "anchor")?;
         // MuJoCo's rule: bodies when body1 is given (and, for a connect, an anchor), else sites.
         let bodies = el.attr("body1").is_some() && (weld || anchor.is_some());
@@ -511,26 +512,30 @@ impl Builder {
             }
             (b1, b2, Anchors::Sites(s1, s2))
         };
-        if body1 == body2 {
-            return Err(self.err(
-                el,
-                "body 1 and body 2 are the same body: the constraint would hold nothing",
+        let same = body1 == body2;
+        if same && bodies {
+            // MuJoCo's rule: an object named twice in one constraint.
+            return Err(self.err(el, "body1 and body2 are the same body: name two bodies"));
+        }
+        // A negative torquescale flips MuJoCo's residual and its Jacobian together: the same
+        // constraint as its magnitude.
+        let torquescale = self.float(el, "torquescale")?.unwrap_or(1.0).abs();
+        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        if !active {
+            return Ok(());
+        }
+        if same {
+            self.unused(el, "a constraint between two sites of one body holds nothing (nor does MuJoCo's: their relative pose cannot change)");
+            return Ok(());
+        }
+        if weld && torquescale != 0.0 && torquescale != 1.0 {
+            self.warnings.push(format!(
+                "{}:{}: <weld> torquescale=\"{}\": SCM holds the orientation with the time constant of solref for any torquescale other than 0; MuJoCo's soft constraint makes the rotation stiffer or softer with it",
+                el.file,
+                el.line,
+                el.attr("torquescale").unwrap_or_default()
             ));
         }
-        let torquescale = match self.float(el, "torquescale")? {
-            Some(s) if s < 0.0 => {
-                return Err(self.err(el, format!("torquescale=\"{s}\": expected a number >= 0")))
-            }
-            Some(s) if s != 0.0 && s != 1.0 => {
-                self.warnings.push(format!(
-                    "{}:{}: <weld> torquescale=\"{s}\": SCM holds the orientation with the time constant of solref for any positive torquescale; MuJoCo's soft constraint makes the rotation stiffer or softer with it",
-                    el.file, el.line
-                ));
-                s
-            }
-            s => s.unwrap_or(1.0),
-        };
-        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
         let name = match Self::given_name(el) {
             Some(n) => n,
             None => {

@@ -84,8 +84,23 @@ impl Builder {
         self.explicit_inertia
             .push(el.children.iter().any(|c| c.name == "inertial"));
         self.geom_inertia.push(NO_INERTIA);
-        for child in &el.children {
-            self.body_child(child, index)?;
+        self.body_children(el.children.iter(), index)
+    }
+
+    /// A body's children, as MuJoCo lists them: what belongs to the body itself (joints,
+    /// geoms, sites, in file order) before its child bodies, wherever the file writes them, so
+    /// that joints, coordinates and geoms are numbered body by body (depth first) as in
+    /// MuJoCo's compiled model.
+    pub(super) fn body_children<'a>(
+        &mut self,
+        children: impl Iterator<Item = &'a Element> + Clone,
+        body: usize,
+    ) -> Result<(), SceneError> {
+        for child in children.clone().filter(|c| c.name != "body") {
+            self.body_child(child, body)?;
+        }
+        for child in children.filter(|c| c.name == "body") {
+            self.body_child(child, body)?;
         }
         Ok(())
     }
@@ -132,6 +147,32 @@ impl Builder {
                 t => return Err(self.err(el, format!("type=\"{t}\" is not a joint type"))),
             }
         };
+        // MuJoCo's rules for the joints of one body: no rotation after a ball joint (the ball
+        // already turns the body every way), and at most 6 degrees of freedom.
+        let before: Vec<JointKind> = self.bodies[body]
+            .joints
+            .iter()
+            .map(|&j| self.joints[j].kind)
+            .collect();
+        if matches!(kind, JointKind::Ball | JointKind::Hinge) && before.contains(&JointKind::Ball) {
+            return Err(self.err(el, format!("a rotation after the ball joint of body '{}': MuJoCo refuses it too (the ball already turns the body every way)", self.bodies[body].name)));
+        }
+        let dofs = |k: &JointKind| match k {
+            JointKind::Free => 6,
+            JointKind::Ball => 3,
+            _ => 1,
+        };
+        // (A free joint beside others has its own message, where the tree is built.)
+        let free_too = kind == JointKind::Free || before.contains(&JointKind::Free);
+        if !free_too && before.iter().chain([&kind]).map(dofs).sum::<usize>() > 6 {
+            return Err(self.err(
+                el,
+                format!(
+                    "more than 6 degrees of freedom in body '{}': MuJoCo refuses it too",
+                    self.bodies[body].name
+                ),
+            ));
+        }
         // `springdamper="τ ζ"`: stiffness and damping from the joint's inertia at qpos0, once
         // the tree is known (`apply_springdampers`); "0 0" (MuJoCo's default) is none.
         let springdamper = match self.floats(el, "springdamper", 2)? {

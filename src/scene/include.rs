@@ -33,11 +33,12 @@ pub fn expand(root: &mut Element, path: &Path) -> Result<Vec<IncludedFile>, Scen
 /// Where `scm pack` put `wanted` (a path under the unpacked FMU's `resources/` folder `main`,
 /// lexically) if the scene is an FMU's and the file is there.
 fn in_fmu(main: &Path, wanted: &Path) -> Option<PathBuf> {
-    let is_fmu =
-        main.file_name().is_some_and(|n| n == "resources") && main.join(super::SCENE_FILE).exists();
+    if !super::paths::is_unpacked_fmu(main) {
+        return None;
+    }
     let rel = wanted.strip_prefix(main).ok()?;
     let packed = main.join(super::paths::packed_relative(&rel.to_string_lossy()).ok()?);
-    (is_fmu && packed.exists()).then_some(packed)
+    packed.exists().then_some(packed)
 }
 
 fn expand_in(

@@ -615,14 +615,17 @@ impl Builder {
                 }
             }
         }
+        // Every <worldbody> (an included file may bring another) adds to the one world body,
+        // as in MuJoCo: its own geoms and sites first, then its bodies.
+        let world = root
+            .children
+            .iter()
+            .filter(|el| el.name == "worldbody")
+            .flat_map(|el| el.children.iter());
+        self.body_children(world, 0)?;
         for el in &root.children {
             match el.name.as_str() {
-                "compiler" | "option" | "default" | "custom" | "asset" => {}
-                "worldbody" => {
-                    for child in &el.children {
-                        self.body_child(child, 0)?;
-                    }
-                }
+                "compiler" | "option" | "default" | "custom" | "asset" | "worldbody" => {}
                 // After everything else: an actuator names joints and tendons wherever they
                 // are declared, as MuJoCo resolves names after reading the whole file.
                 "actuator" => {}
@@ -659,15 +662,26 @@ impl Builder {
             }
         }
         for el in root.children.iter().filter(|el| el.name == "equality") {
+            // Switched off, the constraints are still read (MuJoCo refuses a wrong one) and
+            // then left out.
+            let kept = (
+                self.equalities.len(),
+                self.connects.len(),
+                self.warnings.len(),
+                self.unused.len(),
+            );
+            for e in &el.children {
+                self.equality(e)?;
+            }
             if !self.flags.equality && !el.children.is_empty() {
+                self.equalities.truncate(kept.0);
+                self.connects.truncate(kept.1);
+                self.warnings.truncate(kept.2);
+                self.unused.truncate(kept.3);
                 self.unused(
                     el,
                     "equality constraints switched off by <flag equality=\"disable\">",
                 );
-                continue;
-            }
-            for e in &el.children {
-                self.equality(e)?;
             }
         }
         for el in root.children.iter().filter(|el| el.name == "actuator") {

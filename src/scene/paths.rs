@@ -15,11 +15,7 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
     if f.is_absolute() {
         return f.to_path_buf();
     }
-    let in_fmu = scene.file_name().is_some_and(|n| n == SCENE_FILE)
-        && scene_dir(scene)
-            .file_name()
-            .is_some_and(|n| n == "resources");
-    if in_fmu {
+    if is_unpacked_fmu(&scene_dir(scene)) {
         if let Ok(packed) = packed_mesh_name(file) {
             let p = scene_dir(scene).join(packed);
             if p.exists() {
@@ -32,6 +28,12 @@ pub fn mesh_path(scene: &Path, meshdir: Option<&str>, file: &str) -> PathBuf {
         dir = dir.join(d);
     }
     dir.join(f)
+}
+
+/// Whether `folder` is an unpacked FMU's `resources/`, holding the scene `scm pack` put
+/// there: where packed files are looked up by their packed names first.
+pub fn is_unpacked_fmu(folder: &Path) -> bool {
+    folder.file_name().is_some_and(|n| n == "resources") && folder.join(SCENE_FILE).exists()
 }
 
 /// The name under an FMU's `resources/` of a mesh whose `file` attribute is `file`:

@@ -12,16 +12,58 @@ SCM = ROOT / "target" / "release" / "scm"
 #: test parametrized over this list).
 ALL_SCENES = sorted(p.stem for p in SCENES.glob("*.xml"))
 
-#: dm_control's suite models, a second corpus of MJCF files as users bring them (unpacked from
-#: its wheel by scripts/setup.sh).
-DM_CONTROL_DIR = ROOT / ".venv" / "dm_control_suite" / "dm_control" / "suite"
-DM_CONTROL = sorted(DM_CONTROL_DIR.glob("*.xml"))
-#: The suite files SCM refuses, and the reason its message must give (at the file and line of
-#: the element). Everything else in the suite loads.
+#: dm_control's models, a second corpus of MJCF files as users bring them (unpacked from its
+#: wheel by scripts/setup.sh): the suite's, and the walkers, props, arenas, the Kinova arm and
+#: the test models it ships beside them (those MuJoCo loads).
+DM_CONTROL_ROOT = ROOT / ".venv" / "dm_control_assets" / "dm_control"
+DM_CONTROL_DIR = DM_CONTROL_ROOT / "suite"
+DM_CONTROL_SUITE = sorted(DM_CONTROL_DIR.glob("*.xml"))
+DM_CONTROL_MORE = sorted(DM_CONTROL_ROOT / f for f in (
+    "locomotion/walkers/assets/humanoid_CMU_V2019.xml",
+    "locomotion/walkers/assets/humanoid_CMU_V2020.xml",
+    "locomotion/walkers/assets/rodent.xml",
+    "locomotion/walkers/assets/dog_v2/dog.xml",
+    "locomotion/walkers/assets/fruitfly_v2/fruitfly.xml",
+    "locomotion/walkers/assets/jumping_ball/jumping_ball_with_head.xml",
+    "locomotion/soccer/assets/boxhead/boxhead.xml",
+    "third_party/ant/ant.xml",
+    "third_party/kinova/jaco_arm.xml",
+    "third_party/kinova/jaco_hand.xml",
+    "entities/props/duplo/duplo2x4.xml",
+    "composer/arena.xml",
+    "mujoco/testing/assets/arm.xml",
+    "mujoco/testing/assets/cartpole.xml",
+    "mujoco/testing/assets/cartpole_no_names.xml",
+    "mujoco/testing/assets/humanoid.xml",
+    "mujoco/testing/assets/model_with_ball_joints.xml",
+    "mujoco/testing/assets/model_with_third_order_actuators.xml",
+    "mujoco/testing/assets/sphere.xml",
+))
+DM_CONTROL = DM_CONTROL_SUITE + DM_CONTROL_MORE
+
+
+def dm_id(path):
+    """A test id for a dm_control file: the suite's by name, the others by folder and name."""
+    if path.parent == DM_CONTROL_DIR:
+        return path.stem
+    if path.parent.name == "assets" and path.parent.parent.name == "testing":
+        return f"testing_{path.stem}"
+    return f"{path.parent.name}_{path.stem}" if path.parent.name in ("dog_v2", "fruitfly_v2") else path.stem
+
+
+#: The dm_control files SCM refuses, and the reason its message must give (at the file and line
+#: of the element). Everything else loads.
 DM_CONTROL_REFUSED = {
     "ball_in_cup": ("ball_in_cup.xml:47: <spatial>", "spatial tendons are not supported"),
     "dog": ("dog.xml:945: <general>", "no activation state"),
     "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
+    "rodent": ("rodent.xml:561: <general>", "no activation state"),
+    "dog_v2_dog": ("dog.xml:936: <general>", "no activation state"),
+    "fruitfly_v2_fruitfly": ("fruitfly.xml:219: <mesh>", "unsupported mesh format 'msh'"),
+    "jaco_arm": ("jaco_arm.xml:6: <mesh>", "open"),
+    "jaco_hand": ("jaco_hand.xml:6: <mesh>", "open"),
+    "testing_model_with_third_order_actuators": ("model_with_third_order_actuators.xml:10: <cylinder>",
+                                                 "unsupported actuator"),
 }
 
 #: gymnasium-robotics' models, a third corpus (unpacked from its wheel by scripts/setup.sh): the

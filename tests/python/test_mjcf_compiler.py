@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCENES, SCM, robotics_id
+from conftest import DM_CONTROL, DM_CONTROL_MORE, DM_CONTROL_REFUSED, DM_CONTROL_SUITE, ROBOTICS, ROBOTICS_REFUSED, SCENES, SCM, dm_id, robotics_id
 
 TOL = 1e-9
 #: For what SCM and MuJoCo both derive from the mass matrix at qpos0 (a limit's spring from
@@ -326,14 +326,16 @@ def test_corpus_file_compiles_as_mujoco_compiles_it(path):
 
 
 def test_the_dm_control_corpus_is_there():
-    assert len(DM_CONTROL) == 19, [p.name for p in DM_CONTROL]
+    assert len(DM_CONTROL_SUITE) == 19, [p.name for p in DM_CONTROL_SUITE]
+    assert all(p.exists() for p in DM_CONTROL_MORE), [p for p in DM_CONTROL_MORE if not p.exists()]
+    assert len({dm_id(p) for p in DM_CONTROL}) == len(DM_CONTROL), "test ids are unique"
 
 
-@pytest.mark.parametrize("path", DM_CONTROL, ids=[p.stem for p in DM_CONTROL])
+@pytest.mark.parametrize("path", DM_CONTROL, ids=[dm_id(p) for p in DM_CONTROL])
 def test_dm_control_file_compiles_as_mujoco_compiles_it_or_is_refused_saying_why(path):
-    mujoco.MjModel.from_xml_path(str(path))  # MuJoCo takes every file of its suite
-    if path.stem in DM_CONTROL_REFUSED:
-        where, why = DM_CONTROL_REFUSED[path.stem]
+    mujoco.MjModel.from_xml_path(str(path))  # MuJoCo takes every file of the corpus
+    if dm_id(path) in DM_CONTROL_REFUSED:
+        where, why = DM_CONTROL_REFUSED[dm_id(path)]
         out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
         assert out.returncode != 0 and where in out.stderr and why in out.stderr, out.stderr
         return
@@ -387,6 +389,38 @@ def test_equalities_compile_as_mujoco_compiles_them(tmp_path):
     path = tmp_path / "four_bar.xml"
     path.write_text(FOUR_BAR)
     assert len(compare(path)["connects"]) == 1
+
+
+LATE_JOINTS = """<mujoco>
+  <worldbody>
+    <body name="base" pos="0 0 1">
+      <body name="arm" pos="0.2 0 0">
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+        <joint name="elbow" axis="0 1 0"/>
+      </body>
+      <geom type="box" size="0.1 0.1 0.1"/>
+      <joint name="yaw" axis="0 0 1"/>
+      <joint name="lift" type="slide" axis="0 0 1"/>
+    </body>
+    <body name="second" pos="1 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.1"/>
+    </body>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+  </worldbody>
+</mujoco>"""
+
+
+def test_joints_written_after_child_bodies_are_numbered_body_by_body(tmp_path):
+    """MuJoCo numbers joints, coordinates and geoms body by body (a body's own before its
+    children's), wherever the file writes them: joints after a child body (dm_control's boxhead,
+    rodent) and a world geom after the bodies. Compiled and moved as MuJoCo does."""
+    from test_mjcf_dynamics import matches_mujoco
+    path = tmp_path / "late.xml"
+    path.write_text(LATE_JOINTS)
+    ours = compare(path)
+    assert [j["name"] for j in ours["joints"]] == ["yaw", "lift", "elbow", "second"]
+    matches_mujoco(path, tmp_path)
 
 
 WELDS = """<mujoco>
@@ -814,10 +848,12 @@ def _ancestor(m, b, k):
     return False
 
 
-COLLIDING = CORPUS + [p for p in DM_CONTROL if p.stem not in DM_CONTROL_REFUSED] + BUNDLED
+DM_LOADING = [p for p in DM_CONTROL if dm_id(p) not in DM_CONTROL_REFUSED]
+COLLIDING = CORPUS + DM_LOADING + BUNDLED
 
 
-@pytest.mark.parametrize("path", COLLIDING, ids=[f"{p.parent.name}-{p.stem}" for p in COLLIDING])
+@pytest.mark.parametrize("path", COLLIDING, ids=[f"gymnasium-{p.stem}" for p in CORPUS]
+                         + [f"dm_control-{dm_id(p)}" for p in DM_LOADING] + [f"scene-{p.stem}" for p in BUNDLED])
 def test_the_bodies_that_collide_are_those_mujoco_lets_touch(path):
     """SCM's pairs (scm check) against MuJoCo's filter on the same file, bodies by SCM's
     names (in MuJoCo's order; an unnamed body gets a made-up one). SCM gives each of several

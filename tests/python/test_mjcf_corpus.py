@@ -19,7 +19,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, robotics_id
+from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, dm_id, robotics_id
 
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
@@ -38,11 +38,12 @@ def test_corpus_file_packs_validates_and_runs(path, tmp_path):
     packs_validates_and_runs(path, tmp_path, 1.0, refusal)
 
 
-@pytest.mark.parametrize("path", DM_CONTROL, ids=[p.stem for p in DM_CONTROL])
+@pytest.mark.parametrize("path", DM_CONTROL, ids=[dm_id(p) for p in DM_CONTROL])
 def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
-    """dm_control's suite the same way, for 0.1 s (its humanoid_CMU takes 15 s for that on one
-    core: 31 bodies besides the world, contact on); the refused files name file, line and reason."""
-    packs_validates_and_runs(path, tmp_path, 0.1, DM_CONTROL_REFUSED.get(path.stem))
+    """dm_control's files the same way, for 0.1 s (the suite's humanoid_CMU takes 15 s for that
+    on one core: 31 bodies besides the world, contact on); the refused files name file, line and
+    reason."""
+    packs_validates_and_runs(path, tmp_path, 0.1, DM_CONTROL_REFUSED.get(dm_id(path)))
 
 
 @pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])

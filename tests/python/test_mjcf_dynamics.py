@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, robotics_id
+from conftest import DM_CONTROL, DM_CONTROL_REFUSED, ROBOTICS, ROBOTICS_REFUSED, SCM, dm_id, robotics_id
 
 CORPUS_DIR = pathlib.Path(gymnasium.__file__).parent / "envs" / "mujoco" / "assets"
 CORPUS = sorted(CORPUS_DIR.glob("*.xml"))
@@ -74,16 +74,20 @@ def coordinate_names(m):
     return names
 
 
-#: Suite files that are templates the suite completes in Python, where nothing moves as written.
+#: dm_control files where nothing moves as written: templates the suite completes in Python, and
+#: an arena.
 DM_STILL = {
     "lqr": "no joints (the suite builds its chain in Python)",
     "swimmer": "only the head's planar joints, no actuator, gravity across the plane (the suite adds the segments)",
+    "arena": "no joints (composer's arena: a floor and its lights)",
+    "duplo2x4": "no joints (a prop: composer gives it a free joint when it places it)",
+    "testing_sphere": "no joints (a static sphere for dm_control's own tests)",
 }
-DM_LOADED = [p for p in DM_CONTROL if p.stem not in DM_CONTROL_REFUSED and p.stem not in DM_STILL]
+DM_LOADED = [p for p in DM_CONTROL if dm_id(p) not in DM_CONTROL_REFUSED and dm_id(p) not in DM_STILL]
 
 
 @pytest.mark.parametrize("path", CORPUS + DM_LOADED,
-                         ids=[p.stem for p in CORPUS] + [f"dm_control-{p.stem}" for p in DM_LOADED])
+                         ids=[p.stem for p in CORPUS] + [f"dm_control-{dm_id(p)}" for p in DM_LOADED])
 def test_contact_free_motion_matches_mujoco(path, tmp_path):
     matches_mujoco(path, tmp_path)
 
