@@ -152,9 +152,10 @@ fn a_scene_names_the_mesh_problem_and_its_line() {
     let dir = tmp("scene");
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("open.obj"), cube_obj(Some(0), &[])).unwrap();
+    // Weighed by the solid it encloses (inertia="exact"), an open surface is refused.
     let xml = r#"<mujoco>
   <asset>
-    <mesh name="m" file="open.obj"/>
+    <mesh name="m" file="open.obj" inertia="exact"/>
   </asset>
   <worldbody><body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody>
 </mujoco>"#;

@@ -913,8 +913,9 @@ fn a_damper_needs_a_non_negative_control_range() {
 /// tendon declared (in an include) before the joints it names, and an open mesh: left out
 /// (listed as unused) on a geom that neither collides nor carries mass; on a colliding geom
 /// sampled by its convex hull, as MuJoCo collides it (a warning says so); on a geom that gives
-/// its body mass refused naming both the mesh and the geom, unless the mesh asks for the
-/// hull's mass (`inertia="convex"`, MuJoCo's choice then).
+/// its body mass weighed as MuJoCo weighs it: by default its legacy rule (pyramids from the
+/// faces there are), the hull's mass under `inertia="convex"`, and refused under
+/// `inertia="exact"` (the solid a closed surface encloses), naming both the mesh and the geom.
 #[test]
 fn robotics_files_include_roots_late_joints_and_open_meshes() {
     let dir = scratch("robotics");
@@ -959,25 +960,32 @@ fn robotics_files_include_roots_late_joints_and_open_meshes() {
         "{:?}",
         s.warnings
     );
-    // Carrying mass: the mesh's volume is needed, and refused where it is declared.
+    // Carrying mass by MuJoCo's default rule: three pyramids from the faces' centroid
+    // (0.1/45)·(2, 2, 2), each of height 0.1·2/9 on a face of 0.005 m²: 0.1³/9 in all.
+    let capsule = std::f64::consts::PI * 0.02f64.powi(2) * (0.3 + 4.0 / 3.0 * 0.02);
     for visual in ["", r#"contype="0" conaffinity="0""#] {
         std::fs::write(&main, scene(visual)).unwrap();
-        let e = scm::scene::load(&main).unwrap_err();
+        let s = scm::scene::load(&main).unwrap();
+        let mass = body(&s, "arm").inertia.mass;
         assert!(
-            e.file.ends_with("shared.xml") && e.line == 5,
-            "{visual}: {e}"
-        );
-        assert!(
-            e.message.contains("the mesh is open")
-                && e.message.contains("robot.xml:7")
-                && e.message.contains("inertia=\"convex\""),
-            "{visual}: {e}"
+            (mass - 1000.0 * (capsule + 1e-3 / 9.0)).abs() < 1e-7,
+            "{visual}: {mass}"
         );
     }
+    // The solid the surface encloses (inertia="exact") needs a closed surface: refused where
+    // the mesh is declared, naming the geom.
+    std::fs::write(dir.join("shared.xml"), shared(r#"inertia="exact""#)).unwrap();
+    let e = scm::scene::load(&main).unwrap_err();
+    assert!(e.file.ends_with("shared.xml") && e.line == 5, "{e}");
+    assert!(
+        e.message.contains("the mesh is open")
+            && e.message.contains("robot.xml:7")
+            && e.message.contains("inertia=\"exact\""),
+        "{e}"
+    );
     // ... unless the mesh asks for its hull's mass, as MuJoCo then takes it.
     std::fs::write(dir.join("shared.xml"), shared(r#"inertia="convex""#)).unwrap();
     let s = scm::scene::load(&main).unwrap();
-    let capsule = std::f64::consts::PI * 0.02f64.powi(2) * (0.3 + 4.0 / 3.0 * 0.02);
     let mass = body(&s, "arm").inertia.mass;
     assert!(
         (mass - 1000.0 * (capsule + 1e-3 / 6.0)).abs() < 1e-7,

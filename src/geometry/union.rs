@@ -299,23 +299,83 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
     }
     let n = 128;
     let step = (hi - lo) / n as f64;
-    let mut inside = 0usize;
-    for i in 0..n {
-        for j in 0..n {
-            for k in 0..n {
-                let x = lo
-                    + Vector3::new(
-                        (i as f64 + 0.5) * step.x,
-                        (j as f64 + 0.5) * step.y,
-                        (k as f64 + 0.5) * step.z,
-                    );
-                if geoms
-                    .iter()
-                    .any(|(s, p)| s.contains(&(p.inverse() * Point3::from(x)).coords))
-                {
-                    inside += 1;
+    let centre = |i: usize, k: usize| lo[k] + (i as f64 + 0.5) * step[k];
+    // Meshes: where each vertical grid line crosses the surface, from the triangles over it
+    // (a winding number per grid point costs a pass over every triangle; a crossing list costs
+    // a pass over the few triangles above each line). A line whose crossings are odd in
+    // number (through an edge or a vertex) falls back to the winding number.
+    let crossings: Vec<Option<Vec<Vec<f64>>>> = geoms
+        .iter()
+        .map(|(s, p)| {
+            let Shape::Mesh(m) = s else { return None };
+            let v: Vec<Vector3<f64>> = m
+                .vertices
+                .iter()
+                .map(|x| p * Point3::from(*x))
+                .map(|x| x.coords)
+                .collect();
+            let mut lines = vec![Vec::new(); n * n];
+            for t in &m.triangles {
+                let [a, b, c] = t.map(|i| v[i as usize]);
+                let (tlo, thi) = (a.inf(&b).inf(&c), a.sup(&b).sup(&c));
+                let range = |k: usize| {
+                    let first = ((tlo[k] - lo[k]) / step[k] - 0.5).ceil().max(0.0) as usize;
+                    let last = ((thi[k] - lo[k]) / step[k] - 0.5)
+                        .floor()
+                        .min(n as f64 - 1.0);
+                    (first, last)
+                };
+                let ((i0, i1), (j0, j1)) = (range(0), range(1));
+                if i1 < 0.0 || j1 < 0.0 {
+                    continue;
+                }
+                let det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+                if det == 0.0 {
+                    continue; // seen edge-on from above: the line runs along it
+                }
+                for i in i0..=i1 as usize {
+                    for j in j0..=j1 as usize {
+                        let (x, y) = (centre(i, 0), centre(j, 1));
+                        let u = ((x - a.x) * (c.y - a.y) - (c.x - a.x) * (y - a.y)) / det;
+                        let w = ((b.x - a.x) * (y - a.y) - (x - a.x) * (b.y - a.y)) / det;
+                        if u >= 0.0 && w >= 0.0 && u + w <= 1.0 {
+                            lines[i * n + j].push(a.z + u * (b.z - a.z) + w * (c.z - a.z));
+                        }
+                    }
                 }
             }
+            Some(lines)
+        })
+        .collect();
+    let mut inside = 0usize;
+    let mut member = vec![false; n];
+    for i in 0..n {
+        for j in 0..n {
+            member.fill(false);
+            for (g, (s, p)) in geoms.iter().enumerate() {
+                let along = crossings[g].as_ref().map(|l| &l[i * n + j]);
+                match along {
+                    Some(z) if z.len() % 2 == 0 => {
+                        let mut z = z.clone();
+                        z.sort_by(f64::total_cmp);
+                        for pair in z.chunks(2) {
+                            for (k, m) in member.iter_mut().enumerate() {
+                                let zk = centre(k, 2);
+                                *m |= pair[0] < zk && zk < pair[1];
+                            }
+                        }
+                    }
+                    _ => {
+                        for (k, m) in member.iter_mut().enumerate() {
+                            if !*m {
+                                let x = Vector3::new(centre(i, 0), centre(j, 1), centre(k, 2));
+                                *m = s.contains(&(p.inverse() * Point3::from(x)).coords);
+                            }
+                        }
+                    }
+                }
+            }
+            inside += member.iter().filter(|&&m| m).count();
         }
     }
     (inside as f64 * step.product(), false)

@@ -185,8 +185,8 @@ impl Builder {
                         Some(Shape::Mesh(mesh.clone()))
                     }
                     (None, Some(problem)) => {
-                        let (problem, convex_inertia) = (problem.clone(), asset.convex_inertia);
-                        match self.geom_without_its_mesh(el, body, problem, name, convex_inertia)? {
+                        let (problem, inertia) = (problem.clone(), asset.inertia);
+                        match self.geom_without_its_mesh(el, body, problem, name, inertia)? {
                             Some(hull) => {
                                 let asset = self.meshes.iter_mut().find(|m| m.name == name);
                                 asset.expect("found above").used = true;
@@ -239,7 +239,11 @@ impl Builder {
             };
             let (lo, hi) = self.settings.inertia_groups;
             if body != 0 && (lo..=hi).contains(&group) {
-                let mp = shape.mass_properties();
+                let mp = match &mesh_name {
+                    Some(mesh) => self.mesh_mass(el, mesh)?,
+                    None => None,
+                }
+                .unwrap_or_else(|| shape.mass_properties());
                 let mass = match (self.float(el, "mass")?, self.float(el, "density")?) {
                     (Some(m), _) if m < 0.0 => {
                         return Err(self.err(el, format!("mass=\"{m}\" must not be negative")))
@@ -281,8 +285,9 @@ impl Builder {
     /// A geom whose mesh has no closed surface (`problem`), and the convex hull of its
     /// vertices (`hull`, if they span a volume). A geom that collides samples the hull, which
     /// is what MuJoCo collides every mesh by (noted as a warning); its mass, if it gives its
-    /// body mass, is the hull's where the mesh says `inertia="convex"` (MuJoCo's choice then),
-    /// and otherwise the mesh's problem is the error, naming the geom. A geom that neither
+    /// body mass, is what MuJoCo makes of the mesh ([`Builder::mesh_mass`]: by default its
+    /// legacy rule, which takes open surfaces), except under `inertia="exact"`, which needs a
+    /// closed surface: there the mesh's problem is the error, naming the geom. A geom that neither
     /// collides (`contype` and `conaffinity` both 0) nor gives its body mass (a zero mass or
     /// density, a group outside `inertiagrouprange`, or a body whose inertia does not come from
     /// its geoms) is left out of the model and listed as unused. Returns the shape the geom
@@ -293,7 +298,7 @@ impl Builder {
         body: usize,
         problem: SceneError,
         mesh: &str,
-        convex_inertia: bool,
+        inertia: MeshInertia,
     ) -> Result<Option<Arc<TriMesh>>, SceneError> {
         let collides = self.bits(el, "contype")? != 0 || self.bits(el, "conaffinity")? != 0;
         let group: i64 = el
@@ -314,8 +319,8 @@ impl Builder {
             ..problem.clone()
         }
         };
-        if gives_mass && !convex_inertia {
-            return Err(refuse("it gives its body mass: SCM needs its volume (write inertia=\"convex\" on the mesh for the mass of its convex hull, as MuJoCo takes it then, or give the body an <inertial>)"));
+        if gives_mass && inertia == MeshInertia::Exact {
+            return Err(refuse("it gives its body mass by the mesh's inertia=\"exact\", the solid its surface encloses, and the surface is not closed (MuJoCo's default inertia, without that attribute, or inertia=\"convex\" weigh an open mesh; or give the body an <inertial>)"));
         }
         if collides || gives_mass {
             let (hull, maxhullvert) = match self.hull_of(mesh) {
@@ -330,15 +335,13 @@ impl Builder {
             if let Some(n) = maxhullvert {
                 return Err(refuse(&format!("SCM takes its convex hull, which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both")));
             }
-            let what = match (collides, gives_mass) {
-                (true, true) => "collides and weighs (inertia=\"convex\") by the convex hull of its mesh, as MuJoCo does",
-                (true, false) => "collides by the convex hull of its mesh, as MuJoCo collides every mesh",
-                _ => "weighs by the convex hull of its mesh (inertia=\"convex\"), as MuJoCo does",
-            };
-            self.warnings.push(format!(
-                "{}:{}: <geom> {what} ({})",
-                el.file, el.line, problem.message
-            ));
+            // Its mass is MuJoCo's (`mesh_mass`); its collision surface is the hull.
+            if collides {
+                self.warnings.push(format!(
+                    "{}:{}: <geom> collides by the convex hull of its mesh, as MuJoCo collides every mesh ({})",
+                    el.file, el.line, problem.message
+                ));
+            }
             return Ok(Some(hull));
         }
         self.unused(
@@ -349,6 +352,42 @@ impl Builder {
             ),
         );
         Ok(None)
+    }
+
+    /// The mass properties of mesh asset `mesh` (unit density, mesh frame) as MuJoCo weighs it
+    /// for geom `el`: by its legacy rule (the default), or its convex hull's
+    /// (`inertia="convex"`); `None` for `inertia="exact"`, the closed surface's own solid (the
+    /// shape's exact mass properties). Computed once per mesh. A rule that gives no volume,
+    /// and a hull MuJoCo reduces (`maxhullvert`) under `inertia="convex"`, are refused here.
+    fn mesh_mass(
+        &mut self,
+        el: &Element,
+        mesh: &str,
+    ) -> Result<Option<crate::geometry::MassProperties>, SceneError> {
+        let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
+            return Ok(None);
+        };
+        match asset.inertia {
+            MeshInertia::Exact => Ok(None),
+            MeshInertia::Legacy => {
+                if let Some(mp) = asset.legacy {
+                    return Ok(Some(mp));
+                }
+                let mp = match &asset.mesh {
+                    Some(closed) => closed.legacy_mass_properties(),
+                    None => TriMesh::load_legacy_mass(&asset.path, &asset.scale).ok(),
+                };
+                let mp = mp.ok_or_else(|| self.err(el, format!("mesh '{mesh}' encloses no volume by MuJoCo's default (legacy) rule, which MuJoCo refuses too: give the body an <inertial>, or the geom mass=\"0\"")))?;
+                let asset = self.meshes.iter_mut().find(|m| m.name == mesh);
+                asset.expect("found above").legacy = Some(mp);
+                Ok(Some(mp))
+            }
+            MeshInertia::Convex => match self.hull_of(mesh) {
+                Some((_, Some(n))) => Err(self.err(el, format!("mesh '{mesh}' weighs by its convex hull (inertia=\"convex\"), which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both"))),
+                Some((hull, None)) => Ok(Some(hull.mass_properties())),
+                None => Err(self.err(el, format!("mesh '{mesh}' weighs by its convex hull (inertia=\"convex\"), and its vertices lie in one plane: the hull has no volume"))),
+            },
+        }
     }
 
     /// The convex hull of mesh asset `mesh`'s vertices and its `maxhullvert`: read once, for
@@ -383,19 +422,19 @@ impl Builder {
                 return Err(self.err(el, format!("{unsupported} is not supported")));
             }
         }
-        // SCM computes the exact mass properties of the closed mesh, which is MuJoCo's
-        // inertia="exact"; its default ("legacy") and "convex" differ for non-convex meshes.
-        match el.attr("inertia") {
-            Some("exact") => {}
+        // A mesh weighs as MuJoCo weighs it: its default rule ("legacy"), the exact solid, or
+        // the convex hull (`MeshInertia`).
+        let inertia = match el.attr("inertia") {
+            None | Some("legacy") => MeshInertia::Legacy,
+            Some("exact") => MeshInertia::Exact,
+            Some("convex") => MeshInertia::Convex,
             Some("shell") => {
                 return Err(self.err(el, "inertia=\"shell\" is not supported by SCM: use exact (a solid mesh), or give the body an <inertial>"))
             }
-            Some("legacy" | "convex") => {}
             Some(v) => {
                 return Err(self.err(el, format!("inertia=\"{v}\": expected exact, convex, legacy or shell")))
             }
-            None => {}
-        }
+        };
         // MuJoCo's hull keeps at most maxhullvert vertices; SCM's hull (used where the surface
         // is not closed) keeps them all, and refuses it there (`geom_without_its_mesh`).
         let maxhullvert = match el.attr("maxhullvert").map(|v| v.trim().parse::<i64>()) {
@@ -446,15 +485,7 @@ impl Builder {
             Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
             Err(e) => return Err(self.err(el, e.to_string())),
         };
-        let convex_inertia = el.attr("inertia") == Some("convex");
-        // An open mesh with inertia="convex" weighs as its hull, as in MuJoCo.
-        if el.attr("inertia") != Some("exact") && !(problem.is_some() && convex_inertia) {
-            self.warnings.push(format!(
-                "{}:{}: mesh inertia=\"{}\": SCM computes the exact inertia of the closed mesh; MuJoCo's can differ for a non-convex mesh (write inertia=\"exact\" for the same masses in both)",
-                el.file, el.line, el.attr("inertia").unwrap_or("legacy")
-            ));
-        }
-        if maxhullvert.is_some() && problem.is_none() {
+        if maxhullvert.is_some() && problem.is_none() && inertia != MeshInertia::Convex {
             self.unused(
                 el,
                 "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",
@@ -468,7 +499,8 @@ impl Builder {
             problem,
             hull: None,
             scale,
-            convex_inertia,
+            inertia,
+            legacy: None,
             maxhullvert,
             used: false,
         });

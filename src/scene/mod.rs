@@ -98,12 +98,27 @@ pub struct MeshAsset {
     pub hull: Option<Arc<TriMesh>>,
     /// The `scale` the file is read with (for the hull).
     pub scale: Vector3<f64>,
-    /// `inertia="convex"`: MuJoCo takes the mass of the convex hull.
-    pub convex_inertia: bool,
+    /// How MuJoCo weighs it (`inertia`).
+    pub inertia: MeshInertia,
+    /// Its mass properties by MuJoCo's default rule (`inertia="legacy"`), computed when the
+    /// first geom that weighs by it needs them.
+    pub legacy: Option<crate::geometry::MassProperties>,
     /// `maxhullvert`, when it limits MuJoCo's hull (not -1).
     pub maxhullvert: Option<i64>,
     /// Whether a geom uses it.
     pub used: bool,
+}
+
+/// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshInertia {
+    /// MuJoCo's default: pyramids from the faces, each counted positive
+    /// ([`crate::geometry::mesh::legacy_mass_properties`]).
+    Legacy,
+    /// The exact solid of the closed surface.
+    Exact,
+    /// The solid of the convex hull of the vertices.
+    Convex,
 }
 
 /// A geom as read from the scene, posed in its body's frame.

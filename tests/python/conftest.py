@@ -60,8 +60,6 @@ DM_CONTROL_REFUSED = {
     "rodent": ("rodent.xml:561: <general>", "no activation state"),
     "dog_v2_dog": ("dog.xml:936: <general>", "no activation state"),
     "fruitfly_v2_fruitfly": ("fruitfly.xml:219: <mesh>", "unsupported mesh format 'msh'"),
-    "jaco_arm": ("jaco_arm.xml:6: <mesh>", "open"),
-    "jaco_hand": ("jaco_hand.xml:6: <mesh>", "open"),
     "testing_model_with_third_order_actuators": ("model_with_third_order_actuators.xml:10: <cylinder>",
                                                  "unsupported actuator"),
 }

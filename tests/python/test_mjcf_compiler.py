@@ -809,6 +809,70 @@ def test_an_open_mesh_collides_and_weighs_by_its_convex_hull_as_in_mujoco(tmp_pa
     assert out.returncode != 0 and "maxhullvert" in out.stderr, out.stderr
 
 
+#: An L-shaped prism (closed, not convex): arms 0.4 long and 0.04 wide, 0.05 thick, whose
+#: faces' centroid lies outside it (so MuJoCo's default rule counts some volume twice).
+L_PRISM = "".join(f"v {x} {y} {z}\n" for z in (0, 0.05) for x, y in
+                  ((0, 0), (0.4, 0), (0.4, 0.04), (0.04, 0.04), (0.04, 0.4), (0, 0.4))) + """\
+f 1 3 2
+f 1 4 3
+f 1 6 4
+f 4 6 5
+f 7 8 9
+f 7 9 10
+f 7 10 12
+f 10 11 12
+f 1 2 8
+f 1 8 7
+f 2 3 9
+f 2 9 8
+f 3 4 10
+f 3 10 9
+f 4 5 11
+f 4 11 10
+f 5 6 12
+f 5 12 11
+f 6 1 7
+f 6 7 12
+"""
+
+
+def test_meshes_weigh_by_mujocos_default_rule_as_in_mujoco(tmp_path):
+    """MuJoCo's default mesh inertia (legacy: pyramids from the faces, each counted positive)
+    on a closed non-convex mesh, where it differs from the exact solid, and on the open box,
+    which it weighs without a lid; inertia="exact" gives the exact solid of the closed one.
+    Mass, centre of mass and inertia as MuJoCo's."""
+    (tmp_path / "l_prism.obj").write_text(L_PRISM)
+    (tmp_path / "open_tray.obj").write_text(OPEN_BOX)
+    path = tmp_path / "legacy.xml"
+    text = """<mujoco>
+  <asset>
+    <mesh name="l" file="l_prism.obj" INERTIA/>
+    <mesh name="tray" file="open_tray.obj"/>
+  </asset>
+  <worldbody>
+    <body name="l" pos="0 0 1" euler="10 20 30">
+      <freejoint/>
+      <geom type="mesh" mesh="l"/>
+    </body>
+    <body name="tray" pos="1 0 1">
+      <freejoint/>
+      <geom type="mesh" mesh="tray" density="500"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+    path.write_text(text.replace("INERTIA", ""))
+    ours = compare(path)
+    exact = 1000 * 0.05 * (0.4 * 0.4 - 0.36 * 0.36)
+    legacy = ours["bodies"][1]["mass"]
+    assert legacy > 1.01 * exact, (legacy, exact)
+    assert not [w for w in ours["warnings"] if "inertia" in w], ours["warnings"]
+    path.write_text(text.replace("INERTIA", 'inertia="exact"').replace("l_prism.obj", "l_prism_exact.obj"))
+    (tmp_path / "l_prism_exact.obj").write_text(L_PRISM)
+    ours = compare(path)
+    assert abs(ours["bodies"][1]["mass"] - exact) < 1e-7 * exact  # OBJ coordinates are single precision
+
+
 def mujoco_body_pairs(m):
     """The body pairs MuJoCo's collision filter lets touch, by its rules (contype/conaffinity
     bits, weld bodies, the parent filter, excludes, explicit pairs), where contact can move

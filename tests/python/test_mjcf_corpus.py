@@ -38,12 +38,19 @@ def test_corpus_file_packs_validates_and_runs(path, tmp_path):
     packs_validates_and_runs(path, tmp_path, 1.0, refusal)
 
 
+#: dm_control files packed and validated but not run here, and why.
+DM_NOT_RUN = {
+    "jaco_hand": "136 s for 0.1 s with contact on (measured, one core): issue 20's",
+}
+
+
 @pytest.mark.parametrize("path", DM_CONTROL, ids=[dm_id(p) for p in DM_CONTROL])
 def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
     """dm_control's files the same way, for 0.1 s (the suite's humanoid_CMU takes 15 s for that
     on one core: 31 bodies besides the world, contact on); the refused files name file, line and
     reason."""
-    packs_validates_and_runs(path, tmp_path, 0.1, DM_CONTROL_REFUSED.get(dm_id(path)))
+    seconds = None if dm_id(path) in DM_NOT_RUN else 0.1
+    packs_validates_and_runs(path, tmp_path, seconds, DM_CONTROL_REFUSED.get(dm_id(path)))
 
 
 @pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])

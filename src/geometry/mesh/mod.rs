@@ -330,6 +330,12 @@ impl TriMesh {
         }
     }
 
+    /// MuJoCo's default mesh inertia (`inertia="legacy"`) of this mesh's triangles
+    /// ([`legacy_mass_properties`]).
+    pub fn legacy_mass_properties(&self) -> Option<MassProperties> {
+        legacy_mass_properties(&self.vertices, &self.triangles)
+    }
+
     /// Generalized winding number of the surface around `p`: 1 inside, 0 outside.
     pub fn winding_number(&self, p: &Vector3<f64>) -> f64 {
         winding(&self.vertices, self.triangles.iter(), p)
@@ -501,6 +507,69 @@ fn refine(
 
 mod hull;
 mod read;
+
+/// MuJoCo's default mesh inertia, `inertia="legacy"`, of a triangle soup (any winding, open or
+/// closed), by the rule MuJoCo's compiler applies (written here, not taken from a library:
+/// equivalence with MuJoCo is the point). Every triangle is the base of a pyramid whose volume counts
+/// positive whichever side the apex is on: first with its apex at the area-weighted centroid of
+/// the triangles, which places the centre of mass (each pyramid's at 3/4 of the way from apex
+/// to base centre); then with its apex at that centre of mass, which gives the volume and the
+/// inertia. For a convex closed mesh this is its exact volume and inertia; for a non-convex one
+/// the pyramids that stick out count twice, and for an open one the missing faces count
+/// nothing, as in MuJoCo. Triangles of area below 1e-15 m² add nothing (MuJoCo's threshold).
+/// `None` if the surface or the volume is below that threshold.
+pub fn legacy_mass_properties(
+    vertices: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+) -> Option<MassProperties> {
+    const TINY: f64 = 1e-15;
+    // Area, unit normal and centre of each triangle that has an area.
+    let faces: Vec<(f64, Vector3<f64>, [Vector3<f64>; 3])> = triangles
+        .iter()
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            let cross = (b - a).cross(&(c - a));
+            let len = cross.norm();
+            (len >= TINY).then(|| (0.5 * len, cross / len, [a, b, c]))
+        })
+        .collect();
+    let centre = |v: &[Vector3<f64>; 3]| (v[0] + v[1] + v[2]) / 3.0;
+    let area: f64 = faces.iter().map(|f| f.0).sum();
+    if area < TINY {
+        return None;
+    }
+    let apex = faces
+        .iter()
+        .fold(Vector3::zeros(), |s, (a, _, v)| s + centre(v) * *a)
+        / area;
+    let pyramid = |apex: &Vector3<f64>, (a, n, v): &(f64, Vector3<f64>, [Vector3<f64>; 3])| {
+        ((centre(v) - apex).dot(n) * a / 3.0).abs()
+    };
+    let (mut volume, mut moment) = (0.0, Vector3::zeros());
+    for f in &faces {
+        let vol = pyramid(&apex, f);
+        volume += vol;
+        moment += (centre(&f.2) * 0.75 + apex * 0.25) * vol;
+    }
+    if volume < TINY {
+        return None;
+    }
+    let com = moment / volume;
+    let (mut volume, mut second) = (0.0, Matrix3::zeros());
+    for f in &faces {
+        let vol = pyramid(&com, f);
+        let [d, e, g] = f.2.map(|x| x - com);
+        let s = d + e + g;
+        volume += vol;
+        second += (d * d.transpose() + e * e.transpose() + g * g.transpose() + s * s.transpose())
+            * (vol / 20.0);
+    }
+    Some(MassProperties {
+        volume,
+        com,
+        inertia: Matrix3::identity() * second.trace() - second,
+    })
+}
 
 #[cfg(test)]
 mod tests {

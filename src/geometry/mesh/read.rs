@@ -17,6 +17,21 @@ impl TriMesh {
         Ok((mesh, warnings))
     }
 
+    /// The mass properties MuJoCo gives an OBJ or STL file (scaled) by default, its
+    /// `inertia="legacy"` ([`legacy_mass_properties`]), whatever its surface: read from the
+    /// file's own triangles, so also for an open mesh. Fails where the file cannot be read or
+    /// its triangles enclose no volume by that rule.
+    pub fn load_legacy_mass(
+        path: &Path,
+        scale: &Vector3<f64>,
+    ) -> Result<MassProperties, MeshError> {
+        let (file, vertices, triangles) = read(path, scale)?;
+        legacy_mass_properties(&vertices, &triangles).ok_or(MeshError {
+            file,
+            problem: MeshProblem::ZeroVolume(0.0),
+        })
+    }
+
     /// The convex hull of an OBJ or STL file's vertices (scaled), whatever its surface: what
     /// MuJoCo collides a mesh by. Every vertex counts, as in MuJoCo, also an OBJ's vertices
     /// that no face uses. Fails where the file cannot be read or its vertices span no volume
