@@ -223,3 +223,43 @@ fn horseshoe_rests_on_two_separated_modes_without_sideways_bias() {
         "{f:?}"
     );
 }
+
+/// MuJoCo's default mesh inertia (`legacy_mass_properties`): for a closed convex mesh, the
+/// exact solid's volume, centre and inertia (a box, shifted and turned); independent of how the
+/// triangles wind (each pyramid counts positive); for the same box without a face, the five
+/// pyramids of the faces it has, from their centroid.
+#[test]
+fn mujocos_default_mesh_inertia_is_exact_for_a_convex_mesh_and_weighs_open_ones() {
+    use scm::geometry::mesh::legacy_mass_properties;
+    let r = nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.5);
+    let (m, _) = load("legacy.obj", cube_obj(None, &[]).as_bytes()).unwrap();
+    let v: Vec<Vector3<f64>> = m
+        .vertices
+        .iter()
+        .map(|p| r * p.component_mul(&Vector3::new(0.3, 0.2, 0.1)) + Vector3::new(1.0, 2.0, 3.0))
+        .collect();
+    let exact = TriMesh::new("box", v.clone(), m.triangles.clone())
+        .unwrap()
+        .0
+        .mass_properties();
+    let legacy = legacy_mass_properties(&v, &m.triangles).unwrap();
+    assert!((legacy.volume - exact.volume).abs() < 1e-15, "{legacy:?}");
+    assert!((legacy.com - exact.com).norm() < 1e-14);
+    assert!((legacy.inertia - exact.inertia).amax() < 1e-16);
+    let flipped: Vec<[u32; 3]> = m.triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
+    let turned = legacy_mass_properties(&v, &flipped).unwrap();
+    assert!((turned.volume - legacy.volume).abs() < 1e-15);
+    assert!((turned.com - legacy.com).norm() < 1e-14);
+    assert!((turned.inertia - legacy.inertia).amax() < 1e-16);
+    // The unit cube without its face at x = 1 (the last two triangles): the other five faces'
+    // centroid is (0.4, 0.5, 0.5); pyramids from it of 0.4/3 (the face at x = 0) and 4 × 0.5/3
+    // put the centre of mass at x = (0.4/3 · 0.1 + 4 · 0.5/3 · 0.475) / 0.8 = 0.4125, and the
+    // pyramids from there weigh (0.4125 + 4 × 0.5) / 3.
+    let (unit, _) = load("unit.obj", cube_obj(None, &[]).as_bytes()).unwrap();
+    let open = legacy_mass_properties(&unit.vertices, &unit.triangles[..10]).unwrap();
+    assert!((open.volume - 2.4125 / 3.0).abs() < 1e-14, "{open:?}");
+    assert!(
+        (open.com - Vector3::new(0.4125, 0.5, 0.5)).norm() < 1e-14,
+        "{open:?}"
+    );
+}
