@@ -1184,3 +1184,24 @@ fn welds_are_read_as_mujoco_reads_them() {
         assert!(e.contains("m.xml:14") && e.contains(why), "{equality}: {e}");
     }
 }
+
+/// A body whose joints move it the same way twice (a hinge beside a ball joint) has a singular
+/// mass matrix, which MuJoCo regularizes with a warning and SCM's forward dynamics cannot
+/// solve: refused at load, at the body's line, naming the joint, instead of failing at t = 0
+/// (and giving the equalities' springs no stiffness on the way).
+#[test]
+fn a_body_turned_twice_the_same_way_is_refused_at_its_line() {
+    let e = refuse(
+        r#"<mujoco>
+  <worldbody>
+    <body name="b"><joint type="hinge" axis="1 0 0"/><joint name="twice" type="ball"/><geom size=".1" pos=".2 0 0"/></body>
+    <body name="a" pos="2 0 0"><freejoint/><geom size=".1"/></body>
+  </worldbody>
+</mujoco>"#,
+    );
+    assert_eq!((e.line, e.element.as_str()), (3, "body"), "{e}");
+    assert!(
+        e.message.contains("singular") && e.message.contains("'twice'"),
+        "{e}"
+    );
+}

@@ -341,6 +341,7 @@ impl Builder {
         &self,
     ) -> Result<(Tree, Vec<FixedTendon>, Vec<ScalarEquality>, Vec<Connect>), SceneError> {
         let mut tree = self.tree()?;
+        self.check_mass_matrix(&tree)?;
         if self.flags.limit {
             self.set_limits(&mut tree);
         }
@@ -348,6 +349,38 @@ impl Builder {
         let equalities = self.scalar_equalities(&tree, &tendons);
         let connects = self.connects(&tree);
         Ok((tree, tendons, equalities, connects))
+    }
+}
+
+impl Builder {
+    /// Refuses a tree whose mass matrix at `qpos0` is singular: joints of one body that move it
+    /// the same way (a hinge beside a ball joint turns it about the hinge's axis twice). MuJoCo
+    /// warns that its inertia matrix is too close to singular and runs on with a regularized
+    /// factorization; SCM's forward dynamics cannot solve it. Names the body of the first
+    /// degree of freedom whose leading block of the matrix is singular.
+    fn check_mass_matrix(&self, tree: &Tree) -> Result<(), SceneError> {
+        let (m, inv) = mass_at_q0(tree);
+        if inv.is_some() || tree.nv == 0 {
+            return Ok(());
+        }
+        let first = (1..=tree.nv)
+            .find(|&k| m.view((0, 0), (k, k)).into_owned().cholesky().is_none())
+            .unwrap_or(tree.nv)
+            - 1;
+        let joint = tree
+            .joints
+            .iter()
+            .rev()
+            .find(|j| j.dadr <= first)
+            .expect("a degree of freedom belongs to a joint");
+        let body = &tree.bodies[joint.body].name;
+        let at = self.body_places.get(body);
+        Err(SceneError {
+            file: at.map_or_else(|| self.file.clone(), |p| p.file.to_string()),
+            line: at.map_or(0, |p| p.line),
+            element: "body".into(),
+            message: format!("the mass matrix at the reference configuration is singular at joint '{}' of body '{body}': its joints move it the same way twice (a hinge beside a ball joint, two slides along one axis) or move no mass; MuJoCo warns and regularizes, SCM cannot solve it: remove the redundant joint", joint.name),
+        })
     }
 }
 
