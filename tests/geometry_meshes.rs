@@ -263,3 +263,38 @@ fn mujocos_default_mesh_inertia_is_exact_for_a_convex_mesh_and_weighs_open_ones(
         "{open:?}"
     );
 }
+
+/// MuJoCo's binary `.msh` format: a tetrahedron written as MuJoCo writes it (counts, vertices,
+/// normals, faces) reads as the same closed mesh; a file whose header or length is wrong, or
+/// whose face names a missing vertex, is refused saying so.
+#[test]
+fn mujocos_msh_format_reads_and_its_errors_are_named() {
+    fn msh(counts: [i32; 4], floats: &[f32], faces: &[i32]) -> Vec<u8> {
+        let mut b: Vec<u8> = counts.iter().flat_map(|c| c.to_le_bytes()).collect();
+        b.extend(floats.iter().flat_map(|f| f.to_le_bytes()));
+        b.extend(faces.iter().flat_map(|f| f.to_le_bytes()));
+        b
+    }
+    let vertices = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    let normals = [0.0f32; 12];
+    let faces = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3];
+    let floats: Vec<f32> = vertices.iter().chain(&normals).copied().collect();
+    let (m, _) = load("tet.msh", &msh([4, 4, 0, 4], &floats, &faces)).unwrap();
+    assert_eq!((m.vertices.len(), m.triangles.len()), (4, 4));
+    assert!((m.mass_properties().volume - 1.0 / 6.0).abs() < 1e-12);
+    for (bytes, says) in [
+        (vec![1, 2, 3], "header"),
+        (msh([4, 3, 0, 4], &floats, &faces), "invalid sizes"),
+        (
+            msh([4, 4, 0, 4], &floats, &faces[..9]),
+            "bytes where its header says",
+        ),
+        (
+            msh([4, 4, 0, 4], &floats, &[0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 9]),
+            "face 3",
+        ),
+    ] {
+        let e = load("bad.msh", &bytes).unwrap_err().to_string();
+        assert!(e.contains(says), "{says}: {e}");
+    }
+}

@@ -33,8 +33,8 @@ pub enum MeshProblem {
     /// The file is not a valid OBJ or STL.
     #[error("cannot parse the file: {0}")]
     Parse(String),
-    /// Neither `.obj` nor `.stl`.
-    #[error("unsupported mesh format '{0}' (use .obj or .stl)")]
+    /// Neither `.obj`, `.stl` nor MuJoCo's `.msh`.
+    #[error("unsupported mesh format '{0}' (use .obj, .stl or MuJoCo's .msh)")]
     Format(String),
     /// No triangles.
     #[error("the mesh has no triangles")]

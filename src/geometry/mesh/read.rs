@@ -69,18 +69,16 @@ fn read(path: &Path, scale: &Vector3<f64>) -> Result<Read, MeshError> {
         .extension()
         .map(|e| e.to_string_lossy().to_lowercase())
         .unwrap_or_default();
-    if ext != "obj" && ext != "stl" {
+    if !matches!(ext.as_str(), "obj" | "stl" | "msh") {
         return Err(err(MeshProblem::Format(ext)));
     }
     let bytes = std::fs::read(path).map_err(|e| err(MeshProblem::Missing(e.to_string())))?;
     // The parsers are third-party code reading untrusted bytes: a panic inside them becomes
     // a parse error, never a crash of the host.
-    let parsed = std::panic::catch_unwind(|| {
-        if ext == "obj" {
-            parse_obj(&bytes)
-        } else {
-            parse_stl(&bytes)
-        }
+    let parsed = std::panic::catch_unwind(|| match ext.as_str() {
+        "obj" => parse_obj(&bytes),
+        "msh" => parse_msh(&bytes),
+        _ => parse_stl(&bytes),
     })
     .unwrap_or_else(|_| Err("the parser failed on this file".into()));
     let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
@@ -109,6 +107,54 @@ fn obj_positions(bytes: &[u8]) -> Vec<Vector3<f64>> {
             Some(Vector3::new(xyz.next()??, xyz.next()??, xyz.next()??))
         })
         .collect()
+}
+
+/// Vertices and triangles of a file in MuJoCo's own binary mesh format (`.msh`, written by
+/// older MuJoCo tools): little-endian `i32` counts of vertices, normals, texture coordinates
+/// and faces, then as many `f32` triples, triples and pairs, then the faces' `i32` vertex
+/// triples (from 0). Read here by hand: the format is MuJoCo's alone, with no library for it.
+/// The sizes are checked as MuJoCo checks them (at least 4 vertices; normals and texture
+/// coordinates none or one per vertex; the file exactly as long as they say); normals and
+/// texture coordinates are not used. A file without faces (MuJoCo takes the convex hull of
+/// its vertices) is refused with the mesh problems' "no triangles".
+fn parse_msh(bytes: &[u8]) -> Parsed {
+    let int = |at: usize| -> i32 {
+        i32::from_le_bytes(bytes[at..at + 4].try_into().expect("four bytes"))
+    };
+    if bytes.len() < 16 {
+        return Err("the MSH header (four counts) is missing".into());
+    }
+    let [nv, nn, nt, nf] = [0, 4, 8, 12].map(int);
+    if nv < 4 || nf < 0 || nn < 0 || nt < 0 || (nn > 0 && nn != nv) || (nt > 0 && nt != nv) {
+        return Err(format!(
+            "invalid sizes in the MSH header: {nv} vertices, {nn} normals, {nt} texture coordinates, {nf} faces"
+        ));
+    }
+    let [nv, nn, nt, nf] = [nv, nn, nt, nf].map(|n| n as usize);
+    let expected = 16 + 4 * (3 * nv + 3 * nn + 2 * nt + 3 * nf);
+    if bytes.len() != expected {
+        return Err(format!(
+            "the MSH file has {} bytes where its header says {expected}",
+            bytes.len()
+        ));
+    }
+    let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().expect("four bytes"));
+    let vertices = (0..nv)
+        .map(|i| {
+            let at = 16 + 12 * i;
+            Vector3::new(float(at), float(at + 4), float(at + 8)).map(f64::from)
+        })
+        .collect::<Vec<_>>();
+    let faces_at = 16 + 4 * (3 * nv + 3 * nn + 2 * nt);
+    let mut triangles = Vec::with_capacity(nf);
+    for f in 0..nf {
+        let t = [0, 1, 2].map(|k| int(faces_at + 12 * f + 4 * k));
+        if t.iter().any(|&i| i < 0 || i as usize >= nv) {
+            return Err(format!("face {f} refers to a vertex that does not exist"));
+        }
+        triangles.push(t.map(|i| i as u32));
+    }
+    Ok((vertices, triangles))
 }
 
 /// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
