@@ -1205,3 +1205,66 @@ fn a_body_turned_twice_the_same_way_is_refused_at_its_line() {
         "{e}"
     );
 }
+
+/// What SCM does not model among equalities switched off (`<flag equality="disable">`), or
+/// inactive, does not stop the file: a flex equality and a connect to a site placed by
+/// `fromto` load with the flag, listed unused; an inactive connect to such a site loads too.
+/// A mesh weighed by its hull (`inertia="convex"`) with MuJoCo's reduced hull (`maxhullvert`)
+/// is refused only where a geom's mass uses it.
+#[test]
+fn what_a_file_switches_off_or_does_not_weigh_does_not_stop_it() {
+    let scene = |option: &str, equality: &str| {
+        format!(
+            r#"<mujoco>
+  {option}
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <freejoint/>
+      <geom type="box" size="0.1 0.05 0.05"/>
+      <site name="s" pos="0.1 0 0"/><site name="f" type="capsule" size="0.01" fromto="0 0 0 0 0 0.1"/>
+    </body>
+  </worldbody>
+  <equality>{equality}</equality>
+</mujoco>"#
+        )
+    };
+    let off = r#"<option><flag equality="disable"/></option>"#;
+    for equality in [r#"<flex flex="x"/>"#, r#"<connect site1="s" site2="f"/>"#] {
+        let s = load(&scene(off, equality));
+        assert!(s.model.connects.is_empty(), "{equality}");
+        assert!(
+            s.unused.iter().any(|u| u.contains("switched off")),
+            "{:?}",
+            s.unused
+        );
+        refuse(&scene("", equality));
+    }
+    let s = load(&scene(
+        "",
+        r#"<connect site1="s" site2="f" active="false"/>"#,
+    ));
+    assert!(s.model.connects.is_empty());
+
+    let dir = scratch("convex_maxhullvert");
+    std::fs::write(
+        dir.join("cube.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
+         f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n",
+    )
+    .unwrap();
+    let file = |geom: &str| {
+        format!("<mujoco>\n  <asset><mesh name=\"c\" file=\"cube.obj\" scale=\"0.1 0.1 0.1\" inertia=\"convex\" maxhullvert=\"8\"/></asset>\n  <worldbody>\n    <body name=\"b\" pos=\"0 0 1\">\n      <freejoint/>\n      <geom type=\"sphere\" size=\"0.05\"/>\n      <geom type=\"mesh\" mesh=\"c\" {geom}/>\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    let path = dir.join("m.xml");
+    std::fs::write(&path, file(r#"mass="0""#)).unwrap();
+    let s = scm::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        s.unused.iter().any(|u| u.contains("maxhullvert")),
+        "{:?}",
+        s.unused
+    );
+    std::fs::write(&path, file("")).unwrap();
+    let e = scm::scene::load(&path).unwrap_err();
+    assert!(e.line == 7 && e.message.contains("maxhullvert"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -179,11 +179,12 @@ pub struct Connect {
 /// `θ` the angle of `M`, the spring stores `E = (κ/2)(3 - tr M) = κ (1 - cos θ)`: a quadratic
 /// in MuJoCo's rotational residual, the vector part `r` of the error quaternion, as
 /// `|r|² = sin²(θ/2)` makes `E = 2κ |r|²`. Its torque on body 1 is `-(κ/2) vee(M - Mᵀ) =
-/// -κ sin θ n` (`n` the axis), and the opposite on body 2. The damper dissipates `2β |ṙ|²`, a
-/// quadratic in the residual's rate: the torque `-(β/4)((3 + tr M) I - M - Mᵀ)(ω₁ - ω₂)` on
-/// body 1, `-β (ω₁ - ω₂)` at the held orientation. So for small angles the
-/// weld is a torsion spring `κ` and damper `β` on the angle, whatever MuJoCo's
-/// `torquescale` (which scales residual and Jacobian alike); see `docs/mjcf.md`.
+/// -κ sin θ n` (`n` the axis), and the opposite on body 2. The damper derives from the
+/// dissipation function `2β |ṙ|²`, a quadratic in the residual's rate (it takes the power
+/// `4β |ṙ|²`): the torque `-(β/4)((3 + tr M) I - M - Mᵀ)(ω₁ - ω₂)` on body 1, `-β (ω₁ - ω₂)`
+/// at the held orientation. So for small angles the weld is a torsion spring `κ` and damper
+/// `β` on the angle, with `solref`'s time constant whatever MuJoCo's `torquescale` (0 aside);
+/// MuJoCo's own stiffness changes with it (see `docs/mjcf.md`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Orientation {
     /// The held rotation of body 2's frame seen from body 1's (`R₁ᵀ R₂` when held).

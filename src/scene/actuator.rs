@@ -496,6 +496,8 @@ impl Builder {
                 })?;
                 match self.sites.get(name) {
                     Some(Some(place)) => Ok(*place),
+                    // An inactive constraint never needs its place.
+                    Some(None) if !active => Ok((0, Isometry3::identity())),
                     Some(None) => Err(self.err(el, format!("{key}: site '{name}' is placed by fromto, which SCM does not place yet: give it pos and an orientation"))),
                     None => Err(self.err(el, format!("{key}: no site named '{name}'"))),
                 }

@@ -239,9 +239,12 @@ impl Builder {
             };
             let (lo, hi) = self.settings.inertia_groups;
             if body != 0 && (lo..=hi).contains(&group) {
+                // A mesh weighs as MuJoCo weighs it, where its mass is used at all (not under
+                // mass="0" or density="0", nor in a body whose <inertial> gives its inertia).
+                let weighed = !self.massless(el)? && self.inertia_from_geoms(body);
                 let mp = match &mesh_name {
-                    Some(mesh) => self.mesh_mass(el, mesh)?,
-                    None => None,
+                    Some(mesh) if weighed => self.mesh_mass(el, mesh)?,
+                    _ => None,
                 }
                 .unwrap_or_else(|| shape.mass_properties());
                 let mass = match (self.float(el, "mass")?, self.float(el, "density")?) {
@@ -306,10 +309,10 @@ impl Builder {
             .and_then(|g| g.trim().parse().ok())
             .unwrap_or(0);
         let (lo, hi) = self.settings.inertia_groups;
-        let massless = matches!(self.float(el, "mass")?, Some(m) if m == 0.0)
-            || matches!((self.float(el, "mass")?, self.float(el, "density")?), (None, Some(d)) if d == 0.0);
-        let gives_mass =
-            body != 0 && (lo..=hi).contains(&group) && !massless && self.inertia_from_geoms(body);
+        let gives_mass = body != 0
+            && (lo..=hi).contains(&group)
+            && !self.massless(el)?
+            && self.inertia_from_geoms(body);
         let refuse = |why: &str| {
             SceneError {
             message: format!(
@@ -352,6 +355,17 @@ impl Builder {
             ),
         );
         Ok(None)
+    }
+
+    /// Whether geom `el` writes itself massless: `mass="0"`, or `density="0"` without a mass.
+    fn massless(&self, el: &Element) -> Result<bool, SceneError> {
+        Ok(
+            match (self.float(el, "mass")?, self.float(el, "density")?) {
+                (Some(m), _) => m == 0.0,
+                (None, Some(d)) => d == 0.0,
+                (None, None) => false,
+            },
+        )
     }
 
     /// The mass properties of mesh asset `mesh` (unit density, mesh frame) as MuJoCo weighs it
@@ -485,7 +499,7 @@ impl Builder {
             Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
             Err(e) => return Err(self.err(el, e.to_string())),
         };
-        if maxhullvert.is_some() && problem.is_none() && inertia != MeshInertia::Convex {
+        if maxhullvert.is_some() && problem.is_none() {
             self.unused(
                 el,
                 "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",

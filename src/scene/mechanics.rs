@@ -226,8 +226,9 @@ impl Builder {
                 let ((t1, r1), (t2, r2)) = (weight(c.body1), weight(c.body2));
                 let gains = |w: f64| solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
                 let (stiffness, damping) = gains(t1 + t2);
-                // torquescale 0 frees the rotation; any other value scales MuJoCo's residual
-                // and its Jacobian alike, so it leaves the spring on the angle unchanged.
+                // torquescale 0 frees the rotation; for any other value SCM's spring on the
+                // angle keeps solref's time constant (MuJoCo's soft constraint does not: warned
+                // where the weld is read).
                 let orientation = match (relative, c.weld) {
                     (Some(relative), Some(scale)) if scale != 0.0 => {
                         let (stiffness, damping) = gains(r1 + r2);

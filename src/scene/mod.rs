@@ -677,26 +677,18 @@ impl Builder {
             }
         }
         for el in root.children.iter().filter(|el| el.name == "equality") {
-            // Switched off, the constraints are still read (MuJoCo refuses a wrong one) and
-            // then left out.
-            let kept = (
-                self.equalities.len(),
-                self.connects.len(),
-                self.warnings.len(),
-                self.unused.len(),
-            );
-            for e in &el.children {
-                self.equality(e)?;
-            }
+            // Switched off, the constraints are not read: what SCM does not model among them
+            // (flex equalities, sites placed by fromto) must not stop a file that asks for
+            // none of them.
             if !self.flags.equality && !el.children.is_empty() {
-                self.equalities.truncate(kept.0);
-                self.connects.truncate(kept.1);
-                self.warnings.truncate(kept.2);
-                self.unused.truncate(kept.3);
                 self.unused(
                     el,
                     "equality constraints switched off by <flag equality=\"disable\">",
                 );
+                continue;
+            }
+            for e in &el.children {
+                self.equality(e)?;
             }
         }
         for el in root.children.iter().filter(|el| el.name == "actuator") {
