@@ -84,6 +84,9 @@ pub struct Model {
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// Connect equality constraints, as springs and dampers between two points.
     pub connects: Vec<crate::dynamics::equality::Connect>,
+    /// Spatial tendons (`<tendon><spatial>` through sites and pulleys), each with its spring,
+    /// damper, dry friction and limits; their forces act on the bodies at the sites.
+    pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
     /// Degrees of freedom whose total actuator force is clamped (MuJoCo's joint
     /// `actuatorfrcrange`): the velocity index and the range (N or N·m).
     pub actuator_ranges: Vec<(usize, f64, f64)>,
@@ -319,12 +322,20 @@ impl Model {
     /// m g` at its centre of mass, see [`Body::gravcomp`](crate::dynamics::Body::gravcomp)), as
     /// MuJoCo applies it: a passive force on the body, not a change of gravity, so its
     /// generalized force is `Jᵀ f` through the tree.
-    fn add_body_forces<T: Scalar>(&self, kin: &Kinematics<T>, w: &mut [Wrench<T>]) {
+    fn add_body_forces<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        stiction_velocity: T,
+        w: &mut [Wrench<T>],
+    ) {
         if let Some(fluid) = &self.fluid {
             fluid.add_wrenches(&kin.frames, w);
         }
         for c in &self.connects {
             c.add_wrenches(&kin.frames, w);
+        }
+        for t in self.spatial_tendons.iter().filter(|t| t.law.acts()) {
+            t.add_wrenches(&kin.frames, stiction_velocity, w);
         }
         for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {
             if body.gravcomp == 0.0 {
@@ -514,7 +525,7 @@ impl Model {
         // With `v_contact`, the same positions, so the wrenches are in the same frames.
         let (mut wrenches, contacts) =
             self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, kept);
-        self.add_body_forces(&kin, &mut wrenches);
+        self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
         let rhs = DVector::from_column_slice(tau)
@@ -592,7 +603,7 @@ impl Model {
     ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
         let (mut wrenches, _) = self.contact_forces(&kin, prm);
-        self.add_body_forces(&kin, &mut wrenches);
+        self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia.
@@ -653,6 +664,9 @@ impl Model {
         }
         for c in &self.connects {
             springs += c.energy(&kin.frames);
+        }
+        for t in self.spatial_tendons.iter().filter(|t| t.law.acts()) {
+            springs += t.energy(&kin.frames);
         }
         Energy {
             kinetic,

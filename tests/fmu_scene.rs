@@ -330,6 +330,110 @@ fn dependencies_follow_tendons_across_subtrees() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Spatial tendons tie the bodies of their sites: an arm pulled over a pulley by a string from
+/// another arm depends on that arm's coordinates (spring with a deadband, damper, dry friction
+/// and limit all acting), a segment within one body exerts nothing, and a string from a mocap
+/// body makes the arm it pulls depend on the mocap inputs; nothing else is tied. The declared
+/// dependencies say so, and every partial (the limit force's and the accelerations') matches
+/// central differences.
+#[test]
+fn dependencies_follow_spatial_tendons() {
+    let xml = r#"<mujoco>
+  <worldbody>
+    <site name="w1" pos="0.3 0 1.5"/>
+    <site name="w2" pos="1.0 0 1.5"/>
+    <body name="a" pos="0 0 1">
+      <joint name="ja" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <site name="a_tip" pos="0.3 0 0"/>
+    </body>
+    <body name="b" pos="0.8 0 1">
+      <joint name="jb" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <site name="b_mid" pos="0.1 0 0"/>
+      <site name="b_tip" pos="0.25 0 0"/>
+    </body>
+    <body name="c" pos="2 0 1">
+      <joint name="jc" type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+      <site name="c_site" pos="0 0 0.03"/>
+    </body>
+    <body name="d" pos="3 0 1">
+      <joint name="jd" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="hand" mocap="true" pos="2 0 1.4">
+      <site name="hand_site"/>
+    </body>
+  </worldbody>
+  <tendon>
+    <spatial name="string" stiffness="20" damping="0.5" frictionloss="0.1" springlength="0.4 0.5" range="0 0.6">
+      <site site="a_tip"/>
+      <site site="w1"/>
+      <pulley divisor="2"/>
+      <site site="w2"/>
+      <site site="b_tip"/>
+      <site site="b_mid"/>
+    </spatial>
+    <spatial name="leash" stiffness="50" range="0 0.3">
+      <site site="hand_site"/>
+      <site site="c_site"/>
+    </spatial>
+  </tendon>
+</mujoco>"#;
+    let dir = std::env::temp_dir().join(format!("scm_spatial_deps_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("strings.xml");
+    std::fs::write(&path, xml).unwrap();
+    let mut sim = Simulation::from_file(&path).unwrap();
+    assert_eq!(sim.model.spatial_tendons.len(), 2);
+    // Both arms moving, the string past its deadband and its limit.
+    sim.current.state.q = vec![0.2, -0.3, 0.05, 0.1];
+    sim.current.state.v = vec![0.4, -0.6, 0.2, 0.3];
+    let x = sim.continuous_states();
+    sim.set_continuous_states(&x).unwrap();
+    let force = vr(sim.info(), "tendon.string.limit.force");
+    assert!(
+        sim.get_real(force).unwrap() < -1e-3,
+        "the string's limit acts"
+    );
+    let deps = |unknown: &str| -> Vec<String> {
+        let info = sim.info();
+        let vr = vr(info, unknown);
+        let d = (info.structure.outputs.iter())
+            .chain(&info.structure.derivatives)
+            .find(|(u, _)| *u == vr)
+            .and_then(|(_, d)| d.clone())
+            .unwrap();
+        d.iter()
+            .map(|r| {
+                let v = info.variables.iter().find(|v| v.value_reference == *r);
+                v.unwrap().name.clone()
+            })
+            .collect()
+    };
+    assert_eq!(
+        deps("tendon.string.limit.force"),
+        ["ja.q", "ja.v", "jb.q", "jb.v"]
+    );
+    let a = deps("der(ja.v)");
+    assert!(
+        a.contains(&"jb.q".into()) && a.contains(&"jb.v".into()),
+        "{a:?}"
+    );
+    assert!(
+        !a.iter()
+            .any(|n| n.starts_with("jc.") || n.starts_with("jd.")),
+        "{a:?}"
+    );
+    let c = deps("der(jc.v)");
+    assert!(c.contains(&"hand.pos.z".into()), "{c:?}");
+    assert!(!c.iter().any(|n| n.starts_with("ja.")), "{c:?}");
+    assert_eq!(deps("der(jd.v)"), ["jd.q", "jd.v"]);
+    check_dependencies("spatial tendons", &mut sim);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Every declared (unknown, known) pair of `sim`'s `<ModelStructure>` against central
 /// differences; every pair that is not declared exactly zero.
 fn check_dependencies(name: &str, sim: &mut Simulation) {

@@ -1268,3 +1268,156 @@ fn what_a_file_switches_off_or_does_not_weigh_does_not_stop_it() {
     assert!(e.line == 7 && e.message.contains("maxhullvert"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A spatial tendon is read as MuJoCo reads it: straight segments between consecutive sites,
+/// each scaled by `1 / divisor` of the pulley before it, a segment within one body kept (it
+/// adds length, exerts nothing), unnamed tendons numbered with the fixed ones, the spring
+/// length at the springs' rest pose by default; what MuJoCo's compiler refuses is refused at
+/// the element's line, and so is what SCM does not model yet (wrapping around a geom, an
+/// actuator or an equality on a spatial tendon).
+#[test]
+fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
+    let scene = |tendon: &str, after: &str| {
+        format!(
+            "<mujoco>
+  <worldbody>
+    <site name=\"hook\" pos=\"0 0 2\"/>
+    <site name=\"hook2\" pos=\"1 0 2\"/>
+    <site name=\"drawn\" fromto=\"0 0 2 0 0 2.1\"/>
+    <geom name=\"drum\" type=\"cylinder\" size=\"0.1 0.1\" pos=\"0.5 0 2\"/>
+    <body name=\"arm\" pos=\"0 0 1\">
+      <joint name=\"h\" axis=\"0 1 0\" springref=\"0.5\"/>
+      <geom type=\"capsule\" fromto=\"0 0 0 0.4 0 0\" size=\"0.02\"/>
+      <site name=\"tip\" pos=\"0.4 0 0\"/>
+      <site name=\"mid\" pos=\"0.2 0 0\"/>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed><joint joint=\"h\" coef=\"1\"/></fixed>
+    {tendon}
+  </tendon>
+  {after}
+</mujoco>
+"
+        )
+    };
+    let s = load(&scene(
+        r#"<spatial range="0 3"><site site="hook"/><site site="tip"/><pulley divisor="4"/><site site="hook2"/><site site="tip"/><site site="mid"/></spatial>"#,
+        "",
+    ));
+    let t = &s.model.spatial_tendons[0];
+    assert_eq!(t.name, "tendon1", "numbered after the fixed tendon0");
+    let scales: Vec<f64> = t.segments.iter().map(|g| g.scale).collect();
+    assert_eq!(scales, [1.0, 0.25, 0.25]);
+    let arm = s
+        .model
+        .tree
+        .bodies
+        .iter()
+        .position(|b| b.name == "arm")
+        .unwrap();
+    assert_eq!((t.segments[2].from.0, t.segments[2].to.0), (arm, arm));
+    assert!(t.law.limit.is_some());
+    // The spring length: at springref 0.5° (MuJoCo's value, 1.4225672 m, is compared in
+    // tests/python/test_mjcf_compiler.py) the tip is at (0.4 cos a, 0, 1 - 0.4 sin a).
+    let a = 0.5f64.to_radians();
+    let tip = Vector3::new(0.4 * a.cos(), 0.0, 1.0 - 0.4 * a.sin());
+    let mid = Vector3::new(0.2 * a.cos(), 0.0, 1.0 - 0.2 * a.sin());
+    let rest = (tip - Vector3::new(0.0, 0.0, 2.0)).norm()
+        + 0.25 * ((tip - Vector3::new(1.0, 0.0, 2.0)).norm() + (tip - mid).norm());
+    let (lo, hi) = t.law.spring_length;
+    assert!((lo - rest).abs() < 1e-12 && lo == hi, "{lo} vs {rest}");
+
+    for (tendon, after, element, says) in [
+        (
+            r#"<spatial><site site="hook"/><geom geom="drum"/><site site="tip"/></spatial>"#,
+            "",
+            "geom",
+            "wrapping",
+        ),
+        (
+            r#"<spatial><site site="hook"/><site site="tip"/><pulley divisor="2"/></spatial>"#,
+            "",
+            "pulley",
+            "end with a pulley",
+        ),
+        (
+            r#"<spatial><site site="hook"/><site site="tip"/><pulley divisor="2"/><pulley divisor="2"/><site site="hook2"/><site site="tip"/></spatial>"#,
+            "",
+            "pulley",
+            "consecutive pulleys",
+        ),
+        (
+            r#"<spatial><site site="hook"/><site site="tip"/><pulley/><site site="hook2"/><site site="tip"/></spatial>"#,
+            "",
+            "pulley",
+            "divisor is required",
+        ),
+        (
+            r#"<spatial><site site="hook"/><site site="tip"/><pulley divisor="0"/><site site="hook2"/><site site="tip"/></spatial>"#,
+            "",
+            "pulley",
+            "positive divisor",
+        ),
+        (
+            r#"<spatial><site site="hook"/><pulley divisor="2"/><site site="tip"/><pulley divisor="2"/><site site="hook2"/></spatial>"#,
+            "",
+            "site",
+            "needs a neighbour",
+        ),
+        (
+            r#"<spatial><site site="tip"/><site site="tip"/></spatial>"#,
+            "",
+            "site",
+            "repeated",
+        ),
+        (
+            r#"<spatial><site site="tip"/></spatial>"#,
+            "",
+            "spatial",
+            "at least two",
+        ),
+        (
+            r#"<spatial><site site="drawn"/><site site="tip"/></spatial>"#,
+            "",
+            "site",
+            "fromto",
+        ),
+        (
+            r#"<spatial><site site="nowhere"/><site site="tip"/></spatial>"#,
+            "",
+            "site",
+            "no site named 'nowhere'",
+        ),
+        (
+            r#"<spatial width="0"><site site="hook"/><site site="tip"/></spatial>"#,
+            "",
+            "spatial",
+            "width",
+        ),
+        (
+            r#"<spatial range="0.3 0.3"><site site="hook"/><site site="tip"/></spatial>"#,
+            "",
+            "spatial",
+            "increasing",
+        ),
+        (
+            r#"<spatial name="s"><site site="hook"/><site site="tip"/></spatial>"#,
+            r#"<actuator><motor tendon="s"/></actuator>"#,
+            "motor",
+            "an actuator on a spatial tendon is not supported",
+        ),
+        (
+            r#"<spatial name="s"><site site="hook"/><site site="tip"/></spatial>"#,
+            r#"<equality><tendon tendon1="s"/></equality>"#,
+            "tendon",
+            "an equality of a spatial tendon is not supported",
+        ),
+    ] {
+        let e = refuse(&scene(tendon, after));
+        assert!(
+            e.element == element && e.line >= 16 && e.message.contains(says),
+            "{tendon} {after}: {e}"
+        );
+    }
+}

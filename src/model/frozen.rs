@@ -21,6 +21,8 @@ pub struct FrozenForward<'m> {
     mass: MassFactor<f64>,
     /// Each pair in reach: its bodies, its parameters and its recorded contact.
     tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
+    /// The stiction velocity of the tendons' dry friction.
+    stiction_velocity: f64,
 }
 
 impl Model {
@@ -84,6 +86,7 @@ impl Model {
             rhs,
             mass,
             tapes,
+            stiction_velocity: prm.stiction_velocity,
         };
         let vdot = frozen.solve(wrenches);
         Ok((frozen, vdot))
@@ -116,7 +119,7 @@ impl FrozenForward<'_> {
     /// `(M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)` for the contact wrenches `wrenches`.
     fn solve(&self, mut wrenches: Vec<Wrench<f64>>) -> Vec<f64> {
         let m = self.model;
-        m.add_body_forces(&self.kin, &mut wrenches);
+        m.add_body_forces(&self.kin, self.stiction_velocity, &mut wrenches);
         let zero = vec![0.0; m.tree.nv];
         let bias = m.tree.rnea(&self.kin, &zero, &wrenches);
         let rhs = &self.rhs - bias;

@@ -64,7 +64,7 @@ impl Builder {
                 self.tendons
                     .iter()
                     .position(|t| t.name == tname)
-                    .ok_or_else(|| self.err(el, format!("no tendon named '{tname}'")))?,
+                    .ok_or_else(|| self.no_fixed_tendon(el, tname, "an actuator on"))?,
             ),
             _ => {
                 return Err(self.err(
@@ -248,16 +248,15 @@ impl Builder {
         }
     }
 
-    /// A `<fixed>` tendon: its joints and coefficients, spring (with MuJoCo's spring-length
-    /// deadband), damper, dry friction and limits. Spatial tendons and tendon armature are
-    /// refused.
+    /// A tendon: `<fixed>` (its joints and coefficients) or `<spatial>` (its path through sites
+    /// and pulleys, [`Builder::spatial_path`]), each with its spring (with MuJoCo's
+    /// spring-length deadband), damper, dry friction and limits. Tendon armature is refused.
     pub(super) fn tendon(&mut self, el: &Element) -> Result<(), SceneError> {
-        if el.name != "fixed" {
-            return Err(self.err(
-                el,
-                "spatial tendons are not supported by SCM yet: remove the tendon and what uses it",
-            ));
-        }
+        let spatial = match el.name.as_str() {
+            "fixed" => false,
+            "spatial" => true,
+            _ => return Err(self.err(el, "a <tendon> holds <fixed> and <spatial> tendons")),
+        };
         self.check_attrs(
             el,
             &[
@@ -272,6 +271,10 @@ impl Builder {
                 "solreflimit",
             ],
         )?;
+        if spatial && self.float(el, "width")?.is_some_and(|w| w <= 0.0) {
+            // MuJoCo's compiler refuses it (its drawn width), so a file with it is not valid.
+            return Err(self.err(el, "width: a spatial tendon's width must be positive"));
+        }
         if self.float(el, "armature")?.is_some_and(|v| v != 0.0) {
             return Err(self.err(el, "tendon armature is not supported by SCM yet: put the armature on the tendon's joints"));
         }
@@ -303,12 +306,40 @@ impl Builder {
             }
         };
         let range = match self.limited(el, "limited", "range")? {
-            Some(r) if r.0 > r.1 => return Err(self.err(el, "range is reversed")),
+            // MuJoCo's compiler refuses an empty range too ("invalid limits in tendon").
+            Some(r) if r.0 >= r.1 => {
+                return Err(self.err(
+                    el,
+                    "range: a limited tendon's range must be increasing (lo < hi)",
+                ))
+            }
             r => r,
         };
         let solref = self
             .floats(el, "solreflimit", 2)?
             .unwrap_or(vec![0.02, 1.0]);
+        let name = match Self::given_name(el) {
+            Some(n) => n,
+            None => self.names.make(
+                "tendon",
+                format!("tendon{}", self.tendons.len() + self.spatial_tendons.len()),
+            ),
+        };
+        let spec = TendonSpec {
+            name,
+            joints: vec![],
+            stiffness,
+            spring_length,
+            damping,
+            frictionloss,
+            range,
+            solreflimit: [solref[0], solref[1]],
+        };
+        if spatial {
+            let path = self.spatial_path(el)?;
+            self.spatial_tendons.push((spec, path));
+            return Ok(());
+        }
         let mut joints = Vec::new();
         for j in &el.children {
             if j.name != "joint" {
@@ -340,23 +371,101 @@ impl Builder {
         if joints.is_empty() {
             return Err(self.err(el, "a fixed tendon needs at least one <joint>"));
         }
-        let name = match Self::given_name(el) {
-            Some(n) => n,
-            None => self
-                .names
-                .make("tendon", format!("tendon{}", self.tendons.len())),
-        };
-        self.tendons.push(TendonSpec {
-            name,
-            joints,
-            stiffness,
-            spring_length,
-            damping,
-            frictionloss,
-            range,
-            solreflimit: [solref[0], solref[1]],
-        });
+        self.tendons.push(TendonSpec { joints, ..spec });
         Ok(())
+    }
+
+    /// The error for a tendon name that names no fixed tendon: a spatial tendon's (`what` it,
+    /// e.g. an actuator on it, is not supported yet) or none.
+    fn no_fixed_tendon(&self, el: &Element, name: &str, what: &str) -> SceneError {
+        if self.spatial_tendons.iter().any(|(t, _)| t.name == name) {
+            self.err(el, format!("tendon '{name}' is a spatial tendon: {what} a spatial tendon is not supported by SCM yet (its moment arms change with the configuration); use a fixed tendon or drive the joints"))
+        } else {
+            self.err(el, format!("no tendon named '{name}'"))
+        }
+    }
+
+    /// A spatial tendon's path: `<site>` and `<pulley divisor>` elements, checked as MuJoCo's
+    /// compiler checks them (at least two; a pulley neither first after a pulley nor last; a
+    /// site with a neighbour that is not a pulley; a site not repeated next to itself), made
+    /// into the straight segments between consecutive sites. Wrapping around a `<geom>` is
+    /// refused.
+    fn spatial_path(&mut self, el: &Element) -> Result<Vec<SegmentSpec>, SceneError> {
+        enum Item {
+            Site(String, usize, Vector3<f64>),
+            Pulley(f64),
+        }
+        let mut path = Vec::new();
+        for (i, x) in el.children.iter().enumerate() {
+            match x.name.as_str() {
+                "site" => {
+                    self.check_attrs(x, &["site"])?;
+                    let name = x
+                        .attr("site")
+                        .ok_or_else(|| self.err(x, "site=\"NAME\" is required"))?;
+                    let (body, pose) = match self.sites.get(name) {
+                        Some(Some(s)) => *s,
+                        Some(None) => return Err(self.err(x, format!("site '{name}' is placed by fromto, which SCM does not read for sites: give it pos (and quat) instead"))),
+                        None => return Err(self.err(x, format!("no site named '{name}'"))),
+                    };
+                    path.push(Item::Site(name.to_string(), body, pose.translation.vector));
+                }
+                "pulley" => {
+                    self.check_attrs(x, &["divisor"])?;
+                    let divisor = self
+                        .float(x, "divisor")?
+                        .ok_or_else(|| self.err(x, "divisor is required"))?;
+                    if divisor <= 0.0 {
+                        return Err(self.err(x, "divisor: a pulley needs a positive divisor"));
+                    }
+                    if matches!(path.last(), Some(Item::Pulley(_))) {
+                        return Err(self.err(x, "two consecutive pulleys in a tendon's path"));
+                    }
+                    if i + 1 == el.children.len() {
+                        return Err(self.err(x, "a tendon's path cannot end with a pulley"));
+                    }
+                    path.push(Item::Pulley(divisor));
+                }
+                "geom" => return Err(self.err(x, "wrapping a spatial tendon around a geom is not supported by SCM yet: route the tendon through sites instead (add sites where it would leave and meet the geom)")),
+                _ => return Err(self.err(x, "a spatial tendon's path holds <site>, <geom> and <pulley> elements")),
+            }
+        }
+        if path.len() < 2 {
+            return Err(self.err(el, "a spatial tendon's path needs at least two objects"));
+        }
+        let pulley = |k: Option<&Item>| matches!(k, None | Some(Item::Pulley(_)));
+        for (i, item) in path.iter().enumerate() {
+            let Item::Site(name, ..) = item else { continue };
+            let before = i.checked_sub(1).and_then(|k| path.get(k));
+            if pulley(before) && pulley(path.get(i + 1)) {
+                return Err(self.err(
+                    &el.children[i],
+                    format!("site '{name}' needs a neighbour in the path that is not a pulley"),
+                ));
+            }
+            if let Some(Item::Site(next, ..)) = path.get(i + 1) {
+                if next == name {
+                    return Err(self.err(
+                        &el.children[i + 1],
+                        format!("site '{name}' is repeated in the path"),
+                    ));
+                }
+            }
+        }
+        let mut scale = 1.0;
+        let mut segments = Vec::new();
+        for pair in path.windows(2) {
+            match pair {
+                [Item::Pulley(d), _] => scale = 1.0 / d,
+                [Item::Site(_, b0, p0), Item::Site(_, b1, p1)] => segments.push(SegmentSpec {
+                    from: (*b0, *p0),
+                    to: (*b1, *p1),
+                    scale,
+                }),
+                _ => {}
+            }
+        }
+        Ok(segments)
     }
 
     /// An `<equality>` element: `joint` and `tendon` couplings, `connect` and `weld` become
@@ -387,6 +496,9 @@ impl Builder {
                     j.name == name && matches!(j.kind, JointKind::Slide | JointKind::Hinge)
                 })
             };
+            if tendons && found.is_none() {
+                return Err(self.no_fixed_tendon(el, name, "an equality of"));
+            }
             found.map(Some).ok_or_else(|| {
                 let what = if tendons {
                     "fixed tendon"

@@ -2,6 +2,7 @@
 //! flags applied, the initial state, fluid forces and the finished `Model` (its mechanics:
 //! `mechanics.rs`).
 
+use super::mechanics::Mechanics;
 use super::*;
 
 impl Builder {
@@ -188,11 +189,18 @@ impl Builder {
         self.compile_inertias();
         self.apply_springdampers()?;
         let refused = self.apply_flags();
-        let (tree, tendons, equalities, connects) = self.mechanics()?;
+        let Mechanics {
+            tree,
+            tendons,
+            spatial_tendons,
+            equalities,
+            connects,
+        } = self.mechanics()?;
         self.apply_dampratios(&tree)?;
         Ok(Compiled {
             tree,
             tendons,
+            spatial_tendons,
             equalities,
             connects,
             geoms: self.geoms,
@@ -361,7 +369,13 @@ impl Builder {
             )?;
             (vec![], vec![None; self.bodies.len()])
         };
-        let (tree, tendons, equalities, connects) = self.mechanics()?;
+        let Mechanics {
+            tree,
+            tendons,
+            spatial_tendons,
+            equalities,
+            connects,
+        } = self.mechanics()?;
         self.apply_dampratios(&tree)?;
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
@@ -388,6 +402,7 @@ impl Builder {
             tendons,
             equalities,
             connects,
+            spatial_tendons,
             actuator_ranges,
         };
         Ok(Scene {

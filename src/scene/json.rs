@@ -6,7 +6,8 @@
 //! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
 //! `springref`, passive properties and limits in SI units, with the limit spring's stiffness and
 //! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`). Fixed tendons: joints and
-//! coefficients, spring, damper, friction, spring length and limits. Geoms: `size` as MuJoCo stores it
+//! coefficients, spring, damper, friction, spring length and limits; spatial tendons (apart):
+//! their segments (bodies, points, `1 / divisor`), length at `qpos0` and the same. Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
 //! body frame.
 
@@ -151,6 +152,38 @@ impl Compiled {
                 })
             })
             .collect();
+        let at_q0 = t.kinematics(&t.q0(), &vec![0.0; t.nv]);
+        let spatial_tendons: Vec<Value> = self
+            .spatial_tendons
+            .iter()
+            .map(|tendon| {
+                let segments: Vec<Value> = tendon
+                    .segments
+                    .iter()
+                    .map(|s| {
+                        json!([
+                            names[s.from.0],
+                            v3(&s.from.1),
+                            names[s.to.0],
+                            v3(&s.to.1),
+                            s.scale
+                        ])
+                    })
+                    .collect();
+                let law = &tendon.law;
+                json!({
+                    "name": tendon.name, "segments": segments,
+                    "length0": tendon.length_and_rate(&at_q0.frames).0,
+                    "stiffness": law.stiffness, "damping": law.damping,
+                    "frictionloss": law.frictionloss,
+                    "springlength": [law.spring_length.0, law.spring_length.1],
+                    "limited": law.limit.is_some(),
+                    "range": law.limit.map(|l| vec![l.lo, l.hi]),
+                    "limit_stiffness": law.limit.map(|l| l.stiffness),
+                    "limit_damping": law.limit.map(|l| l.damping),
+                })
+            })
+            .collect();
         let equalities: Vec<Value> = self
             .equalities
             .iter()
@@ -187,6 +220,7 @@ impl Compiled {
             .collect();
         json!({
             "tendons": tendons,
+            "spatial_tendons": spatial_tendons,
             "equalities": equalities,
             "connects": connects,
             "option": {

@@ -5,7 +5,7 @@
 use super::*;
 use crate::dynamics::equality::{Connect, Linear, Orientation, ScalarEquality};
 use crate::dynamics::limit::{solref_gains, JointLimit};
-use crate::dynamics::tendon::FixedTendon;
+use crate::dynamics::tendon::{FixedTendon, Segment, SpatialTendon, TendonLaw};
 
 impl Builder {
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
@@ -335,12 +335,9 @@ impl Builder {
         Ok(())
     }
 
-    /// The tree with its joint limits, the fixed tendons, and the equality constraints: the
+    /// The tree with its joint limits, the tendons, and the equality constraints: the
     /// mechanics of the model, with the option flags applied.
-    #[allow(clippy::type_complexity)]
-    pub(super) fn mechanics(
-        &self,
-    ) -> Result<(Tree, Vec<FixedTendon>, Vec<ScalarEquality>, Vec<Connect>), SceneError> {
+    pub(super) fn mechanics(&self) -> Result<Mechanics, SceneError> {
         let mut tree = self.tree()?;
         self.check_mass_matrix(&tree)?;
         if self.flags.limit {
@@ -349,8 +346,106 @@ impl Builder {
         let tendons = self.fixed_tendons(&tree);
         let equalities = self.scalar_equalities(&tree, &tendons);
         let connects = self.connects(&tree);
-        Ok((tree, tendons, equalities, connects))
+        let spatial_tendons = self.spatial_tendons(&tree);
+        Ok(Mechanics {
+            tree,
+            tendons,
+            spatial_tendons,
+            equalities,
+            connects,
+        })
     }
+
+    /// The spatial tendons over `tree`, with the option flags applied: the spring length
+    /// defaults to the length in the springs' rest configuration (each slide and hinge joint
+    /// at its `springref`, as MuJoCo's `qpos_spring`), and a limit is stiffened by the
+    /// tendon's effective inertia `1 / (J M⁻¹ Jᵀ)` at `qpos0` (MuJoCo's `1 /
+    /// tendon_invweight0`), `J = ∂L/∂v` there.
+    fn spatial_tendons(&self, tree: &Tree) -> Vec<SpatialTendon> {
+        if self.spatial_tendons.is_empty() {
+            return vec![];
+        }
+        let q0 = tree.q0();
+        let mut q_spring = q0.clone();
+        for j in &tree.joints {
+            if matches!(j.kind, JointKind::Slide | JointKind::Hinge) {
+                q_spring[j.qadr] = j.springref;
+            }
+        }
+        let at_rest = tree.kinematics(&q_spring, &vec![0.0; tree.nv]);
+        let inv = self
+            .spatial_tendons
+            .iter()
+            .any(|(t, _)| t.range.is_some() && self.flags.limit)
+            .then(|| mass_at_q0(tree).1)
+            .flatten();
+        // The rate of the length for a unit velocity of each degree of freedom at qpos0: the
+        // tendon's Jacobian there.
+        let columns: Vec<_> = (0..tree.nv)
+            .map(|k| {
+                let mut v = vec![0.0; tree.nv];
+                v[k] = 1.0;
+                tree.kinematics(&q0, &v)
+            })
+            .collect();
+        let on = |flag: bool, x: f64| if flag { x } else { 0.0 };
+        self.spatial_tendons
+            .iter()
+            .map(|(t, segments)| {
+                let segments: Vec<Segment> = segments
+                    .iter()
+                    .map(|s| Segment {
+                        from: s.from,
+                        to: s.to,
+                        scale: s.scale,
+                    })
+                    .collect();
+                let mut tendon = SpatialTendon {
+                    name: t.name.clone(),
+                    segments,
+                    law: TendonLaw {
+                        stiffness: on(self.flags.spring, t.stiffness),
+                        spring_length: (0.0, 0.0),
+                        damping: on(self.flags.damper, t.damping),
+                        frictionloss: on(self.flags.frictionloss, t.frictionloss),
+                        limit: None,
+                    },
+                };
+                let rest = tendon.length_and_rate(&at_rest.frames).0;
+                tendon.law.spring_length = t.spring_length.unwrap_or((rest, rest));
+                if let (Some((lo, hi)), Some(inv), true) = (t.range, &inv, self.flags.limit) {
+                    let jac: Vec<f64> = columns
+                        .iter()
+                        .map(|k| tendon.length_and_rate(&k.frames).1)
+                        .collect();
+                    let mut inv_weight = 0.0;
+                    for (a, ja) in jac.iter().enumerate() {
+                        for (b, jb) in jac.iter().enumerate() {
+                            inv_weight += ja * jb * inv[(a, b)];
+                        }
+                    }
+                    if inv_weight > 0.0 {
+                        tendon.law.limit = Some(JointLimit::from_solref(
+                            lo,
+                            hi,
+                            t.solreflimit,
+                            1.0 / inv_weight,
+                        ));
+                    }
+                }
+                tendon
+            })
+            .collect()
+    }
+}
+
+/// The model's mechanics as [`Builder::mechanics`] makes them.
+pub(super) struct Mechanics {
+    pub tree: Tree,
+    pub tendons: Vec<FixedTendon>,
+    pub spatial_tendons: Vec<SpatialTendon>,
+    pub equalities: Vec<ScalarEquality>,
+    pub connects: Vec<Connect>,
 }
 
 impl Builder {

@@ -247,6 +247,8 @@ pub struct Compiled {
     pub actuator_ranges: Vec<Option<(f64, f64)>>,
     /// Fixed tendons.
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
+    /// Spatial tendons.
+    pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
     /// Joint and tendon equalities.
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// Connect and weld equalities.
@@ -364,6 +366,8 @@ struct Builder {
     solreflimit: Vec<[f64; 2]>,
     /// `<tendon><fixed>` elements, as read.
     tendons: Vec<TendonSpec>,
+    /// `<tendon><spatial>` elements, as read (their `joints` empty).
+    spatial_tendons: Vec<(TendonSpec, Vec<SegmentSpec>)>,
     /// `<equality><joint>` and `<equality><tendon>` elements, as read.
     equalities: Vec<EqualitySpec>,
     /// `<equality><connect>` and `<equality><weld>` elements, as read.
@@ -437,6 +441,15 @@ struct TendonSpec {
     /// The length's range, if limited.
     range: Option<(f64, f64)>,
     solreflimit: [f64; 2],
+}
+
+/// A straight segment of a spatial tendon: the two sites (body, point in its frame) and
+/// `1 / divisor` of its pulley branch.
+#[derive(Clone, Copy, Debug)]
+struct SegmentSpec {
+    from: (usize, Vector3<f64>),
+    to: (usize, Vector3<f64>),
+    scale: f64,
 }
 
 /// An error at an element: its file, line and name.
@@ -516,6 +529,7 @@ impl Builder {
             tendons: vec![],
             equalities: vec![],
             connects: vec![],
+            spatial_tendons: vec![],
             sites: Default::default(),
         }
     }

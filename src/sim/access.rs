@@ -165,6 +165,17 @@ impl Simulation {
                     .as_ref()
                     .map_or(0.0, |l| l.force(tendon.length(&s.q), tendon.velocity(&s.v)))
             }
+            Slot::SpatialTendonLimitForce(t) => {
+                let tendon = &self.model.spatial_tendons[t];
+                let s = &self.current.state;
+                let kin = (self.model.tree).kinematics_with(&s.q, &s.v, &self.current.mocap);
+                let (l, ldot) = tendon.length_and_rate(&kin.frames);
+                tendon
+                    .law
+                    .limit
+                    .as_ref()
+                    .map_or(0.0, |lim| lim.force(l, ldot))
+            }
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.step,
             Slot::SolverTolerance => self.model.tolerance,

@@ -172,6 +172,13 @@ pub fn directional_derivative(
                         l.force(tendon.length(&s.q), tendon.velocity(&s.v))
                     })
                 }
+                Slot::SpatialTendonLimitForce(t) => {
+                    let tendon = &model.spatial_tendons[t];
+                    let kin =
+                        (model.tree).kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
+                    let (l, ldot) = tendon.length_and_rate(&kin.frames);
+                    (tendon.law.limit.as_ref()).map_or(Dual64::from(0.0), |lim| lim.force(l, ldot))
+                }
                 Slot::PairPoint(p, k, i) => points.as_ref().ok_or_else(missing)?[p]
                     .get(k)
                     .map_or(Dual64::from(0.0), |c| c[i]),

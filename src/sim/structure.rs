@@ -192,14 +192,23 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
                 friction |= t.frictionloss > 0.0;
             }
         }
-        for c in &model.connects {
-            let tied: Vec<usize> = [c.first.0, c.second.0]
-                .into_iter()
+        let moving_roots = |bodies: &mut dyn Iterator<Item = usize>| -> Vec<usize> {
+            bodies
                 .filter(|&b| b != 0 && tree.body_moves(b))
                 .map(|b| subtree_root(model, b))
-                .collect();
+                .collect()
+        };
+        for c in &model.connects {
+            let tied = moving_roots(&mut [c.first.0, c.second.0].into_iter());
             if tied.iter().any(|r| roots.contains(r)) {
                 roots.extend(tied);
+            }
+        }
+        for t in model.spatial_tendons.iter().filter(|t| t.law.acts()) {
+            let tied = moving_roots(&mut t.bodies());
+            if tied.iter().any(|r| roots.contains(r)) {
+                roots.extend(tied);
+                friction |= t.law.frictionloss > 0.0;
             }
         }
         for e in &model.equalities {
@@ -213,6 +222,23 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
         }
     }
     let mut k = Knowns::default();
+    // A connect or a spatial tendon that pulls on a mocap body makes the accelerations of what
+    // it ties depend on that body's inputs.
+    let links = (model.connects.iter().map(|c| vec![c.first.0, c.second.0])).chain(
+        (model.spatial_tendons.iter())
+            .filter(|t| t.law.acts())
+            .map(|t| t.bodies().collect()),
+    );
+    for bodies in links {
+        let tied = bodies
+            .iter()
+            .any(|&b| b != 0 && tree.body_moves(b) && roots.contains(&subtree_root(model, b)));
+        for &b in bodies.iter().filter(|_| tied) {
+            if let Some(m) = tree.mocap.iter().position(|&x| x == b) {
+                k.mocap.extend((0..7).map(|c| (m, c)));
+            }
+        }
+    }
     for r in roots {
         k.union(&subtree_knowns(model, r));
     }
@@ -280,6 +306,22 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
             }
         }
         // A tendon limit's force depends on the coordinates and velocities of its joints.
+        // A spatial tendon's limit force depends on the poses and velocities of the bodies of
+        // its sites (and a mocap body's inputs).
+        Slot::SpatialTendonLimitForce(t) => {
+            let tendon = &model.spatial_tendons[t];
+            let bodies: BTreeSet<usize> = (tendon.segments.iter())
+                .flat_map(|s| [s.from.0, s.to.0])
+                .collect();
+            let joints: Vec<usize> = bodies.iter().flat_map(|&b| path_joints(model, b)).collect();
+            let mut k = coordinates(model, &joints, true);
+            for b in bodies {
+                if let Some(m) = tree.mocap.iter().position(|&x| x == b) {
+                    k.mocap.extend((0..7).map(|c| (m, c)));
+                }
+            }
+            k
+        }
         Slot::TendonLimitForce(t) => Knowns {
             q: model.tendons[t]
                 .joints

@@ -35,6 +35,8 @@ pub enum Slot {
     LimitForce(usize),
     /// Force of fixed tendon `t`'s limit along the tendon.
     TendonLimitForce(usize),
+    /// Force of spatial tendon `t`'s limit along the tendon (N).
+    SpatialTendonLimitForce(usize),
     /// Soft top-K contact point `k` of a pair, world axis (scenes with `scm_contact_points`).
     PairPoint(usize, usize, usize),
     /// Internal step.
@@ -248,6 +250,23 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 tendon.name, limit.lo, limit.hi
             ),
             Slot::TendonLimitForce(t),
+        );
+    }
+    for (t, tendon) in model.spatial_tendons.iter().enumerate() {
+        let Some(limit) = &tendon.law.limit else {
+            continue;
+        };
+        push(
+            format!("tendon.{}.limit.force", names::identifier(&tendon.name)),
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Calculated),
+            real(None, "N"),
+            format!(
+                "Force of spatial tendon {}'s limit [{}, {}] m along the tendon (positive towards longer): a smooth one-sided spring and damper, zero inside the range",
+                tendon.name, limit.lo, limit.hi
+            ),
+            Slot::SpatialTendonLimitForce(t),
         );
     }
     for (i, a) in model.actuators.iter().enumerate() {

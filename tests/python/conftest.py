@@ -54,7 +54,6 @@ def dm_id(path):
 #: The dm_control files SCM refuses, and the reason its message must give (at the file and line
 #: of the element). Everything else loads.
 DM_CONTROL_REFUSED = {
-    "ball_in_cup": ("ball_in_cup.xml:47: <spatial>", "spatial tendons are not supported"),
     "dog": ("dog.xml:945: <general>", "no activation state"),
     "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
     "rodent": ("rodent.xml:561: <general>", "no activation state"),

@@ -192,12 +192,19 @@ def compare(path, inertia_tol=TOL):
             assert geom["condim"] == m.geom_condim[g], f"{tag} condim"
             close(f"{tag} sliding friction", geom["friction"], m.geom_friction[g][0])
 
+    # MuJoCo numbers fixed and spatial tendons together, in file order; SCM lists them apart,
+    # each kind in file order.
+    is_fixed = [int(m.wrap_type[m.tendon_adr[i]]) == int(mujoco.mjtWrap.mjWRAP_JOINT) for i in range(m.ntendon)]
+    fixed = [i for i in range(m.ntendon) if is_fixed[i]]
+    spatial = [i for i in range(m.ntendon) if not is_fixed[i]]
+    fixed_index = {i: k for k, i in enumerate(fixed)}
+
     # Actuators.
     assert len(ours["actuators"]) == m.nu, "actuator count"
     for a, act in enumerate(ours["actuators"]):
         tag = f"actuator {act['name']}"
         if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON):
-            assert act["tendon"] == ours["tendons"][m.actuator_trnid[a, 0]]["name"], tag
+            assert act["tendon"] == ours["tendons"][fixed_index[m.actuator_trnid[a, 0]]]["name"], tag
         else:
             assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
             assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
@@ -218,16 +225,8 @@ def compare(path, inertia_tol=TOL):
         if act["forcelimited"]:
             close(f"{tag} forcerange", act["forcerange"], m.actuator_forcerange[a])
 
-    # Fixed tendons: joints and coefficients, spring, damper, friction, spring length (MuJoCo's
-    # default is the length at qpos0), and the limit spring from solreflimit and
-    # 1 / tendon_invweight0. Forces that a flag switches off are zero in SCM's model.
-    assert len(ours["tendons"]) == m.ntendon, "tendon count"
-    for i, ten in enumerate(ours["tendons"]):
-        tag = f"tendon {ten['name']}"
-        adr, num = m.tendon_adr[i], m.tendon_num[i]
-        assert all(int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) for w in range(adr, adr + num)), tag
-        assert [j for j, _ in ten["joints"]] == [ours["joints"][m.wrap_objid[w]]["name"] for w in range(adr, adr + num)], tag
-        close(f"{tag} coefficients", [c for _, c in ten["joints"]], m.wrap_prm[adr:adr + num])
+    def tendon_law(tag, ten, i):
+        """A tendon's spring, damper, friction, spring length and limit spring, fixed or spatial."""
         on = lambda flag, x: 0.0 if disabled(m, flag) else x
         close(f"{tag} stiffness", ten["stiffness"], on("SPRING", m.tendon_stiffness[i]))
         close(f"{tag} damping", ten["damping"], on("DAMPER", m.tendon_damping[i]))
@@ -242,6 +241,47 @@ def compare(path, inertia_tol=TOL):
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", ten["limit_damping"], b, TOL_FROM_M)
+
+    # Fixed tendons: joints and coefficients, spring, damper, friction, spring length (MuJoCo's
+    # default is the length at qpos0), and the limit spring from solreflimit and
+    # 1 / tendon_invweight0. Forces that a flag switches off are zero in SCM's model.
+    assert len(ours["tendons"]) == len(fixed), "fixed tendon count"
+    for i, ten in zip(fixed, ours["tendons"]):
+        tag = f"tendon {ten['name']}"
+        adr, num = m.tendon_adr[i], m.tendon_num[i]
+        assert all(int(m.wrap_type[w]) == int(mujoco.mjtWrap.mjWRAP_JOINT) for w in range(adr, adr + num)), tag
+        assert [j for j, _ in ten["joints"]] == [ours["joints"][m.wrap_objid[w]]["name"] for w in range(adr, adr + num)], tag
+        close(f"{tag} coefficients", [c for _, c in ten["joints"]], m.wrap_prm[adr:adr + num])
+        tendon_law(tag, ten, i)
+
+    # Spatial tendons: the segments between consecutive sites (bodies, the sites' points, 1 /
+    # the divisor of the pulley branch), the length at qpos0, and the same spring, damper,
+    # friction, spring length and limit spring as a fixed tendon's.
+    assert len(ours["spatial_tendons"]) == len(spatial), "spatial tendon count"
+    data0 = mujoco.MjData(m)
+    mujoco.mj_forward(m, data0)
+    for i, ten in zip(spatial, ours["spatial_tendons"]):
+        tag = f"spatial tendon {ten['name']}"
+        adr, num = m.tendon_adr[i], m.tendon_num[i]
+        kinds = [int(m.wrap_type[w]) for w in range(adr, adr + num)]
+        site, pulley = int(mujoco.mjtWrap.mjWRAP_SITE), int(mujoco.mjtWrap.mjWRAP_PULLEY)
+        assert set(kinds) <= {site, pulley}, f"{tag}: only sites and pulleys"
+        expected, scale = [], 1.0
+        for w in range(adr, adr + num - 1):
+            if kinds[w - adr] == pulley:
+                scale = 1.0 / m.wrap_prm[w]
+            elif kinds[w + 1 - adr] == site:
+                s0, s1 = m.wrap_objid[w], m.wrap_objid[w + 1]
+                expected.append((s0, s1, scale))
+        assert len(ten["segments"]) == len(expected), f"{tag}: segments"
+        for (b0, p0, b1, p1, sc), (s0, s1, want) in zip(ten["segments"], expected):
+            assert b0 == ours["bodies"][m.site_bodyid[s0]]["name"], tag
+            assert b1 == ours["bodies"][m.site_bodyid[s1]]["name"], tag
+            close(f"{tag} site point", p0, m.site_pos[s0])
+            close(f"{tag} site point", p1, m.site_pos[s1])
+            close(f"{tag} scale", sc, want)
+        close(f"{tag} length at qpos0", ten["length0"], data0.ten_length[i])
+        tendon_law(tag, ten, i)
 
     # Joint and tendon equalities: the polynomial, and the spring and damper from solref and
     # MuJoCo's inverse weights of both objects.
@@ -458,6 +498,39 @@ WELDS = """<mujoco>
     <weld body1="slider"/>
   </equality>
 </mujoco>"""
+
+
+def test_spatial_tendons_compile_as_mujoco_compiles_them(tmp_path):
+    """Spatial tendons through sites, over pulleys, to the world, a mocap body and a free body,
+    with a segment within one body, limits with their own solreflimit, and fixed tendons written
+    between them (MuJoCo numbers both kinds together): segments, lengths at qpos0, spring
+    lengths at the springs' rest pose, and the limit springs on 1 / tendon_invweight0; an
+    actuator on a fixed tendon written after spatial ones names the right tendon."""
+    from test_mjcf_idioms import SPATIAL_TENDONS
+    xml = SPATIAL_TENDONS.format(integrator="Euler").replace(
+        '<spatial name="rest" stiffness="3">', '<spatial name="rest" stiffness="3" range="0.1 0.4" solreflimit="0.05 0.7">'
+    ).replace(
+        '<spatial name="rope" stiffness="5"', '<spatial name="rope" limited="true" range="0 0.9" stiffness="5"'
+    ).replace(
+        '<joint name="jb" type="hinge" axis="0 1 0" damping="0.05"/>',
+        '<joint name="jb" type="hinge" axis="0 1 0" damping="0.05" springref="20"/>',
+    ).replace("</tendon>", """  <fixed name="late"><joint joint="jc" coef="2"/></fixed>
+    <spatial name="leash" range="0 0.5" frictionloss="0.2">
+      <site site="hand_site"/>
+      <site site="ball_top"/>
+      <pulley divisor="3"/>
+      <site site="hook"/>
+      <site site="c_site"/>
+    </spatial>
+  </tendon>
+  <actuator><motor name="m" tendon="late"/><position name="p" tendon="couple" kp="4" dampratio="1"/></actuator>""").replace(
+        "</worldbody>", """  <body name="hand" mocap="true" pos="1.5 0 1.6"><site name="hand_site"/></body>
+  </worldbody>""")
+    path = tmp_path / "strings.xml"
+    path.write_text(xml)
+    ours = compare(path)
+    assert [t["name"] for t in ours["spatial_tendons"]] == ["rope", "band", "rest", "cord", "leash"]
+    assert [t["limited"] for t in ours["spatial_tendons"]] == [True, False, True, False, True]
 
 
 def test_welds_compile_as_mujoco_compiles_them(tmp_path):
