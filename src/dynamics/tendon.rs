@@ -64,7 +64,7 @@ impl FixedTendon {
     }
 
     /// The force law along the tendon.
-    fn law(&self) -> TendonLaw {
+    pub fn law(&self) -> TendonLaw {
         TendonLaw {
             stiffness: self.stiffness,
             spring_length: self.spring_length,

@@ -12,6 +12,7 @@
 //! body frame.
 
 use super::{Compiled, Geom};
+use crate::dynamics::tendon::TendonLaw;
 use crate::dynamics::JointKind;
 use crate::geometry::Shape;
 use crate::model::{ActuatorKind, Transmission};
@@ -25,6 +26,19 @@ fn v3(v: &Vector3<f64>) -> Value {
 fn pose(p: &Isometry3<f64>) -> (Value, Value) {
     let q = p.rotation.quaternion();
     (v3(&p.translation.vector), json!([q.w, q.i, q.j, q.k]))
+}
+
+/// A tendon's force law: spring, damper, friction, spring length and limit spring.
+fn law(law: &TendonLaw) -> Value {
+    json!({
+        "stiffness": law.stiffness, "damping": law.damping,
+        "frictionloss": law.frictionloss,
+        "springlength": [law.spring_length.0, law.spring_length.1],
+        "limited": law.limit.is_some(),
+        "range": law.limit.map(|l| vec![l.lo, l.hi]),
+        "limit_stiffness": law.limit.map(|l| l.stiffness),
+        "limit_damping": law.limit.map(|l| l.damping),
+    })
 }
 
 fn geom(g: &Geom, bodies: &[String]) -> Value {
@@ -140,16 +154,10 @@ impl Compiled {
                         json!([j.map(|j| j.name.clone()), coef])
                     })
                     .collect();
-                json!({
-                    "name": tendon.name, "joints": joints,
-                    "stiffness": tendon.stiffness, "damping": tendon.damping,
-                    "frictionloss": tendon.frictionloss,
-                    "springlength": [tendon.spring_length.0, tendon.spring_length.1],
-                    "limited": tendon.limit.is_some(),
-                    "range": tendon.limit.map(|l| vec![l.lo, l.hi]),
-                    "limit_stiffness": tendon.limit.map(|l| l.stiffness),
-                    "limit_damping": tendon.limit.map(|l| l.damping),
-                })
+                let mut out = law(&tendon.law());
+                out["name"] = json!(tendon.name);
+                out["joints"] = json!(joints);
+                out
             })
             .collect();
         let at_q0 = t.kinematics(&t.q0(), &vec![0.0; t.nv]);
@@ -170,18 +178,11 @@ impl Compiled {
                         ])
                     })
                     .collect();
-                let law = &tendon.law;
-                json!({
-                    "name": tendon.name, "segments": segments,
-                    "length0": tendon.length_and_rate(&at_q0.frames).0,
-                    "stiffness": law.stiffness, "damping": law.damping,
-                    "frictionloss": law.frictionloss,
-                    "springlength": [law.spring_length.0, law.spring_length.1],
-                    "limited": law.limit.is_some(),
-                    "range": law.limit.map(|l| vec![l.lo, l.hi]),
-                    "limit_stiffness": law.limit.map(|l| l.stiffness),
-                    "limit_damping": law.limit.map(|l| l.damping),
-                })
+                let mut out = law(&tendon.law);
+                out["name"] = json!(tendon.name);
+                out["segments"] = json!(segments);
+                out["length0"] = json!(tendon.length_and_rate(&at_q0.frames).0);
+                out
             })
             .collect();
         let equalities: Vec<Value> = self

@@ -150,13 +150,7 @@ impl Builder {
         let inv = mass_at_q0(tree).1;
         // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
         // each degree of freedom.
-        let columns: Vec<_> = (0..tree.nv)
-            .map(|k| {
-                let mut v = vec![0.0; tree.nv];
-                v[k] = 1.0;
-                tree.kinematics(&q0, &v)
-            })
-            .collect();
+        let columns = unit_velocity_kinematics(tree, &q0);
         let weight = |b: usize| -> (f64, f64) {
             if b == 0 || !tree.body_moves(b) {
                 return (0.0, 0.0);
@@ -381,13 +375,7 @@ impl Builder {
             .flatten();
         // The rate of the length for a unit velocity of each degree of freedom at qpos0: the
         // tendon's Jacobian there.
-        let columns: Vec<_> = (0..tree.nv)
-            .map(|k| {
-                let mut v = vec![0.0; tree.nv];
-                v[k] = 1.0;
-                tree.kinematics(&q0, &v)
-            })
-            .collect();
+        let columns = unit_velocity_kinematics(tree, &q0);
         let on = |flag: bool, x: f64| if flag { x } else { 0.0 };
         self.spatial_tendons
             .iter()
@@ -524,6 +512,18 @@ fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
     let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
     (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
         .then_some(i.mass)
+}
+
+/// The kinematics at `q` for a unit velocity of each degree of freedom in turn: the columns of
+/// every body's (and point's) velocity Jacobian there.
+fn unit_velocity_kinematics(tree: &Tree, q: &[f64]) -> Vec<crate::dynamics::Kinematics<f64>> {
+    (0..tree.nv)
+        .map(|k| {
+            let mut v = vec![0.0; tree.nv];
+            v[k] = 1.0;
+            tree.kinematics(q, &v)
+        })
+        .collect()
 }
 
 /// The mass matrix at the reference configuration `qpos0` and its inverse (`None` when it is
