@@ -436,7 +436,7 @@ impl Model {
         self.forward_tau(
             q,
             v,
-            self.actuator_forces(q, v, ctrl).as_slice(),
+            self.actuator_forces_at(q, v, ctrl, mocap).as_slice(),
             mocap,
             prm,
         )
@@ -503,7 +503,7 @@ impl Model {
     ) -> Result<Forward<f64>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         kept.resize(self.pairs.len(), None);
-        let tau = self.actuator_forces(q, v, ctrl);
+        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
         self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, Some(kept))
     }
 

@@ -790,3 +790,47 @@ fn welds_store_what_they_take_and_their_dampers_only_dissipate() {
         "the dampers take most of the motion: {damped:?}"
     );
 }
+
+/// `Tree::wrench_forces` is the part of the recursive Newton–Euler pass that external wrenches
+/// give: `rnea(0, f) - rnea(0, 0) = -Σ Jᵀ f`, on a chain with a ball joint, a free body and a
+/// body of several joints, moving, with wrenches on every body.
+#[test]
+fn wrench_forces_are_the_external_part_of_rnea() {
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint type="ball"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+      <body name="b" pos="0.3 0 0">
+        <joint axis="0 1 0"/>
+        <joint type="slide" axis="1 0 0"/>
+        <geom type="box" size="0.05 0.04 0.03"/>
+      </body>
+    </body>
+    <body name="c" pos="1 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+    let m = load_str(xml, Path::new("chain.xml")).unwrap().model;
+    let mut q = m.tree.q0();
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.2, 0.5));
+    q[..4].copy_from_slice(&[r.w, r.i, r.j, r.k]);
+    q[4] = 0.4;
+    q[5] = 0.05;
+    let v: Vec<f64> = (0..m.tree.nv).map(|k| 0.3 - 0.1 * k as f64).collect();
+    let kin = m.tree.kinematics(&q, &v);
+    let wrenches: Vec<Wrench<f64>> = (0..m.tree.bodies.len())
+        .map(|b| Wrench {
+            force: Vector3::new(1.0, -2.0, 0.5) * b as f64,
+            torque: Vector3::new(-0.3, 0.4, 1.1) * b as f64,
+        })
+        .collect();
+    let zero = vec![0.0; m.tree.nv];
+    let none = vec![Wrench::zero(); m.tree.bodies.len()];
+    let want = m.tree.rnea(&kin, &zero, &none) - m.tree.rnea(&kin, &zero, &wrenches);
+    let got = m.tree.wrench_forces(&kin, &wrenches);
+    assert!((got - &want).amax() < 1e-12 * want.amax(), "{want}");
+    assert!(want.amax() > 1.0);
+}

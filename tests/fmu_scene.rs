@@ -361,6 +361,7 @@ fn dependencies_follow_spatial_tendons() {
     <body name="d" pos="3 0 1">
       <joint name="jd" type="hinge" axis="0 1 0"/>
       <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <site name="d_tip" pos="0.2 0 0"/>
     </body>
     <body name="hand" mocap="true" pos="2 0 1.4">
       <site name="hand_site"/>
@@ -379,14 +380,22 @@ fn dependencies_follow_spatial_tendons() {
       <site site="hand_site"/>
       <site site="c_site"/>
     </spatial>
+    <spatial name="cord">
+      <site site="w2"/>
+      <site site="d_tip"/>
+    </spatial>
   </tendon>
+  <actuator>
+    <motor name="pull" tendon="string" gear="2"/>
+    <position name="servo" tendon="cord" kp="30" kv="2"/>
+  </actuator>
 </mujoco>"#;
     let dir = std::env::temp_dir().join(format!("scm_spatial_deps_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("strings.xml");
     std::fs::write(&path, xml).unwrap();
     let mut sim = Simulation::from_file(&path).unwrap();
-    assert_eq!(sim.model.spatial_tendons.len(), 2);
+    assert_eq!(sim.model.spatial_tendons.len(), 3);
     // Both arms moving, the string past its deadband and its limit.
     sim.current.state.q = vec![0.2, -0.3, 0.05, 0.1];
     sim.current.state.v = vec![0.4, -0.6, 0.2, 0.3];
@@ -429,7 +438,16 @@ fn dependencies_follow_spatial_tendons() {
     let c = deps("der(jc.v)");
     assert!(c.contains(&"hand.pos.z".into()), "{c:?}");
     assert!(!c.iter().any(|n| n.starts_with("ja.")), "{c:?}");
-    assert_eq!(deps("der(jd.v)"), ["jd.q", "jd.v"]);
+    // An actuator on a spatial tendon moves the joints of its sites' bodies; the servo on the
+    // cord (no force of its own) ties the fourth arm to its controls alone.
+    assert!(a.contains(&"pull.ctrl".into()), "{a:?}");
+    assert!(deps("der(jb.v)").contains(&"pull.ctrl".into()));
+    assert_eq!(deps("der(jd.v)"), ["jd.q", "jd.v", "servo.ctrl"]);
+    assert!(!c.iter().any(|n| n.ends_with(".ctrl")), "{c:?}");
+    for (name, u) in [("pull.ctrl", 0.7), ("servo.ctrl", 0.3)] {
+        let r = vr(sim.info(), name);
+        set_known(&mut sim, Slot::Ctrl(0), r, u);
+    }
     check_dependencies("spatial tendons", &mut sim);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -1274,7 +1274,7 @@ fn what_a_file_switches_off_or_does_not_weigh_does_not_stop_it() {
 /// adds length, exerts nothing), unnamed tendons numbered with the fixed ones, the spring
 /// length at the springs' rest pose by default; what MuJoCo's compiler refuses is refused at
 /// the element's line, and so is what SCM does not model yet (wrapping around a geom, an
-/// actuator or an equality on a spatial tendon).
+/// equality on a spatial tendon). An actuator drives a spatial tendon.
 #[test]
 fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
     let scene = |tendon: &str, after: &str| {
@@ -1327,6 +1327,14 @@ fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
         + 0.25 * ((tip - Vector3::new(1.0, 0.0, 2.0)).norm() + (tip - mid).norm());
     let (lo, hi) = t.law.spring_length;
     assert!((lo - rest).abs() < 1e-12 && lo == hi, "{lo} vs {rest}");
+    let s = load(&scene(
+        r#"<spatial name="s"><site site="hook"/><site site="tip"/></spatial>"#,
+        r#"<actuator><motor tendon="s"/></actuator>"#,
+    ));
+    assert_eq!(
+        s.model.actuators[0].target,
+        scm::model::Transmission::Spatial(0)
+    );
 
     for (tendon, after, element, says) in [
         (
@@ -1400,12 +1408,6 @@ fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
             "",
             "spatial",
             "increasing",
-        ),
-        (
-            r#"<spatial name="s"><site site="hook"/><site site="tip"/></spatial>"#,
-            r#"<actuator><motor tendon="s"/></actuator>"#,
-            "motor",
-            "an actuator on a spatial tendon is not supported",
         ),
         (
             r#"<spatial name="s"><site site="hook"/><site site="tip"/></spatial>"#,

@@ -471,6 +471,50 @@ impl Tree {
         tau
     }
 
+    /// The joints on the path from body `b` to the world.
+    pub fn path_joints(&self, mut b: usize) -> Vec<usize> {
+        let mut out = Vec::new();
+        while b != 0 {
+            out.extend(&self.bodies[b].joints);
+            b = self.bodies[b].parent.unwrap_or(0);
+        }
+        out
+    }
+
+    /// The generalized force `Σ Jᵀ f` of body wrenches `f_ext` (per body, world frame, torque
+    /// about the body origin) at the configuration of `kin`: the backward pass of
+    /// [`Tree::rnea`] alone (`rnea` at rest without gravity would give its negative plus the
+    /// velocity terms).
+    pub fn wrench_forces<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        f_ext: &[crate::contact::Wrench<T>],
+    ) -> DVector<T> {
+        let mut f: Vec<Vector6<T>> = (self.nodes.iter())
+            .map(|node| {
+                if !node.carries_inertia {
+                    return Vector6::zeros();
+                }
+                let fr = &kin.frames[node.body];
+                let w = &f_ext[node.body];
+                let rt = fr.rotation.transpose();
+                spatial::spatial(&(rt * w.torque), &(rt * w.force))
+            })
+            .collect();
+        let mut tau = DVector::zeros(self.nv);
+        for i in (0..self.nodes.len()).rev() {
+            let da = self.node_dadr(i);
+            for (k, col) in kin.s[i].iter().enumerate() {
+                tau[da + k] = col.dot(&f[i]);
+            }
+            if let Some(p) = self.nodes[i].parent {
+                let fp = kin.x[i].force_to_parent(&f[i]);
+                f[p] += fp;
+            }
+        }
+        tau
+    }
+
     /// `q̇` for a velocity `v`: equal to `v` except for quaternions, `q̇ = ½ q ⊗ (0, ω)`, and free
     /// joints' positions, `ṗ = linvel`.
     pub fn qdot<T: Scalar>(&self, q: &[T], v: &[T]) -> Vec<T> {

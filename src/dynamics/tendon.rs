@@ -234,6 +234,12 @@ impl SpatialTendon {
         w: &mut [Wrench<T>],
     ) {
         let f = self.force(frames, stiction_velocity);
+        self.add_force_wrenches(frames, f, w);
+    }
+
+    /// Adds the point forces of a force `f` along the tendon (positive lengthens it: an
+    /// actuator's, or the tendon's own) to the bodies' wrenches.
+    pub fn add_force_wrenches<T: Scalar>(&self, frames: &[Frame<T>], f: T, w: &mut [Wrench<T>]) {
         // The segments' states again rather than kept: no allocation per step.
         for s in self.segments.iter().filter(|s| s.from.0 != s.to.0) {
             let st = s.state(frames);

@@ -212,7 +212,10 @@ impl Model {
         kept: Option<&mut Vec<Option<KeptReach>>>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
-        let tau = self.actuator_forces(q, v, ctrl).as_slice().to_vec();
+        let tau = self
+            .actuator_forces_at(q, v, ctrl, mocap)
+            .as_slice()
+            .to_vec();
         let real = ContactImplicitResidual {
             model: self,
             q: re_vec(q),

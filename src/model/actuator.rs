@@ -1,4 +1,4 @@
-//! Actuators: what an actuator drives (a joint or a fixed tendon), its force law (MuJoCo's
+//! Actuators: what an actuator drives (a joint, a fixed or a spatial tendon), its force law (MuJoCo's
 //! motor, position, velocity and affine `<general>` actuators) and the generalized forces of
 //! the controls.
 
@@ -40,6 +40,7 @@ impl Model {
         match a.target {
             Transmission::Joint(j) => format!("joint {}", self.tree.joints[j].name),
             Transmission::Tendon(t) => format!("tendon {}", self.tendons[t].name),
+            Transmission::Spatial(t) => format!("tendon {}", self.spatial_tendons[t].name),
         }
     }
 
@@ -52,6 +53,14 @@ impl Model {
                 .iter()
                 .filter_map(|&(_, d, _)| self.tree.joints.iter().position(|j| j.dadr == d))
                 .collect(),
+            Transmission::Spatial(t) => {
+                let mut joints: Vec<usize> = (self.spatial_tendons[t].bodies())
+                    .flat_map(|b| self.tree.path_joints(b))
+                    .collect();
+                joints.sort_unstable();
+                joints.dedup();
+                joints
+            }
         }
     }
 }
@@ -77,6 +86,9 @@ pub enum Transmission {
     /// A fixed tendon (by index into [`Model::tendons`]): its length is `gear · L`, and the
     /// force acts on each of the tendon's joints through its coefficient.
     Tendon(usize),
+    /// A spatial tendon (by index into [`Model::spatial_tendons`]): its length is `gear · L(q)`,
+    /// and the force `gear · F` acts along the tendon at its sites, `Jᵀ` of it on the joints.
+    Spatial(usize),
 }
 
 /// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
@@ -103,8 +115,28 @@ impl Model {
     /// with respect to a clamped control is zero), each force clamped to its actuator's
     /// `forcerange`, then the total on a joint with an actuator force range clamped to it (as
     /// MuJoCo clamps `qfrc_actuator`; its derivatives beyond the range are zero).
+    ///
+    /// Mocap bodies are at their scene poses, at rest: [`Model::actuator_forces_at`] takes
+    /// their inputs (they matter to an actuator on a spatial tendon through a mocap body's site).
     pub fn actuator_forces<T: Scalar>(&self, q: &[T], v: &[T], ctrl: &[T]) -> DVector<T> {
+        self.actuator_forces_at(q, v, ctrl, &[])
+    }
+
+    /// [`Model::actuator_forces`] with the mocap bodies' inputs `mocap` (or empty).
+    pub fn actuator_forces_at<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        ctrl: &[T],
+        mocap: &[T],
+    ) -> DVector<T> {
         let mut tau: DVector<T> = DVector::zeros(self.tree.nv);
+        // Actuators on spatial tendons: their lengths from the kinematics, their forces as
+        // point forces at the sites, turned into generalized forces once for all of them.
+        let spatial = (self.actuators.iter())
+            .any(|a| matches!(a.target, Transmission::Spatial(_)))
+            .then(|| self.tree.kinematics_with(q, v, mocap));
+        let mut wrenches = vec![crate::contact::Wrench::zero(); self.tree.bodies.len()];
         for (a, &u) in self.actuators.iter().zip(ctrl) {
             let u = match a.ctrlrange {
                 Some((lo, _)) if u.re() < lo => c(lo),
@@ -119,6 +151,10 @@ impl Model {
                 Transmission::Tendon(t) => {
                     let t = &self.tendons[t];
                     (t.length(q), t.velocity(v))
+                }
+                Transmission::Spatial(t) => {
+                    let kin = spatial.as_ref().expect("kinematics for spatial tendons");
+                    self.spatial_tendons[t].length_and_rate(&kin.frames)
                 }
             };
             let force = match a.kind {
@@ -145,7 +181,15 @@ impl Model {
                         tau[vi] += force * (a.gear * coef);
                     }
                 }
+                Transmission::Spatial(t) => {
+                    let kin = spatial.as_ref().expect("kinematics for spatial tendons");
+                    let tendon = &self.spatial_tendons[t];
+                    tendon.add_force_wrenches(&kin.frames, force * a.gear, &mut wrenches);
+                }
             }
+        }
+        if let Some(kin) = &spatial {
+            tau += self.tree.wrench_forces(kin, &wrenches);
         }
         for &(d, lo, hi) in &self.actuator_ranges {
             if tau[d].re() < lo {

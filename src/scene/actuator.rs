@@ -60,16 +60,19 @@ impl Builder {
                 }
                 Transmission::Joint(joint)
             }
-            (None, Some(tname)) => Transmission::Tendon(
-                self.tendons
-                    .iter()
-                    .position(|t| t.name == tname)
-                    .ok_or_else(|| self.no_fixed_tendon(el, tname, "an actuator on"))?,
-            ),
+            (None, Some(tname)) => {
+                let fixed = self.tendons.iter().position(|t| t.name == tname);
+                let spatial = (self.spatial_tendons.iter()).position(|(t, _)| t.name == tname);
+                match (fixed, spatial) {
+                    (Some(t), _) => Transmission::Tendon(t),
+                    (None, Some(t)) => Transmission::Spatial(t),
+                    (None, None) => return Err(self.err(el, format!("no tendon named '{tname}'"))),
+                }
+            }
             _ => {
                 return Err(self.err(
                     el,
-                    "an actuator drives one joint (joint=\"NAME\") or one fixed tendon (tendon=\"NAME\")",
+                    "an actuator drives one joint (joint=\"NAME\") or one tendon (tendon=\"NAME\")",
                 ))
             }
         };
@@ -136,6 +139,7 @@ impl Builder {
             let range = match target {
                 Transmission::Joint(j) => self.limits[j].as_ref().map(|(lo, hi, _)| (*lo, *hi)),
                 Transmission::Tendon(t) => self.tendons[t].range,
+                Transmission::Spatial(t) => self.spatial_tendons[t].0.range,
             };
             let Some((lo, hi)) = range else {
                 return Err(self.err(el, "inheritrange needs the range of the joint or tendon it drives (a limited one): give that range, or a ctrlrange"));
@@ -376,10 +380,10 @@ impl Builder {
     }
 
     /// The error for a tendon name that names no fixed tendon: a spatial tendon's (`what` it,
-    /// e.g. an actuator on it, is not supported yet) or none.
+    /// an equality of it, is not supported yet) or none.
     fn no_fixed_tendon(&self, el: &Element, name: &str, what: &str) -> SceneError {
         if self.spatial_tendons.iter().any(|(t, _)| t.name == name) {
-            self.err(el, format!("tendon '{name}' is a spatial tendon: {what} a spatial tendon is not supported by SCM yet (its moment arms change with the configuration); use a fixed tendon or drive the joints"))
+            self.err(el, format!("tendon '{name}' is a spatial tendon: {what} a spatial tendon is not supported by SCM yet (its moment arms change with the configuration); use a fixed tendon"))
         } else {
             self.err(el, format!("no tendon named '{name}'"))
         }

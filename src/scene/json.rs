@@ -128,10 +128,11 @@ impl Compiled {
                     "name": a.name, "gear": a.gear,
                     "joint": match a.target {
                         Transmission::Joint(j) => Some(t.joints[j].name.clone()),
-                        Transmission::Tendon(_) => None,
+                        Transmission::Tendon(_) | Transmission::Spatial(_) => None,
                     },
                     "tendon": match a.target {
                         Transmission::Tendon(i) => Some(self.tendons[i].name.clone()),
+                        Transmission::Spatial(i) => Some(self.spatial_tendons[i].name.clone()),
                         Transmission::Joint(_) => None,
                     },
                     "kind": kind, "gainprm": gain, "biasprm": bias,

@@ -295,6 +295,16 @@ impl Builder {
                     .iter()
                     .map(|&(j, c)| (tree.joints[j].dadr, actuator.gear * c))
                     .collect(),
+                // The tendon's Jacobian at qpos0, ∂L/∂v, times the gear.
+                Transmission::Spatial(t) => {
+                    let (spec, segments) = &self.spatial_tendons[t];
+                    let tendon = spatial_geometry(spec, segments);
+                    unit_velocity_kinematics(tree, &tree.q0())
+                        .iter()
+                        .enumerate()
+                        .map(|(k, kin)| (k, actuator.gear * tendon.length_and_rate(&kin.frames).1))
+                        .collect()
+                }
             };
             let w: f64 = match &inv {
                 Some(inv) => moment
@@ -380,17 +390,7 @@ impl Builder {
         self.spatial_tendons
             .iter()
             .map(|(t, segments)| {
-                let segments: Vec<Segment> = segments
-                    .iter()
-                    .map(|s| Segment {
-                        from: s.from,
-                        to: s.to,
-                        scale: s.scale,
-                    })
-                    .collect();
                 let mut tendon = SpatialTendon {
-                    name: t.name.clone(),
-                    segments,
                     law: TendonLaw {
                         stiffness: on(self.flags.spring, t.stiffness),
                         spring_length: (0.0, 0.0),
@@ -398,6 +398,7 @@ impl Builder {
                         frictionloss: on(self.flags.frictionloss, t.frictionloss),
                         limit: None,
                     },
+                    ..spatial_geometry(t, segments)
                 };
                 let rest = tendon.length_and_rate(&at_rest.frames).0;
                 tendon.law.spring_length = t.spring_length.unwrap_or((rest, rest));
@@ -512,6 +513,28 @@ fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
     let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
     (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
         .then_some(i.mass)
+}
+
+/// A spatial tendon's name and segments as read, with no force law (what measures its length).
+fn spatial_geometry(spec: &TendonSpec, segments: &[SegmentSpec]) -> SpatialTendon {
+    SpatialTendon {
+        name: spec.name.clone(),
+        segments: segments
+            .iter()
+            .map(|s| Segment {
+                from: s.from,
+                to: s.to,
+                scale: s.scale,
+            })
+            .collect(),
+        law: TendonLaw {
+            stiffness: 0.0,
+            spring_length: (0.0, 0.0),
+            damping: 0.0,
+            frictionloss: 0.0,
+            limit: None,
+        },
+    }
 }
 
 /// The kinematics at `q` for a unit velocity of each degree of freedom in turn: the columns of

@@ -62,13 +62,8 @@ fn param_index(p: Param) -> usize {
 }
 
 /// Joints on the path from body `b` to the world.
-fn path_joints(model: &Model, mut b: usize) -> Vec<usize> {
-    let mut out = Vec::new();
-    while b != 0 {
-        out.extend(&model.tree.bodies[b].joints);
-        b = model.tree.bodies[b].parent.unwrap_or(0);
-    }
-    out
+fn path_joints(model: &Model, b: usize) -> Vec<usize> {
+    model.tree.path_joints(b)
 }
 
 /// The body right below the world on the path of `b` (the root of its subtree; its mass
@@ -204,7 +199,12 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
                 roots.extend(tied);
             }
         }
-        for t in model.spatial_tendons.iter().filter(|t| t.law.acts()) {
+        let actuated_spatial = |t: usize| {
+            (model.actuators.iter()).any(|a| a.target == crate::model::Transmission::Spatial(t))
+        };
+        for (_, t) in (model.spatial_tendons.iter().enumerate())
+            .filter(|(i, t)| t.law.acts() || actuated_spatial(*i))
+        {
             let tied = moving_roots(&mut t.bodies());
             if tied.iter().any(|r| roots.contains(r)) {
                 roots.extend(tied);

@@ -197,14 +197,18 @@ def compare(path, inertia_tol=TOL):
     is_fixed = [int(m.wrap_type[m.tendon_adr[i]]) == int(mujoco.mjtWrap.mjWRAP_JOINT) for i in range(m.ntendon)]
     fixed = [i for i in range(m.ntendon) if is_fixed[i]]
     spatial = [i for i in range(m.ntendon) if not is_fixed[i]]
-    fixed_index = {i: k for k, i in enumerate(fixed)}
+    tendon_names = [None] * m.ntendon
+    for i, ten in zip(fixed, ours["tendons"]):
+        tendon_names[i] = ten["name"]
+    for i, ten in zip(spatial, ours["spatial_tendons"]):
+        tendon_names[i] = ten["name"]
 
     # Actuators.
     assert len(ours["actuators"]) == m.nu, "actuator count"
     for a, act in enumerate(ours["actuators"]):
         tag = f"actuator {act['name']}"
         if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON):
-            assert act["tendon"] == ours["tendons"][fixed_index[m.actuator_trnid[a, 0]]]["name"], tag
+            assert act["tendon"] == tendon_names[m.actuator_trnid[a, 0]], tag
         else:
             assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
             assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
@@ -505,7 +509,8 @@ def test_spatial_tendons_compile_as_mujoco_compiles_them(tmp_path):
     with a segment within one body, limits with their own solreflimit, and fixed tendons written
     between them (MuJoCo numbers both kinds together): segments, lengths at qpos0, spring
     lengths at the springs' rest pose, and the limit springs on 1 / tendon_invweight0; an
-    actuator on a fixed tendon written after spatial ones names the right tendon."""
+    actuator on a fixed tendon written after spatial ones names the right tendon, and servos on
+    spatial tendons get MuJoCo's kv from their dampratio (the tendon's Jacobian at qpos0)."""
     from test_mjcf_idioms import SPATIAL_TENDONS
     xml = SPATIAL_TENDONS.format(integrator="Euler").replace(
         '<spatial name="rest" stiffness="3">', '<spatial name="rest" stiffness="3" range="0.1 0.4" solreflimit="0.05 0.7">'
@@ -523,7 +528,8 @@ def test_spatial_tendons_compile_as_mujoco_compiles_them(tmp_path):
       <site site="c_site"/>
     </spatial>
   </tendon>
-  <actuator><motor name="m" tendon="late"/><position name="p" tendon="couple" kp="4" dampratio="1"/></actuator>""").replace(
+  <actuator><motor name="m" tendon="late"/><position name="p" tendon="couple" kp="4" dampratio="1"/>
+    <position name="q" tendon="leash" kp="7" dampratio="0.8" gear="1.5"/></actuator>""").replace(
         "</worldbody>", """  <body name="hand" mocap="true" pos="1.5 0 1.6"><site name="hand_site"/></body>
   </worldbody>""")
     path = tmp_path / "strings.xml"

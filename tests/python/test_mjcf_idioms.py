@@ -579,6 +579,13 @@ SPATIAL_TENDONS = """<mujoco model="strings">
       <site site="ball_top"/>
     </spatial>
   </tendon>
+  <actuator>
+    <motor name="pull" tendon="rope" gear="2" ctrlrange="-1 1"/>
+    <position name="servo" tendon="band" kp="30" dampratio="0.5"/>
+    <general name="winch" tendon="cord" gainprm="3" biasprm="0 -1 -0.2"/>
+  </actuator>
+  <keyframe><key name="k" ctrl="-0.4 0.2 0.1"/></keyframe>
+  <custom><text name="scm_keyframe" data="k"/></custom>
 </mujoco>"""
 
 
@@ -586,8 +593,10 @@ def test_spatial_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
     # Spatial tendons through sites: a rope from one arm over a pulley (divisor 2) to another
     # with a deadband spring and a damper, a band between a slider and its parent arm, one
     # resting at the length of the springs' rest pose (no springlength), a free ball on a damped
-    # cord, and a fixed tendon numbered between them. MuJoCo's tendon springs and dampers are
-    # passive forces J^T F, as SCM's are: contact-free, the motion equals MuJoCo's to rounding
+    # cord, and a fixed tendon numbered between them; a motor, a position servo (dampratio) and
+    # an affine <general> drive three of them, at constant controls. MuJoCo's tendon springs and
+    # dampers are passive forces J^T F and its actuators on tendons J^T (gear force), as SCM's
+    # are: contact-free, the motion equals MuJoCo's to rounding
     # with Euler. With RK4 the cord's torque makes the ball's orientation at the inner stages
     # matter, which the two RK4s form differently (both fourth order: measured 4.5e-6 and
     # 5.5e-6 from a reference at h/32 after 0.5 s, 16 times less at each halving, the two
@@ -603,6 +612,7 @@ def test_spatial_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
         res = simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=names)
         m = mujoco.MjModel.from_xml_path(str(path))
         d = mujoco.MjData(m)
+        mujoco.mj_resetDataKeyframe(m, d, 0)
         theirs, lengths = [], []
         while d.time < 1.0 - 1e-9:
             mujoco.mj_step(m, d)
@@ -621,6 +631,7 @@ def test_spatial_tendons_with_springs_and_dampers_as_in_mujoco(tmp_path):
         fine = mujoco.MjModel.from_xml_string(SPATIAL_TENDONS.format(integrator=integrator).replace(
             'timestep="0.002"', 'timestep="0.00025"'))
         df = mujoco.MjData(fine)
+        mujoco.mj_resetDataKeyframe(fine, df, 0)
         while df.time < 1.0 - 1e-9:
             mujoco.mj_step(fine, df)
         ours_err, theirs_err = np.max(np.abs(ours[-1] - df.qpos)), np.max(np.abs(theirs[-1] - df.qpos))
