@@ -337,8 +337,23 @@ impl Tree {
 
 /// Unit quaternion `[w x y z]` of a slice, normalized (so that kinematics stays a rotation for
 /// any finite non-zero input, and its derivatives are those of the normalized quaternion).
+///
+/// A quaternion whose squared norm overflows or underflows (components near 1e200 or 1e-200,
+/// which a host may write into a mocap input) is first divided by its largest component, a
+/// constant: the unit quaternion and its derivatives are the same, since normalizing undoes
+/// any scale. Other quaternions are normalized directly, bit for bit as before.
 pub fn quat_from<T: Scalar>(q: &[T]) -> Quaternion<T> {
-    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    let r = n2.re();
+    if !(1e-280..=1e280).contains(&r) {
+        let largest = q[..4].iter().fold(0.0f64, |m, x| m.max(x.re().abs()));
+        if largest > 0.0 && largest.is_finite() {
+            let s: Vec<T> = q[..4].iter().map(|&x| x * (1.0 / largest)).collect();
+            let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3]).sqrt();
+            return Quaternion::new(s[0] / n, s[1] / n, s[2] / n, s[3] / n);
+        }
+    }
+    let n = n2.sqrt();
     Quaternion::new(q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 }
 
@@ -668,4 +683,39 @@ impl Tree {
 /// A unit quaternion from MJCF-style `[w x y z]`.
 pub fn unit_quat(wxyz: [f64; 4]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(wxyz[0], wxyz[1], wxyz[2], wxyz[3]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_dual::Dual64;
+
+    #[test]
+    fn quaternions_of_any_scale_normalize_to_the_same_rotation_and_derivative() {
+        // Components whose squares overflow (1e200) or underflow (1e-200) give the rotation
+        // of the same direction at scale 1, with the same derivative along a seeded component.
+        let unit = [0.3, -0.5, 0.7, 0.2];
+        let seed = |scale: f64| -> Vec<Dual64> {
+            (0..4)
+                .map(|k| Dual64::new(unit[k] * scale, if k == 1 { scale } else { 0.0 }))
+                .collect()
+        };
+        let want = quat_from(&seed(1.0));
+        for scale in [1e200, 1e-200, 1e300, 1e-300] {
+            let got = quat_from(&seed(scale));
+            for (a, b) in [
+                (got.w, want.w),
+                (got.i, want.i),
+                (got.j, want.j),
+                (got.k, want.k),
+            ] {
+                assert!((a.re - b.re).abs() < 1e-15, "{scale}: {a} vs {b}");
+                assert!((a.eps - b.eps).abs() < 1e-14, "{scale}: {a} vs {b}");
+            }
+        }
+        // In range, the direct normalization, bit for bit.
+        let q = [0.3f64, -0.5, 0.7, 0.2];
+        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        assert_eq!(quat_from(&q).w, q[0] / n);
+    }
 }
