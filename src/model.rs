@@ -15,7 +15,7 @@ use nalgebra::{DVector, Vector3};
 
 mod actuator;
 mod frozen;
-pub use actuator::{Actuator, ActuatorKind, Transmission};
+pub use actuator::{Actuator, ActuatorKind, SiteTransmission, Transmission};
 pub use frozen::FrozenForward;
 
 /// A pair of bodies whose colliders interact.
@@ -87,6 +87,8 @@ pub struct Model {
     /// Spatial tendons (`<tendon><spatial>` through sites and pulleys), each with its spring,
     /// damper, dry friction and limits; their forces act on the bodies at the sites.
     pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
+    /// The site transmissions of actuators that drive sites ([`Transmission::Site`]).
+    pub site_transmissions: Vec<crate::model::SiteTransmission>,
     /// Degrees of freedom whose total actuator force is clamped (MuJoCo's joint
     /// `actuatorfrcrange`): the velocity index and the range (N or N·m).
     pub actuator_ranges: Vec<(usize, f64, f64)>,

@@ -452,6 +452,90 @@ fn dependencies_follow_spatial_tendons() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Actuators on sites act on the bodies of their sites only: the drone's accelerations depend
+/// on its four motors' controls and not on the arm's, the arm's on its servos' and not on the
+/// drone's; every partial (through the site's moment, its velocity in the servo's damping and
+/// the gear's torque) matches central differences.
+#[test]
+fn site_actuators_depend_on_their_bodies_and_match_central_differences() {
+    let xml = r#"<mujoco model="drone">
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="drone" pos="0 0 1" euler="5 -3 10">
+      <freejoint name="drone"/>
+      <geom type="box" size="0.05 0.05 0.01" mass="0.03" contype="0" conaffinity="0"/>
+      <site name="r1" pos="0.04 0.04 0.01"/>
+      <site name="r2" pos="-0.04 0.04 0.01"/>
+      <site name="r3" pos="-0.04 -0.04 0.01"/>
+      <site name="r4" pos="0.04 -0.04 0.01" euler="0 10 0"/>
+    </body>
+    <body name="arm" pos="1 0 1">
+      <joint name="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <site name="tip" pos="0.3 0 0" quat="0.9 0.1 0.3 0.2"/>
+      <body name="slider" pos="0.3 0 0">
+        <joint name="slide" type="slide" axis="1 0 0"/>
+        <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+        <site name="bead"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor name="m1" site="r1" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
+    <motor name="m2" site="r2" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
+    <motor name="m3" site="r3" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
+    <motor name="m4" site="r4" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
+    <position name="push" site="tip" kp="3" dampratio="0.7" gear="0.2 0.5 1 0.1 0 0"/>
+    <velocity name="drag" site="bead" kv="0.5" gear="1 0.3"/>
+    <general name="aff" site="tip" gainprm="2" biasprm="0.1 0 -0.3" gear="0 1"/>
+  </actuator>
+</mujoco>"#;
+    let dir = std::env::temp_dir().join(format!("scm_site_deps_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("drone.xml");
+    std::fs::write(&path, xml).unwrap();
+    let mut sim = Simulation::from_file(&path).unwrap();
+    sim.current.state.v = (0..sim.model.tree.nv)
+        .map(|k| 0.2 - 0.05 * k as f64)
+        .collect();
+    for (k, name) in ["m1", "m2", "m3", "m4", "push", "drag", "aff"]
+        .iter()
+        .enumerate()
+    {
+        let r = vr(sim.info(), &format!("{name}.ctrl"));
+        set_known(&mut sim, Slot::Ctrl(k), r, 0.05 + 0.01 * k as f64);
+    }
+    let info = sim.info().clone();
+    let deps = |unknown: &str| -> Vec<String> {
+        let vr = vr(&info, unknown);
+        let d = (info.structure.derivatives.iter())
+            .find(|(u, _)| *u == vr)
+            .and_then(|(_, d)| d.clone())
+            .unwrap();
+        (d.iter())
+            .map(|r| {
+                info.variables
+                    .iter()
+                    .find(|v| v.value_reference == *r)
+                    .unwrap()
+                    .name
+                    .clone()
+            })
+            .collect()
+    };
+    let drone = deps("der(drone.linvel.z)");
+    assert!(drone.contains(&"m3.ctrl".into()), "{drone:?}");
+    assert!(!drone.contains(&"push.ctrl".into()), "{drone:?}");
+    let arm = deps("der(hinge.v)");
+    assert!(
+        arm.contains(&"push.ctrl".into()) && arm.contains(&"drag.ctrl".into()),
+        "{arm:?}"
+    );
+    assert!(!arm.contains(&"m1.ctrl".into()), "{arm:?}");
+    check_dependencies("site actuators", &mut sim);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Every declared (unknown, known) pair of `sim`'s `<ModelStructure>` against central
 /// differences; every pair that is not declared exactly zero.
 fn check_dependencies(name: &str, sim: &mut Simulation) {

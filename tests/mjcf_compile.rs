@@ -1423,3 +1423,40 @@ fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
         );
     }
 }
+
+/// An actuator on a site reads MuJoCo's 6-vector gear (missing entries zero, default along
+/// the site's x axis) and keeps a scalar gear of 1; what SCM does not model (a `refsite`, an
+/// adhesion's body transmission) and what MuJoCo refuses is refused at the actuator's line.
+#[test]
+fn site_transmissions_read_their_gear_and_refuse_what_they_cannot_drive() {
+    let scene = |act: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <site name=\"drawn\" fromto=\"0 0 0 0 0 0.1\"/>\n    <body name=\"b\" pos=\"0 0 1\">\n      <freejoint/>\n      <geom type=\"box\" size=\"0.1 0.1 0.1\"/>\n      <site name=\"s\" pos=\"0.1 0 0\"/>\n      <site name=\"t\"/>\n    </body>\n  </worldbody>\n  <actuator>\n    {act}\n  </actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(r#"<motor site="s" gear="0 0 2"/><motor site="t"/>"#));
+    let gears: Vec<[f64; 6]> = s.model.site_transmissions.iter().map(|t| t.gear).collect();
+    assert_eq!(
+        gears,
+        [
+            [0.0, 0.0, 2.0, 0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        ]
+    );
+    assert!(s.model.actuators.iter().all(|a| a.gear == 1.0));
+    for (act, says) in [
+        (r#"<motor site="s" refsite="t"/>"#, "refsite"),
+        (
+            r#"<adhesion body="b" ctrlrange="0 1"/>"#,
+            "body transmissions",
+        ),
+        (r#"<motor site="nowhere"/>"#, "no site named 'nowhere'"),
+        (r#"<motor site="drawn"/>"#, "fromto"),
+        (
+            r#"<motor site="s" gear="1 2 3 4 5 6 7"/>"#,
+            "1 to 6 numbers",
+        ),
+        (r#"<motor site="s" joint="x"/>"#, "one site"),
+    ] {
+        let e = refuse(&scene(act));
+        assert!(e.line == 12 && e.message.contains(says), "{act}: {e}");
+    }
+}

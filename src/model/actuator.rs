@@ -1,4 +1,4 @@
-//! Actuators: what an actuator drives (a joint, a fixed or a spatial tendon), its force law (MuJoCo's
+//! Actuators: what an actuator drives (a joint, a fixed or a spatial tendon, a site), its force law (MuJoCo's
 //! motor, position, velocity and affine `<general>` actuators) and the generalized forces of
 //! the controls.
 
@@ -41,6 +41,7 @@ impl Model {
             Transmission::Joint(j) => format!("joint {}", self.tree.joints[j].name),
             Transmission::Tendon(t) => format!("tendon {}", self.tendons[t].name),
             Transmission::Spatial(t) => format!("tendon {}", self.spatial_tendons[t].name),
+            Transmission::Site(k) => format!("site {}", self.site_transmissions[k].name),
         }
     }
 
@@ -61,7 +62,62 @@ impl Model {
                 joints.dedup();
                 joints
             }
+            Transmission::Site(k) => self.tree.path_joints(self.site_transmissions[k].body),
         }
+    }
+}
+
+/// An actuator's site transmission (MuJoCo's `site=` without `refsite`): the force `F` acts at
+/// the site as the wrench `F R g_f` (force) and `F R g_t` (torque), `R` the site's frame in the
+/// world and `g = (g_f, g_t)` the 6-vector gear; its length is zero and its velocity the
+/// moment `Jᵀ (R g_f, R g_t)` times the velocities (the site's velocity along `R g_f` plus the
+/// body's angular velocity along `R g_t`), as MuJoCo's transmission makes them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SiteTransmission {
+    /// The site's name.
+    pub name: String,
+    /// The site's body.
+    pub body: usize,
+    /// The site's position in its body's frame.
+    pub pos: nalgebra::Vector3<f64>,
+    /// The site's orientation in its body's frame.
+    pub rotation: nalgebra::Matrix3<f64>,
+    /// The gear: force along, then torque about, the site's axes.
+    pub gear: [f64; 6],
+}
+
+impl SiteTransmission {
+    /// The transmission's velocity (its moment times the velocities) at the site's body's
+    /// frame; zero on a body without degrees of freedom (`moves` false).
+    pub fn velocity<T: Scalar>(&self, frame: &crate::collision::Frame<T>, moves: bool) -> T {
+        self.at(frame, moves).3
+    }
+
+    /// The force and torque directions in the world, the site's point, its arm from the body
+    /// origin, and the transmission's velocity, at the body's frame.
+    #[allow(clippy::type_complexity)]
+    fn at<T: Scalar>(
+        &self,
+        frame: &crate::collision::Frame<T>,
+        moves: bool,
+    ) -> (
+        nalgebra::Vector3<T>,
+        nalgebra::Vector3<T>,
+        nalgebra::Vector3<T>,
+        T,
+    ) {
+        let r = frame.rotation * self.rotation.map(c::<T>);
+        let g = self.gear.map(c::<T>);
+        let force = r * nalgebra::Vector3::new(g[0], g[1], g[2]);
+        let torque = r * nalgebra::Vector3::new(g[3], g[4], g[5]);
+        let arm = frame.rotation * self.pos.map(c::<T>);
+        // A body without degrees of freedom (the world, a mocap body) has a zero moment.
+        let velocity = if moves {
+            force.dot(&(frame.linvel + frame.angvel.cross(&arm))) + torque.dot(&frame.angvel)
+        } else {
+            T::zero()
+        };
+        (force, torque, arm, velocity)
     }
 }
 
@@ -89,6 +145,9 @@ pub enum Transmission {
     /// A spatial tendon (by index into [`Model::spatial_tendons`]): its length is `gear · L(q)`,
     /// and the force `gear · F` acts along the tendon at its sites, `Jᵀ` of it on the joints.
     Spatial(usize),
+    /// A site (by index into [`Model::site_transmissions`], which holds its 6-vector gear; the
+    /// actuator's scalar gear is 1): see [`SiteTransmission`].
+    Site(usize),
 }
 
 /// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
@@ -134,7 +193,7 @@ impl Model {
         // Actuators on spatial tendons: their lengths from the kinematics, their forces as
         // point forces at the sites, turned into generalized forces once for all of them.
         let spatial = (self.actuators.iter())
-            .any(|a| matches!(a.target, Transmission::Spatial(_)))
+            .any(|a| matches!(a.target, Transmission::Spatial(_) | Transmission::Site(_)))
             .then(|| self.tree.kinematics_with(q, v, mocap));
         let mut wrenches = vec![crate::contact::Wrench::zero(); self.tree.bodies.len()];
         for (a, &u) in self.actuators.iter().zip(ctrl) {
@@ -155,6 +214,13 @@ impl Model {
                 Transmission::Spatial(t) => {
                     let kin = spatial.as_ref().expect("kinematics for spatial tendons");
                     self.spatial_tendons[t].length_and_rate(&kin.frames)
+                }
+                Transmission::Site(k) => {
+                    let kin = spatial.as_ref().expect("kinematics for sites");
+                    let site = &self.site_transmissions[k];
+                    let moves =
+                        self.tree.body_moves(site.body) && !self.tree.bodies[site.body].mocap;
+                    (T::zero(), site.at(&kin.frames[site.body], moves).3)
                 }
             };
             let force = match a.kind {
@@ -185,6 +251,15 @@ impl Model {
                     let kin = spatial.as_ref().expect("kinematics for spatial tendons");
                     let tendon = &self.spatial_tendons[t];
                     tendon.add_force_wrenches(&kin.frames, force * a.gear, &mut wrenches);
+                }
+                Transmission::Site(k) => {
+                    let kin = spatial.as_ref().expect("kinematics for sites");
+                    let site = &self.site_transmissions[k];
+                    let (f, t, arm, _) = site.at(&kin.frames[site.body], true);
+                    let w = &mut wrenches[site.body];
+                    let f = f * (force * a.gear);
+                    w.force += f;
+                    w.torque += arm.cross(&f) + t * (force * a.gear);
                 }
             }
         }

@@ -4,10 +4,16 @@ use super::*;
 
 impl Builder {
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
-        if el.attr("site").is_some() || el.attr("body").is_some() {
+        if el.attr("body").is_some() {
             return Err(self.err(
                 el,
-                "site and body transmissions are not supported by SCM: drive a joint (joint=\"NAME\") or a fixed tendon (tendon=\"NAME\")",
+                "body transmissions (adhesion) are not supported by SCM: drive a joint (joint=\"NAME\"), a tendon (tendon=\"NAME\") or a site (site=\"NAME\")",
+            ));
+        }
+        if el.attr("refsite").is_some() {
+            return Err(self.err(
+                el,
+                "refsite (a site transmission measured in another site's frame, MuJoCo's Cartesian control) is not supported by SCM yet: drive the site alone (its force along its own axes) or the joints",
             ));
         }
         // The defaults gave every shortcut its parameters in the attributes read below
@@ -24,6 +30,7 @@ impl Builder {
                 "name",
                 "joint",
                 "tendon",
+                "site",
                 "gear",
                 "kp",
                 "kv",
@@ -45,8 +52,34 @@ impl Builder {
             Some(r) if r.0 > r.1 => return Err(self.err(el, "forcerange is reversed")),
             r => r,
         };
-        let target = match (el.attr("joint"), el.attr("tendon")) {
-            (Some(jname), None) => {
+        let target = match (el.attr("joint"), el.attr("tendon"), el.attr("site")) {
+            (None, None, Some(sname)) => {
+                let (body, pose) = match self.sites.get(sname) {
+                    Some(Some(s)) => *s,
+                    Some(None) => return Err(self.err(el, format!("site '{sname}' is placed by fromto, which SCM does not read for sites: give it pos (and quat) instead"))),
+                    None => return Err(self.err(el, format!("no site named '{sname}'"))),
+                };
+                // MuJoCo's gear is 6 numbers for a site (default 1 0 0 0 0 0; missing ones 0).
+                let mut gear = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+                if let Some(s) = el.attr("gear") {
+                    match parse_floats(s) {
+                        Some(v) if !v.is_empty() && v.len() <= 6 => {
+                            gear = [0.0; 6];
+                            gear[..v.len()].copy_from_slice(&v);
+                        }
+                        _ => return Err(self.err(el, format!("gear=\"{s}\": expected 1 to 6 numbers"))),
+                    }
+                }
+                self.site_transmissions.push(crate::model::SiteTransmission {
+                    name: sname.to_string(),
+                    body,
+                    pos: pose.translation.vector,
+                    rotation: *pose.rotation.to_rotation_matrix().matrix(),
+                    gear,
+                });
+                Transmission::Site(self.site_transmissions.len() - 1)
+            }
+            (Some(jname), None, None) => {
                 let joint = self
                     .joints
                     .iter()
@@ -60,7 +93,7 @@ impl Builder {
                 }
                 Transmission::Joint(joint)
             }
-            (None, Some(tname)) => {
+            (None, Some(tname), None) => {
                 let fixed = self.tendons.iter().position(|t| t.name == tname);
                 let spatial = (self.spatial_tendons.iter()).position(|(t, _)| t.name == tname);
                 match (fixed, spatial) {
@@ -72,11 +105,13 @@ impl Builder {
             _ => {
                 return Err(self.err(
                     el,
-                    "an actuator drives one joint (joint=\"NAME\") or one tendon (tendon=\"NAME\")",
+                    "an actuator drives one joint (joint=\"NAME\"), one tendon (tendon=\"NAME\") or one site (site=\"NAME\")",
                 ))
             }
         };
         let gear = match el.attr("gear") {
+            // A site's gear is its transmission's 6-vector.
+            _ if matches!(target, Transmission::Site(_)) => 1.0,
             None => 1.0,
             Some(s) => match parse_floats(s) {
                 Some(v) if !v.is_empty() && v[1..].iter().all(|&x| x == 0.0) => v[0],
@@ -140,6 +175,7 @@ impl Builder {
                 Transmission::Joint(j) => self.limits[j].as_ref().map(|(lo, hi, _)| (*lo, *hi)),
                 Transmission::Tendon(t) => self.tendons[t].range,
                 Transmission::Spatial(t) => self.spatial_tendons[t].0.range,
+                Transmission::Site(_) => None,
             };
             let Some((lo, hi)) = range else {
                 return Err(self.err(el, "inheritrange needs the range of the joint or tendon it drives (a limited one): give that range, or a ctrlrange"));

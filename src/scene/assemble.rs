@@ -201,6 +201,7 @@ impl Builder {
             tree,
             tendons,
             spatial_tendons,
+            site_transmissions: self.site_transmissions,
             equalities,
             connects,
             geoms: self.geoms,
@@ -403,6 +404,7 @@ impl Builder {
             equalities,
             connects,
             spatial_tendons,
+            site_transmissions: std::mem::take(&mut self.site_transmissions),
             actuator_ranges,
         };
         Ok(Scene {

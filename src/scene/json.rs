@@ -128,12 +128,20 @@ impl Compiled {
                     "name": a.name, "gear": a.gear,
                     "joint": match a.target {
                         Transmission::Joint(j) => Some(t.joints[j].name.clone()),
-                        Transmission::Tendon(_) | Transmission::Spatial(_) => None,
+                        Transmission::Tendon(_) | Transmission::Spatial(_) | Transmission::Site(_) => None,
+                    },
+                    "site": match a.target {
+                        Transmission::Site(k) => Some(self.site_transmissions[k].name.clone()),
+                        _ => None,
+                    },
+                    "site_gear": match a.target {
+                        Transmission::Site(k) => Some(self.site_transmissions[k].gear.to_vec()),
+                        _ => None,
                     },
                     "tendon": match a.target {
                         Transmission::Tendon(i) => Some(self.tendons[i].name.clone()),
                         Transmission::Spatial(i) => Some(self.spatial_tendons[i].name.clone()),
-                        Transmission::Joint(_) => None,
+                        Transmission::Joint(_) | Transmission::Site(_) => None,
                     },
                     "kind": kind, "gainprm": gain, "biasprm": bias,
                     "ctrllimited": a.ctrlrange.is_some(),

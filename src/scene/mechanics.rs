@@ -305,6 +305,16 @@ impl Builder {
                         .map(|(k, kin)| (k, actuator.gear * tendon.length_and_rate(&kin.frames).1))
                         .collect()
                 }
+                // The site's moment at qpos0: its velocity for a unit velocity of each dof.
+                Transmission::Site(k) => {
+                    let site = &self.site_transmissions[k];
+                    let moves = tree.body_moves(site.body) && !tree.bodies[site.body].mocap;
+                    unit_velocity_kinematics(tree, &tree.q0())
+                        .iter()
+                        .enumerate()
+                        .map(|(d, kin)| (d, site.velocity(&kin.frames[site.body], moves)))
+                        .collect()
+                }
             };
             let w: f64 = match &inv {
                 Some(inv) => moment

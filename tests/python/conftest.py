@@ -58,7 +58,7 @@ DM_CONTROL_REFUSED = {
     "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
     "rodent": ("rodent.xml:561: <general>", "no activation state"),
     "dog_v2_dog": ("dog.xml:936: <general>", "no activation state"),
-    "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "site and body transmissions are not supported"),
+    "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "body transmissions (adhesion) are not supported"),
     "testing_model_with_third_order_actuators": ("model_with_third_order_actuators.xml:10: <cylinder>",
                                                  "unsupported actuator"),
 }

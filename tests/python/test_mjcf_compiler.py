@@ -209,10 +209,15 @@ def compare(path, inertia_tol=TOL):
         tag = f"actuator {act['name']}"
         if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_TENDON):
             assert act["tendon"] == tendon_names[m.actuator_trnid[a, 0]], tag
+        elif int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_SITE):
+            assert act["site"] == m.site(m.actuator_trnid[a, 0]).name, tag
+            close(f"{tag} site gear", act["site_gear"], m.actuator_gear[a])
+            assert act["gear"] == 1.0, tag
         else:
             assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
             assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
-        close(f"{tag} gear", act["gear"], m.actuator_gear[a, 0])
+        if act["site"] is None:
+            close(f"{tag} gear", act["gear"], m.actuator_gear[a, 0])
         assert act["ctrllimited"] == bool(m.actuator_ctrllimited[a]), f"{tag} ctrllimited"
         if act["ctrllimited"]:
             close(f"{tag} ctrlrange", act["ctrlrange"], m.actuator_ctrlrange[a])
@@ -537,6 +542,17 @@ def test_spatial_tendons_compile_as_mujoco_compiles_them(tmp_path):
     ours = compare(path)
     assert [t["name"] for t in ours["spatial_tendons"]] == ["rope", "band", "rest", "cord", "leash"]
     assert [t["limited"] for t in ours["spatial_tendons"]] == [True, False, True, False, True]
+
+
+def test_site_transmissions_compile_as_mujoco_compiles_them(tmp_path):
+    """Actuators on sites (a quadrotor's thrust and yaw torques, a servo and a damper on an
+    arm's sites): the sites, their 6-vector gears, and a position servo's kv from dampratio on
+    the site's moment at qpos0."""
+    from test_mjcf_idioms import SITE_ACTUATORS
+    path = tmp_path / "drone.xml"
+    path.write_text(SITE_ACTUATORS)
+    ours = compare(path)
+    assert [a["site"] for a in ours["actuators"]] == ["r1", "r2", "r3", "r4", "tip", "bead", "tip"]
 
 
 def test_welds_compile_as_mujoco_compiles_them(tmp_path):

@@ -682,6 +682,71 @@ def test_a_string_holds_a_ball_as_in_mujoco(tmp_path):
     assert abs(ours["tendon.string.limit.force"] + 0.1 * 9.81) < 1e-3, ours["tendon.string.limit.force"]
 
 
+SITE_ACTUATORS = """<mujoco model="drone">
+  <option timestep="0.002" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="drone" pos="0 0 1" euler="5 -3 10">
+      <freejoint name="drone"/>
+      <geom type="box" size="0.05 0.05 0.01" mass="0.03" contype="0" conaffinity="0"/>
+      <site name="r1" pos="0.04 0.04 0.01"/>
+      <site name="r2" pos="-0.04 0.04 0.01"/>
+      <site name="r3" pos="-0.04 -0.04 0.01"/>
+      <site name="r4" pos="0.04 -0.04 0.01" euler="0 10 0"/>
+    </body>
+    <body name="arm" pos="1 0 1">
+      <joint name="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
+      <site name="tip" pos="0.3 0 0" quat="0.9 0.1 0.3 0.2"/>
+      <body name="slider" pos="0.3 0 0">
+        <joint name="slide" type="slide" axis="1 0 0"/>
+        <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+        <site name="bead"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor name="m1" site="r1" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
+    <motor name="m2" site="r2" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
+    <motor name="m3" site="r3" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
+    <motor name="m4" site="r4" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
+    <position name="push" site="tip" kp="3" dampratio="0.7" gear="0.2 0.5 1 0.1 0 0"/>
+    <velocity name="drag" site="bead" kv="0.5" gear="1 0.3"/>
+    <general name="aff" site="tip" gainprm="2" biasprm="0.1 0 -0.3" gear="0 1"/>
+  </actuator>
+  <keyframe><key name="k" ctrl="0.09 0.08 0.075 0.085 0.3 0.2 -0.1"/></keyframe>
+  <custom><text name="scm_keyframe" data="k"/></custom>
+</mujoco>"""
+
+
+def test_site_actuators_move_as_in_mujoco(tmp_path):
+    # Actuators on sites, MuJoCo's site transmission (no refsite): a quadrotor's four motors
+    # push along their sites' z axes with a yaw torque each (gear 0 0 1 0 0 +-0.006, one site
+    # tilted), a position servo (dampratio) and an affine general on a tilted site of an arm,
+    # and a velocity actuator on a slider's site. MuJoCo applies J^T (R g_f, R g_t) F with a zero
+    # length and the moment's velocity; so does SCM: contact-free, the motion equals MuJoCo's
+    # Euler run to rounding.
+    path = tmp_path / "drone.xml"
+    path.write_text(SITE_ACTUATORS)
+    fmu = tmp_path / "drone.fmu"
+    out = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert validate_fmu(str(fmu)) == []
+    names = [f"drone.pos.{a}" for a in "xyz"] + [f"drone.quat.{a}" for a in "wxyz"] + ["hinge.q", "slide.q"]
+    res = simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=names)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    worst = 0.0
+    for row in res[1:]:
+        while d.time < row["time"] - 1e-9:
+            mujoco.mj_step(m, d)
+        worst = max(worst, np.max(np.abs(np.array([row[n] for n in names]) - d.qpos)))
+    # The thrust holds the drone up against most of its fall (free fall: z = 1 - g/2 = -3.9 m
+    # after 1 s) and turns it; the arm's actuators move the arm.
+    assert d.qpos[2] > -2.0 and abs(d.qpos[7]) > 0.1, d.qpos
+    assert worst < 1e-9, worst
+
+
 GEARED_PENDULUMS = """<mujoco>
   <option timestep="0.002"/>
   <worldbody>
