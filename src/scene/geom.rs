@@ -369,8 +369,8 @@ impl Builder {
     }
 
     /// The mass properties of mesh asset `mesh` (unit density, mesh frame) as MuJoCo weighs it
-    /// for geom `el`: by its legacy rule (the default), or its convex hull's
-    /// (`inertia="convex"`); `None` for `inertia="exact"`, the closed surface's own solid (the
+    /// for geom `el`: by its legacy rule (the default), its convex hull's (`inertia="convex"`)
+    /// or as a thin shell (`inertia="shell"`, density per area); `None` for `inertia="exact"`, the closed surface's own solid (the
     /// shape's exact mass properties). Computed once per mesh. A rule that gives no volume,
     /// and a hull MuJoCo reduces (`maxhullvert`) under `inertia="convex"`, are refused here.
     fn mesh_mass(
@@ -383,15 +383,24 @@ impl Builder {
         };
         match asset.inertia {
             MeshInertia::Exact => Ok(None),
-            MeshInertia::Legacy => {
+            MeshInertia::Legacy | MeshInertia::Shell => {
                 if let Some(mp) = asset.legacy {
                     return Ok(Some(mp));
                 }
-                let mp = match &asset.mesh {
-                    Some(closed) => closed.legacy_mass_properties(),
-                    None => TriMesh::load_legacy_mass(&asset.path, &asset.scale).ok(),
+                let shell = asset.inertia == MeshInertia::Shell;
+                let mp = match (&asset.mesh, shell) {
+                    (Some(closed), false) => closed.legacy_mass_properties(),
+                    (Some(closed), true) => closed.shell_mass_properties(),
+                    (None, false) => TriMesh::load_legacy_mass(&asset.path, &asset.scale).ok(),
+                    (None, true) => TriMesh::load_shell_mass(&asset.path, &asset.scale).ok(),
                 };
-                let mp = mp.ok_or_else(|| self.err(el, format!("mesh '{mesh}' encloses no volume by MuJoCo's default (legacy) rule, which MuJoCo refuses too: give the body an <inertial>, or the geom mass=\"0\"")))?;
+                let mp = mp.ok_or_else(|| {
+                    if shell {
+                        self.err(el, format!("mesh '{mesh}' has no area to weigh as a shell (inertia=\"shell\"), which MuJoCo refuses too"))
+                    } else {
+                        self.err(el, format!("mesh '{mesh}' encloses no volume by MuJoCo's default (legacy) rule, which MuJoCo refuses too: give the body an <inertial>, or the geom mass=\"0\""))
+                    }
+                })?;
                 let asset = self.meshes.iter_mut().find(|m| m.name == mesh);
                 asset.expect("found above").legacy = Some(mp);
                 Ok(Some(mp))
@@ -442,11 +451,12 @@ impl Builder {
             None | Some("legacy") => MeshInertia::Legacy,
             Some("exact") => MeshInertia::Exact,
             Some("convex") => MeshInertia::Convex,
-            Some("shell") => {
-                return Err(self.err(el, "inertia=\"shell\" is not supported by SCM: use exact (a solid mesh), or give the body an <inertial>"))
-            }
+            Some("shell") => MeshInertia::Shell,
             Some(v) => {
-                return Err(self.err(el, format!("inertia=\"{v}\": expected exact, convex, legacy or shell")))
+                return Err(self.err(
+                    el,
+                    format!("inertia=\"{v}\": expected exact, convex, legacy or shell"),
+                ))
             }
         };
         // MuJoCo's hull keeps at most maxhullvert vertices; SCM's hull (used where the surface

@@ -100,8 +100,8 @@ pub struct MeshAsset {
     pub scale: Vector3<f64>,
     /// How MuJoCo weighs it (`inertia`).
     pub inertia: MeshInertia,
-    /// Its mass properties by MuJoCo's default rule (`inertia="legacy"`), computed when the
-    /// first geom that weighs by it needs them.
+    /// Its mass properties by MuJoCo's default rule (`inertia="legacy"`) or as a shell
+    /// (`inertia="shell"`), computed when the first geom that weighs by it needs them.
     pub legacy: Option<crate::geometry::MassProperties>,
     /// `maxhullvert`, when it limits MuJoCo's hull (not -1).
     pub maxhullvert: Option<i64>,
@@ -119,6 +119,8 @@ pub enum MeshInertia {
     Exact,
     /// The solid of the convex hull of the vertices.
     Convex,
+    /// The surface as a thin shell ([`crate::geometry::mesh::shell_mass_properties`]).
+    Shell,
 }
 
 /// A geom as read from the scene, posed in its body's frame.

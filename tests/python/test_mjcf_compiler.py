@@ -968,6 +968,36 @@ def test_meshes_weigh_by_mujocos_default_rule_as_in_mujoco(tmp_path):
     assert abs(ours["bodies"][1]["mass"] - exact) < 1e-7 * exact  # OBJ coordinates are single precision
 
 
+def test_meshes_weighed_as_shells_compile_as_mujoco_compiles_them(tmp_path):
+    """inertia="shell" (three of MuJoCo Menagerie's robots use it): the surface as a thin shell
+    whose mass is the density times the area, on the closed non-convex L prism and on the open
+    tray, also with a given mass. Mass, centre of mass and inertia as MuJoCo's."""
+    (tmp_path / "l_prism.obj").write_text(L_PRISM)
+    (tmp_path / "open_tray.obj").write_text(OPEN_BOX)
+    path = tmp_path / "shell.xml"
+    path.write_text("""<mujoco>
+  <asset>
+    <mesh name="l" file="l_prism.obj" inertia="shell"/>
+    <mesh name="tray" file="open_tray.obj" inertia="shell" scale="1 2 0.5"/>
+  </asset>
+  <worldbody>
+    <body name="l" pos="0 0 1" euler="10 20 30">
+      <freejoint/>
+      <geom type="mesh" mesh="l" density="20"/>
+    </body>
+    <body name="tray" pos="1 0 1">
+      <freejoint/>
+      <geom type="mesh" mesh="tray" mass="0.3"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    ours = compare(path)
+    # The L prism's area (sides and two faces) times the density.
+    area = 2 * (0.4 * 0.4 - 0.36 * 0.36) + 0.05 * (0.4 + 0.04 + 0.36 + 0.36 + 0.04 + 0.4)
+    assert abs(ours["bodies"][1]["mass"] - 20 * area) < 1e-6 * 20 * area, (ours["bodies"][1]["mass"], 20 * area)
+
+
 def test_mujocos_own_msh_meshes_compile_as_mujoco_compiles_them(tmp_path):
     """MuJoCo's binary mesh format (.msh, the fruit fly's): three fruit fly parts (closed and
     open), scaled up to centimetres so that the compared values are not below the comparison's

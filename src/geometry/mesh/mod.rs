@@ -336,6 +336,11 @@ impl TriMesh {
         legacy_mass_properties(&self.vertices, &self.triangles)
     }
 
+    /// MuJoCo's shell inertia of this mesh's triangles ([`shell_mass_properties`]).
+    pub fn shell_mass_properties(&self) -> Option<MassProperties> {
+        shell_mass_properties(&self.vertices, &self.triangles)
+    }
+
     /// Generalized winding number of the surface around `p`: 1 inside, 0 outside.
     pub fn winding_number(&self, p: &Vector3<f64>) -> f64 {
         winding(&self.vertices, self.triangles.iter(), p)
@@ -571,9 +576,76 @@ pub fn legacy_mass_properties(
     })
 }
 
+/// MuJoCo's shell inertia of a mesh (`inertia="shell"`): the surface as a thin shell of unit
+/// areal density, written here from MuJoCo's rule (equivalence with MuJoCo is the point). Its
+/// "volume" is the area (a geom's mass is its density times it), its centre of mass the
+/// area-weighted centroid of the triangles, and its second moment about that centre
+/// `Σ A (DDᵀ + EEᵀ + FFᵀ + SSᵀ)/12` over triangles `D, E, F` (from the centre, `S = D + E +
+/// F`), the exact second moment of a uniform triangle. Open or closed, any winding. `None` if
+/// the area is below 1e-15 m² (MuJoCo refuses such a mesh).
+pub fn shell_mass_properties(
+    vertices: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+) -> Option<MassProperties> {
+    const TINY: f64 = 1e-15;
+    let faces: Vec<(f64, [Vector3<f64>; 3])> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            (0.5 * (b - a).cross(&(c - a)).norm(), [a, b, c])
+        })
+        .collect();
+    let area: f64 = faces.iter().map(|f| f.0).sum();
+    if area < TINY {
+        return None;
+    }
+    let com = faces.iter().fold(Vector3::zeros(), |s, (a, v)| {
+        s + (v[0] + v[1] + v[2]) * (a / 3.0)
+    }) / area;
+    let mut second = Matrix3::zeros();
+    for (a, v) in &faces {
+        let [d, e, f] = v.map(|x| x - com);
+        let s = d + e + f;
+        second += (d * d.transpose() + e * e.transpose() + f * f.transpose() + s * s.transpose())
+            * (a / 12.0);
+    }
+    Some(MassProperties {
+        volume: area,
+        com,
+        inertia: Matrix3::identity() * second.trace() - second,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_thin_shell_weighs_by_its_area() {
+        // The unit cube's surface as a shell: area 6, centre at the middle; about an axis x
+        // through it, each of the two unit plates normal to x gives (1 + 1)/12 = 1/6, each of
+        // the four others 1/12 (its extent across x) + (1/2)² (its distance): 1/3, so I_xx =
+        // 2/6 + 4/3 = 5/3.
+        let (v, t) = cube();
+        let mp = shell_mass_properties(&v, &t).unwrap();
+        assert!((mp.volume - 6.0).abs() < 1e-12);
+        assert!((mp.com - Vector3::new(0.5, 0.5, 0.5)).norm() < 1e-12);
+        for k in 0..3 {
+            assert!(
+                (mp.inertia[(k, k)] - 5.0 / 3.0).abs() < 1e-12,
+                "{}",
+                mp.inertia
+            );
+        }
+        assert!(mp.inertia[(0, 1)].abs() < 1e-12);
+        // Open (one face removed): centre moves away from the missing face.
+        let open: Vec<[u32; 3]> = t[2..].to_vec();
+        let mp = shell_mass_properties(&v, &open).unwrap();
+        assert!(
+            (mp.volume - 5.0).abs() < 1e-12 && (mp.com.z - 0.6).abs() < 1e-12,
+            "{mp:?}"
+        );
+    }
 
     /// A unit cube as 12 triangles, outward.
     pub(crate) fn cube() -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {

@@ -32,6 +32,17 @@ impl TriMesh {
         })
     }
 
+    /// MuJoCo's shell inertia of an OBJ or STL file (scaled), `inertia="shell"`
+    /// ([`shell_mass_properties`]), from the file's own triangles, open or closed. Fails where
+    /// the file cannot be read or its area is zero.
+    pub fn load_shell_mass(path: &Path, scale: &Vector3<f64>) -> Result<MassProperties, MeshError> {
+        let (file, vertices, triangles) = read(path, scale)?;
+        shell_mass_properties(&vertices, &triangles).ok_or(MeshError {
+            file,
+            problem: MeshProblem::ZeroVolume(0.0),
+        })
+    }
+
     /// The convex hull of an OBJ or STL file's vertices (scaled), whatever its surface: what
     /// MuJoCo collides a mesh by. Every vertex counts, as in MuJoCo, also an OBJ's vertices
     /// that no face uses. Fails where the file cannot be read or its vertices span no volume
