@@ -363,7 +363,7 @@ fn dependencies_follow_spatial_tendons() {
       <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" contype="0" conaffinity="0"/>
       <site name="d_tip" pos="0.2 0 0"/>
     </body>
-    <body name="hand" mocap="true" pos="2 0 1.4">
+    <body name="hand" mocap="true" pos="2.2 0 1.4">
       <site name="hand_site"/>
     </body>
   </worldbody>

@@ -1460,3 +1460,42 @@ fn site_transmissions_read_their_gear_and_refuse_what_they_cannot_drive() {
         assert!(e.line == 12 && e.message.contains(says), "{act}: {e}");
     }
 }
+
+/// Found by a random differential review against MuJoCo: where a tendon's length does not
+/// change with any joint at qpos0 (a string straight along a hanging arm, through its hinge's
+/// axis), MuJoCo's effective inertia there is zero: a servo's dampratio then gives kv = 0, as
+/// in MuJoCo (warned), and a limit, which MuJoCo holds as a hard constraint and SCM would size
+/// by that inertia, is refused at the tendon's line instead of being left out silently.
+#[test]
+fn tendons_without_inertia_at_qpos0_give_no_damping_and_refuse_their_limit() {
+    let scene = |range: &str, act: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <site name=\"anchor\" pos=\"0 0 -1\"/>\n    <body name=\"arm\">\n      <joint name=\"h\" axis=\"0 1 0\"/>\n      <geom type=\"capsule\" fromto=\"0 0 0 0 0 -0.5\" size=\"0.02\"/>\n      <site name=\"tip\" pos=\"0 0 -0.5\"/>\n    </body>\n  </worldbody>\n  <tendon>\n    <spatial name=\"leash\" {range}><site site=\"tip\"/><site site=\"anchor\"/></spatial>\n  </tendon>\n  <actuator>{act}</actuator>\n</mujoco>\n")
+    };
+    let s = load(&scene(
+        "",
+        r#"<position tendon="leash" kp="10" dampratio="1"/>"#,
+    ));
+    let scm::model::ActuatorKind::Position { kv, .. } = s.model.actuators[0].kind else {
+        panic!("a position actuator")
+    };
+    assert_eq!(kv, 0.0);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("dampratio gives kv = 0")),
+        "{:?}",
+        s.warnings
+    );
+    let e = refuse(&scene(r#"range="0 0.55""#, ""));
+    assert!(
+        e.line == 11 && e.element == "tendon" && e.message.contains("does not change"),
+        "{e}"
+    );
+    // Written off that line (the arm turned 20°), the same tendon has an inertia and its limit
+    // loads.
+    let s = load(&scene(r#"range="0 0.55""#, "").replace(
+        r#"<body name="arm">"#,
+        r#"<body name="arm" euler="0 20 0">"#,
+    ));
+    assert!(s.model.spatial_tendons[0].law.limit.is_some());
+}

@@ -374,6 +374,7 @@ impl Builder {
             frictionloss,
             range,
             solreflimit: [solref[0], solref[1]],
+            place: Place::of(el),
         };
         if spatial {
             let path = self.spatial_path(el)?;

@@ -37,7 +37,7 @@ impl Builder {
     /// length defaults to the length with every joint at its `springref`, and a limit is stiffened
     /// by the tendon's effective inertia there, `1 / (c M⁻¹ cᵀ)` (MuJoCo's
     /// `1 / tendon_invweight0`; `c` the coefficients over the degrees of freedom).
-    fn fixed_tendons(&self, tree: &Tree) -> Vec<FixedTendon> {
+    fn fixed_tendons(&self, tree: &Tree) -> Result<Vec<FixedTendon>, SceneError> {
         let limited = self.flags.limit && self.tendons.iter().any(|t| t.range.is_some());
         let m_inv = limited.then(|| mass_at_q0(tree).1).flatten();
         self.tendons
@@ -63,14 +63,17 @@ impl Builder {
                                 joints.iter().map(move |&(_, b, cb)| ca * cb * inv[(a, b)])
                             })
                             .sum();
-                        (inv_weight > 0.0).then(|| {
-                            JointLimit::from_solref(lo, hi, t.solreflimit, 1.0 / inv_weight)
-                        })
+                        Some(JointLimit::from_solref(
+                            lo,
+                            hi,
+                            t.solreflimit,
+                            limit_inertia(t, inv_weight)?,
+                        ))
                     }
                     _ => None,
                 };
                 let on = |flag: bool, x: f64| if flag { x } else { 0.0 };
-                FixedTendon {
+                Ok(FixedTendon {
                     name: t.name.clone(),
                     joints,
                     stiffness: on(self.flags.spring, t.stiffness),
@@ -78,7 +81,7 @@ impl Builder {
                     damping: on(self.flags.damper, t.damping),
                     frictionloss: on(self.flags.frictionloss, t.frictionloss),
                     limit,
-                }
+                })
             })
             .collect()
     }
@@ -328,6 +331,22 @@ impl Builder {
                 ActuatorKind::General { gain, .. } => gain[0],
                 _ => 0.0,
             };
+            // MuJoCo's compiler gives no damping where the moment's inverse weight is below
+            // 1e-15 (its mjMINVAL): the actuator moves nothing at qpos0 (measured with MuJoCo
+            // 4.0.0, kv = 0 at 3.1e-16, the full value at 2.8e-15).
+            if w.is_finite() && (0.0..1e-15).contains(&w) && kp >= 0.0 {
+                let warning = format!(
+                    "{}:{}: <actuator> '{}': dampratio gives kv = 0, as in MuJoCo: the actuator's moment vanishes at qpos0 (inverse weight {w:.1e}), so it drives no inertia there",
+                    at.file, at.line, actuator.name
+                );
+                self.warnings.push(warning);
+                match &mut self.actuators[a].kind {
+                    ActuatorKind::Position { kv, .. } => *kv = 0.0,
+                    ActuatorKind::General { bias, .. } => bias[2] = 0.0,
+                    _ => {}
+                }
+                continue;
+            }
             if w.is_nan() || w <= 0.0 || kp < 0.0 {
                 return Err(SceneError {
                     file: at.file.to_string(),
@@ -357,10 +376,10 @@ impl Builder {
         if self.flags.limit {
             self.set_limits(&mut tree);
         }
-        let tendons = self.fixed_tendons(&tree);
+        let tendons = self.fixed_tendons(&tree)?;
         let equalities = self.scalar_equalities(&tree, &tendons);
         let connects = self.connects(&tree);
-        let spatial_tendons = self.spatial_tendons(&tree);
+        let spatial_tendons = self.spatial_tendons(&tree)?;
         Ok(Mechanics {
             tree,
             tendons,
@@ -375,9 +394,9 @@ impl Builder {
     /// at its `springref`, as MuJoCo's `qpos_spring`), and a limit is stiffened by the
     /// tendon's effective inertia `1 / (J M⁻¹ Jᵀ)` at `qpos0` (MuJoCo's `1 /
     /// tendon_invweight0`), `J = ∂L/∂v` there.
-    fn spatial_tendons(&self, tree: &Tree) -> Vec<SpatialTendon> {
+    fn spatial_tendons(&self, tree: &Tree) -> Result<Vec<SpatialTendon>, SceneError> {
         if self.spatial_tendons.is_empty() {
-            return vec![];
+            return Ok(vec![]);
         }
         let q0 = tree.q0();
         let mut q_spring = q0.clone();
@@ -423,16 +442,14 @@ impl Builder {
                             inv_weight += ja * jb * inv[(a, b)];
                         }
                     }
-                    if inv_weight > 0.0 {
-                        tendon.law.limit = Some(JointLimit::from_solref(
-                            lo,
-                            hi,
-                            t.solreflimit,
-                            1.0 / inv_weight,
-                        ));
-                    }
+                    tendon.law.limit = Some(JointLimit::from_solref(
+                        lo,
+                        hi,
+                        t.solreflimit,
+                        limit_inertia(t, inv_weight)?,
+                    ));
                 }
-                tendon
+                Ok(tendon)
             })
             .collect()
     }
@@ -523,6 +540,23 @@ fn slider_body_mass(tree: &Tree, j: usize) -> Option<f64> {
     let leaf = tree.bodies.iter().all(|o| o.parent != Some(b));
     (body.joints.iter().all(at_origin_on_an_axis) && parent_fixed && same_frame && leaf)
         .then_some(i.mass)
+}
+
+/// The inertia that stiffens tendon `t`'s limit spring, `1 / (J M⁻¹ Jᵀ)` at `qpos0`; refused
+/// where that inverse weight is below MuJoCo's 1e-15 (`mjMINVAL`): the tendon's length does not
+/// change with any joint at `qpos0` (a string straight through a hinge's axis, sites on
+/// bodies welded together), where MuJoCo holds the limit as a hard constraint and SCM has no
+/// inertia to size its spring by.
+fn limit_inertia(t: &TendonSpec, inv_weight: f64) -> Result<f64, SceneError> {
+    if inv_weight >= 1e-15 {
+        return Ok(1.0 / inv_weight);
+    }
+    Err(SceneError {
+        file: t.place.file.to_string(),
+        line: t.place.line,
+        element: "tendon".into(),
+        message: format!("tendon '{}': its length does not change with any joint at the reference configuration (qpos0), so its limit has no effective inertia there (MuJoCo's tendon_invweight0 is {inv_weight:.1e}), which SCM sizes the limit's spring by; MuJoCo holds the limit as a hard constraint: write the bodies in a pose where the tendon's length moves with a joint (qpos0 is the pose as written), or remove the range", t.name),
+    })
 }
 
 /// A spatial tendon's name and segments as read, with no force law (what measures its length).

@@ -447,6 +447,8 @@ struct TendonSpec {
     /// The length's range, if limited.
     range: Option<(f64, f64)>,
     solreflimit: [f64; 2],
+    /// Where the tendon is written.
+    place: Place,
 }
 
 /// A straight segment of a spatial tendon: the two sites (body, point in its frame) and

@@ -544,6 +544,29 @@ def test_spatial_tendons_compile_as_mujoco_compiles_them(tmp_path):
     assert [t["limited"] for t in ours["spatial_tendons"]] == [True, False, True, False, True]
 
 
+def test_a_servo_that_moves_nothing_at_qpos0_gets_mujocos_zero_damping(tmp_path):
+    """Found by a random review: a position servo with dampratio on a string that lies straight
+    along a hanging arm (its length does not change at qpos0, MuJoCo's inverse weight is 0):
+    MuJoCo compiles kv = 0, and so does SCM (with a warning), where it refused the file."""
+    path = tmp_path / "leash.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <site name="anchor" pos="0 0 -1"/>
+    <body name="arm">
+      <joint name="h" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.02"/>
+      <site name="tip" pos="0 0 -0.5"/>
+    </body>
+  </worldbody>
+  <tendon><spatial name="leash"><site site="tip"/><site site="anchor"/></spatial></tendon>
+  <actuator><position name="servo" tendon="leash" kp="10" dampratio="1"/></actuator>
+</mujoco>
+""")
+    ours = compare(path)
+    assert ours["actuators"][0]["biasprm"][2] == 0.0
+    assert [w for w in ours["warnings"] if "dampratio gives kv = 0" in w], ours["warnings"]
+
+
 def test_site_transmissions_compile_as_mujoco_compiles_them(tmp_path):
     """Actuators on sites (a quadrotor's thrust and yaw torques, a servo and a damper on an
     arm's sites): the sites, their 6-vector gears, and a position servo's kv from dampratio on
