@@ -1499,3 +1499,26 @@ fn tendons_without_inertia_at_qpos0_give_no_damping_and_refuse_their_limit() {
     ));
     assert!(s.model.spatial_tendons[0].law.limit.is_some());
 }
+
+/// `content_type` (MuJoCo's name of a mesh file's format, as three of MuJoCo Menagerie's robots
+/// write it) is read where it agrees with the file's extension, by which SCM reads a mesh;
+/// a disagreeing or unknown one is refused at the mesh's line.
+#[test]
+fn a_mesh_content_type_must_agree_with_its_extension() {
+    let dir = scratch("content_type");
+    let cube = "v 0 0 0\nv 0.1 0 0\nv 0.1 0.1 0\nv 0 0.1 0\nv 0 0 0.1\nv 0.1 0 0.1\nv 0.1 0.1 0.1\nv 0 0.1 0.1\nf 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    std::fs::write(dir.join("box.obj"), cube).unwrap();
+    let main = dir.join("main.xml");
+    let load_with = |ct: &str| {
+        std::fs::write(&main, format!("<mujoco>\n  <asset>\n    <mesh name=\"box\" file=\"box.obj\" content_type=\"{ct}\"/>\n  </asset>\n  <worldbody>\n    <body pos=\"0 0 1\"><freejoint/><geom type=\"mesh\" mesh=\"box\"/></body>\n  </worldbody>\n</mujoco>\n")).unwrap();
+        scm::scene::load(&main)
+    };
+    assert!(load_with("model/obj").is_ok());
+    for (ct, says) in [
+        ("model/stl", "extension is '.obj'"),
+        ("text/plain", "SCM reads model/obj"),
+    ] {
+        let e = load_with(ct).expect_err("refused");
+        assert!(e.line == 3 && e.message.contains(says), "{ct}: {e}");
+    }
+}

@@ -330,10 +330,10 @@ impl Builder {
                 Some(h) => h,
                 None if collides => {
                     return Err(refuse(
-                        "it collides, and its vertices lie in one plane: SCM samples a closed surface",
+                        &format!("it collides, and SCM samples a closed surface: its convex hull cannot be made ({})", self.hull_problem(mesh)),
                     ))
                 }
-                None => return Err(refuse("it gives its body mass, and its vertices lie in one plane: its convex hull has no volume")),
+                None => return Err(refuse(&format!("it gives its body mass by its convex hull, which cannot be made ({})", self.hull_problem(mesh)))),
             };
             if let Some(n) = maxhullvert {
                 return Err(refuse(&format!("SCM takes its convex hull, which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both")));
@@ -408,19 +408,27 @@ impl Builder {
             MeshInertia::Convex => match self.hull_of(mesh) {
                 Some((_, Some(n))) => Err(self.err(el, format!("mesh '{mesh}' weighs by its convex hull (inertia=\"convex\"), which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both"))),
                 Some((hull, None)) => Ok(Some(hull.mass_properties())),
-                None => Err(self.err(el, format!("mesh '{mesh}' weighs by its convex hull (inertia=\"convex\"), and its vertices lie in one plane: the hull has no volume"))),
+                None => Err(self.err(el, format!("mesh '{mesh}' weighs by its convex hull (inertia=\"convex\"), which cannot be made ({})", self.hull_problem(mesh)))),
             },
         }
+    }
+
+    /// Why mesh asset `mesh`'s convex hull could not be made (after [`Builder::hull_of`]).
+    fn hull_problem(&self, mesh: &str) -> String {
+        (self.meshes.iter().find(|m| m.name == mesh))
+            .and_then(|m| m.hull_problem.clone())
+            .unwrap_or_else(|| "unknown".into())
     }
 
     /// The convex hull of mesh asset `mesh`'s vertices and its `maxhullvert`: read once, for
     /// the first geom that collides or weighs by it (a visual mesh never needs it).
     fn hull_of(&mut self, mesh: &str) -> Option<(Arc<TriMesh>, Option<i64>)> {
         let asset = self.meshes.iter_mut().find(|m| m.name == mesh)?;
-        if asset.hull.is_none() {
-            asset.hull = TriMesh::load_hull(&asset.path, &asset.scale)
-                .ok()
-                .map(Arc::new);
+        if asset.hull.is_none() && asset.hull_problem.is_none() {
+            match TriMesh::load_hull(&asset.path, &asset.scale) {
+                Ok(h) => asset.hull = Some(Arc::new(h)),
+                Err(e) => asset.hull_problem = Some(e.problem.to_string()),
+            }
         }
         asset.hull.clone().map(|h| (h, asset.maxhullvert))
     }
@@ -438,6 +446,7 @@ impl Builder {
                 "maxhullvert",
                 "refpos",
                 "refquat",
+                "content_type",
             ],
         )?;
         for unsupported in ["refpos", "refquat"] {
@@ -480,6 +489,23 @@ impl Builder {
                 )
             })?
             .to_string();
+        // MuJoCo's content_type names the file's format (for files whose extension does not);
+        // SCM reads meshes by their extension, so the two must agree.
+        if let Some(ct) = el.attr("content_type") {
+            let ext = Path::new(&file)
+                .extension()
+                .map(|e| e.to_string_lossy().to_lowercase())
+                .unwrap_or_default();
+            let expected = match ct {
+                "model/obj" => "obj",
+                "model/stl" => "stl",
+                "model/vnd.mujoco.msh" => "msh",
+                _ => return Err(self.err(el, format!("content_type=\"{ct}\": SCM reads model/obj, model/stl and model/vnd.mujoco.msh meshes"))),
+            };
+            if ext != expected {
+                return Err(self.err(el, format!("content_type=\"{ct}\" but the file's extension is '.{ext}': SCM reads a mesh by its extension, name the file .{expected}")));
+            }
+        }
         let name = Self::given_name(el).unwrap_or_else(|| {
             Path::new(&file)
                 .file_stem()
@@ -522,6 +548,7 @@ impl Builder {
             mesh,
             problem,
             hull: None,
+            hull_problem: None,
             scale,
             inertia,
             legacy: None,

@@ -96,6 +96,8 @@ pub struct MeshAsset {
     /// by), where they span a volume: what a colliding geom samples instead of the surface.
     /// Computed when the first geom needs it (a visual mesh never does).
     pub hull: Option<Arc<TriMesh>>,
+    /// Why its convex hull could not be made, once tried.
+    pub hull_problem: Option<String>,
     /// The `scale` the file is read with (for the hull).
     pub scale: Vector3<f64>,
     /// How MuJoCo weighs it (`inertia`).

@@ -16,21 +16,76 @@ impl TriMesh {
             file: file.to_string(),
             problem,
         };
-        let points: Vec<Vec<f64>> = vertices.iter().map(|v| vec![v.x, v.y, v.z]).collect();
-        let hull = chull::ConvexHullWrapper::try_new(&points, None)
-            .map_err(|e| err(MeshProblem::NoHull(e.to_string())))?;
-        let (corners, indices) = hull.vertices_indices();
-        let corners = corners
-            .iter()
-            .map(|p| Vector3::new(p[0], p[1], p[2]))
-            .collect();
-        let triangles = indices
-            .chunks_exact(3)
-            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
-            .collect();
-        let (mesh, _) = TriMesh::new(file, corners, triangles)?;
-        Ok(mesh)
+        let mut points: Vec<Vec<f64>> = vertices.iter().map(|v| vec![v.x, v.y, v.z]).collect();
+        // Nearly collinear hull corners (CAD exports: a vertex a hair off the edge between two
+        // others) give exact but sliver facets, which a closed mesh's checks take as
+        // degenerate: the middle corner of each sliver (the one at its widest angle, within
+        // about 2·area/edge of that edge: below 1e-12 of the mesh's size) is dropped and the
+        // hull taken again, a few rounds at most.
+        for _round in 0..32 {
+            let hull = chull::ConvexHullWrapper::try_new(&points, None)
+                .map_err(|e| err(MeshProblem::NoHull(e.to_string())))?;
+            let (corners, indices) = hull.vertices_indices();
+            let corners: Vec<Vector3<f64>> = corners
+                .iter()
+                .map(|p| Vector3::new(p[0], p[1], p[2]))
+                .collect();
+            let triangles: Vec<[u32; 3]> = indices
+                .chunks_exact(3)
+                .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+                .collect();
+            let slivers = sliver_middles(&corners, &triangles);
+            if slivers.is_empty() {
+                let (mesh, _) = TriMesh::new(file, corners, triangles)?;
+                return Ok(mesh);
+            }
+            // The hull's corners are the input points up to chull's rounding: drop the points
+            // within a billionth of the size of a sliver's middle corner.
+            let size = hull_size(&corners);
+            let drop: Vec<Vector3<f64>> = slivers.iter().map(|&i| corners[i]).collect();
+            points.retain(|p| {
+                let p = Vector3::new(p[0], p[1], p[2]);
+                !drop.iter().any(|c| (c - p).norm() <= 1e-9 * size)
+            });
+        }
+        Err(err(MeshProblem::NoHull(
+            "its hull keeps sliver facets after dropping nearly collinear corners".into(),
+        )))
     }
+}
+
+/// The diagonal of the corners' bounding box.
+fn hull_size(corners: &[Vector3<f64>]) -> f64 {
+    let lo = corners
+        .iter()
+        .fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
+    let hi = corners
+        .iter()
+        .fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
+    (hi - lo).norm()
+}
+
+/// The middle corner (at the widest angle) of every hull facet that [`TriMesh::new`] would
+/// take as degenerate: area at most 1e-12 of the squared size of the corners' box.
+fn sliver_middles(corners: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Vec<usize> {
+    let size = hull_size(corners);
+    let mut out: Vec<usize> = triangles
+        .iter()
+        .filter(|t| tri_normal(corners, t).norm() <= 1e-12 * size * size)
+        .map(|t| {
+            // The corner opposite the longest edge.
+            let side = |k: usize| {
+                (corners[t[(k + 1) % 3] as usize] - corners[t[(k + 2) % 3] as usize]).norm()
+            };
+            let k = (0..3)
+                .max_by(|&a, &b| side(a).total_cmp(&side(b)))
+                .unwrap_or(0);
+            t[k] as usize
+        })
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 #[cfg(test)]
@@ -57,6 +112,24 @@ mod tests {
     }
 
     /// Vertices in one plane span no volume: refused, saying so.
+    /// A point in the plane of a cube's face, a hair (1e-13 of the size) outside the middle of
+    /// one of its edges, is a corner of the exact hull with sliver facets beside it; the hull
+    /// drops it and is the cube (the kind of vertex that stopped five of MuJoCo Menagerie's
+    /// robots, CAD exports of Kinova, PAL and Trossen parts). A point well off stays a corner.
+    #[test]
+    fn nearly_collinear_corners_do_not_leave_sliver_facets() {
+        let mut points: Vec<Vector3<f64>> = (0..8)
+            .map(|i| Vector3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64))
+            .collect();
+        points.push(Vector3::new(0.5, -1e-13, 0.0));
+        let hull = TriMesh::convex_hull("hair", &points).unwrap();
+        assert_eq!(hull.vertices.len(), 8);
+        assert!((hull.mass_properties().volume - 1.0).abs() < 1e-12);
+        points.push(Vector3::new(0.5, 0.5, 1.2));
+        let hull = TriMesh::convex_hull("roof", &points).unwrap();
+        assert_eq!(hull.vertices.len(), 9);
+    }
+
     #[test]
     fn flat_vertices_have_no_hull() {
         let points = [
