@@ -1522,3 +1522,49 @@ fn a_mesh_content_type_must_agree_with_its_extension() {
         assert!(e.line == 3 && e.message.contains(says), "{ct}: {e}");
     }
 }
+
+/// Every key must have MuJoCo's sizes, not only the one `scm_keyframe` picks: MuJoCo refuses a
+/// file with any key of the wrong size (MuJoCo Menagerie's shadow hand `keyframes.xml`, a file
+/// meant to be included, compiled alone in SCM and not in MuJoCo).
+#[test]
+fn every_key_has_mujocos_sizes() {
+    let scene = |key: &str| {
+        format!("<mujoco>\n  <worldbody>\n    <body pos=\"0 0 1\">\n      <joint name=\"h\" axis=\"0 1 0\"/>\n      <geom type=\"sphere\" size=\"0.1\"/>\n    </body>\n  </worldbody>\n  <keyframe>\n    <key name=\"good\" qpos=\"0.1\"/>\n    {key}\n  </keyframe>\n</mujoco>\n")
+    };
+    assert!(load_str(
+        &scene(r#"<key name="also" qpos="0.2" qvel="1"/>"#),
+        Path::new("m.xml")
+    )
+    .is_ok());
+    // A short ctrl is padded with zeros, as MuJoCo pads it (a longer one is refused).
+    let padded = scene(r#"<key name="short" ctrl="0.5"/>"#).replace(
+        "</worldbody>",
+        "</worldbody>\n  <actuator><motor joint=\"h\"/><motor joint=\"h\"/></actuator>\n  <custom><text name=\"scm_keyframe\" data=\"short\"/></custom>",
+    );
+    assert_eq!(load(&padded).model.ctrl0, [0.5, 0.0]);
+    for (key, says) in [
+        (
+            r#"<key name="long" qpos="0 0"/>"#,
+            "qpos: expected 1 numbers, got 2",
+        ),
+        (
+            r#"<key name="moving" qvel="1 2"/>"#,
+            "qvel: expected 1 numbers, got 2",
+        ),
+        (
+            r#"<key name="pushed" ctrl="1"/>"#,
+            "ctrl: expected 0 numbers, got 1",
+        ),
+        (
+            r#"<key name="held" mpos="0 0 1"/>"#,
+            "mpos: expected 0 numbers, got 3",
+        ),
+    ] {
+        let e = refuse(&scene(key));
+        assert!(e.line == 10 && e.message.contains(says), "{key}: {e}");
+        let path = scratch("keys").join("m.xml");
+        std::fs::write(&path, scene(key)).unwrap();
+        let e = compile(&path).expect_err("compile refuses it too");
+        assert!(e.message.contains(says), "{key}: {e}");
+    }
+}

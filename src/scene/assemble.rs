@@ -144,6 +144,7 @@ impl Builder {
                 }
             }
         };
+        self.check_key_sizes(tree)?;
         for (i, key) in self.keys.clone().iter().enumerate() {
             if Some(i) != chosen {
                 self.unused(
@@ -169,19 +170,56 @@ impl Builder {
             }
             for (attr, target) in [("qpos", &mut q0), ("qvel", &mut v0), ("ctrl", &mut ctrl0)] {
                 if let Some(s) = key.attr(attr) {
+                    // Sizes are checked above; an empty list keeps the default, a short ctrl
+                    // sets its first controls (MuJoCo pads it with zeros).
                     let v = parse_floats(s)
-                        .filter(|v| v.len() == target.len())
+                        .filter(|v| v.iter().all(|x| x.is_finite()))
                         .ok_or_else(|| {
-                            element_error(
-                                key,
-                                format!("{attr}: expected {} finite numbers", target.len()),
-                            )
+                            element_error(key, format!("{attr}: expected finite numbers"))
                         })?;
-                    *target = v;
+                    for (t, x) in target.iter_mut().zip(v) {
+                        *t = x;
+                    }
                 }
             }
         }
         Ok((q0, v0, ctrl0))
+    }
+
+    /// Every key's arrays have MuJoCo's sizes (MuJoCo refuses the file otherwise, whichever
+    /// key is used; measured with MuJoCo 4.0.0): qpos nq, qvel nv, act na (0: SCM's actuators
+    /// have no activation) exactly or empty; ctrl at most nu, mpos and mquat at most 3 and 4
+    /// per mocap body (MuJoCo pads them with zeros).
+    fn check_key_sizes(&self, tree: &Tree) -> Result<(), SceneError> {
+        let nmocap = tree.mocap.len();
+        for key in &self.keys {
+            for (attr, n) in [
+                ("qpos", tree.q0().len()),
+                ("qvel", tree.nv),
+                ("ctrl", self.actuators.len()),
+                ("act", 0),
+                ("mpos", 3 * nmocap),
+                ("mquat", 4 * nmocap),
+            ] {
+                let Some(text) = key.attr(attr) else { continue };
+                let got = parse_floats(text).map(|v| v.len());
+                let at_most = matches!(attr, "ctrl" | "mpos" | "mquat");
+                let fits = match got {
+                    Some(g) => g == n || g == 0 || (at_most && g <= n),
+                    None => false,
+                };
+                if !fits {
+                    return Err(element_error(
+                    key,
+                    format!(
+                        "{attr}: expected {n} numbers, got {} (MuJoCo refuses a key of the wrong size, whichever key is used)",
+                        got.map_or("an unreadable list".to_string(), |g| g.to_string())
+                    ),
+                ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The compiled model without colliders, and everything SCM would refuse about it.
@@ -197,6 +235,7 @@ impl Builder {
             connects,
         } = self.mechanics()?;
         self.apply_dampratios(&tree)?;
+        self.check_key_sizes(&tree)?;
         Ok(Compiled {
             tree,
             tendons,
