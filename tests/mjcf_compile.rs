@@ -1568,3 +1568,21 @@ fn every_key_has_mujocos_sizes() {
         assert!(e.message.contains(says), "{key}: {e}");
     }
 }
+
+/// A primitive geom with a mesh is fitted to the mesh by MuJoCo (its size from the mesh's
+/// inertia box, whatever size says: a box with size 0.05 on a 0.4 x 0.2 x 0.1 mesh compiles to
+/// half-sizes 0.05, 0.1, 0.2 in MuJoCo 4.0.0). SCM does not fit: the geom is refused at its
+/// line naming the fit (it read a default sphere's missing size, or used the size given).
+#[test]
+fn a_mesh_fitted_primitive_is_refused_naming_the_fit() {
+    for geom in [
+        r#"<geom type="box" size="0.05 0.05 0.05" mesh="m"/>"#,
+        r#"<geom mesh="m"/>"#,
+    ] {
+        let e = refuse(&format!("<mujoco>\n  <worldbody>\n    <body>\n      <freejoint/>\n      {geom}\n    </body>\n  </worldbody>\n</mujoco>\n"));
+        assert!(
+            e.line == 5 && e.message.contains("mesh-fitted primitive"),
+            "{geom}: {e}"
+        );
+    }
+}

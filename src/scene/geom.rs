@@ -108,6 +108,11 @@ impl Builder {
             }
             None => None,
         };
+        // A primitive with a mesh is fitted to the mesh by MuJoCo's compiler (its size then
+        // comes from the mesh's inertia box or bounding box, whatever size says).
+        if let (Some(mesh), false) = (el.attr("mesh"), matches!(kind, "mesh" | "sdf")) {
+            return Err(self.err(el, format!("type=\"{kind}\" with mesh=\"{mesh}\": MuJoCo fits the {kind} to the mesh (a mesh-fitted primitive, whatever size says), which SCM does not do yet: give the geom type=\"mesh\", or its fitted size and pos (MuJoCo's compiled geom_size and geom_pos) without mesh")));
+        }
         let need = |n: usize| -> Result<(), SceneError> {
             if size.len() < n || size[..n].iter().any(|&s| s <= 0.0) {
                 return Err(self.err(
