@@ -68,6 +68,22 @@ fn initialized(name: &str, interface: Interface) -> (Instance<Simulation>, Log) 
     (inst, log)
 }
 
+/// The names of the variables an unknown of `<ModelStructure>` (an output or a state
+/// derivative) depends on.
+fn dep_names(info: &ModelInfo, unknown: &str) -> Vec<String> {
+    let u = vr(info, unknown);
+    let d = (info.structure.outputs.iter())
+        .chain(&info.structure.derivatives)
+        .find(|(x, _)| *x == u)
+        .and_then(|(_, d)| d.clone())
+        .unwrap();
+    let name = |r: &u32| {
+        let v = info.variables.iter().find(|v| v.value_reference == *r);
+        v.unwrap().name.clone()
+    };
+    d.iter().map(name).collect()
+}
+
 fn vr(info: &ModelInfo, name: &str) -> u32 {
     info.variables
         .iter()
@@ -282,27 +298,7 @@ fn dependencies_follow_tendons_across_subtrees() {
     let force = vr(sim.info(), "tendon.tie.limit.force");
     assert!(sim.get_real(force).unwrap() < -1e-3);
     // The names an unknown of `<ModelStructure>` (an output or a state derivative) depends on.
-    let deps = |unknown: &str| -> Vec<String> {
-        let info = sim.info();
-        let vr = vr(info, unknown);
-        let d = info
-            .structure
-            .outputs
-            .iter()
-            .chain(&info.structure.derivatives)
-            .find(|(u, _)| *u == vr)
-            .and_then(|(_, d)| d.clone())
-            .unwrap();
-        let names = |r: &u32| {
-            info.variables
-                .iter()
-                .find(|v| v.value_reference == *r)
-                .unwrap()
-                .name
-                .clone()
-        };
-        d.iter().map(names).collect()
-    };
+    let deps = |unknown: &str| dep_names(sim.info(), unknown);
     assert_eq!(
         deps("tendon.tie.limit.force"),
         ["ja.q", "ja.v", "jb.q", "jb.v"]
@@ -406,21 +402,7 @@ fn dependencies_follow_spatial_tendons() {
         sim.get_real(force).unwrap() < -1e-3,
         "the string's limit acts"
     );
-    let deps = |unknown: &str| -> Vec<String> {
-        let info = sim.info();
-        let vr = vr(info, unknown);
-        let d = (info.structure.outputs.iter())
-            .chain(&info.structure.derivatives)
-            .find(|(u, _)| *u == vr)
-            .and_then(|(_, d)| d.clone())
-            .unwrap();
-        d.iter()
-            .map(|r| {
-                let v = info.variables.iter().find(|v| v.value_reference == *r);
-                v.unwrap().name.clone()
-            })
-            .collect()
-    };
+    let deps = |unknown: &str| dep_names(sim.info(), unknown);
     assert_eq!(
         deps("tendon.string.limit.force"),
         ["ja.q", "ja.v", "jb.q", "jb.v"]
@@ -506,23 +488,7 @@ fn site_actuators_depend_on_their_bodies_and_match_central_differences() {
         set_known(&mut sim, Slot::Ctrl(k), r, 0.05 + 0.01 * k as f64);
     }
     let info = sim.info().clone();
-    let deps = |unknown: &str| -> Vec<String> {
-        let vr = vr(&info, unknown);
-        let d = (info.structure.derivatives.iter())
-            .find(|(u, _)| *u == vr)
-            .and_then(|(_, d)| d.clone())
-            .unwrap();
-        (d.iter())
-            .map(|r| {
-                info.variables
-                    .iter()
-                    .find(|v| v.value_reference == *r)
-                    .unwrap()
-                    .name
-                    .clone()
-            })
-            .collect()
-    };
+    let deps = |unknown: &str| dep_names(&info, unknown);
     let drone = deps("der(drone.linvel.z)");
     assert!(drone.contains(&"m3.ctrl".into()), "{drone:?}");
     assert!(!drone.contains(&"push.ctrl".into()), "{drone:?}");

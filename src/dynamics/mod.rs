@@ -472,8 +472,14 @@ impl Tree {
             acc.push(ai);
             f.push(fi);
         }
+        self.backward(kin, f)
+    }
+
+    /// RNEA's backward pass: each node's spatial force `f` (body coordinates) projected on its
+    /// joint's motion subspace, then carried to its parent; the generalized forces.
+    fn backward<T: Scalar>(&self, kin: &Kinematics<T>, mut f: Vec<Vector6<T>>) -> DVector<T> {
         let mut tau = DVector::zeros(self.nv);
-        for i in (0..n).rev() {
+        for i in (0..self.nodes.len()).rev() {
             let da = self.node_dadr(i);
             for (k, col) in kin.s[i].iter().enumerate() {
                 tau[da + k] = col.dot(&f[i]);
@@ -505,7 +511,7 @@ impl Tree {
         kin: &Kinematics<T>,
         f_ext: &[crate::contact::Wrench<T>],
     ) -> DVector<T> {
-        let mut f: Vec<Vector6<T>> = (self.nodes.iter())
+        let f: Vec<Vector6<T>> = (self.nodes.iter())
             .map(|node| {
                 if !node.carries_inertia {
                     return Vector6::zeros();
@@ -516,18 +522,7 @@ impl Tree {
                 spatial::spatial(&(rt * w.torque), &(rt * w.force))
             })
             .collect();
-        let mut tau = DVector::zeros(self.nv);
-        for i in (0..self.nodes.len()).rev() {
-            let da = self.node_dadr(i);
-            for (k, col) in kin.s[i].iter().enumerate() {
-                tau[da + k] = col.dot(&f[i]);
-            }
-            if let Some(p) = self.nodes[i].parent {
-                let fp = kin.x[i].force_to_parent(&f[i]);
-                f[p] += fp;
-            }
-        }
-        tau
+        self.backward(kin, f)
     }
 
     /// `q̇` for a velocity `v`: equal to `v` except for quaternions, `q̇ = ½ q ⊗ (0, ω)`, and free

@@ -195,7 +195,12 @@ impl Model {
         let spatial = (self.actuators.iter())
             .any(|a| matches!(a.target, Transmission::Spatial(_) | Transmission::Site(_)))
             .then(|| self.tree.kinematics_with(q, v, mocap));
-        let mut wrenches = vec![crate::contact::Wrench::zero(); self.tree.bodies.len()];
+        // Per-body wrenches only where the kinematics were needed (the check is a pass over the
+        // actuators: `actuators` is public, so no flag fixed at load could be trusted).
+        let mut wrenches = match spatial {
+            Some(_) => vec![crate::contact::Wrench::zero(); self.tree.bodies.len()],
+            None => Vec::new(),
+        };
         for (a, &u) in self.actuators.iter().zip(ctrl) {
             let u = match a.ctrlrange {
                 Some((lo, _)) if u.re() < lo => c(lo),
