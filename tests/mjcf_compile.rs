@@ -1569,20 +1569,192 @@ fn every_key_has_mujocos_sizes() {
     }
 }
 
-/// A primitive geom with a mesh is fitted to the mesh by MuJoCo (its size from the mesh's
-/// inertia box, whatever size says: a box with size 0.05 on a 0.4 x 0.2 x 0.1 mesh compiles to
-/// half-sizes 0.05, 0.1, 0.2 in MuJoCo 4.0.0). SCM does not fit: the geom is refused at its
-/// line naming the fit (it read a default sphere's missing size, or used the size given).
+/// A primitive geom with a mesh is fitted to the mesh, as MuJoCo's compiler fits it (its size
+/// from the mesh, whatever size says). On a box mesh of half-extents 0.2 x 0.1 x 0.05 centred
+/// at (1, 0, 0), worked out by hand: its equivalent inertia box is the box itself, its
+/// principal moments largest first are about z, y, x, so a fitted box has half-sizes 0.05, 0.1,
+/// 0.2 along z, y, x; a sphere the mean 0.35/3; a cylinder radius 0.075 (the mean of the first
+/// two) and half-length 0.2 along x; a capsule the same radius and 0.2 - 0.075/2. Under
+/// fitaabb the bounding box: a sphere 0.2, a capsule radius 0.1 and half-length 0.2 - 0.1.
+/// fitscale scales all. Each sits at the mesh's centre, weighs as its own shape, and a written
+/// size is listed as unused. (tests/python/test_mjcf_compiler.py compares with MuJoCo.)
 #[test]
-fn a_mesh_fitted_primitive_is_refused_naming_the_fit() {
-    for geom in [
-        r#"<geom type="box" size="0.05 0.05 0.05" mesh="m"/>"#,
-        r#"<geom mesh="m"/>"#,
-    ] {
-        let e = refuse(&format!("<mujoco>\n  <worldbody>\n    <body>\n      <freejoint/>\n      {geom}\n    </body>\n  </worldbody>\n</mujoco>\n"));
-        assert!(
-            e.line == 5 && e.message.contains("mesh-fitted primitive"),
-            "{geom}: {e}"
-        );
+fn a_primitive_with_a_mesh_is_fitted_to_it_as_in_mujoco() {
+    let dir = scratch("fit");
+    let mut obj = String::new();
+    for z in [-0.05, 0.05] {
+        for y in [-0.1, 0.1] {
+            for x in [0.8, 1.2] {
+                obj += &format!("v {x} {y} {z}\n");
+            }
+        }
     }
+    obj += "f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n";
+    std::fs::write(dir.join("slab.obj"), obj).unwrap();
+    let scene = |compiler: &str, geom: &str| {
+        format!("<mujoco>\n  {compiler}\n  <asset><mesh name=\"m\" file=\"slab.obj\"/></asset>\n  <worldbody>\n    <body name=\"b\">\n      <freejoint/>\n      {geom}\n    </body>\n  </worldbody>\n</mujoco>\n")
+    };
+    let fit = |compiler: &str, geom: &str| {
+        let s = load_str(&scene(compiler, geom), &dir.join("m.xml"))
+            .unwrap_or_else(|e| panic!("{geom}: {e}"));
+        assert_eq!(s.geoms[0].fitted_to.as_deref(), Some("m"), "{geom}");
+        assert!(
+            s.geoms[0].mesh.is_none(),
+            "{geom}: the fitted geom is a primitive"
+        );
+        s
+    };
+    let near = |a: f64, b: f64| (a - b).abs() < 1e-7; // the OBJ's coordinates are single precision
+    let x = Vector3::x();
+    // Along which of the mesh's axes the geom's z axis lies (either way).
+    let along = |s: &Scene, axis: &Vector3<f64>| {
+        (s.geoms[0].pose.rotation * Vector3::z()).dot(axis).abs() > 1.0 - 1e-9
+    };
+    use scm::geometry::Shape;
+    let s = fit("", r#"<geom type="box" size="0.01 0.01 0.01" mesh="m"/>"#);
+    match &s.geoms[0].shape {
+        Some(Shape::Box { half }) => assert!(
+            near(half.x, 0.05) && near(half.y, 0.1) && near(half.z, 0.2),
+            "{half}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    assert!(along(&s, &x));
+    assert!((s.geoms[0].pose.translation.vector - Vector3::new(1.0, 0.0, 0.0)).norm() < 1e-7);
+    assert!(
+        (body(&s, "b").inertia.mass - 8.0).abs() < 1e-6 * 8.0,
+        "the box weighs as a box: {}",
+        body(&s, "b").inertia.mass
+    );
+    assert!(
+        s.unused
+            .iter()
+            .any(|u| u.contains("size (MuJoCo sizes a geom fitted to a mesh")),
+        "{:?}",
+        s.unused
+    );
+    let s = fit("", r#"<geom mesh="m"/>"#); // MuJoCo's default type, a sphere
+    assert!(matches!(s.geoms[0].shape, Some(Shape::Sphere { radius }) if near(radius, 0.35 / 3.0)));
+    let s = fit("", r#"<geom type="cylinder" mesh="m"/>"#);
+    assert!(
+        matches!(s.geoms[0].shape, Some(Shape::Cylinder { radius, half_length }) if near(radius, 0.075) && near(half_length, 0.2))
+    );
+    assert!(along(&s, &x));
+    let s = fit("", r#"<geom type="capsule" mesh="m" fitscale="2"/>"#);
+    assert!(
+        matches!(s.geoms[0].shape, Some(Shape::Capsule { radius, half_length }) if near(radius, 0.15) && near(half_length, 2.0 * (0.2 - 0.0375)))
+    );
+    let aabb = r#"<compiler fitaabb="true"/>"#;
+    let s = fit(aabb, r#"<geom type="sphere" mesh="m"/>"#);
+    assert!(matches!(s.geoms[0].shape, Some(Shape::Sphere { radius }) if near(radius, 0.2)));
+    let s = fit(aabb, r#"<geom type="capsule" mesh="m"/>"#);
+    assert!(
+        matches!(s.geoms[0].shape, Some(Shape::Capsule { radius, half_length }) if near(radius, 0.1) && near(half_length, 0.1))
+    );
+    assert!(along(&s, &x));
+    // What MuJoCo refuses, or what SCM cannot take, at the geom's line.
+    for (compiler, geom, says) in [
+        (
+            "",
+            r#"<geom type="capsule" fromto="0 0 0 0 0 1" mesh="m"/>"#,
+            "fromto with mesh",
+        ),
+        (
+            "",
+            r#"<geom type="plane" mesh="m"/>"#,
+            "MuJoCo fits only spheres",
+        ),
+        (
+            "",
+            r#"<geom type="box" mesh="nothing"/>"#,
+            "no mesh asset named 'nothing'",
+        ),
+    ] {
+        let e = load_str(&scene(compiler, geom), &dir.join("m.xml")).expect_err(geom);
+        assert!(e.line == 7 && e.message.contains(says), "{geom}: {e}");
+    }
+    // A cube fitted as a capsule under fitaabb: radius 0.1, half-length 0.
+    let cube = "v -0.1 -0.1 -0.1\nv 0.1 -0.1 -0.1\nv -0.1 0.1 -0.1\nv 0.1 0.1 -0.1\nv -0.1 -0.1 0.1\nv 0.1 -0.1 0.1\nv -0.1 0.1 0.1\nv 0.1 0.1 0.1\nf 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n";
+    std::fs::write(dir.join("slab.obj"), cube).unwrap();
+    let e = load_str(
+        &scene(aabb, r#"<geom type="capsule" mesh="m"/>"#),
+        &dir.join("m.xml"),
+    )
+    .expect_err("zero half-length");
+    assert!(e.line == 7 && e.message.contains("not all positive"), "{e}");
+}
+
+/// A box fitted to a mesh whose inertia has two equal principal moments, with its axes off
+/// the mesh's own (a square prism tilted in its file): the inertia frame is free to turn in
+/// that plane, and so is the box, so SCM warns that MuJoCo's choice may differ; a cylinder
+/// along the third axis is the same either way and is not warned about.
+#[test]
+fn a_box_fitted_to_a_mesh_of_two_equal_moments_is_warned_about() {
+    let dir = scratch("fit-equal");
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let mut obj = String::new();
+    for z in [-0.3, 0.3] {
+        for y in [-0.1, 0.1] {
+            for x in [-0.1, 0.1] {
+                obj += &format!("v {x} {} {}\n", c * y - s * z, s * y + c * z);
+            }
+        }
+    }
+    obj += "f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n";
+    std::fs::write(dir.join("prism.obj"), obj).unwrap();
+    for (kind, warned) in [("box", true), ("cylinder", false)] {
+        let text = format!("<mujoco>\n  <asset><mesh name=\"m\" file=\"prism.obj\"/></asset>\n  <worldbody>\n    <body>\n      <freejoint/>\n      <geom type=\"{kind}\" mesh=\"m\"/>\n    </body>\n  </worldbody>\n</mujoco>\n");
+        let s = load_str(&text, &dir.join("m.xml")).unwrap();
+        let w = s
+            .warnings
+            .iter()
+            .any(|w| w.contains("two equal principal moments"));
+        assert_eq!(w, warned, "{kind}: {:?}", s.warnings);
+    }
+}
+
+/// An `<equality><joint>` reads the class's `<equality>` defaults, not its `<joint>` ones
+/// (armature there was refused as an attribute of the equality), and an `<inertial>` with a
+/// mass and no inertia is MuJoCo's point mass (refused with the tree on a body that moves, as
+/// MuJoCo refuses it).
+#[test]
+fn equality_joints_read_equality_defaults_and_an_inertial_may_be_a_point_mass() {
+    let scene = |tip: &str| {
+        format!(
+            r#"<mujoco>
+  <default>
+    <joint armature="0.1" damping="1"/>
+    <equality solref="0.01 1"/>
+  </default>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="a" axis="0 1 0"/>
+      <geom type="capsule" size="0.02" fromto="0 0 0 0.2 0 0"/>
+      <body name="tip" pos="0.2 0 0">
+        {tip}
+        <inertial pos="0.01 0 0" mass="0.5"/>
+      </body>
+    </body>
+    <body name="b" pos="0 0 2">
+      <joint name="b" axis="0 1 0"/>
+      <geom type="capsule" size="0.02" fromto="0 0 0 0.2 0 0"/>
+    </body>
+  </worldbody>
+  <equality>
+    <joint joint1="a" joint2="b" polycoef="0 1 0 0 0"/>
+  </equality>
+</mujoco>
+"#
+        )
+    };
+    let s = load(&scene(""));
+    assert!((joint(&s, "a").armature - 0.1).abs() < 1e-15);
+    let tip = body(&s, "tip");
+    assert_eq!(tip.inertia.mass, 0.5);
+    assert_eq!(tip.inertia.rot, nalgebra::Matrix3::zeros());
+    let e = refuse(&scene(r#"<joint name="spin" axis="1 0 0"/>"#));
+    assert!(
+        e.message.contains("no mass or no rotational inertia"),
+        "{e}"
+    );
 }

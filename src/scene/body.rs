@@ -349,7 +349,18 @@ impl Builder {
                 }
                 full
             }
-            _ => return Err(self.err(el, "give exactly one of diaginertia and fullinertia")),
+            // Without either, MuJoCo's inertia is zero: a point mass (refused with the tree on a
+            // body that moves, as MuJoCo refuses it).
+            (None, None) => {
+                self.inertial_axes.insert(body, pose.rotation);
+                Matrix3::zeros()
+            }
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    el,
+                    "give diaginertia or fullinertia, not both (MuJoCo refuses both too)",
+                ))
+            }
         };
         let e = rot.symmetric_eigenvalues();
         // A rigid body's principal moments satisfy the triangle inequality; MuJoCo's compiler

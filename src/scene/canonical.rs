@@ -231,9 +231,14 @@ pub fn canonicalize(
                 section.children =
                     body_children(children, &Isometry3::identity(), MAIN, defaults, angles)?;
             }
-            "actuator" | "tendon" | "contact" | "equality" => {
+            "actuator" | "tendon" | "contact" => {
                 for el in section.children.iter_mut() {
                     defaults.apply(el, MAIN)?;
+                }
+            }
+            "equality" => {
+                for el in section.children.iter_mut() {
+                    defaults.apply_equality(el)?;
                 }
             }
             "asset" => {

@@ -154,13 +154,29 @@ impl Defaults {
     /// Fills in the attributes `el` does not set from its class (its `class` attribute, else
     /// `inherited`), and drops `class`. Elements without defaults are left as they are.
     pub fn apply(&self, el: &mut Element, inherited: &str) -> Result<(), SceneError> {
+        self.apply_from(el, inherited, slot(&el.name))
+    }
+
+    /// [`Defaults::apply`] for an element of `<equality>`: each kind there (`connect`, `weld`,
+    /// `joint`, `tendon`) reads the class's `<equality>` defaults, never those of a `<joint>`
+    /// or a `<tendon>` of the same name.
+    pub fn apply_equality(&self, el: &mut Element) -> Result<(), SceneError> {
+        self.apply_from(el, MAIN, Some("equality"))
+    }
+
+    fn apply_from(
+        &self,
+        el: &mut Element,
+        inherited: &str,
+        slot: Option<&'static str>,
+    ) -> Result<(), SceneError> {
         let own = el.attr("class").map(str::to_string);
         let class = own.as_deref().unwrap_or(inherited);
         let Some(found) = self.classes.get(class) else {
             return Err(error(el, format!("no default class named '{class}'")));
         };
         el.attrs.retain(|(k, _)| k != "class");
-        let Some(slot) = slot(&el.name) else {
+        let Some(slot) = slot else {
             return Ok(());
         };
         let written_ctrlrange = el.attr("ctrlrange").is_some();

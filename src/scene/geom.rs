@@ -24,6 +24,7 @@ impl Builder {
                 "mesh",
                 "fluidshape",
                 "fluidcoef",
+                "fitscale",
             ],
         )?;
         // MuJoCo's default fluid model is the bodies' inertia boxes (fluidshape="none"), which
@@ -108,11 +109,29 @@ impl Builder {
             }
             None => None,
         };
-        // A primitive with a mesh is fitted to the mesh by MuJoCo's compiler (its size then
-        // comes from the mesh's inertia box or bounding box, whatever size says).
-        if let (Some(mesh), false) = (el.attr("mesh"), matches!(kind, "mesh" | "sdf")) {
-            return Err(self.err(el, format!("type=\"{kind}\" with mesh=\"{mesh}\": MuJoCo fits the {kind} to the mesh (a mesh-fitted primitive, whatever size says), which SCM does not do yet: give the geom type=\"mesh\", or its fitted size and pos (MuJoCo's compiled geom_size and geom_pos) without mesh")));
-        }
+        // A primitive with a mesh is fitted to the mesh, as MuJoCo's compiler fits it (its size
+        // then comes from the mesh's inertia box or bounding box, whatever size says).
+        let fit = match (el.attr("mesh"), matches!(kind, "mesh" | "sdf")) {
+            (Some(mesh), false) => {
+                if from_to.is_some() {
+                    return Err(self.err(el, format!("fromto with mesh=\"{mesh}\": MuJoCo refuses fromto on a geom fitted to a mesh; give pos and quat")));
+                }
+                Some((mesh.to_string(), self.fit_to_mesh(el, kind, mesh)?))
+            }
+            _ => None,
+        };
+        let size = match &fit {
+            Some((_, (fitted, _))) => {
+                if el.attr("size").is_some() {
+                    self.unused(
+                        el,
+                        "size (MuJoCo sizes a geom fitted to a mesh by the mesh)",
+                    );
+                }
+                fitted.clone()
+            }
+            None => size,
+        };
         let need = |n: usize| -> Result<(), SceneError> {
             if size.len() < n || size[..n].iter().any(|&s| s <= 0.0) {
                 return Err(self.err(
@@ -210,7 +229,7 @@ impl Builder {
             }
             t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
         };
-        if el.attr("mesh").is_some() && kind != "mesh" {
+        if el.attr("mesh").is_some() && kind != "mesh" && fit.is_none() {
             return Err(self.err(
                 el,
                 format!(
@@ -219,9 +238,10 @@ impl Builder {
                 ),
             ));
         }
-        let pose = match from_to {
-            Some((p, _)) => p,
-            None => self.pose(el)?,
+        let pose = match (from_to, &fit) {
+            (Some((p, _)), _) => p,
+            (None, Some((_, (_, frame)))) => self.pose(el)? * frame,
+            (None, None) => self.pose(el)?,
         };
         let name = match Self::given_name(el) {
             Some(n) => n,
@@ -278,6 +298,7 @@ impl Builder {
             body,
             shape,
             mesh: mesh_name,
+            fitted_to: fit.map(|(mesh, _)| mesh),
             pose,
             contype,
             conaffinity,
@@ -360,6 +381,124 @@ impl Builder {
             ),
         );
         Ok(None)
+    }
+
+    /// MuJoCo's mesh-fitted primitive (docs/mjcf.md): the size of a `kind` geom fitted to mesh
+    /// asset `mesh`, and its frame in the geom's written frame (the mesh's inertia frame, moved
+    /// to the centre of the bounding box under `fitaabb`). Sizes come from the mesh's
+    /// equivalent inertia box (the solid box of the mesh's volume and principal moments, by
+    /// the mesh's own `inertia` rule), or from its vertices' bounding box in the inertia frame
+    /// (`fitaabb`): a sphere takes the boxes' mean half-size (the largest under `fitaabb`), a
+    /// capsule or cylinder the mean of the first two as radius and the third as half-length
+    /// (a capsule less half its radius, or under `fitaabb` less its radius), a box or
+    /// ellipsoid all three; then all are scaled by `fitscale`.
+    fn fit_to_mesh(
+        &mut self,
+        el: &Element,
+        kind: &str,
+        mesh: &str,
+    ) -> Result<(Vec<f64>, Isometry3<f64>), SceneError> {
+        if !matches!(
+            kind,
+            "sphere" | "capsule" | "cylinder" | "box" | "ellipsoid"
+        ) {
+            return Err(self.err(el, format!("type=\"{kind}\" with mesh=\"{mesh}\": MuJoCo fits only spheres, capsules, cylinders, boxes and ellipsoids to a mesh")));
+        }
+        let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
+            return Err(self.err(el, format!("no mesh asset named '{mesh}'")));
+        };
+        let (closed, problem) = (asset.mesh.clone(), asset.problem.clone());
+        let mp = match (self.mesh_mass(el, mesh)?, &closed) {
+            (Some(mp), _) => mp,
+            (None, Some(m)) => m.mass_properties(),
+            (None, None) => {
+                let why = problem.map(|p| p.message).unwrap_or_default();
+                return Err(self.err(el, format!("the {kind} is fitted to mesh '{mesh}' by its inertia=\"exact\", the solid its surface encloses, and the surface is not closed ({why}): give the mesh MuJoCo's default inertia, or the geom its size without mesh")));
+            }
+        };
+        if mp.volume.is_nan() || mp.volume <= 0.0 {
+            return Err(self.err(
+                el,
+                format!("mesh '{mesh}' has no volume to fit a {kind} to"),
+            ));
+        }
+        let (lambda, axes, diagonal) = principal_axes(&mp.inertia);
+        let fit_aabb = self.settings.fit_aabb;
+        // Half-sizes along the principal axes, and the centre of the fitted shape there.
+        let (half, centre) = if fit_aabb {
+            let vertices = match closed {
+                Some(m) => m,
+                // The bounding box of the vertices is that of their convex hull.
+                None => match self.hull_of(mesh) {
+                    Some((hull, _)) => hull,
+                    None => return Err(self.err(el, format!("the {kind} is fitted to the bounding box of mesh '{mesh}' (fitaabb), whose vertices could not be read as a solid ({})", self.hull_problem(mesh)))),
+                },
+            };
+            let (mut lo, mut hi) = (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(-f64::INFINITY),
+            );
+            for v in &vertices.vertices {
+                let p = axes.transpose() * (v - mp.com);
+                lo = lo.inf(&p);
+                hi = hi.sup(&p);
+            }
+            let centre = (lo + hi) * 0.5;
+            (hi - centre, centre)
+        } else {
+            let box_half = |i: usize| {
+                let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+                0.5 * (6.0 * (lambda[j] + lambda[k] - lambda[i]) / mp.volume)
+                    .max(0.0)
+                    .sqrt()
+            };
+            (
+                Vector3::new(box_half(0), box_half(1), box_half(2)),
+                Vector3::zeros(),
+            )
+        };
+        let scale = self.float(el, "fitscale")?.unwrap_or(1.0);
+        let mut size = match (kind, fit_aabb) {
+            ("sphere", false) => vec![(half.x + half.y + half.z) / 3.0],
+            ("sphere", true) => vec![half.max()],
+            ("capsule", false) => {
+                let r = (half.x + half.y) / 2.0;
+                vec![r, (half.z - r / 2.0).max(0.0)]
+            }
+            ("capsule", true) => {
+                let r = half.x.max(half.y);
+                vec![r, half.z - r]
+            }
+            ("cylinder", false) => vec![(half.x + half.y) / 2.0, half.z],
+            ("cylinder", true) => vec![half.x.max(half.y), half.z],
+            _ => vec![half.x, half.y, half.z],
+        };
+        for x in size.iter_mut() {
+            *x *= scale;
+        }
+        if size.iter().any(|&x| x.is_nan() || x <= 0.0) {
+            return Err(self.err(el, format!("the {kind} fitted to mesh '{mesh}' has size {size:?} (fitscale {scale}), not all positive: SCM needs a positive size (a capsule shorter than its radius is a sphere: give type=\"sphere\")")));
+        }
+        // Two equal principal moments leave the inertia frame free to turn in their plane: where
+        // that turns the fitted shape, MuJoCo's frame is its eigen-solver's choice, which SCM
+        // does not reproduce (a mesh already in its inertia frame keeps its own axes in both).
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * lambda[0].abs();
+        let free = [(0, 1), (1, 2), (0, 2)].map(|(i, j)| close(lambda[i], lambda[j]));
+        let turns = match (kind, fit_aabb) {
+            ("sphere", _) => false,
+            (_, true) | ("box", false) => free.iter().any(|&f| f),
+            ("capsule" | "cylinder", false) => free[1] || free[2],
+            _ => false,
+        };
+        if turns && !diagonal {
+            self.warnings.push(format!("{}:{}: <geom> the {kind} fitted to mesh '{mesh}' depends on how its inertia frame turns in the plane of two equal principal moments, which MuJoCo's compiler chooses and SCM may choose differently: give the geom its size and quat without mesh to be sure of it", el.file, el.line));
+        }
+        let rotation =
+            UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(axes));
+        let frame = Isometry3::from_parts(Translation3::from(mp.com + axes * centre), rotation);
+        let asset = self.meshes.iter_mut().find(|m| m.name == mesh);
+        asset.expect("found above").used = true;
+        Ok((size, frame))
     }
 
     /// Whether geom `el` writes itself massless: `mass="0"`, or `density="0"` without a mass.
@@ -562,4 +701,37 @@ impl Builder {
         });
         Ok(())
     }
+}
+
+/// The principal moments of a symmetric inertia `inertia`, largest first, the principal axes
+/// as the columns of a rotation, and whether `inertia` was already diagonal (off-diagonal
+/// entries below 1e-12 of its trace: then the axes are the frame's own, permuted into that
+/// order, and a pair of moments within 1e-12 of the trace of each other keeps its order).
+fn principal_axes(inertia: &Matrix3<f64>) -> (Vector3<f64>, Matrix3<f64>, bool) {
+    let tiny = 1e-12 * inertia.trace().abs();
+    let off = inertia[(0, 1)]
+        .abs()
+        .max(inertia[(0, 2)].abs())
+        .max(inertia[(1, 2)].abs());
+    let diagonal = off <= tiny;
+    let (values, vectors) = if diagonal {
+        (inertia.diagonal(), Matrix3::identity())
+    } else {
+        let e = inertia.symmetric_eigen();
+        (e.eigenvalues, e.eigenvectors)
+    };
+    // Largest first; near-equal moments keep their order (three passes of a bubble sort).
+    let mut order = [0usize, 1, 2];
+    for i in [0, 1, 0] {
+        if values[order[i]] + tiny < values[order[i + 1]] {
+            order.swap(i, i + 1);
+        }
+    }
+    let lambda = Vector3::new(values[order[0]], values[order[1]], values[order[2]]);
+    let (e0, e1) = (
+        vectors.column(order[0]).normalize(),
+        vectors.column(order[1]).normalize(),
+    );
+    let axes = Matrix3::from_columns(&[e0, e1, e0.cross(&e1)]);
+    (lambda, axes, diagonal)
 }

@@ -60,7 +60,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
     let (pos, quat) = pose(&g.pose);
     json!({
         "name": g.name, "body": bodies[g.body], "type": kind, "size": size,
-        "pos": pos, "quat": quat, "mesh": g.mesh,
+        "pos": pos, "quat": quat, "mesh": g.mesh, "fitted_to": g.fitted_to,
         "contype": g.contype, "conaffinity": g.conaffinity,
         "friction": g.friction, "condim": g.condim,
     })

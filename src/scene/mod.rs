@@ -136,6 +136,9 @@ pub struct Geom {
     pub shape: Option<Shape>,
     /// Mesh asset name, for mesh geoms.
     pub mesh: Option<String>,
+    /// The mesh a primitive was fitted to (`mesh=` on a sphere, capsule, cylinder, box or
+    /// ellipsoid: MuJoCo's mesh-fitted primitive; docs/mjcf.md).
+    pub fitted_to: Option<String>,
     /// Pose in the body frame.
     pub pose: Isometry3<f64>,
     /// MuJoCo collision bits.

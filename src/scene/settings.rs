@@ -28,6 +28,9 @@ pub(super) struct CompilerSettings {
     pub(super) bound_mass: f64,
     /// Least principal moment of inertia of a body (kg m²).
     pub(super) bound_inertia: f64,
+    /// Mesh-fitted primitives fit the mesh's bounding box in its inertia frame (`fitaabb`),
+    /// instead of its equivalent inertia box.
+    pub(super) fit_aabb: bool,
 }
 
 impl Default for CompilerSettings {
@@ -39,6 +42,7 @@ impl Default for CompilerSettings {
             total_mass: -1.0,
             bound_mass: 0.0,
             bound_inertia: 0.0,
+            fit_aabb: false,
         }
     }
 }
@@ -238,8 +242,8 @@ impl Builder {
         if flag("alignfree")? == Some(true) {
             return Err(self.err(el, "alignfree=\"true\" moves free bodies' frames to their inertia frames: not supported by SCM, leave it false"));
         }
-        if el.attr("fitaabb").is_some() {
-            return Err(self.err(el, "fitaabb applies to mesh-fitted primitives, which SCM does not support: give primitive geoms their sizes"));
+        if let Some(a) = flag("fitaabb")? {
+            self.settings.fit_aabb = a;
         }
         match el.attr("inertiafromgeom") {
             None => {}

@@ -167,7 +167,11 @@ def compare(path, inertia_tol=TOL):
         for g in (g for g in range(m.ngeom) if m.geom_bodyid[g] == b):
             here = mine[len(theirs)] if len(theirs) < len(mine) else None
             mesh = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, m.geom_dataid[g]) if m.geom_dataid[g] >= 0 else None
-            if here is not None and here["type"] == GEOM_TYPES[int(m.geom_type[g])] and here.get("mesh") == mesh:
+            # Paired when the kind, the mesh and the collision bits agree (a left-out visual
+            # geom shares its mesh with the colliding geom that follows it).
+            bits = (int(m.geom_contype[g]), int(m.geom_conaffinity[g]))
+            if here is not None and here["type"] == GEOM_TYPES[int(m.geom_type[g])] and here.get("mesh") == mesh \
+                    and (here["contype"], here["conaffinity"]) == bits:
                 theirs.append(g)
             else:
                 assert mesh is not None and m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0, \
@@ -186,7 +190,13 @@ def compare(path, inertia_tol=TOL):
                 if used:
                     close(f"{tag} size", geom["size"][:used], m.geom_size[g][:used])
             close(f"{tag} pos", geom["pos"], pos)
-            close(f"{tag} rotation", rot(geom["quat"]), rot(quat))
+            if geom.get("fitted_to") is None:
+                close(f"{tag} rotation", rot(geom["quat"]), rot(quat))
+            elif kind != "sphere":
+                # A primitive fitted to a mesh lies along the mesh's principal axes, each of which
+                # has two directions: the same shape whichever each engine took.
+                same = np.abs(np.sum(rot(geom["quat"]) * rot(quat), axis=0))
+                close(f"{tag} axes", same, np.ones(3))
             assert geom["contype"] == m.geom_contype[g], f"{tag} contype"
             assert geom["conaffinity"] == m.geom_conaffinity[g], f"{tag} conaffinity"
             assert geom["condim"] == m.geom_condim[g], f"{tag} condim"
@@ -1019,6 +1029,83 @@ def test_meshes_weighed_as_shells_compile_as_mujoco_compiles_them(tmp_path):
     # The L prism's area (sides and two faces) times the density.
     area = 2 * (0.4 * 0.4 - 0.36 * 0.36) + 0.05 * (0.4 + 0.04 + 0.36 + 0.36 + 0.04 + 0.4)
     assert abs(ours["bodies"][1]["mass"] - 20 * area) < 1e-6 * 20 * area, (ours["bodies"][1]["mass"], 20 * area)
+
+
+@pytest.mark.parametrize("fitaabb", ["false", "true"])
+def test_primitives_fitted_to_meshes_compile_as_mujoco_compiles_them(tmp_path, fitaabb):
+    """A sphere, capsule, cylinder, box or ellipsoid with mesh= is fitted to the mesh (MuJoCo
+    Menagerie's ARX L5 and RB-Y1 collide by capsules and spheres fitted to their meshes): on
+    the non-convex L prism (principal axes off the mesh's own) and the open tray (scaled), from
+    their inertia boxes or, under fitaabb, their bounding boxes, with fitscale, a written size
+    (overridden) and the default type (a sphere). Sizes, poses (the shapes' axes either way),
+    and the bodies' masses and inertias (the fitted shapes weigh) as MuJoCo's."""
+    (tmp_path / "l_prism.obj").write_text(L_PRISM)
+    (tmp_path / "open_tray.obj").write_text(OPEN_BOX)
+    path = tmp_path / "fit.xml"
+    path.write_text(f"""<mujoco>
+  <compiler fitaabb="{fitaabb}"/>
+  <asset>
+    <mesh name="l" file="l_prism.obj"/>
+    <mesh name="tray" file="open_tray.obj" scale="1 2 0.5"/>
+  </asset>
+  <worldbody>
+    <body name="l" pos="0 0 1" euler="10 20 30">
+      <freejoint/>
+      <geom name="sphere" mesh="l"/>
+      <geom name="capsule" type="capsule" mesh="l" pos="0.1 0 0"/>
+      <geom name="cylinder" type="cylinder" mesh="l" fitscale="1.2"/>
+      <geom name="box" type="box" size="0.01 0.01 0.01" mesh="l" euler="0 0 30"/>
+      <geom name="ellipsoid" type="ellipsoid" mesh="l"/>
+    </body>
+    <body name="tray" pos="1 0 1">
+      <freejoint/>
+      <geom name="tray_box" type="box" mesh="tray"/>
+      <geom name="tray_capsule" type="capsule" mesh="tray" density="300"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    ours = compare(path)
+    assert all(g["fitted_to"] for g in ours["geoms"]), ours["geoms"]
+    assert not ours["warnings"], ours["warnings"]
+
+
+def test_equality_defaults_and_a_point_mass_inertial_compile_as_mujoco_compiles_them(tmp_path):
+    """Two idioms of MuJoCo Menagerie's RB-Y1: an <equality><joint> in a file whose <default>
+    gives <joint> attributes (armature, damping: they are not the equality's, which reads the
+    class's <equality> defaults only), and an <inertial> with a mass and no inertia (MuJoCo's
+    point mass, here on a body welded to its parent)."""
+    path = tmp_path / "idioms.xml"
+    path.write_text("""<mujoco>
+  <default>
+    <joint armature="0.1" damping="1"/>
+    <equality solref="0.01 1"/>
+  </default>
+  <worldbody>
+    <body name="base" pos="0 0 1">
+      <freejoint/>
+      <geom type="box" size="0.1 0.1 0.1"/>
+      <body name="a" pos="0.2 0 0">
+        <joint name="a" axis="0 1 0"/>
+        <geom type="capsule" size="0.02" fromto="0 0 0 0.2 0 0"/>
+        <body name="tip" pos="0.2 0 0">
+          <inertial pos="0.01 0 0" mass="0.5"/>
+        </body>
+      </body>
+      <body name="b" pos="-0.2 0 0">
+        <joint name="b" axis="0 1 0"/>
+        <geom type="capsule" size="0.02" fromto="0 0 0 -0.2 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+  <equality>
+    <joint joint1="a" joint2="b" polycoef="0 1 0 0 0"/>
+  </equality>
+</mujoco>
+""")
+    ours = compare(path)
+    tip = next(b for b in ours["bodies"] if b["name"] == "tip")
+    assert tip["mass"] == 0.5 and not any(tip["inertia"]), tip
 
 
 def test_mujocos_own_msh_meshes_compile_as_mujoco_compiles_them(tmp_path):
