@@ -6,7 +6,7 @@ use crate::common::scene;
 use nalgebra::Vector3;
 use scm::collision::{separation_band, Collider, SeparationDistribution};
 use scm::geometry::mesh::MeshProblem;
-use scm::geometry::TriMesh;
+use scm::geometry::{Placement, TriMesh};
 use std::path::{Path, PathBuf};
 
 fn tmp(name: &str) -> PathBuf {
@@ -51,7 +51,7 @@ fn cube_obj(drop: Option<usize>, flip: &[usize]) -> String {
 fn load(name: &str, text: &[u8]) -> Result<(TriMesh, Vec<String>), scm::geometry::MeshError> {
     let p = tmp(name);
     std::fs::write(&p, text).unwrap();
-    TriMesh::load(&p, &Vector3::repeat(1.0))
+    TriMesh::load(&p, &Placement::scaled(Vector3::repeat(1.0)))
 }
 
 #[test]
@@ -118,7 +118,7 @@ fn each_bad_mesh_gives_its_error_naming_the_file() {
     }
     let e = TriMesh::load(
         Path::new("/nonexistent/dir/missing.stl"),
-        &Vector3::repeat(1.0),
+        &Placement::scaled(Vector3::repeat(1.0)),
     )
     .unwrap_err();
     assert!(
@@ -140,7 +140,7 @@ fn an_inward_mesh_is_flipped_with_a_warning() {
     // A mirroring scale turns it inside out too: fixed silently (the file is fine).
     let p = tmp("cube.obj");
     std::fs::write(&p, cube_obj(None, &[])).unwrap();
-    let (m, w) = TriMesh::load(&p, &Vector3::new(-2.0, 1.0, 1.0)).unwrap();
+    let (m, w) = TriMesh::load(&p, &Placement::scaled(Vector3::new(-2.0, 1.0, 1.0))).unwrap();
     assert!(
         w.is_empty() && (m.mass_properties().volume - 2.0).abs() < 1e-12,
         "{w:?}"

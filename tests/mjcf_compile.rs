@@ -1758,3 +1758,36 @@ fn equality_joints_read_equality_defaults_and_an_inertial_may_be_a_point_mass() 
         "{e}"
     );
 }
+
+/// An actuator computed by an engine plugin (MuJoCo's `mujoco.pid`, as Shadow's DEX-EE uses)
+/// is refused at its line naming the plugin; the `<extension>` declaring it is listed as
+/// unused.
+#[test]
+fn a_plugin_actuator_is_refused_naming_the_plugin() {
+    let text = r#"<mujoco>
+  <extension><plugin plugin="mujoco.pid"><instance name="pid"/></plugin></extension>
+  <worldbody>
+    <body><joint name="j"/><geom size="0.1"/></body>
+  </worldbody>
+  <actuator>
+    <plugin name="a" plugin="mujoco.pid" instance="pid" joint="j" actdim="2"/>
+  </actuator>
+</mujoco>
+"#;
+    let e = refuse(text);
+    assert!(
+        e.line == 7 && e.message.contains("engine plugin (mujoco.pid)"),
+        "{e}"
+    );
+    let s = load(&text.replace(
+        r#"<plugin name="a" plugin="mujoco.pid" instance="pid" joint="j" actdim="2"/>"#,
+        r#"<motor joint="j"/>"#,
+    ));
+    assert!(
+        s.unused
+            .iter()
+            .any(|u| u.contains("engine plugins, declared")),
+        "{:?}",
+        s.unused
+    );
+}

@@ -16,7 +16,7 @@ pub mod ssdf;
 pub mod union;
 
 pub use aopc::Aopc;
-pub use mesh::{MeshError, TriMesh};
+pub use mesh::{MeshError, Placement, TriMesh};
 pub use shapes::{MassProperties, Shape, Spacing};
 pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};
 

@@ -4,6 +4,12 @@ use super::*;
 
 impl Builder {
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
+        if el.name == "plugin" {
+            return Err(self.err(
+                el,
+                format!("an actuator computed by an engine plugin ({}) is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead", el.attr("plugin").unwrap_or("plugin=\"\"")),
+            ));
+        }
         if el.attr("body").is_some() {
             return Err(self.err(
                 el,

@@ -535,8 +535,8 @@ impl Builder {
                 let mp = match (&asset.mesh, shell) {
                     (Some(closed), false) => closed.legacy_mass_properties(),
                     (Some(closed), true) => closed.shell_mass_properties(),
-                    (None, false) => TriMesh::load_legacy_mass(&asset.path, &asset.scale).ok(),
-                    (None, true) => TriMesh::load_shell_mass(&asset.path, &asset.scale).ok(),
+                    (None, false) => TriMesh::load_legacy_mass(&asset.path, &asset.placement).ok(),
+                    (None, true) => TriMesh::load_shell_mass(&asset.path, &asset.placement).ok(),
                 };
                 let mp = mp.ok_or_else(|| {
                     if shell {
@@ -569,7 +569,7 @@ impl Builder {
     fn hull_of(&mut self, mesh: &str) -> Option<(Arc<TriMesh>, Option<i64>)> {
         let asset = self.meshes.iter_mut().find(|m| m.name == mesh)?;
         if asset.hull.is_none() && asset.hull_problem.is_none() {
-            match TriMesh::load_hull(&asset.path, &asset.scale) {
+            match TriMesh::load_hull(&asset.path, &asset.placement) {
                 Ok(h) => asset.hull = Some(Arc::new(h)),
                 Err(e) => asset.hull_problem = Some(e.problem.to_string()),
             }
@@ -593,11 +593,6 @@ impl Builder {
                 "content_type",
             ],
         )?;
-        for unsupported in ["refpos", "refquat"] {
-            if el.attr(unsupported).is_some() {
-                return Err(self.err(el, format!("{unsupported} is not supported")));
-            }
-        }
         // A mesh weighs as MuJoCo weighs it: its default rule ("legacy"), the exact solid, or
         // the convex hull (`MeshInertia`).
         let inertia = match el.attr("inertia") {
@@ -665,10 +660,28 @@ impl Builder {
         if scale.iter().any(|&x| x == 0.0) {
             return Err(self.err(el, "scale has a zero component"));
         }
+        // The file's coordinates relative to the reference frame `refpos`, `refquat`, as MuJoCo
+        // places them, then scaled.
+        let refpos = self.vec3(el, "refpos")?.unwrap_or_else(Vector3::zeros);
+        let refquat = match self.floats(el, "refquat", 4)? {
+            None => UnitQuaternion::identity(),
+            Some(q) => {
+                let q = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
+                if q.norm() < 1e-10 {
+                    return Err(self.err(el, "refquat is zero: it names no orientation"));
+                }
+                UnitQuaternion::from_quaternion(q)
+            }
+        };
+        let placement = Placement {
+            refpos,
+            refquat,
+            scale,
+        };
         let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
         // A file that cannot be read is an error at once (MuJoCo's too); a surface that is
         // not closed is one only where a geom needs it (`MeshAsset::problem`).
-        let (mesh, problem) = match TriMesh::load(&path, &scale) {
+        let (mesh, problem) = match TriMesh::load(&path, &placement) {
             Ok((mesh, warnings)) => {
                 for w in warnings {
                     self.warnings
@@ -693,7 +706,7 @@ impl Builder {
             problem,
             hull: None,
             hull_problem: None,
-            scale,
+            placement,
             inertia,
             legacy: None,
             maxhullvert,

@@ -30,7 +30,7 @@ use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::fluid::{Fluid, FluidBody};
 use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{Body, Joint, JointKind, Tree, TreeError};
-use crate::geometry::{Shape, Spacing, TriMesh};
+use crate::geometry::{Placement, Shape, Spacing, TriMesh};
 use crate::integrate::Integrator;
 use crate::model::{Actuator, ActuatorKind, Model, Pair, Transmission};
 use canonical::Angles;
@@ -98,8 +98,9 @@ pub struct MeshAsset {
     pub hull: Option<Arc<TriMesh>>,
     /// Why its convex hull could not be made, once tried.
     pub hull_problem: Option<String>,
-    /// The `scale` the file is read with (for the hull).
-    pub scale: Vector3<f64>,
+    /// How the file's vertices are placed (`refpos`, `refquat`, `scale`): for the hull and
+    /// the mass rules that read the file again.
+    pub placement: Placement,
     /// How MuJoCo weighs it (`inertia`).
     pub inertia: MeshInertia,
     /// Its mass properties by MuJoCo's default rule (`inertia="legacy"`) or as a shell
@@ -678,9 +679,11 @@ impl Builder {
                 "tendon" => {}
                 // After the tendons: a tendon equality names them (see below).
                 "equality" => {}
-                "visual" | "statistic" | "size" | "extension" => {
-                    self.unused(el, "renderer and memory settings")
-                }
+                "visual" | "statistic" | "size" => self.unused(el, "renderer and memory settings"),
+                "extension" => self.unused(
+                    el,
+                    "engine plugins, declared (an element that uses one is refused at its line)",
+                ),
                 "sensor" => self.unused(el, "sensors (SCM's outputs are its FMU variables)"),
                 "keyframe" => {
                     for k in &el.children {

@@ -105,6 +105,35 @@ impl MeshProblem {
     }
 }
 
+/// How a mesh file's vertices are placed in the mesh frame (MuJoCo's `<mesh refpos refquat
+/// scale>`): `x = scale ∘ (refquat⁻¹ (v - refpos))`, the file's coordinates taken relative to
+/// the reference frame `(refpos, refquat)`, then scaled axis by axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// The reference position (file coordinates).
+    pub refpos: Vector3<f64>,
+    /// The reference orientation.
+    pub refquat: nalgebra::UnitQuaternion<f64>,
+    /// The scale per axis (applied last).
+    pub scale: Vector3<f64>,
+}
+
+impl Placement {
+    /// Only a scale.
+    pub fn scaled(scale: Vector3<f64>) -> Placement {
+        Placement {
+            refpos: Vector3::zeros(),
+            refquat: nalgebra::UnitQuaternion::identity(),
+            scale,
+        }
+    }
+
+    /// A vertex of the file, placed.
+    pub fn apply(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        (self.refquat.inverse_transform_vector(&(v - self.refpos))).component_mul(&self.scale)
+    }
+}
+
 /// A closed, consistently outward-oriented triangle mesh (m, mesh frame).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
@@ -619,6 +648,24 @@ pub fn shell_mass_properties(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_placement_takes_the_file_relative_to_its_reference_frame_then_scales() {
+        // The reference frame at (1, 2, 3) turned 90 degrees about z: the file's point one
+        // along y from it lies along the frame's x, then doubled by the scale along x.
+        let p = Placement {
+            refpos: Vector3::new(1.0, 2.0, 3.0),
+            refquat: nalgebra::UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                std::f64::consts::FRAC_PI_2,
+            ),
+            scale: Vector3::new(2.0, 1.0, 1.0),
+        };
+        let x = p.apply(&Vector3::new(1.0, 3.0, 3.0));
+        assert!((x - Vector3::new(2.0, 0.0, 0.0)).norm() < 1e-15, "{x}");
+        let s = Placement::scaled(Vector3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.apply(&Vector3::repeat(1.0)), Vector3::new(1.0, 2.0, 3.0));
+    }
 
     #[test]
     fn a_thin_shell_weighs_by_its_area() {

@@ -6,9 +6,10 @@ use super::*;
 impl TriMesh {
     /// Loads an OBJ or STL file, scales it, checks it and orients it outward. Returns the mesh
     /// and warnings (e.g. an inward orientation that was fixed).
-    pub fn load(path: &Path, scale: &Vector3<f64>) -> Result<(TriMesh, Vec<String>), MeshError> {
-        let (file, vertices, triangles) = read(path, scale)?;
+    pub fn load(path: &Path, placement: &Placement) -> Result<(TriMesh, Vec<String>), MeshError> {
+        let (file, vertices, triangles) = read(path, placement)?;
         let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
+        let scale = placement.scale;
         if scale.x * scale.y * scale.z < 0.0 {
             // A mirroring scale turns the surface inside out; `new` has already flipped it back.
             warnings.retain(|w| !w.contains("inward"));
@@ -17,38 +18,41 @@ impl TriMesh {
         Ok((mesh, warnings))
     }
 
-    /// The mass properties MuJoCo gives an OBJ or STL file (scaled) by default, its
+    /// The mass properties MuJoCo gives an OBJ or STL file (placed: [`Placement`]) by default, its
     /// `inertia="legacy"` ([`legacy_mass_properties`]), whatever its surface: read from the
     /// file's own triangles, so also for an open mesh. Fails where the file cannot be read or
     /// its triangles enclose no volume by that rule.
     pub fn load_legacy_mass(
         path: &Path,
-        scale: &Vector3<f64>,
+        placement: &Placement,
     ) -> Result<MassProperties, MeshError> {
-        let (file, vertices, triangles) = read(path, scale)?;
+        let (file, vertices, triangles) = read(path, placement)?;
         legacy_mass_properties(&vertices, &triangles).ok_or(MeshError {
             file,
             problem: MeshProblem::ZeroVolume(0.0),
         })
     }
 
-    /// MuJoCo's shell inertia of an OBJ or STL file (scaled), `inertia="shell"`
+    /// MuJoCo's shell inertia of an OBJ or STL file (placed: [`Placement`]), `inertia="shell"`
     /// ([`shell_mass_properties`]), from the file's own triangles, open or closed. Fails where
     /// the file cannot be read or its area is zero.
-    pub fn load_shell_mass(path: &Path, scale: &Vector3<f64>) -> Result<MassProperties, MeshError> {
-        let (file, vertices, triangles) = read(path, scale)?;
+    pub fn load_shell_mass(
+        path: &Path,
+        placement: &Placement,
+    ) -> Result<MassProperties, MeshError> {
+        let (file, vertices, triangles) = read(path, placement)?;
         shell_mass_properties(&vertices, &triangles).ok_or(MeshError {
             file,
             problem: MeshProblem::ZeroVolume(0.0),
         })
     }
 
-    /// The convex hull of an OBJ or STL file's vertices (scaled), whatever its surface: what
+    /// The convex hull of an OBJ or STL file's vertices (placed: [`Placement`]), whatever its surface: what
     /// MuJoCo collides a mesh by. Every vertex counts, as in MuJoCo, also an OBJ's vertices
     /// that no face uses. Fails where the file cannot be read or its vertices span no volume
     /// (all in one plane).
-    pub fn load_hull(path: &Path, scale: &Vector3<f64>) -> Result<TriMesh, MeshError> {
-        let (file, mut vertices, _) = read(path, scale)?;
+    pub fn load_hull(path: &Path, placement: &Placement) -> Result<TriMesh, MeshError> {
+        let (file, mut vertices, _) = read(path, placement)?;
         if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
@@ -59,18 +63,18 @@ impl TriMesh {
             })?;
             vertices = obj_positions(&bytes)
                 .into_iter()
-                .map(|v| v.component_mul(scale))
+                .map(|v| placement.apply(&v))
                 .collect();
         }
         TriMesh::convex_hull(&file, &vertices)
     }
 }
 
-/// A file's name, its vertices (scaled) and triangles.
+/// A file's name, its vertices (placed: [`Placement`]) and triangles.
 type Read = (String, Vec<Vector3<f64>>, Vec<[u32; 3]>);
 
-/// The file's name, its vertices (scaled) and triangles.
-fn read(path: &Path, scale: &Vector3<f64>) -> Result<Read, MeshError> {
+/// The file's name, its vertices (placed: [`Placement`]) and triangles.
+fn read(path: &Path, placement: &Placement) -> Result<Read, MeshError> {
     let file = path.display().to_string();
     let err = |problem| MeshError {
         file: file.clone(),
@@ -93,10 +97,7 @@ fn read(path: &Path, scale: &Vector3<f64>) -> Result<Read, MeshError> {
     })
     .unwrap_or_else(|_| Err("the parser failed on this file".into()));
     let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
-    let vertices = vertices
-        .into_iter()
-        .map(|v| v.component_mul(scale))
-        .collect();
+    let vertices = vertices.iter().map(|v| placement.apply(v)).collect();
     Ok((file, vertices, triangles))
 }
 
