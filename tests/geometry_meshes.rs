@@ -298,3 +298,36 @@ fn mujocos_msh_format_reads_and_its_errors_are_named() {
         assert!(e.contains(says), "{says}: {e}");
     }
 }
+
+/// An OBJ's polygons of more than three corners are split into fans from their first corner.
+/// Where one is not planar (or not convex), MuJoCo's split differs and so does the enclosed
+/// volume: the load says so, naming the file and the first such face; a planar convex quad,
+/// split any way the same, gives no note. A mesh that is refused as open still carries the
+/// note (the scene reports it where it weighs the file anyway).
+#[test]
+fn a_non_planar_polygon_is_noted_naming_the_file() {
+    // A pyramid whose base is one quad: flat, then with one corner raised.
+    let pyramid = |z: f64, open: bool| {
+        let mut s = format!("v 0 0 0\nv 1 0 0\nv 1 1 {z}\nv 0 1 0\nv 0.5 0.5 1\nf 1 4 3 2\n");
+        let sides = ["f 1 2 5\n", "f 2 3 5\n", "f 3 4 5\n", "f 4 1 5\n"];
+        for side in &sides[..if open { 3 } else { 4 }] {
+            s += side;
+        }
+        s
+    };
+    let (flat, w) = load("quad_flat.obj", pyramid(0.0, false).as_bytes()).unwrap();
+    assert!(w.iter().all(|w| !w.contains("polygons")), "{w:?}");
+    assert_eq!(flat.triangles.len(), 6, "the quad is two triangles");
+    let (_, w) = load("quad_raised.obj", pyramid(0.2, false).as_bytes()).unwrap();
+    let note = w.iter().find(|w| w.contains("polygons")).expect("noted");
+    assert!(
+        note.contains("quad_raised.obj") && note.contains("face 0") && note.contains("MuJoCo"),
+        "{note}"
+    );
+    let e = load("quad_open.obj", pyramid(0.2, true).as_bytes()).unwrap_err();
+    assert!(
+        e.notes.iter().any(|n| n.contains("polygons")),
+        "{e}: {:?}",
+        e.notes
+    );
+}

@@ -684,12 +684,16 @@ impl Builder {
         let (mesh, problem) = match TriMesh::load(&path, &placement) {
             Ok((mesh, warnings)) => {
                 for w in warnings {
-                    self.warnings
-                        .push(format!("{}:{}: {w}", self.file, el.line));
+                    self.warnings.push(format!("{}:{}: {w}", el.file, el.line));
                 }
                 (Some(Arc::new(mesh)), None)
             }
-            Err(e) if e.problem.is_of_the_surface() => (None, Some(self.err(el, e.to_string()))),
+            Err(e) if e.problem.is_of_the_surface() => {
+                for w in &e.notes {
+                    self.warnings.push(format!("{}:{}: {w}", el.file, el.line));
+                }
+                (None, Some(self.err(el, e.to_string())))
+            }
             Err(e) => return Err(self.err(el, e.to_string())),
         };
         if maxhullvert.is_some() && problem.is_none() {

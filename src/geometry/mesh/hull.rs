@@ -15,6 +15,7 @@ impl TriMesh {
         let err = |problem| MeshError {
             file: file.to_string(),
             problem,
+            notes: Vec::new(),
         };
         let mut points: Vec<Vec<f64>> = vertices.iter().map(|v| vec![v.x, v.y, v.z]).collect();
         // Nearly collinear hull corners (CAD exports: a vertex a hair off the edge between two

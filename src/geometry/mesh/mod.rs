@@ -22,6 +22,9 @@ pub struct MeshError {
     pub file: String,
     /// What is wrong.
     pub problem: MeshProblem,
+    /// What else was noticed while reading the file (warnings a successful load would have
+    /// given, e.g. polygons split otherwise than MuJoCo splits them).
+    pub notes: Vec<String>,
 }
 
 /// The kinds of mesh problems.
@@ -157,6 +160,7 @@ impl TriMesh {
         let err = |problem| MeshError {
             file: file.to_string(),
             problem,
+            notes: Vec::new(),
         };
         if let Some(i) = vertices
             .iter()

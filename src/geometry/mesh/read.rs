@@ -7,8 +7,13 @@ impl TriMesh {
     /// Loads an OBJ or STL file, scales it, checks it and orients it outward. Returns the mesh
     /// and warnings (e.g. an inward orientation that was fixed).
     pub fn load(path: &Path, placement: &Placement) -> Result<(TriMesh, Vec<String>), MeshError> {
-        let (file, vertices, triangles) = read(path, placement)?;
-        let (mut mesh, mut warnings) = TriMesh::new(&file, vertices, triangles)?;
+        let (file, vertices, triangles, notes) = read(path, placement)?;
+        let (mut mesh, mut warnings) =
+            TriMesh::new(&file, vertices, triangles).map_err(|e| MeshError {
+                notes: notes.clone(),
+                ..e
+            })?;
+        warnings.extend(notes);
         let scale = placement.scale;
         if scale.x * scale.y * scale.z < 0.0 {
             // A mirroring scale turns the surface inside out; `new` has already flipped it back.
@@ -26,10 +31,11 @@ impl TriMesh {
         path: &Path,
         placement: &Placement,
     ) -> Result<MassProperties, MeshError> {
-        let (file, vertices, triangles) = read(path, placement)?;
+        let (file, vertices, triangles, _) = read(path, placement)?;
         legacy_mass_properties(&vertices, &triangles).ok_or(MeshError {
             file,
             problem: MeshProblem::ZeroVolume(0.0),
+            notes: Vec::new(),
         })
     }
 
@@ -40,10 +46,11 @@ impl TriMesh {
         path: &Path,
         placement: &Placement,
     ) -> Result<MassProperties, MeshError> {
-        let (file, vertices, triangles) = read(path, placement)?;
+        let (file, vertices, triangles, _) = read(path, placement)?;
         shell_mass_properties(&vertices, &triangles).ok_or(MeshError {
             file,
             problem: MeshProblem::ZeroVolume(0.0),
+            notes: Vec::new(),
         })
     }
 
@@ -52,7 +59,7 @@ impl TriMesh {
     /// that no face uses. Fails where the file cannot be read or its vertices span no volume
     /// (all in one plane).
     pub fn load_hull(path: &Path, placement: &Placement) -> Result<TriMesh, MeshError> {
-        let (file, mut vertices, _) = read(path, placement)?;
+        let (file, mut vertices, _, _) = read(path, placement)?;
         if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
@@ -60,6 +67,7 @@ impl TriMesh {
             let bytes = std::fs::read(path).map_err(|e| MeshError {
                 file: file.clone(),
                 problem: MeshProblem::Missing(e.to_string()),
+                notes: Vec::new(),
             })?;
             vertices = obj_positions(&bytes)
                 .into_iter()
@@ -71,7 +79,7 @@ impl TriMesh {
 }
 
 /// A file's name, its vertices (placed: [`Placement`]) and triangles.
-type Read = (String, Vec<Vector3<f64>>, Vec<[u32; 3]>);
+type Read = (String, Vec<Vector3<f64>>, Vec<[u32; 3]>, Vec<String>);
 
 /// The file's name, its vertices (placed: [`Placement`]) and triangles.
 fn read(path: &Path, placement: &Placement) -> Result<Read, MeshError> {
@@ -79,6 +87,7 @@ fn read(path: &Path, placement: &Placement) -> Result<Read, MeshError> {
     let err = |problem| MeshError {
         file: file.clone(),
         problem,
+        notes: Vec::new(),
     };
     let ext = path
         .extension()
@@ -96,13 +105,14 @@ fn read(path: &Path, placement: &Placement) -> Result<Read, MeshError> {
         _ => parse_stl(&bytes),
     })
     .unwrap_or_else(|_| Err("the parser failed on this file".into()));
-    let (vertices, triangles) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
+    let (vertices, triangles, notes) = parsed.map_err(|e| err(MeshProblem::Parse(e)))?;
+    let notes = notes.iter().map(|n| format!("mesh {file}: {n}")).collect();
     let vertices = vertices.iter().map(|v| placement.apply(v)).collect();
-    Ok((file, vertices, triangles))
+    Ok((file, vertices, triangles, notes))
 }
 
-/// Vertices and triangles of a parsed file, or what is wrong with it.
-type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>), String>;
+/// Vertices and triangles of a parsed file and notes on it, or what is wrong with it.
+type Parsed = Result<(Vec<Vector3<f64>>, Vec<[u32; 3]>, Vec<String>), String>;
 
 /// Every vertex position (`v x y z`) of an OBJ file, whether a face uses it or not (the parser
 /// keeps only those faces use), read in single precision as the parser reads them. Lines that
@@ -166,13 +176,17 @@ fn parse_msh(bytes: &[u8]) -> Parsed {
         }
         triangles.push(t.map(|i| i as u32));
     }
-    Ok((vertices, triangles))
+    Ok((vertices, triangles, Vec::new()))
 }
 
-/// Vertices and triangles of an OBJ file (all its objects; polygons are triangulated).
+/// Vertices and triangles of an OBJ file (all its objects), with a note where a polygon of
+/// more than three corners is not planar or not convex: SCM splits every polygon into a fan
+/// from its first corner, and MuJoCo 4.0.0 splits polygons otherwise (a quad along its other
+/// diagonal, larger polygons by clipping ears), so such a polygon's triangles enclose a
+/// slightly different volume in the two (docs/mjcf.md, MuJoCo Menagerie).
 fn parse_obj(bytes: &[u8]) -> Parsed {
     let opts = tobj::LoadOptions {
-        triangulate: true,
+        triangulate: false,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
@@ -181,6 +195,7 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
     let (models, _) = tobj::load_obj_buf(&mut reader, &opts, |_| Ok(Default::default()))
         .map_err(|e| e.to_string())?;
     let (mut verts, mut tris) = (Vec::new(), Vec::new());
+    let (mut uneven, mut first) = (0usize, None);
     for m in &models {
         let base = verts.len() as u32;
         let p = &m.mesh.positions;
@@ -188,14 +203,70 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
             p.chunks_exact(3)
                 .map(|c| Vector3::new(c[0] as f64, c[1] as f64, c[2] as f64)),
         );
-        tris.extend(
-            m.mesh
-                .indices
-                .chunks_exact(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        let idx = &m.mesh.indices;
+        // Without arities every face is a triangle.
+        let arities: Vec<u32> = if m.mesh.face_arities.is_empty() {
+            vec![3; idx.len() / 3]
+        } else {
+            m.mesh.face_arities.clone()
+        };
+        let mut at = 0usize;
+        for (face, &n) in arities.iter().enumerate() {
+            let corners = idx
+                .get(at..at + n as usize)
+                .ok_or("a face runs past the file's indices")?;
+            at += n as usize;
+            for k in 1..corners.len().saturating_sub(1) {
+                tris.push([corners[0] + base, corners[k] + base, corners[k + 1] + base]);
+            }
+            if n > 3 && !flat_and_convex(&verts, base, corners) {
+                uneven += 1;
+                first.get_or_insert(face);
+            }
+        }
+    }
+    let notes = match first {
+        Some(face) => vec![format!("{uneven} of its polygons of more than three corners (the first is face {face}) are not planar or not convex: SCM splits each into a fan from its first corner, MuJoCo otherwise, so the mesh's volume and mass may differ slightly from MuJoCo's")],
+        None => Vec::new(),
+    };
+    Ok((verts, tris, notes))
+}
+
+/// Whether the polygon `corners` (indices into `verts` from `base`) lies in one plane and
+/// turns one way: its fan then covers it exactly, as any other split does. Tolerances are
+/// those of single-precision coordinates (1e-6 of the polygon's size).
+fn flat_and_convex(verts: &[Vector3<f64>], base: u32, corners: &[u32]) -> bool {
+    let at = |i: usize| verts.get((corners[i % corners.len()] + base) as usize);
+    let Some(points) = (0..corners.len()).map(at).collect::<Option<Vec<_>>>() else {
+        return true; // a bad index is the mesh checks' to report
+    };
+    let n = points.len();
+    // Newell's normal of the polygon, and its size.
+    let mut normal = Vector3::zeros();
+    for i in 0..n {
+        let (a, b) = (points[i], points[(i + 1) % n]);
+        normal += Vector3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
         );
     }
-    Ok((verts, tris))
+    let size = (0..n)
+        .map(|i| (points[i] - points[0]).norm())
+        .fold(0.0, f64::max);
+    if normal.norm() <= 0.0 || size <= 0.0 {
+        return true; // degenerate: the mesh checks report it
+    }
+    let unit = normal.normalize();
+    let tol = 1e-6 * size;
+    let planar = points
+        .iter()
+        .all(|&p| (p - points[0]).dot(&unit).abs() <= tol);
+    let convex = (0..n).all(|i| {
+        let (a, b, c) = (points[i], points[(i + 1) % n], points[(i + 2) % n]);
+        (b - a).cross(&(c - b)).dot(&unit) >= -tol * size
+    });
+    planar && convex
 }
 
 /// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
@@ -213,5 +284,5 @@ fn parse_stl(bytes: &[u8]) -> Parsed {
         .iter()
         .map(|f| f.vertices.map(|i| i as u32))
         .collect();
-    Ok((verts, tris))
+    Ok((verts, tris, Vec::new()))
 }
