@@ -1791,3 +1791,78 @@ fn a_plugin_actuator_is_refused_naming_the_plugin() {
         s.unused
     );
 }
+
+/// A height field without elevation data is flat when compiled (MuJoCo's zeros; dm_control's
+/// quadruped fills its terrain at run time): SCM takes it as the plane of its surface, with
+/// a warning naming its extent. A ball dropped on the raised, tilted field moves exactly as on
+/// a plane geom in the same place, and rests on it (its centre a radius above it, less the
+/// soft contact's sink, within 2 mm). A field with elevation data, or without its size, is
+/// refused at its line.
+#[test]
+fn a_flat_height_field_is_the_plane_of_its_surface() {
+    let dir = scratch("hfield");
+    let text = r#"<mujoco>
+  <option timestep="0.002"/>
+  <asset>
+    <hfield name="terrain" nrow="11" ncol="11" size="3 2 1 0.1"/>
+  </asset>
+  <worldbody>
+    <geom type="hfield" hfield="terrain" pos="0 0 0.05" euler="5 0 0"/>
+    <body name="ball" pos="0 0 0.3">
+      <freejoint/>
+      <geom type="sphere" size="0.05" friction="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"#;
+    let path = dir.join("field.xml");
+    std::fs::write(&path, text).unwrap();
+    let mut sim = scm::sim::Simulation::from_file(&path).unwrap();
+    let warnings = load(text).warnings;
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("height field 'terrain' is flat") && w.contains("6 x 4 m")),
+        "{warnings:?}"
+    );
+    let plane = dir.join("plane.xml");
+    std::fs::write(
+        &plane,
+        text.replace(
+            r#"type="hfield" hfield="terrain""#,
+            r#"type="plane" size="3 2 0.1""#,
+        ),
+    )
+    .unwrap();
+    let mut on_plane = scm::sim::Simulation::from_file(&plane).unwrap();
+    for _ in 0..750 {
+        sim.step(0.002).unwrap();
+        on_plane.step(0.002).unwrap();
+    }
+    let q = &sim.current.state.q;
+    assert_eq!(
+        q, &on_plane.current.state.q,
+        "the same motion as on the plane"
+    );
+    let centre = Vector3::new(q[0], q[1], q[2]);
+    let normal = UnitQuaternion::from_euler_angles(5f64.to_radians(), 0.0, 0.0) * Vector3::z();
+    let height = (centre - Vector3::new(0.0, 0.0, 0.05)).dot(&normal);
+    assert!((height - 0.05).abs() < 2e-3, "{height}");
+    for (hfield, says) in [
+        (
+            r#"<hfield name="terrain" nrow="11" ncol="11" size="3 2 1 0.1" elevation="1 2"/>"#,
+            "elevation data",
+        ),
+        (
+            r#"<hfield name="terrain" nrow="11" ncol="11"/>"#,
+            "four positive numbers",
+        ),
+    ] {
+        let t = text.replace(
+            r#"<hfield name="terrain" nrow="11" ncol="11" size="3 2 1 0.1"/>"#,
+            hfield,
+        );
+        let e = refuse(&t);
+        assert!(e.line == 4 && e.message.contains(says), "{hfield}: {e}");
+    }
+}

@@ -25,6 +25,7 @@ impl Builder {
                 "fluidshape",
                 "fluidcoef",
                 "fitscale",
+                "hfield",
             ],
         )?;
         // MuJoCo's default fluid model is the bodies' inertia boxes (fluidshape="none"), which
@@ -224,9 +225,11 @@ impl Builder {
                 }
             }
             "plane" => None,
-            t @ ("hfield" | "sdf") => {
-                return Err(self.err(el, format!("geom type {t} is not supported")))
+            "hfield" => {
+                self.flat_hfield(el)?;
+                None
             }
+            t @ "sdf" => return Err(self.err(el, format!("geom type {t} is not supported"))),
             t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
         };
         if el.attr("mesh").is_some() && kind != "mesh" && fit.is_none() {
@@ -290,7 +293,7 @@ impl Builder {
                     .push(pose.rotation);
             }
         } else if body != 0 && !self.bodies[body].joints.is_empty() {
-            return Err(self.err(el, "a plane can only belong to a static body"));
+            return Err(self.err(el, format!("a {kind} can only belong to a static body")));
         }
         let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
         self.geoms.push(Geom {
@@ -499,6 +502,71 @@ impl Builder {
         let asset = self.meshes.iter_mut().find(|m| m.name == mesh);
         asset.expect("found above").used = true;
         Ok((size, frame))
+    }
+
+    /// `<hfield>`: a height field, taken only where it is flat when the scene is compiled
+    /// (no `file`, no `elevation`: MuJoCo's zeros, which a MuJoCo host may reshape at run
+    /// time, e.g. dm_control's quadruped terrain).
+    pub(super) fn hfield_asset(&mut self, el: &Element) -> Result<(), SceneError> {
+        self.check_attrs(
+            el,
+            &[
+                "name",
+                "size",
+                "nrow",
+                "ncol",
+                "file",
+                "elevation",
+                "content_type",
+            ],
+        )?;
+        if el.attr("file").is_some() || el.attr("elevation").is_some() {
+            return Err(self.err(el, "a height field with elevation data (file or elevation) is not supported by SCM: it takes a height field only where it is flat (neither given); use a mesh or primitive geoms"));
+        }
+        let name = Self::given_name(el)
+            .ok_or_else(|| self.err(el, "a height field without a file needs a name"))?;
+        let size = match self.floats(el, "size", 4)? {
+            Some(v) if v.iter().all(|&x| x > 0.0) => [v[0], v[1], v[2], v[3]],
+            _ => {
+                return Err(self.err(
+                    el,
+                    "size needs four positive numbers (x and y half-extents, elevation scale, base depth), as MuJoCo requires",
+                ))
+            }
+        };
+        for key in ["nrow", "ncol"] {
+            match el.attr(key).map(|v| v.trim().parse::<i64>()) {
+                Some(Ok(n)) if n >= 2 => {}
+                _ => {
+                    return Err(self.err(
+                        el,
+                        format!(
+                        "{key} must be an integer of at least 2 for a height field without a file"
+                    ),
+                    ))
+                }
+            }
+        }
+        if self.hfields.iter().any(|(n, _)| *n == name) {
+            return Err(self.err(el, format!("hfield name '{name}' is used twice")));
+        }
+        self.hfields.push((name, size));
+        Ok(())
+    }
+
+    /// A geom of type `hfield`: its field is flat at compile time ([`Builder::hfield_asset`]),
+    /// so its surface is the plane z = 0 of the geom's frame (MuJoCo's elevation 0), which is
+    /// how SCM takes it, with a warning for what differs.
+    fn flat_hfield(&mut self, el: &Element) -> Result<(), SceneError> {
+        let name = el
+            .attr("hfield")
+            .ok_or_else(|| self.err(el, "a height field geom needs hfield=\"NAME\""))?;
+        let Some((_, size)) = self.hfields.iter().find(|(n, _)| n == name) else {
+            return Err(self.err(el, format!("no hfield asset named '{name}'")));
+        };
+        let (x, y) = (2.0 * size[0], 2.0 * size[1]);
+        self.warnings.push(format!("{}:{}: <geom> height field '{name}' is flat when compiled: SCM takes it as the plane of its surface, unbounded, where MuJoCo's is {x} x {y} m over a base {} m deep; a host cannot reshape it at run time", el.file, el.line, size[3]));
+        Ok(())
     }
 
     /// Whether geom `el` writes itself massless: `mass="0"`, or `density="0"` without a mass.

@@ -332,6 +332,9 @@ struct Builder {
     settings: CompilerSettings,
     meshdir: Option<String>,
     meshes: Vec<MeshAsset>,
+    /// Height fields by name: their `size` (x and y half-extents, elevation scale, base
+    /// depth). SCM takes only flat ones (`Builder::hfield_asset`).
+    hfields: Vec<(String, [f64; 4])>,
     bodies: Vec<Body>,
     /// Where each body is written, by name (for errors the tree finds).
     body_places: HashMap<String, Place>,
@@ -498,6 +501,7 @@ impl Builder {
             settings: CompilerSettings::default(),
             meshdir: None,
             meshes: vec![],
+            hfields: vec![],
             body_places: HashMap::new(),
             bodies: vec![Body {
                 name: "world".into(),
@@ -649,12 +653,7 @@ impl Builder {
                 match a.name.as_str() {
                     "texture" | "material" | "skin" | "model" => self.unused(a, "renderer asset"),
                     "mesh" => self.mesh_asset(a)?,
-                    "hfield" => {
-                        return Err(self.err(
-                            a,
-                            "height fields are not supported by SCM: use a mesh or primitive geoms",
-                        ))
-                    }
+                    "hfield" => self.hfield_asset(a)?,
                     _ => return Err(self.err(a, "unknown asset")),
                 }
             }

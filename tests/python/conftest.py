@@ -55,7 +55,7 @@ def dm_id(path):
 #: of the element). Everything else loads.
 DM_CONTROL_REFUSED = {
     "dog": ("dog.xml:945: <general>", "no activation state"),
-    "quadruped": ("quadruped.xml:13: <hfield>", "height fields are not supported"),
+    "quadruped": ("quadruped.xml:279: <general>", "no activation state"),
     "rodent": ("rodent.xml:561: <general>", "no activation state"),
     "dog_v2_dog": ("dog.xml:936: <general>", "no activation state"),
     "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "body transmissions (adhesion) are not supported"),

@@ -166,11 +166,15 @@ def compare(path, inertia_tol=TOL):
         theirs = []
         for g in (g for g in range(m.ngeom) if m.geom_bodyid[g] == b):
             here = mine[len(theirs)] if len(theirs) < len(mine) else None
-            mesh = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, m.geom_dataid[g]) if m.geom_dataid[g] >= 0 else None
+            is_mesh = int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH)
+            mesh = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, m.geom_dataid[g]) if is_mesh else None
+            # A height field flat when compiled is the plane of its surface in SCM.
+            kind = GEOM_TYPES.get(int(m.geom_type[g]), "hfield")
+            kind = "plane" if kind == "hfield" else kind
             # Paired when the kind, the mesh and the collision bits agree (a left-out visual
             # geom shares its mesh with the colliding geom that follows it).
             bits = (int(m.geom_contype[g]), int(m.geom_conaffinity[g]))
-            if here is not None and here["type"] == GEOM_TYPES[int(m.geom_type[g])] and here.get("mesh") == mesh \
+            if here is not None and here["type"] == kind and here.get("mesh") == mesh \
                     and (here["contype"], here["conaffinity"]) == bits:
                 theirs.append(g)
             else:
@@ -179,7 +183,8 @@ def compare(path, inertia_tol=TOL):
         assert len(mine) == len(theirs), f"geoms of body {body['name']}"
         for geom, g in zip(mine, theirs):
             tag = f"geom {geom['name']}"
-            kind = GEOM_TYPES[int(m.geom_type[g])]
+            kind = GEOM_TYPES.get(int(m.geom_type[g]), "hfield")
+            kind = "plane" if kind == "hfield" else kind
             assert geom["type"] == kind, tag
             if kind == "mesh":
                 pos, quat = mesh_frame(m, g)
@@ -1100,6 +1105,29 @@ def test_meshes_placed_by_refpos_and_refquat_compile_as_mujoco_compiles_them(tmp
     # the fruit fly's meshes below, MuJoCo rebuilds a body's inertia from its iterative
     # eigen-decomposition of the mesh's, which is off its axes here.
     compare(path, inertia_tol=1e-7)
+
+
+def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):
+    """A height field without elevation data (dm_control's quadruped terrain, which its task
+    fills at run time) is flat when compiled: SCM takes it as the plane of its surface, here
+    raised and tilted, with a warning naming its extent; the rest of the model as MuJoCo's
+    (tests/mjcf_compile.rs drops a ball on it)."""
+    path = tmp_path / "field.xml"
+    path.write_text("""<mujoco>
+  <asset>
+    <hfield name="terrain" nrow="11" ncol="11" size="3 2 1 0.1"/>
+  </asset>
+  <worldbody>
+    <geom name="ground" type="hfield" hfield="terrain" pos="0 0 0.05" euler="5 0 0"/>
+    <body name="ball" pos="0 0 0.3">
+      <freejoint/>
+      <geom type="sphere" size="0.05"/>
+    </body>
+  </worldbody>
+</mujoco>
+""")
+    ours = compare(path)
+    assert any("height field 'terrain' is flat" in w and "6 x 4 m" in w for w in ours["warnings"]), ours["warnings"]
 
 
 def test_equality_defaults_and_a_point_mass_inertial_compile_as_mujoco_compiles_them(tmp_path):
