@@ -440,38 +440,7 @@ fn dependencies_follow_spatial_tendons() {
 /// the gear's torque) matches central differences.
 #[test]
 fn site_actuators_depend_on_their_bodies_and_match_central_differences() {
-    let xml = r#"<mujoco model="drone">
-  <option timestep="0.002" gravity="0 0 -9.81"/>
-  <worldbody>
-    <body name="drone" pos="0 0 1" euler="5 -3 10">
-      <freejoint name="drone"/>
-      <geom type="box" size="0.05 0.05 0.01" mass="0.03" contype="0" conaffinity="0"/>
-      <site name="r1" pos="0.04 0.04 0.01"/>
-      <site name="r2" pos="-0.04 0.04 0.01"/>
-      <site name="r3" pos="-0.04 -0.04 0.01"/>
-      <site name="r4" pos="0.04 -0.04 0.01" euler="0 10 0"/>
-    </body>
-    <body name="arm" pos="1 0 1">
-      <joint name="hinge" axis="0 1 0"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" contype="0" conaffinity="0"/>
-      <site name="tip" pos="0.3 0 0" quat="0.9 0.1 0.3 0.2"/>
-      <body name="slider" pos="0.3 0 0">
-        <joint name="slide" type="slide" axis="1 0 0"/>
-        <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
-        <site name="bead"/>
-      </body>
-    </body>
-  </worldbody>
-  <actuator>
-    <motor name="m1" site="r1" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
-    <motor name="m2" site="r2" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
-    <motor name="m3" site="r3" gear="0 0 1 0 0 -0.006" ctrlrange="0 0.4"/>
-    <motor name="m4" site="r4" gear="0 0 1 0 0 0.006" ctrlrange="0 0.4"/>
-    <position name="push" site="tip" kp="3" dampratio="0.7" gear="0.2 0.5 1 0.1 0 0"/>
-    <velocity name="drag" site="bead" kv="0.5" gear="1 0.3"/>
-    <general name="aff" site="tip" gainprm="2" biasprm="0.1 0 -0.3" gear="0 1"/>
-  </actuator>
-</mujoco>"#;
+    let xml = include_str!("fixtures/site_actuators.xml");
     let dir = std::env::temp_dir().join(format!("scm_site_deps_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("drone.xml");
