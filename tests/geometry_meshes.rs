@@ -331,3 +331,34 @@ fn a_non_planar_polygon_is_noted_naming_the_file() {
         e.notes
     );
 }
+
+/// MuJoCo 4.0.0 reads the faces of an OBJ file's first object only (an `o` or `g` line after
+/// faces starts another; a material change does not): of two tetrahedra in two objects, the
+/// mesh is the first, with a note naming how many faces were left out; under two materials
+/// in one object it is both.
+#[test]
+fn only_the_first_object_of_an_obj_file_is_read_as_in_mujoco() {
+    let tetra = |o: f64| format!("v {o} 0 0\nv {} 0 0\nv {o} 1 0\nv {o} 0 1\n", o + 1.0);
+    let faces = |b: usize| {
+        [[1, 3, 2], [1, 2, 4], [2, 3, 4], [3, 1, 4]]
+            .iter()
+            .map(|f| format!("f {} {} {}\n", f[0] + b, f[1] + b, f[2] + b))
+            .collect::<String>()
+    };
+    for (split, kept) in [("o", 4), ("g", 4), ("usemtl", 8)] {
+        let text = format!(
+            "{split} first\n{}{}{split} second\n{}{}",
+            tetra(0.0),
+            faces(0),
+            tetra(2.0),
+            faces(4)
+        );
+        let name = format!("two_{split}.obj");
+        let (mesh, warnings) = load(&name, text.as_bytes()).unwrap();
+        assert_eq!(mesh.triangles.len(), kept, "{split}");
+        let noted = warnings
+            .iter()
+            .any(|w| w.contains("more than one object") && w.contains("4 of its 8 faces"));
+        assert_eq!(noted, kept == 4, "{split}: {warnings:?}");
+    }
+}

@@ -1130,6 +1130,25 @@ def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):
     assert any("height field 'terrain' is flat" in w and "6 x 4 m" in w for w in ours["warnings"]), ours["warnings"]
 
 
+@pytest.mark.parametrize("split", ["o", "g", "usemtl"])
+def test_obj_files_of_several_objects_weigh_as_in_mujoco(tmp_path, split):
+    """MuJoCo 4.0.0 reads the faces of an OBJ file's first object only (an o or g line after
+    faces starts another; a material change does not): two tetrahedra in one file weigh as one,
+    or as both under two materials, in SCM as in MuJoCo."""
+    tetra = lambda o: f"v {o} 0 0\nv {o + 1} 0 0\nv {o} 1 0\nv {o} 0 1\n"
+    faces = lambda b: "".join(f"f {a + b} {c + b} {d + b}\n" for a, c, d in ((1, 3, 2), (1, 2, 4), (2, 3, 4), (3, 1, 4)))
+    (tmp_path / f"two_{split}.obj").write_text(f"{split} first\n{tetra(0)}{faces(0)}{split} second\n{tetra(2)}{faces(4)}")
+    path = tmp_path / "two.xml"
+    path.write_text(f"""<mujoco>
+  <asset><mesh name="two" file="two_{split}.obj"/></asset>
+  <worldbody><body name="b"><freejoint/><geom type="mesh" mesh="two"/></body></worldbody>
+</mujoco>
+""")
+    ours = compare(path)
+    one = 1000 / 6
+    assert (abs(ours["bodies"][1]["mass"] - one) < 1e-9 * one) == (split != "usemtl"), ours["bodies"][1]["mass"]
+
+
 def test_equality_defaults_and_a_point_mass_inertial_compile_as_mujoco_compiles_them(tmp_path):
     """Two idioms of MuJoCo Menagerie's RB-Y1: an <equality><joint> in a file whose <default>
     gives <joint> attributes (armature, damping: they are not the equality's, which reads the

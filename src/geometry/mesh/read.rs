@@ -196,6 +196,11 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
         .map_err(|e| e.to_string())?;
     let (mut verts, mut tris) = (Vec::new(), Vec::new());
     let (mut uneven, mut first) = (0usize, None);
+    // MuJoCo 4.0.0 reads the faces of the file's first object only (an `o` or `g` line after
+    // faces starts another; measured: a file of two tetrahedra weighs one): the faces after
+    // it are left out here too.
+    let (kept, total) = first_object_faces(bytes);
+    let mut face = 0usize;
     for m in &models {
         let base = verts.len() as u32;
         let p = &m.mesh.positions;
@@ -211,7 +216,7 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
             m.mesh.face_arities.clone()
         };
         let mut at = 0usize;
-        for (face, &n) in arities.iter().enumerate() {
+        for &n in arities.iter().take(kept.saturating_sub(face)) {
             let corners = idx
                 .get(at..at + n as usize)
                 .ok_or("a face runs past the file's indices")?;
@@ -223,13 +228,32 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
                 uneven += 1;
                 first.get_or_insert(face);
             }
+            face += 1;
         }
     }
-    let notes = match first {
-        Some(face) => vec![format!("{uneven} of its polygons of more than three corners (the first is face {face}) are not planar or not convex: SCM splits each into a fan from its first corner, MuJoCo otherwise, so the mesh's volume and mass may differ slightly from MuJoCo's")],
-        None => Vec::new(),
-    };
+    let mut notes = Vec::new();
+    if let Some(face) = first {
+        notes.push(format!("{uneven} of its polygons of more than three corners (the first is face {face}) are not planar or not convex: SCM splits each into a fan from its first corner, MuJoCo otherwise, so the mesh's volume and mass may differ slightly from MuJoCo's"));
+    }
+    if total > kept {
+        notes.push(format!("the file holds more than one object (an 'o' or 'g' line after faces): MuJoCo 4.0.0 reads the faces of the first only, and so does SCM ({} of its {total} faces left out; their vertices still count for the convex hull)", total - kept));
+    }
     Ok((verts, tris, notes))
+}
+
+/// The number of faces (`f` lines) of an OBJ file's first object, and of the whole file: the
+/// first object ends at the first `o` or `g` line that follows a face.
+fn first_object_faces(bytes: &[u8]) -> (usize, usize) {
+    let (mut faces, mut first) = (0usize, None);
+    for line in String::from_utf8_lossy(bytes).lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("f") => faces += 1,
+            Some("o" | "g") if faces > 0 && first.is_none() => first = Some(faces),
+            _ => {}
+        }
+    }
+    (first.unwrap_or(faces), faces)
 }
 
 /// Whether the polygon `corners` (indices into `verts` from `base`) lies in one plane and
