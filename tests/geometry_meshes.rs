@@ -299,32 +299,76 @@ fn mujocos_msh_format_reads_and_its_errors_are_named() {
     }
 }
 
-/// An OBJ's polygons of more than three corners are split into fans from their first corner.
-/// Where one is not planar (or not convex), MuJoCo's split differs and so does the enclosed
-/// volume: the load says so, naming the file and the first such face; a planar convex quad,
-/// split any way the same, gives no note. A mesh that is refused as open still carries the
-/// note (the scene reports it where it weighs the file anyway).
+/// An OBJ's polygons of more than three corners are split as MuJoCo splits them where that is
+/// known: a quad along its shorter diagonal (here, on a bent quad, the one that is not the fan
+/// from the first corner: the enclosed volume tells which), a flat polygon by clipping ears
+/// (an L-shaped cap, whose fan from its first corner would reach outside the L: the prism's
+/// volume is the L's exactly). A polygon of more corners that is not flat is split into a fan
+/// with a note naming the file and the face (counting from 1); a mesh that is refused as open
+/// still carries the note (the scene reports it where it weighs the file anyway).
 #[test]
-fn a_non_planar_polygon_is_noted_naming_the_file() {
-    // A pyramid whose base is one quad: flat, then with one corner raised.
-    let pyramid = |z: f64, open: bool| {
-        let mut s = format!("v 0 0 0\nv 1 0 0\nv 1 1 {z}\nv 0 1 0\nv 0.5 0.5 1\nf 1 4 3 2\n");
-        let sides = ["f 1 2 5\n", "f 2 3 5\n", "f 3 4 5\n", "f 4 1 5\n"];
-        for side in &sides[..if open { 3 } else { 4 }] {
-            s += side;
-        }
-        s
-    };
-    let (flat, w) = load("quad_flat.obj", pyramid(0.0, false).as_bytes()).unwrap();
+fn polygons_are_split_as_mujoco_splits_them_or_noted() {
+    // A pyramid whose base is one quad with its third corner raised 0.2: the quad's diagonal
+    // from its second corner is the shorter one.
+    let pyramid = "v 0 0 0\nv 1 0 0\nv 1 1 0.2\nv 0 1 0\nv 0.5 0.5 1\nf 1 4 3 2\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n";
+    let (m, w) = load("quad_bent.obj", pyramid.as_bytes()).unwrap();
     assert!(w.iter().all(|w| !w.contains("polygons")), "{w:?}");
-    assert_eq!(flat.triangles.len(), 6, "the quad is two triangles");
-    let (_, w) = load("quad_raised.obj", pyramid(0.2, false).as_bytes()).unwrap();
+    // Split along corners 1-3 (written 4 and 2): the base's two triangles (0,0,0),(0,1,0),
+    // (1,0,0) and (0,1,0),(1,1,0.2),(1,0,0); the solid is the two tetrahedra on them with the
+    // apex.
+    let tet = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+        let (a, b, c, d) = (
+            Vector3::from(a),
+            Vector3::from(b),
+            Vector3::from(c),
+            Vector3::new(0.5, 0.5, 1.0),
+        );
+        ((b - a).cross(&(c - a)).dot(&(d - a)) / 6.0).abs()
+    };
+    let expected = tet([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0])
+        + tet([0.0, 1.0, 0.0], [1.0, 1.0, 0.2], [1.0, 0.0, 0.0]);
+    let volume = m.mass_properties().volume;
+    assert!((volume - expected).abs() < 1e-7, "{volume} vs {expected}");
+    // An L-shaped prism whose caps are single six-corner polygons, the bottom one written from
+    // a corner whose fan would leave the L.
+    let l = "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\nv 1 3 0\nv 0 3 0\nv 0 0 0.5\nv 2 0 0.5\nv 2 1 0.5\nv 1 1 0.5\nv 1 3 0.5\nv 0 3 0.5\nf 3 2 1 6 5 4\nf 7 8 9 10 11 12\nf 1 2 8\nf 1 8 7\nf 2 3 9\nf 2 9 8\nf 3 4 10\nf 3 10 9\nf 4 5 11\nf 4 11 10\nf 5 6 12\nf 5 12 11\nf 6 1 7\nf 6 7 12\n";
+    let (m, w) = load("l_caps.obj", l.as_bytes()).unwrap();
+    assert!(w.iter().all(|w| !w.contains("polygons")), "{w:?}");
+    let volume = m.mass_properties().volume;
+    assert!((volume - 2.0).abs() < 1e-12, "{volume}");
+    // A pentagonal prism whose top is bent: its top pentagon is noted; open (no bottom), the
+    // error carries the note.
+    let mut prism = String::new();
+    for (k, z) in [(0, 0.0), (1, 1.0)] {
+        for i in 0..5 {
+            let a = std::f64::consts::TAU * i as f64 / 5.0;
+            let bend = if k == 1 && i == 2 { 0.3 } else { 0.0 };
+            prism += &format!("v {} {} {}\n", a.cos(), a.sin(), z + bend);
+        }
+    }
+    let sides: String = (0..5)
+        .map(|i| {
+            let j = (i + 1) % 5;
+            format!(
+                "f {} {} {}\nf {} {} {}\n",
+                i + 1,
+                j + 1,
+                j + 6,
+                i + 1,
+                j + 6,
+                i + 6
+            )
+        })
+        .collect();
+    let closed = format!("{prism}f 5 4 3 2 1\nf 6 7 8 9 10\n{sides}");
+    let (_, w) = load("bent_pentagon.obj", closed.as_bytes()).unwrap();
     let note = w.iter().find(|w| w.contains("polygons")).expect("noted");
     assert!(
-        note.contains("quad_raised.obj") && note.contains("face 0") && note.contains("MuJoCo"),
+        note.contains("bent_pentagon.obj") && note.contains("face 2") && note.contains("MuJoCo"),
         "{note}"
     );
-    let e = load("quad_open.obj", pyramid(0.2, true).as_bytes()).unwrap_err();
+    let open = format!("{prism}f 6 7 8 9 10\n{sides}");
+    let e = load("bent_pentagon_open.obj", open.as_bytes()).unwrap_err();
     assert!(
         e.notes.iter().any(|n| n.contains("polygons")),
         "{e}: {:?}",

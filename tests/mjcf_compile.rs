@@ -1687,7 +1687,8 @@ fn a_primitive_with_a_mesh_is_fitted_to_it_as_in_mujoco() {
 /// A box fitted to a mesh whose inertia has two equal principal moments, with its axes off
 /// the mesh's own (a square prism tilted in its file): the inertia frame is free to turn in
 /// that plane, and so is the box, so SCM warns that MuJoCo's choice may differ; a cylinder
-/// along the third axis is the same either way and is not warned about.
+/// along the third axis is the same either way and is not warned about, nor is a sphere of
+/// the inertia box; a sphere of the bounding box (fitaabb) is.
 #[test]
 fn a_box_fitted_to_a_mesh_of_two_equal_moments_is_warned_about() {
     let dir = scratch("fit-equal");
@@ -1702,14 +1703,25 @@ fn a_box_fitted_to_a_mesh_of_two_equal_moments_is_warned_about() {
     }
     obj += "f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n";
     std::fs::write(dir.join("prism.obj"), obj).unwrap();
-    for (kind, warned) in [("box", true), ("cylinder", false)] {
-        let text = format!("<mujoco>\n  <asset><mesh name=\"m\" file=\"prism.obj\"/></asset>\n  <worldbody>\n    <body>\n      <freejoint/>\n      <geom type=\"{kind}\" mesh=\"m\"/>\n    </body>\n  </worldbody>\n</mujoco>\n");
+    for (kind, aabb, warned) in [
+        ("box", false, true),
+        ("cylinder", false, false),
+        // Under fitaabb even a sphere's size (the largest half-extent) depends on the frame.
+        ("sphere", true, true),
+        ("sphere", false, false),
+    ] {
+        let compiler = if aabb {
+            r#"<compiler fitaabb="true"/>"#
+        } else {
+            ""
+        };
+        let text = format!("<mujoco>\n  {compiler}<asset><mesh name=\"m\" file=\"prism.obj\"/></asset>\n  <worldbody>\n    <body>\n      <freejoint/>\n      <geom type=\"{kind}\" mesh=\"m\"/>\n    </body>\n  </worldbody>\n</mujoco>\n");
         let s = load_str(&text, &dir.join("m.xml")).unwrap();
         let w = s
             .warnings
             .iter()
             .any(|w| w.contains("two equal principal moments"));
-        assert_eq!(w, warned, "{kind}: {:?}", s.warnings);
+        assert_eq!(w, warned, "{kind} {aabb}: {:?}", s.warnings);
     }
 }
 

@@ -7,7 +7,7 @@ impl Builder {
         if el.name == "plugin" {
             return Err(self.err(
                 el,
-                format!("an actuator computed by an engine plugin ({}) is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead", el.attr("plugin").unwrap_or("plugin=\"\"")),
+                format!("an actuator computed by an engine plugin ({}) is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead", el.attr("plugin").or(el.attr("instance")).unwrap_or("unnamed")),
             ));
         }
         if el.attr("body").is_some() {

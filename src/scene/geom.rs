@@ -292,8 +292,8 @@ impl Builder {
                     .or_default()
                     .push(pose.rotation);
             }
-        } else if body != 0 && !self.bodies[body].joints.is_empty() {
-            return Err(self.err(el, format!("a {kind} can only belong to a static body")));
+        } else if self.moves_with_joints(body) {
+            return Err(self.err(el, format!("a {kind} can only belong to a body welded to the world (this body or one it hangs from has joints), as MuJoCo requires")));
         }
         let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
         self.geoms.push(Geom {
@@ -425,17 +425,24 @@ impl Builder {
                 format!("mesh '{mesh}' has no volume to fit a {kind} to"),
             ));
         }
-        let (lambda, axes, diagonal) = principal_axes(&mp.inertia);
+        let (lambda, axes) = principal_axes(&mp.inertia);
+        // MuJoCo refuses a mesh whose inertia no rigid body has (a moment not positive, or one
+        // above the sum of the others beyond its tolerances), whatever the fit reads of it.
+        let violated = (0..3).any(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            lambda[j] + lambda[k] < lambda[i] * (1.0 - 1e-6) - 1e-9
+        });
+        if lambda[2] <= 0.0 || violated {
+            return Err(self.err(el, format!("the {kind} is fitted to mesh '{mesh}', whose inertia no rigid body has (principal moments per unit density {:?}, by its inertia rule): MuJoCo refuses the mesh too", lambda.as_slice())));
+        }
         let fit_aabb = self.settings.fit_aabb;
         // Half-sizes along the principal axes, and the centre of the fitted shape there.
         let (half, centre) = if fit_aabb {
-            let vertices = match closed {
-                Some(m) => m,
-                // The bounding box of the vertices is that of their convex hull.
-                None => match self.hull_of(mesh) {
-                    Some((hull, _)) => hull,
-                    None => return Err(self.err(el, format!("the {kind} is fitted to the bounding box of mesh '{mesh}' (fitaabb), whose vertices could not be read as a solid ({})", self.hull_problem(mesh)))),
-                },
+            // The bounding box of every vertex of the file, also those no face uses (as
+            // MuJoCo's): that of their convex hull.
+            let vertices = match self.hull_of(mesh) {
+                Some((hull, _)) => hull,
+                None => return Err(self.err(el, format!("the {kind} is fitted to the bounding box of mesh '{mesh}' (fitaabb), whose vertices span no volume ({})", self.hull_problem(mesh)))),
             };
             let (mut lo, mut hi) = (
                 Vector3::repeat(f64::INFINITY),
@@ -479,21 +486,27 @@ impl Builder {
         for x in size.iter_mut() {
             *x *= scale;
         }
-        if size.iter().any(|&x| x.is_nan() || x <= 0.0) {
-            return Err(self.err(el, format!("the {kind} fitted to mesh '{mesh}' has size {size:?} (fitscale {scale}), not all positive: SCM needs a positive size (a capsule shorter than its radius is a sphere: give type=\"sphere\")")));
-        }
         // Two equal principal moments leave the inertia frame free to turn in their plane: where
         // that turns the fitted shape, MuJoCo's frame is its eigen-solver's choice, which SCM
-        // does not reproduce (a mesh already in its inertia frame keeps its own axes in both).
+        // does not reproduce. A mesh already in its inertia frame keeps its own axes in SCM, and
+        // in MuJoCo only where its rounding leaves the inertia diagonal, so it is warned about
+        // too. Under fitaabb every shape depends on the frame.
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * lambda[0].abs();
         let free = [(0, 1), (1, 2), (0, 2)].map(|(i, j)| close(lambda[i], lambda[j]));
         let turns = match (kind, fit_aabb) {
-            ("sphere", _) => false,
             (_, true) | ("box", false) => free.iter().any(|&f| f),
             ("capsule" | "cylinder", false) => free[1] || free[2],
             _ => false,
         };
-        if turns && !diagonal {
+        if size.iter().any(|&x| x.is_nan() || x <= 0.0) {
+            let why = if turns {
+                " (in SCM's choice of the inertia frame, which two equal principal moments leave free to turn: MuJoCo's may differ)"
+            } else {
+                ""
+            };
+            return Err(self.err(el, format!("the {kind} fitted to mesh '{mesh}' has size {size:?} (fitscale {scale}), not all positive{why}: SCM needs a positive size (a capsule shorter than its radius is a sphere: give type=\"sphere\")")));
+        }
+        if turns {
             self.warnings.push(format!("{}:{}: <geom> the {kind} fitted to mesh '{mesh}' depends on how its inertia frame turns in the plane of two equal principal moments, which MuJoCo's compiler chooses and SCM may choose differently: give the geom its size and quat without mesh to be sure of it", el.file, el.line));
         }
         let rotation =
@@ -567,6 +580,17 @@ impl Builder {
         let (x, y) = (2.0 * size[0], 2.0 * size[1]);
         self.warnings.push(format!("{}:{}: <geom> height field '{name}' is flat when compiled: SCM takes it as the plane of its surface, unbounded, where MuJoCo's is {x} x {y} m over a base {} m deep; a host cannot reshape it at run time", el.file, el.line, size[3]));
         Ok(())
+    }
+
+    /// Whether `body` or a body it hangs from has joints (declared so far).
+    fn moves_with_joints(&self, mut body: usize) -> bool {
+        while body != 0 {
+            if !self.bodies[body].joints.is_empty() {
+                return true;
+            }
+            body = self.bodies[body].parent.unwrap_or(0);
+        }
+        false
     }
 
     /// Whether geom `el` writes itself massless: `mass="0"`, or `density="0"` without a mass.
@@ -788,12 +812,16 @@ impl Builder {
     }
 }
 
-/// The principal moments of a symmetric inertia `inertia`, largest first, the principal axes
-/// as the columns of a rotation, and whether `inertia` was already diagonal (off-diagonal
-/// entries below 1e-12 of its trace: then the axes are the frame's own, permuted into that
-/// order, and a pair of moments within 1e-12 of the trace of each other keeps its order).
-fn principal_axes(inertia: &Matrix3<f64>) -> (Vector3<f64>, Matrix3<f64>, bool) {
+/// The principal moments of a symmetric inertia `inertia`, largest first, and the principal
+/// axes as the columns of a rotation. An inertia already diagonal (off-diagonal entries below
+/// 1e-12 of its trace) keeps the frame's own axes, permuted into that order. Moments within
+/// 1e-7 of the trace of each other keep their order: MuJoCo 4.0.0 keeps a mesh's own axes for
+/// moments that close (measured on boxes a hair from square, at sizes from 1 cm to 10 m).
+/// The axes are the exact eigenvectors; MuJoCo's iterative solver stops within about 1e-6 rad
+/// of them (docs/mjcf.md).
+fn principal_axes(inertia: &Matrix3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
     let tiny = 1e-12 * inertia.trace().abs();
+    let equal = 1e-7 * inertia.trace().abs();
     let off = inertia[(0, 1)]
         .abs()
         .max(inertia[(0, 2)].abs())
@@ -808,7 +836,7 @@ fn principal_axes(inertia: &Matrix3<f64>) -> (Vector3<f64>, Matrix3<f64>, bool) 
     // Largest first; near-equal moments keep their order (three passes of a bubble sort).
     let mut order = [0usize, 1, 2];
     for i in [0, 1, 0] {
-        if values[order[i]] + tiny < values[order[i + 1]] {
+        if values[order[i]] + equal < values[order[i + 1]] {
             order.swap(i, i + 1);
         }
     }
@@ -818,5 +846,5 @@ fn principal_axes(inertia: &Matrix3<f64>) -> (Vector3<f64>, Matrix3<f64>, bool) 
         vectors.column(order[1]).normalize(),
     );
     let axes = Matrix3::from_columns(&[e0, e1, e0.cross(&e1)]);
-    (lambda, axes, diagonal)
+    (lambda, axes)
 }

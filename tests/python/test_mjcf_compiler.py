@@ -47,6 +47,8 @@ GEOM_TYPES = {
     int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder",
     int(mujoco.mjtGeom.mjGEOM_BOX): "box",
     int(mujoco.mjtGeom.mjGEOM_MESH): "mesh",
+    # A height field flat when compiled is the plane of its surface in SCM.
+    int(mujoco.mjtGeom.mjGEOM_HFIELD): "plane",
 }
 
 
@@ -168,9 +170,7 @@ def compare(path, inertia_tol=TOL):
             here = mine[len(theirs)] if len(theirs) < len(mine) else None
             is_mesh = int(m.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_MESH)
             mesh = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_MESH, m.geom_dataid[g]) if is_mesh else None
-            # A height field flat when compiled is the plane of its surface in SCM.
-            kind = GEOM_TYPES.get(int(m.geom_type[g]), "hfield")
-            kind = "plane" if kind == "hfield" else kind
+            kind = GEOM_TYPES[int(m.geom_type[g])]
             # Paired when the kind, the mesh and the collision bits agree (a left-out visual
             # geom shares its mesh with the colliding geom that follows it).
             bits = (int(m.geom_contype[g]), int(m.geom_conaffinity[g]))
@@ -183,8 +183,7 @@ def compare(path, inertia_tol=TOL):
         assert len(mine) == len(theirs), f"geoms of body {body['name']}"
         for geom, g in zip(mine, theirs):
             tag = f"geom {geom['name']}"
-            kind = GEOM_TYPES.get(int(m.geom_type[g]), "hfield")
-            kind = "plane" if kind == "hfield" else kind
+            kind = GEOM_TYPES[int(m.geom_type[g])]
             assert geom["type"] == kind, tag
             if kind == "mesh":
                 pos, quat = mesh_frame(m, g)
@@ -1128,6 +1127,33 @@ def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):
 """)
     ours = compare(path)
     assert any("height field 'terrain' is flat" in w and "6 x 4 m" in w for w in ours["warnings"]), ours["warnings"]
+
+
+@pytest.mark.parametrize("case", ["short_13", "short_02", "l_caps"])
+def test_obj_polygons_are_split_as_mujoco_splits_them(tmp_path, case):
+    """A quad along its shorter diagonal (a pyramid on a bent quad base, each diagonal the
+    shorter in turn: the enclosed volume tells the split) and a flat six-corner L-shaped cap by
+    clipping ears (its fan from the first corner would reach outside the L): masses and
+    inertias as MuJoCo's."""
+    if case == "l_caps":
+        obj = ("".join(f"v {x} {y} {z}\n" for z in (0, 0.5) for x, y in ((0, 0), (2, 0), (2, 1), (1, 1), (1, 3), (0, 3)))
+               + "f 3 2 1 6 5 4\nf 7 8 9 10 11 12\n"
+               + "".join(f"f {i} {i % 6 + 1} {i % 6 + 7}\nf {i} {i % 6 + 7} {i + 6}\n" for i in range(1, 7)))
+    else:
+        far = 1.0 if case == "short_13" else 1.5
+        obj = (f"v 0 0 0\nv {far} 0 0\nv 1 1 0.2\nv 0 {far} 0\nv 0.5 0.5 1\n"
+               "f 1 4 3 2\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n")
+    (tmp_path / f"{case}.obj").write_text(obj)
+    path = tmp_path / "poly.xml"
+    path.write_text(f"""<mujoco>
+  <asset><mesh name="p" file="{case}.obj"/></asset>
+  <worldbody><body name="b"><freejoint/><geom type="mesh" mesh="p"/></body></worldbody>
+</mujoco>
+""")
+    # Inertias to 1.6e-8 (masses to 1e-9): MuJoCo rebuilds them from its iterative
+    # eigen-decomposition (its pyramid's x and y moments differ by 1e-9 where they are equal).
+    ours = compare(path, inertia_tol=1e-7)
+    assert not [w for w in ours["warnings"] if "polygons" in w], ours["warnings"]
 
 
 @pytest.mark.parametrize("split", ["o", "g", "usemtl"])

@@ -179,11 +179,10 @@ fn parse_msh(bytes: &[u8]) -> Parsed {
     Ok((vertices, triangles, Vec::new()))
 }
 
-/// Vertices and triangles of an OBJ file (all its objects), with a note where a polygon of
-/// more than three corners is not planar or not convex: SCM splits every polygon into a fan
-/// from its first corner, and MuJoCo 4.0.0 splits polygons otherwise (a quad along its other
-/// diagonal, larger polygons by clipping ears), so such a polygon's triangles enclose a
-/// slightly different volume in the two (docs/mjcf.md, MuJoCo Menagerie).
+/// Vertices and triangles of an OBJ file (the faces of its first object, as MuJoCo 4.0.0
+/// reads them; every object's vertices), with notes. Polygons of more than three corners are
+/// split as MuJoCo splits them where that is known ([`split_polygon`]), else into a fan from
+/// the first corner with a note (the enclosed volume may then differ from MuJoCo's).
 fn parse_obj(bytes: &[u8]) -> Parsed {
     let opts = tobj::LoadOptions {
         triangulate: false,
@@ -221,19 +220,16 @@ fn parse_obj(bytes: &[u8]) -> Parsed {
                 .get(at..at + n as usize)
                 .ok_or("a face runs past the file's indices")?;
             at += n as usize;
-            for k in 1..corners.len().saturating_sub(1) {
-                tris.push([corners[0] + base, corners[k] + base, corners[k + 1] + base]);
-            }
-            if n > 3 && !flat_and_convex(&verts, base, corners) {
+            if !split_polygon(&verts, base, corners, &mut tris) {
                 uneven += 1;
-                first.get_or_insert(face);
+                first.get_or_insert(face + 1);
             }
             face += 1;
         }
     }
     let mut notes = Vec::new();
     if let Some(face) = first {
-        notes.push(format!("{uneven} of its polygons of more than three corners (the first is face {face}) are not planar or not convex: SCM splits each into a fan from its first corner, MuJoCo otherwise, so the mesh's volume and mass may differ slightly from MuJoCo's"));
+        notes.push(format!("{uneven} of its polygons of more than four corners (the first is face {face}, counting from 1) do not lie in one plane or cross themselves: SCM splits each into a fan from its first corner and MuJoCo by clipping ears, so the mesh's volume and mass may differ slightly from MuJoCo's"));
     }
     if total > kept {
         notes.push(format!("the file holds more than one object (an 'o' or 'g' line after faces): MuJoCo 4.0.0 reads the faces of the first only, and so does SCM ({} of its {total} faces left out; their vertices still count for the convex hull)", total - kept));
@@ -256,15 +252,46 @@ fn first_object_faces(bytes: &[u8]) -> (usize, usize) {
     (first.unwrap_or(faces), faces)
 }
 
-/// Whether the polygon `corners` (indices into `verts` from `base`) lies in one plane and
-/// turns one way: its fan then covers it exactly, as any other split does. Tolerances are
-/// those of single-precision coordinates (1e-6 of the polygon's size).
-fn flat_and_convex(verts: &[Vector3<f64>], base: u32, corners: &[u32]) -> bool {
-    let at = |i: usize| verts.get((corners[i % corners.len()] + base) as usize);
-    let Some(points) = (0..corners.len()).map(at).collect::<Option<Vec<_>>>() else {
-        return true; // a bad index is the mesh checks' to report
+/// Splits the polygon `corners` (indices into `verts` from `base`) into triangles pushed on
+/// `tris`, keeping its winding. A triangle is itself. A quad is split along its shorter
+/// diagonal, the second one on a tie, as MuJoCo 4.0.0 splits it (measured: the enclosed
+/// volume of a pyramid on a bent quad matches MuJoCo's either way round). A larger polygon in
+/// one plane (to 1e-6 of its size: single-precision coordinates) is split by clipping ears,
+/// which covers it exactly, as any valid split and so MuJoCo's; otherwise (not planar, or no
+/// ear found: self-intersecting) it is split into a fan from its first corner and `false` is
+/// returned.
+fn split_polygon(
+    verts: &[Vector3<f64>],
+    base: u32,
+    corners: &[u32],
+    tris: &mut Vec<[u32; 3]>,
+) -> bool {
+    let n = corners.len();
+    let id = |i: usize| corners[i] + base;
+    let at = |i: usize| verts.get(id(i) as usize).copied();
+    let fan = |tris: &mut Vec<[u32; 3]>| {
+        for k in 1..n.saturating_sub(1) {
+            tris.push([id(0), id(k), id(k + 1)]);
+        }
     };
-    let n = points.len();
+    if n <= 3 {
+        fan(tris);
+        return true;
+    }
+    let Some(points) = (0..n).map(at).collect::<Option<Vec<_>>>() else {
+        fan(tris); // a bad index is the mesh checks' to report
+        return true;
+    };
+    if n == 4 {
+        let d02 = (points[2] - points[0]).norm_squared();
+        let d13 = (points[3] - points[1]).norm_squared();
+        if d02 < d13 {
+            tris.extend([[id(0), id(1), id(2)], [id(0), id(2), id(3)]]);
+        } else {
+            tris.extend([[id(0), id(1), id(3)], [id(1), id(2), id(3)]]);
+        }
+        return true;
+    }
     // Newell's normal of the polygon, and its size.
     let mut normal = Vector3::zeros();
     for i in 0..n {
@@ -279,18 +306,64 @@ fn flat_and_convex(verts: &[Vector3<f64>], base: u32, corners: &[u32]) -> bool {
         .map(|i| (points[i] - points[0]).norm())
         .fold(0.0, f64::max);
     if normal.norm() <= 0.0 || size <= 0.0 {
-        return true; // degenerate: the mesh checks report it
+        fan(tris); // degenerate: the mesh checks report it
+        return true;
     }
     let unit = normal.normalize();
     let tol = 1e-6 * size;
-    let planar = points
+    if points
         .iter()
-        .all(|&p| (p - points[0]).dot(&unit).abs() <= tol);
-    let convex = (0..n).all(|i| {
-        let (a, b, c) = (points[i], points[(i + 1) % n], points[(i + 2) % n]);
-        (b - a).cross(&(c - b)).dot(&unit) >= -tol * size
-    });
-    planar && convex
+        .any(|&p| (p - points[0]).dot(&unit).abs() > tol)
+    {
+        fan(tris);
+        return false;
+    }
+    match clip_ears(&points, &unit) {
+        Some(ears) => {
+            tris.extend(ears.iter().map(|t| t.map(id)));
+            true
+        }
+        None => {
+            fan(tris);
+            false
+        }
+    }
+}
+
+/// Ear clipping of a planar polygon with normal `unit` (its winding's): triangles of corner
+/// positions `0..points.len()`, in the polygon's winding, or `None` where no ear is found (a
+/// self-intersecting outline). Written here: O(n²) for the few polygons meshes have.
+fn clip_ears(points: &[Vector3<f64>], unit: &Vector3<f64>) -> Option<Vec<[usize; 3]>> {
+    let turn = |a: usize, b: usize, c: usize| {
+        (points[b] - points[a])
+            .cross(&(points[c] - points[b]))
+            .dot(unit)
+    };
+    // Whether p lies in the triangle a, b, c (counter-clockwise about `unit`), edges included.
+    let inside = |p: usize, a: usize, b: usize, c: usize| {
+        let side = |u: usize, v: usize| {
+            (points[v] - points[u])
+                .cross(&(points[p] - points[u]))
+                .dot(unit)
+        };
+        side(a, b) >= 0.0 && side(b, c) >= 0.0 && side(c, a) >= 0.0
+    };
+    let mut left: Vec<usize> = (0..points.len()).collect();
+    let mut out = Vec::with_capacity(points.len() - 2);
+    while left.len() > 3 {
+        let m = left.len();
+        let ear = (0..m).find(|&i| {
+            let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+            turn(a, b, c) > 0.0
+                && left
+                    .iter()
+                    .all(|&p| p == a || p == b || p == c || !inside(p, a, b, c))
+        })?;
+        out.push([left[(ear + m - 1) % m], left[ear], left[(ear + 1) % m]]);
+        left.remove(ear);
+    }
+    out.push([left[0], left[1], left[2]]);
+    Some(out)
 }
 
 /// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
