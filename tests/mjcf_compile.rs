@@ -1878,3 +1878,45 @@ fn a_flat_height_field_is_the_plane_of_its_surface() {
         assert!(e.line == 4 && e.message.contains(says), "{hfield}: {e}");
     }
 }
+
+/// A mesh whose triangles face inward as written is refused under `inertia="exact"`, as
+/// MuJoCo 4.0.0 refuses it ("mesh volume is negative"; measured with this tetrahedron both
+/// ways round and mirrored by a negative scale, which MuJoCo does not count as inward); by the
+/// default rule it loads, turned outward with a warning.
+#[test]
+fn an_inward_mesh_weighed_exactly_is_refused_as_in_mujoco() {
+    let dir = scratch("inward");
+    let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n";
+    std::fs::write(
+        dir.join("out.obj"),
+        format!("{v}f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("in.obj"),
+        format!("{v}f 1 2 3\nf 1 4 2\nf 2 4 3\nf 3 4 1\n"),
+    )
+    .unwrap();
+    for (file, scale, inertia, refused) in [
+        ("out.obj", "1 1 1", "exact", false),
+        ("out.obj", "-1 1 1", "exact", false),
+        ("in.obj", "1 1 1", "exact", true),
+        ("in.obj", "-1 1 1", "exact", true),
+        ("in.obj", "1 1 1", "legacy", false),
+    ] {
+        let text = format!("<mujoco>\n  <asset><mesh name=\"m\" file=\"{file}\" scale=\"{scale}\" inertia=\"{inertia}\"/></asset>\n  <worldbody><body><freejoint/><geom type=\"mesh\" mesh=\"m\"/></body></worldbody>\n</mujoco>\n");
+        let r = load_str(&text, &dir.join("m.xml"));
+        match (r, refused) {
+            (Err(e), true) => assert!(e.line == 2 && e.message.contains("faces inward"), "{e}"),
+            (Ok(s), false) => {
+                let mass = s.model.tree.bodies[1].inertia.mass;
+                assert!(
+                    (mass - 1000.0 / 6.0).abs() < 1e-9,
+                    "{file} {scale} {inertia}: {mass}"
+                );
+            }
+            (Err(e), false) => panic!("{file} {scale} {inertia}: {e}"),
+            (Ok(_), true) => panic!("{file} {scale} {inertia}: must be refused"),
+        }
+    }
+}

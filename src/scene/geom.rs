@@ -411,7 +411,13 @@ impl Builder {
             return Err(self.err(el, format!("no mesh asset named '{mesh}'")));
         };
         let (closed, problem) = (asset.mesh.clone(), asset.problem.clone());
-        let mp = match (self.mesh_mass(el, mesh)?, &closed) {
+        let weighed = self.mesh_mass(el, mesh).map_err(|mut e| {
+            e.message += &format!(
+                " (a {kind} fitted to the mesh needs the mesh's inertia, whatever the geom weighs)"
+            );
+            e
+        })?;
+        let mp = match (weighed, &closed) {
             (Some(mp), _) => mp,
             (None, Some(m)) => m.mass_properties(),
             (None, None) => {
@@ -773,6 +779,15 @@ impl Builder {
         let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
         // A file that cannot be read is an error at once (MuJoCo's too); a surface that is
         // not closed is one only where a geom needs it (`MeshAsset::problem`).
+        // MuJoCo refuses a mesh whose triangles, as written, enclose a negative volume when it
+        // is weighed as the exact solid (SCM would turn them outward).
+        if inertia == MeshInertia::Exact {
+            if let Ok(v) = TriMesh::load_signed_volume(&path, &placement) {
+                if v < 0.0 {
+                    return Err(self.err(el, format!("mesh '{file}' faces inward (its triangles enclose the volume {v:.3e} m³ as written), which MuJoCo refuses under inertia=\"exact\" (\"mesh volume is negative\"): turn its triangles outward, or weigh it by MuJoCo's default rule")));
+                }
+            }
+        }
         let (mesh, problem) = match TriMesh::load(&path, &placement) {
             Ok((mesh, warnings)) => {
                 for w in warnings {

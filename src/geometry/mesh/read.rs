@@ -39,6 +39,23 @@ impl TriMesh {
         })
     }
 
+    /// The signed volume the file's triangles enclose as written (m³, placed: negative where
+    /// they face inward; a mirroring scale counted as the mirror it is, not as a turn inside
+    /// out). MuJoCo refuses a mesh weighed by `inertia="exact"` whose volume is negative.
+    pub fn load_signed_volume(path: &Path, placement: &Placement) -> Result<f64, MeshError> {
+        let (_, vertices, triangles, _) = read(path, placement)?;
+        let s = placement.scale;
+        let mirror = if s.x * s.y * s.z < 0.0 { -1.0 } else { 1.0 };
+        let volume: f64 = triangles
+            .iter()
+            .filter_map(|t| {
+                let [a, b, c] = t.map(|i| vertices.get(i as usize));
+                Some(a?.dot(&b?.cross(c?)) / 6.0)
+            })
+            .sum();
+        Ok(mirror * volume)
+    }
+
     /// MuJoCo's shell inertia of an OBJ or STL file (placed: [`Placement`]), `inertia="shell"`
     /// ([`shell_mass_properties`]), from the file's own triangles, open or closed. Fails where
     /// the file cannot be read or its area is zero.
@@ -244,7 +261,8 @@ fn first_object_faces(bytes: &[u8]) -> (usize, usize) {
     for line in String::from_utf8_lossy(bytes).lines() {
         let mut words = line.split_whitespace();
         match words.next() {
-            Some("f") => faces += 1,
+            // A face of one or two corners is a point or a line, which the parser drops.
+            Some("f") if words.clone().count() >= 3 => faces += 1,
             Some("o" | "g") if faces > 0 && first.is_none() => first = Some(faces),
             _ => {}
         }
