@@ -42,7 +42,7 @@ impl TriMesh {
             }
             // The hull's corners are the input points up to chull's rounding: drop the points
             // within a billionth of the size of a sliver's middle corner.
-            let size = hull_size(&corners);
+            let size = box_diagonal(&corners);
             let drop: Vec<Vector3<f64>> = slivers.iter().map(|&i| corners[i]).collect();
             points.retain(|p| {
                 let p = Vector3::new(p[0], p[1], p[2]);
@@ -55,21 +55,10 @@ impl TriMesh {
     }
 }
 
-/// The diagonal of the corners' bounding box.
-fn hull_size(corners: &[Vector3<f64>]) -> f64 {
-    let lo = corners
-        .iter()
-        .fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
-    let hi = corners
-        .iter()
-        .fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
-    (hi - lo).norm()
-}
-
 /// The middle corner (at the widest angle) of every hull facet that [`TriMesh::new`] would
 /// take as degenerate: area at most 1e-12 of the squared size of the corners' box.
 fn sliver_middles(corners: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Vec<usize> {
-    let size = hull_size(corners);
+    let size = box_diagonal(corners);
     let mut out: Vec<usize> = triangles
         .iter()
         .filter(|t| tri_normal(corners, t).norm() <= 1e-12 * size * size)

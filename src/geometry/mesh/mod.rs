@@ -196,12 +196,7 @@ impl TriMesh {
             .iter()
             .map(|t| t.map(|i| remap[i as usize]))
             .collect();
-        let lo = merged
-            .iter()
-            .fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
-        let hi = merged
-            .iter()
-            .fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
+        let (lo, hi) = bounds(&merged);
         let size = (hi - lo).norm();
         // Degenerate triangles.
         let degenerate: Vec<usize> = tris
@@ -545,6 +540,23 @@ fn refine(
 
 mod hull;
 mod read;
+
+/// The corners of the points' bounding box, lowest and highest.
+fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
+    let lo = points
+        .iter()
+        .fold(Vector3::repeat(f64::INFINITY), |a, v| a.inf(v));
+    let hi = points
+        .iter()
+        .fold(Vector3::repeat(f64::NEG_INFINITY), |a, v| a.sup(v));
+    (lo, hi)
+}
+
+/// The diagonal of the points' bounding box (the size the mesh checks' tolerances scale with).
+fn box_diagonal(points: &[Vector3<f64>]) -> f64 {
+    let (lo, hi) = bounds(points);
+    (hi - lo).norm()
+}
 
 /// MuJoCo's default mesh inertia, `inertia="legacy"`, of a triangle soup (any winding, open or
 /// closed), by the rule MuJoCo's compiler applies (written here, not taken from a library:
