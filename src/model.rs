@@ -5,8 +5,10 @@
 //! The model is immutable; all that changes lives in the caller's state (MuJoCo's
 //! `mjModel`/`mjData` split).
 
-use crate::collision::{out_of_reach, out_of_reach_kept, Collider, KeptReach};
-use crate::contact::{pair_contact, ContactParams, PairContact, Wrench};
+use crate::collision::{
+    out_of_reach, out_of_reach_kept, Collider, KeptCandidates, KeptReach, PairsKept,
+};
+use crate::contact::{pair_contact_kept, ContactParams, PairContact, Wrench};
 use crate::dynamics::fluid::Fluid;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
 use crate::integrator::Integrator;
@@ -236,7 +238,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        mut kept: Option<&mut [Option<KeptReach>]>,
+        mut kept: Option<&mut PairsKept>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let out = self
@@ -244,7 +246,7 @@ impl Model {
             .iter()
             .enumerate()
             .map(|(k, pair)| {
-                let kept_k = kept.as_deref_mut().map(|all| &mut all[k]);
+                let kept_k = kept.as_deref_mut().map(|all| all.pair(k));
                 let pc = self.pair_contact_of(pair, kin, prm, prune, kept_k);
                 if let Some(pc) = &pc {
                     for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
@@ -266,17 +268,18 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        kept: Option<&mut Option<KeptReach>>,
+        kept: Option<(&mut Option<KeptReach>, &mut KeptCandidates)>,
     ) -> Option<PairContact<T>> {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return Some(PairContact::none());
         };
         let prm = pair.params(prm);
-        if prune && self.out_of_reach_with(pair, kin, &prm, kept) {
+        let (reach, candidates) = kept.unzip();
+        if prune && self.out_of_reach_with(pair, kin, &prm, reach) {
             return None;
         }
         let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
-        Some(pair_contact(ca, fa, cb, fb, &prm))
+        Some(pair_contact_kept(ca, fa, cb, fb, &prm, candidates))
     }
 
     /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
@@ -491,8 +494,9 @@ impl Model {
         self.forward_kept_at(q, v, v_contact, tau, mocap, prm, implicit_damping, None)
     }
 
-    /// [`Model::forward`], keeping out-of-reach proofs across calls in `kept` (one entry per
-    /// pair; resized to the pairs if it is not: [`out_of_reach_kept`]). The result can differ
+    /// [`Model::forward`], keeping out-of-reach proofs and candidate planes across calls in
+    /// `kept` (one entry per pair; resized to the pairs if it is not: [`out_of_reach_kept`],
+    /// [`KeptCandidates`]). The result can differ
     /// from [`Model::forward`]'s only where a pair's forces are below the bound of
     /// [`out_of_reach`] (a kept proof switches off a pair that a fresh proof might not).
     pub fn forward_kept(
@@ -501,10 +505,10 @@ impl Model {
         v: &[f64],
         u: &[f64],
         prm: &ContactParams<f64>,
-        kept: &mut Vec<Option<KeptReach>>,
+        kept: &mut PairsKept,
     ) -> Result<Forward<f64>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
-        kept.resize(self.pairs.len(), None);
+        kept.fit(self.pairs.len());
         let tau = self.actuator_forces_at(q, v, ctrl, mocap);
         self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, Some(kept))
     }
@@ -519,7 +523,7 @@ impl Model {
         mocap: &[T],
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
-        kept: Option<&mut [Option<KeptReach>]>,
+        kept: Option<&mut PairsKept>,
     ) -> Result<Forward<T>, DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);

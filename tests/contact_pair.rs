@@ -478,7 +478,7 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
             )
         };
         let (fb, fa) = frames(motion(0.1), motion(0.1));
-        let (tape, recorded) = PairTape::record(a, &fa, b, &fb, &prm);
+        let (tape, recorded) = PairTape::record(a, &fa, b, &fb, &prm, None);
         let full = pair_contact(a, &fa, b, &fb, &prm);
         assert!(full.on_a.force.norm() > 1.0, "the bodies touch: {full:?}");
         for (w, f) in recorded

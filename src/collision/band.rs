@@ -68,6 +68,7 @@ pub fn separation_band<T: Scalar>(
         false,
         &mut Relevant::default(),
         None,
+        None,
     )
 }
 
@@ -77,7 +78,9 @@ pub fn separation_band<T: Scalar>(
 /// the SSDF terms of the entries that can end within the cutoff are kept
 /// ([`SeparationBand::terms`]). With `grads`, the
 /// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
-/// real parts) is pushed, in the order of the entries.
+/// real parts) is pushed, in the order of the entries. With `kept`, each query point's
+/// candidate planes are kept from one call to the next ([`KeptCandidates`]; the same band to
+/// the last bit, at less cost while the bodies move little).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn band_of<T: Scalar>(
     a: &Collider,
@@ -89,6 +92,7 @@ pub(crate) fn band_of<T: Scalar>(
     keep_terms: bool,
     scratch: &mut Relevant,
     mut grads: Option<&mut Vec<Vector3<f64>>>,
+    mut kept: Option<&mut KeptCandidates>,
 ) -> SeparationBand<T> {
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
     let mut band = SeparationBand {
@@ -99,6 +103,9 @@ pub(crate) fn band_of<T: Scalar>(
         terms: Vec::new(),
     };
     let (e1, e2) = (re(eps1), re(eps2));
+    if let Some(kc) = kept.as_deref_mut() {
+        kc.begin(e1);
+    }
     // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
     // nearer-first to the other body's centre (where the deepest points usually are), so that
     // both sides' walks start from a small Φ_best: a walk of the first side no longer proves
@@ -215,11 +222,15 @@ pub(crate) fn band_of<T: Scalar>(
                     // candidates are then about the points each query needs anyway. A leaf wider
                     // than that (sharp ε1) would gather far more candidates than any one point
                     // keeps, so each point walks on its own, from its neighbour's nearest point.
-                    // Both give the same relevant set ([`Relevant`]).
-                    let share = match planes {
-                        Collider::Aopc(o) => node.radius * node.radius <= o.bvh().log_terms * e1,
-                        Collider::HalfSpace { .. } => false,
-                    };
+                    // Both give the same relevant set ([`Relevant`]). With kept candidates,
+                    // each point reads its own.
+                    let share = kept.is_none()
+                        && match planes {
+                            Collider::Aopc(o) => {
+                                node.radius * node.radius <= o.bvh().log_terms * e1
+                            }
+                            Collider::HalfSpace { .. } => false,
+                        };
                     if let (true, Collider::Aopc(o)) = (share, planes) {
                         scratch.find_ball(
                             o,
@@ -233,11 +244,14 @@ pub(crate) fn band_of<T: Scalar>(
                             rel.rotation * lift3::<T>(&bvh.points[k as usize]) + rel.translation;
                         let entry = match planes {
                             Collider::Aopc(o) => {
-                                if share {
-                                    scratch.find_within(o, &crate::scalar::re3(&x), e1);
+                                let xr = crate::scalar::re3(&x);
+                                if let Some(kc) = kept.as_deref_mut() {
+                                    kc.relevant(side as usize, k, s, o, &xr, e1, scratch);
+                                } else if share {
+                                    scratch.find_within(o, &xr, e1);
                                 } else {
                                     let hint = scratch.nearest;
-                                    scratch.find(o, &crate::scalar::re3(&x), e1, hint);
+                                    scratch.find(o, &xr, e1, hint);
                                 }
                                 let start = band.terms.len();
                                 let keep = keep_terms.then_some(&mut band.terms);

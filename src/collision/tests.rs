@@ -410,6 +410,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             true,
             &mut Relevant::default(),
             None,
+            None,
         );
         let cutoff = band.min + band.margin * eps2;
         for e in &band.entries {
@@ -458,4 +459,85 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
         }
     }
     assert!(kept > 100 && dropped > 0, "kept {kept}, dropped {dropped}");
+}
+
+#[test]
+fn kept_candidates_give_the_same_band_to_the_last_bit() {
+    // A cube sliding and turning against a sphere along a path of small steps, the band walked
+    // with the pair's kept candidates (`KeptCandidates`) and without: the same entries, Φ,
+    // d_min, spring bounds and kept terms, bit for bit, at sharp and soft ε1, while the kept
+    // balls both serve (hits) and are replaced (misses, the path moving several spacings).
+    // An ε1 changed between calls drops what was kept.
+    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.006));
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.04, 0.03, 0.05),
+        }
+        .sample(0.006),
+    );
+    let bits = |band: &SeparationBand<f64>| {
+        let entries: Vec<_> = band
+            .entries
+            .iter()
+            .map(|e| {
+                (
+                    e.side,
+                    e.k,
+                    e.phi.to_bits(),
+                    e.dmin.to_bits(),
+                    e.springs.to_bits(),
+                    e.terms,
+                )
+            })
+            .collect();
+        let terms: Vec<_> = band.terms.iter().map(|&(k, w)| (k, w.to_bits())).collect();
+        (entries, terms, band.min.to_bits(), band.skipped)
+    };
+    let mut s = 11u64;
+    for eps1 in [1e-7, 3e-5] {
+        let mut kept = KeptCandidates::default();
+        let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
+        let drift = vec3(&mut s) * 2e-4;
+        for step in 0..60 {
+            let t = step as f64;
+            let fb = Frame {
+                rotation: *nalgebra::Rotation3::from_axis_angle(&axis, 0.3 + 2e-3 * t).matrix(),
+                origin: Vector3::new(0.0, 0.0, 0.088) + drift * t,
+                ..Frame::identity()
+            };
+            let fa = Frame::<f64>::identity();
+            let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+            let walk = |kept: Option<&mut KeptCandidates>| {
+                band_of(
+                    &sphere,
+                    &cube,
+                    &rels,
+                    eps1,
+                    2e-3,
+                    1e-4,
+                    true,
+                    &mut Relevant::default(),
+                    None,
+                    kept,
+                )
+            };
+            let (fresh, with_kept) = (walk(None), walk(Some(&mut kept)));
+            assert!(fresh.entries.len() > 10, "in contact at step {step}");
+            let (k, f) = (bits(&with_kept), bits(&fresh));
+            let first = k.0.iter().zip(&f.0).position(|(x, y)| x != y);
+            assert_eq!(first, None, "ε1 {eps1}, step {step}: first differing entry");
+            assert!(k == f, "ε1 {eps1}, step {step}: the bands differ");
+        }
+        let counts = kept.counts();
+        assert!(
+            counts.hits > 4 * counts.misses && counts.misses > 0,
+            "ε1 {eps1}: {counts:?}"
+        );
+        kept.begin(eps1 * 2.0);
+        assert_eq!(
+            kept.counts(),
+            KeptCounts::default(),
+            "another ε1 drops them"
+        );
+    }
 }

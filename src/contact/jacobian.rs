@@ -216,6 +216,7 @@ pub fn pair_jacobian(
         prm,
         &mut Relevant::default(),
         Some(&mut grads),
+        None,
         || LocalJacobian::new(prm, true),
         |i, w, pf, snk| records.push((i, w, *pf, snk)),
     );

@@ -6,7 +6,7 @@
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
 use crate::collision::{
-    band_of, separation_field_naive, Collider, Frame, Relative, SeparationBand,
+    band_of, separation_field_naive, Collider, Frame, KeptCandidates, Relative, SeparationBand,
     SeparationDistribution,
 };
 use crate::geometry::ssdf::Relevant;
@@ -385,7 +385,8 @@ pub(super) struct PairParts<T: Scalar> {
 /// The SSDF–SSDF contact of a pair in the plane frames of both sides (module documentation of
 /// [`pair_contact`]), given each body's motion in the other's frame. `on_force(i, W_f, F, s)`
 /// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
-/// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry.
+/// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry; `kept`, the pair's
+/// candidate planes kept across calls ([`KeptCandidates`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     a: &Collider,
@@ -394,6 +395,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     prm: &ContactParams<T>,
     scratch: &mut Relevant,
     grads: Option<&mut Vec<Vector3<f64>>>,
+    kept: Option<&mut KeptCandidates>,
     mut sink: impl FnMut() -> S,
     mut on_force: impl FnMut(usize, T, &PointForce<T>, S),
 ) -> PairParts<T> {
@@ -407,6 +409,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         true,
         scratch,
         grads,
+        kept,
     );
     let (dist, weights) = SeparationDistribution::from_band_weights(&band, prm.eps2);
     let mut sums = [SideSums::zero(), SideSums::zero()];
@@ -508,6 +511,20 @@ pub fn pair_contact<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
+    pair_contact_kept(a, fa, b, fb, prm, None)
+}
+
+/// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`
+/// ([`KeptCandidates`]): the same contact to the last bit, at less cost while the bodies move
+/// little between calls. The chain rule's path (first-order duals) does not use them.
+pub fn pair_contact_kept<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+    kept: Option<&mut KeptCandidates>,
+) -> PairContact<T> {
     let constant = [
         prm.eps1,
         prm.eps2,
@@ -522,7 +539,7 @@ pub fn pair_contact<T: Scalar>(
     if T::FIRST_ORDER && constant {
         pair_contact_chained(a, fa, b, fb, prm)
     } else {
-        pair_contact_generic(a, fa, b, fb, prm)
+        pair_contact_generic_kept(a, fa, b, fb, prm, kept)
     }
 }
 
@@ -535,6 +552,18 @@ pub fn pair_contact_generic<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
+    pair_contact_generic_kept(a, fa, b, fb, prm, None)
+}
+
+/// [`pair_contact_generic`] with kept candidate planes ([`pair_contact_kept`]).
+fn pair_contact_generic_kept<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+    kept: Option<&mut KeptCandidates>,
+) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let parts = pair_sides(
         a,
@@ -543,6 +572,7 @@ pub fn pair_contact_generic<T: Scalar>(
         prm,
         &mut Relevant::default(),
         None,
+        kept,
         || NoForceSink,
         |_, _, _, _| {},
     );

@@ -66,13 +66,15 @@ pub struct PairTape {
 
 impl PairTape {
     /// Records the contact of collider `a` on frame `fa` and `b` on `fb`, and returns it with
-    /// the wrenches on `a` and `b` at these frames' velocities.
+    /// the wrenches on `a` and `b` at these frames' velocities; `kept`: the pair's candidate
+    /// planes kept across calls, if any ([`KeptCandidates`]).
     pub fn record(
         a: &Collider,
         fa: &Frame<f64>,
         b: &Collider,
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
+        kept: Option<&mut KeptCandidates>,
     ) -> (PairTape, [Wrench<f64>; 2]) {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let mut order: Vec<(usize, f64, Vec<Term>)> = Vec::new();
@@ -83,6 +85,7 @@ impl PairTape {
             prm,
             &mut Relevant::default(),
             None,
+            kept,
             || TermSink(Vec::new()),
             |i, w, _, sink| order.push((i, w, sink.0)),
         );

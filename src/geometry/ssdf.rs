@@ -46,7 +46,9 @@ pub fn ln_upper(x: f64) -> f64 {
 /// It is scratch space: one `Relevant` serves query after query without allocating.
 #[derive(Clone, Debug, Default)]
 pub struct Relevant {
-    /// `(leaf-order index, squared distance (m²))` of every relevant point, in walk order.
+    /// `(leaf-order index, squared distance (m²))` of every relevant point, by increasing
+    /// index: the same order whichever way the set was found (one point's walk, a shared ball,
+    /// a kept list), so that every sum over it is the same to the last bit.
     pub items: Vec<(u32, f64)>,
     /// Smallest squared distance from the query to the points (m²); `+∞` for no points.
     pub dmin: f64,
@@ -78,6 +80,7 @@ impl Relevant {
         self.items.clear();
         let mut cands = std::mem::take(&mut self.walk);
         gather(bvh, pr, 0.0, eps1, hint, &mut cands);
+        cands.sort_unstable();
         self.filter(s, pr, eps1, &cands);
         self.walk = cands;
     }
@@ -90,6 +93,7 @@ impl Relevant {
         let bvh = s.bvh();
         let mut cands = std::mem::take(&mut self.ball);
         gather(bvh, c, r, eps1, usize::MAX, &mut cands);
+        cands.sort_unstable();
         for (d, coord) in self.ball_xyz.iter_mut().enumerate() {
             coord.clear();
             coord.extend(cands.iter().map(|&k| bvh.points[k as usize][d]));
@@ -130,7 +134,14 @@ impl Relevant {
         );
     }
 
-    /// The relevant set at `pr` among `cands` (which must contain it).
+    /// [`Relevant::find`] from candidates known to hold the relevant set at `pr`, by
+    /// increasing index: those of [`gather_ball`] for a ball around `pr`, kept from an earlier
+    /// query ([`KeptCandidates`](crate::collision::KeptCandidates)).
+    pub fn find_among(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, cands: &[u32]) {
+        self.filter(s, pr, eps1, cands);
+    }
+
+    /// The relevant set at `pr` among `cands` (which must contain it, by increasing index).
     fn filter(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, cands: &[u32]) {
         self.items.clear();
         let bvh = s.bvh();
@@ -151,11 +162,11 @@ impl Relevant {
 }
 
 /// The smallest squared distance of `(index, squared distance)` pairs and its index (the
-/// first of equals; `(+∞, usize::MAX)` for none).
+/// smallest of equals, whatever their order; `(+∞, usize::MAX)` for none).
 fn nearest_of(pairs: impl Iterator<Item = (u32, f64)>) -> (f64, usize) {
     let (mut best, mut nearest) = (f64::INFINITY, usize::MAX);
     for (k, d) in pairs {
-        if d < best {
+        if d < best || (d == best && (k as usize) < nearest) {
             best = d;
             nearest = k as usize;
         }
@@ -169,6 +180,15 @@ fn cutoff(bvh: &super::bvh::Bvh, pr: &Vector3<f64>, eps1: f64, best: f64) -> f64
     let dmax = bvh.nodes[0].max_sq_dist(pr).sqrt();
     let ell = best.sqrt() + eps1.sqrt();
     best + (bvh.log_terms + ln_upper(1.0 + dmax / ell)) * eps1
+}
+
+/// The points of `s` that can be relevant (module documentation) at some point of the ball
+/// `|x - c| ≤ r` (m, AOPC frame) for temperature `eps1` (m²), by increasing leaf-order index,
+/// in `out`: for [`Relevant::find_among`] at any point of the ball. `hint` as for
+/// [`Relevant::find`].
+pub fn gather_ball(s: &Aopc, c: &Vector3<f64>, r: f64, eps1: f64, hint: usize, out: &mut Vec<u32>) {
+    gather(s.bvh(), c, r, eps1, hint, out);
+    out.sort_unstable();
 }
 
 /// The points of `bvh` that can be relevant (module documentation) at some point `x` of the
@@ -519,9 +539,10 @@ mod tests {
         }
     }
 
-    /// A shared ball query and its per-point narrowing give the same relevant set, `d_min`
-    /// and nearest point as each point's own walk, bit for bit (the band walk relies on it
-    /// for results that do not depend on which path a leaf takes).
+    /// A shared ball query and its per-point narrowing, a ball's candidates kept for later
+    /// queries in it, and each point's own walk from any hint give the same relevant set in
+    /// the same order, `d_min` and nearest point, bit for bit (the band walk relies on it for
+    /// results that do not depend on which path a query takes, nor on what was kept).
     #[test]
     fn the_shared_ball_gives_each_point_its_own_relevant_set() {
         let cloud = Shape::Box {
@@ -540,22 +561,29 @@ mod tests {
                 let c = Vector3::new(0.08 * next(), 0.06 * next(), 0.05 * next());
                 let r = 0.01 * next().abs();
                 let (mut shared, mut own) = (Relevant::default(), Relevant::default());
+                let (mut kept, mut among, mut hinted) =
+                    (Vec::new(), Relevant::default(), Relevant::default());
                 shared.find_ball(&cloud, &c, r, eps1);
+                gather_ball(&cloud, &c, r, eps1, usize::MAX, &mut kept);
+                assert!(kept.windows(2).all(|w| w[0] < w[1]), "increasing indices");
                 for _ in 0..8 {
                     let d = Vector3::new(next(), next(), next());
                     let x = c + d * (r / d.norm().max(1.0) * 0.999);
                     shared.find_within(&cloud, &x, eps1);
                     own.find(&cloud, &x, eps1, usize::MAX);
-                    let sort = |v: &Vec<(u32, f64)>| {
-                        let mut v = v.clone();
-                        v.sort_by_key(|e| e.0);
-                        v
+                    among.find_among(&cloud, &x, eps1, &kept);
+                    let hint = (next().abs() * cloud.points.len() as f64) as usize;
+                    hinted.find(&cloud, &x, eps1, hint);
+                    assert!(!own.items.is_empty());
+                    assert!(own.items.windows(2).all(|w| w[0].0 < w[1].0));
+                    let bits = |r: &Relevant| {
+                        let items: Vec<_> =
+                            r.items.iter().map(|&(k, d)| (k, d.to_bits())).collect();
+                        (items, r.dmin.to_bits(), r.nearest)
                     };
-                    assert_eq!(sort(&shared.items), sort(&own.items));
-                    assert_eq!(
-                        (shared.dmin.to_bits(), shared.nearest),
-                        (own.dmin.to_bits(), own.nearest)
-                    );
+                    assert_eq!(bits(&shared), bits(&own));
+                    assert_eq!(bits(&among), bits(&own));
+                    assert_eq!(bits(&hinted), bits(&own));
                 }
             }
         }

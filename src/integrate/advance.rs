@@ -3,7 +3,7 @@
 
 use super::guard::{EnergyLedger, EnergyMonitor};
 use super::newton::KeptJacobian;
-use crate::collision::KeptReach;
+use crate::collision::{KeptReach, PairsKept};
 use crate::contact::ContactParams;
 use crate::dynamics::MOCAP_INPUTS;
 use crate::integrator::{Integrator, State};
@@ -95,7 +95,7 @@ impl Model {
         let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
         let start = if needs_start {
             Some(
-                self.forward_kept(&state.q, &state.v, &u, prm, &mut cache.reach)
+                self.forward_kept(&state.q, &state.v, &u, prm, &mut cache.kept)
                     .map_err(|error| StepFailure::Dynamics {
                         time: t0,
                         step: 1,
@@ -226,7 +226,7 @@ impl Model {
                         // (the first one's is the start's forward dynamics).
                         let a = match first.take() {
                             None if i != Integrator::DampedEuler => Some(
-                                self.forward_kept(&s.q, &s.v, &uk, prm, &mut cache.reach)
+                                self.forward_kept(&s.q, &s.v, &uk, prm, &mut cache.kept)
                                     .map_err(dyn_err)?
                                     .vdot
                                     .iter()
@@ -235,7 +235,7 @@ impl Model {
                             ),
                             a => a,
                         };
-                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac, Some(&mut cache.reach))
+                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac, Some(&mut cache.kept))
                             .map_err(dyn_err)?
                     }
                 };
@@ -363,9 +363,9 @@ pub struct SolverCache {
     left: Option<CacheMark>,
     /// The energy guard's balance over the run so far.
     ledger: Option<EnergyLedger>,
-    /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]): which pairs
-    /// a step switches off depends on it.
-    reach: Vec<Option<KeptReach>>,
+    /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]: which pairs
+    /// a step switches off depends on it) and the band's candidate planes (a cost only).
+    kept: PairsKept,
 }
 
 /// Where a [`SolverCache`] was left: the state and the internal step (s).
@@ -392,7 +392,7 @@ impl SolverCache {
             self.left.as_ref(),
             self.ledger.as_ref(),
             self.velocity_change.as_deref(),
-            &self.reach,
+            &self.kept.reach,
         )
     }
 
@@ -409,7 +409,7 @@ impl SolverCache {
             velocity_change,
             left,
             ledger,
-            reach,
+            kept: PairsKept::with_reach(reach),
         }
     }
 }

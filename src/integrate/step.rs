@@ -3,7 +3,7 @@
 
 use super::newton::{newton, re_params, re_vec, KeptJacobian};
 use crate::autodiff::{jacobian, VectorFunction};
-use crate::collision::KeptReach;
+use crate::collision::PairsKept;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
@@ -199,7 +199,7 @@ impl Model {
     /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
     /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
     /// takes a fresh one when the iterations stop contracting), as for implicit Euler; `kept`,
-    /// the pairs' kept out-of-reach proofs, serves the frozen contact.
+    /// the pairs' kept out-of-reach proofs and candidate planes, serves the frozen contact.
     #[allow(clippy::too_many_arguments)]
     fn damped_euler_velocity<T: Scalar>(
         &self,
@@ -209,7 +209,7 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
         jac: &mut Option<KeptJacobian>,
-        kept: Option<&mut Vec<Option<KeptReach>>>,
+        kept: Option<&mut PairsKept>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self
@@ -231,10 +231,10 @@ impl Model {
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
             // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
-            let kept = kept.map(|all| {
-                all.resize(self.pairs.len(), None);
-                all.as_mut_slice()
-            });
+            let mut kept = kept;
+            if let Some(all) = kept.as_deref_mut() {
+                all.fit(self.pairs.len());
+            }
             let (frozen, a0) = self.frozen_forward_kept(
                 &real.q,
                 &real.v,
@@ -293,7 +293,8 @@ impl Model {
 
     /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
     /// known; `jac`: damped Euler's Newton Jacobian, carried between steps; `kept`: the pairs'
-    /// kept out-of-reach proofs, used by damped Euler's frozen contact (values only).
+    /// kept out-of-reach proofs and candidate planes, used by damped Euler's frozen contact
+    /// (values only).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn explicit_step<T: Scalar>(
         &self,
@@ -304,7 +305,7 @@ impl Model {
         h: T,
         a0: Option<Vec<T>>,
         jac: &mut Option<KeptJacobian>,
-        kept: Option<&mut Vec<Option<KeptReach>>>,
+        kept: Option<&mut PairsKept>,
     ) -> Result<State<T>, DynamicsError> {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);

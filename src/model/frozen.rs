@@ -42,8 +42,8 @@ impl Model {
         self.frozen_forward_kept(q, v, tau, mocap, prm, h, None)
     }
 
-    /// [`Model::frozen_forward`], with the pairs' kept out-of-reach proofs if given (one entry
-    /// per pair, [`out_of_reach_kept`](crate::collision::out_of_reach_kept)).
+    /// [`Model::frozen_forward`], with the pairs' kept out-of-reach proofs and candidate planes
+    /// if given (one entry per pair, [`PairsKept`]).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn frozen_forward_kept(
         &self,
@@ -53,7 +53,7 @@ impl Model {
         mocap: &[f64],
         prm: &ContactParams<f64>,
         h: f64,
-        mut kept: Option<&mut [Option<KeptReach>]>,
+        mut kept: Option<&mut PairsKept>,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
@@ -70,11 +70,12 @@ impl Model {
                 continue;
             };
             let p = pair.params(prm);
-            if self.out_of_reach_with(pair, &kin, &p, kept.as_deref_mut().map(|all| &mut all[k])) {
+            let (reach, candidates) = kept.as_deref_mut().map(|all| all.pair(k)).unzip();
+            if self.out_of_reach_with(pair, &kin, &p, reach) {
                 continue;
             }
             let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
-            let (tape, w) = PairTape::record(ca, fa, cb, fb, &p);
+            let (tape, w) = PairTape::record(ca, fa, cb, fb, &p, candidates);
             add(&mut wrenches, pair.a, pair.b, &w);
             tapes.push((pair.a, pair.b, p, tape));
         }
