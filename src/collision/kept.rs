@@ -41,6 +41,8 @@ struct SideCandidates {
     balls: Vec<Ball>,
     /// Candidates (the other body's leaf-order indices), increasing within each ball.
     cands: Vec<u32>,
+    /// Their coordinates, one array per axis (contiguous, for the distances' plain loop).
+    xyz: [Vec<f64>; 3],
     /// How many entries of `cands` belong to a ball (the rest were replaced).
     live: usize,
     /// Scratch of one gathering.
@@ -109,7 +111,9 @@ impl KeptCandidates {
         if let Some(b) = s.balls.get(slot as usize) {
             if (x - b.centre).norm_squared() <= b.radius_sq {
                 let (from, to) = (b.start as usize, (b.start + b.len) as usize);
-                scratch.find_among(planes, x, eps1, &s.cands[from..to]);
+                let [xs, ys, zs] = &s.xyz;
+                let xyz = [&xs[from..to], &ys[from..to], &zs[from..to]];
+                scratch.find_among_xyz(planes, x, eps1, &s.cands[from..to], xyz);
                 self.counts.hits += 1;
                 return true;
             }
@@ -128,6 +132,9 @@ impl KeptCandidates {
         gather_ball(planes, x, delta, eps1, scratch.nearest, &mut gathered);
         let (start, len) = (s.cands.len(), gathered.len());
         s.cands.extend_from_slice(&gathered);
+        for (d, coord) in s.xyz.iter_mut().enumerate() {
+            coord.extend(gathered.iter().map(|&k| bvh.points[k as usize][d]));
+        }
         s.gathered = gathered;
         let ball = Ball {
             centre: *x,
@@ -157,12 +164,17 @@ impl SideCandidates {
     /// Drops the candidates of replaced balls.
     fn compact(&mut self) {
         let mut cands = Vec::with_capacity(2 * self.live);
+        let mut xyz: [Vec<f64>; 3] = Default::default();
         for b in &mut self.balls {
-            let from = b.start as usize;
+            let (from, to) = (b.start as usize, (b.start + b.len) as usize);
             b.start = cands.len() as u32;
-            cands.extend_from_slice(&self.cands[from..from + b.len as usize]);
+            cands.extend_from_slice(&self.cands[from..to]);
+            for (d, coord) in xyz.iter_mut().enumerate() {
+                coord.extend_from_slice(&self.xyz[d][from..to]);
+            }
         }
         self.cands = cands;
+        self.xyz = xyz;
     }
 }
 

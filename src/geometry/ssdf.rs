@@ -111,27 +111,37 @@ impl Relevant {
             self.nearest = usize::MAX;
             return;
         }
-        // The same squared distances as `filter` (`(pr - p).norm_squared()`, x² + y² + z² in
-        // that order), so both give the same set bit for bit.
-        // Indexed over equal lengths so that the loop vectorizes.
         let [xs, ys, zs] = &self.ball_xyz;
-        let n = self.ball.len();
-        let (xs, ys, zs) = (&xs[..n], &ys[..n], &zs[..n]);
-        self.dist.resize(n, 0.0);
-        let dist = &mut self.dist[..n];
-        for i in 0..n {
-            let (dx, dy, dz) = (pr.x - xs[i], pr.y - ys[i], pr.z - zs[i]);
-            dist[i] = dx * dx + dy * dy + dz * dz;
-        }
-        (self.dmin, self.nearest) = nearest_of(self.ball.iter().copied().zip(dist.iter().copied()));
-        let cutoff = cutoff(bvh, pr, eps1, self.dmin);
-        self.items.extend(
-            self.ball
-                .iter()
-                .zip(&self.dist)
-                .filter(|(_, &d)| d <= cutoff)
-                .map(|(&k, &d)| (k, d)),
+        (self.dmin, self.nearest) = narrow(
+            bvh,
+            pr,
+            eps1,
+            &self.ball,
+            [xs, ys, zs],
+            &mut self.dist,
+            &mut self.items,
         );
+    }
+
+    /// [`Relevant::find_among`] with the candidates' coordinates given contiguously (`xyz[d][i]`
+    /// the coordinate `d` of point `cands[i]`), so that their distances are a plain loop.
+    pub fn find_among_xyz(
+        &mut self,
+        s: &Aopc,
+        pr: &Vector3<f64>,
+        eps1: f64,
+        cands: &[u32],
+        xyz: [&[f64]; 3],
+    ) {
+        let bvh = s.bvh();
+        self.items.clear();
+        if bvh.is_empty() {
+            self.dmin = f64::INFINITY;
+            self.nearest = usize::MAX;
+            return;
+        }
+        (self.dmin, self.nearest) =
+            narrow(bvh, pr, eps1, cands, xyz, &mut self.dist, &mut self.items);
     }
 
     /// [`Relevant::find`] from candidates known to hold the relevant set at `pr`, by
@@ -159,6 +169,41 @@ impl Relevant {
         let cutoff = cutoff(bvh, pr, eps1, self.dmin);
         self.items.retain(|&(_, d)| d <= cutoff);
     }
+}
+
+/// The relevant set at `pr` among candidates `cands` given with their coordinates
+/// contiguously (`xyz[d][i]`), pushed to `items` in the candidates' order; returns `d_min` and
+/// the nearest index. `dist` is scratch.
+fn narrow(
+    bvh: &super::bvh::Bvh,
+    pr: &Vector3<f64>,
+    eps1: f64,
+    cands: &[u32],
+    xyz: [&[f64]; 3],
+    dist: &mut Vec<f64>,
+    items: &mut Vec<(u32, f64)>,
+) -> (f64, usize) {
+    // The same squared distances as `filter` (`(pr - p).norm_squared()`, x² + y² + z² in
+    // that order), so both give the same set bit for bit.
+    // Indexed over equal lengths so that the loop vectorizes.
+    let n = cands.len();
+    let (xs, ys, zs) = (&xyz[0][..n], &xyz[1][..n], &xyz[2][..n]);
+    dist.resize(n, 0.0);
+    let dist = &mut dist[..n];
+    for i in 0..n {
+        let (dx, dy, dz) = (pr.x - xs[i], pr.y - ys[i], pr.z - zs[i]);
+        dist[i] = dx * dx + dy * dy + dz * dz;
+    }
+    let (dmin, nearest) = nearest_of(cands.iter().copied().zip(dist.iter().copied()));
+    let cutoff = cutoff(bvh, pr, eps1, dmin);
+    items.extend(
+        cands
+            .iter()
+            .zip(dist.iter())
+            .filter(|(_, &d)| d <= cutoff)
+            .map(|(&k, &d)| (k, d)),
+    );
+    (dmin, nearest)
 }
 
 /// The smallest squared distance of `(index, squared distance)` pairs and its index (the
