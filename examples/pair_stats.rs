@@ -196,11 +196,13 @@ fn main() {
             ],
         );
         println!(
-            "  {}: proof {:.2} µs, pruned pair evaluation {:.2} µs ({:.2} µs with kept candidates, all served: the same pose again)",
+            "  {}: proof {:.2} µs, pruned pair evaluation {:.2} µs ({:.2} µs with kept candidates, all served: the same pose again; {:?}, {} bytes kept)",
             if far { "out of reach" } else { "in reach" },
             times[0] * 1e6,
             times[1] * 1e6,
-            times[2] * 1e6
+            times[2] * 1e6,
+            kept.counts(),
+            kept.heap_bytes()
         );
         if !long {
             continue;

@@ -46,6 +46,16 @@ impl Pair {
     }
 }
 
+/// What an evaluation of the pairs may use of what they keep across calls ([`PairsKept`]).
+pub(crate) enum Keep<'a> {
+    /// Nothing: every pair proven and walked afresh.
+    Nothing,
+    /// The out-of-reach proofs and the candidate planes.
+    All(&'a mut PairsKept),
+    /// The candidate planes only (they change no result), where proofs must be fresh.
+    Candidates(&'a mut PairsKept),
+}
+
 /// The complete, immutable model of a scene.
 #[derive(Clone, Debug)]
 pub struct Model {
@@ -212,7 +222,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let (wrenches, pairs) = self.contacts_with(kin, prm, false, None);
+        let (wrenches, pairs) = self.contacts_with(kin, prm, false, Keep::Nothing);
         let pairs = pairs
             .into_iter()
             .map(|pc| pc.unwrap_or_else(PairContact::none))
@@ -229,7 +239,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
-        self.contacts_with(kin, prm, true, None)
+        self.contacts_with(kin, prm, true, Keep::Nothing)
     }
 
     /// Every pair's contact ([`Model::pair_contact_of`]) and the wrenches they add up to.
@@ -238,7 +248,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        mut kept: Option<&mut PairsKept>,
+        mut keep: Keep,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let out = self
@@ -246,8 +256,15 @@ impl Model {
             .iter()
             .enumerate()
             .map(|(k, pair)| {
-                let kept_k = kept.as_deref_mut().map(|all| all.pair(k));
-                let pc = self.pair_contact_of(pair, kin, prm, prune, kept_k);
+                let (reach, candidates) = match &mut keep {
+                    Keep::Nothing => (None, None),
+                    Keep::All(all) => {
+                        let (r, c) = all.pair(k);
+                        (Some(r), Some(c))
+                    }
+                    Keep::Candidates(all) => (None, Some(all.pair(k).1)),
+                };
+                let pc = self.pair_contact_of(pair, kin, prm, prune, reach, candidates);
                 if let Some(pc) = &pc {
                     for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
                         wrenches[b].force += x.force;
@@ -268,13 +285,13 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        kept: Option<(&mut Option<KeptReach>, &mut KeptCandidates)>,
+        reach: Option<&mut Option<KeptReach>>,
+        candidates: Option<&mut KeptCandidates>,
     ) -> Option<PairContact<T>> {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return Some(PairContact::none());
         };
         let prm = pair.params(prm);
-        let (reach, candidates) = kept.unzip();
         if prune && self.out_of_reach_with(pair, kin, &prm, reach) {
             return None;
         }
@@ -491,7 +508,16 @@ impl Model {
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
     ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_kept_at(q, v, v_contact, tau, mocap, prm, implicit_damping, None)
+        self.forward_kept_at(
+            q,
+            v,
+            v_contact,
+            tau,
+            mocap,
+            prm,
+            implicit_damping,
+            Keep::Nothing,
+        )
     }
 
     /// [`Model::forward`], keeping out-of-reach proofs and candidate planes across calls in
@@ -510,7 +536,41 @@ impl Model {
         let (ctrl, mocap) = self.split_inputs(u)?;
         kept.fit(self.pairs.len());
         let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, Some(kept))
+        self.forward_kept_at(
+            q,
+            v,
+            None,
+            tau.as_slice(),
+            mocap,
+            prm,
+            None,
+            Keep::All(kept),
+        )
+    }
+
+    /// [`Model::forward`] with the pairs' candidate planes kept across calls in `kept` (not its
+    /// out-of-reach proofs: every pair is proven afresh), so the same result to the last bit.
+    pub(crate) fn forward_candidates<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        kept: &mut PairsKept,
+    ) -> Result<Forward<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        kept.fit(self.pairs.len());
+        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
+        self.forward_kept_at(
+            q,
+            v,
+            None,
+            tau.as_slice(),
+            mocap,
+            prm,
+            None,
+            Keep::Candidates(kept),
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -523,14 +583,14 @@ impl Model {
         mocap: &[T],
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
-        kept: Option<&mut PairsKept>,
+        keep: Keep,
     ) -> Result<Forward<T>, DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
         let contact_kin = v_contact.map(|vc| self.tree.kinematics_with(q, vc, mocap));
         // With `v_contact`, the same positions, so the wrenches are in the same frames.
         let (mut wrenches, contacts) =
-            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, kept);
+            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, keep);
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);

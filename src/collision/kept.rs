@@ -75,6 +75,20 @@ impl KeptCandidates {
         self.counts
     }
 
+    /// The heap memory held (bytes): what a copy of it costs (an FMU state saved in memory
+    /// carries one).
+    pub fn heap_bytes(&self) -> usize {
+        self.sides
+            .iter()
+            .map(|s| {
+                4 * s.slot.capacity()
+                    + std::mem::size_of::<Ball>() * s.balls.capacity()
+                    + 4 * (s.cands.capacity() + s.gathered.capacity())
+                    + 8 * s.xyz.iter().map(Vec::capacity).sum::<usize>()
+            })
+            .sum()
+    }
+
     /// Drops everything kept if `eps1` (m²) is not the one it was kept for.
     pub(crate) fn begin(&mut self, eps1: f64) {
         if self.eps1 != eps1.to_bits() {

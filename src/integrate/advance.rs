@@ -219,6 +219,7 @@ impl Model {
                             &mut jac,
                             &mut dv,
                             &mut report.subdivided,
+                            Some(&mut cache.kept),
                         )
                         .map_err(dyn_err)?,
                     i => {
@@ -394,6 +395,24 @@ impl SolverCache {
             self.velocity_change.as_deref(),
             &self.kept.reach,
         )
+    }
+
+    /// How often the pairs' kept candidate planes served a query, and how often a query walked
+    /// ([`KeptCandidates`](crate::collision::KeptCandidates)), summed over the pairs since
+    /// they were made; not part of [`parts`](SolverCache::parts), since they change no result.
+    pub fn candidate_counts(&self) -> crate::collision::KeptCounts {
+        let mut all = crate::collision::KeptCounts::default();
+        for c in &self.kept.candidates {
+            all.hits += c.counts().hits;
+            all.misses += c.counts().misses;
+        }
+        all
+    }
+
+    /// Drops the pairs' kept candidate planes (the proofs stay): the run goes on to the same
+    /// bits, walking afresh where it would have read them.
+    pub fn drop_candidates(&mut self) {
+        self.kept.candidates.clear();
     }
 
     /// A cache from its [`parts`](SolverCache::parts).

@@ -10,6 +10,7 @@ use crate::model::{DynamicsError, Model};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::TypeId;
+use std::cell::RefCell;
 
 fn axpy<T: Scalar>(x: &[T], a: T, y: &[T]) -> Vec<T> {
     x.iter().zip(y).map(|(&xi, &yi)| xi + a * yi).collect()
@@ -113,6 +114,7 @@ impl VectorFunction for StepResidual<'_> {
             &lift(&self.u),
             &self.prm.lift(),
             x,
+            None,
         )
     }
 }
@@ -149,6 +151,7 @@ impl VectorFunction for ContactImplicitResidual<'_> {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn step_residual<T: Scalar>(
     model: &Model,
     q0: &[T],
@@ -157,9 +160,17 @@ fn step_residual<T: Scalar>(
     u: &[T],
     prm: &ContactParams<T>,
     vs: &[T],
+    kept: Option<&RefCell<&mut PairsKept>>,
 ) -> Result<Vec<T>, DynamicsError> {
     let q = model.tree.integrate_q(q0, vs, h);
-    let a = model.forward(&q, vs, u, prm)?.vdot;
+    let a = match kept {
+        Some(kept) => {
+            model
+                .forward_candidates(&q, vs, u, prm, &mut kept.borrow_mut())?
+                .vdot
+        }
+        None => model.forward(&q, vs, u, prm)?.vdot,
+    };
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
 }
 
@@ -284,7 +295,7 @@ impl Model {
     ) -> Result<State<T>, DynamicsError> {
         match integrator {
             Integrator::ImplicitEuler => {
-                self.implicit_euler_step(state, u, prm, h, &mut None, None)
+                self.implicit_euler_step(state, u, prm, h, &mut None, None, None)
             }
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
             _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None, None),
@@ -294,7 +305,7 @@ impl Model {
     /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
     /// known; `jac`: damped Euler's Newton Jacobian, carried between steps; `kept`: the pairs'
     /// kept out-of-reach proofs and candidate planes, used by damped Euler's frozen contact
-    /// (values only).
+    /// (values only), and their candidate planes by RK4's later stages.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn explicit_step<T: Scalar>(
         &self,
@@ -316,9 +327,21 @@ impl Model {
                 v,
             });
         }
+        // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
+        // at less cost (their proofs fresh, as everywhere but at a step's start).
+        let mut kept = kept;
+        let mut accel = |q: &[T], v: &[T], u: &[T]| match kept.as_deref_mut() {
+            Some(kept) => Ok(self
+                .forward_candidates(q, v, u, prm, kept)?
+                .vdot
+                .iter()
+                .copied()
+                .collect()),
+            None => self.accel(q, v, u, prm),
+        };
         let dv1 = match a0 {
             Some(a) => a,
-            None => self.accel(q1, v1, u, prm)?,
+            None => accel(q1, v1, u)?,
         };
         match integrator {
             Integrator::Euler => Ok(State {
@@ -337,11 +360,11 @@ impl Model {
                 let (u_half, u_end) = (self.inputs_after(u, half), self.inputs_after(u, h));
                 let dq1 = tree.qdot(q1, v1);
                 let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
-                let (dq2, dv2) = (tree.qdot(&q2, &v2), self.accel(&q2, &v2, &u_half, prm)?);
+                let (dq2, dv2) = (tree.qdot(&q2, &v2), accel(&q2, &v2, &u_half)?);
                 let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
-                let (dq3, dv3) = (tree.qdot(&q3, &v3), self.accel(&q3, &v3, &u_half, prm)?);
+                let (dq3, dv3) = (tree.qdot(&q3, &v3), accel(&q3, &v3, &u_half)?);
                 let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
-                let (dq4, dv4) = (tree.qdot(&q4, &v4), self.accel(&q4, &v4, &u_end, prm)?);
+                let (dq4, dv4) = (tree.qdot(&q4, &v4), accel(&q4, &v4, &u_end)?);
                 let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
                 let mut q = combine(
                     q1,
@@ -444,6 +467,7 @@ impl Model {
     /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
     /// and replaced when the iterations contract slowly; updated here. `guess`: the velocity
     /// change `V - v` Newton starts from (none: `V = v`).
+    #[allow(clippy::too_many_arguments)]
     fn implicit_euler_step<T: Scalar>(
         &self,
         state: &State<T>,
@@ -452,9 +476,12 @@ impl Model {
         h: T,
         jac: &mut Option<KeptJacobian>,
         guess: Option<&[f64]>,
+        kept: Option<&mut PairsKept>,
     ) -> Result<State<T>, DynamicsError> {
         let u1 = self.inputs_after(u, h);
-        let residual = |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x);
+        let kept = kept.map(RefCell::new);
+        let residual =
+            |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x, kept.as_ref());
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
             let f = StepResidual {
                 model: self,
@@ -496,18 +523,22 @@ impl Model {
         jac: &mut Option<KeptJacobian>,
         dv: &mut Option<Vec<f64>>,
         subdivided: &mut usize,
+        mut kept: Option<&mut PairsKept>,
     ) -> Result<State<f64>, DynamicsError> {
         let guessed = match dv.take() {
-            Some(guess) => match self.implicit_euler_step(s, u, prm, h, jac, Some(&guess)) {
-                Err(DynamicsError::NewtonFailed { .. }) => None,
-                other => Some(other?),
-            },
+            Some(guess) => {
+                match self.implicit_euler_step(s, u, prm, h, jac, Some(&guess), kept.as_deref_mut())
+                {
+                    Err(DynamicsError::NewtonFailed { .. }) => None,
+                    other => Some(other?),
+                }
+            }
             None => None,
         };
         let before = *subdivided;
         let next = match guessed {
             Some(next) => next,
-            None => self.implicit_step_subdividing(s, u, prm, h, jac, 0, subdivided)?,
+            None => self.implicit_step_subdividing(s, u, prm, h, jac, 0, subdivided, kept)?,
         };
         *dv =
             (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
@@ -527,8 +558,9 @@ impl Model {
         jac: &mut Option<KeptJacobian>,
         depth: usize,
         subdivided: &mut usize,
+        mut kept: Option<&mut PairsKept>,
     ) -> Result<State<f64>, DynamicsError> {
-        match self.implicit_euler_step(s, u, prm, h, jac, None) {
+        match self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()) {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
                 *subdivided += 1;
                 let half = 0.5 * h;
@@ -541,6 +573,7 @@ impl Model {
                     &mut sub,
                     depth + 1,
                     subdivided,
+                    kept.as_deref_mut(),
                 )?;
                 self.implicit_step_subdividing(
                     &mid,
@@ -550,6 +583,7 @@ impl Model {
                     &mut sub,
                     depth + 1,
                     subdivided,
+                    kept,
                 )
             }
             other => other,
