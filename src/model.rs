@@ -260,9 +260,9 @@ impl Model {
                     Keep::Nothing => (None, None),
                     Keep::All(all) => {
                         let (r, c) = all.pair(k);
-                        (Some(r), Some(c))
+                        (Some(r), c)
                     }
-                    Keep::Candidates(all) => (None, Some(all.pair(k).1)),
+                    Keep::Candidates(all) => (None, all.pair(k).1),
                 };
                 let pc = self.pair_contact_of(pair, kin, prm, prune, reach, candidates);
                 if let Some(pc) = &pc {

@@ -1033,9 +1033,10 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
 fn kept_candidate_planes_change_no_bit_of_any_integrators_run() {
     // A 6 cm box sliding at 0.3 m/s and spinning on a fixed 40 cm slab (both point clouds: the
     // pair's band walks the slab's hierarchy), 80 steps of 2 ms with each fixed-step method:
-    // carrying the solver cache with the pairs' kept candidate planes, and carrying it with
-    // the candidates dropped before every step (the proofs and Newton's Jacobian kept). Kept
-    // candidates served most queries, and the two runs are the same to the bit.
+    // carrying the solver cache with the pairs' kept candidate planes, and carrying it with no
+    // candidates kept (every query walks, at every stage and Newton residual; the proofs and
+    // Newton's Jacobian kept as usual). Kept candidates served most queries, and the two runs
+    // are the same to the bit.
     for integrator in [
         "semi_implicit_euler",
         "damped_euler",
@@ -1070,14 +1071,12 @@ fn kept_candidate_planes_change_no_bit_of_any_integrators_run() {
             q: model.tree.q0(),
             v: vec![0.3, 0.1, 0.0, 0.0, 0.0, 2.0],
         };
-        let run = |drop: bool| {
+        let run = |keep: bool| {
             let mut cache = scm::integrate::SolverCache::default();
+            cache.keep_candidates(keep);
             let mut s = start.clone();
             let mut states = Vec::new();
             for k in 0..80 {
-                if drop {
-                    cache.drop_candidates();
-                }
                 s = model
                     .advance_cached(&s, &[], &model.contact, k as f64 * h, h, &opts, &mut cache)
                     .unwrap()
@@ -1086,12 +1085,13 @@ fn kept_candidate_planes_change_no_bit_of_any_integrators_run() {
             }
             (states, cache.candidate_counts())
         };
-        let (kept, counts) = run(false);
-        let (fresh, _) = run(true);
+        let (kept, counts) = run(true);
+        let (fresh, none) = run(false);
         assert!(
             counts.hits > 4 * counts.misses,
             "{integrator}: kept candidates served {counts:?}"
         );
+        assert_eq!(none, Default::default(), "{integrator}: none kept");
         let moved = (kept[79].q[0] - start.q[0]).abs();
         assert!(moved > 0.01, "{integrator}: the box slid {moved} m");
         for (k, (a, b)) in kept.iter().zip(&fresh).enumerate() {

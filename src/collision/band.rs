@@ -104,7 +104,7 @@ pub(crate) fn band_of<T: Scalar>(
     };
     let (e1, e2) = (re(eps1), re(eps2));
     if let Some(kc) = kept.as_deref_mut() {
-        kc.begin(e1);
+        kc.begin(e1, a, b);
     }
     // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
     // nearer-first to the other body's centre (where the deepest points usually are), so that

@@ -5,20 +5,25 @@
 //! For a query point at `x₀` (the other body's frame), [`gather_ball`] collects every plane
 //! that can be relevant at some point of the ball `|x - x₀| ≤ δ` (its proof is the shared
 //! ball's, `geometry::ssdf`). While the point stays in that ball, its relevant set is narrowed
-//! from those few candidates ([`Relevant::find_among`]) instead of walking the hierarchy again.
+//! from those few candidates ([`Relevant::find_among_xyz`]) instead of walking the hierarchy again.
 //! The relevant set, its order (increasing index) and so every sum over it are the same to the
 //! last bit as a fresh walk's: what is kept changes the cost, never a result, which is why it
-//! is not part of a saved FMU state.
+//! is not in a saved FMU state's bytes (a state saved in memory carries a copy).
 //!
 //! `δ` is an eighth of the ball's own reach at `x₀` (`√(d_min + ln(I/τ) ε1)`: the candidates
 //! grow by about a quarter in radius) and at least a quarter of the nearest plane's spacing
 //! (`√area`), so that a point resting against a fine cloud at sharp `ε1` is not re-gathered at
-//! every micrometre.
+//! every micrometre. What was kept is for one pair of point clouds: another cloud on either
+//! side (another model's cache) drops that side's balls, and balls no query has read for
+//! [`UNUSED_WALKS`] band walks are dropped, so what is kept follows the band.
 
 use super::KeptReach;
 use crate::geometry::ssdf::{gather_ball, Relevant};
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
+
+/// Band walks after which a ball that no query read is dropped.
+pub const UNUSED_WALKS: u32 = 64;
 
 /// The candidates kept for one pair (both sides). Empty by default; filled by the band walk
 /// of the pair's evaluations that are given it ([`pair_contact_kept`](crate::contact::pair_contact_kept)).
@@ -45,12 +50,21 @@ struct SideCandidates {
     xyz: [Vec<f64>; 3],
     /// How many entries of `cands` belong to a ball (the rest were replaced).
     live: usize,
+    /// The clouds the balls are for: the query points' and the planes' hierarchies
+    /// (addresses, with their lengths), `(0, 0, 0, 0)` before the first walk.
+    clouds: (usize, usize, usize, usize),
+    /// Band walks so far (for dropping balls nobody reads).
+    walks: u32,
     /// Scratch of one gathering.
     gathered: Vec<u32>,
 }
 
 #[derive(Clone, Copy, Debug)]
 struct Ball {
+    /// The query point's leaf-order index.
+    k: u32,
+    /// The band walk that last read it.
+    used: u32,
     centre: Vector3<f64>,
     /// `δ²` (m²).
     radius_sq: f64,
@@ -66,6 +80,22 @@ pub struct KeptCounts {
     pub hits: usize,
     /// Queries that walked the hierarchy and kept a new ball.
     pub misses: usize,
+    /// Balls replaced by a new one (their point had left them).
+    pub replaced: usize,
+    /// Balls dropped because no query read them for [`UNUSED_WALKS`] band walks.
+    pub dropped: usize,
+    /// Times the candidates of replaced and dropped balls were cleared out.
+    pub compactions: usize,
+}
+
+impl std::ops::AddAssign for KeptCounts {
+    fn add_assign(&mut self, o: KeptCounts) {
+        self.hits += o.hits;
+        self.misses += o.misses;
+        self.replaced += o.replaced;
+        self.dropped += o.dropped;
+        self.compactions += o.compactions;
+    }
 }
 
 impl KeptCandidates {
@@ -89,13 +119,42 @@ impl KeptCandidates {
             .sum()
     }
 
-    /// Drops everything kept if `eps1` (m²) is not the one it was kept for.
-    pub(crate) fn begin(&mut self, eps1: f64) {
+    /// Starts a band walk of the pair `(a, b)` at `eps1` (m²): drops everything kept if
+    /// `eps1` is not the one it was kept for, a side's balls if they were kept for other point
+    /// clouds, and the balls no query read for [`UNUSED_WALKS`] walks.
+    pub(crate) fn begin(&mut self, eps1: f64, a: &super::Collider, b: &super::Collider) {
         if self.eps1 != eps1.to_bits() {
+            let counts = self.counts;
             *self = KeptCandidates {
                 eps1: eps1.to_bits(),
+                counts,
                 ..Default::default()
             };
+        }
+        let id = |c: &super::Collider| match c {
+            super::Collider::Aopc(s) => (s.bvh() as *const _ as usize, s.len()),
+            super::Collider::HalfSpace { .. } => (0, 0),
+        };
+        let ((ia, na), (ib, nb)) = (id(a), id(b));
+        for (s, clouds) in self
+            .sides
+            .iter_mut()
+            .zip([(ia, na, ib, nb), (ib, nb, ia, na)])
+        {
+            if s.clouds != clouds {
+                *s = SideCandidates {
+                    slot: vec![u32::MAX; clouds.1],
+                    clouds,
+                    ..Default::default()
+                };
+            }
+            s.walks = s.walks.wrapping_add(1);
+            if s.walks % UNUSED_WALKS == 0 {
+                let before = s.balls.len();
+                s.drop_unused();
+                self.counts.dropped += before - s.balls.len();
+                self.counts.compactions += 1;
+            }
         }
     }
 
@@ -114,16 +173,13 @@ impl KeptCandidates {
         scratch: &mut Relevant,
     ) -> bool {
         let s = &mut self.sides[side];
-        let n = query.len();
-        if s.slot.len() != n {
-            *s = SideCandidates {
-                slot: vec![u32::MAX; n],
-                ..Default::default()
-            };
-        }
+        debug_assert_eq!(s.slot.len(), query.len(), "begin() was given this pair");
         let slot = s.slot[k as usize];
-        if let Some(b) = s.balls.get(slot as usize) {
+        let walks = s.walks;
+        if let Some(b) = s.balls.get_mut(slot as usize) {
             if (x - b.centre).norm_squared() <= b.radius_sq {
+                b.used = walks;
+                let b = *b;
                 let (from, to) = (b.start as usize, (b.start + b.len) as usize);
                 let [xs, ys, zs] = &s.xyz;
                 let xyz = [&xs[from..to], &ys[from..to], &zs[from..to]];
@@ -151,6 +207,8 @@ impl KeptCandidates {
         }
         s.gathered = gathered;
         let ball = Ball {
+            k,
+            used: walks,
             centre: *x,
             radius_sq: delta * delta,
             start: start as u32,
@@ -160,6 +218,7 @@ impl KeptCandidates {
             Some(old) => {
                 s.live -= old.len as usize;
                 *old = ball;
+                self.counts.replaced += 1;
             }
             None => {
                 s.slot[k as usize] = s.balls.len() as u32;
@@ -169,12 +228,27 @@ impl KeptCandidates {
         s.live += len;
         if s.cands.len() > 2 * s.live + 4096 {
             s.compact();
+            self.counts.compactions += 1;
         }
         false
     }
 }
 
 impl SideCandidates {
+    /// Drops the balls no query read in the last [`UNUSED_WALKS`] walks, and the candidates
+    /// of every dropped or replaced ball.
+    fn drop_unused(&mut self) {
+        let walks = self.walks;
+        self.balls
+            .retain(|b| walks.wrapping_sub(b.used) < UNUSED_WALKS);
+        self.slot.fill(u32::MAX);
+        for (i, b) in self.balls.iter().enumerate() {
+            self.slot[b.k as usize] = i as u32;
+        }
+        self.live = self.balls.iter().map(|b| b.len as usize).sum();
+        self.compact();
+    }
+
     /// Drops the candidates of replaced balls.
     fn compact(&mut self) {
         let mut cands = Vec::with_capacity(2 * self.live);
@@ -202,6 +276,8 @@ pub struct PairsKept {
     pub reach: Vec<Option<KeptReach>>,
     /// Per pair, the candidate planes of its band's query points.
     pub candidates: Vec<KeptCandidates>,
+    /// No candidates are kept (every query walks): for measurements and tests.
+    pub walk_always: bool,
 }
 
 impl PartialEq for PairsKept {
@@ -216,17 +292,21 @@ impl PairsKept {
         PairsKept {
             reach,
             candidates: Vec::new(),
+            walk_always: false,
         }
     }
 
-    /// One entry per pair of a model with `pairs` pairs (new ones empty).
+    /// One entry per pair of a model with `pairs` pairs (new ones empty; no candidates when
+    /// [`PairsKept::walk_always`]).
     pub fn fit(&mut self, pairs: usize) {
         self.reach.resize(pairs, None);
-        self.candidates.resize_with(pairs, KeptCandidates::default);
+        let n = if self.walk_always { 0 } else { pairs };
+        self.candidates.resize_with(n, KeptCandidates::default);
     }
 
-    /// Pair `k`'s kept proof and candidates ([`PairsKept::fit`] first).
-    pub fn pair(&mut self, k: usize) -> (&mut Option<KeptReach>, &mut KeptCandidates) {
-        (&mut self.reach[k], &mut self.candidates[k])
+    /// Pair `k`'s kept proof and candidates (none when [`PairsKept::walk_always`];
+    /// [`PairsKept::fit`] first).
+    pub fn pair(&mut self, k: usize) -> (&mut Option<KeptReach>, Option<&mut KeptCandidates>) {
+        (&mut self.reach[k], self.candidates.get_mut(k))
     }
 }

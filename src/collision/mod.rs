@@ -35,7 +35,7 @@ mod topk;
 pub(crate) use band::band_of;
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
-pub use kept::{KeptCandidates, KeptCounts, PairsKept};
+pub use kept::{KeptCandidates, KeptCounts, PairsKept, UNUSED_WALKS};
 pub use reach::{
     cloud_beyond, kept_reach_holds, out_of_reach, out_of_reach_kept, reach_distance, KeptReach,
     KeptSide, REACH_BUDGET,

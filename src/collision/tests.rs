@@ -467,7 +467,8 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
     // with the pair's kept candidates (`KeptCandidates`) and without: the same entries, Φ,
     // d_min, spring bounds and kept terms, bit for bit, at sharp and soft ε1, while the kept
     // balls both serve (hits) and are replaced (misses, the path moving several spacings).
-    // An ε1 changed between calls drops what was kept.
+    // Balls no query reads are dropped after `UNUSED_WALKS` walks; an ε1 changed between calls
+    // drops what was kept.
     let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.006));
     let cube = Collider::Aopc(
         Shape::Box {
@@ -497,8 +498,9 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
     for eps1 in [1e-7, 3e-5] {
         let mut kept = KeptCandidates::default();
         let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
-        let drift = vec3(&mut s) * 2e-4;
-        for step in 0..60 {
+        let drift = vec3(&mut s) * 1.2e-4;
+        let mut last = None;
+        for step in 0..140 {
             let t = step as f64;
             let fb = Frame {
                 rotation: *nalgebra::Rotation3::from_axis_angle(&axis, 0.3 + 2e-3 * t).matrix(),
@@ -507,6 +509,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             };
             let fa = Frame::<f64>::identity();
             let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+            last = Some(rels);
             let walk = |kept: Option<&mut KeptCandidates>| {
                 band_of(
                     &sphere,
@@ -530,14 +533,24 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
         }
         let counts = kept.counts();
         assert!(
-            counts.hits > 4 * counts.misses && counts.misses > 0,
+            counts.hits > 4 * counts.misses
+                && counts.replaced > 0
+                && counts.dropped > 0
+                && counts.compactions > 0,
             "ε1 {eps1}: {counts:?}"
         );
-        kept.begin(eps1 * 2.0);
-        assert_eq!(
-            kept.counts(),
-            KeptCounts::default(),
-            "another ε1 drops them"
+        band_of(
+            &sphere,
+            &cube,
+            &last.unwrap(),
+            2.0 * eps1,
+            2e-3,
+            1e-4,
+            true,
+            &mut Relevant::default(),
+            None,
+            Some(&mut kept),
         );
+        assert_eq!(kept.counts().hits, counts.hits, "another ε1 drops them");
     }
 }

@@ -611,12 +611,31 @@ mod tests {
                 shared.find_ball(&cloud, &c, r, eps1);
                 gather_ball(&cloud, &c, r, eps1, usize::MAX, &mut kept);
                 assert!(kept.windows(2).all(|w| w[0] < w[1]), "increasing indices");
-                for _ in 0..8 {
+                let xyz: Vec<Vec<f64>> = (0..3)
+                    .map(|d| {
+                        kept.iter()
+                            .map(|&k| cloud.bvh().points[k as usize][d])
+                            .collect()
+                    })
+                    .collect();
+                let mut contiguous = Relevant::default();
+                for j in 0..8 {
+                    // Inside the ball, and every other query on its sphere (as far as a kept
+                    // ball is trusted: `|x - c|² ≤ r²` as computed).
                     let d = Vector3::new(next(), next(), next());
-                    let x = c + d * (r / d.norm().max(1.0) * 0.999);
+                    let scale = if j % 2 == 0 {
+                        1.0 / d.norm()
+                    } else {
+                        0.999 / d.norm().max(1.0)
+                    };
+                    let x = c + d * (r * scale);
+                    if (x - c).norm_squared() > r * r {
+                        continue;
+                    }
                     shared.find_within(&cloud, &x, eps1);
                     own.find(&cloud, &x, eps1, usize::MAX);
                     among.find_among(&cloud, &x, eps1, &kept);
+                    contiguous.find_among_xyz(&cloud, &x, eps1, &kept, [&xyz[0], &xyz[1], &xyz[2]]);
                     let hint = (next().abs() * cloud.points.len() as f64) as usize;
                     hinted.find(&cloud, &x, eps1, hint);
                     assert!(!own.items.is_empty());
@@ -628,6 +647,7 @@ mod tests {
                     };
                     assert_eq!(bits(&shared), bits(&own));
                     assert_eq!(bits(&among), bits(&own));
+                    assert_eq!(bits(&contiguous), bits(&own));
                     assert_eq!(bits(&hinted), bits(&own));
                 }
             }

@@ -403,15 +403,16 @@ impl SolverCache {
     pub fn candidate_counts(&self) -> crate::collision::KeptCounts {
         let mut all = crate::collision::KeptCounts::default();
         for c in &self.kept.candidates {
-            all.hits += c.counts().hits;
-            all.misses += c.counts().misses;
+            all += c.counts();
         }
         all
     }
 
-    /// Drops the pairs' kept candidate planes (the proofs stay): the run goes on to the same
-    /// bits, walking afresh where it would have read them.
-    pub fn drop_candidates(&mut self) {
+    /// Whether the pairs keep candidate planes from one evaluation to the next (they do by
+    /// default). Off, every query walks the hierarchy: the same results to the bit, at the
+    /// cost before they were kept (for measurements and tests). Either way drops those kept.
+    pub fn keep_candidates(&mut self, on: bool) {
+        self.kept.walk_always = !on;
         self.kept.candidates.clear();
     }
 

@@ -71,6 +71,7 @@ impl Model {
             };
             let p = pair.params(prm);
             let (reach, candidates) = kept.as_deref_mut().map(|all| all.pair(k)).unzip();
+            let candidates = candidates.flatten();
             if self.out_of_reach_with(pair, &kin, &p, reach) {
                 continue;
             }
