@@ -533,19 +533,7 @@ impl Model {
         prm: &ContactParams<f64>,
         kept: &mut PairsKept,
     ) -> Result<Forward<f64>, DynamicsError> {
-        let (ctrl, mocap) = self.split_inputs(u)?;
-        kept.fit(self.pairs.len());
-        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        self.forward_kept_at(
-            q,
-            v,
-            None,
-            tau.as_slice(),
-            mocap,
-            prm,
-            None,
-            Keep::All(kept),
-        )
+        self.forward_keeping(q, v, u, prm, Keep::All(kept))
     }
 
     /// [`Model::forward`] with the pairs' candidate planes kept across calls in `kept` (not its
@@ -558,19 +546,24 @@ impl Model {
         prm: &ContactParams<T>,
         kept: &mut PairsKept,
     ) -> Result<Forward<T>, DynamicsError> {
+        self.forward_keeping(q, v, u, prm, Keep::Candidates(kept))
+    }
+
+    /// [`Model::forward`] with what `keep` lets the pairs keep (fitted to the pairs first).
+    fn forward_keeping<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        mut keep: Keep,
+    ) -> Result<Forward<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
-        kept.fit(self.pairs.len());
+        if let Keep::All(kept) | Keep::Candidates(kept) = &mut keep {
+            kept.fit(self.pairs.len());
+        }
         let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        self.forward_kept_at(
-            q,
-            v,
-            None,
-            tau.as_slice(),
-            mocap,
-            prm,
-            None,
-            Keep::Candidates(kept),
-        )
+        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, keep)
     }
 
     #[allow(clippy::too_many_arguments)]

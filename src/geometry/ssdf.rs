@@ -104,23 +104,13 @@ impl Relevant {
     /// [`Relevant::find`] for a point `pr` of the ball last given to [`Relevant::find_ball`]:
     /// the same relevant set and `d_min`, from the ball's candidates.
     pub fn find_within(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64) {
-        let bvh = s.bvh();
-        self.items.clear();
-        if bvh.is_empty() {
-            self.dmin = f64::INFINITY;
-            self.nearest = usize::MAX;
-            return;
-        }
-        let [xs, ys, zs] = &self.ball_xyz;
-        (self.dmin, self.nearest) = narrow(
-            bvh,
-            pr,
-            eps1,
-            &self.ball,
-            [xs, ys, zs],
-            &mut self.dist,
-            &mut self.items,
+        let (ball, xyz) = (
+            std::mem::take(&mut self.ball),
+            std::mem::take(&mut self.ball_xyz),
         );
+        let [xs, ys, zs] = &xyz;
+        self.find_among_xyz(s, pr, eps1, &ball, [xs, ys, zs]);
+        (self.ball, self.ball_xyz) = (ball, xyz);
     }
 
     /// [`Relevant::find_among`] with the candidates' coordinates given contiguously (`xyz[d][i]`
