@@ -57,6 +57,9 @@ struct SideCandidates {
     walks: u32,
     /// Scratch of one gathering.
     gathered: Vec<u32>,
+    /// The other buffers of `cands` and `xyz`, which compaction fills and swaps in: memory
+    /// is reused, so once the largest band has been kept nothing more is allocated.
+    spare: (Vec<u32>, [Vec<f64>; 3]),
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -113,8 +116,9 @@ impl KeptCandidates {
             .map(|s| {
                 4 * s.slot.capacity()
                     + std::mem::size_of::<Ball>() * s.balls.capacity()
-                    + 4 * (s.cands.capacity() + s.gathered.capacity())
+                    + 4 * (s.cands.capacity() + s.gathered.capacity() + s.spare.0.capacity())
                     + 8 * s.xyz.iter().map(Vec::capacity).sum::<usize>()
+                    + 8 * s.spare.1.iter().map(Vec::capacity).sum::<usize>()
             })
             .sum()
     }
@@ -249,10 +253,13 @@ impl SideCandidates {
         self.compact();
     }
 
-    /// Drops the candidates of replaced balls.
+    /// Drops the candidates of replaced balls (into the spare buffers, then swapped).
     fn compact(&mut self) {
-        let mut cands = Vec::with_capacity(2 * self.live);
-        let mut xyz: [Vec<f64>; 3] = Default::default();
+        let (mut cands, mut xyz) = std::mem::take(&mut self.spare);
+        cands.clear();
+        for coord in &mut xyz {
+            coord.clear();
+        }
         for b in &mut self.balls {
             let (from, to) = (b.start as usize, (b.start + b.len) as usize);
             b.start = cands.len() as u32;
@@ -261,8 +268,11 @@ impl SideCandidates {
                 coord.extend_from_slice(&self.xyz[d][from..to]);
             }
         }
-        self.cands = cands;
-        self.xyz = xyz;
+        let old = (
+            std::mem::replace(&mut self.cands, cands),
+            std::mem::replace(&mut self.xyz, xyz),
+        );
+        self.spare = old;
     }
 }
 
