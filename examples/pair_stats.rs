@@ -144,16 +144,13 @@ fn main() {
             terms += count_terms(ps, &x, prm.eps1);
         }
         let pc = pair_contact(a, fa, b, fb, &prm);
-        let cutoff = band.min + band.margin * prm.eps2;
-        let within = band.entries.iter().filter(|e| e.phi <= cutoff).count();
         println!(
-            "{} - {}: {} + {} points; band: {} evaluated ({} within the cutoff), {} skipped, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
+            "{} - {}: {} + {} points; band: {} entries (within the cutoff), {} points not, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
             m.tree.bodies[p.a].name,
             m.tree.bodies[p.b].name,
             a.len(),
             b.len(),
             band.entries.len(),
-            within,
             band.skipped,
             terms,
             band.min,

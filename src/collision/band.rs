@@ -28,15 +28,31 @@ pub struct BandEntry<T> {
     pub terms: Option<(u32, u32)>,
 }
 
+/// Scratch space of [`band_of`]'s walk, kept per thread: a step walks several bands, and
+/// growing these vectors again for each was about a twentieth of a resting stack's pairs.
+#[derive(Default)]
+struct Walk {
+    /// Open nodes of the other hierarchy, per entry of the stack (see the walk).
+    arena: Vec<u32>,
+    front: Vec<u32>,
+    /// Node, witness hint, and the parent's open nodes `arena[from..to]`.
+    stack: Vec<(u32, u32, u32, u32)>,
+}
+
+thread_local! {
+    static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
+}
+
 /// The part of the separation field that can carry weight (module documentation): every
 /// entry whose weight is not provably below τ/(I1 + I2) relative to the largest.
 #[derive(Clone, Debug)]
 pub struct SeparationBand<T> {
-    /// Evaluated entries (a superset of the band: some may turn out negligible).
+    /// The entries within the cutoff, `Φ_f ≤ Φ_min + M2 ε2` (and any NaN one), in the walk's
+    /// order: the same whichever proofs skipped the rest, or which candidates were kept.
     pub entries: Vec<BandEntry<T>>,
     /// `Φ_min`: the smallest entry (real part), the same as the full field's.
     pub min: f64,
-    /// Number of query points skipped without evaluation.
+    /// Number of query points not in the band (skipped by a proof, or beyond the cutoff).
     pub skipped: usize,
     /// `M2 = ln((I1 + I2)/τ)`: entries with `(Φ_f - Φ_min)/ε2 > M2` weigh less than τ/(I1 + I2).
     pub margin: f64,
@@ -95,14 +111,16 @@ pub(crate) fn band_of<T: Scalar>(
     mut kept: Option<&mut KeptCandidates>,
 ) -> SeparationBand<T> {
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
+    // Room for a resting contact's band at once (growing them a few times cost more).
     let mut band = SeparationBand {
-        entries: Vec::new(),
+        entries: Vec::with_capacity(64),
         min: f64::INFINITY,
         skipped: 0,
         margin,
-        terms: Vec::new(),
+        terms: Vec::with_capacity(128),
     };
     let (e1, e2) = (re(eps1), re(eps2));
+    let grads_from = grads.as_ref().map_or(0, |g| g.len());
     if let Some(kc) = kept.as_deref_mut() {
         kc.begin(e1, a, b);
     }
@@ -110,12 +128,17 @@ pub(crate) fn band_of<T: Scalar>(
     // nearer-first to the other body's centre (where the deepest points usually are), so that
     // both sides' walks start from a small Φ_best: a walk of the first side no longer proves
     // its nodes against a Φ_best that only the second side would lower. The main pass walks
-    // both hierarchies and leaves the seed leaves out (their entries are already in; a
-    // skipped ancestor does not count them again). Which leaves are seeds depends on the
-    // poses only, so the band is as deterministic as before.
-    // `seeds[side]`: the seed leaf's node index, and whether its points were evaluated.
-    let mut seeds = [(u32::MAX, false); 2];
-    let (mut arena, mut front): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
+    // both hierarchies and leaves the seed leaves out (their entries are already in). Which
+    // leaves are seeds depends on the poses only, as does the walk's order.
+    // `seeds[side]`: the seed leaf's node index.
+    let mut seeds = [u32::MAX; 2];
+    // Taken from the thread's scratch and put back at the end (a call made meanwhile would
+    // only allocate its own).
+    let Walk {
+        mut arena,
+        mut front,
+        mut stack,
+    } = WALK.with(|w| std::mem::take(&mut *w.borrow_mut()));
     for pass in 0..2 {
         for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
             let Collider::Aopc(s) = query else { continue };
@@ -149,7 +172,8 @@ pub(crate) fn band_of<T: Scalar>(
             // shrinks with the depth-first walk.
             arena.clear();
             arena.push(0);
-            let mut stack = vec![(0u32, u32::MAX, 0u32, 1u32)];
+            stack.clear();
+            stack.push((0u32, u32::MAX, 0u32, 1u32));
             if pass == 0 {
                 let mut ni = 0u32;
                 while !bvh.nodes[ni as usize].is_leaf() {
@@ -158,20 +182,30 @@ pub(crate) fn band_of<T: Scalar>(
                     let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
                     ni = if dl <= dr { l } else { r };
                 }
-                seeds[side as usize] = (ni, false);
+                seeds[side as usize] = ni;
                 stack[0].0 = ni;
             }
             let seed = seeds[side as usize];
             while let Some((ni, hint, from, to)) = stack.pop() {
                 let node = &bvh.nodes[ni as usize];
-                if pass == 1 && ni == seed.0 {
+                if pass == 1 && ni == seed {
                     continue; // done in the seed pass
                 }
                 arena.truncate(to as usize);
                 let centre = rot * node.centre + tr;
                 let mut witness = u32::MAX;
                 let (mut cfrom, mut cto) = (from, to);
-                if band.min.is_finite() {
+                // With kept candidates, a node whose proof failed at its last visits is not
+                // tried again for a few ([`KeptCandidates::try_proof`]): its children start
+                // from this node's hint and open nodes.
+                let try_proof = band.min.is_finite()
+                    && kept
+                        .as_deref_mut()
+                        .is_none_or(|kc| kc.try_proof(side as usize, ni));
+                if !try_proof {
+                    witness = hint;
+                }
+                if try_proof {
                     // The node's points lie in its ball cut by the slab along its normal cone's axis.
                     let region = QueryRegion {
                         centre,
@@ -203,20 +237,14 @@ pub(crate) fn band_of<T: Scalar>(
                         }
                     };
                     if exceeds {
-                        let seed_node = &bvh.nodes[seed.0 as usize];
-                        let holds_seed = pass == 1
-                            && seed.1
-                            && (node.start..node.start + node.count).contains(&seed_node.start);
-                        band.skipped +=
-                            (node.count - if holds_seed { seed_node.count } else { 0 }) as usize;
                         continue;
+                    }
+                    if let Some(kc) = kept.as_deref_mut() {
+                        kc.proof_failed(side as usize, ni);
                     }
                     witness = j as u32;
                 }
                 if node.is_leaf() {
-                    if pass == 0 {
-                        seeds[side as usize].1 = true;
-                    }
                     // One walk of the other body's hierarchy for the whole leaf when the leaf is
                     // small against the reach of the softmax (√(ln(I/τ) ε1)): its ball's
                     // candidates are then about the points each query needs anyway. A leaf wider
@@ -246,6 +274,12 @@ pub(crate) fn band_of<T: Scalar>(
                             Collider::Aopc(o) => {
                                 let xr = crate::scalar::re3(&x);
                                 if let Some(kc) = kept.as_deref_mut() {
+                                    // Proven above the running cutoff (so above the final
+                                    // one): it would be dropped below, so it is not evaluated.
+                                    let t = band.min + margin * e2;
+                                    if kc.above(side as usize, k, &xr, t) {
+                                        continue;
+                                    }
                                     kc.relevant(side as usize, k, s, o, &xr, e1, scratch);
                                 } else if share {
                                     scratch.find_within(o, &xr, e1);
@@ -331,5 +365,47 @@ pub(crate) fn band_of<T: Scalar>(
             }
         }
     }
+    // Only the entries within the final cutoff are the band: which others a walk evaluated
+    // depends on how far its proofs got (and on what was kept), not on the poses alone. Kept
+    // in walk order, whose order is the poses' alone, so the band is the same to the last bit
+    // whichever sound proofs skipped what.
+    // ("Beyond", so that a NaN entry stays: NaN is never beyond.)
+    let cutoff = band.min + margin * e2;
+    let beyond = |e: &BandEntry<T>| e.phi.re() > cutoff;
+    if let Some(g) = grads {
+        let mut i = 0;
+        g.retain(|_| {
+            i += 1;
+            i <= grads_from || !beyond(&band.entries[i - 1 - grads_from])
+        });
+    }
+    // The kept terms follow, so that they too are the same whatever else was evaluated.
+    let mut end = 0;
+    band.entries.retain_mut(|e| {
+        if beyond(e) {
+            return false;
+        }
+        if let Some((from, to)) = e.terms {
+            let len = to - from;
+            band.terms
+                .copy_within(from as usize..to as usize, end as usize);
+            e.terms = Some((end, end + len));
+            end += len;
+        }
+        true
+    });
+    band.terms.truncate(end as usize);
+    let points = |c: &Collider| match c {
+        Collider::Aopc(s) => s.len(),
+        Collider::HalfSpace { .. } => 0,
+    };
+    band.skipped = points(a) + points(b) - band.entries.len();
+    WALK.with(|w| {
+        *w.borrow_mut() = Walk {
+            arena,
+            front,
+            stack,
+        }
+    });
     band
 }

@@ -16,6 +16,15 @@
 //! every micrometre. What was kept is for one pair of point clouds: another cloud on either
 //! side (another model's cache) drops that side's balls, and balls no query has read for
 //! [`UNUSED_WALKS`] band walks are dropped, so what is kept follows the band.
+//!
+//! Two more things are kept per side, both costs only, since the band is the points within
+//! its cutoff whatever else a walk evaluated (`collision` module documentation):
+//! - each ball's floor, a lower bound of the SSDF anywhere in the ball
+//!   (`KeptCandidates::above`): a point it proves beyond the band's running cutoff is not
+//!   evaluated (a resting box's side faces, one row above the contact);
+//! - per node of the query hierarchy, whether its proof failed lately: a node holding the
+//!   band's points fails at every step, so it is tried again only every [`PROOF_RETRY`]
+//!   visits (`KeptCandidates::try_proof`).
 
 use super::KeptReach;
 use crate::geometry::ssdf::{gather_ball, Relevant};
@@ -24,6 +33,9 @@ use nalgebra::Vector3;
 
 /// Band walks after which a ball that no query read is dropped.
 pub const UNUSED_WALKS: u32 = 64;
+
+/// Times the band walk reaches a node whose proof failed before it tries to prove it again.
+pub const PROOF_RETRY: u8 = 8;
 
 /// The candidates kept for one pair (both sides). Empty by default; filled by the band walk
 /// of the pair's evaluations that are given it ([`pair_contact_kept`](crate::contact::pair_contact_kept)).
@@ -57,6 +69,9 @@ struct SideCandidates {
     walks: u32,
     /// Scratch of one gathering.
     gathered: Vec<u32>,
+    /// Per node of the query hierarchy, how many more times the walk reaches it before trying
+    /// its proof again (0: try).
+    retry: Vec<u8>,
     /// The other buffers of `cands` and `xyz`, which compaction fills and swaps in: memory
     /// is reused, so once the largest band has been kept nothing more is allocated.
     spare: (Vec<u32>, [Vec<f64>; 3]),
@@ -71,6 +86,9 @@ struct Ball {
     centre: Vector3<f64>,
     /// `δ²` (m²).
     radius_sq: f64,
+    /// `min_i v_i(x₀)` over the candidates, less a rounding allowance (m;
+    /// `KeptCandidates::above`).
+    floor: f64,
     start: u32,
     len: u32,
 }
@@ -89,6 +107,10 @@ pub struct KeptCounts {
     pub dropped: usize,
     /// Times the candidates of replaced and dropped balls were cleared out.
     pub compactions: usize,
+    /// Queries not evaluated: their kept ball proved the point above the band's cutoff.
+    pub above: usize,
+    /// Node proofs not tried, the node's proof having failed at one of its last visits.
+    pub untried: usize,
 }
 
 impl std::ops::AddAssign for KeptCounts {
@@ -98,6 +120,8 @@ impl std::ops::AddAssign for KeptCounts {
         self.replaced += o.replaced;
         self.dropped += o.dropped;
         self.compactions += o.compactions;
+        self.above += o.above;
+        self.untried += o.untried;
     }
 }
 
@@ -117,6 +141,7 @@ impl KeptCandidates {
                 4 * s.slot.capacity()
                     + std::mem::size_of::<Ball>() * s.balls.capacity()
                     + 4 * (s.cands.capacity() + s.gathered.capacity() + s.spare.0.capacity())
+                    + s.retry.capacity()
                     + 8 * s.xyz.iter().map(Vec::capacity).sum::<usize>()
                     + 8 * s.spare.1.iter().map(Vec::capacity).sum::<usize>()
             })
@@ -139,15 +164,21 @@ impl KeptCandidates {
             super::Collider::Aopc(s) => (s.bvh() as *const _ as usize, s.len()),
             super::Collider::HalfSpace { .. } => (0, 0),
         };
+        let nodes = |c: &super::Collider| match c {
+            super::Collider::Aopc(s) => s.bvh().nodes.len(),
+            super::Collider::HalfSpace { .. } => 0,
+        };
         let ((ia, na), (ib, nb)) = (id(a), id(b));
-        for (s, clouds) in self
+        for ((s, clouds), query) in self
             .sides
             .iter_mut()
             .zip([(ia, na, ib, nb), (ib, nb, ia, na)])
+            .zip([a, b])
         {
             if s.clouds != clouds {
                 *s = SideCandidates {
                     slot: vec![u32::MAX; clouds.1],
+                    retry: vec![0; nodes(query)],
                     clouds,
                     ..Default::default()
                 };
@@ -160,6 +191,54 @@ impl KeptCandidates {
                 self.counts.compactions += 1;
             }
         }
+    }
+
+    /// Whether the band walk should try to prove node `ni` of `side`'s query hierarchy beyond
+    /// the cutoff: not while the node's proof failed at one of its last [`PROOF_RETRY`]
+    /// visits (a node holding the band's points fails at every step). Not trying is always
+    /// sound: the node's points are then evaluated, or proven by their balls
+    /// ([`KeptCandidates::above`]), and those beyond the cutoff leave the band all the same.
+    pub(crate) fn try_proof(&mut self, side: usize, ni: u32) -> bool {
+        match self.sides[side].retry.get_mut(ni as usize) {
+            Some(r) if *r > 0 => {
+                *r -= 1;
+                self.counts.untried += 1;
+                false
+            }
+            _ => true,
+        }
+    }
+
+    /// Records that the proof of node `ni` of `side`'s query hierarchy failed.
+    pub(crate) fn proof_failed(&mut self, side: usize, ni: u32) {
+        if let Some(r) = self.sides[side].retry.get_mut(ni as usize) {
+            *r = PROOF_RETRY;
+        }
+    }
+
+    /// Whether the kept ball of query point `k` (leaf order) holds `x` (m, the planes' frame)
+    /// and proves the SSDF above `t` (m) there. The SSDF at `x` is a weighted mean of
+    /// `v_i(x) = n_iᵀ(x - p_i)` over its relevant set, which lies among the ball's candidates,
+    /// and each `v_i` moves by at most `|x - x₀| ≤ δ` from the ball's centre (`|n_i| = 1`):
+    /// so it is at least `min_i v_i(x₀) - |x - x₀|` over the candidates, less a rounding
+    /// allowance. The ball counts as read.
+    pub(crate) fn above(&mut self, side: usize, k: u32, x: &Vector3<f64>, t: f64) -> bool {
+        let s = &mut self.sides[side];
+        let walks = s.walks;
+        let Some(b) = s
+            .slot
+            .get(k as usize)
+            .and_then(|&i| s.balls.get_mut(i as usize))
+        else {
+            return false;
+        };
+        let moved = (x - b.centre).norm_squared();
+        if !(moved <= b.radius_sq && b.floor - moved.sqrt() * (1.0 + 1e-12) > t) {
+            return false;
+        }
+        b.used = walks;
+        self.counts.above += 1;
+        true
     }
 
     /// The relevant set of `planes` at the query point `k` (leaf order) of `query`, at `x` (m,
@@ -209,12 +288,25 @@ impl KeptCandidates {
         for (d, coord) in s.xyz.iter_mut().enumerate() {
             coord.extend(gathered.iter().map(|&k| bvh.points[k as usize][d]));
         }
+        // The floor of [`KeptCandidates::above`]; the allowance covers the rounding of the
+        // distances and of the SSDF's mean (a few ulps of lengths near |x| + reach).
+        let floor = match gathered.is_empty() {
+            true => f64::NEG_INFINITY,
+            false => {
+                let v = gathered.iter().map(|&j| {
+                    let j = j as usize;
+                    bvh.normals[j].dot(&(x - bvh.points[j]))
+                });
+                v.fold(f64::INFINITY, f64::min) - 1e-12 * (1.0 + x.norm() + reach)
+            }
+        };
         s.gathered = gathered;
         let ball = Ball {
             k,
             used: walks,
             centre: *x,
             radius_sq: delta * delta,
+            floor,
             start: start as u32,
             len: len as u32,
         };

@@ -18,6 +18,13 @@
 //! of them change `D` by less than `τ (M2 ε2 + 2|D - Φ_min|)`. Because every skipped point lies
 //! above `Φ_best + M2 ε2`, the smallest evaluated value is the true `Φ_min`, so the softmax
 //! shift is the same as the reference's.
+//!
+//! Evaluated points that end above the final cutoff `Φ_min + M2 ε2` are left out of the band
+//! as skipped points are (the same bound covers them). The band is then the points within the
+//! cutoff, in the walk's order, which the poses alone fix: whichever sound proofs skipped the
+//! rest, and whatever was kept from earlier steps ([`KeptCandidates`]: a point proven above
+//! the cutoff by its kept ball is not evaluated, a node whose proof keeps failing is not tried
+//! at every step), the band and every sum over it are the same to the last bit.
 
 use crate::geometry::ssdf::{ssdf_over, GradientSink, NoSink, Relevant};
 use crate::geometry::{ssdf, ssdf_naive, Aopc};
@@ -35,7 +42,7 @@ mod topk;
 pub(crate) use band::band_of;
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
-pub use kept::{KeptCandidates, KeptCounts, PairsKept, UNUSED_WALKS};
+pub use kept::{KeptCandidates, KeptCounts, PairsKept, PROOF_RETRY, UNUSED_WALKS};
 pub use reach::{
     cloud_beyond, kept_reach_holds, out_of_reach, out_of_reach_kept, reach_distance, KeptReach,
     KeptSide, REACH_BUDGET,

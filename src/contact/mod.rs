@@ -416,7 +416,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     if !dist.min.is_finite() {
         return PairParts { sums, band, dist };
     }
-    let mut bounds = Vec::new();
+    let mut bounds = Vec::with_capacity(band.entries.len());
     for_each_force(a, b, rels, &band, &dist, &weights, prm, &mut bounds, |i| {
         let e = &band.entries[i];
         let side = e.side as usize;
