@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! step_cost FMU_DIR --h S [--integrators a,b|all] [--set NAME=VALUE]... [--warmup S]
-//!           [--budget S] [--steps-only [--error T]] [--profile step|jacobian --iterations N]
+//!           [--budget S] [--steps-only [--error T]] [--profile step|jacobian|ffi --iterations N]
 //! ```
 //! `FMU_DIR` is an unpacked FMU. The state at which everything is measured is reached by
 //! simulating `--warmup` seconds from the start with the `--set` values (e.g. a constant finger
@@ -39,7 +39,9 @@
 //!
 //! Times are medians over 9 interleaved rounds (one batch of every quantity per round, about
 //! `--budget` seconds per quantity in all), so a change of load hits all quantities alike. `--profile` runs one
-//! quantity `--iterations` times and prints nothing else, for callgrind.
+//! quantity `--iterations` times and prints nothing else, for callgrind: `step` the bare method
+//! from the warmed-up state, `jacobian` its `Dual64` Jacobian, `ffi` consecutive `fmi2DoStep`
+//! calls of the instance (a running simulation).
 //!
 
 use nalgebra::{Const, U1};
@@ -371,8 +373,26 @@ fn profiled_section(
             "jacobian" => {
                 black_box(jacobian_dual64(model, prm, h, nq, nv, x));
             }
-            other => return Err(format!("unknown --profile {other} (step or jacobian)")),
+            other => return Err(format!("unknown --profile {other} (step, jacobian or ffi)")),
         }
+    }
+    Ok(())
+}
+
+/// What a profiler looks at for `--profile ffi`: `iterations` consecutive `fmi2DoStep` calls
+/// of the instance from the warmed-up state (a running simulation, with what it keeps from
+/// step to step).
+#[inline(never)]
+fn profiled_section_ffi(
+    fmu: &host::Instance,
+    t0: f64,
+    h: f64,
+    iterations: usize,
+) -> Result<(), String> {
+    let mut t = t0;
+    for _ in 0..iterations {
+        host::check(fmu.do_step(t, h), "fmi2DoStep")?;
+        t += h;
     }
     Ok(())
 }
@@ -462,6 +482,12 @@ fn run() -> Result<String, String> {
         }
         let c = fmu.raw();
 
+        if let Some(("ffi", iterations)) = a.profile.as_ref().map(|(w, n)| (w.as_str(), *n)) {
+            profiled_section_ffi(&fmu, t_saved, h, iterations)?;
+            return Ok(format!(
+                "{{\"profiled\": \"ffi\", \"iterations\": {iterations}}}"
+            ));
+        }
         if let Some((what, iterations)) = &a.profile {
             profiled_section(
                 what,

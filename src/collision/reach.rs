@@ -36,6 +36,8 @@ struct Walk {
     front: Vec<u32>,
     unsettled: Vec<u32>,
     stack: Vec<(u32, usize, u32, u32)>,
+    /// The relevant set of [`seed_within`]'s point.
+    relevant: Relevant,
 }
 
 thread_local! {
@@ -54,6 +56,20 @@ pub fn cloud_beyond(
     t: f64,
     eps1: f64,
 ) -> bool {
+    cloud_beyond_with(planes, query, rot, tr, t, eps1, true)
+}
+
+/// [`cloud_beyond`], with or without its first look at one point ([`seed_within`]; without,
+/// for the test that it changes no answer).
+pub(super) fn cloud_beyond_with(
+    planes: &Collider,
+    query: &Aopc,
+    rot: &Matrix3<f64>,
+    tr: &Vector3<f64>,
+    t: f64,
+    eps1: f64,
+    seed: bool,
+) -> bool {
     let bvh = query.bvh();
     if bvh.is_empty() {
         return true;
@@ -71,7 +87,73 @@ pub fn cloud_beyond(
     if matches!(planes, Collider::Aopc(_)) && !vmax.is_finite() || !t.is_finite() {
         return false;
     }
-    WALK.with(|w| walk(planes, bvh, rot, tr, t, eps1, vmax, &mut w.borrow_mut()))
+    WALK.with(|w| {
+        walk(
+            planes,
+            bvh,
+            rot,
+            tr,
+            t,
+            eps1,
+            vmax,
+            seed,
+            &mut w.borrow_mut(),
+        )
+    })
+}
+
+/// Whether one query point, the nearest to the other body of the leaf reached by descending
+/// nearer-first (where a pair in contact usually touches), has its SSDF below `t` by more
+/// than the pruning's and rounding's share: then no proof can succeed, and the walk would only
+/// fail later, after proving the nodes it meets before its first leaf in contact (about ten
+/// node tests for a resting box). Asked once the root is not settled, so far pairs never pay
+/// for it. The answer depends on the poses alone, and the walk gives
+/// `false` in every case this does, so it changes no result. For an AOPC the computed SSDF is
+/// a mean over the pruned relevant set; planes in it that the proof counts irrelevant weigh
+/// less than τ in all, each with `|v_i| ≤ vmax`, hence the allowance.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn seed_within(
+    planes: &Collider,
+    bvh: &crate::geometry::bvh::Bvh,
+    rot: &Matrix3<f64>,
+    tr: &Vector3<f64>,
+    t: f64,
+    eps1: f64,
+    vmax: f64,
+    scratch: &mut Relevant,
+) -> bool {
+    let target = match planes {
+        Collider::Aopc(o) => o.bvh().nodes[0].centre,
+        Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
+    };
+    let far = |c: &Vector3<f64>| (rot * c + tr - target).norm_squared();
+    let mut ni = 0;
+    while !bvh.nodes[ni].is_leaf() {
+        let l = bvh.nodes[ni].left as usize;
+        ni = if far(&bvh.nodes[l].centre) <= far(&bvh.nodes[l + 1].centre) {
+            l
+        } else {
+            l + 1
+        };
+    }
+    let node = &bvh.nodes[ni];
+    let points = &bvh.points[node.start as usize..(node.start + node.count) as usize];
+    let Some(p) = points.iter().min_by(|a, b| far(a).total_cmp(&far(b))) else {
+        return false;
+    };
+    let x = rot * p + tr;
+    let (phi, scale) = match planes {
+        Collider::HalfSpace { point, normal } => (normal.dot(&(x - point)), x.norm()),
+        Collider::Aopc(o) => {
+            scratch.find(o, &x, eps1, usize::MAX);
+            if scratch.items.is_empty() {
+                return false;
+            }
+            let (phi, _, _) = ssdf_over(o, &x, eps1, 0.0, scratch, &mut NoSink, None);
+            (phi, vmax)
+        }
+    };
+    phi < t - 1e-9 * (1.0 + t.abs() + scale)
 }
 
 /// The walk of [`cloud_beyond`] over the hierarchy of the query cloud.
@@ -84,6 +166,7 @@ fn walk(
     t: f64,
     eps1: f64,
     vmax: f64,
+    seed: bool,
     w: &mut Walk,
 ) -> bool {
     // Depth first, as the band walk: each entry is a node, the witness of its parent's test
@@ -93,6 +176,7 @@ fn walk(
         front,
         unsettled,
         stack,
+        relevant,
     } = w;
     arena.clear();
     arena.push(0);
@@ -132,6 +216,9 @@ fn walk(
         };
         if settled {
             continue;
+        }
+        if seed && tests == 1 && seed_within(planes, bvh, rot, tr, t, eps1, vmax, relevant) {
+            return false; // in contact: the walk could only fail further down
         }
         if node.is_leaf() {
             // Point by point: a region of one point has no slack in its relevance and plane

@@ -1,6 +1,7 @@
 //! Tests of the collision bounds and the band walk against the naive evaluation.
 
 use super::bounds::*;
+use super::reach::{cloud_beyond_with, seed_within};
 use super::*;
 use crate::geometry::Shape;
 
@@ -558,4 +559,75 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
         above += counts.above;
     }
     assert!(above > 0, "no point was left out by its ball's floor");
+}
+
+#[test]
+fn the_reach_proofs_first_look_at_one_point_changes_no_answer() {
+    // `cloud_beyond` asks, once the root is not settled, whether one point near the other body
+    // is already within the threshold (`seed_within`), and then gives up at once. Against the
+    // walk alone, over a sphere and a box at random poses from deep contact to well apart, at
+    // thresholds around the reach distance: the same answer every time, with the shortcut
+    // taken in contact and proofs succeeding apart.
+    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.008));
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.04, 0.03, 0.05),
+        }
+        .sample(0.008),
+    );
+    let floor = Collider::HalfSpace {
+        point: Vector3::zeros(),
+        normal: Vector3::z(),
+    };
+    let mut s = 23u64;
+    let (mut proven, mut shortcut) = (0, 0);
+    for case in 0..300 {
+        let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
+        let rot = *nalgebra::Rotation3::from_axis_angle(&axis, 3.0 * lcg(&mut s)).matrix();
+        let gap = -0.01 + 0.05 * lcg(&mut s);
+        let t = [3e-4, 3.5e-3, 1e-2][case % 3];
+        let (query, planes, tr) = match case % 3 {
+            // The cube's points against the sphere, its centre `gap` beyond contact along z.
+            0 => (
+                &cube,
+                &sphere,
+                Vector3::new(0.0, 0.0, 0.1 + gap) + vec3(&mut s) * 0.01,
+            ),
+            // The sphere's points against the cube.
+            1 => (
+                &sphere,
+                &cube,
+                Vector3::new(0.0, 0.0, 0.1 + gap) + vec3(&mut s) * 0.01,
+            ),
+            // The cube above a floor.
+            _ => (&cube, &floor, Vector3::new(0.0, 0.0, 0.03 + gap)),
+        };
+        let Collider::Aopc(q) = query else {
+            unreachable!()
+        };
+        let with = cloud_beyond_with(planes, q, &rot, &tr, t, 1e-5, true);
+        let without = cloud_beyond_with(planes, q, &rot, &tr, t, 1e-5, false);
+        assert_eq!(with, without, "case {case}: gap {gap}, threshold {t}");
+        proven += with as usize;
+        // (The allowance's `vmax` only widens it: 0 here, so these are surely within.)
+        let seen = seed_within(
+            planes,
+            q.bvh(),
+            &rot,
+            &tr,
+            t,
+            1e-5,
+            0.0,
+            &mut Relevant::default(),
+        );
+        assert!(
+            !(seen && with),
+            "case {case}: a point within, yet proven beyond"
+        );
+        shortcut += seen as usize;
+    }
+    assert!(
+        proven > 30 && shortcut > 30,
+        "proven {proven}, shortcut {shortcut}"
+    );
 }
