@@ -11,7 +11,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 def test_bench_times_every_scene_against_mujoco(tmp_path):
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "bench.py"), "--out", str(tmp_path), "--boxes", "2",
-                        "--files", "reacher"],
+                        "--files", "reacher", "--rounds", "2"],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
     table = (tmp_path / "bench.md").read_text()
