@@ -145,11 +145,12 @@ fn main() {
         }
         let pc = pair_contact(a, fa, b, fb, &prm);
         println!(
-            "{} - {}: {} + {} points; band: {} entries (within the cutoff), {} points not, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
+            "{} - {}: {} + {} points; band: {} evaluated, {} within the cutoff, {} points not in it, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
             m.tree.bodies[p.a].name,
             m.tree.bodies[p.b].name,
             a.len(),
             b.len(),
+            band.evaluated,
             band.entries.len(),
             band.skipped,
             terms,

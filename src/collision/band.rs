@@ -22,9 +22,8 @@ pub struct BandEntry<T> {
     /// springs of this point's force. Infinite when the band was built without ε3.
     pub springs: f64,
     /// The SSDF's terms at this point, `SeparationBand::terms[start..end]`, when the band was
-    /// asked to keep them and the entry could still be within the band's cutoff when it was
-    /// evaluated (every entry that ends within it is); `None` otherwise and against a
-    /// half-space.
+    /// asked to keep them (every entry of the band has them then); `None` otherwise and
+    /// against a half-space.
     pub terms: Option<(u32, u32)>,
 }
 
@@ -54,6 +53,9 @@ pub struct SeparationBand<T> {
     pub min: f64,
     /// Number of query points not in the band (skipped by a proof, or beyond the cutoff).
     pub skipped: usize,
+    /// Number of query points whose SSDF was evaluated (the band's and those that ended
+    /// beyond the cutoff): what the proofs and kept bounds did not save.
+    pub evaluated: usize,
     /// `M2 = ln((I1 + I2)/τ)`: entries with `(Φ_f - Φ_min)/ε2 > M2` weigh less than τ/(I1 + I2).
     pub margin: f64,
     /// The kept SSDF terms of the entries ([`BandEntry::terms`]): each plane's leaf-order index
@@ -116,6 +118,7 @@ pub(crate) fn band_of<T: Scalar>(
         entries: Vec::with_capacity(64),
         min: f64::INFINITY,
         skipped: 0,
+        evaluated: 0,
         margin,
         terms: Vec::with_capacity(128),
     };
@@ -351,6 +354,7 @@ pub(crate) fn band_of<T: Scalar>(
                         };
                         band.min = band.min.min(entry.phi.re());
                         band.entries.push(entry);
+                        band.evaluated += 1;
                     }
                 } else {
                     let (l, r) = (node.left, node.left + 1);

@@ -19,12 +19,13 @@
 //!
 //! Two more things are kept per side, both costs only, since the band is the points within
 //! its cutoff whatever else a walk evaluated (`collision` module documentation):
-//! - each ball's floor, a lower bound of the SSDF anywhere in the ball
-//!   (`KeptCandidates::above`): a point it proves beyond the band's running cutoff is not
-//!   evaluated (a resting box's side faces, one row above the contact);
+//! - each ball's floor, the smallest `n_iᵀ(x₀ - p_i)` of its candidates, from which a lower
+//!   bound of the SSDF anywhere in the ball follows (`KeptCandidates::above`): a point it
+//!   proves beyond the band's running cutoff is not evaluated (a resting box's side faces,
+//!   one row above the contact);
 //! - per node of the query hierarchy, whether its proof failed lately: a node holding the
-//!   band's points fails at every step, so it is tried again only every [`PROOF_RETRY`]
-//!   visits (`KeptCandidates::try_proof`).
+//!   band's points fails at every step, so after a failure its next [`PROOF_RETRY`] visits
+//!   do not try it (`KeptCandidates::try_proof`).
 
 use super::KeptReach;
 use crate::geometry::ssdf::{gather_ball, Relevant};
@@ -87,8 +88,11 @@ struct Ball {
     /// `δ²` (m²).
     radius_sq: f64,
     /// `min_i v_i(x₀)` over the candidates, less a rounding allowance (m;
-    /// `KeptCandidates::above`).
+    /// `KeptCandidates::above`); `-∞` if any `v_i(x₀)` is not a number.
     floor: f64,
+    /// The largest `|n_i|` of the candidates (1 to rounding for the crate's clouds): how fast
+    /// any `v_i` can change with `x`.
+    slope: f64,
     start: u32,
     len: u32,
 }
@@ -219,9 +223,10 @@ impl KeptCandidates {
     /// Whether the kept ball of query point `k` (leaf order) holds `x` (m, the planes' frame)
     /// and proves the SSDF above `t` (m) there. The SSDF at `x` is a weighted mean of
     /// `v_i(x) = n_iᵀ(x - p_i)` over its relevant set, which lies among the ball's candidates,
-    /// and each `v_i` moves by at most `|x - x₀| ≤ δ` from the ball's centre (`|n_i| = 1`):
-    /// so it is at least `min_i v_i(x₀) - |x - x₀|` over the candidates, less a rounding
-    /// allowance. The ball counts as read.
+    /// and each `v_i` moves by at most `|n_i| |x - x₀|` from the ball's centre: so it is at
+    /// least `min_i v_i(x₀) - max_i |n_i| |x - x₀|` over the candidates, less a rounding
+    /// allowance. A candidate whose `v_i(x₀)` is not a number proves nothing (the point is
+    /// evaluated, and a NaN SSDF stays in the band). The ball counts as read.
     pub(crate) fn above(&mut self, side: usize, k: u32, x: &Vector3<f64>, t: f64) -> bool {
         let s = &mut self.sides[side];
         let walks = s.walks;
@@ -233,7 +238,7 @@ impl KeptCandidates {
             return false;
         };
         let moved = (x - b.centre).norm_squared();
-        if !(moved <= b.radius_sq && b.floor - moved.sqrt() * (1.0 + 1e-12) > t) {
+        if !(moved <= b.radius_sq && b.floor - moved.sqrt() * b.slope * (1.0 + 1e-12) > t) {
             return false;
         }
         b.used = walks;
@@ -290,15 +295,18 @@ impl KeptCandidates {
         }
         // The floor of [`KeptCandidates::above`]; the allowance covers the rounding of the
         // distances and of the SSDF's mean (a few ulps of lengths near |x| + reach).
-        let floor = match gathered.is_empty() {
+        let (mut low, mut slope, mut nan) = (f64::INFINITY, 0.0f64, false);
+        for &j in &gathered {
+            let n = &bvh.normals[j as usize];
+            let v = n.dot(&(x - bvh.points[j as usize]));
+            // (`f64::min` and `max` pass over a NaN, which must prove nothing here.)
+            nan |= v.is_nan() || n.norm().is_nan();
+            low = low.min(v);
+            slope = slope.max(n.norm());
+        }
+        let floor = match nan || gathered.is_empty() || !slope.is_finite() {
             true => f64::NEG_INFINITY,
-            false => {
-                let v = gathered.iter().map(|&j| {
-                    let j = j as usize;
-                    bvh.normals[j].dot(&(x - bvh.points[j]))
-                });
-                v.fold(f64::INFINITY, f64::min) - 1e-12 * (1.0 + x.norm() + reach)
-            }
+            false => low - 1e-12 * (1.0 + x.norm() + reach),
         };
         s.gathered = gathered;
         let ball = Ball {
@@ -307,6 +315,7 @@ impl KeptCandidates {
             centre: *x,
             radius_sq: delta * delta,
             floor,
+            slope,
             start: start as u32,
             len: len as u32,
         };

@@ -108,9 +108,9 @@ pub(super) fn cloud_beyond_with(
 /// fail later, after proving the nodes it meets before its first leaf in contact (about ten
 /// node tests for a resting box). Asked once the root is not settled, so far pairs never pay
 /// for it. The answer depends on the poses alone, and the walk gives
-/// `false` in every case this does, so it changes no result. For an AOPC the computed SSDF is
-/// a mean over the pruned relevant set; planes in it that the proof counts irrelevant weigh
-/// less than τ in all, each with `|v_i| ≤ vmax`, hence the allowance.
+/// `false` in every case this does, so it changes no result: a walk that succeeds proves the
+/// pruned SSDF above `t` at every point (planes the proof counts irrelevant are within its
+/// bound's share). The allowance is a generous rounding margin of the computed mean.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn seed_within(
     planes: &Collider,

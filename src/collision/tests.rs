@@ -385,7 +385,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
         .sample(0.006),
     );
     let mut s = 5u64;
-    let mut kept = 0;
+    let (mut kept, mut dropped) = (0, 0);
     for case in 0..24 {
         let eps1 = if case % 2 == 0 { 1e-7 } else { 3e-5 };
         let eps2 = 2e-3;
@@ -414,9 +414,16 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             None,
         );
         let cutoff = band.min + band.margin * eps2;
-        // Every point not in the band is beyond the cutoff (the band is the entries within it).
-        let points = sphere.len() + cube.len();
-        assert_eq!(band.entries.len() + band.skipped, points, "case {case}");
+        // Entries evaluated beyond the final cutoff were dropped, and the kept terms of the
+        // rest close up: the entries' ranges tile `terms` in order.
+        dropped += band.evaluated - band.entries.len();
+        let mut end = 0;
+        for e in &band.entries {
+            let (from, to) = e.terms.expect("terms kept");
+            assert_eq!(from, end, "case {case}: the terms close up");
+            end = to;
+        }
+        assert_eq!(end as usize, band.terms.len(), "case {case}");
         for e in &band.entries {
             assert!(
                 e.phi <= cutoff,
@@ -459,7 +466,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             assert!((acc / z - e.phi).abs() <= 1e-12 * (1.0 + e.phi.abs()));
         }
     }
-    assert!(kept > 100, "kept {kept}");
+    assert!(kept > 100 && dropped > 0, "kept {kept}, dropped {dropped}");
 }
 
 #[test]
@@ -497,7 +504,6 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
         (entries, terms, band.min.to_bits(), band.skipped)
     };
     let mut s = 11u64;
-    let mut above = 0;
     for (eps1, eps2) in [(1e-7, 2e-3), (3e-5, 2e-3), (1e-7, 2e-4), (3e-5, 2e-4)] {
         let mut kept = KeptCandidates::default();
         let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
@@ -556,9 +562,11 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             Some(&mut kept),
         );
         assert_eq!(kept.counts().hits, counts.hits, "another ε1 drops them");
-        above += counts.above;
+        assert!(
+            eps2 > 1e-3 || counts.above > 0,
+            "ε1 {eps1}: no point left out by its floor"
+        );
     }
-    assert!(above > 0, "no point was left out by its ball's floor");
 }
 
 #[test]
@@ -630,4 +638,49 @@ fn the_reach_proofs_first_look_at_one_point_changes_no_answer() {
         proven > 30 && shortcut > 30,
         "proven {proven}, shortcut {shortcut}"
     );
+}
+
+#[test]
+fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
+    // `band_of` pushes one gradient per entry after whatever `grads` held, and drops those of
+    // the entries beyond the cutoff with them: a vector that held one gradient before ends
+    // with it, then the same gradients as from an empty one, one per entry.
+    let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.006));
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.04, 0.03, 0.05),
+        }
+        .sample(0.006),
+    );
+    let fa = Frame::<f64>::identity();
+    let fb = Frame {
+        origin: Vector3::new(0.01, 0.0, 0.092),
+        ..Frame::identity()
+    };
+    let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+    let walk = |grads: &mut Vec<Vector3<f64>>| {
+        let band = band_of(
+            &sphere,
+            &cube,
+            &rels,
+            1e-6,
+            2e-4,
+            1e-4,
+            true,
+            &mut Relevant::default(),
+            Some(grads),
+            None,
+        );
+        (band.entries.len(), band.evaluated)
+    };
+    let (mut fresh, mut after) = (Vec::new(), vec![Vector3::new(7.0, 8.0, 9.0)]);
+    let (n, evaluated) = walk(&mut fresh);
+    assert!(
+        evaluated > n && n > 10,
+        "{evaluated} evaluated, {n} in the band"
+    );
+    assert_eq!(walk(&mut after).0, n);
+    assert_eq!(fresh.len(), n);
+    assert_eq!(after[0], Vector3::new(7.0, 8.0, 9.0));
+    assert_eq!(&after[1..], &fresh[..]);
 }
