@@ -27,6 +27,32 @@ pub struct BandEntry<T> {
     pub terms: Option<(u32, u32)>,
 }
 
+/// Where a walk of a query hierarchy heads first, in the frame of `planes`: the other body's
+/// centre, or far behind a half-space's plane (where the deepest points usually are).
+pub(super) fn toward(planes: &Collider, bvh: &crate::geometry::bvh::Bvh) -> Vector3<f64> {
+    match planes {
+        Collider::Aopc(o) => o.bvh().nodes[0].centre,
+        Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
+    }
+}
+
+/// The leaf of `bvh` (its points mapped by `x = rot p + tr`) reached from the root by
+/// descending nearer-first to `target`.
+pub(super) fn seed_leaf(
+    bvh: &crate::geometry::bvh::Bvh,
+    rot: &Matrix3<f64>,
+    tr: &Vector3<f64>,
+    target: &Vector3<f64>,
+) -> u32 {
+    let far = |i: u32| (rot * bvh.nodes[i as usize].centre + tr - target).norm_squared();
+    let mut ni = 0u32;
+    while !bvh.nodes[ni as usize].is_leaf() {
+        let l = bvh.nodes[ni as usize].left;
+        ni = if far(l) <= far(l + 1) { l } else { l + 1 };
+    }
+    ni
+}
+
 /// Scratch space of [`band_of`]'s walk, kept per thread: a step walks several bands, and
 /// growing these vectors again for each was about a twentieth of a resting stack's pairs.
 #[derive(Default)]
@@ -153,12 +179,7 @@ pub(crate) fn band_of<T: Scalar>(
             let bvh = s.bvh();
             // Children are visited nearer-first to the other body's centre, so that a small Φ is
             // found early and prunes the rest.
-            let target = match planes {
-                Collider::Aopc(o) => o.bvh().nodes[0].centre,
-                Collider::HalfSpace { point, normal } => {
-                    point - normal * 1e3 * bvh.diameter.max(1.0)
-                }
-            };
+            let target = toward(planes, bvh);
             // A bound on |x - p_i| for every query point of this side and every point of the
             // other body (the two root spheres), for `need` to be one threshold for the walk.
             let vmax = match planes {
@@ -178,13 +199,7 @@ pub(crate) fn band_of<T: Scalar>(
             stack.clear();
             stack.push((0u32, u32::MAX, 0u32, 1u32));
             if pass == 0 {
-                let mut ni = 0u32;
-                while !bvh.nodes[ni as usize].is_leaf() {
-                    let (l, r) = (bvh.nodes[ni as usize].left, bvh.nodes[ni as usize].left + 1);
-                    let dl = (rot * bvh.nodes[l as usize].centre + tr - target).norm_squared();
-                    let dr = (rot * bvh.nodes[r as usize].centre + tr - target).norm_squared();
-                    ni = if dl <= dr { l } else { r };
-                }
+                let ni = seed_leaf(bvh, &rot, &tr, &target);
                 seeds[side as usize] = ni;
                 stack[0].0 = ni;
             }

@@ -122,21 +122,9 @@ pub(super) fn seed_within(
     vmax: f64,
     scratch: &mut Relevant,
 ) -> bool {
-    let target = match planes {
-        Collider::Aopc(o) => o.bvh().nodes[0].centre,
-        Collider::HalfSpace { point, normal } => point - normal * 1e3 * bvh.diameter.max(1.0),
-    };
+    let target = super::band::toward(planes, bvh);
     let far = |c: &Vector3<f64>| (rot * c + tr - target).norm_squared();
-    let mut ni = 0;
-    while !bvh.nodes[ni].is_leaf() {
-        let l = bvh.nodes[ni].left as usize;
-        ni = if far(&bvh.nodes[l].centre) <= far(&bvh.nodes[l + 1].centre) {
-            l
-        } else {
-            l + 1
-        };
-    }
-    let node = &bvh.nodes[ni];
+    let node = &bvh.nodes[super::band::seed_leaf(bvh, rot, tr, &target) as usize];
     let points = &bvh.points[node.start as usize..(node.start + node.count) as usize];
     let Some(p) = points.iter().min_by(|a, b| far(a).total_cmp(&far(b))) else {
         return false;
