@@ -22,8 +22,8 @@ fn lift_iso<T: Scalar>(iso: &Isometry3<f64>) -> Transform<T> {
 pub struct Kinematics<T: Scalar> {
     /// Per node: transform from its parent node's frame (or the world) to its frame.
     pub(super) x: Vec<Transform<T>>,
-    /// Per node: motion subspace columns (node frame).
-    pub(super) s: Vec<Vec<Vector6<T>>>,
+    /// Per DOF (velocity index): its motion subspace column, in the frame of its joint's node.
+    pub(super) s: Vec<Vector6<T>>,
     /// Per node: spatial velocity (node frame).
     pub(super) vel: Vec<Vector6<T>>,
     /// Per node: velocity-product acceleration `c_J + v × v_J` (node frame).
@@ -53,121 +53,98 @@ impl Tree {
         );
         let n = self.nodes.len();
         let mut x = Vec::with_capacity(n);
-        let mut s = Vec::with_capacity(n);
+        // Every DOF's column, at its velocity index (a node's columns are its joint's DOFs).
+        let mut s = vec![Vector6::zeros(); self.nv];
         let mut vel: Vec<Vector6<T>> = Vec::with_capacity(n);
         let mut bias_acc = Vec::with_capacity(n);
         let mut world: Vec<Transform<T>> = Vec::with_capacity(n);
         for node in &self.nodes {
             let off = lift_iso::<T>(&node.offset);
-            let (xj, cols, cj): (Transform<T>, Vec<Vector6<T>>, Vector6<T>) =
-                match node.joint.map(|j| &self.joints[j]) {
-                    None if self.bodies[node.body].mocap && !mocap.is_empty() => {
-                        // A mocap body: its world pose and velocity are inputs (it is top-level).
-                        let m = &mocap[MOCAP_INPUTS
-                            * self.mocap.iter().position(|&b| b == node.body).unwrap_or(0)..];
-                        let r = quat_matrix(&quat_from(&m[3..7]));
-                        let xi = Transform {
-                            rotation: r,
-                            translation: Vector3::new(m[0], m[1], m[2]),
-                        };
-                        let linvel = Vector3::new(m[7], m[8], m[9]);
-                        let angvel = Vector3::new(m[10], m[11], m[12]);
-                        x.push(xi);
-                        world.push(xi);
-                        vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
-                        bias_acc.push(Vector6::zeros());
-                        s.push(vec![]);
-                        continue;
-                    }
-                    None => (Transform::identity(), vec![], Vector6::zeros()),
-                    Some(j) => {
-                        let qa = j.qadr;
-                        let da = j.dadr;
-                        match j.kind {
-                            JointKind::Slide => {
-                                let a = j.axis.map(c::<T>);
-                                (
-                                    Transform {
-                                        rotation: Matrix3::identity(),
-                                        translation: a * (q[qa] - c::<T>(j.reference)),
-                                    },
-                                    vec![spatial::spatial(&Vector3::zeros(), &a)],
-                                    Vector6::zeros(),
-                                )
+            let (xj, cj): (Transform<T>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
+                None if self.bodies[node.body].mocap && !mocap.is_empty() => {
+                    // A mocap body: its world pose and velocity are inputs (it is top-level).
+                    let m = &mocap[MOCAP_INPUTS
+                        * self.mocap.iter().position(|&b| b == node.body).unwrap_or(0)..];
+                    let r = quat_matrix(&quat_from(&m[3..7]));
+                    let xi = Transform {
+                        rotation: r,
+                        translation: Vector3::new(m[0], m[1], m[2]),
+                    };
+                    let linvel = Vector3::new(m[7], m[8], m[9]);
+                    let angvel = Vector3::new(m[10], m[11], m[12]);
+                    x.push(xi);
+                    world.push(xi);
+                    vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
+                    bias_acc.push(Vector6::zeros());
+                    continue;
+                }
+                None => (Transform::identity(), Vector6::zeros()),
+                Some(j) => {
+                    let qa = j.qadr;
+                    let da = j.dadr;
+                    match j.kind {
+                        JointKind::Slide => {
+                            let a = j.axis.map(c::<T>);
+                            s[da] = spatial::spatial(&Vector3::zeros(), &a);
+                            let xj = Transform {
+                                rotation: Matrix3::identity(),
+                                translation: a * (q[qa] - c::<T>(j.reference)),
+                            };
+                            (xj, Vector6::zeros())
+                        }
+                        JointKind::Hinge => {
+                            let a = j.axis.map(c::<T>);
+                            let p = j.anchor.map(c::<T>);
+                            let r = axis_angle(&j.axis, q[qa] - c::<T>(j.reference));
+                            s[da] = spatial::spatial(&a, &p.cross(&a));
+                            let xj = Transform {
+                                rotation: r,
+                                translation: p - r * p,
+                            };
+                            (xj, Vector6::zeros())
+                        }
+                        JointKind::Ball => {
+                            let p = j.anchor.map(c::<T>);
+                            let r = quat_matrix(&quat_from(&q[qa..qa + 4]));
+                            let px = skew(&p);
+                            for k in 0..3 {
+                                s[da + k] = spatial::spatial(
+                                    &Vector3::ith(k, T::one()),
+                                    &px.column(k).into_owned(),
+                                );
                             }
-                            JointKind::Hinge => {
-                                let a = j.axis.map(c::<T>);
-                                let s = j.anchor.map(c::<T>);
-                                let r = axis_angle(&j.axis, q[qa] - c::<T>(j.reference));
-                                (
-                                    Transform {
-                                        rotation: r,
-                                        translation: s - r * s,
-                                    },
-                                    vec![spatial::spatial(&a, &s.cross(&a))],
-                                    Vector6::zeros(),
-                                )
+                            let xj = Transform {
+                                rotation: r,
+                                translation: p - r * p,
+                            };
+                            (xj, Vector6::zeros())
+                        }
+                        JointKind::Free => {
+                            let r = quat_matrix(&quat_from(&q[qa + 3..qa + 7]));
+                            let rt = r.transpose();
+                            for k in 0..3 {
+                                s[da + k] =
+                                    spatial::spatial(&Vector3::zeros(), &rt.column(k).into_owned());
+                                s[da + 3 + k] =
+                                    spatial::spatial(&Vector3::ith(k, T::one()), &Vector3::zeros());
                             }
-                            JointKind::Ball => {
-                                let s = j.anchor.map(c::<T>);
-                                let r = quat_matrix(&quat_from(&q[qa..qa + 4]));
-                                let sx = skew(&s);
-                                let cols = (0..3)
-                                    .map(|k| {
-                                        spatial::spatial(
-                                            &Vector3::ith(k, T::one()),
-                                            &sx.column(k).into_owned(),
-                                        )
-                                    })
-                                    .collect();
-                                (
-                                    Transform {
-                                        rotation: r,
-                                        translation: s - r * s,
-                                    },
-                                    cols,
-                                    Vector6::zeros(),
-                                )
-                            }
-                            JointKind::Free => {
-                                let r = quat_matrix(&quat_from(&q[qa + 3..qa + 7]));
-                                let rt = r.transpose();
-                                let mut cols = Vec::with_capacity(6);
-                                for k in 0..3 {
-                                    cols.push(spatial::spatial(
-                                        &Vector3::zeros(),
-                                        &rt.column(k).into_owned(),
-                                    ));
-                                }
-                                for k in 0..3 {
-                                    cols.push(spatial::spatial(
-                                        &Vector3::ith(k, T::one()),
-                                        &Vector3::zeros(),
-                                    ));
-                                }
-                                let vw = Vector3::new(v[da], v[da + 1], v[da + 2]);
-                                let wb = Vector3::new(v[da + 3], v[da + 4], v[da + 5]);
-                                let cj =
-                                    spatial::spatial(&Vector3::zeros(), &(-wb.cross(&(rt * vw))));
-                                // A free joint's frame is absolute: it ignores the body offset.
-                                let xj = Transform {
-                                    rotation: r,
-                                    translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]),
-                                };
-                                x.push(xj);
-                                world.push(xj);
-                                let vj = cols
-                                    .iter()
-                                    .enumerate()
-                                    .fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
-                                vel.push(vj);
-                                bias_acc.push(cj);
-                                s.push(cols);
-                                continue;
-                            }
+                            let vw = Vector3::new(v[da], v[da + 1], v[da + 2]);
+                            let wb = Vector3::new(v[da + 3], v[da + 4], v[da + 5]);
+                            let cj = spatial::spatial(&Vector3::zeros(), &(-wb.cross(&(rt * vw))));
+                            // A free joint's frame is absolute: it ignores the body offset.
+                            let xj = Transform {
+                                rotation: r,
+                                translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]),
+                            };
+                            x.push(xj);
+                            world.push(xj);
+                            vel.push(self.joint_velocity(&s, v, da..da + 6));
+                            bias_acc.push(cj);
+                            continue;
                         }
                     }
-                };
+                }
+            };
             let xi = off.then(&xj);
             let parent_world = node
                 .parent
@@ -178,16 +155,11 @@ impl Tree {
                 .parent
                 .map(|p| xi.motion(&vel[p]))
                 .unwrap_or_else(Vector6::zeros);
-            let da = node.joint.map(|j| self.joints[j].dadr).unwrap_or(0);
-            let vj = cols
-                .iter()
-                .enumerate()
-                .fold(Vector6::zeros(), |acc, (k, col)| acc + col * v[da + k]);
+            let vj = self.joint_velocity(&s, v, self.node_dofs_of(node));
             let vi = vparent + vj;
             bias_acc.push(cj + cross_motion(&vi, &vj));
             vel.push(vi);
             x.push(xi);
-            s.push(cols);
         }
         let frames = self
             .body_node
@@ -212,5 +184,17 @@ impl Tree {
             bias_acc,
             frames,
         }
+    }
+}
+
+impl Tree {
+    /// The velocity `Σ_k s_k v_k` of the columns `dofs` of `s`.
+    pub(super) fn joint_velocity<T: Scalar>(
+        &self,
+        s: &[Vector6<T>],
+        v: &[T],
+        dofs: std::ops::Range<usize>,
+    ) -> Vector6<T> {
+        dofs.fold(Vector6::zeros(), |acc, k| acc + s[k] * v[k])
     }
 }

@@ -152,8 +152,8 @@ pub struct Tree {
     nodes: Vec<Node>,
     /// Node whose frame is the body frame, per body (`None` for the world).
     body_node: Vec<Option<usize>>,
-    /// Velocity coordinates of each subtree of the world ([`Tree::factor`]).
-    blocks: Vec<Vec<usize>>,
+    /// Parent DOF of each DOF ([`Tree::factor`]).
+    dof_parent: std::sync::Arc<[Option<usize>]>,
 }
 
 /// Why a tree cannot be built.
@@ -250,9 +250,9 @@ impl Tree {
             mocap,
             nodes,
             body_node,
-            blocks: Vec::new(),
+            dof_parent: std::sync::Arc::from(Vec::new()),
         };
-        tree.blocks = tree.subtree_dofs();
+        tree.dof_parent = tree.dof_parents().into();
         // MuJoCo's rule: every body with joints, together with the jointless bodies welded to
         // it (they move as one), has a mass and a rotational inertia; a welded body alone may
         // have none (a body that only holds a site, or a massless frame around the geoms).
@@ -375,11 +375,16 @@ pub fn quat_matrix<T: Scalar>(q: &Quaternion<T>) -> Matrix3<T> {
 }
 
 impl Tree {
-    fn node_dadr(&self, i: usize) -> usize {
-        self.nodes[i]
-            .joint
-            .map(|j| self.joints[j].dadr)
-            .unwrap_or(0)
+    /// The velocity coordinates of node `i`'s joint (none for a jointless node).
+    fn node_dofs(&self, i: usize) -> std::ops::Range<usize> {
+        self.node_dofs_of(&self.nodes[i])
+    }
+
+    fn node_dofs_of(&self, node: &Node) -> std::ops::Range<usize> {
+        node.joint.map_or(0..0, |j| {
+            let joint = &self.joints[j];
+            joint.dadr..joint.dadr + joint.kind.nv()
+        })
     }
 
     fn node_inertia<T: Scalar>(&self, i: usize) -> nalgebra::Matrix6<T> {
@@ -407,21 +412,19 @@ impl Tree {
         }
         let mut m = DMatrix::zeros(self.nv, self.nv);
         for i in 0..n {
-            let di = self.node_dadr(i);
-            for (a, sa) in kin.s[i].iter().enumerate() {
-                let mut f = ic[i] * sa;
-                for (b, sb) in kin.s[i].iter().enumerate() {
-                    m[(di + a, di + b)] = f.dot(sb);
+            for a in self.node_dofs(i) {
+                let mut f = ic[i] * kin.s[a];
+                for b in self.node_dofs(i) {
+                    m[(a, b)] = f.dot(&kin.s[b]);
                 }
                 let mut j = i;
                 while let Some(p) = self.nodes[j].parent {
                     f = kin.x[j].force_to_parent(&f);
                     j = p;
-                    let dj = self.node_dadr(j);
-                    for (b, sb) in kin.s[j].iter().enumerate() {
-                        let val = f.dot(sb);
-                        m[(di + a, dj + b)] = val;
-                        m[(dj + b, di + a)] = val;
+                    for b in self.node_dofs(j) {
+                        let val = f.dot(&kin.s[b]);
+                        m[(a, b)] = val;
+                        m[(b, a)] = val;
                     }
                 }
             }
@@ -454,11 +457,7 @@ impl Tree {
                 Some(p) => kin.x[i].motion(&acc[p]),
                 None => kin.x[i].motion(&a0),
             };
-            let da = self.node_dadr(i);
-            let aj = kin.s[i]
-                .iter()
-                .enumerate()
-                .fold(Vector6::zeros(), |s, (k, col)| s + col * vdot[da + k]);
+            let aj = self.joint_velocity(&kin.s, vdot, self.node_dofs(i));
             let ai = ap + aj + kin.bias_acc[i];
             let inertia = self.node_inertia::<T>(i);
             let mut fi = inertia * ai + cross_force(&kin.vel[i], &(inertia * kin.vel[i]));
@@ -480,9 +479,8 @@ impl Tree {
     fn backward<T: Scalar>(&self, kin: &Kinematics<T>, mut f: Vec<Vector6<T>>) -> DVector<T> {
         let mut tau = DVector::zeros(self.nv);
         for i in (0..self.nodes.len()).rev() {
-            let da = self.node_dadr(i);
-            for (k, col) in kin.s[i].iter().enumerate() {
-                tau[da + k] = col.dot(&f[i]);
+            for k in self.node_dofs(i) {
+                tau[k] = kin.s[k].dot(&f[i]);
             }
             if let Some(p) = self.nodes[i].parent {
                 let fp = kin.x[i].force_to_parent(&f[i]);
