@@ -517,6 +517,7 @@ impl Model {
             prm,
             implicit_damping,
             Keep::Nothing,
+            None,
         )
     }
 
@@ -533,7 +534,21 @@ impl Model {
         prm: &ContactParams<f64>,
         kept: &mut PairsKept,
     ) -> Result<Forward<f64>, DynamicsError> {
-        self.forward_keeping(q, v, u, prm, Keep::All(kept))
+        self.forward_keeping(q, v, u, prm, Keep::All(kept), None)
+    }
+
+    /// [`Model::forward_kept`] with the kinematics of `(q, v)` and the mocap inputs of `u`
+    /// already computed (`None`: computed here).
+    pub(crate) fn forward_kept_from(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        kept: &mut PairsKept,
+        kin: Option<Kinematics<f64>>,
+    ) -> Result<Forward<f64>, DynamicsError> {
+        self.forward_keeping(q, v, u, prm, Keep::All(kept), kin)
     }
 
     /// [`Model::forward`] with the pairs' candidate planes kept across calls in `kept` (not its
@@ -546,7 +561,7 @@ impl Model {
         prm: &ContactParams<T>,
         kept: &mut PairsKept,
     ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_keeping(q, v, u, prm, Keep::Candidates(kept))
+        self.forward_keeping(q, v, u, prm, Keep::Candidates(kept), None)
     }
 
     /// [`Model::forward`] with what `keep` lets the pairs keep (fitted to the pairs first).
@@ -557,13 +572,14 @@ impl Model {
         u: &[T],
         prm: &ContactParams<T>,
         mut keep: Keep,
+        kin: Option<Kinematics<T>>,
     ) -> Result<Forward<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         if let Keep::All(kept) | Keep::Candidates(kept) = &mut keep {
             kept.fit(self.pairs.len());
         }
         let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, keep)
+        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, keep, kin)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -577,9 +593,10 @@ impl Model {
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
         keep: Keep,
+        kin: Option<Kinematics<T>>,
     ) -> Result<Forward<T>, DynamicsError> {
         self.check_finite(q, v)?;
-        let kin = self.tree.kinematics_with(q, v, mocap);
+        let kin = kin.unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
         let contact_kin = v_contact.map(|vc| self.tree.kinematics_with(q, vc, mocap));
         // With `v_contact`, the same positions, so the wrenches are in the same frames.
         let (mut wrenches, contacts) =
@@ -679,7 +696,13 @@ impl Model {
     /// x_com`, springs
     /// `½ k q²` (slide, hinge) and `½ k |θ|²` (ball). Mocap bodies are not counted.
     pub fn energy<T: Scalar>(&self, q: &[T], v: &[T]) -> Energy<T> {
-        let kin = self.tree.kinematics(q, v);
+        self.energy_at(&self.tree.kinematics(q, v), q, v)
+    }
+
+    /// [`Model::energy`] with the kinematics of `(q, v)` already computed
+    /// ([`Tree::kinematics`](crate::dynamics::Tree::kinematics): every mocap body at its scene
+    /// pose).
+    pub fn energy_at<T: Scalar>(&self, kin: &Kinematics<T>, q: &[T], v: &[T]) -> Energy<T> {
         let g = self.tree.gravity.map(c::<T>);
         let (mut kinetic, mut gravity, mut springs) = (T::zero(), T::zero(), T::zero());
         for (b, body) in self.tree.bodies.iter().enumerate().skip(1) {

@@ -5,7 +5,7 @@ use super::guard::{EnergyLedger, EnergyMonitor};
 use super::newton::KeptJacobian;
 use crate::collision::{KeptReach, PairsKept};
 use crate::contact::ContactParams;
-use crate::dynamics::MOCAP_INPUTS;
+use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
 use nalgebra::DMatrix;
@@ -94,8 +94,9 @@ impl Model {
         // once here, it also gives the contact state for the energy guard.
         let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
         let start = if needs_start {
+            let known = cache.kinematics.take(state);
             Some(
-                self.forward_kept(&state.q, &state.v, &u, prm, &mut cache.kept)
+                self.forward_kept_from(&state.q, &state.v, &u, prm, &mut cache.kept, known)
                     .map_err(|error| StepFailure::Dynamics {
                         time: t0,
                         step: 1,
@@ -127,12 +128,14 @@ impl Model {
             min_step: f64::INFINITY,
             max_step: 0.0,
         };
+        // The guard's check of the state `s` after an internal step: what it computed of `s`'s
+        // kinematics is handed back (with no mocap body, those of the next forward dynamics).
         let check = |monitor: &mut Option<EnergyMonitor>,
                      s: &State<f64>,
                      t: f64,
                      step: usize,
                      h: f64|
-         -> Result<(), StepFailure> {
+         -> Result<Option<Kinematics<f64>>, StepFailure> {
             if let Some(quantity) = self.first_non_finite(s) {
                 return Err(StepFailure::NonFinite {
                     time: t,
@@ -141,8 +144,11 @@ impl Model {
                     quantity,
                 });
             }
+            let mut known = None;
             if let Some(m) = monitor.as_mut() {
-                let e = self.energy(&s.q, &s.v);
+                let kin = self.tree.kinematics(&s.q, &s.v);
+                let e = self.energy_at(&kin, &s.q, &s.v);
+                known = self.tree.mocap.is_empty().then_some(kin);
                 let now = self.held(s, ctrl);
                 let dw = self.step_work(&m.last, &now, h);
                 m.ledger.work += dw;
@@ -165,7 +171,7 @@ impl Model {
                     });
                 }
             }
-            Ok(())
+            Ok(known)
         };
         // What the guard leaves for the next call: the balance so far, at the end state.
         let leave = |monitor: Option<EnergyMonitor>, end: &State<f64>| {
@@ -191,6 +197,8 @@ impl Model {
             let dt = duration / n as f64;
             let mut s = state.clone();
             let mut first = a0;
+            // The kinematics of `s` as the guard computed them, for the next forward dynamics.
+            let mut known = None;
             // The Newton Jacobian of implicit Euler, or of damped Euler in contact, carried
             // from step to step while it serves.
             // With it, implicit Euler's last velocity change V - v, its next start guess.
@@ -227,12 +235,19 @@ impl Model {
                         // (the first one's is the start's forward dynamics).
                         let a = match first.take() {
                             None if i != Integrator::DampedEuler => Some(
-                                self.forward_kept(&s.q, &s.v, &uk, prm, &mut cache.kept)
-                                    .map_err(dyn_err)?
-                                    .vdot
-                                    .iter()
-                                    .copied()
-                                    .collect(),
+                                self.forward_kept_from(
+                                    &s.q,
+                                    &s.v,
+                                    &uk,
+                                    prm,
+                                    &mut cache.kept,
+                                    known.take(),
+                                )
+                                .map_err(dyn_err)?
+                                .vdot
+                                .iter()
+                                .copied()
+                                .collect(),
                             ),
                             a => a,
                         };
@@ -240,8 +255,9 @@ impl Model {
                             .map_err(dyn_err)?
                     }
                 };
-                check(&mut monitor, &s, t, k + 1, dt)?;
+                known = check(&mut monitor, &s, t, k + 1, dt)?;
             }
+            cache.kinematics.keep(&s, known);
             if matches!(
                 self.integrator,
                 Integrator::ImplicitEuler | Integrator::DampedEuler
@@ -309,10 +325,11 @@ impl Model {
                     report.min_step = report.min_step.min(h);
                     report.max_step = report.max_step.max(h);
                     elapsed = if last { duration } else { elapsed + h };
-                    check(&mut monitor, &out.state, t0 + elapsed, report.steps, h)?;
+                    let known = check(&mut monitor, &out.state, t0 + elapsed, report.steps, h)?;
                     s = out.state;
                     first = Some(out.last);
                     if last {
+                        cache.kinematics.keep(&s, known);
                         cache.ledger = leave(monitor, &s);
                         report.state = s;
                         return Ok(report);
@@ -367,6 +384,44 @@ pub struct SolverCache {
     /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]: which pairs
     /// a step switches off depends on it) and the band's candidate planes (a cost only).
     kept: PairsKept,
+    /// The kinematics of the state the last call ended at, as its energy guard computed them.
+    kinematics: KinematicsMemo,
+}
+
+/// The kinematics of one state (every mocap body at its scene pose), kept for the forward
+/// dynamics of the next call from that state: the energy guard computes them at the end of a
+/// call, the next call's first stage at its start. Only when the model has no mocap body (the
+/// forward dynamics then reads no other input), and handed out only for the very same state,
+/// bit for bit: a memo of a pure function, so it changes no result, and two caches that differ
+/// only in it are equal.
+#[derive(Clone, Debug, Default)]
+struct KinematicsMemo(Option<(State<f64>, Kinematics<f64>)>);
+
+impl PartialEq for KinematicsMemo {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl KinematicsMemo {
+    /// Keeps `kin`, the kinematics of `s` (or forgets, with `None`).
+    fn keep(&mut self, s: &State<f64>, kin: Option<Kinematics<f64>>) {
+        self.0 = kin.map(|k| (s.clone(), k));
+    }
+
+    /// The kept kinematics if they are those of `s`, bit for bit; the memo is emptied.
+    fn take(&mut self, s: &State<f64>) -> Option<Kinematics<f64>> {
+        let hit = self.of(s);
+        self.0.take().filter(|_| hit).map(|(_, kin)| kin)
+    }
+
+    /// Whether the kept kinematics are those of `s`, bit for bit.
+    fn of(&self, s: &State<f64>) -> bool {
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        (self.0.as_ref()).is_some_and(|(at, _)| same(&at.q, &s.q) && same(&at.v, &s.v))
+    }
 }
 
 /// Where a [`SolverCache`] was left: the state and the internal step (s).
@@ -416,6 +471,14 @@ impl SolverCache {
         self.kept.candidates.clear();
     }
 
+    /// Whether the cache holds the kinematics of `s`, which the next call from `s` then starts
+    /// from instead of computing them (kept by the energy guard at the end of a call, for a
+    /// model without mocap bodies). They change no result, so they are not part of
+    /// [`parts`](SolverCache::parts).
+    pub fn holds_kinematics_of(&self, s: &State<f64>) -> bool {
+        self.kinematics.of(s)
+    }
+
     /// A cache from its [`parts`](SolverCache::parts).
     pub fn from_parts(
         jacobian: Option<DMatrix<f64>>,
@@ -430,6 +493,7 @@ impl SolverCache {
             left,
             ledger,
             kept: PairsKept::with_reach(reach),
+            kinematics: KinematicsMemo::default(),
         }
     }
 }
