@@ -31,8 +31,15 @@ impl Model {
             * h
     }
 
-    /// The actuators' generalized forces and the velocities at `s`.
+    /// The actuators' generalized forces and the velocities at `s`; nothing without actuators
+    /// (their work is then zero, a sum over nothing in [`Model::step_work`]).
     pub(super) fn held(&self, s: &State<f64>, ctrl: &[f64]) -> Held {
+        if self.actuators.is_empty() {
+            return Held {
+                tau: Vec::new(),
+                v: Vec::new(),
+            };
+        }
         Held {
             tau: self.actuator_forces(&s.q, &s.v, ctrl).as_slice().to_vec(),
             v: s.v.clone(),
