@@ -33,7 +33,9 @@
 //! `error_pos_m` and `error_rot_rad`, the largest error of a body's position and orientation
 //! after `T` s from the warmed-up state at `--h`, against `rk4` at `h / 16` from the same state
 //! (`reference_divisions`), and `reference_check_*`, the same difference between `rk4` at
-//! `h / 8` and at `h / 16` (the reference's own error is about a fifteenth of it). `model_step_s`
+//! `h / 8` and at `h / 16` (the reference's own error is about a fifteenth of it). A run that the
+//! integrator refuses (its energy guard catching a blow-up) has `error_refused`, the refusal's
+//! message, in place of the two errors; its timings stand. `model_step_s`
 //! is timed at the warmed-up state without a solver cache (no carried Newton Jacobian), the
 //! FFI step a few steps later with one.
 //!
@@ -397,6 +399,21 @@ fn profiled_section_ffi(
     Ok(())
 }
 
+/// `text` as a JSON string literal.
+fn json_string(text: &str) -> String {
+    let mut out = String::from("\"");
+    for ch in text.chars() {
+        match ch {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
 fn main() {
     match run() {
         Ok(json) => println!("{json}"),
@@ -546,14 +563,22 @@ fn run() -> Result<String, String> {
             };
             let error = match (a.error, &reference) {
                 (Some(t), Some(reference)) => {
-                    let ours = poses_after(&a, &scene, &warm, integrator, a.h, t)?;
-                    let (pos, rot) = pose_error(&ours, reference);
                     let (check_pos, check_rot) = reference_check;
-                    format!(
-                        ", \"error_t_s\": {t:e}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}, \
-                         \"reference_divisions\": {REFERENCE_DIVISIONS}, \"reference_check_pos_m\": {check_pos:e}, \
-                         \"reference_check_rot_rad\": {check_rot:e}"
-                    )
+                    let common = format!(
+                        ", \"error_t_s\": {t:e}, \"reference_divisions\": {REFERENCE_DIVISIONS}, \
+                         \"reference_check_pos_m\": {check_pos:e}, \"reference_check_rot_rad\": {check_rot:e}"
+                    );
+                    // A run the integrator refuses (its energy guard catching a blow-up) has no
+                    // error: the refusal is reported in its place, and the timings stand.
+                    match poses_after(&a, &scene, &warm, integrator, a.h, t) {
+                        Ok(ours) => {
+                            let (pos, rot) = pose_error(&ours, reference);
+                            format!(
+                                "{common}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}"
+                            )
+                        }
+                        Err(e) => format!("{common}, \"error_refused\": {}", json_string(&e)),
+                    }
                 }
                 _ => String::new(),
             };
