@@ -26,7 +26,9 @@ use scm::fmi::ffi::*;
 use scm::fmi::host_log::LogCapture;
 #[path = "support/host.rs"]
 mod host;
-use std::fmt::Write as _;
+#[path = "support/json.rs"]
+mod json;
+use json::json_str;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -44,23 +46,6 @@ fn main() {
             std::process::exit(2);
         }
     }
-}
-
-fn json_str(s: &str) -> String {
-    let mut out = String::from("\"");
-    for ch in s.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(out, "\\u{:04x}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
 }
 
 fn json_num(x: f64) -> String {

@@ -62,6 +62,9 @@ use std::path::PathBuf;
 
 #[path = "support/host.rs"]
 mod host;
+#[path = "support/json.rs"]
+mod json;
+use json::json_str;
 #[path = "support/timing.rs"]
 mod timing;
 use timing::time_interleaved;
@@ -399,21 +402,6 @@ fn profiled_section_ffi(
     Ok(())
 }
 
-/// `text` as a JSON string literal.
-fn json_string(text: &str) -> String {
-    let mut out = String::from("\"");
-    for ch in text.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
 fn main() {
     match run() {
         Ok(json) => println!("{json}"),
@@ -577,7 +565,7 @@ fn run() -> Result<String, String> {
                                 "{common}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}"
                             )
                         }
-                        Err(e) => format!("{common}, \"error_refused\": {}", json_string(&e)),
+                        Err(e) => format!("{common}, \"error_refused\": {}", json_str(&e)),
                     }
                 }
                 _ => String::new(),

@@ -534,7 +534,7 @@ impl Model {
         prm: &ContactParams<f64>,
         kept: &mut PairsKept,
     ) -> Result<Forward<f64>, DynamicsError> {
-        self.forward_keeping(q, v, u, prm, Keep::All(kept), None)
+        self.forward_kept_from(q, v, u, prm, kept, None)
     }
 
     /// [`Model::forward_kept`] with the kinematics of `(q, v)` and the mocap inputs of `u`
