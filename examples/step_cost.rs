@@ -178,6 +178,11 @@ fn simulation_at(
     Ok(sim)
 }
 
+/// How the library words the refusal of a blow-up (`integrate::StepFailure`: the energy
+/// guard's, and a state gone non-finite): the failures of an `--error` run that are reported
+/// as refused rather than stopping the measurement.
+const BLOW_UPS: [&str; 2] = ["the integration is unstable", "the state diverged"];
+
 /// The reference of `--error`: classic Runge–Kutta at `h / REFERENCE_DIVISIONS`. Converged
 /// there: on `t_push` while pushing, `rk4` at 2 ms and at 1/8 ms end 0.2 s apart by 2e-12 m,
 /// and a fourth-order method's error shrinks 65536-fold from there.
@@ -556,8 +561,9 @@ fn run() -> Result<String, String> {
                         ", \"error_t_s\": {t:e}, \"reference_divisions\": {REFERENCE_DIVISIONS}, \
                          \"reference_check_pos_m\": {check_pos:e}, \"reference_check_rot_rad\": {check_rot:e}"
                     );
-                    // A run the integrator refuses (its energy guard catching a blow-up) has no
-                    // error: the refusal is reported in its place, and the timings stand.
+                    // A run the integrator refuses as a blow-up (its energy guard, or a state
+                    // gone non-finite) has no error: the refusal is reported in its place, and
+                    // the timings stand. Any other failure stops the measurement.
                     match poses_after(&a, &scene, &warm, integrator, a.h, t) {
                         Ok(ours) => {
                             let (pos, rot) = pose_error(&ours, reference);
@@ -565,7 +571,10 @@ fn run() -> Result<String, String> {
                                 "{common}, \"error_pos_m\": {pos:e}, \"error_rot_rad\": {rot:e}"
                             )
                         }
-                        Err(e) => format!("{common}, \"error_refused\": {}", json_str(&e)),
+                        Err(e) if BLOW_UPS.iter().any(|b| e.contains(b)) => {
+                            format!("{common}, \"error_refused\": {}", json_str(&e))
+                        }
+                        Err(e) => return Err(e),
                     }
                 }
                 _ => String::new(),

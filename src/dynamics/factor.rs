@@ -58,10 +58,15 @@ impl Tree {
 
     /// The factorization `M = Lᵀ D L` of `m`, the joint-space inertia matrix of this tree plus
     /// anything that keeps its sparsity (a diagonal), in place along the tree (module
-    /// documentation). Only the entries on and below the diagonal are read. `None` when `m`
-    /// is not positive definite (a pivot of `D` is not positive) or not finite.
+    /// documentation). Only the entries on the diagonal and at each DOF's ancestors below it
+    /// are read. `None` when a pivot of `D` is not positive or not finite (`m` is not positive
+    /// definite, or a read entry is not finite).
+    ///
+    /// # Panics
+    /// If `m` is not `nv × nv`.
     pub fn factor<T: Scalar>(&self, mut m: DMatrix<T>) -> Option<MassFactor<T>> {
         let (parent, n) = (&self.dof_parent, self.nv);
+        assert_eq!(m.shape(), (n, n), "a mass matrix of {n} coordinates");
         // Column-major: entry (r, c) at r + c n.
         let e = m.as_mut_slice();
         for k in (0..n).rev() {
@@ -95,8 +100,17 @@ impl Tree {
 
 impl<T: Scalar> MassFactor<T> {
     /// `M⁻¹ rhs`: `x = L⁻¹ D⁻¹ L⁻ᵀ rhs`, each product along the tree.
+    ///
+    /// # Panics
+    /// If `rhs` does not have one entry per coordinate.
     pub fn solve(&self, rhs: &DVector<T>) -> DVector<T> {
         let (parent, n) = (&self.parent, rhs.len());
+        assert_eq!(
+            n,
+            parent.len(),
+            "a right-hand side of {} coordinates",
+            parent.len()
+        );
         let ld = self.ld.as_slice();
         let mut out = rhs.clone();
         let x = out.as_mut_slice();

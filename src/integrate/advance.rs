@@ -393,7 +393,8 @@ pub struct SolverCache {
 /// call, the next call's first stage at its start. Only when the model has no mocap body (the
 /// forward dynamics then reads no other input), and handed out only for the very same state,
 /// bit for bit: a memo of a pure function, so it changes no result, and two caches that differ
-/// only in it are equal.
+/// only in it are equal. Like the rest of the cache it belongs to one model: a tree changed
+/// between calls (its public joints or bodies) needs a new cache.
 #[derive(Clone, Debug, Default)]
 struct KinematicsMemo(Option<(State<f64>, Kinematics<f64>)>);
 

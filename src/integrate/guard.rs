@@ -31,10 +31,11 @@ impl Model {
             * h
     }
 
-    /// The actuators' generalized forces and the velocities at `s`; nothing without actuators
-    /// (their work is then zero, a sum over nothing in [`Model::step_work`]).
+    /// The actuators' generalized forces and the velocities at `s`; nothing where those forces
+    /// are zero whatever the state: no actuators and no joint's actuator force range to clamp
+    /// into (their work is then zero, a sum over nothing in [`Model::step_work`]).
     pub(super) fn held(&self, s: &State<f64>, ctrl: &[f64]) -> Held {
-        if self.actuators.is_empty() {
+        if self.actuators.is_empty() && self.actuator_ranges.is_empty() {
             return Held {
                 tau: Vec::new(),
                 v: Vec::new(),
