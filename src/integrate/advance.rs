@@ -513,12 +513,16 @@ pub struct AdvanceOptions {
     /// little in every communication step. The test, after every internal step, is
     /// `E > E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor`, with `E₀ + U₀` the energy where the ledger
     /// started (`U` estimated by [`contact_energy`](super::contact_energy)), `S` the largest energy in motion seen
-    /// since (`T + U` at the start of each call, `T` after each internal step), `Σ|ΔW|` the
-    /// actuators' work counted without sign and `E_floor` the energy of raising every moving
-    /// body by 1 mm and moving it at 1 cm/s. The half margin covers the integrators' legitimate
-    /// energy errors (the work's estimate, `O(hᵖ)` drift, the estimate of `U`); a blow-up creates
-    /// energy in motion from nothing and exceeds it once that is about twice what the run had
-    /// before. The ledger restarts whenever a call starts from another state than the last one
+    /// since (`T` after each internal step; `T + U` at the start of each call, `U` there only up
+    /// to the headroom `A - E` the state had under the allowance `A` it passed, all of it where
+    /// the ledger starts), `Σ|ΔW|` the actuators' work counted without sign and `E_floor` the
+    /// energy of raising every moving body by 1 mm and moving it at 1 cm/s. The half margin
+    /// covers the integrators' legitimate energy errors (the work's estimate, `O(hᵖ)` drift, the
+    /// estimate of `U`); a blow-up creates energy in motion from nothing and exceeds it once
+    /// that is about twice what the run had before. The cap on `U` keeps a blow-up from raising
+    /// its own allowance through the contact forces it drives (the estimate reads damping as
+    /// stored energy): without actuators, no accepted state has more kinetic energy than
+    /// `2 (E₀ + U₀ + E_floor - V_min)`, `V_min` the least potential energy of the run. The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
     /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one
     /// moves.
