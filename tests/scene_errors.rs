@@ -148,6 +148,18 @@ fn bad_settings_are_refused() {
             r#"<numeric name="scm_eps2" data="1 2"/>"#,
             "one finite number",
         ),
+        (
+            r#"<numeric name="scm_pair_threads" data="0"/>"#,
+            "from 1 (serial) to 64",
+        ),
+        (
+            r#"<numeric name="scm_pair_threads" data="1.5"/>"#,
+            "whole number of threads",
+        ),
+        (
+            r#"<numeric name="scm_pair_threads" data="65"/>"#,
+            "scm_pair_threads",
+        ),
     ] {
         let e = err(&with(custom));
         assert!(
@@ -156,6 +168,25 @@ fn bad_settings_are_refused() {
         );
         assert!(e.to_string().contains(words), "'{words}' not in {e}");
     }
+    // The pairs' threads: as set, else the machine's default.
+    let threads = |custom: &str| {
+        load_str(&with(custom), Path::new("ok.xml"))
+            .unwrap()
+            .model
+            .pair_threads
+    };
+    assert_eq!(
+        threads(r#"<numeric name="scm_pair_threads" data="1"/>"#).threads,
+        1
+    );
+    assert_eq!(
+        threads(r#"<numeric name="scm_pair_threads" data="3"/>"#),
+        scm::model::PairThreads {
+            threads: 3,
+            min_pairs: scm::model::PairThreads::MIN_PAIRS
+        }
+    );
+    assert_eq!(threads(""), scm::model::PairThreads::default_for_machine());
     // Settings MuJoCo ignores and we do not own pass through.
     assert!(load_str(
         &with(r#"<numeric name="other_tool" data="1 2 3"/>"#),

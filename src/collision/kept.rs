@@ -420,4 +420,13 @@ impl PairsKept {
     pub fn pair(&mut self, k: usize) -> (&mut Option<KeptReach>, Option<&mut KeptCandidates>) {
         (&mut self.reach[k], self.candidates.get_mut(k))
     }
+
+    /// [`PairsKept::pair`] of every pair at once, in pair order (disjoint borrows, so that pairs
+    /// can be evaluated on several threads).
+    pub fn pairs(
+        &mut self,
+    ) -> impl Iterator<Item = (&mut Option<KeptReach>, Option<&mut KeptCandidates>)> {
+        let mut candidates = self.candidates.iter_mut();
+        self.reach.iter_mut().map(move |r| (r, candidates.next()))
+    }
 }

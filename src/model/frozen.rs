@@ -53,7 +53,7 @@ impl Model {
         mocap: &[f64],
         prm: &ContactParams<f64>,
         h: f64,
-        mut kept: Option<&mut PairsKept>,
+        kept: Option<&mut PairsKept>,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
@@ -63,22 +63,45 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        let mut tapes = Vec::new();
-        for (k, pair) in self.pairs.iter().enumerate() {
+        // Proofs first, in pair order; the pairs in reach are recorded on the model's pair
+        // threads, and their wrenches summed in pair order (the same bits either way).
+        let n = self.pairs.len();
+        let kept: Vec<_> = match kept {
+            Some(all) => all.pairs().map(|(r, c)| (Some(r), c)).take(n).collect(),
+            None => (0..n).map(|_| (None, None)).collect(),
+        };
+        let mut pending = Vec::new();
+        for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
                 continue;
             };
             let p = pair.params(prm);
-            let (reach, candidates) = kept.as_deref_mut().map(|all| all.pair(k)).unzip();
-            let candidates = candidates.flatten();
             if self.out_of_reach_with(pair, &kin, &p, reach) {
                 continue;
             }
-            let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
-            let (tape, w) = PairTape::record(ca, fa, cb, fb, &p, candidates);
-            add(&mut wrenches, pair.a, pair.b, &w);
-            tapes.push((pair.a, pair.b, p, tape));
+            pending.push(PendingPair {
+                k,
+                sides: [ca, cb],
+                bodies: [pair.a, pair.b],
+                prm: p,
+                candidates,
+            });
+        }
+        let recorded = self.pair_threads.map(pending, |p| {
+            let ([ca, cb], [a, b]) = (p.sides, p.bodies);
+            let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
+            (
+                a,
+                b,
+                p.prm,
+                PairTape::record(ca, fa, cb, fb, &p.prm, p.candidates),
+            )
+        });
+        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
+        let mut tapes = Vec::with_capacity(recorded.len());
+        for (_, (a, b, p, (tape, w))) in recorded {
+            add(&mut wrenches, a, b, &w);
+            tapes.push((a, b, p, tape));
         }
         let frozen = FrozenForward {
             model: self,

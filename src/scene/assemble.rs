@@ -296,6 +296,8 @@ impl Builder {
         let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
         let mut contact_points = 0.0;
+        // 0: not set (the machine's default, `PairThreads::default_for_machine`).
+        let mut pair_threads = 0.0;
         let mut keyframe: Option<(String, Place)> = None;
         for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
@@ -322,6 +324,7 @@ impl Builder {
                 "scm_step" => &mut step,
                 "scm_tolerance" => &mut tolerance,
                 "scm_contact_points" => &mut contact_points,
+                "scm_pair_threads" => &mut pair_threads,
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             };
             if name == "scm_contact_points"
@@ -331,6 +334,15 @@ impl Builder {
                     &at,
                     &name,
                     format!("{value} must be a whole number of contact points from 0 to 64"),
+                ));
+            }
+            if name == "scm_pair_threads"
+                && !(value.fract() == 0.0 && (1.0..=64.0).contains(&value))
+            {
+                return Err(self.setting_error(
+                    &at,
+                    &name,
+                    format!("{value} must be a whole number of threads from 1 (serial) to 64"),
                 ));
             }
             let ok = if name == "scm_friction" || name == "scm_contact_points" {
@@ -445,6 +457,14 @@ impl Builder {
             spatial_tendons,
             site_transmissions: std::mem::take(&mut self.site_transmissions),
             actuator_ranges,
+            pair_threads: if pair_threads > 0.0 {
+                crate::model::PairThreads {
+                    threads: pair_threads as usize,
+                    min_pairs: crate::model::PairThreads::MIN_PAIRS,
+                }
+            } else {
+                crate::model::PairThreads::default_for_machine()
+            },
         };
         Ok(Scene {
             model,
