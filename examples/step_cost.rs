@@ -485,12 +485,38 @@ fn run() -> Result<String, String> {
         // A few steps before the state is saved, so the instance carries what a running
         // simulation carries from step to step (the implicit methods' Newton Jacobian, in the
         // saved FMU state too): each timed fmi2DoStep is a step in a running simulation.
+        // An explicit method that blows up from the warm-up state (gymnasium's ant landing,
+        // semi-implicit Euler at 2 ms) is refused by the energy guard within these steps: the
+        // timed step is then the last accepted one, from the state before it (its FMU state
+        // saved), and the engine takes as many steps.
+        let c = fmu.raw();
         let mut t_saved = 0.0;
-        for _ in 0..FMU_WARM_STEPS {
-            host::check(fmu.do_step(t_saved, h), "fmi2DoStep (warm-up)")?;
+        let mut warm_steps = FMU_WARM_STEPS;
+        let mut before: Vec<fmi2FMUstate> = Vec::new();
+        for k in 0..FMU_WARM_STEPS {
+            let mut s: fmi2FMUstate = std::ptr::null_mut();
+            // SAFETY: `c` is a live instance; `s` receives a state the FMU allocates.
+            if unsafe { fmi2GetFMUstate(c, &mut s) } != fmi2OK {
+                return Err("fmi2GetFMUstate (warm-up) failed".into());
+            }
+            before.push(s);
+            let status = fmu.do_step(t_saved, h);
+            if status == fmi2Discard && k > 0 {
+                // SAFETY: a state this instance saved, before the last accepted step.
+                if unsafe { fmi2SetFMUstate(c, before[k - 1]) } != fmi2OK {
+                    return Err("fmi2SetFMUstate (warm-up) failed".into());
+                }
+                t_saved -= h;
+                warm_steps = k - 1;
+                break;
+            }
+            host::check(status, "fmi2DoStep (warm-up)")?;
             t_saved += h;
         }
-        let c = fmu.raw();
+        for mut s in before {
+            // SAFETY: states this instance saved, freed once.
+            unsafe { fmi2FreeFMUstate(c, &mut s) };
+        }
 
         if let Some(("ffi", iterations)) = a.profile.as_ref().map(|(w, n)| (w.as_str(), *n)) {
             profiled_section_ffi(&fmu, t_saved, h, iterations)?;
@@ -519,7 +545,7 @@ fn run() -> Result<String, String> {
         // The engine's simulation, a few steps on like the instance, its whole state (the
         // solver cache with it) saved to be restored before each timed step.
         let mut sim = simulation_at(&a, &scene, &warm, integrator, a.h)?;
-        for _ in 0..FMU_WARM_STEPS {
+        for _ in 0..warm_steps {
             sim.step(h)
                 .map_err(|e| format!("engine warm-up step: {e}"))?;
         }
