@@ -483,7 +483,7 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
         assert!(full.on_a.force.norm() > 1.0, "the bodies touch: {full:?}");
         for (w, f) in recorded
             .iter()
-            .chain(&tape.replay(&fa, &fb, &prm))
+            .chain(&tape.replay(a, &fa, b, &fb, &prm))
             .zip([&full.on_a, &full.on_b, &full.on_a, &full.on_b])
         {
             assert_eq!(
@@ -507,7 +507,7 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
                 },
             );
             let full = pair_contact(a, &ga, b, &gb, &prm);
-            let replayed = tape.replay(&ga, &gb, &prm);
+            let replayed = tape.replay(a, &ga, b, &gb, &prm);
             let size = full.on_a.force.norm() + full.on_a.torque.norm();
             for (w, f) in replayed.iter().zip([&full.on_a, &full.on_b]) {
                 let diff = (w.force - f.force).norm() + (w.torque - f.torque).norm();

@@ -21,9 +21,8 @@ pub struct BandEntry<T> {
     /// [`SpringBound`](crate::geometry::ssdf::SpringBound)): times the stiffness, it bounds the
     /// springs of this point's force. Infinite when the band was built without ε3.
     pub springs: f64,
-    /// The SSDF's terms at this point, `SeparationBand::terms[start..end]`, when the band was
-    /// asked to keep them (every entry of the band has them then); `None` otherwise and
-    /// against a half-space.
+    /// The SSDF's terms at this point, `SeparationBand::terms[start..end]`, when the band kept
+    /// them (within its term budget); `None` otherwise and against a half-space.
     pub terms: Option<(u32, u32)>,
 }
 
@@ -109,7 +108,7 @@ pub fn separation_band<T: Scalar>(
         eps1,
         eps2,
         0.0,
-        false,
+        0,
         &mut Relevant::default(),
         None,
         None,
@@ -118,9 +117,10 @@ pub fn separation_band<T: Scalar>(
 
 /// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
 /// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
-/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). With `keep_terms`,
-/// the SSDF terms of the entries that can end within the cutoff are kept
-/// ([`SeparationBand::terms`]). With `grads`, the
+/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). The SSDF terms of
+/// the entries that can end within the cutoff are kept ([`SeparationBand::terms`]) while fewer
+/// than `keep_terms` are (0: none; [`terms_budget`](super::terms_budget)): an entry past it has
+/// none, and its terms must be summed again where they are needed. With `grads`, the
 /// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
 /// real parts) is pushed, in the order of the entries. With `kept`, each query point's
 /// candidate planes are kept from one call to the next ([`KeptCandidates`]; the same band to
@@ -133,7 +133,7 @@ pub(crate) fn band_of<T: Scalar>(
     eps1: T,
     eps2: T,
     eps3: f64,
-    keep_terms: bool,
+    keep_terms: usize,
     scratch: &mut Relevant,
     mut grads: Option<&mut Vec<Vector3<f64>>>,
     mut kept: Option<&mut KeptCandidates>,
@@ -306,7 +306,8 @@ pub(crate) fn band_of<T: Scalar>(
                                     scratch.find(o, &xr, e1, hint);
                                 }
                                 let start = band.terms.len();
-                                let keep = keep_terms.then_some(&mut band.terms);
+                                let keeping = start < keep_terms;
+                                let keep = keeping.then_some(&mut band.terms);
                                 let (phi, springs) = match grads.as_deref_mut() {
                                     Some(g) => {
                                         let mut sink = GradientSink::default();
@@ -333,7 +334,7 @@ pub(crate) fn band_of<T: Scalar>(
                                 // ("Not above", as the force's test is, so that a NaN Φ or
                                 // cutoff keeps them: NaN is never above.)
                                 let above = phi.re() > band.min.min(phi.re()) + margin * e2;
-                                let terms = (keep_terms && !above)
+                                let terms = (keeping && !above)
                                     .then_some((start as u32, band.terms.len() as u32));
                                 if terms.is_none() {
                                     band.terms.truncate(start);

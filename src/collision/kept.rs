@@ -10,12 +10,22 @@
 //! last bit as a fresh walk's: what is kept changes the cost, never a result, which is why it
 //! is not in a saved FMU state's bytes (a state saved in memory carries a copy).
 //!
-//! `δ` is an eighth of the ball's own reach at `x₀` (`√(d_min + ln(I/τ) ε1)`: the candidates
-//! grow by about a quarter in radius) and at least a quarter of the nearest plane's spacing
-//! (`√area`), so that a point resting against a fine cloud at sharp `ε1` is not re-gathered at
-//! every micrometre. What was kept is for one pair of point clouds: another cloud on either
-//! side (another model's cache) drops that side's balls, and balls no query has read for
-//! [`UNUSED_WALKS`] band walks are dropped, so what is kept follows the band.
+//! `δ` is the smaller of an eighth of the ball's own reach at `x₀` (`ρ = √(d_min + ln(I/τ) ε1)`)
+//! and a quarter of the relevant set's shell thickness `ρ - √d_min`, and at least a quarter of
+//! the nearest plane's spacing (`√area`), so that a point resting against a fine cloud at sharp
+//! `ε1` is not re-gathered at every micrometre. The candidates fill a shell about `2δ` thicker
+//! than the relevant set's, so a ball holds a small multiple of the planes its point needs. (With
+//! `δ = ρ/8` alone, a point a few centimetres from the other body had a `δ` of several
+//! millimetres, a shell several times the relevant set's, and the balls of Franka's link1 (38,928
+//! points at 0.9 mm) held 1 GB per pair.)
+//!
+//! What is kept is bounded: a side keeps at most [`CANDIDATES_PER_POINT`] `(I1 + I2)`
+//! candidates, and a query whose new ball would pass that walks and keeps nothing. Where `ε1` is
+//! wide against the clouds every plane is relevant everywhere, the balls are the other body,
+//! and only a few fit: those points walk at every step, which costs time, not memory. What was
+//! kept is for one pair of point clouds: another cloud on either side (another model's cache)
+//! drops that side's balls, and balls no query has read for [`UNUSED_WALKS`] band walks are
+//! dropped, so what is kept follows the band.
 //!
 //! Two more things are kept per side, both costs only, since the band is the points within
 //! its cutoff whatever else a walk evaluated (`collision` module documentation):
@@ -31,6 +41,12 @@ use super::KeptReach;
 use crate::geometry::ssdf::{gather_ball, Relevant};
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
+
+/// Candidates a side keeps per point of the pair's two clouds, at most (28 bytes each, and as
+/// many in the spare buffers): a query whose new ball would pass that is answered by its walk
+/// and keeps nothing ([`KeptCounts::unkept`]), so what is kept stays `O(I1 + I2)` however wide
+/// the relevant sets are against the clouds.
+pub const CANDIDATES_PER_POINT: usize = 16;
 
 /// Band walks after which a ball that no query read is dropped.
 pub const UNUSED_WALKS: u32 = 64;
@@ -115,6 +131,9 @@ pub struct KeptCounts {
     pub above: usize,
     /// Node proofs not tried, the node's proof having failed at one of its last visits.
     pub untried: usize,
+    /// Queries that walked and kept no ball: it would have passed the side's budget
+    /// ([`CANDIDATES_PER_POINT`]).
+    pub unkept: usize,
 }
 
 impl std::ops::AddAssign for KeptCounts {
@@ -126,6 +145,7 @@ impl std::ops::AddAssign for KeptCounts {
         self.compactions += o.compactions;
         self.above += o.above;
         self.untried += o.untried;
+        self.unkept += o.unkept;
     }
 }
 
@@ -284,10 +304,21 @@ impl KeptCandidates {
             return false;
         }
         let reach = (scratch.dmin + bvh.log_terms * eps1).sqrt();
+        // The relevant set's shell, `√d_min ≤ |x - p_i| ≤ reach`, is `reach - √d_min` thick:
+        // the ball's candidates fill a shell about `2δ` thicker, so `δ` no larger than that
+        // thickness keeps them within a few times the relevant set (module documentation).
+        let shell = bvh.log_terms * eps1 / (reach + scratch.dmin.sqrt());
         let spacing = planes.areas[bvh.index[scratch.nearest] as usize].sqrt();
-        let delta = (reach / 8.0).max(spacing / 4.0);
+        let delta = (reach / 8.0).min(shell / 4.0).max(spacing / 4.0);
         let mut gathered = std::mem::take(&mut s.gathered);
         gather_ball(planes, x, delta, eps1, scratch.nearest, &mut gathered);
+        let budget = CANDIDATES_PER_POINT * (query.len() + planes.len());
+        let freed = s.balls.get(slot as usize).map_or(0, |b| b.len as usize);
+        if s.live - freed + gathered.len() > budget {
+            s.gathered = gathered;
+            self.counts.unkept += 1;
+            return false;
+        }
         let (start, len) = (s.cands.len(), gathered.len());
         s.cands.extend_from_slice(&gathered);
         for (d, coord) in s.xyz.iter_mut().enumerate() {

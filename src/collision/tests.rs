@@ -408,7 +408,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             eps1,
             eps2,
             1e-4,
-            true,
+            usize::MAX,
             &mut Relevant::default(),
             None,
             None,
@@ -477,7 +477,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
     // balls both serve (hits) and are replaced (misses, the path moving several spacings),
     // points are left out by their balls' floors, and nodes whose proof failed are not tried
     // again at once. Balls no query reads are dropped after `UNUSED_WALKS` walks; an ε1 changed between calls
-    // drops what was kept.
+    // drops what was kept. What is kept stays within its budget, `O(I1 + I2)`.
     let sphere = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.006));
     let cube = Collider::Aopc(
         Shape::Box {
@@ -527,7 +527,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                     eps1,
                     eps2,
                     1e-4,
-                    true,
+                    usize::MAX,
                     &mut Relevant::default(),
                     None,
                     kept,
@@ -541,8 +541,20 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             assert!(k == f, "ε1 {eps1}, step {step}: the bands differ");
         }
         let counts = kept.counts();
+        // At the soft ε1 a ball holds about every plane of the other body (its reach, 3.7 cm,
+        // spans the 5 cm sphere): the side's budget keeps a few of them and the other points
+        // walk ([`CANDIDATES_PER_POINT`]); at the sharp one every ball fits.
+        let (i1, i2) = (sphere.len(), cube.len());
+        let bound = 8192 * (i1 + i2) + (1 << 20);
         assert!(
-            counts.hits + counts.above > 4 * counts.misses
+            kept.heap_bytes() <= bound,
+            "ε1 {eps1}: {} bytes",
+            kept.heap_bytes()
+        );
+        let soft = eps1 > 1e-6;
+        assert!(
+            (soft && counts.unkept > 0 && counts.hits > 0
+                || !soft && counts.unkept == 0 && counts.hits + counts.above > 4 * counts.misses)
                 && counts.replaced > 0
                 && counts.dropped > 0
                 && counts.compactions > 0
@@ -556,7 +568,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             2.0 * eps1,
             eps2,
             1e-4,
-            true,
+            usize::MAX,
             &mut Relevant::default(),
             None,
             Some(&mut kept),
@@ -666,7 +678,7 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
             1e-6,
             2e-4,
             1e-4,
-            true,
+            usize::MAX,
             &mut Relevant::default(),
             Some(grads),
             None,
@@ -683,4 +695,78 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
     assert_eq!(fresh.len(), n);
     assert_eq!(after[0], Vector3::new(7.0, 8.0, 9.0));
     assert_eq!(&after[1..], &fresh[..]);
+}
+
+#[test]
+fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
+    // Random pairs of spheres and boxes, sampled from 1.5 to 6 mm, overlapping or apart, at
+    // sharp to wide ε1 (a wide softmax makes every plane relevant at every point), walked with
+    // kept candidates over a few small motions: the band's entries are at most I1 + I2, its
+    // kept terms at most TERMS_PER_POINT (I1 + I2) plus one point's relevant set, and what the
+    // pair keeps at most 8 kB per point (CANDIDATES_PER_POINT candidates of 28 bytes, doubled
+    // by the spare buffers and the vectors' growth, on each side) plus 1 MB.
+    let mut s = 29u64;
+    let mut widest = 0.0f64;
+    for case in 0..12 {
+        let shape = |s: &mut u64| {
+            let size = 0.01 + 0.03 * lcg(s).abs();
+            let shape = if lcg(s) > 0.0 {
+                Shape::Sphere { radius: size }
+            } else {
+                Shape::Box {
+                    half: Vector3::new(size, 0.7 * size, 1.2 * size),
+                }
+            };
+            Collider::Aopc(shape.sample(0.0015 + 0.0045 * lcg(s).abs()))
+        };
+        let (a, b) = (shape(&mut s), shape(&mut s));
+        let eps1 = [1e-7, 1e-5, 1e-4][case % 3];
+        let (n1, n2) = (a.len(), b.len());
+        let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
+        let start = vec3(&mut s) * 0.02 + Vector3::new(0.0, 0.0, 0.02);
+        let drift = vec3(&mut s) * 2e-4;
+        let mut kept = KeptCandidates::default();
+        for step in 0..6 {
+            let t = step as f64;
+            let fb = Frame {
+                rotation: *nalgebra::Rotation3::from_axis_angle(&axis, 0.5 + 3e-3 * t).matrix(),
+                origin: start + drift * t,
+                ..Frame::identity()
+            };
+            let fa = Frame::<f64>::identity();
+            let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+            let band = band_of(
+                &a,
+                &b,
+                &rels,
+                eps1,
+                1e-3,
+                1e-4,
+                terms_budget(&a, &b),
+                &mut Relevant::default(),
+                None,
+                Some(&mut kept),
+            );
+            let terms = TERMS_PER_POINT * (n1 + n2) + n1.max(n2);
+            assert!(band.entries.len() <= n1 + n2, "case {case}");
+            assert!(
+                band.terms.len() <= terms,
+                "case {case}: {} terms",
+                band.terms.len()
+            );
+            let bytes = kept.heap_bytes();
+            assert!(
+                bytes <= 8192 * (n1 + n2) + (1 << 20),
+                "case {case}: {bytes} bytes kept for {n1} + {n2} points"
+            );
+            if !band.entries.is_empty() {
+                widest = widest.max(band.terms.len() as f64 / band.entries.len() as f64);
+            }
+        }
+    }
+    // The cases reach the regime the budgets are for.
+    assert!(
+        widest > TERMS_PER_POINT as f64,
+        "{widest} terms per entry at most"
+    );
 }

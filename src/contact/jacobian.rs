@@ -214,6 +214,7 @@ pub fn pair_jacobian(
         b,
         rels,
         prm,
+        terms_budget(a, b),
         &mut Relevant::default(),
         Some(&mut grads),
         None,

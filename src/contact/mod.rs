@@ -6,10 +6,10 @@
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
 use crate::collision::{
-    band_of, separation_field_naive, Collider, Frame, KeptCandidates, Relative, SeparationBand,
-    SeparationDistribution,
+    band_of, separation_field_naive, terms_budget, Collider, Frame, KeptCandidates, Relative,
+    SeparationBand, SeparationDistribution,
 };
-use crate::geometry::ssdf::Relevant;
+use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant};
 use crate::geometry::Aopc;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum, PRUNE_TOLERANCE};
 use nalgebra::{Matrix3, Vector3};
@@ -23,7 +23,7 @@ mod tests;
 use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
-pub use tape::PairTape;
+pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
 
 /// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; docs/method.md) on a point at offset `r`
 /// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
@@ -386,13 +386,15 @@ pub(super) struct PairParts<T: Scalar> {
 /// [`pair_contact`]), given each body's motion in the other's frame. `on_force(i, W_f, F, s)`
 /// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
 /// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry; `kept`, the pair's
-/// candidate planes kept across calls ([`KeptCandidates`]).
+/// candidate planes kept across calls ([`KeptCandidates`]); `keep_terms`, how many SSDF terms
+/// the band keeps ([`terms_budget`] but in tests: the entries past it sum theirs again).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<T>; 2],
     prm: &ContactParams<T>,
+    keep_terms: usize,
     scratch: &mut Relevant,
     grads: Option<&mut Vec<Vector3<f64>>>,
     kept: Option<&mut KeptCandidates>,
@@ -406,7 +408,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         prm.eps1,
         prm.eps2,
         prm.eps3.re(),
-        true,
+        keep_terms,
         scratch,
         grads,
         kept,
@@ -417,6 +419,8 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         return PairParts { sums, band, dist };
     }
     let mut bounds = Vec::with_capacity(band.entries.len());
+    // The terms of an entry past the band's term budget, summed again (one entry at a time).
+    let mut again = Vec::new();
     for_each_force(a, b, rels, &band, &dist, &weights, prm, &mut bounds, |i| {
         let e = &band.entries[i];
         let side = e.side as usize;
@@ -426,13 +430,17 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         let arm = rel.rotation * lift3::<T>(&s.bvh().points[e.k as usize]);
         let x = arm + rel.translation;
         let v = rel.linvel + rel.angvel.cross(&arm);
-        // The SSDF's terms, kept by the band for every entry that can end within its cutoff
-        // (`for_each_force` evaluates no other).
+        // The SSDF's terms, kept by the band for the entries within its cutoff up to its
+        // budget; past it, the same relevant set (whichever way it is found) and the same
+        // weights, so the same bits.
         let terms = match (e.terms, planes) {
             (Some((from, to)), _) => &band.terms[from as usize..to as usize],
             (None, Collider::HalfSpace { .. }) => &[],
-            (None, Collider::Aopc(_)) => {
-                unreachable!("the band keeps the terms of every entry within its cutoff")
+            (None, Collider::Aopc(o)) => {
+                scratch.find(o, &re3(&x), prm.eps1.re(), usize::MAX);
+                again.clear();
+                ssdf_over(o, &x, prm.eps1, 0.0, scratch, &mut NoSink, Some(&mut again));
+                &again[..]
             }
         };
         let mut snk = sink();
@@ -570,6 +578,7 @@ fn pair_contact_generic_kept<T: Scalar>(
         b,
         &rels,
         prm,
+        terms_budget(a, b),
         &mut Relevant::default(),
         None,
         kept,

@@ -46,16 +46,25 @@ impl ForceSink for TermSink {
     }
 }
 
-/// One evaluated point force: its side, arm, separation weight and terms.
+/// One evaluated point force: its side, query point, arm, separation weight and terms.
 #[derive(Clone, Debug)]
 struct Entry {
     side: usize,
+    /// The query point's leaf-order index (its terms are summed again from it when they were
+    /// not recorded).
+    k: u32,
     arm: Vector3<f64>,
     weight: f64,
-    terms: std::ops::Range<usize>,
+    /// The recorded terms; `None` past the tape's budget.
+    terms: Option<std::ops::Range<usize>>,
     /// Against a half-space: one term, not normalized by its weight.
     half_space: bool,
 }
+
+/// Terms a tape records per point of the pair's two clouds, at most (80 bytes each): past that
+/// budget an entry keeps its query point only, and a replay sums its terms again (the same
+/// relevant set and weights, so the same bits), which keeps a tape's memory `O(I1 + I2)`.
+pub const TAPE_TERMS_PER_POINT: usize = 8;
 
 /// A pair's contact recorded at one configuration, replayed at other velocities.
 #[derive(Clone, Debug)]
@@ -76,37 +85,61 @@ impl PairTape {
         prm: &ContactParams<f64>,
         kept: Option<&mut KeptCandidates>,
     ) -> (PairTape, [Wrench<f64>; 2]) {
+        let budget = TAPE_TERMS_PER_POINT * (a.len() + b.len()).max(1);
+        Self::record_within(a, fa, b, fb, prm, kept, budget)
+    }
+
+    /// [`PairTape::record`] recording at most `budget` terms.
+    pub(crate) fn record_within(
+        a: &Collider,
+        fa: &Frame<f64>,
+        b: &Collider,
+        fb: &Frame<f64>,
+        prm: &ContactParams<f64>,
+        kept: Option<&mut KeptCandidates>,
+        budget: usize,
+    ) -> (PairTape, [Wrench<f64>; 2]) {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-        let mut order: Vec<(usize, f64, Vec<Term>)> = Vec::new();
+        // Each force's terms go to the tape as it is evaluated, while they fit the budget (a
+        // force against a half-space has one term and always fits).
+        let mut terms = Vec::new();
+        let mut order: Vec<(usize, f64, Option<std::ops::Range<usize>>)> = Vec::new();
         let parts = pair_sides(
             a,
             b,
             &rels,
             prm,
+            terms_budget(a, b),
             &mut Relevant::default(),
             None,
             kept,
             || TermSink(Vec::new()),
-            |i, w, _, sink| order.push((i, w, sink.0)),
+            |i, w, _, sink| {
+                let start = terms.len();
+                let fits = start + sink.0.len() <= budget || sink.0.len() <= 1;
+                if fits {
+                    terms.extend(sink.0);
+                }
+                order.push((i, w, fits.then_some(start..terms.len())));
+            },
         );
         let mut tape = PairTape {
             entries: Vec::with_capacity(order.len()),
-            terms: Vec::new(),
+            terms,
         };
-        for (i, weight, terms) in order {
+        for (i, weight, range) in order {
             let e = &parts.band.entries[i];
             let side = e.side as usize;
             let (query, planes) = if side == 0 { (a, b) } else { (b, a) };
             let Collider::Aopc(s) = query else {
                 continue;
             };
-            let start = tape.terms.len();
-            tape.terms.extend(terms);
             tape.entries.push(Entry {
                 side,
+                k: e.k,
                 arm: rels[side].rotation * s.bvh().points[e.k as usize],
                 weight,
-                terms: start..tape.terms.len(),
+                terms: range,
                 half_space: matches!(planes, Collider::HalfSpace { .. }),
             });
         }
@@ -117,22 +150,66 @@ impl PairTape {
         (tape, [on_a, on_b])
     }
 
-    /// The wrenches on `a` and `b` with the bodies moving as `fa` and `fb` say, at the
-    /// positions the tape was recorded at (`fa`, `fb` must have those poses).
+    /// How many terms the tape recorded (its memory is about 80 bytes each).
+    pub fn recorded_terms(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// The wrenches on `a` and `b` (the colliders it was recorded for) with the bodies moving
+    /// as `fa` and `fb` say, at the positions the tape was recorded at (`fa`, `fb` must have
+    /// those poses).
     pub fn replay(
         &self,
+        a: &Collider,
         fa: &Frame<f64>,
+        b: &Collider,
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
     ) -> [Wrench<f64>; 2] {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let mut sums = [SideSums::zero(), SideSums::zero()];
+        // Terms summed again for the entries past the budget.
+        let (mut scratch, mut again, mut summed) = (Relevant::default(), Vec::new(), Vec::new());
         for e in &self.entries {
             let rel = &rels[e.side];
             let v_point = rel.linvel + rel.angvel.cross(&e.arm);
             let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
             let mut total = 0.0;
-            for t in &self.terms[e.terms.clone()] {
+            let terms = match &e.terms {
+                Some(range) => &self.terms[range.clone()],
+                None => {
+                    let (query, planes) = if e.side == 0 { (a, b) } else { (b, a) };
+                    let (Collider::Aopc(s), Collider::Aopc(o)) = (query, planes) else {
+                        unreachable!("a term past the budget is a point against an AOPC")
+                    };
+                    // As `pair_sides` evaluated it: x = R p + t, its relevant set and weights.
+                    let x = rel.rotation * s.bvh().points[e.k as usize] + rel.translation;
+                    scratch.find(o, &x, prm.eps1, usize::MAX);
+                    again.clear();
+                    ssdf_over(
+                        o,
+                        &x,
+                        prm.eps1,
+                        0.0,
+                        &scratch,
+                        &mut NoSink,
+                        Some(&mut again),
+                    );
+                    let bvh = o.bvh();
+                    summed.clear();
+                    summed.extend(again.iter().map(|&(k, w)| {
+                        let p = bvh.points[k as usize];
+                        Term {
+                            w,
+                            r: x - p,
+                            n: bvh.normals[k as usize],
+                            p,
+                        }
+                    }));
+                    &summed[..]
+                }
+            };
+            for t in terms {
                 let v = v_point - rel.angvel_planes.cross(&t.p);
                 let lambda = if e.half_space {
                     point_plane_force(&t.r, &t.n, &v, prm)

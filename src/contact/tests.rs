@@ -167,3 +167,120 @@ fn a_nan_temperature_gives_a_nan_contact_not_a_panic() {
     let pd = pair_contact(&a, &lift(&fa), &b, &Frame::identity(), &prm_d);
     assert!(pd.distance.re.is_nan() || pd.on_a.force.iter().any(|x| x.re.is_nan()));
 }
+
+/// Two dense clouds overlapping under a wide ε1 (every plane relevant at every point: the band's
+/// terms would be `I1 I2` without a budget), with relative motion.
+fn wide_overlap() -> (
+    Collider,
+    Collider,
+    Frame<f64>,
+    Frame<f64>,
+    ContactParams<f64>,
+) {
+    use crate::geometry::Shape;
+    let a = Collider::Aopc(Shape::Sphere { radius: 0.02 }.sample(0.002));
+    let b = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.015, 0.01, 0.02),
+        }
+        .sample(0.002),
+    );
+    let fa = Frame {
+        linvel: Vector3::new(0.01, -0.02, 0.03),
+        angvel: Vector3::new(0.3, 0.1, -0.2),
+        ..Frame::identity()
+    };
+    let fb = Frame {
+        rotation: *nalgebra::Rotation3::from_euler_angles(0.2, -0.1, 0.4).matrix(),
+        origin: Vector3::new(0.004, -0.003, 0.03),
+        linvel: Vector3::new(-0.05, 0.01, -0.1),
+        angvel: Vector3::new(-0.4, 0.2, 0.5),
+    };
+    let prm = ContactParams {
+        eps1: 1e-4,
+        ..ContactParams::default()
+    };
+    (a, b, fa, fb, prm)
+}
+
+#[test]
+fn terms_past_the_budget_are_summed_again_to_the_same_bits() {
+    // The band keeps at most its budget of SSDF terms; an entry past it has its terms summed
+    // again where its force is evaluated. With no term kept, a few, or all, every side sum is
+    // the same to the last bit, and the distance too.
+    let (a, b, fa, fb, prm) = wide_overlap();
+    let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+    let run = |keep: usize| {
+        let parts = pair_sides(
+            &a,
+            &b,
+            &rels,
+            &prm,
+            keep,
+            &mut Relevant::default(),
+            None,
+            None,
+            || NoForceSink,
+            |_, _, _, _| {},
+        );
+        let kept = parts.band.terms.len();
+        let bits: Vec<u64> = parts
+            .sums
+            .iter()
+            .flat_map(|s| s.flat())
+            .chain([parts.dist.distance])
+            .map(f64::to_bits)
+            .collect();
+        (bits, kept, parts.band.entries.len())
+    };
+    let (all, kept_all, entries) = run(usize::MAX);
+    let (points, planes) = (a.len(), b.len());
+    assert!(
+        kept_all > 8 * (points + planes) && entries > 100,
+        "a wide softmax: {kept_all} terms for {entries} entries"
+    );
+    for keep in [0, 1000, kept_all / 2, terms_budget(&a, &b)] {
+        let (bits, kept, _) = run(keep);
+        assert!(
+            kept <= keep + points.max(planes),
+            "{kept} terms kept at {keep}"
+        );
+        assert_eq!(bits, all, "budget {keep}");
+    }
+}
+
+#[test]
+fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
+    // Damped Euler's tape records at most its budget of terms; past it an entry keeps its query
+    // point and a replay sums its terms again. Recorded with no budget, a small one and the
+    // default, the wrenches at recording and at another velocity are the same bits.
+    let (a, b, fa, fb, prm) = wide_overlap();
+    let other = |f: &Frame<f64>, k: f64| Frame {
+        linvel: f.linvel * k + Vector3::new(0.02, 0.0, -0.01),
+        angvel: f.angvel * -k,
+        ..*f
+    };
+    let (ga, gb) = (other(&fa, 1.5), other(&fb, -0.7));
+    let bits = |w: &[Wrench<f64>; 2]| -> Vec<u64> {
+        w.iter()
+            .flat_map(|x| x.force.iter().chain(x.torque.iter()).copied())
+            .map(f64::to_bits)
+            .collect()
+    };
+    let (full, w_full) = PairTape::record_within(&a, &fa, &b, &fb, &prm, None, usize::MAX);
+    let default_budget = TAPE_TERMS_PER_POINT * (a.len() + b.len());
+    assert!(full.recorded_terms() > default_budget, "a wide softmax");
+    for budget in [0, 5000, default_budget] {
+        let (tape, w) = PairTape::record_within(&a, &fa, &b, &fb, &prm, None, budget);
+        assert!(tape.recorded_terms() <= budget, "{budget}");
+        assert_eq!(bits(&w), bits(&w_full), "recorded, budget {budget}");
+        assert_eq!(
+            bits(&tape.replay(&a, &ga, &b, &gb, &prm)),
+            bits(&full.replay(&a, &ga, &b, &gb, &prm)),
+            "replayed, budget {budget}"
+        );
+    }
+    // The default path is the budgeted one.
+    let (tape, _) = PairTape::record(&a, &fa, &b, &fb, &prm, None);
+    assert!(tape.recorded_terms() <= default_budget);
+}

@@ -131,12 +131,11 @@ impl FrozenForward<'_> {
         let at = m.tree.kinematics_with(&self.q, v_contact, &self.mocap);
         let mut wrenches = vec![Wrench::zero(); m.tree.bodies.len()];
         for (a, b, p, tape) in &self.tapes {
-            add(
-                &mut wrenches,
-                *a,
-                *b,
-                &tape.replay(&at.frames[*a], &at.frames[*b], p),
-            );
+            let (Some(ca), Some(cb)) = (&m.colliders[*a], &m.colliders[*b]) else {
+                unreachable!("a recorded pair has both colliders")
+            };
+            let (fa, fb) = (&at.frames[*a], &at.frames[*b]);
+            add(&mut wrenches, *a, *b, &tape.replay(ca, fa, cb, fb, p));
         }
         self.solve(wrenches)
     }
