@@ -406,3 +406,57 @@ fn only_the_first_object_of_an_obj_file_is_read_as_in_mujoco() {
         assert_eq!(noted, kept == 4, "{split}: {warnings:?}");
     }
 }
+
+/// A binary STL of the unit cube of [`cube_obj`] with the given 80-byte header (padded).
+fn cube_binary_stl(header: &[u8]) -> Vec<u8> {
+    let text = cube_obj(None, &[]);
+    let verts: Vec<[f32; 3]> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let c: Vec<f32> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let tris: Vec<[usize; 3]> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("f "))
+        .map(|l| {
+            let i: Vec<usize> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+            [i[0] - 1, i[1] - 1, i[2] - 1]
+        })
+        .collect();
+    let mut b = header.to_vec();
+    b.resize(80, b' ');
+    b.extend((tris.len() as u32).to_le_bytes());
+    for t in &tris {
+        b.extend([0u8; 12]); // the stored normal, which the reader ignores
+        for &v in t {
+            for c in verts[v] {
+                b.extend(c.to_le_bytes());
+            }
+        }
+        b.extend([0u8; 2]);
+    }
+    b
+}
+
+#[test]
+fn a_binary_stl_whose_header_begins_with_solid_is_read_as_binary() {
+    // Exporters write "solid NAME" into a binary file's header (robosuite's jaco shoulder.stl
+    // is one); MuJoCo decides by the size, 84 + 50 n bytes, and so does the reader: the same
+    // cube as with a blank header.
+    let (plain, _) = load("plain.stl", &cube_binary_stl(b"")).expect("a plain binary STL");
+    let header = b"solid cube, exported as binary STL\n";
+    let bytes = cube_binary_stl(header);
+    assert_eq!(bytes.len(), 84 + 50 * 12);
+    let (solid, _) = load("solid.stl", &bytes).expect("a binary STL whose header says solid");
+    assert_eq!(solid.vertices, plain.vertices);
+    assert_eq!(solid.triangles, plain.triangles);
+    assert_eq!(solid.triangles.len(), 12);
+    // One byte more and the file is no binary STL: read as ASCII, it is refused with the file.
+    let mut longer = bytes.clone();
+    longer.push(b'\n');
+    let e = load("longer.stl", &longer).expect_err("neither binary nor ASCII");
+    assert!(matches!(e.problem, MeshProblem::Parse(_)), "{e}");
+}

@@ -386,7 +386,21 @@ fn clip_ears(points: &[Vector3<f64>], unit: &Vector3<f64>) -> Option<Vec<[usize;
 
 /// Vertices and triangles of an STL file (binary or ASCII). Stored normals are ignored: the
 /// winding decides the orientation.
+///
+/// A file is binary, as MuJoCo decides, when its size is `84 + 50 n` with `n` the triangle
+/// count at bytes 80..84, whatever its 80-byte header says: exporters often begin that header
+/// with "solid", which stl_io would read as ASCII. Such a file is read with the header blanked.
 fn parse_stl(bytes: &[u8]) -> Parsed {
+    let blanked;
+    let bytes = match binary_stl_size(bytes) {
+        true if bytes.starts_with(b"solid") => {
+            let mut b = bytes.to_vec();
+            b[..80].fill(b' ');
+            blanked = b;
+            &blanked[..]
+        }
+        _ => bytes,
+    };
     let mut cursor = std::io::Cursor::new(bytes);
     let mesh = stl_io::read_stl(&mut cursor).map_err(|e| e.to_string())?;
     let verts = mesh
@@ -400,4 +414,13 @@ fn parse_stl(bytes: &[u8]) -> Parsed {
         .map(|f| f.vertices.map(|i| i as u32))
         .collect();
     Ok((verts, tris, Vec::new()))
+}
+
+/// Whether `bytes` has the size of a binary STL file: an 80-byte header, a little-endian
+/// triangle count `n` and 50 bytes per triangle.
+fn binary_stl_size(bytes: &[u8]) -> bool {
+    bytes.len() >= 84 && {
+        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+        bytes.len() as u64 == 84 + 50 * n
+    }
 }
