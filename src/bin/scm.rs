@@ -345,6 +345,30 @@ fn check(path: &Path) -> Result<(), String> {
                     exact,
                     100.0 * (volume - exact) / exact
                 );
+                // How each mesh geom's triangles became its points (`TriMesh::sample`).
+                for g in sc.geoms.iter().filter(|g| g.body == b) {
+                    let (Some(scm::geometry::Shape::Mesh(mesh)), Some(h)) = (&g.shape, &g.spacing)
+                    else {
+                        continue;
+                    };
+                    let uniform = h.coarse.min();
+                    match mesh.simplified(uniform) {
+                        Some(simple) => println!(
+                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm), then sampled at {uniform} m",
+                            g.name,
+                            mesh.triangles.len(),
+                            simple.mesh.triangles.len(),
+                            simple.tolerance * 1e3,
+                            simple.error * 1e3
+                        ),
+                        None => println!(
+                            "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no closed surface with fewer triangles within {:.2} mm)",
+                            g.name,
+                            mesh.triangles.len(),
+                            scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3
+                        ),
+                    }
+                }
                 // The faces of a closed surface have Σ n·area = 0 (to rounding for one geom; for
                 // a union, the faces its geoms cut are measured on a 16×16 grid, within a few
                 // 1e-4 of the body's area); the AOPC's volume is that of its quads (chords of
