@@ -7,7 +7,8 @@
 #     MJCF differential tests: all wheels, no compiler needed);
 #   - the MJCF files of dm_control (its suite, walkers, props; from its wheel, unpacked in
 #     .venv/dm_control_assets)
-#     and gymnasium-robotics' models (from its wheel, in .venv/gymnasium_robotics_assets);
+#     and gymnasium-robotics' models (from its wheel, in .venv/gymnasium_robotics_assets),
+#     robosuite's robots and grippers (from its wheel, in .venv/robosuite_assets);
 #   - cargo build --release: target/release/scm (CLI) and target/release/libscm.so (FMU binary).
 # Idempotent: a second run only checks (the venv is refreshed when requirements.txt changes).
 set -euo pipefail
@@ -67,5 +68,7 @@ PY
 # Franka kitchen: a third).
 wheel_files dm_control==1.0.50 .venv/dm_control_assets dm_control/
 wheel_files gymnasium-robotics==1.4.2 .venv/gymnasium_robotics_assets gymnasium_robotics/envs/assets/
+# robosuite's robots and grippers (dense CAD collision meshes: the peak-memory tests).
+wheel_files robosuite==1.5.2 .venv/robosuite_assets robosuite/models/assets/
 
 cargo build --release --locked -q

@@ -526,7 +526,9 @@ fn icosphere(r: f64, n: u32) -> TriMesh {
 #[test]
 fn a_mesh_finer_than_the_scene_asks_is_sampled_at_the_scenes_spacing() {
     // A 3 cm sphere tessellated at about 1 mm (20,480 triangles), sampled at 1 cm: simplified
-    // within 0.05 × 1 cm first, it gives a few thousand points instead of sixty thousand, and
+    // within 0.05 × 1 cm first (or a halved tolerance, to keep its volume), its triangles now
+    // finer than the spacing give one point each: about two thousand points instead of the
+    // twenty thousand of its own triangles (sixty thousand when each triangle gave three), and
     // its SSDF near the surface departs from the sphere's signed distance by no more than the
     // sphere primitive sampled at the same spacing does, plus the tolerance: what the scene's
     // spacing costs anyway. Measured (printed): the largest error over 600 points from 2 mm
@@ -543,8 +545,17 @@ fn a_mesh_finer_than_the_scene_asks_is_sampled_at_the_scenes_spacing() {
         s.error,
         s.tolerance
     );
+    // The volume guard halves the tolerance until the enclosed volume is kept to 1 %
+    // (measured: 0.125 mm, 2,032 triangles left).
+    let volume = |m: &TriMesh| m.mass_properties().volume;
     assert!(
-        s.mesh.triangles.len() * 20 < fine.triangles.len(),
+        (volume(&s.mesh) / volume(&fine) - 1.0).abs() <= scm::geometry::mesh::SIMPLIFY_VOLUME,
+        "volume {} against {}",
+        volume(&s.mesh),
+        volume(&fine)
+    );
+    assert!(
+        s.mesh.triangles.len() * 8 < fine.triangles.len(),
         "{} triangles left",
         s.mesh.triangles.len()
     );
@@ -554,11 +565,16 @@ fn a_mesh_finer_than_the_scene_asks_is_sampled_at_the_scenes_spacing() {
     }
     let (coarse, own) = (fine.sample(spacing), fine.sample_as_is(spacing));
     assert!(
-        coarse.len() * 20 < own.len(),
+        coarse.len() * 8 < own.len(),
         "{} points against {}",
         coarse.len(),
         own.len()
     );
+    // One point per triangle: the surface stays closed and its volume is the mesh's.
+    for (cloud, mesh) in [(&coarse, &s.mesh), (&own, &fine)] {
+        assert!(cloud.closure_defect().norm() < 1e-15);
+        assert!((cloud.enclosed_volume() / volume(mesh) - 1.0).abs() < 1e-12);
+    }
     // The same sphere as SCM's primitive, sampled at the same spacing: what the spacing costs.
     let primitive = scm::geometry::Shape::Sphere { radius: r }.sample(spacing);
     let eps1 = 1e-8;

@@ -362,10 +362,12 @@ fn check(path: &Path) -> Result<(), String> {
                             simple.error * 1e3
                         ),
                         None => println!(
-                            "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no closed surface with fewer triangles within {:.2} mm)",
+                            "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
                             g.name,
                             mesh.triangles.len(),
-                            scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3
+                            scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3,
+                            scm::geometry::mesh::SIMPLIFY_TRIES - 1,
+                            scm::geometry::mesh::SIMPLIFY_VOLUME * 100.0
                         ),
                     }
                 }

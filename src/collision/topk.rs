@@ -38,7 +38,10 @@ pub fn contact_points<T: Scalar>(
         };
         let face = s.faces[s.bvh().index[e.k as usize] as usize];
         let w = dist.weight(0, e.phi);
-        for v in face {
+        for (j, &v) in face.iter().enumerate() {
+            if face[..j].contains(&v) {
+                continue; // a triangle's face repeats its last corner
+            }
             *z.entry((e.side, v)).or_insert(T::zero()) += w;
         }
     }

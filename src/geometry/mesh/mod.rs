@@ -1,19 +1,16 @@
 //! Closed triangle meshes (OBJ through tobj, STL through stl_io): checks with clear errors, mass
 //! properties, exact signed distance, and the AOPC of the surface as a quad mesh.
 //!
-//! A mesh becomes quads in two steps: its triangles are refined by longest-edge bisection until
-//! no edge is longer than 2.5 × the spacing (a split never moves the surface and never crosses
-//! an edge of the input, so sharp feature edges stay edges), then each triangle is cut into
-//! three quads through its centroid and edge midpoints. Every quad edge therefore runs along
-//! an input edge or inside an input triangle: the quads follow the mesh's feature edges. A mesh
-//! whose triangles are finer than the spacing is first simplified within a small fraction of
-//! the spacing ([`TriMesh::simplified`]); where that fails, it keeps its triangles (three quads
-//! each).
+//! A mesh becomes an AOPC in `sample.rs`: simplified within a small fraction of the spacing
+//! where that leaves fewer triangles ([`TriMesh::simplified`]); then a triangle no longer than
+//! the spacing gives one point (its centroid, normal and area), and a longer one is refined by
+//! longest-edge bisection until no edge is longer than 5 × the spacing (a split never moves the
+//! surface and never crosses an edge of the input, so sharp feature edges stay edges) and cut
+//! into three quads through its centroid and edge midpoints.
 
-use super::Aopc;
 use super::MassProperties;
 use nalgebra::{Matrix3, Vector3};
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::HashMap;
 use std::path::Path;
 
 /// What is wrong with a mesh file.
@@ -137,26 +134,6 @@ impl Placement {
     pub fn apply(&self, v: &Vector3<f64>) -> Vector3<f64> {
         (self.refquat.inverse_transform_vector(&(v - self.refpos))).component_mul(&self.scale)
     }
-}
-
-/// The simplification tolerance, as a fraction of the spacing a mesh is sampled at: the
-/// simplified surface stays within `SIMPLIFY_TOLERANCE × spacing` of the file's (0.5 mm at the
-/// default 1 cm). Sampling itself departs from a curved surface by the sagitta `s² / 8R` (1.25
-/// mm on a 1 cm radius at 1 cm), so the tolerance is below what the spacing already costs.
-pub const SIMPLIFY_TOLERANCE: f64 = 0.05;
-
-/// Simplifications tried, each within half the last one's tolerance ([`TriMesh::simplified`]).
-pub const SIMPLIFY_TRIES: u32 = 4;
-
-/// A mesh simplified for sampling ([`TriMesh::simplified`]).
-#[derive(Clone, Debug)]
-pub struct Simplified {
-    /// The simplified mesh (a subset of the file's vertices).
-    pub mesh: TriMesh,
-    /// meshoptimizer's estimate of the largest distance from the file's surface (m).
-    pub error: f64,
-    /// The tolerance it was simplified within (m).
-    pub tolerance: f64,
 }
 
 /// A closed, consistently outward-oriented triangle mesh (m, mesh frame).
@@ -412,105 +389,6 @@ impl TriMesh {
             d
         }
     }
-
-    /// The AOPC of the surface at about `spacing` (m) between points (module documentation):
-    /// of the mesh simplified within [`SIMPLIFY_TOLERANCE`] of the spacing where that leaves
-    /// fewer triangles ([`TriMesh::simplified`]), of the mesh as it is otherwise.
-    pub fn sample(&self, spacing: f64) -> Aopc {
-        match self.simplified(spacing) {
-            Some(s) => s.mesh.sample_as_is(spacing),
-            None => self.sample_as_is(spacing),
-        }
-    }
-
-    /// The mesh with its triangles merged where the surface stays within
-    /// `SIMPLIFY_TOLERANCE × spacing` of this one (meshoptimizer's quadric edge collapse, which
-    /// keeps the topology), so that a mesh finer than the scene asks for is sampled at the
-    /// scene's spacing rather than at its own triangulation (a robot link of 12,516 triangles
-    /// at 0.9 mm, asked for 1 cm). `None` when that would not leave fewer triangles, or when
-    /// the result is not a closed, consistently oriented surface (the mesh is then sampled as
-    /// it is).
-    pub fn simplified(&self, spacing: f64) -> Option<Simplified> {
-        let tolerance = SIMPLIFY_TOLERANCE * spacing;
-        if tolerance.is_nan() || tolerance <= 0.0 || self.triangles.len() <= 4 {
-            return None;
-        }
-        // Positions in f32 about the mesh's centre (meshoptimizer's input); the result indexes
-        // the f64 vertices, so no vertex moves.
-        let (lo, hi) = bounds(&self.vertices);
-        let centre = (lo + hi) * 0.5;
-        let bytes: Vec<u8> = self
-            .vertices
-            .iter()
-            .flat_map(|v| {
-                let d = v - centre;
-                [d.x, d.y, d.z]
-            })
-            .flat_map(|x| (x as f32).to_le_bytes())
-            .collect();
-        let adapter = meshopt::VertexDataAdapter::new(&bytes, 12, 0).ok()?;
-        let indices: Vec<u32> = self.triangles.iter().flatten().copied().collect();
-        // A collapse can bring two sheets of a thin part together (an edge of four triangles):
-        // then the tolerance is halved, a few times, before the mesh is sampled as it is.
-        for tries in 0..SIMPLIFY_TRIES {
-            let within = tolerance / f64::from(1u32 << tries);
-            let mut error = 0.0f32;
-            let kept = meshopt::simplify(
-                &indices,
-                &adapter,
-                0,
-                within as f32,
-                meshopt::SimplifyOptions::ErrorAbsolute,
-                Some(&mut error),
-            );
-            if kept.len() / 3 >= self.triangles.len() * 9 / 10 || kept.is_empty() {
-                return None; // not worth it (and a tighter tolerance keeps more)
-            }
-            // Only the vertices still used, in their first use's order.
-            let mut index = vec![u32::MAX; self.vertices.len()];
-            let mut vertices = Vec::new();
-            let triangles = kept
-                .chunks_exact(3)
-                .map(|t| {
-                    [0, 1, 2].map(|k| {
-                        let i = t[k] as usize;
-                        if index[i] == u32::MAX {
-                            index[i] = vertices.len() as u32;
-                            vertices.push(self.vertices[i]);
-                        }
-                        index[i]
-                    })
-                })
-                .collect();
-            // A flipped shell would mean the collapse turned a part inside out.
-            if let Ok((mesh, warnings)) = TriMesh::new(&self.file, vertices, triangles) {
-                if warnings.is_empty() {
-                    return Some(Simplified {
-                        mesh,
-                        error: error as f64,
-                        tolerance: within,
-                    });
-                }
-            }
-        }
-        None
-    }
-
-    /// The AOPC of this mesh's own triangles, refined to `spacing` (module documentation),
-    /// without simplifying them first.
-    pub fn sample_as_is(&self, spacing: f64) -> Aopc {
-        let (verts, tris) = refine(&self.vertices, &self.triangles, 5.0 * spacing);
-        let mut out = Aopc::default();
-        for t in &tris {
-            let [a, b, c] = t.map(|i| verts[i as usize]);
-            let g = (a + b + c) / 3.0;
-            let (mab, mbc, mca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
-            out.push_quad([a, mab, g, mca]);
-            out.push_quad([b, mbc, g, mab]);
-            out.push_quad([c, mca, g, mbc]);
-        }
-        out
-    }
 }
 
 fn tri_normal(v: &[Vector3<f64>], t: &[u32; 3]) -> Vector3<f64> {
@@ -573,79 +451,11 @@ fn closest_on_triangle(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> Vector3<f64> 
     a + ab * (vb * denom) + ac * (vc * denom)
 }
 
-/// Longest-edge bisection of a closed manifold mesh until no edge exceeds `max_len`: the
-/// longest edge is split at its midpoint together with both triangles on it (the mesh stays
-/// conforming and keeps its orientation and its shape).
-fn refine(
-    vertices: &[Vector3<f64>],
-    triangles: &[[u32; 3]],
-    max_len: f64,
-) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
-    let mut v = vertices.to_vec();
-    let mut t = triangles.to_vec();
-    let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (i, tri) in t.iter().enumerate() {
-        for k in 0..3 {
-            edges
-                .entry(key(tri[k], tri[(k + 1) % 3]))
-                .or_default()
-                .push(i as u32);
-        }
-    }
-    // Max-heap of edges by length (bits of a positive f64 order like the value).
-    let mut heap: BinaryHeap<(u64, u32, u32)> = BinaryHeap::new();
-    let len = |v: &[Vector3<f64>], a: u32, b: u32| (v[a as usize] - v[b as usize]).norm();
-    for &(a, b) in edges.keys() {
-        let l = len(&v, a, b);
-        if l > max_len {
-            heap.push((l.to_bits(), a, b));
-        }
-    }
-    while let Some((_, a, b)) = heap.pop() {
-        let Some(on) = edges.remove(&key(a, b)) else {
-            continue;
-        };
-        let m = v.len() as u32;
-        v.push((v[a as usize] + v[b as usize]) * 0.5);
-        for &ti in &on {
-            let tri = t[ti as usize];
-            let k = (0..3)
-                .find(|&k| key(tri[k], tri[(k + 1) % 3]) == key(a, b))
-                .expect("the edge belongs to the triangle");
-            let (p, q, c) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
-            // (p, q, c) becomes (p, m, c) in place and (m, q, c) as a new triangle.
-            let tn = t.len() as u32;
-            t[ti as usize] = [p, m, c];
-            t.push([m, q, c]);
-            edges.entry(key(p, m)).or_default().push(ti);
-            edges.entry(key(m, q)).or_default().push(tn);
-            let mc = edges.entry(key(m, c)).or_default();
-            mc.push(ti);
-            mc.push(tn);
-            if let Some(list) = edges.get_mut(&key(q, c)) {
-                for x in list.iter_mut() {
-                    if *x == ti {
-                        *x = tn;
-                    }
-                }
-            }
-            let lc = len(&v, m, c);
-            if lc > max_len {
-                heap.push((lc.to_bits(), m, c));
-            }
-        }
-        let half = len(&v, a, m);
-        if half > max_len {
-            heap.push((half.to_bits(), a, m));
-            heap.push((len(&v, m, b).to_bits(), m, b));
-        }
-    }
-    (v, t)
-}
-
 mod hull;
 mod read;
+mod sample;
+
+pub use sample::{Simplified, SIMPLIFY_TOLERANCE, SIMPLIFY_TRIES, SIMPLIFY_VOLUME};
 
 /// The corners of the points' bounding box, lowest and highest.
 fn bounds(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>) {
