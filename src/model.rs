@@ -31,17 +31,35 @@ pub struct Pair {
     /// a `<pair friction>`), which the contact parameter `friction` does not change; `None`:
     /// the pair uses the contact parameter.
     pub friction: Option<f64>,
+    /// The pair's own contact stiffness (N/m; from MuJoCo's `solref` and `solimp` and the
+    /// pair's effective mass, docs/mjcf.md), which the contact parameter `stiffness` does not
+    /// change; `None`: the pair uses the contact parameter.
+    pub stiffness: Option<f64>,
+    /// The pair's own dissipation velocity (m/s), as `stiffness`.
+    pub dissipation_velocity: Option<f64>,
 }
 
 impl Pair {
-    /// The contact parameters of this pair: `prm` with the pair's own friction, if it has one.
+    /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness and
+    /// dissipation velocity where it has them.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
-        match self.friction {
-            Some(mu) => ContactParams {
-                friction: c(mu),
-                ..*prm
-            },
-            None => *prm,
+        let own = |x: Option<f64>, p: T| x.map_or(p, c);
+        ContactParams {
+            friction: own(self.friction, prm.friction),
+            stiffness: own(self.stiffness, prm.stiffness),
+            dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
+            ..*prm
+        }
+    }
+
+    /// Whether the pair has its own value of `p`, which the contact parameter does not change.
+    pub fn owns(&self, p: crate::contact::Param) -> bool {
+        use crate::contact::Param;
+        match p {
+            Param::Friction => self.friction.is_some(),
+            Param::Stiffness => self.stiffness.is_some(),
+            Param::DissipationVelocity => self.dissipation_velocity.is_some(),
+            _ => false,
         }
     }
 }

@@ -102,7 +102,7 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 /// </mujoco>"#;
 /// let mut sim = Simulation::new(scm::scene::load_str(xml, Path::new("drop.xml"))?, xml);
 /// sim.set("ball.pos.z", Value::Real(0.1))?; // a start value, by its FMU name
-/// sim.set_param(Param::Friction, 1.0)?; // a contact parameter (tunable at any time)
+/// sim.set_param(Param::Eps2, 5e-4)?; // a contact parameter (tunable at any time)
 /// sim.step(1.0)?;
 /// let z = sim.get("ball.pos.z")?; // and every output: sim.output_names(), sim.outputs()
 /// assert!((z - 0.05).abs() < 2e-3, "resting height {z}");

@@ -666,7 +666,7 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
             .map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz)
             .sum();
         let in_reach: Vec<_> = at(z).into_iter().map(Some).collect();
-        let estimate = scm::integrate::contact_energy(&in_reach, &prm);
+        let estimate = scm::integrate::contact_energy(&model.pairs, &in_reach, &prm);
         println!(
             "{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}",
             depth * 1e3,
@@ -696,7 +696,7 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
     let (h, prm) = (model.step, model.contact);
     let stored = |s: &State<f64>| {
         let kin = model.tree.kinematics(&s.q, &s.v);
-        scm::integrate::contact_energy(&model.contact_forces(&kin, &prm).1, &prm)
+        scm::integrate::contact_energy(&model.pairs, &model.contact_forces(&kin, &prm).1, &prm)
     };
     let potential = |s: &State<f64>| {
         let e = model.energy(&s.q, &s.v);

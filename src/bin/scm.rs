@@ -390,9 +390,24 @@ fn check(path: &Path) -> Result<(), String> {
             }
         }
     }
-    for p in &m.pairs {
+    for (k, p) in m.pairs.iter().enumerate() {
+        let friction = p
+            .friction
+            .map_or("scm_friction".to_string(), |mu| format!("{mu}"));
+        let law = match sc.pair_laws.get(k).copied().flatten() {
+            Some(l) => format!(
+                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s (solref {:?}, solimp {:?}, effective mass {:.4e} kg: MuJoCo rests at {:.3} mm)",
+                l.stiffness,
+                l.dissipation_velocity,
+                l.softness.solref,
+                l.softness.solimp,
+                l.mass,
+                l.depth * 1e3
+            ),
+            None => "stiffness and dissipation velocity: scm_stiffness, scm_dissipation_velocity".into(),
+        };
         println!(
-            "pair {} - {}",
+            "pair {} - {}: friction {friction}, {law}",
             m.tree.bodies[p.a].name, m.tree.bodies[p.b].name
         );
     }

@@ -59,7 +59,7 @@ impl Model {
         t0: f64,
         ledger: Option<&EnergyLedger>,
     ) -> Option<EnergyMonitor> {
-        let stored = contacts.map_or(0.0, |c| contact_energy(c, prm));
+        let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm));
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
         let ledger = match ledger {
             // Carried on: the kinetic energy at this state is the one the last call's final
@@ -159,7 +159,7 @@ pub(super) struct EnergyMonitor {
     pub(super) floor: f64,
 }
 
-/// An estimate of the elastic energy stored in the contacts `contacts` (J), per pair the
+/// An estimate of the elastic energy stored in the contacts `contacts` of `pairs` (J), per pair the
 /// larger of `ε3 |F| + |F|²/(2k)` (`F`: the force between the two bodies) and `k D²` (`D < 0`:
 /// the smooth penetration). A pair out of reach (`None`, see
 /// [`Model::contact_forces`](crate::model::Model::contact_forces)) stores nothing.
@@ -175,15 +175,17 @@ pub(super) struct EnergyMonitor {
 /// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
 /// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
 pub fn contact_energy(
+    pairs: &[crate::model::Pair],
     contacts: &[Option<crate::contact::PairContact<f64>>],
     prm: &ContactParams<f64>,
 ) -> f64 {
-    let k = prm.stiffness;
-    contacts
+    pairs
         .iter()
-        .flatten()
-        .filter(|pc| pc.distance.is_finite())
-        .map(|pc| {
+        .zip(contacts)
+        .filter_map(|(pair, pc)| pc.as_ref().map(|pc| (pair, pc)))
+        .filter(|(_, pc)| pc.distance.is_finite())
+        .map(|(pair, pc)| {
+            let k = pair.stiffness.unwrap_or(prm.stiffness);
             let f = pc.on_a.force.norm();
             let deep = (-pc.distance).max(0.0);
             (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep)

@@ -732,7 +732,12 @@ impl Builder {
         for c in &el.children {
             match c.name.as_str() {
                 "pair" => {
-                    self.check_attrs(c, &["name", "geom1", "geom2", "friction", "condim"])?;
+                    self.check_attrs(
+                        c,
+                        &[
+                            "name", "geom1", "geom2", "friction", "condim", "solref", "solimp",
+                        ],
+                    )?;
                     let friction = match c.attr("friction").map(parse_floats) {
                         None => None,
                         Some(Some(v)) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => Some(v[0]),
@@ -752,8 +757,13 @@ impl Builder {
                     let g2 = c
                         .attr("geom2")
                         .ok_or_else(|| self.err(c, "geom2 is required"))?;
-                    self.explicit_pairs
-                        .push((g1.into(), g2.into(), friction, c.line));
+                    let softness = self.softness(c, contact::Softness::default())?;
+                    self.explicit_pairs.push(ExplicitPair {
+                        geoms: [g1.into(), g2.into()],
+                        friction,
+                        softness,
+                        line: c.line,
+                    });
                 }
                 "exclude" => {
                     self.check_attrs(c, &["name", "body1", "body2"])?;

@@ -236,7 +236,27 @@ impl Builder {
         } = self.mechanics()?;
         self.apply_dampratios(&tree)?;
         self.check_key_sizes(&tree)?;
+        let pair_laws = if self.flags.contact {
+            let (mut pairs, colliding) = self.pairs()?;
+            let eps3 = self
+                .numeric
+                .iter()
+                .rev()
+                .find(|(n, _, _)| n == "scm_eps3")
+                .map_or(ContactParams::default().eps3, |(_, v, _)| *v);
+            let step = self.timestep.unwrap_or(DEFAULT_STEP);
+            let laws = self.pair_laws(&tree, &mut pairs, &colliding, eps3, step);
+            let name = |b: usize| self.bodies[b].name.clone();
+            pairs
+                .iter()
+                .zip(laws)
+                .filter_map(|(p, law)| Some((name(p.a), name(p.b), law?)))
+                .collect()
+        } else {
+            vec![]
+        };
         Ok(Compiled {
+            pair_laws,
             tree,
             tendons,
             spatial_tendons,
@@ -394,7 +414,7 @@ impl Builder {
             }
         }
         // With contacts switched off (<flag contact="disable">) no body collides.
-        let (pairs, colliders) = if self.flags.contact {
+        let (mut pairs, colliders, colliding) = if self.flags.contact {
             self.split_static_planes();
             let (pairs, colliding) = self.pairs()?;
             self.assign_spacings(spacing, resolution, &spacing_overrides, &colliding)?;
@@ -410,7 +430,7 @@ impl Builder {
                     _ => false,
                 })
                 .collect();
-            (pairs, colliders)
+            (pairs, colliders, colliding)
         } else {
             // Nothing is sampled: per-geom spacings are checked and reported unused.
             self.assign_spacings(
@@ -419,7 +439,7 @@ impl Builder {
                 &spacing_overrides,
                 &vec![false; self.geoms.len()],
             )?;
-            (vec![], vec![None; self.bodies.len()])
+            (vec![], vec![None; self.bodies.len()], vec![])
         };
         let Mechanics {
             tree,
@@ -429,6 +449,9 @@ impl Builder {
             connects,
         } = self.mechanics()?;
         self.apply_dampratios(&tree)?;
+        // MuJoCo's refsafe holds the time constants at twice the file's step, whatever SCM's.
+        let file_step = self.timestep.unwrap_or(DEFAULT_STEP);
+        let pair_laws = self.pair_laws(&tree, &mut pairs, &colliding, contact.eps3, file_step);
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let actuator_ranges = self.actuator_dof_ranges(&tree);
@@ -474,6 +497,7 @@ impl Builder {
             meshes: self.meshes,
             meshdir: self.meshdir,
             includes: vec![],
+            pair_laws,
         })
     }
 

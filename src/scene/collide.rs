@@ -194,7 +194,13 @@ impl Builder {
         }
         let mut explicit = Vec::new();
         let mut explicit_friction = Vec::new();
-        for (g1, g2, friction, line) in &self.explicit_pairs {
+        for ExplicitPair {
+            geoms: [g1, g2],
+            friction,
+            line,
+            ..
+        } in &self.explicit_pairs
+        {
             let find = |g: &str| {
                 self.geoms
                     .iter()
@@ -274,7 +280,13 @@ impl Builder {
                     .find(|(k, _)| *k == (a, b))
                     .and_then(|(_, f)| *f);
                 let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
-                Pair { a, b, friction }
+                Pair {
+                    a,
+                    b,
+                    friction,
+                    stiffness: None,
+                    dissipation_velocity: None,
+                }
             })
             .collect();
         Ok((pairs, colliding))
@@ -288,37 +300,24 @@ impl Builder {
         if self.numeric.iter().any(|(n, _, _)| n == "scm_friction") {
             return None;
         }
-        let of = |body: usize| -> Vec<&Geom> {
-            self.geoms
-                .iter()
-                .zip(colliding)
-                .filter(|(g, &c)| c && g.body == body)
-                .map(|(g, _)| g)
-                .collect()
-        };
-        let (ga, gb) = (of(a), of(b));
         let combine = |x: &Geom, y: &Geom| {
+            let (px, py) = (x.softness.priority, y.softness.priority);
+            if px != py {
+                // The geom of higher priority gives its friction and condim whole.
+                let g = if px > py { x } else { y };
+                return if g.condim == 1 { 0.0 } else { g.friction };
+            }
             if x.condim == 1 && y.condim == 1 {
                 0.0
             } else {
                 x.friction.max(y.friction)
             }
         };
-        let mut values: Vec<f64> = ga
-            .iter()
-            .flat_map(|x| {
-                gb.iter()
-                    .filter(|y| filter::compatible(x, y))
-                    .map(|y| combine(x, y))
-            })
+        let values: Vec<f64> = self
+            .geom_pairs(a, b, colliding)
+            .into_iter()
+            .map(|(x, y)| combine(x, y))
             .collect();
-        if values.is_empty() {
-            // An explicit pair, or whole-body contact past the bits: every geom pair counts.
-            values = ga
-                .iter()
-                .flat_map(|x| gb.iter().map(|y| combine(x, y)))
-                .collect();
-        }
         let mu = values
             .iter()
             .copied()
@@ -336,6 +335,31 @@ impl Builder {
             ));
         }
         Some(mu.unwrap_or(1.0))
+    }
+
+    /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
+    /// collide, or, for an explicit pair or whole-body contact past the bits, every pair of
+    /// their colliding geoms.
+    pub(super) fn geom_pairs(&self, a: usize, b: usize, colliding: &[bool]) -> Vec<(&Geom, &Geom)> {
+        let of = |body: usize| -> Vec<&Geom> {
+            self.geoms
+                .iter()
+                .zip(colliding)
+                .filter(|(g, &c)| c && g.body == body)
+                .map(|(g, _)| g)
+                .collect()
+        };
+        let (ga, gb) = (of(a), of(b));
+        let all = ga.iter().flat_map(|&x| gb.iter().map(move |&y| (x, y)));
+        let compatible: Vec<_> = all
+            .clone()
+            .filter(|(x, y)| filter::compatible(x, y))
+            .collect();
+        if compatible.is_empty() {
+            all.collect()
+        } else {
+            compatible
+        }
     }
 }
 

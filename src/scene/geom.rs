@@ -21,6 +21,10 @@ impl Builder {
                 "contype",
                 "conaffinity",
                 "condim",
+                "solref",
+                "solimp",
+                "solmix",
+                "priority",
                 "mesh",
                 "fluidshape",
                 "fluidcoef",
@@ -82,6 +86,7 @@ impl Builder {
                 .filter(|c| [1, 3, 4, 6].contains(c))
                 .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6")))?,
         };
+        let softness = self.geom_softness(el)?;
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         let kind = el.attr("type").unwrap_or("sphere");
         let fromto = self.floats(el, "fromto", 6)?;
@@ -307,6 +312,7 @@ impl Builder {
             conaffinity,
             friction,
             condim,
+            softness,
             file: el.file.to_string(),
             line: el.line,
             spacing: None,

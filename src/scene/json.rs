@@ -9,7 +9,9 @@
 //! coefficients, spring, damper, friction, spring length and limits; spatial tendons (apart):
 //! their segments (bodies, points, `1 / divisor`), length at `qpos0` and the same. Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
-//! body frame.
+//! body frame, with `solref`, `solimp`, `solmix` and `priority`. Pairs: each contact pair's
+//! mixed `solref` and `solimp`, effective mass (`1 / (w₁ + w₂)`), MuJoCo's resting depth and
+//! SCM's stiffness and dissipation velocity from them (docs/mjcf.md).
 
 use super::{Compiled, Geom};
 use crate::dynamics::tendon::TendonLaw;
@@ -63,6 +65,8 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         "pos": pos, "quat": quat, "mesh": g.mesh, "fitted_to": g.fitted_to,
         "contype": g.contype, "conaffinity": g.conaffinity,
         "friction": g.friction, "condim": g.condim,
+        "solref": g.softness.softness.solref, "solimp": g.softness.softness.solimp,
+        "solmix": g.softness.solmix, "priority": g.softness.priority,
     })
 }
 
@@ -242,6 +246,12 @@ impl Compiled {
             "joints": joints,
             "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
             "actuators": actuators,
+            "pairs": self.pair_laws.iter().map(|(a, b, law)| json!({
+                "body1": a, "body2": b,
+                "solref": law.softness.solref, "solimp": law.softness.solimp,
+                "mass": law.mass, "mujoco_depth": law.depth,
+                "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,
+            })).collect::<Vec<_>>(),
             "refused": self.refused.iter().map(|e| e.to_string()).collect::<Vec<_>>(),
             "unused": self.unused,
             "warnings": self.warnings,

@@ -140,51 +140,16 @@ impl Builder {
     /// weld's held orientation are placed as MuJoCo's compiler places them (body semantics: the
     /// point not written is where the written one is at `qpos0`, a weld's orientation the one
     /// there unless `relpose` gives it; site semantics: the sites). The stiffness and damping
-    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's `body_invweight0`: translational
-    /// for the points, rotational for a weld's orientation. A body's weights are zero if it
-    /// cannot move, `(1 / mass, 0)` for a top-level body of sliders, else the means of the
-    /// diagonals of `J M⁻¹ Jᵀ` for the linear and angular Jacobians `J` of its centre of mass.
+    /// come from `solref` and `1 / (w₁ + w₂)`, `w` MuJoCo's `body_invweight0` ([`body_weights`]):
+    /// translational for the points, rotational for a weld's orientation.
     fn connects(&self, tree: &Tree) -> Vec<Connect> {
         if self.connects.is_empty() {
             return vec![];
         }
         let q0 = tree.q0();
         let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
-        let inv = mass_at_q0(tree).1;
-        // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
-        // each degree of freedom.
-        let columns = unit_velocity_kinematics(tree, &q0);
-        let weight = |b: usize| -> (f64, f64) {
-            if b == 0 || !tree.body_moves(b) {
-                return (0.0, 0.0);
-            }
-            if let Some(mass) = tree.bodies[b]
-                .joints
-                .first()
-                .and_then(|&j| slider_body_mass(tree, j))
-            {
-                return (1.0 / mass, 0.0);
-            }
-            let Some(inv) = &inv else { return (0.0, 0.0) };
-            let com = tree.bodies[b].inertia.com;
-            let (linear, angular): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = columns
-                .iter()
-                .map(|k| {
-                    let f = &k.frames[b];
-                    (f.linvel + f.angvel.cross(&(f.rotation * com)), f.angvel)
-                })
-                .unzip();
-            let mean = |jac: &[Vector3<f64>]| {
-                let mut trace = 0.0;
-                for (a, ja) in jac.iter().enumerate() {
-                    for (c, jc) in jac.iter().enumerate() {
-                        trace += ja.dot(jc) * inv[(a, c)];
-                    }
-                }
-                trace / 3.0
-            };
-            (mean(&linear), mean(&angular))
-        };
+        let weights = body_weights(tree);
+        let weight = |b: usize| weights[b];
         self.connects
             .iter()
             .map(|c| {
@@ -579,6 +544,50 @@ fn spatial_geometry(spec: &TendonSpec, segments: &[SegmentSpec]) -> SpatialTendo
             limit: None,
         },
     }
+}
+
+/// MuJoCo's `body_invweight0` of every body: `(translational, rotational)`, zero for a body
+/// that cannot move, `(1 / mass, 0)` for a top-level body of sliders, else the means of the
+/// diagonals of `J M⁻¹ Jᵀ` at `qpos0` for the linear and angular Jacobians `J` of its centre
+/// of mass.
+pub(super) fn body_weights(tree: &Tree) -> Vec<(f64, f64)> {
+    let q0 = tree.q0();
+    let inv = mass_at_q0(tree).1;
+    // Columns of each body's centre-of-mass Jacobian: its velocity for a unit velocity of
+    // each degree of freedom.
+    let columns = unit_velocity_kinematics(tree, &q0);
+    let weight = |b: usize| -> (f64, f64) {
+        if b == 0 || !tree.body_moves(b) {
+            return (0.0, 0.0);
+        }
+        if let Some(mass) = tree.bodies[b]
+            .joints
+            .first()
+            .and_then(|&j| slider_body_mass(tree, j))
+        {
+            return (1.0 / mass, 0.0);
+        }
+        let Some(inv) = &inv else { return (0.0, 0.0) };
+        let com = tree.bodies[b].inertia.com;
+        let (linear, angular): (Vec<Vector3<f64>>, Vec<Vector3<f64>>) = columns
+            .iter()
+            .map(|k| {
+                let f = &k.frames[b];
+                (f.linvel + f.angvel.cross(&(f.rotation * com)), f.angvel)
+            })
+            .unzip();
+        let mean = |jac: &[Vector3<f64>]| {
+            let mut trace = 0.0;
+            for (a, ja) in jac.iter().enumerate() {
+                for (c, jc) in jac.iter().enumerate() {
+                    trace += ja.dot(jc) * inv[(a, c)];
+                }
+            }
+            trace / 3.0
+        };
+        (mean(&linear), mean(&angular))
+    };
+    (0..tree.bodies.len()).map(weight).collect()
 }
 
 /// The kinematics at `q` for a unit velocity of each degree of freedom in turn: the columns of

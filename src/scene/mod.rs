@@ -11,6 +11,7 @@ mod assemble;
 mod body;
 pub mod canonical;
 mod collide;
+pub mod contact;
 pub mod defaults;
 pub mod filter;
 mod geom;
@@ -54,6 +55,16 @@ pub struct SceneError {
     pub message: String,
 }
 
+/// A `<pair>` as read: its geoms, its own friction if given, its `solref` and `solimp` (its
+/// own or its default class's: MuJoCo does not take a pair's from its geoms), its line.
+#[derive(Clone, Debug)]
+struct ExplicitPair {
+    geoms: [String; 2],
+    friction: Option<f64>,
+    softness: contact::Softness,
+    line: usize,
+}
+
 /// A loaded scene: the model and what came with it.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -73,6 +84,10 @@ pub struct Scene {
     pub meshdir: Option<String>,
     /// Files read through `<include>`, in order.
     pub includes: Vec<include::IncludedFile>,
+    /// Each contact pair's law from the file's `solref` and `solimp`, in the model's pair
+    /// order (`None`: the pair takes the scene's `scm_stiffness` and
+    /// `scm_dissipation_velocity`).
+    pub pair_laws: Vec<Option<contact::PairLaw>>,
 }
 
 /// A mesh asset of a scene.
@@ -150,6 +165,9 @@ pub struct Geom {
     pub friction: f64,
     /// MuJoCo's contact dimensionality (`condim`, default 3; 1 is frictionless).
     pub condim: u32,
+    /// `solref`, `solimp`, `solmix` and `priority`, which size its contacts' stiffness and
+    /// damping ([`contact`]).
+    pub softness: contact::GeomSoftness,
     /// The file that declares the geom.
     pub file: String,
     /// Its line there.
@@ -269,6 +287,9 @@ pub struct Compiled {
     pub unused: Vec<String>,
     /// Accepted but modelled differently from MuJoCo.
     pub warnings: Vec<String>,
+    /// Each contact pair's bodies and its law from `solref` and `solimp` (none where the
+    /// scene's `scm_stiffness` or `scm_dissipation_velocity` applies, or contact is off).
+    pub pair_laws: Vec<(String, String, contact::PairLaw)>,
 }
 
 /// Compiles a scene file without building colliders and without refusing: see [`Compiled`].
@@ -348,7 +369,7 @@ struct Builder {
     numeric: Vec<(String, f64, Place)>,
     text: Vec<(String, String, Place)>,
     /// `<pair geom1 geom2 friction>`: the names, the sliding friction if given, the line.
-    explicit_pairs: Vec<(String, String, Option<f64>, usize)>,
+    explicit_pairs: Vec<ExplicitPair>,
     excludes: Vec<(String, String, usize)>,
     /// Whether each body's inertia came from `<inertial>`.
     explicit_inertia: Vec<bool>,

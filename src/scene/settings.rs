@@ -61,6 +61,8 @@ pub(super) struct Flags {
     pub(super) filterparent: bool,
     pub(super) clampctrl: bool,
     pub(super) eulerdamp: bool,
+    /// MuJoCo's `refsafe`: a contact's time constant held at no less than twice the step.
+    pub(super) refsafe: bool,
 }
 
 impl Default for Flags {
@@ -77,6 +79,7 @@ impl Default for Flags {
             filterparent: true,
             clampctrl: true,
             eulerdamp: true,
+            refsafe: true,
         }
     }
 }
@@ -90,15 +93,21 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("group", "renderer groups"),
     ("width", "renderer (a tendon's drawn width)"),
     ("user", "user data"),
-    ("margin", "MuJoCo's contact solver"),
-    ("gap", "MuJoCo's contact solver"),
+    (
+        "margin",
+        "MuJoCo's contact activation distance; SCM's smooth contact has none and does not shift the surface",
+    ),
+    (
+        "gap",
+        "MuJoCo's contact activation distance; SCM's smooth contact has none",
+    ),
     (
         "solref",
-        "MuJoCo's constraint solver; SCM's contact comes from its scm_ settings",
+        "MuJoCo's constraint solver; SCM reads it on geoms, contact pairs, equalities and joint limits",
     ),
     (
         "solimp",
-        "MuJoCo's constraint solver; SCM's contact comes from its scm_ settings",
+        "MuJoCo's constraint solver; SCM reads it on geoms and contact pairs",
     ),
     ("solmix", "MuJoCo's contact solver"),
     ("priority", "MuJoCo's contact solver"),
@@ -387,6 +396,7 @@ impl Builder {
                 "filterparent" => f.filterparent = on,
                 "clampctrl" => f.clampctrl = on,
                 "eulerdamp" => f.eulerdamp = on,
+                "refsafe" => f.refsafe = on,
                 "constraint" => {
                     // Every constraint: contacts, limits, equalities, friction loss.
                     f.contact &= on;
@@ -396,7 +406,7 @@ impl Builder {
                 }
                 "passive" => return Err(self.err(el, "flag passive was MuJoCo 2's; MuJoCo 3 and 4 refuse it: use spring=\"disable\" damper=\"disable\"")),
                 "warmstart" | "energy" | "sensor" | "midphase" | "island" | "nativeccd"
-                | "multiccd" | "refsafe" | "fwdinv" | "invdiscrete" | "autoreset" | "override"
+                | "multiccd" | "fwdinv" | "invdiscrete" | "autoreset" | "override"
                 | "sleep" | "diagexact" | "speculative" | "ipc" => {
                     let why = format!("flag {k} (MuJoCo's solver and pipeline)");
                     self.unused(el, why);

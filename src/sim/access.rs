@@ -63,9 +63,26 @@ impl Simulation {
         }
     }
 
-    /// Sets a contact parameter (tunable at any time: between steps too).
+    /// Sets a contact parameter (tunable at any time: between steps too). A parameter that no
+    /// pair uses, because every pair has its own value from the scene file (its geoms'
+    /// friction, or its stiffness and dissipation velocity from `solref` and `solimp`), is
+    /// refused with why, so that a setting never does nothing silently (setting it to the value
+    /// it has, as a host that writes every start value does, changes nothing and is accepted).
     pub fn set_param(&mut self, p: Param, value: f64) -> ModelResult<()> {
-        Self::check_finite(&format!("scm.{}", p.describe().0), value)?;
+        let name = p.describe().0;
+        Self::check_finite(&format!("scm.{name}"), value)?;
+        let pairs = &self.model.pairs;
+        let unchanged = p.get(&self.current.params) == value;
+        if !unchanged && !pairs.is_empty() && pairs.iter().all(|pair| pair.owns(p)) {
+            let source = if p == Param::Friction {
+                "the friction its geoms or <pair> give"
+            } else {
+                "the value its geoms' or <pair>'s solref and solimp give"
+            };
+            return Err(format!(
+                "scm.{name} = {value:?} refused: no contact pair uses it, every pair has its own, {source} (see `scm check`); to give every pair one value that scm.{name} then tunes, set scm_{name} in the scene (<custom><numeric name=\"scm_{name}\" data=\"...\"/>)"
+            ));
+        }
         if !p.accepts(value) {
             return Err(format!(
                 "scm.{} = {value:?} refused: it must be {}",

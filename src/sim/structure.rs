@@ -115,7 +115,7 @@ fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
         .into_iter()
         .filter(|&p| {
             (p != Param::Eps1 || both_clouds)
-                && (p != Param::Friction || pair.friction.is_none())
+                && !pair.owns(p)
                 && (!distance_only || matches!(p, Param::Eps1 | Param::Eps2))
         })
         .collect();

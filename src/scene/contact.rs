@@ -1,0 +1,451 @@
+//! Each contact pair's stiffness and dissipation velocity from the file's `solref` and
+//! `solimp`, as MuJoCo means them (docs/mjcf.md, "Contact stiffness from solref and solimp"):
+//! the geoms' values mixed per geom pair as MuJoCo mixes them (`priority`, `solmix`), or a
+//! `<pair>`'s own, turned into SCM's linear spring and Hunt–Crossley damping for the body
+//! pair's effective mass so that a body at rest sinks as deep as in MuJoCo and its contact has
+//! MuJoCo's damping ratio.
+
+use super::*;
+
+impl Builder {
+    /// The `solref` and `solimp` of `el` over `base` (the values not written; MuJoCo reads
+    /// fewer entries than the full two and five and keeps the rest).
+    pub(super) fn softness(&self, el: &Element, base: Softness) -> Result<Softness, SceneError> {
+        let mut out = base;
+        for (name, slot) in [
+            ("solref", &mut out.solref[..]),
+            ("solimp", &mut out.solimp[..]),
+        ] {
+            let Some(text) = el.attr(name) else { continue };
+            match parse_floats(text) {
+                Some(v) if !v.is_empty() && v.len() <= slot.len() => {
+                    slot[..v.len()].copy_from_slice(&v)
+                }
+                _ => {
+                    return Err(self.err(
+                        el,
+                        format!("{name}=\"{text}\": expected 1 to {} numbers", slot.len()),
+                    ))
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Gives each pair its own stiffness and dissipation velocity from its `solref` and
+    /// `solimp` ([`PairLaw`]), unless the scene sets `scm_stiffness` or
+    /// `scm_dissipation_velocity`, which then apply to every pair (and the FMU's parameters of
+    /// those names with them). A `<pair>`'s values are its own; otherwise each geom pair's
+    /// are mixed ([`mix`]) and, where a body pair touches through geom pairs that give
+    /// different laws, the stiffest is taken and a warning says so. Returns each pair's law
+    /// (`None` where the scene's settings apply).
+    pub(super) fn pair_laws(
+        &mut self,
+        tree: &Tree,
+        pairs: &mut [Pair],
+        colliding: &[bool],
+        eps3: f64,
+        step: f64,
+    ) -> Vec<Option<PairLaw>> {
+        let set = |name: &str| self.numeric.iter().any(|(n, _, _)| n == name);
+        if set("scm_stiffness") || set("scm_dissipation_velocity") || pairs.is_empty() {
+            return vec![None; pairs.len()];
+        }
+        let weights = mechanics::body_weights(tree);
+        let g = tree.gravity.norm();
+        let refsafe = self.flags.refsafe.then_some(step);
+        let body_of = |name: &str| self.geoms.iter().find(|g| g.name == name).map(|g| g.body);
+        let explicit: Vec<((usize, usize), Softness)> = self
+            .explicit_pairs
+            .iter()
+            .filter_map(|p| {
+                let (x, y) = (body_of(&p.geoms[0])?, body_of(&p.geoms[1])?);
+                Some(((x.min(y), x.max(y)), p.softness))
+            })
+            .collect();
+        let mut notes = Vec::new();
+        let laws = pairs
+            .iter_mut()
+            .map(|pair| {
+                let w = weights[pair.a].0 + weights[pair.b].0;
+                if w <= 0.0 {
+                    return None;
+                }
+                let law = |s: Softness| PairLaw::new(s, 1.0 / w, g, eps3, refsafe);
+                let candidates: Vec<PairLaw> =
+                    match explicit.iter().find(|(k, _)| *k == (pair.a, pair.b)) {
+                        Some((_, s)) => vec![law(*s)],
+                        None => self
+                            .geom_pairs(pair.a, pair.b, colliding)
+                            .into_iter()
+                            .map(|(x, y)| law(mix(&x.softness, &y.softness)))
+                            .collect(),
+                    };
+                let stiffest = candidates
+                    .iter()
+                    .copied()
+                    .reduce(|a, b| if b.stiffness > a.stiffness { b } else { a })?;
+                if candidates.iter().any(|c| c.softness != stiffest.softness) {
+                    notes.push(format!(
+                        "bodies '{}' and '{}': their geoms give different solref/solimp; SCM's contact acts between whole bodies and uses the stiffest, solref {:?} solimp {:?}",
+                        self.bodies[pair.a].name, self.bodies[pair.b].name, stiffest.softness.solref, stiffest.softness.solimp
+                    ));
+                }
+                pair.stiffness = Some(stiffest.stiffness);
+                pair.dissipation_velocity = Some(stiffest.dissipation_velocity);
+                Some(stiffest)
+            })
+            .collect();
+        self.warnings.extend(notes);
+        laws
+    }
+
+    /// A geom's `solref`, `solimp`, `solmix` and `priority`.
+    pub(super) fn geom_softness(&self, el: &Element) -> Result<GeomSoftness, SceneError> {
+        let softness = self.softness(el, Softness::default())?;
+        let solmix = self.float(el, "solmix")?.unwrap_or(1.0);
+        let priority = match el.attr("priority") {
+            None => 0,
+            Some(p) => p
+                .trim()
+                .parse()
+                .map_err(|_| self.err(el, format!("priority=\"{p}\": expected a whole number")))?,
+        };
+        Ok(GeomSoftness {
+            softness,
+            solmix,
+            priority,
+        })
+    }
+}
+
+/// MuJoCo's smallest value taken as non-zero (`mjMINVAL`).
+const MIN_VALUE: f64 = 1e-15;
+/// MuJoCo's bounds on the impedance (`mjMINIMP`, `mjMAXIMP`).
+const IMPEDANCE_RANGE: (f64, f64) = (1e-4, 0.9999);
+/// The gravity at which a scene without gravity is calibrated (m/s²): a contact's stiffness is
+/// the one that gives MuJoCo's resting depth under it.
+pub const NOMINAL_GRAVITY: f64 = 9.81;
+
+/// MuJoCo's soft-constraint parameters of a contact: `solref` (time constant and damping ratio;
+/// both negative: stiffness and damping) and `solimp` (impedance at zero depth `d0`, at depth
+/// `width` and beyond `dmax`, the width, the midpoint and the power of the curve between).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Softness {
+    /// `solref`.
+    pub solref: [f64; 2],
+    /// `solimp`.
+    pub solimp: [f64; 5],
+}
+
+impl Default for Softness {
+    /// MuJoCo's defaults: `solref="0.02 1"`, `solimp="0.9 0.95 0.001 0.5 2"`.
+    fn default() -> Self {
+        Softness {
+            solref: [0.02, 1.0],
+            solimp: [0.9, 0.95, 0.001, 0.5, 2.0],
+        }
+    }
+}
+
+/// A geom's contact attributes that MuJoCo mixes per geom pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GeomSoftness {
+    /// `solref` and `solimp`.
+    pub softness: Softness,
+    /// `solmix` (default 1): the weight of this geom's values against the other's.
+    pub solmix: f64,
+    /// `priority` (default 0): the geom of higher priority gives its values whole.
+    pub priority: i32,
+}
+
+impl Default for GeomSoftness {
+    fn default() -> Self {
+        GeomSoftness {
+            softness: Softness::default(),
+            solmix: 1.0,
+            priority: 0,
+        }
+    }
+}
+
+/// The values of a geom pair as MuJoCo's collision driver mixes them: those of the geom of
+/// higher `priority`; at equal priority `solimp` weighted by `solmix₁ / (solmix₁ + solmix₂)`
+/// (half and half when both are zero), and `solref` weighted the same when both are time
+/// constants (positive), else the smaller of each entry.
+pub fn mix(a: &GeomSoftness, b: &GeomSoftness) -> Softness {
+    if a.priority != b.priority {
+        return if a.priority > b.priority {
+            a.softness
+        } else {
+            b.softness
+        };
+    }
+    let w = match (a.solmix >= MIN_VALUE, b.solmix >= MIN_VALUE) {
+        (true, true) => a.solmix / (a.solmix + b.solmix),
+        (false, false) => 0.5,
+        (false, true) => 0.0,
+        (true, false) => 1.0,
+    };
+    let (x, y) = (&a.softness, &b.softness);
+    let blend = |p: f64, q: f64| w * p + (1.0 - w) * q;
+    let solref = if x.solref[0] > 0.0 && y.solref[0] > 0.0 {
+        [
+            blend(x.solref[0], y.solref[0]),
+            blend(x.solref[1], y.solref[1]),
+        ]
+    } else {
+        [x.solref[0].min(y.solref[0]), x.solref[1].min(y.solref[1])]
+    };
+    let mut solimp = [0.0; 5];
+    for (k, s) in solimp.iter_mut().enumerate() {
+        *s = blend(x.solimp[k], y.solimp[k]);
+    }
+    Softness { solref, solimp }
+}
+
+impl Softness {
+    /// MuJoCo's impedance `d(r)` at penetration depth `r ≥ 0` (m): `d0` at zero, `dmax` from
+    /// `width` on, between them `d0 + y (dmax - d0)` with `y` the power curve through the
+    /// midpoint (`x = r / width`: `x^p / mid^(p-1)` up to `mid`, `1 - (1-x)^p / (1-mid)^(p-1)`
+    /// after); the values bounded to MuJoCo's `[1e-4, 0.9999]`.
+    pub fn impedance(&self, r: f64) -> f64 {
+        let [d0, dmax, width, mid, power] = self.solimp;
+        let (lo, hi) = IMPEDANCE_RANGE;
+        let (d0, dmax) = (d0.clamp(lo, hi), dmax.clamp(lo, hi));
+        let (mid, power) = (mid.clamp(lo, hi), power.max(1.0));
+        if d0 == dmax || width <= MIN_VALUE {
+            return 0.5 * (d0 + dmax);
+        }
+        let x = r.abs() / width;
+        if x >= 1.0 {
+            return dmax;
+        }
+        let y = if power == 1.0 {
+            x
+        } else if x <= mid {
+            x.powf(power) / mid.powf(power - 1.0)
+        } else {
+            1.0 - (1.0 - x).powf(power) / (1.0 - mid).powf(power - 1.0)
+        };
+        d0 + y * (dmax - d0)
+    }
+
+    /// MuJoCo's reference stiffness and damping per unit of effective mass, `(K, B)`, in its
+    /// reference acceleration `-B v - K d(r) r`: with a time constant `τ` and damping ratio `ζ`,
+    /// `K = 1 / (dmax² τ² ζ²)` and `B = 2 / (dmax τ)`, `τ` held at no less than twice the step
+    /// where `refsafe` is on (`refsafe_step`: the step then); with negative values, `K =
+    /// -solref[0] / dmax²` and `B = -solref[1] / dmax`.
+    pub fn reference(&self, refsafe_step: Option<f64>) -> (f64, f64) {
+        let (lo, hi) = IMPEDANCE_RANGE;
+        let dmax = self.solimp[1].clamp(lo, hi);
+        let [a, b] = self.solref;
+        if a > 0.0 {
+            let tau = refsafe_step.map_or(a, |h| a.max(2.0 * h));
+            (1.0 / (dmax * dmax * tau * tau * b * b), 2.0 / (dmax * tau))
+        } else {
+            (-a / (dmax * dmax), -b / dmax)
+        }
+    }
+
+    /// The depth at which MuJoCo's contact holds a load of `g` per unit of its effective mass
+    /// at rest: the root of `r d(r)² / (1 - d(r)) = g / K` (a contact at rest accelerates
+    /// neither way, so its regularized force `d / (1 - d) · (a_ref / Â)` carries the load).
+    /// Found by bisection: the left side grows with `r` wherever `d` does not fall.
+    pub fn resting_depth(&self, g: f64, refsafe_step: Option<f64>) -> f64 {
+        let (k, _) = self.reference(refsafe_step);
+        let load = g / k;
+        let f = |r: f64| {
+            let d = self.impedance(r);
+            r * d * d / (1.0 - d) - load
+        };
+        let (mut lo, mut hi) = (0.0, 1e-6);
+        while f(hi) < 0.0 && hi < 1e3 {
+            lo = hi;
+            hi *= 2.0;
+        }
+        for _ in 0..200 {
+            let m = 0.5 * (lo + hi);
+            if f(m) < 0.0 {
+                lo = m;
+            } else {
+                hi = m;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// MuJoCo's damping ratio of the contact's linearized motion, `B / (2 √K)`: `ζ` itself for
+    /// a time constant, `b / (2 √k)` for negative values.
+    pub fn damping_ratio(&self, refsafe_step: Option<f64>) -> f64 {
+        let (k, b) = self.reference(refsafe_step);
+        b / (2.0 * k.sqrt())
+    }
+}
+
+/// SCM's contact law of one pair, sized from MuJoCo's: the stiffness `k` that holds the pair's
+/// effective mass `m̂` under gravity `g` at MuJoCo's resting depth `r` (`k s⁺_ε3(-φ) = m̂ g` at
+/// `φ = -r`), and the dissipation velocity that gives the motion about that rest MuJoCo's
+/// damping there, `m̂ d(r) B` (MuJoCo's constraint moves as `r̈ = -d B ṙ - d² K r + …`): SCM's is
+/// `m̂ g / v_d` (the slope of the dissipation factor is `-1` at zero speed), so
+/// `v_d = g / (d(r) B)`, whatever the mass. The motion about rest then decays as MuJoCo's, with
+/// the time constant `2 / (d B)` (`τ dmax / d`, about `τ`), but oscillates faster: the spring
+/// that holds MuJoCo's static depth is `(1 - d)⁻¹` times MuJoCo's `d² K` (11.6 times at the
+/// default `solimp`), so its damping ratio is `√(1 - d)` times MuJoCo's (0.29 for ζ = 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairLaw {
+    /// The pair's `solref` and `solimp` (mixed).
+    pub softness: Softness,
+    /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0` (kg).
+    pub mass: f64,
+    /// MuJoCo's resting depth under `g` (m).
+    pub depth: f64,
+    /// SCM's stiffness (N/m).
+    pub stiffness: f64,
+    /// SCM's dissipation velocity (m/s).
+    pub dissipation_velocity: f64,
+}
+
+impl PairLaw {
+    /// The law for `softness` on effective mass `mass` (kg), gravity `g` (m/s², its magnitude;
+    /// [`NOMINAL_GRAVITY`] where it is zero), SCM's `eps3` (m) and MuJoCo's `refsafe` step.
+    pub fn new(
+        softness: Softness,
+        mass: f64,
+        g: f64,
+        eps3: f64,
+        refsafe_step: Option<f64>,
+    ) -> PairLaw {
+        let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
+        let depth = softness.resting_depth(g, refsafe_step);
+        let y = depth / eps3;
+        // s⁺_ε3(r) = ε3 ln(1 + e^{r/ε3}) and its slope σ(r/ε3), without overflow.
+        let softplus = eps3 * (y.max(0.0) + (-y.abs()).exp().ln_1p());
+        let stiffness = mass * g / softplus;
+        let (_, b) = softness.reference(refsafe_step);
+        let dissipation_velocity = g / (softness.impedance(depth) * b);
+        PairLaw {
+            softness,
+            mass,
+            depth,
+            stiffness,
+            dissipation_velocity,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn impedance_follows_the_power_curve_between_its_ends() {
+        let s = Softness::default();
+        assert_eq!(s.impedance(0.0), 0.9);
+        assert_eq!(s.impedance(0.002), 0.95);
+        // Midpoint: half-way; a quarter of the width: y = 0.25² / 0.5 = 0.125.
+        assert!((s.impedance(0.0005) - 0.925).abs() < 1e-15);
+        assert!((s.impedance(0.00025) - (0.9 + 0.125 * 0.05)).abs() < 1e-15);
+        // Past the midpoint: y = 1 - 0.25² / 0.5 = 0.875.
+        assert!((s.impedance(0.00075) - (0.9 + 0.875 * 0.05)).abs() < 1e-15);
+        let flat = Softness {
+            solimp: [0.8, 0.8, 0.001, 0.5, 2.0],
+            ..s
+        };
+        assert_eq!(flat.impedance(0.0007), 0.8);
+    }
+
+    #[test]
+    fn resting_depth_solves_the_static_law() {
+        let s = Softness::default();
+        let r = s.resting_depth(9.81, None);
+        let (k, b) = s.reference(None);
+        let d = s.impedance(r);
+        assert!((r * d * d / (1.0 - d) - 9.81 / k).abs() < 1e-12 * 9.81 / k);
+        // MuJoCo 4.0's default contact rests at 0.367 mm whatever the mass (measured: a sphere
+        // on a plane), with d = 0.9135.
+        assert!((r - 3.67e-4).abs() < 1e-6, "{r}");
+        assert!((d - 0.9135).abs() < 1e-3, "{d}");
+        assert!((k - 1.0 / (0.95f64 * 0.95 * 0.02 * 0.02)).abs() < 1e-9 * k);
+        assert!((b - 2.0 / (0.95 * 0.02)).abs() < 1e-12 * b);
+        assert!((s.damping_ratio(None) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn refsafe_holds_the_time_constant_at_twice_the_step() {
+        let s = Softness::default();
+        assert_eq!(s.reference(Some(0.005)), s.reference(None));
+        let slow = Softness {
+            solref: [0.04, 1.0],
+            ..s
+        };
+        assert_eq!(s.reference(Some(0.02)), slow.reference(None));
+        // Direct stiffness and damping are not held.
+        let direct = Softness {
+            solref: [-1e4, -100.0],
+            ..s
+        };
+        assert_eq!(direct.reference(Some(0.02)), direct.reference(None));
+        let (k, b) = direct.reference(None);
+        assert!((k - 1e4 / 0.9025).abs() < 1e-9 && (b - 100.0 / 0.95).abs() < 1e-12);
+        assert!((direct.damping_ratio(None) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_pair_law_holds_the_weight_at_the_resting_depth_with_mujocos_damping() {
+        for (mass, zeta) in [(0.1, 1.0), (1.0, 0.5), (40.0, 2.0)] {
+            let s = Softness {
+                solref: [0.02, zeta],
+                ..Softness::default()
+            };
+            let eps3 = 1e-4;
+            let law = PairLaw::new(s, mass, 9.81, eps3, None);
+            // The spring k s⁺(r) carries m̂ g at r: checked against a direct evaluation.
+            let spring = |r: f64| law.stiffness * eps3 * (r / eps3).exp().ln_1p();
+            assert!((spring(law.depth) - mass * 9.81).abs() < 1e-9 * mass * 9.81);
+            // The damping at rest, k s⁺(r) / v_d (the factor's slope is -1 at zero speed),
+            // is MuJoCo's there: m̂ d(r) B, with B = 2 / (dmax τ).
+            let c = spring(law.depth) / law.dissipation_velocity;
+            let mujoco = mass * s.impedance(law.depth) * 2.0 / (0.95 * 0.02);
+            assert!((c - mujoco).abs() < 1e-9 * mujoco, "{c} vs {mujoco}");
+            // The depth does not depend on the mass, the stiffness is proportional to it.
+            assert!((law.depth - s.resting_depth(9.81, None)).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn mixing_follows_priority_then_solmix() {
+        let soft = |tau: f64, d0: f64, solmix: f64, priority: i32| GeomSoftness {
+            softness: Softness {
+                solref: [tau, 1.0],
+                solimp: [d0, 0.95, 0.001, 0.5, 2.0],
+            },
+            solmix,
+            priority,
+        };
+        let (a, b) = (soft(0.01, 0.8, 1.0, 0), soft(0.03, 0.9, 3.0, 0));
+        let m = mix(&a, &b);
+        assert!((m.solref[0] - (0.25 * 0.01 + 0.75 * 0.03)).abs() < 1e-15);
+        assert!((m.solimp[0] - (0.25 * 0.8 + 0.75 * 0.9)).abs() < 1e-15);
+        assert_eq!(mix(&a, &b), mix(&b, &a));
+        // A higher priority gives its values whole.
+        let high = soft(0.05, 0.5, 1.0, 1);
+        assert_eq!(mix(&a, &high), high.softness);
+        assert_eq!(mix(&high, &b), high.softness);
+        // Both solmix zero: half and half; one zero: the other's.
+        let (z1, z2) = (soft(0.01, 0.8, 0.0, 0), soft(0.03, 0.9, 0.0, 0));
+        assert!((mix(&z1, &z2).solref[0] - 0.02).abs() < 1e-15);
+        assert_eq!(mix(&z1, &b).solref, b.softness.solref);
+        // Direct (negative) values: the smaller of each entry.
+        let direct = GeomSoftness {
+            softness: Softness {
+                solref: [-5e3, -20.0],
+                ..Softness::default()
+            },
+            ..GeomSoftness::default()
+        };
+        assert_eq!(mix(&direct, &a).solref, [-5e3, -20.0]);
+        let g = GeomSoftness::default();
+        assert_eq!(mix(&g, &a).solref, [0.015, 1.0]);
+    }
+}

@@ -1,0 +1,103 @@
+"""Each contact pair's parameters as MuJoCo's files mean them (docs/mjcf.md, "Contact stiffness
+from solref and solimp"), compared with MuJoCo on the same file: the solref and solimp MuJoCo's
+collision driver gives each contact (d.contact after mj_forward: geoms mixed by solmix, the higher
+priority winning, negative solref by the smaller entry, a <pair>'s own values and its default
+class's) against `scm compile`'s pairs, and each pair's effective mass against MuJoCo's
+body_invweight0. A host's setting of a contact parameter that no pair uses is refused with why."""
+import json
+import subprocess
+
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import SCM
+
+SCENE = """<mujoco>
+  <option timestep="0.002"/>
+  <default><pair solimp="0.85 0.9 0.003 0.5 2"/></default>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1" solref="0.01 1" solmix="3"/>
+    <body name="mixed" pos="0 0 0.049"><freejoint/>
+      <geom type="sphere" size="0.05" solref="0.03 0.5" solimp="0.8 0.9 0.002 0.4 3"/></body>
+    <body name="priority" pos="0.2 0 0.049"><freejoint/>
+      <geom type="sphere" size="0.05" priority="1" solref="0.04 1.2" mass="3"/></body>
+    <body name="direct" pos="0.4 0 0.049"><freejoint/>
+      <geom type="sphere" size="0.05" solref="-20000 -50"/></body>
+    <body name="solmix0" pos="0.6 0 0.049"><freejoint/>
+      <geom type="sphere" size="0.05" solmix="0" solimp="0.7 0.8 0.01"/></body>
+    <body name="explicit" pos="0.8 0 0.049"><freejoint/>
+      <geom name="alone" type="sphere" size="0.05" contype="0" conaffinity="0"/></body>
+    <body name="arm" pos="1.2 0 0.3">
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.27" size="0.03" mass="0.5"/>
+      <body name="hand" pos="0 0 -0.27"><joint type="hinge" axis="0 1 0"/>
+        <geom type="sphere" size="0.031" mass="0.2"/></body>
+    </body>
+  </worldbody>
+  <contact><pair geom1="floor" geom2="alone" solref="0.06 1"/></contact>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def both(tmp_path_factory):
+    path = tmp_path_factory.mktemp("params") / "params.xml"
+    path.write_text(SCENE)
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True,
+                         check=True).stdout
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    return path, json.loads(out), m, d
+
+
+def test_pairs_mix_solref_and_solimp_as_mujoco_does(both):
+    _, compiled, m, d = both
+    ours = {(p["body1"], p["body2"]): p for p in compiled["pairs"]}
+    seen = set()
+    for c in d.contact[:d.ncon]:
+        bodies = tuple(sorted((m.body(m.geom_bodyid[g]).name for g in c.geom), key=lambda n:
+                              [b["name"] for b in compiled["bodies"]].index(n)))
+        pair = ours[bodies]
+        np.testing.assert_allclose(pair["solref"], c.solref, rtol=1e-12, err_msg=str(bodies))
+        np.testing.assert_allclose(pair["solimp"], c.solimp, rtol=1e-12, err_msg=str(bodies))
+        b1, b2 = (m.body(n).id for n in bodies)
+        mass = 1.0 / (m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0])
+        assert pair["mass"] == pytest.approx(mass, rel=1e-9), bodies
+        seen.add(bodies)
+    # Every body touches the floor in MuJoCo, the two arm links and the pair's sphere included.
+    assert len(seen) == 7, seen
+    explicit = ours[("world", "explicit")]
+    assert explicit["solref"] == [0.06, 1.0] and explicit["solimp"] == [0.85, 0.9, 0.003, 0.5, 2.0]
+
+
+def test_check_shows_each_pairs_law(both):
+    path, _, _, _ = both
+    out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True).stdout
+    line = next(l for l in out.splitlines() if l.startswith("pair world - priority"))
+    assert "solref [0.04, 1.2]" in line and "effective mass 3.0000e0 kg" in line, line
+    assert "stiffness" in line and "dissipation velocity" in line, line
+
+
+def test_a_parameter_no_pair_uses_is_refused_with_why(both):
+    path, _, _, _ = both
+    for name in ["scm.stiffness", "scm.dissipation_velocity", "scm.friction"]:
+        run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.01",
+                              "--set", f"{name}=0.3"], capture_output=True, text=True)
+        assert run.returncode != 0, name
+        assert f"{name} = 0.3 refused: no contact pair uses it" in run.stderr, run.stderr
+        assert f"scm_{name[4:]}" in run.stderr, run.stderr
+    # Setting it to the value it has (as a host that writes every start value does) is no change.
+    run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.01", "--set",
+                          "scm.stiffness=10000"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    # With scm_stiffness in the scene every pair takes it, and the parameter acts.
+    text = SCENE.replace("<worldbody>", '<custom><numeric name="scm_stiffness" data="1e4"/>'
+                         '</custom><worldbody>')
+    scene = path.parent / "global.xml"
+    scene.write_text(text)
+    runs = [subprocess.run([str(SCM), "simulate", str(scene), "--duration", "0.05", "--set",
+                            f"scm.stiffness={k}"], capture_output=True, text=True, check=True).stdout
+            for k in (1e4, 3e4)]
+    assert runs[0] != runs[1]
