@@ -7,7 +7,11 @@ envelope: each slide and hinge coordinate and each free body's position within t
 widened by 2 cm (or 0.1 rad), each free body's and ball joint's orientation within 0.1 rad of
 one of the runs'.
 
-    .venv/bin/python scripts/contact_envelope.py [--only NAME,...] [--out FILE.md]
+    .venv/bin/python scripts/contact_envelope.py [--only NAME,...] [--out FILE.md] [--stiffness K]
+
+`--stiffness K` runs SCM on a copy of each file (beside it, removed after) that sets
+`scm_stiffness` K and `scm_dissipation_velocity` 0.1 m/s for every pair: SCM's contact before its
+pairs took their law from solref and solimp (K = 1e4).
 
 Needs scripts/setup.sh (the corpora, the venv with mujoco) and a release build. Prints a Markdown
 table, one row per file.
@@ -79,9 +83,20 @@ def mujoco_finals(path, seconds):
     return m, np.array(finals)
 
 
-def scm_final(path, seconds):
-    run = subprocess.run([str(SCM), "simulate", str(path), "--duration", str(seconds),
-                          "--output-interval", str(seconds)], capture_output=True, text=True)
+def scm_final(path, seconds, stiffness=None):
+    copy = None
+    if stiffness is not None:
+        text = path.read_text()
+        custom = (f'<custom><numeric name="scm_stiffness" data="{stiffness}"/>'
+                  '<numeric name="scm_dissipation_velocity" data="0.1"/></custom>')
+        copy = path.parent / f".envelope.{path.name}"
+        copy.write_text(re.sub(r"(<mujoco[^>]*>)", r"\1" + custom, text, count=1))
+    try:
+        run = subprocess.run([str(SCM), "simulate", str(copy or path), "--duration", str(seconds),
+                              "--output-interval", str(seconds)], capture_output=True, text=True)
+    finally:
+        if copy is not None:
+            copy.unlink()
     if run.returncode != 0:
         return None, run.stderr.strip().splitlines()[-1] if run.stderr.strip() else "failed"
     rows = list(csv.reader(io.StringIO(run.stdout)))
@@ -117,6 +132,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", default="")
     ap.add_argument("--out")
+    ap.add_argument("--stiffness", type=float)
     args = ap.parse_args()
     only = set(filter(None, args.only.split(",")))
     rows = ["| file | s | SCM | inside MuJoCo's envelope | worst excess | where | SCM wall (s) |",
@@ -137,7 +153,7 @@ def main():
             if m.njnt == 0:
                 continue
             t0 = time.time()
-            ours, error = scm_final(path, seconds)
+            ours, error = scm_final(path, seconds, args.stiffness)
             wall = time.time() - t0
             total += 1
             if ours is None:
