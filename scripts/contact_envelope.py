@@ -77,9 +77,11 @@ def mujoco_finals(path, seconds):
                 m.geom_friction[:, 0] *= mu
                 m.pair_friction[:, 0] *= mu
                 d = mujoco.MjData(m)
-                while d.time < seconds - 1e-9:
+                for _ in range(round(seconds / m.opt.timestep)):
                     mujoco.mj_step(m, d)
-                finals.append(d.qpos.copy())
+                # A run MuJoCo finds unstable (it resets its state and warns) is no outcome.
+                if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0:
+                    finals.append(d.qpos.copy())
     return m, np.array(finals)
 
 

@@ -4,8 +4,9 @@ without refusal or NaN (swimmer with its fluid forces); where SCM refuses, the t
 reason.
 
 Measured (see docs/mjcf.md): every file runs its 1 s with its own integrator and step, walker2d
-and walker2d_v5 with RK4 at 2 ms, humanoid and humanoidstandup with RK4 at 3 ms (the two take
-about 2 minutes each on one core: 13 bodies, about 60 body pairs). Until the joint limits'
+and walker2d_v5 with RK4 at 2 ms, humanoid and humanoidstandup with RK4 at 3 ms (13 bodies,
+about 60 body pairs); the 14 files take 32 s together, measured after the pairs took their law
+from solref. Until the joint limits'
 stiffness took MuJoCo's effective inertia (1 / dof_invweight0) instead of the mass matrix's
 diagonal, the walkers' and humanoid's hip limits were up to 56 times too stiff for RK4 at their
 step and the guard refused the runs, rightly.
