@@ -25,6 +25,12 @@ ROBOTS = ["grippers/fourier_left_hand.xml",
           "robots/spot/robot.xml", "robots/tiago/robot.xml", "robots/xarm7/robot.xml",
           "robots/panda/robot.xml"]
 LIMIT_KB = 500_000
+#: Robots run with another integrator than their own, and why. TIAGo's own is implicit Euler:
+#: since its pairs took their stiffness from solref (docs/mjcf.md) its first step's Newton
+#: iterations fail in some runs and not in others of the same build (measured: 1 of 2 locally,
+#: and in CI), a run-to-run difference that is a defect of its own (issue 41, item 5); its memory
+#: is measured on damped Euler, which passed 3 of 3.
+INTEGRATOR = {"robots/tiago/robot.xml": "damped_euler"}
 
 # The child's own peak: a fresh Python whose only child is scm, so RUSAGE_CHILDREN is scm's.
 PEAK = """
@@ -42,7 +48,8 @@ def test_a_robot_with_dense_meshes_runs_its_first_steps_in_bounded_memory(robot,
     assert scene.exists(), f"{scene}: run scripts/setup.sh (it unpacks robosuite's wheel)"
     out = subprocess.run(
         [sys.executable, "-c", PEAK, str(SCM), "simulate", str(scene), "--duration", "0.004",
-         "-o", str(tmp_path / "run.csv")],
+         "-o", str(tmp_path / "run.csv")]
+        + (["--integrator", INTEGRATOR[robot]] if robot in INTEGRATOR else []),
         capture_output=True, text=True, check=True)
     code, peak_kb = (int(x) for x in out.stdout.split())
     assert code == 0, f"scm simulate {robot} failed:\n{out.stderr}"
