@@ -2,8 +2,8 @@
 //! `solimp`, as MuJoCo means them (docs/mjcf.md, "Contact stiffness from solref and solimp"):
 //! the geoms' values mixed per geom pair as MuJoCo mixes them (`priority`, `solmix`), or a
 //! `<pair>`'s own, turned into SCM's linear spring and Hunt–Crossley damping for the body
-//! pair's effective mass so that a body at rest sinks as deep as in MuJoCo and its contact has
-//! MuJoCo's damping ratio.
+//! pair's effective mass so that a body at rest sinks as deep as in MuJoCo and its contact is
+//! damped there as MuJoCo's is.
 
 use super::*;
 
@@ -318,10 +318,8 @@ impl PairLaw {
     ) -> PairLaw {
         let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
         let depth = softness.resting_depth(g, refsafe_step);
-        let y = depth / eps3;
-        // s⁺_ε3(r) = ε3 ln(1 + e^{r/ε3}) and its slope σ(r/ε3), without overflow.
-        let softplus = eps3 * (y.max(0.0) + (-y.abs()).exp().ln_1p());
-        let stiffness = mass * g / softplus;
+        // The contact force's own softplus, s⁺_ε3(r).
+        let stiffness = mass * g / crate::scalar::softplus(depth, eps3);
         let (_, b) = softness.reference(refsafe_step);
         let dissipation_velocity = g / (softness.impedance(depth) * b);
         PairLaw {
