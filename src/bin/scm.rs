@@ -354,12 +354,16 @@ fn check(path: &Path) -> Result<(), String> {
                     let uniform = h.coarse.min();
                     match mesh.simplified(uniform) {
                         Some(simple) => println!(
-                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm), then sampled at {uniform} m",
+                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then sampled at {uniform} m",
                             g.name,
                             mesh.triangles.len(),
                             simple.mesh.triangles.len(),
                             simple.tolerance * 1e3,
-                            simple.error * 1e3
+                            simple.error * 1e3,
+                            match simple.folds {
+                                0 => String::new(),
+                                n => format!("; {n} triangle(s) folded inward dropped"),
+                            }
                         ),
                         None => println!(
                             "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",

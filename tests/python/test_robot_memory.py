@@ -8,10 +8,13 @@ within their first steps and Franka's arm took 3.1 GB for one. Each runs here fo
 its own 2 ms (contact, self-collision, its default integrator) in a process of its own, whose
 peak resident set (the kernel's count for that child alone, not a timing) stays under 500 MB.
 Measured (KB, two steps): fourier hand 260,652, spot 120,760, tiago 250,580, xarm7 89,516,
-panda 50,188.
+panda 50,188. At their first row, no pair pushes where MuJoCo measures a gap between its bodies.
 """
+import functools
+import pathlib
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
@@ -25,13 +28,6 @@ ROBOTS = ["grippers/fourier_left_hand.xml",
           "robots/spot/robot.xml", "robots/tiago/robot.xml", "robots/xarm7/robot.xml",
           "robots/panda/robot.xml"]
 LIMIT_KB = 500_000
-#: Robots run with another integrator than their own, and why. TIAGo's own is implicit Euler:
-#: since its pairs took their stiffness from solref (docs/mjcf.md) its first step's Newton
-#: iterations fail in some runs and not in others of the same build (measured: 1 of 2 locally,
-#: and in CI), a run-to-run difference that is a defect of its own (issue 41, item 5); its memory
-#: is measured on damped Euler, which passed 3 of 3.
-INTEGRATOR = {"robots/tiago/robot.xml": "damped_euler"}
-
 # The child's own peak: a fresh Python whose only child is scm, so RUSAGE_CHILDREN is scm's.
 PEAK = """
 import resource, subprocess, sys
@@ -41,19 +37,107 @@ sys.stderr.write(r.stderr[-2000:])
 """
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=[r.split("/")[-2] if r.endswith("robot.xml")
-                                                else r.split("/")[-1][:-4] for r in ROBOTS])
-def test_a_robot_with_dense_meshes_runs_its_first_steps_in_bounded_memory(robot, tmp_path):
+IDS = [r.split("/")[-2] if r.endswith("robot.xml") else r.split("/")[-1][:-4] for r in ROBOTS]
+
+
+@functools.lru_cache(maxsize=None)
+def first_steps(robot):
+    """Runs `robot` for two steps, once per session: its exit status, peak resident set (KB),
+    stderr and CSV rows."""
     scene = ASSETS / robot
     assert scene.exists(), f"{scene}: run scripts/setup.sh (it unpacks robosuite's wheel)"
-    out = subprocess.run(
-        [sys.executable, "-c", PEAK, str(SCM), "simulate", str(scene), "--duration", "0.004",
-         "-o", str(tmp_path / "run.csv")]
-        + (["--integrator", INTEGRATOR[robot]] if robot in INTEGRATOR else []),
-        capture_output=True, text=True, check=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = pathlib.Path(tmp) / "run.csv"
+        out = subprocess.run(
+            [sys.executable, "-c", PEAK, str(SCM), "simulate", str(scene), "--duration", "0.004",
+             "-o", str(csv)],
+            capture_output=True, text=True, check=True)
+        rows = csv.read_text().splitlines() if csv.exists() else []
     code, peak_kb = (int(x) for x in out.stdout.split())
-    assert code == 0, f"scm simulate {robot} failed:\n{out.stderr}"
-    rows = (tmp_path / "run.csv").read_text().splitlines()
+    return code, peak_kb, out.stderr, rows
+
+
+@pytest.mark.parametrize("robot", ROBOTS, ids=IDS)
+def test_a_robot_with_dense_meshes_runs_its_first_steps_in_bounded_memory(robot):
+    code, peak_kb, stderr, rows = first_steps(robot)
+    assert code == 0, f"scm simulate {robot} failed:\n{stderr}"
     assert len(rows) >= 2, "no row written"
     print(f"{robot}: peak {peak_kb} KB")
     assert peak_kb < LIMIT_KB, f"{robot}: peak resident {peak_kb} KB"
+
+
+#: A gap MuJoCo measures between two bodies beyond which SCM's pair must push with no more
+#: than the smooth law's tail (a micronewton): MuJoCo's mesh distances are to convex hulls,
+#: never farther than the surfaces SCM samples.
+GAP = 0.02
+#: Open defect (issue 40), not accepted behaviour. Far from a part, the SSDF is the plane of
+#: its nearest point (ε1's softmax picks one point), and where that point is at the edge of a
+#: flat face the plane passes beside the query: measured at t = 0, xArm7's link 1 reads link
+#: 5's points 5.7 mm inside it from 13.6 cm away, so the two push with 164 N where MuJoCo
+#: measures 4.25 cm between them; the Fourier hand's fingers push with up to 0.1 N across
+#: 2 to 5 cm.
+FAR_FIELD = {"robots/xarm7/robot.xml", "grippers/fourier_left_hand.xml"}
+
+
+@pytest.mark.parametrize("robot", [
+    pytest.param(r, marks=pytest.mark.xfail(strict=True, reason="SSDF far field, issue 40"))
+    if r in FAR_FIELD else r for r in ROBOTS], ids=IDS)
+def test_no_pair_pushes_where_mujoco_sees_a_gap(robot):
+    code, _, stderr, rows = first_steps(robot)
+    assert code == 0, f"scm simulate {robot} failed:\n{stderr}"
+    assert_no_contact_where_mujoco_sees_a_gap(ASSETS / robot, rows)
+
+
+def assert_no_contact_where_mujoco_sees_a_gap(scene, rows):
+    """At t = 0, every SCM pair whose bodies MuJoCo puts more than GAP apart has a positive
+    distance and no contact force beyond the smooth law's tail (a micronewton; measured up to
+    6e-9 N on the Fourier hand). A mesh simplified with a triangle folded into the part made
+    TIAGo's arm link push its base with 450 kN from 0.34 m away (docs/geometry.md)."""
+    import mujoco
+    import numpy as np
+    m = mujoco.MjModel.from_xml_path(str(scene))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    names = [m.body(b).name for b in range(m.nbody)]
+    colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    fromto = np.zeros(6)
+
+    def gap(a, b):
+        ga = [g for g in colliding if m.geom_bodyid[g] == a]
+        gb = [g for g in colliding if m.geom_bodyid[g] == b]
+        return min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
+                   default=1.0)
+
+    header, first = rows[0].split(","), rows[1].split(",")
+    row = dict(zip(header, first))
+    checked = 0
+    for col in header:
+        if not (col.startswith("contact.") and col.endswith(".distance")):
+            continue
+        pair = col[len("contact."):-len(".distance")]
+        split = [(pair[:i], pair[i + 1:]) for i in range(len(pair)) if pair[i] == "."
+                 and pair[:i] in names and pair[i + 1:] in names]
+        assert len(split) == 1, f"{col}: bodies not found in MuJoCo's model"
+        a, b = split[0]
+        if gap(names.index(a), names.index(b)) <= GAP:
+            continue
+        checked += 1
+        force = [float(row[f"contact.{pair}.force.{x}"]) for x in "xyz"]
+        assert float(row[col]) > 0, f"{pair}: distance {row[col]} where MuJoCo sees a gap"
+        assert max(map(abs, force)) < 1e-6, f"{pair}: force {force} N where MuJoCo sees a gap"
+    assert checked > 0
+
+
+def test_a_robot_runs_the_same_bits_every_time(tmp_path):
+    """TIAGo's arm meshes are open, so they collide by their convex hulls, many of whose
+    vertices are coplanar: the hull once depended on a hash set's order, which changes from run
+    to run, and with it the contacts (and whether the first step's Newton iterations converged).
+    Two runs of the same file give the same bytes."""
+    scene = ASSETS / "robots/tiago/robot.xml"
+    out = []
+    for k in range(2):
+        csv = tmp_path / f"run{k}.csv"
+        subprocess.run([str(SCM), "simulate", str(scene), "--duration", "0.004", "-o", str(csv)],
+                       capture_output=True, text=True, check=True)
+        out.append(csv.read_bytes())
+    assert out[0] == out[1]

@@ -1,10 +1,10 @@
 //! The convex hull of a mesh's vertices: what MuJoCo collides a mesh geom by, and what SCM
 //! samples for a colliding mesh whose own surface is not closed (docs/mjcf.md, "Meshes").
 //!
-//! The hull comes from the `chull` crate's exact-arithmetic quickhull (its orientation tests
-//! run on the coordinates as big integers), so that coplanar and nearly coplanar vertices,
-//! common in CAD exports, never give a hull with crossing or missing faces; its triangles then
-//! go through [`TriMesh::new`]'s checks like any file's.
+//! The hull comes from this crate's quickhull (`quickhull.rs`): exact orientation tests, so
+//! that coplanar and nearly coplanar vertices, common in CAD exports, never give a hull with
+//! crossing or missing faces, and the same hull on every run. Its triangles then go through
+//! [`TriMesh::new`]'s checks like any file's.
 
 use super::*;
 
@@ -17,37 +17,39 @@ impl TriMesh {
             problem,
             notes: Vec::new(),
         };
-        let mut points: Vec<Vec<f64>> = vertices.iter().map(|v| vec![v.x, v.y, v.z]).collect();
+        let mut points: Vec<Vector3<f64>> = vertices.to_vec();
         // Nearly collinear hull corners (CAD exports: a vertex a hair off the edge between two
         // others) give exact but sliver facets, which a closed mesh's checks take as
         // degenerate: the middle corner of each sliver (the one at its widest angle, within
         // about 2·area/edge of that edge: below 1e-12 of the mesh's size) is dropped and the
         // hull taken again, a few rounds at most.
         for _round in 0..32 {
-            let hull = chull::ConvexHullWrapper::try_new(&points, None)
-                .map_err(|e| err(MeshProblem::NoHull(e.to_string())))?;
-            let (corners, indices) = hull.vertices_indices();
-            let corners: Vec<Vector3<f64>> = corners
-                .iter()
-                .map(|p| Vector3::new(p[0], p[1], p[2]))
-                .collect();
-            let triangles: Vec<[u32; 3]> = indices
-                .chunks_exact(3)
-                .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
-                .collect();
+            let hull =
+                super::quickhull::quickhull(&points).map_err(|e| err(MeshProblem::NoHull(e)))?;
+            // The corners: the points the hull's triangles use, in the points' order.
+            let mut index = vec![u32::MAX; points.len()];
+            for t in &hull {
+                for &i in t {
+                    index[i as usize] = 0;
+                }
+            }
+            let mut corners: Vec<Vector3<f64>> = Vec::new();
+            for (i, slot) in index.iter_mut().enumerate() {
+                if *slot == 0 {
+                    *slot = corners.len() as u32;
+                    corners.push(points[i]);
+                }
+            }
+            let triangles: Vec<[u32; 3]> =
+                hull.iter().map(|t| t.map(|i| index[i as usize])).collect();
             let slivers = sliver_middles(&corners, &triangles);
             if slivers.is_empty() {
                 let (mesh, _) = TriMesh::new(file, corners, triangles)?;
                 return Ok(mesh);
             }
-            // The hull's corners are the input points up to chull's rounding: drop the points
-            // within a billionth of the size of a sliver's middle corner.
-            let size = box_diagonal(&corners);
+            // The hull's corners are input points: drop them (and their duplicates).
             let drop: Vec<Vector3<f64>> = slivers.iter().map(|&i| corners[i]).collect();
-            points.retain(|p| {
-                let p = Vector3::new(p[0], p[1], p[2]);
-                !drop.iter().any(|c| (c - p).norm() <= 1e-9 * size)
-            });
+            points.retain(|p| !drop.contains(p));
         }
         Err(err(MeshProblem::NoHull(
             "its hull keeps sliver facets after dropping nearly collinear corners".into(),

@@ -452,6 +452,7 @@ fn closest_on_triangle(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> Vector3<f64> 
 }
 
 mod hull;
+mod quickhull;
 mod read;
 mod sample;
 

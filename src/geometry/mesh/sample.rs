@@ -2,7 +2,7 @@
 //! the spacing, then one point per triangle no longer than the spacing and three quads per
 //! longer one (docs/geometry.md, "Meshes finer than the spacing").
 
-use super::{bounds, tri_normal, TriMesh};
+use super::{bounds, closest_on_triangle, tri_normal, TriMesh};
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
 use std::collections::{BinaryHeap, HashMap};
@@ -27,12 +27,15 @@ pub const SIMPLIFY_TRIES: u32 = 6;
 /// A mesh simplified for sampling ([`TriMesh::simplified`]).
 #[derive(Clone, Debug)]
 pub struct Simplified {
-    /// The simplified mesh (a subset of the file's vertices).
+    /// The simplified mesh (a subset of the file's vertices), without its folds.
     pub mesh: TriMesh,
     /// meshoptimizer's estimate of the largest distance from the file's surface (m).
     pub error: f64,
     /// The tolerance it was simplified within (m).
     pub tolerance: f64,
+    /// Triangles the simplification folded over to face into the part, dropped from
+    /// [`Simplified::mesh`] (which is then closed but for them).
+    pub folds: usize,
 }
 
 impl TriMesh {
@@ -76,6 +79,7 @@ impl TriMesh {
         let adapter = meshopt::VertexDataAdapter::new(&bytes, 12, 0).ok()?;
         let indices: Vec<u32> = self.triangles.iter().flatten().copied().collect();
         let volume = self.mass_properties().volume;
+        let normals = self.vertex_normals();
         for tries in 0..SIMPLIFY_TRIES {
             let within = tolerance / f64::from(1u32 << tries);
             let mut error = 0.0f32;
@@ -118,15 +122,68 @@ impl TriMesh {
                 triangles,
             };
             let off = (mesh.mass_properties().volume - volume).abs();
-            if mesh.is_closed_and_oriented() && off <= SIMPLIFY_VOLUME * volume.abs() {
-                return Some(Simplified {
-                    mesh,
-                    error: error as f64,
-                    tolerance: within,
-                });
+            if !mesh.is_closed_and_oriented() || off > SIMPLIFY_VOLUME * volume.abs() {
+                continue;
             }
+            // A collapse can also fold a triangle over onto its neighbours, facing into the
+            // part: closed and oriented still, the volume unchanged, but its points' planes
+            // face the wrong way, and the SSDF beside them is deeply negative far outside the
+            // part (measured: a fold on the flat top of TIAGo's arm link, seen 0.6 m away as
+            // 0.25 m of penetration). Folds come at every tolerance (robosuite's Inspire hand:
+            // 1 to 38 per link at each of the six tolerances tried), so they are dropped, not
+            // retried: the neighbours a fold lies on still cover its place, facing out.
+            let mut mesh = mesh;
+            let before = mesh.triangles.len();
+            let own: Vec<[u32; 3]> = kept.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            let mut k = 0;
+            mesh.triangles.retain(|_| {
+                k += 1;
+                !self.folds(&own[k - 1], &normals)
+            });
+            return Some(Simplified {
+                folds: before - mesh.triangles.len(),
+                mesh,
+                error: error as f64,
+                tolerance: within,
+            });
         }
         None
+    }
+
+    /// Whether triangle `t` (of this mesh's vertices, from a simplification) faces against
+    /// this mesh's surface: against the vertices' `normals` ([`TriMesh::vertex_normals`]) and
+    /// against this mesh's triangle nearest its centroid.
+    fn folds(&self, t: &[u32; 3], normals: &[Vector3<f64>]) -> bool {
+        let n = tri_normal(&self.vertices, t);
+        let around: Vector3<f64> = t.iter().map(|&i| normals[i as usize]).sum();
+        if n.dot(&around) >= 0.0 {
+            return false;
+        }
+        let corners = t.map(|i| self.vertices[i as usize]);
+        let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
+        let distance = |u: &[u32; 3]| {
+            let p = closest_on_triangle(&centroid, &u.map(|i| self.vertices[i as usize]));
+            (p - centroid).norm_squared()
+        };
+        self.triangles
+            .iter()
+            .min_by(|u, v| distance(u).total_cmp(&distance(v)))
+            .is_some_and(|u| n.dot(&tri_normal(&self.vertices, u)) < 0.0)
+    }
+
+    /// The unit normal of the surface at each vertex: the mean of its triangles' normals,
+    /// weighted by their areas (zero at a vertex no triangle uses).
+    fn vertex_normals(&self) -> Vec<Vector3<f64>> {
+        let mut n = vec![Vector3::zeros(); self.vertices.len()];
+        for t in &self.triangles {
+            let a = tri_normal(&self.vertices, t);
+            for &i in t {
+                n[i as usize] += a;
+            }
+        }
+        n.iter()
+            .map(|v| v.try_normalize(0.0).unwrap_or_else(Vector3::zeros))
+            .collect()
     }
 
     /// Whether every edge is run as often in one direction as in the other (a closed, oriented
@@ -284,6 +341,29 @@ mod tests {
         let mut flipped = pinched.clone();
         flipped.triangles[0].swap(1, 2);
         assert!(!flipped.is_closed_and_oriented());
+    }
+
+    /// A triangle facing into the part is a fold; the same triangle facing out, and one
+    /// facing out across a corner region of other faces, are not.
+    #[test]
+    fn a_triangle_turned_into_the_part_is_a_fold() {
+        // A unit cube whose top face (z = 1: corners 4, 5, 7, 6) is a fan about its centre.
+        let (mut v, t) = super::super::tests::cube();
+        v.push(Vector3::new(0.5, 0.5, 1.0));
+        let c = 8;
+        let mut triangles: Vec<[u32; 3]> = t
+            .into_iter()
+            .filter(|t| !t.iter().all(|i| (4..8).contains(i)))
+            .collect();
+        triangles.extend([[c, 4, 5], [c, 5, 7], [c, 7, 6], [c, 6, 4]]);
+        let mesh = TriMesh::new("fan", v, triangles).unwrap().0;
+        let normals = mesh.vertex_normals();
+        assert!((normals[c as usize] - Vector3::z()).norm() < 1e-15);
+        assert!(!mesh.folds(&[c, 5, 7], &normals));
+        assert!(mesh.folds(&[c, 7, 5], &normals));
+        // Across the x = 1 face: facing +x, out; facing -x, into the part.
+        assert!(!mesh.folds(&[5, 3, 7], &normals));
+        assert!(mesh.folds(&[5, 7, 3], &normals));
     }
 
     #[test]
