@@ -218,12 +218,6 @@ impl<T: Scalar> SoftminSum<T> {
 /// Relative weight below which a softmax term may be skipped (docs/method.md, numerical rules).
 pub const PRUNE_TOLERANCE: f64 = 1e-15;
 
-/// `-ln(PRUNE_TOLERANCE)`: a term whose key exceeds the minimum by more than `ε` times this has a
-/// relative weight below [`PRUNE_TOLERANCE`].
-pub fn prune_margin() -> f64 {
-    -PRUNE_TOLERANCE.ln()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -447,12 +447,6 @@ fn unit_target(q: &[f64]) -> nalgebra::Quaternion<f64> {
     crate::dynamics::quat_from(&scaled)
 }
 
-/// Name of the first non-finite coordinate of a state, if any (see
-/// [`Model::first_non_finite`]).
-pub fn first_non_finite(model: &Model, s: &State<f64>) -> Option<String> {
-    model.first_non_finite(s)
-}
-
 /// Model Exchange, directional derivatives and diagnostics.
 impl Simulation {
     /// Accelerations `v̇` at the current state, controls and parameters (computed once per

@@ -24,9 +24,7 @@ pub mod spatial;
 pub mod tendon;
 
 use crate::scalar::{c, Scalar};
-use nalgebra::{
-    DMatrix, DVector, Isometry3, Matrix3, Quaternion, UnitQuaternion, Vector3, Vector6,
-};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Quaternion, Vector3, Vector6};
 use spatial::{cross_force, cross_motion, skew, Inertia, Transform};
 
 /// Kind of a joint and its number of position/velocity coordinates.
@@ -574,19 +572,6 @@ impl Tree {
         out
     }
 
-    /// Velocity index of the first of the three rotational coordinates of every free and ball
-    /// joint (body-frame angular velocity).
-    pub fn rotation_blocks(&self) -> Vec<usize> {
-        self.joints
-            .iter()
-            .filter_map(|j| match j.kind {
-                JointKind::Free => Some(j.dadr + 3),
-                JointKind::Ball => Some(j.dadr),
-                _ => None,
-            })
-            .collect()
-    }
-
     /// Normalizes every quaternion of a configuration in place.
     pub fn normalize_q<T: Scalar>(&self, q: &mut [T]) {
         for j in &self.joints {
@@ -671,11 +656,6 @@ impl Tree {
         }
         out
     }
-}
-
-/// A unit quaternion from MJCF-style `[w x y z]`.
-pub fn unit_quat(wxyz: [f64; 4]) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_quaternion(Quaternion::new(wxyz[0], wxyz[1], wxyz[2], wxyz[3]))
 }
 
 #[cfg(test)]

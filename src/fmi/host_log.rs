@@ -110,21 +110,25 @@ unsafe extern "C" fn record(
     format: fmi2String,
     arg: *const c_char,
 ) {
-    // SAFETY: the callbacks carry a pointer to a live capture (see `LogCapture::callbacks`);
-    // the strings are the FMU's NUL-terminated arguments.
-    let capture = unsafe { &*(env as *const LogCapture) };
-    let logged = unsafe {
-        Logged {
-            instance: text(instance),
-            status,
-            category: text(category),
-            format: text(format),
-            message: text(arg),
-        }
-    };
-    capture
-        .0
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push(logged);
+    // A panic must not unwind into the FMU's C frames: the body runs behind a guard, and a
+    // message that could not be recorded is lost rather than the process aborted.
+    let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        // SAFETY: the callbacks carry a pointer to a live capture (see
+        // `LogCapture::callbacks`); the strings are the FMU's NUL-terminated arguments.
+        let capture = unsafe { &*(env as *const LogCapture) };
+        let logged = unsafe {
+            Logged {
+                instance: text(instance),
+                status,
+                category: text(category),
+                format: text(format),
+                message: text(arg),
+            }
+        };
+        capture
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(logged);
+    }));
 }

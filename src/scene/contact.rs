@@ -51,7 +51,7 @@ impl Builder {
         if set("scm_stiffness") || set("scm_dissipation_velocity") || pairs.is_empty() {
             return vec![None; pairs.len()];
         }
-        let weights = mechanics::body_weights(tree);
+        let weights = weights::body_weights(tree);
         let g = tree.gravity.norm();
         let refsafe = self.flags.refsafe.then_some(step);
         let body_of = |name: &str| self.geoms.iter().find(|g| g.name == name).map(|g| g.body);

@@ -21,6 +21,7 @@ mod mechanics;
 mod names;
 mod paths;
 mod settings;
+mod weights;
 pub use collide::spacing_text;
 pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
 use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUTES};

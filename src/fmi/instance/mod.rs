@@ -302,12 +302,6 @@ impl<M: FmiModel> Instance<M> {
         );
     }
 
-    /// Logs that a NULL pointer was passed for `argument` of `function`; returns `fmi2Error`.
-    pub fn null_argument(&self, function: &str, argument: &str) -> fmi2Status {
-        self.log_error(&format!("{function}: argument {argument} is NULL"));
-        fmi2Error
-    }
-
     /// Logs that `argument` of `function` is invalid (e.g. not UTF-8); returns `fmi2Error`.
     pub fn bad_argument(&self, function: &str, argument: &str, reason: &str) -> fmi2Status {
         self.log_error(&format!(
