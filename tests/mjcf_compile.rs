@@ -1920,3 +1920,40 @@ fn an_inward_mesh_weighed_exactly_is_refused_as_in_mujoco() {
         }
     }
 }
+
+/// An explicit `<pair>` joins its two geoms to their bodies' colliders, and no other: a visual
+/// geom of the same body (`contype` and `conaffinity` 0) stays out, as MuJoCo collides only the
+/// pair's geoms (Adroit's finger capsules are paired so, beside their visual meshes).
+#[test]
+fn an_explicit_pair_brings_its_own_geoms_into_the_colliders_and_no_visual_one() {
+    let s = load(
+        r#"<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1"><freejoint/>
+      <geom name="Ca" type="capsule" size="0.01 0.02" contype="1" conaffinity="0"/>
+      <geom name="Va" type="box" size="0.1 0.1 0.1" contype="0" conaffinity="0" mass="0"/>
+    </body>
+    <body name="b" pos="0 0 1.5"><freejoint/>
+      <geom name="Cb" type="capsule" size="0.01 0.02" contype="1" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <contact><pair geom1="Ca" geom2="Cb"/></contact>
+</mujoco>"#,
+    );
+    assert_eq!(s.model.pairs.len(), 1);
+    let a = s
+        .model
+        .tree
+        .bodies
+        .iter()
+        .position(|b| b.name == "a")
+        .unwrap();
+    let Some(scm::collision::Collider::Aopc(cloud)) = &s.model.colliders[a] else {
+        panic!("body a has no point cloud");
+    };
+    // Every point on the capsule (radius 1 cm, half-length 2 cm), none on the 20 cm box.
+    for p in &cloud.points {
+        let radial = (p.x * p.x + p.y * p.y).sqrt();
+        assert!(radial <= 0.01 + 1e-9 && p.z.abs() <= 0.03 + 1e-9, "{p:?}");
+    }
+}

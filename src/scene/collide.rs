@@ -193,6 +193,7 @@ impl Builder {
             excluded.push((x.min(y), x.max(y)));
         }
         let mut explicit = Vec::new();
+        let mut explicit_geoms = Vec::new();
         let mut explicit_friction = Vec::new();
         for ExplicitPair {
             geoms: [g1, g2],
@@ -204,8 +205,7 @@ impl Builder {
             let find = |g: &str| {
                 self.geoms
                     .iter()
-                    .find(|x| x.name == g)
-                    .map(|x| x.body)
+                    .position(|x| x.name == g)
                     .ok_or_else(|| SceneError {
                         file: self.file.clone(),
                         line: *line,
@@ -213,7 +213,8 @@ impl Builder {
                         message: format!("no geom named '{g}'"),
                     })
             };
-            let (x, y) = (find(g1)?, find(g2)?);
+            let (i, j) = (find(g1)?, find(g2)?);
+            let (x, y) = (self.geoms[i].body, self.geoms[j].body);
             if x == y {
                 return Err(SceneError {
                     file: self.file.clone(),
@@ -223,6 +224,7 @@ impl Builder {
                 });
             }
             explicit.push((x.min(y), x.max(y)));
+            explicit_geoms.push((i, j));
             explicit_friction.push(((x.min(y), x.max(y)), *friction));
         }
         let rules = filter::Rules {
@@ -231,6 +233,7 @@ impl Builder {
             filterparent: self.flags.filterparent,
             excluded: &excluded,
             explicit: &explicit,
+            explicit_geoms: &explicit_geoms,
         };
         let weld = filter::weld_bodies(&self.bodies);
         // MuJoCo skips pairs where neither weld body has degrees of freedom (static or mocap).

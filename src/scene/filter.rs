@@ -9,7 +9,8 @@
 //! - the parent filter (on unless `<flag filterparent="disable">`): a weld body does not touch
 //!   its parent weld body, except the world;
 //! - `<contact><exclude body1 body2>` removes a body pair; `<contact><pair geom1 geom2>` adds
-//!   one whatever the rules say.
+//!   one whatever the rules say, through its two geoms only (a visual geom of either body does
+//!   not join the collider by it).
 //!
 //! SCM's contact acts between whole bodies (each body's collider is the union of its colliding
 //! geoms). Where the bits let a geom touch some bodies and not others, the pair is still
@@ -49,6 +50,8 @@ pub struct Rules<'a> {
     pub excluded: &'a [(usize, usize)],
     /// Explicit body pairs `(a, b)` with `a < b`.
     pub explicit: &'a [(usize, usize)],
+    /// The geoms (indices) of each explicit pair, in the pairs' order.
+    pub explicit_geoms: &'a [(usize, usize)],
 }
 
 impl Rules<'_> {
@@ -74,12 +77,18 @@ impl Rules<'_> {
         of(a).any(|ga| of(b).any(|gb| compatible(ga, gb)))
     }
 
-    /// For each geom, whether it can touch anything: a compatible geom of a body it pairs with,
-    /// or a place in an explicit pair.
+    /// For each geom, whether it can touch anything: a compatible geom of a body it pairs with
+    /// (past the weld and parent filters), or its place in an explicit pair. Only the geoms an
+    /// explicit pair names join their bodies' colliders through it, as MuJoCo collides only
+    /// them: Adroit's finger links pair their capsules explicitly, and their visual meshes
+    /// (`contype` and `conaffinity` 0) once joined the colliders too, their far side pushing
+    /// the nail board with 138 N from 6.8 cm away.
     pub fn colliding_geoms(&self, weld: &[usize], pairs: &[(usize, usize)]) -> Vec<bool> {
         self.geoms
             .iter()
-            .map(|g| {
+            .enumerate()
+            .map(|(i, g)| {
+                let named = |&(x, y): &(usize, usize)| x == i || y == i;
                 pairs.iter().any(|&(a, b)| {
                     let other = if g.body == a {
                         b
@@ -89,7 +98,10 @@ impl Rules<'_> {
                         return false;
                     };
                     let key = (a.min(b), a.max(b));
-                    self.explicit.contains(&key)
+                    self.explicit
+                        .iter()
+                        .zip(self.explicit_geoms)
+                        .any(|(k, geoms)| *k == key && named(geoms))
                         || (!self.filtered(weld, a, b)
                             && self
                                 .geoms
