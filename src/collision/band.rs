@@ -308,12 +308,28 @@ pub(crate) fn band_of<T: Scalar>(
                                 let start = band.terms.len();
                                 let keeping = start < keep_terms;
                                 let keep = keeping.then_some(&mut band.terms);
+                                // The polytope's floor under the SSDF and its planes
+                                // (docs/method.md, departure 3).
+                                let mut floor = o.bvh().polytope.as_ref().map(|p| p.floor(&x));
+                                let low = floor.as_ref().map_or(f64::NEG_INFINITY, |f| f.lower());
                                 let (phi, springs) = match grads.as_deref_mut() {
                                     Some(g) => {
                                         let mut sink = GradientSink::default();
-                                        let (phi, w, springs) =
-                                            ssdf_over(o, &x, eps1, eps3, scratch, &mut sink, keep);
-                                        g.push(sink.gradient(phi.re(), w.re(), e1));
+                                        let (phi, w, springs) = ssdf_over(
+                                            o, &x, eps1, eps3, low, scratch, &mut sink, keep,
+                                        );
+                                        let mut grad = sink.gradient(phi.re(), w.re(), e1);
+                                        let phi = match floor.as_mut() {
+                                            Some(f) => {
+                                                let (raised, s) = f.raise(phi);
+                                                if s > 0.0 {
+                                                    grad = grad * (1.0 - s) + f.gradient() * s;
+                                                }
+                                                raised
+                                            }
+                                            None => phi,
+                                        };
+                                        g.push(grad);
                                         (phi, springs)
                                     }
                                     None => {
@@ -322,11 +338,12 @@ pub(crate) fn band_of<T: Scalar>(
                                             &x,
                                             eps1,
                                             eps3,
+                                            low,
                                             scratch,
                                             &mut NoSink,
                                             keep,
                                         );
-                                        (phi, springs)
+                                        (floor.as_mut().map_or(phi, |f| f.raise(phi).0), springs)
                                     }
                                 };
                                 // The minimum only falls, so an entry above the running

@@ -104,6 +104,19 @@ impl Collider {
         }
     }
 
+    /// A distance `phi` read at `x` (the collider's frame) raised to the floor of the
+    /// collider's bounding polytope ([`crate::geometry::polytope`]): the separation field's
+    /// entry. A half-space, or a cloud without a polytope, leaves it as it is.
+    pub fn raise<T: Scalar>(&self, x: &Vector3<T>, phi: T) -> T {
+        match self {
+            Collider::Aopc(s) => match &s.bvh().polytope {
+                Some(p) => p.floor(x).raise(phi).0,
+                None => phi,
+            },
+            Collider::HalfSpace { .. } => phi,
+        }
+    }
+
     /// [`Collider::signed_distance`] summed over every point (the reference).
     pub fn signed_distance_naive<T: Scalar>(&self, p: &Vector3<T>, eps1: T) -> T {
         match self {
@@ -224,11 +237,12 @@ fn field_one_side<T: Scalar>(
         .iter()
         .map(|p| {
             let x = rel.rotation * p.map(c::<T>) + rel.translation;
-            if naive {
+            let phi = if naive {
                 planes.signed_distance_naive(&x, eps1)
             } else {
                 planes.signed_distance(&x, eps1)
-            }
+            };
+            planes.raise(&x, phi)
         })
         .collect()
 }

@@ -137,7 +137,16 @@ pub(super) fn seed_within(
             if scratch.items.is_empty() {
                 return false;
             }
-            let (phi, _, _) = ssdf_over(o, &x, eps1, 0.0, scratch, &mut NoSink, None);
+            let (phi, _, _) = ssdf_over(
+                o,
+                &x,
+                eps1,
+                0.0,
+                f64::NEG_INFINITY,
+                scratch,
+                &mut NoSink,
+                None,
+            );
             (phi, vmax)
         }
     };

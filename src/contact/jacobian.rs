@@ -70,7 +70,17 @@ pub fn point_plane_force_jacobian(
     v: &Vector3<f64>,
     prm: &ContactParams<f64>,
 ) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
-    let phi = n.dot(r);
+    point_plane_force_jacobian_at(n.dot(r), n, v, prm)
+}
+
+/// [`point_plane_force_jacobian`] given the distance `phi` the spring reads
+/// ([`point_plane_force_at`]).
+pub fn point_plane_force_jacobian_at(
+    phi: f64,
+    n: &Vector3<f64>,
+    v: &Vector3<f64>,
+    prm: &ContactParams<f64>,
+) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
     if phi > 746.0 * prm.eps3 {
         return (Vector3::zeros(), Vector3::zeros(), Matrix3::zeros());
     }
@@ -123,14 +133,16 @@ impl ForceSink for LocalJacobian {
         n: &Vector3<f64>,
         p: &Vector3<f64>,
         v: &Vector3<f64>,
+        phi: f64,
+        dphi: &Vector3<f64>,
     ) {
-        let (lambda, lphi, lv) = point_plane_force_jacobian(r, n, v, &self.prm);
+        let (lambda, lphi, lv) = point_plane_force_jacobian_at(phi, n, v, &self.prm);
         let px = skew(p);
         self.z += w;
         self.sr += r * w;
-        self.lphi_n += lphi * n.transpose() * w;
+        self.lphi_n += lphi * dphi.transpose() * w;
         self.lam_r += lambda * r.transpose() * w;
-        self.plphi_n += p.cross(&lphi) * n.transpose() * w;
+        self.plphi_n += p.cross(&lphi) * dphi.transpose() * w;
         self.plam_r += p.cross(&lambda) * r.transpose() * w;
         let plv = px * lv;
         self.lv += lv * w;

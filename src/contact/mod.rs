@@ -9,6 +9,7 @@ use crate::collision::{
     band_of, separation_field_naive, terms_budget, Collider, Frame, KeptCandidates, Relative,
     SeparationBand, SeparationDistribution,
 };
+use crate::geometry::polytope::Floor;
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant};
 use crate::geometry::Aopc;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum, PRUNE_TOLERANCE};
@@ -35,7 +36,18 @@ pub fn point_plane_force<T: Scalar>(
     v: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
-    let phi = n.dot(r);
+    point_plane_force_at(n.dot(r), n, v, prm)
+}
+
+/// [`point_plane_force`] given the distance `phi` the spring reads (the plane's `nᵀr`, or that
+/// raised to the other body's polytope floor: [`plane_reading`]).
+#[inline]
+pub fn point_plane_force_at<T: Scalar>(
+    phi: T,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
     // Far outside the plane the spring term underflows to exactly zero, and the whole force
     // (normal and friction both scale with it) with it: return that zero without the work.
     if phi.re() > 746.0 * prm.eps3.re() {
@@ -47,6 +59,25 @@ pub fn point_plane_force<T: Scalar>(
     let vt = v - n * vn;
     let lambda_t = vt * (-prm.friction * lambda_n / smooth_norm(&vt, prm.stiction_velocity));
     n * lambda_n + lambda_t
+}
+
+/// The distance a plane's spring reads at a query point: the plane's `nᵀr` (`phi`) raised to
+/// the floor of the plane body's polytope, if any (docs/method.md, departure 3), and its
+/// gradient with respect to the query point (real part): `n` where the floor leaves it,
+/// `(1 - s) n + s ∇b` where it raises it.
+#[inline]
+pub(crate) fn plane_reading<T: Scalar>(
+    floor: &mut Option<Floor<'_, T>>,
+    phi: T,
+    n: &Vector3<f64>,
+) -> (T, Vector3<f64>) {
+    match floor {
+        Some(f) if !f.leaves(phi.re()) => {
+            let (raised, s) = f.raise(phi);
+            (raised, n * (1.0 - s) + f.gradient() * s)
+        }
+        _ => (phi, *n),
+    }
 }
 
 /// A rigid-body wrench in the world frame: force, and torque about the body's origin.
@@ -105,8 +136,10 @@ pub(super) trait ForceSink {
     /// Whether the sink does anything (when `false`, the calls compile away).
     const ON: bool;
     /// One term: softmax weight `w` (1 for a half-space), offset `r = x - p` from the plane
-    /// point `p` with normal `n`, and the velocity `v` of the query point relative to the
-    /// plane's material point.
+    /// point `p` with normal `n`, the velocity `v` of the query point relative to the
+    /// plane's material point, and the distance the spring reads with its gradient with
+    /// respect to `x` ([`plane_reading`]).
+    #[allow(clippy::too_many_arguments)]
     fn term(
         &mut self,
         w: f64,
@@ -114,6 +147,8 @@ pub(super) trait ForceSink {
         n: &Vector3<f64>,
         p: &Vector3<f64>,
         v: &Vector3<f64>,
+        phi: f64,
+        dphi: &Vector3<f64>,
     );
 }
 
@@ -128,6 +163,8 @@ impl ForceSink for NoForceSink {
         _: &Vector3<f64>,
         _: &Vector3<f64>,
         _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: f64,
         _: &Vector3<f64>,
     ) {
     }
@@ -154,9 +191,11 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
             let p = lift3::<T>(point);
             let v = v_point - angvel_planes.cross(&p);
             let r = x - p;
-            let lambda = point_plane_force(&r, &lift3(normal), &v, prm);
+            let n = lift3::<T>(normal);
+            let phi = n.dot(&r);
+            let lambda = point_plane_force_at(phi, &n, &v, prm);
             if S::ON {
-                sink.term(1.0, &re3(&r), normal, point, &re3(&v));
+                sink.term(1.0, &re3(&r), normal, point, &re3(&v), phi.re(), normal);
             }
             PointForce {
                 force: lambda,
@@ -165,6 +204,7 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
         }
         Collider::Aopc(s) => {
             let bvh = s.bvh();
+            let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
             let (mut force, mut moment, mut weight) =
                 (Vector3::zeros(), Vector3::zeros(), T::zero());
             for &(k, w) in terms {
@@ -173,11 +213,13 @@ pub(super) fn point_force<T: Scalar, S: ForceSink>(
                 let r = x - p;
                 weight += w;
                 let v = v_point - angvel_planes.cross(&p);
-                let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
+                let n = lift3::<T>(nq);
+                let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
+                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
                 force += lambda;
                 moment += p.cross(&lambda);
                 if S::ON {
-                    sink.term(w.re(), &re3(&r), nq, q, &re3(&v));
+                    sink.term(w.re(), &re3(&r), nq, q, &re3(&v), phi.re(), &dphi);
                 }
             }
             let inv = weight.recip();
@@ -216,12 +258,15 @@ pub(super) fn point_force_naive<T: Scalar>(
                 .map(|q| (xr - q).norm_squared())
                 .fold(f64::INFINITY, f64::min);
             let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            let mut floor = s.bvh().polytope.as_ref().map(|p| p.floor(x));
             for (q, nq) in s.points.iter().zip(&s.normals) {
                 let p = lift3::<T>(q);
                 let r = x - p;
                 let w = sum.add(r.dot(&r));
                 let v = v_point - angvel_planes.cross(&p);
-                let lambda = point_plane_force(&r, &lift3(nq), &v, prm) * w;
+                let n = lift3::<T>(nq);
+                let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq);
+                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
                 force += lambda;
                 moment += p.cross(&lambda);
             }
@@ -439,7 +484,17 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
             (None, Collider::Aopc(o)) => {
                 scratch.find(o, &re3(&x), prm.eps1.re(), usize::MAX);
                 again.clear();
-                ssdf_over(o, &x, prm.eps1, 0.0, scratch, &mut NoSink, Some(&mut again));
+                let low = f64::NEG_INFINITY;
+                ssdf_over(
+                    o,
+                    &x,
+                    prm.eps1,
+                    0.0,
+                    low,
+                    scratch,
+                    &mut NoSink,
+                    Some(&mut again),
+                );
                 &again[..]
             }
         };

@@ -14,13 +14,14 @@
 
 use super::*;
 
-/// One term of a point–SSDF force: softmin weight, offset `r = x - p`, normal, plane point.
+/// One term of a point–SSDF force: softmin weight, normal, plane point, and the distance its
+/// spring reads ([`plane_reading`]).
 #[derive(Clone, Debug)]
 struct Term {
     w: f64,
-    r: Vector3<f64>,
     n: Vector3<f64>,
     p: Vector3<f64>,
+    phi: f64,
 }
 
 /// The terms of one point–SSDF force, in the order they were summed.
@@ -32,16 +33,18 @@ impl ForceSink for TermSink {
     fn term(
         &mut self,
         w: f64,
-        r: &Vector3<f64>,
+        _r: &Vector3<f64>,
         n: &Vector3<f64>,
         p: &Vector3<f64>,
         _v: &Vector3<f64>,
+        phi: f64,
+        _dphi: &Vector3<f64>,
     ) {
         self.0.push(Term {
             w,
-            r: *r,
             n: *n,
             p: *p,
+            phi,
         });
     }
 }
@@ -61,7 +64,7 @@ struct Entry {
     half_space: bool,
 }
 
-/// Terms a tape records per point of the pair's two clouds, at most (80 bytes each): past that
+/// Terms a tape records per point of the pair's two clouds, at most (64 bytes each): past that
 /// budget an entry keeps its query point only, and a replay sums its terms again (the same
 /// relevant set and weights, so the same bits), which keeps a tape's memory `O(I1 + I2)`.
 pub const TAPE_TERMS_PER_POINT: usize = 8;
@@ -150,7 +153,7 @@ impl PairTape {
         (tape, [on_a, on_b])
     }
 
-    /// How many terms the tape recorded (its memory is about 80 bytes each).
+    /// How many terms the tape recorded (its memory is about 64 bytes each).
     pub fn recorded_terms(&self) -> usize {
         self.terms.len()
     }
@@ -191,20 +194,19 @@ impl PairTape {
                         &x,
                         prm.eps1,
                         0.0,
+                        f64::NEG_INFINITY,
                         &scratch,
                         &mut NoSink,
                         Some(&mut again),
                     );
                     let bvh = o.bvh();
+                    let mut floor = bvh.polytope.as_ref().map(|p| p.floor(&x));
                     summed.clear();
                     summed.extend(again.iter().map(|&(k, w)| {
                         let p = bvh.points[k as usize];
-                        Term {
-                            w,
-                            r: x - p,
-                            n: bvh.normals[k as usize],
-                            p,
-                        }
+                        let (r, n) = (x - p, bvh.normals[k as usize]);
+                        let (phi, _) = plane_reading(&mut floor, n.dot(&r), &n);
+                        Term { w, n, p, phi }
                     }));
                     &summed[..]
                 }
@@ -212,9 +214,9 @@ impl PairTape {
             for t in terms {
                 let v = v_point - rel.angvel_planes.cross(&t.p);
                 let lambda = if e.half_space {
-                    point_plane_force(&t.r, &t.n, &v, prm)
+                    point_plane_force_at(t.phi, &t.n, &v, prm)
                 } else {
-                    point_plane_force(&t.r, &t.n, &v, prm) * t.w
+                    point_plane_force_at(t.phi, &t.n, &v, prm) * t.w
                 };
                 force += lambda;
                 moment += t.p.cross(&lambda);

@@ -137,6 +137,9 @@ pub struct Bvh {
     /// The certificate of a union of spheres and capsules ([`super::rounded`]), if the cloud
     /// is one.
     pub rounded: Option<std::sync::Arc<super::rounded::Rounded>>,
+    /// The cloud's bounding polytope and cover radius ([`super::polytope`]); `None` until
+    /// [`Bvh::set_surface`], and for a cloud without faces.
+    pub polytope: Option<super::polytope::Polytope>,
 }
 
 impl Bvh {
@@ -161,6 +164,7 @@ impl Bvh {
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
         self.spine = super::spine::find_spine(points, normals, vertices, faces);
+        self.polytope = super::polytope::Polytope::of(points, vertices, faces);
     }
 
     /// The flat patch of the point `k` (leaf order), if any.

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod cuboid;
 pub mod mesh;
 pub mod patch;
+pub mod polytope;
 pub mod radial;
 pub mod rounded;
 pub mod shapes;

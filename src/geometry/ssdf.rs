@@ -366,13 +366,17 @@ impl GradientSink {
 /// With `eps3 > 0` it also bounds, from real parts, the point–plane springs these planes would
 /// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite. With
 /// `terms`, each term's leaf-order index and weight `w_i` are pushed in summation order (the
-/// point–SSDF force at `p` sums the same terms with the same weights; `contact`).
+/// point–SSDF force at `p` sums the same terms with the same weights; `contact`). `floor`: a
+/// lower bound of every distance the springs read at `p` (the polytope's floor,
+/// [`super::polytope::Floor::lower`]; `-∞` for none), which the spring bound may use.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     s: &Aopc,
     p: &Vector3<T>,
     eps1: T,
     eps3: f64,
+    floor: f64,
     rel: &Relevant,
     sink: &mut S,
     mut terms: Option<&mut Vec<(u32, T)>>,
@@ -388,7 +392,7 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
         let phi = r.x * n.x + r.y * n.y + r.z * n.z;
         acc += w * phi;
         if eps3 > 0.0 {
-            springs.add(d, w.re(), phi.re());
+            springs.add(d, w.re(), phi.re().max(floor));
         }
         if S::ON {
             sink.term(w.re(), &re3(&r), n, phi.re());
@@ -481,7 +485,7 @@ pub fn ssdf_weights_sum<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> (T, T) 
     }
     let mut rel = Relevant::default();
     rel.find(s, &re3(p), eps1.re(), usize::MAX);
-    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, &rel, &mut NoSink, None);
+    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, f64::NEG_INFINITY, &rel, &mut NoSink, None);
     (phi, w)
 }
 
