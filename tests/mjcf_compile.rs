@@ -1957,3 +1957,39 @@ fn an_explicit_pair_brings_its_own_geoms_into_the_colliders_and_no_visual_one() 
         assert!(radial <= 0.01 + 1e-9 && p.z.abs() <= 0.03 + 1e-9, "{p:?}");
     }
 }
+
+#[test]
+fn a_pair_never_feels_more_mass_than_moves_with_its_bodies() {
+    // A 0.2 kg paddle on a hinge through its own centre of mass: MuJoCo's translational
+    // inverse weight of its centre is zero (robosuite's Jaco thumb: 9.9e-31 1/kg, an effective
+    // mass of 3e32 kg and a stiffness of 8.6e36 N/m). The pair's law is sized for the mass that
+    // moves with the paddle, 0.2 kg, as a free 0.2 kg body's would be.
+    let paddle = |joint: &str| {
+        format!(
+            r#"<mujoco><worldbody>
+              <geom name="floor" type="box" size="0.2 0.2 0.01"/>
+              <body name="paddle" pos="0 0 0.05">{joint}
+                <geom type="box" size="0.04 0.01 0.04" mass="0.2"/>
+              </body>
+            </worldbody></mujoco>"#
+        )
+    };
+    let hinged = load(&paddle(r#"<joint type="hinge" axis="0 1 0"/>"#));
+    let free = load(&paddle("<freejoint/>"));
+    let k = |s: &Scene| {
+        assert_eq!(s.model.pairs.len(), 1);
+        s.model.pairs[0].stiffness.expect("a law from solref")
+    };
+    let (kh, kf) = (k(&hinged), k(&free));
+    assert!(kh.is_finite() && kh > 0.0);
+    assert!(
+        (kh - kf).abs() <= 1e-12 * kf,
+        "hinged {kh} N/m, free {kf} N/m"
+    );
+    // The law is MuJoCo's resting depth for 0.2 kg: k s⁺_ε3(r) = m g.
+    let soft = scm::scene::contact::Softness::default();
+    let r = soft.resting_depth(9.81, Some(free.model.step));
+    let eps3 = free.model.contact.eps3;
+    let held = kf * scm::scalar::softplus(r, eps3);
+    assert!((held - 0.2 * 9.81).abs() < 1e-9, "holds {held} N");
+}

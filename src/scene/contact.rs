@@ -52,6 +52,7 @@ impl Builder {
             return vec![None; pairs.len()];
         }
         let weights = weights::body_weights(tree);
+        let moving = weights::moving_masses(tree);
         let g = tree.gravity.norm();
         let refsafe = self.flags.refsafe.then_some(step);
         let body_of = |name: &str| self.geoms.iter().find(|g| g.name == name).map(|g| g.body);
@@ -67,11 +68,18 @@ impl Builder {
         let laws = pairs
             .iter_mut()
             .map(|pair| {
+                // MuJoCo's effective mass, but never more than the mass that moves with the
+                // two bodies (`weights::moving_masses`): a centre of mass on its only joint's
+                // axis has a zero inverse weight.
                 let w = weights[pair.a].0 + weights[pair.b].0;
-                if w <= 0.0 {
-                    return None;
-                }
-                let law = |s: Softness| PairLaw::new(s, 1.0 / w, g, eps3, refsafe);
+                let cap = moving[pair.a] + moving[pair.b];
+                let mass = match (w > 0.0, cap > 0.0) {
+                    (true, true) => (1.0 / w).min(cap),
+                    (true, false) => 1.0 / w,
+                    (false, true) => cap,
+                    (false, false) => return None,
+                };
+                let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe);
                 let candidates: Vec<PairLaw> =
                     match explicit.iter().find(|(k, _)| *k == (pair.a, pair.b)) {
                         Some((_, s)) => vec![law(*s)],
@@ -296,7 +304,8 @@ impl Softness {
 pub struct PairLaw {
     /// The pair's `solref` and `solimp` (mixed).
     pub softness: Softness,
-    /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0` (kg).
+    /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`,
+    /// at most the mass that moves with the two bodies (kg).
     pub mass: f64,
     /// MuJoCo's resting depth under `g` (m).
     pub depth: f64,
