@@ -233,6 +233,16 @@ pub(crate) fn band_of<T: Scalar>(
                         hi: node.slab_hi,
                     };
                     let t = band.min + margin * e2;
+                    // Every entry of the node is at least the polytope's floor over its ball
+                    // (departure 3 of docs/method.md): far from the other body that proves
+                    // what the far-field SSDF cannot.
+                    if let Collider::Aopc(o) = planes {
+                        if let Some(p) = &o.bvh().polytope {
+                            if p.floor_over_ball(&centre, node.radius) > t {
+                                continue;
+                            }
+                        }
+                    }
                     let (exceeds, j) = match planes {
                         Collider::Aopc(o) => {
                             front.clear();
@@ -291,13 +301,22 @@ pub(crate) fn band_of<T: Scalar>(
                         let entry = match planes {
                             Collider::Aopc(o) => {
                                 let xr = crate::scalar::re3(&x);
+                                // Proven above the running cutoff (so above the final one),
+                                // by the kept candidates or by the polytope's floor under the
+                                // SSDF and its planes (docs/method.md, departure 3), an entry
+                                // would be dropped below: it is not evaluated.
+                                let t = band.min + margin * e2;
                                 if let Some(kc) = kept.as_deref_mut() {
-                                    // Proven above the running cutoff (so above the final
-                                    // one): it would be dropped below, so it is not evaluated.
-                                    let t = band.min + margin * e2;
                                     if kc.above(side as usize, k, &xr, t) {
                                         continue;
                                     }
+                                }
+                                let mut floor = o.bvh().polytope.as_ref().map(|p| p.floor(&x));
+                                let low = floor.as_ref().map_or(f64::NEG_INFINITY, |f| f.lower());
+                                if low > t {
+                                    continue;
+                                }
+                                if let Some(kc) = kept.as_deref_mut() {
                                     kc.relevant(side as usize, k, s, o, &xr, e1, scratch);
                                 } else if share {
                                     scratch.find_within(o, &xr, e1);
@@ -308,10 +327,6 @@ pub(crate) fn band_of<T: Scalar>(
                                 let start = band.terms.len();
                                 let keeping = start < keep_terms;
                                 let keep = keeping.then_some(&mut band.terms);
-                                // The polytope's floor under the SSDF and its planes
-                                // (docs/method.md, departure 3).
-                                let mut floor = o.bvh().polytope.as_ref().map(|p| p.floor(&x));
-                                let low = floor.as_ref().map_or(f64::NEG_INFINITY, |f| f.lower());
                                 let (phi, springs) = match grads.as_deref_mut() {
                                     Some(g) => {
                                         let mut sink = GradientSink::default();

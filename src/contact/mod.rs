@@ -40,7 +40,7 @@ pub fn point_plane_force<T: Scalar>(
 }
 
 /// [`point_plane_force`] given the distance `phi` the spring reads (the plane's `nᵀr`, or that
-/// raised to the other body's polytope floor: [`plane_reading`]).
+/// raised to the floor of the plane body's polytope, [`crate::geometry::polytope`]).
 #[inline]
 pub fn point_plane_force_at<T: Scalar>(
     phi: T,

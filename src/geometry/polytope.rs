@@ -99,17 +99,27 @@ impl Polytope {
     /// it and never need more than its cheap upper bound.
     pub fn floor<T: Scalar>(&self, x: &Vector3<T>) -> Floor<'_, T> {
         let xr = re3(x);
-        let mut top = f64::NEG_INFINITY;
+        let mut values = [0.0; 26];
         for (k, u) in AXES.iter().enumerate() {
             let d = u[0] * xr.x + u[1] * xr.y + u[2] * xr.z;
-            top = top.max(d - self.support[k]).max(-d - self.support[13 + k]);
+            values[k] = d - self.support[k];
+            values[13 + k] = -d - self.support[13 + k];
         }
+        let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Floor {
             polytope: self,
             x: *x,
+            values,
             upper: top - 1.5 * self.cover,
             smooth: None,
         }
+    }
+
+    /// A lower bound of the floor `b` over a ball (centre `c`, radius `rho`; the polytope's
+    /// frame): each plane value falls by at most `rho` within it.
+    pub fn floor_over_ball(&self, c: &Vector3<f64>, rho: f64) -> f64 {
+        let f = self.floor(c);
+        f.lower() - rho * (1.0 + 1e-12)
     }
 
     /// The temperature `T = r/80` (m).
@@ -124,6 +134,8 @@ impl Polytope {
 pub struct Floor<'p, T: Scalar> {
     polytope: &'p Polytope,
     x: Vector3<T>,
+    /// The 26 plane values `u_kᵀx - h_k` (real parts; `+u_k` first, then `-u_k`).
+    values: [f64; 26],
     /// An upper bound of `b` (real part): the plane maximum less the margin.
     upper: f64,
     /// `b` and its gradient (real part), once needed.
@@ -143,7 +155,9 @@ impl<T: Scalar> Floor<'_, T> {
         phi >= self.upper + UNTOUCHED * self.polytope.temperature()
     }
 
-    /// `b` and its gradient with respect to `x` (real part).
+    /// `b` and its gradient with respect to `x` (real part). The planes more than `40 T` below
+    /// the largest are left out of the sum (each would add less than `e^-40` to a sum of at
+    /// least 1, and their `exp` would mostly underflow, slowly).
     pub fn value(&mut self) -> (T, Vector3<f64>) {
         if let Some(v) = self.smooth {
             return v;
@@ -153,14 +167,16 @@ impl<T: Scalar> Floor<'_, T> {
         let top = self.upper + 1.5 * p.cover;
         let mut sum = T::zero();
         let mut grad = Vector3::zeros();
-        for (k, u) in AXES.iter().enumerate() {
-            let uv = Vector3::new(u[0], u[1], u[2]);
-            let d: T = self.x.x * c::<T>(u[0]) + self.x.y * c::<T>(u[1]) + self.x.z * c::<T>(u[2]);
-            for (sign, h) in [(1.0, p.support[k]), (-1.0, p.support[13 + k])] {
-                let w: T = ((d * c::<T>(sign) - c::<T>(h + top)) / c::<T>(t)).exp();
-                sum += w;
-                grad += uv * (sign * w.re());
+        for (k, value) in self.values.iter().enumerate() {
+            if *value < top - UNTOUCHED * t {
+                continue;
             }
+            let (axis, sign) = if k < 13 { (k, 1.0) } else { (k - 13, -1.0) };
+            let u = Vector3::new(AXES[axis][0], AXES[axis][1], AXES[axis][2]) * sign;
+            let d: T = self.x.x * c::<T>(u.x) + self.x.y * c::<T>(u.y) + self.x.z * c::<T>(u.z);
+            let w: T = ((d - c::<T>(p.support[k] + top)) / c::<T>(t)).exp();
+            sum += w;
+            grad += u * w.re();
         }
         let b: T = c::<T>(top) + sum.ln() * c::<T>(t) - c::<T>(t * 26f64.ln() + 1.5 * p.cover);
         let v = (b, grad / sum.re());
