@@ -1959,11 +1959,11 @@ fn an_explicit_pair_brings_its_own_geoms_into_the_colliders_and_no_visual_one() 
 }
 
 #[test]
-fn a_pair_never_feels_more_mass_than_moves_with_its_bodies() {
+fn a_pair_whose_inverse_weights_vanish_is_sized_for_the_mass_that_moves() {
     // A 0.2 kg paddle on a hinge through its own centre of mass: MuJoCo's translational
     // inverse weight of its centre is zero (robosuite's Jaco thumb: 9.9e-31 1/kg, an effective
-    // mass of 3e32 kg and a stiffness of 8.6e36 N/m). The pair's law is sized for the mass that
-    // moves with the paddle, 0.2 kg, as a free 0.2 kg body's would be.
+    // mass of 3e32 kg and a stiffness of 8.6e36 N/m). Below MuJoCo's mjMINVAL the pair's law is
+    // sized for the mass that moves with the paddle, 0.2 kg, as a free 0.2 kg body's would be.
     let paddle = |joint: &str| {
         format!(
             r#"<mujoco><worldbody>

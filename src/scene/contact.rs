@@ -68,16 +68,18 @@ impl Builder {
         let laws = pairs
             .iter_mut()
             .map(|pair| {
-                // MuJoCo's effective mass, but never more than the mass that moves with the
-                // two bodies (`weights::moving_masses`): a centre of mass on its only joint's
-                // axis has a zero inverse weight.
+                // MuJoCo's effective mass, unless the inverse weights are a rounding error
+                // (below MuJoCo's `mjMINVAL`, 1e-15): a centre of mass on its only joint's axis
+                // cannot move, and the pair is sized for the mass that moves with its two
+                // bodies instead (`weights::moving_masses`).
                 let w = weights[pair.a].0 + weights[pair.b].0;
-                let cap = moving[pair.a] + moving[pair.b];
-                let mass = match (w > 0.0, cap > 0.0) {
-                    (true, true) => (1.0 / w).min(cap),
-                    (true, false) => 1.0 / w,
-                    (false, true) => cap,
-                    (false, false) => return None,
+                let moving = moving[pair.a] + moving[pair.b];
+                let mass = if w > 1e-15 {
+                    1.0 / w
+                } else if moving > 0.0 {
+                    moving
+                } else {
+                    return None;
                 };
                 let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe);
                 let candidates: Vec<PairLaw> =
@@ -304,8 +306,8 @@ impl Softness {
 pub struct PairLaw {
     /// The pair's `solref` and `solimp` (mixed).
     pub softness: Softness,
-    /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`,
-    /// at most the mass that moves with the two bodies (kg).
+    /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`;
+    /// the mass that moves with the two bodies where `w₁ + w₂` is below 1e-15 (kg).
     pub mass: f64,
     /// MuJoCo's resting depth under `g` (m).
     pub depth: f64,

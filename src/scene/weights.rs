@@ -95,10 +95,9 @@ pub(super) fn body_weights(tree: &Tree) -> Vec<(f64, f64)> {
 }
 
 /// The mass that moves with each body: the total mass of the moving bodies in the tree under
-/// its top-level ancestor (a child of the world), 0 for a body that cannot move. No contact
-/// between two bodies can feel more than the sum of theirs, whatever the joints: it caps the
-/// effective mass `1 / (w₁ + w₂)` where MuJoCo's inverse weight of a body whose centre of mass
-/// lies on its only joint's axis is a rounding error (robosuite's Jaco thumb: 9.9e-31 1/kg).
+/// its top-level ancestor (a child of the world), 0 for a body that cannot move. It sizes a
+/// pair whose inverse weights are a rounding error (a centre of mass on its only joint's axis:
+/// robosuite's Jaco thumb, 9.9e-31 1/kg).
 pub(super) fn moving_masses(tree: &Tree) -> Vec<f64> {
     let top = |mut b: usize| {
         while let Some(p) = tree.bodies[b].parent.filter(|&p| p != 0) {
