@@ -1,7 +1,7 @@
 //! A communication step covered by internal steps that land exactly on its end, and the guard
 //! that refuses a step that diverges (non-finite state, energy growth no input explains).
 
-use super::guard::{EnergyLedger, EnergyMonitor};
+use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
 use super::newton::KeptJacobian;
 use crate::collision::{KeptReach, PairsKept};
 use crate::contact::ContactParams;
@@ -157,6 +157,7 @@ impl Model {
                 m.ledger.scale = m.ledger.scale.max(e.kinetic);
                 m.ledger.kinetic = e.kinetic;
                 let total = e.total();
+                m.energy = total;
                 if !total.is_finite() || total > m.ledger.allowed(m.floor) {
                     let l = &m.ledger;
                     return Err(StepFailure::EnergyGrowth {
@@ -233,22 +234,27 @@ impl Model {
                     i => {
                         // Every internal step's first stage with the kept out-of-reach proofs
                         // (the first one's is the start's forward dynamics).
+                        // There the guard's balance may restart, with the contacts found.
                         let a = match first.take() {
-                            None if i != Integrator::DampedEuler => Some(
-                                self.forward_kept_from(
-                                    &s.q,
-                                    &s.v,
-                                    &uk,
-                                    prm,
-                                    &mut cache.kept,
-                                    known.take(),
-                                )
-                                .map_err(dyn_err)?
-                                .vdot
-                                .iter()
-                                .copied()
-                                .collect(),
-                            ),
+                            None if i != Integrator::DampedEuler => {
+                                let f = self
+                                    .forward_kept_from(
+                                        &s.q,
+                                        &s.v,
+                                        &uk,
+                                        prm,
+                                        &mut cache.kept,
+                                        known.take(),
+                                    )
+                                    .map_err(dyn_err)?;
+                                if let Some(m) = monitor.as_mut() {
+                                    let stored = contact_energy(&self.pairs, &f.contacts, prm);
+                                    let at = t0 + k as f64 * dt;
+                                    let kinetic = m.ledger.kinetic;
+                                    m.ledger.tighten(m.energy, kinetic, stored, at, m.floor);
+                                }
+                                Some(f.vdot.iter().copied().collect())
+                            }
                             a => a,
                         };
                         self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac, Some(&mut cache.kept))
@@ -522,7 +528,12 @@ pub struct AdvanceOptions {
     /// that is about twice what the run had before. The cap on `U` keeps a blow-up from raising
     /// its own allowance through the contact forces it drives (the estimate reads damping as
     /// stored energy): without actuators, no accepted state has more kinetic energy than
-    /// `2 (E₀ + U₀ + E_floor - V_min)`, `V_min` the least potential energy of the run. The ledger restarts whenever a call starts from another state than the last one
+    /// `2 (E₀ + U₀ + E_floor - V_min)`, `V_min` the least potential energy of the run. The
+    /// balance moves its start to a later state where `E + U` is not above `E₀ + U₀ + W`
+    /// (the run lost energy since; [`EnergyLedger::tighten`](super::EnergyLedger)): checked at the start of every
+    /// call and, for the explicit fixed-step methods, of every internal step (where the forward
+    /// dynamics give the contacts). So a blow-up is judged from the least energy the run fell
+    /// to, not from a start that held more (energy in limit springs that damping spends). The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
     /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one
     /// moves.
