@@ -153,3 +153,67 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A reader that takes the first line and closes the pipe (`scm … | head -1`) ends the
+/// command quietly with success: no panic, nothing on standard error. Each output here is
+/// many times a pipe's buffer (64 KiB), so the command is still writing when the pipe closes.
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let drop = scene("sphere_drop");
+    let drop = drop.to_str().unwrap();
+    // Forty spheres: 780 pairs for `check` to list (160 kB), 355 kB of compiled model.
+    let dir = std::env::temp_dir().join(format!("scm-cli-pipe-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let many = dir.join("many.xml");
+    let bodies: String = (0..40)
+        .map(|i| {
+            format!(
+                r#"<body name="s{i}" pos="{} 0 1"><freejoint/><geom type="sphere" size="0.1"/></body>"#,
+                0.3 * i as f64
+            )
+        })
+        .collect();
+    std::fs::write(
+        &many,
+        format!("<mujoco><worldbody>{bodies}</worldbody></mujoco>"),
+    )
+    .unwrap();
+    let many = many.to_str().unwrap();
+    let commands: [&[&str]; 4] = [
+        &[
+            "simulate",
+            drop,
+            "--duration",
+            "20",
+            "--output-interval",
+            "0.001",
+        ],
+        &["check", many],
+        &["compile", many],
+        &["aopc", many, "s0"],
+    ];
+    for args in commands {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_scm"))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        assert!(!first.is_empty(), "{args:?} printed nothing");
+        // The reader is dropped here: the pipe is closed.
+        let out = child.wait_with_output().unwrap();
+        let err = text(&out.stderr);
+        assert!(
+            out.status.success() && err.is_empty(),
+            "{args:?}: {:?} {err}",
+            out.status
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -86,15 +86,47 @@ fn positive(s: &str) -> Result<f64, String> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli.command) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+        // The reader took what it wanted (`scm check scene.xml | head -1`): nothing is wrong.
+        Ok(()) | Err(Failure::Closed) => ExitCode::SUCCESS,
+        Err(Failure::Message(e)) => {
             eprintln!("scm: {e}");
             ExitCode::FAILURE
         }
     }
 }
 
-fn run(command: Command) -> Result<(), String> {
+/// Why a command stopped early.
+enum Failure {
+    /// What went wrong, for the user.
+    Message(String),
+    /// Standard output was closed by its reader.
+    Closed,
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure::Message(message)
+    }
+}
+
+impl Failure {
+    /// A failed write: [`Failure::Closed`] for a closed pipe.
+    fn io(e: std::io::Error) -> Self {
+        match e.kind() {
+            std::io::ErrorKind::BrokenPipe => Failure::Closed,
+            _ => Failure::Message(e.to_string()),
+        }
+    }
+}
+
+/// `writeln!` to `w`, a failed write ending the command ([`Failure::io`]).
+macro_rules! say {
+    ($w:expr, $($arg:tt)*) => {
+        writeln!($w, $($arg)*).map_err(Failure::io)?
+    };
+}
+
+fn run(command: Command) -> Result<(), Failure> {
     match command {
         Command::Simulate {
             scene,
@@ -122,7 +154,7 @@ fn run(command: Command) -> Result<(), String> {
         Command::Compile { scene } => {
             let c = scm::scene::compile(&scene).map_err(|e| e.to_string())?;
             let text = serde_json::to_string_pretty(&c.to_json()).map_err(|e| e.to_string())?;
-            println!("{text}");
+            say!(std::io::stdout().lock(), "{text}");
             Ok(())
         }
         Command::Aopc { scene, body } => {
@@ -136,24 +168,24 @@ fn run(command: Command) -> Result<(), String> {
                 .ok_or_else(|| format!("{}: no body named '{body}'", scene.display()))?;
             let stdout = std::io::stdout();
             let mut w = stdout.lock();
-            writeln!(w, "x,y,z,nx,ny,nz").map_err(|e| e.to_string())?;
+            say!(w, "x,y,z,nx,ny,nz");
             match &sc.model.colliders[b] {
                 Some(scm::collision::Collider::Aopc(s)) => {
                     for (p, n) in s.points.iter().zip(&s.normals) {
-                        writeln!(w, "{},{},{},{},{},{}", p.x, p.y, p.z, n.x, n.y, n.z)
-                            .map_err(|e| e.to_string())?;
+                        say!(w, "{},{},{},{},{},{}", p.x, p.y, p.z, n.x, n.y, n.z);
                     }
                 }
                 Some(scm::collision::Collider::HalfSpace { .. }) => {
                     return Err(format!(
                         "body '{body}' is a plane (an exact half-space, not a point cloud)"
-                    ))
+                    )
+                    .into())
                 }
-                None => return Err(format!("body '{body}' has no collision geometry")),
+                None => return Err(format!("body '{body}' has no collision geometry").into()),
             }
             Ok(())
         }
-        Command::Check { scene } => check(&scene),
+        Command::Check { scene } => check(&scene, &mut std::io::stdout().lock()),
         Command::Pack { scene, output, lib } => {
             let lib = match lib {
                 Some(l) => l,
@@ -202,7 +234,7 @@ fn simulate(
     duration: f64,
     h: f64,
     out: Option<PathBuf>,
-) -> Result<(), String> {
+) -> Result<(), Failure> {
     sim.initialize()?;
     let mut w: Box<dyn Write> = match &out {
         Some(p) => Box::new(std::io::BufWriter::new(
@@ -211,7 +243,7 @@ fn simulate(
         None => Box::new(std::io::stdout().lock()),
     };
     let header: Vec<&str> = std::iter::once("time").chain(sim.output_names()).collect();
-    writeln!(w, "{}", header.join(",")).map_err(|e| e.to_string())?;
+    say!(w, "{}", header.join(","));
     // Rows every `h`, the last one exactly at `duration` (its step may be shorter).
     let n = (duration / h * (1.0 - 1e-12)).ceil().max(1.0) as usize;
     let at = |k: usize| (k as f64 * h).min(duration);
@@ -220,12 +252,11 @@ fn simulate(
         if k > 0 {
             sim.step(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
         }
-        // `{}` of an f64 is the shortest text that reads back to the same number.
         let row: Vec<String> = std::iter::once(at(k))
             .chain(sim.outputs()?)
-            .map(|x| x.to_string())
+            .map(csv_number)
             .collect();
-        writeln!(w, "{}", row.join(",")).map_err(|e| e.to_string())?;
+        say!(w, "{}", row.join(","));
     }
     if let Some(p) = out {
         eprintln!(
@@ -238,28 +269,41 @@ fn simulate(
     Ok(())
 }
 
-fn check(path: &Path) -> Result<(), String> {
+/// `x` as the shortest text that reads back to the same number, in scientific notation where
+/// the plain one would run long (below 1e-5 or from 1e16 in magnitude, as Python writes
+/// floats): `4.0167476953300866e-26`, not 0.0000000000000000000000000401....
+fn csv_number(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-5..1e16).contains(&x.abs()) {
+        x.to_string()
+    } else {
+        format!("{x:e}")
+    }
+}
+
+fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
     // Everything `scm pack` would refuse, all at once, before the colliders are built.
     let compiled = scm::scene::compile(path).map_err(|e| e.to_string())?;
     if !compiled.refused.is_empty() {
-        for w in &compiled.warnings {
-            println!("warning: {w}");
+        for warning in &compiled.warnings {
+            say!(w, "warning: {warning}");
         }
         for u in &compiled.unused {
-            println!("unused: {u}");
+            say!(w, "unused: {u}");
         }
         for e in &compiled.refused {
-            println!("refused: {e}");
+            say!(w, "refused: {e}");
         }
         return Err(format!(
             "{} refusal(s) in {}: scm pack would refuse this scene",
             compiled.refused.len(),
             path.display()
-        ));
+        )
+        .into());
     }
     let sc = scm::scene::load(path).map_err(|e| e.to_string())?;
     let m = &sc.model;
-    println!(
+    say!(
+        w,
         "scene {} ({}): {} bodies, {} joints ({} positions, {} velocities), {} actuators",
         m.name,
         path.display(),
@@ -269,7 +313,8 @@ fn check(path: &Path) -> Result<(), String> {
         m.tree.nv,
         m.actuators.len()
     );
-    println!(
+    say!(
+        w,
         "integrator {}, internal step {} s",
         m.integrator.name(),
         m.step
@@ -281,7 +326,8 @@ fn check(path: &Path) -> Result<(), String> {
             (Some(mesh), _) => (mesh, ""),
             (None, Some(hull)) if a.used => (hull, "not a closed surface, its convex hull: "),
             _ => {
-                println!(
+                say!(
+                    w,
                     "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
                     a.name,
                     a.path.display()
@@ -290,7 +336,8 @@ fn check(path: &Path) -> Result<(), String> {
             }
         };
         let mp = mesh.mass_properties();
-        println!(
+        say!(
+            w,
             "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{}",
             a.name,
             a.path.display(),
@@ -303,8 +350,9 @@ fn check(path: &Path) -> Result<(), String> {
     let mut problems = Vec::new();
     for (b, body) in m.tree.bodies.iter().enumerate() {
         match &m.colliders[b] {
-            None => println!("body {}: no collider", body.name),
-            Some(scm::collision::Collider::HalfSpace { normal, .. }) => println!(
+            None => say!(w, "body {}: no collider", body.name),
+            Some(scm::collision::Collider::HalfSpace { normal, .. }) => say!(
+                w,
                 "body {}: plane (exact half-space), normal {:?}",
                 body.name,
                 normal.as_slice()
@@ -331,7 +379,8 @@ fn check(path: &Path) -> Result<(), String> {
                 let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
                 let closure = s.closure_defect().norm();
                 let volume = s.enclosed_volume();
-                println!(
+                say!(
+                    w,
                     "body {}: {} geom(s) (sampled at: {spacings}), {} points, {} quads, {} vertices, mean spacing {:.4} m, |Σ n·area| = {:.2e} m², enclosed volume {:.4e} m³ ({} {:.4e} m³, {:+.2} %)",
                     body.name,
                     parts.len(),
@@ -353,7 +402,8 @@ fn check(path: &Path) -> Result<(), String> {
                     };
                     let uniform = h.coarse.min();
                     match mesh.simplified(uniform) {
-                        Some(simple) => println!(
+                        Some(simple) => say!(
+                    w,
                             "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then sampled at {uniform} m",
                             g.name,
                             mesh.triangles.len(),
@@ -365,7 +415,8 @@ fn check(path: &Path) -> Result<(), String> {
                                 n => format!("; {n} triangle(s) folded inward dropped"),
                             }
                         ),
-                        None => println!(
+                        None => say!(
+                    w,
                             "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
                             g.name,
                             mesh.triangles.len(),
@@ -410,31 +461,59 @@ fn check(path: &Path) -> Result<(), String> {
             ),
             None => "stiffness and dissipation velocity: scm_stiffness, scm_dissipation_velocity".into(),
         };
-        println!(
+        say!(
+            w,
             "pair {} - {}: friction {friction}, {law}",
-            m.tree.bodies[p.a].name, m.tree.bodies[p.b].name
+            m.tree.bodies[p.a].name,
+            m.tree.bodies[p.b].name
         );
     }
     if m.contact_points > 0 {
-        println!("contact points: {} per pair", m.contact_points);
+        say!(w, "contact points: {} per pair", m.contact_points);
     }
-    for w in &sc.warnings {
-        println!("warning: {w}");
+    for warning in &sc.warnings {
+        say!(w, "warning: {warning}");
     }
     for u in &sc.unused {
-        println!("unused: {u}");
+        say!(w, "unused: {u}");
     }
     for p in &problems {
-        println!("problem: {p}");
+        say!(w, "problem: {p}");
     }
     if problems.is_empty() {
-        println!("no problems found");
+        say!(w, "no problems found");
         Ok(())
     } else {
-        Err(format!(
-            "{} problem(s) found in {}",
-            problems.len(),
-            path.display()
-        ))
+        Err(format!("{} problem(s) found in {}", problems.len(), path.display()).into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::csv_number;
+
+    #[test]
+    fn csv_numbers_are_short_and_read_back_exactly() {
+        for (x, text) in [
+            (4.0167476953300866e-26, "4.0167476953300866e-26"),
+            (-5.683268005448776e-13, "-5.683268005448776e-13"),
+            (0.0, "0"),
+            (0.5, "0.5"),
+            (1e-5, "0.00001"),
+            (9.03491036536643, "9.03491036536643"),
+            (1.5e16, "1.5e16"),
+            (f64::INFINITY, "inf"),
+        ] {
+            assert_eq!(csv_number(x), text);
+        }
+        let mut x = 1.234_567_890_123_456_7e-30;
+        while x < 1e30 {
+            for v in [x, -x] {
+                let t = csv_number(v);
+                assert_eq!(t.parse::<f64>().unwrap(), v, "{t}");
+                assert!(t.len() <= 24, "{t}");
+            }
+            x *= 7.3;
+        }
     }
 }

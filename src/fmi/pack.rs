@@ -35,6 +35,14 @@ pub enum PackError {
         /// The zip error.
         source: zip::result::ZipError,
     },
+    /// The folder the archive is to be written into does not exist.
+    #[error("{path}: the folder {} does not exist (create it first)", folder.display())]
+    NoFolder {
+        /// The archive asked for.
+        path: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+    },
     /// A resource name that would escape `resources/` or is not portable.
     #[error("resource name {name:?} is not allowed: {reason}")]
     BadResourceName {
@@ -95,6 +103,15 @@ pub fn write_fmu(
             });
         }
     }
+    // Checked here so that the error names the folder, not the temporary file beside `out`.
+    if let Some(folder) = out.parent().filter(|f| !f.as_os_str().is_empty()) {
+        if !folder.is_dir() {
+            return Err(PackError::NoFolder {
+                path: out.to_owned(),
+                folder: folder.to_owned(),
+            });
+        }
+    }
     let library_bytes = std::fs::read(library).map_err(|source| PackError::Io {
         path: library.to_owned(),
         source,
@@ -107,6 +124,7 @@ pub fn write_fmu(
     let temp = out.with_file_name(format!(".{file_name}.{}.tmp", std::process::id()));
     let result = write_archive(
         &temp,
+        out,
         model_description_xml,
         &library_bytes,
         resources,
@@ -124,19 +142,21 @@ pub fn write_fmu(
     result
 }
 
+/// Writes the archive to `path`; errors name `shown` (the file the user asked for).
 fn write_archive(
     path: &Path,
+    shown: &Path,
     model_description_xml: &str,
     library: &[u8],
     resources: &[(String, Vec<u8>)],
     documentation_html: Option<&str>,
 ) -> Result<(), PackError> {
     let io = |source| PackError::Io {
-        path: path.to_owned(),
+        path: shown.to_owned(),
         source,
     };
     let zip_err = |source| PackError::Zip {
-        path: path.to_owned(),
+        path: shown.to_owned(),
         source,
     };
     let file = File::create(path).map_err(io)?;
@@ -332,7 +352,14 @@ mod tests {
         let lib = dir.join("lib.so");
         std::fs::write(&lib, b"x").unwrap();
         let err = write_fmu(&out_in_missing_dir, "<x/>", &lib, &[], None).unwrap_err();
-        assert!(err.to_string().contains("no-such-dir"), "{err}");
+        // The path asked for and its folder, not the temporary file beside it.
+        let text = err.to_string();
+        assert!(
+            text.starts_with(&format!("{}: ", out_in_missing_dir.display()))
+                && text.contains("no-such-dir does not exist")
+                && !text.contains(".tmp"),
+            "{err}"
+        );
         let left: Vec<_> = std::fs::read_dir(&dir)
             .unwrap()
             .map(|e| e.unwrap().file_name())
