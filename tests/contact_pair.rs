@@ -337,6 +337,17 @@ fn closed_box() -> Collider {
     )
 }
 
+/// The points, normals and areas of `cloud` alone: no faces, so no polytope bounds its planes.
+fn without_polytope(cloud: &scm::geometry::Aopc) -> Collider {
+    Collider::Aopc(scm::geometry::Aopc::new(
+        cloud.points.clone(),
+        cloud.normals.clone(),
+        cloud.areas.clone(),
+        Vec::new(),
+        Vec::new(),
+    ))
+}
+
 #[test]
 fn a_plane_reads_no_closer_than_the_polytope_proves() {
     // A ball 4 cm beside the open box's top edge, in the face's plane: the top face's planes
@@ -358,13 +369,7 @@ fn a_plane_reads_no_closer_than_the_polytope_proves() {
         "the top face's plane passes beside: {raw}"
     );
     // The same planes without a polytope (no faces to bound them by) push.
-    let bare = Collider::Aopc(scm::geometry::Aopc::new(
-        cloud.points.clone(),
-        cloud.normals.clone(),
-        cloud.areas.clone(),
-        Vec::new(),
-        Vec::new(),
-    ));
+    let bare = without_polytope(cloud);
     let unbounded = pair_contact(&bare, &fa, &ball, &fb, &prm);
     assert!(
         unbounded.on_b.force.norm() > 0.1,
@@ -404,13 +409,7 @@ fn a_plane_reads_no_closer_than_the_polytope_proves() {
     let Collider::Aopc(closed) = closed_box() else {
         unreachable!()
     };
-    let closed_bare = Collider::Aopc(scm::geometry::Aopc::new(
-        closed.points.clone(),
-        closed.normals.clone(),
-        closed.areas.clone(),
-        Vec::new(),
-        Vec::new(),
-    ));
+    let closed_bare = without_polytope(&closed);
     let at_side = frame(Vector3::new(0.1495, 0.0, 0.0), Vector3::zeros());
     let side = pair_contact(&Collider::Aopc(closed), &fa, &ball, &at_side, &prm);
     assert!(

@@ -98,19 +98,12 @@ impl Polytope {
     /// The floor at `x` (the polytope's frame), evaluated lazily: most readings are far above
     /// it and never need more than its cheap upper bound.
     pub fn floor<T: Scalar>(&self, x: &Vector3<T>) -> Floor<'_, T> {
-        let xr = re3(x);
-        let mut values = [0.0; 26];
-        for (k, u) in AXES.iter().enumerate() {
-            let d = u[0] * xr.x + u[1] * xr.y + u[2] * xr.z;
-            values[k] = d - self.support[k];
-            values[13 + k] = -d - self.support[13 + k];
-        }
-        let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let values = self.plane_values(&re3(x));
         Floor {
             polytope: self,
             x: *x,
             values,
-            upper: top - 1.5 * self.cover,
+            upper: self.upper(&values),
             smooth: None,
         }
     }
@@ -118,8 +111,29 @@ impl Polytope {
     /// A lower bound of the floor `b` over a ball (centre `c`, radius `rho`; the polytope's
     /// frame): each plane value falls by at most `rho` within it.
     pub fn floor_over_ball(&self, c: &Vector3<f64>, rho: f64) -> f64 {
-        let f = self.floor(c);
-        f.lower() - rho * (1.0 + 1e-12)
+        self.lower(self.upper(&self.plane_values(c))) - rho * (1.0 + 1e-12)
+    }
+
+    /// The 26 plane values `u_kᵀx - h_k` at `x` (`+u_k` first, then `-u_k`).
+    fn plane_values(&self, x: &Vector3<f64>) -> [f64; 26] {
+        let mut values = [0.0; 26];
+        for (k, u) in AXES.iter().enumerate() {
+            let d = u[0] * x.x + u[1] * x.y + u[2] * x.z;
+            values[k] = d - self.support[k];
+            values[13 + k] = -d - self.support[13 + k];
+        }
+        values
+    }
+
+    /// An upper bound of `b` from its plane values: their maximum less the margin.
+    fn upper(&self, values: &[f64; 26]) -> f64 {
+        values.iter().copied().fold(f64::NEG_INFINITY, f64::max) - 1.5 * self.cover
+    }
+
+    /// A lower bound of `b` from its upper bound `upper`: the smoothing takes at most `T ln 26`
+    /// off the maximum (and a little more for rounding).
+    fn lower(&self, upper: f64) -> f64 {
+        upper - self.temperature() * 26f64.ln() - 1e-12 * (1.0 + upper.abs())
     }
 
     /// The temperature `T = r/80` (m).
@@ -146,7 +160,7 @@ impl<T: Scalar> Floor<'_, T> {
     /// A lower bound of `b` (real part): the smoothing takes at most `T ln 26` off the maximum
     /// (and a little more for rounding).
     pub fn lower(&self) -> f64 {
-        self.upper - self.polytope.temperature() * 26f64.ln() - 1e-12 * (1.0 + self.upper.abs())
+        self.polytope.lower(self.upper)
     }
 
     /// Whether a reading `phi` (real part) is left exactly as it is.

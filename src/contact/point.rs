@@ -1,0 +1,220 @@
+//! The force on one query point: the point–plane force (paper eqs. 17–22) with the distance
+//! its spring reads, and its soft-minimum average over an SSDF's planes, the point–SSDF force
+//! (paper eqs. 23–24; docs/method.md).
+
+use super::ContactParams;
+use crate::collision::Collider;
+use crate::geometry::polytope::Floor;
+use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum};
+use nalgebra::Vector3;
+
+/// Point–plane force (Kurtz & Lin 2023; paper eqs. 17–22; docs/method.md) on a point at offset `r`
+/// from the plane point `p_i` (so `φ = nᵀr`), moving with velocity `v` relative to the plane's
+/// material point. Returns `λ`, which acts on the point; `-λ` acts on the plane's body.
+#[inline]
+pub fn point_plane_force<T: Scalar>(
+    r: &Vector3<T>,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
+    point_plane_force_at(n.dot(r), n, v, prm)
+}
+
+/// [`point_plane_force`] given the distance `phi` the spring reads (the plane's `nᵀr`, or that
+/// raised to the floor of the plane body's polytope, [`crate::geometry::polytope`]).
+#[inline]
+pub fn point_plane_force_at<T: Scalar>(
+    phi: T,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
+    // Far outside the plane the spring term underflows to exactly zero, and the whole force
+    // (normal and friction both scale with it) with it: return that zero without the work.
+    if phi.re() > 746.0 * prm.eps3.re() {
+        return Vector3::zeros();
+    }
+    let spring = prm.stiffness * softplus(-phi, prm.eps3);
+    let vn = n.dot(v);
+    let lambda_n = spring * prm.dissipation.factor(vn / prm.dissipation_velocity);
+    let vt = v - n * vn;
+    let lambda_t = vt * (-prm.friction * lambda_n / smooth_norm(&vt, prm.stiction_velocity));
+    n * lambda_n + lambda_t
+}
+
+/// The distance a plane's spring reads at a query point: the plane's `nᵀr` (`phi`) raised to
+/// the floor of the plane body's polytope, if any (docs/method.md, departure 3), and its
+/// gradient with respect to the query point (real part): `n` where the floor leaves it,
+/// `(1 - s) n + s ∇b` where it raises it.
+#[inline]
+pub(crate) fn plane_reading<T: Scalar>(
+    floor: &mut Option<Floor<'_, T>>,
+    phi: T,
+    n: &Vector3<f64>,
+) -> (T, Vector3<f64>) {
+    match floor {
+        Some(f) if !f.leaves(phi.re()) => {
+            let (raised, s) = f.raise(phi);
+            (raised, n * (1.0 - s) + f.gradient() * s)
+        }
+        _ => (phi, *n),
+    }
+}
+
+/// Accumulated point–SSDF force on one query point: `F = Σ σ_i λ_i` and the moment about the
+/// plane body's origin of the reactions, `G = Σ σ_i p_i × λ_i` (plane body's frame).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PointForce<T: Scalar> {
+    pub(crate) force: Vector3<T>,
+    pub(crate) moment: Vector3<T>,
+}
+
+/// Receives the real parts of every term of a point–SSDF force, for derivatives computed
+/// alongside the value (`LocalJacobian`).
+pub(crate) trait ForceSink {
+    /// Whether the sink does anything (when `false`, the calls compile away).
+    const ON: bool;
+    /// One term: softmax weight `w` (1 for a half-space), offset `r = x - p` from the plane
+    /// point `p` with normal `n`, the velocity `v` of the query point relative to the
+    /// plane's material point, and the distance the spring reads with its gradient with
+    /// respect to `x` ([`plane_reading`]).
+    #[allow(clippy::too_many_arguments)]
+    fn term(
+        &mut self,
+        w: f64,
+        r: &Vector3<f64>,
+        n: &Vector3<f64>,
+        p: &Vector3<f64>,
+        v: &Vector3<f64>,
+        phi: f64,
+        dphi: &Vector3<f64>,
+    );
+}
+
+pub(crate) struct NoForceSink;
+
+impl ForceSink for NoForceSink {
+    const ON: bool = false;
+    #[inline(always)]
+    fn term(
+        &mut self,
+        _: f64,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: &Vector3<f64>,
+        _: f64,
+        _: &Vector3<f64>,
+    ) {
+    }
+}
+
+/// Point–SSDF force (paper eq. 23–24 with the sign corrected, docs/method.md): the softmin-weighted
+/// average of point–plane forces on a query point `x` with velocity `v_point` (plane body's
+/// frame, relative to the plane body's origin; see [`Relative`]), against `planes`, over the
+/// `terms` of the SSDF at `x`: each relevant plane's leaf-order index and softmax weight, as
+/// [`ssdf_over`](crate::geometry::ssdf::ssdf_over) gives them (the SSDF's pruning bound,
+/// [`Relevant`]). Unused against a half-space.
+#[inline]
+pub(crate) fn point_force<T: Scalar, S: ForceSink>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+    terms: &[(u32, T)],
+    sink: &mut S,
+) -> PointForce<T> {
+    match planes {
+        Collider::HalfSpace { point, normal } => {
+            let p = lift3::<T>(point);
+            let v = v_point - angvel_planes.cross(&p);
+            let r = x - p;
+            let n = lift3::<T>(normal);
+            let phi = n.dot(&r);
+            let lambda = point_plane_force_at(phi, &n, &v, prm);
+            if S::ON {
+                sink.term(1.0, &re3(&r), normal, point, &re3(&v), phi.re(), normal);
+            }
+            PointForce {
+                force: lambda,
+                moment: p.cross(&lambda),
+            }
+        }
+        Collider::Aopc(s) => {
+            let bvh = s.bvh();
+            let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
+            let (mut force, mut moment, mut weight) =
+                (Vector3::zeros(), Vector3::zeros(), T::zero());
+            for &(k, w) in terms {
+                let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
+                let p = lift3::<T>(q);
+                let r = x - p;
+                weight += w;
+                let v = v_point - angvel_planes.cross(&p);
+                let n = lift3::<T>(nq);
+                let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
+                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
+                force += lambda;
+                moment += p.cross(&lambda);
+                if S::ON {
+                    sink.term(w.re(), &re3(&r), nq, q, &re3(&v), phi.re(), &dphi);
+                }
+            }
+            let inv = weight.recip();
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
+        }
+    }
+}
+
+/// [`point_force`] summed over every plane (the reference for [`pair_contact_naive`]).
+pub(crate) fn point_force_naive<T: Scalar>(
+    planes: &Collider,
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> PointForce<T> {
+    match planes {
+        Collider::HalfSpace { .. } => point_force(
+            planes,
+            x,
+            v_point,
+            angvel_planes,
+            prm,
+            &[],
+            &mut NoForceSink,
+        ),
+        Collider::Aopc(s) => {
+            let xr = re3(x);
+            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
+            let dmin = s
+                .points
+                .iter()
+                .map(|q| (xr - q).norm_squared())
+                .fold(f64::INFINITY, f64::min);
+            let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            let mut floor = s.bvh().polytope.as_ref().map(|p| p.floor(x));
+            for (q, nq) in s.points.iter().zip(&s.normals) {
+                let p = lift3::<T>(q);
+                let r = x - p;
+                let w = sum.add(r.dot(&r));
+                let v = v_point - angvel_planes.cross(&p);
+                let n = lift3::<T>(nq);
+                let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq);
+                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
+                force += lambda;
+                moment += p.cross(&lambda);
+            }
+            let inv = sum.weight.recip();
+            PointForce {
+                force: force * inv,
+                moment: moment * inv,
+            }
+        }
+    }
+}
