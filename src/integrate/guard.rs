@@ -170,8 +170,8 @@ impl EnergyLedger {
     ///
     /// Only where the contacts hold no more than the energy floor `floor`: the estimate of `U`
     /// reads low while bodies part (their damping then cancels part of the spring's force), and
-    /// a start taken there would count the energy the parting gives back as created (a sphere
-    /// bouncing on a box, semi-implicit Euler at 2 ms: 0.15 J above a start taken mid-bounce).
+    /// a start taken there would count the energy the parting gives back as created. (A guard
+    /// by reasoning: no measured run has needed it yet.)
     pub(super) fn tighten(&mut self, energy: f64, kinetic: f64, stored: f64, t: f64, floor: f64) {
         if stored <= floor && energy + stored <= self.reference + self.work {
             self.restart(energy, kinetic, stored, t);
