@@ -126,16 +126,8 @@ pub(super) struct LocalJacobian {
 
 impl ForceSink for LocalJacobian {
     const ON: bool = true;
-    fn term(
-        &mut self,
-        w: f64,
-        r: &Vector3<f64>,
-        n: &Vector3<f64>,
-        p: &Vector3<f64>,
-        v: &Vector3<f64>,
-        phi: f64,
-        dphi: &Vector3<f64>,
-    ) {
+    fn term(&mut self, t: &PlaneTerm) {
+        let (w, r, n, p, v, phi, dphi) = (t.w, &t.r, t.n, t.p, &t.v, t.phi, t.dphi);
         let (lambda, lphi, lv) = point_plane_force_jacobian_at(phi, n, v, &self.prm);
         let px = skew(p);
         self.z += w;

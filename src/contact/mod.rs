@@ -25,7 +25,9 @@ use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
 pub(crate) use point::plane_reading;
-pub(crate) use point::{point_force, point_force_naive, ForceSink, NoForceSink, PointForce};
+pub(crate) use point::{
+    point_force, point_force_naive, ForceSink, NoForceSink, PlaneTerm, PointForce,
+};
 pub use point::{point_plane_force, point_plane_force_at};
 pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
 

@@ -70,26 +70,27 @@ pub(crate) struct PointForce<T: Scalar> {
     pub(crate) moment: Vector3<T>,
 }
 
-/// Receives the real parts of every term of a point–SSDF force, for derivatives computed
-/// alongside the value (`LocalJacobian`).
+/// One term of a point–SSDF force, real parts: softmax weight `w` (1 for a half-space), offset
+/// `r = x - p` from the plane point `p` with normal `n`, the velocity `v` of the query point
+/// relative to the plane's material point, and the distance `phi` the spring reads with its
+/// gradient `dphi` with respect to `x` ([`plane_reading`]).
+pub(crate) struct PlaneTerm<'a> {
+    pub(crate) w: f64,
+    pub(crate) r: Vector3<f64>,
+    pub(crate) n: &'a Vector3<f64>,
+    pub(crate) p: &'a Vector3<f64>,
+    pub(crate) v: Vector3<f64>,
+    pub(crate) phi: f64,
+    pub(crate) dphi: &'a Vector3<f64>,
+}
+
+/// Receives every term of a point–SSDF force, for derivatives computed alongside the value
+/// (`LocalJacobian`) or a replay at other velocities (the tape).
 pub(crate) trait ForceSink {
     /// Whether the sink does anything (when `false`, the calls compile away).
     const ON: bool;
-    /// One term: softmax weight `w` (1 for a half-space), offset `r = x - p` from the plane
-    /// point `p` with normal `n`, the velocity `v` of the query point relative to the
-    /// plane's material point, and the distance the spring reads with its gradient with
-    /// respect to `x` ([`plane_reading`]).
-    #[allow(clippy::too_many_arguments)]
-    fn term(
-        &mut self,
-        w: f64,
-        r: &Vector3<f64>,
-        n: &Vector3<f64>,
-        p: &Vector3<f64>,
-        v: &Vector3<f64>,
-        phi: f64,
-        dphi: &Vector3<f64>,
-    );
+    /// One term.
+    fn term(&mut self, t: &PlaneTerm);
 }
 
 pub(crate) struct NoForceSink;
@@ -97,17 +98,7 @@ pub(crate) struct NoForceSink;
 impl ForceSink for NoForceSink {
     const ON: bool = false;
     #[inline(always)]
-    fn term(
-        &mut self,
-        _: f64,
-        _: &Vector3<f64>,
-        _: &Vector3<f64>,
-        _: &Vector3<f64>,
-        _: &Vector3<f64>,
-        _: f64,
-        _: &Vector3<f64>,
-    ) {
-    }
+    fn term(&mut self, _: &PlaneTerm) {}
 }
 
 /// Point–SSDF force (paper eq. 23–24 with the sign corrected, docs/method.md): the softmin-weighted
@@ -135,7 +126,15 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
             let phi = n.dot(&r);
             let lambda = point_plane_force_at(phi, &n, &v, prm);
             if S::ON {
-                sink.term(1.0, &re3(&r), normal, point, &re3(&v), phi.re(), normal);
+                sink.term(&PlaneTerm {
+                    w: 1.0,
+                    r: re3(&r),
+                    n: normal,
+                    p: point,
+                    v: re3(&v),
+                    phi: phi.re(),
+                    dphi: normal,
+                });
             }
             PointForce {
                 force: lambda,
@@ -159,7 +158,15 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                 force += lambda;
                 moment += p.cross(&lambda);
                 if S::ON {
-                    sink.term(w.re(), &re3(&r), nq, q, &re3(&v), phi.re(), &dphi);
+                    sink.term(&PlaneTerm {
+                        w: w.re(),
+                        r: re3(&r),
+                        n: nq,
+                        p: q,
+                        v: re3(&v),
+                        phi: phi.re(),
+                        dphi: &dphi,
+                    });
                 }
             }
             let inv = weight.recip();

@@ -30,21 +30,12 @@ struct TermSink(Vec<Term>);
 impl ForceSink for TermSink {
     const ON: bool = true;
 
-    fn term(
-        &mut self,
-        w: f64,
-        _r: &Vector3<f64>,
-        n: &Vector3<f64>,
-        p: &Vector3<f64>,
-        _v: &Vector3<f64>,
-        phi: f64,
-        _dphi: &Vector3<f64>,
-    ) {
+    fn term(&mut self, t: &PlaneTerm) {
         self.0.push(Term {
-            w,
-            n: *n,
-            p: *p,
-            phi,
+            w: t.w,
+            n: *t.n,
+            p: *t.p,
+            phi: t.phi,
         });
     }
 }
