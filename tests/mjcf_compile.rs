@@ -573,8 +573,13 @@ fn a_limited_pendulum_rests_against_its_limit() {
     let (_, d) = deps.iter().find(|(o, _)| *o == f).unwrap();
     assert_eq!(d.as_deref(), Some(&[hq, hv][..]));
     // Its directional derivatives match central differences of the output, past the onset
-    // (moving) and inside the onset, where the force is C² but curved.
-    for (q, v) in [(l.hi + 0.01, 0.2), (l.hi + 0.3 * l.width, -0.1)] {
+    // (moving) and inside the onset, where the force is C² but curved, going deeper and coming
+    // back at the speed where the push `k s + b σ ḋ` is half-way down the blend that lets go.
+    let d = 0.3 * l.width;
+    let (s, sigma) = scm::dynamics::limit::ramp(d, l.width);
+    let letting_go = (-0.25 * l.stiffness * l.width - l.stiffness * s) / (l.damping * sigma);
+    assert!(letting_go < 0.0);
+    for (q, v) in [(l.hi + 0.01, 0.2), (l.hi + d, 0.1), (l.hi + d, letting_go)] {
         let at = |sim: &mut scm::sim::Simulation, q: f64, v: f64| {
             sim.current.state.q[0] = q;
             sim.current.state.v[0] = v;

@@ -1,17 +1,27 @@
 //! Joint limits as smooth one-sided springs and dampers, in the spirit of SCM's contact: a
-//! force that is exactly zero inside the range, grows smoothly past a limit, and is twice
-//! continuously differentiable in the position, so the dynamics keep exact, continuous
-//! Jacobians.
+//! force that is exactly zero inside the range, grows smoothly past a limit, only pushes back
+//! into the range, and is twice continuously differentiable in the position and velocity, so
+//! the dynamics keep exact, continuous Jacobians.
 //!
 //! For a slide or hinge joint with range `[lo, hi]` and violation `d` (`lo - q` below the range,
-//! `q - hi` above), the generalized force is `∓ (k s(d) + b σ(d) ḋ)`, pushing back into the
-//! range, with the smooth ramp `s` and step `σ = s'` over a width `w`:
+//! `q - hi` above), the limit pushes back into the range with `C(k s(d) + b σ(d) ḋ)`, with the
+//! smooth ramp `s` and step `σ = s'` over a width `w`:
 //!
 //! - `s(d) = 0` for `d ≤ 0`, `w (t³ - t⁴/2)` for `0 < d < w` (`t = d / w`), `d - w/2` beyond;
 //! - `σ(d) = 0`, `3t² - 2t³`, `1` on the same pieces (`C¹`, so `s` is `C²`).
 //!
+//! `C` is a smooth `max(0, x)` ([`one_sided`]): MuJoCo's limit is a unilateral constraint whose
+//! force is never negative, so a joint moving back into its range fast is let go, not braked by
+//! the damper until it rests on the limit. (gymnasium's ant starts with its ankles 0.52 rad
+//! outside their range: MuJoCo's limits throw them back in at 9.6 rad/s, to swing on through
+//! the range; a two-sided damper stopped SCM's on the limit.) `C(x) = x` for `x ≥ 0`, so the
+//! law is unchanged while the limit pushes; below zero it falls to `0` over a width `W` (`k w/2`,
+//! the spring's force where its onset ends), through a pull of at most `16 W / 81`.
+//!
 //! The spring stores the energy `k P(d)`, `P(d) = w² (t⁴/4 - t⁵/10)` on the blend and
-//! `d²/2 - w d/2 + 3w²/20` beyond; the damper only dissipates (`b σ ḋ² ≥ 0`).
+//! `d²/2 - w d/2 + 3w²/20` beyond. The rest only dissipates: the force is `k s` at `ḋ = 0`, at
+//! least `k s` while the joint goes deeper and at most `k s` while it comes back (`C(x) = x` for
+//! `x ≥ 0` and `C ≤ 0` below).
 //!
 //! Stiffness and damping come from MuJoCo's `solreflimit` (time constant `τ`, damping ratio
 //! `ζ`; default 0.02 s and 1) and the joint's effective inertia `I` (`1 / (M⁻¹)ᵢᵢ`, armature
@@ -53,6 +63,24 @@ pub fn ramp<T: Scalar>(d: T, w: f64) -> (T, T) {
     ((t2 * t - t2 * t2 * 0.5) * w, t2 * 3.0 - t2 * t * 2.0)
 }
 
+/// The limit's smooth `max(0, x)`, `C(x)`, over the width `width` (`W`) below zero: `x` from
+/// zero on, `0` up to `-W`, and between them `W q(u)`, `u = 1 + x / W`, with
+/// `q(u) = -4u³ + 7u⁴ - 3u⁵ = -u³ (1 - u) (4 - 3u)`, the quintic whose value and first two
+/// derivatives meet both neighbours (`C²`). `q ≤ 0` on `[0, 1]` (its least value is `-16/81`, at
+/// `u = 2/3`), so `C(x) ≤ max(0, x)` and `C(x) ≥ x`: the blend never adds to a push and never
+/// pulls more than `16 W / 81`. Where `width` is zero, `max(0, x)`.
+pub fn one_sided<T: Scalar>(x: T, width: f64) -> T {
+    if x.re() >= 0.0 {
+        return x;
+    }
+    if x.re() <= -width {
+        return T::zero();
+    }
+    let u = x / width + 1.0;
+    let u3 = u * u * u;
+    -(u3 * (-u + 1.0) * (-(u * 3.0) + 4.0)) * width
+}
+
 /// The energy `P(d) = ∫ s` of the ramp.
 pub fn ramp_energy<T: Scalar>(d: T, w: f64) -> T {
     if d.re() <= 0.0 {
@@ -84,7 +112,17 @@ impl JointLimit {
     pub fn force<T: Scalar>(&self, q: T, v: T) -> T {
         let (below, step_below) = ramp(c::<T>(self.lo) - q, self.width);
         let (above, step_above) = ramp(q - c::<T>(self.hi), self.width);
-        (below - above) * self.stiffness - v * (step_below + step_above) * self.damping
+        let blend = 0.5 * self.stiffness * self.width;
+        // Each side's push into the range, `k s(d) + b σ(d) ḋ`, let go where it would pull.
+        let up = one_sided(
+            below * self.stiffness - v * step_below * self.damping,
+            blend,
+        );
+        let down = one_sided(
+            above * self.stiffness + v * step_above * self.damping,
+            blend,
+        );
+        up - down
     }
 
     /// The energy stored in the limit's spring at position `q`.
@@ -142,6 +180,40 @@ mod tests {
     }
 
     #[test]
+    fn the_one_sided_blend_is_twice_continuously_differentiable_and_never_pulls_much() {
+        let w = 2.5;
+        let c = |x: f64| one_sided::<f64>(x, w);
+        // Value and first two derivatives (central differences) meet at both ends.
+        let d1 = |x: f64, h: f64| (c(x + h) - c(x - h)) / (2.0 * h);
+        let d2 = |x: f64, h: f64| (c(x + h) - 2.0 * c(x) + c(x - h)) / (h * h);
+        for &end in &[-w, 0.0] {
+            let e = 1e-9;
+            assert!((c(end - e) - c(end + e)).abs() < 1e-8, "C at {end}");
+            let h = 1e-4;
+            assert!(
+                (d1(end - 2.0 * h, h) - d1(end + 2.0 * h, h)).abs() < 1e-3,
+                "C' at {end}"
+            );
+            assert!(
+                (d2(end - 4.0 * h, h) - d2(end + 4.0 * h, h)).abs() < 1e-2,
+                "C'' at {end}"
+            );
+        }
+        for k in 0..=400 {
+            let x = -1.5 * w + 2.0 * w * f64::from(k) / 400.0;
+            let y = c(x);
+            // Between x and max(0, x), and no deeper than 16/81 of the width.
+            assert!(y <= x.max(0.0) + 1e-15 && y >= x - 1e-15, "{x}: {y}");
+            assert!(y >= -16.0 / 81.0 * w - 1e-12, "{x}: {y}");
+            // The dual-number derivative against a central difference.
+            let (_, dual) = first_derivative(|x: Dual64| one_sided(x, w), x);
+            assert!((dual - d1(x, 1e-6)).abs() < 1e-6, "{x}: {dual}");
+        }
+        assert!((c(-w / 3.0) + 16.0 / 81.0 * w).abs() < 1e-12);
+        assert_eq!(one_sided::<f64>(-1e-9, 0.0), 0.0);
+    }
+
+    #[test]
     fn a_limit_pushes_back_into_its_range_and_is_zero_inside() {
         let l = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.1);
         assert_eq!(l.stiffness, 0.1 / 0.02f64.powi(2));
@@ -164,6 +236,18 @@ mod tests {
             let damping_part = l.force(q, v) - l.force(q, 0.0);
             assert!(damping_part * v <= 0.0, "({q}, {v})");
         }
+        // Coming back into the range fast, the limit lets go: no pull beyond the blend's
+        // 16/81 of `k w / 2`, and none once the damper's pull passes that width.
+        let blend = 0.5 * l.stiffness * l.width;
+        for &(q, v) in &[(0.6, -1.0), (0.5005, -0.3), (-0.6, 1.0), (-0.5002, 5.0)] {
+            let f = l.force(q, v);
+            assert!(
+                f * q.signum() <= 16.0 / 81.0 * blend + 1e-12,
+                "({q}, {v}): {f}"
+            );
+        }
+        assert_eq!(l.force(0.6, -100.0), 0.0);
+        assert_eq!(l.force(-0.6, 100.0), 0.0);
         // Direct stiffness and damping from a negative solref.
         let d = JointLimit::from_solref(0.0, 1.0, [-100.0, -10.0], 2.0);
         assert_eq!((d.stiffness, d.damping), (200.0, 20.0));

@@ -88,18 +88,7 @@ impl Model {
             }
             _ => {
                 let e = self.energy(&state.q, &state.v);
-                let mut fresh = EnergyLedger {
-                    at: state.clone(),
-                    params: *prm,
-                    since: t0,
-                    reference: 0.0,
-                    work: 0.0,
-                    gross_work: 0.0,
-                    scale: 0.0,
-                    kinetic: 0.0,
-                };
-                fresh.restart(e.total(), e.kinetic, stored, t0);
-                fresh
+                EnergyLedger::started(state.clone(), *prm, e.total(), e.kinetic, stored, t0)
             }
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
@@ -148,6 +137,28 @@ impl EnergyLedger {
 
     /// Starts the balance afresh at a state of mechanical energy `energy`, kinetic energy
     /// `kinetic` and estimated contact energy `stored` (J), reached at `t` (s).
+    /// A ledger that starts at `at` (mechanical energy `energy`, kinetic `kinetic`, estimated
+    /// contact energy `stored`, at `t`), kept with the contact parameters `params`.
+    fn started(
+        at: State<f64>,
+        params: ContactParams<f64>,
+        energy: f64,
+        kinetic: f64,
+        stored: f64,
+        t: f64,
+    ) -> EnergyLedger {
+        EnergyLedger {
+            at,
+            params,
+            since: t,
+            reference: energy + stored,
+            work: 0.0,
+            gross_work: 0.0,
+            scale: kinetic + stored,
+            kinetic,
+        }
+    }
+
     fn restart(&mut self, energy: f64, kinetic: f64, stored: f64, t: f64) {
         self.since = t;
         self.reference = energy + stored;
@@ -163,10 +174,11 @@ impl EnergyLedger {
     /// source, `E + U - W` only decreases along the exact motion, so every state the run has
     /// passed bounds what follows, not only the first; the guard takes the lowest, with the
     /// margin `½ S` counted from there. A growth that adds up never restarts it (its balance
-    /// stays above the start's), so it is still judged from the start. What this catches:
-    /// gymnasium's ant with RK4 at 10 ms starts with 1.37 kJ in its ankles' limit springs,
-    /// spends it in 0.2 s, and gains 84 J in its first touch of the floor (6.7 J to 90.5 J in
-    /// one step), well inside the allowance counted from the start.
+    /// stays above the start's), so it is still judged from the start. What this catches: a run
+    /// that spends a large start before it blows up. gymnasium's ant with RK4 at 10 ms starts
+    /// with 1.37 kJ in its ankles' limit springs; while SCM's limit dampers could pull, they
+    /// spent it in 0.2 s, and the ant gained 84 J in its first touch of the floor (6.7 J to
+    /// 90.5 J in one step), well inside the allowance counted from the start.
     ///
     /// Only where the contacts hold no more than the energy floor `floor`: the estimate of `U`
     /// reads low while bodies part (their damping then cancels part of the spring's force), and
