@@ -9,6 +9,21 @@ use crate::dynamics::limit::{solref_gains, JointLimit};
 use crate::dynamics::tendon::{FixedTendon, Segment, SpatialTendon, TendonLaw};
 
 impl Builder {
+    /// A constraint's `solref` as MuJoCo's `refsafe` holds it: a time constant no less than
+    /// twice the file's step, where the flag is on (the default). MuJoCo holds every constraint
+    /// so, its joint and tendon limits and its equalities as much as its contacts (measured: a
+    /// hinge resting on a limit of `solreflimit="0.001 1"` at 2 ms sits 4.5e-5 rad past it; with
+    /// `<flag refsafe="disable"/>` MuJoCo finds the run unstable). Direct (negative) values
+    /// are not held.
+    fn held(&self, solref: [f64; 2]) -> [f64; 2] {
+        if self.flags.refsafe && solref[0] > 0.0 {
+            let step = self.timestep.unwrap_or(DEFAULT_STEP);
+            [solref[0].max(2.0 * step), solref[1]]
+        } else {
+            solref
+        }
+    }
+
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
     /// effective inertia at the reference configuration ([`crate::dynamics::limit`]): the
     /// inverse of the diagonal of `M⁻¹` there, MuJoCo's `1 / dof_invweight0`, i.e. the inertia
@@ -27,7 +42,7 @@ impl Builder {
                 joint.limit = Some(crate::dynamics::limit::JointLimit::from_solref(
                     *lo,
                     *hi,
-                    self.solreflimit[j],
+                    self.held(self.solreflimit[j]),
                     inertia,
                 ));
             }
@@ -67,7 +82,7 @@ impl Builder {
                         Some(JointLimit::from_solref(
                             lo,
                             hi,
-                            t.solreflimit,
+                            self.held(t.solreflimit),
                             limit_inertia(t, inv_weight)?,
                         ))
                     }
@@ -121,7 +136,7 @@ impl Builder {
                 let second = e.second.map(|i| object(e.tendons, i));
                 let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
                 let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
-                let (stiffness, damping) = solref_gains(e.solref, inertia);
+                let (stiffness, damping) = solref_gains(self.held(e.solref), inertia);
                 ScalarEquality {
                     name: e.name.clone(),
                     first: (first.clone(), at_q0(&first)),
@@ -187,7 +202,8 @@ impl Builder {
                     ),
                 };
                 let ((t1, r1), (t2, r2)) = (weight(c.body1), weight(c.body2));
-                let gains = |w: f64| solref_gains(c.solref, if w > 0.0 { 1.0 / w } else { 0.0 });
+                let solref = self.held(c.solref);
+                let gains = |w: f64| solref_gains(solref, if w > 0.0 { 1.0 / w } else { 0.0 });
                 let (stiffness, damping) = gains(t1 + t2);
                 // torquescale 0 frees the rotation; for any other value SCM's spring on the
                 // angle keeps solref's time constant (MuJoCo's soft constraint does not: warned
@@ -411,7 +427,7 @@ impl Builder {
                     tendon.law.limit = Some(JointLimit::from_solref(
                         lo,
                         hi,
-                        t.solreflimit,
+                        self.held(t.solreflimit),
                         limit_inertia(t, inv_weight)?,
                     ));
                 }

@@ -61,7 +61,8 @@ pub(super) struct Flags {
     pub(super) filterparent: bool,
     pub(super) clampctrl: bool,
     pub(super) eulerdamp: bool,
-    /// MuJoCo's `refsafe`: a contact's time constant held at no less than twice the step.
+    /// MuJoCo's `refsafe`: a constraint's time constant (contacts, limits, equalities) held at
+    /// no less than twice the step.
     pub(super) refsafe: bool,
 }
 

@@ -73,6 +73,15 @@ def close(what, ours, theirs, tol=TOL):
     assert err <= tol, f"{what}: scm {ours.tolist()} vs MuJoCo {theirs.tolist()} (error {err:.2e})"
 
 
+def refsafe_held(m, solref):
+    """`solref` as MuJoCo's refsafe holds a constraint's: a time constant no less than twice the
+    step, unless the flag is off; direct (negative) values as they are."""
+    tau, zeta = solref
+    if tau > 0 and not disabled(m, "REFSAFE"):
+        tau = max(tau, 2 * m.opt.timestep)
+    return tau, zeta
+
+
 def disabled(m, flag):
     """Whether the file's <option><flag> switched `flag` (mjDSBL_<flag>) off."""
     return bool(m.opt.disableflags & int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}")))
@@ -141,7 +150,7 @@ def compare(path, inertia_tol=TOL):
         if joint["limited"] and kind in ("slide", "hinge") and not disabled(m, "LIMIT"):
             # The limit spring and damper: MuJoCo's reference acceleration for the joint's
             # solreflimit, times the inertia its constraint sees (1 / dof_invweight0).
-            tau, zeta = m.jnt_solref[j]
+            tau, zeta = refsafe_held(m, m.jnt_solref[j])
             inertia = 1.0 / m.dof_invweight0[dof]
             if tau > 0:
                 k, b = inertia / (tau * zeta) ** 2, 2 * inertia / tau
@@ -259,7 +268,7 @@ def compare(path, inertia_tol=TOL):
         assert ten["limited"] == limited, f"{tag} limited"
         if limited:
             close(f"{tag} range", ten["range"], m.tendon_range[i])
-            tau, zeta = m.tendon_solref_lim[i]
+            tau, zeta = refsafe_held(m, m.tendon_solref_lim[i])
             inertia = 1.0 / m.tendon_invweight0[i]
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k, TOL_FROM_M)
@@ -332,7 +341,7 @@ def compare(path, inertia_tol=TOL):
             anchors = (data[3:6], data[0:3]) if weld else (data[0:3], data[3:6])
         close(f"{tag} anchor1", con["anchor1"], anchors[0])
         close(f"{tag} anchor2", con["anchor2"], anchors[1])
-        solref = m.eq_solref[e]
+        solref = refsafe_held(m, m.eq_solref[e])
 
         def gains(w):
             if w == 0.0:  # neither body can move (or turn) that way: nothing to hold
@@ -372,7 +381,7 @@ def compare(path, inertia_tol=TOL):
             close(f"{tag} reference 2", eq["reference"][1], at_qpos0(m.eq_obj2id[e]))
         weight = lambda i: m.dof_invweight0[m.jnt_dofadr[i]] if joint else m.tendon_invweight0[i]
         w = weight(m.eq_obj1id[e]) + (weight(m.eq_obj2id[e]) if m.eq_obj2id[e] >= 0 else 0.0)
-        tau, zeta = m.eq_solref[e]
+        tau, zeta = refsafe_held(m, m.eq_solref[e])
         k, b = (1 / w / (tau * zeta) ** 2, 2 / w / tau) if tau > 0 else (-tau / w, -zeta / w)
         close(f"{tag} stiffness", eq["stiffness"], k)
         close(f"{tag} damping", eq["damping"], b)
