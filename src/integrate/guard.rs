@@ -135,8 +135,6 @@ impl EnergyLedger {
         self.reference + self.work + 0.5 * (self.scale + self.gross_work) + floor
     }
 
-    /// Starts the balance afresh at a state of mechanical energy `energy`, kinetic energy
-    /// `kinetic` and estimated contact energy `stored` (J), reached at `t` (s).
     /// A ledger that starts at `at` (mechanical energy `energy`, kinetic `kinetic`, estimated
     /// contact energy `stored`, at `t`), kept with the contact parameters `params`.
     fn started(
@@ -159,6 +157,8 @@ impl EnergyLedger {
         }
     }
 
+    /// Starts the balance afresh at a state of mechanical energy `energy`, kinetic energy
+    /// `kinetic` and estimated contact energy `stored` (J), reached at `t` (s).
     fn restart(&mut self, energy: f64, kinetic: f64, stored: f64, t: f64) {
         self.since = t;
         self.reference = energy + stored;
