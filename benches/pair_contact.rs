@@ -123,6 +123,7 @@ fn params(sharp: bool) -> ContactParams<f64> {
         dissipation_velocity: 0.1,
         stiction_velocity: 0.01,
         friction: 0.5,
+        dissipation_force: f64::INFINITY,
         dissipation: Dissipation::Paper,
     }
 }

@@ -158,13 +158,7 @@ fn main() {
             pc.distance,
             pc.on_a.force.as_slice()
         );
-        let own = match p.friction {
-            Some(mu) => scm::contact::ContactParams {
-                friction: mu,
-                ..prm
-            },
-            None => prm,
-        };
+        let own = p.params(&prm);
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let proof = || {
             scm::collision::out_of_reach(

@@ -126,8 +126,9 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
     PARAMS.iter().map(|k| k.get(p)).collect()
 }
 
-/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant.
-pub fn params_from<T: Copy>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
+/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant and
+/// dissipation force (constants).
+pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
     ContactParams {
         eps1: x[0],
         eps2: x[1],
@@ -136,6 +137,7 @@ pub fn params_from<T: Copy>(x: &[T], like: &ContactParams<f64>) -> ContactParams
         dissipation_velocity: x[4],
         stiction_velocity: x[5],
         friction: x[6],
+        dissipation_force: c(like.dissipation_force),
         dissipation: like.dissipation,
     }
 }

@@ -103,6 +103,12 @@ impl Integrator {
         self != Integrator::ImplicitEuler
     }
 
+    /// Whether the method takes the contact forces' dependence on velocity (their damping and
+    /// friction) explicitly: all but `damped_euler` and `implicit_euler`.
+    pub fn takes_contact_damping_explicitly(self) -> bool {
+        !matches!(self, Integrator::DampedEuler | Integrator::ImplicitEuler)
+    }
+
     /// Whether the method chooses its internal steps by error control.
     pub fn is_adaptive(self) -> bool {
         self == Integrator::Dopri5

@@ -37,17 +37,21 @@ pub struct Pair {
     pub stiffness: Option<f64>,
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
+    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): its
+    /// weight's share where its law comes from the file; `None`: infinite, the paper's law.
+    pub dissipation_force: Option<f64>,
 }
 
 impl Pair {
-    /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness and
-    /// dissipation velocity where it has them.
+    /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
+    /// dissipation velocity and dissipation force where it has them.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
         ContactParams {
             friction: own(self.friction, prm.friction),
             stiffness: own(self.stiffness, prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
+            dissipation_force: own(self.dissipation_force, prm.dissipation_force),
             ..*prm
         }
     }

@@ -34,6 +34,7 @@ fn params() -> ContactParams<f64> {
         dissipation_velocity: 0.1,
         stiction_velocity: 0.05,
         friction: 0.5,
+        dissipation_force: f64::INFINITY,
         dissipation: Dissipation::Paper,
     }
 }
@@ -237,6 +238,7 @@ fn pair_derivatives_match_central_differences() {
                 dissipation_velocity: inp[10],
                 stiction_velocity: inp[11],
                 friction: inp[12],
+                dissipation_force: 4.0,
                 dissipation: Dissipation::Paper,
             };
             pair_outputs(&spheres(
@@ -256,6 +258,7 @@ fn pair_derivatives_match_central_differences() {
                 dissipation_velocity: d[10],
                 stiction_velocity: d[11],
                 friction: d[12],
+                dissipation_force: Dual64::from(4.0),
                 dissipation: Dissipation::Paper,
             };
             let exact: Vec<f64> =
@@ -434,9 +437,10 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     // `pair_contact` with first-order duals and constant parameters runs the pair in f64 and
     // chains the hand-derived Jacobian (`pair_jacobian`); `pair_contact_generic` carries the
     // duals through every term. Same terms, same pruning: they must agree to round-off
-    // (1e-12 of the largest derivative of each output; measured 4.6e-14), for every motion
+    // (1e-12 of the largest derivative of each output; measured 1.0e-13), for every motion
     // input at once (rotation, both angular velocities included), on Aopc–Aopc pairs with
-    // both softmaxes and on an Aopc against a half-space, for both dissipation laws, while
+    // both softmaxes and on an Aopc against a half-space, for both dissipation laws with and
+    // without a dissipation force (3 N), while
     // sliding and spinning. Central differences check the values' slopes independently.
     use num_dual::DualSVec64;
     const N: usize = 18;
@@ -475,9 +479,13 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     let mut rng = Lcg(77);
     let (mut checked, mut worst) = (0, 0.0f64);
     for (name, a, b, origin) in cases {
-        for dissipation in [Dissipation::Paper, Dissipation::Smooth] {
+        let laws = [Dissipation::Paper, Dissipation::Smooth]
+            .into_iter()
+            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f)));
+        for (dissipation, dissipation_force) in laws {
             let prm = ContactParams {
                 dissipation,
+                dissipation_force,
                 ..params()
             };
             let mut base = [0.0; N];
@@ -540,13 +548,13 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 let scale = dg.amax().max(1e-300);
                 for k in 0..N {
                     worst = worst.max((dc[k] - dg[k]).abs() / scale);
-                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
+                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?} {dissipation_force}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
                     let h = 1e-7;
                     let fd = central_difference(|x| value(x)[o], &base, k, h);
                     // Differences of a value of size |v| carry ~1e-16 |v| / h of round-off.
                     assert!(
                         (dc[k] - fd).abs() <= 1e-5 * scale + 1e-8 * v0[o].abs().max(1.0),
-                        "{name} {dissipation:?}: d{o}/dz{k}: hand {} vs fd {fd}",
+                        "{name} {dissipation:?} {dissipation_force}: d{o}/dz{k}: hand {} vs fd {fd}",
                         dc[k]
                     );
                     checked += 1;
@@ -555,7 +563,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
         }
     }
     println!("largest hand − generic difference: {worst:.1e} of the output's largest derivative");
-    assert_eq!(checked, 5 * 2 * 13 * N);
+    assert_eq!(checked, 5 * 4 * 13 * N);
 }
 
 /// A pair's contact recorded at one configuration ([`PairTape`]) equals `pair_contact` bit for
@@ -588,6 +596,7 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
     };
     let prm = ContactParams {
         stiffness: 2e4,
+        dissipation_force: 5.0,
         ..params()
     };
     for (a, b, at) in &cases {

@@ -20,6 +20,7 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         dissipation_velocity: 0.1,
         stiction_velocity: 0.05,
         friction: 0.5,
+        dissipation_force: f64::INFINITY,
         dissipation: Dissipation::Paper,
     }
 }

@@ -489,6 +489,7 @@ fn a_one_point_aopc() {
         dissipation_velocity: 0.1,
         stiction_velocity: 0.05,
         friction: 0.5,
+        dissipation_force: f64::INFINITY,
         dissipation: Dissipation::Paper,
     };
     let frame = |z: f64| Frame {

@@ -454,9 +454,14 @@ fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             .map_or("scm_friction".to_string(), |mu| format!("{mu}"));
         let law = match sc.pair_laws.get(k).copied().flatten() {
             Some(l) => format!(
-                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s (solref {:?}, solimp {:?}, effective mass {:.4e} kg: MuJoCo rests at {:.3} mm)",
+                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s, {} (solref {:?}, solimp {:?}, effective mass {:.4e} kg: MuJoCo rests at {:.3} mm)",
                 l.stiffness,
                 l.dissipation_velocity,
+                if l.dissipation_force.is_finite() {
+                    format!("dissipation force {:.4e} N", l.dissipation_force)
+                } else {
+                    "damping unbounded in depth (the paper's law)".to_string()
+                },
                 l.softness.solref,
                 l.softness.solimp,
                 l.mass,

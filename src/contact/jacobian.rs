@@ -61,9 +61,11 @@ pub(super) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 
 /// `λ` of [`point_plane_force`] (`f64`) with its exact derivatives `∂λ/∂φ` (with `φ = nᵀr`)
 /// and `∂λ/∂v` (3×3), hand-derived: `λ = c(φ) d(s) e` with `c = k s⁺_ε3(-φ)`,
-/// `s = nᵀv/v_d`, `e = n - μ u`, `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`, so
-/// `∂λ/∂φ = c'(φ) d e` with `c' = -k / (1 + exp(φ/ε3))`, and
-/// `∂λ/∂v = c (d'(s)/v_d) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)`.
+/// `s = nᵀv/V`, `V = v_d (1 + c/F_d)`, `e = n - μ u`, `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`.
+/// The spring moves `s` too (`∂s/∂c = -s/(F_d + c)`), so
+/// `∂λ/∂φ = c'(φ) (d - c s d'(s)/(F_d + c)) e` with `c' = -k / (1 + exp(φ/ε3))` (the second
+/// term vanishes for an infinite `F_d`), and
+/// `∂λ/∂v = c (d'(s)/V) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)`.
 pub fn point_plane_force_jacobian(
     r: &Vector3<f64>,
     n: &Vector3<f64>,
@@ -87,15 +89,22 @@ pub fn point_plane_force_jacobian_at(
     let spring = prm.stiffness * softplus(-phi, prm.eps3);
     let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
     let vn = n.dot(v);
-    let (d, dd) = prm.dissipation.factor_slope(vn / prm.dissipation_velocity);
+    let vd = prm.dissipation_velocity_at(spring);
+    let (d, dd) = prm.dissipation.factor_slope(vn / vd);
+    // d(s) through s's dependence on the spring: zero where F_d is infinite.
+    let d_through_spring = if prm.dissipation_force.is_finite() {
+        d - spring * (vn / vd) * dd / (prm.dissipation_force + spring)
+    } else {
+        d
+    };
     let lambda_n = spring * d;
     let vt = v - n * vn;
     let norm = smooth_norm(&vt, prm.stiction_velocity);
     let lambda = n * lambda_n + vt * (-prm.friction * lambda_n / norm);
     let u = vt / norm;
     let e = n - u * prm.friction;
-    let dphi = e * (dspring * d);
-    let dv = e * n.transpose() * (spring * dd / prm.dissipation_velocity)
+    let dphi = e * (dspring * d_through_spring);
+    let dv = e * n.transpose() * (spring * dd / vd)
         - (Matrix3::identity() - n * n.transpose() - u * u.transpose())
             * (spring * prm.friction * d / norm);
     (lambda, dphi, dv)

@@ -90,6 +90,12 @@ pub struct ContactParams<T> {
     pub stiction_velocity: T,
     /// Friction coefficient μ (1).
     pub friction: T,
+    /// Dissipation force F_d (N): the spring force `c` at which the dissipation velocity has
+    /// doubled. The factor reads `s = v_n / (v_d (1 + c/F_d))`, so a point's damping
+    /// coefficient `c / (v_d (1 + c/F_d))` stops growing with its depth past about `F_d`
+    /// (docs/method.md, departure 4). Infinite: the paper's law, `v_d` at every depth. A
+    /// pair's own value ([`crate::model::Pair`]), not an FMU parameter.
+    pub dissipation_force: T,
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
 }
@@ -104,12 +110,24 @@ impl Default for ContactParams<f64> {
             dissipation_velocity: 0.1,
             stiction_velocity: 1e-2,
             friction: 0.5,
+            dissipation_force: f64::INFINITY,
             dissipation: Dissipation::Paper,
         }
     }
 }
 
 impl<T: Scalar> ContactParams<T> {
+    /// The dissipation velocity a point whose spring pushes with `spring` (N) reads its normal
+    /// speed against: `v_d (1 + c/F_d)`, or `v_d` where `F_d` is infinite.
+    #[inline]
+    pub fn dissipation_velocity_at(&self, spring: T) -> T {
+        if self.dissipation_force.re().is_finite() {
+            self.dissipation_velocity * (T::one() + spring / self.dissipation_force)
+        } else {
+            self.dissipation_velocity
+        }
+    }
+
     /// Real parts.
     pub fn re(&self) -> ContactParams<f64> {
         ContactParams {
@@ -120,6 +138,7 @@ impl<T: Scalar> ContactParams<T> {
             dissipation_velocity: self.dissipation_velocity.re(),
             stiction_velocity: self.stiction_velocity.re(),
             friction: self.friction.re(),
+            dissipation_force: self.dissipation_force.re(),
             dissipation: self.dissipation,
         }
     }
@@ -136,6 +155,7 @@ impl ContactParams<f64> {
             dissipation_velocity: c(self.dissipation_velocity),
             stiction_velocity: c(self.stiction_velocity),
             friction: c(self.friction),
+            dissipation_force: c(self.dissipation_force),
             dissipation: self.dissipation,
         }
     }

@@ -37,7 +37,10 @@ pub fn point_plane_force_at<T: Scalar>(
     }
     let spring = prm.stiffness * softplus(-phi, prm.eps3);
     let vn = n.dot(v);
-    let lambda_n = spring * prm.dissipation.factor(vn / prm.dissipation_velocity);
+    let lambda_n = spring
+        * prm
+            .dissipation
+            .factor(vn / prm.dissipation_velocity_at(spring));
     let vt = v - n * vn;
     let lambda_t = vt * (-prm.friction * lambda_n / smooth_norm(&vt, prm.stiction_velocity));
     n * lambda_n + lambda_t

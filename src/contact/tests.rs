@@ -37,8 +37,13 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     // central differences (h = 1e-7 of the scale: 1e-6 relative), on both sides of the
     // dissipation's kinks (s < 0, 0 < s < 2, s > 2), pressed and separated, sliding and
     // nearly at rest, for both dissipation laws.
+    // With a finite dissipation force (2 N and 20 N: the spring pushes with 10 N at 1 mm) the
+    // spring moves the factor's argument too.
     let n = Vector3::new(0.2, -0.3, 0.9).normalize();
-    for dissipation in [Dissipation::Paper, Dissipation::Smooth] {
+    let laws = [Dissipation::Paper, Dissipation::Smooth]
+        .into_iter()
+        .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)));
+    for (dissipation, dissipation_force) in laws {
         let prm = ContactParams {
             eps3: 1e-4,
             stiffness: 1e4,
@@ -46,6 +51,7 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             stiction_velocity: 0.01,
             friction: 0.5,
             dissipation,
+            dissipation_force,
             ..ContactParams::default()
         };
         for (depth, vn, vt) in [
@@ -62,7 +68,9 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             );
             let (lambda, dphi, dv) = point_plane_force_jacobian(&r, &n, &v, &prm);
             assert!((lambda - point_plane_force(&r, &n, &v, &prm)).norm() <= 1e-15 * lambda.norm());
-            let scale = dphi.amax().max(dv.amax()).max(1e-300);
+            // Near s = 2 the factor is a cancellation of terms of order 1, so its round-off
+            // (a few ε) times the spring's slope (at most k) sets a floor under the scale.
+            let scale = dphi.amax().max(dv.amax()).max(1e-3 * prm.stiffness);
             // ∂λ/∂φ along r = r0 + s n (φ changes by s).
             let along = |s: f64| point_plane_force(&(r + n * s), &n, &v, &prm);
             let dual: Vector3<f64> = point_plane_force(
@@ -75,11 +83,11 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             let fd = (along(1e-9) - along(-1e-9)) / 2e-9;
             assert!(
                 (dphi - dual).amax() <= 1e-12 * scale,
-                "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
+                "{dissipation:?} {dissipation_force} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
             );
             assert!(
                 (dphi - fd).amax() <= 1e-6 * scale,
-                "{dissipation:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
+                "{dissipation:?} {dissipation_force} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
             );
             for k in 0..3 {
                 let mut e = Vector3::zeros();
@@ -97,17 +105,81 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
                     / (2.0 * h);
                 assert!(
                     (dv.column(k) - dual).amax() <= 1e-12 * scale,
-                    "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
+                    "{dissipation:?} {dissipation_force} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
                     dv.column(k)
                 );
                 assert!(
                     (dv.column(k) - fd).amax() <= 1e-6 * scale,
-                    "{dissipation:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
+                    "{dissipation:?} {dissipation_force} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
                     dv.column(k)
                 );
             }
         }
     }
+}
+
+#[test]
+fn a_dissipation_force_bounds_the_damping_at_any_depth_and_keeps_it_passive() {
+    // The damping coefficient at rest, -∂λ_n/∂v_n at v_n = 0, is c / (v_d (1 + c/F_d)): it
+    // grows with the spring c (the depth) as the paper's c / v_d while c ≪ F_d, equals half
+    // of that at c = F_d, and never passes F_d / v_d, however deep. The paper's law (infinite
+    // F_d) grows without bound. At every speed the damping part λ_n - c has the sign of -v_n
+    // (it only takes energy out).
+    let n = Vector3::z();
+    let base = ContactParams {
+        stiffness: 1e5,
+        eps3: 1e-4,
+        dissipation_velocity: 0.1,
+        ..ContactParams::default()
+    };
+    let capped = ContactParams {
+        dissipation_force: 50.0,
+        ..base
+    };
+    let cap = capped.dissipation_force / capped.dissipation_velocity;
+    let damping = |prm: &ContactParams<f64>, depth: f64| {
+        let (_, _, dv) = point_plane_force_jacobian(&(n * -depth), &n, &Vector3::zeros(), prm);
+        -dv[(2, 2)]
+    };
+    let mut last = 0.0;
+    for depth in [1e-5, 1e-4, 5e-4, 1e-3, 1e-2, 0.1, 1.0] {
+        let c = base.stiffness * crate::scalar::softplus(depth, base.eps3);
+        let (paper, ours) = (damping(&base, depth), damping(&capped, depth));
+        assert!((paper - c / base.dissipation_velocity).abs() <= 1e-12 * paper);
+        let expected = c / (capped.dissipation_velocity * (1.0 + c / capped.dissipation_force));
+        assert!(
+            (ours - expected).abs() <= 1e-12 * expected,
+            "{depth}: {ours} vs {expected}"
+        );
+        assert!(
+            ours < cap && ours > last,
+            "{depth}: {ours} (cap {cap}, before {last})"
+        );
+        last = ours;
+        if depth == 0.1 {
+            assert!(
+                ours > 0.99 * cap && paper > 190.0 * cap,
+                "{ours} {paper} {cap}"
+            );
+        }
+        for vn in [-3.0, -0.3, -0.01, 0.01, 0.1, 0.3] {
+            let v = n * vn;
+            let lambda = point_plane_force(&(n * -depth), &n, &v, &capped);
+            assert!(
+                (lambda.z - c) * vn < 0.0,
+                "{depth} {vn}: {} vs {c}",
+                lambda.z
+            );
+        }
+    }
+    // At c = F_d the damping is half the paper's.
+    let depth = 5e-4; // c = 1e5 · s⁺(5e-4) ≈ 50.07 N
+    let c = base.stiffness * crate::scalar::softplus(depth, base.eps3);
+    let at = ContactParams {
+        dissipation_force: c,
+        ..base
+    };
+    assert!((damping(&at, depth) - 0.5 * damping(&base, depth)).abs() <= 1e-12 * c);
 }
 
 #[test]
@@ -154,16 +226,7 @@ fn a_nan_temperature_gives_a_nan_contact_not_a_panic() {
         linvel: f.linvel.map(Dual64::from),
         angvel: f.angvel.map(Dual64::from),
     };
-    let prm_d = ContactParams {
-        eps1: Dual64::from(prm.eps1),
-        eps2: Dual64::from(prm.eps2),
-        eps3: Dual64::from(prm.eps3),
-        stiffness: Dual64::from(prm.stiffness),
-        dissipation_velocity: Dual64::from(prm.dissipation_velocity),
-        stiction_velocity: Dual64::from(prm.stiction_velocity),
-        friction: Dual64::from(prm.friction),
-        dissipation: prm.dissipation,
-    };
+    let prm_d = prm.lift::<Dual64>();
     let pd = pair_contact(&a, &lift(&fa), &b, &Frame::identity(), &prm_d);
     assert!(pd.distance.re.is_nan() || pd.on_a.force.iter().any(|x| x.re.is_nan()));
 }

@@ -3,7 +3,6 @@
 //! residual's norm, and a fresh Jacobian at every iteration on dual numbers so that the
 //! derivatives of the solution are exact.
 
-use crate::contact::ContactParams;
 use crate::model::DynamicsError;
 use crate::scalar::Scalar;
 use nalgebra::DMatrix;
@@ -179,19 +178,6 @@ pub(super) fn newton<T: Scalar>(
 
 pub(super) fn re_vec<T: Scalar>(x: &[T]) -> Vec<f64> {
     x.iter().map(|a| a.re()).collect()
-}
-
-pub(super) fn re_params<T: Scalar>(p: &ContactParams<T>) -> ContactParams<f64> {
-    ContactParams {
-        eps1: p.eps1.re(),
-        eps2: p.eps2.re(),
-        eps3: p.eps3.re(),
-        stiffness: p.stiffness.re(),
-        dissipation_velocity: p.dissipation_velocity.re(),
-        stiction_velocity: p.stiction_velocity.re(),
-        friction: p.friction.re(),
-        dissipation: p.dissipation,
-    }
 }
 
 fn sq_norm(x: &[f64]) -> f64 {

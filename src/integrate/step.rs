@@ -1,7 +1,7 @@
 //! One internal step of each integrator, generic over the scalar so that exact derivatives of a
 //! step come from the same code.
 
-use super::newton::{newton, re_params, re_vec, KeptJacobian};
+use super::newton::{newton, re_vec, KeptJacobian};
 use crate::autodiff::{jacobian, VectorFunction};
 use crate::collision::PairsKept;
 use crate::contact::ContactParams;
@@ -233,7 +233,7 @@ impl Model {
             v: re_vec(v),
             tau: re_vec(&tau),
             mocap: re_vec(mocap),
-            prm: re_params(prm),
+            prm: prm.re(),
             h: h.re(),
         };
         let real_jacobian =
@@ -489,7 +489,7 @@ impl Model {
                 v0: re_vec(&state.v),
                 h: h.re(),
                 u: re_vec(&u1),
-                prm: re_params(prm),
+                prm: prm.re(),
             };
             Ok(jacobian(&f, x)?.1)
         };

@@ -331,6 +331,17 @@ impl Builder {
                 spacing_overrides.push((geom.to_string(), value, at));
                 continue;
             }
+            if name == "scm_dissipation_force" {
+                // Read by each pair's law (`Builder::pair_laws`).
+                if value < 0.0 {
+                    return Err(self.setting_error(
+                        &at,
+                        &name,
+                        format!("{value} is out of range (the dissipation force over each pair's resting force, positive; 0 for no bound, the paper's law)"),
+                    ));
+                }
+                continue;
+            }
             let slot = match name.as_str() {
                 "scm_eps1" => &mut contact.eps1,
                 "scm_eps2" => &mut contact.eps2,

@@ -289,6 +289,7 @@ impl Builder {
                     friction,
                     stiffness: None,
                     dissipation_velocity: None,
+                    dissipation_force: None,
                 }
             })
             .collect();

@@ -48,7 +48,33 @@ impl Builder {
         step: f64,
     ) -> Vec<Option<PairLaw>> {
         let set = |name: &str| self.numeric.iter().any(|(n, _, _)| n == name);
+        // The file's integrator as SCM runs it (`scm_integrator` over `<option integrator>`).
+        let integrator = self
+            .text
+            .iter()
+            .rev()
+            .find(|(n, _, _)| n == "scm_integrator")
+            .and_then(|(_, v, _)| Integrator::from_name(v))
+            .or(self.option_integrator)
+            .unwrap_or(Integrator::DampedEuler);
+        let per_weight = self
+            .numeric
+            .iter()
+            .rev()
+            .find(|(n, _, _)| n == "scm_dissipation_force")
+            // 0: no bound (the paper's law).
+            .map(|(_, v, _)| if *v > 0.0 { *v } else { f64::INFINITY })
+            .or_else(|| {
+                integrator
+                    .takes_contact_damping_explicitly()
+                    .then_some(EXPLICIT_DISSIPATION_FORCE)
+            });
         if set("scm_stiffness") || set("scm_dissipation_velocity") || pairs.is_empty() {
+            if set("scm_dissipation_force") && !pairs.is_empty() {
+                self.warnings.push(
+                    "scm_dissipation_force acts on the pairs' laws from solref and solimp; the scene's scm_stiffness or scm_dissipation_velocity replaces them, so it has no effect: remove one or the other".into(),
+                );
+            }
             return vec![None; pairs.len()];
         }
         let weights = weights::body_weights(tree);
@@ -81,7 +107,7 @@ impl Builder {
                 } else {
                     return None;
                 };
-                let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe);
+                let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe, per_weight);
                 let candidates: Vec<PairLaw> =
                     match explicit.iter().find(|(k, _)| *k == (pair.a, pair.b)) {
                         Some((_, s)) => vec![law(*s)],
@@ -103,6 +129,7 @@ impl Builder {
                 }
                 pair.stiffness = Some(stiffest.stiffness);
                 pair.dissipation_velocity = Some(stiffest.dissipation_velocity);
+                pair.dissipation_force = Some(stiffest.dissipation_force);
                 Some(stiffest)
             })
             .collect();
@@ -293,12 +320,28 @@ impl Softness {
     }
 }
 
+/// The dissipation force over each pair's resting force `m̂ g` under an integrator that takes the
+/// contact's damping explicitly (RK4 among them), unless the scene sets `scm_dissipation_force`:
+/// the damping stays within 25 % of the paper's law up to the resting force and stops growing
+/// at five times its resting value (docs/method.md, departure 4). Under `damped_euler` and
+/// `implicit_euler` (MuJoCo's Euler and implicit integrators) the damping is implicit and costs
+/// no stability, and the paper's law, whose damping grows without bound, resolves a deep
+/// overlap as gently as MuJoCo's reference motion: a file's pairs keep it there. Chosen by
+/// measurement among 0.5, 1, 2, 4, 8 and infinity (docs/mjcf.md, "Contact on, against MuJoCo's
+/// spread").
+pub const EXPLICIT_DISSIPATION_FORCE: f64 = 4.0;
+
 /// SCM's contact law of one pair, sized from MuJoCo's: the stiffness `k` that holds the pair's
 /// effective mass `m̂` under gravity `g` at MuJoCo's resting depth `r` (`k s⁺_ε3(-φ) = m̂ g` at
-/// `φ = -r`), and the dissipation velocity that gives the motion about that rest MuJoCo's
-/// damping there, `m̂ d(r) B` (MuJoCo's constraint moves as `r̈ = -d B ṙ - d² K r + …`): SCM's is
-/// `m̂ g / v_d` (the slope of the dissipation factor is `-1` at zero speed), so
-/// `v_d = g / (d(r) B)`, whatever the mass. The motion about rest then decays as MuJoCo's, with
+/// `φ = -r`), and the dissipation velocity and force that give the motion about that rest
+/// MuJoCo's damping there, `m̂ d(r) B` (MuJoCo's constraint moves as `r̈ = -d B ṙ - d² K r + …`).
+/// SCM's damping coefficient is `c / V(c)` (the slope of the dissipation factor is `-1` at zero
+/// speed), `V(c) = v_d (1 + c/F_d)`: the paper's law (`F_d` infinite) gives `m̂ g / v_d` at rest,
+/// so `v_d = g / (d(r) B)`, whatever the mass. A scene's `scm_dissipation_force` `f` sets
+/// `F_d = f m̂ g`: the damping is then `m̂ g / ((1 + 1/f) v_d)` at rest, so
+/// `v_d = g / ((1 + 1/f) d(r) B)`, and deeper it approaches `(1 + f)` times that and stops
+/// growing, as MuJoCo's is bounded by `dmax B` (docs/method.md, departure 4). The
+/// motion about rest then decays as MuJoCo's, with
 /// the time constant `2 / (d B)` (`τ dmax / d`, about `τ`), but oscillates faster: the spring
 /// that holds MuJoCo's static depth is `(1 - d)⁻¹` times MuJoCo's `d² K` (11.6 times at the
 /// default `solimp`), so its damping ratio is `√(1 - d)` times MuJoCo's (0.29 for ζ = 1).
@@ -313,32 +356,40 @@ pub struct PairLaw {
     pub depth: f64,
     /// SCM's stiffness (N/m).
     pub stiffness: f64,
-    /// SCM's dissipation velocity (m/s).
+    /// SCM's dissipation velocity at zero force (m/s).
     pub dissipation_velocity: f64,
+    /// SCM's dissipation force, `f m̂ g` (N; infinite unless the scene sets
+    /// `scm_dissipation_force` `f`).
+    pub dissipation_force: f64,
 }
 
 impl PairLaw {
     /// The law for `softness` on effective mass `mass` (kg), gravity `g` (m/s², its magnitude;
-    /// [`NOMINAL_GRAVITY`] where it is zero), SCM's `eps3` (m) and MuJoCo's `refsafe` step.
+    /// [`NOMINAL_GRAVITY`] where it is zero), SCM's `eps3` (m), MuJoCo's `refsafe` step and the
+    /// dissipation force per unit of resting force (`scm_dissipation_force`; `None`: infinite,
+    /// the paper's law).
     pub fn new(
         softness: Softness,
         mass: f64,
         g: f64,
         eps3: f64,
         refsafe_step: Option<f64>,
+        dissipation_force: Option<f64>,
     ) -> PairLaw {
         let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
         let depth = softness.resting_depth(g, refsafe_step);
         // The contact force's own softplus, s⁺_ε3(r).
         let stiffness = mass * g / crate::scalar::softplus(depth, eps3);
         let (_, b) = softness.reference(refsafe_step);
-        let dissipation_velocity = g / (softness.impedance(depth) * b);
+        let f = dissipation_force.unwrap_or(f64::INFINITY);
+        let dissipation_velocity = g / ((1.0 + 1.0 / f) * softness.impedance(depth) * b);
         PairLaw {
             softness,
             mass,
             depth,
             stiffness,
             dissipation_velocity,
+            dissipation_force: f * mass * g,
         }
     }
 }
@@ -408,17 +459,31 @@ mod tests {
                 ..Softness::default()
             };
             let eps3 = 1e-4;
-            let law = PairLaw::new(s, mass, 9.81, eps3, None);
-            // The spring k s⁺(r) carries m̂ g at r: checked against a direct evaluation.
-            let spring = |r: f64| law.stiffness * eps3 * (r / eps3).exp().ln_1p();
-            assert!((spring(law.depth) - mass * 9.81).abs() < 1e-9 * mass * 9.81);
-            // The damping at rest, k s⁺(r) / v_d (the factor's slope is -1 at zero speed),
-            // is MuJoCo's there: m̂ d(r) B, with B = 2 / (dmax τ).
-            let c = spring(law.depth) / law.dissipation_velocity;
-            let mujoco = mass * s.impedance(law.depth) * 2.0 / (0.95 * 0.02);
-            assert!((c - mujoco).abs() < 1e-9 * mujoco, "{c} vs {mujoco}");
-            // The depth does not depend on the mass, the stiffness is proportional to it.
-            assert!((law.depth - s.resting_depth(9.81, None)).abs() < 1e-15);
+            for f in [None, Some(4.0)] {
+                let law = PairLaw::new(s, mass, 9.81, eps3, None, f);
+                // The spring k s⁺(r) carries m̂ g at r: checked against a direct evaluation.
+                let spring = |r: f64| law.stiffness * eps3 * (r / eps3).exp().ln_1p();
+                assert!((spring(law.depth) - mass * 9.81).abs() < 1e-9 * mass * 9.81);
+                // The damping at rest, c / V(c) with c = k s⁺(r) and V(c) = v_d (1 + c/F_d) (the
+                // factor's slope is -1 at zero speed), is MuJoCo's there: m̂ d(r) B, with
+                // B = 2 / (dmax τ); F_d is f times the weight, and the damping's bound F_d / v_d
+                // is (1 + f) times the resting value.
+                let rest = spring(law.depth);
+                let c = rest / (law.dissipation_velocity * (1.0 + rest / law.dissipation_force));
+                match f {
+                    Some(f) => {
+                        let weight = mass * 9.81;
+                        assert!((law.dissipation_force - f * weight).abs() < 1e-12 * f * weight);
+                        let bound = law.dissipation_force / law.dissipation_velocity;
+                        assert!((bound - (1.0 + f) * c).abs() < 1e-9 * bound);
+                    }
+                    None => assert_eq!(law.dissipation_force, f64::INFINITY),
+                }
+                let mujoco = mass * s.impedance(law.depth) * 2.0 / (0.95 * 0.02);
+                assert!((c - mujoco).abs() < 1e-9 * mujoco, "{c} vs {mujoco}");
+                // The depth does not depend on the mass, the stiffness is proportional to it.
+                assert!((law.depth - s.resting_depth(9.81, None)).abs() < 1e-15);
+            }
         }
     }
 

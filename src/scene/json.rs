@@ -251,6 +251,7 @@ impl Compiled {
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
                 "mass": law.mass, "mujoco_depth": law.depth,
                 "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,
+                "dissipation_force": law.dissipation_force,
             })).collect::<Vec<_>>(),
             "refused": self.refused.iter().map(|e| e.to_string()).collect::<Vec<_>>(),
             "unused": self.unused,

@@ -101,3 +101,59 @@ def test_a_parameter_no_pair_uses_is_refused_with_why(both):
                             f"scm.stiffness={k}"], capture_output=True, text=True, check=True).stdout
             for k in (1e4, 3e4)]
     assert runs[0] != runs[1]
+
+
+def compile_with(path, before_worldbody):
+    scene = path.parent / "variant.xml"
+    scene.write_text(SCENE.replace("<worldbody>", before_worldbody + "<worldbody>"))
+    return subprocess.run([str(SCM), "compile", str(scene)], capture_output=True, text=True)
+
+
+def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
+    """Each pair's dissipation force (docs/method.md, departure 4) is four times its resting
+    force m̂ g under an integrator that takes the contact's damping explicitly (RK4 here), none
+    (the paper's law, null in the JSON) under MuJoCo's Euler (damped_euler) and implicit
+    integrators, and f m̂ g where the scene sets scm_dissipation_force f (0: none). The damping
+    at rest, F/V at the resting force, is MuJoCo's m̂ d B in every case."""
+    path, compiled, m, d = both
+    g = 9.81
+    settings = {
+        "": None,
+        '<option integrator="implicitfast"/>': None,
+        '<option integrator="RK4"/>': 4.0,
+        '<custom><numeric name="scm_dissipation_force" data="2.5"/></custom>': 2.5,
+        '<option integrator="RK4"/><custom><numeric name="scm_dissipation_force" data="0"/></custom>': None,
+    }
+    for extra, f in settings.items():
+        run = compile_with(path, extra)
+        assert run.returncode == 0, run.stderr
+        for pair in json.loads(run.stdout)["pairs"]:
+            weight = pair["mass"] * g
+            if f is None:
+                assert pair["dissipation_force"] is None, (extra, pair)
+                rest = weight / pair["dissipation_velocity"]
+            else:
+                assert pair["dissipation_force"] == pytest.approx(f * weight, rel=1e-12), (extra, pair)
+                rest = weight / (pair["dissipation_velocity"] * (1 + 1 / f))
+            # MuJoCo's damping at rest, m̂ d(r) B: the same whatever the bound.
+            reference = next(p for p in compiled["pairs"] if p["body1"] == pair["body1"]
+                             and p["body2"] == pair["body2"])
+            assert rest == pytest.approx(weight / reference["dissipation_velocity"], rel=1e-12)
+
+
+def test_a_dissipation_force_out_of_range_or_without_effect_is_said(both):
+    path, _, _, _ = both
+    bad = path.parent / "bad.xml"
+    bad.write_text(SCENE.replace("<worldbody>", '<custom><numeric name="scm_dissipation_force" '
+                                 'data="-1"/></custom><worldbody>'))
+    for command in ("check", "pack"):
+        run = subprocess.run([str(SCM), command, str(bad), "-o", str(path.parent / "bad.fmu")]
+                             if command == "pack" else [str(SCM), command, str(bad)],
+                             capture_output=True, text=True)
+        assert run.returncode != 0, command
+        assert "scm_dissipation_force" in run.stderr and "out of range" in run.stderr, run.stderr
+    run = compile_with(path, '<custom><numeric name="scm_dissipation_force" data="4"/>'
+                             '<numeric name="scm_stiffness" data="1e4"/></custom>')
+    assert run.returncode == 0, run.stderr
+    warnings = json.loads(run.stdout)["warnings"]
+    assert any("scm_dissipation_force" in w and "no effect" in w for w in warnings), warnings

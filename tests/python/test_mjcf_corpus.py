@@ -3,17 +3,17 @@ passes fmpy's validation, and simulates 1 s with zero inputs, contact and joint 
 without refusal or NaN (swimmer with its fluid forces); where SCM refuses, the test holds the
 reason.
 
-Measured (see docs/mjcf.md): every file runs its 1 s with its own integrator, walker2d and
-walker2d_v5 with RK4 at their 2 ms, humanoid and humanoidstandup with RK4 at 2.5 ms (13 bodies,
-about 60 body pairs); the 14 files take 32 s together, measured after the pairs took their law
-from solref. Until the joint limits'
-stiffness took MuJoCo's effective inertia (1 / dof_invweight0) instead of the mass matrix's
-diagonal, the walkers' and humanoid's hip limits were up to 56 times too stiff for RK4 at their
-step and the guard refused the runs, rightly. The ant, which the guard refused at 0.3 s while
-SCM's limit dampers held its ankles on their limit, runs as MuJoCo's since the limits only push
-(tests/python/test_limits.py). The runs output every 10 ms, so the humanoids' internal step is
-2.5 ms here: at their own 3 ms the energy guard refuses gymnasium's humanoid when its knees
-strike the floor at 0.79 s (docs/mjcf.md, "Contact on, against MuJoCo's spread").
+Every file runs at its own integrator and step: the outputs come every whole number of the
+file's steps (10 ms or just above), so the FMU's internal step is the file's. Measured (see
+docs/mjcf.md): every file runs its 1 s, walker2d and walker2d_v5 with RK4 at their 2 ms,
+humanoid and humanoidstandup with RK4 at their 3 ms (13 bodies, about 60 body pairs). Until the
+joint limits' stiffness took MuJoCo's effective inertia (1 / dof_invweight0) instead of the mass
+matrix's diagonal, the walkers' and humanoid's hip limits were up to 56 times too stiff for RK4
+at their step and the guard refused the runs, rightly. The ant, which the guard refused at
+0.3 s while SCM's limit dampers held its ankles on their limit, runs as MuJoCo's since the
+limits only push (tests/python/test_limits.py). Until a contact's damping stopped growing with
+its depth under RK4 (docs/method.md, departure 4), the guard refused gymnasium's humanoid at its
+3 ms when its knees strike the floor at 0.79 s, and this test ran it at 2.5 ms.
 
 On every file of the three corpora `scm check` fails exactly where `scm pack` refuses, and names
 the same reason.
@@ -38,6 +38,13 @@ def states(fmu):
     from fmpy import read_model_description
     md = read_model_description(fmu)
     return [v.name for v in md.modelVariables if v.causality == "output" and v.initial == "exact"]
+
+
+def md_step(fmu):
+    """The FMU's internal step, `solver.step` (the file's `timestep`)."""
+    from fmpy import read_model_description
+    md = read_model_description(fmu)
+    return next(v.start for v in md.modelVariables if v.name == "solver.step")
 
 
 @pytest.mark.parametrize("path", CORPUS, ids=[p.stem for p in CORPUS])
@@ -90,7 +97,10 @@ def packs_validates_and_runs(path, tmp_path, seconds, refusal):
     if seconds is None:
         return
     outputs = states(fmu)
-    res = simulate_fmu(fmu, stop_time=seconds, output_interval=0.01, output=outputs)
+    # Every whole number of the file's steps, 10 ms or just above: the internal step is the file's.
+    step = float(md_step(fmu))
+    interval = step * np.ceil(0.01 / step - 1e-9)
+    res = simulate_fmu(fmu, stop_time=seconds, output_interval=interval, output=outputs)
     assert res["time"][-1] == pytest.approx(seconds)
     for name in outputs:
         assert np.all(np.isfinite(res[name])), name

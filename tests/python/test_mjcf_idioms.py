@@ -333,8 +333,11 @@ FINGER_PATHS = [(0.0, 0.2), (0.05, 0.2), (-0.05, 0.2), (0.1, 0.25), (0.02, 0.15)
 def test_t_push_mujocos_way_runs_every_finger_path(tmp_path):
     # Five finger paths, 2 s each, under MuJoCo's Euler (damped_euler, contact implicit in
     # velocity). The finger reaches 8.8 m/s before it strikes the block; with the contact
-    # explicit (semi_implicit_euler) its damping and friction, mu F / (v_s m) in the thousands
-    # per second, blow up at 2 ms, and the guard refuses. MuJoCo runs every path; at its default
+    # explicit (semi_implicit_euler) its friction, mu F / (v_s m) in the thousands per second,
+    # is not resolved at 2 ms: while the damping grew with the depth the runs blew up and the
+    # guard refused them; with the damping bounded under explicit integrators (docs/method.md,
+    # departure 4) they run, but the straight push turns the T by 0.60 rad (measured) where the
+    # symmetric push must not turn it at all. MuJoCo runs every path; at its default
     # solref its contact is too soft for this actuator and the finger sinks 7 cm into the stem,
     # so the block's poses are not compared with MuJoCo's: the test holds what physics says.
     outputs = ["t_x.q", "t_y.q", "t_yaw.q", "finger_x.q", "finger_y.q"]
@@ -364,8 +367,9 @@ def test_t_push_mujocos_way_runs_every_finger_path(tmp_path):
     assert abs(left["t_y.q"] - right["t_y.q"]) < 1e-6
     assert abs(left["t_x.q"] + right["t_x.q"]) < 1e-6 and abs(left["t_yaw.q"] + right["t_yaw.q"]) < 1e-6
     assert abs(left["t_yaw.q"]) > 0.01, "an off-centre push turns the T"
-    explicit = runs("semi_implicit_euler")
-    assert any(res["time"][-1] < 1.0 for res in explicit), "explicit contact is refused"
+    explicit = runs("semi_implicit_euler")[0]
+    assert explicit["time"][-1] < 1.0 or abs(explicit[-1]["t_yaw.q"]) > 0.1, \
+        "explicit contact at 2 ms is refused, or breaks the straight push's symmetry"
 
 
 GENERAL_ACTUATORS = """<mujoco model="general">
