@@ -37,8 +37,11 @@ pub struct Pair {
     pub stiffness: Option<f64>,
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
-    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): its
-    /// weight's share where its law comes from the file; `None`: infinite, the paper's law.
+    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): where its
+    /// law comes from the file, `f` times its resting force `m̂ g`, `f` being 4 under an
+    /// integrator that takes the damping explicitly (RK4) or the scene's
+    /// `scm_dissipation_force`; `None`: the pair uses the contact parameter (infinite by
+    /// default, the paper's law).
     pub dissipation_force: Option<f64>,
 }
 

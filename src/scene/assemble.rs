@@ -245,7 +245,8 @@ impl Builder {
                 .find(|(n, _, _)| n == "scm_eps3")
                 .map_or(ContactParams::default().eps3, |(_, v, _)| *v);
             let step = self.timestep.unwrap_or(DEFAULT_STEP);
-            let laws = self.pair_laws(&tree, &mut pairs, &colliding, eps3, step);
+            let integrator = self.integrator_as_run();
+            let laws = self.pair_laws(&tree, &mut pairs, &colliding, eps3, step, integrator);
             let name = |b: usize| self.bodies[b].name.clone();
             pairs
                 .iter()
@@ -462,7 +463,14 @@ impl Builder {
         self.apply_dampratios(&tree)?;
         // MuJoCo's refsafe holds the time constants at twice the file's step, whatever SCM's.
         let file_step = self.timestep.unwrap_or(DEFAULT_STEP);
-        let pair_laws = self.pair_laws(&tree, &mut pairs, &colliding, contact.eps3, file_step);
+        let pair_laws = self.pair_laws(
+            &tree,
+            &mut pairs,
+            &colliding,
+            contact.eps3,
+            file_step,
+            integrator,
+        );
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let actuator_ranges = self.actuator_dof_ranges(&tree);

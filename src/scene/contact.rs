@@ -32,6 +32,19 @@ impl Builder {
         Ok(out)
     }
 
+    /// The file's integrator as SCM runs it: `scm_integrator` over `<option integrator>`, over
+    /// MuJoCo's default (its Euler, SCM's `damped_euler`). An unknown name is left to
+    /// [`Builder::finish`]'s settings loop to refuse.
+    pub(super) fn integrator_as_run(&self) -> Integrator {
+        self.text
+            .iter()
+            .rev()
+            .find(|(n, _, _)| n == "scm_integrator")
+            .and_then(|(_, v, _)| Integrator::from_name(v))
+            .or(self.option_integrator)
+            .unwrap_or(Integrator::DampedEuler)
+    }
+
     /// Gives each pair its own stiffness and dissipation velocity from its `solref` and
     /// `solimp` ([`PairLaw`]), unless the scene sets `scm_stiffness` or
     /// `scm_dissipation_velocity`, which then apply to every pair (and the FMU's parameters of
@@ -46,17 +59,9 @@ impl Builder {
         colliding: &[bool],
         eps3: f64,
         step: f64,
+        integrator: Integrator,
     ) -> Vec<Option<PairLaw>> {
         let set = |name: &str| self.numeric.iter().any(|(n, _, _)| n == name);
-        // The file's integrator as SCM runs it (`scm_integrator` over `<option integrator>`).
-        let integrator = self
-            .text
-            .iter()
-            .rev()
-            .find(|(n, _, _)| n == "scm_integrator")
-            .and_then(|(_, v, _)| Integrator::from_name(v))
-            .or(self.option_integrator)
-            .unwrap_or(Integrator::DampedEuler);
         let per_weight = self
             .numeric
             .iter()
