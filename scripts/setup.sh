@@ -3,7 +3,7 @@
 #   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc and libc6-dev (the C
 #     host test compiles tests/c_host/cs_host.c), python3 with venv;
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
-#     (fmpy, numpy, pytest, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
+#     (fmpy, numpy, pytest with pytest-xdist, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
 #   - the MJCF files of dm_control (its suite, walkers, props; from its wheel, unpacked in
 #     .venv/dm_control_assets)
@@ -34,7 +34,7 @@ fi
 
 # The venv records the requirements it was made from; a change reinstalls.
 if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/requirements.txt \
-   || ! .venv/bin/python -c "import fmpy, numpy, pytest, matplotlib, libcosimpy, mujoco, gymnasium, scipy" 2>/dev/null; then
+   || ! .venv/bin/python -c "import fmpy, numpy, pytest, xdist, matplotlib, libcosimpy, mujoco, gymnasium, scipy" 2>/dev/null; then
   echo "setup: creating .venv"
   python3 -m venv .venv
   .venv/bin/pip install -q --upgrade pip

@@ -13,6 +13,9 @@ from fmpy import extract, read_model_description, simulate_fmu
 
 from conftest import ROOT
 
+# One pytest-xdist worker runs this module's tests: the compiled C host is a module fixture.
+pytestmark = pytest.mark.xdist_group("c_host")
+
 SOURCE = ROOT / "tests" / "c_host" / "cs_host.c"
 INPUTS = {"act_y.ctrl": 0.16, "act_x.ctrl": 0.01}
 

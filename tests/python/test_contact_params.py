@@ -13,6 +13,9 @@ import pytest
 
 from conftest import SCM
 
+# One pytest-xdist worker runs this module's tests: MuJoCo's contacts are computed once, in a module fixture.
+pytestmark = pytest.mark.xdist_group("contact_params")
+
 SCENE = """<mujoco>
   <option timestep="0.002"/>
   <default><pair solimp="0.85 0.9 0.003 0.5 2"/></default>

@@ -12,6 +12,9 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "examples" 
 import fmu_rollout  # noqa: E402
 import sysid  # noqa: E402
 
+# One pytest-xdist worker runs this module's tests: the packed T-push FMU is a module fixture.
+pytestmark = pytest.mark.xdist_group("inference")
+
 
 @pytest.fixture(scope="module")
 def t_push(tmp_path_factory):

@@ -13,6 +13,9 @@ import sys
 
 import pytest
 
+# One pytest-xdist worker runs this module's tests: its studies run once, in a module fixture.
+pytestmark = pytest.mark.xdist_group("report_quick")
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HAVE_MUJOCO = importlib.util.find_spec("mujoco") is not None
 

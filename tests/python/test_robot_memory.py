@@ -20,6 +20,9 @@ import pytest
 
 from conftest import ROOT, SCM
 
+# One pytest-xdist worker runs this module's tests: each robot's first steps are run once and shared by two tests.
+pytestmark = pytest.mark.xdist_group("robot_memory")
+
 ASSETS = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets"
 # The inspire hand is left out: it peaks at 468 to 478 MB (one or two steps), too near the
 # limit to assert with a margin, and its first step takes about two minutes (its 13 links are

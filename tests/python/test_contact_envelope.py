@@ -1,0 +1,77 @@
+"""Contact on, SCM against MuJoCo's own spread (docs/mjcf.md, "Contact on, against MuJoCo's
+spread"): every gymnasium file and dm_control suite file that moves, run as written (its own
+integrator and step) with zero controls for 1 s (2 s for the legged ones), ends inside the
+envelope of MuJoCo's final poses under plausible contact parameters (solref's time constant
+x0.5, x1, x2, friction x0.8, x1, x1.2, with Euler, RK4 and implicitfast), widened by 2 cm and
+0.1 rad. The runs and the comparison are scripts/contact_envelope.py's, which prints the table.
+
+A file SCM does not bring inside yet is a strict xfail with what was measured about it: it fails
+the day it comes inside, so the list stays true. dm_control's humanoid_CMU (57 joints, 2 s) is
+left to the script: SCM takes 320 s on it on one core, more than this whole module.
+"""
+import pathlib
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "scripts"))
+import contact_envelope as envelope  # noqa: E402
+
+from conftest import DM_CONTROL_REFUSED  # noqa: E402
+
+#: Not run here, and why.
+NOT_HERE = {
+    "dm_control/humanoid_CMU": "SCM takes 320 s for its 2 s (one core); scripts/contact_envelope.py runs it "
+                               "(0.067 rad out on a foot)",
+    "dm_control/lqr": "no joint: nothing moves",
+}
+
+#: Files SCM's final pose is outside MuJoCo's envelope on, with what was measured (docs/mjcf.md).
+OUT = {
+    "gymnasium/ant": "ends 4.4 cm below the envelope (torso at 0.432 m; MuJoCo's 27 runs end between 0.495 "
+                     "and 0.619 m); how much its limits and how much its contacts owe is not measured yet",
+    "gymnasium/hopper": "0.0014 rad out on a joint after its fall (RK4, 2 ms, bounded damping); inside "
+                        "under the paper's unbounded law: the outcome turns on a single fall",
+    "gymnasium/humanoidstandup": "0.039 rad out on a shoulder, lying on the floor (RK4, 3 ms)",
+    "gymnasium/walker2d": "1.21 rad out on a thigh (RK4, 2 ms): it falls otherwise than MuJoCo's; not "
+                          "explained yet",
+    "gymnasium/walker2d_v5": "0.50 rad out on a thigh (RK4, 2 ms): as walker2d",
+    "dm_control/cheetah": "the implicit step's Newton iterations stop at 0.15 s (damped_euler, the paper's "
+                          "law; with the bounded damping it runs and ends inside)",
+    "dm_control/manipulator": "the implicit step's Newton iterations stop at 0.167 s (as cheetah)",
+    "dm_control/hopper": "0.72 rad out on its hip: it follows MuJoCo's motion until it lands (knee 2.075 rad "
+                         "at 0.5 s against 2.079) and lies flat from 0.9 s as MuJoCo's, its hip settling "
+                         "at -1.11 rad where MuJoCo's is at 0.06",
+    "dm_control/humanoid": "0.14 rad out on its abdomen, lying on the floor",
+    "dm_control/walker": "0.13 m out in x after its fall",
+}
+
+
+def files():
+    out = []
+    for corpus, paths in (("gymnasium", envelope.GYM), ("dm_control", envelope.DM)):
+        for path in paths:
+            name = f"{corpus}/{path.stem}"
+            if corpus == "dm_control" and path.stem in DM_CONTROL_REFUSED or name in NOT_HERE:
+                continue
+            marks = [pytest.mark.xfail(strict=True, reason=OUT[name])] if name in OUT else []
+            out.append(pytest.param(path, id=name, marks=marks))
+    return out
+
+
+def test_the_lists_name_files_that_exist():
+    names = {f"{c}/{p.stem}" for c, ps in (("gymnasium", envelope.GYM), ("dm_control", envelope.DM)) for p in ps}
+    assert set(OUT) <= names and set(NOT_HERE) <= names, (set(OUT) | set(NOT_HERE)) - names
+
+
+@pytest.mark.parametrize("path", files())
+def test_contact_on_ends_inside_mujocos_envelope(path):
+    seconds = 2.0 if envelope.LEGGED.search(path.stem) else 1.0
+    model, finals = envelope.mujoco_finals(path, seconds)
+    # MuJoCo leaves out a run it finds unstable; most of the 27 must be there to make a spread.
+    assert len(finals) >= 18, f"only {len(finals)} of MuJoCo's 27 runs are stable"
+    ours, error = envelope.scm_final(path, seconds)
+    assert error is None, f"SCM stopped: {error}"
+    inside, worst, where = envelope.compare(model, finals, ours)
+    assert inside, f"{worst:.3g} (m or rad) outside MuJoCo's envelope at {where}"
