@@ -2,10 +2,32 @@
 # Every test: the lint gates (rustfmt, clippy, rustdoc), Rust unit, integration and doc tests
 # (cargo test), then the FMUs in fmpy and the other hosts (pytest, one worker per core; a
 # module whose tests share one costly fixture runs on one worker: its `xdist_group` mark). The
-# slowest tests' times end the log.
+# slowest tests' times end the log. CI runs this.
+#
+#   scripts/test.sh           # the whole suite (CI; under 45 minutes on 2 cores)
+#   scripts/test.sh --quick   # the inner loop: rustfmt, the tests but the slow ones (scripts/lint.sh
+#                             # runs clippy and rustdoc)
+#
+# The quick tier leaves out the Rust tests below (each over 20 s) and the Python tests marked
+# `slow` (tests/python/conftest.py says which and why); CI runs them all.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+quick=false
+case "${1:-}" in
+  --quick) quick=true ;;
+  "") ;;
+  *) echo "usage: scripts/test.sh [--quick]" >&2; exit 2 ;;
+esac
 scripts/setup.sh
-scripts/lint.sh
-cargo test --release
-.venv/bin/python -m pytest -q -n auto --dist loadgroup --durations=20 tests/python
+if $quick; then
+  cargo fmt --check
+  # 10⁶ steps of t_push (5 min), 10⁴ random FMI call sequences, two fine pruned-vs-naive pairs.
+  cargo test --release -- --skip long_run::t_push --skip fmi_fuzz::random_call_sequences \
+    --skip geometry_pruning::pruned_pair_with_fine \
+    --skip geometry_pruning::pruned_pair_with_a_fine
+  .venv/bin/python -m pytest -q -n auto --dist loadgroup --durations=10 -m "not slow" tests/python
+else
+  scripts/lint.sh
+  cargo test --release
+  .venv/bin/python -m pytest -q -n auto --dist loadgroup --durations=20 tests/python
+fi

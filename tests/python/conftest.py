@@ -83,6 +83,14 @@ def robotics_id(path):
     return f"{path.stem}_fetch" if path.parent.name == "fetch" and path.stem == "reach" else path.stem
 
 
+def pytest_configure(config):
+    config.addinivalue_line(
+        "markers",
+        "slow: left out of `scripts/test.sh --quick` (the report, the contact-on envelope, the bench, the "
+        "inference studies, the dm_control and gymnasium-robotics corpora: each costs tens of seconds or "
+        "more); CI runs them")
+
+
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory):
     """Folder holding <scene>.fmu for every bundled scene."""

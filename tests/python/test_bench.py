@@ -6,9 +6,12 @@ import pathlib
 import subprocess
 import sys
 
+import pytest
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_bench_times_every_scene_against_mujoco(tmp_path):
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "bench.py"), "--out", str(tmp_path), "--boxes", "2",
                         "--files", "reacher", "--rounds", "2"],

@@ -20,6 +20,8 @@ import contact_envelope as envelope  # noqa: E402
 
 from conftest import DM_CONTROL_REFUSED  # noqa: E402
 
+pytestmark = pytest.mark.slow
+
 #: Not run here, and why.
 NOT_HERE = {
     "dm_control/humanoid_CMU": "SCM takes 320 s for its 2 s (one core); scripts/contact_envelope.py runs it "

@@ -68,6 +68,7 @@ def test_the_rollout_is_the_co_simulation_step_and_its_sensitivities_are_exact(t
     r.close()
 
 
+@pytest.mark.slow
 def test_system_identification_recovers_known_parameters():
     # One push of the T, data from the Co-Simulation FMU at known parameters, fitted from the
     # scene's (0.5, 1e4 N/m, 0.05 m/s): least squares on the exact Jacobian and on finite
@@ -106,6 +107,7 @@ def test_the_adjoint_gradient_of_a_plan_is_exact(t_push):
     r.close()
 
 
+@pytest.mark.slow
 def test_trajectory_optimization_reaches_the_target_pose():
     # The quick plan (12 knots over 1.6 s, at most 30 L-BFGS-B iterations on the adjoint
     # gradient) takes the block from where a straight push leaves it (8.6 cm from the start,

@@ -59,6 +59,7 @@ DM_NOT_RUN = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", DM_CONTROL, ids=[dm_id(p) for p in DM_CONTROL])
 def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
     """dm_control's files the same way, for 0.1 s (the suite's humanoid_CMU takes 15 s for that
@@ -68,6 +69,7 @@ def test_dm_control_file_packs_validates_and_runs(path, tmp_path):
     packs_validates_and_runs(path, tmp_path, seconds, DM_CONTROL_REFUSED.get(dm_id(path)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ROBOTICS, ids=[robotics_id(p) for p in ROBOTICS])
 def test_robotics_file_packs_and_validates(path, tmp_path):
     """gymnasium-robotics' files pack (the Franka kitchen's meshes and includes named through

@@ -14,7 +14,7 @@ import sys
 import pytest
 
 # One pytest-xdist worker runs this module's tests: its studies run once, in a module fixture.
-pytestmark = pytest.mark.xdist_group("report_quick")
+pytestmark = [pytest.mark.xdist_group("report_quick"), pytest.mark.slow]
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HAVE_MUJOCO = importlib.util.find_spec("mujoco") is not None
