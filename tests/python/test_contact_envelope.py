@@ -32,8 +32,9 @@ NOT_HERE = {
 #: Files SCM's final pose is outside MuJoCo's envelope on, with what was measured (docs/mjcf.md).
 OUT = {
     "gymnasium/ant": "ends 4.4 cm below the envelope (torso at 0.432 m; MuJoCo's 27 runs end between 0.495 "
-                     "and 0.619 m): after the landing its legs splay against the feet's friction faster than "
-                     "MuJoCo's (tests/python/test_limits.py); with the limits off both rest 2 cm apart",
+                     "and 0.619 m): MuJoCo's margin (0.02 for each foot) holds its feet 2 cm off the floor, "
+                     "SCM ignores margin, and its legs splay against the feet's friction faster than "
+                     "MuJoCo's (tests/python/test_limits.py)",
     "gymnasium/hopper": "0.0014 rad out on a joint after its fall (RK4, 2 ms, bounded damping); inside "
                         "under the paper's unbounded law: the outcome turns on a single fall",
     "gymnasium/humanoidstandup": "0.039 rad out on a shoulder, lying on the floor (RK4, 3 ms)",

@@ -173,12 +173,13 @@ def test_without_limits_the_ant_rests_where_mujocos_does(tmp_path):
     """Where the ant rests (issue 40 asks which of its limits and its contacts it owes that to):
     with its limits switched off (`<flag limit="disable"/>`) in both engines its legs splay until
     the ankles stand at 12 degrees, and SCM's torso rests at 0.249 m, MuJoCo's at 0.270 m
-    (measured at 2 s): its contacts alone put it 2 cm from MuJoCo's. As written, the two follow
-    each other until the landing at 0.2 s; then the legs splay against the feet's friction,
-    MuJoCo's slowly (ankles 55.5 degrees at 1 s, 47.7 at 8 s; with friction x0.5 they reach the
-    30-degree limit by 2 s), SCM's faster (46.5 at 1 s, on the limit from 3 s, torso 0.361 m),
-    nearly whatever its stiction velocity (1 cm/s to 0.3 mm/s change the height at 2 s by 1 mm):
-    that is the 4.4 cm the contact-on envelope test finds at 2 s."""
+    (measured at 2 s). The 2.1 cm is MuJoCo's margin: the ant's geoms have `margin="0.01"`,
+    MuJoCo adds the two (0.02) and holds its feet 19.66 mm above the floor, where SCM's, which
+    ignores margin, sink 0.93 mm into it. As written, the two follow each other until the
+    landing at 0.2 s; then the legs splay against the feet's friction, MuJoCo's slowly (ankles
+    55.5 degrees at 1 s, 47.7 at 8 s), SCM's faster (46.5 at 1 s, on the 30-degree limit from
+    3 s, torso 0.361 m), its feet sliding at the full mu N (docs/mjcf.md): with the margin, that
+    is the 4.4 cm the contact-on envelope test finds at 2 s."""
     text = (GYM / "ant.xml").read_text()
     free = tmp_path / "ant.xml"
     free.write_text(text.replace('<option integrator="RK4" timestep="0.01"/>',
