@@ -1,0 +1,320 @@
+//! The colliding pairs: each pair's own law ([`Pair`]), how an evaluation may reuse what the
+//! pairs keep across calls ([`Keep`]), the threads that evaluate the pairs in reach
+//! ([`PairThreads`]), and the loop over them that gives every pair's contact and the wrench
+//! each body receives ([`Model::contacts`], [`Model::contact_forces`]).
+
+use super::Model;
+use crate::collision::{
+    out_of_reach, out_of_reach_kept, Collider, KeptCandidates, KeptReach, PairsKept,
+};
+use crate::contact::{pair_contact_kept, ContactParams, PairContact, Wrench};
+use crate::dynamics::Kinematics;
+use crate::scalar::{c, Scalar};
+
+/// A pair of bodies whose colliders interact.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pair {
+    /// First body (scene order): the FMU's `contact.A.B.*` forces act on it.
+    pub a: usize,
+    /// Second body.
+    pub b: usize,
+    /// The pair's own friction coefficient (MuJoCo's combination of its geoms' `friction`, or
+    /// a `<pair friction>`), which the contact parameter `friction` does not change; `None`:
+    /// the pair uses the contact parameter.
+    pub friction: Option<f64>,
+    /// The pair's own contact stiffness (N/m; from MuJoCo's `solref` and `solimp` and the
+    /// pair's effective mass, docs/mjcf.md), which the contact parameter `stiffness` does not
+    /// change; `None`: the pair uses the contact parameter.
+    pub stiffness: Option<f64>,
+    /// The pair's own dissipation velocity (m/s), as `stiffness`.
+    pub dissipation_velocity: Option<f64>,
+    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): where its
+    /// law comes from the file, `f` times its resting force `m̂ g`, `f` being 4 under an
+    /// integrator that takes the damping explicitly (RK4) or the scene's
+    /// `scm_dissipation_force`; `None`: the pair uses the contact parameter (infinite by
+    /// default, the paper's law).
+    pub dissipation_force: Option<f64>,
+}
+
+impl Pair {
+    /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
+    /// dissipation velocity and dissipation force where it has them.
+    pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
+        let own = |x: Option<f64>, p: T| x.map_or(p, c);
+        ContactParams {
+            friction: own(self.friction, prm.friction),
+            stiffness: own(self.stiffness, prm.stiffness),
+            dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
+            dissipation_force: own(self.dissipation_force, prm.dissipation_force),
+            ..*prm
+        }
+    }
+
+    /// Whether the pair has its own value of `p`, which the contact parameter does not change.
+    pub fn owns(&self, p: crate::contact::Param) -> bool {
+        use crate::contact::Param;
+        match p {
+            Param::Friction => self.friction.is_some(),
+            Param::Stiffness => self.stiffness.is_some(),
+            Param::DissipationVelocity => self.dissipation_velocity.is_some(),
+            _ => false,
+        }
+    }
+}
+
+/// What an evaluation of the pairs may use of what they keep across calls ([`PairsKept`]).
+pub(crate) enum Keep<'a> {
+    /// Nothing: every pair proven and walked afresh.
+    Nothing,
+    /// The out-of-reach proofs and the candidate planes.
+    All(&'a mut PairsKept),
+    /// The candidate planes only (they change no result), where proofs must be fresh.
+    Candidates(&'a mut PairsKept),
+}
+
+/// One pair's kept out-of-reach proof and candidate planes, as [`Model::contacts_with`] hands
+/// them out (either may be absent).
+type PairKept<'a> = (
+    Option<&'a mut Option<KeptReach>>,
+    Option<&'a mut KeptCandidates>,
+);
+
+/// A pair in reach, waiting for its evaluation: its index, colliders, bodies, parameters (its
+/// own friction applied) and kept candidate planes.
+pub(crate) struct PendingPair<'a, T: Scalar> {
+    pub(crate) k: usize,
+    pub(crate) sides: [&'a Collider; 2],
+    pub(crate) bodies: [usize; 2],
+    pub(crate) prm: ContactParams<T>,
+    pub(crate) candidates: Option<&'a mut KeptCandidates>,
+}
+
+impl<T: Scalar> PendingPair<'_, T> {
+    /// The number of points the pair's colliders carry (a half-space has none): a rough
+    /// measure of its evaluation's cost, known before it runs, by which the pairs are shared
+    /// out over threads.
+    fn points(&self) -> usize {
+        self.sides
+            .iter()
+            .map(|c| match c {
+                Collider::Aopc(a) => a.points.len(),
+                Collider::HalfSpace { .. } => 0,
+            })
+            .sum()
+    }
+
+    /// The pair's contact at `kin`.
+    fn evaluate(self, kin: &Kinematics<T>) -> PairContact<T> {
+        let [a, b] = self.bodies;
+        let [ca, cb] = self.sides;
+        pair_contact_kept(
+            ca,
+            &kin.frames[a],
+            cb,
+            &kin.frames[b],
+            &self.prm,
+            self.candidates,
+        )
+    }
+}
+
+/// How many threads evaluate the pairs in reach ([`Model::pair_threads`]). A pair's evaluation
+/// reads only the kinematics and writes only its own kept candidates, so pairs run on scoped
+/// threads (`std::thread::scope`, joined before the evaluation returns: no thread outlives a
+/// call, so an FMU's library can be unloaded safely, which a global pool such as rayon's
+/// prevents) and their results are the same bits as serial ones.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairThreads {
+    /// Most threads (1: serial).
+    pub threads: usize,
+    /// Fewest pairs in reach for which more than one thread is used: starting a thread costs
+    /// about what evaluating a small pair does ([`PairThreads::MIN_PAIRS`]).
+    pub min_pairs: usize,
+}
+
+impl PairThreads {
+    /// Serial evaluation.
+    pub const SERIAL: PairThreads = PairThreads {
+        threads: 1,
+        min_pairs: usize::MAX,
+    };
+
+    /// Two threads where at least [`PairThreads::MIN_PAIRS`] pairs are in reach, if the
+    /// machine has two cores to run them; serial otherwise.
+    pub fn default_for_machine() -> PairThreads {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        PairThreads {
+            threads: cores.min(2),
+            min_pairs: Self::MIN_PAIRS,
+        }
+    }
+
+    /// The default [`PairThreads::min_pairs`]. Measured on 2 cores (`docs/performance.md`),
+    /// with a scoped thread started per evaluation: 8 and 32 boxes resting on a floor (8 and
+    /// 32 pairs in reach) step 1.2–1.4× faster on two threads, while gymnasium's ant (4 legs on
+    /// the floor) gains nothing, `box_stack` (3 pairs) and the half cheetah (2) lose 35–40 %.
+    pub const MIN_PAIRS: usize = 8;
+
+    /// `f` of every pair of `pending`, with the pair's index, in pair order: on one thread, or
+    /// split over up to [`PairThreads::threads`] by their points.
+    pub(crate) fn map<'a, T: Scalar, R: Send>(
+        &self,
+        pending: Vec<PendingPair<'a, T>>,
+        f: impl Fn(PendingPair<'a, T>) -> R + Sync,
+    ) -> Vec<(usize, R)> {
+        let f = &f;
+        let run = move |group: Vec<PendingPair<'a, T>>| -> Vec<(usize, R)> {
+            group.into_iter().map(|p| (p.k, f(p))).collect()
+        };
+        if self.threads < 2 || pending.len() < self.min_pairs.max(2) {
+            return run(pending);
+        }
+        // Largest first, each to the group with the fewest points so far.
+        let mut pending = pending;
+        pending.sort_by_key(|p| std::cmp::Reverse(p.points()));
+        let groups = self.threads.min(pending.len());
+        let mut split: Vec<(usize, Vec<PendingPair<'a, T>>)> =
+            (0..groups).map(|_| (0, Vec::new())).collect();
+        for p in pending {
+            let g = (0..groups).min_by_key(|&g| split[g].0).unwrap_or(0);
+            split[g].0 += p.points();
+            split[g].1.push(p);
+        }
+        let mut groups = split.into_iter().map(|(_, g)| g);
+        let own = groups.next().unwrap_or_default();
+        let mut all = std::thread::scope(|s| {
+            let others: Vec<_> = groups.map(|g| s.spawn(move || run(g))).collect();
+            let mut all = run(own);
+            for h in others {
+                // A panic in a worker is the same panic here.
+                all.extend(h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+            }
+            all
+        });
+        all.sort_by_key(|(k, _)| *k);
+        all
+    }
+}
+
+impl Model {
+    /// Contact of every pair and the wrench each body receives (world frame, about its origin),
+    /// every pair evaluated in full, its smooth distance included: what the outputs read.
+    pub fn contacts<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+    ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
+        let (wrenches, pairs) = self.contacts_with(kin, prm, false, Keep::Nothing);
+        let pairs = pairs
+            .into_iter()
+            .map(|pc| pc.unwrap_or_else(PairContact::none))
+            .collect();
+        (wrenches, pairs)
+    }
+
+    /// The contact wrenches for the dynamics: as [`Model::contacts`], except that a pair proven
+    /// out of reach ([`out_of_reach`]: every force of the pair below τ times the force scale
+    /// `k ε3`, see there) costs only that proof and is `None`: zero wrenches, its smooth
+    /// distance not evaluated (the outputs ask [`Model::contacts`] for it).
+    pub fn contact_forces<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+    ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
+        self.contacts_with(kin, prm, true, Keep::Nothing)
+    }
+
+    /// Every pair's contact, with the pair's own friction if it has one (`None`: proven out of
+    /// reach, when `prune`), and the wrenches they add up to. The proofs come first, in pair
+    /// order; the pairs left are evaluated on [`Model::pair_threads`] threads when they are
+    /// many enough ([`PairThreads`]), each with only its own kept candidates, and the wrenches
+    /// are summed in pair order whatever the threads: the same bits either way.
+    pub(super) fn contacts_with<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        prune: bool,
+        keep: Keep,
+    ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
+        let n = self.pairs.len();
+        let kept: Vec<PairKept<'_>> = match keep {
+            Keep::Nothing => (0..n).map(|_| (None, None)).collect(),
+            Keep::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).take(n).collect(),
+            Keep::Candidates(all) => all.pairs().map(|(_, c)| (None, c)).take(n).collect(),
+        };
+        let mut out: Vec<Option<PairContact<T>>> = Vec::with_capacity(n);
+        let mut pending = Vec::new();
+        for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
+            let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+                out.push(Some(PairContact::none()));
+                continue;
+            };
+            let prm = pair.params(prm);
+            if prune && self.out_of_reach_with(pair, kin, &prm, reach) {
+                out.push(None);
+                continue;
+            }
+            out.push(None);
+            pending.push(PendingPair {
+                k,
+                sides: [ca, cb],
+                bodies: [pair.a, pair.b],
+                prm,
+                candidates,
+            });
+        }
+        for (k, pc) in self.pair_threads.map(pending, |p| p.evaluate(kin)) {
+            out[k] = Some(pc);
+        }
+        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
+        for (pair, pc) in self.pairs.iter().zip(&out) {
+            if let Some(pc) = pc {
+                for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
+                    wrenches[b].force += x.force;
+                    wrenches[b].torque += x.torque;
+                }
+            }
+        }
+        (wrenches, out)
+    }
+
+    /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
+    /// with the pair's kept proof if given ([`out_of_reach_kept`]).
+    pub(crate) fn out_of_reach_with<T: Scalar>(
+        &self,
+        pair: &Pair,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        kept: Option<&mut Option<KeptReach>>,
+    ) -> bool {
+        let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+            return true;
+        };
+        let (ra, rb) = (kin.frames[pair.a].re(), kin.frames[pair.b].re());
+        let p = prm.re();
+        let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
+        match kept {
+            Some(kept) => out_of_reach_kept(
+                ca,
+                cb,
+                &rels,
+                p.eps1,
+                p.eps3,
+                p.dissipation_velocity,
+                p.friction,
+                kept,
+                // A kept proof is worth making if it serves two internal steps.
+                2.0 * self.step,
+            ),
+            None => out_of_reach(
+                ca,
+                cb,
+                &rels,
+                p.eps1,
+                p.eps3,
+                p.dissipation_velocity,
+                p.friction,
+            ),
+        }
+    }
+}
