@@ -1,5 +1,5 @@
-//! Colliders and colliding pairs: one collider per body, MuJoCo's filters, and the pairs'
-//! friction.
+//! Colliders and colliding pairs: one collider per body, MuJoCo's filters, the pairs'
+//! friction, and the `<contact>` section (`exclude`, `pair`).
 
 use super::*;
 
@@ -375,5 +375,60 @@ pub fn spacing_text(h: &Spacing) -> String {
         format!("{} m", h.fine)
     } else {
         format!("{} m, up to {} × {} × {} m", h.fine, c.x, c.y, c.z)
+    }
+}
+
+impl Builder {
+    pub(super) fn contact(&mut self, el: &Element) -> Result<(), SceneError> {
+        for c in &el.children {
+            match c.name.as_str() {
+                "pair" => {
+                    self.check_attrs(
+                        c,
+                        &[
+                            "name", "geom1", "geom2", "friction", "condim", "solref", "solimp",
+                        ],
+                    )?;
+                    let friction = match c.attr("friction").map(parse_floats) {
+                        None => None,
+                        Some(Some(v)) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => Some(v[0]),
+                        Some(_) => {
+                            return Err(
+                                self.err(c, "friction: expected 1 to 5 non-negative numbers")
+                            )
+                        }
+                    };
+                    let friction = match c.attr("condim") {
+                        Some("1") => Some(0.0),
+                        _ => friction,
+                    };
+                    let g1 = c
+                        .attr("geom1")
+                        .ok_or_else(|| self.err(c, "geom1 is required"))?;
+                    let g2 = c
+                        .attr("geom2")
+                        .ok_or_else(|| self.err(c, "geom2 is required"))?;
+                    let softness = self.softness(c, contact::Softness::default())?;
+                    self.explicit_pairs.push(ExplicitPair {
+                        geoms: [g1.into(), g2.into()],
+                        friction,
+                        softness,
+                        line: c.line,
+                    });
+                }
+                "exclude" => {
+                    self.check_attrs(c, &["name", "body1", "body2"])?;
+                    let b1 = c
+                        .attr("body1")
+                        .ok_or_else(|| self.err(c, "body1 is required"))?;
+                    let b2 = c
+                        .attr("body2")
+                        .ok_or_else(|| self.err(c, "body2 is required"))?;
+                    self.excludes.push((b1.into(), b2.into(), c.line));
+                }
+                _ => return Err(self.err(c, "unsupported contact element")),
+            }
+        }
+        Ok(())
     }
 }
