@@ -13,6 +13,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=false
+if [ $# -gt 1 ]; then echo "usage: scripts/test.sh [--quick]" >&2; exit 2; fi
 case "${1:-}" in
   --quick) quick=true ;;
   "") ;;

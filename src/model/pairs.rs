@@ -28,11 +28,12 @@ pub struct Pair {
     pub stiffness: Option<f64>,
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
-    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): where its
-    /// law comes from the file, `f` times its resting force `m̂ g`, `f` being 4 under an
-    /// integrator that takes the damping explicitly (RK4) or the scene's
-    /// `scm_dissipation_force`; `None`: the pair uses the contact parameter (infinite by
-    /// default, the paper's law).
+    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]). Where its
+    /// law comes from the file: `f` times its resting force `m̂ g`, `f` the scene's
+    /// `scm_dissipation_force` or else 4 under an integrator that takes the damping explicitly
+    /// (RK4); infinite (the paper's law) under the others or with `scm_dissipation_force` 0.
+    /// `None` where the scene's `scm_stiffness` or `scm_dissipation_velocity` replaces the
+    /// pairs' laws: the pair uses the contact parameter (infinite by default).
     pub dissipation_force: Option<f64>,
 }
 

@@ -363,16 +363,17 @@ pub struct PairLaw {
     pub stiffness: f64,
     /// SCM's dissipation velocity at zero force (m/s).
     pub dissipation_velocity: f64,
-    /// SCM's dissipation force, `f m̂ g` (N; infinite unless the scene sets
-    /// `scm_dissipation_force` `f`).
+    /// SCM's dissipation force, `f m̂ g` (N): `f` the scene's `scm_dissipation_force`, or 4
+    /// under an integrator that takes the damping explicitly; infinite where `f` is none.
     pub dissipation_force: f64,
 }
 
 impl PairLaw {
     /// The law for `softness` on effective mass `mass` (kg), gravity `g` (m/s², its magnitude;
     /// [`NOMINAL_GRAVITY`] where it is zero), SCM's `eps3` (m), MuJoCo's `refsafe` step and the
-    /// dissipation force per unit of resting force (`scm_dissipation_force`; `None`: infinite,
-    /// the paper's law).
+    /// dissipation force per unit of resting force `f` (the scene's `scm_dissipation_force`, or
+    /// the integrator's default, [`EXPLICIT_DISSIPATION_FORCE`]; `None`: infinite, the paper's
+    /// law).
     pub fn new(
         softness: Softness,
         mass: f64,

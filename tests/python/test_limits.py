@@ -169,31 +169,43 @@ def test_a_bounded_contact_damping_carries_the_humanoids_fall_at_its_own_step(tm
             assert abs(row["root.pos.z"] - qpos[2]) < 0.005, (t, row["root.pos.z"], qpos[2])
 
 
-def test_without_limits_the_ant_rests_where_mujocos_does(tmp_path):
+def test_without_limits_the_ant_rests_where_mujocos_does_but_for_its_margin(tmp_path):
     """Where the ant rests (issue 40 asks which of its limits and its contacts it owes that to):
     with its limits switched off (`<flag limit="disable"/>`) in both engines its legs splay until
-    the ankles stand at 12 degrees, and SCM's torso rests at 0.249 m, MuJoCo's at 0.270 m
+    the ankles stand at 12 degrees, and SCM's torso rests at 0.2490 m, MuJoCo's at 0.2696 m
     (measured at 2 s). The 2.1 cm is MuJoCo's margin: the ant's geoms have `margin="0.01"`,
     MuJoCo adds the two (0.02) and holds its feet 19.66 mm above the floor, where SCM's, which
-    ignores margin, sink 0.93 mm into it. As written, the two follow each other until the
-    landing at 0.2 s; then the legs splay against the feet's friction, MuJoCo's slowly (ankles
-    55.5 degrees at 1 s, 47.7 at 8 s), SCM's faster (46.5 at 1 s, on the 30-degree limit from
-    3 s, torso 0.361 m), its feet sliding at the full mu N (docs/mjcf.md): with the margin, that
-    is the 4.4 cm the contact-on envelope test finds at 2 s."""
+    ignores margin, sink 0.93 mm into it. With the margins set to 0 MuJoCo's rests at 0.2496 m,
+    0.6 mm from SCM's.
+
+    As written, the two follow each other until the landing at 0.2 s; then the legs splay
+    against the feet's friction, MuJoCo's slowly (ankles 55.5 degrees at 1 s, 47.7 at 8 s),
+    SCM's faster (46.5 at 1 s, on the 30-degree limit from 3 s), its feet sliding at the full
+    mu N (docs/mjcf.md). With the margin's 2 cm that puts SCM's torso at 0.431 m at 2 s,
+    MuJoCo's at 0.561 m; the lowest of MuJoCo's 27 runs of the envelope ends at 0.495 m."""
     text = (GYM / "ant.xml").read_text()
     free = tmp_path / "ant.xml"
     free.write_text(text.replace('<option integrator="RK4" timestep="0.01"/>',
                                  '<option integrator="RK4" timestep="0.01"><flag limit="disable"/></option>'))
-    assert free.read_text() != text
+    no_margin = tmp_path / "ant_no_margin.xml"
+    no_margin.write_text(free.read_text().replace('friction="1 0.5 0.5" margin="0.01"', 'friction="1 0.5 0.5" margin="0"'))
+    assert free.read_text() != text and no_margin.read_text() != free.read_text()
     ours = scm_run(free, 2.0, 0.5)[-1]
     m, (theirs,) = mujoco_run(free, [2.0])
-    assert abs(ours["root.pos.z"] - theirs[2]) < 0.025, (ours["root.pos.z"], theirs[2])
+    m0, (theirs_at_zero_margin,) = mujoco_run(no_margin, [2.0])
+    assert m.geom_margin.min() == 0.01 and m0.geom_margin.max() == 0.0
+    # MuJoCo's margin lifts its ant by the two geoms' margins, less its contacts' own depth.
+    lift = theirs[2] - theirs_at_zero_margin[2]
+    assert 0.018 < lift < 0.021, lift
+    # Without it, SCM's ant rests within 3 mm of MuJoCo's (resting depths differ by about 1 mm).
+    assert abs(ours["root.pos.z"] - theirs_at_zero_margin[2]) < 0.003, (ours["root.pos.z"], theirs_at_zero_margin[2])
     for k in range(1, 5):
         a = m.joint(f"ankle_{k}").qposadr[0]
         assert abs(ours[f"ankle_{k}.q"] - theirs[a]) < 0.01, (k, ours[f"ankle_{k}.q"], theirs[a])
+        assert abs(ours[f"ankle_{k}.q"] - theirs_at_zero_margin[a]) < 0.01, (k, ours[f"ankle_{k}.q"])
 
 
-@pytest.mark.xfail(strict=True, reason=(
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     "at rest on its limits, from about 3.1 s, the ant's horizontal velocity grows tenfold every "
     "0.12 s (1e-12 m/s to 3 cm/s by 4.8 s) and the guard refuses it at 4.97 s: RK4 takes the "
     "friction's slope at zero slip, mu N / v_s, explicitly, and at 10 ms that is past what it "
@@ -202,6 +214,10 @@ def test_without_limits_the_ant_rests_where_mujocos_does(tmp_path):
 def test_the_ant_as_written_rests_8_s():
     run = subprocess.run([str(SCM), "simulate", str(GYM / "ant.xml"), "--duration", "8",
                           "--output-interval", "1", "-o", "/dev/null"], capture_output=True, text=True)
+    # The expected failure is the guard's refusal after the ant came to rest; anything else
+    # (another error, an earlier refusal) fails this test outright.
+    if run.returncode != 0 and not re.search(r"the integration is unstable: .* at t = [34]\.\d+ s", run.stderr):
+        raise RuntimeError(f"not the refusal at rest this test expects: {run.stderr}")
     assert run.returncode == 0, run.stderr
 
 
