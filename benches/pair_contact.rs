@@ -124,6 +124,7 @@ fn params(sharp: bool) -> ContactParams<f64> {
         stiction_velocity: 0.01,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        margin: 0.0,
         dissipation: Dissipation::Paper,
     }
 }

@@ -167,6 +167,7 @@ fn main() {
                 &rels,
                 own.eps1,
                 own.eps3,
+                own.margin,
                 own.dissipation_velocity,
                 own.friction,
             )

@@ -126,8 +126,8 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
     PARAMS.iter().map(|k| k.get(p)).collect()
 }
 
-/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant and
-/// dissipation force (constants).
+/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant,
+/// dissipation force and margin (constants).
 pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
     ContactParams {
         eps1: x[0],
@@ -138,6 +138,7 @@ pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactPara
         stiction_velocity: x[5],
         friction: x[6],
         dissipation_force: c(like.dissipation_force),
+        margin: c(like.margin),
         dissipation: like.dissipation,
     }
 }

@@ -21,6 +21,7 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        margin: 0.0,
         dissipation: Dissipation::Paper,
     }
 }
@@ -39,17 +40,19 @@ fn is_far(
         &rels,
         p.eps1,
         p.eps3,
+        p.margin,
         p.dissipation_velocity,
         p.friction,
     )
 }
 
 /// The bound of `out_of_reach` on every force of a pair it settles:
-/// `τ k (ε3 + (ℓ + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`, with `ℓ` and `V` taken generously here
-/// (the two bodies' bounding spheres, every speed summed).
+/// `τ k (ε3 + (ℓ + m + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`, with `ℓ` and `V` taken generously
+/// here (the two bodies' bounding spheres, every speed summed), `m` the margin.
 fn force_bound(p: &ContactParams<f64>, ell: f64, speed: f64) -> f64 {
     let factor = (1.0 + speed / p.dissipation_velocity) * (1.0 + p.friction * p.friction).sqrt();
-    PRUNE_TOLERANCE * p.stiffness * (p.eps3 + (ell + p.eps3 * std::f64::consts::LN_2) * factor)
+    let springs = ell + p.margin + p.eps3 * std::f64::consts::LN_2;
+    PRUNE_TOLERANCE * p.stiffness * (p.eps3 + springs * factor)
 }
 
 /// A sphere, a box, a capsule and a cylinder sampled at 1 cm, each with its bounding radius (m).
@@ -106,10 +109,15 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
             (b, *rb)
         };
         let p = [(1e-5, 1e-4), (1e-6, 1e-3), (1e-8, 1e-5)][case % 3];
-        let prm = params(p.0, p.1);
-        // Gaps between the bounding spheres from touching to 5 cm: most pairs are within a few
-        // reach distances, where the proof has to be sharp to settle anything.
-        let gap = rng.range(0.0, 0.05);
+        // A margin (MuJoCo's, where the springs rest) on every other pair but one in eight.
+        let margin = [0.0, 0.002, 0.0, 0.01, 0.0, 0.0, 0.0, 0.005][case % 8];
+        let prm = ContactParams {
+            margin,
+            ..params(p.0, p.1)
+        };
+        // Gaps between the bounding spheres from touching to 5 cm past the margin: most pairs
+        // are within a few reach distances, where the proof has to be sharp to settle anything.
+        let gap = rng.range(0.0, 0.05) + margin;
         let dir = if against_plane {
             Vector3::z()
         } else {
@@ -139,7 +147,9 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
         let speed = (fa.linvel - fb.linvel).norm()
             + (fa.angvel.norm() + fb.angvel.norm()) * (ra + rb + gap + 0.1);
         let t = reach_distance(prm.eps3, speed, prm.dissipation_velocity, prm.friction).unwrap();
-        if gap > 2.0 * t + 0.005 {
+        // Two reach distances (counted from the surface: the margin and the springs' reach
+        // past it) and 5 mm.
+        if gap > 2.0 * (margin + t) + 0.005 {
             beyond += 1;
             proven += far as usize;
         }
@@ -154,7 +164,7 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
             worst = worst.max(f / bound);
             assert!(
                 f <= bound && m <= bound * (ra + rb + gap + 0.1),
-                "case {case}: gap {gap}, eps3 {}: out of reach, yet the reference pushes {what} with {f:e} N, {m:e} N m (bound {bound:e} N)",
+                "case {case}: gap {gap}, eps3 {}, margin {margin}: out of reach, yet the reference pushes {what} with {f:e} N, {m:e} N m (bound {bound:e} N)",
                 prm.eps3
             );
         }
@@ -233,6 +243,69 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
             n.on_a.force.norm()
         );
     }
+}
+
+/// A margin moves the reach with it: a sphere 1 cm off a box face with a 1.5 cm margin is
+/// pushed (its springs rest at the margin), so the pair is in reach; the proof settles it from
+/// the margin plus the same few reach distances as without a margin, where the reference
+/// force is below `τ k ε3`. Against a floor (one plane, no softmax of its own) the margin is
+/// an exact shift: the sphere 1 cm above it with the margin is pushed as one 5 mm into it
+/// without.
+#[test]
+fn a_margin_moves_the_reach_with_it() {
+    let margin = 0.015;
+    let prm = ContactParams {
+        margin,
+        ..params(1e-5, 1e-4)
+    };
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.05, 0.05, 0.05),
+        }
+        .sample(0.01),
+    );
+    let ball = Collider::Aopc(Shape::Sphere { radius: 0.05 }.sample(0.01));
+    let at = |gap: f64| Frame {
+        origin: Vector3::new(0.1 + gap, 0.0, 0.0),
+        ..Frame::identity()
+    };
+    let t = reach_distance(prm.eps3, 0.0, prm.dissipation_velocity, prm.friction).unwrap();
+    let far = |gap: f64| is_far(&ball, &at(gap), &cube, &Frame::identity(), &prm);
+    let pushed = pair_contact_naive(&ball, &at(0.01), &cube, &Frame::identity(), &prm);
+    assert!(!far(0.01), "within the margin is in reach");
+    assert!(
+        pushed.on_a.force.x > 1.0,
+        "the margin pushes: {:?}",
+        pushed.on_a.force
+    );
+    let above = |h: f64| Frame {
+        origin: Vector3::new(0.0, 0.0, 0.05 + h),
+        ..Frame::identity()
+    };
+    let plain = params(1e-5, 1e-4);
+    let shifted = pair_contact(&ball, &above(0.01), &floor(), &Frame::identity(), &prm);
+    let inside = pair_contact(&ball, &above(-0.005), &floor(), &Frame::identity(), &plain);
+    assert!(
+        (shifted.on_a.force - inside.on_a.force).norm() <= 1e-12 * inside.on_a.force.norm(),
+        "a margin is a shift: {:?} against {:?}",
+        shifted.on_a.force,
+        inside.on_a.force
+    );
+    assert!(
+        !far(margin + 0.5 * t),
+        "half a reach distance past the margin"
+    );
+    let settled = (1..=100)
+        .map(|k| margin + k as f64 * 5e-4)
+        .find(|&g| far(g))
+        .expect("settled within 5 cm past the margin");
+    println!("margin {margin} m, reach distance {t:.4e} m: settled from a gap of {settled} m");
+    assert!(
+        settled <= margin + 2.0 * t + 2e-3,
+        "settled only from {settled} m"
+    );
+    let n = pair_contact_naive(&ball, &at(settled), &cube, &Frame::identity(), &prm);
+    assert!(n.on_a.force.norm() < PRUNE_TOLERANCE * prm.stiffness * prm.eps3);
 }
 
 /// Unions of spheres and capsules (gymnasium's humanoid's torso and lower arm, `geometry::rounded`):
@@ -425,6 +498,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
                 &rels,
                 prm.eps1,
                 prm.eps3,
+                prm.margin,
                 prm.dissipation_velocity,
                 prm.friction,
                 kept,

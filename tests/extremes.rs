@@ -490,6 +490,7 @@ fn a_one_point_aopc() {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        margin: 0.0,
         dissipation: Dissipation::Paper,
     };
     let frame = |z: f64| Frame {

@@ -19,6 +19,7 @@ fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        margin: 0.0,
         dissipation: Dissipation::Paper,
     }
 }
@@ -134,15 +135,25 @@ fn pruned_pair_matches_naive_on_random_configurations() {
         } else {
             fa
         };
-        for (eps1, eps2) in [(1e-5, 1e-3), (1e-6, 1e-4), (1e-8, 1e-6)] {
-            let prm = params(eps1, eps2);
+        // The last with a 1 cm margin (the springs rest 1 cm outside: the band's spring bounds
+        // and the force pruning count from there).
+        for (eps1, eps2, margin) in [
+            (1e-5, 1e-3, 0.0),
+            (1e-6, 1e-4, 0.0),
+            (1e-8, 1e-6, 0.0),
+            (1e-5, 1e-3, 0.01),
+        ] {
+            let prm = ContactParams {
+                margin,
+                ..params(eps1, eps2)
+            };
             let p = pair_contact(a, &fa, b, &fb, &prm);
             let n = pair_contact_naive(a, &fa, b, &fb, &prm);
             assert_close(
                 &p,
                 &n,
                 eps2,
-                &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}"),
+                &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}, margin {margin}"),
             );
             let band = separation_band(a, &fa, b, &fb, eps1, eps2);
             pruned_points += a.len() + b.len() - band.evaluated;

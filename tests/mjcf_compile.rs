@@ -445,7 +445,7 @@ fn solver_and_renderer_settings_are_accepted_and_listed_as_unused() {
     <light pos="0 0 3"/>
     <body name="b" pos="0 0 1">
       <freejoint/>
-      <geom type="sphere" size="0.1" solref="0.02 1" solimp="0.9 0.95 0.001" margin="0.01" rgba="1 0 0 1"/>
+      <geom type="sphere" size="0.1" solref="0.02 1" solimp="0.9 0.95 0.001" margin="0.01" gap="0.01" rgba="1 0 0 1"/>
     </body>
   </worldbody>
 </mujoco>"#,
@@ -456,15 +456,18 @@ fn solver_and_renderer_settings_are_accepted_and_listed_as_unused() {
         "solver",
         "cone",
         "impratio",
-        "margin",
+        "gap",
         "visual",
         "size",
     ] {
         assert!(all.contains(word), "'{word}' not listed as unused:\n{all}");
     }
     assert!(all.contains("m.xml:2:"), "{all}");
-    // A geom's solref and solimp size its contact (docs/mjcf.md): used, not listed.
-    assert!(!all.contains("solref") && !all.contains("solimp"), "{all}");
+    // A geom's solref, solimp and margin size its contact (docs/mjcf.md): used, not listed.
+    assert!(
+        !all.contains("solref") && !all.contains("solimp") && !all.contains("margin"),
+        "{all}"
+    );
 }
 
 #[test]

@@ -469,9 +469,14 @@ fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             ),
             None => "stiffness and dissipation velocity: scm_stiffness, scm_dissipation_velocity".into(),
         };
+        let margin = if p.margin != 0.0 {
+            format!(", margin {} m (its springs rest that far out)", p.margin)
+        } else {
+            String::new()
+        };
         say!(
             w,
-            "pair {} - {}: friction {friction}, {law}",
+            "pair {} - {}: friction {friction}{margin}, {law}",
             m.tree.bodies[p.a].name,
             m.tree.bodies[p.b].name
         );

@@ -17,7 +17,7 @@ pub struct BandEntry<T> {
     /// Smallest squared distance from the point to the other body's points (m², real part;
     /// the SSDF's softmax shift). Infinite against a half-space.
     pub dmin: f64,
-    /// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` over the planes the SSDF summed (m, real part;
+    /// An upper bound of `Σ_i σ_i s⁺_ε3(m - φ_i)` over the planes the SSDF summed (m, real part;
     /// [`SpringBound`](crate::geometry::ssdf::SpringBound)): times the stiffness, it bounds the
     /// springs of this point's force. Infinite when the band was built without ε3.
     pub springs: f64,
@@ -107,7 +107,7 @@ pub fn separation_band<T: Scalar>(
         &rels,
         eps1,
         eps2,
-        0.0,
+        SpringShape::NONE,
         0,
         &mut Relevant::default(),
         None,
@@ -117,7 +117,7 @@ pub fn separation_band<T: Scalar>(
 
 /// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
 /// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
-/// `eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). The SSDF terms of
+/// `spring.eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). The SSDF terms of
 /// the entries that can end within the cutoff are kept ([`SeparationBand::terms`]) while fewer
 /// than `keep_terms` are (0: none; [`terms_budget`](super::terms_budget)): an entry past it has
 /// none, and its terms must be summed again where they are needed. With `grads`, the
@@ -132,7 +132,7 @@ pub(crate) fn band_of<T: Scalar>(
     rels: &[Relative<T>; 2],
     eps1: T,
     eps2: T,
-    eps3: f64,
+    spring: SpringShape,
     keep_terms: usize,
     scratch: &mut Relevant,
     mut grads: Option<&mut Vec<Vector3<f64>>>,
@@ -331,7 +331,7 @@ pub(crate) fn band_of<T: Scalar>(
                                     Some(g) => {
                                         let mut sink = GradientSink::default();
                                         let (phi, w, springs) = ssdf_over(
-                                            o, &x, eps1, eps3, low, scratch, &mut sink, keep,
+                                            o, &x, eps1, spring, low, scratch, &mut sink, keep,
                                         );
                                         let mut grad = sink.gradient(phi.re(), w.re(), e1);
                                         let phi = match floor.as_mut() {
@@ -352,7 +352,7 @@ pub(crate) fn band_of<T: Scalar>(
                                             o,
                                             &x,
                                             eps1,
-                                            eps3,
+                                            spring,
                                             low,
                                             scratch,
                                             &mut NoSink,
@@ -385,8 +385,9 @@ pub(crate) fn band_of<T: Scalar>(
                                 if let Some(g) = grads.as_deref_mut() {
                                     g.push(*normal);
                                 }
-                                let springs = if eps3 > 0.0 {
-                                    crate::scalar::softplus(-phi.re(), eps3) * (1.0 + 1e-12)
+                                let springs = if spring.eps3 > 0.0 {
+                                    crate::scalar::softplus(spring.margin - phi.re(), spring.eps3)
+                                        * (1.0 + 1e-12)
                                 } else {
                                     f64::INFINITY
                                 };

@@ -26,7 +26,7 @@
 //! the cutoff by its kept ball is not evaluated, a node whose proof keeps failing is not tried
 //! at every step), the band and every sum over it are the same to the last bit.
 
-use crate::geometry::ssdf::{ssdf_over, GradientSink, NoSink, Relevant};
+use crate::geometry::ssdf::{ssdf_over, GradientSink, NoSink, Relevant, SpringShape};
 
 /// SSDF terms a pair keeps per point of its two clouds, at most: the separation band keeps its
 /// entries' terms ([`SeparationBand::terms`]) up to `TERMS_PER_POINT (I1 + I2)`, and an entry

@@ -141,7 +141,7 @@ pub(super) fn seed_within(
                 o,
                 &x,
                 eps1,
-                0.0,
+                SpringShape::NONE,
                 f64::NEG_INFINITY,
                 scratch,
                 &mut NoSink,
@@ -268,27 +268,39 @@ pub fn reach_distance(
 }
 
 /// Whether the pair `a`–`b` is out of reach: for each body with points, the other body's
-/// SSDF is proven above [`reach_distance`] at all of them ([`cloud_beyond`]), with the speed
-/// bound taken from the bodies' motion (`rels[0]`: `a` seen from `b`, `rels[1]`: `b` seen
-/// from `a`, real parts).
+/// SSDF is proven above `margin` plus [`reach_distance`] at all of them ([`cloud_beyond`]),
+/// with the speed bound taken from the bodies' motion (`rels[0]`: `a` seen from `b`,
+/// `rels[1]`: `b` seen from `a`, real parts). `margin` (m): where the pair's springs rest
+/// (they read the distance less it).
 ///
-/// Then every force of the pair is below `τ k (ε3 + (ℓ + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`,
+/// Then every force of the pair is below `τ k (ε3 + (ℓ + m + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`,
 /// `ℓ` the largest distance between a point of one body and a point of the other: the
 /// relevant planes of each point force contribute less than `τ k ε3`, and planes the pruned
 /// SSDF may keep although they are irrelevant weigh less than τ in all, each with a spring of
 /// at most `ℓ + ε3 ln 2` (the pruning every pair already has). Torques are below that times
 /// the bodies' reach from their origins. A pair with no points on either side is not out of
 /// reach (there is nothing to save).
+#[allow(clippy::too_many_arguments)]
 pub fn out_of_reach(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
     eps1: f64,
     eps3: f64,
+    margin: f64,
     dissipation_velocity: f64,
     friction: f64,
 ) -> bool {
-    let Some(sides) = sides(a, b, rels, eps1, eps3, dissipation_velocity, friction) else {
+    let Some(sides) = sides(
+        a,
+        b,
+        rels,
+        eps1,
+        eps3,
+        margin,
+        dissipation_velocity,
+        friction,
+    ) else {
         return false;
     };
     !sides.is_empty()
@@ -357,12 +369,14 @@ impl<'a> Sides<'a> {
 /// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
 /// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
 /// (nothing can be proven).
+#[allow(clippy::too_many_arguments)]
 fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
     rels: &[Relative<f64>; 2],
     eps1: f64,
     eps3: f64,
+    margin: f64,
     dissipation_velocity: f64,
     friction: f64,
 ) -> Option<Sides<'a>> {
@@ -382,7 +396,11 @@ fn sides<'a>(
         let speed = rel.linvel.norm()
             + rel.angvel.norm() * s.bvh().max_norm
             + rel.angvel_planes.norm() * reach;
-        let t = reach_distance(eps3, speed, dissipation_velocity, friction)?;
+        // The springs rest at the margin: the reach distance counts from there.
+        let t = margin + reach_distance(eps3, speed, dissipation_velocity, friction)?;
+        if !t.is_finite() {
+            return None;
+        }
         out.0[k] = Some((
             k,
             Side {
@@ -504,12 +522,22 @@ pub fn out_of_reach_kept(
     rels: &[Relative<f64>; 2],
     eps1: f64,
     eps3: f64,
+    margin: f64,
     dissipation_velocity: f64,
     friction: f64,
     kept: &mut Option<KeptReach>,
     life: f64,
 ) -> bool {
-    let Some(sides) = sides(a, b, rels, eps1, eps3, dissipation_velocity, friction) else {
+    let Some(sides) = sides(
+        a,
+        b,
+        rels,
+        eps1,
+        eps3,
+        margin,
+        dissipation_velocity,
+        friction,
+    ) else {
         *kept = None;
         return false;
     };

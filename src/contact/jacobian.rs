@@ -60,10 +60,10 @@ pub(super) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// `λ` of [`point_plane_force`] (`f64`) with its exact derivatives `∂λ/∂φ` (with `φ = nᵀr`)
-/// and `∂λ/∂v` (3×3), hand-derived: `λ = c(φ) d(s) e` with `c = k s⁺_ε3(-φ)`,
+/// and `∂λ/∂v` (3×3), hand-derived: `λ = c(φ) d(s) e` with `c = k s⁺_ε3(m - φ)`,
 /// `s = nᵀv/V`, `V = v_d (1 + c/F_d)`, `e = n - μ u`, `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`.
 /// The spring moves `s` too (`∂s/∂c = -s/(F_d + c)`), so
-/// `∂λ/∂φ = c'(φ) (d - c s d'(s)/(F_d + c)) e` with `c' = -k / (1 + exp(φ/ε3))` (the second
+/// `∂λ/∂φ = c'(φ) (d - c s d'(s)/(F_d + c)) e` with `c' = -k / (1 + exp((φ - m)/ε3))` (the second
 /// term vanishes for an infinite `F_d`), and
 /// `∂λ/∂v = c (d'(s)/V) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)`.
 pub fn point_plane_force_jacobian(
@@ -83,6 +83,7 @@ pub fn point_plane_force_jacobian_at(
     v: &Vector3<f64>,
     prm: &ContactParams<f64>,
 ) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
+    let phi = phi - prm.margin;
     if phi > 746.0 * prm.eps3 {
         return (Vector3::zeros(), Vector3::zeros(), Matrix3::zeros());
     }

@@ -9,7 +9,7 @@ use crate::collision::{
     band_of, separation_field_naive, terms_budget, Collider, Frame, KeptCandidates, Relative,
     SeparationBand, SeparationDistribution,
 };
-use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant};
+use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
 use crate::geometry::Aopc;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, PRUNE_TOLERANCE};
 use nalgebra::{Matrix3, Vector3};
@@ -246,7 +246,10 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         rels,
         prm.eps1,
         prm.eps2,
-        prm.eps3.re(),
+        SpringShape {
+            eps3: prm.eps3.re(),
+            margin: prm.margin.re(),
+        },
         keep_terms,
         scratch,
         grads,
@@ -283,7 +286,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
                     o,
                     &x,
                     prm.eps1,
-                    0.0,
+                    SpringShape::NONE,
                     low,
                     scratch,
                     &mut NoSink,

@@ -96,6 +96,12 @@ pub struct ContactParams<T> {
     /// (docs/method.md, departure 4). Infinite: the paper's law, `v_d` at every depth. A
     /// pair's own value ([`crate::model::Pair`]), not an FMU parameter.
     pub dissipation_force: T,
+    /// Contact margin m (m): the distance from the surface at which the spring rests. The
+    /// spring reads `φ - m`, so a pair pushes from `m` outside the surface on, as MuJoCo's
+    /// contact acts from its `includemargin` (the sum of the two geoms' `margin`, or a
+    /// `<pair margin>`; docs/mjcf.md). 0: the paper's law. A pair's own value
+    /// ([`crate::model::Pair`]), not an FMU parameter.
+    pub margin: T,
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
 }
@@ -111,6 +117,7 @@ impl Default for ContactParams<f64> {
             stiction_velocity: 1e-2,
             friction: 0.5,
             dissipation_force: f64::INFINITY,
+            margin: 0.0,
             dissipation: Dissipation::Paper,
         }
     }
@@ -139,6 +146,7 @@ impl<T: Scalar> ContactParams<T> {
             stiction_velocity: self.stiction_velocity.re(),
             friction: self.friction.re(),
             dissipation_force: self.dissipation_force.re(),
+            margin: self.margin.re(),
             dissipation: self.dissipation,
         }
     }
@@ -156,6 +164,7 @@ impl ContactParams<f64> {
             stiction_velocity: c(self.stiction_velocity),
             friction: c(self.friction),
             dissipation_force: c(self.dissipation_force),
+            margin: c(self.margin),
             dissipation: self.dissipation,
         }
     }

@@ -22,7 +22,8 @@ pub fn point_plane_force<T: Scalar>(
 }
 
 /// [`point_plane_force`] given the distance `phi` the spring reads (the plane's `nᵀr`, or that
-/// raised to the floor of the plane body's polytope, [`crate::geometry::polytope`]).
+/// raised to the floor of the plane body's polytope, [`crate::geometry::polytope`]), less the
+/// pair's margin ([`ContactParams::margin`]).
 #[inline]
 pub fn point_plane_force_at<T: Scalar>(
     phi: T,
@@ -30,6 +31,8 @@ pub fn point_plane_force_at<T: Scalar>(
     v: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
+    // The spring reads the distance past the margin, where it rests.
+    let phi = phi - prm.margin;
     // Far outside the plane the spring term underflows to exactly zero, and the whole force
     // (normal and friction both scale with it) with it: return that zero without the work.
     if phi.re() > 746.0 * prm.eps3.re() {

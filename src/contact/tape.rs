@@ -184,7 +184,7 @@ impl PairTape {
                         o,
                         &x,
                         prm.eps1,
-                        0.0,
+                        SpringShape::NONE,
                         f64::NEG_INFINITY,
                         &scratch,
                         &mut NoSink,

@@ -1,6 +1,7 @@
 //! Tests of the contact forces.
 
 use super::*;
+use jacobian::point_plane_force_jacobian_at;
 use num_dual::Dual64;
 
 #[test]
@@ -38,12 +39,14 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     // dissipation's kinks (s < 0, 0 < s < 2, s > 2), pressed and separated, sliding and
     // nearly at rest, for both dissipation laws.
     // With a finite dissipation force (2 N and 20 N: the spring pushes with 10 N at 1 mm) the
-    // spring moves the factor's argument too.
+    // spring moves the factor's argument too. With a 4 mm margin the same readings 4 mm
+    // farther out, and the force is the unshifted one at `φ - m`, to the bit.
     let n = Vector3::new(0.2, -0.3, 0.9).normalize();
     let laws = [Dissipation::Paper, Dissipation::Smooth]
         .into_iter()
-        .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)));
-    for (dissipation, dissipation_force) in laws {
+        .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)))
+        .flat_map(|(d, f)| [0.0, 4e-3].map(|m| (d, f, m)));
+    for (dissipation, dissipation_force, margin) in laws {
         let prm = ContactParams {
             eps3: 1e-4,
             stiffness: 1e4,
@@ -52,6 +55,7 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             friction: 0.5,
             dissipation,
             dissipation_force,
+            margin,
             ..ContactParams::default()
         };
         for (depth, vn, vt) in [
@@ -63,10 +67,21 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
         ] {
             let t = n.cross(&Vector3::x()).normalize();
             let (r, v) = (
-                n * -depth + t * 0.01,
+                n * (margin - depth) + t * 0.01,
                 n * vn + t * vt + n.cross(&t) * 0.2 * vt,
             );
             let (lambda, dphi, dv) = point_plane_force_jacobian(&r, &n, &v, &prm);
+            let phi = n.dot(&r);
+            let unshifted = ContactParams { margin: 0.0, ..prm };
+            assert_eq!(
+                point_plane_force_at(phi, &n, &v, &prm),
+                point_plane_force_at(phi - margin, &n, &v, &unshifted),
+                "a margin is a shift of the reading"
+            );
+            assert_eq!(
+                point_plane_force_jacobian_at(phi, &n, &v, &prm),
+                point_plane_force_jacobian_at(phi - margin, &n, &v, &unshifted)
+            );
             assert!((lambda - point_plane_force(&r, &n, &v, &prm)).norm() <= 1e-15 * lambda.norm());
             // Near s = 2 the factor is a cancellation of terms of order 1, so its round-off
             // (a few ε) times the spring's slope (at most k) sets a floor under the scale.

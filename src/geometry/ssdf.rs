@@ -363,8 +363,9 @@ impl GradientSink {
 /// The SSDF of `p` (AOPC frame) over the points `rel` found relevant at its real part:
 /// `(φ̂, Σ_i w_i)` with `w_i = exp(-(d_i - d_min)/ε1)`.
 ///
-/// With `eps3 > 0` it also bounds, from real parts, the point–plane springs these planes would
-/// exert on `p` (see [`SpringBound`]); with `eps3 = 0` that bound is left infinite. With
+/// With `spring.eps3 > 0` it also bounds, from real parts, the point–plane springs these
+/// planes would exert on `p` (see [`SpringBound`]); with [`SpringShape::NONE`] that bound is
+/// left infinite. With
 /// `terms`, each term's leaf-order index and weight `w_i` are pushed in summation order (the
 /// point–SSDF force at `p` sums the same terms with the same weights; `contact`). `floor`: a
 /// lower bound of every distance the springs read at `p` (the polytope's floor,
@@ -375,7 +376,7 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     s: &Aopc,
     p: &Vector3<T>,
     eps1: T,
-    eps3: f64,
+    spring: SpringShape,
     floor: f64,
     rel: &Relevant,
     sink: &mut S,
@@ -384,15 +385,15 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     let bvh = s.bvh();
     let mut sum = SoftminSum::new(c(rel.dmin), eps1);
     let mut acc = T::zero();
-    let mut springs = SpringBound::new(rel.dmin, eps1.re(), eps3);
+    let mut springs = SpringBound::new(rel.dmin, eps1.re(), spring.eps3);
     for &(k, d) in &rel.items {
         let (q, n) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
         let r = p - lift3::<T>(q);
         let w = sum.add(r.dot(&r));
         let phi = r.x * n.x + r.y * n.y + r.z * n.z;
         acc += w * phi;
-        if eps3 > 0.0 {
-            springs.add(d, w.re(), phi.re().max(floor));
+        if spring.eps3 > 0.0 {
+            springs.add(d, w.re(), phi.re().max(floor) - spring.margin);
         }
         if S::ON {
             sink.term(w.re(), &re3(&r), n, phi.re());
@@ -409,9 +410,28 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     )
 }
 
+/// What the spring bounds need of the point–plane spring `k s⁺_ε3(m - φ)`: its softplus
+/// temperature and the margin `m` at which it rests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringShape {
+    /// ε3 (m); not positive: no bound is kept.
+    pub eps3: f64,
+    /// The margin (m; 0: the paper's spring, resting on the surface).
+    pub margin: f64,
+}
+
+impl SpringShape {
+    /// No spring to bound (the SSDF alone).
+    pub const NONE: SpringShape = SpringShape {
+        eps3: 0.0,
+        margin: 0.0,
+    };
+}
+
 /// An upper bound of `Σ_i σ_i s⁺_ε3(-φ_i)` (m) over the terms of an SSDF sum, `σ_i` its
 /// softmax weights and `φ_i = n_iᵀ(p - p_i)`: with the stiffness, it bounds every point–plane
-/// spring of the point–SSDF force at `p` (the contact's force pruning). From real parts, with
+/// spring of the point–SSDF force at `p` (the contact's force pruning; with a margin `m`, each
+/// `φ_i` is given less `m`). From real parts, with
 /// `s⁺_ε(-φ) ≤ ε exp(-φ/ε)` for `φ ≥ 0` (kept as the exponent `-(d_i - d_min)/ε1 - φ_i/ε3`
 /// of `w_i exp(-φ_i/ε3)`, so no `exp` per term) and `≤ -φ + ε ln 2` for `φ < 0`; the sum is at
 /// most the number of terms times the largest.
@@ -485,7 +505,16 @@ pub fn ssdf_weights_sum<T: Scalar>(s: &Aopc, p: &Vector3<T>, eps1: T) -> (T, T) 
     }
     let mut rel = Relevant::default();
     rel.find(s, &re3(p), eps1.re(), usize::MAX);
-    let (phi, w, _) = ssdf_over(s, p, eps1, 0.0, f64::NEG_INFINITY, &rel, &mut NoSink, None);
+    let (phi, w, _) = ssdf_over(
+        s,
+        p,
+        eps1,
+        SpringShape::NONE,
+        f64::NEG_INFINITY,
+        &rel,
+        &mut NoSink,
+        None,
+    );
     (phi, w)
 }
 

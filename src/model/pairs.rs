@@ -35,11 +35,14 @@ pub struct Pair {
     /// `None` where the scene's `scm_stiffness` or `scm_dissipation_velocity` replaces the
     /// pairs' laws: the pair uses the contact parameter (infinite by default).
     pub dissipation_force: Option<f64>,
+    /// The pair's contact margin (m; [`ContactParams::margin`]): MuJoCo's `includemargin`,
+    /// the sum of its geoms' `margin` or a `<pair>`'s own (docs/mjcf.md). 0: none.
+    pub margin: f64,
 }
 
 impl Pair {
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
-    /// dissipation velocity and dissipation force where it has them.
+    /// dissipation velocity and dissipation force where it has them, and its margin.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
         ContactParams {
@@ -47,6 +50,7 @@ impl Pair {
             stiffness: own(self.stiffness, prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
+            margin: c(self.margin),
             ..*prm
         }
     }
@@ -301,6 +305,7 @@ impl Model {
                 &rels,
                 p.eps1,
                 p.eps3,
+                p.margin,
                 p.dissipation_velocity,
                 p.friction,
                 kept,
@@ -313,6 +318,7 @@ impl Model {
                 &rels,
                 p.eps1,
                 p.eps3,
+                p.margin,
                 p.dissipation_velocity,
                 p.friction,
             ),

@@ -251,7 +251,14 @@ impl Builder {
             pairs
                 .iter()
                 .zip(laws)
-                .filter_map(|(p, law)| Some((name(p.a), name(p.b), law?)))
+                .filter_map(|(p, law)| {
+                    Some(CompiledPair {
+                        body1: name(p.a),
+                        body2: name(p.b),
+                        margin: p.margin,
+                        law: law?,
+                    })
+                })
                 .collect()
         } else {
             vec![]

@@ -195,9 +195,11 @@ impl Builder {
         let mut explicit = Vec::new();
         let mut explicit_geoms = Vec::new();
         let mut explicit_friction = Vec::new();
+        let mut explicit_margin = Vec::new();
         for ExplicitPair {
             geoms: [g1, g2],
             friction,
+            margin,
             line,
             ..
         } in &self.explicit_pairs
@@ -226,6 +228,7 @@ impl Builder {
             explicit.push((x.min(y), x.max(y)));
             explicit_geoms.push((i, j));
             explicit_friction.push(((x.min(y), x.max(y)), *friction));
+            explicit_margin.push(((x.min(y), x.max(y)), *margin));
         }
         let rules = filter::Rules {
             bodies: &self.bodies,
@@ -281,8 +284,14 @@ impl Builder {
                 let own = explicit_friction
                     .iter()
                     .find(|(k, _)| *k == (a, b))
-                    .and_then(|(_, f)| *f);
+                    .and_then(|(_, f)| *f)
+                    .filter(|_| !self.flags.override_contacts);
                 let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
+                let margin = match explicit_margin.iter().find(|(k, _)| *k == (a, b)) {
+                    _ if self.flags.override_contacts => self.contact_override.margin,
+                    Some((_, m)) => *m,
+                    None => self.geom_margin(a, b, &colliding),
+                };
                 Pair {
                     a,
                     b,
@@ -290,6 +299,7 @@ impl Builder {
                     stiffness: None,
                     dissipation_velocity: None,
                     dissipation_force: None,
+                    margin,
                 }
             })
             .collect();
@@ -304,7 +314,25 @@ impl Builder {
         if self.numeric.iter().any(|(n, _, _)| n == "scm_friction") {
             return None;
         }
+        let over = self
+            .flags
+            .override_contacts
+            .then_some(self.contact_override.friction);
         let combine = |x: &Geom, y: &Geom| {
+            if let Some(mu) = over {
+                // MuJoCo's override replaces the friction, not the condim.
+                let frictionless = if x.softness.priority != y.softness.priority {
+                    let g = if x.softness.priority > y.softness.priority {
+                        x
+                    } else {
+                        y
+                    };
+                    g.condim == 1
+                } else {
+                    x.condim == 1 && y.condim == 1
+                };
+                return if frictionless { 0.0 } else { mu };
+            }
             let (px, py) = (x.softness.priority, y.softness.priority);
             if px != py {
                 // The geom of higher priority gives its friction and condim whole.
@@ -339,6 +367,30 @@ impl Builder {
             ));
         }
         Some(mu.unwrap_or(1.0))
+    }
+
+    /// A body pair's margin from its geoms as MuJoCo combines them: the sum of the two geoms'
+    /// `margin` (whatever their priority); over a body's geoms, the largest, with a warning
+    /// where they differ (SCM's contact acts between whole bodies).
+    pub(super) fn geom_margin(&mut self, a: usize, b: usize, colliding: &[bool]) -> f64 {
+        let values: Vec<f64> = self
+            .geom_pairs(a, b, colliding)
+            .into_iter()
+            .map(|(x, y)| x.margin + y.margin)
+            .collect();
+        let largest = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if values.iter().any(|&v| v != largest) {
+            let (na, nb) = (&self.bodies[a].name, &self.bodies[b].name);
+            self.warnings.push(format!(
+                "bodies '{na}' and '{nb}': their geoms' margins add up to different values ({}); SCM's contact acts between whole bodies and uses the largest, {largest} m",
+                values.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        if largest.is_finite() {
+            largest
+        } else {
+            0.0
+        }
     }
 
     /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
@@ -387,6 +439,7 @@ impl Builder {
                         c,
                         &[
                             "name", "geom1", "geom2", "friction", "condim", "solref", "solimp",
+                            "margin",
                         ],
                     )?;
                     let friction = match c.attr("friction").map(parse_floats) {
@@ -409,10 +462,12 @@ impl Builder {
                         .attr("geom2")
                         .ok_or_else(|| self.err(c, "geom2 is required"))?;
                     let softness = self.softness(c, contact::Softness::default())?;
+                    let margin = self.float(c, "margin")?.unwrap_or(0.0);
                     self.explicit_pairs.push(ExplicitPair {
                         geoms: [g1.into(), g2.into()],
                         friction,
                         softness,
+                        margin,
                         line: c.line,
                     });
                 }

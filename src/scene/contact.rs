@@ -11,10 +11,21 @@ impl Builder {
     /// The `solref` and `solimp` of `el` over `base` (the values not written; MuJoCo reads
     /// fewer entries than the full two and five and keeps the rest).
     pub(super) fn softness(&self, el: &Element, base: Softness) -> Result<Softness, SceneError> {
+        self.softness_named(el, base, ["solref", "solimp"])
+    }
+
+    /// [`Builder::softness`] from the attributes named `names` (`<option>`'s `o_solref` and
+    /// `o_solimp`).
+    fn softness_named(
+        &self,
+        el: &Element,
+        base: Softness,
+        names: [&str; 2],
+    ) -> Result<Softness, SceneError> {
         let mut out = base;
         for (name, slot) in [
-            ("solref", &mut out.solref[..]),
-            ("solimp", &mut out.solimp[..]),
+            (names[0], &mut out.solref[..]),
+            (names[1], &mut out.solimp[..]),
         ] {
             let Some(text) = el.attr(name) else { continue };
             match parse_floats(text) {
@@ -30,6 +41,29 @@ impl Builder {
             }
         }
         Ok(out)
+    }
+
+    /// `<option>`'s contact override values (`o_margin`, `o_solref`, `o_solimp`, the sliding
+    /// friction of `o_friction`), which act under `<flag override="enable">`.
+    pub(super) fn contact_override(&mut self, el: &Element) -> Result<(), SceneError> {
+        let mut o = self.contact_override;
+        if let Some(m) = self.float(el, "o_margin")? {
+            o.margin = m;
+        }
+        o.softness = self.softness_named(el, o.softness, ["o_solref", "o_solimp"])?;
+        if let Some(text) = el.attr("o_friction") {
+            match parse_floats(text) {
+                Some(v) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => o.friction = v[0],
+                _ => {
+                    return Err(self.err(
+                        el,
+                        format!("o_friction=\"{text}\": expected 1 to 5 non-negative numbers"),
+                    ))
+                }
+            }
+        }
+        self.contact_override = o;
+        Ok(())
     }
 
     /// The file's integrator as SCM runs it: `scm_integrator` over `<option integrator>`, over
@@ -115,6 +149,7 @@ impl Builder {
                 let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe, per_weight);
                 let candidates: Vec<PairLaw> =
                     match explicit.iter().find(|(k, _)| *k == (pair.a, pair.b)) {
+                        _ if self.flags.override_contacts => vec![law(self.contact_override.softness)],
                         Some((_, s)) => vec![law(*s)],
                         None => self
                             .geom_pairs(pair.a, pair.b, colliding)
@@ -186,6 +221,28 @@ impl Default for Softness {
         Softness {
             solref: [0.02, 1.0],
             solimp: [0.9, 0.95, 0.001, 0.5, 2.0],
+        }
+    }
+}
+
+/// `<option>`'s `o_margin`, `o_solref`, `o_solimp` and `o_friction` (its sliding friction),
+/// which replace every contact's own under `<flag override="enable">`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactOverride {
+    /// `o_margin` (m, default 0).
+    pub margin: f64,
+    /// `o_solref` and `o_solimp` (MuJoCo's defaults).
+    pub softness: Softness,
+    /// `o_friction`'s first entry (default 1).
+    pub friction: f64,
+}
+
+impl Default for ContactOverride {
+    fn default() -> Self {
+        ContactOverride {
+            margin: 0.0,
+            softness: Softness::default(),
+            friction: 1.0,
         }
     }
 }

@@ -25,6 +25,7 @@ impl Builder {
                 "solimp",
                 "solmix",
                 "priority",
+                "margin",
                 "mesh",
                 "fluidshape",
                 "fluidcoef",
@@ -87,6 +88,7 @@ impl Builder {
                 .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6")))?,
         };
         let softness = self.geom_softness(el)?;
+        let margin = self.float(el, "margin")?.unwrap_or(0.0);
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         let kind = el.attr("type").unwrap_or("sphere");
         let fromto = self.floats(el, "fromto", 6)?;
@@ -313,6 +315,7 @@ impl Builder {
             friction,
             condim,
             softness,
+            margin,
             file: el.file.to_string(),
             line: el.line,
             spacing: None,

@@ -13,7 +13,7 @@
 //! mixed `solref` and `solimp`, effective mass (`1 / (w₁ + w₂)`), MuJoCo's resting depth and
 //! SCM's stiffness and dissipation velocity from them (docs/mjcf.md).
 
-use super::{Compiled, Geom};
+use super::{Compiled, CompiledPair, Geom};
 use crate::dynamics::tendon::TendonLaw;
 use crate::dynamics::JointKind;
 use crate::geometry::Shape;
@@ -66,7 +66,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         "contype": g.contype, "conaffinity": g.conaffinity,
         "friction": g.friction, "condim": g.condim,
         "solref": g.softness.softness.solref, "solimp": g.softness.softness.solimp,
-        "solmix": g.softness.solmix, "priority": g.softness.priority,
+        "solmix": g.softness.solmix, "priority": g.softness.priority, "margin": g.margin,
     })
 }
 
@@ -246,8 +246,8 @@ impl Compiled {
             "joints": joints,
             "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
             "actuators": actuators,
-            "pairs": self.pair_laws.iter().map(|(a, b, law)| json!({
-                "body1": a, "body2": b,
+            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, law }| json!({
+                "body1": body1, "body2": body2, "margin": margin,
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
                 "mass": law.mass, "mujoco_depth": law.depth,
                 "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,

@@ -58,13 +58,15 @@ pub struct SceneError {
     pub message: String,
 }
 
-/// A `<pair>` as read: its geoms, its own friction if given, its `solref` and `solimp` (its
-/// own or its default class's: MuJoCo does not take a pair's from its geoms), its line.
+/// A `<pair>` as read: its geoms, its own friction if given, its `solref` and `solimp` and its
+/// `margin` (its own or its default class's, 0 if neither: MuJoCo does not take a pair's from
+/// its geoms), its line.
 #[derive(Clone, Debug)]
 struct ExplicitPair {
     geoms: [String; 2],
     friction: Option<f64>,
     softness: contact::Softness,
+    margin: f64,
     line: usize,
 }
 
@@ -171,6 +173,9 @@ pub struct Geom {
     /// `solref`, `solimp`, `solmix` and `priority`, which size its contacts' stiffness and
     /// damping ([`contact`]).
     pub softness: contact::GeomSoftness,
+    /// `margin` (m, default 0): the geom's share of its contacts' margin (MuJoCo adds the two
+    /// geoms', [`crate::model::Pair::margin`]).
+    pub margin: f64,
     /// The file that declares the geom.
     pub file: String,
     /// Its line there.
@@ -290,9 +295,22 @@ pub struct Compiled {
     pub unused: Vec<String>,
     /// Accepted but modelled differently from MuJoCo.
     pub warnings: Vec<String>,
-    /// Each contact pair's bodies and its law from `solref` and `solimp` (none where the
+    /// Each contact pair's bodies, margin and law from `solref` and `solimp` (none where the
     /// scene's `scm_stiffness` or `scm_dissipation_velocity` applies, or contact is off).
-    pub pair_laws: Vec<(String, String, contact::PairLaw)>,
+    pub pair_laws: Vec<CompiledPair>,
+}
+
+/// A contact pair of a [`Compiled`] model: its bodies' names, its margin (m) and its law.
+#[derive(Clone, Debug)]
+pub struct CompiledPair {
+    /// The first body.
+    pub body1: String,
+    /// The second body.
+    pub body2: String,
+    /// Its margin (m; [`crate::model::Pair::margin`]).
+    pub margin: f64,
+    /// Its stiffness and damping from `solref` and `solimp`.
+    pub law: contact::PairLaw,
 }
 
 /// Compiles a scene file without building colliders and without refusing: see [`Compiled`].
@@ -368,6 +386,9 @@ struct Builder {
     gravity: Vector3<f64>,
     timestep: Option<f64>,
     option_integrator: Option<Integrator>,
+    /// `<option>`'s `o_margin`, `o_solref`, `o_solimp` and `o_friction`, which every contact
+    /// takes under `<flag override="enable">`.
+    contact_override: contact::ContactOverride,
     /// `<custom><numeric>` and `<text>` SCM settings: name, value, where they were read.
     numeric: Vec<(String, f64, Place)>,
     text: Vec<(String, String, Place)>,
@@ -546,6 +567,7 @@ impl Builder {
             gravity: Vector3::new(0.0, 0.0, -9.81),
             timestep: None,
             option_integrator: None,
+            contact_override: contact::ContactOverride::default(),
             numeric: vec![],
             text: vec![],
             names: names::Names::default(),

@@ -64,6 +64,9 @@ pub(super) struct Flags {
     /// MuJoCo's `refsafe`: a constraint's time constant (contacts, limits, equalities) held at
     /// no less than twice the step.
     pub(super) refsafe: bool,
+    /// MuJoCo's `override` (off by default): every contact takes `<option>`'s `o_margin`,
+    /// `o_solref`, `o_solimp` and `o_friction` instead of its geoms' or pair's.
+    pub(super) override_contacts: bool,
 }
 
 impl Default for Flags {
@@ -81,6 +84,7 @@ impl Default for Flags {
             clampctrl: true,
             eulerdamp: true,
             refsafe: true,
+            override_contacts: false,
         }
     }
 }
@@ -96,11 +100,11 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("user", "user data"),
     (
         "margin",
-        "MuJoCo's contact activation distance; SCM's smooth contact has none and does not shift the surface",
+        "MuJoCo's activation distance of a joint's or tendon's limit; SCM's limits act from the limit itself (a geom's or pair's margin is read: it shifts the contact)",
     ),
     (
         "gap",
-        "MuJoCo's contact activation distance; SCM's smooth contact has none",
+        "MuJoCo's inactive contacts, listed in its mjData.contact with no force; SCM keeps no such list",
     ),
     (
         "solref",
@@ -138,10 +142,6 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("jacobian", "MuJoCo's constraint solver"),
     ("solver", "MuJoCo's constraint solver"),
     ("apirate", "MuJoCo's remote API"),
-    ("o_margin", "MuJoCo's contact override"),
-    ("o_solref", "MuJoCo's contact override"),
-    ("o_solimp", "MuJoCo's contact override"),
-    ("o_friction", "MuJoCo's contact override"),
     ("actuatorgroupdisable", "MuJoCo's actuator groups"),
     ("texturedir", "renderer"),
     ("inertiagrouprange", "read"),
@@ -312,6 +312,10 @@ impl Builder {
                 "viscosity",
                 "wind",
                 "magnetic",
+                "o_margin",
+                "o_solref",
+                "o_solimp",
+                "o_friction",
             ],
         )?;
         if let Some(t) = self.float(el, "timestep")? {
@@ -350,6 +354,7 @@ impl Builder {
                 "wind (acts only through fluid forces, off here: density and viscosity are 0)",
             );
         }
+        self.contact_override(el)?;
         match el.attr("integrator") {
             None => {}
             // MuJoCo's "Euler" is semi-implicit in velocity, with joint damping implicit
@@ -398,6 +403,7 @@ impl Builder {
                 "clampctrl" => f.clampctrl = on,
                 "eulerdamp" => f.eulerdamp = on,
                 "refsafe" => f.refsafe = on,
+                "override" => f.override_contacts = on,
                 "constraint" => {
                     // Every constraint: contacts, limits, equalities, friction loss.
                     f.contact &= on;
@@ -407,8 +413,7 @@ impl Builder {
                 }
                 "passive" => return Err(self.err(el, "flag passive was MuJoCo 2's; MuJoCo 3 and 4 refuse it: use spring=\"disable\" damper=\"disable\"")),
                 "warmstart" | "energy" | "sensor" | "midphase" | "island" | "nativeccd"
-                | "multiccd" | "fwdinv" | "invdiscrete" | "autoreset" | "override"
-                | "sleep" | "diagexact" | "speculative" | "ipc" => {
+                | "multiccd" | "fwdinv" | "invdiscrete" | "autoreset" | "sleep" | "diagexact" | "speculative" | "ipc" => {
                     let why = format!("flag {k} (MuJoCo's solver and pipeline)");
                     self.unused(el, why);
                 }

@@ -160,3 +160,55 @@ def test_a_dissipation_force_out_of_range_or_without_effect_is_said(both):
     assert run.returncode == 0, run.stderr
     warnings = json.loads(run.stdout)["warnings"]
     assert any("scm_dissipation_force" in w and "no effect" in w for w in warnings), warnings
+
+
+MARGINS = """<mujoco>
+  <option timestep="0.002" {option}>{flag}</option>
+  <default><pair margin="0.003"/></default>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1" margin="0.002" gap="0.001"/>
+    <body name="summed" pos="0 0 0.05"><freejoint/>
+      <geom type="sphere" size="0.05" margin="0.004"/></body>
+    <body name="priority" pos="0.2 0 0.05"><freejoint/>
+      <geom type="sphere" size="0.05" priority="2" solmix="5" margin="0.001"/></body>
+    <body name="explicit" pos="0.4 0 0.05"><freejoint/>
+      <geom name="alone" type="sphere" size="0.05" margin="0.02" contype="0" conaffinity="0"/></body>
+    <body name="own" pos="0.6 0 0.05"><freejoint/>
+      <geom name="own" type="sphere" size="0.05" margin="0.02" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <contact><pair geom1="floor" geom2="alone"/><pair geom1="floor" geom2="own" margin="0.007"/></contact>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("override", [False, True])
+def test_pairs_margins_are_mujocos(override, tmp_path):
+    """Each pair's margin is MuJoCo's `includemargin` on the same file: the sum of the two geoms'
+    `margin` whatever their priority or solmix, a `<pair>`'s own (its default class's, not its
+    geoms'), and under `<flag override="enable">` the option's `o_margin` for every contact, a
+    pair's included (with `o_solref`, `o_solimp` and `o_friction`). A geom's `gap` changes
+    nothing MuJoCo's solver sees (its inactive contacts only)."""
+    option, flag = ('o_margin="0.005" o_solref="0.03 1.1" o_friction="0.4"',
+                    '<flag override="enable"/>') if override else ("", "")
+    path = tmp_path / "margins.xml"
+    path.write_text(MARGINS.format(option=option, flag=flag))
+    compiled = json.loads(subprocess.run([str(SCM), "compile", str(path)], capture_output=True,
+                                         text=True, check=True).stdout)
+    ours = {p["body2"]: p for p in compiled["pairs"] if p["body1"] == "world"}
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    seen = set()
+    for c in d.contact[:d.ncon]:
+        body = m.body(max(m.geom_bodyid[g] for g in c.geom)).name
+        assert ours[body]["margin"] == pytest.approx(c.includemargin, abs=1e-15), body
+        np.testing.assert_allclose(ours[body]["solref"], c.solref, rtol=1e-12, err_msg=body)
+        seen.add(body)
+    assert seen == {"summed", "priority", "explicit", "own"}, seen
+    expected = {"summed": 0.006, "priority": 0.003, "explicit": 0.003, "own": 0.007}
+    for body, margin in expected.items():
+        assert ours[body]["margin"] == pytest.approx(0.005 if override else margin), body
+    check = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True).stdout
+    line = next(l for l in check.splitlines() if l.startswith("pair world - summed"))
+    assert f"margin {0.005 if override else 0.006} m" in line, line
+    assert ("friction 0.4" in line) == override, line

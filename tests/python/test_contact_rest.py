@@ -146,3 +146,31 @@ def test_a_sphere_rests_deeper_by_the_separation_distributions_band(tmp_path):
     depth = 0.05 - run[-1, 1]
     print(f"sphere at eps2 = 1 mm: {depth * 1e3:.4f} mm, predicted {delta * 1e3:.4f} mm")
     assert abs(depth - delta) < 2e-5, (depth, delta)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_margins_hold_bodies_off_the_floor_as_in_mujoco(shape, tmp_path):
+    """MuJoCo's `margin`: a contact acts from the sum of its geoms' margins (the floor's 2 mm
+    and the body's 4 mm here) and the body rests that far above the floor, less its resting
+    depth. SCM's springs rest at the pair's margin (docs/mjcf.md): against a plane that is an
+    exact shift, so each body rests 6 mm higher than without margins, as deep below that as
+    without, and within the same tolerance of MuJoCo as the resting test above."""
+    half, margin = SHAPES[shape][1], 0.006
+
+    def with_margins(xml):
+        return (xml.replace('size="1 1 0.1"/>', 'size="1 1 0.1" margin="0.002"/>')
+                .replace('mass="1.0"/>', 'mass="1.0" margin="0.004"/>')
+                .replace(f'pos="0 0 {half + 0.0005}"', f'pos="0 0 {half + margin + 0.0005}"'))
+
+    xml = with_margins(scene(shape, 1.0))
+    assert xml.count("margin=") == 2, xml
+    m = mujoco.MjModel.from_xml_string(xml)
+    mj, _ = mujoco_heights(xml)
+    ours = scm_heights(with_margins(scene(shape, 1.0, FINE)), tmp_path)
+    plain = scm_heights(scene(shape, 1.0, FINE), tmp_path)
+    assert m.geom_margin.sum() == pytest.approx(margin)
+    mj_depth, depth = (half + margin - mj[-1, 1]), (half + margin - ours[-1, 1])
+    print(f"{shape} with a {margin * 1e3:.0f} mm margin: SCM {depth * 1e3:.4f} mm, "
+          f"MuJoCo {mj_depth * 1e3:.4f} mm below it")
+    assert abs(depth - mj_depth) <= max(0.2 * mj_depth, 3e-4), (depth, mj_depth)
+    assert abs(depth - (half - plain[-1, 1])) < 1e-7, (depth, half - plain[-1, 1])

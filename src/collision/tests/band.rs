@@ -2,6 +2,7 @@
 //! pair's memory.
 
 use super::*;
+use crate::geometry::ssdf::SpringShape;
 
 #[test]
 fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
@@ -41,7 +42,10 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             &rels,
             eps1,
             eps2,
-            1e-4,
+            SpringShape {
+                eps3: 1e-4,
+                margin: 0.0,
+            },
             usize::MAX,
             &mut Relevant::default(),
             None,
@@ -163,7 +167,10 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                     &rels,
                     eps1,
                     eps2,
-                    1e-4,
+                    SpringShape {
+                        eps3: 1e-4,
+                        margin: 0.0,
+                    },
                     usize::MAX,
                     &mut Relevant::default(),
                     None,
@@ -204,7 +211,10 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             &last.unwrap(),
             2.0 * eps1,
             eps2,
-            1e-4,
+            SpringShape {
+                eps3: 1e-4,
+                margin: 0.0,
+            },
             usize::MAX,
             &mut Relevant::default(),
             None,
@@ -316,7 +326,10 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
             &rels,
             1e-6,
             2e-4,
-            1e-4,
+            SpringShape {
+                eps3: 1e-4,
+                margin: 0.0,
+            },
             usize::MAX,
             &mut Relevant::default(),
             Some(grads),
@@ -380,7 +393,10 @@ fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
                 &rels,
                 eps1,
                 1e-3,
-                1e-4,
+                SpringShape {
+                    eps3: 1e-4,
+                    margin: 0.0,
+                },
                 terms_budget(&a, &b),
                 &mut Relevant::default(),
                 None,
