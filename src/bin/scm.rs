@@ -474,9 +474,20 @@ fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         } else {
             String::new()
         };
+        let floor = match p.friction {
+            _ if p.stiction_floor == 0.0 => String::new(),
+            Some(mu) => format!(
+                ", stiction velocity at least {:.4e} m/s (h mu g)",
+                p.stiction_floor * mu
+            ),
+            None => format!(
+                ", stiction velocity at least {:.4e} m/s times scm.friction (h g)",
+                p.stiction_floor
+            ),
+        };
         say!(
             w,
-            "pair {} - {}: friction {friction}{margin}, {law}",
+            "pair {} - {}: friction {friction}{margin}{floor}, {law}",
             m.tree.bodies[p.a].name,
             m.tree.bodies[p.b].name
         );

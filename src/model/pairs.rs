@@ -38,15 +38,31 @@ pub struct Pair {
     /// The pair's contact margin (m; [`ContactParams::margin`]): MuJoCo's `includemargin`,
     /// the sum of its geoms' `margin` or a `<pair>`'s own (docs/mjcf.md). 0: none.
     pub margin: f64,
+    /// The pair's stiction floor per unit of friction coefficient (s·m/s² = m/s; 0: none):
+    /// its stiction velocity is at least this times its friction coefficient, whatever the
+    /// contact parameter says (above it the parameter acts). `κ h g` under an integrator that
+    /// takes the friction explicitly (`h` the file's step, `g` the gravity, κ the scene's
+    /// `scm_stiction_floor` or 1), so that the friction's slope at zero slip, `μ N / v_s`,
+    /// stays within what the integrator carries at that step (docs/mjcf.md, "Stiction floor").
+    pub stiction_floor: f64,
 }
 
 impl Pair {
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
-    /// dissipation velocity and dissipation force where it has them, and its margin.
+    /// dissipation velocity and dissipation force where it has them, its margin, and its
+    /// stiction velocity raised to its floor (`stiction_floor μ`) where it is below.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
+        let friction = own(self.friction, prm.friction);
+        let floor = friction * self.stiction_floor;
+        let stiction_velocity = if prm.stiction_velocity.re() < floor.re() {
+            floor
+        } else {
+            prm.stiction_velocity
+        };
         ContactParams {
-            friction: own(self.friction, prm.friction),
+            friction,
+            stiction_velocity,
             stiffness: own(self.stiffness, prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
@@ -323,5 +339,54 @@ impl Model {
                 p.friction,
             ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_dual::Dual64;
+
+    fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
+        Pair {
+            a: 0,
+            b: 1,
+            friction,
+            stiffness: None,
+            dissipation_velocity: None,
+            dissipation_force: None,
+            margin: 0.004,
+            stiction_floor,
+        }
+    }
+
+    #[test]
+    fn a_pairs_stiction_velocity_is_held_at_its_floor_and_the_parameter_acts_above() {
+        // Floor 0.02 m/s per unit of friction: 0.012 m/s at the pair's own 0.6.
+        let prm = ContactParams::default(); // v_s 0.01 m/s, friction 0.5
+        let own = pair(Some(0.6), 0.02).params(&prm);
+        assert_eq!(own.stiction_velocity, 0.02 * 0.6);
+        assert_eq!(own.margin, 0.004);
+        let above = ContactParams {
+            stiction_velocity: 0.05,
+            ..prm
+        };
+        assert_eq!(pair(Some(0.6), 0.02).params(&above).stiction_velocity, 0.05);
+        assert_eq!(pair(Some(0.6), 0.0).params(&prm).stiction_velocity, 0.01);
+        // Without its own friction the floor follows the parameter friction, with its
+        // derivative: d v_s / d mu = floor where the floor holds, and none from v_s.
+        let dual = ContactParams {
+            friction: Dual64::new(0.5, 1.0),
+            stiction_velocity: Dual64::new(0.01, 0.0),
+            ..prm.lift()
+        };
+        let held = pair(None, 0.04).params(&dual).stiction_velocity;
+        assert_eq!((held.re, held.eps), (0.04 * 0.5, 0.04));
+        let dual = ContactParams {
+            stiction_velocity: Dual64::new(0.05, 1.0),
+            ..prm.lift()
+        };
+        let free = pair(None, 0.04).params(&dual).stiction_velocity;
+        assert_eq!((free.re, free.eps), (0.05, 1.0));
     }
 }

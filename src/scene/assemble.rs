@@ -247,6 +247,7 @@ impl Builder {
             let step = self.timestep.unwrap_or(DEFAULT_STEP);
             let integrator = self.integrator_as_run();
             let laws = self.pair_laws(&tree, &mut pairs, &colliding, eps3, step, integrator);
+            self.stiction_floors(&tree, &mut pairs, step, integrator);
             let name = |b: usize| self.bodies[b].name.clone();
             pairs
                 .iter()
@@ -256,6 +257,7 @@ impl Builder {
                         body1: name(p.a),
                         body2: name(p.b),
                         margin: p.margin,
+                        stiction_floor: p.stiction_floor * p.friction.unwrap_or(f64::NAN),
                         law: law?,
                     })
                 })
@@ -337,6 +339,17 @@ impl Builder {
                     ));
                 }
                 spacing_overrides.push((geom.to_string(), value, at));
+                continue;
+            }
+            if name == "scm_stiction_floor" {
+                // Read by `Builder::stiction_floors`.
+                if value < 0.0 {
+                    return Err(self.setting_error(
+                        &at,
+                        &name,
+                        format!("{value} is out of range (each pair's stiction velocity is at least this times h mu g; 0 for no floor)"),
+                    ));
+                }
                 continue;
             }
             if name == "scm_dissipation_force" {
@@ -478,6 +491,7 @@ impl Builder {
             file_step,
             integrator,
         );
+        self.stiction_floors(&tree, &mut pairs, file_step, integrator);
         let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let actuator_ranges = self.actuator_dof_ranges(&tree);

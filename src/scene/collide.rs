@@ -300,6 +300,7 @@ impl Builder {
                     dissipation_velocity: None,
                     dissipation_force: None,
                     margin,
+                    stiction_floor: 0.0,
                 }
             })
             .collect();

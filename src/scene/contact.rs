@@ -177,6 +177,36 @@ impl Builder {
         laws
     }
 
+    /// Gives each pair its stiction floor ([`Pair::stiction_floor`]): `κ h g`, `h` the file's
+    /// step (as `refsafe` reads it), `g` the gravity (or [`NOMINAL_GRAVITY`] without), `κ` the
+    /// scene's `scm_stiction_floor` or, under an integrator that takes the friction explicitly
+    /// ([`Integrator::takes_contact_damping_explicitly`]), [`EXPLICIT_STICTION_FLOOR`]; none
+    /// otherwise.
+    pub(super) fn stiction_floors(
+        &self,
+        tree: &Tree,
+        pairs: &mut [Pair],
+        step: f64,
+        integrator: Integrator,
+    ) {
+        let kappa = self
+            .numeric
+            .iter()
+            .rev()
+            .find(|(n, _, _)| n == "scm_stiction_floor")
+            .map(|(_, v, _)| *v)
+            .unwrap_or(if integrator.takes_contact_damping_explicitly() {
+                EXPLICIT_STICTION_FLOOR
+            } else {
+                0.0
+            });
+        let g = tree.gravity.norm();
+        let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
+        for pair in pairs {
+            pair.stiction_floor = kappa * step * g;
+        }
+    }
+
     /// A geom's `solref`, `solimp`, `solmix` and `priority`.
     pub(super) fn geom_softness(&self, el: &Element) -> Result<GeomSoftness, SceneError> {
         let softness = self.softness(el, Softness::default())?;
@@ -392,6 +422,17 @@ impl Softness {
 /// measurement among 0.5, 1, 2, 4, 8 and infinity (docs/mjcf.md, "Contact on, against MuJoCo's
 /// spread").
 pub const EXPLICIT_DISSIPATION_FORCE: f64 = 4.0;
+
+/// The stiction floor `κ` of a pair under an integrator that takes the friction explicitly:
+/// its stiction velocity at least `κ h μ g`. The friction's slope at zero slip is `μ N / v_s`,
+/// about `μ g / v_s` per unit of the mass it holds, and RK4 is stable on a decay rate `λ` only
+/// while `h λ` is below 2.79. A foot carries more than its own mass's weight, so the measured
+/// bound is higher: gymnasium's ant at rest on its legs under RK4 at 10 ms is refused by the
+/// guard at the default 1 cm/s (κ 0.1) and at κ 0.5, rests at κ 0.75 and 1 but turns about
+/// its vertical axis at 0.019 rad/s (a limit cycle of the friction at the edge of RK4's
+/// stability; MuJoCo's does not turn), 0.001 rad/s at κ 1.5, and rests still from κ 2
+/// (docs/mjcf.md, "Stiction floor").
+pub const EXPLICIT_STICTION_FLOOR: f64 = 2.0;
 
 /// SCM's contact law of one pair, sized from MuJoCo's: the stiffness `k` that holds the pair's
 /// effective mass `m̂` under gravity `g` at MuJoCo's resting depth `r` (`k s⁺_ε3(-φ) = m̂ g` at

@@ -246,8 +246,9 @@ impl Compiled {
             "joints": joints,
             "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
             "actuators": actuators,
-            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, law }| json!({
+            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, stiction_floor, law }| json!({
                 "body1": body1, "body2": body2, "margin": margin,
+                "stiction_floor": if stiction_floor.is_nan() { None } else { Some(stiction_floor) },
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
                 "mass": law.mass, "mujoco_depth": law.depth,
                 "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,

@@ -309,6 +309,9 @@ pub struct CompiledPair {
     pub body2: String,
     /// Its margin (m; [`crate::model::Pair::margin`]).
     pub margin: f64,
+    /// The least stiction velocity it takes (m/s; [`crate::model::Pair::stiction_floor`] times
+    /// its friction; NaN where the scene's `scm_friction` gives it, 0 for none).
+    pub stiction_floor: f64,
     /// Its stiffness and damping from `solref` and `solimp`.
     pub law: contact::PairLaw,
 }

@@ -83,6 +83,20 @@ impl Simulation {
                 "scm.{name} = {value:?} refused: no contact pair uses it, every pair has its own, {source} (see `scm check`); to give every pair one value that scm.{name} then tunes, set scm_{name} in the scene (<custom><numeric name=\"scm_{name}\" data=\"...\"/>)"
             ));
         }
+        if p == Param::StictionVelocity && !unchanged && !pairs.is_empty() {
+            // Each pair's stiction velocity is at least its floor (`Pair::stiction_floor`):
+            // a value under every pair's would change nothing.
+            let mu = self.current.params.friction;
+            let least = pairs
+                .iter()
+                .map(|pair| pair.stiction_floor * pair.friction.unwrap_or(mu))
+                .fold(f64::INFINITY, f64::min);
+            if value < least {
+                return Err(format!(
+                    "scm.stiction_velocity = {value:?} refused: every contact pair's stiction velocity is held at {least:.4e} m/s or more (its stiction floor, a multiple of h mu g that keeps an explicit integrator stable at the scene's step; see `scm check`), so it would change nothing; set a larger value, or <custom><numeric name=\"scm_stiction_floor\" data=\"0\"/> in the scene to remove the floor"
+                ));
+            }
+        }
         if !p.accepts(value) {
             return Err(format!(
                 "scm.{} = {value:?} refused: it must be {}",

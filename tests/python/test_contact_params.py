@@ -212,3 +212,46 @@ def test_pairs_margins_are_mujocos(override, tmp_path):
     line = next(l for l in check.splitlines() if l.startswith("pair world - summed"))
     assert f"margin {0.005 if override else 0.006} m" in line, line
     assert ("friction 0.4" in line) == override, line
+
+
+def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_refused(tmp_path):
+    """Under an integrator that takes the friction explicitly each pair's stiction velocity is at
+    least 2 h mu g (h the file's step; docs/mjcf.md, "Stiction floor"); `scm check` and `scm
+    compile` show it; a host's scm.stiction_velocity acts above it and is refused below every
+    pair's, saying why; `scm_stiction_floor` sets the multiple (0: none) whatever the
+    integrator, and a negative one is refused."""
+    def scene(option, custom=""):
+        path = tmp_path / "floor.xml"
+        path.write_text(f"""<mujoco><option timestep="0.005" {option}/>{custom}<worldbody>
+<geom name="floor" type="plane" size="1 1 0.1" friction="0.6"/>
+<body name="a" pos="0 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.6"/></body>
+</worldbody></mujoco>""")
+        return path
+
+    def floor(path):
+        out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout)["pairs"][0]["stiction_floor"]
+
+    assert floor(scene('integrator="RK4"')) == pytest.approx(2 * 0.005 * 0.6 * 9.81, rel=1e-12)
+    assert floor(scene("")) == 0.0  # MuJoCo's Euler: SCM's damped_euler, friction implicit
+    assert floor(scene('integrator="implicitfast"')) == 0.0
+    custom = '<custom><numeric name="scm_stiction_floor" data="{}"/></custom>'
+    assert floor(scene("", custom.format(3))) == pytest.approx(3 * 0.005 * 0.6 * 9.81, rel=1e-12)
+    assert floor(scene('integrator="RK4"', custom.format(0))) == 0.0
+    bad = subprocess.run([str(SCM), "check", str(scene("", custom.format(-1)))], capture_output=True,
+                         text=True)
+    assert bad.returncode != 0 and "scm_stiction_floor" in bad.stdout + bad.stderr
+    path = scene('integrator="RK4"')
+    line = next(l for l in subprocess.run([str(SCM), "check", str(path)], capture_output=True,
+                                          text=True).stdout.splitlines() if l.startswith("pair"))
+    assert "stiction velocity at least 5.8860e-2 m/s (h mu g)" in line, line
+
+    def run(value):
+        return subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.05", "--set",
+                               f"scm.stiction_velocity={value}"], capture_output=True, text=True)
+    below = run(0.05)
+    assert below.returncode != 0 and "held at 5.8860e-2 m/s or more" in below.stderr, below.stderr
+    assert "scm_stiction_floor" in below.stderr
+    assert run(0.01).returncode == 0  # the start value, unchanged: accepted
+    assert run(0.2).returncode == 0 and run(0.2).stdout != run(0.1).stdout

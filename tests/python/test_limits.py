@@ -205,20 +205,35 @@ def test_without_limits_the_ant_rests_where_mujocos_does_margin_included(tmp_pat
             assert abs(o[f"ankle_{k}.q"] - t[a]) < 0.01, (k, o[f"ankle_{k}.q"], t[a])
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "at rest on its limits, from about 3.1 s, the ant's horizontal velocity grows tenfold every "
-    "0.12 s (1e-12 m/s to 3 cm/s by 4.8 s) and the guard refuses it at 4.97 s: RK4 takes the "
-    "friction's slope at zero slip, mu N / v_s, explicitly, and at 10 ms that is past what it "
-    "carries (measured: stiction velocity 1 and 3 cm/s refused, 10 cm/s rests 8 s); MuJoCo's "
-    "friction is a constraint, implicit in velocity"))
-def test_the_ant_as_written_rests_8_s():
+def test_the_ant_as_written_rests_8_s_and_stands_still(tmp_path):
+    """At rest on its limits under RK4 at 10 ms, the ant's friction at zero slip has the slope
+    mu N / v_s, which RK4 takes explicitly. At the default stiction velocity (1 cm/s) its
+    horizontal velocity grew tenfold every 0.12 s from 3.1 s and the guard refused it at 4.97 s,
+    where MuJoCo's friction, a constraint implicit in velocity, holds it. Each pair's stiction
+    velocity now has a floor of 2 h mu g under the explicit integrators (docs/mjcf.md,
+    "Stiction floor"): the ant rests 8 s and does not turn (MuJoCo's does not either); at 1 h mu g
+    it turned at 0.019 rad/s. Without the floor (`scm_stiction_floor` 0) the refusal at rest is
+    kept reproducible."""
     run = subprocess.run([str(SCM), "simulate", str(GYM / "ant.xml"), "--duration", "8",
-                          "--output-interval", "1", "-o", "/dev/null"], capture_output=True, text=True)
-    # The expected failure is the guard's refusal after the ant came to rest; anything else
-    # (another error, an earlier refusal) fails this test outright.
-    if run.returncode != 0 and not re.search(r"the integration is unstable: .* at t = [34]\.\d+ s", run.stderr):
-        raise RuntimeError(f"not the refusal at rest this test expects: {run.stderr}")
+                          "--output-interval", "1", "-o", str(tmp_path / "ant.csv")],
+                         capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
+    rows = list(csv.reader((tmp_path / "ant.csv").open()))
+    last = [dict(zip(rows[0], map(float, r))) for r in rows[-5:]]
+    # Still from 4 s on: the same height, no turn about the vertical (the quaternion's z part is
+    # half the yaw), no sliding.
+    assert max(r["root.pos.z"] for r in last) - min(r["root.pos.z"] for r in last) < 1e-6, last
+    assert max(abs(r["root.quat.z"]) for r in last) < 1e-4, [r["root.quat.z"] for r in last]
+    assert all(abs(r["root.linvel.x"]) < 1e-6 and abs(r["root.linvel.y"]) < 1e-6 for r in last)
+    text = (GYM / "ant.xml").read_text()
+    bare = tmp_path / "ant_without_floor.xml"
+    bare.write_text(text.replace('<mujoco model="ant">', '<mujoco model="ant"><custom>'
+                                 '<numeric name="scm_stiction_floor" data="0"/></custom>', 1))
+    assert bare.read_text() != text
+    run = subprocess.run([str(SCM), "simulate", str(bare), "--duration", "8", "-o", "/dev/null"],
+                         capture_output=True, text=True)
+    assert run.returncode == 1, run.stderr
+    assert re.search(r"the integration is unstable: .* at t = [34]\.\d+ s", run.stderr), run.stderr
 
 
 def test_the_ants_blow_up_under_semi_implicit_euler_is_refused():
