@@ -257,8 +257,31 @@ impl Model {
                             }
                             a => a,
                         };
-                        self.explicit_step(i, &s, &uk, prm, dt, a, &mut jac, Some(&mut cache.kept))
-                            .map_err(dyn_err)?
+                        if i == Integrator::DampedEuler {
+                            self.implicit_step_subdividing(
+                                i,
+                                &s,
+                                &uk,
+                                prm,
+                                dt,
+                                &mut jac,
+                                0,
+                                &mut report.subdivided,
+                                Some(&mut cache.kept),
+                            )
+                        } else {
+                            self.explicit_step(
+                                i,
+                                &s,
+                                &uk,
+                                prm,
+                                dt,
+                                a,
+                                &mut jac,
+                                Some(&mut cache.kept),
+                            )
+                        }
+                        .map_err(dyn_err)?
                     }
                 };
                 known = check(&mut monitor, &s, t, k + 1, dt)?;
@@ -561,7 +584,7 @@ pub struct Advanced {
     pub steps: usize,
     /// Rejected internal steps (adaptive only).
     pub rejected: usize,
-    /// Implicit steps redone as two halves because Newton's iterations failed.
+    /// Implicit and damped Euler steps redone as two halves because Newton's iterations failed.
     pub subdivided: usize,
     /// Smallest accepted internal step (s).
     pub min_step: f64,

@@ -538,19 +538,32 @@ impl Model {
         let before = *subdivided;
         let next = match guessed {
             Some(next) => next,
-            None => self.implicit_step_subdividing(s, u, prm, h, jac, 0, subdivided, kept)?,
+            None => self.implicit_step_subdividing(
+                Integrator::ImplicitEuler,
+                s,
+                u,
+                prm,
+                h,
+                jac,
+                0,
+                subdivided,
+                kept,
+            )?,
         };
         *dv =
             (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
         Ok(next)
     }
 
-    /// An implicit step of `h`; when Newton's iterations fail (typically when contact starts
-    /// within a step much longer than the contact's period), the step is done as two halves,
-    /// recursively, down to `h / 2⁸`.
+    /// An implicit step of `h` of `integrator` ([`Integrator::ImplicitEuler`], or
+    /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
+    /// iterations fail (typically when contact starts within a step much longer than the
+    /// contact's period), the step is done as two halves of the same method, recursively, down
+    /// to `h / 2⁸`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_subdividing(
         &self,
+        integrator: Integrator,
         s: &State<f64>,
         u: &[f64],
         prm: &ContactParams<f64>,
@@ -560,12 +573,19 @@ impl Model {
         subdivided: &mut usize,
         mut kept: Option<&mut PairsKept>,
     ) -> Result<State<f64>, DynamicsError> {
-        match self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()) {
+        let step = match integrator {
+            Integrator::DampedEuler => {
+                self.explicit_step(integrator, s, u, prm, h, None, jac, kept.as_deref_mut())
+            }
+            _ => self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()),
+        };
+        match step {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
                 *subdivided += 1;
                 let half = 0.5 * h;
                 let mut sub = None;
                 let mid = self.implicit_step_subdividing(
+                    integrator,
                     s,
                     u,
                     prm,
@@ -576,6 +596,7 @@ impl Model {
                     kept.as_deref_mut(),
                 )?;
                 self.implicit_step_subdividing(
+                    integrator,
                     &mid,
                     &self.inputs_after(u, half),
                     prm,

@@ -181,7 +181,8 @@ impl Builder {
     /// step (as `refsafe` reads it), `g` the gravity (or [`NOMINAL_GRAVITY`] without), `κ` the
     /// scene's `scm_stiction_floor` or, under an integrator that takes the friction explicitly
     /// ([`Integrator::takes_contact_damping_explicitly`]), [`EXPLICIT_STICTION_FLOOR`]; none
-    /// otherwise.
+    /// otherwise, and none where the scene sets its own `scm_stiction_velocity` (as its own
+    /// `scm_stiffness` keeps the paper's law: it chose the value).
     pub(super) fn stiction_floors(
         &self,
         tree: &Tree,
@@ -195,11 +196,18 @@ impl Builder {
             .rev()
             .find(|(n, _, _)| n == "scm_stiction_floor")
             .map(|(_, v, _)| *v)
-            .unwrap_or(if integrator.takes_contact_damping_explicitly() {
-                EXPLICIT_STICTION_FLOOR
-            } else {
-                0.0
-            });
+            .unwrap_or(
+                if integrator.takes_contact_damping_explicitly()
+                    && !self
+                        .numeric
+                        .iter()
+                        .any(|(n, _, _)| n == "scm_stiction_velocity")
+                {
+                    EXPLICIT_STICTION_FLOOR
+                } else {
+                    0.0
+                },
+            );
         let g = tree.gravity.norm();
         let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
         for pair in pairs {

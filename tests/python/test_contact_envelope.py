@@ -46,11 +46,6 @@ OUT = {
     "gymnasium/walker2d_v5": (
         "outside", "0.011 rad out on a foot after its fall (RK4, 2 ms; 0.21 to 0.49 rad at stiction floors of "
         "1 to 2.5 h mu g: the pose it falls into turns on small differences)"),
-    "dm_control/cheetah": (
-        "stopped",
-        "the implicit step's Newton iterations stop at 0.15 s (damped_euler, the paper's law; with the bounded "
-        "damping it runs and ends inside)"),
-    "dm_control/manipulator": ("stopped", "the implicit step's Newton iterations stop at 0.167 s (as cheetah)"),
     "dm_control/hopper": (
         "outside",
         "0.72 rad out on its hip: it follows MuJoCo's motion until it lands (knee 2.075 rad at 0.5 s against "

@@ -219,7 +219,8 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
     least 2 h mu g (h the file's step; docs/mjcf.md, "Stiction floor"); `scm check` and `scm
     compile` show it; a host's scm.stiction_velocity acts above it and is refused below every
     pair's, saying why; `scm_stiction_floor` sets the multiple (0: none) whatever the
-    integrator, and a negative one is refused."""
+    integrator, and a negative one is refused; a scene's own `scm_stiction_velocity` means no
+    floor unless it sets one."""
     def scene(option, custom=""):
         path = tmp_path / "floor.xml"
         path.write_text(f"""<mujoco><option timestep="0.005" {option}/>{custom}<worldbody>
@@ -239,6 +240,11 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
     custom = '<custom><numeric name="scm_stiction_floor" data="{}"/></custom>'
     assert floor(scene("", custom.format(3))) == pytest.approx(3 * 0.005 * 0.6 * 9.81, rel=1e-12)
     assert floor(scene('integrator="RK4"', custom.format(0))) == 0.0
+    # A scene that sets its own stiction velocity chose it: no floor, unless it sets one too.
+    own = '<custom><numeric name="scm_stiction_velocity" data="0.002"/>{}</custom>'
+    assert floor(scene('integrator="RK4"', own.format(""))) == 0.0
+    both = own.format('<numeric name="scm_stiction_floor" data="1"/>')
+    assert floor(scene('integrator="RK4"', both)) == pytest.approx(0.005 * 0.6 * 9.81, rel=1e-12)
     bad = subprocess.run([str(SCM), "check", str(scene("", custom.format(-1)))], capture_output=True,
                          text=True)
     assert bad.returncode != 0 and "scm_stiction_floor" in bad.stdout + bad.stderr
