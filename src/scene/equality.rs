@@ -2,6 +2,47 @@
 
 use super::*;
 
+/// A connect or weld equality as read: the two bodies, where its points are, `solref`, and
+/// for a weld its `torquescale`.
+#[derive(Clone, Debug)]
+pub(super) struct ConnectSpec {
+    pub(super) name: String,
+    pub(super) body1: usize,
+    pub(super) body2: usize,
+    pub(super) anchors: Anchors,
+    pub(super) solref: [f64; 2],
+    /// `Some(torquescale)` for a weld, `None` for a connect.
+    pub(super) weld: Option<f64>,
+}
+
+/// Where a connect's or weld's points (and a weld's orientations) are, as MuJoCo reads them.
+#[derive(Clone, Debug)]
+pub(super) enum Anchors {
+    /// Body semantics: `anchor` in body 1's frame (connect) or body 2's (weld); the other
+    /// body's point, and a weld's relative orientation, are where they are at `qpos0`, unless
+    /// a weld gives `relpose` (body 1's point and the relative orientation).
+    Bodies {
+        anchor: Vector3<f64>,
+        relpose: Option<Isometry3<f64>>,
+    },
+    /// Site semantics: each site's pose in its body's frame; the points are the sites, a
+    /// weld's held orientation that of site 2 on site 1.
+    Sites(Isometry3<f64>, Isometry3<f64>),
+}
+
+/// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
+/// `polycoef` and `solref`.
+#[derive(Clone, Debug)]
+pub(super) struct EqualitySpec {
+    pub(super) name: String,
+    /// Whether the objects are tendons (else joints).
+    pub(super) tendons: bool,
+    pub(super) first: usize,
+    pub(super) second: Option<usize>,
+    pub(super) poly: [f64; 5],
+    pub(super) solref: [f64; 2],
+}
+
 impl Builder {
     /// An `<equality>` element: `joint` and `tendon` couplings, `connect` and `weld` become
     /// springs and dampers ([`crate::dynamics::equality`]); flex equalities are refused.

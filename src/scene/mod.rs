@@ -8,6 +8,7 @@
 mod actuator;
 mod actuator_defaults;
 mod assemble;
+mod assets;
 mod body;
 pub mod canonical;
 mod collide;
@@ -24,9 +25,12 @@ mod paths;
 mod settings;
 mod tendon;
 mod weights;
+pub use assets::{MeshAsset, MeshInertia};
 pub use collide::spacing_text;
+use equality::{Anchors, ConnectSpec, EqualitySpec};
 pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
 use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUTES};
+use tendon::{SegmentSpec, TendonSpec};
 pub mod xml;
 
 use crate::collision::Collider;
@@ -93,57 +97,6 @@ pub struct Scene {
     /// order (`None`: the pair takes the scene's `scm_stiffness` and
     /// `scm_dissipation_velocity`).
     pub pair_laws: Vec<Option<contact::PairLaw>>,
-}
-
-/// A mesh asset of a scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MeshAsset {
-    /// Asset name (`name`, else the file name without extension).
-    pub name: String,
-    /// The `file` attribute as written.
-    pub file: String,
-    /// The file, resolved against the scene's folder and `meshdir`.
-    pub path: PathBuf,
-    /// The checked mesh (scaled), shared by every geom that uses it; `None` when the file's
-    /// surface is not a closed manifold ([`MeshAsset::problem`]).
-    pub mesh: Option<Arc<TriMesh>>,
-    /// What is wrong with the surface (open, not manifold, degenerate triangles, ...), with
-    /// the asset's file and line. MuJoCo takes such meshes; SCM needs the closed surface only
-    /// where a geom collides or gives its body mass, and refuses the mesh there (a geom that
-    /// does neither is left out and listed as unused).
-    pub problem: Option<SceneError>,
-    /// The convex hull of the vertices of a mesh with a `problem` (what MuJoCo collides it
-    /// by), where they span a volume: what a colliding geom samples instead of the surface.
-    /// Computed when the first geom needs it (a visual mesh never does).
-    pub hull: Option<Arc<TriMesh>>,
-    /// Why its convex hull could not be made, once tried.
-    pub hull_problem: Option<String>,
-    /// How the file's vertices are placed (`refpos`, `refquat`, `scale`): for the hull and
-    /// the mass rules that read the file again.
-    pub placement: Placement,
-    /// How MuJoCo weighs it (`inertia`).
-    pub inertia: MeshInertia,
-    /// Its mass properties by MuJoCo's default rule (`inertia="legacy"`) or as a shell
-    /// (`inertia="shell"`), computed when the first geom that weighs by it needs them.
-    pub legacy: Option<crate::geometry::MassProperties>,
-    /// `maxhullvert`, when it limits MuJoCo's hull (not -1).
-    pub maxhullvert: Option<i64>,
-    /// Whether a geom uses it.
-    pub used: bool,
-}
-
-/// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MeshInertia {
-    /// MuJoCo's default: pyramids from the faces, each counted positive
-    /// ([`crate::geometry::mesh::legacy_mass_properties`]).
-    Legacy,
-    /// The exact solid of the closed surface.
-    Exact,
-    /// The solid of the convex hull of the vertices.
-    Convex,
-    /// The surface as a thin shell ([`crate::geometry::mesh::shell_mass_properties`]).
-    Shell,
 }
 
 /// A geom as read from the scene, posed in its body's frame.
@@ -447,74 +400,6 @@ struct Builder {
     springdampers: Vec<(usize, f64, f64)>,
     /// Joints whose total actuator force is limited (`actuatorfrcrange`): index, range.
     actuator_ranges: Vec<(usize, f64, f64)>,
-}
-
-/// A connect or weld equality as read: the two bodies, where its points are, `solref`, and
-/// for a weld its `torquescale`.
-#[derive(Clone, Debug)]
-struct ConnectSpec {
-    name: String,
-    body1: usize,
-    body2: usize,
-    anchors: Anchors,
-    solref: [f64; 2],
-    /// `Some(torquescale)` for a weld, `None` for a connect.
-    weld: Option<f64>,
-}
-
-/// Where a connect's or weld's points (and a weld's orientations) are, as MuJoCo reads them.
-#[derive(Clone, Debug)]
-enum Anchors {
-    /// Body semantics: `anchor` in body 1's frame (connect) or body 2's (weld); the other
-    /// body's point, and a weld's relative orientation, are where they are at `qpos0`, unless
-    /// a weld gives `relpose` (body 1's point and the relative orientation).
-    Bodies {
-        anchor: Vector3<f64>,
-        relpose: Option<Isometry3<f64>>,
-    },
-    /// Site semantics: each site's pose in its body's frame; the points are the sites, a
-    /// weld's held orientation that of site 2 on site 1.
-    Sites(Isometry3<f64>, Isometry3<f64>),
-}
-
-/// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
-/// `polycoef` and `solref`.
-#[derive(Clone, Debug)]
-struct EqualitySpec {
-    name: String,
-    /// Whether the objects are tendons (else joints).
-    tendons: bool,
-    first: usize,
-    second: Option<usize>,
-    poly: [f64; 5],
-    solref: [f64; 2],
-}
-
-/// A fixed tendon as read, before the tree gives its joints' coordinates.
-#[derive(Clone, Debug)]
-struct TendonSpec {
-    name: String,
-    /// `(joint index, coefficient)`.
-    joints: Vec<(usize, f64)>,
-    stiffness: f64,
-    /// `springlength`, unless it is MuJoCo's default (the length with every joint at its springref).
-    spring_length: Option<(f64, f64)>,
-    damping: f64,
-    frictionloss: f64,
-    /// The length's range, if limited.
-    range: Option<(f64, f64)>,
-    solreflimit: [f64; 2],
-    /// Where the tendon is written.
-    place: Place,
-}
-
-/// A straight segment of a spatial tendon: the two sites (body, point in its frame) and
-/// `1 / divisor` of its pulley branch.
-#[derive(Clone, Copy, Debug)]
-struct SegmentSpec {
-    from: (usize, Vector3<f64>),
-    to: (usize, Vector3<f64>),
-    scale: f64,
 }
 
 /// An error at an element: its file, line and name.

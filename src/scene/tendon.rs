@@ -3,6 +3,33 @@
 
 use super::*;
 
+/// A fixed tendon as read, before the tree gives its joints' coordinates.
+#[derive(Clone, Debug)]
+pub(super) struct TendonSpec {
+    pub(super) name: String,
+    /// `(joint index, coefficient)`.
+    pub(super) joints: Vec<(usize, f64)>,
+    pub(super) stiffness: f64,
+    /// `springlength`, unless it is MuJoCo's default (the length with every joint at its springref).
+    pub(super) spring_length: Option<(f64, f64)>,
+    pub(super) damping: f64,
+    pub(super) frictionloss: f64,
+    /// The length's range, if limited.
+    pub(super) range: Option<(f64, f64)>,
+    pub(super) solreflimit: [f64; 2],
+    /// Where the tendon is written.
+    pub(super) place: Place,
+}
+
+/// A straight segment of a spatial tendon: the two sites (body, point in its frame) and
+/// `1 / divisor` of its pulley branch.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SegmentSpec {
+    pub(super) from: (usize, Vector3<f64>),
+    pub(super) to: (usize, Vector3<f64>),
+    pub(super) scale: f64,
+}
+
 impl Builder {
     /// A tendon: `<fixed>` (its joints and coefficients) or `<spatial>` (its path through sites
     /// and pulleys, [`Builder::spatial_path`]), each with its spring (with MuJoCo's
