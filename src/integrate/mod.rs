@@ -15,18 +15,20 @@
 //!
 //! Files: [`crate::integrator`] names the integrators; `step` holds one internal step of each
 //! (generic over the scalar); `advance` covers a communication step and guards it against
-//! non-finite states; `guard` keeps the energy balance that refuses growth no input explains.
+//! non-finite states; `cache` holds what one call leaves for the next ([`SolverCache`]); `guard` keeps the energy balance that refuses growth no input explains.
 //!
 //! [`Model::step_with`]: crate::model::Model::step_with
 //! [`Model::advance`]: crate::model::Model::advance
 //! [`Model::inputs_after`]: crate::model::Model::inputs_after
 
 mod advance;
+mod cache;
 mod guard;
 mod newton;
 mod step;
 
 pub use crate::integrator::{Integrator, State};
-pub use advance::{AdvanceOptions, Advanced, CacheMark, CacheParts, SolverCache, StepFailure};
+pub use advance::{AdvanceOptions, Advanced, StepFailure};
+pub use cache::{CacheMark, CacheParts, SolverCache};
 pub use guard::{contact_energy, EnergyLedger};
 pub use step::Dopri5Step;

@@ -1,0 +1,147 @@
+//! What [`Model::advance_cached`] carries from one call to the next ([`SolverCache`]): the
+//! Newton Jacobian, where the cache was left, the energy guard's ledger, implicit Euler's last
+//! velocity change, the pairs' kept proofs and candidate planes, and the last kinematics.
+//!
+//! [`Model::advance_cached`]: crate::model::Model::advance_cached
+
+use super::guard::EnergyLedger;
+use super::newton::KeptJacobian;
+use crate::collision::{KeptReach, PairsKept};
+use crate::dynamics::Kinematics;
+use crate::integrator::State;
+use nalgebra::DMatrix;
+
+/// What [`Model::advance_cached`](crate::model::Model::advance_cached) carries from one call to the next.
+///
+/// It changes the result in the last bits (Newton starts from another Jacobian) and which steps
+/// the energy guard refuses (its [`EnergyLedger`]), so an FMU state that must reproduce a rollout
+/// bit for bit, refusals included, carries it ([`SolverCache::parts`],
+/// [`SolverCache::from_parts`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverCache {
+    /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact.
+    pub(super) jacobian: Option<KeptJacobian>,
+    /// Implicit Euler's last velocity change `V - v`: the next step's Newton iterations start
+    /// from `v + (V - v)` (the acceleration held), an `O(h²)` guess instead of `v`'s `O(h)`.
+    pub(super) velocity_change: Option<Vec<f64>>,
+    /// The state and internal step the cache was left for.
+    pub(super) left: Option<CacheMark>,
+    /// The energy guard's balance over the run so far.
+    pub(super) ledger: Option<EnergyLedger>,
+    /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]: which pairs
+    /// a step switches off depends on it) and the band's candidate planes (a cost only).
+    pub(super) kept: PairsKept,
+    /// The kinematics of the state the last call ended at, as its energy guard computed them.
+    pub(super) kinematics: KinematicsMemo,
+}
+
+/// The kinematics of one state (every mocap body at its scene pose), kept for the forward
+/// dynamics of the next call from that state: the energy guard computes them at the end of a
+/// call, the next call's first stage at its start. Only when the model has no mocap body (the
+/// forward dynamics then reads no other input), and handed out only for the very same state,
+/// bit for bit: a memo of a pure function, so it changes no result, and two caches that differ
+/// only in it are equal. Like the rest of the cache it belongs to one model: a tree changed
+/// between calls (its public joints or bodies) needs a new cache.
+#[derive(Clone, Debug, Default)]
+pub(super) struct KinematicsMemo(Option<(State<f64>, Kinematics<f64>)>);
+
+impl PartialEq for KinematicsMemo {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl KinematicsMemo {
+    /// Keeps `kin`, the kinematics of `s` (or forgets, with `None`).
+    pub(super) fn keep(&mut self, s: &State<f64>, kin: Option<Kinematics<f64>>) {
+        self.0 = kin.map(|k| (s.clone(), k));
+    }
+
+    /// The kept kinematics if they are those of `s`, bit for bit; the memo is emptied.
+    pub(super) fn take(&mut self, s: &State<f64>) -> Option<Kinematics<f64>> {
+        let hit = self.of(s);
+        self.0.take().filter(|_| hit).map(|(_, kin)| kin)
+    }
+
+    /// Whether the kept kinematics are those of `s`, bit for bit.
+    pub(super) fn of(&self, s: &State<f64>) -> bool {
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        (self.0.as_ref()).is_some_and(|(at, _)| same(&at.q, &s.q) && same(&at.v, &s.v))
+    }
+}
+
+/// Where a [`SolverCache`] was left: the state and the internal step (s).
+pub type CacheMark = (State<f64>, f64);
+
+/// A [`SolverCache`]'s parts, borrowed ([`SolverCache::parts`]): the Newton Jacobian, where the
+/// cache was left, the energy guard's ledger, implicit Euler's last velocity change, the kept
+/// out-of-reach proofs.
+pub type CacheParts<'a> = (
+    Option<&'a DMatrix<f64>>,
+    Option<&'a CacheMark>,
+    Option<&'a EnergyLedger>,
+    Option<&'a [f64]>,
+    &'a [Option<KeptReach>],
+);
+
+impl SolverCache {
+    /// The cached Newton Jacobian, the state and internal step (s) it was left for, the
+    /// energy guard's ledger, implicit Euler's last velocity change, and the kept out-of-reach
+    /// proofs (one per pair, or none).
+    pub fn parts(&self) -> CacheParts<'_> {
+        (
+            self.jacobian.as_ref().map(KeptJacobian::matrix),
+            self.left.as_ref(),
+            self.ledger.as_ref(),
+            self.velocity_change.as_deref(),
+            &self.kept.reach,
+        )
+    }
+
+    /// How often the pairs' kept candidate planes served a query, and how often a query walked
+    /// ([`KeptCandidates`](crate::collision::KeptCandidates)), summed over the pairs since
+    /// they were made; not part of [`parts`](SolverCache::parts), since they change no result.
+    pub fn candidate_counts(&self) -> crate::collision::KeptCounts {
+        let mut all = crate::collision::KeptCounts::default();
+        for c in &self.kept.candidates {
+            all += c.counts();
+        }
+        all
+    }
+
+    /// Whether the pairs keep candidate planes from one evaluation to the next (they do by
+    /// default). Off, every query walks the hierarchy: the same results to the bit, at the
+    /// cost before they were kept (for measurements and tests). Either way drops those kept.
+    pub fn keep_candidates(&mut self, on: bool) {
+        self.kept.walk_always = !on;
+        self.kept.candidates.clear();
+    }
+
+    /// Whether the cache holds the kinematics of `s`, which the next call from `s` then starts
+    /// from instead of computing them (kept by the energy guard at the end of a call, for a
+    /// model without mocap bodies). They change no result, so they are not part of
+    /// [`parts`](SolverCache::parts).
+    pub fn holds_kinematics_of(&self, s: &State<f64>) -> bool {
+        self.kinematics.of(s)
+    }
+
+    /// A cache from its [`parts`](SolverCache::parts).
+    pub fn from_parts(
+        jacobian: Option<DMatrix<f64>>,
+        left: Option<CacheMark>,
+        ledger: Option<EnergyLedger>,
+        velocity_change: Option<Vec<f64>>,
+        reach: Vec<Option<KeptReach>>,
+    ) -> SolverCache {
+        SolverCache {
+            jacobian: jacobian.map(KeptJacobian::new),
+            velocity_change,
+            left,
+            ledger,
+            kept: PairsKept::with_reach(reach),
+            kinematics: KinematicsMemo::default(),
+        }
+    }
+}
