@@ -592,9 +592,8 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     }
     assert_eq!(sim.current, end, "the restored run replays bit for bit");
 
-    // Forged proofs of the box-sphere pair: moved onto the box (it cannot be proven there); a
-    // matrix that is not a rotation (the bounds assume one) and a distance that is not
-    // positive (both refused before any proof).
+    // Forged proofs of the box-sphere pair: moved onto the box (it cannot be proven there) and
+    // a matrix that is not a rotation (the bounds assume one; refused before any proof).
     let (j, left, ledger, dv, reach) = saved.solver_cache.parts();
     let pair = sim
         .model
@@ -620,8 +619,70 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     let onto = forge(&|s| s.translation = Vector3::new(0.09, 0.0, 0.0));
     assert!(onto.contains("does not hold"), "{onto}");
     let scaled = forge(&|s| s.rotation *= 2.0);
-    let negative = forge(&|s| s.t = -1.0);
-    for err in [scaled, negative] {
-        assert!(err.contains("orthonormal"), "{err}");
+    assert!(scaled.contains("orthonormal"), "{scaled}");
+    // A negative distance is a proof's own (a pair with a negative margin makes them): it is
+    // proven again at its pose, and it never covers a pair whose reach is positive, so the
+    // restored run makes its own proof.
+    let mut forged = reach.to_vec();
+    forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap().t = -1.0;
+    let mut state = saved.clone();
+    state.solver_cache = scm::integrate::SolverCache::from_parts(
+        j.cloned(),
+        left.cloned(),
+        ledger.cloned(),
+        dv.map(<[f64]>::to_vec),
+        forged,
+    );
+    let negative = sim
+        .deserialize_state(&sim.serialize_state(&state).unwrap())
+        .unwrap();
+    sim.set_state(&negative).unwrap();
+    sim.do_step(10.0 * h, h).unwrap();
+}
+
+/// A negative margin (MuJoCo takes one: its contact then acts only that deep) makes proofs of
+/// negative distance: a ball resting on the floor with both geoms at `margin="-0.005"` rests
+/// 1 cm deep, keeps its proofs against a second ball beside it, and its FMU state, proofs
+/// included, round-trips and replays bit for bit.
+#[test]
+fn a_negative_margin_rests_deeper_and_its_state_round_trips() {
+    use scm::fmi::contract::FmiModel;
+    use scm::sim::Simulation;
+    let xml = r#"<mujoco>
+      <option timestep="0.002"/>
+      <custom><text name="scm_integrator" data="semi_implicit_euler"/></custom>
+      <default><geom margin="-0.005"/></default>
+      <worldbody>
+        <geom name="floor" type="plane" size="2 2 0.1"/>
+        <body name="a" pos="0 0 0.04"><freejoint/><geom type="sphere" size="0.05" mass="1"/></body>
+        <body name="b" pos="0.3 0 0.04"><freejoint/><geom type="sphere" size="0.05" mass="1"/></body>
+      </worldbody>
+    </mujoco>"#;
+    let scene = scm::scene::load_str(xml, Path::new("deep.xml")).unwrap();
+    assert!(scene.model.pairs.iter().all(|p| p.margin == -0.01));
+    let mut sim = Simulation::new(scene, xml);
+    sim.initialize().unwrap();
+    let h = 0.002;
+    for k in 0..500 {
+        sim.do_step(k as f64 * h, h).unwrap();
     }
+    let z = sim.current.state.q[2];
+    assert!(
+        (0.05 - 0.01 - z) > 0.0 && (0.05 - 0.01 - z) < 2e-3,
+        "rests {z} m high"
+    );
+    let saved = sim.get_state().unwrap();
+    let restored = sim
+        .deserialize_state(&sim.serialize_state(&saved).unwrap())
+        .unwrap();
+    assert_eq!(restored, saved);
+    for k in 500..550 {
+        sim.do_step(k as f64 * h, h).unwrap();
+    }
+    let end = sim.current.clone();
+    sim.set_state(&restored).unwrap();
+    for k in 500..550 {
+        sim.do_step(k as f64 * h, h).unwrap();
+    }
+    assert_eq!(sim.current, end, "the restored run replays bit for bit");
 }

@@ -477,11 +477,11 @@ fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         let floor = match p.friction {
             _ if p.stiction_floor == 0.0 => String::new(),
             Some(mu) => format!(
-                ", stiction velocity at least {:.4e} m/s (h mu g)",
+                ", stiction velocity at least {:.4e} m/s (its stiction floor)",
                 p.stiction_floor * mu
             ),
             None => format!(
-                ", stiction velocity at least {:.4e} m/s times scm.friction (h g)",
+                ", stiction velocity at least {:.4e} m/s times scm.friction (its stiction floor)",
                 p.stiction_floor
             ),
         };

@@ -273,7 +273,8 @@ pub fn reach_distance(
 /// `rels[1]`: `b` seen from `a`, real parts). `margin` (m): where the pair's springs rest
 /// (they read the distance less it).
 ///
-/// Then every force of the pair is below `τ k (ε3 + (ℓ + m + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`,
+/// Then every force of the pair is below
+/// `τ k (ε3 + (max(0, ℓ + m) + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`,
 /// `ℓ` the largest distance between a point of one body and a point of the other: the
 /// relevant planes of each point force contribute less than `τ k ε3`, and planes the pruned
 /// SSDF may keep although they are irrelevant weigh less than τ in all, each with a spring of

@@ -328,12 +328,12 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
 /// An entry of the band contributes `W_f F_f` to the force on each body (and `W_f arm_f × F_f`,
 /// `W_f G_f` to the torques), where `F_f = Σ_i σ_i λ_i` is its point–SSDF force and
 /// `G_f = Σ_i σ_i p_i × λ_i`. Each `|λ_i| = c_i d(s_i) |n_i - μ u_i|` with the spring
-/// `c_i = k s⁺_ε3(-φ_i)`, `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`|v_i| ≤ V_f = |v_f| + |ω_p|
+/// `c_i = k s⁺_ε3(m - φ_i)` (`m` the pair's margin), `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`|v_i| ≤ V_f = |v_f| + |ω_p|
 /// max_i |p_i|`) and `|n_i - μ u_i| ≤ √(1 + μ²)` (`u_i ⊥ n_i`, `|u_i| < 1`), so
 /// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f max_i |p_i|`, with
-/// `B_f ≥ Σ_i σ_i s⁺_ε3(-φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`](crate::collision::BandEntry::springs)).
+/// `B_f ≥ Σ_i σ_i s⁺_ε3(m - φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`](crate::collision::BandEntry::springs)).
 /// An entry is skipped when its separation weight is below the band's cutoff, when `W_f Λ_f`
-/// is zero in `f64` (every term's `w_i e^{-φ_i/ε3}` is below e^-745, so its force is zero or
+/// is zero in `f64` (every term's `w_i e^{(m - φ_i)/ε3}` is below e^-745, so its force is zero or
 /// subnormal: `B_f < I ε3 e^-745`), or when
 /// `W_f Λ_f < (τ/N) M`, `M` the largest summand `W_g |F_g|` evaluated so far (the entry with
 /// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each

@@ -241,7 +241,8 @@ pub fn contact_energy(
         .map(|(pair, pc)| {
             let k = pair.stiffness.unwrap_or(prm.stiffness);
             let f = pc.on_a.force.norm();
-            let deep = (-pc.distance).max(0.0);
+            // The spring reads the distance less the pair's margin.
+            let deep = (pair.margin - pc.distance).max(0.0);
             (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep)
         })
         .sum()

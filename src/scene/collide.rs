@@ -199,6 +199,7 @@ impl Builder {
         for ExplicitPair {
             geoms: [g1, g2],
             friction,
+            frictionless,
             margin,
             line,
             ..
@@ -227,7 +228,14 @@ impl Builder {
             }
             explicit.push((x.min(y), x.max(y)));
             explicit_geoms.push((i, j));
-            explicit_friction.push(((x.min(y), x.max(y)), *friction));
+            // Under `override` a pair takes `o_friction` unless its own condim makes it
+            // frictionless (MuJoCo reads the pair's condim, not its geoms').
+            let friction = match self.flags.override_contacts {
+                true if *frictionless => Some(0.0),
+                true => Some(self.contact_override.friction),
+                false => *friction,
+            };
+            explicit_friction.push(((x.min(y), x.max(y)), friction));
             explicit_margin.push(((x.min(y), x.max(y)), *margin));
         }
         let rules = filter::Rules {
@@ -284,8 +292,7 @@ impl Builder {
                 let own = explicit_friction
                     .iter()
                     .find(|(k, _)| *k == (a, b))
-                    .and_then(|(_, f)| *f)
-                    .filter(|_| !self.flags.override_contacts);
+                    .and_then(|(_, f)| *f);
                 let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
                 let margin = match explicit_margin.iter().find(|(k, _)| *k == (a, b)) {
                     _ if self.flags.override_contacts => self.contact_override.margin,
@@ -467,6 +474,7 @@ impl Builder {
                     self.explicit_pairs.push(ExplicitPair {
                         geoms: [g1.into(), g2.into()],
                         friction,
+                        frictionless: c.attr("condim") == Some("1"),
                         softness,
                         margin,
                         line: c.line,

@@ -69,6 +69,8 @@ pub struct SceneError {
 struct ExplicitPair {
     geoms: [String; 2],
     friction: Option<f64>,
+    /// `condim="1"`: the pair is frictionless, whatever `override` says.
+    frictionless: bool,
     softness: contact::Softness,
     margin: f64,
     line: usize,

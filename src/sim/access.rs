@@ -83,13 +83,17 @@ impl Simulation {
                 "scm.{name} = {value:?} refused: no contact pair uses it, every pair has its own, {source} (see `scm check`); to give every pair one value that scm.{name} then tunes, set scm_{name} in the scene (<custom><numeric name=\"scm_{name}\" data=\"...\"/>)"
             ));
         }
-        if p == Param::StictionVelocity && !unchanged && !pairs.is_empty() {
-            // Each pair's stiction velocity is at least its floor (`Pair::stiction_floor`):
-            // a value under every pair's would change nothing.
-            let mu = self.current.params.friction;
+        // Each pair's stiction velocity is at least its floor (`Pair::stiction_floor`): a value
+        // under every pair's changes nothing, unless a joint's or tendon's dry friction reads it
+        // too, or a pair's floor follows `scm.friction` (which a host may set after this).
+        let m = &self.model;
+        let dry_friction = m.tree.joints.iter().any(|j| j.frictionloss > 0.0)
+            || m.tendons.iter().any(|t| t.frictionloss > 0.0)
+            || m.spatial_tendons.iter().any(|t| t.law.frictionloss > 0.0);
+        if p == Param::StictionVelocity && !unchanged && !pairs.is_empty() && !dry_friction {
             let least = pairs
                 .iter()
-                .map(|pair| pair.stiction_floor * pair.friction.unwrap_or(mu))
+                .map(|pair| pair.friction.map_or(0.0, |mu| pair.stiction_floor * mu))
                 .fold(f64::INFINITY, f64::min);
             if value < least {
                 return Err(format!(

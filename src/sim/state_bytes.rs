@@ -382,15 +382,13 @@ fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, S
                                 *v = finite(r, "a kept out-of-reach proof's value")?;
                             }
                             let rotation = Matrix3::from_column_slice(&x[..9]);
-                            // The proof's bounds assume a rotation (unit axes, lengths kept),
-                            // a positive distance and a margin that is not negative.
+                            // The proof's bounds assume a rotation (unit axes, lengths kept)
+                            // and a margin that is not negative. Its distance may be negative
+                            // (a pair with a negative contact margin); the proof is made again
+                            // at its own pose before it serves (`kept_reach_holds`).
                             let skew =
                                 (rotation.transpose() * rotation - Matrix3::identity()).norm();
-                            if !(skew <= 1e-9
-                                && rotation.determinant() > 0.0
-                                && x[12] > 0.0
-                                && x[13] >= 0.0)
-                            {
+                            if !(skew <= 1e-9 && rotation.determinant() > 0.0 && x[13] >= 0.0) {
                                 return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m²", x[12], x[13]));
                             }
                             *side = Some(KeptSide {

@@ -176,7 +176,7 @@ MARGINS = """<mujoco>
     <body name="own" pos="0.6 0 0.05"><freejoint/>
       <geom name="own" type="sphere" size="0.05" margin="0.02" contype="0" conaffinity="0"/></body>
   </worldbody>
-  <contact><pair geom1="floor" geom2="alone"/><pair geom1="floor" geom2="own" margin="0.007"/></contact>
+  <contact><pair geom1="floor" geom2="alone"/><pair geom1="floor" geom2="own" margin="0.007" condim="1"/></contact>
 </mujoco>
 """
 
@@ -212,6 +212,10 @@ def test_pairs_margins_are_mujocos(override, tmp_path):
     line = next(l for l in check.splitlines() if l.startswith("pair world - summed"))
     assert f"margin {0.005 if override else 0.006} m" in line, line
     assert ("friction 0.4" in line) == override, line
+    # A pair's own condim="1" keeps it frictionless under override too, as MuJoCo's pair_dim.
+    own = next(l for l in check.splitlines() if l.startswith("pair world - own"))
+    assert own.startswith("pair world - own: friction 0,"), own
+    assert next(c.dim for c in d.contact[:d.ncon] if m.body(max(m.geom_bodyid[g] for g in c.geom)).name == "own") == 1
 
 
 def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_refused(tmp_path):
@@ -221,12 +225,12 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
     pair's, saying why; `scm_stiction_floor` sets the multiple (0: none) whatever the
     integrator, and a negative one is refused; a scene's own `scm_stiction_velocity` means no
     floor unless it sets one."""
-    def scene(option, custom=""):
+    def scene(option, custom="", more=""):
         path = tmp_path / "floor.xml"
         path.write_text(f"""<mujoco><option timestep="0.005" {option}/>{custom}<worldbody>
 <geom name="floor" type="plane" size="1 1 0.1" friction="0.6"/>
 <body name="a" pos="0 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" friction="0.6"/></body>
-</worldbody></mujoco>""")
+{more}</worldbody></mujoco>""")
         return path
 
     def floor(path):
@@ -251,7 +255,7 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
     path = scene('integrator="RK4"')
     line = next(l for l in subprocess.run([str(SCM), "check", str(path)], capture_output=True,
                                           text=True).stdout.splitlines() if l.startswith("pair"))
-    assert "stiction velocity at least 5.8860e-2 m/s (h mu g)" in line, line
+    assert "stiction velocity at least 5.8860e-2 m/s (its stiction floor)" in line, line
 
     def run(value):
         return subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.05", "--set",
@@ -261,3 +265,10 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
     assert "scm_stiction_floor" in below.stderr
     assert run(0.01).returncode == 0  # the start value, unchanged: accepted
     assert run(0.2).returncode == 0 and run(0.2).stdout != run(0.1).stdout
+    # A joint's dry friction reads the same parameter: there a value under the floor acts.
+    path = scene('integrator="RK4"', more='<body name="arm" pos="1 0 1"><joint name="h" axis="0 1 0" '
+                 'frictionloss="0.5"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" '
+                 'contype="0" conaffinity="0"/></body>')
+    below = run(0.05)
+    assert below.returncode == 0, below.stderr
+    assert below.stdout != run(0.01).stdout
