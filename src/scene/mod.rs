@@ -22,6 +22,7 @@ pub mod json;
 mod mechanics;
 mod names;
 mod paths;
+mod read;
 mod settings;
 mod tendon;
 mod weights;
@@ -29,6 +30,7 @@ pub use assets::{MeshAsset, MeshInertia};
 pub use collide::spacing_text;
 use equality::{Anchors, ConnectSpec, EqualitySpec};
 pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
+use read::{element_error, parse_floats, Place};
 use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUTES};
 use tendon::{SegmentSpec, TendonSpec};
 pub mod xml;
@@ -404,22 +406,6 @@ struct Builder {
     actuator_ranges: Vec<(usize, f64, f64)>,
 }
 
-/// An error at an element: its file, line and name.
-fn element_error(el: &Element, message: impl Into<String>) -> SceneError {
-    SceneError {
-        file: el.file.to_string(),
-        line: el.line,
-        element: el.name.clone(),
-        message: message.into(),
-    }
-}
-
-fn parse_floats(s: &str) -> Option<Vec<f64>> {
-    s.split_whitespace()
-        .map(|t| t.parse::<f64>().ok().filter(|x| x.is_finite()))
-        .collect()
-}
-
 impl Builder {
     /// The name an element gives (`None` when it gives none, or an empty one: MuJoCo treats
     /// `name=""` as no name).
@@ -486,89 +472,6 @@ impl Builder {
             spatial_tendons: vec![],
             site_transmissions: vec![],
             sites: Default::default(),
-        }
-    }
-
-    fn err(&self, el: &Element, message: impl Into<String>) -> SceneError {
-        element_error(el, message)
-    }
-
-    /// Rejects attributes outside `allowed`; those in [`UNUSED_ATTRIBUTES`] are accepted and
-    /// noted as unused by SCM.
-    fn check_attrs(&mut self, el: &Element, allowed: &[&str]) -> Result<(), SceneError> {
-        let mut unused = Vec::new();
-        for (k, _) in &el.attrs {
-            if allowed.contains(&k.as_str()) {
-                continue;
-            }
-            match UNUSED_ATTRIBUTES.iter().find(|(a, _)| a == k) {
-                Some((a, why)) => unused.push(format!("{a} ({why})")),
-                None => {
-                    return Err(self.err(
-                        el,
-                        format!(
-                            "attribute '{k}' is not supported by SCM{}",
-                            advice(&el.name, k)
-                        ),
-                    ))
-                }
-            }
-        }
-        if !unused.is_empty() {
-            self.unused(el, unused.join(", "));
-        }
-        Ok(())
-    }
-
-    /// Notes that `what` of `el` is accepted and unused by SCM.
-    fn unused(&mut self, el: &Element, what: impl Into<String>) {
-        self.unused.push(format!(
-            "{}:{}: <{}> {}",
-            el.file,
-            el.line,
-            el.name,
-            what.into()
-        ));
-    }
-
-    fn floats(&self, el: &Element, key: &str, n: usize) -> Result<Option<Vec<f64>>, SceneError> {
-        match el.attr(key) {
-            None => Ok(None),
-            Some(s) => match parse_floats(s) {
-                Some(v) if v.len() == n => Ok(Some(v)),
-                _ => Err(self.err(el, format!("{key}=\"{s}\": expected {n} finite number(s)"))),
-            },
-        }
-    }
-
-    fn float(&self, el: &Element, key: &str) -> Result<Option<f64>, SceneError> {
-        Ok(self.floats(el, key, 1)?.map(|v| v[0]))
-    }
-
-    fn vec3(&self, el: &Element, key: &str) -> Result<Option<Vector3<f64>>, SceneError> {
-        Ok(self
-            .floats(el, key, 3)?
-            .map(|v| Vector3::new(v[0], v[1], v[2])))
-    }
-
-    fn pose(&self, el: &Element) -> Result<Isometry3<f64>, SceneError> {
-        canonical::pose(el, &self.angles)
-    }
-
-    /// Lists stray text between elements (a typing slip such as `</visual>>`) as unused:
-    /// MuJoCo reads past it, and so does SCM, saying so. Before the tree is made canonical,
-    /// which folds frames away.
-    fn stray_text(&mut self, root: &Element) {
-        let mut stack = vec![root];
-        while let Some(el) = stack.pop() {
-            for (line, t) in &el.text {
-                let shown: String = t.chars().take(40).collect();
-                self.unused.push(format!(
-                    "{}:{line}: text '{shown}' inside <{}> (MuJoCo ignores text between elements)",
-                    el.file, el.name
-                ));
-            }
-            stack.extend(el.children.iter().rev());
         }
     }
 
@@ -663,44 +566,6 @@ impl Builder {
             }
         }
         Ok(())
-    }
-
-    /// An error in an SCM setting, naming its `<numeric>` or `<text>` element.
-    fn setting_error(&self, at: &Place, name: &str, message: String) -> SceneError {
-        let element = if self.text.iter().any(|(n, _, p)| n == name && p == at) {
-            "text"
-        } else {
-            "numeric"
-        };
-        SceneError {
-            file: at.file.to_string(),
-            line: at.line,
-            element: element.into(),
-            message: format!("{name}: {message}"),
-        }
-    }
-}
-
-/// Where an element was read: its file (the scene's, or the `<include>`d file that holds it)
-/// and line, for messages about settings read before they are used.
-#[derive(Clone, Debug, PartialEq)]
-struct Place {
-    file: Arc<str>,
-    line: usize,
-}
-
-impl Place {
-    fn of(el: &Element) -> Self {
-        Place {
-            file: el.file.clone(),
-            line: el.line,
-        }
-    }
-}
-
-impl std::fmt::Display for Place {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}:{}", self.file, self.line)
     }
 }
 
