@@ -42,7 +42,7 @@ pub struct Pair {
     /// its stiction velocity is at least this times its friction coefficient, whatever the
     /// contact parameter says (above it the parameter acts). `κ h g` under an integrator that
     /// takes the friction explicitly (`h` the file's step, `g` the gravity, κ the scene's
-    /// `scm_stiction_floor` or 1), so that the friction's slope at zero slip, `μ N / v_s`,
+    /// `scm_stiction_floor` or 2), so that the friction's slope at zero slip, `μ N / v_s`,
     /// stays within what the integrator carries at that step (docs/mjcf.md, "Stiction floor").
     pub stiction_floor: f64,
 }
