@@ -22,14 +22,17 @@ pub enum Integrator {
     /// joint has frictionloss, `D` also holds the slope `F v_s² / (v_s² + v²)^{3/2}` of SCM's
     /// smooth dry friction `-F v / sqrt(v_s² + v²)` (a damper as stiff as `F / v_s` near rest):
     /// MuJoCo solves frictionloss as a constraint, implicitly, and so takes it at any step;
-    /// with the slope implicit, SCM does too (linearly implicit Euler on that term).
+    /// with the slope implicit, SCM does too (linearly implicit Euler on that term). A joint
+    /// limit's damping joins `D` where the limit pushes, and the limit then has MuJoCo's
+    /// statics, 20 times its reference stiffness at the default `solimplimit` (docs/mjcf.md,
+    /// "Joint limits").
     ///
     /// The contact forces are taken at the end velocity `v'` (the step's equation in `v'`
     /// solved by Newton's iterations when a pair is in reach): their damping and friction, a
     /// damper `μ F / v_s` near rest, are velocity-implicit, as MuJoCo's constraint solver
     /// makes its contact. Without it, a stiff position actuator pressing a light finger on a
-    /// block at MuJoCo's 2 ms step blows up (`h μ F / (v_s m)` in the tens). Contact-free,
-    /// the step is MuJoCo's `Euler` exactly. MJCF's `integrator="Euler"` maps to it (to
+    /// block at MuJoCo's 2 ms step blows up (`h μ F / (v_s m)` in the tens). Contact-free and
+    /// off its limits, the step is MuJoCo's `Euler` exactly. MJCF's `integrator="Euler"` maps to it (to
     /// `semi_implicit_euler` with `<flag eulerdamp="disable">`).
     DampedEuler,
     /// Implicit (backward) Euler: `v' = v + h v̇(q', v')`, `q' = q ⊕ h v'`, its step equation in

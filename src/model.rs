@@ -308,7 +308,7 @@ impl Model {
     /// [`Model::forward_tau`], optionally with the joints' viscous damping taken implicitly
     /// over a step `h`: `v̇ = (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, `D` the diagonal of the
     /// joints' damping per degree of freedom plus the slope of their smooth frictionloss at `v`
-    /// (MuJoCo's `Euler`, see
+    /// and their limits' damping where they push (MuJoCo's `Euler`, see
     /// [`Integrator::DampedEuler`]).
     pub fn forward_damped<T: Scalar>(
         &self,
@@ -435,7 +435,7 @@ impl Model {
         let rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
-        let m = self.damped_mass_matrix(&kin, v, prm, implicit_damping);
+        let m = self.damped_mass_matrix(&kin, q, v, prm, implicit_damping);
         let vdot = self
             .tree
             .factor(m)
@@ -465,10 +465,13 @@ impl Model {
     }
 
     /// The mass matrix at `kin`, with `h D` added when `implicit_damping` is `Some(h)`: `D` the
-    /// joints' viscous damping plus the slope of their smooth frictionloss at `v`.
+    /// joints' viscous damping plus the slope of their smooth frictionloss at `v` and the
+    /// damping of their limits where they push at `(q, v)`
+    /// ([`crate::dynamics::limit::JointLimit::damping_slope`]).
     pub(crate) fn damped_mass_matrix<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
+        q: &[T],
         v: &[T],
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
@@ -488,6 +491,9 @@ impl Model {
                         d += vs2 * j.frictionloss / (r * r.sqrt());
                     }
                     m[(j.dadr + k, j.dadr + k)] += h * d;
+                }
+                if let Some(l) = &j.limit {
+                    m[(j.dadr, j.dadr)] += h * l.damping_slope(q[j.qadr], v[j.dadr]);
                 }
             }
         }

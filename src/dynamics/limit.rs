@@ -88,6 +88,21 @@ pub fn one_sided<T: Scalar>(x: T, width: f64) -> T {
     -(u3 * (-u + 1.0) * (-(u * 3.0) + 4.0)) * width
 }
 
+/// The slope `C'(x)` of [`one_sided`]: `1` from zero on, `0` up to `-W`, `q'(u)` between
+/// (`q'(u) = -12u² + 28u³ - 15u⁴`, from `0` at `u = 0` to `1` at `u = 1`, dipping to about
+/// `-0.51` on the way).
+pub fn one_sided_slope<T: Scalar>(x: T, width: f64) -> T {
+    if x.re() >= 0.0 {
+        return T::one();
+    }
+    if x.re() <= -width {
+        return T::zero();
+    }
+    let u = x / width + 1.0;
+    let u2 = u * u;
+    u2 * (u * 28.0 - u2 * 15.0 - 12.0)
+}
+
 /// The energy `P(d) = ∫ s` of the ramp.
 pub fn ramp_energy<T: Scalar>(d: T, w: f64) -> T {
     if d.re() <= 0.0 {
@@ -130,6 +145,37 @@ impl JointLimit {
             blend,
         );
         up - down
+    }
+
+    /// The damping the limit adds where it pushes, `-∂F/∂v` with each side's `C'` held at no
+    /// less than zero: `b (σ(d₋) C'(x₋)⁺ + σ(d₊) C'(x₊)⁺)`. Damped Euler takes it implicitly
+    /// with the joints' own damping (`(M + h D) v̇ = f`, docs/dynamics.md), as MuJoCo's
+    /// constraint solver takes a limit's. Where the limit lets go (`C' < 0` on a narrow band
+    /// below zero) the slope is left out: `D` stays positive, so `M + h D` stays positive
+    /// definite at any step.
+    pub fn damping_slope<T: Scalar>(&self, q: T, v: T) -> T {
+        let (below, step_below) = ramp(c::<T>(self.lo) - q, self.width);
+        let (above, step_above) = ramp(q - c::<T>(self.hi), self.width);
+        let blend = 0.5 * self.stiffness * self.width;
+        let clamp = |s: T| if s.re() > 0.0 { s } else { T::zero() };
+        let up = one_sided_slope(
+            below * self.stiffness - v * step_below * self.damping,
+            blend,
+        );
+        let down = one_sided_slope(
+            above * self.stiffness + v * step_above * self.damping,
+            blend,
+        );
+        (step_below * clamp(up) + step_above * clamp(down)) * self.damping
+    }
+
+    /// The same limit with its spring and damper both `gain` times stronger.
+    pub fn stiffened(self, gain: f64) -> JointLimit {
+        JointLimit {
+            stiffness: self.stiffness * gain,
+            damping: self.damping * gain,
+            ..self
+        }
     }
 
     /// The energy stored in the limit's spring at position `q`.
@@ -263,5 +309,52 @@ mod tests {
         // Direct stiffness and damping from a negative solref.
         let d = JointLimit::from_solref(0.0, 1.0, [-100.0, -10.0], 2.0);
         assert_eq!((d.stiffness, d.damping), (200.0, 20.0));
+    }
+
+    #[test]
+    fn the_damping_slope_is_minus_the_forces_velocity_derivative_where_the_limit_pushes() {
+        let l = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3).stiffened(20.0);
+        let blend = 0.5 * l.stiffness * l.width;
+        // The blend's slope against central differences of the blend, and at its ends.
+        for &x in &[-1.2, -0.9, -0.6, -0.3, -0.01, 0.0, 0.4] {
+            let x = x * blend;
+            let h = 1e-6 * blend;
+            let fd = (one_sided::<f64>(x + h, blend) - one_sided::<f64>(x - h, blend)) / (2.0 * h);
+            let slope = one_sided_slope::<f64>(x, blend);
+            assert!((fd - slope).abs() < 1e-6, "C'({x}) = {slope} vs {fd}");
+        }
+        let mut pushing = 0;
+        // Inside the range, in the onset, past it; going deeper, resting, coming back.
+        for &q in &[0.0, 0.4999, 0.5003, 0.5008, 0.52, -0.5004, -0.6] {
+            for &v in &[-3.0, -0.2, -0.01, 0.0, 0.01, 0.2, 3.0] {
+                let slope = l.damping_slope(q, v);
+                assert!(slope >= 0.0, "({q}, {v}): {slope}");
+                let (_, dfdv) = first_derivative(|x: Dual64| l.force(Dual64::from(q), x), v);
+                let (d_minus, d_plus) = (l.lo - q, q - l.hi);
+                let x = if d_plus > 0.0 {
+                    ramp(d_plus, l.width).0 * l.stiffness + v * ramp(d_plus, l.width).1 * l.damping
+                } else {
+                    ramp(d_minus, l.width).0 * l.stiffness
+                        - v * ramp(d_minus, l.width).1 * l.damping
+                };
+                if one_sided_slope::<f64>(x, blend) >= 0.0 {
+                    // Where the limit pushes, or is idle, or lets go on the blend's rising part.
+                    assert!(
+                        (slope + dfdv).abs() <= 1e-9 * l.damping,
+                        "({q}, {v}): {slope} vs {dfdv}"
+                    );
+                    pushing += usize::from(slope > 0.0);
+                } else {
+                    assert_eq!(slope, 0.0, "({q}, {v})");
+                }
+            }
+        }
+        assert!(pushing > 10, "{pushing} cases where the limit damps");
+        // Stiffened: spring and damper alike.
+        let base = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3);
+        assert_eq!(
+            (l.stiffness, l.damping),
+            (20.0 * base.stiffness, 20.0 * base.damping)
+        );
     }
 }

@@ -61,7 +61,7 @@ impl Model {
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let mass = self
             .tree
-            .factor(self.damped_mass_matrix(&kin, v, prm, Some(h)))
+            .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
         // Proofs first, in pair order; the pairs in reach are recorded on the model's pair
         // threads, and their wrenches summed in pair order (the same bits either way).

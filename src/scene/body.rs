@@ -131,6 +131,7 @@ impl Builder {
                     "springref",
                     "springdamper",
                     "solreflimit",
+                    "solimplimit",
                     "actuatorfrcrange",
                     "actuatorfrclimited",
                 ],
@@ -309,10 +310,8 @@ impl Builder {
         }
         self.joints.push(joint);
         self.limits.push(limit);
-        let solref = self
-            .floats(el, "solreflimit", 2)?
-            .unwrap_or(vec![0.02, 1.0]);
-        self.solreflimit.push([solref[0], solref[1]]);
+        let softness = self.limit_softness_of(el)?;
+        self.limit_softness.push(softness);
         self.bodies[body].joints.push(index);
         Ok(())
     }

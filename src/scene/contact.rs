@@ -14,6 +14,11 @@ impl Builder {
         self.softness_named(el, base, ["solref", "solimp"])
     }
 
+    /// A joint's or tendon's `solreflimit` and `solimplimit` (MuJoCo's defaults where absent).
+    pub(super) fn limit_softness_of(&self, el: &Element) -> Result<Softness, SceneError> {
+        self.softness_named(el, Softness::default(), ["solreflimit", "solimplimit"])
+    }
+
     /// [`Builder::softness`] from the attributes named `names` (`<option>`'s `o_solref` and
     /// `o_solimp`).
     fn softness_named(
@@ -366,6 +371,12 @@ impl Softness {
             1.0 - (1.0 - x).powf(power) / (1.0 - mid).powf(power - 1.0)
         };
         d0 + y * (dmax - d0)
+    }
+
+    /// `dmax`, bounded to MuJoCo's `[1e-4, 0.9999]`: the impedance from `width` on.
+    pub fn dmax(&self) -> f64 {
+        let (lo, hi) = IMPEDANCE_RANGE;
+        self.solimp[1].clamp(lo, hi)
     }
 
     /// MuJoCo's reference stiffness and damping per unit of effective mass, `(K, B)`, in its

@@ -380,8 +380,9 @@ struct Builder {
     /// Whether each joint is limited (its `range` and line, in SI units) by `limited` or
     /// `autolimits`.
     limits: Vec<Option<(f64, f64, Element)>>,
-    /// Each joint's `solreflimit` (MuJoCo's default `0.02 1`).
-    solreflimit: Vec<[f64; 2]>,
+    /// Each joint's `solreflimit` and `solimplimit` (MuJoCo's defaults `0.02 1` and `0.9 0.95
+    /// 0.001 0.5 2`).
+    limit_softness: Vec<contact::Softness>,
     /// `<tendon><fixed>` elements, as read.
     tendons: Vec<TendonSpec>,
     /// `<tendon><spatial>` elements, as read (their `joints` empty).
@@ -465,7 +466,7 @@ impl Builder {
             keys: vec![],
             refused: vec![],
             limits: vec![],
-            solreflimit: vec![],
+            limit_softness: vec![],
             tendons: vec![],
             equalities: vec![],
             connects: vec![],

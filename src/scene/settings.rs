@@ -108,7 +108,7 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ),
     (
         "solref",
-        "MuJoCo's constraint solver; SCM reads it on geoms, contact pairs, equalities and joint limits",
+        "MuJoCo's constraint solver; SCM reads it on geoms, contact pairs and equalities (and solreflimit, solimplimit on joints and tendons)",
     ),
     (
         "solimp",
@@ -116,7 +116,6 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ),
     ("solmix", "MuJoCo's contact solver"),
     ("priority", "MuJoCo's contact solver"),
-    ("solimplimit", "MuJoCo's constraint solver"),
     ("solreffriction", "MuJoCo's constraint solver"),
     ("solimpfriction", "MuJoCo's constraint solver"),
     ("iterations", "MuJoCo's constraint solver"),

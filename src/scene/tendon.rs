@@ -16,7 +16,8 @@ pub(super) struct TendonSpec {
     pub(super) frictionloss: f64,
     /// The length's range, if limited.
     pub(super) range: Option<(f64, f64)>,
-    pub(super) solreflimit: [f64; 2],
+    /// `solreflimit` and `solimplimit`.
+    pub(super) limit_softness: contact::Softness,
     /// Where the tendon is written.
     pub(super) place: Place,
 }
@@ -52,6 +53,7 @@ impl Builder {
                 "frictionloss",
                 "armature",
                 "solreflimit",
+                "solimplimit",
             ],
         )?;
         if spatial && self.float(el, "width")?.is_some_and(|w| w <= 0.0) {
@@ -98,9 +100,7 @@ impl Builder {
             }
             r => r,
         };
-        let solref = self
-            .floats(el, "solreflimit", 2)?
-            .unwrap_or(vec![0.02, 1.0]);
+        let limit_softness = self.limit_softness_of(el)?;
         let name = match Self::given_name(el) {
             Some(n) => n,
             None => self.names.make(
@@ -116,7 +116,7 @@ impl Builder {
             damping,
             frictionloss,
             range,
-            solreflimit: [solref[0], solref[1]],
+            limit_softness,
             place: Place::of(el),
         };
         if spatial {

@@ -289,3 +289,53 @@ def test_refsafe_holds_a_limits_time_constant_at_twice_the_step(tmp_path):
             assert not final[name], "MuJoCo goes unstable without refsafe"
             assert run.returncode == 1 and "the integration is unstable" in run.stderr, run.stderr
     assert abs(stiffness["raw"] / stiffness["held"] - 16.0) < 1e-9, stiffness
+
+
+def test_a_load_rests_on_a_limit_at_mujocos_static_deflection_under_its_euler_and_implicit(tmp_path):
+    """MuJoCo's limit is a constraint whose reference spring carries only 1 - d of a load
+    (docs/mjcf.md, "Joint limits"): statically it is 1 / (1 - dmax) times stiffer than its
+    reference gains, 20 times at the default solimplimit. Under the integrators that take the
+    limit's damping implicitly (damped_euler for MuJoCo's Euler, implicit_euler for its
+    implicit), SCM's limit is that stiff: an arm and a hanging block resting on their limits
+    sit past them by MuJoCo's static deflection, plus the half onset width w/2 by which SCM's
+    C² spring trails the violation, to 0.5 % (measured: 1e-4 mm or mrad on 3 to 18; the RK4
+    arm's 0.5 % is its gravity torque's cos at 0.09 rad). Under RK4 SCM keeps the reference gains (the
+    stiffened limit's fast mode is beyond an explicit step): 1 / (1 - dmax) times MuJoCo's
+    deflection, as predicted. A solimplimit of dmax 0.8 makes it 5 times."""
+    def scene(integrator, solimp):
+        return f"""<mujoco>
+  <compiler angle="radian"/>
+  <option timestep="0.002" integrator="{integrator}"><flag contact="disable"/></option>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="hinge" axis="0 1 0" range="-1 0" solreflimit="0.05 1" {solimp} damping="0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.02" mass="2"/>
+    </body>
+    <body name="block" pos="1 0 1">
+      <joint name="slide" type="slide" axis="0 0 1" range="0 1" solreflimit="0.08 1" {solimp} damping="5"/>
+      <geom type="box" size="0.05 0.05 0.05" mass="3"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+    w = 1e-3
+    for solimp, dmax in (("", 0.95), ('solimplimit="0.9 0.8 0.001"', 0.8)):
+        for integrator, ours_name in (("Euler", "damped_euler"), ("implicit", "implicit_euler"), ("RK4", "rk4")):
+            path = tmp_path / f"rest_{integrator}_{dmax}.xml"
+            path.write_text(scene(integrator, solimp))
+            rows = scm_run(path, 3.0, 0.5)
+            m = mujoco.MjModel.from_xml_path(str(path))
+            d = mujoco.MjData(m)
+            mujoco.mj_step(m, d, 1500)
+            for name, past in (("hinge", lambda q: q), ("slide", lambda q: -q)):
+                j = m.joint(name)
+                theirs = past(d.qpos[j.qposadr[0]])
+                ours = past(rows[-1][f"{name}.q"])
+                assert abs(d.qvel[j.dofadr[0]]) < 1e-6 and abs(rows[-1][f"{name}.v"]) < 1e-6
+                # MuJoCo's deflection is past its solimp width (1 mm, 1 mrad): its impedance is dmax.
+                assert theirs > 1.5e-3, (name, theirs)
+                expected = theirs if ours_name != "rk4" else theirs / (1.0 - dmax)
+                print(f"{integrator} ({ours_name}), dmax {dmax}, {name}: SCM {ours * 1e3:.4f} "
+                      f"(less w/2: {(ours - w / 2) * 1e3:.4f}), MuJoCo {theirs * 1e3:.4f}, "
+                      f"predicted {expected * 1e3:.4f} (1e-3 m or rad)")
+                assert abs((ours - w / 2) - expected) < 0.005 * expected, (integrator, name, ours, theirs)

@@ -82,6 +82,17 @@ def refsafe_held(m, solref):
     return tau, zeta
 
 
+def limit_statics_gain(m, solimp, tendon):
+    """The factor SCM stiffens a limit's reference gains by (docs/mjcf.md, "Joint limits"):
+    1 / (1 - dmax) under the integrators that take the limit's damping implicitly (MuJoCo's
+    implicit and implicitfast for joints and tendons, its Euler for joints unless eulerdamp is
+    off), 1 under the explicit ones."""
+    i = m.opt.integrator
+    implicit = i in (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST) or (
+        i == mujoco.mjtIntegrator.mjINT_EULER and not tendon and not disabled(m, "EULERDAMP"))
+    return 1.0 / (1.0 - min(max(solimp[1], 1e-4), 0.9999)) if implicit else 1.0
+
+
 def disabled(m, flag):
     """Whether the file's <option><flag> switched `flag` (mjDSBL_<flag>) off."""
     return bool(m.opt.disableflags & int(getattr(mujoco.mjtDisableBit, f"mjDSBL_{flag}")))
@@ -149,13 +160,16 @@ def compare(path, inertia_tol=TOL):
             close(f"{tag} actuatorfrcrange", joint["actuatorfrcrange"], m.jnt_actfrcrange[j])
         if joint["limited"] and kind in ("slide", "hinge") and not disabled(m, "LIMIT"):
             # The limit spring and damper: MuJoCo's reference acceleration for the joint's
-            # solreflimit, times the inertia its constraint sees (1 / dof_invweight0).
+            # solreflimit, times the inertia its constraint sees (1 / dof_invweight0), stiffened
+            # to MuJoCo's statics under the integrators that take the limit implicitly.
             tau, zeta = refsafe_held(m, m.jnt_solref[j])
             inertia = 1.0 / m.dof_invweight0[dof]
             if tau > 0:
                 k, b = inertia / (tau * zeta) ** 2, 2 * inertia / tau
             else:
                 k, b = -tau * inertia, -zeta * inertia
+            gain = limit_statics_gain(m, m.jnt_solimp[j], tendon=False)
+            k, b = k * gain, b * gain
             close(f"{tag} limit stiffness", joint["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", joint["limit_damping"], b, TOL_FROM_M)
         if kind in ("slide", "hinge"):
@@ -271,6 +285,8 @@ def compare(path, inertia_tol=TOL):
             tau, zeta = refsafe_held(m, m.tendon_solref_lim[i])
             inertia = 1.0 / m.tendon_invweight0[i]
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
+            gain = limit_statics_gain(m, m.tendon_solimp_lim[i], tendon=True)
+            k, b = k * gain, b * gain
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", ten["limit_damping"], b, TOL_FROM_M)
 
