@@ -74,6 +74,18 @@ pub enum Integrator {
 }
 
 impl Integrator {
+    /// Whether a step of this integrator takes a joint's limit damping implicitly (`tendon`
+    /// false) or a tendon's, so that the limit can act with MuJoCo's statics (docs/mjcf.md,
+    /// "Joint limits"): implicit Euler both, damped Euler the joints' (its `D` is diagonal),
+    /// the explicit integrators neither.
+    pub fn takes_limits_implicitly(self, tendon: bool) -> bool {
+        match self {
+            Integrator::ImplicitEuler => true,
+            Integrator::DampedEuler => !tendon,
+            _ => false,
+        }
+    }
+
     /// Every integrator.
     pub const ALL: [Integrator; 6] = [
         Integrator::Euler,

@@ -199,6 +199,26 @@ impl Model {
         }
     }
 
+    /// Makes `integrator` the model's, its joint and tendon limits acting with MuJoCo's statics
+    /// where that integrator takes their damping implicitly and with the reference gains
+    /// elsewhere ([`Integrator::takes_limits_implicitly`]; docs/mjcf.md, "Joint limits").
+    pub fn set_integrator(&mut self, integrator: Integrator) {
+        self.integrator = integrator;
+        let (joints, tendons) = (
+            integrator.takes_limits_implicitly(false),
+            integrator.takes_limits_implicitly(true),
+        );
+        for j in &mut self.tree.joints {
+            j.limit = j.limit.map(|l| l.acting(joints));
+        }
+        for t in &mut self.tendons {
+            t.limit = t.limit.map(|l| l.acting(tendons));
+        }
+        for t in &mut self.spatial_tendons {
+            t.law.limit = t.law.limit.map(|l| l.acting(tendons));
+        }
+    }
+
     /// Generalized passive forces (docs/method.md): viscous damping `-b v`, joint limits (smooth
     /// one-sided springs and dampers, [`crate::dynamics::limit`]), springs towards the rest
     /// position (`-k (q - springref)` for slide and hinge joints, `-k θ` for ball joints, `θ` the rotation

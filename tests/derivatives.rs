@@ -304,6 +304,36 @@ fn forward_jacobians_with_joint_limits_match_central_differences() {
 }
 
 #[test]
+fn damped_euler_step_jacobian_with_stiffened_limits_matches_central_differences() {
+    // The T-block's joints past their limits as in the forward test above, with MuJoCo's
+    // statics (20 times the reference gains, docs/mjcf.md "Joint limits"): damped Euler takes
+    // each limit's damping where it pushes into `M + h D`, so its step depends on the limit
+    // through D as well as through the force.
+    use scm::dynamics::limit::JointLimit;
+    let (mut model, point) = t_push_point(Dissipation::Smooth);
+    let limits = [(-0.1, 0.0025), (-0.0015, 0.1), (-1.0, 0.04)];
+    for (j, &(lo, hi)) in model.tree.joints.iter_mut().zip(&limits) {
+        j.limit = Some(JointLimit::from_solref(lo, hi, [0.02, 1.0], 0.5).stiffened(20.0));
+    }
+    let slopes: Vec<f64> = model.tree.joints[..3]
+        .iter()
+        .map(|j| {
+            j.limit
+                .unwrap()
+                .damping_slope(point.q[j.qadr], point.v[j.dadr])
+        })
+        .collect();
+    assert!(
+        slopes.iter().all(|&s| s > 0.0),
+        "every limit pushes and damps: {slopes:?}"
+    );
+    for integrator in [Integrator::DampedEuler, Integrator::ImplicitEuler] {
+        model.integrator = integrator;
+        check_step_jacobian(&model, &point, integrator, 0.002);
+    }
+}
+
+#[test]
 fn step_jacobians_of_every_integrator_match_central_differences() {
     let (mut model, point) = mocap_point();
     // Damping on the free joint, so that damped_euler's implicit damping is exercised.

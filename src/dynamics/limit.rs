@@ -45,6 +45,11 @@ pub struct JointLimit {
     pub damping: f64,
     /// Width of the smooth onset (m or rad).
     pub width: f64,
+    /// The spring and damper of MuJoCo's reference acceleration, `(k, b)` (see the module).
+    pub reference: (f64, f64),
+    /// The factor MuJoCo's statics ask of them, `1 / (1 - dmax)`, applied where the step takes
+    /// the limit's damping implicitly ([`JointLimit::acting`]).
+    pub statics: f64,
 }
 
 /// Width of the onset of every limit (m or rad): the force reaches its linear law 1 mm (or
@@ -169,11 +174,23 @@ impl JointLimit {
         (step_below * clamp(up) + step_above * clamp(down)) * self.damping
     }
 
-    /// The same limit with its spring and damper both `gain` times stronger.
+    /// The same limit whose statics ask `gain` times its reference gains, acting with them.
     pub fn stiffened(self, gain: f64) -> JointLimit {
         JointLimit {
-            stiffness: self.stiffness * gain,
-            damping: self.damping * gain,
+            statics: gain,
+            ..self
+        }
+        .acting(true)
+    }
+
+    /// The same limit acting with its statics' gains (`stiff`) or with the reference gains:
+    /// the former where the step takes the limit's damping implicitly
+    /// ([`crate::integrate::Integrator::takes_limits_implicitly`]).
+    pub fn acting(self, stiff: bool) -> JointLimit {
+        let gain = if stiff { self.statics } else { 1.0 };
+        JointLimit {
+            stiffness: self.reference.0 * gain,
+            damping: self.reference.1 * gain,
             ..self
         }
     }
@@ -194,6 +211,8 @@ impl JointLimit {
             stiffness,
             damping,
             width: LIMIT_WIDTH,
+            reference: (stiffness, damping),
+            statics: 1.0,
         }
     }
 }

@@ -44,23 +44,15 @@ impl Builder {
         inertia: f64,
         implicit: bool,
     ) -> JointLimit {
-        let limit = JointLimit::from_solref(lo, hi, self.held(softness.solref), inertia);
-        if implicit {
-            limit.stiffened(1.0 / (1.0 - softness.dmax()))
-        } else {
-            limit
-        }
+        JointLimit::from_solref(lo, hi, self.held(softness.solref), inertia)
+            .stiffened(1.0 / (1.0 - softness.dmax()))
+            .acting(implicit)
     }
 
     /// Whether the file's integrator takes a joint's (`tendon` false) or a tendon's limit
-    /// damping implicitly: implicit Euler both, damped Euler the joints' (its `D` is diagonal,
-    /// [`crate::model::Model::damped_mass_matrix`]), the explicit integrators neither.
+    /// damping implicitly ([`Integrator::takes_limits_implicitly`]).
     fn implicit_limits(&self, tendon: bool) -> bool {
-        match self.integrator_as_run() {
-            Integrator::ImplicitEuler => true,
-            Integrator::DampedEuler => !tendon,
-            _ => false,
-        }
+        self.integrator_as_run().takes_limits_implicitly(tendon)
     }
 
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their

@@ -299,7 +299,7 @@ impl Simulation {
     ) -> ModelResult<()> {
         match slot {
             Slot::SolverIntegrator if before_init => {
-                self.model.integrator =
+                let integrator =
                     crate::integrate::Integrator::from_name(value).ok_or_else(|| {
                         format!(
                             "solver.integrator = \"{value}\" refused: known integrators are {}",
@@ -308,6 +308,7 @@ impl Simulation {
                                 .join(", ")
                         )
                     })?;
+                self.model.set_integrator(integrator);
                 Ok(())
             }
             Slot::SolverIntegrator => {

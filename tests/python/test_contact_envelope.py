@@ -38,18 +38,22 @@ OUT = {
         "0.15 rad out on an ankle: its legs splay onto their limits by 2 s (torso 0.382 m; MuJoCo's 27 runs "
         "end between 0.495 and 0.619 m). Under RK4 at 10 ms its feet creep at the stiction floor (2 h mu g, "
         "20 cm/s) that keeps RK4 stable at rest; with its friction implicit in velocity at 1 cm/s (damped_euler, "
-        "no floor) its feet hold where MuJoCo's creep (torso 0.625 m at 2 s against 0.561) (docs/mjcf.md)"),
+        "no floor) its feet hold where MuJoCo's creep (torso 0.625 m at 2 s against 0.561). Under implicit_euler, "
+        "whose limits have MuJoCo's statics, it ends inside (docs/mjcf.md)"),
     "gymnasium/humanoidstandup": (
-        "outside", "3.0 mm out in x, lying on the floor (RK4, 3 ms; inside from a stiction floor of 3 h mu g)"),
+        "outside", "3.0 mm out in x, lying on the floor (RK4, 3 ms; inside from a stiction floor of 3 h mu g, "
+                   "and under damped_euler or implicit_euler)"),
     "gymnasium/walker2d": (
         "outside",
         "1.30 rad out on a thigh (RK4, 2 ms): it lands as MuJoCo's (torso 1.205 m at 0.1 s) but its feet "
         "tip up to 0.14 rad at 0.2 s (MuJoCo's 0.002) and its knees buckle first (-0.20 rad at 0.6 s against "
         "-0.09), so it folds where MuJoCo's topples over backwards (pitch -2.19 rad at 2 s against -4.05). "
-        "With eps2 = 0.1 mm its feet stay within 0.01 rad yet it still ends out (1.11 rad): not explained yet"),
+        "With eps2 = 0.1 mm its feet stay within 0.01 rad yet it still ends out (1.11 rad); under implicit_euler, "
+        "limits with MuJoCo's statics, 0.82 rad: not explained yet"),
     "gymnasium/walker2d_v5": (
         "outside", "0.011 rad out on a foot after its fall (RK4, 2 ms; 0.21 to 0.49 rad at stiction floors of "
-        "1 to 2.5 h mu g: the pose it falls into turns on small differences)"),
+        "1 to 2.5 h mu g: the pose it falls into turns on small differences; inside under damped_euler and "
+        "implicit_euler, whose limits have MuJoCo's statics)"),
 }
 
 
