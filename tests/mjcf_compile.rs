@@ -529,10 +529,67 @@ fn compile_reports_every_refusal_without_stopping() {
 }
 
 #[test]
+fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
+    // A hinge limit and a fixed tendon's limit, `solimplimit` dmax 0.9: gains 10 times the
+    // reference where the step takes the limit's damping implicitly (damped Euler the joint's,
+    // implicit Euler both), the reference gains under the explicit integrators; the law follows
+    // `Model::set_integrator` both ways.
+    use scm::integrate::Integrator;
+    let xml = r#"<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" range="-0.5 0.5" solimplimit="0.8 0.9 0.001"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+      <body name="fore" pos="0.5 0 0">
+        <joint name="e" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="t" range="-0.3 0.3" solimplimit="0.8 0.9 0.001">
+      <joint joint="h" coef="1"/><joint joint="e" coef="1"/>
+    </fixed>
+  </tendon>
+</mujoco>"#;
+    let mut model = load_str(xml, Path::new("limits.xml")).unwrap().model;
+    let gains = |m: &scm::model::Model| {
+        let j = m.tree.joints[0].limit.unwrap();
+        let t = m.tendons[0].limit.unwrap();
+        [
+            (j.stiffness / j.reference.0, j.damping / j.reference.1),
+            (t.stiffness / t.reference.0, t.damping / t.reference.1),
+        ]
+    };
+    let close = |a: [(f64, f64); 2], b: [f64; 2]| {
+        a.iter()
+            .zip(b)
+            .all(|(&(k, d), g)| (k - g).abs() < 1e-12 * g && (d - g).abs() < 1e-12 * g)
+    };
+    assert_eq!(model.integrator, Integrator::DampedEuler);
+    assert!(close(gains(&model), [10.0, 1.0]), "{:?}", gains(&model));
+    for (integrator, expected) in [
+        (Integrator::Rk4, [1.0, 1.0]),
+        (Integrator::ImplicitEuler, [10.0, 10.0]),
+        (Integrator::Euler, [1.0, 1.0]),
+        (Integrator::DampedEuler, [10.0, 1.0]),
+    ] {
+        model.set_integrator(integrator);
+        assert!(
+            close(gains(&model), expected),
+            "{integrator:?}: {:?}",
+            gains(&model)
+        );
+    }
+}
+
+#[test]
 fn a_limited_pendulum_rests_against_its_limit() {
     // A hinge pendulum released horizontally, limited to 30 degrees below horizontal: it comes
     // to rest against the limit, past it by the static deflection of the limit's spring
-    // (k = I / 0.02² from MuJoCo's default solreflimit).
+    // (k = I / (0.02² (1 - 0.95)) from MuJoCo's default solreflimit and solimplimit: its Euler
+    // gives the limit MuJoCo's statics).
     let text = r#"<mujoco>
   <option timestep="0.001"/>
   <worldbody>

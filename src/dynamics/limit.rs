@@ -28,7 +28,9 @@
 //! `ζ`; default 0.02 s and 1) and the joint's effective inertia `I` (`1 / (M⁻¹)ᵢᵢ`, armature
 //! included, at the reference configuration: MuJoCo's `1 / dof_invweight0`): `k = I / (τ ζ)²`, `b = 2 I / τ`,
 //! the constants of MuJoCo's reference acceleration for a unit impedance. A negative `solref`
-//! gives them directly as `k = -solref[0] I`, `b = -solref[1] I`.
+//! gives them directly as `k = -solref[0] I`, `b = -solref[1] I`. Where the step takes the
+//! limit's damping implicitly both are `1 / (1 - dmax)` times that, MuJoCo's statics
+//! ([`JointLimit::statics`], [`JointLimit::acting`]; docs/mjcf.md, "Joint limits").
 
 use crate::scalar::{c, Scalar};
 
@@ -79,8 +81,12 @@ pub fn ramp<T: Scalar>(d: T, w: f64) -> (T, T) {
 /// `C` cannot be monotone as well (zero at `-W`, never positive below zero, slope 1 at zero):
 /// its slope dips to about `-0.51` at `x = -0.6 W`, so on that band the damper's slope in the
 /// velocity turns over, to at most half of `b`. An implicit Euler step's Newton matrix for one
-/// limited coordinate there, `I (1 + C' (2h/τ + h²/τ²))` at `ζ = 1`, stays regular for steps
-/// below `0.72 τ`; MuJoCo's own `refsafe` holds `τ` at twice the step or more.
+/// limited coordinate there, `I (1 + C' g (2h/τ + h²/τ²))` at `ζ = 1` with `g` the statics
+/// gain ([`JointLimit::statics`], 20 at the default `solimplimit`), stays regular for steps
+/// below `0.72 τ` at `g = 1` but only below about `0.05 τ` at `g = 20`: at MuJoCo's steps a
+/// joint leaving its limit fast can meet a singular matrix on that band, where Newton's
+/// iterations fail and the implicit step is done as two halves, recursively
+/// (docs/dynamics.md).
 pub fn one_sided<T: Scalar>(x: T, width: f64) -> T {
     if x.re() >= 0.0 {
         return x;
@@ -152,17 +158,17 @@ impl JointLimit {
         up - down
     }
 
-    /// The damping the limit adds where it pushes, `-∂F/∂v` with each side's `C'` held at no
-    /// less than zero: `b (σ(d₋) C'(x₋)⁺ + σ(d₊) C'(x₊)⁺)`. Damped Euler takes it implicitly
+    /// The damping the limit adds where it pushes: `b (σ(d₋) C'(x₋)² + σ(d₊) C'(x₊)²)`,
+    /// `-∂F/∂v` itself wherever the limit pushes (`C' = 1`). Damped Euler takes it implicitly
     /// with the joints' own damping (`(M + h D) v̇ = f`, docs/dynamics.md), as MuJoCo's
-    /// constraint solver takes a limit's. Where the limit lets go (`C' < 0` on a narrow band
-    /// below zero) the slope is left out: `D` stays positive, so `M + h D` stays positive
-    /// definite at any step.
+    /// constraint solver takes a limit's. On the narrow band below zero where the limit lets
+    /// go, `C'` dips below zero; its square keeps `D` positive, so `M + h D` stays positive
+    /// definite at any step, and smooth (`C'` is `C¹`), so the step's derivatives stay
+    /// continuous.
     pub fn damping_slope<T: Scalar>(&self, q: T, v: T) -> T {
         let (below, step_below) = ramp(c::<T>(self.lo) - q, self.width);
         let (above, step_above) = ramp(q - c::<T>(self.hi), self.width);
         let blend = 0.5 * self.stiffness * self.width;
-        let clamp = |s: T| if s.re() > 0.0 { s } else { T::zero() };
         let up = one_sided_slope(
             below * self.stiffness - v * step_below * self.damping,
             blend,
@@ -171,7 +177,7 @@ impl JointLimit {
             above * self.stiffness + v * step_above * self.damping,
             blend,
         );
-        (step_below * clamp(up) + step_above * clamp(down)) * self.damping
+        (step_below * up * up + step_above * down * down) * self.damping
     }
 
     /// The same limit whose statics ask `gain` times its reference gains, acting with them.
@@ -331,7 +337,8 @@ mod tests {
     }
 
     #[test]
-    fn the_damping_slope_is_minus_the_forces_velocity_derivative_where_the_limit_pushes() {
+    fn the_damping_slope_is_minus_the_forces_velocity_derivative_where_the_limit_pushes_and_never_negative(
+    ) {
         let l = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3).stiffened(20.0);
         let blend = 0.5 * l.stiffness * l.width;
         // The blend's slope against central differences of the blend, and at its ends.
@@ -342,10 +349,11 @@ mod tests {
             let slope = one_sided_slope::<f64>(x, blend);
             assert!((fd - slope).abs() < 1e-6, "C'({x}) = {slope} vs {fd}");
         }
-        let mut pushing = 0;
-        // Inside the range, in the onset, past it; going deeper, resting, coming back.
+        let (mut pushing, mut letting_go) = (0, 0);
+        // Inside the range, in the onset, past it; going deeper, resting, coming back (-0.018
+        // at 0.8 w past the upper limit: on the blend, where C' < 0).
         for &q in &[0.0, 0.4999, 0.5003, 0.5008, 0.52, -0.5004, -0.6] {
-            for &v in &[-3.0, -0.2, -0.01, 0.0, 0.01, 0.2, 3.0] {
+            for &v in &[-3.0, -0.2, -0.018, -0.01, 0.0, 0.01, 0.2, 3.0] {
                 let slope = l.damping_slope(q, v);
                 assert!(slope >= 0.0, "({q}, {v}): {slope}");
                 let (_, dfdv) = first_derivative(|x: Dual64| l.force(Dual64::from(q), x), v);
@@ -356,19 +364,29 @@ mod tests {
                     ramp(d_minus, l.width).0 * l.stiffness
                         - v * ramp(d_minus, l.width).1 * l.damping
                 };
-                if one_sided_slope::<f64>(x, blend) >= 0.0 {
-                    // Where the limit pushes, or is idle, or lets go on the blend's rising part.
+                let cp = one_sided_slope::<f64>(x, blend);
+                if cp == 1.0 || cp == 0.0 {
+                    // Where the limit pushes, or is idle: the force's own slope.
                     assert!(
                         (slope + dfdv).abs() <= 1e-9 * l.damping,
                         "({q}, {v}): {slope} vs {dfdv}"
                     );
                     pushing += usize::from(slope > 0.0);
                 } else {
-                    assert_eq!(slope, 0.0, "({q}, {v})");
+                    // Letting go on the blend: `-∂F/∂v = b σ C'` and the slope is `b σ C'²`.
+                    assert!(
+                        (slope + dfdv * cp).abs() <= 1e-9 * l.damping,
+                        "({q}, {v}): {slope} vs {dfdv} at C' = {cp}"
+                    );
+                    letting_go += usize::from(cp < 0.0);
                 }
             }
         }
         assert!(pushing > 10, "{pushing} cases where the limit damps");
+        assert!(
+            letting_go > 0,
+            "the band where the limit lets go is visited"
+        );
         // Stiffened: spring and damper alike.
         let base = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3);
         assert_eq!(

@@ -5,7 +5,8 @@
 //! (the 3×3 rotational inertia about the centre of mass, body axes, row-major). Joints: `pos`
 //! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
 //! `springref`, passive properties and limits in SI units, with the limit spring's stiffness and
-//! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`). Fixed tendons: joints and
+//! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`, times `1 / (1 - dmax)` of
+//! `solimplimit` where the file's integrator takes the limit implicitly). Fixed tendons: joints and
 //! coefficients, spring, damper, friction, spring length and limits; spatial tendons (apart):
 //! their segments (bodies, points, `1 / divisor`), length at `qpos0` and the same. Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the

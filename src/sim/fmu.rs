@@ -52,7 +52,10 @@ impl FmiModel for Simulation {
 
     fn reset(&mut self) -> ModelResult<()> {
         self.current = self.start.clone();
-        (self.model.integrator, self.model.step, self.model.tolerance) = self.start_solver;
+        let (integrator, step, tolerance) = self.start_solver;
+        // The integrator brings its own limit law (`Model::set_integrator`).
+        self.model.set_integrator(integrator);
+        (self.model.step, self.model.tolerance) = (step, tolerance);
         self.cache = Default::default();
         self.outputs = None;
         self.started = false;
@@ -132,8 +135,8 @@ impl FmiModel for Simulation {
             return Err("the FMU state belongs to another scene (its sizes differ)".into());
         }
         self.current = state.sim.clone();
-        (self.model.integrator, self.model.step, self.model.tolerance) =
-            (state.integrator, state.step, state.tolerance);
+        self.model.set_integrator(state.integrator);
+        (self.model.step, self.model.tolerance) = (state.step, state.tolerance);
         self.cache = state.solver_cache.clone();
         self.outputs = None;
         Ok(())
