@@ -10,7 +10,9 @@ pub mod mesh;
 pub mod patch;
 pub mod polytope;
 pub mod radial;
+pub mod relevant;
 pub mod rounded;
+pub mod sample;
 pub mod shapes;
 pub mod spine;
 pub mod ssdf;
@@ -18,7 +20,8 @@ pub mod union;
 
 pub use aopc::Aopc;
 pub use mesh::{MeshError, Placement, TriMesh};
-pub use shapes::{MassProperties, Shape, Spacing};
+pub use sample::Spacing;
+pub use shapes::{MassProperties, Shape};
 pub use ssdf::{ssdf, ssdf_naive, ssdf_weights_sum};
 
 /// Uniform numbers in [-1, 1) for the unit tests (a fixed linear congruential sequence: a test

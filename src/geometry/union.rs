@@ -19,7 +19,8 @@
 //! with the same quads as one box wherever the union is one box.
 
 use super::rounded::{find_rounded, MemberSampling};
-use super::shapes::{sample_box, Shape, Spacing};
+use super::sample::{sample_box, Spacing};
+use super::shapes::Shape;
 use super::Aopc;
 use nalgebra::{Isometry3, Point3, Vector3};
 
@@ -179,7 +180,7 @@ pub(crate) fn box_quads_in_union(
         return 0.0;
     };
     let (_, tol) = size_and_tolerance(geoms, spacings);
-    super::shapes::box_quads(half, &spacings[k], &box_breaks(half, pose, geoms, k, tol))
+    super::sample::box_quads(half, &spacings[k], &box_breaks(half, pose, geoms, k, tol))
 }
 
 /// `x` (body frame) moved onto the shape's curved surface: along the SDF gradient for a sphere

@@ -24,6 +24,7 @@
 mod advance;
 mod cache;
 mod guard;
+mod implicit;
 mod newton;
 mod step;
 

@@ -170,7 +170,7 @@ fn estimated_points(shape: &Shape, sampling: &Spacing) -> f64 {
     let area = match shape {
         Shape::Sphere { radius } => 4.0 * PI * radius * radius,
         Shape::Box { half } => {
-            return crate::geometry::shapes::box_quads(half, sampling, &Default::default())
+            return crate::geometry::sample::box_quads(half, sampling, &Default::default())
         }
         Shape::Capsule {
             radius,

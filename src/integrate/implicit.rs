@@ -1,0 +1,341 @@
+//! The implicit steps: implicit Euler's (its step equation in the end velocity, solved by
+//! Newton's method, with a Jacobian carried between steps, a guess extrapolated from the last
+//! step, and halving where Newton fails) and damped Euler's velocity with the contact taken at
+//! the end velocity ([`Integrator::DampedEuler`]).
+
+use super::newton::{newton, re_vec, KeptJacobian};
+use super::step::axpy;
+use crate::autodiff::{jacobian, VectorFunction};
+use crate::collision::PairsKept;
+use crate::contact::ContactParams;
+use crate::integrator::{Integrator, State};
+use crate::model::{DynamicsError, Model};
+use crate::scalar::{c, Scalar};
+use nalgebra::DMatrix;
+use std::any::TypeId;
+use std::cell::RefCell;
+
+/// The residual of the implicit Euler step equation `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` as a
+/// function of the new velocity `V`, on real numbers (for its Jacobian).
+struct StepResidual<'a> {
+    model: &'a Model,
+    q0: Vec<f64>,
+    v0: Vec<f64>,
+    h: f64,
+    u: Vec<f64>,
+    prm: ContactParams<f64>,
+}
+
+impl VectorFunction for StepResidual<'_> {
+    fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
+        let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
+        step_residual(
+            self.model,
+            &lift(&self.q0),
+            &lift(&self.v0),
+            c(self.h),
+            &lift(&self.u),
+            &self.prm.lift(),
+            x,
+            None,
+        )
+    }
+}
+
+/// Damped Euler's step equation in the end velocity, on real values (for its Jacobian): see
+/// [`Model::damped_euler_velocity`].
+struct ContactImplicitResidual<'a> {
+    model: &'a Model,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    tau: Vec<f64>,
+    mocap: Vec<f64>,
+    prm: ContactParams<f64>,
+    h: f64,
+}
+
+impl VectorFunction for ContactImplicitResidual<'_> {
+    fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
+        let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
+        let (q, v) = (lift(&self.q), lift(&self.v));
+        let a = self
+            .model
+            .forward_contact_at(
+                &q,
+                &v,
+                Some(x),
+                &lift(&self.tau),
+                &lift(&self.mocap),
+                &self.prm.lift(),
+                Some(c(self.h)),
+            )?
+            .vdot;
+        Ok((0..x.len()).map(|k| x[k] - v[k] - a[k] * self.h).collect())
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn step_residual<T: Scalar>(
+    model: &Model,
+    q0: &[T],
+    v0: &[T],
+    h: T,
+    u: &[T],
+    prm: &ContactParams<T>,
+    vs: &[T],
+    kept: Option<&RefCell<&mut PairsKept>>,
+) -> Result<Vec<T>, DynamicsError> {
+    let q = model.tree.integrate_q(q0, vs, h);
+    let a = match kept {
+        Some(kept) => {
+            model
+                .forward_candidates(&q, vs, u, prm, &mut kept.borrow_mut())?
+                .vdot
+        }
+        None => model.forward(&q, vs, u, prm)?.vdot,
+    };
+    Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
+}
+
+impl Model {
+    /// Damped Euler's velocity at the end of a step `h` ([`Integrator::DampedEuler`]): `V`
+    /// solves `(M + h D)(V - v) = h (τ + τ_passive - c + Σ Λ(q, V))`, every term at the start
+    /// `(q, v)` but the contact forces `Λ`, taken at `V`. The joints' damping is implicit as in
+    /// MuJoCo's `Euler`; the contact's velocity dependence (its damping, and friction, which is
+    /// a damper `μ F / v_s` near rest) is implicit as MuJoCo's constraint solver makes it: a
+    /// stiff position actuator pressing a light finger on a block (`μ F / (v_s m)` in the
+    /// thousands per second at 2 ms steps) rings and blows up with the contact explicit.
+    ///
+    /// Without a pair in reach at the start, the step is explicit (contact-free and off every
+    /// limit, it is MuJoCo's `Euler` exactly). Otherwise Newton's iterations from the explicit step, on
+    /// the real Jacobian from dual numbers, as [`Integrator::ImplicitEuler`]'s (with dual
+    /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
+    /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
+    /// takes a fresh one when the iterations stop contracting), as for implicit Euler; `kept`,
+    /// the pairs' kept out-of-reach proofs and candidate planes, serves the frozen contact.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn damped_euler_velocity<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        jac: &mut Option<KeptJacobian>,
+        kept: Option<&mut PairsKept>,
+    ) -> Result<Vec<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        let tau = self
+            .actuator_forces_at(q, v, ctrl, mocap)
+            .as_slice()
+            .to_vec();
+        let real = ContactImplicitResidual {
+            model: self,
+            q: re_vec(q),
+            v: re_vec(v),
+            tau: re_vec(&tau),
+            mocap: re_vec(mocap),
+            prm: prm.re(),
+            h: h.re(),
+        };
+        let real_jacobian =
+            |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(&real, x)?.1) };
+        if TypeId::of::<T>() == TypeId::of::<f64>() {
+            // Values only: everything but the contact's velocities is frozen at the start of the
+            // step, each pair's contact terms recorded there and replayed at each trial end
+            // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
+            let mut kept = kept;
+            if let Some(all) = kept.as_deref_mut() {
+                all.fit(self.pairs.len());
+            }
+            let (frozen, a0) = self.frozen_forward_kept(
+                &real.q,
+                &real.v,
+                &real.tau,
+                &real.mocap,
+                &real.prm,
+                real.h,
+                kept,
+            )?;
+            let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
+            if frozen.contact_free() {
+                return Ok(explicit);
+            }
+            let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
+                let a = frozen.vdot(&re_vec(x));
+                Ok((0..x.len())
+                    .map(|k| x[k] - v[k] - h * c::<T>(a[k]))
+                    .collect())
+            };
+            return newton(&residual, &real_jacobian, explicit, jac);
+        }
+        let start = self.forward_damped(q, v, &tau, mocap, prm, Some(h))?;
+        let explicit = axpy(v, h, start.vdot.as_slice());
+        if start.contacts.iter().all(Option::is_none) {
+            return Ok(explicit);
+        }
+        let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
+            let a = self
+                .forward_contact_at(q, v, Some(x), &tau, mocap, prm, Some(h))?
+                .vdot;
+            Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
+        };
+        newton(&residual, &real_jacobian, explicit, jac)
+    }
+
+    /// One implicit Euler step ([`Integrator::ImplicitEuler`]): `V` solves
+    /// `V = v0 + h v̇(q0 ⊕ h V, V)` with the inputs at the end of the step; the result is
+    /// `(q0 ⊕ h V, V)`.
+    ///
+    /// Newton's method uses the exact Jacobian `∂r/∂V` from dual numbers (evaluated on real
+    /// parts), a backtracking line search, and, in `f64`, keeps a Jacobian while the iterations
+    /// contract fast. With a dual-number scalar every iteration takes a fresh Jacobian, so the
+    /// dual parts of the converged solution are the implicit-function derivative of the step.
+    ///
+    /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
+    /// and replaced when the iterations contract slowly; updated here. `guess`: the velocity
+    /// change `V - v` Newton starts from (none: `V = v`).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn implicit_euler_step<T: Scalar>(
+        &self,
+        state: &State<T>,
+        u: &[T],
+        prm: &ContactParams<T>,
+        h: T,
+        jac: &mut Option<KeptJacobian>,
+        guess: Option<&[f64]>,
+        kept: Option<&mut PairsKept>,
+    ) -> Result<State<T>, DynamicsError> {
+        let u1 = self.inputs_after(u, h);
+        let kept = kept.map(RefCell::new);
+        let residual =
+            |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x, kept.as_ref());
+        let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
+            let f = StepResidual {
+                model: self,
+                q0: re_vec(&state.q),
+                v0: re_vec(&state.v),
+                h: h.re(),
+                u: re_vec(&u1),
+                prm: prm.re(),
+            };
+            Ok(jacobian(&f, x)?.1)
+        };
+        let start = match guess {
+            Some(dv) if dv.len() == state.v.len() => {
+                (0..dv.len()).map(|k| state.v[k] + c::<T>(dv[k])).collect()
+            }
+            _ => state.v.clone(),
+        };
+        let v = newton(&residual, &real_jacobian, start, jac)?;
+        Ok(State {
+            q: self.tree.integrate_q(&state.q, &v, h),
+            v,
+        })
+    }
+
+    /// An implicit step of `h` from the carried Newton Jacobian `jac` and, in `dv`, the last
+    /// step's velocity change `V - v`: Newton starts from `v + dv` (the acceleration held over
+    /// the step: the start is `O(h²)` from the solution where motion is smooth, where `v` is
+    /// `O(h)`). Where Newton fails from there (after an impact the last change says little),
+    /// the step is tried again from `v`, then subdivided as without a guess. `dv` is left with
+    /// this step's change, or none when the step was subdivided (its halves' changes say
+    /// nothing of the next full step).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn implicit_step_extrapolating(
+        &self,
+        s: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        jac: &mut Option<KeptJacobian>,
+        dv: &mut Option<Vec<f64>>,
+        subdivided: &mut usize,
+        mut kept: Option<&mut PairsKept>,
+    ) -> Result<State<f64>, DynamicsError> {
+        let guessed = match dv.take() {
+            Some(guess) => {
+                match self.implicit_euler_step(s, u, prm, h, jac, Some(&guess), kept.as_deref_mut())
+                {
+                    Err(DynamicsError::NewtonFailed { .. }) => None,
+                    other => Some(other?),
+                }
+            }
+            None => None,
+        };
+        let before = *subdivided;
+        let next = match guessed {
+            Some(next) => next,
+            None => self.implicit_step_subdividing(
+                Integrator::ImplicitEuler,
+                s,
+                u,
+                prm,
+                h,
+                jac,
+                0,
+                subdivided,
+                kept,
+            )?,
+        };
+        *dv =
+            (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
+        Ok(next)
+    }
+
+    /// An implicit step of `h` of `integrator` ([`Integrator::ImplicitEuler`], or
+    /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
+    /// iterations fail (typically when contact starts within a step much longer than the
+    /// contact's period), the step is done as two halves of the same method, recursively, down
+    /// to `h / 2⁸`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn implicit_step_subdividing(
+        &self,
+        integrator: Integrator,
+        s: &State<f64>,
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        h: f64,
+        jac: &mut Option<KeptJacobian>,
+        depth: usize,
+        subdivided: &mut usize,
+        mut kept: Option<&mut PairsKept>,
+    ) -> Result<State<f64>, DynamicsError> {
+        let step = match integrator {
+            Integrator::DampedEuler => {
+                self.explicit_step(integrator, s, u, prm, h, None, jac, kept.as_deref_mut())
+            }
+            _ => self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()),
+        };
+        match step {
+            Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
+                *subdivided += 1;
+                let half = 0.5 * h;
+                let mut sub = None;
+                let mid = self.implicit_step_subdividing(
+                    integrator,
+                    s,
+                    u,
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                    kept.as_deref_mut(),
+                )?;
+                self.implicit_step_subdividing(
+                    integrator,
+                    &mid,
+                    &self.inputs_after(u, half),
+                    prm,
+                    half,
+                    &mut sub,
+                    depth + 1,
+                    subdivided,
+                    kept,
+                )
+            }
+            other => other,
+        }
+    }
+}
