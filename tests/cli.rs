@@ -19,7 +19,7 @@ fn text(b: &[u8]) -> String {
 fn every_command_has_help() {
     let out = scm(&["--help"]);
     assert!(out.status.success());
-    for cmd in ["pack", "simulate", "aopc", "check", "compile"] {
+    for cmd in ["pack", "simulate", "aopc", "check", "compile", "variables"] {
         assert!(text(&out.stdout).contains(cmd), "{cmd} not in the help");
         let sub = scm(&[cmd, "--help"]);
         assert!(sub.status.success(), "scm {cmd} --help failed");
@@ -158,6 +158,39 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
 /// command quietly with success: no panic, nothing on standard error. Each output here is
 /// many times a pipe's buffer (64 KiB), so the command is still writing when the pipe closes.
 #[test]
+fn variables_lists_the_guid_and_every_variable_as_the_model_description_declares_it() {
+    let drop = scene("sphere_drop");
+    let out = scm(&["variables", drop.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let listed = text(&out.stdout);
+    let lines: Vec<&str> = listed.lines().collect();
+    let text_of_scene = std::fs::read_to_string(&drop).unwrap();
+    assert_eq!(
+        lines[0],
+        format!("guid\t{}", scm::sim::guid(&text_of_scene))
+    );
+    assert_eq!(
+        lines[1],
+        "value reference\tname\ttype\tcausality\tvariability\tstart\tunit\tdescription"
+    );
+    // Every variable of the packed model description, once, with its value reference.
+    let xml = scm::pack::describe(&drop).unwrap().model_description;
+    let declared = xml.matches("<ScalarVariable").count();
+    assert_eq!(lines.len() - 2, declared);
+    let rows: Vec<Vec<&str>> = lines[2..].iter().map(|l| l.split('\t').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == 8), "{rows:?}");
+    let z = rows
+        .iter()
+        .find(|r| r[1] == "ball.pos.z")
+        .expect("ball.pos.z listed");
+    assert!(
+        xml.contains(&format!("name=\"ball.pos.z\" valueReference=\"{}\"", z[0])),
+        "{z:?}"
+    );
+    assert_eq!((z[2], z[6]), ("Real", "m"), "{z:?}");
+}
+
+#[test]
 fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
     use std::io::{BufRead, BufReader};
     use std::process::Stdio;
@@ -181,7 +214,7 @@ fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
     )
     .unwrap();
     let many = many.to_str().unwrap();
-    let commands: [&[&str]; 4] = [
+    let commands: [&[&str]; 5] = [
         &[
             "simulate",
             drop,
@@ -193,6 +226,7 @@ fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
         &["check", many],
         &["compile", many],
         &["aopc", many, "s0"],
+        &["variables", many],
     ];
     for args in commands {
         let mut child = Command::new(env!("CARGO_BIN_EXE_scm"))

@@ -2,7 +2,7 @@
 //! (`scm --help`, `scm COMMAND --help`).
 
 use clap::{Parser, Subcommand};
-use scm::fmi::contract::VarType;
+use scm::fmi::contract::{FmiModel, VarType};
 use scm::sim::{Simulation, Value};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -72,6 +72,13 @@ enum Command {
     },
     /// Print the compiled model as JSON, in MuJoCo's conventions.
     Compile {
+        /// The scene (MJCF).
+        scene: PathBuf,
+    },
+    /// List the variables of the scene's FMU as its modelDescription.xml declares them: first
+    /// its GUID, then one tab-separated row per variable (value reference, name, type,
+    /// causality, variability, start, unit, description): what a C host needs to call it.
+    Variables {
         /// The scene (MJCF).
         scene: PathBuf,
     },
@@ -187,6 +194,10 @@ fn run(command: Command) -> Result<(), Failure> {
             Ok(())
         }
         Command::Check { scene } => check(&scene, &mut std::io::stdout().lock()),
+        Command::Variables { scene } => {
+            let sim = Simulation::from_file(&scene).map_err(|e| e.to_string())?;
+            variables(&sim, &mut std::io::stdout().lock())
+        }
         Command::Pack { scene, output, lib } => {
             let lib = match lib {
                 Some(l) => l,
@@ -197,6 +208,47 @@ fn run(command: Command) -> Result<(), Failure> {
             Ok(())
         }
     }
+}
+
+/// The FMU's GUID and its variables, one tab-separated row each (`scm variables`).
+fn variables(sim: &Simulation, w: &mut impl Write) -> Result<(), Failure> {
+    use scm::fmi::model_description::{causality_name, variability_name};
+    let info = sim.info();
+    say!(w, "guid\t{}", info.guid);
+    say!(
+        w,
+        "value reference\tname\ttype\tcausality\tvariability\tstart\tunit\tdescription"
+    );
+    for v in &info.variables {
+        let (kind, start, unit) = match &v.var_type {
+            VarType::Real { start, unit, .. } => (
+                "Real",
+                start.map(csv_number).unwrap_or_default(),
+                unit.unwrap_or(""),
+            ),
+            VarType::Integer { start } => (
+                "Integer",
+                start.map(|s| s.to_string()).unwrap_or_default(),
+                "",
+            ),
+            VarType::Boolean { start } => (
+                "Boolean",
+                start.map(|s| s.to_string()).unwrap_or_default(),
+                "",
+            ),
+            VarType::String { start } => ("String", start.clone().unwrap_or_default(), ""),
+        };
+        say!(
+            w,
+            "{}\t{}\t{kind}\t{}\t{}\t{start}\t{unit}\t{}",
+            v.value_reference,
+            v.name,
+            causality_name(v.causality),
+            variability_name(v.variability),
+            v.description
+        );
+    }
+    Ok(())
 }
 
 /// `NAME=VALUE` for an FMU variable, set as a host sets it before initialization (so its

@@ -150,7 +150,8 @@ pub fn format_real(x: f64) -> String {
     }
 }
 
-fn causality_name(c: Causality) -> &'static str {
+/// The causality's name in `modelDescription.xml`.
+pub fn causality_name(c: Causality) -> &'static str {
     match c {
         Causality::Parameter => "parameter",
         Causality::CalculatedParameter => "calculatedParameter",
@@ -161,7 +162,8 @@ fn causality_name(c: Causality) -> &'static str {
     }
 }
 
-fn variability_name(v: Variability) -> &'static str {
+/// The variability's name in `modelDescription.xml`.
+pub fn variability_name(v: Variability) -> &'static str {
     match v {
         Variability::Constant => "constant",
         Variability::Fixed => "fixed",

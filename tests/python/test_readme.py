@@ -1,6 +1,7 @@
-"""The README's examples run as written: its Python block (fmpy on the T-push FMU) and its C
-block (a Co-Simulation host on the sphere_drop FMU, compiled with gcc against fmpy's standard
-fmi2 headers), so the front door never shows code that does not work."""
+"""The README's examples run as written: its Python block (fmpy on the T-push FMU), its Rust
+lines, and the C host it points to (docs/c/drop.c on the sphere_drop FMU, compiled with gcc
+against fmpy's standard fmi2 headers, with the GUID and value reference `scm variables`
+prints), so the front door never shows code that does not work."""
 import re
 import shutil
 import subprocess
@@ -52,14 +53,24 @@ def test_the_rust_example_is_the_doc_test_of_simulation():
 def test_the_c_example_runs_like_fmpy(fmu, tmp_path):
     gcc = shutil.which("gcc")
     assert gcc, "gcc is needed (scripts/setup.sh installs it)"
-    source = tmp_path / "drop.c"
-    source.write_text(block("c"))
+    source = ROOT / "docs" / "c" / "drop.c"
     exe = tmp_path / "drop"
     subprocess.run([gcc, "-std=c99", "-D_POSIX_C_SOURCE=200809L", "-Wall", "-Wextra", "-Werror", "-I",
                     str(fmi2_headers()), str(source), "-o", str(exe), "-ldl"], check=True)
     path = fmu("sphere_drop")
     md = read_model_description(path)
-    vr = {v.name: v.valueReference for v in md.modelVariables}["ball.pos.z"]
+    # `scm variables` gives the GUID and the value reference the packed FMU declares.
+    listed = subprocess.run([str(SCM), "variables", str(ROOT / "resources" / "scenes" / "sphere_drop.xml")],
+                            capture_output=True, text=True, check=True).stdout.splitlines()
+    assert listed[0] == f"guid\t{md.guid}", listed[0]
+    header = listed[1].split("\t")
+    declared = {r.split("\t")[1]: dict(zip(header, r.split("\t"))) for r in listed[2:]}
+    assert len(declared) == len(md.modelVariables)
+    for v in md.modelVariables:
+        row = declared[v.name]
+        assert (int(row["value reference"]), row["type"], row["causality"], row["variability"]) == \
+            (v.valueReference, v.type, v.causality, v.variability), (v.name, row)
+    vr = int(declared["ball.pos.z"]["value reference"])
     unzipped = extract(path, unzipdir=str(tmp_path / "sphere_drop"))
     out = subprocess.run([str(exe), unzipped, md.guid, str(vr)], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
