@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need, from nothing, and builds the release binaries:
-#   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc and libc6-dev (the C
-#     host test compiles tests/c_host/cs_host.c), python3 with venv;
+#   - Debian: libclang-dev (bindgen in the fmi-sys dev-dependency), gcc, make and libc6-dev (the
+#     C host tests compile tests/c_host/cs_host.c and examples/c/push.c), python3 with venv;
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
 #     (fmpy, numpy, pytest with pytest-xdist, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
 #     MJCF differential tests: all wheels, no compiler needed);
@@ -22,6 +22,7 @@ fi
 need_apt=()
 dpkg -s libclang-dev >/dev/null 2>&1 || need_apt+=(libclang-dev)
 command -v gcc >/dev/null 2>&1 || need_apt+=(gcc)
+command -v make >/dev/null 2>&1 || need_apt+=(make)
 dpkg -s libc6-dev >/dev/null 2>&1 || need_apt+=(libc6-dev)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3)
 python3 -c "import ensurepip, venv" >/dev/null 2>&1 || need_apt+=(python3-venv)
