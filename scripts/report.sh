@@ -25,5 +25,6 @@ if [ ! -x .venv-report/bin/python ] || ! .venv-report/bin/python -c "import fmpy
   .venv-report/bin/pip install -q --upgrade pip
   .venv-report/bin/pip install -q -r tests/python/requirements.txt -r scripts/report/requirements.txt
 fi
+echo "report: building the report's hosts (cargo build --release)"
 cargo build --release -q --example report_host --example step_cost
 PYTHONPATH=scripts exec .venv-report/bin/python -m report "$@"

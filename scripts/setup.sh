@@ -72,4 +72,6 @@ wheel_files gymnasium-robotics==1.4.2 .venv/gymnasium_robotics_assets gymnasium_
 # robosuite's robots and grippers (dense CAD collision meshes: the peak-memory tests).
 wheel_files robosuite==1.5.2 .venv/robosuite_assets robosuite/models/assets/
 
+echo "setup: building the release binaries (cargo build --release: a few minutes on a fresh machine)"
 cargo build --release --locked -q
+echo "setup: done"

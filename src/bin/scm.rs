@@ -301,6 +301,7 @@ fn simulate(
     let n = (duration / h * (1.0 - 1e-12)).ceil().max(1.0) as usize;
     let at = |k: usize| (k as f64 * h).min(duration);
     let start = std::time::Instant::now();
+    let mut progress: Option<indicatif::ProgressBar> = None;
     for k in 0..=n {
         if k > 0 {
             sim.step(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
@@ -310,6 +311,15 @@ fn simulate(
             .map(csv_number)
             .collect();
         say!(w, "{}", row.join(","));
+        if progress.is_none() && k < n && start.elapsed() > PROGRESS_AFTER {
+            progress = Some(progress_bar(duration));
+        }
+        if let Some(p) = &progress {
+            p.set_position((at(k) / duration * PROGRESS_UNITS as f64) as u64);
+        }
+    }
+    if let Some(p) = progress {
+        p.finish_and_clear();
     }
     if let Some(p) = out {
         eprintln!(
@@ -320,6 +330,27 @@ fn simulate(
         );
     }
     Ok(())
+}
+
+/// A run that has taken this long shows its progress on standard error (on a terminal).
+const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(2);
+/// The progress bar's length in units (its position is the simulated fraction of the run).
+const PROGRESS_UNITS: u64 = 10_000;
+
+/// The progress of `scm simulate` on standard error, updated at each CSV row: the simulated time
+/// against the duration, the wall time and an estimate of what is left. Drawn only where
+/// standard error is a terminal (indicatif hides it otherwise), so pipes and logs stay clean.
+fn progress_bar(duration: f64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::with_draw_target(
+        Some(PROGRESS_UNITS),
+        indicatif::ProgressDrawTarget::stderr(),
+    );
+    let style = indicatif::ProgressStyle::with_template(&format!(
+        "simulating {{bar:30}} {{percent:>3}}% of {duration} s, {{elapsed}} so far, about {{eta}} left"
+    ))
+    .expect("a valid progress template");
+    bar.set_style(style);
+    bar
 }
 
 /// `x` as the shortest text that reads back to the same number, in scientific notation where
