@@ -160,18 +160,7 @@ fn main() {
         );
         let own = p.params(&prm);
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-        let proof = || {
-            scm::collision::out_of_reach(
-                a,
-                b,
-                &rels,
-                own.eps1,
-                own.eps3,
-                own.margin,
-                own.dissipation_velocity,
-                own.friction,
-            )
-        };
+        let proof = || scm::collision::out_of_reach(a, b, &rels, &own.reach());
         let far = proof();
         let mut kept = scm::collision::KeptCandidates::default();
         let times = time_interleaved(

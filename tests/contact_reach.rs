@@ -34,16 +34,7 @@ fn is_far(
     p: &ContactParams<f64>,
 ) -> bool {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-    out_of_reach(
-        a,
-        b,
-        &rels,
-        p.eps1,
-        p.eps3,
-        p.margin,
-        p.dissipation_velocity,
-        p.friction,
-    )
+    out_of_reach(a, b, &rels, &p.reach())
 }
 
 /// The bound of `out_of_reach` on every force of a pair it settles:
@@ -492,18 +483,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
         };
         let decide = |fa: &Frame<f64>, kept: &mut Option<KeptReach>| {
             let rels = [fa.relative_to(&fb), fb.relative_to(fa)];
-            out_of_reach_kept(
-                a,
-                b,
-                &rels,
-                prm.eps1,
-                prm.eps3,
-                prm.margin,
-                prm.dissipation_velocity,
-                prm.friction,
-                kept,
-                0.0,
-            )
+            out_of_reach_kept(a, b, &rels, &prm.reach(), kept, 0.0)
         };
         let mut kept = None;
         if !decide(&fa, &mut kept) || kept.is_none() {

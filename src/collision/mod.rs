@@ -60,7 +60,7 @@ pub use kept::{
 };
 pub use reach::{
     cloud_beyond, kept_reach_holds, out_of_reach, out_of_reach_kept, reach_distance, KeptReach,
-    KeptSide, REACH_BUDGET,
+    KeptSide, ReachParams, REACH_BUDGET,
 };
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 

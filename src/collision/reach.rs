@@ -267,6 +267,23 @@ pub fn reach_distance(
     (eps3 > 0.0 && t.is_finite()).then_some(t * (1.0 + 1e-12))
 }
 
+/// What a pair's proof of being out of reach reads of its contact parameters (real parts):
+/// the SSDF's ε1 (m²), the spring's ε3 (m), the margin where its springs rest (m), the
+/// dissipation velocity (m/s) and the friction coefficient.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReachParams {
+    /// The SSDF's smoothing ε1 (m²).
+    pub eps1: f64,
+    /// The spring's smoothing ε3 (m).
+    pub eps3: f64,
+    /// Where the pair's springs rest (m): they read the distance less it.
+    pub margin: f64,
+    /// The dissipation velocity (m/s).
+    pub dissipation_velocity: f64,
+    /// The friction coefficient.
+    pub friction: f64,
+}
+
 /// Whether the pair `a`–`b` is out of reach: for each body with points, the other body's
 /// SSDF is proven above `margin` plus [`reach_distance`] at all of them ([`cloud_beyond`]),
 /// with the speed bound taken from the bodies' motion (`rels[0]`: `a` seen from `b`,
@@ -281,27 +298,14 @@ pub fn reach_distance(
 /// at most `ℓ + ε3 ln 2` (the pruning every pair already has). Torques are below that times
 /// the bodies' reach from their origins. A pair with no points on either side is not out of
 /// reach (there is nothing to save).
-#[allow(clippy::too_many_arguments)]
 pub fn out_of_reach(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
-    eps1: f64,
-    eps3: f64,
-    margin: f64,
-    dissipation_velocity: f64,
-    friction: f64,
+    prm: &ReachParams,
 ) -> bool {
-    let Some(sides) = sides(
-        a,
-        b,
-        rels,
-        eps1,
-        eps3,
-        margin,
-        dissipation_velocity,
-        friction,
-    ) else {
+    let eps1 = prm.eps1;
+    let Some(sides) = sides(a, b, rels, prm) else {
         return false;
     };
     !sides.is_empty()
@@ -370,17 +374,19 @@ impl<'a> Sides<'a> {
 /// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
 /// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
 /// (nothing can be proven).
-#[allow(clippy::too_many_arguments)]
 fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
     rels: &[Relative<f64>; 2],
-    eps1: f64,
-    eps3: f64,
-    margin: f64,
-    dissipation_velocity: f64,
-    friction: f64,
+    prm: &ReachParams,
 ) -> Option<Sides<'a>> {
+    let ReachParams {
+        eps1,
+        eps3,
+        margin,
+        dissipation_velocity,
+        friction,
+    } = *prm;
     if eps1.is_nan() || eps1 <= 0.0 {
         return None;
     }
@@ -516,29 +522,16 @@ impl KeptSide {
 /// with room), so the decisions depend on `kept`, which is part of the simulation's state.
 /// `life` (s): a proof with room is made only where the bodies' speed bound lets it last that
 /// long (two internal steps, say): one that would not be reused costs a second proof.
-#[allow(clippy::too_many_arguments)]
 pub fn out_of_reach_kept(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
-    eps1: f64,
-    eps3: f64,
-    margin: f64,
-    dissipation_velocity: f64,
-    friction: f64,
+    prm: &ReachParams,
     kept: &mut Option<KeptReach>,
     life: f64,
 ) -> bool {
-    let Some(sides) = sides(
-        a,
-        b,
-        rels,
-        eps1,
-        eps3,
-        margin,
-        dissipation_velocity,
-        friction,
-    ) else {
+    let eps1 = prm.eps1;
+    let Some(sides) = sides(a, b, rels, prm) else {
         *kept = None;
         return false;
     };

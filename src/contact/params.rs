@@ -153,6 +153,18 @@ impl<T: Scalar> ContactParams<T> {
 }
 
 impl ContactParams<f64> {
+    /// What a proof that a pair is out of reach reads of them
+    /// ([`crate::collision::out_of_reach`]).
+    pub fn reach(&self) -> crate::collision::ReachParams {
+        crate::collision::ReachParams {
+            eps1: self.eps1,
+            eps3: self.eps3,
+            margin: self.margin,
+            dissipation_velocity: self.dissipation_velocity,
+            friction: self.friction,
+        }
+    }
+
     /// The same parameters in another scalar type (constants: zero derivative).
     pub fn lift<T: Scalar>(&self) -> ContactParams<T> {
         ContactParams {

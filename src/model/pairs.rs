@@ -319,25 +319,12 @@ impl Model {
                 ca,
                 cb,
                 &rels,
-                p.eps1,
-                p.eps3,
-                p.margin,
-                p.dissipation_velocity,
-                p.friction,
+                &p.reach(),
                 kept,
                 // A kept proof is worth making if it serves two internal steps.
                 2.0 * self.step,
             ),
-            None => out_of_reach(
-                ca,
-                cb,
-                &rels,
-                p.eps1,
-                p.eps3,
-                p.margin,
-                p.dissipation_velocity,
-                p.friction,
-            ),
+            None => out_of_reach(ca, cb, &rels, &p.reach()),
         }
     }
 }

@@ -450,15 +450,7 @@ impl Builder {
                             "margin",
                         ],
                     )?;
-                    let friction = match c.attr("friction").map(parse_floats) {
-                        None => None,
-                        Some(Some(v)) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => Some(v[0]),
-                        Some(_) => {
-                            return Err(
-                                self.err(c, "friction: expected 1 to 5 non-negative numbers")
-                            )
-                        }
-                    };
+                    let friction = self.friction_list(c, "friction", 5)?.map(|v| v[0]);
                     let friction = match c.attr("condim") {
                         Some("1") => Some(0.0),
                         _ => friction,

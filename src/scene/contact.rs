@@ -56,16 +56,8 @@ impl Builder {
             o.margin = m;
         }
         o.softness = self.softness_named(el, o.softness, ["o_solref", "o_solimp"])?;
-        if let Some(text) = el.attr("o_friction") {
-            match parse_floats(text) {
-                Some(v) if (1..=5).contains(&v.len()) && v[0] >= 0.0 => o.friction = v[0],
-                _ => {
-                    return Err(self.err(
-                        el,
-                        format!("o_friction=\"{text}\": expected 1 to 5 non-negative numbers"),
-                    ))
-                }
-            }
+        if let Some(v) = self.friction_list(el, "o_friction", 5)? {
+            o.friction = v[0];
         }
         self.contact_override = o;
         Ok(())

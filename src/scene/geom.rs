@@ -60,22 +60,13 @@ impl Builder {
                 "condim 4 and 6 (MuJoCo's torsional and rolling friction)",
             );
         }
-        let friction = match el.attr("friction").map(parse_floats) {
+        let friction = match self.friction_list(el, "friction", 3)? {
             None => 1.0,
-            Some(Some(v)) if (1..=3).contains(&v.len()) && v[0] >= 0.0 => {
+            Some(v) => {
                 if v[1..].iter().any(|&x| x != 0.0) {
                     self.unused(el, "friction's torsional and rolling coefficients (SCM models sliding friction)");
                 }
                 v[0]
-            }
-            Some(_) => {
-                return Err(self.err(
-                    el,
-                    format!(
-                        "friction=\"{}\": expected 1 to 3 non-negative numbers",
-                        el.attr("friction").unwrap_or("")
-                    ),
-                ))
             }
         };
         let condim: u32 = match el.attr("condim") {

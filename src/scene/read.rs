@@ -63,6 +63,26 @@ impl Builder {
         ));
     }
 
+    /// A friction list (`friction`, `o_friction`): 1 to `most` non-negative numbers, the
+    /// sliding coefficient first (MuJoCo's torsional and rolling ones after it).
+    pub(super) fn friction_list(
+        &self,
+        el: &Element,
+        key: &str,
+        most: usize,
+    ) -> Result<Option<Vec<f64>>, SceneError> {
+        match el.attr(key) {
+            None => Ok(None),
+            Some(s) => match parse_floats(s) {
+                Some(v) if (1..=most).contains(&v.len()) && v[0] >= 0.0 => Ok(Some(v)),
+                _ => Err(self.err(
+                    el,
+                    format!("{key}=\"{s}\": expected 1 to {most} non-negative numbers"),
+                )),
+            },
+        }
+    }
+
     pub(super) fn floats(
         &self,
         el: &Element,
