@@ -1,0 +1,244 @@
+//! `scm check`: a scene's bodies, point clouds, pairs, warnings, what SCM leaves unused and
+//! every refusal, failing exactly where `scm pack` would refuse.
+
+use super::Failure;
+use std::io::Write;
+use std::path::Path;
+
+pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
+    // Everything `scm pack` would refuse, all at once, before the colliders are built.
+    let compiled = scm::scene::compile(path).map_err(|e| e.to_string())?;
+    if !compiled.refused.is_empty() {
+        for warning in &compiled.warnings {
+            say!(w, "warning: {warning}");
+        }
+        for u in &compiled.unused {
+            say!(w, "unused: {u}");
+        }
+        for e in &compiled.refused {
+            say!(w, "refused: {e}");
+        }
+        return Err(format!(
+            "{} refusal(s) in {}: scm pack would refuse this scene",
+            compiled.refused.len(),
+            path.display()
+        )
+        .into());
+    }
+    let sc = scm::scene::load(path).map_err(|e| e.to_string())?;
+    let m = &sc.model;
+    say!(
+        w,
+        "scene {} ({}): {} bodies, {} joints ({} positions, {} velocities), {} actuators",
+        m.name,
+        path.display(),
+        m.tree.bodies.len() - 1,
+        m.tree.joints.len(),
+        m.tree.nq,
+        m.tree.nv,
+        m.actuators.len()
+    );
+    say!(
+        w,
+        "integrator {}, internal step {} s",
+        m.integrator.name(),
+        m.step
+    );
+    for a in &sc.meshes {
+        // A mesh whose surface is not closed is used by its convex hull (listed with the
+        // warnings), or by no geom (its problem is listed with the geoms left out).
+        let (mesh, what) = match (&a.mesh, &a.hull) {
+            (Some(mesh), _) => (mesh, ""),
+            (None, Some(hull)) if a.used => (hull, "not a closed surface, its convex hull: "),
+            _ => {
+                say!(
+                    w,
+                    "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
+                    a.name,
+                    a.path.display()
+                );
+                continue;
+            }
+        };
+        let mp = mesh.mass_properties();
+        say!(
+            w,
+            "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{}",
+            a.name,
+            a.path.display(),
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            mp.volume,
+            if a.used { "" } else { " (unused)" }
+        );
+    }
+    // What the clouds' own measures flag: not refusals (`scm pack` and the FMU take such a
+    // cloud), warnings that a spacing or a mesh may want a look.
+    let mut cloud_warnings = Vec::new();
+    for (b, body) in m.tree.bodies.iter().enumerate() {
+        match &m.colliders[b] {
+            None => say!(w, "body {}: no collider", body.name),
+            Some(scm::collision::Collider::HalfSpace { normal, .. }) => say!(
+                w,
+                "body {}: plane (exact half-space), normal {:?}",
+                body.name,
+                normal.as_slice()
+            ),
+            Some(scm::collision::Collider::Aopc(s)) => {
+                let parts: Vec<_> = sc
+                    .geoms
+                    .iter()
+                    .filter(|g| g.body == b)
+                    // The colliding geoms (those given a spacing): the others are not sampled.
+                    .filter(|g| g.spacing.is_some())
+                    .filter_map(|g| g.shape.clone().map(|s| (s, g.pose)))
+                    .collect();
+                let spacings = sc
+                    .geoms
+                    .iter()
+                    .filter(|g| g.body == b)
+                    .filter_map(|g| {
+                        g.spacing
+                            .map(|h| format!("{} {}", g.name, scm::scene::spacing_text(&h)))
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
+                let closure = s.closure_defect().norm();
+                let volume = s.enclosed_volume();
+                say!(
+                    w,
+                    "body {}: {} geom(s) (sampled at: {spacings}), {} points, {} quads, {} vertices, mean spacing {:.4} m, |Σ n·area| = {:.2e} m², enclosed volume {:.4e} m³ ({} {:.4e} m³, {:+.2} %)",
+                    body.name,
+                    parts.len(),
+                    s.len(),
+                    s.faces.len(),
+                    s.vertices.len(),
+                    s.spacing(),
+                    closure,
+                    volume,
+                    if is_exact { "exact" } else { "estimated" },
+                    exact,
+                    100.0 * (volume - exact) / exact
+                );
+                // How each mesh geom's triangles became its points (`TriMesh::sample`).
+                for g in sc.geoms.iter().filter(|g| g.body == b) {
+                    let (Some(scm::geometry::Shape::Mesh(mesh)), Some(h)) = (&g.shape, &g.spacing)
+                    else {
+                        continue;
+                    };
+                    let uniform = h.coarse.min();
+                    match mesh.simplified(uniform) {
+                        Some(simple) => say!(
+                    w,
+                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then sampled at {uniform} m",
+                            g.name,
+                            mesh.triangles.len(),
+                            simple.mesh.triangles.len(),
+                            simple.tolerance * 1e3,
+                            simple.error * 1e3,
+                            match simple.folds {
+                                0 => String::new(),
+                                n => format!("; {n} triangle(s) folded inward dropped"),
+                            }
+                        ),
+                        None => say!(
+                    w,
+                            "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
+                            g.name,
+                            mesh.triangles.len(),
+                            scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3,
+                            scm::geometry::mesh::SIMPLIFY_TRIES - 1,
+                            scm::geometry::mesh::SIMPLIFY_VOLUME * 100.0
+                        ),
+                    }
+                }
+                // The faces of a closed surface have Σ n·area = 0 (to rounding for one geom; for
+                // a union, the faces its geoms cut are measured on a 16×16 grid, within a few
+                // 1e-4 of the body's area); the AOPC's volume is that of its quads (chords of
+                // curved surfaces), within a few per mille of the shape's at a sensible spacing.
+                let area: f64 = s.areas.iter().sum();
+                if closure > 1e-3 * area {
+                    cloud_warnings.push(format!(
+                        "body {}: the surface is not closed (|Σ n·area| = {closure:.2e} m², {:.2} % of its area): a spacing too coarse for its geoms (set a smaller scm_spacing, or scm_spacing:GEOM for the small ones), or interior or missing faces",
+                        body.name,
+                        100.0 * closure / area
+                    ));
+                }
+                let allowed = if is_exact { 0.02 } else { 0.05 };
+                if (volume - exact).abs() > allowed * exact {
+                    cloud_warnings.push(format!("body {}: enclosed volume {volume:.4e} m³ differs from the geoms' {exact:.4e} m³ by more than {} %: interior or missing faces, or a spacing too coarse for the shape", body.name, allowed * 100.0));
+                }
+            }
+        }
+    }
+    for (k, p) in m.pairs.iter().enumerate() {
+        let friction = p
+            .friction
+            .map_or("scm_friction".to_string(), |mu| format!("{mu}"));
+        let law = match sc.pair_laws.get(k).copied().flatten() {
+            Some(l) => format!(
+                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s, {} (solref {:?}, solimp {:?}, effective mass {:.4e} kg: MuJoCo rests at {:.3} mm)",
+                l.stiffness,
+                l.dissipation_velocity,
+                if l.dissipation_force.is_finite() {
+                    format!("dissipation force {:.4e} N", l.dissipation_force)
+                } else {
+                    "damping unbounded in depth (the paper's law)".to_string()
+                },
+                l.softness.solref,
+                l.softness.solimp,
+                l.mass,
+                l.depth * 1e3
+            ),
+            None => "stiffness and dissipation velocity: scm_stiffness, scm_dissipation_velocity".into(),
+        };
+        let margin = if p.margin != 0.0 {
+            format!(", margin {} m (its springs rest that far out)", p.margin)
+        } else {
+            String::new()
+        };
+        let floor = match p.friction {
+            _ if p.stiction_floor == 0.0 => String::new(),
+            Some(mu) => format!(
+                ", stiction velocity at least {:.4e} m/s (its stiction floor)",
+                p.stiction_floor * mu
+            ),
+            None => format!(
+                ", stiction velocity at least {:.4e} m/s times scm.friction (its stiction floor)",
+                p.stiction_floor
+            ),
+        };
+        say!(
+            w,
+            "pair {} - {}: friction {friction}{margin}{floor}, {law}",
+            m.tree.bodies[p.a].name,
+            m.tree.bodies[p.b].name
+        );
+    }
+    if m.contact_points > 0 {
+        say!(w, "contact points: {} per pair", m.contact_points);
+    }
+    for warning in &sc.warnings {
+        say!(w, "warning: {warning}");
+    }
+    for u in &sc.unused {
+        say!(w, "unused: {u}");
+    }
+    for c in &cloud_warnings {
+        say!(w, "warning: {c}");
+    }
+    if cloud_warnings.is_empty() {
+        say!(
+            w,
+            "nothing scm pack would refuse, no warning on the point clouds"
+        );
+    } else {
+        say!(
+            w,
+            "nothing scm pack would refuse; {} warning(s) on the point clouds above",
+            cloud_warnings.len()
+        );
+    }
+    Ok(())
+}
