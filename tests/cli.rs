@@ -154,9 +154,6 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A reader that takes the first line and closes the pipe (`scm … | head -1`) ends the
-/// command quietly with success: no panic, nothing on standard error. Each output here is
-/// many times a pipe's buffer (64 KiB), so the command is still writing when the pipe closes.
 #[test]
 fn variables_lists_the_guid_and_every_variable_as_the_model_description_declares_it() {
     let drop = scene("sphere_drop");
@@ -190,6 +187,9 @@ fn variables_lists_the_guid_and_every_variable_as_the_model_description_declares
     assert_eq!((z[2], z[6]), ("Real", "m"), "{z:?}");
 }
 
+/// A reader that takes the first line and closes the pipe (`scm … | head -1`) ends the
+/// command quietly with success: no panic, nothing on standard error. Each output here is
+/// many times a pipe's buffer (64 KiB), so the command is still writing when the pipe closes.
 #[test]
 fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
     use std::io::{BufRead, BufReader};

@@ -77,7 +77,8 @@ enum Command {
     },
     /// List the variables of the scene's FMU as its modelDescription.xml declares them: first
     /// its GUID, then one tab-separated row per variable (value reference, name, type,
-    /// causality, variability, start, unit, description): what a C host needs to call it.
+    /// causality, variability, start, unit, description; a tab, newline or backslash within a
+    /// field written \t, \n, \\): what a C host needs to call it.
     Variables {
         /// The scene (MJCF).
         scene: PathBuf,
@@ -243,15 +244,32 @@ fn variables(sim: &Simulation, w: &mut impl Write) -> Result<(), Failure> {
         };
         say!(
             w,
-            "{}\t{}\t{kind}\t{}\t{}\t{start}\t{unit}\t{}",
+            "{}\t{}\t{kind}\t{}\t{}\t{}\t{unit}\t{}",
             v.value_reference,
-            v.name,
+            field(&v.name),
             causality_name(v.causality),
             variability_name(v.variability),
-            v.description
+            field(&start),
+            field(&v.description)
         );
     }
     Ok(())
+}
+
+/// A field of `scm variables`' rows, one line and no tab: a backslash, tab, newline or
+/// carriage return (an MJCF name may hold one, written `&#9;`) as `\\`, `\t`, `\n`, `\r`.
+fn field(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for ch in text.chars() {
+        match ch {
+            '\\' => out.push_str("\\\\"),
+            '\t' => out.push_str("\\t"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// `NAME=VALUE` for an FMU variable, set as a host sets it before initialization (so its
@@ -344,10 +362,12 @@ const PROGRESS_UNITS: u64 = 10_000;
 /// against the duration, the wall time and an estimate of what is left. Drawn only where
 /// standard error is a terminal (indicatif hides it otherwise), so pipes and logs stay clean.
 fn progress_bar(duration: f64) -> indicatif::ProgressBar {
+    // Cleared when dropped, so a run that fails does not leave a full bar behind.
     let bar = indicatif::ProgressBar::with_draw_target(
         Some(PROGRESS_UNITS),
         indicatif::ProgressDrawTarget::stderr(),
-    );
+    )
+    .with_finish(indicatif::ProgressFinish::AndClear);
     let style = indicatif::ProgressStyle::with_template(&format!(
         "simulating {{bar:30}} {{percent:>3}}% of {duration} s, {{elapsed}} so far, about {{eta}} left"
     ))
@@ -369,7 +389,13 @@ fn csv_number(x: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::csv_number;
+    use super::{csv_number, field};
+
+    #[test]
+    fn variables_fields_stay_on_one_line_without_tabs() {
+        assert_eq!(field("ball.pos.z"), "ball.pos.z");
+        assert_eq!(field("a\tb\nc\rd\\e"), "a\\tb\\nc\\rd\\\\e");
+    }
 
     #[test]
     fn csv_numbers_are_short_and_read_back_exactly() {
