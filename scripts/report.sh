@@ -19,7 +19,7 @@ if ! command -v valgrind >/dev/null 2>&1; then
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO=sudo
   $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq valgrind >/dev/null
 fi
-if [ ! -x .venv-report/bin/python ] || ! .venv-report/bin/python -c "import fmpy, numpy, matplotlib, mujoco, tqdm, scipy" 2>/dev/null; then
+if [ ! -x .venv-report/bin/python ] || ! .venv-report/bin/python -c "import fmpy, numpy, matplotlib, mujoco, tqdm, scipy, distributed" 2>/dev/null; then
   echo "report: creating .venv-report"
   python3 -m venv .venv-report
   .venv-report/bin/pip install -q --upgrade pip

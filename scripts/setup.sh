@@ -4,7 +4,8 @@
 #     C host tests compile tests/c_host/cs_host.c and examples/c/push.c), python3 with venv;
 #   - Python: a venv in .venv with the pinned packages of tests/python/requirements.txt
 #     (fmpy, numpy, pytest with pytest-xdist, matplotlib, libcosimpy, scipy, and mujoco with gymnasium as the oracle of the
-#     MJCF differential tests: all wheels, no compiler needed);
+#     MJCF differential tests, maturin (scripts/wheel.sh) and dask.distributed (examples/dask):
+#     all wheels, no compiler needed);
 #   - the MJCF files of dm_control (its suite, walkers, props; from its wheel, unpacked in
 #     .venv/dm_control_assets)
 #     and gymnasium-robotics' models (from its wheel, in .venv/gymnasium_robotics_assets),
@@ -23,6 +24,7 @@ need_apt=()
 dpkg -s libclang-dev >/dev/null 2>&1 || need_apt+=(libclang-dev)
 command -v gcc >/dev/null 2>&1 || need_apt+=(gcc)
 command -v make >/dev/null 2>&1 || need_apt+=(make)
+command -v strip >/dev/null 2>&1 || need_apt+=(binutils)
 dpkg -s libc6-dev >/dev/null 2>&1 || need_apt+=(libc6-dev)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3)
 python3 -c "import ensurepip, venv" >/dev/null 2>&1 || need_apt+=(python3-venv)
@@ -35,7 +37,8 @@ fi
 
 # The venv records the requirements it was made from; a change reinstalls.
 if [ ! -x .venv/bin/python ] || ! cmp -s tests/python/requirements.txt .venv/requirements.txt \
-   || ! .venv/bin/python -c "import fmpy, numpy, pytest, xdist, matplotlib, libcosimpy, mujoco, gymnasium, scipy" 2>/dev/null; then
+   || ! .venv/bin/python -c "import fmpy, numpy, pytest, xdist, matplotlib, libcosimpy, mujoco, gymnasium, scipy, distributed" 2>/dev/null \
+   || [ ! -x .venv/bin/maturin ]; then
   echo "setup: creating .venv"
   python3 -m venv .venv
   .venv/bin/pip install -q --upgrade pip

@@ -3,7 +3,8 @@
 usage: PYTHONPATH=scripts python -m report [--quick] [--out DIR] [--work DIR] [--jobs N] [--only STUDY,...]
 
 Studies: speed (step, C ABI, Jacobian, targets, profile), force_profile (Fig. 1 with MuJoCo),
-pushing (Table I with MuJoCo), work_precision, stability. `--quick` runs each on a small grid
+pushing (Table I with MuJoCo), work_precision, stability, system_identification,
+scale_out, trajectory_optimization. `--quick` runs each on a small grid
 (a couple of minutes); results are cached in the work folder (keyed by the binaries, the scene and
 the arguments), so an interrupted run resumes where it stopped.
 """
@@ -12,7 +13,7 @@ import pathlib
 import sys
 import time
 
-from . import inference, mujoco_side, speed, stability, workprec
+from . import inference, mujoco_side, scale_out, speed, stability, workprec
 from .common import HAVE_MUJOCO, ROOT, Context, log, machine_line
 
 STUDIES = {
@@ -22,6 +23,7 @@ STUDIES = {
     "work_precision": ("work_precision.md", "Work–precision: error against run time", workprec.run),
     "stability": ("stability.md", "Stability maps: stiffness and ε × step × integrator", stability.run),
     "system_identification": ("system_identification.md", "System identification through the FMU: exact sensitivities against finite differences and Nelder-Mead", inference.system_identification),
+    "scale_out": ("scale_out.md", "Scale-out on dask.distributed: throughput of 1 and 2 workers against serial", scale_out.run),
     "trajectory_optimization": ("trajectory_optimization.md", "Trajectory optimization through the FMU: adjoint gradients against finite differences and the cross-entropy method", inference.trajectory_optimization),
 }
 

@@ -20,7 +20,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 HAVE_MUJOCO = importlib.util.find_spec("mujoco") is not None
 
 STUDY_FILES = ["derivatives_and_speed.md", "force_profile.md", "planar_pushing.md", "work_precision.md", "stability.md",
-               "system_identification.md", "trajectory_optimization.md"]
+               "system_identification.md", "trajectory_optimization.md", "scale_out.md"]
 ALWAYS_PNG = ["force_profile.png", "pushing_top_view.png", "work_precision_sphere_drop.png", "work_precision_t_push.png",
               "system_identification.png", "trajectory_optimization.png"]
 
@@ -122,6 +122,18 @@ def test_speed_targets_have_a_verdict(quick_report):
     assert len(targets) == 4
     for row in targets[1:]:
         assert row[3] == "met" or row[3].startswith("missed by") or (not HAVE_MUJOCO and row[3] == "not measured"), row
+
+
+def test_scale_out_runs_equal_the_serial_ones(quick_report):
+    out, _ = quick_report
+    rows = tables((out / "scale_out.md").read_text())[0]
+    assert rows[0] == ["run", "how", "wall (s)", "runs/s", "against serial", "results"]
+    assert [r[1] for r in rows[1:]] == ["serial (fmpy, a fresh instance per run)", "dask, 1 worker", "dask, 2 workers"]
+    assert rows[1][5] == "the reference"
+    for row in rows[2:]:
+        assert row[5] == "equal bit for bit", row
+    for row in rows[1:]:
+        assert float(row[3]) > 0, row
 
 
 def test_work_precision_has_the_model_exchange_line(quick_report):

@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use scm::fmi::contract::{FmiModel, VarType};
 use scm::sim::{Simulation, Value};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// Soft-minimum contact (SCM): MJCF scenes as FMI 2.0 FMUs.
@@ -25,7 +25,8 @@ enum Command {
         /// The FMU to write.
         #[arg(short, long, value_name = "OUT.fmu")]
         output: PathBuf,
-        /// The FMU binary to pack (default: libscm.so next to this program).
+        /// The FMU binary to pack (default: libscm.so next to this program, else in ../lib/scm/
+        /// beside it, where the wheel installs it).
         #[arg(long, value_name = "PATH")]
         lib: Option<PathBuf>,
     },
@@ -289,17 +290,28 @@ fn set_variable(sim: &mut Simulation, assignment: &str) -> Result<(), String> {
     result.map_err(|e| format!("--set {assignment}: {e}"))
 }
 
-/// `libscm.so` next to this executable (cargo puts both in `target/<profile>/`).
+/// The FMU binary this `scm` packs by default: `libscm.so` next to the executable (cargo puts
+/// both in `target/<profile>/`), else in `../lib/scm/` beside it (where the wheel installs it:
+/// `<prefix>/bin/scm` and `<prefix>/lib/scm/libscm.so`, see docs/wheel.md).
 fn default_library() -> Result<PathBuf, String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let lib = exe.with_file_name("libscm.so");
-    if lib.is_file() {
-        Ok(lib)
-    } else {
-        Err(format!(
-            "{} not found: build it with `cargo build --release` or pass --lib",
-            lib.display()
-        ))
+    let beside = exe.with_file_name("libscm.so");
+    let installed = exe
+        .parent()
+        .and_then(Path::parent)
+        .map(|prefix| prefix.join("lib").join("scm").join("libscm.so"));
+    let candidates: Vec<PathBuf> = std::iter::once(beside).chain(installed).collect();
+    match candidates.iter().find(|lib| lib.is_file()) {
+        Some(lib) => Ok(lib.clone()),
+        None => Err(format!(
+            "the FMU binary libscm.so is neither at {}: build it with `cargo build --release`, \
+             reinstall the wheel, or pass --lib",
+            candidates
+                .iter()
+                .map(|c| c.display().to_string())
+                .collect::<Vec<_>>()
+                .join(" nor at ")
+        )),
     }
 }
 

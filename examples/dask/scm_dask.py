@@ -1,0 +1,204 @@
+"""Many simulations of one FMU on `dask.distributed`: a parameter sweep, randomised rollouts, the
+trajectories of a system identification, from a laptop's local cluster to several machines
+(docs/scale-out.md).
+
+Each worker receives the FMU's bytes once, unpacks them once and keeps one instance per worker
+thread (`FmuPlugin`, a Dask worker plugin); a run resets that instance (`fmi2Reset`, which puts
+every variable back to its start value) instead of loading the library again, and the plugin's
+teardown frees the instances and removes the unpacked files when the plugin is unregistered or
+the worker closes. A run's result is the same bits as `simulate_fmu` on a fresh instance
+(`simulate_serial`): tests/python/test_dask.py checks it on a local cluster of 2 workers.
+
+    from distributed import Client, LocalCluster
+    import scm_dask
+    runs = [scm_dask.Run(stop_time=1.0, start_values={"scm.friction": mu}) for mu in (0.2, 0.4)]
+    with LocalCluster(n_workers=2, threads_per_worker=1) as cluster, Client(cluster) as client:
+        results = scm_dask.sweep(client, "t_push.fmu", runs)
+
+`python scm_dask.py --help` runs the T-push sweep of the docs and measures its throughput.
+"""
+import argparse
+import dataclasses
+import hashlib
+import pathlib
+import shutil
+import tempfile
+import threading
+import time
+from typing import Optional
+
+import numpy as np
+from distributed import WorkerPlugin, get_worker
+from fmpy import extract, instantiate_fmu, read_model_description, simulate_fmu
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One simulation: fmpy's `simulate_fmu` arguments that vary between runs."""
+    stop_time: float
+    output_interval: Optional[float] = None
+    start_values: dict = dataclasses.field(default_factory=dict)
+    #: fmpy's input: a structured array with a `time` column and one column per input.
+    input: Optional[np.ndarray] = None
+    output: Optional[tuple] = None
+
+    def arguments(self):
+        return dict(stop_time=self.stop_time, output_interval=self.output_interval,
+                    start_values=dict(self.start_values), input=self.input,
+                    output=None if self.output is None else list(self.output))
+
+
+def simulate_serial(fmu_path, run):
+    """`run` on a fresh instance of the FMU, in this process: the reference of the sweep."""
+    return simulate_fmu(str(fmu_path), **run.arguments())
+
+
+class FmuPlugin(WorkerPlugin):
+    """One FMU on a worker: unpacked once, one instance per thread, reset between runs."""
+
+    def __init__(self, fmu_bytes):
+        self.fmu_bytes = fmu_bytes
+        self.name = "scm-fmu-" + hashlib.sha256(fmu_bytes).hexdigest()[:16]
+
+    def setup(self, worker):
+        self.directory = pathlib.Path(tempfile.mkdtemp(prefix=self.name + "-"))
+        (self.directory / "model.fmu").write_bytes(self.fmu_bytes)
+        self.unzipdir = extract(str(self.directory / "model.fmu"), unzipdir=str(self.directory / "unzipped"))
+        self.model_description = read_model_description(self.unzipdir)
+        self.instantiations = 0
+        self._lock = threading.Lock()
+        self._instances = {}  # thread id -> [instance, used since reset]
+
+    def run(self, run):
+        """`run` on this thread's instance (instantiated on first use, reset after)."""
+        key = threading.get_ident()
+        with self._lock:
+            slot = self._instances.get(key)
+        if slot is None:
+            fmu = instantiate_fmu(self.unzipdir, self.model_description, fmi_type="CoSimulation")
+            slot = [fmu, False]
+            with self._lock:
+                self._instances[key] = slot
+                self.instantiations += 1
+        fmu, used = slot
+        try:
+            if used:
+                fmu.reset()
+            slot[1] = True
+            return simulate_fmu(self.unzipdir, model_description=self.model_description,
+                                fmu_instance=fmu, **run.arguments())
+        except BaseException:
+            # An instance in an unknown state is not reused: the next run makes a new one.
+            with self._lock:
+                del self._instances[key]
+            _free(fmu)
+            raise
+
+    def teardown(self, worker):
+        with self._lock:
+            instances, self._instances = list(self._instances.values()), {}
+        for fmu, _ in instances:
+            _free(fmu)
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+
+def _free(fmu):
+    # fmi2FreeInstance is allowed in every state but a fatal one; fmpy then unloads the library.
+    fmu.freeInstance()
+
+
+def _run_on_worker(plugin_name, run):
+    return get_worker().plugins[plugin_name].run(run)
+
+
+def sweep(client, fmu_path, runs, keep_plugin=False):
+    """Every run of `runs` on the cluster of `client`, results in the order of `runs`.
+
+    The FMU goes to each worker once (a worker plugin, also sent to workers that join later);
+    unless `keep_plugin`, it is unregistered at the end, which frees the workers' instances. A
+    plugin kept from an earlier sweep of the same FMU is used as it is: its instances serve
+    this sweep too."""
+    plugin = FmuPlugin(pathlib.Path(fmu_path).read_bytes())
+    registered = client.run_on_scheduler(lambda dask_scheduler: plugin.name in dask_scheduler.worker_plugins)
+    if not registered:
+        client.register_plugin(plugin, name=plugin.name)
+    try:
+        futures = client.map(_run_on_worker, [plugin.name] * len(runs), runs, pure=False)
+        results = client.gather(futures)
+        client.cancel(futures)  # the results are here: the workers need not keep them
+        return results
+    finally:
+        if not keep_plugin:
+            client.unregister_worker_plugin(plugin.name)
+
+
+def push_sweep(frictions, angles, stop_time=2.0):
+    """The T-push sweep of the docs: the finger's target moves 0.1 m/s at each angle from +y
+    (radians), under each contact friction coefficient (`scm.friction`)."""
+    t = np.linspace(0.0, stop_time, int(round(stop_time / 0.01)) + 1)
+    runs = []
+    for mu in frictions:
+        for angle in angles:
+            inputs = np.array([(ti, 0.1 * ti * np.sin(angle), 0.1 * ti * np.cos(angle)) for ti in t],
+                              dtype=[("time", float), ("act_x.ctrl", float), ("act_y.ctrl", float)])
+            runs.append(Run(stop_time=stop_time, output_interval=0.01, start_values={"scm.friction": mu},
+                            input=inputs, output=("t_x.q", "t_y.q", "t_yaw.q", "contact.tblock.finger.force.y")))
+    return runs
+
+
+def throughput(fmu_path, runs, workers=(1, 2)):
+    """The runs timed one after the other here (fresh instances, as `simulate_fmu` alone does),
+    then as a sweep on a local cluster of each size in `workers` (worker processes of one thread;
+    the cluster's start is not timed): rows of (label, seconds, runs per second, results equal to
+    the serial ones bit for bit)."""
+    from distributed import Client, LocalCluster
+
+    start = time.perf_counter()
+    reference = [simulate_serial(fmu_path, r) for r in runs]
+    wall = time.perf_counter() - start
+    rows = [("serial (fmpy, a fresh instance per run)", wall, len(runs) / wall, True)]
+    for n in workers:
+        with LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            client.wait_for_workers(n)
+            start = time.perf_counter()
+            results = sweep(client, fmu_path, runs)
+            wall = time.perf_counter() - start
+        rows.append((f"dask, {n} worker{'s' if n > 1 else ''}", wall, len(runs) / wall,
+                     all(_same(a, b) for a, b in zip(results, reference))))
+    return rows
+
+
+def _same(a, b):
+    return a.dtype.names == b.dtype.names and all(np.array_equal(a[n], b[n]) for n in a.dtype.names)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("fmu", help="the T-push FMU (scm pack resources/scenes/t_push.xml -o t_push.fmu)")
+    parser.add_argument("--scheduler", help="a running scheduler's address (tcp://host:8786): run the sweep there, "
+                                            "print the final block poses; without it, time serial and local clusters")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2],
+                        help="local cluster sizes to time (default 1 2)")
+    parser.add_argument("--runs", type=int, default=16, help="runs in the sweep (default 16)")
+    parser.add_argument("--stop-time", type=float, default=2.0, help="simulated seconds per run (default 2)")
+    args = parser.parse_args()
+
+    side = max(1, int(np.ceil(np.sqrt(args.runs))))
+    runs = push_sweep(np.linspace(0.2, 0.6, side), np.linspace(-0.3, 0.3, side), args.stop_time)[:args.runs]
+    if args.scheduler:
+        from distributed import Client
+
+        with Client(args.scheduler) as client:
+            client.upload_file(__file__)  # the workers import this module to run a task
+            for run, result in zip(runs, sweep(client, args.fmu, runs)):
+                print(f"friction {run.start_values['scm.friction']:.3f}: block at x {result['t_x.q'][-1]:+.4f} m, "
+                      f"y {result['t_y.q'][-1]:+.4f} m, yaw {result['t_yaw.q'][-1]:+.4f} rad")
+        return
+    for label, wall, rate, same in throughput(args.fmu, runs, args.workers):
+        print(f"{label}: {len(runs)} runs in {wall:.2f} s, {rate:.2f} runs/s"
+              f"{'' if same else ', DIFFERENT from the serial runs'}")
+
+
+if __name__ == "__main__":
+    main()

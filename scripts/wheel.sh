@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Builds the wheel (docs/wheel.md): `pip install` of it gives the `scm` command and the FMU binary
+# it packs, with no Rust, compiler or apt on the user's machine.
+#
+#   scripts/wheel.sh [OUT_DIR]    # default target/wheels; prints the wheel's path last
+#
+# libscm.so is built, stripped of its symbol table (its exported fmi2* functions stay) and staged
+# as target/wheel-stage/data/lib/scm/libscm.so; maturin (pyproject.toml, `bindings = "bin"`)
+# packs the `scm` binary from the same release build beside it, so a tree that scripts/setup.sh
+# has built needs no second compilation. Needs the venv of scripts/setup.sh (maturin is pinned in
+# tests/python/requirements.txt).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-target/wheels}
+if [ ! -x .venv/bin/maturin ]; then
+  echo "wheel: .venv/bin/maturin is missing: run scripts/setup.sh first" >&2
+  exit 1
+fi
+echo "wheel: building the release binaries (cargo build --release)" >&2
+cargo build --release --locked -q
+stage=target/wheel-stage
+rm -rf "$stage"
+mkdir -p "$stage/data/lib/scm"
+cp target/release/libscm.so "$stage/data/lib/scm/libscm.so"
+strip --strip-unneeded "$stage/data/lib/scm/libscm.so"
+mkdir -p "$out"
+echo "wheel: packing with maturin" >&2
+.venv/bin/maturin build --release --locked --quiet --out "$out" >&2
+ls -t "$out"/scm_fmu-*.whl | head -1
