@@ -185,6 +185,21 @@ fn variables_lists_the_guid_and_every_variable_as_the_model_description_declares
         "{z:?}"
     );
     assert_eq!((z[2], z[6]), ("Real", "m"), "{z:?}");
+    // Each start value as the XML writes it (`1.0`, `INF`, `true`), so the two read alike.
+    let mut starts = 0;
+    for r in &rows {
+        let at = xml
+            .find(&format!("name=\"{}\" valueReference=\"{}\"", r[1], r[0]))
+            .unwrap_or_else(|| panic!("{r:?} not declared"));
+        let element = &xml[at..at + xml[at..].find("</ScalarVariable>").unwrap()];
+        if r[5].is_empty() {
+            assert!(!element.contains("start=\""), "{r:?}: {element}");
+        } else {
+            assert!(element.contains(&format!("start=\"{}\"", r[5])), "{r:?}: {element}");
+            starts += 1;
+        }
+    }
+    assert!(starts > 10, "{starts} start values");
 }
 
 /// A reader that takes the first line and closes the pipe (`scm … | head -1`) ends the

@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand};
 use scm::fmi::contract::{FmiModel, VarType};
+use scm::fmi::model_description::format_real;
 use scm::sim::{Simulation, Value};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -228,7 +229,7 @@ fn variables(sim: &Simulation, w: &mut impl Write) -> Result<(), Failure> {
         let (kind, start, unit) = match &v.var_type {
             VarType::Real { start, unit, .. } => (
                 "Real",
-                start.map(csv_number).unwrap_or_default(),
+                start.map(format_real).unwrap_or_default(),
                 unit.unwrap_or(""),
             ),
             VarType::Integer { start } => (
