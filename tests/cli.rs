@@ -195,7 +195,10 @@ fn variables_lists_the_guid_and_every_variable_as_the_model_description_declares
         if r[5].is_empty() {
             assert!(!element.contains("start=\""), "{r:?}: {element}");
         } else {
-            assert!(element.contains(&format!("start=\"{}\"", r[5])), "{r:?}: {element}");
+            assert!(
+                element.contains(&format!("start=\"{}\"", r[5])),
+                "{r:?}: {element}"
+            );
             starts += 1;
         }
     }

@@ -7,8 +7,11 @@ use crate::common::Lcg;
 use nalgebra::{Rotation3, Unit, Vector3};
 use scm::collision::{out_of_reach, out_of_reach_kept, reach_distance, Collider, Frame, KeptReach};
 use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation};
+use scm::fmi::contract::FmiModel;
 use scm::geometry::Shape;
 use scm::scalar::PRUNE_TOLERANCE;
+use scm::sim::{FmuState, Simulation};
+use std::ops::Range;
 use std::path::Path;
 
 fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
@@ -534,8 +537,6 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
 /// pose) is refused rather than allowed to switch a contact off.
 #[test]
 fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
-    use scm::fmi::contract::FmiModel;
-    use scm::sim::Simulation;
     let xml = r#"<mujoco>
       <option timestep="0.002"/>
       <custom><text name="scm_integrator" data="semi_implicit_euler"/></custom>
@@ -553,28 +554,17 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
         sim.do_step(k as f64 * h, h).unwrap();
     }
     let saved = sim.get_state().unwrap();
-    let kept = saved.solver_cache.parts().4.to_vec();
+    let kept = saved.solver_cache.parts().reach;
     assert_eq!(kept.len(), 3, "one entry per pair");
     assert!(
         kept.iter().all(Option::is_some),
         "falling together, the bodies keep their proofs: {kept:?}"
     );
-    let bytes = sim.serialize_state(&saved).unwrap();
-    let restored = sim.deserialize_state(&bytes).unwrap();
-    assert_eq!(restored, saved);
-    for k in 10..40 {
-        sim.do_step(k as f64 * h, h).unwrap();
-    }
-    let end = sim.current.clone();
-    sim.set_state(&restored).unwrap();
-    for k in 10..40 {
-        sim.do_step(k as f64 * h, h).unwrap();
-    }
-    assert_eq!(sim.current, end, "the restored run replays bit for bit");
+    assert_restored_run_replays(&mut sim, &saved, h, 10..40);
 
     // Forged proofs of the box-sphere pair: moved onto the box (it cannot be proven there) and
     // a matrix that is not a rotation (the bounds assume one; refused before any proof).
-    let (j, left, ledger, dv, reach) = saved.solver_cache.parts();
+    let reach = saved.solver_cache.parts().reach;
     let pair = sim
         .model
         .pairs
@@ -584,14 +574,7 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     let forge = |change: &dyn Fn(&mut scm::collision::KeptSide)| {
         let mut forged = reach.to_vec();
         change(forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap());
-        let mut state = saved.clone();
-        state.solver_cache = scm::integrate::SolverCache::from_parts(
-            j.cloned(),
-            left.cloned(),
-            ledger.cloned(),
-            dv.map(<[f64]>::to_vec),
-            forged,
-        );
+        let state = with_proofs(&saved, forged);
         sim.deserialize_state(&sim.serialize_state(&state).unwrap())
             .unwrap_err()
             .to_string()
@@ -605,14 +588,7 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     // restored run makes its own proof.
     let mut forged = reach.to_vec();
     forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap().t = -1.0;
-    let mut state = saved.clone();
-    state.solver_cache = scm::integrate::SolverCache::from_parts(
-        j.cloned(),
-        left.cloned(),
-        ledger.cloned(),
-        dv.map(<[f64]>::to_vec),
-        forged,
-    );
+    let state = with_proofs(&saved, forged);
     let negative = sim
         .deserialize_state(&sim.serialize_state(&state).unwrap())
         .unwrap();
@@ -626,8 +602,6 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
 /// included, round-trips and replays bit for bit.
 #[test]
 fn a_negative_margin_rests_deeper_and_its_state_round_trips() {
-    use scm::fmi::contract::FmiModel;
-    use scm::sim::Simulation;
     let xml = r#"<mujoco>
       <option timestep="0.002"/>
       <custom><text name="scm_integrator" data="semi_implicit_euler"/></custom>
@@ -652,17 +626,39 @@ fn a_negative_margin_rests_deeper_and_its_state_round_trips() {
         "rests {z} m high"
     );
     let saved = sim.get_state().unwrap();
+    assert_restored_run_replays(&mut sim, &saved, h, 500..550);
+}
+
+/// `saved` round-trips through its bytes, and the run restored from it over the steps `steps`
+/// (of size `h`, `saved` taken before the first) ends on the same bits as the run from it now.
+fn assert_restored_run_replays(
+    sim: &mut Simulation,
+    saved: &FmuState,
+    h: f64,
+    steps: Range<usize>,
+) {
     let restored = sim
-        .deserialize_state(&sim.serialize_state(&saved).unwrap())
+        .deserialize_state(&sim.serialize_state(saved).unwrap())
         .unwrap();
-    assert_eq!(restored, saved);
-    for k in 500..550 {
+    assert_eq!(&restored, saved);
+    for k in steps.clone() {
         sim.do_step(k as f64 * h, h).unwrap();
     }
     let end = sim.current.clone();
     sim.set_state(&restored).unwrap();
-    for k in 500..550 {
+    for k in steps {
         sim.do_step(k as f64 * h, h).unwrap();
     }
     assert_eq!(sim.current, end, "the restored run replays bit for bit");
+}
+
+/// `saved` with its kept out-of-reach proofs replaced by `reach`, the rest of its solver cache
+/// as it was.
+fn with_proofs(saved: &FmuState, reach: Vec<Option<KeptReach>>) -> FmuState {
+    let mut state = saved.clone();
+    state.solver_cache = scm::integrate::SolverCache::from_parts(scm::integrate::CacheParts {
+        reach,
+        ..saved.solver_cache.parts()
+    });
+    state
 }

@@ -608,7 +608,7 @@ fn the_energy_ledger_restarts_when_the_state_or_the_contact_parameters_are_set()
             .unwrap()
             .state;
     }
-    let since = |c: &scm::integrate::SolverCache| c.parts().2.map(|l| l.since);
+    let since = |c: &scm::integrate::SolverCache| c.parts().ledger.map(|l| l.since);
     assert_eq!(since(&cache), Some(0.0), "the ledger runs from the start");
     // The state carried on: the ledger goes on.
     let t = 20.0 * h;
@@ -690,7 +690,7 @@ fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step()
         "the state with its ledger round-trips through bytes"
     );
     assert!(
-        saved.solver_cache.parts().2.is_some(),
+        saved.solver_cache.parts().ledger.is_some(),
         "the ledger is part of the state"
     );
     let first = run(&mut sim, 30);
@@ -797,7 +797,7 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
             .state;
         v_min = v_min.min(potential(&s));
         let bound = 2.0 * (reference + floor - v_min);
-        let scale = cache.parts().2.expect("the ledger is kept").scale;
+        let scale = cache.parts().ledger.expect("the ledger is kept").scale;
         let kinetic = model.energy(&s.q, &s.v).kinetic;
         most_scale = most_scale.max(scale);
         assert!(
@@ -977,7 +977,10 @@ fn carried_against_fresh(
         let before = carried.clone();
         carried = step(&carried, k, &mut cache);
         fresh = step(&fresh, k, &mut Default::default());
-        assert!(cache.parts().0.is_some(), "step {k}: no Jacobian carried");
+        assert!(
+            cache.parts().jacobian.is_some(),
+            "step {k}: no Jacobian carried"
+        );
         each(k, &before, &carried, &cache);
         for (a, b) in carried.q.iter().zip(&fresh.q) {
             largest = largest.max((a - b).abs());
@@ -1002,7 +1005,10 @@ fn damped_euler_carries_its_newton_jacobian_and_a_restored_cache_replays_to_the_
     // (as an FMU state carries it) replays the rest of the run bit for bit. It carries no
     // velocity change (implicit Euler's).
     carried_against_fresh("damped_euler", |k, _, _, cache| {
-        assert!(cache.parts().3.is_none(), "step {k}: a velocity change");
+        assert!(
+            cache.parts().velocity_change.is_none(),
+            "step {k}: a velocity change"
+        );
     });
 }
 
@@ -1014,7 +1020,10 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     // saved and restored replays the rest of the run bit for bit, also through the FMU
     // state's bytes.
     carried_against_fresh("implicit_euler", |k, before, after, cache| {
-        let change = cache.parts().3.expect("a velocity change carried");
+        let change = cache
+            .parts()
+            .velocity_change
+            .expect("a velocity change carried");
         for (i, &dv) in change.iter().enumerate() {
             assert_eq!(dv, after.v[i] - before.v[i], "step {k}, velocity {i}");
         }
@@ -1036,7 +1045,7 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     }
     let saved = sim.get_state().unwrap();
     assert!(
-        saved.solver_cache.parts().3.is_some(),
+        saved.solver_cache.parts().velocity_change.is_some(),
         "the velocity change is part of the state"
     );
     let restored = sim
@@ -1058,17 +1067,16 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     // Versions 3 to 5 end without the kept out-of-reach proofs (version 6 ends with their
     // number, 0 here), 3 and 4 also without the ledger's kinetic energy (the 8 bytes before,
     // the ledger being last), which decoding computes again: the same state, bit for bit.
-    assert!(saved.solver_cache.parts().2.is_some(), "a ledger is kept");
+    assert!(
+        saved.solver_cache.parts().ledger.is_some(),
+        "a ledger is kept"
+    );
     let without_proofs = |state: &scm::sim::FmuState| {
-        let (j, left, ledger, dv, _) = state.solver_cache.parts();
         let mut s = state.clone();
-        s.solver_cache = scm::integrate::SolverCache::from_parts(
-            j.cloned(),
-            left.cloned(),
-            ledger.cloned(),
-            dv.map(<[f64]>::to_vec),
-            vec![],
-        );
+        s.solver_cache = scm::integrate::SolverCache::from_parts(scm::integrate::CacheParts {
+            reach: vec![],
+            ..state.solver_cache.parts()
+        });
         s
     };
     let saved = without_proofs(&saved);
@@ -1105,7 +1113,10 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
         damped.do_step(k as f64 * dt, dt).unwrap();
     }
     let state = damped.get_state().unwrap();
-    assert!(state.solver_cache.parts().1.is_some() && state.solver_cache.parts().3.is_none());
+    assert!(
+        state.solver_cache.parts().left.is_some()
+            && state.solver_cache.parts().velocity_change.is_none()
+    );
     let state = without_proofs(&state);
     let old = as_version(3, &damped.serialize_state(&state).unwrap());
     assert_eq!(damped.deserialize_state(&old).unwrap(), state);
@@ -1289,14 +1300,7 @@ fn the_guards_kinematics_carried_to_the_next_call_change_no_bit() {
             a = (model.advance_cached(&a, &[], &model.contact, t, h, &opts, &mut carried))
                 .unwrap()
                 .state;
-            let (jac, left, ledger, dv, reach) = rebuilt.parts();
-            rebuilt = scm::integrate::SolverCache::from_parts(
-                jac.cloned(),
-                left.cloned(),
-                ledger.cloned(),
-                dv.map(<[f64]>::to_vec),
-                reach.to_vec(),
-            );
+            rebuilt = scm::integrate::SolverCache::from_parts(rebuilt.parts());
             assert!(!rebuilt.holds_kinematics_of(&b));
             b = (model.advance_cached(&b, &[], &model.contact, t, h, &opts, &mut rebuilt))
                 .unwrap()

@@ -144,3 +144,47 @@ fn no_import_cycle() {
         visit(m, &graph, &mut colour, &mut Vec::new());
     }
 }
+
+/// docs/layout.md names every source file, folder by folder: under a heading `` ### `src/x/` ``
+/// a table whose rows begin with each file's path within that folder (`` | `shapes.rs` | ``,
+/// `` | `mesh/read.rs` | ``), a file under the deepest folder that has a heading. A file added
+/// without a word on what it holds fails here, and so does a row of a file that is gone.
+#[test]
+fn the_layout_doc_names_every_source_file() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let doc = std::fs::read_to_string(root.join("docs/layout.md")).unwrap();
+    // The listed files, by full path: each section's folder joined with its rows' first cells.
+    let mut listed = BTreeSet::new();
+    let mut folder: Option<String> = None;
+    for line in doc.lines() {
+        if let Some(heading) = line.strip_prefix("### `") {
+            folder = heading
+                .split('`')
+                .next()
+                .filter(|f| f.starts_with("src/"))
+                .map(str::to_string);
+        } else if line.starts_with("## ") {
+            folder = None;
+        } else if let (Some(f), Some(row)) = (&folder, line.strip_prefix("| `")) {
+            let file = row.split('`').next().unwrap();
+            if file.ends_with(".rs") {
+                listed.insert(format!("{f}{file}"));
+            }
+        }
+    }
+    let mut files = Vec::new();
+    rust_files(&root.join("src"), &mut files);
+    let present: BTreeSet<String> = files
+        .iter()
+        .map(|f| {
+            let rel = f.strip_prefix(root).unwrap().to_string_lossy();
+            rel.replace('\\', "/")
+        })
+        .collect();
+    let unnamed: Vec<&String> = present.difference(&listed).collect();
+    let gone: Vec<&String> = listed.difference(&present).collect();
+    assert!(
+        unnamed.is_empty() && gone.is_empty(),
+        "docs/layout.md does not name {unnamed:?}, and names {gone:?} that are not in src/"
+    );
+}

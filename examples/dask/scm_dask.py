@@ -1,13 +1,18 @@
-"""Many simulations of one FMU on `dask.distributed`: a parameter sweep, randomised rollouts, the
-trajectories of a system identification, from a laptop's local cluster to several machines
+"""Many simulations of one FMU on `dask.distributed`: parameter sweeps, randomised rollouts, the
+runs of a system identification's data, from a laptop's local cluster to several machines
 (docs/scale-out.md).
 
-Each worker receives the FMU's bytes once, unpacks them once and keeps one instance per worker
-thread (`FmuPlugin`, a Dask worker plugin); a run resets that instance (`fmi2Reset`, which puts
-every variable back to its start value) instead of loading the library again, and the plugin's
-teardown frees the instances and removes the unpacked files when the plugin is unregistered or
-the worker closes. A run's result is the same bits as `simulate_fmu` on a fresh instance
-(`simulate_serial`): tests/python/test_dask.py checks it on a local cluster of 2 workers.
+Each worker receives the FMU's bytes once, unpacks them once into its own folder and keeps one
+instance per worker thread (`FmuPlugin`, a Dask worker plugin); a run resets that instance
+(`fmi2Reset`, which puts every variable back to its start value) instead of loading the library
+again. The plugin stays on the workers for later sweeps of the same FMU until `release` (or the
+worker's end) removes it: instances idle then are freed at once, a running one when its run
+ends, and the unpacked files after the last. A run's result is the same bits as `simulate_fmu`
+on a fresh instance (`simulate_serial`): tests/python/test_dask.py checks it on a local cluster
+of 2 workers and on a scheduler and workers started by hand.
+
+This module travels to the workers by value (cloudpickle), so they need only `fmpy` and
+`dask[distributed]` installed, not this file.
 
     from distributed import Client, LocalCluster
     import scm_dask
@@ -22,15 +27,21 @@ import dataclasses
 import hashlib
 import pathlib
 import shutil
+import sys
 import tempfile
 import threading
 import time
 from typing import Optional
 
+import cloudpickle
 import numpy as np
-from distributed import WorkerPlugin, get_worker
+from distributed import WorkerPlugin, get_worker, wait
 from fmpy import extract, instantiate_fmu, read_model_description, simulate_fmu
 
+if __name__ != "__main__":
+    # Functions and classes of `__main__` go by value already; those of an imported module would
+    # go by reference, and the scheduler and workers would have to import it.
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 @dataclasses.dataclass(frozen=True)
 class Run:
@@ -53,83 +64,134 @@ def simulate_serial(fmu_path, run):
     return simulate_fmu(str(fmu_path), **run.arguments())
 
 
+def plugin_name(fmu_bytes):
+    """The name of an FMU's plugin on the workers: one per FMU content, shared by its sweeps."""
+    return "scm-fmu-" + hashlib.sha256(fmu_bytes).hexdigest()[:16]
+
+
 class FmuPlugin(WorkerPlugin):
     """One FMU on a worker: unpacked once, one instance per thread, reset between runs."""
 
+    #: Registering the same FMU again keeps the plugin (and its instances) already there.
+    idempotent = True
+
     def __init__(self, fmu_bytes):
         self.fmu_bytes = fmu_bytes
-        self.name = "scm-fmu-" + hashlib.sha256(fmu_bytes).hexdigest()[:16]
+        self.name = plugin_name(fmu_bytes)
 
     def setup(self, worker):
-        self.directory = pathlib.Path(tempfile.mkdtemp(prefix=self.name + "-"))
-        (self.directory / "model.fmu").write_bytes(self.fmu_bytes)
-        self.unzipdir = extract(str(self.directory / "model.fmu"), unzipdir=str(self.directory / "unzipped"))
-        self.model_description = read_model_description(self.unzipdir)
-        self.instantiations = 0
+        # fmpy changes the process's working directory while it loads an FMU's library: one load
+        # at a time per worker (of every FMU's plugin there), so two threads instantiating at
+        # once cannot leave it elsewhere. Kept on the worker: this module's globals are not
+        # shared between tasks, as it travels by value.
+        self._loading = worker.__dict__.setdefault("_scm_fmu_loading", threading.Lock())
         self._lock = threading.Lock()
-        self._instances = {}  # thread id -> [instance, used since reset]
+        self._idle = {}  # thread id -> an instance no run is using
+        self._busy = set()  # thread ids whose run is under way
+        self._closing = False
+        self.instantiations = 0
+        self.directory = None
+        try:
+            self.directory = pathlib.Path(tempfile.mkdtemp(prefix=self.name + "-", dir=worker.local_directory))
+            fmu = self.directory / "model.fmu"
+            fmu.write_bytes(self.fmu_bytes)
+            self.unzipdir = extract(str(fmu), unzipdir=str(self.directory / "unzipped"))
+            self.model_description = read_model_description(self.unzipdir)
+        except BaseException:
+            self._remove_files()
+            raise
 
-    def run(self, run):
-        """`run` on this thread's instance (instantiated on first use, reset after)."""
+    def run(self, arguments):
+        """A run (`Run.arguments`) on this thread's instance (instantiated on first use, reset
+        after)."""
         key = threading.get_ident()
         with self._lock:
-            slot = self._instances.get(key)
-        if slot is None:
-            fmu = instantiate_fmu(self.unzipdir, self.model_description, fmi_type="CoSimulation")
-            slot = [fmu, False]
-            with self._lock:
-                self._instances[key] = slot
-                self.instantiations += 1
-        fmu, used = slot
+            if self._closing:
+                raise RuntimeError(f"the FMU's plugin {self.name} is being removed from this worker")
+            fmu = self._idle.pop(key, None)
+            self._busy.add(key)
+        keep = False
         try:
-            if used:
+            if fmu is None:
+                with self._loading:
+                    fmu = instantiate_fmu(self.unzipdir, self.model_description, fmi_type="CoSimulation")
+                with self._lock:
+                    self.instantiations += 1
+            else:
                 fmu.reset()
-            slot[1] = True
-            return simulate_fmu(self.unzipdir, model_description=self.model_description,
-                                fmu_instance=fmu, **run.arguments())
-        except BaseException:
-            # An instance in an unknown state is not reused: the next run makes a new one.
+            result = simulate_fmu(self.unzipdir, model_description=self.model_description,
+                                  fmu_instance=fmu, **arguments)
+            keep = True  # an instance whose run raised is in an unknown state: not reused
+            return result
+        finally:
             with self._lock:
-                del self._instances[key]
-            _free(fmu)
-            raise
+                self._busy.discard(key)
+                keep = keep and not self._closing
+                if keep:
+                    self._idle[key] = fmu
+                last = self._closing and not self._busy
+            if fmu is not None and not keep:
+                _free(fmu)
+            if last:
+                self._remove_files()
 
     def teardown(self, worker):
         with self._lock:
-            instances, self._instances = list(self._instances.values()), {}
-        for fmu, _ in instances:
+            self._closing = True
+            idle, self._idle = list(self._idle.values()), {}
+            last = not self._busy
+        for fmu in idle:
             _free(fmu)
-        shutil.rmtree(self.directory, ignore_errors=True)
+        if last:
+            self._remove_files()
+
+    def _remove_files(self):
+        if self.directory is not None:
+            shutil.rmtree(self.directory, ignore_errors=True)
 
 
 def _free(fmu):
-    # fmi2FreeInstance is allowed in every state but a fatal one; fmpy then unloads the library.
+    # fmi2FreeInstance is allowed in every state but a fatal one; fmpy then closes its handle on
+    # the library.
     fmu.freeInstance()
 
 
-def _run_on_worker(plugin_name, run):
-    return get_worker().plugins[plugin_name].run(run)
+def _run_on_worker(name, arguments):
+    plugin = get_worker().plugins.get(name)
+    if plugin is None:
+        raise RuntimeError(f"the FMU's plugin {name} is not on this worker: released while its sweep ran?")
+    return plugin.run(arguments)
 
 
-def sweep(client, fmu_path, runs, keep_plugin=False):
+def sweep(client, fmu_path, runs):
     """Every run of `runs` on the cluster of `client`, results in the order of `runs`.
 
-    The FMU goes to each worker once (a worker plugin, also sent to workers that join later);
-    unless `keep_plugin`, it is unregistered at the end, which frees the workers' instances. A
-    plugin kept from an earlier sweep of the same FMU is used as it is: its instances serve
-    this sweep too."""
+    The FMU goes to each worker once (a worker plugin, also sent to workers that join later) and
+    stays there for later sweeps of it until `release`. If a run fails, the others are waited
+    for before its error is raised."""
     plugin = FmuPlugin(pathlib.Path(fmu_path).read_bytes())
-    registered = client.run_on_scheduler(lambda dask_scheduler: plugin.name in dask_scheduler.worker_plugins)
-    if not registered:
-        client.register_plugin(plugin, name=plugin.name)
+    client.register_plugin(plugin, name=plugin.name)
+    name = plugin.name
+
+    def task(arguments):
+        # A closure, which Dask pickles with cloudpickle, by value with what it calls: the
+        # scheduler and the workers need not import this module.
+        return _run_on_worker(name, arguments)
+
+    futures = client.map(task, [r.arguments() for r in runs], pure=False)
     try:
-        futures = client.map(_run_on_worker, [plugin.name] * len(runs), runs, pure=False)
-        results = client.gather(futures)
-        client.cancel(futures)  # the results are here: the workers need not keep them
-        return results
+        return client.gather(futures)
+    except BaseException:
+        wait(futures)  # erred futures count as done: no run is left under way
+        raise
     finally:
-        if not keep_plugin:
-            client.unregister_worker_plugin(plugin.name)
+        client.cancel(futures)  # the results are here: the workers need not keep them
+
+
+def release(client, fmu_path):
+    """Removes the FMU's plugin from the workers: idle instances are freed, a running one when
+    its run ends, and the unpacked files after the last."""
+    client.unregister_worker_plugin(plugin_name(pathlib.Path(fmu_path).read_bytes()))
 
 
 def push_sweep(frictions, angles, stop_time=2.0):
@@ -160,7 +222,7 @@ def throughput(fmu_path, runs, workers=(1, 2)):
     for n in workers:
         with LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None) as cluster, \
                 Client(cluster) as client:
-            client.wait_for_workers(n)
+            client.wait_for_workers(n, timeout=120)
             start = time.perf_counter()
             results = sweep(client, fmu_path, runs)
             wall = time.perf_counter() - start
@@ -190,7 +252,6 @@ def main():
         from distributed import Client
 
         with Client(args.scheduler) as client:
-            client.upload_file(__file__)  # the workers import this module to run a task
             for run, result in zip(runs, sweep(client, args.fmu, runs)):
                 print(f"friction {run.start_values['scm.friction']:.3f}: block at x {result['t_x.q'][-1]:+.4f} m, "
                       f"y {result['t_y.q'][-1]:+.4f} m, yaw {result['t_yaw.q'][-1]:+.4f} rad")

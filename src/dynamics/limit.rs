@@ -141,21 +141,25 @@ pub fn solref_gains(solref: [f64; 2], inertia: f64) -> (f64, f64) {
 }
 
 impl JointLimit {
-    /// The limit's generalized force at position `q` and velocity `v`.
-    pub fn force<T: Scalar>(&self, q: T, v: T) -> T {
+    /// Each side's push into the range before it is let go, `x = k s(d) + b σ(d) ḋ`, with the
+    /// side's step `σ(d)`: `[(x₋, σ(d₋)), (x₊, σ(d₊))]`, the lower side's push upwards and the
+    /// upper side's downwards, and the width of the blend [`one_sided`] lets them go over.
+    fn pushes<T: Scalar>(&self, q: T, v: T) -> ([(T, T); 2], f64) {
         let (below, step_below) = ramp(c::<T>(self.lo) - q, self.width);
         let (above, step_above) = ramp(q - c::<T>(self.hi), self.width);
-        let blend = 0.5 * self.stiffness * self.width;
-        // Each side's push into the range, `k s(d) + b σ(d) ḋ`, let go where it would pull.
-        let up = one_sided(
-            below * self.stiffness - v * step_below * self.damping,
-            blend,
-        );
-        let down = one_sided(
-            above * self.stiffness + v * step_above * self.damping,
-            blend,
-        );
-        up - down
+        let up = below * self.stiffness - v * step_below * self.damping;
+        let down = above * self.stiffness + v * step_above * self.damping;
+        (
+            [(up, step_below), (down, step_above)],
+            0.5 * self.stiffness * self.width,
+        )
+    }
+
+    /// The limit's generalized force at position `q` and velocity `v`: each side's push, let go
+    /// where it would pull.
+    pub fn force<T: Scalar>(&self, q: T, v: T) -> T {
+        let ([(up, _), (down, _)], blend) = self.pushes(q, v);
+        one_sided(up, blend) - one_sided(down, blend)
     }
 
     /// The damping the limit adds where it pushes: `b (σ(d₋) C'(x₋)² + σ(d₊) C'(x₊)²)`,
@@ -166,18 +170,12 @@ impl JointLimit {
     /// definite at any step, and smooth (`C'` is `C¹`), so the step's derivatives stay
     /// continuous.
     pub fn damping_slope<T: Scalar>(&self, q: T, v: T) -> T {
-        let (below, step_below) = ramp(c::<T>(self.lo) - q, self.width);
-        let (above, step_above) = ramp(q - c::<T>(self.hi), self.width);
-        let blend = 0.5 * self.stiffness * self.width;
-        let up = one_sided_slope(
-            below * self.stiffness - v * step_below * self.damping,
-            blend,
-        );
-        let down = one_sided_slope(
-            above * self.stiffness + v * step_above * self.damping,
-            blend,
-        );
-        (step_below * up * up + step_above * down * down) * self.damping
+        let (sides, blend) = self.pushes(q, v);
+        let [below, above] = sides.map(|(x, step)| {
+            let slope = one_sided_slope(x, blend);
+            step * slope * slope
+        });
+        (below + above) * self.damping
     }
 
     /// The same limit whose statics ask `gain` times its reference gains, acting with them.

@@ -75,29 +75,37 @@ impl KinematicsMemo {
 /// Where a [`SolverCache`] was left: the state and the internal step (s).
 pub type CacheMark = (State<f64>, f64);
 
-/// A [`SolverCache`]'s parts, borrowed ([`SolverCache::parts`]): the Newton Jacobian, where the
-/// cache was left, the energy guard's ledger, implicit Euler's last velocity change, the kept
-/// out-of-reach proofs.
-pub type CacheParts<'a> = (
-    Option<&'a DMatrix<f64>>,
-    Option<&'a CacheMark>,
-    Option<&'a EnergyLedger>,
-    Option<&'a [f64]>,
-    &'a [Option<KeptReach>],
-);
+/// What of a [`SolverCache`] is part of an FMU state, by name ([`SolverCache::parts`],
+/// [`SolverCache::from_parts`]): each part can change the next step's result, so a state that
+/// must replay a run bit for bit, refusals included, carries all of them (the layout of their
+/// bytes: `crate::sim`'s state bytes). What the cache keeps besides (candidate planes, the last
+/// kinematics) changes no result and is not part of a state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CacheParts {
+    /// The last Newton Jacobian (implicit Euler's, or damped Euler's in contact): where the next
+    /// step's Newton iterations start.
+    pub jacobian: Option<DMatrix<f64>>,
+    /// The state and internal step the cache was left for.
+    pub left: Option<CacheMark>,
+    /// The energy guard's balance over the run so far: which steps it refuses.
+    pub ledger: Option<EnergyLedger>,
+    /// Implicit Euler's last velocity change `V - v`, the next Newton start.
+    pub velocity_change: Option<Vec<f64>>,
+    /// Per pair, the out-of-reach proof kept from an earlier step (none, or one entry per
+    /// pair): which pairs a step switches off.
+    pub reach: Vec<Option<KeptReach>>,
+}
 
 impl SolverCache {
-    /// The cached Newton Jacobian, the state and internal step (s) it was left for, the
-    /// energy guard's ledger, implicit Euler's last velocity change, and the kept out-of-reach
-    /// proofs (one per pair, or none).
-    pub fn parts(&self) -> CacheParts<'_> {
-        (
-            self.jacobian.as_ref().map(KeptJacobian::matrix),
-            self.left.as_ref(),
-            self.ledger.as_ref(),
-            self.velocity_change.as_deref(),
-            &self.kept.reach,
-        )
+    /// The parts of this cache that an FMU state carries (copies).
+    pub fn parts(&self) -> CacheParts {
+        CacheParts {
+            jacobian: self.jacobian.as_ref().map(|j| j.matrix().clone()),
+            left: self.left.clone(),
+            ledger: self.ledger.clone(),
+            velocity_change: self.velocity_change.clone(),
+            reach: self.kept.reach.clone(),
+        }
     }
 
     /// How often the pairs' kept candidate planes served a query, and how often a query walked
@@ -127,20 +135,14 @@ impl SolverCache {
         self.kinematics.of(s)
     }
 
-    /// A cache from its [`parts`](SolverCache::parts).
-    pub fn from_parts(
-        jacobian: Option<DMatrix<f64>>,
-        left: Option<CacheMark>,
-        ledger: Option<EnergyLedger>,
-        velocity_change: Option<Vec<f64>>,
-        reach: Vec<Option<KeptReach>>,
-    ) -> SolverCache {
+    /// A cache from its [`parts`](SolverCache::parts), keeping nothing else.
+    pub fn from_parts(parts: CacheParts) -> SolverCache {
         SolverCache {
-            jacobian: jacobian.map(KeptJacobian::new),
-            velocity_change,
-            left,
-            ledger,
-            kept: PairsKept::with_reach(reach),
+            jacobian: parts.jacobian.map(KeptJacobian::new),
+            velocity_change: parts.velocity_change,
+            left: parts.left,
+            ledger: parts.ledger,
+            kept: PairsKept::with_reach(parts.reach),
             kinematics: KinematicsMemo::default(),
         }
     }

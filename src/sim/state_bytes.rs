@@ -5,22 +5,25 @@
 //! or corrupt bytes are refused before they get here. This layout has its own version and
 //! checks its sizes against the model, so it refuses a mismatched state on its own too.
 //!
-//! | bytes | what |
-//! | --- | --- |
-//! | 4 | layout version ([`STATE_VERSION`]) |
-//! | 4 × 4 | `nq`, `nv`, number of controls, number of mocap bodies `nm` |
-//! | 8 | time (s) |
-//! | 8 × (nq + nv + nctrl) | `q`, `v`, controls |
-//! | 8 × 13 nm | mocap bodies at `time`: pose and velocity ([`MOCAP_INPUTS`] each) |
-//! | 8 × 7 nm | mocap inputs as set: the pose reached at the end of the next step |
-//! | 1 (+ 8 + 8 × 7 nm) | Model Exchange: mocap poses at the last completed integrator step: 0, or 1, time, poses |
-//! | 8 × 7 | the tunable contact parameters, in [`Param::ALL`] order |
-//! | 8 × 2 | internal step (s), tolerance |
-//! | 4 + n | integrator name: length, UTF-8 bytes |
-//! | 1 (+ 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns, entries (column-major) |
-//! | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
-//! | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
-//! | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`KeptReach`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
+//! | section | bytes | what |
+//! | --- | --- | --- |
+//! | `version` | 4 | layout version ([`STATE_VERSION`]) |
+//! | `sizes` | 4 × 4 | `nq`, `nv`, number of controls, number of mocap bodies `nm` |
+//! | `time` | 8 | time (s) |
+//! | `state` | 8 × (nq + nv + nctrl) | `q`, `v`, controls |
+//! | `mocap` | 8 × 13 nm | mocap bodies at `time`: pose and velocity ([`MOCAP_INPUTS`] each) |
+//! | `mocap_target` | 8 × 7 nm | mocap inputs as set: the pose reached at the end of the next step |
+//! | `params` | 8 × 7 | the tunable contact parameters, in [`Param::ALL`] order |
+//! | `solver` | 8 × 2 | internal step (s), tolerance |
+//! | `integrator` | 4 + n | integrator name: length, UTF-8 bytes |
+//! | `mocap_sampled` | 1 (+ 8 + 8 × 7 nm) | Model Exchange: mocap poses at the last completed integrator step: 0, or 1, time, poses |
+//! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
+//! | `left` | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
+//! | `ledger` | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
+//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`KeptReach`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
+//!
+//! The sections are written in this order, and [`decode`] reads them in it; a test holds this
+//! table against what [`encode`] writes, section by section and byte by byte.
 //!
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
@@ -38,109 +41,128 @@ use nalgebra::{Matrix3, Vector3};
 /// and 5 (no kept proofs).
 pub const STATE_VERSION: u32 = 6;
 
+/// The bytes of a state as [`encode`] writes them, with where each section of the module's
+/// table begins (what the layout test compares with the table).
+#[derive(Default)]
+struct Writer {
+    bytes: Vec<u8>,
+    sections: Vec<(&'static str, usize)>,
+}
+
+impl Writer {
+    fn section(&mut self, name: &'static str) -> &mut Self {
+        self.sections.push((name, self.bytes.len()));
+        self
+    }
+    fn u32(&mut self, n: usize) -> &mut Self {
+        self.bytes.extend_from_slice(&(n as u32).to_le_bytes());
+        self
+    }
+    fn u64(&mut self, n: usize) -> &mut Self {
+        self.bytes.extend_from_slice(&(n as u64).to_le_bytes());
+        self
+    }
+    fn flag(&mut self, f: u8) -> &mut Self {
+        self.bytes.push(f);
+        self
+    }
+    /// Each value as its bits, so a state read back is the same to the bit.
+    fn reals<'a>(&mut self, xs: impl IntoIterator<Item = &'a f64>) -> &mut Self {
+        for x in xs {
+            self.bytes.extend_from_slice(&x.to_bits().to_le_bytes());
+        }
+        self
+    }
+}
+
 /// Writes `state`.
 pub fn encode(state: &FmuState) -> Vec<u8> {
+    write(state).bytes
+}
+
+fn write(state: &FmuState) -> Writer {
     let s = &state.sim;
-    let mut b =
-        Vec::with_capacity(64 + 8 * (s.state.q.len() + s.state.v.len() + s.ctrl.len() + 10));
-    b.extend_from_slice(&STATE_VERSION.to_le_bytes());
-    for n in [
-        s.state.q.len(),
-        s.state.v.len(),
-        s.ctrl.len(),
-        s.mocap.len() / MOCAP_INPUTS,
-    ] {
-        b.extend_from_slice(&(n as u32).to_le_bytes());
-    }
-    let params = Param::ALL.map(|p| p.get(&s.params));
-    let values = std::iter::once(&s.time)
-        .chain(&s.state.q)
-        .chain(&s.state.v)
-        .chain(&s.ctrl)
-        .chain(&s.mocap)
-        .chain(&s.mocap_target)
-        .chain(params.iter())
-        .chain([&state.step, &state.tolerance]);
-    for x in values {
-        b.extend_from_slice(&x.to_bits().to_le_bytes());
-    }
+    let mut w = Writer::default();
+    w.section("version")
+        .bytes
+        .extend_from_slice(&STATE_VERSION.to_le_bytes());
+    w.section("sizes")
+        .u32(s.state.q.len())
+        .u32(s.state.v.len())
+        .u32(s.ctrl.len())
+        .u32(s.mocap.len() / MOCAP_INPUTS);
+    w.section("time").reals([&s.time]);
+    w.section("state")
+        .reals(s.state.q.iter().chain(&s.state.v).chain(&s.ctrl));
+    w.section("mocap").reals(&s.mocap);
+    w.section("mocap_target").reals(&s.mocap_target);
+    w.section("params")
+        .reals(&Param::ALL.map(|p| p.get(&s.params)));
+    w.section("solver").reals([&state.step, &state.tolerance]);
     let name = state.integrator.name().as_bytes();
-    b.extend_from_slice(&(name.len() as u32).to_le_bytes());
-    b.extend_from_slice(name);
-    let put = |b: &mut Vec<u8>, x: f64| b.extend_from_slice(&x.to_bits().to_le_bytes());
+    w.section("integrator")
+        .u32(name.len())
+        .bytes
+        .extend_from_slice(name);
+    w.section("mocap_sampled");
     match &s.mocap_sampled {
-        None => b.push(0),
-        Some((t, poses)) => {
-            b.push(1);
-            std::iter::once(t)
-                .chain(poses)
-                .for_each(|&x| put(&mut b, x));
+        None => w.flag(0),
+        Some((t, poses)) => w.flag(1).reals(std::iter::once(t).chain(poses)),
+    };
+    let cache = state.solver_cache.parts();
+    w.section("jacobian");
+    match &cache.jacobian {
+        None => w.flag(0),
+        Some(j) => w.flag(1).u64(j.nrows()).u64(j.ncols()).reals(j.iter()),
+    };
+    w.section("left");
+    match &cache.left {
+        None => w.flag(0),
+        Some((st, h)) => w
+            .flag(if cache.velocity_change.is_some() {
+                2
+            } else {
+                1
+            })
+            .reals(st.q.iter().chain(&st.v).chain([h]))
+            .reals(cache.velocity_change.iter().flatten()),
+    };
+    w.section("ledger");
+    match &cache.ledger {
+        None => w.flag(0),
+        Some(l) => w
+            .flag(1)
+            .reals(l.at.q.iter().chain(&l.at.v))
+            .reals(&Param::ALL.map(|p| p.get(&l.params)))
+            .reals([
+                &l.since,
+                &l.reference,
+                &l.work,
+                &l.gross_work,
+                &l.scale,
+                &l.kinetic,
+            ]),
+    };
+    w.section("reach").u32(cache.reach.len());
+    for kept in &cache.reach {
+        let Some(k) = kept else {
+            w.flag(0);
+            continue;
+        };
+        w.flag(1);
+        for side in &k.sides {
+            match side {
+                None => w.flag(0),
+                Some(ks) => w.flag(1).reals(
+                    ks.rotation
+                        .iter()
+                        .chain(&ks.translation)
+                        .chain([&ks.t, &ks.m1]),
+                ),
+            };
         }
     }
-    let (jacobian, left, ledger, velocity_change, reach) = state.solver_cache.parts();
-    match jacobian {
-        None => b.push(0),
-        Some(j) => {
-            b.push(1);
-            b.extend_from_slice(&(j.nrows() as u64).to_le_bytes());
-            b.extend_from_slice(&(j.ncols() as u64).to_le_bytes());
-            j.iter().for_each(|&x| put(&mut b, x));
-        }
-    }
-    match left {
-        None => b.push(0),
-        Some((st, h)) => {
-            b.push(if velocity_change.is_some() { 2 } else { 1 });
-            st.q.iter()
-                .chain(&st.v)
-                .chain([h])
-                .chain(velocity_change.unwrap_or_default())
-                .for_each(|&x| put(&mut b, x));
-        }
-    }
-    match ledger {
-        None => b.push(0),
-        Some(l) => {
-            b.push(1);
-            let params = Param::ALL.map(|p| p.get(&l.params));
-            l.at.q
-                .iter()
-                .chain(&l.at.v)
-                .chain(&params)
-                .chain([
-                    &l.since,
-                    &l.reference,
-                    &l.work,
-                    &l.gross_work,
-                    &l.scale,
-                    &l.kinetic,
-                ])
-                .for_each(|&x| put(&mut b, x));
-        }
-    }
-    b.extend_from_slice(&(reach.len() as u32).to_le_bytes());
-    for kept in reach {
-        match kept {
-            None => b.push(0),
-            Some(k) => {
-                b.push(1);
-                for side in &k.sides {
-                    match side {
-                        None => b.push(0),
-                        Some(ks) => {
-                            b.push(1);
-                            ks.rotation
-                                .iter()
-                                .chain(&ks.translation)
-                                .chain([&ks.t, &ks.m1])
-                                .for_each(|&x| put(&mut b, x));
-                        }
-                    }
-                }
-            }
-        }
-    }
-    b
+    w
 }
 
 /// Reads a state written by [`encode`] for `model`; refuses another layout version, sizes that
@@ -331,8 +353,13 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     } else {
         vec![]
     };
-    let solver_cache =
-        crate::integrate::SolverCache::from_parts(jacobian, left, ledger, velocity_change, reach);
+    let solver_cache = crate::integrate::SolverCache::from_parts(crate::integrate::CacheParts {
+        jacobian,
+        left,
+        ledger,
+        velocity_change,
+        reach,
+    });
     if r.remaining() != 0 {
         return Err(format!(
             "model state is corrupt: {} unexpected bytes at the end",
@@ -430,5 +457,193 @@ fn finite(r: &mut Reader, what: &str) -> Result<f64, String> {
         Ok(x)
     } else {
         Err(format!("model state is corrupt: {what} is {x}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::ContactParams;
+    use crate::integrate::{CacheParts, SolverCache};
+    use nalgebra::DMatrix;
+
+    /// The sizes of the state below, by the names the table's formulas use.
+    const SIZES: [(&str, usize); 8] = [
+        ("nq", 7),
+        ("nv", 6),
+        ("nctrl", 2),
+        ("nm", 1),
+        ("n", "implicit_euler".len()),
+        ("r", 6),
+        ("c", 6),
+        ("pair", 2),
+    ];
+
+    /// A state with every optional part present (mocap, sampled mocap poses, Jacobian, the
+    /// state it was left for with a velocity change, ledger, proofs on both sides of every
+    /// pair), numbers chosen only to have the sizes of [`SIZES`].
+    fn full_state() -> FmuState {
+        let size = |name| SIZES.iter().find(|(n, _)| *n == name).unwrap().1;
+        let (nq, nv) = (size("nq"), size("nv"));
+        let state = State {
+            q: vec![0.5; nq],
+            v: vec![0.25; nv],
+        };
+        let side = KeptSide {
+            rotation: Matrix3::identity(),
+            translation: Vector3::new(1.0, 0.0, 0.0),
+            t: 0.1,
+            m1: 0.01,
+        };
+        let ledger = EnergyLedger {
+            at: state.clone(),
+            params: ContactParams::default(),
+            since: 0.0,
+            reference: 1.0,
+            work: 0.0,
+            gross_work: 0.0,
+            scale: 1.0,
+            kinetic: 0.5,
+        };
+        FmuState {
+            sim: SimState {
+                time: 1.0,
+                state: state.clone(),
+                ctrl: vec![0.0; size("nctrl")],
+                params: ContactParams::default(),
+                mocap: vec![0.0; MOCAP_INPUTS * size("nm")],
+                mocap_target: vec![0.0; 7 * size("nm")],
+                mocap_sampled: Some((0.5, vec![0.0; 7 * size("nm")])),
+            },
+            integrator: Integrator::from_name("implicit_euler").unwrap(),
+            step: 0.002,
+            tolerance: 1e-6,
+            solver_cache: SolverCache::from_parts(CacheParts {
+                jacobian: Some(DMatrix::identity(size("r"), size("c"))),
+                left: Some((state, 0.002)),
+                ledger: Some(ledger),
+                velocity_change: Some(vec![0.0; nv]),
+                reach: vec![
+                    Some(KeptReach {
+                        sides: [Some(side), Some(side)],
+                    });
+                    size("pair")
+                ],
+            }),
+        }
+    }
+
+    /// The module doc's table: each row's section name and byte formula.
+    fn table() -> Vec<(String, String)> {
+        include_str!("state_bytes.rs")
+            .lines()
+            .filter_map(|l| l.strip_prefix("//! | `"))
+            .map(|row| {
+                let cells: Vec<&str> = row.split(" | ").collect();
+                (
+                    cells[0].trim_end_matches('`').to_string(),
+                    cells[1].to_string(),
+                )
+            })
+            .collect()
+    }
+
+    /// The value of a formula of the table: numbers, the names of [`SIZES`], `+`, `×` and
+    /// juxtaposition for products, parentheses, `(+ …)` for an optional part (present in
+    /// [`full_state`]), and "per pair" for a product with the number of pairs.
+    fn evaluate(formula: &str) -> usize {
+        let spaced = formula
+            .replace("per pair", "pair ×")
+            .replace('(', " ( ")
+            .replace(')', " ) ")
+            .replace('+', " + ");
+        let tokens: Vec<&str> = spaced.split_whitespace().collect();
+        let mut at = 0;
+        let value = sum(&tokens, &mut at);
+        assert_eq!(at, tokens.len(), "unread tokens in {formula:?}");
+        value
+    }
+
+    fn sum(t: &[&str], at: &mut usize) -> usize {
+        let mut value = product(t, at);
+        loop {
+            match (t.get(*at), t.get(*at + 1)) {
+                (Some(&"+"), _) => {
+                    *at += 1;
+                    value += product(t, at);
+                }
+                (Some(&"("), Some(&"+")) => {
+                    *at += 2;
+                    value += sum(t, at);
+                    assert_eq!(t[*at], ")");
+                    *at += 1;
+                }
+                _ => return value,
+            }
+        }
+    }
+
+    fn product(t: &[&str], at: &mut usize) -> usize {
+        let mut value = factor(t, at);
+        loop {
+            match (t.get(*at), t.get(*at + 1)) {
+                (Some(&"×"), _) => {
+                    *at += 1;
+                    value *= factor(t, at);
+                }
+                (Some(&"("), Some(&"+")) | (None, _) | (Some(&"+" | &")"), _) => return value,
+                _ => value *= factor(t, at),
+            }
+        }
+    }
+
+    fn factor(t: &[&str], at: &mut usize) -> usize {
+        let token = t[*at];
+        *at += 1;
+        if token == "(" {
+            let value = sum(t, at);
+            assert_eq!(t[*at], ")");
+            *at += 1;
+            return value;
+        }
+        token.parse().unwrap_or_else(|_| {
+            SIZES
+                .iter()
+                .find(|(n, _)| *n == token)
+                .unwrap_or_else(|| panic!("unknown size {token:?}"))
+                .1
+        })
+    }
+
+    #[test]
+    fn the_table_describes_what_encode_writes() {
+        let state = full_state();
+        let written = write(&state);
+        let rows = table();
+        let names: Vec<&str> = written.sections.iter().map(|(n, _)| *n).collect();
+        let listed: Vec<&str> = rows.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names, listed,
+            "the sections in the order encode writes them"
+        );
+        let ends = written.sections[1..]
+            .iter()
+            .map(|(_, start)| *start)
+            .chain([written.bytes.len()]);
+        for (((name, start), end), (_, formula)) in written.sections.iter().zip(ends).zip(&rows) {
+            assert_eq!(end - start, evaluate(formula), "section {name}: {formula}");
+        }
+    }
+
+    #[test]
+    fn the_formulas_read_as_meant() {
+        assert_eq!(evaluate("4 × 4"), 16);
+        assert_eq!(evaluate("8 × (nq + nv + nctrl)"), 8 * 15);
+        assert_eq!(evaluate("1 (+ 8 + 8 × 7 nm)"), 1 + 8 + 56);
+        assert_eq!(evaluate("1 (+ 8 (nq + nv + 1) (+ 8 nv))"), 1 + 8 * 14 + 48);
+        assert_eq!(
+            evaluate("4 + per pair (1 + 2 (1 + 8 × 14))"),
+            4 + 2 * (1 + 2 * 113)
+        );
     }
 }
