@@ -23,6 +23,7 @@ This module travels to the workers by value (cloudpickle), so they need only `fm
 `python scm_dask.py --help` runs the T-push sweep of the docs and measures its throughput.
 """
 import argparse
+import contextlib
 import dataclasses
 import hashlib
 import pathlib
@@ -170,7 +171,14 @@ def sweep(client, fmu_path, runs):
     stays there for later sweeps of it until `release`. If a run fails, the others are waited
     for before its error is raised."""
     plugin = FmuPlugin(pathlib.Path(fmu_path).read_bytes())
-    client.register_plugin(plugin, name=plugin.name)
+    try:
+        client.register_plugin(plugin, name=plugin.name)
+    except BaseException:
+        # A worker could not unpack it (its disk, a corrupt file): no half-made plugin stays
+        # registered for the next sweep to find.
+        with contextlib.suppress(Exception):
+            client.unregister_worker_plugin(plugin.name)
+        raise
     name = plugin.name
 
     def task(arguments):
@@ -190,7 +198,8 @@ def sweep(client, fmu_path, runs):
 
 def release(client, fmu_path):
     """Removes the FMU's plugin from the workers: idle instances are freed, a running one when
-    its run ends, and the unpacked files after the last."""
+    its run ends, and the unpacked files after the last. A sweep of the same FMU still under way
+    (from another client) then fails with a clear error for the runs not yet started."""
     client.unregister_worker_plugin(plugin_name(pathlib.Path(fmu_path).read_bytes()))
 
 
