@@ -10,8 +10,9 @@
 # has built needs no second compilation. Needs the venv of scripts/setup.sh (maturin is pinned in
 # tests/python/requirements.txt).
 set -euo pipefail
+# OUT_DIR as the caller wrote it, relative to the caller's folder.
+out=$(realpath -m "${1:-$(dirname "$0")/../target/wheels}")
 cd "$(dirname "$0")/.."
-out=${1:-target/wheels}
 if [ ! -x .venv/bin/maturin ]; then
   echo "wheel: .venv/bin/maturin is missing: run scripts/setup.sh first" >&2
   exit 1

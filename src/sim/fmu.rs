@@ -98,13 +98,13 @@ impl FmiModel for Simulation {
                 "communicationStepSize = {step} refused: it must be positive and finite"
             )));
         }
-        let before = self.current.time;
-        self.current.time = current_time;
+        // The step starts at the host's communication point (the time the FMU reports is the
+        // host's, not the sum of its own steps); `step` lands on `current_time + step`.
+        let before = std::mem::replace(&mut self.current.time, current_time);
         if let Err(e) = self.step(step) {
             self.current.time = before;
             return Err(e);
         }
-        self.current.time = current_time + step;
         self.log_contacts();
         Ok(())
     }
