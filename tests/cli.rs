@@ -124,6 +124,22 @@ fn errors_are_one_readable_line() {
     assert!(!out.status.success());
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains(&format!("{}:3:", bad.display())), "{err}");
+    // Writing into a folder that is not there names the user's path, not a temporary file.
+    let missing = dir.join("no_such_folder");
+    for (args, path) in [
+        (["pack", drop, "-o"], missing.join("x.fmu")),
+        (["simulate", drop, "-o"], missing.join("x.csv")),
+    ] {
+        let out = scm(&[args[0], args[1], args[2], path.to_str().unwrap()]);
+        let err = text(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            err.starts_with(&format!("scm: {}: ", path.display())) && !err.contains(".tmp"),
+            "{err}"
+        );
+        assert!(!missing.exists());
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 
