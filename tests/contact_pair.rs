@@ -631,7 +631,8 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
         let (tape, recorded) = PairTape::record(a, &fa, b, &fb, &prm, None);
         let full = pair_contact(a, &fa, b, &fb, &prm);
         assert!(full.on_a.force.norm() > 1.0, "the bodies touch: {full:?}");
-        for (w, f) in recorded
+        assert_eq!(recorded.distance.to_bits(), full.distance.to_bits());
+        for (w, f) in [recorded.on_a, recorded.on_b]
             .iter()
             .chain(&tape.replay(a, &fa, b, &fb, &prm))
             .zip([&full.on_a, &full.on_b, &full.on_a, &full.on_b])

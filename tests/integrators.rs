@@ -1161,6 +1161,25 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
     assert!(here.norm() > 1.0, "the bodies touch: {here}");
     assert_eq!(at_v.as_slice(), here.as_slice(), "equal where recorded");
     assert_eq!(frozen.vdot(&v).as_slice(), here.as_slice());
+    // Each pair's contact where it was recorded, the same bits as the forward dynamics' there
+    // (what damped Euler's energy guard reads instead of a forward dynamics of its own).
+    let forward = model
+        .forward_contact_at(&q, &v, None, &tau, &[], &prm, Some(h))
+        .unwrap();
+    assert_eq!(frozen.contacts().len(), forward.contacts.len());
+    assert!(frozen.contacts().iter().filter(|c| c.is_some()).count() >= 2);
+    for (a, b) in frozen.contacts().iter().zip(&forward.contacts) {
+        let bits = |c: &Option<scm::contact::PairContact<f64>>| {
+            c.as_ref().map(|c| {
+                (c.on_a.force.iter().chain(c.on_a.torque.iter()))
+                    .chain(c.on_b.force.iter().chain(c.on_b.torque.iter()))
+                    .chain([&c.distance])
+                    .map(|x| x.to_bits())
+                    .collect::<Vec<u64>>()
+            })
+        };
+        assert_eq!(bits(a), bits(b));
+    }
     for scale in [1e-3, 0.1, 1.0] {
         for _ in 0..5 {
             let x: Vec<f64> = v.iter().map(|a| a + scale * rng.range(-1.0, 1.0)).collect();

@@ -69,8 +69,9 @@ pub struct PairTape {
 
 impl PairTape {
     /// Records the contact of collider `a` on frame `fa` and `b` on `fb`, and returns it with
-    /// the wrenches on `a` and `b` at these frames' velocities; `kept`: the pair's candidate
-    /// planes kept across calls, if any ([`KeptCandidates`]).
+    /// the contact at these frames' velocities (the wrenches on `a` and `b` and the smooth
+    /// distance, the same bits as [`pair_contact_kept`]); `kept`: the pair's candidate planes
+    /// kept across calls, if any ([`KeptCandidates`]).
     pub fn record(
         a: &Collider,
         fa: &Frame<f64>,
@@ -78,7 +79,7 @@ impl PairTape {
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
         kept: Option<&mut KeptCandidates>,
-    ) -> (PairTape, [Wrench<f64>; 2]) {
+    ) -> (PairTape, PairContact<f64>) {
         let budget = TAPE_TERMS_PER_POINT * (a.len() + b.len()).max(1);
         Self::record_within(a, fa, b, fb, prm, kept, budget)
     }
@@ -92,7 +93,7 @@ impl PairTape {
         prm: &ContactParams<f64>,
         kept: Option<&mut KeptCandidates>,
         budget: usize,
-    ) -> (PairTape, [Wrench<f64>; 2]) {
+    ) -> (PairTape, PairContact<f64>) {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         // Each force's terms go to the tape as it is evaluated, while they fit the budget (a
         // force against a half-space has one term and always fits).
@@ -141,7 +142,12 @@ impl PairTape {
         let [s0, s1] = parts.sums;
         s0.finish(fb, true, &mut on_a, &mut on_b);
         s1.finish(fa, false, &mut on_a, &mut on_b);
-        (tape, [on_a, on_b])
+        let contact = PairContact {
+            on_a,
+            on_b,
+            distance: parts.dist.distance,
+        };
+        (tape, contact)
     }
 
     /// How many terms the tape recorded (its memory is about 64 bytes each).

@@ -89,8 +89,15 @@ impl Model {
         });
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
-        // once here, it also gives the contact state for the energy guard.
-        let needs_start = self.integrator != Integrator::ImplicitEuler || guard;
+        // once here, it also gives the contact state for the energy guard. Damped Euler's first
+        // step records every pair's contact at the start itself (its frozen contact): the guard
+        // takes it from there, and its balance starts once that step is taken.
+        let damped = self.integrator == Integrator::DampedEuler;
+        let needs_start = match self.integrator {
+            Integrator::ImplicitEuler => guard,
+            Integrator::DampedEuler => false,
+            _ => true,
+        };
         let start = if needs_start {
             let known = cache.kinematics.take(state);
             Some(
@@ -105,7 +112,7 @@ impl Model {
         } else {
             None
         };
-        let mut monitor = guard
+        let mut monitor = (guard && !damped)
             .then(|| {
                 self.energy_monitor(
                     state,
@@ -256,7 +263,9 @@ impl Model {
                             a => a,
                         };
                         if i == Integrator::DampedEuler {
-                            self.implicit_step_subdividing(
+                            let mut at_start = None;
+                            let first_with_guard = k == 0 && guard;
+                            let end = self.implicit_step_subdividing(
                                 i,
                                 &s,
                                 &uk,
@@ -266,7 +275,19 @@ impl Model {
                                 0,
                                 &mut report.subdivided,
                                 Some(&mut cache.kept),
-                            )
+                                first_with_guard.then_some(&mut at_start),
+                            );
+                            if first_with_guard {
+                                monitor = self.energy_monitor(
+                                    state,
+                                    ctrl,
+                                    prm,
+                                    at_start.as_deref(),
+                                    t0,
+                                    cache.ledger.as_ref(),
+                                );
+                            }
+                            end
                         } else {
                             self.explicit_step(
                                 i,

@@ -7,13 +7,16 @@ use super::newton::{newton, re_vec, KeptJacobian};
 use super::step::axpy;
 use crate::autodiff::{jacobian, VectorFunction};
 use crate::collision::PairsKept;
-use crate::contact::ContactParams;
+use crate::contact::{ContactParams, PairContact};
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::TypeId;
 use std::cell::RefCell;
+
+/// Each pair's contact at a step's start, in pair order (`None` out of reach).
+pub(super) type StartContacts = Vec<Option<PairContact<f64>>>;
 
 /// The residual of the implicit Euler step equation `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` as a
 /// function of the new velocity `V`, on real numbers (for its Jacobian).
@@ -112,7 +115,9 @@ impl Model {
     /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
     /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
     /// takes a fresh one when the iterations stop contracting), as for implicit Euler; `kept`,
-    /// the pairs' kept out-of-reach proofs and candidate planes, serves the frozen contact.
+    /// the pairs' kept out-of-reach proofs and candidate planes, serves the frozen contact;
+    /// `at_start`, if given, receives in `f64` each pair's contact at the start of the step, as
+    /// the forward dynamics there would give it (what the energy guard reads).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn damped_euler_velocity<T: Scalar>(
         &self,
@@ -123,6 +128,7 @@ impl Model {
         h: T,
         jac: &mut Option<KeptJacobian>,
         kept: Option<&mut PairsKept>,
+        at_start: Option<&mut Option<StartContacts>>,
     ) -> Result<Vec<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self
@@ -157,6 +163,9 @@ impl Model {
                 real.h,
                 kept,
             )?;
+            if let Some(slot) = at_start {
+                *slot = Some(frozen.contacts().to_vec());
+            }
             let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {
                 return Ok(explicit);
@@ -276,6 +285,7 @@ impl Model {
                 0,
                 subdivided,
                 kept,
+                None,
             )?,
         };
         *dv =
@@ -287,7 +297,7 @@ impl Model {
     /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
     /// iterations fail (typically when contact starts within a step much longer than the
     /// contact's period), the step is done as two halves of the same method, recursively, down
-    /// to `h / 2⁸`.
+    /// to `h / 2⁸`. `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_subdividing(
         &self,
@@ -300,11 +310,15 @@ impl Model {
         depth: usize,
         subdivided: &mut usize,
         mut kept: Option<&mut PairsKept>,
+        at_start: Option<&mut Option<StartContacts>>,
     ) -> Result<State<f64>, DynamicsError> {
         let step = match integrator {
-            Integrator::DampedEuler => {
-                self.explicit_step(integrator, s, u, prm, h, None, jac, kept.as_deref_mut())
-            }
+            Integrator::DampedEuler => self
+                .damped_euler_velocity(&s.q, &s.v, u, prm, h, jac, kept.as_deref_mut(), at_start)
+                .map(|v| State {
+                    q: self.tree.integrate_q(&s.q, &v, h),
+                    v,
+                }),
             _ => self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()),
         };
         match step {
@@ -322,6 +336,7 @@ impl Model {
                     depth + 1,
                     subdivided,
                     kept.as_deref_mut(),
+                    None,
                 )?;
                 self.implicit_step_subdividing(
                     integrator,
@@ -333,6 +348,7 @@ impl Model {
                     depth + 1,
                     subdivided,
                     kept,
+                    None,
                 )
             }
             other => other,

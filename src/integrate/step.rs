@@ -151,7 +151,7 @@ impl Model {
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac, kept)?;
+            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac, kept, None)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,

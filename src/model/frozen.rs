@@ -21,6 +21,9 @@ pub struct FrozenForward<'m> {
     mass: MassFactor<f64>,
     /// Each pair in reach: its bodies, its parameters and its recorded contact.
     tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
+    /// The contact of every pair where it was recorded (at the start velocity), in pair order:
+    /// `None` for a pair out of reach, as [`Forward::contacts`].
+    contacts: Vec<Option<PairContact<f64>>>,
     /// The stiction velocity of the tendons' dry friction.
     stiction_velocity: f64,
 }
@@ -99,9 +102,11 @@ impl Model {
         });
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let mut tapes = Vec::with_capacity(recorded.len());
-        for (_, (a, b, p, (tape, w))) in recorded {
-            add(&mut wrenches, a, b, &w);
+        let mut contacts = vec![None; n];
+        for (k, (a, b, p, (tape, contact))) in recorded {
+            add(&mut wrenches, a, b, &[contact.on_a, contact.on_b]);
             tapes.push((a, b, p, tape));
+            contacts[k] = Some(contact);
         }
         let frozen = FrozenForward {
             model: self,
@@ -111,6 +116,7 @@ impl Model {
             rhs,
             mass,
             tapes,
+            contacts,
             stiction_velocity: prm.stiction_velocity,
         };
         let vdot = frozen.solve(wrenches);
@@ -123,6 +129,12 @@ impl FrozenForward<'_> {
     /// end velocity).
     pub fn contact_free(&self) -> bool {
         self.tapes.is_empty()
+    }
+
+    /// Each pair's contact where it was recorded (the start velocity), in pair order, `None`
+    /// out of reach: the same bits as the forward dynamics' [`Forward::contacts`] there.
+    pub fn contacts(&self) -> &[Option<PairContact<f64>>] {
+        &self.contacts
     }
 
     /// The accelerations with the contact forces taken at the end velocity `v_contact`.
