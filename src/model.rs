@@ -2,8 +2,10 @@
 //! and contact parameters; and the dynamics of the paper's eq. 27–28 on it:
 //! `M(q) v̇ + c(q, v) = τ_actuators + τ_passive + Σ_pairs Λ_ab(q, v)`.
 //!
-//! The model is immutable; all that changes lives in the caller's state (MuJoCo's
-//! `mjModel`/`mjData` split).
+//! The model does not change while it is stepped: what changes from step to step lives in the
+//! caller's state and solver cache (MuJoCo's `mjModel`/`mjData` split). Between steps a host may
+//! change its solver settings (`integrator` through [`Model::set_integrator`], which also sets
+//! the limit laws that integrator takes, `step`, `tolerance`), as MuJoCo's `mjModel.opt` can.
 
 use crate::collision::{Collider, PairsKept};
 use crate::contact::{ContactParams, PairContact, Wrench};
@@ -23,7 +25,7 @@ pub use frozen::FrozenForward;
 use pairs::{Keep, PendingPair};
 pub use pairs::{Pair, PairThreads};
 
-/// The complete, immutable model of a scene.
+/// The complete model of a scene (see the module doc for what may change between steps).
 #[derive(Clone, Debug)]
 pub struct Model {
     /// Name of the scene (`<mujoco model="...">`).

@@ -121,8 +121,9 @@ pub struct Simulation {
     /// Current state.
     pub current: SimState,
     start: SimState,
-    /// Contact outputs at the current state, computed on demand.
-    outputs: Option<Vec<PairContact<f64>>>,
+    /// Contact outputs, computed on demand, with the state they were computed at: they serve
+    /// while the current state is that one (no setter has to remember to clear them).
+    outputs: Option<(SimState, Vec<PairContact<f64>>)>,
     /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
     points: Option<PointsCache>,
     /// What the integrator carries between communication steps (a Newton Jacobian).
@@ -254,15 +255,16 @@ impl Simulation {
 
     /// Contact of every pair at the current state.
     pub fn contacts(&mut self) -> &[PairContact<f64>] {
-        if self.outputs.is_none() {
+        if !matches!(&self.outputs, Some((at, _)) if *at == self.current) {
             let kin = self.model.tree.kinematics_with(
                 &self.current.state.q,
                 &self.current.state.v,
                 &self.current.mocap,
             );
-            self.outputs = Some(self.model.contacts(&kin, &self.current.params).1);
+            let contacts = self.model.contacts(&kin, &self.current.params).1;
+            self.outputs = Some((self.current.clone(), contacts));
         }
-        self.outputs.as_deref().unwrap_or(&[])
+        self.outputs.as_ref().map_or(&[], |(_, c)| c.as_slice())
     }
 
     /// Soft top-K contact points of every pair at the current positions (world frame), cached
@@ -358,7 +360,6 @@ impl Simulation {
                 .copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
         }
         self.current.time += h;
-        self.outputs = None;
         self.started = true;
         Ok(())
     }
@@ -392,7 +393,6 @@ impl Simulation {
                         self.current.mocap[o + 10 + k] = w[k];
                     }
                 }
-                self.outputs = None;
             }
         }
         self.current.mocap_sampled = Some((t, poses));

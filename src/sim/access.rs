@@ -119,7 +119,6 @@ impl Simulation {
                 text,
             });
         }
-        self.outputs = None;
         Ok(())
     }
 
@@ -158,7 +157,6 @@ impl Simulation {
         for i in quaternions {
             normalize_quaternion(&mut self.current.state.q[i..i + 4]);
         }
-        self.outputs = None;
         self.messages.push(LogMessage {
             category: LogCategory::Events,
             text: format!(
@@ -286,7 +284,6 @@ impl Simulation {
                 ))
             }
         }
-        self.outputs = None;
         Ok(())
     }
 

@@ -57,7 +57,6 @@ impl FmiModel for Simulation {
         self.model.set_integrator(integrator);
         (self.model.step, self.model.tolerance) = (step, tolerance);
         self.cache = Default::default();
-        self.outputs = None;
         self.started = false;
         self.messages.push(LogMessage {
             category: LogCategory::Events,
@@ -138,7 +137,6 @@ impl FmiModel for Simulation {
         self.model.set_integrator(state.integrator);
         (self.model.step, self.model.tolerance) = (state.step, state.tolerance);
         self.cache = state.solver_cache.clone();
-        self.outputs = None;
         Ok(())
     }
 
@@ -220,7 +218,6 @@ impl FmiModel for Simulation {
         }
         self.current.state.q.copy_from_slice(&x[..nq]);
         self.current.state.v.copy_from_slice(&x[nq..]);
-        self.outputs = None;
         Ok(())
     }
 
@@ -269,9 +266,6 @@ impl FmiModel for Simulation {
                 category: LogCategory::StatusWarning,
                 text: format!("{name}.quat is zero at the event: left as set; set a non-zero orientation quaternion before the next step"),
             });
-        }
-        if changed {
-            self.outputs = None;
         }
         Ok(changed)
     }
