@@ -62,7 +62,7 @@ fn main() {
     let state = sim.current.state.clone();
     let u = sim.inputs();
     let prm = sim.current.params;
-    let h = m.step;
+    let h = m.timestep;
     let kin = m
         .tree
         .kinematics_with(&state.q, &state.v, &u[m.actuators.len()..]);

@@ -67,7 +67,7 @@ fn integrators(scene: &Path) -> Result<String, String> {
             let mut sim = scm::sim::Simulation::from_file(scene).map_err(|e| e.to_string())?;
             sim.model.integrator = integrator;
             sim.model.tolerance = tolerance;
-            sim.model.step = step;
+            sim.model.timestep = step;
             for k in 0..50 {
                 // A refused step counts as a result too: compare what was reached.
                 if sim.do_step(k as f64 * 0.01, 0.01).is_err() {

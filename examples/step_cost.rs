@@ -144,7 +144,7 @@ fn parse() -> Result<Args, String> {
 /// state). Done once per run: on a large model (gymnasium's humanoid) it is most of the run.
 fn warm_state(a: &Args, scene: &std::path::Path) -> Result<SimState, String> {
     let mut sim = started(a, scene)?;
-    sim.model.step = 1e-3;
+    sim.model.timestep = 1e-3;
     let n = (a.warmup / 0.01).round() as usize;
     for _ in 0..n {
         sim.step(0.01).map_err(|e| format!("warm-up: {e}"))?;
@@ -174,7 +174,7 @@ fn simulation_at(
     let mut sim = started(a, scene)?;
     sim.current = warm.clone();
     sim.model.integrator = integrator;
-    sim.model.step = h;
+    sim.model.timestep = h;
     Ok(sim)
 }
 

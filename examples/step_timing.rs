@@ -19,7 +19,7 @@ fn main() {
     for integrator in Integrator::ALL {
         let mut sim = Simulation::from_file(&path).expect("t_push loads");
         sim.model.integrator = integrator;
-        sim.model.step = h;
+        sim.model.timestep = h;
         let (mut free, mut contact) = (0.0, 0.0);
         let n = (2.5 / h).round() as usize;
         for k in 0..n {

@@ -42,8 +42,8 @@ pub struct Model {
     pub contact: ContactParams<f64>,
     /// Integrator.
     pub integrator: Integrator,
-    /// Internal time step (s).
-    pub step: f64,
+    /// Internal time step (s; MuJoCo's `timestep`, the FMU's `solver.step`).
+    pub timestep: f64,
     /// Local error tolerance of the adaptive integrator.
     pub tolerance: f64,
     /// Number of soft top-K contact points output per pair (`scm_contact_points`; 0: none).

@@ -55,8 +55,8 @@ pub struct FmuState {
     pub sim: SimState,
     /// Integrator of the internal steps.
     pub integrator: Integrator,
-    /// Internal step (s).
-    pub step: f64,
+    /// Internal time step (s).
+    pub timestep: f64,
     /// Local error tolerance.
     pub tolerance: f64,
     /// What the integrator carries between communication steps (the implicit methods' Newton
@@ -174,7 +174,7 @@ impl Simulation {
                 text,
             })
             .collect();
-        let start_solver = (model.integrator, model.step, model.tolerance);
+        let start_solver = (model.integrator, model.timestep, model.tolerance);
         let mut sim = Simulation {
             model,
             rows,

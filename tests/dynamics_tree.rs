@@ -356,7 +356,7 @@ fn the_mass_matrix_factored_along_the_tree_solves_as_the_dense_factor() {
 fn rk4_energy_error(model: &Model, h: f64) -> f64 {
     let mut m = model.clone();
     m.integrator = Integrator::Rk4;
-    m.step = h;
+    m.timestep = h;
     let mut rng = Lcg(5);
     let (q, v, u) = random_point(&m, &mut rng, 0.0);
     let v: Vec<f64> = v.iter().map(|x| 4.0 * x).collect(); // up to 2 rad/s, 2 m/s
@@ -688,7 +688,7 @@ fn fluid_forces_only_dissipate_and_follow_the_box_formulas() {
 /// sets the hinged arm and the free box of the welds' and strings' tests swinging.
 fn swing_energies(mut m: scm::model::Model) -> Vec<scm::model::Energy<f64>> {
     m.integrator = Integrator::Rk4;
-    m.step = 2.5e-4;
+    m.timestep = 2.5e-4;
     let mut state = State {
         q: m.tree.q0(),
         v: vec![3.0, 0.5, -0.4, 0.8, 2.0, -3.0, 1.5],

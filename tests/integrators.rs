@@ -262,7 +262,7 @@ fn pendulum_after(
 ) -> (State<f64>, usize) {
     let mut model = model_of(PENDULUM);
     model.integrator = integrator;
-    model.step = step;
+    model.timestep = step;
     model.tolerance = tolerance;
     let state = State {
         q: vec![1.0],
@@ -330,7 +330,7 @@ fn implicit_euler_damps_resolved_motion_as_its_stability_function_says() {
     let h = 0.01;
     let mut m = model.clone();
     m.integrator = Integrator::ImplicitEuler;
-    m.step = h;
+    m.timestep = h;
     let bottom = model.energy(&[0.0], &[0.0]).total();
     let mut s = State {
         q: vec![0.05],
@@ -430,8 +430,8 @@ fn slowly_growing_pendulum() -> (Model, f64, State<f64>) {
     let mut model = model_of(PENDULUM);
     let omega = (9.81 * 0.5 / (0.25 + 0.001f64)).sqrt();
     model.integrator = Integrator::Euler;
-    model.step = 0.1 / omega;
-    let h = model.step;
+    model.timestep = 0.1 / omega;
+    let h = model.timestep;
     (
         model,
         h,
@@ -540,7 +540,7 @@ fn the_energy_guard_judges_a_growth_from_the_least_energy_the_run_fell_to() {
   </worldbody></mujoco>"#
     );
     let model = model_of(&text);
-    assert_eq!(model.step, h);
+    assert_eq!(model.timestep, h);
     let s0 = State {
         q: vec![0.5, 0.0],
         v: vec![0.0, (200.0f64).sqrt()],
@@ -662,7 +662,7 @@ fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step()
   <worldbody><body name="p"><joint name="j" type="hinge" axis="0 1 0" ref="0"/>
     <inertial pos="0 0 -0.5" mass="1" diaginertia="0.001 0.001 0.001"/></body></worldbody></mujoco>"#
     );
-    assert_eq!(model.step, h);
+    assert_eq!(model.timestep, h);
     let scene = scm::scene::load_str(&text, std::path::Path::new("pendulum.xml")).unwrap();
     let mut sim = Simulation::new(scene, &text);
     sim.current.state.q[0] = 0.5;
@@ -769,7 +769,7 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
     // actuator, `S` and every accepted kinetic energy stay below `2 (E₀ + U₀ + E_floor - V_min)`.
     let model = model_of(&stiff_sphere(3e4, 2e-3, "semi_implicit_euler"));
     assert_eq!(model.integrator, Integrator::SemiImplicitEuler);
-    let (h, prm) = (model.step, model.contact);
+    let (h, prm) = (model.timestep, model.contact);
     let stored = |s: &State<f64>| {
         let kin = model.tree.kinematics(&s.q, &s.v);
         scm::integrate::contact_energy(&model.pairs, &model.contact_forces(&kin, &prm).1, &prm)
@@ -1039,7 +1039,7 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     let mut sim = Simulation::new(scene, &text);
     sim.model.integrator = Integrator::ImplicitEuler;
     sim.initialize().unwrap();
-    let dt = sim.model.step;
+    let dt = sim.model.timestep;
     for k in 0..20 {
         sim.do_step(k as f64 * dt, dt).unwrap();
     }

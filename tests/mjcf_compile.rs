@@ -2055,7 +2055,7 @@ fn a_pair_whose_inverse_weights_vanish_is_sized_for_the_mass_that_moves() {
     );
     // The law is MuJoCo's resting depth for 0.2 kg: k s⁺_ε3(r) = m g.
     let soft = scm::scene::contact::Softness::default();
-    let r = soft.resting_depth(9.81, Some(free.model.step));
+    let r = soft.resting_depth(9.81, Some(free.model.timestep));
     let eps3 = free.model.contact.eps3;
     let held = kf * scm::scalar::softplus(r, eps3);
     assert!((held - 0.2 * 9.81).abs() < 1e-9, "holds {held} N");

@@ -21,7 +21,7 @@ fn vr(sim: &Simulation, name: &str) -> u32 {
 fn box_stack_rests(integrator: Integrator, step: f64) {
     let mut sim = Simulation::from_file(&scene("box_stack")).unwrap();
     sim.model.integrator = integrator;
-    sim.model.step = step;
+    sim.model.timestep = step;
     let h = 0.1;
     let mut settled = None;
     let mut kinetic = Vec::new();

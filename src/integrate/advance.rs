@@ -188,14 +188,14 @@ impl Model {
             })
         };
         if !self.integrator.is_adaptive() {
-            let n = ((duration / self.step) * (1.0 - 1e-12)).ceil().max(1.0);
+            let n = ((duration / self.timestep) * (1.0 - 1e-12)).ceil().max(1.0);
             // Refused before any work (the cast below would saturate, and internal steps would
             // grow past `step`; a state that stays finite would run for ages).
             if n.is_nan() || n > opts.max_steps as f64 {
                 return Err(StepFailure::TooLong {
                     time: t0,
                     duration,
-                    step: self.step,
+                    step: self.timestep,
                     steps: opts.max_steps,
                 });
             }
@@ -326,7 +326,7 @@ impl Model {
         let tol = self.tolerance;
         let mut s = state.clone();
         let mut elapsed = 0.0;
-        let mut h = self.step.min(duration);
+        let mut h = self.timestep.min(duration);
         let mut first = a0.map(|a| (self.tree.qdot(&state.q, &state.v), a));
         let mut rejected_last = false;
         loop {
@@ -387,7 +387,7 @@ impl Model {
                     } else {
                         5.0
                     };
-                    h = (h * if rejected_last { grow.min(1.0) } else { grow }).min(self.step);
+                    h = (h * if rejected_last { grow.min(1.0) } else { grow }).min(self.timestep);
                     rejected_last = false;
                 }
                 _ => {

@@ -322,7 +322,7 @@ impl Model {
                 &p.reach(),
                 kept,
                 // A kept proof is worth making if it serves two internal steps.
-                2.0 * self.step,
+                2.0 * self.timestep,
             ),
             None => out_of_reach(ca, cb, &rels, &p.reach()),
         }

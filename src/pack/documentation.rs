@@ -330,7 +330,7 @@ pub fn index_html(scene: &Scene, info: &ModelInfo) -> String {
          <code>fmi2CompletedIntegratorStep</code> asks for an event, at which the FMU normalizes it and reports <code>valuesOfContinuousStatesChanged</code>.</p>\n",
         esc(m.integrator.name()),
         esc(&integrator_text(m.integrator.name())),
-        format_real(m.step),
+        format_real(m.timestep),
         format_real(QUATERNION_DRIFT_TOLERANCE),
     );
 

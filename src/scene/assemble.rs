@@ -507,7 +507,7 @@ impl Builder {
             actuators: std::mem::take(&mut self.actuators),
             contact,
             integrator,
-            step,
+            timestep: step,
             tolerance,
             contact_points: contact_points as usize,
             q0,

@@ -210,7 +210,7 @@ impl Simulation {
                     .map_or(0.0, |lim| lim.force(l, ldot))
             }
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
-            Slot::SolverStep => self.model.step,
+            Slot::SolverStep => self.model.timestep,
             Slot::SolverTolerance => self.model.tolerance,
             Slot::SolverIntegrator => return Err("solver.integrator is a String variable".into()),
             Slot::QDot(i) => self
@@ -263,7 +263,7 @@ impl Simulation {
                     ));
                 }
                 if *slot == Slot::SolverStep {
-                    self.model.step = value;
+                    self.model.timestep = value;
                 } else {
                     self.model.tolerance = value;
                 }

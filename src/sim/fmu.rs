@@ -55,7 +55,7 @@ impl FmiModel for Simulation {
         let (integrator, step, tolerance) = self.start_solver;
         // The integrator brings its own limit law (`Model::set_integrator`).
         self.model.set_integrator(integrator);
-        (self.model.step, self.model.tolerance) = (step, tolerance);
+        (self.model.timestep, self.model.tolerance) = (step, tolerance);
         self.cache = Default::default();
         self.started = false;
         self.messages.push(LogMessage {
@@ -116,7 +116,7 @@ impl FmiModel for Simulation {
         Ok(FmuState {
             sim: self.current.clone(),
             integrator: self.model.integrator,
-            step: self.model.step,
+            timestep: self.model.timestep,
             tolerance: self.model.tolerance,
             solver_cache: self.cache.clone(),
         })
@@ -135,7 +135,7 @@ impl FmiModel for Simulation {
         }
         self.current = state.sim.clone();
         self.model.set_integrator(state.integrator);
-        (self.model.step, self.model.tolerance) = (state.step, state.tolerance);
+        (self.model.timestep, self.model.tolerance) = (state.timestep, state.tolerance);
         self.cache = state.solver_cache.clone();
         Ok(())
     }

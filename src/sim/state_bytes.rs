@@ -98,7 +98,8 @@ fn write(state: &FmuState) -> Writer {
     w.section("mocap_target").reals(&s.mocap_target);
     w.section("params")
         .reals(&Param::ALL.map(|p| p.get(&s.params)));
-    w.section("solver").reals([&state.step, &state.tolerance]);
+    w.section("solver")
+        .reals([&state.timestep, &state.tolerance]);
     let name = state.integrator.name().as_bytes();
     w.section("integrator")
         .u32(name.len())
@@ -377,7 +378,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             mocap_sampled,
         },
         integrator,
-        step,
+        timestep: step,
         tolerance,
         solver_cache,
     })
@@ -516,7 +517,7 @@ mod tests {
                 mocap_sampled: Some((0.5, vec![0.0; 7 * size("nm")])),
             },
             integrator: Integrator::from_name("implicit_euler").unwrap(),
-            step: 0.002,
+            timestep: 0.002,
             tolerance: 1e-6,
             solver_cache: SolverCache::from_parts(CacheParts {
                 jacobian: Some(DMatrix::identity(size("r"), size("c"))),

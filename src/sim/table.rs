@@ -381,7 +381,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         ),
         Slot::SolverIntegrator,
     );
-    push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.step), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
+    push("solver.step".into(), Causality::Parameter, Variability::Fixed, Some(Initial::Exact), real(Some(model.timestep), "s"), "Internal step: a communication step is split into equal internal steps no longer than this".into(), Slot::SolverStep);
     push(
         "solver.tolerance".into(),
         Causality::Parameter,
@@ -572,7 +572,7 @@ pub fn model_info(model: &Model, scene_text: &str, rows: &[(Variable, Slot)]) ->
             start_time: Some(0.0),
             stop_time: Some(2.0),
             tolerance: None,
-            step_size: Some(model.step.max(0.01)),
+            step_size: Some(model.timestep.max(0.01)),
         },
     }
 }

@@ -42,7 +42,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         w,
         "integrator {}, internal step {} s",
         m.integrator.name(),
-        m.step
+        m.timestep
     );
     for a in &sc.meshes {
         // A mesh whose surface is not closed is used by its convex hull (listed with the

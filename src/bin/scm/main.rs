@@ -162,7 +162,7 @@ fn run(command: Command) -> Result<(), Failure> {
             for s in &sets {
                 set_variable(&mut sim, s)?;
             }
-            let h = output_interval.unwrap_or(sim.model.step.max(0.01));
+            let h = output_interval.unwrap_or(sim.model.timestep.max(0.01));
             simulate(&mut sim, duration, h, output)
         }
         Command::Compile { scene } => {
