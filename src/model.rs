@@ -7,7 +7,7 @@
 //! change its solver settings (`integrator` through [`Model::set_integrator`], which also sets
 //! the limit laws that integrator takes, `step`, `tolerance`), as MuJoCo's `mjModel.opt` can.
 
-use crate::collision::{Collider, PairsKept};
+use crate::collision::Collider;
 use crate::contact::{ContactParams, PairContact, Wrench};
 use crate::dynamics::fluid::Fluid;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
@@ -17,13 +17,14 @@ use nalgebra::{DVector, Vector3};
 
 mod actuator;
 mod energy;
+mod forward;
 mod frozen;
 mod pairs;
 pub use actuator::{Actuator, ActuatorKind, SiteTransmission, Transmission};
 pub use energy::Energy;
+pub use forward::{EvalPoint, ForwardOptions};
 pub use frozen::FrozenForward;
-use pairs::{Keep, PendingPair};
-pub use pairs::{Pair, PairThreads};
+pub use pairs::{Keep, Pair, PairThreads};
 
 /// The complete model of a scene (see the module doc for what may change between steps).
 #[derive(Clone, Debug)]
@@ -263,263 +264,6 @@ impl Model {
             e.add_force(q, v, tau.as_mut_slice());
         }
         tau
-    }
-
-    /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
-    /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
-    /// gives them for a running simulation): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
-    ///
-    /// # Example
-    ///
-    /// A free box far above a floor falls at `g`, and exact derivatives come from the same call
-    /// with dual numbers: `∂v̇/∂v = 0` for the free fall.
-    ///
-    /// ```
-    /// use num_dual::Dual64;
-    /// use std::path::Path;
-    ///
-    /// let xml = r#"<mujoco>
-    ///   <worldbody>
-    ///     <geom type="plane" size="1 1 0.1"/>
-    ///     <body pos="0 0 1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="2"/></body>
-    ///   </worldbody>
-    /// </mujoco>"#;
-    /// let model = scm::scene::load_str(xml, Path::new("box.xml"))?.model;
-    /// let f = model.forward(&model.q0, &model.v0, &model.u0(), &model.contact)?;
-    /// assert!((f.vdot[2] + 9.81).abs() < 1e-9); // gravity, nothing else
-    ///
-    /// // The same dynamics on dual numbers: seed the box's vertical velocity.
-    /// let q: Vec<Dual64> = model.q0.iter().map(|&x| Dual64::from(x)).collect();
-    /// let mut v: Vec<Dual64> = model.v0.iter().map(|&x| Dual64::from(x)).collect();
-    /// v[2] = Dual64::new(0.0, 1.0);
-    /// let prm = model.contact.lift::<Dual64>();
-    /// let fd = model.forward(&q, &v, &[], &prm)?;
-    /// assert_eq!(fd.vdot[2].eps, 0.0);
-    /// # Ok::<(), Box<dyn std::error::Error>>(())
-    /// ```
-    pub fn forward<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        u: &[T],
-        prm: &ContactParams<T>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        let (ctrl, mocap) = self.split_inputs(u)?;
-        self.forward_tau(
-            q,
-            v,
-            self.actuator_forces_at(q, v, ctrl, mocap).as_slice(),
-            mocap,
-            prm,
-        )
-    }
-
-    /// Forward dynamics for a generalized applied force: `v̇ = FD(q, v, τ) = M⁻¹ (τ + τ_passive
-    /// - c + Σ Λ)`, contact included. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
-    pub fn forward_tau<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        tau: &[T],
-        mocap: &[T],
-        prm: &ContactParams<T>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_damped(q, v, tau, mocap, prm, None)
-    }
-
-    /// [`Model::forward_tau`], optionally with the joints' viscous damping taken implicitly
-    /// over a step `h`: `v̇ = (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, `D` the diagonal of the
-    /// joints' damping per degree of freedom plus the slope of their smooth frictionloss at `v`
-    /// and their limits' damping where they push (MuJoCo's `Euler`, see
-    /// [`Integrator::DampedEuler`]).
-    pub fn forward_damped<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        tau: &[T],
-        mocap: &[T],
-        prm: &ContactParams<T>,
-        implicit_damping: Option<T>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_contact_at(q, v, None, tau, mocap, prm, implicit_damping)
-    }
-
-    /// [`Model::forward_damped`] with the contact forces taken at the velocity `v_contact`
-    /// (`None`: at `v`) and everything else at `v`: the acceleration whose root in `v_contact`
-    /// is damped Euler's velocity-implicit contact ([`Integrator::DampedEuler`]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn forward_contact_at<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        v_contact: Option<&[T]>,
-        tau: &[T],
-        mocap: &[T],
-        prm: &ContactParams<T>,
-        implicit_damping: Option<T>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_kept_at(
-            q,
-            v,
-            v_contact,
-            tau,
-            mocap,
-            prm,
-            implicit_damping,
-            Keep::Nothing,
-            None,
-        )
-    }
-
-    /// [`Model::forward`], keeping out-of-reach proofs and candidate planes across calls in
-    /// `kept` (one entry per pair; resized to the pairs if it is not: [`crate::collision::out_of_reach_kept`],
-    /// [`crate::collision::KeptCandidates`]). The result can differ
-    /// from [`Model::forward`]'s only where a pair's forces are below the bound of
-    /// [`crate::collision::out_of_reach`] (a kept proof switches off a pair that a fresh proof might not).
-    pub fn forward_kept(
-        &self,
-        q: &[f64],
-        v: &[f64],
-        u: &[f64],
-        prm: &ContactParams<f64>,
-        kept: &mut PairsKept,
-    ) -> Result<Forward<f64>, DynamicsError> {
-        self.forward_kept_from(q, v, u, prm, kept, None)
-    }
-
-    /// [`Model::forward_kept`] with the kinematics of `(q, v)` and the mocap inputs of `u`
-    /// already computed (`None`: computed here).
-    pub(crate) fn forward_kept_from(
-        &self,
-        q: &[f64],
-        v: &[f64],
-        u: &[f64],
-        prm: &ContactParams<f64>,
-        kept: &mut PairsKept,
-        kin: Option<Kinematics<f64>>,
-    ) -> Result<Forward<f64>, DynamicsError> {
-        self.forward_keeping(q, v, u, prm, Keep::All(kept), kin)
-    }
-
-    /// [`Model::forward`] with the pairs' candidate planes kept across calls in `kept` (not its
-    /// out-of-reach proofs: every pair is proven afresh), so the same result to the last bit.
-    pub(crate) fn forward_candidates<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        u: &[T],
-        prm: &ContactParams<T>,
-        kept: &mut PairsKept,
-    ) -> Result<Forward<T>, DynamicsError> {
-        self.forward_keeping(q, v, u, prm, Keep::Candidates(kept), None)
-    }
-
-    /// [`Model::forward`] with what `keep` lets the pairs keep (fitted to the pairs first).
-    fn forward_keeping<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        u: &[T],
-        prm: &ContactParams<T>,
-        mut keep: Keep,
-        kin: Option<Kinematics<T>>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        let (ctrl, mocap) = self.split_inputs(u)?;
-        if let Keep::All(kept) | Keep::Candidates(kept) = &mut keep {
-            kept.fit(self.pairs.len());
-        }
-        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        self.forward_kept_at(q, v, None, tau.as_slice(), mocap, prm, None, keep, kin)
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn forward_kept_at<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        v_contact: Option<&[T]>,
-        tau: &[T],
-        mocap: &[T],
-        prm: &ContactParams<T>,
-        implicit_damping: Option<T>,
-        keep: Keep,
-        kin: Option<Kinematics<T>>,
-    ) -> Result<Forward<T>, DynamicsError> {
-        self.check_finite(q, v)?;
-        let kin = kin.unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
-        let contact_kin = v_contact.map(|vc| self.tree.kinematics_with(q, vc, mocap));
-        // With `v_contact`, the same positions, so the wrenches are in the same frames.
-        let (mut wrenches, contacts) =
-            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, keep);
-        self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
-        let zero = vec![T::zero(); self.tree.nv];
-        let bias = self.tree.rnea(&kin, &zero, &wrenches);
-        let rhs = DVector::from_column_slice(tau)
-            + self.passive_forces(q, v, prm.stiction_velocity)
-            - bias;
-        let m = self.damped_mass_matrix(&kin, q, v, prm, implicit_damping);
-        let vdot = self
-            .tree
-            .factor(m)
-            .ok_or(DynamicsError::Singular)?
-            .solve(&rhs);
-        Ok(Forward { vdot, contacts })
-    }
-
-    /// An error naming the first joint whose position or velocity is not finite.
-    pub(crate) fn check_finite<T: Scalar>(&self, q: &[T], v: &[T]) -> Result<(), DynamicsError> {
-        for j in &self.tree.joints {
-            let bad = |x: &[T]| x.iter().any(|x| !x.re().is_finite());
-            if bad(&q[j.qadr..j.qadr + j.kind.nq()]) {
-                return Err(DynamicsError::NonFinite(format!(
-                    "the position of joint {}",
-                    j.name
-                )));
-            }
-            if bad(&v[j.dadr..j.dadr + j.kind.nv()]) {
-                return Err(DynamicsError::NonFinite(format!(
-                    "the velocity of joint {}",
-                    j.name
-                )));
-            }
-        }
-        Ok(())
-    }
-
-    /// The mass matrix at `kin`, with `h D` added when `implicit_damping` is `Some(h)`: `D` the
-    /// joints' viscous damping plus the slope of their smooth frictionloss at `v` and the
-    /// damping of their limits where they push at `(q, v)`
-    /// ([`crate::dynamics::limit::JointLimit::damping_slope`]).
-    pub(crate) fn damped_mass_matrix<T: Scalar>(
-        &self,
-        kin: &Kinematics<T>,
-        q: &[T],
-        v: &[T],
-        prm: &ContactParams<T>,
-        implicit_damping: Option<T>,
-    ) -> nalgebra::DMatrix<T> {
-        let mut m = self.tree.mass_matrix(kin);
-        if let Some(h) = implicit_damping {
-            let vs2 = prm.stiction_velocity * prm.stiction_velocity;
-            for j in &self.tree.joints {
-                for k in 0..j.kind.nv() {
-                    let mut d = c::<T>(j.damping);
-                    if j.frictionloss > 0.0 {
-                        // The smooth frictionloss -F v / sqrt(v_s² + v²) is a damper of slope
-                        // F v_s² / (v_s² + v²)^{3/2} near rest: stiff (F/v_s) when v_s is small,
-                        // where MuJoCo's frictionloss is a constraint, solved implicitly.
-                        let vi = v[j.dadr + k];
-                        let r = vs2 + vi * vi;
-                        d += vs2 * j.frictionloss / (r * r.sqrt());
-                    }
-                    m[(j.dadr + k, j.dadr + k)] += h * d;
-                }
-                if let Some(l) = &j.limit {
-                    m[(j.dadr, j.dadr)] += h * l.damping_slope(q[j.qadr], v[j.dadr]);
-                }
-            }
-        }
-        m
     }
 
     /// Inverse dynamics (paper eq. 27): the generalized actuation `τ = ID(q, v, v̇) = M v̇ + c -

@@ -8,7 +8,7 @@ use nalgebra::{DVector, UnitQuaternion, Vector3};
 use scm::contact::Wrench;
 use scm::dynamics::{JointKind, MOCAP_INPUTS};
 use scm::integrate::{AdvanceOptions, Integrator, State};
-use scm::model::Model;
+use scm::model::{EvalPoint, Model};
 use scm::scene::load_str;
 use std::path::Path;
 
@@ -201,7 +201,13 @@ fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
             let tau: Vec<f64> = (0..model.tree.nv).map(|_| rng.range(-5.0, 5.0)).collect();
             let (_, mocap) = model.split_inputs(&u).unwrap();
             let prm = model.contact;
-            let fd = model.forward_tau(&q, &v, &tau, mocap, &prm).unwrap();
+            let at = EvalPoint {
+                q: &q,
+                v: &v,
+                tau: &tau,
+                mocap,
+            };
+            let fd = model.forward_at(at, &prm, Default::default()).unwrap();
             let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm);
             // Scale: the largest generalized force involved (τ, contact, gravity through M v̇).
             let kin = model.tree.kinematics_with(&q, &v, mocap);

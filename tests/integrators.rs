@@ -8,7 +8,7 @@ use crate::dynamics_tree::model_of;
 use scm::collision::Collider;
 use scm::fmi::contract::{FmiModel, StepError};
 use scm::integrate::{AdvanceOptions, Integrator, State, StepFailure};
-use scm::model::Model;
+use scm::model::{EvalPoint, ForwardOptions, Keep, Model};
 use scm::scalar::softplus;
 use scm::sim::Simulation;
 
@@ -1126,7 +1126,7 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
 fn damped_euler_frozen_contact_equals_the_full_evaluation() {
     // Damped Euler's Newton iterations evaluate the contact at many end velocities of one
     // configuration through `FrozenForward` (each pair's contact terms recorded once). Against
-    // the full evaluation (`forward_contact_at`) on a box resting tilted on a floor and pressed
+    // the full evaluation (`forward_at` with a contact velocity) on a box resting tilted on a floor and pressed
     // by a sphere, at end velocities up to 1 m/s from the start: equal where recorded, and to
     // 1e-12 of the accelerations' size elsewhere.
     let model = model_of(
@@ -1150,22 +1150,28 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
     );
     let (h, tau, prm) = (0.002, vec![0.0; 12], model.contact);
     let mut rng = crate::common::Lcg(3);
-    let (frozen, at_v) = model.frozen_forward(&q, &v, &tau, &[], &prm, h).unwrap();
-    let full = |x: &[f64]| {
-        model
-            .forward_contact_at(&q, &v, Some(x), &tau, &[], &prm, Some(h))
-            .unwrap()
-            .vdot
+    let at = EvalPoint {
+        q: &q,
+        v: &v,
+        tau: &tau,
+        mocap: &[],
     };
+    fn damped(h: f64, contact_velocity: Option<&[f64]>) -> ForwardOptions<'_, f64> {
+        ForwardOptions {
+            contact_velocity,
+            implicit_damping: Some(h),
+            ..ForwardOptions::default()
+        }
+    }
+    let (frozen, at_v) = model.frozen_forward(at, &prm, h, Keep::Nothing).unwrap();
+    let full = |x: &[f64]| model.forward_at(at, &prm, damped(h, Some(x))).unwrap().vdot;
     let here = full(&v);
     assert!(here.norm() > 1.0, "the bodies touch: {here}");
     assert_eq!(at_v.as_slice(), here.as_slice(), "equal where recorded");
     assert_eq!(frozen.vdot(&v).as_slice(), here.as_slice());
     // Each pair's contact where it was recorded, the same bits as the forward dynamics' there
     // (what damped Euler's energy guard reads instead of a forward dynamics of its own).
-    let forward = model
-        .forward_contact_at(&q, &v, None, &tau, &[], &prm, Some(h))
-        .unwrap();
+    let forward = model.forward_at(at, &prm, damped(h, None)).unwrap();
     assert_eq!(frozen.contacts().len(), forward.contacts.len());
     assert!(frozen.contacts().iter().filter(|c| c.is_some()).count() >= 2);
     for (a, b) in frozen.contacts().iter().zip(&forward.contacts) {

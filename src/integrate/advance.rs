@@ -3,10 +3,11 @@
 
 use super::cache::SolverCache;
 use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
+use crate::collision::PairsKept;
 use crate::contact::ContactParams;
 use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, Model};
+use crate::model::{DynamicsError, ForwardOptions, Keep, Model};
 
 impl Model {
     /// Name of the first non-finite coordinate of a state, if any ("the position of joint J" or
@@ -101,13 +102,19 @@ impl Model {
         let start = if needs_start {
             let known = cache.kinematics.take(state);
             Some(
-                self.forward_kept_from(&state.q, &state.v, &u, prm, &mut cache.kept, known)
-                    .map_err(|error| StepFailure::Dynamics {
-                        time: t0,
-                        step: 1,
-                        h: 0.0,
-                        error,
-                    })?,
+                self.forward_with(
+                    &state.q,
+                    &state.v,
+                    &u,
+                    prm,
+                    kept_all(&mut cache.kept, known),
+                )
+                .map_err(|error| StepFailure::Dynamics {
+                    time: t0,
+                    step: 1,
+                    h: 0.0,
+                    error,
+                })?,
             )
         } else {
             None
@@ -243,13 +250,12 @@ impl Model {
                         let a = match first.take() {
                             None if i != Integrator::DampedEuler => {
                                 let f = self
-                                    .forward_kept_from(
+                                    .forward_with(
                                         &s.q,
                                         &s.v,
                                         &uk,
                                         prm,
-                                        &mut cache.kept,
-                                        known.take(),
+                                        kept_all(&mut cache.kept, known.take()),
                                     )
                                     .map_err(dyn_err)?;
                                 if let Some(m) = monitor.as_mut() {
@@ -559,4 +565,14 @@ pub enum StepFailure {
         /// The limit.
         steps: usize,
     },
+}
+
+/// The options of a step's first stage: the pairs' kept proofs and candidate planes, and the
+/// kinematics of the state if they are known already.
+fn kept_all(kept: &mut PairsKept, kinematics: Option<Kinematics<f64>>) -> ForwardOptions<'_, f64> {
+    ForwardOptions {
+        keep: Keep::All(kept),
+        kinematics,
+        ..ForwardOptions::default()
+    }
 }

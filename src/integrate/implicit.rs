@@ -9,7 +9,7 @@ use crate::autodiff::{jacobian, VectorFunction};
 use crate::collision::PairsKept;
 use crate::contact::{ContactParams, PairContact};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, Model};
+use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Keep, Model};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::TypeId;
@@ -61,18 +61,19 @@ impl VectorFunction for ContactImplicitResidual<'_> {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
         let (q, v) = (lift(&self.q), lift(&self.v));
-        let a = self
-            .model
-            .forward_contact_at(
-                &q,
-                &v,
-                Some(x),
-                &lift(&self.tau),
-                &lift(&self.mocap),
-                &self.prm.lift(),
-                Some(c(self.h)),
-            )?
-            .vdot;
+        let (tau, mocap) = (lift(&self.tau), lift(&self.mocap));
+        let at = EvalPoint {
+            q: &q,
+            v: &v,
+            tau: &tau,
+            mocap: &mocap,
+        };
+        let opts = ForwardOptions {
+            contact_velocity: Some(x),
+            implicit_damping: Some(c(self.h)),
+            ..ForwardOptions::default()
+        };
+        let a = self.model.forward_at(at, &self.prm.lift(), opts)?.vdot;
         Ok((0..x.len()).map(|k| x[k] - v[k] - a[k] * self.h).collect())
     }
 }
@@ -91,13 +92,25 @@ fn step_residual<T: Scalar>(
     let q = model.tree.integrate_q(q0, vs, h);
     let a = match kept {
         Some(kept) => {
-            model
-                .forward_candidates(&q, vs, u, prm, &mut kept.borrow_mut())?
-                .vdot
+            let opts = ForwardOptions {
+                keep: Keep::Candidates(&mut kept.borrow_mut()),
+                ..ForwardOptions::default()
+            };
+            model.forward_with(&q, vs, u, prm, opts)?.vdot
         }
         None => model.forward(&q, vs, u, prm)?.vdot,
     };
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
+}
+
+/// Damped Euler's forward dynamics over a step `h`: the joints' damping implicit, the contact
+/// taken at `contact_velocity` if given.
+fn damped<T: Scalar>(h: T, contact_velocity: Option<&[T]>) -> ForwardOptions<'_, T> {
+    ForwardOptions {
+        contact_velocity,
+        implicit_damping: Some(h),
+        ..ForwardOptions::default()
+    }
 }
 
 impl Model {
@@ -149,20 +162,15 @@ impl Model {
         if TypeId::of::<T>() == TypeId::of::<f64>() {
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
-            // velocity (`FrozenForward`); the same arithmetic as `forward_contact_at`.
-            let mut kept = kept;
-            if let Some(all) = kept.as_deref_mut() {
-                all.fit(self.pairs.len());
-            }
-            let (frozen, a0) = self.frozen_forward_kept(
-                &real.q,
-                &real.v,
-                &real.tau,
-                &real.mocap,
-                &real.prm,
-                real.h,
-                kept,
-            )?;
+            // velocity (`FrozenForward`); the same arithmetic as `forward_at`'s.
+            let at = EvalPoint {
+                q: &real.q,
+                v: &real.v,
+                tau: &real.tau,
+                mocap: &real.mocap,
+            };
+            let keep = kept.map_or(Keep::Nothing, Keep::All);
+            let (frozen, a0) = self.frozen_forward(at, &real.prm, real.h, keep)?;
             if let Some(slot) = at_start {
                 *slot = Some(frozen.contacts().to_vec());
             }
@@ -178,15 +186,19 @@ impl Model {
             };
             return newton(&residual, &real_jacobian, explicit, jac);
         }
-        let start = self.forward_damped(q, v, &tau, mocap, prm, Some(h))?;
+        let at = EvalPoint {
+            q,
+            v,
+            tau: &tau,
+            mocap,
+        };
+        let start = self.forward_at(at, prm, damped(h, None))?;
         let explicit = axpy(v, h, start.vdot.as_slice());
         if start.contacts.iter().all(Option::is_none) {
             return Ok(explicit);
         }
         let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
-            let a = self
-                .forward_contact_at(q, v, Some(x), &tau, mocap, prm, Some(h))?
-                .vdot;
+            let a = self.forward_at(at, prm, damped(h, Some(x)))?.vdot;
             Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
         };
         newton(&residual, &real_jacobian, explicit, jac)

@@ -6,7 +6,7 @@ use super::newton::KeptJacobian;
 use crate::collision::PairsKept;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, Model};
+use crate::model::{DynamicsError, ForwardOptions, Keep, Model};
 use crate::scalar::Scalar;
 
 pub(super) fn axpy<T: Scalar>(x: &[T], a: T, y: &[T]) -> Vec<T> {
@@ -161,12 +161,18 @@ impl Model {
         // at less cost (their proofs fresh, as everywhere but at a step's start).
         let mut kept = kept;
         let mut accel = |q: &[T], v: &[T], u: &[T]| match kept.as_deref_mut() {
-            Some(kept) => Ok(self
-                .forward_candidates(q, v, u, prm, kept)?
-                .vdot
-                .iter()
-                .copied()
-                .collect()),
+            Some(kept) => {
+                let opts = ForwardOptions {
+                    keep: Keep::Candidates(kept),
+                    ..ForwardOptions::default()
+                };
+                Ok(self
+                    .forward_with(q, v, u, prm, opts)?
+                    .vdot
+                    .iter()
+                    .copied()
+                    .collect())
+            }
             None => self.accel(q, v, u, prm),
         };
         let dv1 = match a0 {

@@ -1,16 +1,18 @@
 //! The forward dynamics of damped Euler's step equation at one configuration: positions,
 //! start velocity and inputs fixed, the contact forces taken at a trial end velocity `V`
-//! (`Model::forward_contact_at` with `v_contact = V`). Newton's iterations evaluate it at
+//! (`Model::forward_at` with the contact velocity `V`). Newton's iterations evaluate it at
 //! several `V` per step; here everything that does not depend on `V` is computed once: the
 //! kinematics, the damped mass matrix and its factorization, the passive and actuator forces,
 //! and each pair's contact terms ([`PairTape`]), so an evaluation costs the point–plane forces
 //! and one pass of the tree.
 
+use super::pairs::{add_pair_wrenches, PairVisit};
 use super::*;
 use crate::contact::PairTape;
 use crate::dynamics::MassFactor;
 
-/// [`Model::forward_contact_at`] on `f64`, frozen at a configuration (see the module).
+/// [`Model::forward_at`] on `f64` with a contact velocity, frozen at a configuration (see the
+/// module).
 pub struct FrozenForward<'m> {
     model: &'m Model,
     q: Vec<f64>,
@@ -29,35 +31,18 @@ pub struct FrozenForward<'m> {
 }
 
 impl Model {
-    /// Freezes `forward_contact_at(q, v, Some(V), tau, mocap, prm, Some(h))` at everything but
-    /// `V`; the pairs in reach and their contact terms are recorded at `V = v`. Returns it with
-    /// its accelerations there.
-    #[allow(clippy::too_many_arguments)]
+    /// Freezes `forward_at(at, prm, ForwardOptions { contact_velocity: Some(V),
+    /// implicit_damping: Some(h), keep, .. })` at everything but `V`; the pairs in reach and
+    /// their contact terms are recorded at `V = v` through the same pair loop as the forward
+    /// dynamics ([`Model::visit_pairs`]). Returns it with its accelerations there.
     pub fn frozen_forward(
         &self,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
-        mocap: &[f64],
+        at: EvalPoint<'_, f64>,
         prm: &ContactParams<f64>,
         h: f64,
+        keep: Keep,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
-        self.frozen_forward_kept(q, v, tau, mocap, prm, h, None)
-    }
-
-    /// [`Model::frozen_forward`], with the pairs' kept out-of-reach proofs and candidate planes
-    /// if given (one entry per pair, [`PairsKept`]).
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn frozen_forward_kept(
-        &self,
-        q: &[f64],
-        v: &[f64],
-        tau: &[f64],
-        mocap: &[f64],
-        prm: &ContactParams<f64>,
-        h: f64,
-        kept: Option<&mut PairsKept>,
-    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+        let EvalPoint { q, v, tau, mocap } = at;
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
         let rhs =
@@ -66,31 +51,7 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        // Proofs first, in pair order; the pairs in reach are recorded on the model's pair
-        // threads, and their wrenches summed in pair order (the same bits either way).
-        let n = self.pairs.len();
-        let kept: Vec<_> = match kept {
-            Some(all) => all.pairs().map(|(r, c)| (Some(r), c)).take(n).collect(),
-            None => (0..n).map(|_| (None, None)).collect(),
-        };
-        let mut pending = Vec::new();
-        for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
-            let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
-                continue;
-            };
-            let p = pair.params(prm);
-            if self.out_of_reach_with(pair, &kin, &p, reach) {
-                continue;
-            }
-            pending.push(PendingPair {
-                k,
-                sides: [ca, cb],
-                bodies: [pair.a, pair.b],
-                prm: p,
-                candidates,
-            });
-        }
-        let recorded = self.pair_threads.map(pending, |p| {
+        let visits = self.visit_pairs(&kin, prm, true, keep, |p| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
             (
@@ -100,14 +61,18 @@ impl Model {
                 PairTape::record(ca, fa, cb, fb, &p.prm, p.candidates),
             )
         });
-        let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        let mut tapes = Vec::with_capacity(recorded.len());
-        let mut contacts = vec![None; n];
-        for (k, (a, b, p, (tape, contact))) in recorded {
-            add(&mut wrenches, a, b, &[contact.on_a, contact.on_b]);
-            tapes.push((a, b, p, tape));
-            contacts[k] = Some(contact);
+        let mut tapes = Vec::new();
+        let mut contacts = Vec::with_capacity(visits.len());
+        for visit in visits {
+            contacts.push(match visit {
+                PairVisit::Evaluated((a, b, p, (tape, contact))) => {
+                    tapes.push((a, b, p, tape));
+                    Some(contact)
+                }
+                PairVisit::NoCollider | PairVisit::OutOfReach => None,
+            });
         }
+        let wrenches = self.pair_wrenches(&contacts);
         let frozen = FrozenForward {
             model: self,
             q: q.to_vec(),
@@ -147,7 +112,8 @@ impl FrozenForward<'_> {
                 unreachable!("a recorded pair has both colliders")
             };
             let (fa, fb) = (&at.frames[*a], &at.frames[*b]);
-            add(&mut wrenches, *a, *b, &tape.replay(ca, fa, cb, fb, p));
+            let [on_a, on_b] = tape.replay(ca, fa, cb, fb, p);
+            add_pair_wrenches(&mut wrenches, *a, *b, [&on_a, &on_b]);
         }
         self.solve(wrenches)
     }
@@ -160,12 +126,5 @@ impl FrozenForward<'_> {
         let bias = m.tree.rnea(&self.kin, &zero, &wrenches);
         let rhs = &self.rhs - bias;
         self.mass.solve(&rhs).as_slice().to_vec()
-    }
-}
-
-fn add(wrenches: &mut [Wrench<f64>], a: usize, b: usize, w: &[Wrench<f64>; 2]) {
-    for (body, x) in [(a, &w[0]), (b, &w[1])] {
-        wrenches[body].force += x.force;
-        wrenches[body].torque += x.torque;
     }
 }

@@ -83,8 +83,9 @@ impl Pair {
     }
 }
 
-/// What an evaluation of the pairs may use of what they keep across calls ([`PairsKept`]).
-pub(crate) enum Keep<'a> {
+/// What an evaluation of the pairs may use of what they keep across calls ([`PairsKept`],
+/// fitted to the model's pairs first).
+pub enum Keep<'a> {
     /// Nothing: every pair proven and walked afresh.
     Nothing,
     /// The out-of-reach proofs and the candidate planes.
@@ -99,6 +100,29 @@ type PairKept<'a> = (
     Option<&'a mut Option<KeptReach>>,
     Option<&'a mut KeptCandidates>,
 );
+
+/// What [`Model::visit_pairs`] did with one pair.
+pub(super) enum PairVisit<R> {
+    /// One of its bodies has no collider: nothing to evaluate.
+    NoCollider,
+    /// Proven out of reach: not evaluated.
+    OutOfReach,
+    /// Evaluated, with this result.
+    Evaluated(R),
+}
+
+/// Adds a pair's wrenches on its bodies `a` and `b` to `wrenches`.
+pub(super) fn add_pair_wrenches<T: Scalar>(
+    wrenches: &mut [Wrench<T>],
+    a: usize,
+    b: usize,
+    on: [&Wrench<T>; 2],
+) {
+    for (body, x) in [(a, on[0]), (b, on[1])] {
+        wrenches[body].force += x.force;
+        wrenches[body].torque += x.torque;
+    }
+}
 
 /// A pair in reach, waiting for its evaluation: its index, colliders, bodies, parameters (its
 /// own friction applied) and kept candidate planes.
@@ -246,10 +270,7 @@ impl Model {
     }
 
     /// Every pair's contact, with the pair's own friction if it has one (`None`: proven out of
-    /// reach, when `prune`), and the wrenches they add up to. The proofs come first, in pair
-    /// order; the pairs left are evaluated on [`Model::pair_threads`] threads when they are
-    /// many enough ([`PairThreads`]), each with only its own kept candidates, and the wrenches
-    /// are summed in pair order whatever the threads: the same bits either way.
+    /// reach, when `prune`), and the wrenches they add up to ([`Model::visit_pairs`]).
     pub(super) fn contacts_with<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
@@ -257,25 +278,55 @@ impl Model {
         prune: bool,
         keep: Keep,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
+        let out: Vec<Option<PairContact<T>>> = self
+            .visit_pairs(kin, prm, prune, keep, |p| p.evaluate(kin))
+            .into_iter()
+            .map(|visit| match visit {
+                PairVisit::NoCollider => Some(PairContact::none()),
+                PairVisit::OutOfReach => None,
+                PairVisit::Evaluated(pc) => Some(pc),
+            })
+            .collect();
+        (self.pair_wrenches(&out), out)
+    }
+
+    /// The one loop over the pairs: `eval` of every pair in reach, in pair order. The proofs
+    /// come first, in pair order (only when `prune`; with the pairs' kept proofs when `keep`
+    /// is [`Keep::All`]); the pairs left are evaluated on [`Model::pair_threads`] threads when
+    /// they are many enough ([`PairThreads`]), each with only its own kept candidates, so the
+    /// results are the same bits whatever the threads.
+    pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
+        &'a self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        prune: bool,
+        keep: Keep<'a>,
+        eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
+    ) -> Vec<PairVisit<R>> {
         let n = self.pairs.len();
         let kept: Vec<PairKept<'_>> = match keep {
             Keep::Nothing => (0..n).map(|_| (None, None)).collect(),
-            Keep::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).take(n).collect(),
-            Keep::Candidates(all) => all.pairs().map(|(_, c)| (None, c)).take(n).collect(),
+            Keep::All(all) => {
+                all.fit(n);
+                all.pairs().map(|(r, c)| (Some(r), c)).collect()
+            }
+            Keep::Candidates(all) => {
+                all.fit(n);
+                all.pairs().map(|(_, c)| (None, c)).collect()
+            }
         };
-        let mut out: Vec<Option<PairContact<T>>> = Vec::with_capacity(n);
+        let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();
         for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
-                out.push(Some(PairContact::none()));
+                out.push(PairVisit::NoCollider);
                 continue;
             };
             let prm = pair.params(prm);
+            out.push(PairVisit::OutOfReach);
             if prune && self.out_of_reach_with(pair, kin, &prm, reach) {
-                out.push(None);
                 continue;
             }
-            out.push(None);
             pending.push(PendingPair {
                 k,
                 sides: [ca, cb],
@@ -284,19 +335,25 @@ impl Model {
                 candidates,
             });
         }
-        for (k, pc) in self.pair_threads.map(pending, |p| p.evaluate(kin)) {
-            out[k] = Some(pc);
+        for (k, r) in self.pair_threads.map(pending, eval) {
+            out[k] = PairVisit::Evaluated(r);
         }
+        out
+    }
+
+    /// The wrench each body receives from the pairs' contacts (`None`: none), summed in pair
+    /// order.
+    pub(super) fn pair_wrenches<T: Scalar>(
+        &self,
+        contacts: &[Option<PairContact<T>>],
+    ) -> Vec<Wrench<T>> {
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        for (pair, pc) in self.pairs.iter().zip(&out) {
+        for (pair, pc) in self.pairs.iter().zip(contacts) {
             if let Some(pc) = pc {
-                for (b, x) in [(pair.a, &pc.on_a), (pair.b, &pc.on_b)] {
-                    wrenches[b].force += x.force;
-                    wrenches[b].torque += x.torque;
-                }
+                add_pair_wrenches(&mut wrenches, pair.a, pair.b, [&pc.on_a, &pc.on_b]);
             }
         }
-        (wrenches, out)
+        wrenches
     }
 
     /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,

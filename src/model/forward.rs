@@ -1,0 +1,212 @@
+//! The forward dynamics (paper eq. 28), evaluated in one place: [`Model::forward_at`]. Every
+//! caller (the plain dynamics, the integrators' stages, damped Euler's contact at the end
+//! velocity, implicit Euler's Newton iterations) says through [`ForwardOptions`] what it takes
+//! differently from the plain dynamics and what it may reuse; [`Model::forward`] and
+//! [`Model::forward_with`] only turn the inputs `u` into the generalized force first.
+
+use super::*;
+
+/// Where the forward dynamics is evaluated: the state, the generalized applied force and the
+/// mocap bodies' inputs.
+#[derive(Clone, Copy, Debug)]
+pub struct EvalPoint<'a, T> {
+    /// Positions.
+    pub q: &'a [T],
+    /// Velocities.
+    pub v: &'a [T],
+    /// Generalized applied force: the actuators' ([`Model::actuator_forces_at`]) and any other.
+    pub tau: &'a [T],
+    /// [`MOCAP_INPUTS`] per mocap body, or empty (the bodies at their scene poses, at rest).
+    pub mocap: &'a [T],
+}
+
+/// What an evaluation of the forward dynamics takes differently from the plain dynamics, and
+/// what it may reuse. The default is the plain dynamics, reusing nothing.
+pub struct ForwardOptions<'a, T: Scalar> {
+    /// The velocity the contact forces are taken at (`None`: at `v`; every other term is taken
+    /// at `v`): damped Euler's contact, implicit in the end velocity
+    /// ([`Integrator::DampedEuler`]).
+    pub contact_velocity: Option<&'a [T]>,
+    /// `Some(h)`: the joints' viscous damping taken implicitly over a step `h`,
+    /// `v̇ = (M + h D)⁻¹ (…)`: `D` the diagonal of the joints' damping per degree of freedom plus
+    /// the slope of their smooth frictionloss at `v` and their limits' damping where they push
+    /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]).
+    pub implicit_damping: Option<T>,
+    /// What the pairs may use of what they keep across calls ([`Keep`]). With
+    /// [`Keep::All`], the result can differ from the plain dynamics' only where a pair's
+    /// forces are below the bound of [`crate::collision::out_of_reach`] (a kept proof switches
+    /// off a pair that a fresh proof might not); kept candidate planes change no bit.
+    pub keep: Keep<'a>,
+    /// The kinematics of `(q, v, mocap)`, if the caller has them already (they are the same
+    /// bits as those computed here).
+    pub kinematics: Option<Kinematics<T>>,
+}
+
+impl<T: Scalar> Default for ForwardOptions<'_, T> {
+    fn default() -> Self {
+        ForwardOptions {
+            contact_velocity: None,
+            implicit_damping: None,
+            keep: Keep::Nothing,
+            kinematics: None,
+        }
+    }
+}
+
+impl Model {
+    /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
+    /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
+    /// gives them for a running simulation): `v̇ = M⁻¹ (τ_act(u) + τ_passive - c + Σ Λ)`.
+    ///
+    /// # Example
+    ///
+    /// A free box far above a floor falls at `g`, and exact derivatives come from the same call
+    /// with dual numbers: `∂v̇/∂v = 0` for the free fall.
+    ///
+    /// ```
+    /// use num_dual::Dual64;
+    /// use std::path::Path;
+    ///
+    /// let xml = r#"<mujoco>
+    ///   <worldbody>
+    ///     <geom type="plane" size="1 1 0.1"/>
+    ///     <body pos="0 0 1"><freejoint/><geom type="box" size="0.1 0.1 0.1" mass="2"/></body>
+    ///   </worldbody>
+    /// </mujoco>"#;
+    /// let model = scm::scene::load_str(xml, Path::new("box.xml"))?.model;
+    /// let f = model.forward(&model.q0, &model.v0, &model.u0(), &model.contact)?;
+    /// assert!((f.vdot[2] + 9.81).abs() < 1e-9); // gravity, nothing else
+    ///
+    /// // The same dynamics on dual numbers: seed the box's vertical velocity.
+    /// let q: Vec<Dual64> = model.q0.iter().map(|&x| Dual64::from(x)).collect();
+    /// let mut v: Vec<Dual64> = model.v0.iter().map(|&x| Dual64::from(x)).collect();
+    /// v[2] = Dual64::new(0.0, 1.0);
+    /// let prm = model.contact.lift::<Dual64>();
+    /// let fd = model.forward(&q, &v, &[], &prm)?;
+    /// assert_eq!(fd.vdot[2].eps, 0.0);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn forward<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+    ) -> Result<Forward<T>, DynamicsError> {
+        self.forward_with(q, v, u, prm, ForwardOptions::default())
+    }
+
+    /// [`Model::forward`] with `opts` ([`ForwardOptions`]): the actuator forces of the inputs
+    /// `u` at `(q, v)`, then [`Model::forward_at`].
+    pub fn forward_with<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        u: &[T],
+        prm: &ContactParams<T>,
+        opts: ForwardOptions<'_, T>,
+    ) -> Result<Forward<T>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
+        let at = EvalPoint {
+            q,
+            v,
+            tau: tau.as_slice(),
+            mocap,
+        };
+        self.forward_at(at, prm, opts)
+    }
+
+    /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
+    /// (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `h D` only with
+    /// [`ForwardOptions::implicit_damping`]; the one evaluation every other entry calls. Order:
+    /// kinematics, contact ([`Model::contact_forces`]: proofs, then the pairs in reach), the
+    /// forces on the bodies, RNEA, the (damped) mass matrix, its factorization and solve.
+    pub fn forward_at<T: Scalar>(
+        &self,
+        at: EvalPoint<'_, T>,
+        prm: &ContactParams<T>,
+        opts: ForwardOptions<'_, T>,
+    ) -> Result<Forward<T>, DynamicsError> {
+        let EvalPoint { q, v, tau, mocap } = at;
+        self.check_finite(q, v)?;
+        let kin = opts
+            .kinematics
+            .unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
+        let contact_kin = opts
+            .contact_velocity
+            .map(|vc| self.tree.kinematics_with(q, vc, mocap));
+        // With a contact velocity, the same positions, so the wrenches are in the same frames.
+        let (mut wrenches, contacts) =
+            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, opts.keep);
+        self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
+        let zero = vec![T::zero(); self.tree.nv];
+        let bias = self.tree.rnea(&kin, &zero, &wrenches);
+        let rhs = DVector::from_column_slice(tau)
+            + self.passive_forces(q, v, prm.stiction_velocity)
+            - bias;
+        let m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
+        let vdot = self
+            .tree
+            .factor(m)
+            .ok_or(DynamicsError::Singular)?
+            .solve(&rhs);
+        Ok(Forward { vdot, contacts })
+    }
+
+    /// An error naming the first joint whose position or velocity is not finite.
+    pub(crate) fn check_finite<T: Scalar>(&self, q: &[T], v: &[T]) -> Result<(), DynamicsError> {
+        for j in &self.tree.joints {
+            let bad = |x: &[T]| x.iter().any(|x| !x.re().is_finite());
+            if bad(&q[j.qadr..j.qadr + j.kind.nq()]) {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the position of joint {}",
+                    j.name
+                )));
+            }
+            if bad(&v[j.dadr..j.dadr + j.kind.nv()]) {
+                return Err(DynamicsError::NonFinite(format!(
+                    "the velocity of joint {}",
+                    j.name
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The mass matrix at `kin`, with `h D` added when `implicit_damping` is `Some(h)`: `D` the
+    /// joints' viscous damping plus the slope of their smooth frictionloss at `v` and the
+    /// damping of their limits where they push at `(q, v)`
+    /// ([`crate::dynamics::limit::JointLimit::damping_slope`]).
+    pub(crate) fn damped_mass_matrix<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        q: &[T],
+        v: &[T],
+        prm: &ContactParams<T>,
+        implicit_damping: Option<T>,
+    ) -> nalgebra::DMatrix<T> {
+        let mut m = self.tree.mass_matrix(kin);
+        if let Some(h) = implicit_damping {
+            let vs2 = prm.stiction_velocity * prm.stiction_velocity;
+            for j in &self.tree.joints {
+                for k in 0..j.kind.nv() {
+                    let mut d = c::<T>(j.damping);
+                    if j.frictionloss > 0.0 {
+                        // The smooth frictionloss -F v / sqrt(v_s² + v²) is a damper of slope
+                        // F v_s² / (v_s² + v²)^{3/2} near rest: stiff (F/v_s) when v_s is small,
+                        // where MuJoCo's frictionloss is a constraint, solved implicitly.
+                        let vi = v[j.dadr + k];
+                        let r = vs2 + vi * vi;
+                        d += vs2 * j.frictionloss / (r * r.sqrt());
+                    }
+                    m[(j.dadr + k, j.dadr + k)] += h * d;
+                }
+                if let Some(l) = &j.limit {
+                    m[(j.dadr, j.dadr)] += h * l.damping_slope(q[j.qadr], v[j.dadr]);
+                }
+            }
+        }
+        m
+    }
+}
