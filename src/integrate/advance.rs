@@ -1,8 +1,9 @@
 //! A communication step covered by internal steps that land exactly on its end, and the guard
 //! that refuses a step that diverges (non-finite state, energy growth no input explains).
 
-use super::cache::SolverCache;
+use super::cache::{SolverCache, StepCarry};
 use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
+use super::step::StepFrom;
 use crate::collision::PairsKept;
 use crate::contact::ContactParams;
 use crate::dynamics::{Kinematics, MOCAP_INPUTS};
@@ -230,19 +231,22 @@ impl Model {
                     h: dt,
                     error,
                 };
+                let from = StepFrom {
+                    state: &s,
+                    u: &uk,
+                    prm,
+                    h: dt,
+                };
                 s = match self.integrator {
-                    Integrator::ImplicitEuler => self
-                        .implicit_step_extrapolating(
-                            &s,
-                            &uk,
-                            prm,
-                            dt,
-                            &mut jac,
-                            &mut dv,
-                            &mut report.subdivided,
-                            Some(&mut cache.kept),
-                        )
-                        .map_err(dyn_err)?,
+                    Integrator::ImplicitEuler => {
+                        let carry = StepCarry {
+                            jacobian: &mut jac,
+                            kept: Some(&mut cache.kept),
+                            subdivided: &mut report.subdivided,
+                        };
+                        self.implicit_step_extrapolating(from, carry, &mut dv)
+                            .map_err(dyn_err)?
+                    }
                     i => {
                         // Every internal step's first stage with the kept out-of-reach proofs
                         // (the first one's is the start's forward dynamics).
@@ -271,16 +275,16 @@ impl Model {
                         if i == Integrator::DampedEuler {
                             let mut at_start = None;
                             let first_with_guard = k == 0 && guard;
+                            let carry = StepCarry {
+                                jacobian: &mut jac,
+                                kept: Some(&mut cache.kept),
+                                subdivided: &mut report.subdivided,
+                            };
                             let end = self.implicit_step_subdividing(
                                 i,
-                                &s,
-                                &uk,
-                                prm,
-                                dt,
-                                &mut jac,
+                                from,
+                                carry,
                                 0,
-                                &mut report.subdivided,
-                                Some(&mut cache.kept),
                                 first_with_guard.then_some(&mut at_start),
                             );
                             if first_with_guard {
@@ -295,16 +299,12 @@ impl Model {
                             }
                             end
                         } else {
-                            self.explicit_step(
-                                i,
-                                &s,
-                                &uk,
-                                prm,
-                                dt,
-                                a,
-                                &mut jac,
-                                Some(&mut cache.kept),
-                            )
+                            let carry = StepCarry {
+                                jacobian: &mut jac,
+                                kept: Some(&mut cache.kept),
+                                subdivided: &mut report.subdivided,
+                            };
+                            self.explicit_step(i, from, a, carry)
                         }
                         .map_err(dyn_err)?
                     }

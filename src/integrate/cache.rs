@@ -35,6 +35,30 @@ pub struct SolverCache {
     pub(super) kinematics: KinematicsMemo,
 }
 
+/// What one internal step borrows from the [`SolverCache`] (or from its caller) and leaves
+/// there: the Newton Jacobian, the pairs' kept proofs and candidate planes, and the count of
+/// halved steps. Only the Jacobian can change a result, in its last bits (where Newton starts).
+pub(super) struct StepCarry<'c> {
+    /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact: tried first,
+    /// replaced when the iterations contract slowly.
+    pub(super) jacobian: &'c mut Option<KeptJacobian>,
+    /// The pairs' kept out-of-reach proofs and candidate planes (`None`: everything fresh).
+    pub(super) kept: Option<&'c mut PairsKept>,
+    /// How many steps were halved so far because Newton's iterations failed.
+    pub(super) subdivided: &'c mut usize,
+}
+
+impl StepCarry<'_> {
+    /// The same carry, lent to one call.
+    pub(super) fn reborrow(&mut self) -> StepCarry<'_> {
+        StepCarry {
+            jacobian: &mut *self.jacobian,
+            kept: self.kept.as_deref_mut(),
+            subdivided: &mut *self.subdivided,
+        }
+    }
+}
+
 /// The kinematics of one state (every mocap body at its scene pose), kept for the forward
 /// dynamics of the next call from that state: the energy guard computes them at the end of a
 /// call, the next call's first stage at its start. Only when the model has no mocap body (the

@@ -3,8 +3,10 @@
 //! step, and halving where Newton fails) and damped Euler's velocity with the contact taken at
 //! the end velocity ([`Integrator::DampedEuler`]).
 
-use super::newton::{newton, re_vec, KeptJacobian};
+use super::cache::StepCarry;
+use super::newton::{newton, re_vec};
 use super::step::axpy;
+use super::step::StepFrom;
 use crate::autodiff::{jacobian, VectorFunction};
 use crate::collision::PairsKept;
 use crate::contact::{ContactParams, PairContact};
@@ -32,16 +34,18 @@ struct StepResidual<'a> {
 impl VectorFunction for StepResidual<'_> {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
-        step_residual(
-            self.model,
-            &lift(&self.q0),
-            &lift(&self.v0),
-            c(self.h),
-            &lift(&self.u),
-            &self.prm.lift(),
-            x,
-            None,
-        )
+        let start = State {
+            q: lift(&self.q0),
+            v: lift(&self.v0),
+        };
+        let (u, prm) = (lift(&self.u), self.prm.lift());
+        let from = StepFrom {
+            state: &start,
+            u: &u,
+            prm: &prm,
+            h: c(self.h),
+        };
+        step_residual(self.model, from, x, None)
     }
 }
 
@@ -78,17 +82,16 @@ impl VectorFunction for ContactImplicitResidual<'_> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The implicit Euler step equation's residual `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` at `vs`,
+/// `from.u` the inputs at the end of the step.
 fn step_residual<T: Scalar>(
     model: &Model,
-    q0: &[T],
-    v0: &[T],
-    h: T,
-    u: &[T],
-    prm: &ContactParams<T>,
+    from: StepFrom<'_, T>,
     vs: &[T],
     kept: Option<&RefCell<&mut PairsKept>>,
 ) -> Result<Vec<T>, DynamicsError> {
+    let StepFrom { state, u, prm, h } = from;
+    let (q0, v0) = (&state.q, &state.v);
     let q = model.tree.integrate_q(q0, vs, h);
     let a = match kept {
         Some(kept) => {
@@ -127,22 +130,23 @@ impl Model {
     /// the real Jacobian from dual numbers, as [`Integrator::ImplicitEuler`]'s (with dual
     /// numbers a fresh one at every iteration, so the derivatives of the step are exact). In
     /// `f64`, `jac` carries the last real Jacobian from step to step while it serves (Newton
-    /// takes a fresh one when the iterations stop contracting), as for implicit Euler; `kept`,
-    /// the pairs' kept out-of-reach proofs and candidate planes, serves the frozen contact;
-    /// `at_start`, if given, receives in `f64` each pair's contact at the start of the step, as
-    /// the forward dynamics there would give it (what the energy guard reads).
-    #[allow(clippy::too_many_arguments)]
+    /// takes a fresh one when the iterations stop contracting), as for implicit Euler; the
+    /// pairs' kept out-of-reach proofs and candidate planes serve the frozen contact (both
+    /// from `carry`); `at_start`, if given, receives in `f64` each pair's contact at the start
+    /// of the step, as the forward dynamics there would give it (what the energy guard reads).
     pub(super) fn damped_euler_velocity<T: Scalar>(
         &self,
-        q: &[T],
-        v: &[T],
-        u: &[T],
-        prm: &ContactParams<T>,
-        h: T,
-        jac: &mut Option<KeptJacobian>,
-        kept: Option<&mut PairsKept>,
+        from: StepFrom<'_, T>,
+        carry: StepCarry<'_>,
         at_start: Option<&mut Option<StartContacts>>,
     ) -> Result<Vec<T>, DynamicsError> {
+        let StepFrom { state, u, prm, h } = from;
+        let (q, v) = (&state.q[..], &state.v[..]);
+        let StepCarry {
+            jacobian: jac,
+            kept,
+            ..
+        } = carry;
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self
             .actuator_forces_at(q, v, ctrl, mocap)
@@ -213,24 +217,25 @@ impl Model {
     /// contract fast. With a dual-number scalar every iteration takes a fresh Jacobian, so the
     /// dual parts of the converged solution are the implicit-function derivative of the step.
     ///
-    /// `jac`: a Jacobian of the step equation from an earlier step of the same `h`, tried first
-    /// and replaced when the iterations contract slowly; updated here. `guess`: the velocity
-    /// change `V - v` Newton starts from (none: `V = v`).
-    #[allow(clippy::too_many_arguments)]
+    /// `carry.jacobian`: a Jacobian of the step equation from an earlier step of the same `h`,
+    /// tried first and replaced when the iterations contract slowly; updated here. `guess`: the
+    /// velocity change `V - v` Newton starts from (none: `V = v`).
     pub(super) fn implicit_euler_step<T: Scalar>(
         &self,
-        state: &State<T>,
-        u: &[T],
-        prm: &ContactParams<T>,
-        h: T,
-        jac: &mut Option<KeptJacobian>,
+        from: StepFrom<'_, T>,
+        carry: StepCarry<'_>,
         guess: Option<&[f64]>,
-        kept: Option<&mut PairsKept>,
     ) -> Result<State<T>, DynamicsError> {
+        let StepFrom { state, u, prm, h } = from;
         let u1 = self.inputs_after(u, h);
+        let at_end = StepFrom { u: &u1, ..from };
+        let StepCarry {
+            jacobian: jac,
+            kept,
+            ..
+        } = carry;
         let kept = kept.map(RefCell::new);
-        let residual =
-            |x: &[T]| step_residual(self, &state.q, &state.v, h, &u1, prm, x, kept.as_ref());
+        let residual = |x: &[T]| step_residual(self, at_end, x, kept.as_ref());
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
             let f = StepResidual {
                 model: self,
@@ -255,53 +260,40 @@ impl Model {
         })
     }
 
-    /// An implicit step of `h` from the carried Newton Jacobian `jac` and, in `dv`, the last
+    /// An implicit step of `h` from the carried Newton Jacobian and, in `dv`, the last
     /// step's velocity change `V - v`: Newton starts from `v + dv` (the acceleration held over
     /// the step: the start is `O(h²)` from the solution where motion is smooth, where `v` is
     /// `O(h)`). Where Newton fails from there (after an impact the last change says little),
     /// the step is tried again from `v`, then subdivided as without a guess. `dv` is left with
     /// this step's change, or none when the step was subdivided (its halves' changes say
     /// nothing of the next full step).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn implicit_step_extrapolating(
         &self,
-        s: &State<f64>,
-        u: &[f64],
-        prm: &ContactParams<f64>,
-        h: f64,
-        jac: &mut Option<KeptJacobian>,
+        from: StepFrom<'_, f64>,
+        mut carry: StepCarry<'_>,
         dv: &mut Option<Vec<f64>>,
-        subdivided: &mut usize,
-        mut kept: Option<&mut PairsKept>,
     ) -> Result<State<f64>, DynamicsError> {
         let guessed = match dv.take() {
-            Some(guess) => {
-                match self.implicit_euler_step(s, u, prm, h, jac, Some(&guess), kept.as_deref_mut())
-                {
-                    Err(DynamicsError::NewtonFailed { .. }) => None,
-                    other => Some(other?),
-                }
-            }
+            Some(guess) => match self.implicit_euler_step(from, carry.reborrow(), Some(&guess)) {
+                Err(DynamicsError::NewtonFailed { .. }) => None,
+                other => Some(other?),
+            },
             None => None,
         };
-        let before = *subdivided;
+        let before = *carry.subdivided;
         let next = match guessed {
             Some(next) => next,
             None => self.implicit_step_subdividing(
                 Integrator::ImplicitEuler,
-                s,
-                u,
-                prm,
-                h,
-                jac,
+                from,
+                carry.reborrow(),
                 0,
-                subdivided,
-                kept,
                 None,
             )?,
         };
-        *dv =
-            (*subdivided == before).then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
+        let s = from.state;
+        *dv = (*carry.subdivided == before)
+            .then(|| next.v.iter().zip(&s.v).map(|(a, b)| a - b).collect());
         Ok(next)
     }
 
@@ -309,59 +301,50 @@ impl Model {
     /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
     /// iterations fail (typically when contact starts within a step much longer than the
     /// contact's period), the step is done as two halves of the same method, recursively, down
-    /// to `h / 2⁸`. `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler.
-    #[allow(clippy::too_many_arguments)]
+    /// to `h / 2⁸`, each half from a fresh Jacobian. `depth`: the halvings so far;
+    /// `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler.
     pub(super) fn implicit_step_subdividing(
         &self,
         integrator: Integrator,
-        s: &State<f64>,
-        u: &[f64],
-        prm: &ContactParams<f64>,
-        h: f64,
-        jac: &mut Option<KeptJacobian>,
+        from: StepFrom<'_, f64>,
+        mut carry: StepCarry<'_>,
         depth: usize,
-        subdivided: &mut usize,
-        mut kept: Option<&mut PairsKept>,
         at_start: Option<&mut Option<StartContacts>>,
     ) -> Result<State<f64>, DynamicsError> {
+        let StepFrom { state: s, u, h, .. } = from;
         let step = match integrator {
             Integrator::DampedEuler => self
-                .damped_euler_velocity(&s.q, &s.v, u, prm, h, jac, kept.as_deref_mut(), at_start)
+                .damped_euler_velocity(from, carry.reborrow(), at_start)
                 .map(|v| State {
                     q: self.tree.integrate_q(&s.q, &v, h),
                     v,
                 }),
-            _ => self.implicit_euler_step(s, u, prm, h, jac, None, kept.as_deref_mut()),
+            _ => self.implicit_euler_step(from, carry.reborrow(), None),
         };
         match step {
             Err(DynamicsError::NewtonFailed { .. }) if depth < 8 => {
-                *subdivided += 1;
+                *carry.subdivided += 1;
                 let half = 0.5 * h;
                 let mut sub = None;
+                let mut halves = StepCarry {
+                    jacobian: &mut sub,
+                    ..carry
+                };
+                let first = StepFrom { h: half, ..from };
                 let mid = self.implicit_step_subdividing(
                     integrator,
-                    s,
-                    u,
-                    prm,
-                    half,
-                    &mut sub,
+                    first,
+                    halves.reborrow(),
                     depth + 1,
-                    subdivided,
-                    kept.as_deref_mut(),
                     None,
                 )?;
-                self.implicit_step_subdividing(
-                    integrator,
-                    &mid,
-                    &self.inputs_after(u, half),
-                    prm,
-                    half,
-                    &mut sub,
-                    depth + 1,
-                    subdivided,
-                    kept,
-                    None,
-                )
+                let u_mid = self.inputs_after(u, half);
+                let second = StepFrom {
+                    state: &mid,
+                    u: &u_mid,
+                    ..first
+                };
+                self.implicit_step_subdividing(integrator, second, halves, depth + 1, None)
             }
             other => other,
         }

@@ -2,12 +2,28 @@
 //! step come from the same code: the explicit ones and `dopri5` here, the implicit ones (and
 //! damped Euler's velocity) in `implicit.rs`.
 
-use super::newton::KeptJacobian;
-use crate::collision::PairsKept;
+use super::cache::StepCarry;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, ForwardOptions, Keep, Model};
 use crate::scalar::Scalar;
+
+/// One internal step's problem: from `state` over `h`, with the inputs `u` at its start
+/// ([`Model::nu`]) and the contact parameters `prm`.
+pub(super) struct StepFrom<'a, T: Scalar> {
+    pub(super) state: &'a State<T>,
+    pub(super) u: &'a [T],
+    pub(super) prm: &'a ContactParams<T>,
+    pub(super) h: T,
+}
+
+// By hand: a derive would ask `ContactParams<T>: Copy` of the reference's target.
+impl<T: Scalar> Clone for StepFrom<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T: Scalar> Copy for StepFrom<'_, T> {}
 
 pub(super) fn axpy<T: Scalar>(x: &[T], a: T, y: &[T]) -> Vec<T> {
     x.iter().zip(y).map(|(&xi, &yi)| xi + a * yi).collect()
@@ -123,35 +139,36 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
     ) -> Result<State<T>, DynamicsError> {
+        let from = StepFrom { state, u, prm, h };
+        let (mut jacobian, mut subdivided) = (None, 0);
+        let carry = StepCarry {
+            jacobian: &mut jacobian,
+            kept: None,
+            subdivided: &mut subdivided,
+        };
         match integrator {
-            Integrator::ImplicitEuler => {
-                self.implicit_euler_step(state, u, prm, h, &mut None, None, None)
-            }
+            Integrator::ImplicitEuler => self.implicit_euler_step(from, carry, None),
             Integrator::Dopri5 => Ok(self.dopri5_step(state, u, prm, h, None)?.state),
-            _ => self.explicit_step(integrator, state, u, prm, h, None, &mut None, None),
+            _ => self.explicit_step(integrator, from, None, carry),
         }
     }
 
     /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
-    /// known; `jac`: damped Euler's Newton Jacobian, carried between steps; `kept`: the pairs'
-    /// kept out-of-reach proofs and candidate planes, used by damped Euler's frozen contact
-    /// (values only), and their candidate planes by RK4's later stages.
-    #[allow(clippy::too_many_arguments)]
+    /// known; from `carry`: damped Euler's Newton Jacobian, carried between steps, and the
+    /// pairs' kept out-of-reach proofs and candidate planes, used by damped Euler's frozen
+    /// contact (values only), and their candidate planes by RK4's later stages.
     pub(super) fn explicit_step<T: Scalar>(
         &self,
         integrator: Integrator,
-        state: &State<T>,
-        u: &[T],
-        prm: &ContactParams<T>,
-        h: T,
+        from: StepFrom<'_, T>,
         a0: Option<Vec<T>>,
-        jac: &mut Option<KeptJacobian>,
-        kept: Option<&mut PairsKept>,
+        carry: StepCarry<'_>,
     ) -> Result<State<T>, DynamicsError> {
+        let StepFrom { state, u, prm, h } = from;
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(q1, v1, u, prm, h, jac, kept, None)?;
+            let v = self.damped_euler_velocity(from, carry, None)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,
@@ -159,7 +176,7 @@ impl Model {
         }
         // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
         // at less cost (their proofs fresh, as everywhere but at a step's start).
-        let mut kept = kept;
+        let mut kept = carry.kept;
         let mut accel = |q: &[T], v: &[T], u: &[T]| match kept.as_deref_mut() {
             Some(kept) => {
                 let opts = ForwardOptions {
