@@ -13,7 +13,7 @@
 //! the full step Jacobian with respect to `(q, v, u)` (`derivatives::step_jacobian`), all timed
 //! in interleaved rounds. With `--profile`, only that quantity runs N times (for callgrind).
 use scm::collision::separation_band;
-use scm::contact::{pair_contact, pair_contact_kept, pair_contact_naive};
+use scm::contact::{pair_contact, pair_contact_memo, pair_contact_naive};
 use scm::integrate::State;
 use scm::sim::{Simulation, Value};
 use std::hint::black_box;
@@ -104,12 +104,12 @@ fn main() {
                 }
             }),
             "pair_kept" => {
-                let mut kept = vec![scm::collision::KeptCandidates::default(); m.pairs.len()];
+                let mut kept = vec![scm::collision::CandidateMemo::default(); m.pairs.len()];
                 Box::new(move || {
                     for (p, kept) in m.pairs.iter().zip(&mut kept) {
                         if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
                             let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
-                            black_box(pair_contact_kept(a, fa, b, fb, &prm, Some(kept)));
+                            black_box(pair_contact_memo(a, fa, b, fb, &prm, Some(kept)));
                         }
                     }
                 })
@@ -162,7 +162,7 @@ fn main() {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let proof = || scm::collision::out_of_reach(a, b, &rels, &own.reach());
         let far = proof();
-        let mut kept = scm::collision::KeptCandidates::default();
+        let mut kept = scm::collision::CandidateMemo::default();
         let times = time_interleaved(
             0.05,
             &mut [
@@ -173,7 +173,7 @@ fn main() {
                     black_box(pair_contact(a, fa, b, fb, &own));
                 },
                 &mut || {
-                    black_box(pair_contact_kept(a, fa, b, fb, &own, Some(&mut kept)));
+                    black_box(pair_contact_memo(a, fa, b, fb, &own, Some(&mut kept)));
                 },
             ],
         );

@@ -24,7 +24,7 @@ pub use actuator::{Actuator, ActuatorKind, SiteTransmission, Transmission};
 pub use energy::Energy;
 pub use forward::{EvalPoint, ForwardOptions};
 pub use frozen::FrozenForward;
-pub use pairs::{Keep, Pair, PairThreads};
+pub use pairs::{Pair, PairThreads, Reuse};
 
 /// The complete model of a scene (see the module doc for what may change between steps).
 #[derive(Clone, Debug)]

@@ -5,7 +5,9 @@
 
 use crate::common::Lcg;
 use nalgebra::{Rotation3, Unit, Vector3};
-use scm::collision::{out_of_reach, out_of_reach_kept, reach_distance, Collider, Frame, KeptReach};
+use scm::collision::{
+    out_of_reach, out_of_reach_proven, reach_distance, Collider, Frame, ReachProof,
+};
 use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation};
 use scm::fmi::contract::FmiModel;
 use scm::geometry::Shape;
@@ -434,7 +436,7 @@ fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
     }
 }
 
-/// A kept proof (`collision::out_of_reach_kept`, docs/performance.md "A proof that is kept")
+/// A kept proof (`collision::out_of_reach_proven`, docs/performance.md "A proof that is kept")
 /// switches a pair off after its bodies have moved, without proving it again: wherever it does,
 /// the unpruned reference at the new pose pushes less than the bound of `out_of_reach`. Pairs
 /// from a few millimetres to 10 cm apart; half of them moved towards each other by up to 1.2
@@ -484,9 +486,9 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
                 angvel: rng.direction() * rng.range(0.0, 2.0),
             }
         };
-        let decide = |fa: &Frame<f64>, kept: &mut Option<KeptReach>| {
+        let decide = |fa: &Frame<f64>, kept: &mut Option<ReachProof>| {
             let rels = [fa.relative_to(&fb), fb.relative_to(fa)];
-            out_of_reach_kept(a, b, &rels, &prm.reach(), kept, 0.0)
+            out_of_reach_proven(a, b, &rels, &prm.reach(), kept, 0.0)
         };
         let mut kept = None;
         if !decide(&fa, &mut kept) || kept.is_none() {
@@ -571,7 +573,7 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
         .iter()
         .position(|p| p.a != 0 && p.b != 0)
         .unwrap();
-    let forge = |change: &dyn Fn(&mut scm::collision::KeptSide)| {
+    let forge = |change: &dyn Fn(&mut scm::collision::ProofSide)| {
         let mut forged = reach.to_vec();
         change(forged[pair].as_mut().unwrap().sides[0].as_mut().unwrap());
         let state = with_proofs(&saved, forged);
@@ -654,7 +656,7 @@ fn assert_restored_run_replays(
 
 /// `saved` with its kept out-of-reach proofs replaced by `reach`, the rest of its solver cache
 /// as it was.
-fn with_proofs(saved: &FmuState, reach: Vec<Option<KeptReach>>) -> FmuState {
+fn with_proofs(saved: &FmuState, reach: Vec<Option<ReachProof>>) -> FmuState {
     let mut state = saved.clone();
     state.solver_cache = scm::integrate::SolverCache::from_parts(scm::integrate::CacheParts {
         reach,

@@ -8,7 +8,7 @@ use crate::dynamics_tree::model_of;
 use scm::collision::Collider;
 use scm::fmi::contract::{FmiModel, StepError};
 use scm::integrate::{AdvanceOptions, Integrator, State, StepFailure};
-use scm::model::{EvalPoint, ForwardOptions, Keep, Model};
+use scm::model::{EvalPoint, ForwardOptions, Model, Reuse};
 use scm::scalar::softplus;
 use scm::sim::Simulation;
 
@@ -1163,7 +1163,7 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
             ..ForwardOptions::default()
         }
     }
-    let (frozen, at_v) = model.frozen_forward(at, &prm, h, Keep::Nothing).unwrap();
+    let (frozen, at_v) = model.frozen_forward(at, &prm, h, Reuse::Nothing).unwrap();
     let full = |x: &[f64]| model.forward_at(at, &prm, damped(h, Some(x))).unwrap().vdot;
     let here = full(&v);
     assert!(here.norm() > 1.0, "the bodies touch: {here}");

@@ -123,7 +123,7 @@ pub fn separation_band<T: Scalar>(
 /// none, and its terms must be summed again where they are needed. With `grads`, the
 /// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
 /// real parts) is pushed, in the order of the entries. With `kept`, each query point's
-/// candidate planes are kept from one call to the next ([`KeptCandidates`]; the same band to
+/// candidate planes are kept from one call to the next ([`CandidateMemo`]; the same band to
 /// the last bit, at less cost while the bodies move little).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn band_of<T: Scalar>(
@@ -136,7 +136,7 @@ pub(crate) fn band_of<T: Scalar>(
     keep_terms: usize,
     scratch: &mut Relevant,
     mut grads: Option<&mut Vec<Vector3<f64>>>,
-    mut kept: Option<&mut KeptCandidates>,
+    mut kept: Option<&mut CandidateMemo>,
 ) -> SeparationBand<T> {
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
     // Room for a resting contact's band at once (growing them a few times cost more).
@@ -214,7 +214,7 @@ pub(crate) fn band_of<T: Scalar>(
                 let mut witness = u32::MAX;
                 let (mut cfrom, mut cto) = (from, to);
                 // With kept candidates, a node whose proof failed at its last visits is not
-                // tried again for a few ([`KeptCandidates::try_proof`]): its children start
+                // tried again for a few ([`CandidateMemo::try_proof`]): its children start
                 // from this node's hint and open nodes.
                 let try_proof = band.min.is_finite()
                     && kept

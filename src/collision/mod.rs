@@ -22,7 +22,7 @@
 //! Evaluated points that end above the final cutoff `Φ_min + M2 ε2` are left out of the band
 //! as skipped points are (the same bound covers them). The band is then the points within the
 //! cutoff, in the walk's order, which the poses alone fix: whichever sound proofs skipped the
-//! rest, and whatever was kept from earlier steps ([`KeptCandidates`]: a point proven above
+//! rest, and whatever was kept from earlier steps ([`CandidateMemo`]: a point proven above
 //! the cutoff by its kept ball is not evaluated, a node whose proof keeps failing is not tried
 //! at every step), the band and every sum over it are the same to the last bit.
 
@@ -46,7 +46,7 @@ use nalgebra::{Matrix3, Vector3};
 
 mod band;
 mod bounds;
-mod kept;
+mod memo;
 mod reach;
 #[cfg(test)]
 mod tests;
@@ -55,12 +55,12 @@ mod topk;
 pub(crate) use band::band_of;
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
-pub use kept::{
-    KeptCandidates, KeptCounts, PairsKept, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
+pub use memo::{
+    CandidateMemo, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
 };
 pub use reach::{
-    cloud_beyond, kept_reach_holds, out_of_reach, out_of_reach_kept, reach_distance, KeptReach,
-    KeptSide, ReachParams, REACH_BUDGET,
+    cloud_beyond, out_of_reach, out_of_reach_proven, reach_distance, reach_proof_holds, ProofSide,
+    ReachParams, ReachProof, REACH_BUDGET,
 };
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 

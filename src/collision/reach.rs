@@ -427,16 +427,16 @@ fn sides<'a>(
 /// kept"): per side of the pair (as [`out_of_reach`]; `None` for a side without points), the
 /// query body's pose in the plane body's frame when it was proven, and what was proven there.
 #[derive(Clone, Debug, PartialEq)]
-pub struct KeptReach {
+pub struct ReachProof {
     /// The two sides.
-    pub sides: [Option<KeptSide>; 2],
+    pub sides: [Option<ProofSide>; 2],
 }
 
-/// One side of a [`KeptReach`]: at the pose `x = rotation p + translation`, every plane whose
+/// One side of a [`ReachProof`]: at the pose `x = rotation p + translation`, every plane whose
 /// squared distance is within `m1` (m²) of the nearest one's lies farther than `t` (m) from
 /// every query point (for a half-space, its plane; `m1` is then unused and 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct KeptSide {
+pub struct ProofSide {
     /// Rotation from query-body to plane-body coordinates at the proof.
     pub rotation: Matrix3<f64>,
     /// Query-body origin in plane-body coordinates at the proof (m).
@@ -447,7 +447,7 @@ pub struct KeptSide {
     pub m1: f64,
 }
 
-impl KeptSide {
+impl ProofSide {
     /// Whether the proof still covers `side` now: every query point has moved at most `δ`
     /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), so a plane relevant now (within `M1 ε1`)
     /// was within `M1 ε1 + 4δL + δ²` at the proof, and lies farther than `t - δ` now
@@ -474,7 +474,7 @@ impl KeptSide {
     /// sixteenfold a box 0.5 m from a sphere was no longer settled, at eightfold it was);
     /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
     /// than `life` (s): the proof would not be reused.
-    fn with_room(side: &Side, eps1: f64, life: f64) -> Option<KeptSide> {
+    fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
         let (m1_per_eps1, bound, gap) = side.margins();
         if gap.is_nan() || gap <= 0.0 {
             return None;
@@ -487,7 +487,7 @@ impl KeptSide {
             }
             Collider::HalfSpace { .. } => (0.5 * gap, 0.0),
         };
-        (delta > 0.0 && delta.is_finite() && delta >= side.speed * life).then_some(KeptSide {
+        (delta > 0.0 && delta.is_finite() && delta >= side.speed * life).then_some(ProofSide {
             rotation: side.rotation,
             translation: side.translation,
             t: side.t + delta,
@@ -515,19 +515,19 @@ impl KeptSide {
 }
 
 /// [`out_of_reach`], keeping proofs across calls in `kept`: a pair still covered by its kept
-/// proof (`KeptSide::covers`) costs no walk; otherwise it is proven as [`out_of_reach`]
+/// proof (`ProofSide::covers`) costs no walk; otherwise it is proven as [`out_of_reach`]
 /// does, and where that succeeds, proven again with room to move and that proof kept. What it
 /// returns is `true` only where every force of the pair is below the bound of
 /// [`out_of_reach`]; it can be `true` where a fresh proof would not be (the kept one holds
 /// with room), so the decisions depend on `kept`, which is part of the simulation's state.
 /// `life` (s): a proof with room is made only where the bodies' speed bound lets it last that
 /// long (two internal steps, say): one that would not be reused costs a second proof.
-pub fn out_of_reach_kept(
+pub fn out_of_reach_proven(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
-    kept: &mut Option<KeptReach>,
+    kept: &mut Option<ReachProof>,
     life: f64,
 ) -> bool {
     let eps1 = prm.eps1;
@@ -557,13 +557,13 @@ pub fn out_of_reach_kept(
     if proven {
         let mut fresh = [None, None];
         let roomy = sides.iter().all(|(i, s)| {
-            KeptSide::with_room(s, eps1, life)
+            ProofSide::with_room(s, eps1, life)
                 .filter(|ks| ks.prove(s.planes, s.query))
                 .map(|ks| fresh[*i] = Some(ks))
                 .is_some()
         });
         if roomy {
-            *kept = Some(KeptReach { sides: fresh });
+            *kept = Some(ReachProof { sides: fresh });
         }
     }
     proven
@@ -572,7 +572,7 @@ pub fn out_of_reach_kept(
 /// Whether `kept` is a proof that holds for the pair `a`–`b`: each side present where the
 /// pair has points, and its proof made again at its own pose succeeds. For a kept proof
 /// read from outside (a restored state's bytes): a forged one must not switch a contact off.
-pub fn kept_reach_holds(a: &Collider, b: &Collider, kept: &KeptReach) -> bool {
+pub fn reach_proof_holds(a: &Collider, b: &Collider, kept: &ReachProof) -> bool {
     [(a, b), (b, a)]
         .into_iter()
         .zip(&kept.sides)

@@ -6,7 +6,7 @@
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
 use crate::collision::{
-    band_of, separation_field_naive, terms_budget, Collider, Frame, KeptCandidates, Relative,
+    band_of, separation_field_naive, terms_budget, CandidateMemo, Collider, Frame, Relative,
     SeparationBand, SeparationDistribution,
 };
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
@@ -225,7 +225,7 @@ pub(super) struct PairParts<T: Scalar> {
 /// [`pair_contact`]), given each body's motion in the other's frame. `on_force(i, W_f, F, s)`
 /// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
 /// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry; `kept`, the pair's
-/// candidate planes kept across calls ([`KeptCandidates`]); `keep_terms`, how many SSDF terms
+/// candidate planes kept across calls ([`CandidateMemo`]); `keep_terms`, how many SSDF terms
 /// the band keeps ([`terms_budget`] but in tests: the entries past it sum theirs again).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
@@ -236,7 +236,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     keep_terms: usize,
     scratch: &mut Relevant,
     grads: Option<&mut Vec<Vector3<f64>>>,
-    kept: Option<&mut KeptCandidates>,
+    kept: Option<&mut CandidateMemo>,
     mut sink: impl FnMut() -> S,
     mut on_force: impl FnMut(usize, T, &PointForce<T>, S),
 ) -> PairParts<T> {
@@ -371,19 +371,19 @@ pub fn pair_contact<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
-    pair_contact_kept(a, fa, b, fb, prm, None)
+    pair_contact_memo(a, fa, b, fb, prm, None)
 }
 
 /// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`
-/// ([`KeptCandidates`]): the same contact to the last bit, at less cost while the bodies move
+/// ([`CandidateMemo`]): the same contact to the last bit, at less cost while the bodies move
 /// little between calls. The chain rule's path (first-order duals) does not use them.
-pub fn pair_contact_kept<T: Scalar>(
+pub fn pair_contact_memo<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
     prm: &ContactParams<T>,
-    kept: Option<&mut KeptCandidates>,
+    kept: Option<&mut CandidateMemo>,
 ) -> PairContact<T> {
     let constant = [
         prm.eps1,
@@ -399,7 +399,7 @@ pub fn pair_contact_kept<T: Scalar>(
     if T::FIRST_ORDER && constant {
         pair_contact_chained(a, fa, b, fb, prm)
     } else {
-        pair_contact_generic_kept(a, fa, b, fb, prm, kept)
+        pair_contact_generic_memo(a, fa, b, fb, prm, kept)
     }
 }
 
@@ -412,17 +412,17 @@ pub fn pair_contact_generic<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
-    pair_contact_generic_kept(a, fa, b, fb, prm, None)
+    pair_contact_generic_memo(a, fa, b, fb, prm, None)
 }
 
-/// [`pair_contact_generic`] with kept candidate planes ([`pair_contact_kept`]).
-fn pair_contact_generic_kept<T: Scalar>(
+/// [`pair_contact_generic`] with kept candidate planes ([`pair_contact_memo`]).
+fn pair_contact_generic_memo<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
     prm: &ContactParams<T>,
-    kept: Option<&mut KeptCandidates>,
+    kept: Option<&mut CandidateMemo>,
 ) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let parts = pair_sides(

@@ -70,15 +70,15 @@ pub struct PairTape {
 impl PairTape {
     /// Records the contact of collider `a` on frame `fa` and `b` on `fb`, and returns it with
     /// the contact at these frames' velocities (the wrenches on `a` and `b` and the smooth
-    /// distance, the same bits as [`pair_contact_kept`]); `kept`: the pair's candidate planes
-    /// kept across calls, if any ([`KeptCandidates`]).
+    /// distance, the same bits as [`pair_contact_memo`]); `kept`: the pair's candidate planes
+    /// kept across calls, if any ([`CandidateMemo`]).
     pub fn record(
         a: &Collider,
         fa: &Frame<f64>,
         b: &Collider,
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
-        kept: Option<&mut KeptCandidates>,
+        kept: Option<&mut CandidateMemo>,
     ) -> (PairTape, PairContact<f64>) {
         let budget = TAPE_TERMS_PER_POINT * (a.len() + b.len()).max(1);
         Self::record_within(a, fa, b, fb, prm, kept, budget)
@@ -91,7 +91,7 @@ impl PairTape {
         b: &Collider,
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
-        kept: Option<&mut KeptCandidates>,
+        kept: Option<&mut CandidateMemo>,
         budget: usize,
     ) -> (PairTape, PairContact<f64>) {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];

@@ -112,7 +112,7 @@ impl Relevant {
 
     /// [`Relevant::find`] from candidates known to hold the relevant set at `pr`, by
     /// increasing index: those of [`gather_ball`] for a ball around `pr`, kept from an earlier
-    /// query ([`KeptCandidates`](crate::collision::KeptCandidates)).
+    /// query ([`CandidateMemo`](crate::collision::CandidateMemo)).
     pub fn find_among(&mut self, s: &Aopc, pr: &Vector3<f64>, eps1: f64, cands: &[u32]) {
         self.filter(s, pr, eps1, cands);
     }

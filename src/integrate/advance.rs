@@ -4,11 +4,11 @@
 use super::cache::{SolverCache, StepCarry};
 use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
 use super::step::StepFrom;
-use crate::collision::PairsKept;
+use crate::collision::PairCarry;
 use crate::contact::ContactParams;
 use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, ForwardOptions, Keep, Model};
+use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
 
 impl Model {
     /// Name of the first non-finite coordinate of a state, if any ("the position of joint J" or
@@ -108,7 +108,7 @@ impl Model {
                     &state.v,
                     &u,
                     prm,
-                    kept_all(&mut cache.kept, known),
+                    reuse_all(&mut cache.pairs, known),
                 )
                 .map_err(|error| StepFailure::Dynamics {
                     time: t0,
@@ -241,7 +241,7 @@ impl Model {
                     Integrator::ImplicitEuler => {
                         let carry = StepCarry {
                             jacobian: &mut jac,
-                            kept: Some(&mut cache.kept),
+                            pairs: Some(&mut cache.pairs),
                             subdivided: &mut report.subdivided,
                         };
                         self.implicit_step_extrapolating(from, carry, &mut dv)
@@ -259,7 +259,7 @@ impl Model {
                                         &s.v,
                                         &uk,
                                         prm,
-                                        kept_all(&mut cache.kept, known.take()),
+                                        reuse_all(&mut cache.pairs, known.take()),
                                     )
                                     .map_err(dyn_err)?;
                                 if let Some(m) = monitor.as_mut() {
@@ -277,7 +277,7 @@ impl Model {
                             let first_with_guard = k == 0 && guard;
                             let carry = StepCarry {
                                 jacobian: &mut jac,
-                                kept: Some(&mut cache.kept),
+                                pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
                             };
                             let end = self.implicit_step_subdividing(
@@ -301,7 +301,7 @@ impl Model {
                         } else {
                             let carry = StepCarry {
                                 jacobian: &mut jac,
-                                kept: Some(&mut cache.kept),
+                                pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
                             };
                             self.explicit_step(i, from, a, carry)
@@ -569,9 +569,9 @@ pub enum StepFailure {
 
 /// The options of a step's first stage: the pairs' kept proofs and candidate planes, and the
 /// kinematics of the state if they are known already.
-fn kept_all(kept: &mut PairsKept, kinematics: Option<Kinematics<f64>>) -> ForwardOptions<'_, f64> {
+fn reuse_all(kept: &mut PairCarry, kinematics: Option<Kinematics<f64>>) -> ForwardOptions<'_, f64> {
     ForwardOptions {
-        keep: Keep::All(kept),
+        reuse: Reuse::All(kept),
         kinematics,
         ..ForwardOptions::default()
     }

@@ -5,8 +5,8 @@
 //! [`Model::advance_cached`]: crate::model::Model::advance_cached
 
 use super::guard::EnergyLedger;
-use super::newton::KeptJacobian;
-use crate::collision::{KeptReach, PairsKept};
+use super::newton::WarmJacobian;
+use crate::collision::{PairCarry, ReachProof};
 use crate::dynamics::Kinematics;
 use crate::integrator::State;
 use nalgebra::DMatrix;
@@ -20,7 +20,7 @@ use nalgebra::DMatrix;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SolverCache {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact.
-    pub(super) jacobian: Option<KeptJacobian>,
+    pub(super) jacobian: Option<WarmJacobian>,
     /// Implicit Euler's last velocity change `V - v`: the next step's Newton iterations start
     /// from `v + (V - v)` (the acceleration held), an `O(h²)` guess instead of `v`'s `O(h)`.
     pub(super) velocity_change: Option<Vec<f64>>,
@@ -28,9 +28,9 @@ pub struct SolverCache {
     pub(super) left: Option<CacheMark>,
     /// The energy guard's balance over the run so far.
     pub(super) ledger: Option<EnergyLedger>,
-    /// Per pair, the out-of-reach proof kept from an earlier step ([`KeptReach`]: which pairs
+    /// Per pair, the out-of-reach proof kept from an earlier step ([`ReachProof`]: which pairs
     /// a step switches off depends on it) and the band's candidate planes (a cost only).
-    pub(super) kept: PairsKept,
+    pub(super) pairs: PairCarry,
     /// The kinematics of the state the last call ended at, as its energy guard computed them.
     pub(super) kinematics: KinematicsMemo,
 }
@@ -41,9 +41,9 @@ pub struct SolverCache {
 pub(super) struct StepCarry<'c> {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact: tried first,
     /// replaced when the iterations contract slowly.
-    pub(super) jacobian: &'c mut Option<KeptJacobian>,
+    pub(super) jacobian: &'c mut Option<WarmJacobian>,
     /// The pairs' kept out-of-reach proofs and candidate planes (`None`: everything fresh).
-    pub(super) kept: Option<&'c mut PairsKept>,
+    pub(super) pairs: Option<&'c mut PairCarry>,
     /// How many steps were halved so far because Newton's iterations failed.
     pub(super) subdivided: &'c mut usize,
 }
@@ -53,7 +53,7 @@ impl StepCarry<'_> {
     pub(super) fn reborrow(&mut self) -> StepCarry<'_> {
         StepCarry {
             jacobian: &mut *self.jacobian,
-            kept: self.kept.as_deref_mut(),
+            pairs: self.pairs.as_deref_mut(),
             subdivided: &mut *self.subdivided,
         }
     }
@@ -117,7 +117,7 @@ pub struct CacheParts {
     pub velocity_change: Option<Vec<f64>>,
     /// Per pair, the out-of-reach proof kept from an earlier step (none, or one entry per
     /// pair): which pairs a step switches off.
-    pub reach: Vec<Option<KeptReach>>,
+    pub reach: Vec<Option<ReachProof>>,
 }
 
 impl SolverCache {
@@ -128,16 +128,16 @@ impl SolverCache {
             left: self.left.clone(),
             ledger: self.ledger.clone(),
             velocity_change: self.velocity_change.clone(),
-            reach: self.kept.reach.clone(),
+            reach: self.pairs.reach.clone(),
         }
     }
 
     /// How often the pairs' kept candidate planes served a query, and how often a query walked
-    /// ([`KeptCandidates`](crate::collision::KeptCandidates)), summed over the pairs since
+    /// ([`CandidateMemo`](crate::collision::CandidateMemo)), summed over the pairs since
     /// they were made; not part of [`parts`](SolverCache::parts), since they change no result.
-    pub fn candidate_counts(&self) -> crate::collision::KeptCounts {
-        let mut all = crate::collision::KeptCounts::default();
-        for c in &self.kept.candidates {
+    pub fn candidate_counts(&self) -> crate::collision::MemoCounts {
+        let mut all = crate::collision::MemoCounts::default();
+        for c in &self.pairs.candidates {
             all += c.counts();
         }
         all
@@ -147,8 +147,8 @@ impl SolverCache {
     /// default). Off, every query walks the hierarchy: the same results to the bit, at the
     /// cost before they were kept (for measurements and tests). Either way drops those kept.
     pub fn keep_candidates(&mut self, on: bool) {
-        self.kept.walk_always = !on;
-        self.kept.candidates.clear();
+        self.pairs.walk_always = !on;
+        self.pairs.candidates.clear();
     }
 
     /// Whether the cache holds the kinematics of `s`, which the next call from `s` then starts
@@ -162,11 +162,11 @@ impl SolverCache {
     /// A cache from its [`parts`](SolverCache::parts), keeping nothing else.
     pub fn from_parts(parts: CacheParts) -> SolverCache {
         SolverCache {
-            jacobian: parts.jacobian.map(KeptJacobian::new),
+            jacobian: parts.jacobian.map(WarmJacobian::new),
             velocity_change: parts.velocity_change,
             left: parts.left,
             ledger: parts.ledger,
-            kept: PairsKept::with_reach(parts.reach),
+            pairs: PairCarry::with_reach(parts.reach),
             kinematics: KinematicsMemo::default(),
         }
     }

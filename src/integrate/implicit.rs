@@ -8,10 +8,10 @@ use super::newton::{newton, re_vec};
 use super::step::axpy;
 use super::step::StepFrom;
 use crate::autodiff::{jacobian, VectorFunction};
-use crate::collision::PairsKept;
+use crate::collision::PairCarry;
 use crate::contact::{ContactParams, PairContact};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Keep, Model};
+use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::TypeId;
@@ -88,7 +88,7 @@ fn step_residual<T: Scalar>(
     model: &Model,
     from: StepFrom<'_, T>,
     vs: &[T],
-    kept: Option<&RefCell<&mut PairsKept>>,
+    kept: Option<&RefCell<&mut PairCarry>>,
 ) -> Result<Vec<T>, DynamicsError> {
     let StepFrom { state, u, prm, h } = from;
     let (q0, v0) = (&state.q, &state.v);
@@ -96,7 +96,7 @@ fn step_residual<T: Scalar>(
     let a = match kept {
         Some(kept) => {
             let opts = ForwardOptions {
-                keep: Keep::Candidates(&mut kept.borrow_mut()),
+                reuse: Reuse::Candidates(&mut kept.borrow_mut()),
                 ..ForwardOptions::default()
             };
             model.forward_with(&q, vs, u, prm, opts)?.vdot
@@ -144,7 +144,7 @@ impl Model {
         let (q, v) = (&state.q[..], &state.v[..]);
         let StepCarry {
             jacobian: jac,
-            kept,
+            pairs: kept,
             ..
         } = carry;
         let (ctrl, mocap) = self.split_inputs(u)?;
@@ -173,8 +173,8 @@ impl Model {
                 tau: &real.tau,
                 mocap: &real.mocap,
             };
-            let keep = kept.map_or(Keep::Nothing, Keep::All);
-            let (frozen, a0) = self.frozen_forward(at, &real.prm, real.h, keep)?;
+            let reuse = kept.map_or(Reuse::Nothing, Reuse::All);
+            let (frozen, a0) = self.frozen_forward(at, &real.prm, real.h, reuse)?;
             if let Some(slot) = at_start {
                 *slot = Some(frozen.contacts().to_vec());
             }
@@ -231,7 +231,7 @@ impl Model {
         let at_end = StepFrom { u: &u1, ..from };
         let StepCarry {
             jacobian: jac,
-            kept,
+            pairs: kept,
             ..
         } = carry;
         let kept = kept.map(RefCell::new);

@@ -23,14 +23,14 @@ type RealJacobian<'a> = dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError> + 
 /// the matrix (the same LU), so a Jacobian restored from an FMU state gives the same iterates
 /// to the bit; it is neither compared nor serialized.
 #[derive(Clone, Debug)]
-pub(crate) struct KeptJacobian {
+pub(crate) struct WarmJacobian {
     matrix: DMatrix<f64>,
     inverse: Option<DMatrix<f64>>,
 }
 
-impl KeptJacobian {
+impl WarmJacobian {
     pub(crate) fn new(matrix: DMatrix<f64>) -> Self {
-        KeptJacobian {
+        WarmJacobian {
             matrix,
             inverse: None,
         }
@@ -49,7 +49,7 @@ impl KeptJacobian {
     }
 }
 
-impl PartialEq for KeptJacobian {
+impl PartialEq for WarmJacobian {
     fn eq(&self, other: &Self) -> bool {
         self.matrix == other.matrix
     }
@@ -63,7 +63,7 @@ pub(super) fn newton<T: Scalar>(
     residual: &Residual<T>,
     real_jacobian: &RealJacobian,
     guess: Vec<T>,
-    jac: &mut Option<KeptJacobian>,
+    jac: &mut Option<WarmJacobian>,
 ) -> Result<Vec<T>, DynamicsError> {
     let n = guess.len();
     if n == 0 {
@@ -88,7 +88,7 @@ pub(super) fn newton<T: Scalar>(
     for it in 1..=NEWTON_MAX_ITER {
         let fresh = refresh || exact_each_iteration;
         if fresh {
-            *jac = Some(KeptJacobian::new(real_jacobian(&re_vec(&x))?));
+            *jac = Some(WarmJacobian::new(real_jacobian(&re_vec(&x))?));
             refresh = false;
         }
         let jinv = jac
@@ -236,7 +236,7 @@ mod tests {
                 evaluations.set(evaluations.get() + 1);
                 Ok(r_of(x))
             };
-            let mut jac = Some(KeptJacobian::new(kept.clone()));
+            let mut jac = Some(WarmJacobian::new(kept.clone()));
             let x = newton(&residual, &exact, start.clone(), &mut jac).unwrap();
             let scale = 1.0 + inf_norm(&x);
             let error = inf_norm(&(0..3).map(|i| x[i] - solution[i]).collect::<Vec<_>>());
@@ -295,7 +295,7 @@ mod tests {
         assert!((0..3).all(|i| (again[i] - x[i]).abs() <= 1e-12));
         // A residual that turns NaN: an error, with a fresh Jacobian and with a kept one.
         let nan = |_: &[f64]| -> Result<Vec<f64>, DynamicsError> { Ok(vec![f64::NAN, 0.0, 0.0]) };
-        for mut kept in [None, Some(KeptJacobian::new(a.clone()))] {
+        for mut kept in [None, Some(WarmJacobian::new(a.clone()))] {
             assert!(newton(&nan, &exact, vec![1.0, 2.0, 3.0], &mut kept).is_err());
         }
     }

@@ -5,7 +5,7 @@
 use super::cache::StepCarry;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, ForwardOptions, Keep, Model};
+use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
 use crate::scalar::Scalar;
 
 /// One internal step's problem: from `state` over `h`, with the inputs `u` at its start
@@ -143,7 +143,7 @@ impl Model {
         let (mut jacobian, mut subdivided) = (None, 0);
         let carry = StepCarry {
             jacobian: &mut jacobian,
-            kept: None,
+            pairs: None,
             subdivided: &mut subdivided,
         };
         match integrator {
@@ -176,11 +176,11 @@ impl Model {
         }
         // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
         // at less cost (their proofs fresh, as everywhere but at a step's start).
-        let mut kept = carry.kept;
+        let mut kept = carry.pairs;
         let mut accel = |q: &[T], v: &[T], u: &[T]| match kept.as_deref_mut() {
             Some(kept) => {
                 let opts = ForwardOptions {
-                    keep: Keep::Candidates(kept),
+                    reuse: Reuse::Candidates(kept),
                     ..ForwardOptions::default()
                 };
                 Ok(self

@@ -32,11 +32,11 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// the slope of their smooth frictionloss at `v` and their limits' damping where they push
     /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]).
     pub implicit_damping: Option<T>,
-    /// What the pairs may use of what they keep across calls ([`Keep`]). With
-    /// [`Keep::All`], the result can differ from the plain dynamics' only where a pair's
+    /// What the pairs may use of what they keep across calls ([`Reuse`]). With
+    /// [`Reuse::All`], the result can differ from the plain dynamics' only where a pair's
     /// forces are below the bound of [`crate::collision::out_of_reach`] (a kept proof switches
     /// off a pair that a fresh proof might not); kept candidate planes change no bit.
-    pub keep: Keep<'a>,
+    pub reuse: Reuse<'a>,
     /// The kinematics of `(q, v, mocap)`, if the caller has them already (they are the same
     /// bits as those computed here).
     pub kinematics: Option<Kinematics<T>>,
@@ -47,7 +47,7 @@ impl<T: Scalar> Default for ForwardOptions<'_, T> {
         ForwardOptions {
             contact_velocity: None,
             implicit_damping: None,
-            keep: Keep::Nothing,
+            reuse: Reuse::Nothing,
             kinematics: None,
         }
     }
@@ -138,7 +138,7 @@ impl Model {
             .map(|vc| self.tree.kinematics_with(q, vc, mocap));
         // With a contact velocity, the same positions, so the wrenches are in the same frames.
         let (mut wrenches, contacts) =
-            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, opts.keep);
+            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, opts.reuse);
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);

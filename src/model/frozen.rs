@@ -32,7 +32,7 @@ pub struct FrozenForward<'m> {
 
 impl Model {
     /// Freezes `forward_at(at, prm, ForwardOptions { contact_velocity: Some(V),
-    /// implicit_damping: Some(h), keep, .. })` at everything but `V`; the pairs in reach and
+    /// implicit_damping: Some(h), reuse, .. })` at everything but `V`; the pairs in reach and
     /// their contact terms are recorded at `V = v` through the same pair loop as the forward
     /// dynamics ([`Model::visit_pairs`]). Returns it with its accelerations there.
     pub fn frozen_forward(
@@ -40,7 +40,7 @@ impl Model {
         at: EvalPoint<'_, f64>,
         prm: &ContactParams<f64>,
         h: f64,
-        keep: Keep,
+        reuse: Reuse,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         let EvalPoint { q, v, tau, mocap } = at;
         self.check_finite(q, v)?;
@@ -51,7 +51,7 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        let visits = self.visit_pairs(&kin, prm, true, keep, |p| {
+        let visits = self.visit_pairs(&kin, prm, true, reuse, |p| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
             (

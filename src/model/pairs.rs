@@ -1,13 +1,13 @@
 //! The colliding pairs: each pair's own law ([`Pair`]), how an evaluation may reuse what the
-//! pairs keep across calls ([`Keep`]), the threads that evaluate the pairs in reach
+//! pairs keep across calls ([`Reuse`]), the threads that evaluate the pairs in reach
 //! ([`PairThreads`]), and the loop over them that gives every pair's contact and the wrench
 //! each body receives ([`Model::contacts`], [`Model::contact_forces`]).
 
 use super::Model;
 use crate::collision::{
-    out_of_reach, out_of_reach_kept, Collider, KeptCandidates, KeptReach, PairsKept,
+    out_of_reach, out_of_reach_proven, CandidateMemo, Collider, PairCarry, ReachProof,
 };
-use crate::contact::{pair_contact_kept, ContactParams, PairContact, Wrench};
+use crate::contact::{pair_contact_memo, ContactParams, PairContact, Wrench};
 use crate::dynamics::Kinematics;
 use crate::scalar::{c, Scalar};
 
@@ -83,22 +83,22 @@ impl Pair {
     }
 }
 
-/// What an evaluation of the pairs may use of what they keep across calls ([`PairsKept`],
+/// What an evaluation of the pairs may use of what they keep across calls ([`PairCarry`],
 /// fitted to the model's pairs first).
-pub enum Keep<'a> {
+pub enum Reuse<'a> {
     /// Nothing: every pair proven and walked afresh.
     Nothing,
     /// The out-of-reach proofs and the candidate planes.
-    All(&'a mut PairsKept),
+    All(&'a mut PairCarry),
     /// The candidate planes only (they change no result), where proofs must be fresh.
-    Candidates(&'a mut PairsKept),
+    Candidates(&'a mut PairCarry),
 }
 
 /// One pair's kept out-of-reach proof and candidate planes, as [`Model::contacts_with`] hands
 /// them out (either may be absent).
 type PairKept<'a> = (
-    Option<&'a mut Option<KeptReach>>,
-    Option<&'a mut KeptCandidates>,
+    Option<&'a mut Option<ReachProof>>,
+    Option<&'a mut CandidateMemo>,
 );
 
 /// What [`Model::visit_pairs`] did with one pair.
@@ -131,7 +131,7 @@ pub(crate) struct PendingPair<'a, T: Scalar> {
     pub(crate) sides: [&'a Collider; 2],
     pub(crate) bodies: [usize; 2],
     pub(crate) prm: ContactParams<T>,
-    pub(crate) candidates: Option<&'a mut KeptCandidates>,
+    pub(crate) candidates: Option<&'a mut CandidateMemo>,
 }
 
 impl<T: Scalar> PendingPair<'_, T> {
@@ -152,7 +152,7 @@ impl<T: Scalar> PendingPair<'_, T> {
     fn evaluate(self, kin: &Kinematics<T>) -> PairContact<T> {
         let [a, b] = self.bodies;
         let [ca, cb] = self.sides;
-        pair_contact_kept(
+        pair_contact_memo(
             ca,
             &kin.frames[a],
             cb,
@@ -249,7 +249,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let (wrenches, pairs) = self.contacts_with(kin, prm, false, Keep::Nothing);
+        let (wrenches, pairs) = self.contacts_with(kin, prm, false, Reuse::Nothing);
         let pairs = pairs
             .into_iter()
             .map(|pc| pc.unwrap_or_else(PairContact::none))
@@ -266,7 +266,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
-        self.contacts_with(kin, prm, true, Keep::Nothing)
+        self.contacts_with(kin, prm, true, Reuse::Nothing)
     }
 
     /// Every pair's contact, with the pair's own friction if it has one (`None`: proven out of
@@ -276,10 +276,10 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        keep: Keep,
+        reuse: Reuse,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let out: Vec<Option<PairContact<T>>> = self
-            .visit_pairs(kin, prm, prune, keep, |p| p.evaluate(kin))
+            .visit_pairs(kin, prm, prune, reuse, |p| p.evaluate(kin))
             .into_iter()
             .map(|visit| match visit {
                 PairVisit::NoCollider => Some(PairContact::none()),
@@ -291,8 +291,8 @@ impl Model {
     }
 
     /// The one loop over the pairs: `eval` of every pair in reach, in pair order. The proofs
-    /// come first, in pair order (only when `prune`; with the pairs' kept proofs when `keep`
-    /// is [`Keep::All`]); the pairs left are evaluated on [`Model::pair_threads`] threads when
+    /// come first, in pair order (only when `prune`; with the pairs' kept proofs when `reuse`
+    /// is [`Reuse::All`]); the pairs left are evaluated on [`Model::pair_threads`] threads when
     /// they are many enough ([`PairThreads`]), each with only its own kept candidates, so the
     /// results are the same bits whatever the threads.
     pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
@@ -300,17 +300,17 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         prune: bool,
-        keep: Keep<'a>,
+        reuse: Reuse<'a>,
         eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
     ) -> Vec<PairVisit<R>> {
         let n = self.pairs.len();
-        let kept: Vec<PairKept<'_>> = match keep {
-            Keep::Nothing => (0..n).map(|_| (None, None)).collect(),
-            Keep::All(all) => {
+        let kept: Vec<PairKept<'_>> = match reuse {
+            Reuse::Nothing => (0..n).map(|_| (None, None)).collect(),
+            Reuse::All(all) => {
                 all.fit(n);
                 all.pairs().map(|(r, c)| (Some(r), c)).collect()
             }
-            Keep::Candidates(all) => {
+            Reuse::Candidates(all) => {
                 all.fit(n);
                 all.pairs().map(|(_, c)| (None, c)).collect()
             }
@@ -357,13 +357,13 @@ impl Model {
     }
 
     /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
-    /// with the pair's kept proof if given ([`out_of_reach_kept`]).
+    /// with the pair's kept proof if given ([`out_of_reach_proven`]).
     pub(crate) fn out_of_reach_with<T: Scalar>(
         &self,
         pair: &Pair,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
-        kept: Option<&mut Option<KeptReach>>,
+        kept: Option<&mut Option<ReachProof>>,
     ) -> bool {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return true;
@@ -372,7 +372,7 @@ impl Model {
         let p = prm.re();
         let rels = [ra.relative_to(&rb), rb.relative_to(&ra)];
         match kept {
-            Some(kept) => out_of_reach_kept(
+            Some(kept) => out_of_reach_proven(
                 ca,
                 cb,
                 &rels,

@@ -20,7 +20,7 @@
 //! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
 //! | `left` | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
 //! | `ledger` | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
-//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`KeptReach`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
+//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
 //!
 //! The sections are written in this order, and [`decode`] reads them in it; a test holds this
 //! table against what [`encode`] writes, section by section and byte by byte.
@@ -28,7 +28,7 @@
 //! Every f64 is stored as its bits, so a state restored from bytes is bit-identical.
 
 use super::{FmuState, Param, SimState};
-use crate::collision::{kept_reach_holds, KeptReach, KeptSide};
+use crate::collision::{reach_proof_holds, ProofSide, ReachProof};
 use crate::dynamics::MOCAP_INPUTS;
 use crate::fmi::serial::Reader;
 use crate::integrate::{EnergyLedger, Integrator, State};
@@ -350,7 +350,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
     };
     let reach = if version >= 6 {
-        kept_reach(model, &mut r)?
+        reach_proofs(model, &mut r)?
     } else {
         vec![]
     };
@@ -387,7 +387,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
 /// The kept out-of-reach proofs of a state (version 6 on): none, or one entry per pair, each
 /// proven again at its own pose before it is accepted (a forged proof would switch a contact
 /// off).
-fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, String> {
+fn reach_proofs(model: &Model, r: &mut Reader) -> Result<Vec<Option<ReachProof>>, String> {
     let n = r.u32("the number of kept out-of-reach proofs")? as usize;
     if n != 0 && n != model.pairs.len() {
         return Err(format!(
@@ -413,13 +413,13 @@ fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, S
                             // The proof's bounds assume a rotation (unit axes, lengths kept)
                             // and a margin that is not negative. Its distance may be negative
                             // (a pair with a negative contact margin); the proof is made again
-                            // at its own pose before it serves (`kept_reach_holds`).
+                            // at its own pose before it serves (`reach_proof_holds`).
                             let skew =
                                 (rotation.transpose() * rotation - Matrix3::identity()).norm();
                             if !(skew <= 1e-9 && rotation.determinant() > 0.0 && x[13] >= 0.0) {
                                 return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m²", x[12], x[13]));
                             }
-                            *side = Some(KeptSide {
+                            *side = Some(ProofSide {
                                 rotation,
                                 translation: Vector3::new(x[9], x[10], x[11]),
                                 t: x[12],
@@ -431,9 +431,9 @@ fn kept_reach(model: &Model, r: &mut Reader) -> Result<Vec<Option<KeptReach>>, S
                         }
                     }
                 }
-                let kept = KeptReach { sides };
+                let kept = ReachProof { sides };
                 let holds = match (&model.colliders[pair.a], &model.colliders[pair.b]) {
-                    (Some(a), Some(b)) => kept_reach_holds(a, b, &kept),
+                    (Some(a), Some(b)) => reach_proof_holds(a, b, &kept),
                     _ => false,
                 };
                 if !holds {

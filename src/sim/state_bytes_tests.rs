@@ -27,7 +27,7 @@ fn full_state() -> FmuState {
         q: vec![0.5; nq],
         v: vec![0.25; nv],
     };
-    let side = KeptSide {
+    let side = ProofSide {
         rotation: Matrix3::identity(),
         translation: Vector3::new(1.0, 0.0, 0.0),
         t: 0.1,
@@ -62,7 +62,7 @@ fn full_state() -> FmuState {
             ledger: Some(ledger),
             velocity_change: Some(vec![0.0; nv]),
             reach: vec![
-                Some(KeptReach {
+                Some(ReachProof {
                     sides: [Some(side), Some(side)],
                 });
                 size("pair")

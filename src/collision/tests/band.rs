@@ -113,7 +113,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
 #[test]
 fn kept_candidates_give_the_same_band_to_the_last_bit() {
     // A cube sliding and turning against a sphere along a path of small steps, the band walked
-    // with the pair's kept candidates (`KeptCandidates`) and without: the same entries, Φ,
+    // with the pair's kept candidates (`CandidateMemo`) and without: the same entries, Φ,
     // d_min, spring bounds and kept terms, bit for bit, at sharp and soft ε1 and a wide and a narrow cutoff (ε2), while the kept
     // balls both serve (hits) and are replaced (misses, the path moving several spacings),
     // points are left out by their balls' floors, and nodes whose proof failed are not tried
@@ -146,7 +146,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
     };
     let mut s = 11u64;
     for (eps1, eps2) in [(1e-7, 2e-3), (3e-5, 2e-3), (1e-7, 2e-4), (3e-5, 1e-3)] {
-        let mut kept = KeptCandidates::default();
+        let mut kept = CandidateMemo::default();
         let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
         let drift = vec3(&mut s) * 1.2e-4;
         let mut last = None;
@@ -160,7 +160,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             let fa = Frame::<f64>::identity();
             let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
             last = Some(rels);
-            let walk = |kept: Option<&mut KeptCandidates>| {
+            let walk = |kept: Option<&mut CandidateMemo>| {
                 band_of(
                     &sphere,
                     &cube,
@@ -377,7 +377,7 @@ fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
         let axis = nalgebra::Unit::new_normalize(vec3(&mut s));
         let start = vec3(&mut s) * 0.02 + Vector3::new(0.0, 0.0, 0.02);
         let drift = vec3(&mut s) * 2e-4;
-        let mut kept = KeptCandidates::default();
+        let mut kept = CandidateMemo::default();
         for step in 0..6 {
             let t = step as f64;
             let fb = Frame {

@@ -30,21 +30,21 @@
 //! Two more things are kept per side, both costs only, since the band is the points within
 //! its cutoff whatever else a walk evaluated (`collision` module documentation):
 //! - each ball's floor, the smallest `n_iᵀ(x₀ - p_i)` of its candidates, from which a lower
-//!   bound of the SSDF anywhere in the ball follows (`KeptCandidates::above`): a point it
+//!   bound of the SSDF anywhere in the ball follows (`CandidateMemo::above`): a point it
 //!   proves beyond the band's running cutoff is not evaluated (a resting box's side faces,
 //!   one row above the contact);
 //! - per node of the query hierarchy, whether its proof failed lately: a node holding the
 //!   band's points fails at every step, so after a failure its next [`PROOF_RETRY`] visits
-//!   do not try it (`KeptCandidates::try_proof`).
+//!   do not try it (`CandidateMemo::try_proof`).
 
-use super::KeptReach;
+use super::ReachProof;
 use crate::geometry::ssdf::{gather_ball, Relevant};
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
 
 /// Candidates a side keeps per point of the pair's two clouds, at most (28 bytes each, and as
 /// many in the spare buffers): a query whose new ball would pass that is answered by its walk
-/// and keeps nothing ([`KeptCounts::unkept`]), so what is kept stays `O(I1 + I2)` however wide
+/// and keeps nothing ([`MemoCounts::unkept`]), so what is kept stays `O(I1 + I2)` however wide
 /// the relevant sets are against the clouds.
 pub const CANDIDATES_PER_POINT: usize = 16;
 
@@ -55,15 +55,15 @@ pub const UNUSED_WALKS: u32 = 64;
 pub const PROOF_RETRY: u8 = 8;
 
 /// The candidates kept for one pair (both sides). Empty by default; filled by the band walk
-/// of the pair's evaluations that are given it ([`pair_contact_kept`](crate::contact::pair_contact_kept)).
+/// of the pair's evaluations that are given it ([`pair_contact_memo`](crate::contact::pair_contact_memo)).
 #[derive(Clone, Debug, Default)]
-pub struct KeptCandidates {
+pub struct CandidateMemo {
     /// The `ε1` (m²) the candidates were gathered for (bits): another one drops them all.
     eps1: u64,
     /// Per side: 0 the points of `a` against the planes of `b`, 1 the reverse.
     sides: [SideCandidates; 2],
     /// Queries answered so far, from a kept ball or not.
-    counts: KeptCounts,
+    counts: MemoCounts,
 }
 
 /// One side's kept balls.
@@ -104,7 +104,7 @@ struct Ball {
     /// `δ²` (m²).
     radius_sq: f64,
     /// `min_i v_i(x₀)` over the candidates, less a rounding allowance (m;
-    /// `KeptCandidates::above`); `-∞` if any `v_i(x₀)` is not a number.
+    /// `CandidateMemo::above`); `-∞` if any `v_i(x₀)` is not a number.
     floor: f64,
     /// The largest `|n_i|` of the candidates (1 to rounding for the crate's clouds): how fast
     /// any `v_i` can change with `x`.
@@ -114,9 +114,9 @@ struct Ball {
 }
 
 /// Query points whose kept ball held them, and those that gathered a new one
-/// ([`KeptCandidates::counts`]).
+/// ([`CandidateMemo::counts`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct KeptCounts {
+pub struct MemoCounts {
     /// Queries answered from a kept ball.
     pub hits: usize,
     /// Queries that walked the hierarchy and kept a new ball.
@@ -136,8 +136,8 @@ pub struct KeptCounts {
     pub unkept: usize,
 }
 
-impl std::ops::AddAssign for KeptCounts {
-    fn add_assign(&mut self, o: KeptCounts) {
+impl std::ops::AddAssign for MemoCounts {
+    fn add_assign(&mut self, o: MemoCounts) {
         self.hits += o.hits;
         self.misses += o.misses;
         self.replaced += o.replaced;
@@ -149,10 +149,10 @@ impl std::ops::AddAssign for KeptCounts {
     }
 }
 
-impl KeptCandidates {
+impl CandidateMemo {
     /// How many queries were answered from a kept ball, and how many walked, since the
     /// candidates were made (or dropped for another `ε1`).
-    pub fn counts(&self) -> KeptCounts {
+    pub fn counts(&self) -> MemoCounts {
         self.counts
     }
 
@@ -178,7 +178,7 @@ impl KeptCandidates {
     pub(crate) fn begin(&mut self, eps1: f64, a: &super::Collider, b: &super::Collider) {
         if self.eps1 != eps1.to_bits() {
             let counts = self.counts;
-            *self = KeptCandidates {
+            *self = CandidateMemo {
                 eps1: eps1.to_bits(),
                 counts,
                 ..Default::default()
@@ -221,7 +221,7 @@ impl KeptCandidates {
     /// the cutoff: not while the node's proof failed at one of its last [`PROOF_RETRY`]
     /// visits (a node holding the band's points fails at every step). Not trying is always
     /// sound: the node's points are then evaluated, or proven by their balls
-    /// ([`KeptCandidates::above`]), and those beyond the cutoff leave the band all the same.
+    /// ([`CandidateMemo::above`]), and those beyond the cutoff leave the band all the same.
     pub(crate) fn try_proof(&mut self, side: usize, ni: u32) -> bool {
         match self.sides[side].retry.get_mut(ni as usize) {
             Some(r) if *r > 0 => {
@@ -324,7 +324,7 @@ impl KeptCandidates {
         for (d, coord) in s.xyz.iter_mut().enumerate() {
             coord.extend(gathered.iter().map(|&k| bvh.points[k as usize][d]));
         }
-        // The floor of [`KeptCandidates::above`]; the allowance covers the rounding of the
+        // The floor of [`CandidateMemo::above`]; the allowance covers the rounding of the
         // distances and of the SSDF's mean (a few ulps of lengths near |x| + reach).
         let (mut low, mut slope, mut nan) = (f64::INFINITY, 0.0f64, false);
         for &j in &gathered {
@@ -409,29 +409,29 @@ impl SideCandidates {
 }
 
 /// What a model's pairs keep from one evaluation to the next, one entry per pair: the
-/// out-of-reach proofs ([`KeptReach`]; which pairs a step switches off depends on them, so a
-/// saved FMU state carries them) and the candidate planes ([`KeptCandidates`]; a cost, never a
-/// result, so two `PairsKept` with the same proofs are equal).
+/// out-of-reach proofs ([`ReachProof`]; which pairs a step switches off depends on them, so a
+/// saved FMU state carries them) and the candidate planes ([`CandidateMemo`]; a cost, never a
+/// result, so two `PairCarry` with the same proofs are equal).
 #[derive(Clone, Debug, Default)]
-pub struct PairsKept {
+pub struct PairCarry {
     /// Per pair, the out-of-reach proof kept from an earlier step, if any.
-    pub reach: Vec<Option<KeptReach>>,
+    pub reach: Vec<Option<ReachProof>>,
     /// Per pair, the candidate planes of its band's query points.
-    pub candidates: Vec<KeptCandidates>,
+    pub candidates: Vec<CandidateMemo>,
     /// No candidates are kept (every query walks): for measurements and tests.
     pub walk_always: bool,
 }
 
-impl PartialEq for PairsKept {
+impl PartialEq for PairCarry {
     fn eq(&self, o: &Self) -> bool {
         self.reach == o.reach
     }
 }
 
-impl PairsKept {
+impl PairCarry {
     /// Kept proofs for a model (no candidates yet).
-    pub fn with_reach(reach: Vec<Option<KeptReach>>) -> Self {
-        PairsKept {
+    pub fn with_reach(reach: Vec<Option<ReachProof>>) -> Self {
+        PairCarry {
             reach,
             candidates: Vec::new(),
             walk_always: false,
@@ -439,24 +439,24 @@ impl PairsKept {
     }
 
     /// One entry per pair of a model with `pairs` pairs (new ones empty; no candidates when
-    /// [`PairsKept::walk_always`]).
+    /// [`PairCarry::walk_always`]).
     pub fn fit(&mut self, pairs: usize) {
         self.reach.resize(pairs, None);
         let n = if self.walk_always { 0 } else { pairs };
-        self.candidates.resize_with(n, KeptCandidates::default);
+        self.candidates.resize_with(n, CandidateMemo::default);
     }
 
-    /// Pair `k`'s kept proof and candidates (none when [`PairsKept::walk_always`];
-    /// [`PairsKept::fit`] first).
-    pub fn pair(&mut self, k: usize) -> (&mut Option<KeptReach>, Option<&mut KeptCandidates>) {
+    /// Pair `k`'s kept proof and candidates (none when [`PairCarry::walk_always`];
+    /// [`PairCarry::fit`] first).
+    pub fn pair(&mut self, k: usize) -> (&mut Option<ReachProof>, Option<&mut CandidateMemo>) {
         (&mut self.reach[k], self.candidates.get_mut(k))
     }
 
-    /// [`PairsKept::pair`] of every pair at once, in pair order (disjoint borrows, so that pairs
+    /// [`PairCarry::pair`] of every pair at once, in pair order (disjoint borrows, so that pairs
     /// can be evaluated on several threads).
     pub fn pairs(
         &mut self,
-    ) -> impl Iterator<Item = (&mut Option<KeptReach>, Option<&mut KeptCandidates>)> {
+    ) -> impl Iterator<Item = (&mut Option<ReachProof>, Option<&mut CandidateMemo>)> {
         let mut candidates = self.candidates.iter_mut();
         self.reach.iter_mut().map(move |r| (r, candidates.next()))
     }
