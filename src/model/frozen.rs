@@ -34,7 +34,7 @@ impl Model {
     /// Freezes `forward_at(at, prm, ForwardOptions { contact_velocity: Some(V),
     /// implicit_damping: Some(h), reuse, .. })` at everything but `V`; the pairs in reach and
     /// their contact terms are recorded at `V = v` through the same pair loop as the forward
-    /// dynamics ([`Model::visit_pairs`]). Returns it with its accelerations there.
+    /// dynamics (`Model::visit_pairs`). Returns it with its accelerations there.
     pub fn frozen_forward(
         &self,
         at: EvalPoint<'_, f64>,
