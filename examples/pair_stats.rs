@@ -59,9 +59,9 @@ fn main() {
         sim.step(0.002).expect("warm-up step");
     }
     let m = sim.model.clone();
-    let state = sim.current.state.clone();
+    let state = sim.data.current.state.clone();
     let u = sim.inputs();
-    let prm = sim.current.params;
+    let prm = sim.data.current.params;
     let h = m.timestep;
     let kin = m
         .tree

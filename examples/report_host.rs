@@ -75,11 +75,12 @@ fn integrators(scene: &Path) -> Result<String, String> {
                 }
             }
             Ok(sim
+                .data
                 .current
                 .state
                 .q
                 .iter()
-                .chain(&sim.current.state.v)
+                .chain(&sim.data.current.state.v)
                 .copied()
                 .collect())
         };

@@ -149,7 +149,7 @@ fn warm_state(a: &Args, scene: &std::path::Path) -> Result<SimState, String> {
     for _ in 0..n {
         sim.step(0.01).map_err(|e| format!("warm-up: {e}"))?;
     }
-    Ok(sim.current)
+    Ok(sim.data.current)
 }
 
 /// The scene's simulation with the `--set` values applied, initialized.
@@ -172,7 +172,7 @@ fn simulation_at(
     h: f64,
 ) -> Result<Simulation, String> {
     let mut sim = started(a, scene)?;
-    sim.current = warm.clone();
+    sim.data.current = warm.clone();
     sim.model.integrator = integrator;
     sim.model.timestep = h;
     Ok(sim)
@@ -207,7 +207,7 @@ fn poses_after(
     Ok(sim
         .model
         .tree
-        .kinematics(&sim.current.state.q, &sim.current.state.v)
+        .kinematics(&sim.data.current.state.q, &sim.data.current.state.v)
         .frames)
 }
 
@@ -438,19 +438,20 @@ fn run() -> Result<String, String> {
     for &integrator in &a.integrators {
         let sim0 = simulation_at(&a, &scene, &warm, integrator, a.h)?;
         let model = sim0.model.clone();
-        let prm = sim0.current.params;
+        let prm = sim0.data.current.params;
         let (nq, nv) = (model.tree.nq, model.tree.nv);
         let x: Vec<f64> = sim0
+            .data
             .current
             .state
             .q
             .iter()
-            .chain(&sim0.current.state.v)
-            .chain(&sim0.current.ctrl)
+            .chain(&sim0.data.current.state.v)
+            .chain(&sim0.data.current.ctrl)
             .copied()
             .collect();
-        let state = sim0.current.state.clone();
-        let ctrl = sim0.current.ctrl.clone();
+        let state = sim0.data.current.state.clone();
+        let ctrl = sim0.data.current.ctrl.clone();
         let h = a.h;
 
         // Through the C ABI: a fresh instance whose start values are the warmed-up state and

@@ -44,7 +44,7 @@ fn main() {
             integrator.name(),
             per(free, 1.0 / h),
             per(contact, 1.5 / h),
-            sim.current.state.q[1],
+            sim.data.current.state.q[1],
         ));
     }
     let base = rows

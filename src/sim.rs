@@ -12,6 +12,7 @@ use crate::scene::{self, Scene};
 use std::path::Path;
 
 mod access;
+mod data;
 mod fmu;
 pub mod jacobian;
 pub mod names;
@@ -23,6 +24,7 @@ pub use crate::contact::Param;
 pub use crate::scene::SCENE_FILE;
 
 pub use access::Value;
+pub use data::Data;
 pub use table::{guid, model_info, variable_table, Slot};
 
 /// The time-varying part of a simulation: what `fmi2GetFMUstate` saves.
@@ -76,8 +78,9 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 /// A simulation of a scene: the model, its current state and what the FMU exposes of it.
 ///
 /// The model is the engine's [`Model`] (its option settings, integrator and step, may be set
-/// before the start, as MuJoCo's `mjModel.opt`); the state that changes is
-/// [`SimState`] (MuJoCo's `mjData`), with the caches of the outputs and of the integrator. The
+/// before the start, as MuJoCo's `mjModel.opt`); everything that changes is its [`Data`]
+/// (MuJoCo's `mjData`): the current [`SimState`], what the integrator carries, the outputs'
+/// memos. The
 /// FMU and the command line use the same small facade: variables by name
 /// ([`Simulation::set`], [`Simulation::get`], [`Simulation::set_param`]),
 /// [`Simulation::step`] and [`Simulation::outputs`].
@@ -118,29 +121,15 @@ pub struct Simulation {
     pub model: Model,
     rows: Vec<(Variable, Slot)>,
     info: ModelInfo,
-    /// Current state.
-    pub current: SimState,
+    /// The scene's start state, restored by `fmi2Reset`.
     start: SimState,
-    /// Contact outputs, computed on demand, with the state they were computed at: they serve
-    /// while the current state is that one (no setter has to remember to clear them).
-    outputs: Option<(SimState, Vec<PairContact<f64>>)>,
-    /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at.
-    points: Option<PointsCache>,
-    /// What the integrator carries between communication steps (a Newton Jacobian).
-    cache: crate::integrate::SolverCache,
-    messages: Vec<LogMessage>,
-    /// Accelerations `v̇` and the (time, state, controls, parameters) they were computed at.
-    accelerations: Option<(SimState, Vec<f64>)>,
     /// Solver settings of the scene (restored by `fmi2Reset`).
     start_solver: (Integrator, f64, f64),
-    /// Whether the host sees `logContact` messages (so diagnostics are only formatted then).
-    log_contact: bool,
     /// Whether the host instantiated Model Exchange (mocap inputs then act at once).
     model_exchange: bool,
-    /// Whether the simulation is initialized or has stepped: from then on
-    /// [`Simulation::set`] sets inputs and tunable parameters only, as after an FMU's
-    /// initialization.
-    started: bool,
+    /// Everything that changes while it runs: the current state, what the integrator carries,
+    /// the outputs' memos and the queued messages ([`Data`]).
+    pub data: Data,
 }
 
 impl Simulation {
@@ -179,21 +168,14 @@ impl Simulation {
             model,
             rows,
             info,
-            current: start.clone(),
+            data: Data::at(start.clone(), messages),
             start,
-            outputs: None,
-            points: None,
-            cache: Default::default(),
-            messages,
-            accelerations: None,
             start_solver,
-            log_contact: false,
             model_exchange: false,
-            started: false,
         };
         for p in [Param::Eps1, Param::Eps2, Param::Eps3] {
-            if let Some(text) = sim.smoothing_warning(p, p.get(&sim.current.params)) {
-                sim.messages.push(LogMessage {
+            if let Some(text) = sim.smoothing_warning(p, p.get(&sim.data.current.params)) {
+                sim.data.messages.push(LogMessage {
                     category: LogCategory::StatusWarning,
                     text,
                 });
@@ -250,37 +232,45 @@ impl Simulation {
     /// each mocap body's pose and velocity. This is what [`Model::forward`] and
     /// [`Model::step`] take.
     pub fn inputs(&self) -> Vec<f64> {
-        [self.current.ctrl.as_slice(), self.current.mocap.as_slice()].concat()
+        [
+            self.data.current.ctrl.as_slice(),
+            self.data.current.mocap.as_slice(),
+        ]
+        .concat()
     }
 
     /// Contact of every pair at the current state.
     pub fn contacts(&mut self) -> &[PairContact<f64>] {
-        if !matches!(&self.outputs, Some((at, _)) if *at == self.current) {
+        if !matches!(&self.data.outputs, Some((at, _)) if *at == self.data.current) {
             let kin = self.model.tree.kinematics_with(
-                &self.current.state.q,
-                &self.current.state.v,
-                &self.current.mocap,
+                &self.data.current.state.q,
+                &self.data.current.state.v,
+                &self.data.current.mocap,
             );
-            let contacts = self.model.contacts(&kin, &self.current.params).1;
-            self.outputs = Some((self.current.clone(), contacts));
+            let contacts = self.model.contacts(&kin, &self.data.current.params).1;
+            self.data.outputs = Some((self.data.current.clone(), contacts));
         }
-        self.outputs.as_ref().map_or(&[], |(_, c)| c.as_slice())
+        self.data
+            .outputs
+            .as_ref()
+            .map_or(&[], |(_, c)| c.as_slice())
     }
 
     /// Soft top-K contact points of every pair at the current positions (world frame), cached
     /// until the positions or ε1, ε2 change.
     pub fn contact_points(&mut self) -> &[Vec<nalgebra::Vector3<f64>>] {
         let (q, e1, e2) = (
-            &self.current.state.q,
-            self.current.params.eps1,
-            self.current.params.eps2,
+            &self.data.current.state.q,
+            self.data.current.params.eps1,
+            self.data.current.params.eps2,
         );
-        let fresh = matches!(&self.points, Some((pq, p1, p2, _)) if *pq == [q.as_slice(), &self.current.mocap].concat() && *p1 == e1 && *p2 == e2);
+        let fresh = matches!(&self.data.points, Some((pq, p1, p2, _)) if *pq == [q.as_slice(), &self.data.current.mocap].concat() && *p1 == e1 && *p2 == e2);
         if !fresh {
-            let kin =
-                self.model
-                    .tree
-                    .kinematics_with(q, &self.current.state.v, &self.current.mocap);
+            let kin = self.model.tree.kinematics_with(
+                q,
+                &self.data.current.state.v,
+                &self.data.current.mocap,
+            );
             let pts = self
                 .model
                 .pairs
@@ -300,9 +290,18 @@ impl Simulation {
                     },
                 )
                 .collect();
-            self.points = Some(([q.as_slice(), &self.current.mocap].concat(), e1, e2, pts));
+            self.data.points = Some((
+                [q.as_slice(), &self.data.current.mocap].concat(),
+                e1,
+                e2,
+                pts,
+            ));
         }
-        self.points.as_ref().map(|p| p.3.as_slice()).unwrap_or(&[])
+        self.data
+            .points
+            .as_ref()
+            .map(|p| p.3.as_slice())
+            .unwrap_or(&[])
     }
 
     /// Advances by `h` (s), landing exactly on `time + h`: in equal internal steps no longer than
@@ -326,19 +325,19 @@ impl Simulation {
             )));
         }
         let mocap = self.mocap_path(h)?;
-        let mut u = self.current.ctrl.clone();
+        let mut u = self.data.current.ctrl.clone();
         u.extend_from_slice(&mocap);
-        let t0 = self.current.time;
+        let t0 = self.data.current.time;
         let done = self
             .model
             .advance_cached(
-                &self.current.state,
+                &self.data.current.state,
                 &u,
-                &self.current.params,
+                &self.data.current.params,
                 t0,
                 h,
                 &crate::integrate::AdvanceOptions::default(),
-                &mut self.cache,
+                &mut self.data.solver,
             )
             .map_err(|e| {
                 StepError::Discard(format!(
@@ -350,17 +349,17 @@ impl Simulation {
                     }
                 ))
             })?;
-        self.current.state = done.state;
+        self.data.current.state = done.state;
         // Land the mocap bodies exactly on their targets, keeping the step's velocity.
-        self.current.mocap = mocap;
-        for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
+        self.data.current.mocap = mocap;
+        for (m, target) in self.data.current.mocap_target.chunks(7).enumerate() {
             let o = crate::dynamics::MOCAP_INPUTS * m;
             let q = unit_target(&target[3..7]);
-            self.current.mocap[o..o + 7]
+            self.data.current.mocap[o..o + 7]
                 .copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
         }
-        self.current.time += h;
-        self.started = true;
+        self.data.current.time += h;
+        self.data.started = true;
         Ok(())
     }
 
@@ -373,14 +372,15 @@ impl Simulation {
         if !self.model_exchange || self.model.tree.mocap.is_empty() {
             return;
         }
-        let t = self.current.time;
+        let t = self.data.current.time;
         let poses: Vec<f64> = self
+            .data
             .current
             .mocap
             .chunks(crate::dynamics::MOCAP_INPUTS)
             .flat_map(|m| m[..7].to_vec())
             .collect();
-        if let Some((t0, prev)) = &self.current.mocap_sampled {
+        if let Some((t0, prev)) = &self.data.current.mocap_sampled {
             let dt = t - t0;
             if dt > 0.0 {
                 for (m, (now, before)) in poses.chunks(7).zip(prev.chunks(7)).enumerate() {
@@ -389,20 +389,20 @@ impl Simulation {
                     let q1 = crate::dynamics::quat_from(&now[3..7]);
                     let w = crate::dynamics::quat_log(&(q0.conjugate() * q1)) / dt;
                     for k in 0..3 {
-                        self.current.mocap[o + 7 + k] = (now[k] - before[k]) / dt;
-                        self.current.mocap[o + 10 + k] = w[k];
+                        self.data.current.mocap[o + 7 + k] = (now[k] - before[k]) / dt;
+                        self.data.current.mocap[o + 10 + k] = w[k];
                     }
                 }
             }
         }
-        self.current.mocap_sampled = Some((t, poses));
+        self.data.current.mocap_sampled = Some((t, poses));
     }
 
     /// The mocap part of the inputs for a communication step of `h` (s): the current poses with
     /// the velocities that reach the targets at its end.
     fn mocap_path(&self, h: f64) -> Result<Vec<f64>, StepError> {
-        let mut out = self.current.mocap.clone();
-        for (m, target) in self.current.mocap_target.chunks(7).enumerate() {
+        let mut out = self.data.current.mocap.clone();
+        for (m, target) in self.data.current.mocap_target.chunks(7).enumerate() {
             let o = crate::dynamics::MOCAP_INPUTS * m;
             let name = &self.model.tree.bodies[self.model.tree.mocap[m]].name;
             if target[3..7].iter().all(|&x| x == 0.0) {
@@ -453,16 +453,18 @@ impl Simulation {
     /// distinct state: the cache is keyed by the state itself, so no code path can leave it
     /// stale).
     pub fn accelerations(&mut self) -> ModelResult<&[f64]> {
-        let fresh = matches!(&self.accelerations, Some((at, _)) if at.state == self.current.state && at.ctrl == self.current.ctrl && at.mocap == self.current.mocap && at.params == self.current.params);
+        let fresh = matches!(&self.data.accelerations, Some((at, _)) if at.state == self.data.current.state && at.ctrl == self.data.current.ctrl && at.mocap == self.data.current.mocap && at.params == self.data.current.params);
         if !fresh {
-            let c = &self.current;
+            let c = &self.data.current;
             let f = self
                 .model
                 .forward(&c.state.q, &c.state.v, &self.inputs(), &c.params)
                 .map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
-            self.accelerations = Some((self.current.clone(), f.vdot.iter().copied().collect()));
+            self.data.accelerations =
+                Some((self.data.current.clone(), f.vdot.iter().copied().collect()));
         }
         Ok(self
+            .data
             .accelerations
             .as_ref()
             .map(|(_, a)| a.as_slice())
@@ -490,7 +492,7 @@ impl Simulation {
         self.quaternions()
             .iter()
             .map(|&i| {
-                (self.current.state.q[i..i + 4]
+                (self.data.current.state.q[i..i + 4]
                     .iter()
                     .map(|x| x * x)
                     .sum::<f64>()
@@ -503,11 +505,12 @@ impl Simulation {
 
     /// Continuous states `x = [q; v]` (Model Exchange).
     pub fn continuous_states(&self) -> Vec<f64> {
-        self.current
+        self.data
+            .current
             .state
             .q
             .iter()
-            .chain(&self.current.state.v)
+            .chain(&self.data.current.state.v)
             .copied()
             .collect()
     }
@@ -515,10 +518,10 @@ impl Simulation {
     /// Queues one `logContact` message per pair with its smooth distance, force and torque at
     /// the current state (only when the host has the category on).
     fn log_contacts(&mut self) {
-        if !self.log_contact {
+        if !self.data.log_contact {
             return;
         }
-        let t = self.current.time;
+        let t = self.data.current.time;
         let names: Vec<(String, String)> = self
             .model
             .pairs
@@ -537,7 +540,7 @@ impl Simulation {
                 "t = {t} s: contact {a}-{b}: distance D = {:.6e} m, force on {a} = ({:.6e}, {:.6e}, {:.6e}) N, torque on {a} = ({:.6e}, {:.6e}, {:.6e}) N.m",
                 c.distance, f.x, f.y, f.z, m.x, m.y, m.z
             );
-            self.messages.push(LogMessage {
+            self.data.messages.push(LogMessage {
                 category: LogCategory::Contact,
                 text,
             });

@@ -622,7 +622,7 @@ fn a_negative_margin_rests_deeper_and_its_state_round_trips() {
     for k in 0..500 {
         sim.do_step(k as f64 * h, h).unwrap();
     }
-    let z = sim.current.state.q[2];
+    let z = sim.data.current.state.q[2];
     assert!(
         (0.05 - 0.01 - z) > 0.0 && (0.05 - 0.01 - z) < 2e-3,
         "rests {z} m high"
@@ -646,12 +646,15 @@ fn assert_restored_run_replays(
     for k in steps.clone() {
         sim.do_step(k as f64 * h, h).unwrap();
     }
-    let end = sim.current.clone();
+    let end = sim.data.current.clone();
     sim.set_state(&restored).unwrap();
     for k in steps {
         sim.do_step(k as f64 * h, h).unwrap();
     }
-    assert_eq!(sim.current, end, "the restored run replays bit for bit");
+    assert_eq!(
+        sim.data.current, end,
+        "the restored run replays bit for bit"
+    );
 }
 
 /// `saved` with its kept out-of-reach proofs replaced by `reach`, the rest of its solver cache

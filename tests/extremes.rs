@@ -59,16 +59,17 @@ fn scene(
 
 fn energy(sim: &Simulation) -> f64 {
     sim.model
-        .energy(&sim.current.state.q, &sim.current.state.v)
+        .energy(&sim.data.current.state.q, &sim.data.current.state.v)
         .total()
 }
 
 fn finite(sim: &Simulation) -> bool {
-    sim.current
+    sim.data
+        .current
         .state
         .q
         .iter()
-        .chain(&sim.current.state.v)
+        .chain(&sim.data.current.state.v)
         .all(|x| x.is_finite())
 }
 
@@ -88,17 +89,20 @@ fn run(sim: &mut Simulation, h: f64, duration: f64, z_index: usize) -> End {
     let mut zmin = f64::INFINITY;
     for k in 0..n {
         let t = k as f64 * h;
-        let before = sim.current.clone();
+        let before = sim.data.current.clone();
         match sim.do_step(t, h) {
             Ok(()) => {
                 assert!(
                     finite(sim),
                     "a step returned OK with a non-finite state at t = {t}"
                 );
-                zmin = zmin.min(sim.current.state.q[z_index]);
+                zmin = zmin.min(sim.data.current.state.q[z_index]);
             }
             Err(StepError::Discard(m)) => {
-                assert_eq!(sim.current, before, "a discarded step changed the state");
+                assert_eq!(
+                    sim.data.current, before,
+                    "a discarded step changed the state"
+                );
                 assert!(m.contains("t = "), "{m}");
                 return End::Refused(t, m);
             }
@@ -127,7 +131,7 @@ fn stiffness_up_to_1e9() {
         let End::Done { zmin } = run(&mut sim, 0.01, 1.0, 2) else {
             panic!("implicit_euler refused k = {k}")
         };
-        let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
+        let (z, vz) = (sim.data.current.state.q[2], sim.data.current.state.v[2]);
         assert!(
             zmin > 0.05 - 0.01 - 9.81 / k,
             "k = {k}: the sphere sank to z = {zmin}"
@@ -222,8 +226,9 @@ fn eps_from_1e_9_to_10() {
             match run(&mut sim, 0.002, 0.2, 2) {
                 End::Done { zmin } => {
                     let (z, v) = (
-                        sim.current.state.q[2],
-                        sim.current
+                        sim.data.current.state.q[2],
+                        sim.data
+                            .current
                             .state
                             .v
                             .iter()
@@ -308,7 +313,7 @@ fn impact_at_100_m_s() {
             "0 0 -9.81",
             SPHERE_ON_PLANE,
         );
-        sim.current.state.v[2] = -100.0;
+        sim.data.current.state.v[2] = -100.0;
         let e0 = energy(&sim);
         match run(&mut sim, h, 0.02, 2) {
             End::Done { zmin } => {
@@ -318,7 +323,7 @@ fn impact_at_100_m_s() {
                     1e3 * (0.05 - zmin)
                 );
                 assert!(energy(&sim) <= e0 + 1e-9, "h = {h}: energy grew");
-                assert!(sim.current.state.v[2].abs() <= 100.0);
+                assert!(sim.data.current.state.v[2].abs() <= 100.0);
             }
             End::Refused(t, m) => println!("h = {h}: refused at {t}: {m}"),
         }
@@ -331,7 +336,7 @@ fn impact_at_100_m_s() {
         "0 0 -9.81",
         SPHERE_ON_PLANE,
     );
-    sim.current.state.v[2] = -100.0;
+    sim.data.current.state.v[2] = -100.0;
     assert!(matches!(run(&mut sim, 1e-3, 0.02, 2), End::Refused(..)));
 }
 
@@ -353,7 +358,7 @@ fn mass_ratio_1e6() {
     let End::Done { .. } = run(&mut sim, 0.002, 0.5, 2) else {
         panic!("refused")
     };
-    let q = &sim.current.state.q;
+    let q = &sim.data.current.state.q;
     let (zh, zl) = (q[2], q[9]);
     assert!((zh - 0.1).abs() < 0.005, "heavy box at z = {zh}");
     assert!(
@@ -362,9 +367,9 @@ fn mass_ratio_1e6() {
         zh + 0.1
     );
     assert!(
-        sim.current.state.v.iter().all(|v| v.abs() < 0.05),
+        sim.data.current.state.v.iter().all(|v| v.abs() < 0.05),
         "not at rest: {:?}",
-        sim.current.state.v
+        sim.data.current.state.v
     );
     assert!(energy(&sim) <= e0 + 1e-9);
 }
@@ -383,9 +388,9 @@ fn concentric_and_coincident_bodies_step_finitely() {
     );
     if let End::Done { .. } = run(&mut sim, 0.002, 0.2, 2) {
         assert!(
-            sim.current.state.q[..3].iter().all(|x| x.abs() < 0.05),
+            sim.data.current.state.q[..3].iter().all(|x| x.abs() < 0.05),
             "left the centre: {:?}",
-            &sim.current.state.q[..3]
+            &sim.data.current.state.q[..3]
         );
     }
     assert!(finite(&sim));
@@ -406,7 +411,7 @@ fn concentric_and_coincident_bodies_step_finitely() {
     );
     match run(&mut sim, 0.002, 0.1, 2) {
         End::Done { .. } => {
-            let v = &sim.current.state.v;
+            let v = &sim.data.current.state.v;
             let p: Vec<f64> = (0..3).map(|k| v[k] + v[6 + k]).collect();
             assert!(p.iter().all(|x| x.abs() < 1e-6), "momentum {p:?}");
         }
@@ -434,11 +439,11 @@ fn bodies_1e5_m_from_the_origin_move_as_at_the_origin() {
         let mut z = Vec::new();
         for k in 0..300 {
             sim.do_step(k as f64 * 0.001, 0.001).unwrap();
-            z.push(sim.current.state.q[2] - o[2]);
+            z.push(sim.data.current.state.q[2] - o[2]);
         }
         assert!(
-            (sim.current.state.q[0] - o[0]).abs() < 1e-7
-                && (sim.current.state.q[1] - o[1]).abs() < 1e-7
+            (sim.data.current.state.q[0] - o[0]).abs() < 1e-7
+                && (sim.data.current.state.q[1] - o[1]).abs() < 1e-7
         );
         z
     };

@@ -61,6 +61,7 @@ fn fixture(k: usize) -> &'static Fixture {
                     })
                     .collect();
                 let mocap_quat0 = sim
+                    .data
                     .current
                     .mocap_target
                     .chunks(7)

@@ -151,7 +151,7 @@ fn in_contact(name: &str) -> Simulation {
         _ => {}
     }
     let mut rng = crate::common::Lcg(7);
-    for v in sim.current.state.v.iter_mut() {
+    for v in sim.data.current.state.v.iter_mut() {
         *v += rng.range(-0.02, 0.02);
     }
     sim.exit_initialization().unwrap();
@@ -171,8 +171,8 @@ fn known_step(slot: Slot, x: f64) -> f64 {
 
 fn set_known(sim: &mut Simulation, slot: Slot, vr: u32, x: f64) {
     match slot {
-        Slot::Q(i) => sim.current.state.q[i] = x,
-        Slot::V(i) => sim.current.state.v[i] = x,
+        Slot::Q(i) => sim.data.current.state.q[i] = x,
+        Slot::V(i) => sim.data.current.state.v[i] = x,
         _ => sim
             .set_real(vr, x, scm::fmi::contract::Phase::Simulation)
             .unwrap(),
@@ -289,8 +289,8 @@ fn dependencies_follow_tendons_across_subtrees() {
     std::fs::write(&path, xml).unwrap();
     let mut sim = Simulation::from_file(&path).unwrap();
     // Past the limit, moving: every term of the tendon's force acts.
-    sim.current.state.q = vec![0.2, -0.1, 0.0, 0.4, -0.2];
-    sim.current.state.v = vec![0.3, -0.2, 0.1, -0.3, 0.5];
+    sim.data.current.state.q = vec![0.2, -0.1, 0.0, 0.4, -0.2];
+    sim.data.current.state.v = vec![0.3, -0.2, 0.1, -0.3, 0.5];
     let x = sim.continuous_states();
     sim.set_continuous_states(&x).unwrap();
     // The tendon's limit force is an output, depending on its joints' coordinates and
@@ -393,8 +393,8 @@ fn dependencies_follow_spatial_tendons() {
     let mut sim = Simulation::from_file(&path).unwrap();
     assert_eq!(sim.model.spatial_tendons.len(), 3);
     // Both arms moving, the string past its deadband and its limit.
-    sim.current.state.q = vec![0.2, -0.3, 0.05, 0.1];
-    sim.current.state.v = vec![0.4, -0.6, 0.2, 0.3];
+    sim.data.current.state.q = vec![0.2, -0.3, 0.05, 0.1];
+    sim.data.current.state.v = vec![0.4, -0.6, 0.2, 0.3];
     let x = sim.continuous_states();
     sim.set_continuous_states(&x).unwrap();
     let force = vr(sim.info(), "tendon.string.limit.force");
@@ -446,7 +446,7 @@ fn site_actuators_depend_on_their_bodies_and_match_central_differences() {
     let path = dir.join("drone.xml");
     std::fs::write(&path, xml).unwrap();
     let mut sim = Simulation::from_file(&path).unwrap();
-    sim.current.state.v = (0..sim.model.tree.nv)
+    sim.data.current.state.v = (0..sim.model.tree.nv)
         .map(|k| 0.2 - 0.05 * k as f64)
         .collect();
     for (k, name) in ["m1", "m2", "m3", "m4", "push", "drag", "aff"]
@@ -497,7 +497,7 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
                 .chain(&s.initial_unknowns)
                 .any(|(x, d)| *x == u && d.as_ref().is_some_and(|d| d.contains(&k)))
         };
-        let base = sim.current.clone();
+        let base = sim.data.current.clone();
         let (mut checked, mut zero) = (0, 0);
         for (kvr, kslot, kname) in &knowns {
             // The column of the Jacobian for this known, exactly.
@@ -508,7 +508,7 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
             let mut eval = |x: f64| -> Vec<f64> {
                 set_known(sim, *kslot, *kvr, x);
                 let out = uvrs.iter().map(|&u| sim.get_real(u).unwrap()).collect();
-                sim.current = base.clone();
+                sim.data.current = base.clone();
                 set_known(sim, *kslot, *kvr, x0);
                 out
             };
@@ -1013,7 +1013,7 @@ fn model_exchange_mocap_inputs_act_at_once_and_their_rate_is_the_velocity() {
         me.completed_integrator_step(true, &mut enter, &mut terminate),
         fmi2OK
     );
-    let mocap = &me.model().current.mocap;
+    let mocap = &me.model().data.current.mocap;
     assert!(
         (mocap[7] - 0.1).abs() < 1e-9 && mocap[8] == 0.0 && mocap[9] == 0.0,
         "paddle velocity {:?}",

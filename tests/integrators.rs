@@ -88,11 +88,11 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
     let (z_rest, phi) = equilibrium(&sim.model);
     let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
     run(&mut sim, h, 1.0, |s| {
-        zmin = zmin.min(s.current.state.q[2]);
-        zmax = zmax.max(s.current.state.q[2]);
+        zmin = zmin.min(s.data.current.state.q[2]);
+        zmax = zmax.max(s.data.current.state.q[2]);
     })
     .unwrap_or_else(|(t, m)| panic!("implicit_euler refused a step at {t}: {m}"));
-    let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
+    let (z, vz) = (sim.data.current.state.q[2], sim.data.current.state.v[2]);
     println!(
         "implicit_euler: z in [{zmin}, {zmax}], rests at {z} (static balance {z_rest}), vz {vz:e}"
     );
@@ -132,8 +132,8 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
             &text,
         );
         sim.model.integrator = integrator;
-        let mut last_good = sim.current.clone();
-        let refused = run(&mut sim, h, 1.0, |s| last_good = s.current.clone());
+        let mut last_good = sim.data.current.clone();
+        let refused = run(&mut sim, h, 1.0, |s| last_good = s.data.current.clone());
         let (t, message) = refused.expect_err(&format!("{} was not refused", integrator.name()));
         println!("{}: refused at t = {t}: {message}", integrator.name());
         // The message says what diverged and when; the state is the last good one, finite.
@@ -142,13 +142,14 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
             "{message}"
         );
         assert!(message.contains("t = "), "{message}");
-        assert_eq!(sim.current.state, last_good.state);
+        assert_eq!(sim.data.current.state, last_good.state);
         assert!(sim
+            .data
             .current
             .state
             .q
             .iter()
-            .chain(&sim.current.state.v)
+            .chain(&sim.data.current.state.v)
             .all(|x| x.is_finite()));
         assert!(t < 0.5, "{}: refused only at {t}", integrator.name());
     }
@@ -163,9 +164,9 @@ fn stiff_contact_implicit_settles_and_explicit_are_refused() {
     run(&mut sim, h, 1.0, |_| {})
         .unwrap_or_else(|(t, m)| panic!("dopri5 refused a step at {t}: {m}"));
     assert!(
-        (sim.current.state.q[2] - z_rest).abs() < 1e-6,
+        (sim.data.current.state.q[2] - z_rest).abs() < 1e-6,
         "dopri5 rests at {}",
-        sim.current.state.q[2]
+        sim.data.current.state.q[2]
     );
 }
 
@@ -181,11 +182,11 @@ fn implicit_method_holds_k_1e9_at_50_ms() {
     run(&mut sim, 0.05, 1.0, |s| {
         println!(
             "t {} z {:.9e} vz {:.3e}",
-            s.current.time, s.current.state.q[2], s.current.state.v[2]
+            s.data.current.time, s.data.current.state.q[2], s.data.current.state.v[2]
         )
     })
     .unwrap_or_else(|(t, m)| panic!("refused at {t}: {m}"));
-    let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
+    let (z, vz) = (sim.data.current.state.q[2], sim.data.current.state.v[2]);
     assert!(
         vz.abs() < 1e-8 && (z - z_rest).abs() < 1e-9,
         "z = {z} vs {z_rest}, vz = {vz}"
@@ -203,9 +204,9 @@ fn a_non_finite_step_is_refused_and_the_state_kept() {
             text,
         );
         sim.model.integrator = integrator;
-        sim.current.state.v[3..6].copy_from_slice(&[1e160, 2e160, -1e160]);
-        sim.current.time = 0.25;
-        let before = sim.current.clone();
+        sim.data.current.state.v[3..6].copy_from_slice(&[1e160, 2e160, -1e160]);
+        sim.data.current.time = 0.25;
+        let before = sim.data.current.clone();
         let err = sim.do_step(0.25, 0.01).unwrap_err();
         let StepError::Discard(message) = err else {
             panic!("{}: {err:?}", integrator.name())
@@ -217,7 +218,7 @@ fn a_non_finite_step_is_refused_and_the_state_kept() {
         );
         assert!(message.contains("t = 0.25"), "{message}");
         assert_eq!(
-            sim.current,
+            sim.data.current,
             before,
             "{}: the state changed",
             integrator.name()
@@ -413,7 +414,7 @@ fn communication_steps_land_exactly_on_their_end() {
                 }
             }
         }
-        let (zs, vs) = (sim.current.state.q[2], sim.current.state.v[2]);
+        let (zs, vs) = (sim.data.current.state.q[2], sim.data.current.state.v[2]);
         assert!(
             (zs - z).abs() < 1e-12 && (vs - vz).abs() < 1e-12,
             "{}: z {zs} vs {z}, vz {vs} vs {vz} at {t}",
@@ -665,7 +666,7 @@ fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step()
     assert_eq!(model.timestep, h);
     let scene = scm::scene::load_str(&text, std::path::Path::new("pendulum.xml")).unwrap();
     let mut sim = Simulation::new(scene, &text);
-    sim.current.state.q[0] = 0.5;
+    sim.data.current.state.q[0] = 0.5;
     let run = |sim: &mut Simulation, from: usize| -> usize {
         for k in from..400 {
             match sim.do_step(k as f64 * h, h) {
@@ -694,14 +695,14 @@ fn a_restored_fmu_state_carries_the_energy_ledger_and_refuses_at_the_same_step()
         "the ledger is part of the state"
     );
     let first = run(&mut sim, 30);
-    let end = sim.current.clone();
+    let end = sim.data.current.clone();
     sim.set_state(&restored).unwrap();
     assert_eq!(
         run(&mut sim, 30),
         first,
         "the restored run is refused at the same step"
     );
-    assert_eq!(sim.current, end);
+    assert_eq!(sim.data.current, end);
     println!("refused at communication step {first}, after a restore at step 30 too");
 }
 
@@ -1055,12 +1056,15 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     for k in 20..60 {
         sim.do_step(k as f64 * dt, dt).unwrap();
     }
-    let end = sim.current.clone();
+    let end = sim.data.current.clone();
     sim.set_state(&restored).unwrap();
     for k in 20..60 {
         sim.do_step(k as f64 * dt, dt).unwrap();
     }
-    assert_eq!(sim.current, end, "the restored run replays bit for bit");
+    assert_eq!(
+        sim.data.current, end,
+        "the restored run replays bit for bit"
+    );
 
     // Layout version 3 (before the velocity change) still loads where it has none, e.g. a
     // damped Euler state (its cache entry has flag 1); a flag 2 under version 3 is refused.

@@ -605,7 +605,7 @@ fn a_limited_pendulum_rests_against_its_limit() {
     use scm::fmi::contract::FmiModel;
     let mut sim = scm::sim::Simulation::new(s, text);
     sim.do_step(0.0, 3.0).unwrap();
-    let (q, v) = (sim.current.state.q[0], sim.current.state.v[0]);
+    let (q, v) = (sim.data.current.state.q[0], sim.data.current.state.v[0]);
     // Static balance: gravity's torque about the hinge equals the limit spring's.
     let gravity_torque = 1.0 * 9.81 * 0.25 * q.cos();
     let deflection = gravity_torque / l.stiffness + 0.5 * l.width;
@@ -643,8 +643,8 @@ fn a_limited_pendulum_rests_against_its_limit() {
     assert!(letting_go < 0.0);
     for (q, v) in [(l.hi + 0.01, 0.2), (l.hi + d, 0.1), (l.hi + d, letting_go)] {
         let at = |sim: &mut scm::sim::Simulation, q: f64, v: f64| {
-            sim.current.state.q[0] = q;
-            sim.current.state.v[0] = v;
+            sim.data.current.state.q[0] = q;
+            sim.data.current.state.v[0] = v;
             sim.get_real(f).unwrap()
         };
         for (known, dq, dv) in [(hq, 1e-7, 0.0), (hv, 0.0, 1e-7)] {
@@ -697,9 +697,9 @@ fn a_keyframe_chosen_by_scm_keyframe_is_the_initial_state() {
         let sim = scm::sim::Simulation::new(s, &scene(choice));
         assert_eq!(
             (
-                sim.current.state.q[0],
-                sim.current.state.v[0],
-                sim.current.ctrl[0]
+                sim.data.current.state.q[0],
+                sim.data.current.state.v[0],
+                sim.data.current.ctrl[0]
             ),
             (0.3, -1.5, 0.25)
         );
@@ -1918,9 +1918,9 @@ fn a_flat_height_field_is_the_plane_of_its_surface() {
         sim.step(0.002).unwrap();
         on_plane.step(0.002).unwrap();
     }
-    let q = &sim.current.state.q;
+    let q = &sim.data.current.state.q;
     assert_eq!(
-        q, &on_plane.current.state.q,
+        q, &on_plane.data.current.state.q,
         "the same motion as on the plane"
     );
     let centre = Vector3::new(q[0], q[1], q[2]);

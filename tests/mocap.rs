@@ -158,11 +158,11 @@ fn the_pose_moves_at_the_input_rate_and_lands_on_the_input() {
     for k in 0..4 {
         sim.set_real(qw + k, 0.0, Phase::Simulation).unwrap();
     }
-    let before = sim.current.clone();
+    let before = sim.data.current.clone();
     assert!(
         matches!(sim.do_step(0.1, 0.05), Err(StepError::Error(m)) if m.contains("paddle.quat is zero"))
     );
-    assert_eq!(sim.current, before);
+    assert_eq!(sim.data.current, before);
 }
 
 #[test]
@@ -179,7 +179,7 @@ fn the_paddle_pushes_the_box() {
         sim.do_step(t, h).unwrap();
         push.push(sim.get_real(fx).unwrap());
     }
-    let q = &sim.current.state;
+    let q = &sim.data.current.state;
     println!(
         "box at x = {:.4}, z = {:.5}, vx = {:.4}; push force on the box over the last 0.5 s: {:?}",
         q.q[0],
@@ -221,12 +221,15 @@ fn inputs_of_the_wrong_length_are_refused() {
     // expected length in the message.
     let sim = mocap_push();
     let m = &sim.model;
-    let (q, v) = (sim.current.state.q.clone(), sim.current.state.v.clone());
+    let (q, v) = (
+        sim.data.current.state.q.clone(),
+        sim.data.current.state.v.clone(),
+    );
     let e = m.forward(&q, &v, &[], &m.contact).unwrap_err();
     assert!(e.to_string().contains("expected 13"), "{e}");
     let e = m
         .advance(
-            &sim.current.state,
+            &sim.data.current.state,
             &[0.0; 5],
             &m.contact,
             0.0,

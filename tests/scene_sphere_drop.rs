@@ -15,9 +15,9 @@ fn sphere_comes_to_rest_at_the_equilibrium_penetration() {
         sim.do_step(t, h).unwrap();
         t += h;
     }
-    let (z, vz) = (sim.current.state.q[2], sim.current.state.v[2]);
+    let (z, vz) = (sim.data.current.state.q[2], sim.data.current.state.v[2]);
     assert!(vz.abs() < 1e-6, "still moving after 3 s: vz = {vz}");
-    let prm = sim.current.params;
+    let prm = sim.data.current.params;
     let (m, g, r) = (1.0, 9.81, 0.05);
 
     // 1. The static balance of the SCM over this very AOPC, written out independently of the

@@ -28,7 +28,7 @@ fn box_stack_rests(integrator: Integrator, step: f64) {
     let mut max_drift: f64 = 0.0;
     for k in 0..100 {
         sim.do_step(k as f64 * h, h).unwrap();
-        let s = &sim.current.state;
+        let s = &sim.data.current.state;
         kinetic.push(sim.model.energy(&s.q, &s.v).kinetic);
         if k == 9 {
             settled = Some(s.q.clone()); // t = 1 s
@@ -132,7 +132,7 @@ fn the_arm_pushes_the_box() {
     let mut push = Vec::new();
     for k in 0..400 {
         let t = k as f64 * h;
-        let s = sim.current.state.clone();
+        let s = sim.data.current.state.clone();
         let target = (0.6 * t).min(1.9);
         sim.set_real(
             sh,
@@ -147,24 +147,26 @@ fn the_arm_pushes_the_box() {
         if !approached && sim.get_real(dist).unwrap() < 0.005 {
             approached = true;
             // Until the tip came within 5 mm, the box had not moved.
-            let b = &sim.current.state.q[2..];
+            let b = &sim.data.current.state.q[2..];
             assert!(
                 b.iter().all(|x| x.abs() < 1e-9),
                 "box moved before contact: {b:?}"
             );
         }
         if contact_at.is_none() && f.abs() > 0.1 {
-            contact_at = Some((t + h, sim.current.state.q[0]));
+            contact_at = Some((t + h, sim.data.current.state.q[0]));
         }
         if (3.0..3.4).contains(&t) {
             push.push(f);
         }
         // The motors never give more than their control range allows.
-        let tau = sim.model.actuator_forces(&s.q, &s.v, &sim.current.ctrl);
+        let tau = sim
+            .model
+            .actuator_forces(&s.q, &s.v, &sim.data.current.ctrl);
         assert!(tau.iter().all(|x| x.abs() <= 2.0 + 1e-12), "{tau:?}");
     }
     let (t_contact, angle) = contact_at.expect("the tip never touched the box");
-    let s = &sim.current.state;
+    let s = &sim.data.current.state;
     println!(
         "contact at t = {t_contact} s, shoulder {angle}; box at ({}, {}, yaw {}); push {:?}",
         s.q[2], s.q[3], s.q[4], push
@@ -207,7 +209,7 @@ fn the_finger_pushes_the_t_block() {
         sim.set_real(ay, (0.1 * t).min(0.2), Phase::Simulation)
             .unwrap();
         sim.do_step(t, h).unwrap();
-        let s = &sim.current.state;
+        let s = &sim.data.current.state;
         if k > 250 {
             // No jitter: the T's yaw rate never flips sign from one step to the next at more
             // than 1 mrad/s (the symptom of an unstable friction damper).
@@ -224,7 +226,7 @@ fn the_finger_pushes_the_t_block() {
             touched = Some(s.q[4]);
         }
     }
-    let s = &sim.current.state;
+    let s = &sim.data.current.state;
     let finger_at_contact = touched.expect("the T never moved");
     println!("T at ({}, {}, yaw {}), finger at ({}, {}), first moved with the finger at y = {finger_at_contact}", s.q[0], s.q[1], s.q[2], s.q[3], s.q[4]);
     // The finger (r = 1.5 cm, starting 25 cm below the T's centre) reaches the stem's end

@@ -70,7 +70,7 @@ fn the_facade_runs_as_the_fmu_does_to_the_bit() {
 #[test]
 fn the_facade_refuses_with_the_reason_and_changes_nothing() {
     let mut sim = Simulation::from_file(&scene("sphere_drop")).unwrap();
-    let before = sim.current.clone();
+    let before = sim.data.current.clone();
     let cases: [(&str, Value, &str); 6] = [
         (
             "ball.pos.q",
@@ -94,12 +94,12 @@ fn the_facade_refuses_with_the_reason_and_changes_nothing() {
             "{name} = {value:?}: '{words}' not in {err}"
         );
         assert_eq!(
-            sim.current, before,
+            sim.data.current, before,
             "{name}: a refused value changed the state"
         );
     }
     assert!(sim.set_param(Param::Friction, -0.1).is_err());
-    assert_eq!(sim.current, before);
+    assert_eq!(sim.data.current, before);
 
     // Once started, the states belong to the simulation (as in Co-Simulation); a tunable
     // parameter still takes effect.

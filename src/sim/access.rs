@@ -56,7 +56,7 @@ impl Simulation {
     /// integrator or an output is refused with the reason, and nothing changes.
     pub fn set(&mut self, name: &str, value: Value) -> ModelResult<()> {
         let row = self.variable(name)?.clone();
-        let before_start = !self.started;
+        let before_start = !self.data.started;
         match value {
             Value::Real(x) => self.write(&row, x, before_start),
             Value::Text(s) => self.write_text(&row, s, before_start),
@@ -72,7 +72,7 @@ impl Simulation {
         let name = p.describe().0;
         Self::check_finite(&format!("scm.{name}"), value)?;
         let pairs = &self.model.pairs;
-        let unchanged = p.get(&self.current.params) == value;
+        let unchanged = p.get(&self.data.current.params) == value;
         if !unchanged && !pairs.is_empty() && pairs.iter().all(|pair| pair.owns(p)) {
             let source = if p == Param::Friction {
                 "the friction its geoms or <pair> give"
@@ -112,9 +112,9 @@ impl Simulation {
                 }
             ));
         }
-        *p.slot(&mut self.current.params) = value;
+        *p.slot(&mut self.data.current.params) = value;
         if let Some(text) = self.smoothing_warning(p, value) {
-            self.messages.push(LogMessage {
+            self.data.messages.push(LogMessage {
                 category: LogCategory::StatusWarning,
                 text,
             });
@@ -148,23 +148,23 @@ impl Simulation {
         // Checked before any is changed, so a refusal leaves every quaternion as set.
         if let Some((_, name)) = named_quaternions(&self.model.tree)
             .into_iter()
-            .find(|(i, _)| !has_direction(&self.current.state.q[*i..*i + 4]))
+            .find(|(i, _)| !has_direction(&self.data.current.state.q[*i..*i + 4]))
         {
             return Err(format!(
                 "{name}.quat is zero: set a non-zero orientation quaternion"
             ));
         }
         for i in quaternions {
-            normalize_quaternion(&mut self.current.state.q[i..i + 4]);
+            normalize_quaternion(&mut self.data.current.state.q[i..i + 4]);
         }
-        self.messages.push(LogMessage {
+        self.data.messages.push(LogMessage {
             category: LogCategory::Events,
             text: format!(
                 "initialized {} at t = {} s",
-                self.model.name, self.current.time
+                self.model.name, self.data.current.time
             ),
         });
-        self.started = true;
+        self.data.started = true;
         Ok(())
     }
 }
@@ -174,25 +174,25 @@ impl Simulation {
     /// The value a Real slot holds at the current state.
     pub(crate) fn read(&mut self, slot: Slot) -> ModelResult<f64> {
         Ok(match slot {
-            Slot::Time => self.current.time,
-            Slot::Q(i) => self.current.state.q[i],
-            Slot::V(i) => self.current.state.v[i],
-            Slot::Ctrl(i) => self.current.ctrl[i],
-            Slot::Mocap(m, k) => self.current.mocap_target[7 * m + k],
-            Slot::Param(p) => p.get(&self.current.params),
+            Slot::Time => self.data.current.time,
+            Slot::Q(i) => self.data.current.state.q[i],
+            Slot::V(i) => self.data.current.state.v[i],
+            Slot::Ctrl(i) => self.data.current.ctrl[i],
+            Slot::Mocap(m, k) => self.data.current.mocap_target[7 * m + k],
+            Slot::Param(p) => p.get(&self.data.current.params),
             Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
             Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
             Slot::PairDistance(p) => self.contacts()[p].distance,
             Slot::LimitForce(j) => {
                 let jt = &self.model.tree.joints[j];
-                let s = &self.current.state;
+                let s = &self.data.current.state;
                 jt.limit
                     .as_ref()
                     .map_or(0.0, |l| l.force(s.q[jt.qadr], s.v[jt.dadr]))
             }
             Slot::TendonLimitForce(t) => {
                 let tendon = &self.model.tendons[t];
-                let s = &self.current.state;
+                let s = &self.data.current.state;
                 tendon
                     .limit
                     .as_ref()
@@ -200,8 +200,8 @@ impl Simulation {
             }
             Slot::SpatialTendonLimitForce(t) => {
                 let tendon = &self.model.spatial_tendons[t];
-                let s = &self.current.state;
-                let kin = (self.model.tree).kinematics_with(&s.q, &s.v, &self.current.mocap);
+                let s = &self.data.current.state;
+                let kin = (self.model.tree).kinematics_with(&s.q, &s.v, &self.data.current.mocap);
                 let (l, ldot) = tendon.length_and_rate(&kin.frames);
                 tendon
                     .law
@@ -216,7 +216,7 @@ impl Simulation {
             Slot::QDot(i) => self
                 .model
                 .tree
-                .qdot(&self.current.state.q, &self.current.state.v)[i],
+                .qdot(&self.data.current.state.q, &self.data.current.state.v)[i],
             Slot::VDot(i) => self.accelerations()?[i],
         })
     }
@@ -236,21 +236,25 @@ impl Simulation {
             // right-hand side at states of their own choosing (CasADi's `DaeBuilder` calls
             // `fmi2SetReal` on the states in Event Mode) rely on it, and Modelica tools' FMUs
             // accept it. A Co-Simulation instance owns its state between steps.
-            Slot::Q(i) if before_init || self.model_exchange => self.current.state.q[i] = value,
-            Slot::V(i) if before_init || self.model_exchange => self.current.state.v[i] = value,
-            Slot::Ctrl(i) => self.current.ctrl[i] = value,
+            Slot::Q(i) if before_init || self.model_exchange => {
+                self.data.current.state.q[i] = value
+            }
+            Slot::V(i) if before_init || self.model_exchange => {
+                self.data.current.state.v[i] = value
+            }
+            Slot::Ctrl(i) => self.data.current.ctrl[i] = value,
             Slot::Mocap(m, k) => {
                 // Before initialization the pose is set at once (at rest). Later, in
                 // Co-Simulation it is the target the next communication step moves to; in
                 // Model Exchange the pose at the current time (its velocity is estimated at the
                 // host's completed integrator steps, see `Simulation::sample_mocap`).
-                self.current.mocap_target[7 * m + k] = value;
+                self.data.current.mocap_target[7 * m + k] = value;
                 let o = crate::dynamics::MOCAP_INPUTS * m;
                 if self.model_exchange && !before_init {
-                    self.current.mocap[o + k] = value;
+                    self.data.current.mocap[o + k] = value;
                 } else if before_init {
-                    self.current.mocap[o + k] = value;
-                    self.current.mocap[o + 7..o + 13].fill(0.0);
+                    self.data.current.mocap[o + k] = value;
+                    self.data.current.mocap[o + 7..o + 13].fill(0.0);
                 }
             }
             // Tunable at any time; `fmi2Reset` restores the scene's value.

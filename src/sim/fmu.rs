@@ -29,7 +29,7 @@ impl FmiModel for Simulation {
     ) -> ModelResult<()> {
         Self::check_finite("startTime", start_time)?;
         // Only the current time: `fmi2Reset` goes back to the instantiated state (t = 0).
-        self.current.time = start_time;
+        self.data.current.time = start_time;
         Ok(())
     }
 
@@ -51,14 +51,14 @@ impl FmiModel for Simulation {
     }
 
     fn reset(&mut self) -> ModelResult<()> {
-        self.current = self.start.clone();
+        self.data.current = self.start.clone();
         let (integrator, step, tolerance) = self.start_solver;
         // The integrator brings its own limit law (`Model::set_integrator`).
         self.model.set_integrator(integrator);
         (self.model.timestep, self.model.tolerance) = (step, tolerance);
-        self.cache = Default::default();
-        self.started = false;
-        self.messages.push(LogMessage {
+        self.data.solver = Default::default();
+        self.data.started = false;
+        self.data.messages.push(LogMessage {
             category: LogCategory::Events,
             text: "reset to the start values".into(),
         });
@@ -66,7 +66,7 @@ impl FmiModel for Simulation {
     }
 
     fn time(&self) -> f64 {
-        self.current.time
+        self.data.current.time
     }
 
     fn get_real(&mut self, vr: u32) -> ModelResult<f64> {
@@ -99,9 +99,9 @@ impl FmiModel for Simulation {
         }
         // The step starts at the host's communication point (the time the FMU reports is the
         // host's, not the sum of its own steps); `step` lands on `current_time + step`.
-        let before = std::mem::replace(&mut self.current.time, current_time);
+        let before = std::mem::replace(&mut self.data.current.time, current_time);
         if let Err(e) = self.step(step) {
-            self.current.time = before;
+            self.data.current.time = before;
             return Err(e);
         }
         self.log_contacts();
@@ -109,16 +109,16 @@ impl FmiModel for Simulation {
     }
 
     fn take_messages(&mut self) -> Vec<LogMessage> {
-        std::mem::take(&mut self.messages)
+        std::mem::take(&mut self.data.messages)
     }
 
     fn get_state(&self) -> ModelResult<FmuState> {
         Ok(FmuState {
-            sim: self.current.clone(),
+            sim: self.data.current.clone(),
             integrator: self.model.integrator,
             timestep: self.model.timestep,
             tolerance: self.model.tolerance,
-            solver_cache: self.cache.clone(),
+            solver_cache: self.data.solver.clone(),
         })
     }
 
@@ -133,10 +133,10 @@ impl FmiModel for Simulation {
         {
             return Err("the FMU state belongs to another scene (its sizes differ)".into());
         }
-        self.current = state.sim.clone();
+        self.data.current = state.sim.clone();
         self.model.set_integrator(state.integrator);
         (self.model.timestep, self.model.tolerance) = (state.timestep, state.tolerance);
-        self.cache = state.solver_cache.clone();
+        self.data.solver = state.solver_cache.clone();
         Ok(())
     }
 
@@ -183,7 +183,7 @@ impl FmiModel for Simulation {
         }
         jacobian::directional_derivative(
             &self.model,
-            &self.current,
+            &self.data.current,
             &u,
             &k,
             dv_known,
@@ -197,7 +197,7 @@ impl FmiModel for Simulation {
 
     fn set_time(&mut self, time: f64) -> ModelResult<()> {
         // Nothing depends on time explicitly: no cache to drop.
-        self.current.time = time;
+        self.data.current.time = time;
         Ok(())
     }
 
@@ -216,8 +216,8 @@ impl FmiModel for Simulation {
                 return Err(format!("the quaternion of joint {} (x[{qa}..{}]) is zero: it has no orientation; the states are unchanged", j.name, qa + 4));
             }
         }
-        self.current.state.q.copy_from_slice(&x[..nq]);
-        self.current.state.v.copy_from_slice(&x[nq..]);
+        self.data.current.state.q.copy_from_slice(&x[..nq]);
+        self.data.current.state.v.copy_from_slice(&x[nq..]);
         Ok(())
     }
 
@@ -225,12 +225,12 @@ impl FmiModel for Simulation {
         let mut dx = self
             .model
             .tree
-            .qdot(&self.current.state.q, &self.current.state.v);
+            .qdot(&self.data.current.state.q, &self.data.current.state.v);
         dx.extend_from_slice(self.accelerations()?);
         if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
             return Err(format!(
                 "the derivative of state {i} is {} at t = {} s",
-                dx[i], self.current.time
+                dx[i], self.data.current.time
             ));
         }
         Ok(dx)
@@ -251,7 +251,7 @@ impl FmiModel for Simulation {
         let mut changed = false;
         let mut zero = Vec::new();
         for (i, name) in named_quaternions(&self.model.tree) {
-            let q = &mut self.current.state.q[i..i + 4];
+            let q = &mut self.data.current.state.q[i..i + 4];
             let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
             if (n - 1.0).abs() > 4.0 * f64::EPSILON {
                 if normalize_quaternion(q) {
@@ -262,7 +262,7 @@ impl FmiModel for Simulation {
             }
         }
         for name in zero {
-            self.messages.push(LogMessage {
+            self.data.messages.push(LogMessage {
                 category: LogCategory::StatusWarning,
                 text: format!("{name}.quat is zero at the event: left as set; set a non-zero orientation quaternion before the next step"),
             });
@@ -272,7 +272,7 @@ impl FmiModel for Simulation {
 
     fn logging_changed(&mut self, category: LogCategory, on: bool) {
         if category == LogCategory::Contact {
-            self.log_contact = on;
+            self.data.log_contact = on;
         }
     }
 }
