@@ -56,7 +56,7 @@ fn main() {
     sim.initialize().expect("init");
     let n = (warmup / 0.002).round() as usize;
     for _ in 0..n {
-        sim.step(0.002).expect("warm-up step");
+        sim.advance(0.002).expect("warm-up step");
     }
     let m = sim.model.clone();
     let state = sim.data.current.state.clone();

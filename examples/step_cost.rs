@@ -147,7 +147,7 @@ fn warm_state(a: &Args, scene: &std::path::Path) -> Result<SimState, String> {
     sim.model.timestep = 1e-3;
     let n = (a.warmup / 0.01).round() as usize;
     for _ in 0..n {
-        sim.step(0.01).map_err(|e| format!("warm-up: {e}"))?;
+        sim.advance(0.01).map_err(|e| format!("warm-up: {e}"))?;
     }
     Ok(sim.data.current)
 }
@@ -201,7 +201,7 @@ fn poses_after(
 ) -> Result<Vec<scm::collision::Frame<f64>>, String> {
     let mut sim = simulation_at(a, scene, warm, integrator, h)?;
     for _ in 0..(t / a.h).round() as usize {
-        sim.step(a.h)
+        sim.advance(a.h)
             .map_err(|e| format!("--error run ({}, h = {h} s): {e}", integrator.name()))?;
     }
     Ok(sim
@@ -547,7 +547,7 @@ fn run() -> Result<String, String> {
         // solver cache with it) saved to be restored before each timed step.
         let mut sim = simulation_at(&a, &scene, &warm, integrator, a.h)?;
         for _ in 0..warm_steps {
-            sim.step(h)
+            sim.advance(h)
                 .map_err(|e| format!("engine warm-up step: {e}"))?;
         }
         let saved = sim.get_state().map_err(|e| e.to_string())?;
@@ -666,7 +666,7 @@ fn run() -> Result<String, String> {
                     // Restart from the same state each time, so every call times the same step.
                     let mut sim = sim.borrow_mut();
                     sim.set_state(&saved).expect("restore");
-                    sim.step(h).expect("step");
+                    sim.advance(h).expect("step");
                 },
                 &mut || unsafe {
                     assert_eq!(fmi2SetFMUstate(c, fmu_state), fmi2OK);

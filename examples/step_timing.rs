@@ -28,7 +28,7 @@ fn main() {
             sim.set("act_y.ctrl", Value::Real((0.1 * t).min(0.25)))
                 .expect("input");
             let start = Instant::now();
-            if let Err(e) = sim.step(h) {
+            if let Err(e) = sim.advance(h) {
                 println!("{}: refused at t = {t}: {e}", integrator.name());
                 break;
             }

@@ -83,7 +83,7 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 /// memos. The
 /// FMU and the command line use the same small facade: variables by name
 /// ([`Simulation::set`], [`Simulation::get`], [`Simulation::set_param`]),
-/// [`Simulation::step`] and [`Simulation::outputs`].
+/// [`Simulation::advance`] and [`Simulation::outputs`].
 ///
 /// # Example
 ///
@@ -106,7 +106,7 @@ type PointsCache = (Vec<f64>, f64, f64, Vec<Vec<nalgebra::Vector3<f64>>>);
 /// let mut sim = Simulation::new(scm::scene::load_str(xml, Path::new("drop.xml"))?, xml);
 /// sim.set("ball.pos.z", Value::Real(0.1))?; // a start value, by its FMU name
 /// sim.set_param(Param::Eps2, 5e-4)?; // a contact parameter (tunable at any time)
-/// sim.step(1.0)?;
+/// sim.advance(1.0)?;
 /// let z = sim.get("ball.pos.z")?; // and every output: sim.output_names(), sim.outputs()
 /// assert!((z - 0.05).abs() < 2e-3, "resting height {z}");
 /// // The outputs by name: the floor (first body of the pair) carries the ball's weight.
@@ -318,7 +318,7 @@ impl Simulation {
     /// its state, time and inputs from before the call and the error says what went wrong and
     /// when; its solver cache may have changed ([`Model::advance_cached`]), which no later
     /// step's validity depends on.
-    pub fn step(&mut self, h: f64) -> Result<(), StepError> {
+    pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
         if !h.is_finite() || h <= 0.0 {
             return Err(StepError::Error(format!(
                 "a step of {h} s refused: it must be positive and finite"

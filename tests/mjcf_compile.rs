@@ -1915,8 +1915,8 @@ fn a_flat_height_field_is_the_plane_of_its_surface() {
     .unwrap();
     let mut on_plane = scm::sim::Simulation::from_file(&plane).unwrap();
     for _ in 0..750 {
-        sim.step(0.002).unwrap();
-        on_plane.step(0.002).unwrap();
+        sim.advance(0.002).unwrap();
+        on_plane.advance(0.002).unwrap();
     }
     let q = &sim.data.current.state.q;
     assert_eq!(

@@ -1,5 +1,5 @@
 //! The small facade a Rust caller and the command line use (`Simulation::set`, `set_param`,
-//! `step`, `outputs`): it is the FMU's own code path, so a run through it equals, bit for bit,
+//! `advance`, `outputs`): it is the FMU's own code path, so a run through it equals, bit for bit,
 //! the same run through the C ABI, and it refuses what a host would be refused.
 
 use crate::common::host::{self, Instance};
@@ -30,7 +30,7 @@ fn the_facade_runs_as_the_fmu_does_to_the_bit() {
         let [x, y] = input(k);
         sim.set("act_x.ctrl", Value::Real(x)).unwrap();
         sim.set("act_y.ctrl", Value::Real(y)).unwrap();
-        sim.step(h).unwrap();
+        sim.advance(h).unwrap();
         via_facade.push(sim.outputs().unwrap());
     }
 
@@ -104,7 +104,7 @@ fn the_facade_refuses_with_the_reason_and_changes_nothing() {
     // Once started, the states belong to the simulation (as in Co-Simulation); a tunable
     // parameter still takes effect.
     sim.set("ball.pos.z", Value::Real(0.3)).unwrap();
-    sim.step(0.01).unwrap();
+    sim.advance(0.01).unwrap();
     let err = sim.set("ball.pos.z", Value::Real(0.5)).unwrap_err();
     assert!(err.contains("after initialization"), "{err}");
     sim.set("scm.stiffness", Value::Real(2e4)).unwrap();

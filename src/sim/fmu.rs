@@ -98,9 +98,9 @@ impl FmiModel for Simulation {
             )));
         }
         // The step starts at the host's communication point (the time the FMU reports is the
-        // host's, not the sum of its own steps); `step` lands on `current_time + step`.
+        // host's, not the sum of its own steps); `advance` lands on `current_time + step`.
         let before = std::mem::replace(&mut self.data.current.time, current_time);
-        if let Err(e) = self.step(step) {
+        if let Err(e) = self.advance(step) {
             self.data.current.time = before;
             return Err(e);
         }

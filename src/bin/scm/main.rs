@@ -338,7 +338,7 @@ fn simulate(
     let mut progress: Option<indicatif::ProgressBar> = None;
     for k in 0..=n {
         if k > 0 {
-            sim.step(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
+            sim.advance(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
         }
         let row: Vec<String> = std::iter::once(at(k))
             .chain(sim.outputs()?)
