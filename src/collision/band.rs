@@ -101,6 +101,7 @@ pub fn separation_band<T: Scalar>(
     eps2: T,
 ) -> SeparationBand<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    let mut scratch = Relevant::default();
     band_of(
         a,
         b,
@@ -108,24 +109,46 @@ pub fn separation_band<T: Scalar>(
         eps1,
         eps2,
         SpringShape::NONE,
-        0,
-        &mut Relevant::default(),
-        None,
-        None,
+        BandWork::bare(&mut scratch),
     )
+}
+
+/// What a band walk works with beyond the pair and its smoothing: how many SSDF terms it keeps
+/// for the forces, its scratch, where it pushes the gradients, and the pair's candidate memo.
+pub(crate) struct BandWork<'w> {
+    /// The SSDF terms kept at most (0: none; [`terms_budget`](super::terms_budget)).
+    pub(crate) keep_terms: usize,
+    /// Scratch space for the SSDF queries.
+    pub(crate) scratch: &'w mut Relevant,
+    /// Where `∇Φ_f` of each entry is pushed, if asked.
+    pub(crate) grads: Option<&'w mut Vec<Vector3<f64>>>,
+    /// The pair's candidate planes kept from one call to the next, if any.
+    pub(crate) memo: Option<&'w mut CandidateMemo>,
+}
+
+impl BandWork<'_> {
+    /// A walk that keeps no term and no memo and pushes no gradient, with `scratch`.
+    pub(crate) fn bare(scratch: &mut Relevant) -> BandWork<'_> {
+        BandWork {
+            keep_terms: 0,
+            scratch,
+            grads: None,
+            memo: None,
+        }
+    }
 }
 
 /// [`separation_band`] given the motion of each body in the other's frame (`rels[0]`: `a` seen
 /// from `b`, `rels[1]`: `b` seen from `a`), with scratch space for the SSDF queries. With
-/// `spring.eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). The SSDF terms of
-/// the entries that can end within the cutoff are kept ([`SeparationBand::terms`]) while fewer
-/// than `keep_terms` are (0: none; [`terms_budget`](super::terms_budget)): an entry past it has
-/// none, and its terms must be summed again where they are needed. With `grads`, the
-/// gradient `∇Φ_f` of each entry with respect to its query point (the other body's frame,
-/// real parts) is pushed, in the order of the entries. With `kept`, each query point's
-/// candidate planes are kept from one call to the next ([`CandidateMemo`]; the same band to
-/// the last bit, at less cost while the bodies move little).
-#[allow(clippy::too_many_arguments)]
+/// `spring.eps3 > 0` (m), each entry bounds its springs ([`BandEntry::springs`]). From `work`
+/// ([`BandWork`]): the SSDF terms of the entries that can end within the cutoff are kept
+/// ([`SeparationBand::terms`]) while fewer than `keep_terms` are (0: none;
+/// [`terms_budget`](super::terms_budget)): an entry past it has none, and its terms must be
+/// summed again where they are needed. With `grads`, the gradient `∇Φ_f` of each entry with
+/// respect to its query point (the other body's frame, real parts) is pushed, in the order of
+/// the entries. With `memo`, each query point's candidate planes are kept from one call to the
+/// next ([`CandidateMemo`]; the same band to the last bit, at less cost while the bodies move
+/// little).
 pub(crate) fn band_of<T: Scalar>(
     a: &Collider,
     b: &Collider,
@@ -133,11 +156,14 @@ pub(crate) fn band_of<T: Scalar>(
     eps1: T,
     eps2: T,
     spring: SpringShape,
-    keep_terms: usize,
-    scratch: &mut Relevant,
-    mut grads: Option<&mut Vec<Vector3<f64>>>,
-    mut kept: Option<&mut CandidateMemo>,
+    work: BandWork<'_>,
 ) -> SeparationBand<T> {
+    let BandWork {
+        keep_terms,
+        scratch,
+        mut grads,
+        memo: mut kept,
+    } = work;
     let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
     // Room for a resting contact's band at once (growing them a few times cost more).
     let mut band = SeparationBand {

@@ -52,7 +52,7 @@ mod reach;
 mod tests;
 mod topk;
 
-pub(crate) use band::band_of;
+pub(crate) use band::{band_of, BandWork};
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
 pub use memo::{

@@ -228,10 +228,12 @@ pub fn pair_jacobian(
         b,
         rels,
         prm,
-        terms_budget(a, b),
-        &mut Relevant::default(),
-        Some(&mut grads),
-        None,
+        BandWork {
+            keep_terms: terms_budget(a, b),
+            scratch: &mut Relevant::default(),
+            grads: Some(&mut grads),
+            memo: None,
+        },
         || LocalJacobian::new(prm, true),
         |i, w, pf, snk| records.push((i, w, *pf, snk)),
     );

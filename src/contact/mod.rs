@@ -6,8 +6,8 @@
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
 use crate::collision::{
-    band_of, separation_field_naive, terms_budget, CandidateMemo, Collider, Frame, Relative,
-    SeparationBand, SeparationDistribution,
+    band_of, separation_field_naive, terms_budget, BandWork, CandidateMemo, Collider, Frame,
+    Relative, SeparationBand, SeparationDistribution,
 };
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
 use crate::geometry::Aopc;
@@ -224,22 +224,26 @@ pub(super) struct PairParts<T: Scalar> {
 /// The SSDF–SSDF contact of a pair in the plane frames of both sides (module documentation of
 /// [`pair_contact`]), given each body's motion in the other's frame. `on_force(i, W_f, F, s)`
 /// is called for every evaluated point force (entry `i` of the band) with the sink that saw its
-/// terms (made by `sink()`); `grads` receives `∇Φ_f` of every band entry; `kept`, the pair's
-/// candidate planes kept across calls ([`CandidateMemo`]); `keep_terms`, how many SSDF terms
-/// the band keeps ([`terms_budget`] but in tests: the entries past it sum theirs again).
-#[allow(clippy::too_many_arguments)]
+/// terms (made by `sink()`); `work`: what the band walk works with ([`BandWork`]: its
+/// `grads` receive `∇Φ_f` of every band entry, its `memo` is the pair's candidate planes kept
+/// across calls, [`CandidateMemo`]; its `keep_terms`, how many SSDF terms the band keeps,
+/// [`terms_budget`] but in tests, where the entries past it sum theirs again); its scratch
+/// serves the force loop too.
 pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<T>; 2],
     prm: &ContactParams<T>,
-    keep_terms: usize,
-    scratch: &mut Relevant,
-    grads: Option<&mut Vec<Vector3<f64>>>,
-    kept: Option<&mut CandidateMemo>,
+    work: BandWork<'_>,
     mut sink: impl FnMut() -> S,
     mut on_force: impl FnMut(usize, T, &PointForce<T>, S),
 ) -> PairParts<T> {
+    let BandWork {
+        keep_terms,
+        scratch,
+        grads,
+        memo,
+    } = work;
     let band = band_of(
         a,
         b,
@@ -250,10 +254,12 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
             eps3: prm.eps3.re(),
             margin: prm.margin.re(),
         },
-        keep_terms,
-        scratch,
-        grads,
-        kept,
+        BandWork {
+            keep_terms,
+            scratch: &mut *scratch,
+            grads,
+            memo,
+        },
     );
     let (dist, weights) = SeparationDistribution::from_band_weights(&band, prm.eps2);
     let mut sums = [SideSums::zero(), SideSums::zero()];
@@ -430,10 +436,12 @@ fn pair_contact_generic_memo<T: Scalar>(
         b,
         &rels,
         prm,
-        terms_budget(a, b),
-        &mut Relevant::default(),
-        None,
-        kept,
+        BandWork {
+            keep_terms: terms_budget(a, b),
+            scratch: &mut Relevant::default(),
+            grads: None,
+            memo: kept,
+        },
         || NoForceSink,
         |_, _, _, _| {},
     );

@@ -104,10 +104,12 @@ impl PairTape {
             b,
             &rels,
             prm,
-            terms_budget(a, b),
-            &mut Relevant::default(),
-            None,
-            kept,
+            BandWork {
+                keep_terms: terms_budget(a, b),
+                scratch: &mut Relevant::default(),
+                grads: None,
+                memo: kept,
+            },
             || TermSink(Vec::new()),
             |i, w, _, sink| {
                 let start = terms.len();

@@ -294,10 +294,12 @@ fn terms_past_the_budget_are_summed_again_to_the_same_bits() {
             &b,
             &rels,
             &prm,
-            keep,
-            &mut Relevant::default(),
-            None,
-            None,
+            BandWork {
+                keep_terms: keep,
+                scratch: &mut Relevant::default(),
+                grads: None,
+                memo: None,
+            },
             || NoForceSink,
             |_, _, _, _| {},
         );

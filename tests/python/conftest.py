@@ -87,8 +87,8 @@ def pytest_configure(config):
     config.addinivalue_line(
         "markers",
         "slow: left out of `scripts/test.sh --quick` (the report, the contact-on envelope, the bench, the "
-        "inference studies, the dm_control and gymnasium-robotics corpora: each costs tens of seconds or "
-        "more); CI runs them")
+        "inference studies, the dm_control and gymnasium-robotics corpora, the wheel's build: each costs tens "
+        "of seconds or more); CI runs them")
 
 
 @pytest.fixture(scope="session")

@@ -14,8 +14,9 @@ from fmpy import simulate_fmu
 
 from conftest import ROOT, SCENES, SCM
 
-# One worker builds the wheel once (scripts/wheel.sh stages into one folder of the build tree).
-pytestmark = pytest.mark.xdist_group("wheel")
+# One worker builds the wheel once (scripts/wheel.sh stages into one folder of the build tree);
+# the build takes about a minute, so the quick tier leaves it to CI.
+pytestmark = [pytest.mark.xdist_group("wheel"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")

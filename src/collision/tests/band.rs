@@ -46,10 +46,12 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
                 eps3: 1e-4,
                 margin: 0.0,
             },
-            usize::MAX,
-            &mut Relevant::default(),
-            None,
-            None,
+            BandWork {
+                keep_terms: usize::MAX,
+                scratch: &mut Relevant::default(),
+                grads: None,
+                memo: None,
+            },
         );
         let cutoff = band.min + band.margin * eps2;
         // Entries evaluated beyond the final cutoff were dropped, and the kept terms of the
@@ -171,10 +173,12 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                         eps3: 1e-4,
                         margin: 0.0,
                     },
-                    usize::MAX,
-                    &mut Relevant::default(),
-                    None,
-                    kept,
+                    BandWork {
+                        keep_terms: usize::MAX,
+                        scratch: &mut Relevant::default(),
+                        grads: None,
+                        memo: kept,
+                    },
                 )
             };
             let (fresh, with_kept) = (walk(None), walk(Some(&mut kept)));
@@ -215,10 +219,12 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                 eps3: 1e-4,
                 margin: 0.0,
             },
-            usize::MAX,
-            &mut Relevant::default(),
-            None,
-            Some(&mut kept),
+            BandWork {
+                keep_terms: usize::MAX,
+                scratch: &mut Relevant::default(),
+                grads: None,
+                memo: Some(&mut kept),
+            },
         );
         assert_eq!(kept.counts().hits, counts.hits, "another ε1 drops them");
         // (At the soft ε1 the polytope's floor proves the far nodes first, and no point is
@@ -330,10 +336,12 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
                 eps3: 1e-4,
                 margin: 0.0,
             },
-            usize::MAX,
-            &mut Relevant::default(),
-            Some(grads),
-            None,
+            BandWork {
+                keep_terms: usize::MAX,
+                scratch: &mut Relevant::default(),
+                grads: Some(grads),
+                memo: None,
+            },
         );
         (band.entries.len(), band.evaluated)
     };
@@ -397,10 +405,12 @@ fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
                     eps3: 1e-4,
                     margin: 0.0,
                 },
-                terms_budget(&a, &b),
-                &mut Relevant::default(),
-                None,
-                Some(&mut kept),
+                BandWork {
+                    keep_terms: terms_budget(&a, &b),
+                    scratch: &mut Relevant::default(),
+                    grads: None,
+                    memo: Some(&mut kept),
+                },
             );
             let terms = TERMS_PER_POINT * (n1 + n2) + n1.max(n2);
             assert!(band.entries.len() <= n1 + n2, "case {case}");
