@@ -313,13 +313,13 @@ fn terms_past_the_budget_are_summed_again_to_the_same_bits() {
             .collect();
         (bits, kept, parts.band.entries.len())
     };
-    let (all, reuse_all, entries) = run(usize::MAX);
+    let (all, all_terms, entries) = run(usize::MAX);
     let (points, planes) = (a.len(), b.len());
     assert!(
-        reuse_all > 8 * (points + planes) && entries > 100,
-        "a wide softmax: {reuse_all} terms for {entries} entries"
+        all_terms > 8 * (points + planes) && entries > 100,
+        "a wide softmax: {all_terms} terms for {entries} entries"
     );
-    for keep in [0, 1000, reuse_all / 2, terms_budget(&a, &b)] {
+    for keep in [0, 1000, all_terms / 2, terms_budget(&a, &b)] {
         let (bits, kept, _) = run(keep);
         assert!(
             kept <= keep + points.max(planes),

@@ -37,7 +37,9 @@ pub struct SolverCache {
 
 /// What one internal step borrows from the [`SolverCache`] (or from its caller) and leaves
 /// there: the Newton Jacobian, the pairs' kept proofs and candidate planes, and the count of
-/// halved steps. Only the Jacobian can change a result, in its last bits (where Newton starts).
+/// halved steps. The Jacobian can change a result in its last bits (where Newton starts), a
+/// carried [`ReachProof`](crate::collision::ReachProof) which pairs are switched off (below its
+/// bound); the candidate memos and the count change nothing.
 pub(super) struct StepCarry<'c> {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact: tried first,
     /// replaced when the iterations contract slowly.

@@ -301,7 +301,8 @@ impl Model {
     /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
     /// iterations fail (typically when contact starts within a step much longer than the
     /// contact's period), the step is done as two halves of the same method, recursively, down
-    /// to `h / 2⁸`, each half from a fresh Jacobian. `depth`: the halvings so far;
+    /// to `h / 2⁸`; the halves start from a fresh Jacobian and share it. `depth`: the halvings
+    /// so far;
     /// `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler.
     pub(super) fn implicit_step_subdividing(
         &self,

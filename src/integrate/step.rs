@@ -8,8 +8,9 @@ use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
 use crate::scalar::Scalar;
 
-/// One internal step's problem: from `state` over `h`, with the inputs `u` at its start
-/// ([`Model::nu`]) and the contact parameters `prm`.
+/// One internal step's problem: from `state` over `h`, with the inputs `u` ([`Model::nu`]; at
+/// the step's start, but in implicit Euler's residual, which reads them at its end) and the
+/// contact parameters `prm`.
 pub(super) struct StepFrom<'a, T: Scalar> {
     pub(super) state: &'a State<T>,
     pub(super) u: &'a [T],

@@ -1,8 +1,11 @@
 //! The forward dynamics (paper eq. 28), evaluated in one place: [`Model::forward_at`]. Every
 //! caller (the plain dynamics, the integrators' stages, damped Euler's contact at the end
-//! velocity, implicit Euler's Newton iterations) says through [`ForwardOptions`] what it takes
-//! differently from the plain dynamics and what it may reuse; [`Model::forward`] and
-//! [`Model::forward_with`] only turn the inputs `u` into the generalized force first.
+//! velocity on dual numbers and for its Jacobian, implicit Euler's Newton iterations) says
+//! through [`ForwardOptions`] what it takes differently from the plain dynamics and what it may
+//! reuse; [`Model::forward`] and [`Model::forward_with`] only turn the inputs `u` into the
+//! generalized force first. The one other evaluation is damped Euler's values-only step,
+//! [`Model::frozen_forward`] (src/model/frozen.rs), which computes the same terms once per step
+//! and shares the loop over the pairs.
 
 use super::*;
 
@@ -120,7 +123,7 @@ impl Model {
     /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
     /// (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `h D` only with
     /// [`ForwardOptions::implicit_damping`]; the one evaluation every other entry calls. Order:
-    /// kinematics, contact ([`Model::contact_forces`]: proofs, then the pairs in reach), the
+    /// kinematics, contact (`Model::visit_pairs`: proofs, then the pairs in reach), the
     /// forces on the bodies, RNEA, the (damped) mass matrix, its factorization and solve.
     pub fn forward_at<T: Scalar>(
         &self,
@@ -129,6 +132,8 @@ impl Model {
         opts: ForwardOptions<'_, T>,
     ) -> Result<Forward<T>, DynamicsError> {
         let EvalPoint { q, v, tau, mocap } = at;
+        let mut opts = opts;
+        opts.reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
         let kin = opts
             .kinematics

@@ -24,7 +24,7 @@ pub struct FrozenForward<'m> {
     /// Each pair in reach: its bodies, its parameters and its recorded contact.
     tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
     /// The contact of every pair where it was recorded (at the start velocity), in pair order:
-    /// `None` for a pair out of reach, as [`Forward::contacts`].
+    /// `None` for a pair out of reach, as [`Forward::contacts`], or without a collider.
     contacts: Vec<Option<PairContact<f64>>>,
     /// The stiction velocity of the tendons' dry friction.
     stiction_velocity: f64,
@@ -43,6 +43,8 @@ impl Model {
         reuse: Reuse,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         let EvalPoint { q, v, tau, mocap } = at;
+        let mut reuse = reuse;
+        reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
         let rhs =
@@ -97,7 +99,8 @@ impl FrozenForward<'_> {
     }
 
     /// Each pair's contact where it was recorded (the start velocity), in pair order, `None`
-    /// out of reach: the same bits as the forward dynamics' [`Forward::contacts`] there.
+    /// out of reach or without a collider: the same bits as the forward dynamics'
+    /// [`Forward::contacts`] there for every pair whose bodies both have a collider.
     pub fn contacts(&self) -> &[Option<PairContact<f64>>] {
         &self.contacts
     }

@@ -94,7 +94,7 @@ pub enum Reuse<'a> {
     Candidates(&'a mut PairCarry),
 }
 
-/// One pair's kept out-of-reach proof and candidate planes, as [`Model::contacts_with`] hands
+/// One pair's kept out-of-reach proof and candidate planes, as [`Model::visit_pairs`] hands
 /// them out (either may be absent).
 type PairKept<'a> = (
     Option<&'a mut Option<ReachProof>>,
@@ -121,6 +121,16 @@ pub(super) fn add_pair_wrenches<T: Scalar>(
     for (body, x) in [(a, on[0]), (b, on[1])] {
         wrenches[body].force += x.force;
         wrenches[body].torque += x.torque;
+    }
+}
+
+impl Reuse<'_> {
+    /// Fits the carried data, if any, to `pairs` pairs ([`PairCarry::fit`]; a no-op when it
+    /// fits already).
+    pub fn fit(&mut self, pairs: usize) {
+        if let Reuse::All(carry) | Reuse::Candidates(carry) = self {
+            carry.fit(pairs);
+        }
     }
 }
 
@@ -304,16 +314,12 @@ impl Model {
         eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
     ) -> Vec<PairVisit<R>> {
         let n = self.pairs.len();
+        let mut reuse = reuse;
+        reuse.fit(n);
         let kept: Vec<PairKept<'_>> = match reuse {
             Reuse::Nothing => (0..n).map(|_| (None, None)).collect(),
-            Reuse::All(all) => {
-                all.fit(n);
-                all.pairs().map(|(r, c)| (Some(r), c)).collect()
-            }
-            Reuse::Candidates(all) => {
-                all.fit(n);
-                all.pairs().map(|(_, c)| (None, c)).collect()
-            }
+            Reuse::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).collect(),
+            Reuse::Candidates(all) => all.pairs().map(|(_, c)| (None, c)).collect(),
         };
         let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();

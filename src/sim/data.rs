@@ -25,7 +25,8 @@ pub struct Data {
     /// ([`SolverCache`]: Newton's warm Jacobian, the energy guard's ledger, the pairs' proofs
     /// and candidate memos, the kinematics memo). Changes a result: in the last bits (where
     /// Newton starts), in which pairs a proof switches off (below its bound), and in which steps
-    /// the guard refuses. FMU state: yes, all but the memos ([`SolverCache::parts`]).
+    /// the guard refuses. FMU state: yes; in memory (`fmi2GetFMUstate`) a whole copy, in the
+    /// serialized bytes all but the memos ([`SolverCache::parts`]).
     pub(crate) solver: SolverCache,
     /// The contact outputs and the state they were computed at: they serve while the current
     /// state is that one (a memo). Changes a result: no. FMU state: no.
