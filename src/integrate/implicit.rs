@@ -93,16 +93,12 @@ fn step_residual<T: Scalar>(
     let StepFrom { state, u, prm, h } = from;
     let (q0, v0) = (&state.q, &state.v);
     let q = model.tree.integrate_q(q0, vs, h);
-    let a = match kept {
-        Some(kept) => {
-            let opts = ForwardOptions {
-                reuse: Reuse::Candidates(&mut kept.borrow_mut()),
-                ..ForwardOptions::default()
-            };
-            model.forward_with(&q, vs, u, prm, opts)?.vdot
-        }
-        None => model.forward(&q, vs, u, prm)?.vdot,
+    let mut carried = kept.map(RefCell::borrow_mut);
+    let opts = ForwardOptions {
+        reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::Candidates(c)),
+        ..ForwardOptions::default()
     };
+    let a = model.forward_with(&q, vs, u, prm, opts)?.vdot;
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
 }
 

@@ -178,20 +178,15 @@ impl Model {
         // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
         // at less cost (their proofs fresh, as everywhere but at a step's start).
         let mut kept = carry.pairs;
-        let mut accel = |q: &[T], v: &[T], u: &[T]| match kept.as_deref_mut() {
-            Some(kept) => {
-                let opts = ForwardOptions {
-                    reuse: Reuse::Candidates(kept),
-                    ..ForwardOptions::default()
-                };
-                Ok(self
-                    .forward_with(q, v, u, prm, opts)?
-                    .vdot
-                    .iter()
-                    .copied()
-                    .collect())
-            }
-            None => self.accel(q, v, u, prm),
+        let mut accel = |q: &[T], v: &[T], u: &[T]| -> Result<Vec<T>, DynamicsError> {
+            let opts = ForwardOptions {
+                reuse: kept
+                    .as_deref_mut()
+                    .map_or(Reuse::Nothing, Reuse::Candidates),
+                ..ForwardOptions::default()
+            };
+            let f = self.forward_with(q, v, u, prm, opts)?;
+            Ok(f.vdot.iter().copied().collect())
         };
         let dv1 = match a0 {
             Some(a) => a,

@@ -314,13 +314,18 @@ impl Model {
         eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
     ) -> Vec<PairVisit<R>> {
         let n = self.pairs.len();
-        let mut reuse = reuse;
-        reuse.fit(n);
+        // Fitted by the callers that carry data (`forward_at`, `frozen_forward`), before any
+        // check that can fail, so a failing call leaves a fitted carry.
         let kept: Vec<PairKept<'_>> = match reuse {
             Reuse::Nothing => (0..n).map(|_| (None, None)).collect(),
             Reuse::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).collect(),
             Reuse::Candidates(all) => all.pairs().map(|(_, c)| (None, c)).collect(),
         };
+        debug_assert_eq!(
+            kept.len(),
+            n,
+            "the carried pair data is fitted to the pairs"
+        );
         let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();
         for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
