@@ -173,21 +173,23 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
         );
     }
     println!("settled {proven} of {beyond} pairs more than 2 reach distances + 5 mm apart; largest force / bound {worst:e}");
-    assert!(
-        proven * 10 >= beyond * 9,
+    // Every one (117 of 117 measured; 106 before the proof used the polytope's floor).
+    assert_eq!(
+        proven, beyond,
         "the proof settles too few pairs that are clearly apart: {proven} of {beyond}"
     );
 }
 
 /// Two bodies face to face at rest: touching, they are in reach; apart, the proof settles
 /// them within a few reach distances (3.5 mm at ε3 = 0.1 mm at rest) for a sphere or a
-/// capsule (the closed-form bounds of `geometry::radial` and `geometry::spine`), but only
-/// from about 4 cm for two boxes side by side, and rightly: the edge points of one box lie a
-/// half spacing behind the planes of the other's top and bottom faces, whose weights there are
-/// about `e^{-g s/ε1}` (`g` the gap, `s` the spacing), so each such point is pushed with a
-/// force that fades only over centimetres. Aligned, those pushes cancel (the reference force is
-/// 1e-21 N at 1 cm); with one box 3 mm higher they do not: 1.2e-5 N at a gap of 1 cm, 5.5e-10 N
-/// at 2 cm, 2.5e-14 N at 3 cm (τ k ε3 = 1e-15 N).
+/// capsule (the closed-form bounds of `geometry::radial` and `geometry::spine`), and two boxes
+/// side by side from a gap of about one and a half cover radii (1.06 cm at 1 cm spacing). The
+/// SSDF's own planes alone settled the boxes only from 3.6 cm: the edge points of one box lie
+/// a half spacing behind the planes of the other's top and bottom faces, whose weights there
+/// are about `e^{-g s/ε1}` (`g` the gap, `s` the spacing). Every reading is raised to the
+/// floor of the plane body's polytope (docs/method.md, "Departure 3"), and the proof uses that
+/// floor too: measured, the boxes are settled from 1.45 cm, the sphere beside a box from 6 mm
+/// (8.5 mm without the floor).
 #[test]
 fn bodies_a_few_reach_distances_apart_are_settled() {
     let prm = params(1e-5, 1e-4);
@@ -210,13 +212,22 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
     assert!((3e-3..5e-3).contains(&t), "reach distance {t}");
     // A capsule's side beside a box reaches as far as a box does (its points beyond the box's
     // top and bottom lie behind those faces' planes); beside a sphere, only its own reach.
-    for (name, b, other, settled_by) in [
-        ("sphere beside a box", &ball, &cube, 2.0 * t + 2e-3),
-        ("capsule beside a sphere", &capsule, &ball, 2.0 * t + 2e-3),
-        ("box beside a box", &cube, &cube, 0.04),
+    // The boxes also with one 3 mm higher: the top and bottom faces' planes then pass 3 mm
+    // from the other's edge points instead of through them, the case where they push most.
+    for (name, b, other, settled_by, dz) in [
+        ("sphere beside a box", &ball, &cube, 2.0 * t + 2e-3, 0.0),
+        (
+            "capsule beside a sphere",
+            &capsule,
+            &ball,
+            2.0 * t + 2e-3,
+            0.0,
+        ),
+        ("box beside a box", &cube, &cube, 0.02, 0.0),
+        ("box beside a box, 3 mm higher", &cube, &cube, 0.02, 0.003),
     ] {
         let at = |gap: f64| Frame {
-            origin: Vector3::new(0.1 + gap, 0.0, 0.0),
+            origin: Vector3::new(0.1 + gap, 0.0, dz),
             ..Frame::identity()
         };
         let far = |gap: f64| is_far(b, &at(gap), other, &Frame::identity(), &prm);
