@@ -44,3 +44,46 @@ def test_bench_times_every_scene_against_mujoco(tmp_path):
         scm_check, mj_check = (float(x) for x in r[6].split(","))
         assert scm_check < 1.0 and mj_check < 1.0, r
     assert (tmp_path / "bench.png").stat().st_size > 0
+
+
+def test_robots_as_written_are_timed_against_mujoco(tmp_path):
+    """scripts/robots.py on the two quickest files (the shadow hand, gymnasium's hopper): one row
+    each, every time and the peak memory a measured positive number, the step and integrator the
+    files' own (MuJoCo's names), and a run that fails is a row that says why, not a crash."""
+    out = tmp_path / "robots.md"
+    rows = []
+    for only in ("Shadow", "hopper"):
+        p = subprocess.run([sys.executable, str(ROOT / "scripts" / "robots.py"), "--out", str(out), "--only", only],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stderr
+        table = out.read_text()
+        rows += [l.split("|")[1:-1] for l in table.splitlines() if l.startswith("| ") and "---" not in l][1:]
+    assert [r[0].strip() for r in rows] == ["Shadow hand reach (gymnasium-robotics)", "hopper (gymnasium)"]
+    assert [r[1].strip() for r in rows] == ["mjINT_EULER, 0.002 s", "mjINT_RK4, 0.002 s"]
+    for r in rows:
+        steps, scm, mj, ratio, rtf, mj_rtf, load, peak = (float(x) for x in r[2:])
+        assert steps >= 10 and scm > 0 and mj > 0 and load >= 0 and 1 < peak < 500, r
+        # The columns are one another's quotients: SCM / MuJoCo, and h over each step's time.
+        # (Each within the rounding of the printed figures: 4 significant digits, µs to 0.1,
+        # ratios to units.)
+        assert abs(ratio - scm * 1e3 / mj) <= 0.5 + 0.01 * ratio, r
+        assert abs(rtf - 0.002 / (scm * 1e-3)) <= 1e-3 * rtf, r
+        assert abs(mj_rtf - 0.002 / (mj * 1e-6)) <= 0.5 + 0.01 * mj_rtf, r
+
+    # A file MuJoCo runs and SCM refuses (activation dynamics, another issue) is a row that says
+    # why, and the other files are still timed.
+    refused = tmp_path / "filtered.xml"
+    refused.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/></body>
+      </worldbody><actuator><general joint="j" dyntype="filter" dynprm="0.1"/></actuator></mujoco>""")
+    plain = tmp_path / "pendulum.xml"
+    plain.write_text("""<mujoco><worldbody><body><joint type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></worldbody></mujoco>""")
+    p = subprocess.run([sys.executable, str(ROOT / "scripts" / "robots.py"), "--out", str(out),
+                        "--file", str(refused), "--file", str(plain), "--duration", "2"],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    table = out.read_text()
+    rows = [l.split("|")[1:-1] for l in table.splitlines() if l.startswith("| ") and "---" not in l][1:]
+    assert [r[0].strip() for r in rows] == ["filtered", "pendulum"]
+    assert rows[0][3].strip() == "—" and float(rows[1][3]) > 0, rows
+    assert "- filtered: exit 1:" in table and "dyntype" in table, table

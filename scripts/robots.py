@@ -1,0 +1,150 @@
+"""Robots as their files are written, in SCM and in MuJoCo, measured in one run (issue 41's
+speed and memory targets): each file run with its own integrator, step and contact settings,
+from its initial state with no control, SCM through `scm simulate` (one CSV row at the start and
+one at the end, so the outputs cost two evaluations, not one per step) in a child process whose
+peak resident set is read from the kernel (RUSAGE_CHILDREN), MuJoCo through `mj_step` on the
+same file for the same number of steps.
+
+The ratio is SCM's wall time per internal step over MuJoCo's; the real-time factor is simulated
+time over wall time (above 1: faster than real time). SCM's time is the stepping alone (what
+`scm simulate` reports as its wall time: the scene's loading and sampling are left out, and
+given apart). MuJoCo's is the median of 5 runs of the same steps from its initial state.
+
+The files come from the wheels scripts/setup.sh unpacks (robosuite 1.5.2, gymnasium-robotics
+1.4.2, gymnasium). Writes reports/robots.md, or --out FILE. Nothing here is a pass/fail test.
+"""
+import argparse
+import importlib.util
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SCM = ROOT / "target" / "release" / "scm"
+ROBOSUITE = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets"
+ROBOTICS = ROOT / ".venv" / "gymnasium_robotics_assets" / "gymnasium_robotics" / "envs" / "assets"
+GYM_SPEC = importlib.util.find_spec("gymnasium")
+GYMNASIUM = pathlib.Path(GYM_SPEC.origin).parent / "envs" / "mujoco" / "assets" if GYM_SPEC else None
+
+# (label, file, simulated seconds): durations sized so that the slowest runs take about a minute.
+ROBOTS = [
+    ("Franka (robosuite)", ROBOSUITE / "robots/panda/robot.xml", 0.1),
+    ("xArm7 (robosuite)", ROBOSUITE / "robots/xarm7/robot.xml", 0.1),
+    ("Spot (robosuite)", ROBOSUITE / "robots/spot/robot.xml", 0.05),
+    ("TIAGo (robosuite)", ROBOSUITE / "robots/tiago/robot.xml", 0.05),
+    ("Jaco (robosuite)", ROBOSUITE / "robots/jaco/robot.xml", 0.02),
+    ("Fourier hand (robosuite)", ROBOSUITE / "grippers/fourier_left_hand.xml", 0.02),
+    ("Robotiq 140 (robosuite)", ROBOSUITE / "grippers/robotiq_gripper_140.xml", 0.05),
+    ("Shadow hand reach (gymnasium-robotics)", ROBOTICS / "hand/reach.xml", 0.2),
+]
+if GYMNASIUM:
+    ROBOTS += [(f"{n} (gymnasium)", GYMNASIUM / f"{n}.xml", 1.0) for n in ("hopper", "ant", "humanoid")]
+
+# A fresh Python whose only child is scm, so RUSAGE_CHILDREN is scm's own peak.
+PEAK = """
+import resource, subprocess, sys, time
+t0 = time.perf_counter()
+r = subprocess.run(sys.argv[1:], capture_output=True, text=True)
+t1 = time.perf_counter()
+print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, t1 - t0)
+sys.stderr.write(r.stderr[-3000:])
+"""
+
+
+def scm_run(scm, xml, duration, timeout):
+    """SCM's stepping wall time (s), its whole run's (s), peak resident set (MB), and an error
+    text or None."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "run.csv"
+        cmd = [sys.executable, "-c", PEAK, str(scm), "simulate", str(xml), "--duration", repr(duration),
+               "--output-interval", repr(duration), "-o", str(out)]
+        try:
+            p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return None, None, None, f"not done within {timeout} s"
+    code, peak_kb, whole = p.stdout.split()
+    m = re.search(r"in ([0-9.]+) s wall time", p.stderr)
+    if int(code) != 0 or not m:
+        last = [line for line in p.stderr.splitlines() if line.strip()][-1:] or ["(no message)"]
+        return None, float(whole), int(peak_kb) / 1024, f"exit {code}: {last[0][:200]}"
+    if float(m.group(1)) == 0:
+        return None, float(whole), int(peak_kb) / 1024, "stepped in under 1 ms of wall time (scm's resolution): give a longer duration"
+    return float(m.group(1)), float(whole), int(peak_kb) / 1024, None
+
+
+def mujoco_run(xml, steps):
+    """MuJoCo's time per step (s) over `steps` from the initial state (median of 5), its
+    integrator's name and step (s)."""
+    import mujoco
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    samples = []
+    for _ in range(5):
+        mujoco.mj_resetData(m, d)
+        t0 = time.perf_counter()
+        mujoco.mj_step(m, d, nstep=steps)
+        samples.append((time.perf_counter() - t0) / steps)
+    return float(np.median(samples)), mujoco.mjtIntegrator(m.opt.integrator).name, m.opt.timestep
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=pathlib.Path, default=ROOT / "reports" / "robots.md")
+    ap.add_argument("--timeout", type=float, default=600.0, help="per SCM run (s)")
+    ap.add_argument("--only", help="labels containing this text")
+    ap.add_argument("--scm", type=pathlib.Path, default=SCM, help="the scm binary (another build's, to compare)")
+    ap.add_argument("--file", type=pathlib.Path, action="append", default=[],
+                    help="time this MJCF file instead of the list (repeatable; with --duration)")
+    ap.add_argument("--duration", type=float, default=0.02, help="simulated time of each --file (s)")
+    a = ap.parse_args()
+    robots = [(f.stem, f, a.duration) for f in a.file] if a.file else ROBOTS
+    rows = []
+    for label, xml, duration in robots:
+        if a.only and a.only not in label:
+            continue
+        if not xml.exists():
+            raise SystemExit(f"robots: {xml} missing: run scripts/setup.sh")
+        t_mj, integrator, h = mujoco_run(xml, max(1, round(duration / 0.002)))
+        steps = max(1, round(duration / h))
+        wall, whole, peak, err = scm_run(a.scm, xml, steps * h, a.timeout)
+        print(f"{label}: {integrator} h={h}: SCM {wall} s stepping ({whole} s in all), {peak} MB; "
+              f"MuJoCo {t_mj * 1e6:.1f} us/step; {err or ''}", file=sys.stderr)
+        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, err))
+    lines = [
+        "# Robots as written, against MuJoCo",
+        "",
+        "Written by `scripts/robots.py` (one run). Each file with its own integrator, step and contact"
+        " settings, from its initial state with no control: SCM by `scm simulate` (stepping time, one"
+        " CSV row at each end; peak resident set of the whole process), MuJoCo by `mj_step` on the same"
+        " file for the same steps (median of 5 runs). Real-time factor: simulated time over wall time.",
+        "",
+        "| robot | file's integrator, step | steps | SCM per step (ms) | MuJoCo per step (µs) | SCM / MuJoCo |"
+        " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    notes = []
+    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, err in rows:
+        mj = f"{t_mj * 1e6:.1f}"
+        mj_rtf = f"{h / t_mj:.0f}"
+        if err:
+            notes.append(f"- {label}: {err}")
+            lines.append(f"| {label} | {integrator}, {h} s | {steps} | — | {mj} | — | — | {mj_rtf} | — |"
+                         f" {peak and f'{peak:.0f}' or '—'} |")
+            continue
+        per = wall / steps
+        lines.append(f"| {label} | {integrator}, {h} s | {steps} | {per * 1e3:.4g} | {mj} | {per / t_mj:.0f} |"
+                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} |")
+    if notes:
+        lines += ["", "Runs that did not finish:", *notes]
+    lines.append("")
+    a.out.write_text("\n".join(lines))
+    print(f"wrote {a.out}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
