@@ -79,17 +79,20 @@ def scm_run(scm, xml, duration, timeout):
 
 def mujoco_run(xml, steps):
     """MuJoCo's time per step (s) over `steps` from the initial state (median of 5), its
-    integrator's name and step (s)."""
+    integrator's name and step (s), and its contacts at the initial state and at the end."""
     import mujoco
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    start = int(d.ncon)
     samples = []
     for _ in range(5):
         mujoco.mj_resetData(m, d)
         t0 = time.perf_counter()
         mujoco.mj_step(m, d, nstep=steps)
         samples.append((time.perf_counter() - t0) / steps)
-    return float(np.median(samples)), mujoco.mjtIntegrator(m.opt.integrator).name, m.opt.timestep
+    name = mujoco.mjtIntegrator(m.opt.integrator).name
+    return float(np.median(samples)), name, m.opt.timestep, (start, int(d.ncon))
 
 
 def main():
@@ -109,36 +112,39 @@ def main():
             continue
         if not xml.exists():
             raise SystemExit(f"robots: {xml} missing: run scripts/setup.sh")
-        t_mj, integrator, h = mujoco_run(xml, max(1, round(duration / 0.002)))
+        t_mj, integrator, h, ncon = mujoco_run(xml, max(1, round(duration / 0.002)))
         steps = max(1, round(duration / h))
         wall, whole, peak, err = scm_run(a.scm, xml, steps * h, a.timeout)
         print(f"{label}: {integrator} h={h}: SCM {wall} s stepping ({whole} s in all), {peak} MB; "
               f"MuJoCo {t_mj * 1e6:.1f} us/step; {err or ''}", file=sys.stderr)
-        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, err))
+        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err))
     lines = [
         "# Robots as written, against MuJoCo",
         "",
         "Written by `scripts/robots.py` (one run). Each file with its own integrator, step and contact"
         " settings, from its initial state with no control: SCM by `scm simulate` (stepping time, one"
         " CSV row at each end; peak resident set of the whole process), MuJoCo by `mj_step` on the same"
-        " file for the same steps (median of 5 runs). Real-time factor: simulated time over wall time.",
+        " file for the same steps (median of 5 runs). Real-time factor: simulated time over wall time."
+        " MuJoCo's contacts at the file's initial state and after the run: robosuite's files start at"
+        " every joint's zero, where some arms fold through themselves (robosuite sets its own initial"
+        " pose before a run), so their steps are timed in deep self-contact on both sides.",
         "",
         "| robot | file's integrator, step | steps | SCM per step (ms) | MuJoCo per step (µs) | SCM / MuJoCo |"
-        " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) | MuJoCo contacts (start, end) |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     notes = []
-    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, err in rows:
+    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err in rows:
         mj = f"{t_mj * 1e6:.1f}"
         mj_rtf = f"{h / t_mj:.0f}"
         if err:
             notes.append(f"- {label}: {err}")
             lines.append(f"| {label} | {integrator}, {h} s | {steps} | — | {mj} | — | — | {mj_rtf} | — |"
-                         f" {peak and f'{peak:.0f}' or '—'} |")
+                         f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |")
             continue
         per = wall / steps
         lines.append(f"| {label} | {integrator}, {h} s | {steps} | {per * 1e3:.4g} | {mj} | {per / t_mj:.0f} |"
-                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} |")
+                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |")
     if notes:
         lines += ["", "Runs that did not finish:", *notes]
     lines.append("")

@@ -61,7 +61,7 @@ def test_robots_as_written_are_timed_against_mujoco(tmp_path):
     assert [r[0].strip() for r in rows] == ["Shadow hand reach (gymnasium-robotics)", "hopper (gymnasium)"]
     assert [r[1].strip() for r in rows] == ["mjINT_EULER, 0.002 s", "mjINT_RK4, 0.002 s"]
     for r in rows:
-        steps, scm, mj, ratio, rtf, mj_rtf, load, peak = (float(x) for x in r[2:])
+        steps, scm, mj, ratio, rtf, mj_rtf, load, peak = (float(x) for x in r[2:10])
         assert steps >= 10 and scm > 0 and mj > 0 and load >= 0 and 1 < peak < 500, r
         # The columns are one another's quotients: SCM / MuJoCo, and h over each step's time.
         # (Each within the rounding of the printed figures: 4 significant digits, µs to 0.1,
