@@ -61,10 +61,10 @@ fn each_kind_of_mistake_is_named_with_its_line() {
         ),
         (
             r#"<freejoint/>"#,
-            r#"<freejoint/><replicate count="3"/>"#,
+            r#"<freejoint/><replicate count="three"/>"#,
             5,
             "replicate",
-            "write the copies out",
+            "whole number of copies",
         ),
         (
             r#"<freejoint/>"#,

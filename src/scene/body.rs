@@ -17,7 +17,6 @@ impl Builder {
             "inertial" => self.inertial(el, body),
             "site" => self.site(el, body),
             "camera" | "light" => Ok(()),
-            "replicate" => Err(self.err(el, "MuJoCo's <replicate> is not supported by SCM yet: write the copies out (MuJoCo's mj_saveLastXML writes the compiled model with them)")),
             "composite" | "flexcomp" | "skin" | "attach" | "plugin" => Err(self.err(
                 el,
                 format!("<{}> is not supported by SCM: SCM simulates rigid bodies with body, joint, geom, inertial (sites, cameras and lights are accepted)", el.name),

@@ -23,6 +23,7 @@ mod mechanics;
 mod names;
 mod paths;
 mod read;
+mod replicate;
 mod settings;
 mod tendon;
 mod weights;
@@ -294,8 +295,6 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
         return Err(b.err(&root, "the root element must be <mujoco>"));
     }
     let includes = include::expand(&mut root, path)?;
-    b.names = names::Names::read(&root)?;
-    b.stray_text(&root);
     let mut defaults = defaults::Defaults::default();
     for el in &root.children {
         match el.name.as_str() {
@@ -304,6 +303,10 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
             _ => {}
         }
     }
+    // Replicates are placed in the compiler's angle unit and sequence, before the names are read.
+    replicate::expand(&mut root, &b.angles)?;
+    b.names = names::Names::read(&root)?;
+    b.stray_text(&root);
     canonical::canonicalize(&mut root, &defaults, &b.angles)?;
     b.scene(&root)?;
     Ok((b, includes))

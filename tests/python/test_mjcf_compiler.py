@@ -1321,3 +1321,103 @@ def test_the_bodies_that_collide_are_those_mujoco_lets_touch(path):
             for line in out.stdout.splitlines() if line.startswith("pair ")}
     theirs = {frozenset(names[b] for b in pair) for pair in mujoco_body_pairs(m)}
     assert ours == theirs, (sorted(map(sorted, ours - theirs)), sorted(map(sorted, theirs - ours)))
+
+
+REPLICATED = """<mujoco model="replicated">
+  <compiler angle="{angle}" eulerseq="{seq}"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <replicate count="3" offset="0.1 0 0.05" euler="{e30} 0 {e30}" sep="-">
+      <body name="arm" pos="0 0.2 0.1" euler="0 {e30} 0">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom name="link" type="capsule" fromto="0 0 0 0.1 0 0" size="0.01"/>
+        <replicate count="12" offset="0 0 0.01" euler="0 0 {e30}" sep="_">
+          <frame pos="0.02 0 0">
+            <body name="bead"><joint name="slide" type="slide"/><geom type="sphere" size="0.005"/></body>
+          </frame>
+        </replicate>
+      </body>
+    </replicate>
+    <body name="base">
+      <freejoint/>
+      <geom type="box" size="0.05 0.05 0.05"/>
+      <replicate count="10" offset="0.02 0 0">
+        <geom name="stud" type="sphere" size="0.004" pos="0 0 0.05"/>
+      </replicate>
+      <replicate count="0"><body name="never"><geom size="0.01"/></body></replicate>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("angle,seq", [("degree", "xyz"), ("radian", "zyx")])
+def test_replicates_expand_as_mujoco_expands_them(tmp_path, angle, seq):
+    """<replicate>: copies placed by the accumulated offset and rotation, in the compiler's angle
+    unit and sequence, names suffixed with the separator and the copy's number written with as many
+    digits as the count has (nested: innermost suffix first), inside the world and inside a body,
+    around a frame, and none for a count of 0: bodies, joints and geoms as MuJoCo compiles them."""
+    e30 = "30" if angle == "degree" else repr(np.pi / 6)
+    path = tmp_path / "replicated.xml"
+    path.write_text(REPLICATED.format(angle=angle, seq=seq, e30=e30))
+    ours = compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert [b["name"] for b in ours["bodies"]] == [m.body(i).name for i in range(m.nbody)]
+    # (SCM names an unnamed joint after its body, for the FMU's variables; MuJoCo leaves it blank.)
+    assert [j["name"] for j in ours["joints"]] == [m.joint(i).name or ours["joints"][i]["name"] for i in range(m.njnt)]
+    assert [m.joint(i).name for i in range(m.njnt)][-3:] == ["slide_10-2", "slide_11-2", ""]
+    named = [g["name"] for i, g in enumerate(ours["geoms"]) if m.geom(i).name]
+    assert named == [m.geom(i).name for i in range(m.ngeom) if m.geom(i).name]
+    assert named[-10:] == [f"stud{i:02}" for i in range(10)]
+    assert len(ours["bodies"]) == 1 + 3 * 13 + 1
+
+
+REFERRED = """<mujoco model="referred">
+  <worldbody>
+    <site name="top" pos="0 0 1"/>
+    <body name="fixed" pos="0.5 0 0.5"><joint name="free_hinge" axis="0 1 0"/><geom size="0.02" mass="1"/></body>
+    <replicate count="2" offset="0.1 0 0" sep="-">
+      <site name="anchor" pos="0 0 0.9"/>
+      <body name="arm" pos="0 0 0.5">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom name="link" type="capsule" fromto="0 0 0 0 0 -0.1" size="0.01"/>
+        <site name="tip" pos="0 0 -0.1"/>
+        <replicate count="3" offset="0 0.05 0" sep="_">
+          <body name="finger" pos="0 0 -0.1"><joint name="knuckle" axis="1 0 0"/><geom size="0.005" mass="0.01"/></body>
+        </replicate>
+      </body>
+    </replicate>
+  </worldbody>
+  <tendon>
+    <spatial name="cord" stiffness="10"><site site="anchor"/><site site="tip"/></spatial>
+    <spatial stiffness="5"><site site="top"/><site site="tip"/></spatial>
+    <fixed name="pair"><joint joint="hinge" coef="1"/><joint joint="free_hinge" coef="-1"/></fixed>
+  </tendon>
+  <actuator>
+    <motor name="shoulder" joint="hinge" gear="2"/>
+    <motor name="plain" joint="free_hinge"/>
+    <position name="curl" joint="knuckle" kp="3"/>
+    <motor name="pull" tendon="cord" gear="4"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_elements_naming_replicated_ones_are_copied_as_mujoco_copies_them(tmp_path):
+    """An actuator on a replicated joint, a tendon through replicated sites (or through one
+    replicated site and one outside), a fixed tendon on a replicated and an outside joint, an
+    actuator on such a tendon, under nested replicates: MuJoCo copies each with every replica
+    (names and references suffixed), after the elements that name nothing replicated, replica by
+    replica; SCM compiles the same tendons and actuators in the same order."""
+    path = tmp_path / "referred.xml"
+    path.write_text(REFERRED)
+    ours = compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    names = [a.get("name") for a in ours["actuators"]]
+    assert names == [m.actuator(i).name or names[i] for i in range(m.nu)]
+    # The inner replicate moved `curl` after `pull` before the outer one copied them all.
+    assert names[:5] == ["plain", "shoulder-0", "pull-0", "curl_0-0", "curl_1-0"]
+    assert ours["actuators"][2]["tendon"] == "cord-0" and ours["actuators"][7]["tendon"] == "cord-1"
+    assert len(names) == 1 + 2 * 5
+
+
