@@ -228,6 +228,24 @@ fn structural_mistakes_are_refused() {
     );
     let e = err(&act);
     assert_eq!((e.element.as_str(), e.line), ("motor", 9), "{e}");
+    // A mesh with neither a file nor data (MuJoCo's SDF plugins make theirs at load time).
+    for (mesh, says) in [
+        (
+            r#"<mesh name="torus"><plugin instance="torus"/></mesh>"#,
+            r#"made by an engine plugin (<plugin instance="torus">)"#,
+        ),
+        (r#"<mesh name="nothing"/>"#, r#"a mesh needs file="...""#),
+    ] {
+        let text = GOOD.replace(
+            "<worldbody>",
+            &format!(
+                "<asset>{mesh}</asset>
+  <worldbody>"
+            ),
+        );
+        let e = err(&text);
+        assert!(e.element == "mesh" && e.to_string().contains(says), "{e}");
+    }
 }
 
 #[test]

@@ -366,11 +366,16 @@ impl Builder {
         };
         let file = el
             .attr("file")
-            .ok_or_else(|| {
-                self.err(
+            .ok_or_else(|| match el.children.iter().find(|c| c.name == "plugin") {
+                // MuJoCo's SDF plugins (mujoco.sdf.torus, gear, …) make the mesh at load time.
+                Some(p) => self.err(
                     el,
-                    "a mesh needs file=\"...\" (OBJ or STL); inline vertices are not supported",
-                )
+                    format!(
+                        "this mesh is made by an engine plugin (<plugin instance=\"{}\">), which SCM does not run: give its surface as a mesh file (OBJ or STL) with file=\"...\"",
+                        p.attr("instance").or(p.attr("plugin")).unwrap_or_default()
+                    ),
+                ),
+                None => self.err(el, "a mesh needs file=\"...\" (OBJ or STL)"),
             })?
             .to_string();
         // MuJoCo's content_type names the file's format (for files whose extension does not);

@@ -62,20 +62,24 @@ const REFERENCES: [&str; 24] = [
 /// Replaces every `<replicate>` under `<worldbody>` by its copies, innermost first, and copies
 /// the elements of the other sections that name what it replicates (see the module).
 pub fn expand(root: &mut Element, angles: &Angles) -> Result<(), SceneError> {
-    let Some(w) = root.children.iter().position(|s| s.name == "worldbody") else {
-        return Ok(());
-    };
-    // The world's tree apart, so that each replicate can reach the other sections.
-    let mut world = std::mem::take(&mut root.children[w].children);
-    let mut sections: Vec<&mut Element> = root
-        .children
-        .iter_mut()
-        .filter(|s| REFERRING.contains(&s.name.as_str()))
+    // A file (with its includes) can have several `<worldbody>` sections, as MuJoCo allows.
+    let worlds: Vec<usize> = (0..root.children.len())
+        .filter(|&w| root.children[w].name == "worldbody")
         .collect();
-    sections.sort_by_key(|s| REFERRING.iter().position(|r| *r == s.name));
-    let result = expand_all(&mut world, angles, &mut sections);
-    root.children[w].children = world;
-    result
+    for w in worlds {
+        // The world's tree apart, so that each replicate can reach the other sections.
+        let mut world = std::mem::take(&mut root.children[w].children);
+        let mut sections: Vec<&mut Element> = root
+            .children
+            .iter_mut()
+            .filter(|s| REFERRING.contains(&s.name.as_str()))
+            .collect();
+        sections.sort_by_key(|s| REFERRING.iter().position(|r| *r == s.name));
+        let result = expand_all(&mut world, angles, &mut sections);
+        root.children[w].children = world;
+        result?;
+    }
+    Ok(())
 }
 
 /// Expands the replicates among `children` and below, innermost first.

@@ -1347,6 +1347,11 @@ REPLICATED = """<mujoco model="replicated">
       <replicate count="0"><body name="never"><geom size="0.01"/></body></replicate>
     </body>
   </worldbody>
+  <worldbody>
+    <replicate count="4" euler="0 0 {e90}">
+      <geom name="wall" type="box" size="0.5 0.02 0.1" pos="0 0.5 0.1"/>
+    </replicate>
+  </worldbody>
 </mujoco>
 """
 
@@ -1356,10 +1361,11 @@ def test_replicates_expand_as_mujoco_expands_them(tmp_path, angle, seq):
     """<replicate>: copies placed by the accumulated offset and rotation, in the compiler's angle
     unit and sequence, names suffixed with the separator and the copy's number written with as many
     digits as the count has (nested: innermost suffix first), inside the world and inside a body,
-    around a frame, and none for a count of 0: bodies, joints and geoms as MuJoCo compiles them."""
-    e30 = "30" if angle == "degree" else repr(np.pi / 6)
+    around a frame, in a second <worldbody>, and none for a count of 0: bodies, joints and geoms as
+    MuJoCo compiles them."""
+    e30, e90 = ("30", "90") if angle == "degree" else (repr(np.pi / 6), repr(np.pi / 2))
     path = tmp_path / "replicated.xml"
-    path.write_text(REPLICATED.format(angle=angle, seq=seq, e30=e30))
+    path.write_text(REPLICATED.format(angle=angle, seq=seq, e30=e30, e90=e90))
     ours = compare(path)
     m = mujoco.MjModel.from_xml_path(str(path))
     assert [b["name"] for b in ours["bodies"]] == [m.body(i).name for i in range(m.nbody)]
@@ -1368,6 +1374,8 @@ def test_replicates_expand_as_mujoco_expands_them(tmp_path, angle, seq):
     assert [m.joint(i).name for i in range(m.njnt)][-3:] == ["slide_10-2", "slide_11-2", ""]
     named = [g["name"] for i, g in enumerate(ours["geoms"]) if m.geom(i).name]
     assert named == [m.geom(i).name for i in range(m.ngeom) if m.geom(i).name]
+    # The world's geoms first, the second <worldbody>'s walls among them.
+    assert named[:5] == ["floor"] + [f"wall{i}" for i in range(4)]
     assert named[-10:] == [f"stud{i:02}" for i in range(10)]
     assert len(ours["bodies"]) == 1 + 3 * 13 + 1
 
