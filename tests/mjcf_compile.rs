@@ -811,6 +811,23 @@ fn stray_text_between_elements_is_listed_not_refused() {
     );
 }
 
+/// Stray text inside a `<replicate>` (or inside what it copies) is listed once, at its line,
+/// not once per copy.
+#[test]
+fn stray_text_in_a_replicate_is_listed_once() {
+    let s = load("<mujoco>\n  <worldbody>\n    <replicate count=\"3\" offset=\"0.1 0 0\">x\n      <body>y\n        <geom size=\"0.01\"/>\n      </body>\n    </replicate>\n  </worldbody>\n</mujoco>\n");
+    let texts: Vec<&String> = s.unused.iter().filter(|u| u.contains("text '")).collect();
+    assert_eq!(texts.len(), 2, "{:?}", s.unused);
+    assert!(
+        texts[0].starts_with("m.xml:3: text 'x' inside <replicate>"),
+        "{texts:?}"
+    );
+    assert!(
+        texts[1].starts_with("m.xml:4: text 'y' inside <body>"),
+        "{texts:?}"
+    );
+}
+
 /// `<custom>` as MuJoCo reads it: a tuple holds `<element>`s and no data, a numeric may give
 /// a size instead of data; entries other than SCM's settings are the user's data, listed as
 /// unused. An SCM setting still needs its data.

@@ -53,10 +53,11 @@ thread_local! {
     static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
 }
 
-/// Whether the SSDF of `planes` (the bound of [`ssdf_exceeds_over`], which also bounds every
-/// relevant plane: `n_iᵀ(x - p_i) > t`) exceeds `t` (m) at every point of `query`, whose
-/// points are mapped into the frame of `planes` by `x = rot p + tr`; proven, or `false`.
-/// `eps1` in m².
+/// Whether every distance the model reads at every point of `query` exceeds `t` (m): the
+/// SSDF of `planes` (the bound of [`ssdf_exceeds_over`], which also bounds every relevant
+/// plane: `n_iᵀ(x - p_i) > t`), or else the floor of its polytope, to which every reading is
+/// raised. The points are mapped into the frame of `planes` by `x = rot p + tr`; proven, or
+/// `false`. `eps1` in m².
 pub fn cloud_beyond(
     planes: &Collider,
     query: &Aopc,
@@ -464,9 +465,11 @@ pub struct ReachProof {
     pub sides: [Option<ProofSide>; 2],
 }
 
-/// One side of a [`ReachProof`]: at the pose `x = rotation p + translation`, every plane whose
-/// squared distance is within `m1` (m²) of the nearest one's lies farther than `t` (m) from
-/// every query point (for a half-space, its plane; `m1` is then unused and 0).
+/// One side of a [`ReachProof`]: at the pose `x = rotation p + translation`, at every query
+/// point either every plane whose squared distance is within `m1` (m²) of the nearest one's
+/// lies farther than `t` (m), or the polytope's floor does (for a half-space, its plane; `m1`
+/// is then unused and 0). Both hold `δ` less after a move of at most `δ` (the floor is
+/// 1-Lipschitz), which is what `ProofSide::covers` uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProofSide {
     /// Rotation from query-body to plane-body coordinates at the proof.

@@ -303,10 +303,11 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
             _ => {}
         }
     }
-    // Replicates are placed in the compiler's angle unit and sequence, before the names are read.
+    // Stray text as written (a replicate's once, not once per copy); replicates placed in the
+    // compiler's angle unit and sequence, before the names are read.
+    b.stray_text(&root);
     replicate::expand(&mut root, &b.angles)?;
     b.names = names::Names::read(&root)?;
-    b.stray_text(&root);
     canonical::canonicalize(&mut root, &defaults, &b.angles)?;
     b.scene(&root)?;
     Ok((b, includes))

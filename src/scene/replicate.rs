@@ -14,12 +14,13 @@
 //! An element of another section that names an element inside a replicate (an actuator on a
 //! replicated joint, a tendon through replicated sites, an actuator on such a tendon) is
 //! copied with each replica, as MuJoCo's compiler copies it: its names suffixed, its references
-//! to replicated elements suffixed, the others left as they are. In each section the elements
-//! that name nothing replicated come first, then the copies replica by replica, each in the
-//! file's order. Sections are taken tendons first, then equalities, contact pairs, actuators and
-//! sensors, so an element that names a copied one is copied in turn. A reference is matched by
-//! name alone, whatever the kind it names (MuJoCo keeps a namespace per kind): a file that names
-//! a joint outside a replicate and a site inside it alike would be misread.
+//! to replicated elements suffixed, the others left as they are. Sections of one kind are one
+//! list, as in MuJoCo: the elements that name nothing replicated keep their places, and the
+//! copies go at the end of the kind's last section, replica by replica, each in the file's
+//! order. Kinds are taken tendons first, then equalities, contact pairs, actuators and sensors,
+//! so an element that names a copied one is copied in turn. A reference is matched by name and
+//! kind (`joint="x"` names the joint `x`, not a body `x`; `objname` names any kind, as its kind
+//! is given apart). `childclass` on a replicate applies to every copy, as on a frame.
 
 use super::canonical::{error, pose, Angles};
 use super::xml::Element;
@@ -31,33 +32,43 @@ use std::collections::BTreeSet;
 /// their references are resolved (an actuator can name a tendon, a tendon no actuator).
 const REFERRING: [&str; 5] = ["tendon", "equality", "contact", "actuator", "sensor"];
 
-/// The attributes that name another element (MuJoCo's references, in every section above).
-const REFERENCES: [&str; 24] = [
-    "joint",
-    "jointinparent",
-    "tendon",
-    "site",
-    "geom",
-    "body",
-    "body1",
-    "body2",
-    "geom1",
-    "geom2",
-    "site1",
-    "site2",
-    "joint1",
-    "joint2",
-    "tendon1",
-    "tendon2",
-    "sidesite",
-    "cranksite",
-    "slidersite",
-    "refsite",
-    "objname",
-    "refname",
-    "actuator",
-    "target",
-];
+/// The kind of element an attribute names (MuJoCo's references, in every section above), or
+/// `Some("")` for one that can name any kind (its kind is given by another attribute); `None`
+/// for an attribute that names nothing.
+fn kind_of_reference(attr: &str) -> Option<&'static str> {
+    Some(match attr {
+        "joint" | "joint1" | "joint2" | "jointinparent" => "joint",
+        "tendon" | "tendon1" | "tendon2" => "tendon",
+        "site" | "site1" | "site2" | "sidesite" | "cranksite" | "slidersite" | "refsite" => "site",
+        "geom" | "geom1" | "geom2" => "geom",
+        "body" | "body1" | "body2" => "body",
+        "actuator" => "actuator",
+        "objname" | "refname" | "target" => "",
+        _ => return None,
+    })
+}
+
+/// The kind an element's `name` belongs to, in the world's tree or in section `section`.
+fn kind_of_element<'a>(element: &'a str, section: &'a str) -> &'a str {
+    match (section, element) {
+        (_, "freejoint") => "joint",
+        ("tendon", _) => "tendon",
+        ("worldbody", e) => e,
+        (s, _) => s,
+    }
+}
+
+/// Replicated names by kind.
+type Named = BTreeSet<(String, String)>;
+
+/// Whether `named` holds `value` for the attribute `attr` (by its kind).
+fn names(named: &Named, attr: &str, value: &str) -> bool {
+    match kind_of_reference(attr) {
+        None => false,
+        Some("") => named.iter().any(|(_, n)| n == value),
+        Some(kind) => named.contains(&(kind.to_string(), value.to_string())),
+    }
+}
 
 /// Replaces every `<replicate>` under `<worldbody>` by its copies, innermost first, and copies
 /// the elements of the other sections that name what it replicates (see the module).
@@ -69,13 +80,13 @@ pub fn expand(root: &mut Element, angles: &Angles) -> Result<(), SceneError> {
     for w in worlds {
         // The world's tree apart, so that each replicate can reach the other sections.
         let mut world = std::mem::take(&mut root.children[w].children);
-        let mut sections: Vec<&mut Element> = root
-            .children
-            .iter_mut()
-            .filter(|s| REFERRING.contains(&s.name.as_str()))
-            .collect();
-        sections.sort_by_key(|s| REFERRING.iter().position(|r| *r == s.name));
-        let result = expand_all(&mut world, angles, &mut sections);
+        let mut kinds: Vec<Vec<&mut Element>> = REFERRING.iter().map(|_| Vec::new()).collect();
+        for s in root.children.iter_mut() {
+            if let Some(k) = REFERRING.iter().position(|r| *r == s.name) {
+                kinds[k].push(s);
+            }
+        }
+        let result = expand_all(&mut world, angles, &mut kinds);
         root.children[w].children = world;
         result?;
     }
@@ -86,13 +97,13 @@ pub fn expand(root: &mut Element, angles: &Angles) -> Result<(), SceneError> {
 fn expand_all(
     children: &mut Vec<Element>,
     angles: &Angles,
-    sections: &mut [&mut Element],
+    kinds: &mut [Vec<&mut Element>],
 ) -> Result<(), SceneError> {
     let mut out = Vec::with_capacity(children.len());
     for mut child in std::mem::take(children) {
-        expand_all(&mut child.children, angles, sections)?;
+        expand_all(&mut child.children, angles, kinds)?;
         if child.name == "replicate" {
-            out.extend(copies(child, angles, sections)?);
+            out.extend(copies(child, angles, kinds)?);
         } else {
             out.push(child);
         }
@@ -105,16 +116,17 @@ fn expand_all(
 fn copies(
     rep: Element,
     angles: &Angles,
-    sections: &mut [&mut Element],
+    kinds: &mut [Vec<&mut Element>],
 ) -> Result<Vec<Element>, SceneError> {
-    if let Some((k, _)) = rep
-        .attrs
-        .iter()
-        .find(|(k, _)| !matches!(k.as_str(), "count" | "offset" | "euler" | "sep"))
-    {
+    if let Some((k, _)) = rep.attrs.iter().find(|(k, _)| {
+        !matches!(
+            k.as_str(),
+            "count" | "offset" | "euler" | "sep" | "childclass"
+        )
+    }) {
         return Err(error(
             &rep,
-            format!("attribute '{k}' is not a replicate attribute (count, offset, euler, sep)"),
+            format!("attribute '{k}' is not a replicate attribute (count, offset, euler, sep, childclass)"),
         ));
     }
     let count: usize = match rep.attr("count").map(|c| c.trim().parse()) {
@@ -132,23 +144,24 @@ fn copies(
     };
     let sep = rep.attr("sep").unwrap_or_default().to_string();
     let digits = count.to_string().len();
-    let mut names = BTreeSet::new();
+    let mut named = Named::new();
     for c in &rep.children {
-        collect_names(c, &mut names);
+        collect_names(c, "worldbody", &mut named);
     }
     let suffixes: Vec<String> = (0..count).map(|i| format!("{sep}{i:0digits$}")).collect();
-    for section in sections.iter_mut() {
-        copy_referring(section, &mut names, &suffixes);
+    for sections in kinds.iter_mut() {
+        copy_referring(sections, &mut named, &suffixes);
     }
     let offset = three(&rep, "offset")?;
     let euler = three(&rep, "euler")?;
     // The frame of copy `i`: its angles `i euler`, read as any frame's are.
+    // (With the replicate's childclass. Stray text was listed before the expansion.)
     let frame = |i: usize, pos: &Vector3<f64>| Element {
         name: "frame".into(),
-        attrs: vec![
-            ("pos".into(), format!("{} {} {}", pos.x, pos.y, pos.z)),
+        attrs: [
+            ("pos".to_string(), format!("{} {} {}", pos.x, pos.y, pos.z)),
             (
-                "euler".into(),
+                "euler".to_string(),
                 format!(
                     "{} {} {}",
                     euler.x * i as f64,
@@ -156,7 +169,13 @@ fn copies(
                     euler.z * i as f64
                 ),
             ),
-        ],
+        ]
+        .into_iter()
+        .chain(
+            rep.attr("childclass")
+                .map(|c| ("childclass".to_string(), c.to_string())),
+        )
+        .collect(),
         children: Vec::new(),
         line: rep.line,
         file: rep.file.clone(),
@@ -168,7 +187,7 @@ fn copies(
         let mut copy = frame(i, &pos);
         copy.children = rep.children.clone();
         for k in &mut copy.children {
-            add_suffix(k, suffix, &BTreeSet::new());
+            add_suffix(k, suffix, &Named::new());
         }
         // The next copy's position: this copy's offset, turned by this copy's rotation.
         pos += pose(&copy, angles)?.rotation * offset;
@@ -196,53 +215,61 @@ fn three(rep: &Element, key: &str) -> Result<Vector3<f64>, SceneError> {
     }
 }
 
-/// Every `name` in `el`'s subtree, as written.
-fn collect_names(el: &Element, out: &mut BTreeSet<String>) {
+/// Every `name` in `el`'s subtree (`el` read in `section`), by kind, as written.
+fn collect_names(el: &Element, section: &str, out: &mut Named) {
     if let Some(n) = el.attr("name") {
-        out.insert(n.to_string());
+        out.insert((
+            kind_of_element(&el.name, section).to_string(),
+            n.to_string(),
+        ));
     }
     for c in &el.children {
-        collect_names(c, out);
+        collect_names(c, section, out);
     }
 }
 
 /// Appends `suffix` to every `name` in `el`'s subtree, and to every reference to one of
-/// `replicated`.
-fn add_suffix(el: &mut Element, suffix: &str, replicated: &BTreeSet<String>) {
+/// `named`.
+fn add_suffix(el: &mut Element, suffix: &str, named: &Named) {
     for (k, v) in el.attrs.iter_mut() {
-        if k == "name" || REFERENCES.contains(&k.as_str()) && replicated.contains(v.as_str()) {
+        if k == "name" || names(named, k, v) {
             v.push_str(suffix);
         }
     }
     for c in el.children.iter_mut() {
-        add_suffix(c, suffix, replicated);
+        add_suffix(c, suffix, named);
     }
 }
 
-/// Whether `el` or an element inside it (a tendon's path) names one of `replicated`.
-fn refers(el: &Element, replicated: &BTreeSet<String>) -> bool {
-    el.attrs
-        .iter()
-        .any(|(k, v)| REFERENCES.contains(&k.as_str()) && replicated.contains(v.as_str()))
-        || el.children.iter().any(|c| refers(c, replicated))
+/// Whether `el` or an element inside it (a tendon's path) names one of `named`.
+fn refers(el: &Element, named: &Named) -> bool {
+    el.attrs.iter().any(|(k, v)| names(named, k, v)) || el.children.iter().any(|c| refers(c, named))
 }
 
-/// Copies each element of `section` that names one of `replicated` once per suffix (the
-/// elements that name none first, then the copies replica by replica), and adds the copied
-/// elements' names to `replicated`, so that the sections after this one copy what names them.
-fn copy_referring(section: &mut Element, replicated: &mut BTreeSet<String>, suffixes: &[String]) {
-    let (referring, mut kept): (Vec<Element>, Vec<Element>) = std::mem::take(&mut section.children)
-        .into_iter()
-        .partition(|el| refers(el, replicated));
-    for el in &referring {
-        collect_names(el, replicated);
+/// Copies each element of the sections of one kind (one list, in file order) that names one
+/// of `named` once per suffix: the others keep their places, the copies go at the end of the
+/// last section, replica by replica; the copied elements' names join `named`, so that the
+/// kinds after this one copy what names them.
+fn copy_referring(sections: &mut [&mut Element], named: &mut Named, suffixes: &[String]) {
+    let mut referring = Vec::new();
+    for section in sections.iter_mut() {
+        let (moved, kept): (Vec<Element>, Vec<Element>) = std::mem::take(&mut section.children)
+            .into_iter()
+            .partition(|el| refers(el, named));
+        section.children = kept;
+        referring.extend(moved.into_iter().map(|el| (section.name.clone(), el)));
+    }
+    let Some(last) = sections.last_mut() else {
+        return;
+    };
+    for (section, el) in &referring {
+        collect_names(el, section, named);
     }
     for suffix in suffixes {
-        for el in &referring {
+        for (_, el) in &referring {
             let mut copy = el.clone();
-            add_suffix(&mut copy, suffix, replicated);
-            kept.push(copy);
+            add_suffix(&mut copy, suffix, named);
+            last.children.push(copy);
         }
     }
-    section.children = kept;
 }

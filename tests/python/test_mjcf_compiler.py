@@ -1325,6 +1325,7 @@ def test_the_bodies_that_collide_are_those_mujoco_lets_touch(path):
 
 REPLICATED = """<mujoco model="replicated">
   <compiler angle="{angle}" eulerseq="{seq}"/>
+  <default><default class="stud"><geom type="sphere" size="0.004" mass="0.002"/></default></default>
   <worldbody>
     <geom name="floor" type="plane" size="1 1 0.1"/>
     <replicate count="3" offset="0.1 0 0.05" euler="{e30} 0 {e30}" sep="-">
@@ -1341,8 +1342,8 @@ REPLICATED = """<mujoco model="replicated">
     <body name="base">
       <freejoint/>
       <geom type="box" size="0.05 0.05 0.05"/>
-      <replicate count="10" offset="0.02 0 0">
-        <geom name="stud" type="sphere" size="0.004" pos="0 0 0.05"/>
+      <replicate count="10" offset="0.02 0 0" childclass="stud">
+        <geom name="stud" pos="0 0 0.05"/>
       </replicate>
       <replicate count="0"><body name="never"><geom size="0.01"/></body></replicate>
     </body>
@@ -1361,8 +1362,8 @@ def test_replicates_expand_as_mujoco_expands_them(tmp_path, angle, seq):
     """<replicate>: copies placed by the accumulated offset and rotation, in the compiler's angle
     unit and sequence, names suffixed with the separator and the copy's number written with as many
     digits as the count has (nested: innermost suffix first), inside the world and inside a body,
-    around a frame, in a second <worldbody>, and none for a count of 0: bodies, joints and geoms as
-    MuJoCo compiles them."""
+    around a frame, in a second <worldbody>, with a childclass, and none for a count of 0: bodies,
+    joints and geoms as MuJoCo compiles them."""
     e30, e90 = ("30", "90") if angle == "degree" else (repr(np.pi / 6), repr(np.pi / 2))
     path = tmp_path / "replicated.xml"
     path.write_text(REPLICATED.format(angle=angle, seq=seq, e30=e30, e90=e90))
@@ -1390,6 +1391,7 @@ REFERRED = """<mujoco model="referred">
         <joint name="hinge" type="hinge" axis="0 1 0"/>
         <geom name="link" type="capsule" fromto="0 0 0 0 0 -0.1" size="0.01"/>
         <site name="tip" pos="0 0 -0.1"/>
+        <site name="free_hinge" pos="0 0 -0.05"/>
         <replicate count="3" offset="0 0.05 0" sep="_">
           <body name="finger" pos="0 0 -0.1"><joint name="knuckle" axis="1 0 0"/><geom size="0.005" mass="0.01"/></body>
         </replicate>
@@ -1407,6 +1409,9 @@ REFERRED = """<mujoco model="referred">
     <position name="curl" joint="knuckle" kp="3"/>
     <motor name="pull" tendon="cord" gear="4"/>
   </actuator>
+  <actuator>
+    <motor name="second" joint="free_hinge" gear="3"/>
+  </actuator>
 </mujoco>
 """
 
@@ -1423,9 +1428,11 @@ def test_elements_naming_replicated_ones_are_copied_as_mujoco_copies_them(tmp_pa
     m = mujoco.MjModel.from_xml_path(str(path))
     names = [a.get("name") for a in ours["actuators"]]
     assert names == [m.actuator(i).name or names[i] for i in range(m.nu)]
-    # The inner replicate moved `curl` after `pull` before the outer one copied them all.
-    assert names[:5] == ["plain", "shoulder-0", "pull-0", "curl_0-0", "curl_1-0"]
-    assert ours["actuators"][2]["tendon"] == "cord-0" and ours["actuators"][7]["tendon"] == "cord-1"
-    assert len(names) == 1 + 2 * 5
+    # Two <actuator> sections are one list: the copies after both sections' others. The inner
+    # replicate moved `curl` after `pull` before the outer one copied them all. `plain` and
+    # `second` name the joint `free_hinge`, not the replicated site of that name: not copied.
+    assert names[:6] == ["plain", "second", "shoulder-0", "pull-0", "curl_0-0", "curl_1-0"]
+    assert ours["actuators"][3]["tendon"] == "cord-0" and ours["actuators"][8]["tendon"] == "cord-1"
+    assert len(names) == 2 + 2 * 5
 
 
