@@ -13,9 +13,9 @@
 //! that floor alone is settled by 26 plane values before any SSDF plane is looked at. Far
 //! from a part, the SSDF's own planes can pass close to a query (beside a flat face's edge),
 //! and without the floor such pairs failed their proofs and were evaluated in full: robosuite's
-//! Franka arm, at rest, had 6 of its 22 link pairs in reach, 6 cm to 44 cm apart, and one 2 ms
-//! step took 123 ms; with the floor only the 2 pairs that touch are in reach, and the step
-//! takes 43 ms (`examples/pair_stats`, one run each).
+//! Franka arm, at rest, had 7 of its 22 link pairs in reach, 5 of them 6 cm to 44 cm apart, and
+//! one 2 ms step took 123 ms; with the floor only the 2 pairs that touch are in reach, and the
+//! step takes 43 ms (`examples/pair_stats`, one run each).
 //!
 //! How sharp it is (tests/contact_reach.rs, ε1 = 1e-5 m², ε3 = 0.1 mm, reach distance 3.5 mm
 //! at rest, 1 cm spacing): a sphere beside a box face is settled from a gap of 6 mm, two boxes
