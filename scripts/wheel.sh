@@ -6,8 +6,8 @@
 #
 # libscm.so is built, stripped of its symbol table (its exported fmi2* functions stay) and staged
 # as target/wheel-stage/data/lib/scm/libscm.so; maturin (pyproject.toml, `bindings = "bin"`)
-# packs the `scm` binary from the same release build beside it, so a tree that scripts/setup.sh
-# has built needs no second compilation. Needs the venv of scripts/setup.sh (maturin is pinned in
+# builds the `scm` binary beside it in target/wheel-build (not target/release, which other
+# programs may be running). Needs the venv of scripts/setup.sh (maturin is pinned in
 # tests/python/requirements.txt).
 set -euo pipefail
 # OUT_DIR as the caller wrote it, relative to the caller's folder.
@@ -26,5 +26,8 @@ cp target/release/libscm.so "$stage/data/lib/scm/libscm.so"
 strip --strip-unneeded "$stage/data/lib/scm/libscm.so"
 mkdir -p "$out"
 echo "wheel: packing with maturin" >&2
-.venv/bin/maturin build --release --locked --quiet --out "$out" >&2
+# maturin builds the `scm` binary with flags of its own, which relinked target/release/scm in
+# place: a test running that binary at that moment found no file (CI, 2026-11-30). Its own
+# target folder leaves the tree's binaries alone, at the cost of a second compilation.
+.venv/bin/maturin build --release --locked --quiet --target-dir target/wheel-build --out "$out" >&2
 ls -t "$out"/scm_fmu-*.whl | head -1
