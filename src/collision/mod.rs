@@ -47,6 +47,7 @@ use nalgebra::{Matrix3, Vector3};
 mod band;
 mod bounds;
 mod memo;
+mod proof;
 mod reach;
 #[cfg(test)]
 mod tests;
@@ -58,10 +59,8 @@ pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
 pub use memo::{
     CandidateMemo, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
 };
-pub use reach::{
-    cloud_beyond, out_of_reach, out_of_reach_proven, reach_distance, reach_proof_holds, ProofSide,
-    ReachParams, ReachProof, REACH_BUDGET,
-};
+pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof};
+pub use reach::{cloud_beyond, out_of_reach, reach_distance, ReachParams, REACH_BUDGET};
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.

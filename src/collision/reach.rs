@@ -349,14 +349,14 @@ pub fn out_of_reach(
 
 /// One side of a pair's proof: the query body's cloud, posed in the plane body's frame, and
 /// the reach distance `t` (m) at its speed.
-struct Side<'a> {
-    query: &'a Aopc,
-    planes: &'a Collider,
-    rotation: Matrix3<f64>,
-    translation: Vector3<f64>,
-    t: f64,
+pub(super) struct Side<'a> {
+    pub(super) query: &'a Aopc,
+    pub(super) planes: &'a Collider,
+    pub(super) rotation: Matrix3<f64>,
+    pub(super) translation: Vector3<f64>,
+    pub(super) t: f64,
     /// The bound on the query points' speed relative to the planes (m/s).
-    speed: f64,
+    pub(super) speed: f64,
 }
 
 impl Side<'_> {
@@ -370,7 +370,7 @@ impl Side<'_> {
     /// `L` on `|x - p_i|` over every query point and plane point (the two root spheres), and
     /// the gap between the root spheres less `t`. For a half-space: `M1 = 0`, `L = 0`, and
     /// the root sphere's height above the plane less `t`.
-    fn margins(&self) -> (f64, f64, f64) {
+    pub(super) fn margins(&self) -> (f64, f64, f64) {
         let (c, r) = self.root();
         match self.planes {
             // No planes: nothing to be near; no room to choose (`with_room` gives none).
@@ -392,14 +392,14 @@ impl Side<'_> {
 }
 
 /// A pair's sides with points, by index (no allocation: every pair of every step has them).
-struct Sides<'a>([Option<(usize, Side<'a>)>; 2]);
+pub(super) struct Sides<'a>([Option<(usize, Side<'a>)>; 2]);
 
 impl<'a> Sides<'a> {
-    fn iter(&self) -> impl Iterator<Item = &(usize, Side<'a>)> {
+    pub(super) fn iter(&self) -> impl Iterator<Item = &(usize, Side<'a>)> {
         self.0.iter().flatten()
     }
 
-    fn is_empty(&self) -> bool {
+    pub(super) fn is_empty(&self) -> bool {
         self.iter().next().is_none()
     }
 }
@@ -407,7 +407,7 @@ impl<'a> Sides<'a> {
 /// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
 /// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
 /// (nothing can be proven).
-fn sides<'a>(
+pub(super) fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
     rels: &[Relative<f64>; 2],
@@ -454,167 +454,4 @@ fn sides<'a>(
         ));
     }
     Some(out)
-}
-
-/// An out-of-reach proof kept for the steps after it (docs/performance.md, "A proof that is
-/// kept"): per side of the pair (as [`out_of_reach`]; `None` for a side without points), the
-/// query body's pose in the plane body's frame when it was proven, and what was proven there.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ReachProof {
-    /// The two sides.
-    pub sides: [Option<ProofSide>; 2],
-}
-
-/// One side of a [`ReachProof`]: at the pose `x = rotation p + translation`, at every query
-/// point either every plane whose squared distance is within `m1` (m²) of the nearest one's
-/// lies farther than `t` (m), or the polytope's floor does (for a half-space, its plane; `m1`
-/// is then unused and 0). Both hold `δ` less after a move of at most `δ` (the floor is
-/// 1-Lipschitz), which is what `ProofSide::covers` uses.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ProofSide {
-    /// Rotation from query-body to plane-body coordinates at the proof.
-    pub rotation: Matrix3<f64>,
-    /// Query-body origin in plane-body coordinates at the proof (m).
-    pub translation: Vector3<f64>,
-    /// The distance proven (m).
-    pub t: f64,
-    /// The relevance margin it was proven over (m²).
-    pub m1: f64,
-}
-
-impl ProofSide {
-    /// Whether the proof still covers `side` now: every query point has moved at most `δ`
-    /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), so a plane relevant now (within `M1 ε1`)
-    /// was within `M1 ε1 + 4δL + δ²` at the proof, and lies farther than `t - δ` now
-    /// (docs/performance.md). Rounding allowances: 1e-9 relative, and 1e-15 of the poses' size.
-    fn covers(&self, side: &Side, eps1: f64) -> bool {
-        let (m1_per_eps1, bound, _) = side.margins();
-        let scale = side.query.bvh().max_norm;
-        let delta = ((side.translation - self.translation).norm()
-            + (side.rotation - self.rotation).norm() * scale)
-            * (1.0 + 1e-9)
-            + 1e-15 * (side.translation.norm() + scale);
-        let relevant = match side.planes {
-            Collider::Aopc(_) => {
-                m1_per_eps1 * eps1 + 4.0 * delta * bound + delta * delta <= self.m1
-            }
-            Collider::HalfSpace { .. } => true,
-        };
-        delta.is_finite() && side.t + delta <= self.t && relevant
-    }
-
-    /// The proof to attempt for `side` with room to move: `δ_b` a quarter of the root spheres'
-    /// gap (half of a half-space's), for a cloud of planes also at most what widens the
-    /// relevance margin fourfold (the proof must still exclude the planes facing away: at
-    /// sixteenfold a box 0.5 m from a sphere was no longer settled, at eightfold it was);
-    /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
-    /// than `life` (s): the proof would not be reused.
-    fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
-        let (m1_per_eps1, bound, gap) = side.margins();
-        if gap.is_nan() || gap <= 0.0 {
-            return None;
-        }
-        let (delta, m1) = match side.planes {
-            Collider::Aopc(_) => {
-                let m1 = m1_per_eps1 * eps1;
-                let delta = (0.25 * gap).min(3.0 * m1 / (4.0 * bound));
-                (delta, m1 + 4.0 * delta * (bound + delta) + delta * delta)
-            }
-            Collider::HalfSpace { .. } => (0.5 * gap, 0.0),
-        };
-        (delta > 0.0 && delta.is_finite() && delta >= side.speed * life).then_some(ProofSide {
-            rotation: side.rotation,
-            translation: side.translation,
-            t: side.t + delta,
-            m1,
-        })
-    }
-
-    /// Proves this side at its own pose, distance and margin for `planes` and `query`.
-    fn prove(&self, planes: &Collider, query: &Aopc) -> bool {
-        let eps1 = match planes {
-            Collider::Aopc(o) => self.m1 / o.bvh().log_terms,
-            // A half-space's SSDF is its plane: ε1 does not enter; any positive value.
-            Collider::HalfSpace { .. } => 1.0,
-        };
-        eps1 > 0.0
-            && cloud_beyond(
-                planes,
-                query,
-                &self.rotation,
-                &self.translation,
-                self.t,
-                eps1,
-            )
-    }
-}
-
-/// [`out_of_reach`], keeping proofs across calls in `kept`: a pair still covered by its kept
-/// proof (`ProofSide::covers`) costs no walk; otherwise it is proven as [`out_of_reach`]
-/// does, and where that succeeds, proven again with room to move and that proof kept. What it
-/// returns is `true` only where every force of the pair is below the bound of
-/// [`out_of_reach`]; it can be `true` where a fresh proof would not be (the kept one holds
-/// with room), so the decisions depend on `kept`, which is part of the simulation's state.
-/// `life` (s): a proof with room is made only where the bodies' speed bound lets it last that
-/// long (two internal steps, say): one that would not be reused costs a second proof.
-pub fn out_of_reach_proven(
-    a: &Collider,
-    b: &Collider,
-    rels: &[Relative<f64>; 2],
-    prm: &ReachParams,
-    kept: &mut Option<ReachProof>,
-    life: f64,
-) -> bool {
-    let eps1 = prm.eps1;
-    let Some(sides) = sides(a, b, rels, prm) else {
-        *kept = None;
-        return false;
-    };
-    if sides.is_empty() {
-        *kept = None;
-        return false;
-    }
-    if let Some(k) = kept {
-        if sides
-            .iter()
-            .all(|(i, s)| k.sides[*i].is_some_and(|ks| ks.covers(s, eps1)))
-        {
-            return true;
-        }
-    }
-    *kept = None;
-    let proven = sides
-        .iter()
-        .all(|(_, s)| cloud_beyond(s.planes, s.query, &s.rotation, &s.translation, s.t, eps1));
-    // Out of reach now: prove it again with room to move, and keep that for the next steps.
-    // (Only here: a pair near enough to fail the plain proof would fail this one too, and a
-    // failing proof can cost a whole budget of node tests.)
-    if proven {
-        let mut fresh = [None, None];
-        let roomy = sides.iter().all(|(i, s)| {
-            ProofSide::with_room(s, eps1, life)
-                .filter(|ks| ks.prove(s.planes, s.query))
-                .map(|ks| fresh[*i] = Some(ks))
-                .is_some()
-        });
-        if roomy {
-            *kept = Some(ReachProof { sides: fresh });
-        }
-    }
-    proven
-}
-
-/// Whether `kept` is a proof that holds for the pair `a`–`b`: each side present where the
-/// pair has points, and its proof made again at its own pose succeeds. For a kept proof
-/// read from outside (a restored state's bytes): a forged one must not switch a contact off.
-pub fn reach_proof_holds(a: &Collider, b: &Collider, kept: &ReachProof) -> bool {
-    [(a, b), (b, a)]
-        .into_iter()
-        .zip(&kept.sides)
-        .all(|((query, planes), side)| match (query, side) {
-            (Collider::Aopc(s), Some(ks)) if !s.is_empty() => ks.prove(planes, s),
-            (Collider::Aopc(s), None) => s.is_empty(),
-            (Collider::HalfSpace { .. }, None) => true,
-            _ => false,
-        })
 }

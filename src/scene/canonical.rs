@@ -66,7 +66,8 @@ pub(super) fn error(el: &Element, message: impl Into<String>) -> SceneError {
     }
 }
 
-fn numbers(el: &Element, key: &str, n: usize) -> Result<Option<Vec<f64>>, SceneError> {
+/// `n` finite numbers of attribute `key`, `None` when it is absent.
+pub(super) fn numbers(el: &Element, key: &str, n: usize) -> Result<Option<Vec<f64>>, SceneError> {
     let Some(s) = el.attr(key) else {
         return Ok(None);
     };

@@ -22,7 +22,7 @@
 //! kind (`joint="x"` names the joint `x`, not a body `x`; `objname` names any kind, as its kind
 //! is given apart). `childclass` on a replicate applies to every copy, as on a frame.
 
-use super::canonical::{error, pose, Angles};
+use super::canonical::{error, numbers, pose, Angles};
 use super::xml::Element;
 use super::SceneError;
 use nalgebra::Vector3;
@@ -198,21 +198,7 @@ fn copies(
 
 /// Three numbers of attribute `key` of a replicate (zeros when absent).
 fn three(rep: &Element, key: &str) -> Result<Vector3<f64>, SceneError> {
-    let Some(text) = rep.attr(key) else {
-        return Ok(Vector3::zeros());
-    };
-    let v: Vec<f64> = text
-        .split_whitespace()
-        .map(str::parse)
-        .collect::<Result<_, _>>()
-        .map_err(|_| error(rep, format!("{key}=\"{text}\": expected 3 numbers")))?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|x| x.is_finite()) => Ok(Vector3::new(x, y, z)),
-        _ => Err(error(
-            rep,
-            format!("{key}=\"{text}\": expected 3 finite numbers"),
-        )),
-    }
+    Ok(numbers(rep, key, 3)?.map_or_else(Vector3::zeros, |v| Vector3::new(v[0], v[1], v[2])))
 }
 
 /// Every `name` in `el`'s subtree (`el` read in `section`), by kind, as written.
