@@ -44,9 +44,11 @@ pub(super) fn pair_contact_chained<T: Scalar>(
     if !T::chain(&values, &jac, &inputs, &mut out) {
         return pair_contact_generic(a, fa, b, fb, prm);
     }
-    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
-    SideSums::from_flat(&out[..12]).finish(fb, true, &mut on_a, &mut on_b);
-    SideSums::from_flat(&out[12..24]).finish(fa, false, &mut on_a, &mut on_b);
+    let sums = [
+        SideSums::from_flat(&out[..12]),
+        SideSums::from_flat(&out[12..24]),
+    ];
+    let [on_a, on_b] = SideSums::wrenches(sums, fa, fb);
     PairContact {
         on_a,
         on_b,

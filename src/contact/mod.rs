@@ -24,9 +24,9 @@ mod tests;
 use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
-pub(crate) use point::plane_reading;
 pub(crate) use point::{
-    point_force, point_force_naive, ForceSink, NoForceSink, PlaneTerm, PointForce,
+    half_space_force, point_force, point_force_naive, ForceSink, NoForceSink, PlaneTerm,
+    PointForce, SoftAverage,
 };
 pub use point::{point_plane_force, point_plane_force_at};
 pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
@@ -101,6 +101,16 @@ impl<T: Scalar> SideSums<T> {
         self.t_q += arm.cross(&fw);
         self.f_p -= fw;
         self.t_p -= pf.moment * w;
+    }
+
+    /// The pair's wrenches `[on_a, on_b]` (world frame) from its two sides' sums: side 0's
+    /// (points of `a` in the frame of `b`, `fb`) and side 1's (points of `b`, frame `fa`).
+    fn wrenches(sums: [SideSums<T>; 2], fa: &Frame<T>, fb: &Frame<T>) -> [Wrench<T>; 2] {
+        let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
+        let [s0, s1] = sums;
+        s0.finish(fb, true, &mut on_a, &mut on_b);
+        s1.finish(fa, false, &mut on_a, &mut on_b);
+        [on_a, on_b]
     }
 
     /// Adds these sums, rotated from the plane body's frame to the world, to the pair's
@@ -213,6 +223,35 @@ pub(super) fn for_each_force<T: Scalar>(
     }
 }
 
+/// The SSDF terms at `x` against the planes of `o` (each relevant plane's leaf-order index and
+/// softmax weight, in summation order), found again for a band entry whose terms the band did
+/// not keep (past its budget): the same relevant set, whichever way it is found, and the same
+/// weights as the band's walk found, so the same bits. Used by the live evaluation
+/// ([`pair_sides`]) and the tape's replay alike; `again` holds them.
+pub(super) fn terms_again<'t, T: Scalar>(
+    o: &Aopc,
+    x: &Vector3<T>,
+    eps1: T,
+    scratch: &mut Relevant,
+    again: &'t mut Vec<(u32, T)>,
+) -> &'t [(u32, T)] {
+    scratch.find(o, &re3(x), eps1.re(), usize::MAX);
+    again.clear();
+    let low = f64::NEG_INFINITY;
+    let terms = Some(&mut *again);
+    ssdf_over(
+        o,
+        x,
+        eps1,
+        SpringShape::NONE,
+        low,
+        scratch,
+        &mut NoSink,
+        terms,
+    );
+    again
+}
+
 /// What [`pair_sides`] leaves besides the wrenches: the band, its distribution, and (for
 /// derivatives) the entries whose force was evaluated.
 pub(super) struct PairParts<T: Scalar> {
@@ -284,22 +323,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         let terms = match (e.terms, planes) {
             (Some((from, to)), _) => &band.terms[from as usize..to as usize],
             (None, Collider::HalfSpace { .. }) => &[],
-            (None, Collider::Aopc(o)) => {
-                scratch.find(o, &re3(&x), prm.eps1.re(), usize::MAX);
-                again.clear();
-                let low = f64::NEG_INFINITY;
-                ssdf_over(
-                    o,
-                    &x,
-                    prm.eps1,
-                    SpringShape::NONE,
-                    low,
-                    scratch,
-                    &mut NoSink,
-                    Some(&mut again),
-                );
-                &again[..]
-            }
+            (None, Collider::Aopc(o)) => terms_again(o, &x, prm.eps1, scratch, &mut again),
         };
         let mut snk = sink();
         let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, terms, &mut snk);
@@ -445,10 +469,7 @@ fn pair_contact_generic_memo<T: Scalar>(
         || NoForceSink,
         |_, _, _, _| {},
     );
-    let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
-    let [s0, s1] = parts.sums;
-    s0.finish(fb, true, &mut on_a, &mut on_b);
-    s1.finish(fa, false, &mut on_a, &mut on_b);
+    let [on_a, on_b] = SideSums::wrenches(parts.sums, fa, fb);
     PairContact {
         on_a,
         on_b,

@@ -76,6 +76,86 @@ pub(crate) struct PointForce<T: Scalar> {
     pub(crate) moment: Vector3<T>,
 }
 
+/// The force of one half-space on a query point moving with `v_point` (plane body's frame),
+/// `phi` its distance from the plane through `p` with normal `n`: the point–plane force, not
+/// weighted, and its moment about the plane body's origin; with the point's velocity relative
+/// to the plane's material point. Written once for the live evaluation ([`point_force`]) and the
+/// tape's replay (`PairTape::replay`), so the two cannot drift apart.
+#[inline]
+pub(crate) fn half_space_force<T: Scalar>(
+    p: &Vector3<T>,
+    n: &Vector3<T>,
+    phi: T,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> (PointForce<T>, Vector3<T>) {
+    let v = v_point - angvel_planes.cross(p);
+    let lambda = point_plane_force_at(phi, n, &v, prm);
+    let pf = PointForce {
+        force: lambda,
+        moment: p.cross(&lambda),
+    };
+    (pf, v)
+}
+
+/// The softmin-weighted average of point–plane forces on one query point (paper eq. 23–24),
+/// summed term by term: the one place this arithmetic is written, for the live evaluation
+/// ([`point_force`]) and the tape's replay (`PairTape::replay`) alike, so a replay at the
+/// recorded velocity equals the evaluation bit for bit by construction.
+pub(crate) struct SoftAverage<'a, T: Scalar> {
+    /// The query point's velocity and the plane body's angular velocity (plane body's frame).
+    v_point: &'a Vector3<T>,
+    angvel_planes: &'a Vector3<T>,
+    prm: &'a ContactParams<T>,
+    force: Vector3<T>,
+    moment: Vector3<T>,
+    weight: T,
+}
+
+impl<'a, T: Scalar> SoftAverage<'a, T> {
+    /// No term yet, for a query point moving with `v_point` against planes turning with
+    /// `angvel_planes`.
+    #[inline]
+    pub(crate) fn new(
+        v_point: &'a Vector3<T>,
+        angvel_planes: &'a Vector3<T>,
+        prm: &'a ContactParams<T>,
+    ) -> Self {
+        SoftAverage {
+            v_point,
+            angvel_planes,
+            prm,
+            force: Vector3::zeros(),
+            moment: Vector3::zeros(),
+            weight: T::zero(),
+        }
+    }
+
+    /// Adds the term of the plane through `p` with normal `n`, softmax weight `w`, whose
+    /// spring reads `phi` ([`plane_reading`]); returns the query point's velocity relative to
+    /// the plane's material point.
+    #[inline]
+    pub(crate) fn add(&mut self, w: T, p: &Vector3<T>, n: &Vector3<T>, phi: T) -> Vector3<T> {
+        self.weight += w;
+        let v = self.v_point - self.angvel_planes.cross(p);
+        let lambda = point_plane_force_at(phi, n, &v, self.prm) * w;
+        self.force += lambda;
+        self.moment += p.cross(&lambda);
+        v
+    }
+
+    /// The average: the weighted sums divided by the total weight.
+    #[inline]
+    pub(crate) fn finish(self) -> PointForce<T> {
+        let inv = self.weight.recip();
+        PointForce {
+            force: self.force * inv,
+            moment: self.moment * inv,
+        }
+    }
+}
+
 /// One term of a point–SSDF force, real parts: softmax weight `w` (1 for a half-space), offset
 /// `r = x - p` from the plane point `p` with normal `n`, the velocity `v` of the query point
 /// relative to the plane's material point, and the distance `phi` the spring reads with its
@@ -126,11 +206,10 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
     match planes {
         Collider::HalfSpace { point, normal } => {
             let p = lift3::<T>(point);
-            let v = v_point - angvel_planes.cross(&p);
             let r = x - p;
             let n = lift3::<T>(normal);
             let phi = n.dot(&r);
-            let lambda = point_plane_force_at(phi, &n, &v, prm);
+            let (pf, v) = half_space_force(&p, &n, phi, v_point, angvel_planes, prm);
             if S::ON {
                 sink.term(&PlaneTerm {
                     w: 1.0,
@@ -142,27 +221,19 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                     dphi: normal,
                 });
             }
-            PointForce {
-                force: lambda,
-                moment: p.cross(&lambda),
-            }
+            pf
         }
         Collider::Aopc(s) => {
             let bvh = s.bvh();
             let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
-            let (mut force, mut moment, mut weight) =
-                (Vector3::zeros(), Vector3::zeros(), T::zero());
+            let mut average = SoftAverage::new(v_point, angvel_planes, prm);
             for &(k, w) in terms {
                 let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
                 let p = lift3::<T>(q);
                 let r = x - p;
-                weight += w;
-                let v = v_point - angvel_planes.cross(&p);
                 let n = lift3::<T>(nq);
                 let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
-                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
-                force += lambda;
-                moment += p.cross(&lambda);
+                let v = average.add(w, &p, &n, phi);
                 if S::ON {
                     sink.term(&PlaneTerm {
                         w: w.re(),
@@ -175,11 +246,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                     });
                 }
             }
-            let inv = weight.recip();
-            PointForce {
-                force: force * inv,
-                moment: moment * inv,
-            }
+            average.finish()
         }
     }
 }

@@ -5,9 +5,13 @@
 //! distribution, each query point's relevant planes and their softmin weights, the offsets and
 //! normals) is the same at every velocity; only the point–plane forces change, through the
 //! relative velocity of each query point against each plane. A [`PairTape`] records those
-//! terms in one evaluation and replays the forces at other velocities: the same operations in
-//! the same order as [`pair_contact`](super::pair_contact) on `f64`, so at the velocity it was
-//! recorded at the replay equals the evaluation bit for bit. At another velocity it keeps the
+//! terms in one evaluation and replays the forces at other velocities. Recording goes through
+//! the live evaluation's own loop ([`pair_sides`]); the replay sums each point force with the
+//! live evaluation's own arithmetic (`SoftAverage`, `half_space_force`, and `point_force` on the
+//! terms found again past the budget, `terms_again`) and the pair's wrenches with its own
+//! `SideSums`, so at the velocity it was recorded at the replay equals
+//! [`pair_contact`](super::pair_contact) on `f64` bit for bit by construction, not by a copy
+//! kept in step by hand. At another velocity it keeps the
 //! recorded choice of which point forces can matter (their bound grows with the speed: a
 //! skipped one stays below the pruning tolerance times the largest unless the speeds grow
 //! many orders of magnitude).
@@ -15,7 +19,7 @@
 use super::*;
 
 /// One term of a point–SSDF force: softmin weight, normal, plane point, and the distance its
-/// spring reads ([`plane_reading`]).
+/// spring reads ([`plane_reading`](super::point::plane_reading)).
 #[derive(Clone, Debug)]
 struct Term {
     w: f64,
@@ -44,9 +48,7 @@ impl ForceSink for TermSink {
 #[derive(Clone, Debug)]
 struct Entry {
     side: usize,
-    /// The query point's leaf-order index (its terms are summed again from it when they were
-    /// not recorded).
-    k: u32,
+    /// The query point in the plane body's frame, less the translation: `R p`.
     arm: Vector3<f64>,
     weight: f64,
     /// The recorded terms; `None` past the tape's budget.
@@ -133,17 +135,13 @@ impl PairTape {
             };
             tape.entries.push(Entry {
                 side,
-                k: e.k,
                 arm: rels[side].rotation * s.bvh().points[e.k as usize],
                 weight,
                 terms: range,
                 half_space: matches!(planes, Collider::HalfSpace { .. }),
             });
         }
-        let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
-        let [s0, s1] = parts.sums;
-        s0.finish(fb, true, &mut on_a, &mut on_b);
-        s1.finish(fa, false, &mut on_a, &mut on_b);
+        let [on_a, on_b] = SideSums::wrenches(parts.sums, fa, fb);
         let contact = PairContact {
             on_a,
             on_b,
@@ -171,71 +169,39 @@ impl PairTape {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let mut sums = [SideSums::zero(), SideSums::zero()];
         // Terms summed again for the entries past the budget.
-        let (mut scratch, mut again, mut summed) = (Relevant::default(), Vec::new(), Vec::new());
+        let (mut scratch, mut again) = (Relevant::default(), Vec::new());
         for e in &self.entries {
             let rel = &rels[e.side];
             let v_point = rel.linvel + rel.angvel.cross(&e.arm);
-            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
-            let mut total = 0.0;
-            let terms = match &e.terms {
-                Some(range) => &self.terms[range.clone()],
+            let w_planes = &rel.angvel_planes;
+            // The point force by the arithmetic the live evaluation uses (`point_force`),
+            // from the recorded terms or, past the budget, from the terms found again.
+            let pf = match &e.terms {
+                Some(range) if e.half_space => {
+                    let t = &self.terms[range.start];
+                    half_space_force(&t.p, &t.n, t.phi, &v_point, w_planes, prm).0
+                }
+                Some(range) => {
+                    let mut average = SoftAverage::new(&v_point, w_planes, prm);
+                    for t in &self.terms[range.clone()] {
+                        average.add(t.w, &t.p, &t.n, t.phi);
+                    }
+                    average.finish()
+                }
                 None => {
-                    let (query, planes) = if e.side == 0 { (a, b) } else { (b, a) };
-                    let (Collider::Aopc(s), Collider::Aopc(o)) = (query, planes) else {
+                    let planes = if e.side == 0 { b } else { a };
+                    let Collider::Aopc(o) = planes else {
                         unreachable!("a term past the budget is a point against an AOPC")
                     };
-                    // As `pair_sides` evaluated it: x = R p + t, its relevant set and weights.
-                    let x = rel.rotation * s.bvh().points[e.k as usize] + rel.translation;
-                    scratch.find(o, &x, prm.eps1, usize::MAX);
-                    again.clear();
-                    ssdf_over(
-                        o,
-                        &x,
-                        prm.eps1,
-                        SpringShape::NONE,
-                        f64::NEG_INFINITY,
-                        &scratch,
-                        &mut NoSink,
-                        Some(&mut again),
-                    );
-                    let bvh = o.bvh();
-                    let mut floor = bvh.polytope.as_ref().map(|p| p.floor(&x));
-                    summed.clear();
-                    summed.extend(again.iter().map(|&(k, w)| {
-                        let p = bvh.points[k as usize];
-                        let (r, n) = (x - p, bvh.normals[k as usize]);
-                        let (phi, _) = plane_reading(&mut floor, n.dot(&r), &n);
-                        Term { w, n, p, phi }
-                    }));
-                    &summed[..]
-                }
-            };
-            for t in terms {
-                let v = v_point - rel.angvel_planes.cross(&t.p);
-                let lambda = if e.half_space {
-                    point_plane_force_at(t.phi, &t.n, &v, prm)
-                } else {
-                    point_plane_force_at(t.phi, &t.n, &v, prm) * t.w
-                };
-                force += lambda;
-                moment += t.p.cross(&lambda);
-                total += t.w;
-            }
-            let pf = if e.half_space {
-                PointForce { force, moment }
-            } else {
-                let inv = total.recip();
-                PointForce {
-                    force: force * inv,
-                    moment: moment * inv,
+                    // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation),
+                    // its relevant set and weights.
+                    let x = e.arm + rel.translation;
+                    let terms = terms_again(o, &x, prm.eps1, &mut scratch, &mut again);
+                    point_force(planes, &x, &v_point, w_planes, prm, terms, &mut NoForceSink)
                 }
             };
             sums[e.side].add(&e.arm, &pf, e.weight);
         }
-        let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
-        let [s0, s1] = sums;
-        s0.finish(fb, true, &mut on_a, &mut on_b);
-        s1.finish(fa, false, &mut on_a, &mut on_b);
-        [on_a, on_b]
+        SideSums::wrenches(sums, fa, fb)
     }
 }
