@@ -319,6 +319,13 @@ impl Simulation {
     /// when; its solver cache may have changed ([`Model::advance_cached`]), which no later
     /// step's validity depends on.
     pub fn advance(&mut self, h: f64) -> Result<(), StepError> {
+        self.advance_from(self.data.current.time, h)
+    }
+
+    /// [`Simulation::advance`] from time `t0` (a host's communication point, which may differ
+    /// from the sum of the steps taken by rounding): on success the time is `t0 + h`, set here
+    /// and nowhere else in a step; on failure nothing changes but the solver cache.
+    pub(crate) fn advance_from(&mut self, t0: f64, h: f64) -> Result<(), StepError> {
         if !h.is_finite() || h <= 0.0 {
             return Err(StepError::Error(format!(
                 "a step of {h} s refused: it must be positive and finite"
@@ -327,7 +334,6 @@ impl Simulation {
         let mocap = self.mocap_path(h)?;
         let mut u = self.data.current.ctrl.clone();
         u.extend_from_slice(&mocap);
-        let t0 = self.data.current.time;
         let done = self
             .model
             .advance_cached(
@@ -358,7 +364,7 @@ impl Simulation {
             self.data.current.mocap[o..o + 7]
                 .copy_from_slice(&[target[0], target[1], target[2], q.w, q.i, q.j, q.k]);
         }
-        self.data.current.time += h;
+        self.data.current.time = t0 + h;
         self.data.started = true;
         Ok(())
     }

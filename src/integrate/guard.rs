@@ -61,6 +61,7 @@ impl Model {
     ) -> Option<EnergyMonitor> {
         let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm));
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
+        let e = self.energy(&state.q, &state.v);
         let ledger = match ledger {
             // Carried on: the kinetic energy at this state is the one the last call's final
             // check computed, kept with the ledger. The energy stored in contact counts as
@@ -73,7 +74,7 @@ impl Model {
             // kinetic energy than `2 (E₀ + U₀ + E_floor - V_min)`.
             Some(l) if l.at == *state && l.params == *prm => {
                 let admitted = if stored > 0.0 {
-                    let headroom = l.allowed(floor) - self.energy(&state.q, &state.v).total();
+                    let headroom = l.allowed(floor) - e.total();
                     stored.min(headroom.max(0.0))
                 } else {
                     0.0
@@ -82,14 +83,10 @@ impl Model {
                     scale: l.scale.max(l.kinetic + admitted),
                     ..l.clone()
                 };
-                let e = self.energy(&state.q, &state.v);
                 carried.tighten(e.total(), e.kinetic, stored, t0, floor);
                 carried
             }
-            _ => {
-                let e = self.energy(&state.q, &state.v);
-                EnergyLedger::started(state.clone(), *prm, e.total(), e.kinetic, stored, t0)
-            }
+            _ => EnergyLedger::started(state.clone(), *prm, e.total(), e.kinetic, stored, t0),
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
             ledger,

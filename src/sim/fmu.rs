@@ -92,18 +92,10 @@ impl FmiModel for Simulation {
     }
 
     fn do_step(&mut self, current_time: f64, step: f64) -> Result<(), StepError> {
-        if !step.is_finite() || step <= 0.0 {
-            return Err(StepError::Error(format!(
-                "communicationStepSize = {step} refused: it must be positive and finite"
-            )));
-        }
         // The step starts at the host's communication point (the time the FMU reports is the
-        // host's, not the sum of its own steps); `advance` lands on `current_time + step`.
-        let before = std::mem::replace(&mut self.data.current.time, current_time);
-        if let Err(e) = self.advance(step) {
-            self.data.current.time = before;
-            return Err(e);
-        }
+        // host's, not the sum of its own steps) and lands on `current_time + step`; `advance_from`
+        // checks the step and sets the time once, on success.
+        self.advance_from(current_time, step)?;
         self.log_contacts();
         Ok(())
     }
