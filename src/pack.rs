@@ -42,6 +42,7 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
     let files = loaded
         .meshes
         .iter()
+        .filter(|m| m.inline.is_none()) // an inline mesh travels in the scene itself
         .map(|m| {
             (
                 crate::scene::packed_mesh_name(&m.file),

@@ -38,6 +38,9 @@ pub struct MeshAsset {
     pub maxhullvert: Option<i64>,
     /// Whether a geom uses it.
     pub used: bool,
+    /// The vertices and faces of a mesh given inline (`vertex`, `face`; its `file` and `path`
+    /// are then empty).
+    pub inline: Option<super::inline_mesh::InlineMesh>,
 }
 
 /// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
@@ -280,8 +283,7 @@ impl Builder {
                 let mp = match (&asset.mesh, shell) {
                     (Some(closed), false) => closed.legacy_mass_properties(),
                     (Some(closed), true) => closed.shell_mass_properties(),
-                    (None, false) => TriMesh::load_legacy_mass(&asset.path, &asset.placement).ok(),
-                    (None, true) => TriMesh::load_shell_mass(&asset.path, &asset.placement).ok(),
+                    (None, _) => asset.source_mass(shell),
                 };
                 let mp = mp.ok_or_else(|| {
                     if shell {
@@ -314,9 +316,9 @@ impl Builder {
     pub(super) fn hull_of(&mut self, mesh: &str) -> Option<(Arc<TriMesh>, Option<i64>)> {
         let asset = self.meshes.iter_mut().find(|m| m.name == mesh)?;
         if asset.hull.is_none() && asset.hull_problem.is_none() {
-            match TriMesh::load_hull(&asset.path, &asset.placement) {
+            match asset.source_hull() {
                 Ok(h) => asset.hull = Some(Arc::new(h)),
-                Err(e) => asset.hull_problem = Some(e.problem.to_string()),
+                Err(e) => asset.hull_problem = Some(e),
             }
         }
         asset.hull.clone().map(|h| (h, asset.maxhullvert))
@@ -336,6 +338,10 @@ impl Builder {
                 "refpos",
                 "refquat",
                 "content_type",
+                "vertex",
+                "face",
+                "normal",
+                "texcoord",
             ],
         )?;
         // A mesh weighs as MuJoCo weighs it: its default rule ("legacy"), the exact solid, or
@@ -364,6 +370,15 @@ impl Builder {
                 ))
             }
         };
+        if el.attr("vertex").is_some() || el.attr("face").is_some() {
+            let placement = self.mesh_placement(el)?;
+            return self.inline_mesh(el, placement, inertia, maxhullvert);
+        }
+        for key in ["normal", "texcoord"] {
+            if el.attr(key).is_some() {
+                return Err(self.err(el, format!("{key}=\"...\" belongs to a mesh given inline (vertex=\"...\"); a file's mesh takes its own")));
+            }
+        }
         let file = el
             .attr("file")
             .ok_or_else(|| match el.children.iter().find(|c| c.name == "plugin") {
@@ -404,30 +419,7 @@ impl Builder {
         if self.meshes.iter().any(|m| m.name == name) {
             return Err(self.err(el, format!("mesh name '{name}' is used twice")));
         }
-        let scale = self
-            .vec3(el, "scale")?
-            .unwrap_or_else(|| Vector3::repeat(1.0));
-        if scale.iter().any(|&x| x == 0.0) {
-            return Err(self.err(el, "scale has a zero component"));
-        }
-        // The file's coordinates relative to the reference frame `refpos`, `refquat`, as MuJoCo
-        // places them, then scaled.
-        let refpos = self.vec3(el, "refpos")?.unwrap_or_else(Vector3::zeros);
-        let refquat = match self.floats(el, "refquat", 4)? {
-            None => UnitQuaternion::identity(),
-            Some(q) => {
-                let q = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
-                if q.norm() < 1e-10 {
-                    return Err(self.err(el, "refquat is zero: it names no orientation"));
-                }
-                UnitQuaternion::from_quaternion(q)
-            }
-        };
-        let placement = Placement {
-            refpos,
-            refquat,
-            scale,
-        };
+        let placement = self.mesh_placement(el)?;
         let path = mesh_path(Path::new(&self.file), self.meshdir.as_deref(), &file);
         // A file that cannot be read is an error at once (MuJoCo's too); a surface that is
         // not closed is one only where a geom needs it (`MeshAsset::problem`).
@@ -474,8 +466,39 @@ impl Builder {
             legacy: None,
             maxhullvert,
             used: false,
+            inline: None,
         });
         Ok(())
+    }
+
+    /// How a mesh's vertices are placed (`refpos`, `refquat`, `scale`), for a file's and an
+    /// inline mesh alike.
+    fn mesh_placement(&self, el: &Element) -> Result<Placement, SceneError> {
+        let scale = self
+            .vec3(el, "scale")?
+            .unwrap_or_else(|| Vector3::repeat(1.0));
+        if scale.iter().any(|&x| x == 0.0) {
+            return Err(self.err(el, "scale has a zero component"));
+        }
+        // The file's coordinates relative to the reference frame `refpos`, `refquat`, as MuJoCo
+        // places them, then scaled.
+        let refpos = self.vec3(el, "refpos")?.unwrap_or_else(Vector3::zeros);
+        let refquat = match self.floats(el, "refquat", 4)? {
+            None => UnitQuaternion::identity(),
+            Some(q) => {
+                let q = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
+                if q.norm() < 1e-10 {
+                    return Err(self.err(el, "refquat is zero: it names no orientation"));
+                }
+                UnitQuaternion::from_quaternion(q)
+            }
+        };
+        let placement = Placement {
+            refpos,
+            refquat,
+            scale,
+        };
+        Ok(placement)
     }
 }
 

@@ -159,9 +159,6 @@ pub(super) fn advice(element: &str, attr: &str) -> &'static str {
         ("mesh", "builtin") => {
             ": MuJoCo's built-in procedural meshes are not supported; use primitive geoms or a mesh file"
         }
-        ("mesh", "vertex") | ("mesh", "face") | ("mesh", "normal") | ("mesh", "texcoord") => {
-            ": meshes given inline are not supported yet; write the mesh to an OBJ or STL file and give file=\"...\""
-        }
         ("joint", "actuatorgravcomp") => {
             ": gravity compensation through the actuators is not modelled; remove it (the bodies' gravcomp then acts as a passive force, MuJoCo's default)"
         }

@@ -1131,6 +1131,74 @@ def test_meshes_placed_by_refpos_and_refquat_compile_as_mujoco_compiles_them(tmp
     compare(path, inertia_tol=1e-7)
 
 
+#: Meshes given inline: a hull of vertices without faces (a cube's corners and a point inside,
+#: scaled and turned), a tetrahedron with its faces given inward, and one left open (three of
+#: its four faces; it collides by its hull and weighs by MuJoCo's rule on the faces it has).
+INLINE_MESHES = """<mujoco>
+  <asset>
+    <mesh name="hull" vertex="0 0 0 1 0 0 0 1 0 1 1 0 0 0 1 1 0 1 0 1 1 1 1 1 0.5 0.5 0.5"
+          scale="0.1 0.05 0.2" refquat="1 0.3 0 0.2"/>
+    <mesh name="tet" vertex="0 0 0 1 0 0 0 1 0 0 0 1" face="0 1 2 0 3 1 0 2 3 1 3 2"
+          scale="0.2 0.2 0.2" refpos="0.1 0 0"/>
+    <mesh name="open" vertex="0 0 0 1 0 0 0 1 0 0 0 1" face="0 2 1 0 1 3 0 3 2" scale="0.1 0.1 0.1"
+          normal="0 0 1 0 0 1 0 0 1 0 0 1"/>
+  </asset>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1"/>
+    <body name="hull" pos="0 0 0.5"><freejoint/><geom type="mesh" mesh="hull"/></body>
+    <body name="tet" pos="0.5 0 0.5">
+      <freejoint/>
+      <geom type="mesh" mesh="tet" density="300"/>
+      <geom name="fit" type="sphere" mesh="tet" mass="0.1"/>
+    </body>
+    <body name="open" pos="1 0 0.5"><freejoint/><geom type="mesh" mesh="open"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_meshes_given_inline_compile_as_mujoco_compiles_them(tmp_path):
+    """<mesh vertex face> (MuJoCo's car and Rubik's cube): without faces the mesh is the convex
+    hull of its vertices, with faces the surface they make (turned outward, or open and
+    colliding by its hull); placed by refpos, refquat and scale as a file's are. Masses,
+    inertias, mesh frames and a primitive fitted to one, as MuJoCo compiles them; the scene
+    runs, and packs into an FMU without a mesh file."""
+    path = tmp_path / "inline.xml"
+    path.write_text(INLINE_MESHES)
+    compare(path, inertia_tol=1e-7)
+    run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.3"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    check = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    assert check.returncode == 0 and "mesh hull (given inline)" in check.stdout, check.stdout + check.stderr
+    assert "normal (MuJoCo renders with it" in check.stdout + check.stderr
+    fmu = tmp_path / "inline.fmu"
+    packed = subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], capture_output=True, text=True)
+    assert packed.returncode == 0, packed.stderr
+    import zipfile
+    names = zipfile.ZipFile(fmu).namelist()
+    assert not [n for n in names if n.startswith("resources/meshes/")], names
+
+
+@pytest.mark.parametrize("mesh, says", [
+    ('<mesh vertex="0 0 0 1 0 0 0 1 0 0 0 1"/>', "needs a name"),
+    ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0"/>', "at least 4"),
+    ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0"/>', "not a multiple of 3"),
+    ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0 1 1 0"/>', "convex hull"),
+    ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0 0 0 1" face="0 2 1 0 1 3 0 3 9"/>', "vertex '9'"),
+    ('<mesh name="m" face="0 1 2"/>', "give them with vertex"),
+])
+def test_an_inline_mesh_mujoco_refuses_is_refused_saying_why(tmp_path, mesh, says):
+    """What MuJoCo's compiler refuses in an inline mesh, SCM refuses too, at the mesh's line
+    and saying what is wrong."""
+    text = f'<mujoco><asset>{mesh}</asset><worldbody><body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>'
+    path = tmp_path / "bad.xml"
+    path.write_text(text)
+    with pytest.raises(ValueError):
+        mujoco.MjModel.from_xml_path(str(path))
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and says in out.stderr and "bad.xml:1" in out.stderr, out.stderr
+
+
 def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):
     """A height field without elevation data (dm_control's quadruped terrain, which its task
     fills at run time) is flat when compiled: SCM takes it as the plane of its surface, here

@@ -55,7 +55,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                     w,
                     "mesh {} ({}): not a closed surface, used by no geom SCM keeps",
                     a.name,
-                    a.path.display()
+                    a.source()
                 );
                 continue;
             }
@@ -65,7 +65,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             w,
             "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{}",
             a.name,
-            a.path.display(),
+            a.source(),
             mesh.vertices.len(),
             mesh.triangles.len(),
             mp.volume,

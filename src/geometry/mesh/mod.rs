@@ -458,6 +458,7 @@ mod read;
 mod sample;
 
 pub use mass::{legacy_mass_properties, shell_mass_properties};
+pub use read::signed_volume;
 pub use sample::{Simplified, SIMPLIFY_TOLERANCE, SIMPLIFY_TRIES, SIMPLIFY_VOLUME};
 
 /// The corners of the points' bounding box, lowest and highest.

@@ -44,16 +44,7 @@ impl TriMesh {
     /// out). MuJoCo refuses a mesh weighed by `inertia="exact"` whose volume is negative.
     pub fn load_signed_volume(path: &Path, placement: &Placement) -> Result<f64, MeshError> {
         let (_, vertices, triangles, _) = read(path, placement)?;
-        let s = placement.scale;
-        let mirror = if s.x * s.y * s.z < 0.0 { -1.0 } else { 1.0 };
-        let volume: f64 = triangles
-            .iter()
-            .filter_map(|t| {
-                let [a, b, c] = t.map(|i| vertices.get(i as usize));
-                Some(a?.dot(&b?.cross(c?)) / 6.0)
-            })
-            .sum();
-        Ok(mirror * volume)
+        Ok(signed_volume(&vertices, &triangles, placement))
     }
 
     /// MuJoCo's shell inertia of an OBJ or STL file (placed: [`Placement`]), `inertia="shell"`
@@ -93,6 +84,26 @@ impl TriMesh {
         }
         TriMesh::convex_hull(&file, &vertices)
     }
+}
+
+/// The signed volume `triangles` over `vertices` (placed by `placement`) enclose as written
+/// (m³: negative where they face inward; a mirroring scale counted as the mirror it is, not as
+/// a turn inside out). A triangle naming a vertex that does not exist counts nothing.
+pub fn signed_volume(
+    vertices: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    placement: &Placement,
+) -> f64 {
+    let s = placement.scale;
+    let mirror = if s.x * s.y * s.z < 0.0 { -1.0 } else { 1.0 };
+    let volume: f64 = triangles
+        .iter()
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|i| vertices.get(i as usize));
+            Some(a?.dot(&b?.cross(c?)) / 6.0)
+        })
+        .sum();
+    mirror * volume
 }
 
 /// A file's name, its vertices (placed: [`Placement`]) and triangles.
