@@ -204,7 +204,9 @@ impl Model {
 
     /// Makes `integrator` the model's, its joint and tendon limits acting with MuJoCo's statics
     /// where that integrator takes their damping implicitly and with the reference gains
-    /// elsewhere ([`Integrator::takes_limits_implicitly`]; docs/mjcf.md, "Joint limits").
+    /// elsewhere ([`Integrator::takes_limits_implicitly`]; docs/mjcf.md, "Joint limits"), and
+    /// its equality constraints so too ([`Integrator::raises_equalities`]; docs/mjcf.md,
+    /// "Equality constraints").
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
         let (joints, tendons) = (
@@ -219,6 +221,16 @@ impl Model {
         }
         for t in &mut self.spatial_tendons {
             t.law.limit = t.law.limit.map(|l| l.acting(tendons));
+        }
+        let raised = integrator.raises_equalities();
+        for e in &mut self.equalities {
+            (e.stiffness, e.damping) = e.gains.acting(raised);
+        }
+        for c in &mut self.connects {
+            (c.stiffness, c.damping) = c.gains.acting(raised);
+            if let Some(o) = &mut c.orientation {
+                (o.stiffness, o.damping) = o.gains.acting(raised);
+            }
         }
     }
 

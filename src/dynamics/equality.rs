@@ -16,6 +16,37 @@ pub type Linear = Vec<(usize, usize, f64)>;
 
 use super::tendon::{linear_rate as rate, linear_value as value};
 
+/// An equality's spring and damper gains as the file defines them (docs/mjcf.md, "Equality
+/// constraints"): the reference gains `(k, b)` (MuJoCo's reference acceleration for its
+/// `solref` on the effective inertia) and the factor `statics` by which MuJoCo's impedance
+/// (`solimp`) raises them at rest. An equality acts with the raised gains where the step takes
+/// its damping implicitly across the coordinates it couples (implicit Euler), with the
+/// reference gains elsewhere (`Model::set_integrator`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gains {
+    /// `(k, b)` of the reference.
+    pub reference: (f64, f64),
+    /// The factor MuJoCo's statics ask (1: none).
+    pub statics: f64,
+}
+
+impl Gains {
+    /// The reference gains `(k, b)`, not raised.
+    pub fn reference(k: f64, b: f64) -> Gains {
+        Gains {
+            reference: (k, b),
+            statics: 1.0,
+        }
+    }
+
+    /// The gains `(k, b)` an equality acts with: raised by `statics` (`raised`) or the
+    /// reference.
+    pub fn acting(&self, raised: bool) -> (f64, f64) {
+        let g = if raised { self.statics } else { 1.0 };
+        (self.reference.0 * g, self.reference.1 * g)
+    }
+}
+
 /// A joint or tendon equality.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScalarEquality {
@@ -27,10 +58,12 @@ pub struct ScalarEquality {
     pub second: Option<(Linear, f64)>,
     /// MuJoCo's `polycoef`.
     pub poly: [f64; 5],
-    /// Spring stiffness `k`.
+    /// Spring stiffness `k`, as it acts.
     pub stiffness: f64,
-    /// Damping `b`.
+    /// Damping `b`, as it acts.
     pub damping: f64,
+    /// The gains the file defines, from which `stiffness` and `damping` act.
+    pub gains: Gains,
 }
 
 impl ScalarEquality {
@@ -96,6 +129,7 @@ mod tests {
             poly: [0.02, 0.7, -0.3, 0.2, 0.1],
             stiffness: 40.0,
             damping: 0.0,
+            gains: Gains::reference(40.0, 0.0),
         }
     }
 
@@ -165,10 +199,12 @@ pub struct Connect {
     pub first: (usize, nalgebra::Vector3<f64>),
     /// Body 2 (0: the world) and the anchor in its frame.
     pub second: (usize, nalgebra::Vector3<f64>),
-    /// Spring stiffness `k` (N/m).
+    /// Spring stiffness `k` (N/m), as it acts.
     pub stiffness: f64,
-    /// Damping `b` (N·s/m).
+    /// Damping `b` (N·s/m), as it acts.
     pub damping: f64,
+    /// The gains the file defines, from which `stiffness` and `damping` act.
+    pub gains: Gains,
     /// For a weld, the orientation it holds; `None` for a connect.
     pub orientation: Option<Orientation>,
 }
@@ -189,10 +225,12 @@ pub struct Connect {
 pub struct Orientation {
     /// The held rotation of body 2's frame seen from body 1's (`R₁ᵀ R₂` when held).
     pub relative: nalgebra::Matrix3<f64>,
-    /// Angular stiffness `κ` (N·m/rad).
+    /// Angular stiffness `κ` (N·m/rad), as it acts.
     pub stiffness: f64,
-    /// Angular damping `β` (N·m·s/rad).
+    /// Angular damping `β` (N·m·s/rad), as it acts.
     pub damping: f64,
+    /// The gains the file defines, from which `stiffness` and `damping` act.
+    pub gains: Gains,
 }
 
 impl Orientation {
@@ -314,10 +352,12 @@ mod weld_tests {
             second: (2, Vector3::new(0.0, 0.3, 0.1)),
             stiffness: 50.0,
             damping,
+            gains: Gains::reference(50.0, damping),
             orientation: Some(Orientation {
                 relative: *Rotation3::new(Vector3::new(0.3, -0.5, 0.2)).matrix(),
                 stiffness: 7.0,
                 damping,
+                gains: Gains::reference(7.0, damping),
             }),
         }
     }

@@ -2,15 +2,15 @@
 
 use super::*;
 
-/// A connect or weld equality as read: the two bodies, where its points are, `solref`, and
-/// for a weld its `torquescale`.
+/// A connect or weld equality as read: the two bodies, where its points are, `solref` and
+/// `solimp`, and for a weld its `torquescale`.
 #[derive(Clone, Debug)]
 pub(super) struct ConnectSpec {
     pub(super) name: String,
     pub(super) body1: usize,
     pub(super) body2: usize,
     pub(super) anchors: Anchors,
-    pub(super) solref: [f64; 2],
+    pub(super) softness: contact::Softness,
     /// `Some(torquescale)` for a weld, `None` for a connect.
     pub(super) weld: Option<f64>,
 }
@@ -31,7 +31,7 @@ pub(super) enum Anchors {
 }
 
 /// A joint or tendon equality as read: the objects (joint or tendon indices), MuJoCo's
-/// `polycoef` and `solref`.
+/// `polycoef`, `solref` and `solimp`.
 #[derive(Clone, Debug)]
 pub(super) struct EqualitySpec {
     pub(super) name: String,
@@ -40,7 +40,7 @@ pub(super) struct EqualitySpec {
     pub(super) first: usize,
     pub(super) second: Option<usize>,
     pub(super) poly: [f64; 5],
-    pub(super) solref: [f64; 2],
+    pub(super) softness: contact::Softness,
 }
 
 impl Builder {
@@ -58,7 +58,10 @@ impl Builder {
         } else {
             ("joint1", "joint2")
         };
-        self.check_attrs(el, &["name", key1, key2, "polycoef", "solref", "active"])?;
+        self.check_attrs(
+            el,
+            &["name", key1, key2, "polycoef", "solref", "solimp", "active"],
+        )?;
         // Read in full even when inactive: MuJoCo refuses an inactive constraint that is wrong.
         let active = self.equality_active(el)?;
         let find = |key: &str| -> Result<Option<usize>, SceneError> {
@@ -91,7 +94,7 @@ impl Builder {
             Some(Some(v)) if v.len() == 5 => [v[0], v[1], v[2], v[3], v[4]],
             Some(_) => return Err(self.err(el, "polycoef: expected 5 numbers")),
         };
-        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        let softness = self.softness(el, contact::Softness::default())?;
         if !active {
             return Ok(());
         }
@@ -108,7 +111,7 @@ impl Builder {
             first,
             second,
             poly,
-            solref: [solref[0], solref[1]],
+            softness,
         });
         Ok(())
     }
@@ -120,7 +123,7 @@ impl Builder {
     fn connect(&mut self, el: &Element) -> Result<(), SceneError> {
         let weld = el.name == "weld";
         let mut allowed = vec![
-            "name", "body1", "body2", "site1", "site2", "anchor", "solref", "active",
+            "name", "body1", "body2", "site1", "site2", "anchor", "solref", "solimp", "active",
         ];
         if weld {
             allowed.extend(["relpose", "torquescale"]);
@@ -210,7 +213,7 @@ impl Builder {
         // A negative torquescale flips MuJoCo's residual and its Jacobian together: the same
         // constraint as its magnitude.
         let torquescale = self.float(el, "torquescale")?.unwrap_or(1.0).abs();
-        let solref = self.floats(el, "solref", 2)?.unwrap_or(vec![0.02, 1.0]);
+        let softness = self.softness(el, contact::Softness::default())?;
         if !active {
             return Ok(());
         }
@@ -238,7 +241,7 @@ impl Builder {
             body1,
             body2,
             anchors,
-            solref: [solref[0], solref[1]],
+            softness,
             weld: weld.then_some(torquescale),
         });
         Ok(())

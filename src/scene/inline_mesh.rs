@@ -77,7 +77,10 @@ impl Builder {
         maxhullvert: Option<i64>,
     ) -> Result<(), SceneError> {
         if el.attr("file").is_some() {
-            return Err(self.err(el, "a mesh is given by file=\"...\" or inline (vertex=\"...\"), not both: remove one"));
+            return Err(self.err(
+                el,
+                "a mesh is given by file=\"...\" or inline (vertex=\"...\"), not both: remove one",
+            ));
         }
         let name = Self::given_name(el).ok_or_else(|| {
             self.err(el, "a mesh given inline needs a name (there is no file to name it after; MuJoCo refuses it too)")
@@ -86,7 +89,10 @@ impl Builder {
             return Err(self.err(el, format!("mesh name '{name}' is used twice")));
         }
         let Some(text) = el.attr("vertex") else {
-            return Err(self.err(el, "face=\"...\" indexes vertices: give them with vertex=\"x y z ...\""));
+            return Err(self.err(
+                el,
+                "face=\"...\" indexes vertices: give them with vertex=\"x y z ...\"",
+            ));
         };
         let numbers = parse_floats(text)
             .ok_or_else(|| self.err(el, "vertex=\"...\": expected finite numbers"))?;
@@ -94,7 +100,13 @@ impl Builder {
             return Err(self.err(el, format!("vertex has {} numbers, not a multiple of 3 (x y z for each vertex); MuJoCo refuses it too", numbers.len())));
         }
         if numbers.len() < 12 {
-            return Err(self.err(el, format!("vertex gives {} vertices: a mesh needs at least 4 (MuJoCo refuses it too)", numbers.len() / 3)));
+            return Err(self.err(
+                el,
+                format!(
+                    "vertex gives {} vertices: a mesh needs at least 4 (MuJoCo refuses it too)",
+                    numbers.len() / 3
+                ),
+            ));
         }
         let vertices: Vec<Vector3<f64>> = numbers
             .chunks(3)
@@ -163,12 +175,25 @@ impl Builder {
 
     /// The `face` list of an inline mesh: vertex indices in threes, each naming one of its
     /// `n` vertices.
-    fn inline_faces(&self, el: &Element, text: &str, n: usize) -> Result<Vec<[u32; 3]>, SceneError> {
+    fn inline_faces(
+        &self,
+        el: &Element,
+        text: &str,
+        n: usize,
+    ) -> Result<Vec<[u32; 3]>, SceneError> {
         let indices = text
             .split_whitespace()
             .map(|t| t.parse::<u32>().ok().filter(|&i| (i as usize) < n).ok_or(t))
             .collect::<Result<Vec<u32>, &str>>()
-            .map_err(|t| self.err(el, format!("face names vertex '{t}', which is not one of the {n} vertices (0 to {})", n - 1)))?;
+            .map_err(|t| {
+                self.err(
+                    el,
+                    format!(
+                        "face names vertex '{t}', which is not one of the {n} vertices (0 to {})",
+                        n - 1
+                    ),
+                )
+            })?;
         if indices.len() % 3 != 0 || indices.is_empty() {
             return Err(self.err(el, format!("face has {} indices, not a positive multiple of 3 (three vertices for each triangle)", indices.len())));
         }

@@ -206,7 +206,8 @@ impl Compiled {
                 json!({
                     "name": e.name, "poly": e.poly,
                     "reference": [Some(e.first.1), e.second.as_ref().map(|s| s.1)],
-                    "stiffness": e.stiffness, "damping": e.damping,
+                    "stiffness": e.gains.reference.0, "damping": e.gains.reference.1,
+                    "statics": e.gains.statics, "acting": [e.stiffness, e.damping],
                 })
             })
             .collect();
@@ -221,14 +222,16 @@ impl Compiled {
                     let q = nalgebra::UnitQuaternion::from_rotation_matrix(&r);
                     json!({
                         "relative": [q.w, q.i, q.j, q.k],
-                        "stiffness": o.stiffness, "damping": o.damping,
+                        "stiffness": o.gains.reference.0, "damping": o.gains.reference.1,
+                        "statics": o.gains.statics, "acting": [o.stiffness, o.damping],
                     })
                 });
                 json!({
                     "name": c.name,
                     "body1": names[c.first.0], "anchor1": v3(&c.first.1),
                     "body2": names[c.second.0], "anchor2": v3(&c.second.1),
-                    "stiffness": c.stiffness, "damping": c.damping,
+                    "stiffness": c.gains.reference.0, "damping": c.gains.reference.1,
+                    "statics": c.gains.statics, "acting": [c.stiffness, c.damping],
                     "orientation": orientation,
                 })
             })

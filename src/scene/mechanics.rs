@@ -4,7 +4,7 @@
 
 use super::weights::{body_weights, joint_inertia, mass_at_q0, unit_velocity_kinematics};
 use super::*;
-use crate::dynamics::equality::{Connect, Linear, Orientation, ScalarEquality};
+use crate::dynamics::equality::{Connect, Gains, Linear, Orientation, ScalarEquality};
 use crate::dynamics::limit::{solref_gains, JointLimit};
 use crate::dynamics::tendon::{FixedTendon, Segment, SpatialTendon, TendonLaw};
 
@@ -47,6 +47,47 @@ impl Builder {
         JointLimit::from_solref(lo, hi, self.held(softness.solref), inertia)
             .stiffened(1.0 / (1.0 - softness.dmax()))
             .acting(implicit)
+    }
+
+    /// An equality's gains on effective inertia `inertia` (docs/mjcf.md, "Equality
+    /// constraints"): MuJoCo's reference gains for its `solref` (as `refsafe` holds it), and
+    /// the factor that gives MuJoCo's statics. MuJoCo's soft constraint holds a load `a` (per
+    /// unit of effective inertia) at the error `r*` that solves `r d(r)² / (1 - d(r)) = a / K`
+    /// (`d` the impedance of `solimp`, `K` its reference stiffness); a spring of the reference
+    /// gains deflects `a τ² ζ²` instead, 10 to 20 times more at the default `solimp`. The
+    /// factor is the ratio of the two at the constraint's own weight, `a = g` (the impedance
+    /// varies with the error, so under another load the ratio is off by at most
+    /// `(1 - d0) / (1 - dmax)`, twice at the default), as a contact's stiffness is set at its
+    /// weight. It acts where the step takes the damping implicitly across the coordinates an
+    /// equality couples (implicit Euler, [`Builder::raised_equalities`]); raised so, the
+    /// spring's fast mode is beyond an explicit step at MuJoCo's steps, as a limit's is.
+    fn equality_gains(&self, tree: &Tree, softness: &contact::Softness, inertia: f64) -> Gains {
+        let solref = self.held(softness.solref);
+        let (k, b) = solref_gains(solref, inertia);
+        let held = contact::Softness {
+            solref,
+            solimp: softness.solimp,
+        };
+        let g = Some(tree.gravity.norm())
+            .filter(|&g| g > 0.0)
+            .unwrap_or(contact::NOMINAL_GRAVITY);
+        let r = held.resting_depth(g, None);
+        let (per_inertia, _) = solref_gains(solref, 1.0);
+        let statics = g / (r * per_inertia);
+        Gains {
+            reference: (k, b),
+            statics: if statics.is_finite() && statics > 0.0 {
+                statics
+            } else {
+                1.0
+            },
+        }
+    }
+
+    /// Whether the file's integrator acts the equalities with MuJoCo's statics
+    /// ([`Integrator::raises_equalities`]).
+    fn raised_equalities(&self) -> bool {
+        self.integrator_as_run().raises_equalities()
     }
 
     /// Whether the file's integrator takes a joint's (`tendon` false) or a tendon's limit
@@ -164,7 +205,8 @@ impl Builder {
                 let second = e.second.map(|i| object(e.tendons, i));
                 let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
                 let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
-                let (stiffness, damping) = solref_gains(self.held(e.solref), inertia);
+                let gains = self.equality_gains(tree, &e.softness, inertia);
+                let (stiffness, damping) = gains.acting(self.raised_equalities());
                 ScalarEquality {
                     name: e.name.clone(),
                     first: (first.clone(), at_q0(&first)),
@@ -175,6 +217,7 @@ impl Builder {
                     poly: e.poly,
                     stiffness,
                     damping,
+                    gains,
                 }
             })
             .collect()
@@ -230,19 +273,25 @@ impl Builder {
                     ),
                 };
                 let ((t1, r1), (t2, r2)) = (weight(c.body1), weight(c.body2));
-                let solref = self.held(c.solref);
-                let gains = |w: f64| solref_gains(solref, if w > 0.0 { 1.0 / w } else { 0.0 });
-                let (stiffness, damping) = gains(t1 + t2);
+                let gains = |w: f64| {
+                    let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
+                    self.equality_gains(tree, &c.softness, inertia)
+                };
+                let raised = self.raised_equalities();
+                let translation = gains(t1 + t2);
+                let (stiffness, damping) = translation.acting(raised);
                 // torquescale 0 frees the rotation; for any other value SCM's spring on the
                 // angle keeps solref's time constant (MuJoCo's soft constraint does not: warned
                 // where the weld is read).
                 let orientation = match (relative, c.weld) {
                     (Some(relative), Some(scale)) if scale != 0.0 => {
-                        let (stiffness, damping) = gains(r1 + r2);
+                        let rotation = gains(r1 + r2);
+                        let (stiffness, damping) = rotation.acting(raised);
                         Some(Orientation {
                             relative,
                             stiffness,
                             damping,
+                            gains: rotation,
                         })
                     }
                     _ => None,
@@ -253,6 +302,7 @@ impl Builder {
                     second: (c.body2, anchor2),
                     stiffness,
                     damping,
+                    gains: translation,
                     orientation,
                 }
             })

@@ -112,7 +112,7 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ),
     (
         "solimp",
-        "MuJoCo's constraint solver; SCM reads it on geoms and contact pairs",
+        "MuJoCo's constraint solver; SCM reads it on geoms, contact pairs and equalities",
     ),
     ("solmix", "MuJoCo's contact solver"),
     ("priority", "MuJoCo's contact solver"),
