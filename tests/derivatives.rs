@@ -883,6 +883,50 @@ fn forward_jacobians_with_fluid_forces_match_central_differences() {
 }
 
 #[test]
+fn forward_jacobians_with_the_ellipsoid_fluid_model_match_central_differences() {
+    // MuJoCo's ellipsoid model (added mass, Magnus and Kutta lift, drag) on the same two bodies,
+    // every geom an ellipsoid of its type, moving in every direction.
+    let xml = r#"<mujoco>
+  <option density="1000" viscosity="0.5"/>
+  <default><geom fluidshape="ellipsoid" fluidcoef="0.5 0.25 1.5 2 1"/></default>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0.1" size="0.03"/>
+    </body>
+    <body name="fish" pos="3 0 1">
+      <freejoint/>
+      <geom type="box" size="0.2 0.05 0.03"/>
+      <geom type="ellipsoid" size="0.06 0.03 0.02" pos="0.2 0.03 0.01"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+    let model = scm::scene::load_str(xml, std::path::Path::new("fluid.xml"))
+        .unwrap()
+        .model;
+    let fluid = model.fluid.as_ref().unwrap();
+    assert_eq!((fluid.bodies.len(), fluid.ellipsoids.len()), (0, 3));
+    let mut p = Point::start(&model);
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.4, 0.6));
+    p.q = vec![0.4, 3.0, 0.1, 1.2, r.w, r.i, r.j, r.k];
+    p.v = vec![1.3, 0.4, -0.7, 0.5, 2.1, -1.6, 0.9];
+    let mut still = model.clone();
+    still.fluid = None;
+    let with = model.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    let without = still.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    assert!((with - without).amax() > 1.0, "the fluid acts");
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        check_forward_jacobian_step(
+            &format!("ellipsoid fluid {coords:?}"),
+            &model,
+            &p,
+            coords,
+            1e-4,
+        );
+    }
+}
+
+#[test]
 fn forward_jacobians_with_general_actuators_match_central_differences() {
     // An affine gain and bias on a geared hinge (the force depends on the control, the
     // position and the velocity together), a servo written as a <general>, and a motor whose

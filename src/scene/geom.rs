@@ -35,19 +35,28 @@ impl Builder {
         )?;
         // MuJoCo's default fluid model is the bodies' inertia boxes (fluidshape="none"), which
         // SCM has; the per-geom ellipsoid model it does not.
-        match el.attr("fluidshape") {
+        let ellipsoid_fluid = match el.attr("fluidshape") {
             None | Some("none") => {
                 if el.attr("fluidcoef").is_some() {
-                    self.unused(el, "fluidcoef (read by MuJoCo only with fluidshape=\"ellipsoid\")");
+                    self.unused(
+                        el,
+                        "fluidcoef (read by MuJoCo only with fluidshape=\"ellipsoid\")",
+                    );
                 }
+                None
             }
+            // MuJoCo's per-geom ellipsoid model (`crate::dynamics::fluid::EllipsoidGeom`).
+            Some("ellipsoid") => Some(match self.floats(el, "fluidcoef", 5)? {
+                Some(v) => [v[0], v[1], v[2], v[3], v[4]],
+                None => [0.5, 0.25, 1.5, 1.0, 1.0],
+            }),
             Some(v) => {
                 return Err(self.err(
                     el,
-                    format!("fluidshape=\"{v}\": MuJoCo's ellipsoid fluid model is not supported by SCM: remove fluidshape to use the inertia-box model (MuJoCo's default), which SCM has"),
+                    format!("fluidshape=\"{v}\": expected none or ellipsoid"),
                 ))
             }
-        }
+        };
         if el.attr("shellinertia").is_some_and(|v| v != "false") {
             return Err(self.err(
                 el,
@@ -294,6 +303,12 @@ impl Builder {
             return Err(self.err(el, format!("a {kind} can only belong to a body welded to the world (this body or one it hangs from has joints), as MuJoCo requires")));
         }
         let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
+        if let Some(coefs) = ellipsoid_fluid {
+            if mesh_name.is_some() {
+                return Err(self.err(el, "fluidshape=\"ellipsoid\" on a mesh geom is not supported by SCM yet (MuJoCo sizes its ellipsoid in the mesh's inertia frame): put it on a primitive geom of the body, or leave it out for the inertia-box model"));
+            }
+            self.fluid_ellipsoids.push((self.geoms.len(), coefs));
+        }
         self.geoms.push(Geom {
             name,
             body,

@@ -236,11 +236,25 @@ impl Compiled {
                 })
             })
             .collect();
+        // The fluid's medium and the geoms of MuJoCo's ellipsoid model.
+        let fluid = self.fluid.as_ref().map(|f| {
+            let ellipsoids: Vec<Value> = (f.ellipsoids.iter())
+                .map(|e| {
+                    json!({
+                        "body": names[e.body], "semiaxes": v3(&e.semiaxes), "coefs": e.coefs,
+                        "virtual_mass": v3(&e.virtual_mass),
+                        "virtual_inertia": v3(&e.virtual_inertia),
+                    })
+                })
+                .collect();
+            json!({"density": f.density, "viscosity": f.viscosity, "ellipsoids": ellipsoids})
+        });
         json!({
             "tendons": tendons,
             "spatial_tendons": spatial_tendons,
             "equalities": equalities,
             "connects": connects,
+            "fluid": fluid,
             "option": {
                 "timestep": self.timestep,
                 "gravity": v3(&t.gravity),

@@ -249,6 +249,8 @@ pub struct Compiled {
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// Connect and weld equalities.
     pub connects: Vec<crate::dynamics::equality::Connect>,
+    /// The fluid forces, if the medium has a density or a viscosity.
+    pub fluid: Option<crate::dynamics::fluid::Fluid>,
     /// What SCM refuses to simulate, with file and line.
     pub refused: Vec<SceneError>,
     /// Accepted and unused by SCM.
@@ -379,6 +381,9 @@ struct Builder {
     medium: (f64, f64),
     /// `<option wind>`.
     wind: Vector3<f64>,
+    /// The geoms of MuJoCo's ellipsoid fluid model (`fluidshape="ellipsoid"`) and their
+    /// `fluidcoef`.
+    fluid_ellipsoids: Vec<(usize, [f64; 5])>,
     /// Orientation of each `<inertial diaginertia>` (its principal axes).
     inertial_axes: std::collections::BTreeMap<usize, UnitQuaternion<f64>>,
     /// Orientation of each geom that gives its body mass, per body.
@@ -467,6 +472,7 @@ impl Builder {
             fluid: None,
             medium: (0.0, 0.0),
             wind: Vector3::zeros(),
+            fluid_ellipsoids: Vec::new(),
             inertial_axes: Default::default(),
             mass_geom_frames: Default::default(),
             keys: vec![],

@@ -18,6 +18,9 @@ use crate::contact::Wrench;
 use crate::scalar::{c, Scalar};
 use nalgebra::{Matrix3, Vector3};
 
+mod ellipsoid;
+pub use ellipsoid::EllipsoidGeom;
+
 /// A body the fluid acts on: its equivalent box, in its principal axes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FluidBody {
@@ -61,8 +64,11 @@ pub struct Fluid {
     pub density: f64,
     /// Dynamic viscosity β (Pa·s).
     pub viscosity: f64,
-    /// The bodies with mass.
+    /// The bodies with mass that no geom of theirs takes out of the inertia-box model.
     pub bodies: Vec<FluidBody>,
+    /// The geoms of MuJoCo's ellipsoid model (`fluidshape="ellipsoid"`); a body with one such
+    /// geom feels the fluid only through its ellipsoid geoms.
+    pub ellipsoids: Vec<EllipsoidGeom>,
 }
 
 /// `|x| x`, branching on the real part only (so a dual number gets the derivative `2|x|`).
@@ -105,6 +111,9 @@ impl Fluid {
             let (force, torque) = (axes * force, axes * torque);
             out[fb.body].torque += torque + arm.cross(&force);
             out[fb.body].force += force;
+        }
+        for g in &self.ellipsoids {
+            g.add_wrench(rho, beta, frames, out);
         }
     }
 
