@@ -54,10 +54,10 @@ fn each_kind_of_mistake_is_named_with_its_line() {
         ),
         (
             r#"size="0.05" mass="1""#,
-            r#"size="0.05" mass="1" fluidshape="ellipsoid""#,
+            r#"size="0.05" mass="1" fluidshape="box""#,
             6,
             "geom",
-            "inertia-box",
+            "expected none or ellipsoid",
         ),
         (
             r#"<freejoint/>"#,

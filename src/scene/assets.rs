@@ -79,58 +79,12 @@ impl Builder {
         ) {
             return Err(self.err(el, format!("type=\"{kind}\" with mesh=\"{mesh}\": MuJoCo fits only spheres, capsules, cylinders, boxes and ellipsoids to a mesh")));
         }
-        let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
-            return Err(self.err(el, format!("no mesh asset named '{mesh}'")));
-        };
-        let (closed, problem) = (asset.mesh.clone(), asset.problem.clone());
-        let weighed = self.mesh_mass(el, mesh).map_err(|mut e| {
-            e.message += &format!(
-                " (a {kind} fitted to the mesh needs the mesh's inertia, whatever the geom weighs)"
-            );
-            e
-        })?;
-        let mp = match (weighed, &closed) {
-            (Some(mp), _) => mp,
-            (None, Some(m)) => m.mass_properties(),
-            (None, None) => {
-                let why = problem.map(|p| p.message).unwrap_or_default();
-                return Err(self.err(el, format!("the {kind} is fitted to mesh '{mesh}' by its inertia=\"exact\", the solid its surface encloses, and the surface is not closed ({why}): give the mesh MuJoCo's default inertia, or the geom its size without mesh")));
-            }
-        };
-        if mp.volume.is_nan() || mp.volume <= 0.0 {
-            return Err(self.err(
-                el,
-                format!("mesh '{mesh}' has no volume to fit a {kind} to"),
-            ));
-        }
-        let (lambda, axes) = principal_axes(&mp.inertia);
-        // MuJoCo refuses a mesh whose inertia no rigid body has (a moment not positive, or one
-        // above the sum of the others beyond its tolerances), whatever the fit reads of it.
-        let violated = (0..3).any(|i| {
-            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-            lambda[j] + lambda[k] < lambda[i] * (1.0 - 1e-6) - 1e-9
-        });
-        if lambda[2] <= 0.0 || violated {
-            return Err(self.err(el, format!("the {kind} is fitted to mesh '{mesh}', whose inertia no rigid body has (principal moments per unit density {:?}, by its inertia rule): MuJoCo refuses the mesh too", lambda.as_slice())));
-        }
+        let what = format!("a {kind} fitted to mesh '{mesh}'");
+        let (mp, lambda, axes) = self.mesh_inertia_frame(el, mesh, &what)?;
         let fit_aabb = self.settings.fit_aabb;
         // Half-sizes along the principal axes, and the centre of the fitted shape there.
         let (half, centre) = if fit_aabb {
-            // The bounding box of every vertex of the file, also those no face uses (as
-            // MuJoCo's): that of their convex hull.
-            let vertices = match self.hull_of(mesh) {
-                Some((hull, _)) => hull,
-                None => return Err(self.err(el, format!("the {kind} is fitted to the bounding box of mesh '{mesh}' (fitaabb), whose vertices span no volume ({})", self.hull_problem(mesh)))),
-            };
-            let (mut lo, mut hi) = (
-                Vector3::repeat(f64::INFINITY),
-                Vector3::repeat(-f64::INFINITY),
-            );
-            for v in &vertices.vertices {
-                let p = axes.transpose() * (v - mp.com);
-                lo = lo.inf(&p);
-                hi = hi.sup(&p);
-            }
+            let (lo, hi) = self.mesh_extents(el, mesh, &what, &mp.com, &axes)?;
             let centre = (lo + hi) * 0.5;
             (hi - centre, centre)
         } else {
@@ -258,6 +212,86 @@ impl Builder {
         let (x, y) = (2.0 * size[0], 2.0 * size[1]);
         self.warnings.push(format!("{}:{}: <geom> height field '{name}' is flat when compiled: SCM takes it as the plane of its surface, unbounded, where MuJoCo's is {x} x {y} m over a base {} m deep; a host cannot reshape it at run time", el.file, el.line, size[3]));
         Ok(())
+    }
+
+    /// Mesh asset `mesh`'s mass properties (unit density) by its own inertia rule and its
+    /// principal moments and axes (largest first, right-handed): MuJoCo's mesh frame, for
+    /// `what` on geom `el` (a fitted primitive, the ellipsoid fluid model), which needs them.
+    /// Refused where the mesh has no volume or an inertia no rigid body has, as MuJoCo refuses it.
+    pub(super) fn mesh_inertia_frame(
+        &mut self,
+        el: &Element,
+        mesh: &str,
+        what: &str,
+    ) -> Result<(crate::geometry::MassProperties, Vector3<f64>, Matrix3<f64>), SceneError> {
+        let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
+            return Err(self.err(el, format!("no mesh asset named '{mesh}'")));
+        };
+        let (closed, problem) = (asset.mesh.clone(), asset.problem.clone());
+        let weighed = self.mesh_mass(el, mesh).map_err(|mut e| {
+            e.message += &format!(" ({what} needs the mesh's inertia, whatever the geom weighs)");
+            e
+        })?;
+        let mp = match (weighed, &closed) {
+            (Some(mp), _) => mp,
+            (None, Some(m)) => m.mass_properties(),
+            (None, None) => {
+                let why = problem.map(|p| p.message).unwrap_or_default();
+                return Err(self.err(el, format!("{what} needs the mesh's inertia by its inertia=\"exact\", the solid its surface encloses, and the surface is not closed ({why}): give the mesh MuJoCo's default inertia")));
+            }
+        };
+        if mp.volume.is_nan() || mp.volume <= 0.0 {
+            return Err(self.err(
+                el,
+                format!("mesh '{mesh}' has no volume, which {what} needs"),
+            ));
+        }
+        let (lambda, axes) = principal_axes(&mp.inertia);
+        // MuJoCo refuses a mesh whose inertia no rigid body has (a moment not positive, or one
+        // above the sum of the others beyond its tolerances), whatever reads it.
+        let violated = (0..3).any(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            lambda[j] + lambda[k] < lambda[i] * (1.0 - 1e-6) - 1e-9
+        });
+        if lambda[2] <= 0.0 || violated {
+            return Err(self.err(el, format!("{what} needs the inertia of mesh '{mesh}', which no rigid body has (principal moments per unit density {:?}, by its inertia rule): MuJoCo refuses the mesh too", lambda.as_slice())));
+        }
+        Ok((mp, lambda, axes))
+    }
+
+    /// The bounding box `(lo, hi)` of every vertex of mesh asset `mesh` (also those no face
+    /// uses, as MuJoCo's: that of their convex hull), in the frame at `com` with axes `axes`,
+    /// for `what` on geom `el`.
+    pub(super) fn mesh_extents(
+        &mut self,
+        el: &Element,
+        mesh: &str,
+        what: &str,
+        com: &Vector3<f64>,
+        axes: &Matrix3<f64>,
+    ) -> Result<(Vector3<f64>, Vector3<f64>), SceneError> {
+        let vertices = match self.hull_of(mesh) {
+            Some((hull, _)) => hull,
+            None => {
+                return Err(self.err(
+                    el,
+                    format!(
+                    "{what} reads the bounding box of the mesh, whose vertices span no volume ({})",
+                    self.hull_problem(mesh)
+                ),
+                ))
+            }
+        };
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(-f64::INFINITY),
+        );
+        for v in &vertices.vertices {
+            let p = axes.transpose() * (v - com);
+            lo = lo.inf(&p);
+            hi = hi.sup(&p);
+        }
+        Ok((lo, hi))
     }
 
     /// The mass properties of mesh asset `mesh` (unit density, mesh frame) as MuJoCo weighs it

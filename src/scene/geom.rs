@@ -304,10 +304,24 @@ impl Builder {
         }
         let (contype, conaffinity) = (self.bits(el, "contype")?, self.bits(el, "conaffinity")?);
         if let Some(coefs) = ellipsoid_fluid {
-            if mesh_name.is_some() {
-                return Err(self.err(el, "fluidshape=\"ellipsoid\" on a mesh geom is not supported by SCM yet (MuJoCo sizes its ellipsoid in the mesh's inertia frame): put it on a primitive geom of the body, or leave it out for the inertia-box model"));
-            }
-            self.fluid_ellipsoids.push((self.geoms.len(), coefs));
+            // On a mesh MuJoCo takes the ellipsoid in the mesh's inertia frame, its semi-axes
+            // the vertices' farthest reach along each axis (its size of a mesh geom).
+            let mesh_frame = match &mesh_name {
+                Some(mesh) => {
+                    let what = format!("the ellipsoid fluid model on mesh '{mesh}'");
+                    let (mp, _, axes) = self.mesh_inertia_frame(el, mesh, &what)?;
+                    let (lo, hi) = self.mesh_extents(el, mesh, &what, &mp.com, &axes)?;
+                    let rotation = nalgebra::Rotation3::from_matrix_unchecked(axes);
+                    let frame = Isometry3::from_parts(
+                        nalgebra::Translation3::from(mp.com),
+                        UnitQuaternion::from_rotation_matrix(&rotation),
+                    );
+                    Some((frame, lo.abs().sup(&hi.abs())))
+                }
+                None => None,
+            };
+            self.fluid_ellipsoids
+                .push((self.geoms.len(), coefs, mesh_frame));
         }
         self.geoms.push(Geom {
             name,

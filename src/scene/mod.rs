@@ -16,6 +16,7 @@ pub mod contact;
 pub mod defaults;
 mod equality;
 pub mod filter;
+mod fluid;
 mod geom;
 pub mod include;
 mod inline_mesh;
@@ -381,9 +382,9 @@ struct Builder {
     medium: (f64, f64),
     /// `<option wind>`.
     wind: Vector3<f64>,
-    /// The geoms of MuJoCo's ellipsoid fluid model (`fluidshape="ellipsoid"`) and their
-    /// `fluidcoef`.
-    fluid_ellipsoids: Vec<(usize, [f64; 5])>,
+    /// The geoms of MuJoCo's ellipsoid fluid model (`fluidshape="ellipsoid"`), their
+    /// `fluidcoef`, and for a mesh its inertia frame (in the geom's) and semi-axes there.
+    fluid_ellipsoids: Vec<fluid::FluidEllipsoid>,
     /// Orientation of each `<inertial diaginertia>` (its principal axes).
     inertial_axes: std::collections::BTreeMap<usize, UnitQuaternion<f64>>,
     /// Orientation of each geom that gives its body mass, per body.

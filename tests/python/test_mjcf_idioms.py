@@ -902,11 +902,13 @@ def test_equalities_scm_cannot_place_are_refused_with_what_to_do(tmp_path):
         assert f"equality{i}.xml:13" in out.stderr and why in out.stderr, out.stderr
 #: MuJoCo's ellipsoid fluid model on every geom type it sizes: a leaf-like ellipsoid and a
 #: capsule thrown spinning, a box swinging on a hinge, a cylinder beside a geom of the
-#: inertia-box default on one body (the body then feels the ellipsoid geoms only). Air, light
-#: bodies, no contact. (On a mesh geom the model is refused, below.)
+#: inertia-box default on one body (the body then feels the ellipsoid geoms only), and an
+#: inline mesh (its ellipsoid in the mesh's inertia frame, sized by its vertices' reach there).
+#: Air, light bodies, no contact.
 ELLIPSOID_FLUID = """<mujoco>
   <option density="1.2" viscosity="1.8e-5" timestep="0.002"><flag contact="disable"/></option>
   <default><geom fluidshape="ellipsoid"/></default>
+  <asset><mesh name="tet" vertex="0 0 0 0.2 0 0 0 0.1 0 0 0 0.05"/></asset>
   <worldbody>
     <body name="leaf" pos="0 0 1" euler="10 20 30"><freejoint/>
       <geom type="ellipsoid" size="0.1 0.04 0.005" mass="0.002"/>
@@ -921,6 +923,9 @@ ELLIPSOID_FLUID = """<mujoco>
     <body name="pair" pos="3 0 1"><freejoint/>
       <geom type="cylinder" size="0.05 0.02" mass="0.004"/>
       <geom type="sphere" size="0.03" pos="0 0 0.1" mass="0.001" fluidshape="none"/>
+    </body>
+    <body name="tet" pos="4 0 1" euler="30 0 10"><freejoint/>
+      <geom type="mesh" mesh="tet" pos="0.01 0.02 0" euler="0 10 0" mass="0.002"/>
     </body>
   </worldbody>
 </mujoco>"""
@@ -950,7 +955,7 @@ def test_fluidshape_none_is_mujocos_default_and_the_ellipsoid_model_moves_bodies
     d = mujoco.MjData(m)
     start, names = {"swing.v": 3.0}, []
     kick = [1.0, -0.5, 2.0, 4.0, -3.0, 6.0]
-    for body in ["leaf", "rod", "flap", "pair"]:
+    for body in ["leaf", "rod", "flap", "pair", "tet"]:
         j = m.body(body).jntadr[0]
         if body == "flap":
             names.append("swing.q")
@@ -983,11 +988,3 @@ def test_fluidshape_none_is_mujocos_default_and_the_ellipsoid_model_moves_bodies
     for e, g in zip(fluid, geoms):
         for key, theirs in [("virtual_mass", m.geom_fluid[g, 6:9]), ("virtual_inertia", m.geom_fluid[g, 9:12])]:
             assert np.max(np.abs(np.asarray(e[key]) - theirs)) <= 1e-5 * np.max(np.abs(theirs)), (g, key, e[key], theirs)
-    # On a mesh geom MuJoCo sizes the ellipsoid in the mesh's inertia frame, which SCM does
-    # not yet: refused at the geom, saying what to do.
-    path.write_text(ELLIPSOID_FLUID.replace("<worldbody>", """<worldbody>
-    <body name="tet" pos="4 0 1"><freejoint/><geom type="mesh" mesh="tet" mass="0.002"/></body>""").replace(
-        "</default>", """</default>
-  <asset><mesh name="tet" vertex="0 0 0 0.2 0 0 0 0.1 0 0 0 0.05"/></asset>"""))
-    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
-    assert out.returncode != 0 and "ellipsoid.xml:6" in out.stderr and "mesh geom" in out.stderr, out.stderr
