@@ -2,6 +2,7 @@
 //! and a primitive geom fitted to a mesh.
 
 use super::*;
+use crate::geometry::mesh::MeshError;
 
 /// A mesh asset of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -466,43 +467,62 @@ impl Builder {
                 }
             }
         }
-        let (mesh, problem) = match TriMesh::load(&path, &placement) {
+        let (mesh, problem) = self.surface_of(el, TriMesh::load(&path, &placement))?;
+        self.add_mesh(
+            el,
+            MeshAsset {
+                name,
+                file,
+                path,
+                mesh,
+                problem,
+                hull: None,
+                hull_problem: None,
+                placement,
+                inertia,
+                legacy: None,
+                maxhullvert,
+                used: false,
+                inline: None,
+            },
+        );
+        Ok(())
+    }
+
+    /// A mesh's surface as read (its warnings recorded), or, where it is not a closed surface,
+    /// the problem kept for the geoms that would need it (`MeshAsset::problem`); any other
+    /// error is the scene's at once.
+    pub(super) fn surface_of(
+        &mut self,
+        el: &Element,
+        read: Result<(TriMesh, Vec<String>), MeshError>,
+    ) -> Result<(Option<Arc<TriMesh>>, Option<SceneError>), SceneError> {
+        match read {
             Ok((mesh, warnings)) => {
                 for w in warnings {
                     self.warnings.push(format!("{}:{}: {w}", el.file, el.line));
                 }
-                (Some(Arc::new(mesh)), None)
+                Ok((Some(Arc::new(mesh)), None))
             }
             Err(e) if e.problem.is_of_the_surface() => {
                 for w in &e.notes {
                     self.warnings.push(format!("{}:{}: {w}", el.file, el.line));
                 }
-                (None, Some(self.err(el, e.to_string())))
+                Ok((None, Some(self.err(el, e.to_string()))))
             }
-            Err(e) => return Err(self.err(el, e.to_string())),
-        };
-        if maxhullvert.is_some() && problem.is_none() {
+            Err(e) => Err(self.err(el, e.to_string())),
+        }
+    }
+
+    /// Records a mesh asset, noting an unused `maxhullvert` where its surface is closed.
+    pub(super) fn add_mesh(&mut self, el: &Element, asset: MeshAsset) {
+        if asset.maxhullvert.is_some() && asset.problem.is_none() {
             self.unused(
                 el,
                 "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",
             );
         }
-        self.meshes.push(MeshAsset {
-            name,
-            file,
-            path,
-            mesh,
-            problem,
-            hull: None,
-            hull_problem: None,
-            placement,
-            inertia,
-            legacy: None,
-            maxhullvert,
-            used: false,
-            inline: None,
-        });
-        Ok(())
+        self.meshes.push(asset);
     }
 
     /// How a mesh's vertices are placed (`refpos`, `refquat`, `scale`), for a file's and an

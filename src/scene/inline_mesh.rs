@@ -135,41 +135,29 @@ impl Builder {
                 if inertia == MeshInertia::Exact && signed_volume(&vertices, faces, &placement) < 0.0 {
                     return Err(self.err(el, format!("{label} faces inward (its triangles enclose a negative volume as written), which MuJoCo refuses under inertia=\"exact\": turn its triangles outward, or weigh it by MuJoCo's default rule")));
                 }
-                match TriMesh::new(&label, vertices.clone(), faces.clone()) {
-                    Ok((mesh, warnings)) => {
-                        for w in warnings {
-                            self.warnings.push(format!("{}:{}: {w}", el.file, el.line));
-                        }
-                        (Some(Arc::new(mesh)), None, None)
-                    }
-                    Err(e) if e.problem.is_of_the_surface() => {
-                        (None, Some(self.err(el, e.to_string())), None)
-                    }
-                    Err(e) => return Err(self.err(el, e.to_string())),
-                }
+                let (mesh, problem) =
+                    self.surface_of(el, TriMesh::new(&label, vertices.clone(), faces.clone()))?;
+                (mesh, problem, None)
             }
         };
-        if maxhullvert.is_some() && problem.is_none() {
-            self.unused(
-                el,
-                "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",
-            );
-        }
-        self.meshes.push(MeshAsset {
-            name,
-            file: String::new(),
-            path: PathBuf::new(),
-            mesh,
-            problem,
-            hull,
-            hull_problem: None,
-            placement,
-            inertia,
-            legacy: None,
-            maxhullvert,
-            used: false,
-            inline: Some(InlineMesh { vertices, faces }),
-        });
+        self.add_mesh(
+            el,
+            MeshAsset {
+                name,
+                file: String::new(),
+                path: PathBuf::new(),
+                mesh,
+                problem,
+                hull,
+                hull_problem: None,
+                placement,
+                inertia,
+                legacy: None,
+                maxhullvert,
+                used: false,
+                inline: Some(InlineMesh { vertices, faces }),
+            },
+        );
         Ok(())
     }
 
