@@ -71,6 +71,7 @@ fn main() {
         v: state.v.clone(),
         u: u.clone(),
         params: prm,
+        act: Vec::new(),
     };
     let jac = || {
         scm::derivatives::step_jacobian_state(
@@ -83,16 +84,8 @@ fn main() {
         .expect("jacobian")
     };
     let step = || {
-        m.step(
-            &State {
-                q: state.q.clone(),
-                v: state.v.clone(),
-            },
-            &u,
-            &prm,
-            h,
-        )
-        .expect("step")
+        m.step(&State::new(state.q.clone(), state.v.clone()), &u, &prm, h)
+            .expect("step")
     };
     if let Some((what, n)) = profile {
         let mut f: Box<dyn FnMut()> = match what.as_str() {

@@ -242,10 +242,7 @@ fn step_map<T: Scalar>(
     nv: usize,
     x: &[T],
 ) -> Vec<T> {
-    let state = State {
-        q: x[..nq].to_vec(),
-        v: x[nq..nq + nv].to_vec(),
-    };
+    let state = State::new(x[..nq].to_vec(), x[nq..nq + nv].to_vec());
     let next = model
         .step(&state, &x[nq + nv..], &prm.lift::<T>(), T::from(h))
         .expect("step");
@@ -626,6 +623,7 @@ fn run() -> Result<String, String> {
             v: state.v.clone(),
             u: ctrl.clone(),
             params: prm,
+            act: Vec::new(),
         };
         let crate_jacobian = || {
             step_jacobian_state(&model, integrator, &point, h, Coordinates::Embedded)

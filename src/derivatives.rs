@@ -74,6 +74,9 @@ pub struct Point {
     pub v: Vec<f64>,
     /// Inputs (`Model::nu()` of them).
     pub u: Vec<f64>,
+    /// Actuator activations (`Model::na()`): held at these values, not differentiated here
+    /// (the FMU's directional derivatives take them as states).
+    pub act: Vec<f64>,
     /// Contact parameters (their dissipation variant is kept).
     pub params: ContactParams<f64>,
 }
@@ -85,6 +88,7 @@ impl Point {
             q: model.tree.q0(),
             v: vec![0.0; model.tree.nv],
             u: model.u0(),
+            act: model.act0.clone(),
             params: model.contact,
         }
     }
@@ -220,6 +224,8 @@ struct ForwardFn<'a> {
 impl VectorFunction for ForwardFn<'_> {
     fn eval<T: Scalar>(&self, z: &[T]) -> Result<Vec<T>, DynamicsError> {
         let (q, v, u, p) = self.chart.unpack(z);
+        let act: Vec<T> = self.chart.point.act.iter().map(|&a| c(a)).collect();
+        let u = self.model.driven_inputs(&u, &act, None);
         Ok(self
             .model
             .forward(&q, &v, &u, &p)?
@@ -330,9 +336,9 @@ struct StepFn<'a> {
 impl VectorFunction for StepFn<'_> {
     fn eval<T: Scalar>(&self, z: &[T]) -> Result<Vec<T>, DynamicsError> {
         let (q, v, u, p) = self.chart.unpack(z);
-        let next = self
-            .model
-            .step_with(self.integrator, &State { q, v }, &u, &p, c(self.h))?;
+        let act = self.chart.point.act.iter().map(|&a| c(a)).collect();
+        let next =
+            (self.model).step_with(self.integrator, &State { q, v, act }, &u, &p, c(self.h))?;
         let mut out = match self.chart.coords {
             Coordinates::Embedded => next.q,
             Coordinates::Tangent => {
@@ -360,6 +366,7 @@ pub fn step_jacobian(
         &State {
             q: point.q.clone(),
             v: point.v.clone(),
+            act: point.act.clone(),
         },
         &point.u,
         &point.params,
@@ -398,6 +405,7 @@ pub fn step_jacobian_state(
         &State {
             q: point.q.clone(),
             v: point.v.clone(),
+            act: point.act.clone(),
         },
         &point.u,
         &point.params,

@@ -149,11 +149,24 @@ impl Integrator {
     }
 }
 
-/// Positions and velocities.
+/// Positions, velocities and actuator activations: what an integrator advances.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State<T> {
     /// Generalized positions `q`.
     pub q: Vec<T>,
     /// Generalized velocities `v`.
     pub v: Vec<T>,
+    /// Actuator activations (`Model::na` of them; empty for a model without).
+    pub act: Vec<T>,
+}
+
+impl<T> State<T> {
+    /// Positions and velocities of a model without activations.
+    pub fn new(q: Vec<T>, v: Vec<T>) -> State<T> {
+        State {
+            q,
+            v,
+            act: Vec::new(),
+        }
+    }
 }

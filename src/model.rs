@@ -15,11 +15,13 @@ use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
 use nalgebra::{DVector, Vector3};
 
+mod activation;
 mod actuator;
 mod energy;
 mod forward;
 mod frozen;
 mod pairs;
+pub use activation::{Activation, ActivationLaw};
 pub use actuator::{Actuator, ActuatorKind, SiteTransmission, Transmission};
 pub use energy::Energy;
 pub use forward::{EvalPoint, ForwardOptions};
@@ -56,6 +58,8 @@ pub struct Model {
     pub v0: Vec<f64>,
     /// Initial controls (zero, or the chosen keyframe's `ctrl`).
     pub ctrl0: Vec<f64>,
+    /// Initial activations ([`Model::na`]; zero, or the chosen keyframe's `act`).
+    pub act0: Vec<f64>,
     /// Fluid forces (MuJoCo's inertia-box model), if the scene's medium has a density or a
     /// viscosity.
     pub fluid: Option<Fluid>,
@@ -105,6 +109,14 @@ pub enum DynamicsError {
         /// Number of actuators.
         actuators: usize,
         /// Length given.
+        got: usize,
+    },
+    /// A state with another number of activations than the model's actuators have.
+    #[error("a state with {got} activations: this model's actuators have {expected} (Model::act0 gives the initial ones)")]
+    Activations {
+        /// The model's `na`.
+        expected: usize,
+        /// The state's.
         got: usize,
     },
     /// The state given to the dynamics is not finite (typically a stage of a diverging step).

@@ -148,6 +148,7 @@ impl Simulation {
             state: State {
                 q: model.q0.clone(),
                 v: model.v0.clone(),
+                act: model.act0.clone(),
             },
             ctrl: model.ctrl0.clone(),
             params: model.contact,
@@ -464,7 +465,12 @@ impl Simulation {
             let c = &self.data.current;
             let f = self
                 .model
-                .forward(&c.state.q, &c.state.v, &self.inputs(), &c.params)
+                .forward(
+                    &c.state.q,
+                    &c.state.v,
+                    &self.model.driven_inputs(&self.inputs(), &c.state.act, None),
+                    &c.params,
+                )
                 .map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
             self.data.accelerations =
                 Some((self.data.current.clone(), f.vdot.iter().copied().collect()));
@@ -509,16 +515,16 @@ impl Simulation {
             .fold(0.0, f64::max)
     }
 
-    /// Continuous states `x = [q; v]` (Model Exchange).
+    /// Continuous states `x = [q; v; act]` (Model Exchange).
     pub fn continuous_states(&self) -> Vec<f64> {
-        self.data
-            .current
-            .state
-            .q
-            .iter()
-            .chain(&self.data.current.state.v)
-            .copied()
-            .collect()
+        let s = &self.data.current.state;
+        s.q.iter().chain(&s.v).chain(&s.act).copied().collect()
+    }
+
+    /// The activations' rates `ȧ` at the current activations and controls.
+    pub fn activation_rates(&self) -> Vec<f64> {
+        let c = &self.data.current;
+        self.model.activation_rates(&c.state.act, &c.ctrl)
     }
 
     /// Queues one `logContact` message per pair with its smooth distance, force and torque at

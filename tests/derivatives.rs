@@ -357,10 +357,7 @@ fn damped_euler_step_jacobian_with_contact_implicit_matches_central_differences(
     point.params.stiction_velocity = 1e-3;
     model.contact = point.params;
     model.integrator = Integrator::DampedEuler;
-    let state = State {
-        q: point.q.clone(),
-        v: point.v.clone(),
-    };
+    let state = State::new(point.q.clone(), point.v.clone());
     let h = 0.002;
     let damped = model
         .step_with(Integrator::DampedEuler, &state, &point.u, &point.params, h)
@@ -394,7 +391,7 @@ fn check_step_jacobian(model: &Model, point: &Point, integrator: Integrator, h: 
         let f = |z: &[f64]| -> Vec<f64> {
             let (q, v, u, p) = unpack(model, point, coords, z);
             let s = model
-                .step_with(integrator, &State { q, v }, &u, &p, h)
+                .step_with(integrator, &State::new(q, v), &u, &p, h)
                 .unwrap();
             let mut out = match coords {
                 Coordinates::Embedded => s.q,
@@ -433,7 +430,13 @@ impl JacobianOfForward<'_> {
         // so tangent Hessians are checked through embedded ones below.
         forward_jacobian(
             self.model,
-            &Point { q, v, u, params: p },
+            &Point {
+                q,
+                v,
+                u,
+                params: p,
+                act: Vec::new(),
+            },
             Coordinates::Embedded,
         )
         .unwrap()
@@ -636,7 +639,13 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
             distance_hessian(
                 &model,
                 pair,
-                &Point { q, v, u, params: p },
+                &Point {
+                    q,
+                    v,
+                    u,
+                    params: p,
+                    act: Vec::new(),
+                },
                 Coordinates::Embedded,
             )
             .unwrap()
@@ -715,6 +724,7 @@ fn smooth_dissipation_gives_continuous_second_derivatives() {
                 q: vec![0.0],
                 v: vec![v],
                 u: vec![],
+                act: vec![],
                 params: model.contact,
             };
             forward_hessians(&model, &p, Coordinates::Embedded)

@@ -366,7 +366,7 @@ fn rk4_energy_error(model: &Model, h: f64) -> f64 {
     let mut rng = Lcg(5);
     let (q, v, u) = random_point(&m, &mut rng, 0.0);
     let v: Vec<f64> = v.iter().map(|x| 4.0 * x).collect(); // up to 2 rad/s, 2 m/s
-    let state = State { q, v };
+    let state = State::new(q, v);
     let e0 = m.energy(&state.q, &state.v).total();
     let opts = AdvanceOptions {
         energy_guard: false,
@@ -426,10 +426,7 @@ fn contact_between_free_bodies_conserves_linear_momentum() {
     for integrator in Integrator::ALL {
         let mut model = model_of(text);
         model.integrator = integrator;
-        let mut state = State {
-            q: model.tree.q0(),
-            v: vec![0.0; 12],
-        };
+        let mut state = State::new(model.tree.q0(), vec![0.0; 12]);
         state.v[0] = 1.0; // a moves towards b at 1 m/s
         state.v[4] = 2.0; // and spins
         state.v[6] = -0.2;
@@ -698,6 +695,7 @@ fn swing_energies(mut m: scm::model::Model) -> Vec<scm::model::Energy<f64>> {
     let mut state = State {
         q: m.tree.q0(),
         v: vec![3.0, 0.5, -0.4, 0.8, 2.0, -3.0, 1.5],
+        act: Vec::new(),
     };
     let u = vec![0.0; m.nu()];
     let opts = AdvanceOptions {

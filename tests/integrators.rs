@@ -226,10 +226,7 @@ fn a_non_finite_step_is_refused_and_the_state_kept() {
     }
     // The same through Model::advance: the failure names the quantity and the time.
     let model = model_of(text);
-    let mut state = State {
-        q: model.tree.q0(),
-        v: vec![0.0; 6],
-    };
+    let mut state = State::new(model.tree.q0(), vec![0.0; 6]);
     state.v[3..6].copy_from_slice(&[1e160, 2e160, -1e160]);
     let opts = AdvanceOptions {
         energy_guard: false,
@@ -265,10 +262,7 @@ fn pendulum_after(
     model.integrator = integrator;
     model.timestep = step;
     model.tolerance = tolerance;
-    let state = State {
-        q: vec![1.0],
-        v: vec![0.0],
-    };
+    let state = State::new(vec![1.0], vec![0.0]);
     let done = model
         .advance(
             &state,
@@ -333,10 +327,7 @@ fn implicit_euler_damps_resolved_motion_as_its_stability_function_says() {
     m.integrator = Integrator::ImplicitEuler;
     m.timestep = h;
     let bottom = model.energy(&[0.0], &[0.0]).total();
-    let mut s = State {
-        q: vec![0.05],
-        v: vec![0.0],
-    };
+    let mut s = State::new(vec![0.05], vec![0.0]);
     let e0 = model.energy(&s.q, &s.v).total() - bottom;
     let mut last = e0;
     for k in 0..500 {
@@ -433,14 +424,7 @@ fn slowly_growing_pendulum() -> (Model, f64, State<f64>) {
     model.integrator = Integrator::Euler;
     model.timestep = 0.1 / omega;
     let h = model.timestep;
-    (
-        model,
-        h,
-        State {
-            q: vec![0.5],
-            v: vec![0.0],
-        },
-    )
+    (model, h, State::new(vec![0.5], vec![0.0]))
 }
 
 #[test]
@@ -545,11 +529,13 @@ fn the_energy_guard_judges_a_growth_from_the_least_energy_the_run_fell_to() {
     let s0 = State {
         q: vec![0.5, 0.0],
         v: vec![0.0, (200.0f64).sqrt()],
+        act: Vec::new(),
     };
     let total = |s: &State<f64>| model.energy(&s.q, &s.v).total();
     let bottom = total(&State {
         q: vec![0.0, 0.0],
         v: vec![0.0, 0.0],
+        act: Vec::new(),
     });
     let (e0, swing0) = (total(&s0) - bottom, 9.81 * 0.5 * (1.0 - 0.5f64.cos()));
     assert!((e0 - 100.0 - swing0).abs() < 1e-9, "{e0}");
@@ -782,6 +768,7 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
     let mut s = State {
         q: vec![0.0, 0.0, 0.3, 1.0, 0.0, 0.0, 0.0],
         v: vec![0.0; 6],
+        act: Vec::new(),
     };
     let reference = model.energy(&s.q, &s.v).total() + stored(&s);
     let floor = model.moving_mass() * (9.81e-3 + 0.5e-4);
@@ -842,10 +829,7 @@ fn damped_euler_takes_stiff_frictionloss_at_mujocos_step() {
         ))
     };
     let run = |model: &Model| {
-        let mut s = State {
-            q: vec![0.0],
-            v: vec![1.0],
-        };
+        let mut s = State::new(vec![0.0], vec![1.0]);
         let mut sign_changes = 0;
         for k in 0..300 {
             let a = model
@@ -894,6 +878,7 @@ fn damped_euler_takes_stiff_contact_friction_at_mujocos_step() {
         let mut s = State {
             q: model.tree.q0(),
             v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            act: Vec::new(),
         };
         let mut late = 0.0_f64;
         for k in 0..150 {
@@ -960,6 +945,7 @@ fn carried_against_fresh(
     let start = State {
         q: model.tree.q0(),
         v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        act: Vec::new(),
     };
     let step = |s: &State<f64>, k: usize, cache: &mut scm::integrate::SolverCache| {
         model
@@ -1084,14 +1070,20 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
         s
     };
     let saved = without_proofs(&saved);
+    // Version 7 adds the activations, none here: its bytes are version 6's.
     let as_version = |version: u32, bytes: &[u8]| {
-        let cut = if version >= 5 { 4 } else { 12 };
+        let cut = match version {
+            6.. => 0,
+            5 => 4,
+            _ => 12,
+        };
         [&version.to_le_bytes()[..], &bytes[4..bytes.len() - cut]].concat()
     };
-    let version_6 = sim.serialize_state(&saved).unwrap();
-    assert_eq!(version_6[..4], 6u32.to_le_bytes());
-    assert_eq!(version_6[version_6.len() - 4..], 0u32.to_le_bytes());
-    for old in [4, 5] {
+    let version_7 = sim.serialize_state(&saved).unwrap();
+    assert_eq!(version_7[..4], 7u32.to_le_bytes());
+    assert_eq!(version_7[version_7.len() - 4..], 0u32.to_le_bytes());
+    let version_6 = version_7;
+    for old in [4, 5, 6] {
         assert_eq!(
             sim.deserialize_state(&as_version(old, &version_6)).unwrap(),
             saved
@@ -1248,6 +1240,7 @@ fn kept_candidate_planes_change_no_bit_of_any_integrators_run() {
         let start = State {
             q: model.tree.q0(),
             v: vec![0.3, 0.1, 0.0, 0.0, 0.0, 2.0],
+            act: Vec::new(),
         };
         let run = |keep: bool| {
             let mut cache = scm::integrate::SolverCache::default();
@@ -1305,14 +1298,8 @@ fn the_guards_kinematics_carried_to_the_next_call_change_no_bit() {
         let mut carried = scm::integrate::SolverCache::default();
         let mut rebuilt = scm::integrate::SolverCache::default();
         let (mut a, mut b) = (
-            State {
-                q: model.tree.q0(),
-                v: vec![0.0; model.tree.nv],
-            },
-            State {
-                q: model.tree.q0(),
-                v: vec![0.0; model.tree.nv],
-            },
+            State::new(model.tree.q0(), vec![0.0; model.tree.nv]),
+            State::new(model.tree.q0(), vec![0.0; model.tree.nv]),
         );
         let mut kept = 0;
         for k in 0..150 {
@@ -1383,10 +1370,7 @@ fn pairs_on_several_threads_change_no_bit() {
         let models = [serial.clone(), threaded(2), threaded(3)];
         let opts = AdvanceOptions::default();
         let h = 0.002;
-        let start = State {
-            q: serial.tree.q0(),
-            v: vec![0.0; serial.tree.nv],
-        };
+        let start = State::new(serial.tree.q0(), vec![0.0; serial.tree.nv]);
         let mut states = vec![start.clone(); 3];
         let mut caches = vec![scm::integrate::SolverCache::default(); 3];
         let mut most_in_reach = 0;

@@ -58,10 +58,7 @@ fn cloud<'a>(scene: &'a Scene, body: &str) -> &'a scm::geometry::Aopc {
 /// moved in the last 0.2 s.
 fn run(scene: &Scene, t: f64) -> (Vector3<f64>, f64) {
     let m = &scene.model;
-    let mut s = State {
-        q: m.q0.clone(),
-        v: m.v0.clone(),
-    };
+    let mut s = State::new(m.q0.clone(), m.v0.clone());
     let at = |s: &State<f64>| Vector3::new(s.q[0], s.q[1], s.q[2]);
     let steps = (t / 1e-3).round() as usize;
     let mut before = at(&s);

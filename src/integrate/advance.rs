@@ -22,7 +22,10 @@ impl Model {
                 return Some(format!("the velocity of joint {}", j.name));
             }
         }
-        None
+        let activated = self.actuators.iter().filter(|a| a.activation.is_some());
+        (activated.zip(&s.act))
+            .find(|(_, a)| !a.is_finite())
+            .map(|(a, _)| format!("the activation of actuator {}", a.name))
     }
 
     /// Advances `state` by `duration` (s) from time `t0` (s, for messages) with inputs `u` at the
@@ -76,6 +79,7 @@ impl Model {
         cache: &mut SolverCache,
     ) -> Result<Advanced, StepFailure> {
         self.split_inputs(u)
+            .and(self.check_activations(&state.act))
             .map_err(|error| StepFailure::Dynamics {
                 time: t0,
                 step: 0,
@@ -100,13 +104,17 @@ impl Model {
             Integrator::DampedEuler => false,
             _ => true,
         };
+        // The fixed-step methods' internal step (refused below where it is not sensible), whose
+        // first stage's inputs are driven by the activations as that step takes them.
+        let steps = ((duration / self.timestep) * (1.0 - 1e-12)).ceil().max(1.0);
+        let first_h = (!self.integrator.is_adaptive()).then_some(duration / steps);
         let start = if needs_start {
             let known = cache.kinematics.take(state);
             Some(
                 self.forward_with(
                     &state.q,
                     &state.v,
-                    &u,
+                    &self.driven_inputs(&u, &state.act, first_h),
                     prm,
                     reuse_all(&mut cache.pairs, known),
                 )
@@ -196,7 +204,7 @@ impl Model {
             })
         };
         if !self.integrator.is_adaptive() {
-            let n = ((duration / self.timestep) * (1.0 - 1e-12)).ceil().max(1.0);
+            let n = steps;
             // Refused before any work (the cast below would saturate, and internal steps would
             // grow past `step`; a state that stays finite would run for ages).
             if n.is_nan() || n > opts.max_steps as f64 {
@@ -257,7 +265,7 @@ impl Model {
                                     .forward_with(
                                         &s.q,
                                         &s.v,
-                                        &uk,
+                                        &self.driven_inputs(&uk, &s.act, Some(dt)),
                                         prm,
                                         reuse_all(&mut cache.pairs, known.take()),
                                     )
@@ -350,8 +358,10 @@ impl Model {
                     cause = self
                         .first_non_finite(&out.state)
                         .map(|q| format!("made {q} non-finite"));
-                    let x0 = s.q.iter().chain(&s.v);
-                    let x1 = out.state.q.iter().chain(&out.state.v);
+                    let x0 = s.q.iter().chain(&s.v).chain(&s.act);
+                    let x1 = (out.state.q.iter())
+                        .chain(&out.state.v)
+                        .chain(&out.state.act);
                     let sum: f64 = out
                         .error
                         .iter()

@@ -42,7 +42,9 @@ impl Model {
             };
         }
         Held {
-            tau: self.actuator_forces(&s.q, &s.v, ctrl).as_slice().to_vec(),
+            tau: (self.actuator_forces(&s.q, &s.v, &self.driven_inputs(ctrl, &s.act, None)))
+                .as_slice()
+                .to_vec(),
             v: s.v.clone(),
         }
     }

@@ -34,10 +34,8 @@ struct StepResidual<'a> {
 impl VectorFunction for StepResidual<'_> {
     fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
-        let start = State {
-            q: lift(&self.q0),
-            v: lift(&self.v0),
-        };
+        // `u` is already driven by the activations (which the residual does not move).
+        let start = State::new(lift(&self.q0), lift(&self.v0));
         let (u, prm) = (lift(&self.u), self.prm.lift());
         let from = StepFrom {
             state: &start,
@@ -222,8 +220,9 @@ impl Model {
         carry: StepCarry<'_>,
         guess: Option<&[f64]>,
     ) -> Result<State<T>, DynamicsError> {
-        let StepFrom { state, u, prm, h } = from;
-        let u1 = self.inputs_after(u, h);
+        let StepFrom { state, prm, h, .. } = from;
+        let (driven, act) = self.euler_activations(&from);
+        let u1 = self.inputs_after(&driven, h);
         let at_end = StepFrom { u: &u1, ..from };
         let StepCarry {
             jacobian: jac,
@@ -253,6 +252,7 @@ impl Model {
         Ok(State {
             q: self.tree.integrate_q(&state.q, &v, h),
             v,
+            act,
         })
     }
 
@@ -310,12 +310,15 @@ impl Model {
     ) -> Result<State<f64>, DynamicsError> {
         let StepFrom { state: s, u, h, .. } = from;
         let step = match integrator {
-            Integrator::DampedEuler => self
-                .damped_euler_velocity(from, carry.reborrow(), at_start)
-                .map(|v| State {
+            Integrator::DampedEuler => {
+                let (driven, act) = self.euler_activations(&from);
+                let at = StepFrom { u: &driven, ..from };
+                (self.damped_euler_velocity(at, carry.reborrow(), at_start)).map(|v| State {
                     q: self.tree.integrate_q(&s.q, &v, h),
                     v,
-                }),
+                    act,
+                })
+            }
             _ => self.implicit_euler_step(from, carry.reborrow(), None),
         };
         match step {

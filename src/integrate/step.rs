@@ -100,7 +100,7 @@ mod dp {
 pub struct Dopri5Step<T> {
     /// 5th-order solution, quaternions normalized.
     pub state: State<T>,
-    /// Embedded error estimate `h Σ (b_j - b*_j) k_j`, positions then velocities.
+    /// Embedded error estimate `h Σ (b_j - b*_j) k_j`, positions, velocities, then activations.
     pub error: Vec<T>,
     /// `q̇` and `v̇` at the solution (inputs at the end of the step).
     pub last: (Vec<T>, Vec<T>),
@@ -140,6 +140,7 @@ impl Model {
         prm: &ContactParams<T>,
         h: T,
     ) -> Result<State<T>, DynamicsError> {
+        self.check_activations(&state.act)?;
         let from = StepFrom { state, u, prm, h };
         let (mut jacobian, mut subdivided) = (None, 0);
         let carry = StepCarry {
@@ -165,14 +166,19 @@ impl Model {
         a0: Option<Vec<T>>,
         carry: StepCarry<'_>,
     ) -> Result<State<T>, DynamicsError> {
-        let StepFrom { state, u, prm, h } = from;
+        let StepFrom { state, prm, h, .. } = from;
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
+        // The activations drive the force laws: the Euler family's at the step's start (or
+        // end, `actearly`) for the whole step, RK4's at each stage.
+        let (u, act) = self.euler_activations(&from);
+        let u = u.as_slice();
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(from, carry, None)?;
+            let v = self.damped_euler_velocity(StepFrom { u, ..from }, carry, None)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,
+                act,
             });
         }
         // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
@@ -196,25 +202,45 @@ impl Model {
             Integrator::Euler => Ok(State {
                 q: tree.integrate_q(q1, v1, h),
                 v: axpy(v1, h, &dv1),
+                act,
             }),
             Integrator::SemiImplicitEuler => {
                 let v = axpy(v1, h, &dv1);
                 Ok(State {
                     q: tree.integrate_q(q1, &v, h),
                     v,
+                    act,
                 })
             }
             _ => {
                 let half = h * 0.5;
-                let (u_half, u_end) = (self.inputs_after(u, half), self.inputs_after(u, h));
+                let raw = from.u;
+                let (u_half, u_end) = (self.inputs_after(raw, half), self.inputs_after(raw, h));
+                // The activations through the stages as MuJoCo's RK4 takes them (unclamped
+                // within the step), each stage's inputs driven by its own.
+                let a1 = &state.act;
+                let ctrl = &raw[..self.actuators.len()];
+                let r1 = self.activation_rates(a1, ctrl);
+                let a2 = axpy(a1, half, &r1);
+                let r2 = self.activation_rates(&a2, ctrl);
+                let a3 = axpy(a1, half, &r2);
+                let r3 = self.activation_rates(&a3, ctrl);
+                let a4 = axpy(a1, h, &r3);
+                let r4 = self.activation_rates(&a4, ctrl);
+                let stage = |u: &[T], a: &[T]| self.driven_inputs(u, a, Some(h));
                 let dq1 = tree.qdot(q1, v1);
                 let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
-                let (dq2, dv2) = (tree.qdot(&q2, &v2), accel(&q2, &v2, &u_half)?);
+                let (dq2, dv2) = (tree.qdot(&q2, &v2), accel(&q2, &v2, &stage(&u_half, &a2))?);
                 let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
-                let (dq3, dv3) = (tree.qdot(&q3, &v3), accel(&q3, &v3, &u_half)?);
+                let (dq3, dv3) = (tree.qdot(&q3, &v3), accel(&q3, &v3, &stage(&u_half, &a3))?);
                 let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
-                let (dq4, dv4) = (tree.qdot(&q4, &v4), accel(&q4, &v4, &u_end)?);
+                let (dq4, dv4) = (tree.qdot(&q4, &v4), accel(&q4, &v4, &stage(&u_end, &a4))?);
                 let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
+                let rate = combine(
+                    &vec![T::zero(); a1.len()],
+                    T::one(),
+                    &[(w[0], &r1), (w[1], &r2), (w[2], &r3), (w[3], &r4)],
+                );
                 let mut q = combine(
                     q1,
                     h,
@@ -228,9 +254,22 @@ impl Model {
                         h,
                         &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)],
                     ),
+                    act: self.next_activations(a1, &rate, h),
                 })
             }
         }
+    }
+
+    /// An Euler-family step's inputs with each activation driving its actuator (at the step's
+    /// start, or at its end with `actearly`), and the activations at the step's end.
+    pub(super) fn euler_activations<T: Scalar>(&self, from: &StepFrom<'_, T>) -> (Vec<T>, Vec<T>) {
+        let act = &from.state.act;
+        if act.is_empty() {
+            return (from.u.to_vec(), Vec::new());
+        }
+        let rates = self.activation_rates(act, &from.u[..self.actuators.len()]);
+        let end = self.next_activations(act, &rates, from.h);
+        (self.driven_inputs(from.u, act, Some(from.h)), end)
     }
 
     /// One Dormand–Prince 5(4) step of length `h`; `first`: `(q̇, v̇)` at the start if known
@@ -245,60 +284,63 @@ impl Model {
     ) -> Result<Dopri5Step<T>, DynamicsError> {
         let tree = &self.tree;
         let (nq, nv) = (tree.nq, tree.nv);
+        // The activations are states of the ODE here: each stage's inputs are driven by its
+        // own (`actearly`, a device of the fixed-step Euler family, does not apply).
+        let ctrl = &u[..self.actuators.len().min(u.len())];
+        let mut ka: Vec<Vec<T>> = Vec::with_capacity(7);
         let mut kq: Vec<Vec<T>> = Vec::with_capacity(7);
         let mut kv: Vec<Vec<T>> = Vec::with_capacity(7);
         let (dq0, dv0) = match first {
             Some(f) => f,
             None => (
                 tree.qdot(&state.q, &state.v),
-                self.accel(&state.q, &state.v, u, prm)?,
+                self.accel(
+                    &state.q,
+                    &state.v,
+                    &self.driven_inputs(u, &state.act, None),
+                    prm,
+                )?,
             ),
         };
+        ka.push(self.activation_rates(&state.act, ctrl));
         kq.push(dq0);
         kv.push(dv0);
+        let terms = |w: &[f64], k: &[Vec<T>]| -> Vec<(f64, Vec<T>)> {
+            w.iter().zip(k).map(|(&x, k)| (x, k.clone())).collect()
+        };
+        let at = |x: &[T], w: &[f64], k: &[Vec<T>]| -> Vec<T> {
+            let t = terms(w, k);
+            let t: Vec<(f64, &[T])> = t.iter().map(|(x, k)| (*x, k.as_slice())).collect();
+            combine(x, h, &t)
+        };
         for s in 1..6 {
             let a = dp::A[s];
-            let tq: Vec<(f64, &[T])> = a.iter().zip(&kq).map(|(&x, k)| (x, k.as_slice())).collect();
-            let tv: Vec<(f64, &[T])> = a.iter().zip(&kv).map(|(&x, k)| (x, k.as_slice())).collect();
-            let q = combine(&state.q, h, &tq);
-            let v = combine(&state.v, h, &tv);
-            let us = self.inputs_after(u, h * dp::C[s]);
+            let q = at(&state.q, a, &kq);
+            let v = at(&state.v, a, &kv);
+            let act = at(&state.act, a, &ka);
+            let us = self.driven_inputs(&self.inputs_after(u, h * dp::C[s]), &act, None);
             kq.push(tree.qdot(&q, &v));
             kv.push(self.accel(&q, &v, &us, prm)?);
+            ka.push(self.activation_rates(&act, ctrl));
         }
-        let tq: Vec<(f64, &[T])> = dp::B
-            .iter()
-            .zip(&kq)
-            .map(|(&x, k)| (x, k.as_slice()))
-            .collect();
-        let tv: Vec<(f64, &[T])> = dp::B
-            .iter()
-            .zip(&kv)
-            .map(|(&x, k)| (x, k.as_slice()))
-            .collect();
-        let mut q = combine(&state.q, h, &tq);
+        let mut q = at(&state.q, &dp::B, &kq);
         tree.normalize_q(&mut q);
-        let v = combine(&state.v, h, &tv);
-        let u_end = self.inputs_after(u, h);
+        let v = at(&state.v, &dp::B, &kv);
+        let mut act = at(&state.act, &dp::B, &ka);
+        let u_end = self.driven_inputs(&self.inputs_after(u, h), &act, None);
         let last = (tree.qdot(&q, &v), self.accel(&q, &v, &u_end, prm)?);
         kq.push(last.0.clone());
         kv.push(last.1.clone());
+        ka.push(self.activation_rates(&act, ctrl));
         let zq = vec![T::zero(); nq];
         let zv = vec![T::zero(); nv];
-        let eq: Vec<(f64, &[T])> = dp::E
-            .iter()
-            .zip(&kq)
-            .map(|(&x, k)| (x, k.as_slice()))
-            .collect();
-        let ev: Vec<(f64, &[T])> = dp::E
-            .iter()
-            .zip(&kv)
-            .map(|(&x, k)| (x, k.as_slice()))
-            .collect();
-        let mut error = combine(&zq, h, &eq);
-        error.extend(combine(&zv, h, &ev));
+        let za = vec![T::zero(); act.len()];
+        let mut error = at(&zq, &dp::E, &kq);
+        error.extend(at(&zv, &dp::E, &kv));
+        error.extend(at(&za, &dp::E, &ka));
+        self.clamp_activations(&mut act);
         Ok(Dopri5Step {
-            state: State { q, v },
+            state: State { q, v, act },
             error,
             last,
         })

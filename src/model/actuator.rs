@@ -2,7 +2,7 @@
 //! motor, position, velocity and affine `<general>` actuators) and the generalized forces of
 //! the controls.
 
-use super::Model;
+use super::{Activation, Model};
 use crate::scalar::{c, Scalar};
 use nalgebra::DVector;
 
@@ -167,11 +167,26 @@ pub struct Actuator {
     /// Force range, if limited (the force is clamped to it, as MuJoCo clamps it; the
     /// derivatives of a clamped force are zero).
     pub forcerange: Option<(f64, f64)>,
+    /// Its activation state, if it has one (MuJoCo's `dyntype`): the force law then reads the
+    /// activation where it reads the control ([`Model::driven_inputs`]).
+    pub activation: Option<Activation>,
+}
+
+impl Actuator {
+    /// A control clamped to the control range (the derivative beyond it is zero).
+    pub fn clamped_control<T: Scalar>(&self, u: T) -> T {
+        match self.ctrlrange {
+            Some((lo, _)) if u.re() < lo => c(lo),
+            Some((_, hi)) if u.re() > hi => c(hi),
+            _ => u,
+        }
+    }
 }
 
 impl Model {
     /// Generalized actuator forces for controls `ctrl` (clamped to their ranges: the derivative
-    /// with respect to a clamped control is zero), each force clamped to its actuator's
+    /// with respect to a clamped control is zero; for an actuator with an activation, its entry
+    /// is the activation, not clamped: [`Model::driven_inputs`]), each force clamped to its actuator's
     /// `forcerange`, then the total on a joint with an actuator force range clamped to it (as
     /// MuJoCo clamps `qfrc_actuator`; its derivatives beyond the range are zero).
     ///
@@ -202,10 +217,9 @@ impl Model {
             None => Vec::new(),
         };
         for (a, &u) in self.actuators.iter().zip(ctrl) {
-            let u = match a.ctrlrange {
-                Some((lo, _)) if u.re() < lo => c(lo),
-                Some((_, hi)) if u.re() > hi => c(hi),
-                _ => u,
+            let u = match a.activation {
+                Some(_) => u,
+                None => a.clamped_control(u),
             };
             let (qj, vj) = match a.target {
                 Transmission::Joint(j) => {

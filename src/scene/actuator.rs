@@ -24,12 +24,6 @@ impl Builder {
         }
         // The defaults gave every shortcut its parameters in the attributes read below
         // (`super::actuator_defaults`): a position has kp and either kv or dampratio.
-        if el.name == "position" && el.attr("timeconst").is_some() {
-            return Err(self.err(
-                el,
-                "timeconst gives a position actuator activation dynamics (MuJoCo's filterexact), which SCM's actuators do not have: remove it (the force follows the control at once)",
-            ));
-        }
         self.check_attrs(
             el,
             &[
@@ -46,6 +40,10 @@ impl Builder {
                 "ctrllimited",
                 "forcerange",
                 "forcelimited",
+                "timeconst",
+                "actlimited",
+                "actrange",
+                "actearly",
                 "dyntype",
                 "gaintype",
                 "biastype",
@@ -204,6 +202,7 @@ impl Builder {
         };
         self.dampratios
             .push(dampratio(&kind, el, self.float(el, "dampratio")?));
+        let activation = self.activation(el)?;
         self.actuators.push(Actuator {
             name,
             kind,
@@ -211,24 +210,81 @@ impl Builder {
             gear,
             ctrlrange,
             forcerange,
+            activation,
         });
-        if el.name == "general" && el.attr("dynprm").is_some() {
-            self.unused(
-                el,
-                "dynprm: MuJoCo reads it only for an activation (dyntype), which SCM's actuators do not have",
-            );
-        }
         Ok(())
     }
 
-    /// A `<general>` actuator without activation: fixed or affine gain and bias.
+    /// An actuator's activation dynamics, as MuJoCo reads them: a `<general>`'s `dyntype`
+    /// (`integrator`, `filter`, `filterexact`) with its time constant `dynprm[0]`, a
+    /// `<position>`'s `timeconst` (a `filterexact` filter), with `actlimited`/`actrange` and
+    /// `actearly`; those three noted unused on an actuator without activation, as in MuJoCo.
+    fn activation(&mut self, el: &Element) -> Result<Option<Activation>, SceneError> {
+        let tau = |key: &str, at: usize| -> Result<f64, SceneError> {
+            let v = match el.attr(key) {
+                None => 1.0,
+                Some(s) => match parse_floats(s) {
+                    Some(v) if v.len() > at => v[at],
+                    Some(_) => 1.0,
+                    None => return Err(self.err(el, format!("{key}: expected finite numbers"))),
+                },
+            };
+            Ok(v)
+        };
+        let law = match (el.name.as_str(), el.attr("dyntype")) {
+            ("position", _) => match self.float(el, "timeconst")? {
+                Some(t) if t < 0.0 => {
+                    return Err(self.err(el, format!("timeconst=\"{t}\" must not be negative")))
+                }
+                Some(t) if t > 0.0 => Some(ActivationLaw::FilterExact { tau: t }),
+                _ => None,
+            },
+            ("general", None | Some("none")) => {
+                if el.attr("dynprm").is_some() {
+                    self.unused(el, "dynprm: MuJoCo reads it only for an activation (dyntype)");
+                }
+                None
+            }
+            ("general", Some("integrator")) => Some(ActivationLaw::Integrator),
+            ("general", Some("filter")) => Some(ActivationLaw::Filter {
+                tau: tau("dynprm", 0)?,
+            }),
+            ("general", Some("filterexact")) => Some(ActivationLaw::FilterExact {
+                tau: tau("dynprm", 0)?,
+            }),
+            ("general", Some(d)) => {
+                return Err(self.err(
+                    el,
+                    format!("dyntype=\"{d}\" is not supported by SCM: use none, integrator, filter or filterexact (muscle activation, with its muscle gain and bias, is not modelled)"),
+                ))
+            }
+            _ => None,
+        };
+        let range = match self.limited(el, "actlimited", "actrange")? {
+            Some(r) if r.0 > r.1 => return Err(self.err(el, "actrange is reversed")),
+            r => r,
+        };
+        let early = match el.attr("actearly") {
+            None | Some("false") => false,
+            Some("true") => true,
+            Some(v) => {
+                return Err(self.err(el, format!("actearly=\"{v}\": expected true or false")))
+            }
+        };
+        let Some(law) = law else {
+            for key in ["actlimited", "actrange", "actearly"] {
+                if el.attr(key).is_some() {
+                    self.unused(el, format!("{key}: this actuator has no activation (MuJoCo reads it only with dynamics)"));
+                }
+            }
+            return Ok(None);
+        };
+        Ok(Some(Activation { law, range, early }))
+    }
+
+    /// A `<general>` actuator's force law: fixed or affine gain and bias (its activation, if
+    /// any, is [`Builder::activation`]'s).
     fn general(&self, el: &Element) -> Result<ActuatorKind, SceneError> {
-        if let Some(d) = el.attr("dyntype").filter(|d| *d != "none") {
-            return Err(self.err(
-                el,
-                format!("dyntype=\"{d}\": SCM's actuators have no activation state: use dyntype=\"none\" (the force follows the control at once)"),
-            ));
-        }
         // MuJoCo pads the parameter vectors with zeros (gainprm with "1 0 0 ...").
         let params = |key: &str, default: [f64; 3]| -> Result<[f64; 3], SceneError> {
             match el.attr(key) {

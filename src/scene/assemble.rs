@@ -5,6 +5,9 @@
 use super::mechanics::Mechanics;
 use super::*;
 
+/// The initial positions, velocities, controls and activations.
+type InitialState = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
 impl Builder {
     /// Whether body `b`'s inertia comes from its geoms (`<compiler inertiafromgeom>`, and
     /// whether the body has an `<inertial>`).
@@ -110,16 +113,16 @@ impl Builder {
 
     /// The initial state: the reference configuration at rest with zero controls, or the
     /// `<key>` that `scm_keyframe` names (by `name`, or by its index among the keys), whose
-    /// `qpos`, `qvel` and `ctrl` replace those they give. The other keys are noted as unused.
-    #[allow(clippy::type_complexity)]
+    /// `qpos`, `qvel`, `ctrl` and `act` replace those they give. The other keys are noted as unused.
     pub(super) fn initial_state(
         &mut self,
         tree: &Tree,
         keyframe: Option<(String, Place)>,
-    ) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), SceneError> {
+    ) -> Result<InitialState, SceneError> {
         let mut q0 = tree.q0();
         let mut v0 = vec![0.0; tree.nv];
         let mut ctrl0 = vec![0.0; self.actuators.len()];
+        let mut act0 = vec![0.0; self.na()];
         let chosen = match &keyframe {
             None => None,
             Some((want, at)) => {
@@ -153,11 +156,7 @@ impl Builder {
                 );
                 continue;
             }
-            for (attr, what) in [
-                ("act", "actuator activations"),
-                ("mpos", "mocap positions"),
-                ("mquat", "mocap orientations"),
-            ] {
+            for (attr, what) in [("mpos", "mocap positions"), ("mquat", "mocap orientations")] {
                 if key.attr(attr).is_some() {
                     return Err(self.err(key, format!("{attr}: {what} in the initial key are not supported by SCM: set the mocap inputs instead, or remove it")));
                 }
@@ -168,7 +167,12 @@ impl Builder {
                     key.file, key.line
                 ));
             }
-            for (attr, target) in [("qpos", &mut q0), ("qvel", &mut v0), ("ctrl", &mut ctrl0)] {
+            for (attr, target) in [
+                ("qpos", &mut q0),
+                ("qvel", &mut v0),
+                ("ctrl", &mut ctrl0),
+                ("act", &mut act0),
+            ] {
                 if let Some(s) = key.attr(attr) {
                     // Sizes are checked above; an empty list keeps the default, a short ctrl
                     // sets its first controls (MuJoCo pads it with zeros).
@@ -183,12 +187,18 @@ impl Builder {
                 }
             }
         }
-        Ok((q0, v0, ctrl0))
+        Ok((q0, v0, ctrl0, act0))
+    }
+
+    /// Number of activation states of the actuators read so far.
+    fn na(&self) -> usize {
+        (self.actuators.iter())
+            .filter(|a| a.activation.is_some())
+            .count()
     }
 
     /// Every key's arrays have MuJoCo's sizes (MuJoCo refuses the file otherwise, whichever
-    /// key is used; measured with MuJoCo 4.0.0): qpos nq, qvel nv, act na (0: SCM's actuators
-    /// have no activation) exactly or empty; ctrl at most nu, mpos and mquat at most 3 and 4
+    /// key is used; measured with MuJoCo 4.0.0): qpos nq, qvel nv, act na exactly or empty; ctrl at most nu, mpos and mquat at most 3 and 4
     /// per mocap body (MuJoCo pads them with zeros).
     fn check_key_sizes(&self, tree: &Tree) -> Result<(), SceneError> {
         let nmocap = tree.mocap.len();
@@ -197,7 +207,7 @@ impl Builder {
                 ("qpos", tree.q0().len()),
                 ("qvel", tree.nv),
                 ("ctrl", self.actuators.len()),
-                ("act", 0),
+                ("act", self.na()),
                 ("mpos", 3 * nmocap),
                 ("mquat", 4 * nmocap),
             ] {
@@ -494,7 +504,7 @@ impl Builder {
             integrator,
         );
         self.stiction_floors(&tree, &mut pairs, file_step, integrator);
-        let (q0, v0, ctrl0) = self.initial_state(&tree, keyframe)?;
+        let (q0, v0, ctrl0, act0) = self.initial_state(&tree, keyframe)?;
         let fluid = self.fluid_model(&tree);
         let actuator_ranges = self.actuator_dof_ranges(&tree);
         let name = Path::new(&self.file)
@@ -515,6 +525,7 @@ impl Builder {
             q0,
             v0,
             ctrl0,
+            act0,
             fluid,
             tendons,
             equalities,

@@ -18,7 +18,7 @@ use super::{Compiled, CompiledPair, Geom};
 use crate::dynamics::tendon::TendonLaw;
 use crate::dynamics::JointKind;
 use crate::geometry::Shape;
-use crate::model::{ActuatorKind, Transmission};
+use crate::model::{ActivationLaw, ActuatorKind, Transmission};
 use nalgebra::{Isometry3, Vector3};
 use serde_json::{json, Value};
 
@@ -153,6 +153,19 @@ impl Compiled {
                     "ctrlrange": a.ctrlrange.map(|(lo, hi)| vec![lo, hi]),
                     "forcelimited": a.forcerange.is_some(),
                     "forcerange": a.forcerange.map(|(lo, hi)| vec![lo, hi]),
+                    "dyntype": match a.activation.map(|d| d.law) {
+                        None => "none",
+                        Some(ActivationLaw::Integrator) => "integrator",
+                        Some(ActivationLaw::Filter { .. }) => "filter",
+                        Some(ActivationLaw::FilterExact { .. }) => "filterexact",
+                    },
+                    "timeconst": a.activation.and_then(|d| match d.law {
+                        ActivationLaw::Filter { tau } | ActivationLaw::FilterExact { tau } => Some(tau),
+                        ActivationLaw::Integrator => None,
+                    }),
+                    "actlimited": a.activation.is_some_and(|d| d.range.is_some()),
+                    "actrange": a.activation.and_then(|d| d.range).map(|(lo, hi)| vec![lo, hi]),
+                    "actearly": a.activation.is_some_and(|d| d.early),
                 })
             })
             .collect();

@@ -46,7 +46,7 @@ use crate::dynamics::spatial::Inertia;
 use crate::dynamics::{Body, Joint, JointKind, Tree, TreeError};
 use crate::geometry::{Placement, Shape, Spacing, TriMesh};
 use crate::integrate::Integrator;
-use crate::model::{Actuator, ActuatorKind, Model, Pair, Transmission};
+use crate::model::{Activation, ActivationLaw, Actuator, ActuatorKind, Model, Pair, Transmission};
 use canonical::Angles;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;

@@ -178,6 +178,8 @@ impl Simulation {
             Slot::Q(i) => self.data.current.state.q[i],
             Slot::V(i) => self.data.current.state.v[i],
             Slot::Ctrl(i) => self.data.current.ctrl[i],
+            Slot::Act(k) => self.data.current.state.act[k],
+            Slot::ActDot(k) => self.activation_rates()[k],
             Slot::Mocap(m, k) => self.data.current.mocap_target[7 * m + k],
             Slot::Param(p) => p.get(&self.data.current.params),
             Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
@@ -241,6 +243,9 @@ impl Simulation {
             }
             Slot::V(i) if before_init || self.model_exchange => {
                 self.data.current.state.v[i] = value
+            }
+            Slot::Act(k) if before_init || self.model_exchange => {
+                self.data.current.state.act[k] = value
             }
             Slot::Ctrl(i) => self.data.current.ctrl[i] = value,
             Slot::Mocap(m, k) => {

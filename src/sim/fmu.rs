@@ -116,13 +116,17 @@ impl FmiModel for Simulation {
 
     fn set_state(&mut self, state: &FmuState) -> ModelResult<()> {
         let s = &state.sim;
-        if (s.state.q.len(), s.state.v.len(), s.ctrl.len())
-            != (
-                self.model.tree.nq,
-                self.model.tree.nv,
-                self.model.actuators.len(),
-            )
-        {
+        if (
+            s.state.q.len(),
+            s.state.v.len(),
+            s.state.act.len(),
+            s.ctrl.len(),
+        ) != (
+            self.model.tree.nq,
+            self.model.tree.nv,
+            self.model.na(),
+            self.model.actuators.len(),
+        ) {
             return Err("the FMU state belongs to another scene (its sizes differ)".into());
         }
         self.data.current = state.sim.clone();
@@ -161,6 +165,7 @@ impl FmiModel for Simulation {
                 slot,
                 Slot::Q(_)
                     | Slot::V(_)
+                    | Slot::Act(_)
                     | Slot::Ctrl(_)
                     | Slot::Mocap(..)
                     | Slot::Param(_)
@@ -184,7 +189,7 @@ impl FmiModel for Simulation {
     }
 
     fn number_of_states(&self) -> usize {
-        self.model.tree.nq + self.model.tree.nv
+        self.model.tree.nq + self.model.tree.nv + self.model.na()
     }
 
     fn set_time(&mut self, time: f64) -> ModelResult<()> {
@@ -208,8 +213,11 @@ impl FmiModel for Simulation {
                 return Err(format!("the quaternion of joint {} (x[{qa}..{}]) is zero: it has no orientation; the states are unchanged", j.name, qa + 4));
             }
         }
-        self.data.current.state.q.copy_from_slice(&x[..nq]);
-        self.data.current.state.v.copy_from_slice(&x[nq..]);
+        let nv = self.model.tree.nv;
+        let s = &mut self.data.current.state;
+        s.q.copy_from_slice(&x[..nq]);
+        s.v.copy_from_slice(&x[nq..nq + nv]);
+        s.act.copy_from_slice(&x[nq + nv..]);
         Ok(())
     }
 
@@ -219,6 +227,7 @@ impl FmiModel for Simulation {
             .tree
             .qdot(&self.data.current.state.q, &self.data.current.state.v);
         dx.extend_from_slice(self.accelerations()?);
+        dx.extend(self.activation_rates());
         if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
             return Err(format!(
                 "the derivative of state {i} is {} at t = {} s",

@@ -1,7 +1,7 @@
 //! Exact directional derivatives of the FMU's unknowns (`fmi2GetDirectionalDerivative`), by one
 //! forward-mode pass of the model's own (scalar-generic) math on dual numbers.
 //!
-//! The knowns are the states (`q`, `v`), the inputs (controls) and the tunable contact
+//! The knowns are the states (`q`, `v`, activations), the inputs (controls) and the tunable contact
 //! parameters; the pass seeds each with its component of the direction `dv_known`, so the dual
 //! part of every unknown is `J[unknown, knowns] · dv_known` exactly (no step size, no
 //! truncation error). Unknowns: the states themselves, their derivatives (`q̇`, and the
@@ -18,6 +18,8 @@ use crate::scalar::c;
 struct Seeded {
     q: Vec<Dual64>,
     v: Vec<Dual64>,
+    /// Activations.
+    act: Vec<Dual64>,
     /// The model's inputs `u`: actuator controls, then the mocap bodies' poses and velocities.
     u: Vec<Dual64>,
     prm: ContactParams<Dual64>,
@@ -34,6 +36,7 @@ fn seed(
     let mut s = Seeded {
         q: lift(&state.state.q),
         v: lift(&state.state.v),
+        act: lift(&state.state.act),
         u: lift(&[state.ctrl.as_slice(), &state.mocap].concat()),
         prm: state.params.lift(),
     };
@@ -42,6 +45,7 @@ fn seed(
         let x = match slot {
             Slot::Q(i) => &mut s.q[i],
             Slot::V(i) => &mut s.v[i],
+            Slot::Act(k) => &mut s.act[k],
             Slot::Ctrl(i) => &mut s.u[i],
             Slot::Param(p) => match p {
                 Param::Eps1 => &mut s.prm.eps1,
@@ -83,6 +87,8 @@ pub fn directional_derivative(
 ) -> Result<Vec<f64>, String> {
     let s = seed(model, state, knowns, dv, model_exchange)?;
     let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
+    // The force laws read the activations where they have them.
+    let driven = model.driven_inputs(&s.u, &s.act, None);
     let needs_contacts = unknowns.iter().any(|u| {
         matches!(
             u,
@@ -91,7 +97,7 @@ pub fn directional_derivative(
     });
     let (vdot, contacts) = if needs_vdot {
         let f = model
-            .forward(&s.q, &s.v, &s.u, &s.prm)
+            .forward(&s.q, &s.v, &driven, &s.prm)
             .map_err(|e| e.to_string())?;
         // A pair out of reach has zero wrenches (and derivatives) but no distance: only
         // when one of those distances is asked are the pairs evaluated in full.
@@ -155,6 +161,8 @@ pub fn directional_derivative(
             let d: Dual64 = match u {
                 Slot::Q(i) => s.q[i],
                 Slot::V(i) => s.v[i],
+                Slot::Act(k) => s.act[k],
+                Slot::ActDot(k) => model.activation_rates(&s.act, &s.u[..model.actuators.len()])[k],
                 Slot::QDot(i) => qdot.as_ref().ok_or_else(missing)?[i],
                 Slot::VDot(i) => vdot.as_ref().ok_or_else(missing)?[i],
                 Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],

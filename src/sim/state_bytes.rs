@@ -11,6 +11,7 @@
 //! | `sizes` | 4 × 4 | `nq`, `nv`, number of controls, number of mocap bodies `nm` |
 //! | `time` | 8 | time (s) |
 //! | `state` | 8 × (nq + nv + nctrl) | `q`, `v`, controls |
+//! | `act` | 8 × na | since version 7, the actuators' activations (`na` the model's) |
 //! | `mocap` | 8 × 13 nm | mocap bodies at `time`: pose and velocity ([`MOCAP_INPUTS`] each) |
 //! | `mocap_target` | 8 × 7 nm | mocap inputs as set: the pose reached at the end of the next step |
 //! | `params` | 8 × 7 | the tunable contact parameters, in [`Param::ALL`] order |
@@ -18,8 +19,8 @@
 //! | `integrator` | 4 + n | integrator name: length, UTF-8 bytes |
 //! | `mocap_sampled` | 1 (+ 8 + 8 × 7 nm) | Model Exchange: mocap poses at the last completed integrator step: 0, or 1, time, poses |
 //! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
-//! | `left` | 1 (+ 8 (nq + nv + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, step; or 2, `q`, `v`, step, implicit Euler's last velocity change `V - v` |
-//! | `ledger` | 1 (+ 8 (nq + nv + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
+//! | `left` | 1 (+ 8 (nq + nv + na + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, `act` (since version 7), step; or 2, `q`, `v`, `act`, step, implicit Euler's last velocity change `V - v` |
+//! | `ledger` | 1 (+ 8 (nq + nv + na + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`, `act` since version 7), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
 //! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
 //!
 //! The sections are written in this order, and [`decode`] reads them in it; a test holds this
@@ -37,9 +38,10 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
 /// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy,
-/// version 6 the kept out-of-reach proofs; [`decode`] also reads versions 3 (never flag 2), 4
-/// and 5 (no kept proofs).
-pub const STATE_VERSION: u32 = 6;
+/// version 6 the kept out-of-reach proofs, version 7 the activations; [`decode`] also reads
+/// versions 3 (never flag 2), 4 and 5 (no kept proofs) and 6 (no activations: of a model
+/// without them).
+pub const STATE_VERSION: u32 = 7;
 
 /// The bytes of a state as [`encode`] writes them, with where each section of the module's
 /// table begins (what the layout test compares with the table).
@@ -94,6 +96,7 @@ fn write(state: &FmuState) -> Writer {
     w.section("time").reals([&s.time]);
     w.section("state")
         .reals(s.state.q.iter().chain(&s.state.v).chain(&s.ctrl));
+    w.section("act").reals(&s.state.act);
     w.section("mocap").reals(&s.mocap);
     w.section("mocap_target").reals(&s.mocap_target);
     w.section("params")
@@ -125,7 +128,7 @@ fn write(state: &FmuState) -> Writer {
             } else {
                 1
             })
-            .reals(st.q.iter().chain(&st.v).chain([h]))
+            .reals(st.q.iter().chain(&st.v).chain(&st.act).chain([h]))
             .reals(cache.velocity_change.iter().flatten()),
     };
     w.section("ledger");
@@ -133,7 +136,7 @@ fn write(state: &FmuState) -> Writer {
         None => w.flag(0),
         Some(l) => w
             .flag(1)
-            .reals(l.at.q.iter().chain(&l.at.v))
+            .reals(l.at.q.iter().chain(&l.at.v).chain(&l.at.act))
             .reals(&Param::ALL.map(|p| p.get(&l.params)))
             .reals([
                 &l.since,
@@ -207,6 +210,17 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     let ctrl = (0..nc)
         .map(|_| finite(&mut r, "a control"))
         .collect::<Result<Vec<_>, _>>()?;
+    // Activations since version 7; before, a model had none.
+    let na = model.na();
+    if version < 7 && na > 0 {
+        return Err(format!("model state has layout version {version}, which keeps no activations: this scene has {na}"));
+    }
+    let activations = |r: &mut Reader, what| {
+        (0..na)
+            .map(|_| finite(r, what))
+            .collect::<Result<Vec<_>, _>>()
+    };
+    let act = activations(&mut r, "an activation")?;
     let mocap = (0..nm * MOCAP_INPUTS)
         .map(|_| finite(&mut r, "a mocap pose or velocity"))
         .collect::<Result<Vec<_>, _>>()?;
@@ -278,6 +292,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             let v = (0..nv)
                 .map(|_| finite(&mut r, "a cached velocity"))
                 .collect::<Result<Vec<_>, _>>()?;
+            let act = activations(&mut r, "a cached activation")?;
             let h = finite(&mut r, "the cached internal step")?;
             if f == 2 {
                 velocity_change = Some(
@@ -286,7 +301,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                         .collect::<Result<Vec<_>, _>>()?,
                 );
             }
-            Some((State { q, v }, h))
+            Some((State { q, v, act }, h))
         }
         f => {
             return Err(format!(
@@ -303,6 +318,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             let v = (0..nv)
                 .map(|_| finite(&mut r, "the energy ledger's velocity"))
                 .collect::<Result<Vec<_>, _>>()?;
+            let act = activations(&mut r, "the energy ledger's activation")?;
             let mut params = model.contact;
             for p in Param::ALL {
                 let x = finite(&mut r, "the energy ledger's contact parameter")?;
@@ -337,7 +353,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 return Err(format!("model state is corrupt: an energy ledger with kinetic energy {kinetic} J outside [0, {scale}] J (its scale)"));
             }
             Some(EnergyLedger {
-                at: State { q, v },
+                at: State { q, v, act },
                 params,
                 since,
                 reference,
@@ -370,7 +386,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     Ok(FmuState {
         sim: SimState {
             time,
-            state: State { q, v },
+            state: State { q, v, act },
             ctrl,
             params,
             mocap,

@@ -6,10 +6,11 @@ use crate::integrate::{CacheParts, SolverCache};
 use nalgebra::DMatrix;
 
 /// The sizes of the state below, by the names the table's formulas use.
-const SIZES: [(&str, usize); 8] = [
+const SIZES: [(&str, usize); 9] = [
     ("nq", 7),
     ("nv", 6),
     ("nctrl", 2),
+    ("na", 1),
     ("nm", 1),
     ("n", "implicit_euler".len()),
     ("r", 6),
@@ -26,6 +27,7 @@ fn full_state() -> FmuState {
     let state = State {
         q: vec![0.5; nq],
         v: vec![0.25; nv],
+        act: vec![0.125; size("na")],
     };
     let side = ProofSide {
         rotation: Matrix3::identity(),
@@ -178,7 +180,10 @@ fn the_formulas_read_as_meant() {
     assert_eq!(evaluate("4 × 4"), 16);
     assert_eq!(evaluate("8 × (nq + nv + nctrl)"), 8 * 15);
     assert_eq!(evaluate("1 (+ 8 + 8 × 7 nm)"), 1 + 8 + 56);
-    assert_eq!(evaluate("1 (+ 8 (nq + nv + 1) (+ 8 nv))"), 1 + 8 * 14 + 48);
+    assert_eq!(
+        evaluate("1 (+ 8 (nq + nv + na + 1) (+ 8 nv))"),
+        1 + 8 * 15 + 48
+    );
     assert_eq!(
         evaluate("4 + per pair (1 + 2 (1 + 8 × 14))"),
         4 + 2 * (1 + 2 * 113)

@@ -25,6 +25,8 @@ pub struct Knowns {
     pub v: BTreeSet<usize>,
     /// Actuator controls.
     pub ctrl: BTreeSet<usize>,
+    /// Activations.
+    pub act: BTreeSet<usize>,
     /// Mocap inputs `(mocap body, component)` (components 0-2 position, 3-6 quaternion). They act
     /// at once in Model Exchange only; in Co-Simulation their partials are zero (a listed
     /// dependency may be zero), since an input there is the pose reached at the end of the next
@@ -40,6 +42,7 @@ impl Knowns {
         self.q.extend(&other.q);
         self.v.extend(&other.v);
         self.ctrl.extend(&other.ctrl);
+        self.act.extend(&other.act);
         self.mocap.extend(&other.mocap);
         self.params.extend(&other.params);
     }
@@ -50,6 +53,7 @@ impl Knowns {
             Slot::Q(i) => self.q.contains(&i),
             Slot::V(i) => self.v.contains(&i),
             Slot::Ctrl(i) => self.ctrl.contains(&i),
+            Slot::Act(k) => self.act.contains(&k),
             Slot::Mocap(m, k) => self.mocap.contains(&(m, k)),
             Slot::Param(p) => self.params.contains(&param_index(p)),
             _ => false,
@@ -132,14 +136,16 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
         .filter(|&j| subtree_root(model, tree.joints[j].body) == root)
         .collect();
     let mut k = coordinates(model, &joints, true);
+    // An actuator's force reads its control, or its activation where it has one.
+    let mut activation = 0;
     for (a, act) in model.actuators.iter().enumerate() {
-        if model
-            .actuator_joints(act)
-            .iter()
-            .any(|j| joints.contains(j))
-        {
-            k.ctrl.insert(a);
-        }
+        let drives = (model.actuator_joints(act).iter()).any(|j| joints.contains(j));
+        match act.activation {
+            Some(_) if drives => k.act.insert(activation),
+            None if drives => k.ctrl.insert(a),
+            _ => false,
+        };
+        activation += usize::from(act.activation.is_some());
     }
     if joints.iter().any(|&j| tree.joints[j].frictionloss > 0.0) {
         k.params.insert(param_index(Param::StictionVelocity));
@@ -272,6 +278,25 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
             v: [i].into(),
             ..Knowns::default()
         },
+        Slot::Act(k) => Knowns {
+            act: [k].into(),
+            ..Knowns::default()
+        },
+        // An activation's rate reads its actuator's control, and the activation itself
+        // unless it integrates the control.
+        Slot::ActDot(k) => {
+            let (a, d) = (model.actuators.iter().enumerate())
+                .filter_map(|(a, x)| x.activation.map(|d| (a, d)))
+                .nth(k)?;
+            Knowns {
+                ctrl: [a].into(),
+                act: match d.law {
+                    crate::model::ActivationLaw::Integrator => BTreeSet::new(),
+                    _ => [k].into(),
+                },
+                ..Knowns::default()
+            }
+        }
         Slot::QDot(i) => {
             let j = joint_of_q(i)?;
             let quat = match j.kind {
@@ -356,6 +381,7 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
         out.extend(k.q.iter().filter_map(|&i| vr_of(Slot::Q(i))));
         out.extend(k.v.iter().filter_map(|&i| vr_of(Slot::V(i))));
         out.extend(k.ctrl.iter().filter_map(|&i| vr_of(Slot::Ctrl(i))));
+        out.extend(k.act.iter().filter_map(|&i| vr_of(Slot::Act(i))));
         out.extend(
             k.mocap
                 .iter()

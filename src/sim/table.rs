@@ -20,6 +20,10 @@ pub enum Slot {
     V(usize),
     /// An actuator control.
     Ctrl(usize),
+    /// Activation `k` of the actuators with activation dynamics (a state).
+    Act(usize),
+    /// Time derivative of activation `k` (a Model Exchange state derivative).
+    ActDot(usize),
     /// Input pose of mocap body `m` (index into `Tree::mocap`): `k` = 0..3 position x, y, z (m,
     /// world frame), 3..7 quaternion w, x, y, z.
     Mocap(usize, usize),
@@ -285,6 +289,27 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             Slot::Ctrl(i),
         );
     }
+    for (k, a) in (model.actuators.iter())
+        .filter(|a| a.activation.is_some())
+        .enumerate()
+    {
+        push(
+            format!("{}.act", names::identifier(&a.name)),
+            Causality::Output,
+            Variability::Continuous,
+            Some(Initial::Exact),
+            VarType::Real {
+                start: Some(model.act0[k]),
+                unit: None,
+                derivative: None,
+            },
+            format!(
+                "Activation of actuator {} (its force law reads it in place of its control)",
+                a.name
+            ),
+            Slot::Act(k),
+        );
+    }
     let mocap0 = model.tree.mocap0();
     for (m, &b) in model.tree.mocap.iter().enumerate() {
         let name = &model.tree.bodies[b].name;
@@ -414,7 +439,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
 fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
     let mut states: Vec<(Slot, u32, String, Option<&'static str>)> = rows
         .iter()
-        .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_)))
+        .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Act(_)))
         .map(|(v, s)| {
             (
                 *s,
@@ -429,7 +454,8 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
         .collect();
     states.sort_by_key(|(s, ..)| match *s {
         Slot::Q(i) => i,
-        Slot::V(i) => usize::MAX / 2 + i,
+        Slot::V(i) => usize::MAX / 4 + i,
+        Slot::Act(i) => usize::MAX / 2 + i,
         _ => usize::MAX,
     });
     let mut accelerations = Vec::new();
@@ -452,6 +478,7 @@ fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
                 Causality::Local,
                 "Acceleration (time derivative)",
             ),
+            (Slot::Act(i), _) => ("1/s", Slot::ActDot(i), Causality::Local, "Rate"),
             _ => continue,
         };
         let value_reference = rows.len() as u32;

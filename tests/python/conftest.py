@@ -54,10 +54,6 @@ def dm_id(path):
 #: The dm_control files SCM refuses, and the reason its message must give (at the file and line
 #: of the element). Everything else loads.
 DM_CONTROL_REFUSED = {
-    "dog": ("dog.xml:945: <general>", "no activation state"),
-    "quadruped": ("quadruped.xml:279: <general>", "no activation state"),
-    "rodent": ("rodent.xml:561: <general>", "no activation state"),
-    "dog_v2_dog": ("dog.xml:936: <general>", "no activation state"),
     "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "body transmissions (adhesion) are not supported"),
     "testing_model_with_third_order_actuators": ("model_with_third_order_actuators.xml:10: <cylinder>",
                                                  "unsupported actuator"),

@@ -260,7 +260,16 @@ def compare(path, inertia_tol=TOL):
             close(f"{tag} ctrlrange", act["ctrlrange"], m.actuator_ctrlrange[a])
         # Every kind as MuJoCo stores it: the affine law's gain and bias (what MuJoCo reads of
         # them: the first entry of a fixed gain, nothing of a bias of type none).
-        assert int(m.actuator_dyntype[a]) == int(mujoco.mjtDyn.mjDYN_NONE), tag
+        dyntype = {int(mujoco.mjtDyn.mjDYN_NONE): "none", int(mujoco.mjtDyn.mjDYN_INTEGRATOR): "integrator",
+                   int(mujoco.mjtDyn.mjDYN_FILTER): "filter",
+                   int(mujoco.mjtDyn.mjDYN_FILTEREXACT): "filterexact"}[int(m.actuator_dyntype[a])]
+        assert act["dyntype"] == dyntype, f"{tag} dyntype"
+        if dyntype in ("filter", "filterexact"):
+            close(f"{tag} timeconst", act["timeconst"], m.actuator_dynprm[a, 0])
+        assert act["actlimited"] == bool(m.actuator_actlimited[a]), f"{tag} actlimited"
+        if act["actlimited"]:
+            close(f"{tag} actrange", act["actrange"], m.actuator_actrange[a])
+        assert act["actearly"] == bool(m.actuator_actearly[a]), f"{tag} actearly"
         affine_gain = int(m.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_AFFINE)
         affine_bias = int(m.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
         gain = m.actuator_gainprm[a, :3] if affine_gain else [m.actuator_gainprm[a, 0], 0, 0]
