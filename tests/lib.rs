@@ -1,5 +1,6 @@
 //! Integration tests, compiled as one binary.
 
+mod activation;
 mod cli;
 mod common;
 mod contact_pair;

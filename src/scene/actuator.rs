@@ -255,7 +255,14 @@ impl Builder {
             ("general", Some(d)) => {
                 return Err(self.err(
                     el,
-                    format!("dyntype=\"{d}\" is not supported by SCM: use none, integrator, filter or filterexact (muscle activation, with its muscle gain and bias, is not modelled)"),
+                    format!(
+                        "dyntype=\"{d}\" is not supported by SCM: use none, integrator, filter or filterexact ({})",
+                        match d {
+                            "muscle" => "MuJoCo's muscle model, with its muscle gain and bias, is not modelled",
+                            "user" => "a user callback's dynamics cannot be read from the file",
+                            _ => "MuJoCo knows these four and muscle",
+                        }
+                    ),
                 ))
             }
             _ => None,

@@ -255,3 +255,87 @@ def test_massless_welded_bodies_move_as_in_mujoco(tmp_path):
         mujoco.MjModel.from_xml_path(str(refused))
     out = subprocess.run([str(SCM), "check", str(refused)], capture_output=True, text=True)
     assert out.returncode != 0 and "body 'link' moves but has no mass" in out.stderr, out.stderr
+
+
+ACTIVATION_SCENE = """<mujoco>
+  <custom><text name="scm_keyframe" data="start"/></custom>
+  <option timestep="0.002" integrator="INTEGRATOR"/>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+      <body name="slider" pos=".3 0 0">
+        <joint name="s" type="slide" axis="1 0 0"/>
+        <geom type="box" size=".05 .05 .05"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <general name="filt" joint="h" dyntype="filter" dynprm="0.05" gainprm="2" ctrlrange="-1 1"
+             ctrllimited="true"/>
+    <general name="integ" joint="s" dyntype="integrator" gainprm="3" biastype="affine"
+             biasprm="0 -3 -0.5" actlimited="true" actrange="-0.2 0.3" ctrlrange="-1 1"
+             ctrllimited="true"/>
+    <position name="pos" joint="h" kp="4" timeconst="0.03"/>
+    <general name="early" joint="s" dyntype="filterexact" dynprm="0.02" actearly="true"
+             gaintype="affine" gainprm="1.5 2 0"/>
+    <motor name="plain" joint="h"/>
+  </actuator>
+  <keyframe><key name="start" act="0.1 -0.05 0.2 0" ctrl="0.7 0.8 0.5 -0.9 0.1"/></keyframe>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_activation_dynamics_follow_mujoco(integrator, tmp_path):
+    """Activation states (a filter, an integrator clamped by its actrange, a position servo's
+    timeconst, an actearly filterexact with a gain that grows with length, beside a motor)
+    from a keyframe's act: joints and activations through the FMU in fmpy match MuJoCo's run
+    within 1e-12 over 0.5 s (the integrator's activation reaches its range's top and stays)."""
+    path = tmp_path / "activation.xml"
+    path.write_text(ACTIVATION_SCENE.replace("INTEGRATOR", integrator))
+    fmu = tmp_path / "activation.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    outputs = ["h.q", "s.q", "filt.act", "integ.act", "pos.act", "early.act"]
+    res = simulate_fmu(str(fmu), stop_time=0.5, output_interval=0.01, output=outputs)
+    worst = 0.0
+    for row in res:
+        n = round(row["time"] / m.opt.timestep)
+        while round(d.time / m.opt.timestep) < n:
+            mujoco.mj_step(m, d)
+        ours = np.array([row[o] for o in outputs])
+        err = np.max(np.abs(ours - np.concatenate([d.qpos, d.act])))
+        worst = max(worst, err)
+        assert err < 1e-12, f"t = {row['time']:.2f}: {ours} vs {d.qpos}, {d.act}"
+    assert d.act[1] == 0.3, "the integrator's activation stops at the top of its range"
+    print(f"{integrator}: largest difference {worst:.2e}; activations {d.act}")
+
+
+def test_activation_rates_and_accelerations_are_mujocos_in_model_exchange(tmp_path):
+    """In Model Exchange the activations are continuous states: at the keyframe's state the
+    FMU's derivatives `der(<name>.act)` are MuJoCo's act_dot and its accelerations MuJoCo's
+    qacc (without actearly, which MuJoCo's forward dynamics reads at the next step)."""
+    from hosts import Opened, get_dx, get_x
+    path = tmp_path / "activation_me.xml"
+    path.write_text(ACTIVATION_SCENE.replace(' actearly="true"', "").replace("INTEGRATOR", "Euler"))
+    fmu = tmp_path / "activation_me.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    mujoco.mj_forward(m, d)
+    opened = Opened(str(fmu))
+    model = opened.instance("ME")
+    n = opened.md.numberOfContinuousStates
+    assert n == m.nq + m.nv + m.na
+    x = get_x(model, n)
+    assert list(x[m.nq + m.nv:]) == list(d.act)
+    dx = get_dx(model, n)
+    assert np.allclose(dx[m.nq:m.nq + m.nv], d.qacc, rtol=1e-12, atol=1e-12), (dx, d.qacc)
+    assert np.allclose(dx[m.nq + m.nv:], d.act_dot, rtol=1e-12, atol=1e-12), (dx, d.act_dot)
+    assert opened.var["der(filt.act)"].derivative is opened.var["filt.act"]
+    model.terminate()
+    model.freeInstance()
