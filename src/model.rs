@@ -22,7 +22,7 @@ mod forward;
 mod frozen;
 mod pairs;
 pub use activation::{Activation, ActivationLaw};
-pub use actuator::{Actuator, ActuatorKind, SiteTransmission, Transmission};
+pub use actuator::{Actuator, ActuatorKind, SiteTransmission, SliderCrank, Transmission};
 pub use energy::Energy;
 pub use forward::{EvalPoint, ForwardOptions};
 pub use frozen::FrozenForward;
@@ -75,6 +75,8 @@ pub struct Model {
     pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
     /// The site transmissions of actuators that drive sites ([`Transmission::Site`]).
     pub site_transmissions: Vec<crate::model::SiteTransmission>,
+    /// The slider-crank transmissions ([`Transmission::SliderCrank`]).
+    pub slider_cranks: Vec<crate::model::SliderCrank>,
     /// Degrees of freedom whose total actuator force is clamped (MuJoCo's joint
     /// `actuatorfrcrange`): the velocity index and the range (N or N·m).
     pub actuator_ranges: Vec<(usize, f64, f64)>,

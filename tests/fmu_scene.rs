@@ -163,7 +163,7 @@ fn known_step(slot: Slot, x: f64) -> f64 {
     match slot {
         // Contact varies on the scale of ε3 = 1e-4 m and v_s = 1e-2 m/s: steps far below.
         Slot::Q(_) | Slot::V(_) => 1e-8,
-        Slot::Ctrl(_) => 1e-7,
+        Slot::Ctrl(_) | Slot::Act(_) => 1e-7,
         // Parameters: relative steps; their outputs vary on the parameter's own scale.
         _ => 1e-4 * x.abs(),
     }
@@ -173,6 +173,7 @@ fn set_known(sim: &mut Simulation, slot: Slot, vr: u32, x: f64) {
     match slot {
         Slot::Q(i) => sim.data.current.state.q[i] = x,
         Slot::V(i) => sim.data.current.state.v[i] = x,
+        Slot::Act(k) => sim.data.current.state.act[k] = x,
         _ => sim
             .set_real(vr, x, scm::fmi::contract::Phase::Simulation)
             .unwrap(),
@@ -484,7 +485,12 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
             .collect();
         let knowns: Vec<(u32, Slot, String)> = rows
             .iter()
-            .filter(|(_, s)| matches!(s, Slot::Q(_) | Slot::V(_) | Slot::Ctrl(_) | Slot::Param(_)))
+            .filter(|(_, s)| {
+                matches!(
+                    s,
+                    Slot::Q(_) | Slot::V(_) | Slot::Act(_) | Slot::Ctrl(_) | Slot::Param(_)
+                )
+            })
             .map(|(v, s)| (v.value_reference, *s, v.name.clone()))
             .collect();
         // Declared dependencies: InitialUnknowns lists parameters too; Outputs and Derivatives
@@ -538,6 +544,48 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
         eprintln!("{name}: {checked} declared partials checked against central differences, {zero} undeclared ones exactly zero");
         assert!(checked > 0 && zero > 0);
     }
+}
+
+#[test]
+fn dependencies_follow_slider_cranks_and_activations() {
+    // A slider-crank whose crank is on one subtree and whose slider site rides on another ties
+    // their accelerations; a filtered actuator's acceleration depends on its activation, not
+    // its control, and its activation's rate on both; a third subtree stays apart.
+    let xml = r#"<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="ja" axis="0 0 1" damping="0.1"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.01" contype="0" conaffinity="0"/>
+      <site name="crank" pos="0.1 0 0"/>
+    </body>
+    <body name="b" pos="0 -0.1 1">
+      <joint name="jb" axis="0 0 1"/>
+      <geom type="capsule" fromto="0 0 0 0 -0.1 0" size="0.01" contype="0" conaffinity="0"/>
+      <site name="slider" pos="0 -0.05 0" zaxis="1 0.5 0"/>
+    </body>
+    <body name="c" pos="2 0 1">
+      <joint name="jc" type="slide" axis="1 0 0"/>
+      <geom type="sphere" size="0.03" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="crank" cranksite="crank" slidersite="slider" cranklength="0.12" kp="20" kv="0.5"/>
+    <general name="filtered" joint="jc" dyntype="filter" dynprm="0.05" gainprm="3" biastype="affine" biasprm="0 -2 -0.3"/>
+  </actuator>
+</mujoco>"#;
+    let dir = std::env::temp_dir().join(format!("scm_crank_deps_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("crank.xml");
+    std::fs::write(&path, xml).unwrap();
+    let mut sim = Simulation::from_file(&path).unwrap();
+    sim.data.current.state.q = vec![0.3, -0.2, 0.05];
+    sim.data.current.state.v = vec![0.4, -0.6, 0.2];
+    sim.data.current.state.act = vec![0.7];
+    sim.data.current.ctrl = vec![0.02, -0.4];
+    let x = sim.continuous_states();
+    sim.set_continuous_states(&x).unwrap();
+    check_dependencies("crank", &mut sim);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -42,6 +42,10 @@ impl Model {
             Transmission::Tendon(t) => format!("tendon {}", self.tendons[t].name),
             Transmission::Spatial(t) => format!("tendon {}", self.spatial_tendons[t].name),
             Transmission::Site(k) => format!("site {}", self.site_transmissions[k].name),
+            Transmission::SliderCrank(k) => {
+                let sc = &self.slider_cranks[k];
+                format!("slider-crank {} / {}", sc.crank.0, sc.slider.0)
+            }
         }
     }
 
@@ -63,6 +67,14 @@ impl Model {
                 joints
             }
             Transmission::Site(k) => self.tree.path_joints(self.site_transmissions[k].body),
+            Transmission::SliderCrank(k) => {
+                let sc = &self.slider_cranks[k];
+                let mut joints = self.tree.path_joints(sc.crank.1);
+                joints.extend(self.tree.path_joints(sc.slider.1));
+                joints.sort_unstable();
+                joints.dedup();
+                joints
+            }
         }
     }
 }
@@ -121,6 +133,105 @@ impl SiteTransmission {
     }
 }
 
+/// MuJoCo's slider-crank transmission: a rod of length `r` joins the crank site `c` to a point
+/// that slides along the slider site `s`'s z axis `a`. With `v = c - s`, its length is
+/// `L = a·v - √det`, `det = (a·v)² + r² - v·v` (the slider's position along its axis); where
+/// `det ≤ 0` the rod cannot reach (MuJoCo's "broken crank") and `L = a·v`, as in MuJoCo. Its
+/// moment is `∂L/∂v` at both sites and `∂L/∂a` turning the slider's axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SliderCrank {
+    /// The crank site's name, its body and position in that body's frame.
+    pub crank: (String, usize, nalgebra::Vector3<f64>),
+    /// The slider site's name, its body, position and orientation in that body's frame.
+    pub slider: (
+        String,
+        usize,
+        nalgebra::Vector3<f64>,
+        nalgebra::Matrix3<f64>,
+    ),
+    /// The rod's length `r` (`cranklength`).
+    pub rod: f64,
+}
+
+/// A slider-crank's length, its derivatives with respect to `v = c - s` and to the axis `a`,
+/// and the geometry they were taken at.
+struct CrankGeometry<T: Scalar> {
+    length: T,
+    dl_dv: nalgebra::Vector3<T>,
+    dl_da: nalgebra::Vector3<T>,
+    axis: nalgebra::Vector3<T>,
+    /// The sites' arms from their bodies' origins (world axes): crank, slider.
+    arms: [nalgebra::Vector3<T>; 2],
+}
+
+impl SliderCrank {
+    fn geometry<T: Scalar>(&self, frames: &[crate::collision::Frame<T>]) -> CrankGeometry<T> {
+        let (fc, fs) = (&frames[self.crank.1], &frames[self.slider.1]);
+        let arm_c = fc.rotation * self.crank.2.map(c::<T>);
+        let arm_s = fs.rotation * self.slider.2.map(c::<T>);
+        let axis = fs.rotation * self.slider.3.column(2).map(c::<T>);
+        let v = (fc.origin + arm_c) - (fs.origin + arm_s);
+        let av = axis.dot(&v);
+        let det = av * av + c::<T>(self.rod * self.rod) - v.dot(&v);
+        let (length, dl_dv, dl_da) = if det.re() <= 0.0 {
+            (av, axis, v)
+        } else {
+            let sdet = det.sqrt();
+            let k = T::one() - av / sdet;
+            (av - sdet, axis * k + v / sdet, v * k)
+        };
+        CrankGeometry {
+            length,
+            dl_dv,
+            dl_da,
+            axis,
+            arms: [arm_c, arm_s],
+        }
+    }
+
+    /// The transmission's length and its rate (the moment times the velocities); `moves`:
+    /// whether the crank's and the slider's bodies have degrees of freedom (a body without
+    /// any, the world or a mocap body, adds nothing to the rate, as in MuJoCo).
+    pub fn length_and_rate<T: Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+        moves: (bool, bool),
+    ) -> (T, T) {
+        let g = self.geometry(frames);
+        let point_velocity = |f: &crate::collision::Frame<T>, arm: &nalgebra::Vector3<T>, moves| {
+            if moves {
+                f.linvel + f.angvel.cross(arm)
+            } else {
+                nalgebra::Vector3::zeros()
+            }
+        };
+        let (fc, fs) = (&frames[self.crank.1], &frames[self.slider.1]);
+        let dv = point_velocity(fc, &g.arms[0], moves.0) - point_velocity(fs, &g.arms[1], moves.1);
+        let turn = match moves.1 {
+            true => g.dl_da.dot(&fs.angvel.cross(&g.axis)),
+            false => T::zero(),
+        };
+        (g.length, g.dl_dv.dot(&dv) + turn)
+    }
+
+    /// Adds the wrenches of a force `f` along the transmission: `f ∂L/∂v` at the crank site,
+    /// its opposite at the slider site, and the torque `f a × ∂L/∂a` on the slider's body.
+    pub fn add_force_wrenches<T: Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+        f: T,
+        w: &mut [crate::contact::Wrench<T>],
+    ) {
+        let g = self.geometry(frames);
+        let force = g.dl_dv * f;
+        w[self.crank.1].force += force;
+        w[self.crank.1].torque += g.arms[0].cross(&force);
+        w[self.slider.1].force -= force;
+        w[self.slider.1].torque -= g.arms[1].cross(&force);
+        w[self.slider.1].torque += g.axis.cross(&g.dl_da) * f;
+    }
+}
+
 impl ActuatorKind {
     /// MuJoCo's `gainprm` and `biasprm` (their first three entries) for this actuator: every
     /// kind is the affine law of [`ActuatorKind::General`] with these parameters.
@@ -148,6 +259,9 @@ pub enum Transmission {
     /// A site (by index into [`Model::site_transmissions`], which holds its 6-vector gear; the
     /// actuator's scalar gear is 1): see [`SiteTransmission`].
     Site(usize),
+    /// A slider-crank (by index into [`Model::slider_cranks`]): its length is `gear · L(q)`,
+    /// see [`SliderCrank`].
+    SliderCrank(usize),
 }
 
 /// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
@@ -208,7 +322,12 @@ impl Model {
         // Actuators on spatial tendons: their lengths from the kinematics, their forces as
         // point forces at the sites, turned into generalized forces once for all of them.
         let spatial = (self.actuators.iter())
-            .any(|a| matches!(a.target, Transmission::Spatial(_) | Transmission::Site(_)))
+            .any(|a| {
+                matches!(
+                    a.target,
+                    Transmission::Spatial(_) | Transmission::Site(_) | Transmission::SliderCrank(_)
+                )
+            })
             .then(|| self.tree.kinematics_with(q, v, mocap));
         // Per-body wrenches only where the kinematics were needed (the check is a pass over the
         // actuators: `actuators` is public, so no flag fixed at load could be trusted).
@@ -240,6 +359,13 @@ impl Model {
                     let moves =
                         self.tree.body_moves(site.body) && !self.tree.bodies[site.body].mocap;
                     (T::zero(), site.at(&kin.frames[site.body], moves).3)
+                }
+                Transmission::SliderCrank(k) => {
+                    let kin = spatial.as_ref().expect("kinematics for slider-cranks");
+                    let crank = &self.slider_cranks[k];
+                    let moves = |b: usize| self.tree.body_moves(b) && !self.tree.bodies[b].mocap;
+                    crank
+                        .length_and_rate(&kin.frames, (moves(crank.crank.1), moves(crank.slider.1)))
                 }
             };
             let force = match a.kind {
@@ -279,6 +405,11 @@ impl Model {
                     let f = f * (force * a.gear);
                     w.force += f;
                     w.torque += arm.cross(&f) + t * (force * a.gear);
+                }
+                Transmission::SliderCrank(k) => {
+                    let kin = spatial.as_ref().expect("kinematics for slider-cranks");
+                    let crank = &self.slider_cranks[k];
+                    crank.add_force_wrenches(&kin.frames, force * a.gear, &mut wrenches);
                 }
             }
         }

@@ -2,7 +2,73 @@
 
 use super::*;
 
+/// What actuators drive beyond joints and tendons: sites (`site=`, with their gears) and
+/// slider-cranks.
+#[derive(Clone, Debug, Default)]
+pub struct Transmissions {
+    /// Site transmissions.
+    pub sites: Vec<crate::model::SiteTransmission>,
+    /// Slider-crank transmissions.
+    pub slider_cranks: Vec<crate::model::SliderCrank>,
+}
+
 impl Builder {
+    /// A slider-crank transmission (`cranksite`, `slidersite`, `cranklength`), as MuJoCo reads
+    /// it: both sites, a positive rod length, and nothing else to drive.
+    fn slider_crank(&mut self, el: &Element) -> Result<Option<Transmission>, SceneError> {
+        let (crank, slider) =
+            match (el.attr("cranksite"), el.attr("slidersite")) {
+                (None, None) => {
+                    if el.attr("cranklength").is_some() {
+                        self.unused(
+                            el,
+                            "cranklength: this actuator is not a slider-crank (no cranksite)",
+                        );
+                    }
+                    return Ok(None);
+                }
+                (Some(c), Some(s)) => (c, s),
+                _ => return Err(self.err(
+                    el,
+                    "a slider-crank needs both cranksite and slidersite (MuJoCo refuses one alone)",
+                )),
+            };
+        if ["joint", "tendon", "site"]
+            .iter()
+            .any(|k| el.attr(k).is_some())
+        {
+            return Err(self.err(el, "an actuator drives one thing: a slider-crank (cranksite, slidersite) or a joint, a tendon or a site, not both"));
+        }
+        let rod = match self.float(el, "cranklength")? {
+            Some(r) if r > 0.0 => r,
+            _ => return Err(self.err(el, "a slider-crank needs a positive cranklength, the rod's length (MuJoCo refuses it otherwise)")),
+        };
+        let site = |b: &Self, name: &str| {
+            match b.sites.get(name) {
+            Some(Some(s)) => Ok(*s),
+            Some(None) => Err(b.err(el, format!("site '{name}' is placed by fromto, which SCM does not read for sites: give it pos (and quat) instead"))),
+            None => Err(b.err(el, format!("no site named '{name}'"))),
+        }
+        };
+        let (cb, cpose) = site(self, crank)?;
+        let (sb, spose) = site(self, slider)?;
+        self.transmissions
+            .slider_cranks
+            .push(crate::model::SliderCrank {
+                crank: (crank.to_string(), cb, cpose.translation.vector),
+                slider: (
+                    slider.to_string(),
+                    sb,
+                    spose.translation.vector,
+                    *spose.rotation.to_rotation_matrix().matrix(),
+                ),
+                rod,
+            });
+        Ok(Some(Transmission::SliderCrank(
+            self.transmissions.slider_cranks.len() - 1,
+        )))
+    }
+
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
         if el.name == "plugin" {
             return Err(self.err(
@@ -41,6 +107,9 @@ impl Builder {
                 "forcerange",
                 "forcelimited",
                 "timeconst",
+                "cranksite",
+                "slidersite",
+                "cranklength",
                 "actlimited",
                 "actrange",
                 "actearly",
@@ -56,8 +125,10 @@ impl Builder {
             Some(r) if r.0 > r.1 => return Err(self.err(el, "forcerange is reversed")),
             r => r,
         };
-        let target = match (el.attr("joint"), el.attr("tendon"), el.attr("site")) {
-            (None, None, Some(sname)) => {
+        let crank = self.slider_crank(el)?;
+        let target = match (crank, el.attr("joint"), el.attr("tendon"), el.attr("site")) {
+            (Some(t), ..) => t,
+            (None, None, None, Some(sname)) => {
                 let (body, pose) = match self.sites.get(sname) {
                     Some(Some(s)) => *s,
                     Some(None) => return Err(self.err(el, format!("site '{sname}' is placed by fromto, which SCM does not read for sites: give it pos (and quat) instead"))),
@@ -74,16 +145,16 @@ impl Builder {
                         _ => return Err(self.err(el, format!("gear=\"{s}\": expected 1 to 6 numbers"))),
                     }
                 }
-                self.site_transmissions.push(crate::model::SiteTransmission {
+                self.transmissions.sites.push(crate::model::SiteTransmission {
                     name: sname.to_string(),
                     body,
                     pos: pose.translation.vector,
                     rotation: *pose.rotation.to_rotation_matrix().matrix(),
                     gear,
                 });
-                Transmission::Site(self.site_transmissions.len() - 1)
+                Transmission::Site(self.transmissions.sites.len() - 1)
             }
-            (Some(jname), None, None) => {
+            (None, Some(jname), None, None) => {
                 let joint = self
                     .joints
                     .iter()
@@ -97,7 +168,7 @@ impl Builder {
                 }
                 Transmission::Joint(joint)
             }
-            (None, Some(tname), None) => {
+            (None, None, Some(tname), None) => {
                 let fixed = self.tendons.iter().position(|t| t.name == tname);
                 let spatial = (self.spatial_tendons.iter()).position(|(t, _)| t.name == tname);
                 match (fixed, spatial) {
@@ -179,7 +250,7 @@ impl Builder {
                 Transmission::Joint(j) => self.limits[j].as_ref().map(|(lo, hi, _)| (*lo, *hi)),
                 Transmission::Tendon(t) => self.tendons[t].range,
                 Transmission::Spatial(t) => self.spatial_tendons[t].0.range,
-                Transmission::Site(_) => None,
+                Transmission::Site(_) | Transmission::SliderCrank(_) => None,
             };
             let Some((lo, hi)) = range else {
                 return Err(self.err(el, "inheritrange needs the range of the joint or tendon it drives (a limited one): give that range, or a ctrlrange"));

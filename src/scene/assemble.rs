@@ -282,7 +282,7 @@ impl Builder {
             tree,
             tendons,
             spatial_tendons,
-            site_transmissions: self.site_transmissions,
+            transmissions: self.transmissions,
             equalities,
             connects,
             geoms: self.geoms,
@@ -531,7 +531,8 @@ impl Builder {
             equalities,
             connects,
             spatial_tendons,
-            site_transmissions: std::mem::take(&mut self.site_transmissions),
+            site_transmissions: std::mem::take(&mut self.transmissions.sites),
+            slider_cranks: std::mem::take(&mut self.transmissions.slider_cranks),
             actuator_ranges,
             pair_threads: if pair_threads > 0.0 {
                 crate::model::PairThreads {

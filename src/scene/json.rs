@@ -133,20 +133,27 @@ impl Compiled {
                     "name": a.name, "gear": a.gear,
                     "joint": match a.target {
                         Transmission::Joint(j) => Some(t.joints[j].name.clone()),
-                        Transmission::Tendon(_) | Transmission::Spatial(_) | Transmission::Site(_) => None,
+                        Transmission::Tendon(_) | Transmission::Spatial(_) | Transmission::Site(_) | Transmission::SliderCrank(_) => None,
                     },
                     "site": match a.target {
-                        Transmission::Site(k) => Some(self.site_transmissions[k].name.clone()),
+                        Transmission::Site(k) => Some(self.transmissions.sites[k].name.clone()),
                         _ => None,
                     },
                     "site_gear": match a.target {
-                        Transmission::Site(k) => Some(self.site_transmissions[k].gear.to_vec()),
+                        Transmission::Site(k) => Some(self.transmissions.sites[k].gear.to_vec()),
                         _ => None,
                     },
                     "tendon": match a.target {
                         Transmission::Tendon(i) => Some(self.tendons[i].name.clone()),
                         Transmission::Spatial(i) => Some(self.spatial_tendons[i].name.clone()),
-                        Transmission::Joint(_) | Transmission::Site(_) => None,
+                        Transmission::Joint(_) | Transmission::Site(_) | Transmission::SliderCrank(_) => None,
+                    },
+                    "slidercrank": match a.target {
+                        Transmission::SliderCrank(k) => {
+                            let sc = &self.transmissions.slider_cranks[k];
+                            Some(json!({"cranksite": sc.crank.0, "slidersite": sc.slider.0, "cranklength": sc.rod}))
+                        }
+                        _ => None,
                     },
                     "kind": kind, "gainprm": gain, "biasprm": bias,
                     "ctrllimited": a.ctrlrange.is_some(),

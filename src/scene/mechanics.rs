@@ -368,9 +368,25 @@ impl Builder {
                         .map(|(k, kin)| (k, actuator.gear * tendon.length_and_rate(&kin.frames).1))
                         .collect()
                 }
+                // The slider-crank's moment at qpos0, the same way.
+                Transmission::SliderCrank(k) => {
+                    let crank = &self.transmissions.slider_cranks[k];
+                    let moves = |b: usize| tree.body_moves(b) && !tree.bodies[b].mocap;
+                    let moves = (moves(crank.crank.1), moves(crank.slider.1));
+                    unit_velocity_kinematics(tree, &tree.q0())
+                        .iter()
+                        .enumerate()
+                        .map(|(d, kin)| {
+                            (
+                                d,
+                                actuator.gear * crank.length_and_rate(&kin.frames, moves).1,
+                            )
+                        })
+                        .collect()
+                }
                 // The site's moment at qpos0: its velocity for a unit velocity of each dof.
                 Transmission::Site(k) => {
-                    let site = &self.site_transmissions[k];
+                    let site = &self.transmissions.sites[k];
                     let moves = tree.body_moves(site.body) && !tree.bodies[site.body].mocap;
                     unit_velocity_kinematics(tree, &tree.q0())
                         .iter()

@@ -244,8 +244,8 @@ pub struct Compiled {
     pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
     /// Spatial tendons.
     pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
-    /// The sites that actuators drive.
-    pub site_transmissions: Vec<crate::model::SiteTransmission>,
+    /// The sites and slider-cranks that actuators drive.
+    pub transmissions: actuator::Transmissions,
     /// Joint and tendon equalities.
     pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
     /// Connect and weld equalities.
@@ -399,8 +399,8 @@ struct Builder {
     tendons: Vec<TendonSpec>,
     /// `<tendon><spatial>` elements, as read (their `joints` empty).
     spatial_tendons: Vec<(TendonSpec, Vec<SegmentSpec>)>,
-    /// The sites that actuators drive (`site=`), with their gears.
-    site_transmissions: Vec<crate::model::SiteTransmission>,
+    /// The sites (`site=`, with their gears) and slider-cranks that actuators drive.
+    transmissions: actuator::Transmissions,
     /// `<equality><joint>` and `<equality><tendon>` elements, as read.
     equalities: Vec<EqualitySpec>,
     /// `<equality><connect>` and `<equality><weld>` elements, as read.
@@ -484,7 +484,7 @@ impl Builder {
             equalities: vec![],
             connects: vec![],
             spatial_tendons: vec![],
-            site_transmissions: vec![],
+            transmissions: Default::default(),
             sites: Default::default(),
         }
     }

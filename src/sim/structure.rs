@@ -217,6 +217,16 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
                 friction |= t.law.frictionloss > 0.0;
             }
         }
+        // A slider-crank's force on each of its two bodies depends on both.
+        for a in &model.actuators {
+            if let crate::model::Transmission::SliderCrank(k) = a.target {
+                let crank = &model.slider_cranks[k];
+                let tied = moving_roots(&mut [crank.crank.1, crank.slider.1].into_iter());
+                if tied.iter().any(|r| roots.contains(r)) {
+                    roots.extend(tied);
+                }
+            }
+        }
         for e in &model.equalities {
             let tied: Vec<usize> = e.dofs().map(root_of_dof).collect();
             if tied.iter().any(|r| roots.contains(r)) {

@@ -70,11 +70,11 @@ def test_robots_as_written_are_timed_against_mujoco(tmp_path):
         assert abs(rtf - 0.002 / (scm * 1e-3)) <= 1e-3 * rtf, r
         assert abs(mj_rtf - 0.002 / (mj * 1e-6)) <= 0.5 + 0.01 * mj_rtf, r
 
-    # A file MuJoCo runs and SCM refuses (activation dynamics, another issue) is a row that says
-    # why, and the other files are still timed.
+    # A file MuJoCo runs and SCM refuses (muscle dynamics) is a row that says why, and the other
+    # files are still timed.
     refused = tmp_path / "filtered.xml"
     refused.write_text("""<mujoco><worldbody><body><joint name="j" type="hinge"/><geom size="0.1"/></body>
-      </worldbody><actuator><general joint="j" dyntype="filter" dynprm="0.1"/></actuator></mujoco>""")
+      </worldbody><actuator><general joint="j" dyntype="muscle"/></actuator></mujoco>""")
     plain = tmp_path / "pendulum.xml"
     plain.write_text("""<mujoco><worldbody><body><joint type="hinge" axis="0 1 0"/>
       <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></worldbody></mujoco>""")

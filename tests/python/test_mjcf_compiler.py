@@ -250,6 +250,11 @@ def compare(path, inertia_tol=TOL):
             assert act["site"] == m.site(m.actuator_trnid[a, 0]).name, tag
             close(f"{tag} site gear", act["site_gear"], m.actuator_gear[a])
             assert act["gear"] == 1.0, tag
+        elif int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_SLIDERCRANK):
+            crank = act["slidercrank"]
+            assert crank["cranksite"] == m.site(m.actuator_trnid[a, 0]).name, tag
+            assert crank["slidersite"] == m.site(m.actuator_trnid[a, 1]).name, tag
+            close(f"{tag} cranklength", crank["cranklength"], m.actuator_cranklength[a])
         else:
             assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
             assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
@@ -626,6 +631,16 @@ def test_site_transmissions_compile_as_mujoco_compiles_them(tmp_path):
     assert [a["site"] for a in ours["actuators"]] == ["r1", "r2", "r3", "r4", "tip", "bead", "tip"]
 
 
+def test_slider_cranks_compile_as_mujoco_compiles_them(tmp_path):
+    """Slider-crank transmissions: their sites, rod lengths and gears, and a position's kv from
+    dampratio on the crank's moment at qpos0."""
+    from test_mjcf_dynamics import SLIDER_CRANK
+    path = tmp_path / "slider_crank.xml"
+    path.write_text(SLIDER_CRANK)
+    ours = compare(path)
+    assert [a["slidercrank"]["cranklength"] for a in ours["actuators"]] == [0.08, 0.06, 0.05]
+
+
 def test_welds_compile_as_mujoco_compiles_them(tmp_path):
     """Welds between bodies (to a mocap body, to the world, with an anchor, with relpose, with
     torquescale 0 and 2) and between sites, and a connect between sites: points, held
@@ -884,14 +899,18 @@ ACTUATOR_DEFAULTS_CASES = [
 
 
 def _compiles_as_mujoco_or_both_refuse(path, text):
-    """Compares SCM's compiled model of `path` with MuJoCo's; where MuJoCo refuses the file,
-    or gives the actuator activation dynamics (which SCM has not), SCM must refuse it, saying
-    where. Returns whether it compared."""
+    """Compares SCM's compiled model of `path` with MuJoCo's (activation dynamics included);
+    where MuJoCo refuses the file, gives an actuator muscle or user dynamics (which SCM has
+    not), or gives it dynamics from a default of a kind SCM does not simulate (a `<cylinder>`
+    default's filter reaching a `<general>`), SCM must refuse it, saying where. Returns whether
+    it compared."""
     try:
         m = mujoco.MjModel.from_xml_path(str(path))
     except ValueError:
         m = None
-    if m is None or any(int(d) != int(mujoco.mjtDyn.mjDYN_NONE) for d in m.actuator_dyntype):
+    unmodelled = (int(mujoco.mjtDyn.mjDYN_MUSCLE), int(mujoco.mjtDyn.mjDYN_USER))
+    other_kind = any(f"<{k}" in text for k in ("cylinder", "muscle", "intvelocity", "adhesion"))
+    if m is None or any(int(d) in unmodelled or (int(d) != 0 and other_kind) for d in m.actuator_dyntype):
         out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
         assert out.returncode != 0, f"MuJoCo refuses or adds dynamics, SCM takes:\n{text}"
         assert f"{path}:" in out.stderr, out.stderr

@@ -432,13 +432,15 @@ def test_general_actuators_and_force_ranges_as_in_mujoco(tmp_path):
     assert np.max(np.abs(ours - np.array(theirs))) < 1e-9
 
 
-def test_general_actuator_with_activation_is_refused(tmp_path):
-    xml = GENERAL_ACTUATORS.replace('name="servo" joint="shoulder"', 'name="servo" joint="shoulder" dyntype="filter" dynprm="0.05"')
-    path = tmp_path / "filter.xml"
+def test_general_actuator_with_muscle_dynamics_is_refused(tmp_path):
+    """Muscle activation (with its muscle gain and bias) is not modelled: refused at its line,
+    naming the dynamics SCM has."""
+    xml = GENERAL_ACTUATORS.replace('name="servo" joint="shoulder"', 'name="servo" joint="shoulder" dyntype="muscle"')
+    path = tmp_path / "muscle.xml"
     path.write_text(xml)
     out = subprocess.run([str(SCM), "pack", str(path), "-o", str(tmp_path / "f.fmu")], capture_output=True, text=True)
     assert out.returncode != 0
-    assert "filter.xml:18" in out.stderr and "dyntype" in out.stderr and "none" in out.stderr, out.stderr
+    assert "muscle.xml:18" in out.stderr and "dyntype" in out.stderr and "filterexact" in out.stderr, out.stderr
 
 
 TENDONS = """<mujoco model="tendons">
