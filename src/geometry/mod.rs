@@ -6,6 +6,7 @@
 pub mod aopc;
 pub mod bvh;
 pub mod cuboid;
+pub mod implicit;
 pub mod mesh;
 pub mod patch;
 pub mod polytope;

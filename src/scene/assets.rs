@@ -308,6 +308,39 @@ impl Builder {
         let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
             return Ok(None);
         };
+        // A mesh an SDF plugin made keeps its vertices where the distance function puts them
+        // (MuJoCo moves no such mesh into its inertial frame), yet MuJoCo 4.0.0 weighs it as
+        // if it were there: its centre of mass at the mesh's origin and its principal moments,
+        // largest first, along the mesh's own axes (measured: a bowl whose centre of mass is
+        // 12 cm below its origin, a torus about z, both with iquat identity).
+        if asset.inline.as_ref().is_some_and(|m| m.plugin) {
+            let closed = asset.mesh.clone();
+            let mp = match self.mesh_rule_mass(el, mesh)? {
+                Some(mp) => mp,
+                None => match closed {
+                    Some(m) => m.mass_properties(),
+                    None => return Ok(None),
+                },
+            };
+            let (moments, _) = principal_axes(&mp.inertia);
+            return Ok(Some(crate::geometry::MassProperties {
+                volume: mp.volume,
+                com: Vector3::zeros(),
+                inertia: Matrix3::from_diagonal(&moments),
+            }));
+        }
+        self.mesh_rule_mass(el, mesh)
+    }
+
+    /// [`Builder::mesh_mass`] by the mesh's inertia rule alone.
+    fn mesh_rule_mass(
+        &mut self,
+        el: &Element,
+        mesh: &str,
+    ) -> Result<Option<crate::geometry::MassProperties>, SceneError> {
+        let Some(asset) = self.meshes.iter().find(|m| m.name == mesh) else {
+            return Ok(None);
+        };
         match asset.inertia {
             MeshInertia::Exact => Ok(None),
             MeshInertia::Legacy | MeshInertia::Shell => {
@@ -414,20 +447,20 @@ impl Builder {
                 return Err(self.err(el, format!("{key}=\"...\" belongs to a mesh given inline (vertex=\"...\"); a file's mesh takes its own")));
             }
         }
-        let file = el
-            .attr("file")
-            .ok_or_else(|| match el.children.iter().find(|c| c.name == "plugin") {
-                // MuJoCo's SDF plugins (mujoco.sdf.torus, gear, …) make the mesh at load time.
-                Some(p) => self.err(
-                    el,
-                    format!(
-                        "this mesh is made by an engine plugin (<plugin instance=\"{}\">), which SCM does not run: give its surface as a mesh file (OBJ or STL) with file=\"...\"",
-                        p.attr("instance").or(p.attr("plugin")).unwrap_or_default()
-                    ),
-                ),
-                None => self.err(el, "a mesh needs file=\"...\" (OBJ or STL)"),
-            })?
-            .to_string();
+        let plugin = el.children.iter().find(|c| c.name == "plugin");
+        let file = match (el.attr("file"), plugin) {
+            (Some(f), p) => {
+                // A plugin on a mesh file (MuJoCo's sdflib) gives MuJoCo a distance field of
+                // that surface; SCM's SSDF takes the surface itself.
+                if let Some(p) = p {
+                    self.unused(p, "a distance-field plugin on a mesh file (SCM collides by the surface itself)");
+                }
+                f.to_string()
+            }
+            // MuJoCo's SDF plugins (mujoco.sdf.torus, bowl, …) make the mesh at load time.
+            (None, Some(p)) => return self.sdf_mesh(el, p, (inertia, maxhullvert)),
+            (None, None) => return Err(self.err(el, "a mesh needs file=\"...\" (OBJ or STL)")),
+        };
         // MuJoCo's content_type names the file's format (for files whose extension does not);
         // SCM reads meshes by their extension, so the two must agree.
         if let Some(ct) = el.attr("content_type") {
@@ -527,7 +560,7 @@ impl Builder {
 
     /// How a mesh's vertices are placed (`refpos`, `refquat`, `scale`), for a file's and an
     /// inline mesh alike.
-    fn mesh_placement(&self, el: &Element) -> Result<Placement, SceneError> {
+    pub(super) fn mesh_placement(&self, el: &Element) -> Result<Placement, SceneError> {
         let scale = self
             .vec3(el, "scale")?
             .unwrap_or_else(|| Vector3::repeat(1.0));

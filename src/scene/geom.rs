@@ -90,7 +90,12 @@ impl Builder {
         let softness = self.geom_softness(el)?;
         let margin = self.float(el, "margin")?.unwrap_or(0.0);
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
-        let kind = el.attr("type").unwrap_or("sphere");
+        // MuJoCo's `sdf` geom collides by its plugin's distance field; SCM by the closed
+        // surface of its mesh (`sdf.rs`), as a mesh geom.
+        let kind = match el.attr("type").unwrap_or("sphere") {
+            "sdf" => "mesh",
+            k => k,
+        };
         let fromto = self.floats(el, "fromto", 6)?;
         // With fromto, the geom runs from one point to the other along its z axis.
         let from_to = match fromto {
@@ -236,7 +241,6 @@ impl Builder {
                 self.flat_hfield(el)?;
                 None
             }
-            t @ "sdf" => return Err(self.err(el, format!("geom type {t} is not supported"))),
             t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
         };
         if el.attr("mesh").is_some() && kind != "mesh" && fit.is_none() {

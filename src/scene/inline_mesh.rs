@@ -16,13 +16,18 @@ pub struct InlineMesh {
     pub vertices: Vec<Vector3<f64>>,
     /// The faces as written (vertex indices), if any.
     pub faces: Option<Vec<[u32; 3]>>,
+    /// Where it comes from, for people: "given inline", or the plugin that made it.
+    pub origin: String,
+    /// Whether an SDF plugin made it: MuJoCo then weighs it in its own frame (see
+    /// the scene loader's `mesh_mass`).
+    pub plugin: bool,
 }
 
 impl MeshAsset {
     /// Where the mesh comes from, for messages and `scm check`: its file, or "given inline".
     pub fn source(&self) -> String {
         match &self.inline {
-            Some(_) => "given inline".into(),
+            Some(m) => m.origin.clone(),
             None => self.path.display().to_string(),
         }
     }
@@ -35,6 +40,7 @@ impl MeshAsset {
             Some(InlineMesh {
                 vertices,
                 faces: Some(faces),
+                ..
             }) => match shell {
                 false => crate::geometry::mesh::legacy_mass_properties(vertices, faces),
                 true => crate::geometry::mesh::shell_mass_properties(vertices, faces),
@@ -58,7 +64,7 @@ impl MeshAsset {
     /// How meshes are named in messages about their surface.
     fn source_name(&self) -> String {
         match &self.inline {
-            Some(_) => format!("'{}' (given inline)", self.name),
+            Some(m) => format!("'{}' ({})", self.name, m.origin),
             None => self.path.display().to_string(),
         }
     }
@@ -155,7 +161,12 @@ impl Builder {
                 legacy: None,
                 maxhullvert,
                 used: false,
-                inline: Some(InlineMesh { vertices, faces }),
+                inline: Some(InlineMesh {
+                    vertices,
+                    faces,
+                    origin: "given inline".into(),
+                    plugin: false,
+                }),
             },
         );
         Ok(())

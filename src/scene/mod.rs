@@ -12,6 +12,7 @@ mod assets;
 mod body;
 pub mod canonical;
 mod collide;
+mod compiled;
 pub mod contact;
 pub mod defaults;
 mod equality;
@@ -26,11 +27,13 @@ mod names;
 mod paths;
 mod read;
 mod replicate;
+mod sdf;
 mod settings;
 mod tendon;
 mod weights;
 pub use assets::{MeshAsset, MeshInertia};
 pub use collide::spacing_text;
+pub use compiled::{compile, Compiled, CompiledPair};
 use equality::{Anchors, ConnectSpec, EqualitySpec};
 pub use inline_mesh::InlineMesh;
 pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
@@ -221,71 +224,6 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
     })
 }
 
-/// A scene compiled as MuJoCo's compiler would (bodies, inertias, joints, geoms, actuators),
-/// before SCM builds its colliders: what the differential tests compare with MuJoCo's
-/// `MjModel`, and what `scm compile` prints.
-#[derive(Clone, Debug)]
-pub struct Compiled {
-    /// Bodies and joints.
-    pub tree: Tree,
-    /// Geoms, in file order.
-    pub geoms: Vec<Geom>,
-    /// Actuators.
-    pub actuators: Vec<Actuator>,
-    /// `<option timestep>` (s).
-    pub timestep: f64,
-    /// `<option integrator>` as SCM maps it.
-    pub integrator: Integrator,
-    /// Each joint's limits (m or rad), if limited.
-    pub limits: Vec<Option<(f64, f64)>>,
-    /// Each joint's range of its total actuator force (`actuatorfrcrange`), if limited.
-    pub actuator_ranges: Vec<Option<(f64, f64)>>,
-    /// Fixed tendons.
-    pub tendons: Vec<crate::dynamics::tendon::FixedTendon>,
-    /// Spatial tendons.
-    pub spatial_tendons: Vec<crate::dynamics::tendon::SpatialTendon>,
-    /// The sites and slider-cranks that actuators drive.
-    pub transmissions: actuator::Transmissions,
-    /// Joint and tendon equalities.
-    pub equalities: Vec<crate::dynamics::equality::ScalarEquality>,
-    /// Connect and weld equalities.
-    pub connects: Vec<crate::dynamics::equality::Connect>,
-    /// The fluid forces, if the medium has a density or a viscosity.
-    pub fluid: Option<crate::dynamics::fluid::Fluid>,
-    /// What SCM refuses to simulate, with file and line.
-    pub refused: Vec<SceneError>,
-    /// Accepted and unused by SCM.
-    pub unused: Vec<String>,
-    /// Accepted but modelled differently from MuJoCo.
-    pub warnings: Vec<String>,
-    /// Each contact pair's bodies, margin and law from `solref` and `solimp` (none where the
-    /// scene's `scm_stiffness` or `scm_dissipation_velocity` applies, or contact is off).
-    pub pair_laws: Vec<CompiledPair>,
-}
-
-/// A contact pair of a [`Compiled`] model: its bodies' names, its margin (m) and its law.
-#[derive(Clone, Debug)]
-pub struct CompiledPair {
-    /// The first body.
-    pub body1: String,
-    /// The second body.
-    pub body2: String,
-    /// Its margin (m; [`crate::model::Pair::margin`]).
-    pub margin: f64,
-    /// The least stiction velocity it takes (m/s; [`crate::model::Pair::stiction_floor`] times
-    /// its friction; NaN where the scene's `scm_friction` gives it, 0 for none).
-    pub stiction_floor: f64,
-    /// Its stiffness and damping from `solref` and `solimp`.
-    pub law: contact::PairLaw,
-}
-
-/// Compiles a scene file without building colliders and without refusing: see [`Compiled`].
-pub fn compile(path: &Path) -> Result<Compiled, SceneError> {
-    let text = read_text(path)?;
-    let (b, _) = read(&text, path)?;
-    b.compiled()
-}
-
 /// Parses, expands includes, reads compiler and defaults, canonicalizes and reads the tree.
 fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>), SceneError> {
     let file = path.display().to_string();
@@ -401,6 +339,8 @@ struct Builder {
     spatial_tendons: Vec<(TendonSpec, Vec<SegmentSpec>)>,
     /// The sites (`site=`, with their gears) and slider-cranks that actuators drive.
     transmissions: actuator::Transmissions,
+    /// The instances of `<extension>` plugins, by name (`sdf.rs`).
+    sdf_instances: std::collections::HashMap<String, sdf::SdfInstance>,
     /// `<equality><joint>` and `<equality><tendon>` elements, as read.
     equalities: Vec<EqualitySpec>,
     /// `<equality><connect>` and `<equality><weld>` elements, as read.
@@ -485,6 +425,7 @@ impl Builder {
             connects: vec![],
             spatial_tendons: vec![],
             transmissions: Default::default(),
+            sdf_instances: Default::default(),
             sites: Default::default(),
         }
     }
@@ -497,6 +438,7 @@ impl Builder {
             match el.name.as_str() {
                 "option" => self.option(el)?,
                 "custom" => self.custom(el)?,
+                "extension" => self.extension(el)?,
                 _ => {}
             }
         }
@@ -532,10 +474,8 @@ impl Builder {
                 // After the tendons: a tendon equality names them (see below).
                 "equality" => {}
                 "visual" | "statistic" | "size" => self.unused(el, "renderer and memory settings"),
-                "extension" => self.unused(
-                    el,
-                    "engine plugins, declared (an element that uses one is refused at its line)",
-                ),
+                // Read first (above): a plugin SCM does not run is refused where it is used.
+                "extension" => {}
                 "sensor" => self.unused(el, "sensors (SCM's outputs are its FMU variables)"),
                 "keyframe" => {
                     for k in &el.children {

@@ -1,0 +1,163 @@
+//! MuJoCo's SDF plugins: `<extension><plugin plugin="mujoco.sdf.torus"><instance name>` with
+//! its `<config key value>`s, a `<mesh>` made by an instance (`<plugin instance="NAME"/>`),
+//! and `<geom type="sdf">` on such a mesh. MuJoCo needs the plugin because its collision is
+//! convex; SCM's SSDF takes the closed surface the distance function bounds
+//! ([`ImplicitShape`]), which then weighs and collides as any closed mesh.
+
+use super::inline_mesh::InlineMesh;
+use super::*;
+use crate::geometry::implicit::ImplicitShape;
+
+/// An instance of an SDF plugin: the plugin's name and the `<instance>` element.
+pub(super) type SdfInstance = (String, Element);
+
+/// MuJoCo's SDF plugins SCM makes shapes of.
+const KNOWN: [&str; 2] = ["mujoco.sdf.torus", "mujoco.sdf.bowl"];
+
+impl Builder {
+    /// `<extension>`: the instances of every plugin, kept by name for the meshes that use
+    /// them (a plugin SCM does not run is refused where it is used).
+    pub(super) fn extension(&mut self, el: &Element) -> Result<(), SceneError> {
+        for p in &el.children {
+            if p.name != "plugin" {
+                return Err(self.err(p, "an <extension> holds <plugin> elements"));
+            }
+            let plugin = p.attr("plugin").unwrap_or_default().to_string();
+            for i in p.children.iter().filter(|c| c.name == "instance") {
+                let Some(name) = i.attr("name") else {
+                    return Err(self.err(i, "a plugin instance needs a name"));
+                };
+                if self.sdf_instances.contains_key(name) {
+                    return Err(self.err(i, format!("plugin instance '{name}' is declared twice")));
+                }
+                self.sdf_instances
+                    .insert(name.to_string(), (plugin.clone(), i.clone()));
+            }
+        }
+        Ok(())
+    }
+
+    /// A `<mesh>` made by an SDF plugin (its `<plugin instance="NAME"/>` child, or a
+    /// `<plugin plugin="...">` with its own `<config>`s): the plugin's shape as a closed
+    /// surface on MuJoCo's grid, weighed by the mesh's inertia rule.
+    pub(super) fn sdf_mesh(
+        &mut self,
+        el: &Element,
+        p: &Element,
+        (inertia, maxhullvert): (MeshInertia, Option<i64>),
+    ) -> Result<(), SceneError> {
+        let (plugin, config) = match p.attr("instance") {
+            Some(name) => match self.sdf_instances.get(name) {
+                Some((plugin, i)) => (plugin.clone(), i.clone()),
+                None => {
+                    return Err(self.err(
+                        p,
+                        format!("no plugin instance named '{name}' (declare it in <extension>)"),
+                    ))
+                }
+            },
+            None => (p.attr("plugin").unwrap_or_default().to_string(), p.clone()),
+        };
+        let shape = self.implicit_shape(el, &plugin, &config)?;
+        let name = Self::given_name(el).ok_or_else(|| {
+            self.err(
+                el,
+                "a mesh made by a plugin needs a name (MuJoCo refuses it too)",
+            )
+        })?;
+        if self.meshes.iter().any(|m| m.name == name) {
+            return Err(self.err(el, format!("mesh name '{name}' is used twice")));
+        }
+        let placement = self.mesh_placement(el)?;
+        if placement.scale != Vector3::repeat(1.0) {
+            return Err(self.err(el, "scale is not compatible with a mesh made by an SDF plugin (MuJoCo refuses it too): scale the plugin's configuration instead"));
+        }
+        let origin = format!("made by the {plugin} plugin");
+        let (vertices, faces) = shape.triangles();
+        let label = format!("'{name}' ({origin})");
+        let (mesh, problem) =
+            self.surface_of(el, TriMesh::new(&label, vertices.clone(), faces.clone()))?;
+        self.add_mesh(
+            el,
+            MeshAsset {
+                name,
+                file: String::new(),
+                path: PathBuf::new(),
+                mesh,
+                problem,
+                hull: None,
+                hull_problem: None,
+                placement,
+                inertia,
+                legacy: None,
+                maxhullvert,
+                used: false,
+                inline: Some(InlineMesh {
+                    vertices,
+                    faces: Some(faces),
+                    origin,
+                    plugin: true,
+                }),
+            },
+        );
+        Ok(())
+    }
+
+    /// The shape a plugin of name `plugin` makes with the `<config>`s of `config` (MuJoCo's
+    /// defaults for those not given).
+    fn implicit_shape(
+        &mut self,
+        el: &Element,
+        plugin: &str,
+        config: &Element,
+    ) -> Result<ImplicitShape, SceneError> {
+        let keys: &[(&str, f64)] = match plugin {
+            "mujoco.sdf.torus" => &[("radius1", 0.35), ("radius2", 0.15)],
+            "mujoco.sdf.bowl" => &[("height", 0.4), ("radius", 1.0), ("thickness", 0.02)],
+            _ => {
+                return Err(self.err(el, format!(
+                    "this mesh is made by the engine plugin '{plugin}', which SCM does not run (it makes the shapes of {}): give its surface as a mesh file (OBJ or STL) with file=\"...\"",
+                    KNOWN.join(" and ")
+                )))
+            }
+        };
+        let mut values: Vec<f64> = keys.iter().map(|(_, v)| *v).collect();
+        for c in config.children.iter().filter(|c| c.name == "config") {
+            let key = c.attr("key").unwrap_or_default();
+            let Some(k) = keys.iter().position(|(n, _)| *n == key) else {
+                self.unused(
+                    c,
+                    format!(
+                        "config key '{key}' ({plugin} reads {})",
+                        keys.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                    ),
+                );
+                continue;
+            };
+            values[k] = match c.attr("value").map(|v| v.trim().parse::<f64>()) {
+                Some(Ok(v)) if v.is_finite() && v > 0.0 => v,
+                _ => return Err(self.err(c, format!("config '{key}': expected a positive number"))),
+            };
+        }
+        Ok(match plugin {
+            "mujoco.sdf.torus" => ImplicitShape::Torus {
+                major: values[0],
+                minor: values[1],
+            },
+            _ if values[0] >= values[1] => {
+                return Err(self.err(
+                    el,
+                    format!(
+                        "the bowl's height {} must be below its radius {}",
+                        values[0], values[1]
+                    ),
+                ))
+            }
+            _ => ImplicitShape::Bowl {
+                height: values[0],
+                radius: values[1],
+                thickness: values[2],
+            },
+        })
+    }
+}
