@@ -228,13 +228,18 @@ fn structural_mistakes_are_refused() {
     );
     let e = err(&act);
     assert_eq!((e.element.as_str(), e.line), ("motor", 9), "{e}");
-    // A mesh with neither a file nor data (MuJoCo's SDF plugins make theirs at load time).
-    for (mesh, says) in [
+    // A mesh with neither a file nor data, and one made by a plugin instance never declared.
+    for (mesh, element, says) in [
         (
             r#"<mesh name="torus"><plugin instance="torus"/></mesh>"#,
-            r#"made by an engine plugin (<plugin instance="torus">)"#,
+            "plugin",
+            "no plugin instance named 'torus' (declare it in <extension>)",
         ),
-        (r#"<mesh name="nothing"/>"#, r#"a mesh needs file="...""#),
+        (
+            r#"<mesh name="nothing"/>"#,
+            "mesh",
+            r#"a mesh needs file="...""#,
+        ),
     ] {
         let text = GOOD.replace(
             "<worldbody>",
@@ -244,7 +249,7 @@ fn structural_mistakes_are_refused() {
             ),
         );
         let e = err(&text);
-        assert!(e.element == "mesh" && e.to_string().contains(says), "{e}");
+        assert!(e.element == element && e.to_string().contains(says), "{e}");
     }
 }
 

@@ -23,6 +23,12 @@ impl Builder {
                 return Err(self.err(p, "an <extension> holds <plugin> elements"));
             }
             let plugin = p.attr("plugin").unwrap_or_default().to_string();
+            if !KNOWN.contains(&plugin.as_str()) {
+                self.unused(
+                    p,
+                    "engine plugins, declared (an element that uses one is refused at its line)",
+                );
+            }
             for i in p.children.iter().filter(|c| c.name == "instance") {
                 let Some(name) = i.attr("name") else {
                     return Err(self.err(i, "a plugin instance needs a name"));
