@@ -1,5 +1,5 @@
 //! Shapes given by a signed distance function (MuJoCo's SDF plugins: `mujoco.sdf.torus`,
-//! `mujoco.sdf.bowl`) and their closed triangle surface, so that they weigh and collide as
+//! `bowl`, `bolt` and `nut`) and their closed triangle surface, so that they weigh and collide as
 //! any closed mesh does (docs/geometry.md, "Shapes given by a distance function").
 //!
 //! The surface is the distance's zero level on MuJoCo's own grid (its box split into about
@@ -26,6 +26,20 @@ pub enum ImplicitShape {
         major: f64,
         /// Radius of the tube (m).
         minor: f64,
+    },
+    /// `mujoco.sdf.bolt`: a hexagonal head (faces 0.5 from the axis) on a shaft of radius
+    /// `radius` carrying a single-start thread of pitch 1/12 m, as the plugin builds it from
+    /// half-spaces, cones and a triangle wave (not a true distance; its zero level is the
+    /// shape).
+    Bolt {
+        /// The shaft's radius (m; `radius`).
+        radius: f64,
+    },
+    /// `mujoco.sdf.nut`: a hexagonal nut whose threaded hole, of radius `radius`, fits the
+    /// bolt's thread.
+    Nut {
+        /// The hole's radius (m; `radius`).
+        radius: f64,
     },
     /// `mujoco.sdf.bowl`: a spherical shell of radius `radius` about the origin and thickness
     /// `2 thickness`, cut by the plane `z = height` (the part below it kept) and rounded at
@@ -61,6 +75,29 @@ impl ImplicitShape {
                 };
                 shell - thickness
             }
+            ImplicitShape::Bolt { radius } => {
+                let r = radial - radius;
+                let shaft = (r - thread(p) / SCREW) * HALF_SQRT2;
+                // The shaft between z = -1 and 0, its end bevelled by a cone.
+                let shaft = shaft.max(-(0.5 - (p.z + 0.5).abs()));
+                let shaft = shaft.max(-((p.z - r) * HALF_SQRT2 + HALF_SQRT2));
+                let head = hexagon(p)
+                    .max((p.z + 0.25).abs() - 0.25)
+                    .max((p.z + r - 0.22) * HALF_SQRT2);
+                shaft.min(head)
+            }
+            ImplicitShape::Nut { radius } => {
+                let r = radial - radius;
+                let threaded = (r - thread(p) / SCREW) * HALF_SQRT2;
+                let cone = (p.z - r) * HALF_SQRT2;
+                let hole = threaded
+                    .max(-(cone + 0.5 * HALF_SQRT2))
+                    .min(-cone - 0.05 * HALF_SQRT2);
+                let body = hexagon(p)
+                    .max((p.z + 0.25).abs() - 0.25)
+                    .max((p.z + r - 0.22) * HALF_SQRT2);
+                body.max(-hole)
+            }
         }
     }
 
@@ -73,6 +110,7 @@ impl ImplicitShape {
             ImplicitShape::Bowl {
                 radius, thickness, ..
             } => Vector3::repeat(radius + thickness),
+            ImplicitShape::Bolt { .. } | ImplicitShape::Nut { .. } => Vector3::new(0.6, 0.6, 1.0),
         };
         (Vector3::zeros(), half)
     }
@@ -133,6 +171,25 @@ impl ImplicitShape {
         }
         (cutter.vertices, cutter.triangles)
     }
+}
+
+/// Turns of the bolt's and the nut's thread per metre along the axis (the plugins' `screw`).
+const SCREW: f64 = 12.0;
+const HALF_SQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The thread's profile at `p`: a triangle wave in `12 z - φ/2π` (`φ` the azimuth), between 0
+/// and ½, so that its crest winds once round the axis per 1/12 m.
+fn thread(p: &Vector3<f64>) -> f64 {
+    let u = SCREW * p.z - p.y.atan2(p.x) / std::f64::consts::TAU;
+    ((u - u.floor()) - 0.5).abs()
+}
+
+/// The signed distance to the hexagon of apothem ½ about the z axis, in the plane: the point
+/// turned into the sextant facing +x, then its x less ½.
+fn hexagon(p: &Vector3<f64>) -> f64 {
+    let k = 6.0 / std::f64::consts::TAU;
+    let angle = -(p.y.atan2(p.x) * k + 0.5).floor() / k;
+    angle.cos() * p.x - angle.sin() * p.y - 0.5
 }
 
 /// The surface's pieces as the tetrahedra are cut: vertices (one per crossed grid edge, by the
@@ -221,6 +278,34 @@ mod tests {
         let v = mesh.mass_properties().volume;
         // The grid's cells are 2.2 mm: the cut surface's volume is within a few parts in 1e4.
         assert!((v - exact).abs() < 1e-3 * exact, "{v} vs {exact}");
+    }
+
+    #[test]
+    fn the_thread_winds_once_per_twelfth_of_a_metre() {
+        // The thread's profile is invariant under the screw motion: turned by θ about z and
+        // moved θ / (2π · 12) along it; the nut's and the bolt's surfaces are closed.
+        let p = Vector3::new(0.23, -0.11, -0.37);
+        for theta in [0.3, 1.0, 2.5, -4.0] {
+            let (c, s) = (f64::cos(theta), f64::sin(theta));
+            let q = Vector3::new(
+                c * p.x - s * p.y,
+                s * p.x + c * p.y,
+                p.z + theta / (2.0 * PI * 12.0),
+            );
+            assert!((thread(&q) - thread(&p)).abs() < 1e-12, "{theta}");
+        }
+        assert!((thread(&(p + Vector3::z() / 12.0)) - thread(&p)).abs() < 1e-12);
+        for shape in [
+            ImplicitShape::Bolt { radius: 0.255 },
+            ImplicitShape::Nut { radius: 0.26 },
+        ] {
+            shape.surface("threaded").expect("a closed surface");
+        }
+        // The hexagon's faces lie 0.5 from the axis, one facing +x; the nut's body ends there.
+        let h = ImplicitShape::Nut { radius: 0.26 };
+        assert!(hexagon(&Vector3::new(0.5, 0.0, -0.2)).abs() < 1e-15);
+        assert!((hexagon(&Vector3::new(0.6, 0.0, 0.0)) - 0.1).abs() < 1e-15);
+        assert!(h.distance(&Vector3::new(0.55, 0.0, -0.25)) > 0.0);
     }
 
     #[test]

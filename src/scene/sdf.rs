@@ -12,7 +12,12 @@ use crate::geometry::implicit::ImplicitShape;
 pub(super) type SdfInstance = (String, Element);
 
 /// MuJoCo's SDF plugins SCM makes shapes of.
-const KNOWN: [&str; 2] = ["mujoco.sdf.torus", "mujoco.sdf.bowl"];
+const KNOWN: [&str; 4] = [
+    "mujoco.sdf.torus",
+    "mujoco.sdf.bowl",
+    "mujoco.sdf.bolt",
+    "mujoco.sdf.nut",
+];
 
 impl Builder {
     /// `<extension>`: the instances of every plugin, kept by name for the meshes that use
@@ -120,10 +125,11 @@ impl Builder {
         let keys: &[(&str, f64)] = match plugin {
             "mujoco.sdf.torus" => &[("radius1", 0.35), ("radius2", 0.15)],
             "mujoco.sdf.bowl" => &[("height", 0.4), ("radius", 1.0), ("thickness", 0.02)],
+            "mujoco.sdf.bolt" | "mujoco.sdf.nut" => &[("radius", 0.26)],
             _ => {
                 return Err(self.err(el, format!(
                     "this mesh is made by the engine plugin '{plugin}', which SCM does not run (it makes the shapes of {}): give its surface as a mesh file (OBJ or STL) with file=\"...\"",
-                    KNOWN.join(" and ")
+                    KNOWN.join(", ")
                 )))
             }
         };
@@ -146,6 +152,8 @@ impl Builder {
             };
         }
         Ok(match plugin {
+            "mujoco.sdf.bolt" => ImplicitShape::Bolt { radius: values[0] },
+            "mujoco.sdf.nut" => ImplicitShape::Nut { radius: values[0] },
             "mujoco.sdf.torus" => ImplicitShape::Torus {
                 major: values[0],
                 minor: values[1],
