@@ -2,7 +2,7 @@
 //! and a primitive geom fitted to a mesh.
 
 use super::*;
-use crate::geometry::mesh::MeshError;
+use crate::geometry::mesh::{MeshError, MeshProblem};
 
 /// A mesh asset of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -500,7 +500,14 @@ impl Builder {
                 }
             }
         }
-        let (mesh, problem) = self.surface_of(el, TriMesh::load(&path, &placement))?;
+        let read = match TriMesh::load(&path, &placement) {
+            // A file of vertices without faces is, as MuJoCo makes it, their convex hull.
+            Err(e) if matches!(e.problem, MeshProblem::Empty) => {
+                TriMesh::load_hull(&path, &placement).map(|hull| (hull, Vec::new()))
+            }
+            read => read,
+        };
+        let (mesh, problem) = self.surface_of(el, read)?;
         self.add_mesh(
             el,
             MeshAsset {

@@ -1207,6 +1207,24 @@ def test_meshes_given_inline_compile_as_mujoco_compiles_them(tmp_path):
     assert not [n for n in names if n.startswith("resources/meshes/")], names
 
 
+def test_a_mesh_file_of_vertices_alone_is_their_convex_hull(tmp_path):
+    """An OBJ file with vertices and no faces (MuJoCo's `plugin/sdf/asset/die.obj`) is, as
+    MuJoCo makes it, the convex hull of its vertices: a scaled, rotated box's corners with
+    points inside and on its faces weigh as MuJoCo weighs them."""
+    corners = [(x, y, z) for x in (-1, 1) for y in (-2, 2) for z in (-0.5, 0.5)]
+    inside = [(0.1, 0.2, 0.0), (-0.5, 1.0, 0.2), (1.0, 0.0, 0.0)]
+    (tmp_path / "points.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in corners + inside))
+    path = tmp_path / "points.xml"
+    path.write_text("""<mujoco>
+  <asset><mesh name="points" file="points.obj" scale="0.1 0.1 0.1" refquat="1 0.2 0 0.1"/></asset>
+  <worldbody>
+    <body pos="0 0 1"><freejoint/><geom type="mesh" mesh="points"/></body>
+  </worldbody>
+</mujoco>
+""")
+    compare(path, inertia_tol=1e-7)
+
+
 @pytest.mark.parametrize("mesh, says", [
     ('<mesh vertex="0 0 0 1 0 0 0 1 0 0 0 1"/>', "needs a name"),
     ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0"/>', "at least 4"),
