@@ -223,6 +223,7 @@ struct ForwardFn<'a> {
 
 impl VectorFunction for ForwardFn<'_> {
     fn eval<T: Scalar>(&self, z: &[T]) -> Result<Vec<T>, DynamicsError> {
+        self.model.check_activations(&self.chart.point.act)?;
         let (q, v, u, p) = self.chart.unpack(z);
         let act: Vec<T> = self.chart.point.act.iter().map(|&a| c(a)).collect();
         let u = self.model.driven_inputs(&u, &act, None);

@@ -153,6 +153,24 @@ fn every_integrator_moves_the_activations_toward_their_controls() {
     let bare = State::new(m.q0.clone(), m.v0.clone());
     let err = m.step(&bare, &m.u0(), &m.contact, 0.001).unwrap_err();
     assert!(err.to_string().contains("actuators have 4"), "{err}");
+    // So are inputs of the wrong length, and a derivative point without the activations.
+    let full = State {
+        q: m.q0.clone(),
+        v: m.v0.clone(),
+        act: m.act0.clone(),
+    };
+    for integrator in Integrator::ALL {
+        let err = (m.step_with(integrator, &full, &[0.1], &m.contact, 0.001)).unwrap_err();
+        assert!(
+            err.to_string().contains("1 inputs given"),
+            "{integrator:?}: {err}"
+        );
+    }
+    let mut point = scm::derivatives::Point::start(m);
+    point.act.clear();
+    let coords = scm::derivatives::Coordinates::Embedded;
+    let err = scm::derivatives::forward_jacobian(m, &point, coords).unwrap_err();
+    assert!(err.to_string().contains("actuators have 4"), "{err}");
 }
 
 #[test]

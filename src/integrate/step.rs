@@ -141,6 +141,7 @@ impl Model {
         h: T,
     ) -> Result<State<T>, DynamicsError> {
         self.check_activations(&state.act)?;
+        self.split_inputs(u)?;
         let from = StepFrom { state, u, prm, h };
         let (mut jacobian, mut subdivided) = (None, 0);
         let carry = StepCarry {
@@ -282,6 +283,8 @@ impl Model {
         h: T,
         first: Option<(Vec<T>, Vec<T>)>,
     ) -> Result<Dopri5Step<T>, DynamicsError> {
+        self.check_activations(&state.act)?;
+        self.split_inputs(u)?;
         let tree = &self.tree;
         let (nq, nv) = (tree.nq, tree.nv);
         // The activations are states of the ODE here: each stage's inputs are driven by its
@@ -327,6 +330,9 @@ impl Model {
         tree.normalize_q(&mut q);
         let v = at(&state.v, &dp::B, &kv);
         let mut act = at(&state.act, &dp::B, &ka);
+        // Clamped before the last stage, which the next step takes as its first: that step
+        // starts from the clamped activations.
+        self.clamp_activations(&mut act);
         let u_end = self.driven_inputs(&self.inputs_after(u, h), &act, None);
         let last = (tree.qdot(&q, &v), self.accel(&q, &v, &u_end, prm)?);
         kq.push(last.0.clone());
@@ -338,7 +344,6 @@ impl Model {
         let mut error = at(&zq, &dp::E, &kq);
         error.extend(at(&zv, &dp::E, &kv));
         error.extend(at(&za, &dp::E, &ka));
-        self.clamp_activations(&mut act);
         Ok(Dopri5Step {
             state: State { q, v, act },
             error,

@@ -79,6 +79,11 @@ impl Builder {
         if self.meshes.iter().any(|m| m.name == name) {
             return Err(self.err(el, format!("mesh name '{name}' is used twice")));
         }
+        for key in ["refpos", "refquat"] {
+            if el.attr(key).is_some() {
+                return Err(self.err(el, format!("{key} on a mesh made by an SDF plugin is not supported by SCM: place the geom instead (pos, quat)")));
+            }
+        }
         let placement = self.mesh_placement(el)?;
         if placement.scale != Vector3::repeat(1.0) {
             return Err(self.err(el, "scale is not compatible with a mesh made by an SDF plugin (MuJoCo refuses it too): scale the plugin's configuration instead"));

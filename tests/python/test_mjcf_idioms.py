@@ -1086,6 +1086,7 @@ def test_sdf_torus_dropped_on_a_floor_lands_flat_as_in_mujoco(tmp_path):
 @pytest.mark.parametrize("change, where, why", [
     (('plugin="mujoco.sdf.torus"', 'plugin="mujoco.sdf.gear"'), "<mesh>", "mujoco.sdf.gear', which SCM does not run"),
     (('<mesh name="ring">', '<mesh name="ring" scale="2 2 2">'), "<mesh>", "scale is not compatible"),
+    (('<mesh name="ring">', '<mesh name="ring" refpos="0 0 0.1">'), "<mesh>", "refpos on a mesh made by an SDF plugin"),
     (('<mesh name="ring"><plugin instance="ring"/>', '<mesh name="ring"><plugin instance="ringo"/>'), "<plugin>",
      "no plugin instance named 'ringo'"),
     (('<config key="radius2" value="0.03"/>', '<config key="radius2" value="-1"/>'), "<config>",
