@@ -13,6 +13,7 @@ use std::path::Path;
 
 mod access;
 mod data;
+mod derivative_rows;
 mod fmu;
 pub mod jacobian;
 pub mod names;

@@ -149,24 +149,14 @@ impl Builder {
         self.add_mesh(
             el,
             MeshAsset {
-                name,
-                file: String::new(),
-                path: PathBuf::new(),
-                mesh,
-                problem,
                 hull,
-                hull_problem: None,
-                placement,
-                inertia,
-                legacy: None,
-                maxhullvert,
-                used: false,
                 inline: Some(InlineMesh {
                     vertices,
                     faces,
                     origin: "given inline".into(),
                     plugin: false,
                 }),
+                ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
             },
         );
         Ok(())

@@ -96,24 +96,13 @@ impl Builder {
         self.add_mesh(
             el,
             MeshAsset {
-                name,
-                file: String::new(),
-                path: PathBuf::new(),
-                mesh,
-                problem,
-                hull: None,
-                hull_problem: None,
-                placement,
-                inertia,
-                legacy: None,
-                maxhullvert,
-                used: false,
                 inline: Some(InlineMesh {
                     vertices,
                     faces: Some(faces),
                     origin,
                     plugin: true,
                 }),
+                ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
             },
         );
         Ok(())
