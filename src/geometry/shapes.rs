@@ -8,6 +8,7 @@
 //! even number of cells per axis its equator is a grid line of uniformly spaced vertices, which
 //! is what a capsule's hemispheres and a cylinder's side meet.
 
+use super::implicit::ImplicitShape;
 use super::mesh::TriMesh;
 use super::sample::{sample_box, sample_capsule, sample_cylinder, sample_ellipsoid, Spacing};
 use super::Aopc;
@@ -49,6 +50,16 @@ pub enum Shape {
     },
     /// A closed triangle mesh (checked and oriented, see [`TriMesh`]).
     Mesh(Arc<TriMesh>),
+    /// A shape given by a distance function (one of MuJoCo's SDF plugins), with the closed
+    /// surface cut from it ([`ImplicitShape::surface`]): it weighs as that mesh does, and its
+    /// points are put back on the function's zero level with the function's normals
+    /// ([`ImplicitShape::settle`]).
+    Implicit {
+        /// The distance function.
+        shape: ImplicitShape,
+        /// Its surface on MuJoCo's grid.
+        mesh: Arc<TriMesh>,
+    },
 }
 
 /// Mass properties of a solid of unit density: volume, centre of mass and the inertia about
@@ -88,7 +99,15 @@ impl Shape {
                 dx.max(dz).min(0.0) + (dx.max(0.0).powi(2) + dz.max(0.0).powi(2)).sqrt()
             }
             Shape::Ellipsoid { radii } => ellipsoid_sdf(radii, p),
-            Shape::Mesh(m) => m.sdf(p),
+            Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => m.sdf(p),
+        }
+    }
+
+    /// The closed triangle mesh of a mesh shape or of a shape given by a distance function.
+    pub fn mesh(&self) -> Option<&Arc<TriMesh>> {
+        match self {
+            Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => Some(m),
+            _ => None,
         }
     }
 
@@ -96,7 +115,7 @@ impl Shape {
     pub fn contains(&self, p: &Vector3<f64>) -> bool {
         match self {
             Shape::Ellipsoid { radii } => p.component_div(radii).norm_squared() < 1.0,
-            Shape::Mesh(m) => m.winding_number(p) > 0.5,
+            Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => m.winding_number(p) > 0.5,
             _ => self.sdf(p) < 0.0,
         }
     }
@@ -131,7 +150,9 @@ impl Shape {
                 half_length,
             } => radius.hypot(*half_length),
             Shape::Ellipsoid { radii } => radii.max(),
-            Shape::Mesh(m) => m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max),
+            Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => {
+                m.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max)
+            }
         }
     }
 
@@ -181,7 +202,7 @@ impl Shape {
                 let a = vc * r * r / 2.0 + 2.0 * 0.4 * vh * r * r;
                 diag(vc + 2.0 * vh, Vector3::new(t, t, a))
             }
-            Shape::Mesh(m) => m.mass_properties(),
+            Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => m.mass_properties(),
         }
     }
 
@@ -198,7 +219,7 @@ impl Shape {
             | Shape::Capsule { radius, .. }
             | Shape::Cylinder { radius, .. } => Vector3::repeat(*radius),
             Shape::Ellipsoid { radii } => Vector3::repeat(radii.min().powi(2) / radii.max()),
-            Shape::Mesh(_) => Vector3::zeros(),
+            Shape::Mesh(_) | Shape::Implicit { .. } => Vector3::zeros(),
         }
     }
 
@@ -242,6 +263,7 @@ impl Shape {
                 half_length,
             } => sample_cylinder(*radius, *half_length, uniform),
             Shape::Mesh(m) => m.sample(uniform),
+            Shape::Implicit { shape, mesh } => shape.settle(mesh.sample(uniform)),
         };
         out.weld(1e-9 * self.size().max(1e-9));
         out

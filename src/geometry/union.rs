@@ -308,7 +308,7 @@ pub fn union_volume(geoms: &[(Shape, Isometry3<f64>)]) -> (f64, bool) {
     let crossings: Vec<Option<Vec<Vec<f64>>>> = geoms
         .iter()
         .map(|(s, p)| {
-            let Shape::Mesh(m) = s else { return None };
+            let m = s.mesh()?;
             let v: Vec<Vector3<f64>> = m
                 .vertices
                 .iter()

@@ -42,6 +42,9 @@ pub struct MeshAsset {
     /// The vertices and faces of a mesh given inline (`vertex`, `face`; its `file` and `path`
     /// are then empty).
     pub inline: Option<super::inline_mesh::InlineMesh>,
+    /// The distance function of a mesh made by an SDF plugin, whose geoms collide by it
+    /// ([`crate::geometry::Shape::Implicit`]).
+    pub implicit: Option<crate::geometry::implicit::ImplicitShape>,
 }
 
 /// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
@@ -432,6 +435,7 @@ impl MeshAsset {
             maxhullvert,
             used: false,
             inline: None,
+            implicit: None,
         }
     }
 }

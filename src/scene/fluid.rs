@@ -83,6 +83,6 @@ fn fluid_semiaxes(shape: &Shape) -> Option<Vector3<f64>> {
         } => Vector3::new(*radius, *radius, *half_length),
         Shape::Box { half } => *half,
         Shape::Ellipsoid { radii } => *radii,
-        Shape::Mesh(_) => return None,
+        Shape::Mesh(_) | Shape::Implicit { .. } => return None,
     })
 }

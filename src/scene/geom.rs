@@ -219,7 +219,13 @@ impl Builder {
                     (Some(mesh), _) => {
                         asset.used = true;
                         mesh_name = Some(name.to_string());
-                        Some(Shape::Mesh(mesh.clone()))
+                        Some(match asset.implicit {
+                            Some(shape) => Shape::Implicit {
+                                shape,
+                                mesh: mesh.clone(),
+                            },
+                            None => Shape::Mesh(mesh.clone()),
+                        })
                     }
                     (None, Some(problem)) => {
                         let (problem, inertia) = (problem.clone(), asset.inertia);

@@ -58,7 +58,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         }) => ("cylinder", json!([radius, half_length, 0.0])),
         Some(Shape::Box { half }) => ("box", v3(half)),
         Some(Shape::Ellipsoid { radii }) => ("ellipsoid", v3(radii)),
-        Some(Shape::Mesh(_)) => ("mesh", json!(null)),
+        Some(Shape::Mesh(_) | Shape::Implicit { .. }) => ("mesh", json!(null)),
     };
     let (pos, quat) = pose(&g.pose);
     json!({

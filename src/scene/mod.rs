@@ -190,7 +190,7 @@ fn estimated_points(shape: &Shape, sampling: &Spacing) -> f64 {
             half_length,
         } => 2.0 * PI * radius * radius + 4.0 * PI * radius * half_length,
         Shape::Ellipsoid { radii } => 4.0 * PI * radii.max().powi(2),
-        Shape::Mesh(m) => {
+        Shape::Mesh(m) | Shape::Implicit { mesh: m, .. } => {
             let area: f64 = m
                 .triangles
                 .iter()

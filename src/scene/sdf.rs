@@ -12,12 +12,17 @@ use crate::geometry::implicit::ImplicitShape;
 pub(super) type SdfInstance = (String, Element);
 
 /// MuJoCo's SDF plugins SCM makes shapes of.
-const KNOWN: [&str; 4] = [
+const KNOWN: [&str; 5] = [
     "mujoco.sdf.torus",
     "mujoco.sdf.bowl",
     "mujoco.sdf.bolt",
     "mujoco.sdf.nut",
+    "mujoco.sdf.gear",
 ];
+
+/// Configuration keys that may be zero or negative (a gear's turn; a negative bore asks for
+/// the plugin's own); the others must be positive.
+const SIGNED_KEYS: [&str; 2] = ["alpha", "innerdiameter"];
 
 impl Builder {
     /// `<extension>`: the instances of every plugin, kept by name for the meshes that use
@@ -102,6 +107,7 @@ impl Builder {
                     origin,
                     plugin: true,
                 }),
+                implicit: Some(shape),
                 ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
             },
         );
@@ -120,6 +126,13 @@ impl Builder {
             "mujoco.sdf.torus" => &[("radius1", 0.35), ("radius2", 0.15)],
             "mujoco.sdf.bowl" => &[("height", 0.4), ("radius", 1.0), ("thickness", 0.02)],
             "mujoco.sdf.bolt" | "mujoco.sdf.nut" => &[("radius", 0.26)],
+            "mujoco.sdf.gear" => &[
+                ("alpha", 0.0),
+                ("diameter", 2.8),
+                ("teeth", 25.0),
+                ("thickness", 0.2),
+                ("innerdiameter", -1.0),
+            ],
             _ => {
                 return Err(self.err(el, format!(
                     "this mesh is made by the engine plugin '{plugin}', which SCM does not run (it makes the shapes of {}): give its surface as a mesh file (OBJ or STL) with file=\"...\"",
@@ -140,12 +153,30 @@ impl Builder {
                 );
                 continue;
             };
+            let signed = SIGNED_KEYS.contains(&key);
             values[k] = match c.attr("value").map(|v| v.trim().parse::<f64>()) {
-                Some(Ok(v)) if v.is_finite() && v > 0.0 => v,
-                _ => return Err(self.err(c, format!("config '{key}': expected a positive number"))),
+                Some(Ok(v)) if v.is_finite() && (signed || v > 0.0) => v,
+                _ => {
+                    let what = if signed {
+                        "a number"
+                    } else {
+                        "a positive number"
+                    };
+                    return Err(self.err(c, format!("config '{key}': expected {what}")));
+                }
             };
         }
         Ok(match plugin {
+            "mujoco.sdf.gear" => {
+                let teeth = values[2];
+                ImplicitShape::Gear {
+                    alpha: values[0],
+                    diameter: values[1],
+                    teeth,
+                    thickness: values[3],
+                    inner: values[4],
+                }
+            }
             "mujoco.sdf.bolt" => ImplicitShape::Bolt { radius: values[0] },
             "mujoco.sdf.nut" => ImplicitShape::Nut { radius: values[0] },
             "mujoco.sdf.torus" => ImplicitShape::Torus {

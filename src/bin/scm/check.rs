@@ -123,10 +123,14 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                 );
                 // How each mesh geom's triangles became its points (`TriMesh::sample`).
                 for g in sc.geoms.iter().filter(|g| g.body == b) {
-                    let (Some(scm::geometry::Shape::Mesh(mesh)), Some(h)) = (&g.shape, &g.spacing)
+                    let (Some(mesh), Some(h)) =
+                        (g.shape.as_ref().and_then(|s| s.mesh()), &g.spacing)
                     else {
                         continue;
                     };
+                    if let Some(scm::geometry::Shape::Implicit { .. }) = &g.shape {
+                        say!(w, "  geom {}: its points put on the distance function's zero level, with its normals", g.name);
+                    }
                     let uniform = h.coarse.min();
                     match mesh.simplified(uniform) {
                         Some(simple) => say!(
@@ -140,6 +144,9 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                             match simple.folds {
                                 0 => String::new(),
                                 n => format!("; {n} triangle(s) folded inward dropped"),
+                            } + &match simple.flat {
+                                0 => String::new(),
+                                n => format!("; {n} triangle(s) of no area dropped"),
                             }
                         ),
                         None => say!(
