@@ -236,6 +236,8 @@ impl Builder {
                 "face",
                 "normal",
                 "texcoord",
+                "builtin",
+                "params",
             ],
         )?;
         // A mesh weighs as MuJoCo weighs it: its default rule ("legacy"), the exact solid, or
@@ -264,6 +266,17 @@ impl Builder {
                 ))
             }
         };
+        match el.attr("builtin").map(str::trim) {
+            None | Some("none") => {
+                if el.attr("params").is_some() {
+                    self.unused(el, "params (read only by a built-in mesh: builtin=\"...\")");
+                }
+            }
+            Some(kind) => {
+                let (kind, placement) = (kind.to_string(), self.mesh_placement(el)?);
+                return self.builtin_mesh(el, &kind, placement, (inertia, maxhullvert));
+            }
+        }
         if el.attr("vertex").is_some() || el.attr("face").is_some() {
             let placement = self.mesh_placement(el)?;
             return self.inline_mesh(el, placement, inertia, maxhullvert);

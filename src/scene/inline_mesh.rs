@@ -23,6 +23,18 @@ pub struct InlineMesh {
     pub plugin: bool,
 }
 
+/// A mesh the scene file makes rather than reads from a mesh file: given inline or built in.
+pub(super) struct MadeMesh {
+    /// The asset's name.
+    pub(super) name: String,
+    /// Its vertices, before `refpos`, `refquat` and `scale` place them.
+    pub(super) vertices: Vec<Vector3<f64>>,
+    /// Its faces (`None`: the vertices' convex hull).
+    pub(super) faces: Option<Vec<[u32; 3]>>,
+    /// Where it comes from, for people ([`InlineMesh::origin`]).
+    pub(super) origin: String,
+}
+
 impl MeshAsset {
     /// Where the mesh comes from, for messages and `scm check`: its file, or "given inline".
     pub fn source(&self) -> String {
@@ -116,7 +128,7 @@ impl Builder {
         }
         let vertices: Vec<Vector3<f64>> = numbers
             .chunks(3)
-            .map(|v| placement.apply(&Vector3::new(v[0], v[1], v[2])))
+            .map(|v| Vector3::new(v[0], v[1], v[2]))
             .collect();
         let faces = match el.attr("face") {
             None => None,
@@ -127,7 +139,32 @@ impl Builder {
                 self.unused(el, format!("{key} (MuJoCo renders with it; SCM's contact reads the surface's own normals)"));
             }
         }
-        let label = format!("'{name}' (given inline)");
+        let made = MadeMesh {
+            name,
+            vertices,
+            faces,
+            origin: "given inline".into(),
+        };
+        self.add_made_mesh(el, made, placement, (inertia, maxhullvert))
+    }
+
+    /// A mesh whose vertices (before `placement`) and faces (`None`: their convex hull) the
+    /// file gives inline or a built-in generator makes (`origin` says which): placed, checked,
+    /// its surface closed or its problem kept, as a file's.
+    pub(super) fn add_made_mesh(
+        &mut self,
+        el: &Element,
+        MadeMesh {
+            name,
+            vertices,
+            faces,
+            origin,
+        }: MadeMesh,
+        placement: Placement,
+        (inertia, maxhullvert): (MeshInertia, Option<i64>),
+    ) -> Result<(), SceneError> {
+        let vertices: Vec<Vector3<f64>> = vertices.iter().map(|v| placement.apply(v)).collect();
+        let label = format!("'{name}' ({origin})");
         let (mesh, problem, hull) = match &faces {
             // Without faces MuJoCo's mesh is the convex hull of the vertices.
             None => match TriMesh::convex_hull(&label, &vertices) {
@@ -153,7 +190,7 @@ impl Builder {
                 inline: Some(InlineMesh {
                     vertices,
                     faces,
-                    origin: "given inline".into(),
+                    origin,
                     plugin: false,
                 }),
                 ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
@@ -187,5 +224,58 @@ impl Builder {
             return Err(self.err(el, format!("face has {} indices, not a positive multiple of 3 (three vertices for each triangle)", indices.len())));
         }
         Ok(indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect())
+    }
+}
+
+impl Builder {
+    /// `<mesh name builtin params>`: one of MuJoCo's built-in procedural meshes
+    /// (`builtin_mesh.rs`), placed by `scale`, `refpos` and `refquat` as a file's; a tactile
+    /// sensor's grid (`wedge`, `plate`) is kept without a surface, so a geom that collides or
+    /// weighs by it is refused there and a visual one is left out.
+    pub(super) fn builtin_mesh(
+        &mut self,
+        el: &Element,
+        kind: &str,
+        placement: Placement,
+        weighing: (MeshInertia, Option<i64>),
+    ) -> Result<(), SceneError> {
+        for key in ["file", "vertex", "face"] {
+            if el.attr(key).is_some() {
+                return Err(self.err(el, format!("a built-in mesh takes no {key}=\"...\" (MuJoCo refuses it too): remove one")));
+            }
+        }
+        let name = Self::given_name(el)
+            .ok_or_else(|| self.err(el, "a built-in mesh needs a name (MuJoCo refuses it too)"))?;
+        if self.meshes.iter().any(|m| m.name == name) {
+            return Err(self.err(el, format!("mesh name '{name}' is used twice")));
+        }
+        let params = match el.attr("params") {
+            None => Vec::new(),
+            Some(text) => parse_floats(text)
+                .ok_or_else(|| self.err(el, "params=\"...\": expected finite numbers"))?,
+        };
+        let origin = format!("MuJoCo's built-in {kind}");
+        match super::builtin_mesh::builtin(kind, &params).map_err(|e| self.err(el, e))? {
+            super::builtin_mesh::Builtin::Surface(vertices, faces) => {
+                let made = MadeMesh {
+                    name,
+                    vertices,
+                    faces,
+                    origin,
+                };
+                self.add_made_mesh(el, made, placement, weighing)
+            }
+            super::builtin_mesh::Builtin::SensorGrid => {
+                let problem = self.err(el, format!("{origin} is the point grid of a tactile sensor, without a closed surface (SCM reads no tactile sensor)"));
+                self.add_mesh(
+                    el,
+                    MeshAsset {
+                        hull_problem: Some("a tactile sensor's point grid".into()),
+                        ..MeshAsset::read(name, placement, weighing, (None, Some(problem)))
+                    },
+                );
+                Ok(())
+            }
+        }
     }
 }

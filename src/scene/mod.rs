@@ -10,6 +10,7 @@ mod actuator_defaults;
 mod assemble;
 mod assets;
 mod body;
+mod builtin_mesh;
 pub mod canonical;
 mod collide;
 mod compiled;

@@ -156,9 +156,6 @@ pub(super) fn advice(element: &str, attr: &str) -> &'static str {
         (_, "cranksite") | (_, "slidersite") | (_, "cranklength") => {
             ": slider-crank transmissions are not supported; drive a joint or a fixed tendon"
         }
-        ("mesh", "builtin") => {
-            ": MuJoCo's built-in procedural meshes are not supported; use primitive geoms or a mesh file"
-        }
         ("joint", "actuatorgravcomp") => {
             ": gravity compensation through the actuators is not modelled; remove it (the bodies' gravcomp then acts as a passive force, MuJoCo's default)"
         }

@@ -1225,6 +1225,78 @@ def test_a_mesh_file_of_vertices_alone_is_their_convex_hull(tmp_path):
     compare(path, inertia_tol=1e-7)
 
 
+#: MuJoCo's built-in procedural meshes (the carousel's supersphere bags and supertorus ring,
+#: the tactile scene's sensor grids), scaled, with a wedge on a visual geom.
+BUILTIN_MESHES = """<mujoco>
+  <asset>
+    <mesh name="ico0" builtin="sphere" params="0"/>
+    <mesh name="ico2" builtin="sphere" params="2" scale=".2 .2 .2"/>
+    <mesh name="hemi" builtin="hemisphere" params="3" scale=".1 .2 .3"/>
+    <mesh name="bag" builtin="supersphere" params="32 .3 .4" scale=".2 .13 .085"/>
+    <mesh name="ring" builtin="supertorus" params="16 .2 .4 1" scale="1.7 1.7 .9"/>
+    <mesh name="cone" builtin="cone" params="8 .5" scale=".1 .1 .1"/>
+    <mesh name="apex" builtin="cone" params="5 0" scale=".1 .1 .2"/>
+    <mesh name="grid" builtin="wedge" params="9 9 45 45 0" scale=".3 .3 .3"/>
+  </asset>
+  <worldbody>
+    <geom type="plane" size="20 20 0.1"/>
+    <body name="ico0" pos="0 0 2"><freejoint/><geom type="mesh" mesh="ico0"/></body>
+    <body name="ico2" pos="3 0 1"><freejoint/><geom type="mesh" mesh="ico2"/></body>
+    <body name="hemi" pos="5 0 1"><freejoint/><geom type="mesh" mesh="hemi"/></body>
+    <body name="bag" pos="7 0 1"><freejoint/><geom type="mesh" mesh="bag"/>
+      <geom type="mesh" mesh="grid" contype="0" conaffinity="0" mass="0"/></body>
+    <body name="ring" pos="10 0 2"><freejoint/><geom type="mesh" mesh="ring"/></body>
+    <body name="cone" pos="14 0 1"><freejoint/><geom type="mesh" mesh="cone"/></body>
+    <body name="apex" pos="16 0 1"><freejoint/><geom type="mesh" mesh="apex"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_builtin_meshes_compile_as_mujoco_compiles_them(tmp_path):
+    """<mesh builtin params> (MuJoCo's carousel and tactile scenes): an icosahedron subdivided
+    twice, a hemisphere, a supersphere, a supertorus, a cone and a pointed cone, made vertex for
+    vertex in single precision as MuJoCo makes them, weigh as MuJoCo weighs them (masses and
+    inertias to rounding: the same triangles); a tactile sensor's wedge on a visual geom is left
+    out, listed; the scene runs."""
+    path = tmp_path / "builtin.xml"
+    path.write_text(BUILTIN_MESHES)
+    compare(path, inertia_tol=1e-7)
+    check = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    assert check.returncode == 0, check.stderr
+    assert "geom left out: its mesh is not a closed surface (MuJoCo's built-in wedge is the point grid of a tactile sensor" in check.stdout + check.stderr
+    run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.1"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+
+
+@pytest.mark.parametrize("mesh, says", [
+    ('<mesh name="m" builtin="sphere" params="5"/>', "subdivision is 0 to 4"),
+    ('<mesh name="m" builtin="supertorus" params="16 1.5 1 1"/>', "radius in (0, 1]"),
+    ('<mesh name="m" builtin="supersphere" params="16 1"/>', "takes 3 parameter(s)"),
+    ('<mesh name="m" builtin="hemisphere" params="11"/>', "0 to 10"),
+    ('<mesh name="m" builtin="sphere" params="1" file="x.obj"/>', "takes no file"),
+])
+def test_a_builtin_mesh_mujoco_refuses_is_refused_saying_why(tmp_path, mesh, says):
+    """Parameters MuJoCo's compiler refuses for a built-in mesh, SCM refuses at the mesh's line."""
+    text = f'<mujoco><asset>{mesh}</asset><worldbody><body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>'
+    path = tmp_path / "bad.xml"
+    path.write_text(text)
+    with pytest.raises(ValueError):
+        mujoco.MjModel.from_xml_path(str(path))
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and says in out.stderr and "bad.xml:1" in out.stderr, out.stderr
+
+
+def test_a_geom_colliding_by_a_tactile_grid_is_refused(tmp_path):
+    """A geom that collides by a tactile sensor's point grid (builtin wedge or plate, which
+    have no closed surface) is refused, saying what to do; as a visual geom it is left out."""
+    path = tmp_path / "grid.xml"
+    path.write_text("""<mujoco><asset><mesh name="m" builtin="plate" params="5 5" scale=".3 .5 .2"/></asset>
+  <worldbody><body><freejoint/><geom type="sphere" size="0.1"/><geom type="mesh" mesh="m" mass="0"/></body></worldbody></mujoco>""")
+    out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and "point grid of a tactile sensor" in out.stderr and "contype=" in out.stderr, out.stderr
+
+
 @pytest.mark.parametrize("mesh, says", [
     ('<mesh vertex="0 0 0 1 0 0 0 1 0 0 0 1"/>', "needs a name"),
     ('<mesh name="m" vertex="0 0 0 1 0 0 0 1 0"/>', "at least 4"),
