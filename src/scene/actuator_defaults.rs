@@ -19,6 +19,7 @@
 //! `test_actuator_defaults_compile_as_mujoco_compiles_them` holds them to it.
 
 use super::canonical::error;
+use super::read::parse_floats;
 use super::xml::Element;
 use super::SceneError;
 
@@ -72,6 +73,11 @@ const PARAMETERS: &[(&str, &[&str])] = &[
     ),
     ("velocity", &["kv"]),
     ("damper", &["kv"]),
+    (
+        "intvelocity",
+        &["kp", "kv", "dampratio", "timeconst", "inheritrange"],
+    ),
+    ("cylinder", &["timeconst", "bias", "area", "diameter"]),
 ];
 
 /// Every parameter attribute of [`PARAMETERS`].
@@ -241,7 +247,7 @@ fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> 
     let mut p = Parameters::default();
     match el.name.as_str() {
         "motor" => {}
-        "position" => {
+        "position" | "intvelocity" => {
             let kp = number(el, "kp")?.unwrap_or(start.gainprm[0]);
             let damping =
                 match (number(el, "kv")?, number(el, "dampratio")?) {
@@ -282,6 +288,36 @@ fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> 
             p.biasprm[1] = -kp;
             p.biasprm[2] = damping;
             p.inheritrange = number(el, "inheritrange")?.unwrap_or(start.inheritrange);
+            // MuJoCo's integrated-velocity servo: a position servo on the activation, which
+            // integrates the control (its dynamics whatever timeconst says).
+            if el.name == "intvelocity" {
+                p.dyntype = "integrator".into();
+            }
+        }
+        // MuJoCo's pneumatic or hydraulic cylinder: a filtered control times the piston's area
+        // (from its diameter where one is given), with an affine bias.
+        "cylinder" => {
+            let area = match number(el, "diameter")? {
+                Some(d) if d >= 0.0 => std::f64::consts::PI / 4.0 * d * d,
+                _ => number(el, "area")?.unwrap_or(start.gainprm[0]),
+            };
+            let mut bias = [start.biasprm[0], start.biasprm[1], start.biasprm[2]];
+            if let Some(given) = el.attr("bias") {
+                match parse_floats(given) {
+                    Some(v) if v.len() == 3 => bias.copy_from_slice(&v),
+                    _ => {
+                        return Err(error(
+                            el,
+                            "bias: expected 3 finite numbers (MuJoCo refuses fewer)",
+                        ))
+                    }
+                }
+            }
+            p.gainprm[0] = area;
+            p.biastype = "affine".into();
+            p.biasprm[..3].copy_from_slice(&bias);
+            p.dyntype = "filter".into();
+            p.dynprm[0] = number(el, "timeconst")?.unwrap_or(start.dynprm[0]);
         }
         "velocity" => {
             let kv = number(el, "kv")?.unwrap_or(start.gainprm[0]);
@@ -399,11 +435,24 @@ impl ActuatorDefaults {
                 State::Known(p) => general(*p, el)?,
                 State::Other(other) => return Err(inherits_other(el, &other)),
             },
-            "motor" | "position" | "velocity" | "damper" => {
+            "motor" | "position" | "velocity" | "damper" | "intvelocity" | "cylinder" => {
                 let start = self.start(&kind, el)?;
                 shortcut(&start, el)?
             }
             _ => return Ok(()),
+        };
+        // An integrated-velocity servo and a cylinder are read as the <general> they stand
+        // for (its dynamics, gain and bias); MuJoCo's inheritrange on the former sets its
+        // activation's range, which SCM does not derive.
+        let kind = match kind.as_str() {
+            "intvelocity" | "cylinder" => {
+                if el.attr("inheritrange").is_some() {
+                    return Err(error(el, "inheritrange on an <intvelocity> is not supported by SCM: give its actrange (and actlimited) instead"));
+                }
+                el.name = "general".into();
+                "general".to_string()
+            }
+            _ => kind,
         };
         // A position's inheritrange: refused with a ctrlrange written beside it, passed over
         // for one the element writes itself, and over the class's ctrlrange otherwise.

@@ -55,8 +55,6 @@ def dm_id(path):
 #: of the element). Everything else loads.
 DM_CONTROL_REFUSED = {
     "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "body transmissions (adhesion) are not supported"),
-    "testing_model_with_third_order_actuators": ("model_with_third_order_actuators.xml:10: <cylinder>",
-                                                 "unsupported actuator"),
 }
 
 #: gymnasium-robotics' models, a third corpus (unpacked from its wheel by scripts/setup.sh): the

@@ -733,13 +733,13 @@ def test_damper_actuators_compile_as_mujoco_compiles_them(tmp_path):
     assert [a["gainprm"][2] for a in ours["actuators"]] == [-3.0, 0.0]
 
 
-ACTUATOR_KINDS = ["general", "motor", "position", "velocity", "damper"]
+ACTUATOR_KINDS = ["general", "motor", "position", "velocity", "damper", "intvelocity", "cylinder"]
 
 
 def _actuator_attributes(rng, kind):
     """Attributes an actuator of `kind` may be given in a default or on the element."""
     a = {}
-    if kind == "position":
+    if kind in ("position", "intvelocity"):
         if rng.random() < 0.5:
             a["kp"] = rng.choice(["3", "10"])
         x = rng.random()
@@ -749,6 +749,11 @@ def _actuator_attributes(rng, kind):
             a["dampratio"] = rng.choice(["0.5", "1"])
     elif kind in ("velocity", "damper") and rng.random() < 0.5:
         a["kv"] = rng.choice(["0", "4"])
+    elif kind == "cylinder":
+        for key, values in (("timeconst", ["0.1", "2"]), ("area", ["3"]), ("diameter", ["0.5"]),
+                            ("bias", ["1", "0 -2 -1"])):
+            if rng.random() < 0.4:
+                a[key] = rng.choice(values)
     elif kind == "general":
         if rng.random() < 0.4:
             a["gaintype"] = rng.choice(["fixed", "affine"])
@@ -901,15 +906,15 @@ ACTUATOR_DEFAULTS_CASES = [
 def _compiles_as_mujoco_or_both_refuse(path, text):
     """Compares SCM's compiled model of `path` with MuJoCo's (activation dynamics included);
     where MuJoCo refuses the file, gives an actuator muscle or user dynamics (which SCM has
-    not), or gives it dynamics from a default of a kind SCM does not simulate (a `<cylinder>`
-    default's filter reaching a `<general>`), SCM must refuse it, saying where. Returns whether
-    it compared."""
+    not), or gives it dynamics from a default of a kind SCM does not simulate (a `<muscle>`
+    default's reaching a `<general>`), SCM must refuse it, saying where. Returns whether it
+    compared."""
     try:
         m = mujoco.MjModel.from_xml_path(str(path))
     except ValueError:
         m = None
     unmodelled = (int(mujoco.mjtDyn.mjDYN_MUSCLE), int(mujoco.mjtDyn.mjDYN_USER))
-    other_kind = any(f"<{k}" in text for k in ("cylinder", "muscle", "intvelocity", "adhesion"))
+    other_kind = any(f"<{k}" in text for k in ("muscle", "adhesion"))
     if m is None or any(int(d) in unmodelled or (int(d) != 0 and other_kind) for d in m.actuator_dyntype):
         out = subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True)
         assert out.returncode != 0, f"MuJoCo refuses or adds dynamics, SCM takes:\n{text}"

@@ -286,6 +286,70 @@ ACTIVATION_SCENE = """<mujoco>
 """
 
 
+SHORTCUTS_SCENE = """<mujoco>
+  <option timestep="0.002"/>
+  <default>
+    <default class="ram"><cylinder timeconst="0.04" diameter="0.1" bias="2 -5 -1"/></default>
+  </default>
+  <worldbody>
+    <body name="arm" pos="0 0 1">
+      <joint name="h" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 .3 0 0" size=".02"/>
+      <body name="slider" pos=".3 0 0">
+        <joint name="s" type="slide" axis="1 0 0"/>
+        <geom type="box" size=".05 .05 .05"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <intvelocity name="iv" joint="h" kp="6" kv="0.4" actrange="-0.5 0.4" ctrlrange="-1 1"/>
+    <intvelocity name="ivz" joint="s" kp="20" dampratio="0.7" actrange="-0.1 0.1"/>
+    <cylinder name="ram" class="ram" joint="s" ctrlrange="0 1"/>
+    <cylinder name="piston" joint="h" area="0.02" timeconst="0.1"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_intvelocity_and_cylinder_actuators_follow_mujoco(tmp_path):
+    """MuJoCo's <intvelocity> (a position servo on an activation that integrates the control,
+    clamped by its actrange; with kv and with a dampratio) and <cylinder> (a filtered control
+    times the piston's area, from its diameter in a default class, with an affine bias): the
+    FMU's run from constant controls matches MuJoCo's Euler run within 1e-12 over 0.5 s, the
+    first servo's activation stopping at the top of its range."""
+    path = tmp_path / "shortcuts.xml"
+    path.write_text(SHORTCUTS_SCENE)
+    fmu = tmp_path / "shortcuts.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    ctrl = {"iv.ctrl": 0.9, "ivz.ctrl": -0.4, "ram.ctrl": 0.6, "piston.ctrl": -0.8}
+    d.ctrl[:] = list(ctrl.values())
+    outputs = ["h.q", "s.q", "iv.act", "ivz.act", "ram.act", "piston.act"]
+    res = simulate_fmu(str(fmu), stop_time=0.5, output_interval=0.01, output=outputs, start_values=ctrl)
+    worst = 0.0
+    for row in res:
+        n = round(row["time"] / m.opt.timestep)
+        while round(d.time / m.opt.timestep) < n:
+            mujoco.mj_step(m, d)
+        err = np.max(np.abs(np.array([row[o] for o in outputs]) - np.concatenate([d.qpos, d.act])))
+        worst = max(worst, err)
+        assert err < 1e-12, f"t = {row['time']:.2f}: {[row[o] for o in outputs]} vs {d.qpos}, {d.act}"
+    assert d.act[0] == 0.4, "the servo's integrated control stops at the top of its actrange"
+    print(f"largest difference {worst:.2e}; activations {d.act}")
+
+
+def test_inheritrange_on_an_intvelocity_is_refused(tmp_path):
+    """MuJoCo derives an <intvelocity>'s activation range from inheritrange; SCM does not, and
+    says what to write instead."""
+    path = tmp_path / "inherit.xml"
+    xml = SHORTCUTS_SCENE.replace('damping="0.05"/>', 'damping="0.05" range="-1 1"/>')
+    path.write_text(xml.replace('kv="0.4" actrange="-0.5 0.4"', 'kv="0.4" inheritrange="1"'))
+    mujoco.MjModel.from_xml_path(str(path))
+    out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and "give its actrange" in out.stderr, out.stderr
+
+
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])
 def test_activation_dynamics_follow_mujoco(integrator, tmp_path):
     """Activation states (a filter, an integrator clamped by its actrange, a position servo's
