@@ -51,6 +51,10 @@ pub fn describe(scene: &Path) -> Result<Described, PackError> {
                 &m.path,
             )
         })
+        .chain(loaded.hfields.iter().filter_map(|h| {
+            let (file, path) = h.file.as_ref()?;
+            Some((crate::scene::packed_mesh_name(file), "hfield", file, path))
+        }))
         .chain(loaded.includes.iter().map(|i| {
             (
                 packed_include_name(scene, &i.path),

@@ -1892,8 +1892,8 @@ fn a_plugin_actuator_is_refused_naming_the_plugin() {
 /// quadruped fills its terrain at run time): SCM takes it as the plane of its surface, with
 /// a warning naming its extent. A ball dropped on the raised, tilted field moves exactly as on
 /// a plane geom in the same place, and rests on it (its centre a radius above it, less the
-/// soft contact's sink, within 2 mm). A field with elevation data, or without its size, is
-/// refused at its line.
+/// soft contact's sink, within 2 mm). A field whose elevation data does not fill its grid,
+/// or without its size, is refused at its line.
 #[test]
 fn a_flat_height_field_is_the_plane_of_its_surface() {
     let dir = scratch("hfield");
@@ -1947,7 +1947,7 @@ fn a_flat_height_field_is_the_plane_of_its_surface() {
     for (hfield, says) in [
         (
             r#"<hfield name="terrain" nrow="11" ncol="11" size="3 2 1 0.1" elevation="1 2"/>"#,
-            "elevation data",
+            "elevation has 2 numbers where nrow × ncol is 121",
         ),
         (
             r#"<hfield name="terrain" nrow="11" ncol="11"/>"#,

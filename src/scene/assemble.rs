@@ -551,6 +551,7 @@ impl Builder {
             meshes: self.meshes,
             meshdir: self.meshdir,
             includes: vec![],
+            hfields: self.hfields,
             pair_laws,
         })
     }

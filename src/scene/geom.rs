@@ -243,10 +243,7 @@ impl Builder {
                 }
             }
             "plane" => None,
-            "hfield" => {
-                self.flat_hfield(el)?;
-                None
-            }
+            "hfield" => self.hfield_geom(el, body)?,
             t => return Err(self.err(el, format!("type=\"{t}\" is not a geom type"))),
         };
         if el.attr("mesh").is_some() && kind != "mesh" && fit.is_none() {

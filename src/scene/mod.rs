@@ -21,6 +21,7 @@ mod equality;
 pub mod filter;
 mod fluid;
 mod geom;
+mod hfield;
 pub mod include;
 mod inline_mesh;
 pub mod json;
@@ -38,6 +39,7 @@ pub use assets::{MeshAsset, MeshInertia};
 pub use collide::spacing_text;
 pub use compiled::{compile, Compiled, CompiledPair};
 use equality::{Anchors, ConnectSpec, EqualitySpec};
+pub use hfield::HeightField;
 pub use inline_mesh::InlineMesh;
 pub use paths::{mesh_path, packed_mesh_name, packed_relative, scene_dir};
 use read::{element_error, parse_floats, Place};
@@ -107,6 +109,8 @@ pub struct Scene {
     pub meshdir: Option<String>,
     /// Files read through `<include>`, in order.
     pub includes: Vec<include::IncludedFile>,
+    /// Height field assets (`scm pack` carries their files).
+    pub hfields: Vec<hfield::HeightField>,
     /// Each contact pair's law from the file's `solref` and `solimp`, in the model's pair
     /// order (`None`: the pair takes the scene's `scm_stiffness` and
     /// `scm_dissipation_velocity`).
@@ -286,7 +290,7 @@ struct Builder {
     meshes: Vec<MeshAsset>,
     /// Height fields by name: their `size` (x and y half-extents, elevation scale, base
     /// depth). SCM takes only flat ones (`Builder::hfield_asset`).
-    hfields: Vec<(String, [f64; 4])>,
+    hfields: Vec<hfield::HeightField>,
     bodies: Vec<Body>,
     /// Where each body is written, by name (for errors the tree finds).
     body_places: HashMap<String, Place>,

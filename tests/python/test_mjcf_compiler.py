@@ -1322,6 +1322,88 @@ def test_an_inline_mesh_mujoco_refuses_is_refused_saying_why(tmp_path, mesh, say
     assert out.returncode != 0 and says in out.stderr and "bad.xml:1" in out.stderr, out.stderr
 
 
+def _png(rows):
+    """A grey 8-bit PNG of `rows` (lists of 0..255), written here (no imaging package)."""
+    import struct
+    import zlib
+    chunk = lambda kind, data: (struct.pack(">I", len(data)) + kind + data
+                                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    header = struct.pack(">IIBBBBB", len(rows[0]), len(rows), 8, 0, 0, 0, 0)
+    pixels = b"".join(b"\0" + bytes(r) for r in rows)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(pixels)) + chunk(b"IEND", b"")
+
+
+HEIGHT_FIELD = """<mujoco>
+  <asset>
+    <hfield name="pit" nrow="5" ncol="5" size="0.4 0.4 0.1 0.05"
+            elevation="3 3 3 3 3  3 3 3 3 3  3 3 1 3 3  3 3 3 3 3  3 3 3 3 3"/>
+    FIELD
+  </asset>
+  <worldbody>
+    <geom type="hfield" hfield="pit"/>
+    <geom type="hfield" hfield="step" pos="1.5 0 0"/>
+    <body name="in_pit" pos="0.01 -0.005 0.15"><freejoint/><geom size="0.03"/></body>
+    <body name="on_top" pos="0.3 0.3 0.2"><freejoint/><geom size="0.03"/></body>
+    <body name="up" pos="1.5 0.25 0.2"><freejoint/><geom size="0.03"/></body>
+    <body name="down" pos="1.5 -0.25 0.2"><freejoint/><geom size="0.03"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("field", ["png", "custom"])
+def test_height_fields_with_elevation_data_collide_as_in_mujoco(tmp_path, field):
+    """Height fields with elevation data (inline; a grey PNG, as MuJoCo's touch-grid scene; MuJoCo's
+    own binary file), scaled to [0, 1] as MuJoCo scales them. Two balls dropped on a step whose
+    high side is the image's top rows (MuJoCo's +y) rest where MuJoCo's do after 1 s, up and
+    down, their heights within 1.5 mm (measured 0.9 mm: SCM's ball sinks 1.1 mm into the field's
+    cloud where MuJoCo's sinks 0.2 mm, the pair's softness of docs/mjcf.md), and one on the
+    inline field's flat top likewise. A ball dropped into the inline field's pit (an
+    inverted pyramid cut by MuJoCo's diagonals) ends in it, within 2 mm of the lowest place the
+    pit leaves a ball (0.0367 m, off the apex by 4.5 mm along a diagonal, computed here from the
+    triangles; MuJoCo's rests there, 0.3 mm deep): SCM's rests on the apex 1.6 mm lower, the
+    cloud's concave corner reading shallower than the faces do (an open item). The file packs
+    into the FMU."""
+    import struct
+    step = [[255] * 5, [255] * 5, [0] * 5, [0] * 5]
+    if field == "png":
+        (tmp_path / "step.png").write_bytes(_png(step))
+        asset = '<hfield name="step" file="step.png" size="0.4 0.3 0.1 0.05"/>'
+    else:
+        rows = step[::-1]  # MuJoCo's file runs from -y
+        data = struct.pack("<ii", 4, 5) + struct.pack("<20f", *[x / 255 * 7 + 2 for r in rows for x in r])
+        (tmp_path / "step.bin").write_bytes(data)
+        asset = '<hfield name="step" file="step.bin" size="0.4 0.3 0.1 0.05"/>'
+    path = tmp_path / "fields.xml"
+    path.write_text(HEIGHT_FIELD.replace("FIELD", asset))
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    while d.time < 1.0 - 1e-9:
+        mujoco.mj_step(m, d)
+    csv = tmp_path / "run.csv"
+    subprocess.run([str(SCM), "simulate", str(path), "--duration", "1", "--output-interval", "0.5",
+                    "-o", str(csv)], check=True, capture_output=True)
+    rows = np.genfromtxt(csv, delimiter=",", names=True)
+    ours = {name: np.array([rows[f"{name}pos{a}"][-1] for a in "xyz"]) for name in ("in_pit", "on_top", "up", "down")}
+    theirs = {name: d.qpos[7 * k:7 * k + 3] for k, name in enumerate(ours)}
+    for name in ours:
+        print(f"{name}: SCM {ours[name]}, MuJoCo {theirs[name]}")
+    for name in ("on_top", "up", "down"):
+        # Height within 1.5 mm; sideways within 2 mm: the 3 cm ball's cloud (216 points at
+        # 1 cm) rolls onto one of its facets, 1.4 mm on the flat top (measured).
+        assert abs(ours[name][2] - theirs[name][2]) < 1.5e-3, (name, ours[name], theirs[name])
+        assert np.linalg.norm(ours[name][:2] - theirs[name][:2]) < 2e-3, (name, ours[name], theirs[name])
+    # Up on the step and the top (0.1 m + the radius), down at the step's foot.
+    assert abs(theirs["up"][2] - 0.13) < 1e-3 and abs(theirs["down"][2] - 0.03) < 1e-3
+    lowest = np.array([-0.0045, -0.0045, 0.0367])
+    assert np.linalg.norm(theirs["in_pit"] - lowest) < 1e-3
+    assert np.linalg.norm(ours["in_pit"] - lowest) < 8e-3 and abs(ours["in_pit"][2] - lowest[2]) < 2e-3
+    fmu = tmp_path / "fields.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True, capture_output=True)
+    import zipfile
+    assert f"resources/meshes/step.{'png' if field == 'png' else 'bin'}" in zipfile.ZipFile(fmu).namelist()
+
+
 def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):
     """A height field without elevation data (dm_control's quadruped terrain, which its task
     fills at run time) is flat when compiled: SCM takes it as the plane of its surface, here
