@@ -207,13 +207,19 @@ impl ImplicitShape {
     /// far from the part, the SSDF reads the plane of the nearest point alone, and such a
     /// facet's plane read a nut 9 cm away as 2 cm inside the bolt. The function's own normal
     /// at a crest is one flank's, or their mean exactly on it: a plane that never reads a
-    /// point beyond the crest as inside. A point whose projection does not settle within a
-    /// micrometre of the zero level, or would move further than its quad's size, is kept as
-    /// sampled. A point's area grows by the cosine its normal turned (down to a half: a facet
+    /// point beyond the crest as inside. Only points whose quad faces more than 10° from
+    /// the function's normal there move (16 % of the bolt's at 1 cm); a
+    /// point whose projection does not settle within a nanometre of the zero level, or would
+    /// move further than its quad's size, is kept as sampled. A point's area grows by the cosine its normal turned (down to a half: a facet
     /// across a crest stands for the flank it settles on, seen face on), then all are scaled
     /// by the least change that keeps the cloud closed; vertices stay the mesh's.
     pub fn settle(&self, mut cloud: Aopc) -> Aopc {
+        let mut settled = 0;
         for k in 0..cloud.points.len() {
+            let along = self.gradient(&cloud.points[k]).try_normalize(1e-9);
+            if along.is_some_and(|g| g.dot(&cloud.normals[k]) >= KEPT_COSINE) {
+                continue;
+            }
             let reach = cloud.faces[k]
                 .iter()
                 .map(|&v| (cloud.vertices[v as usize] - cloud.points[k]).norm())
@@ -223,7 +229,11 @@ impl ImplicitShape {
                 cloud.points[k] = p;
                 cloud.normals[k] = n;
                 cloud.areas[k] /= turned.max(0.5);
+                settled += 1;
             }
+        }
+        if settled == 0 {
+            return cloud;
         }
         // A closed surface has Σ a n = 0. Points settled on either side of a crest leave a
         // little of it (0.3 % of the nut's area, the thread's crests settling more often on
@@ -333,6 +343,9 @@ impl ImplicitShape {
     }
 }
 
+/// A sampled point whose quad faces within this cosine (10°) of the function's normal keeps
+/// its place and normal ([`ImplicitShape::settle`]): the mesh is as good as the sampling there.
+const KEPT_COSINE: f64 = 0.984_807_753_012_208;
 /// Newton's steps that put a sampled point on the zero level ([`ImplicitShape::settle`]).
 const PROJECTION_STEPS: usize = 12;
 /// How far from the zero level a settled point may be (m).
@@ -490,9 +503,10 @@ mod tests {
 
     #[test]
     fn settled_points_lie_on_the_thread_and_read_it_from_afar() {
-        // The bolt's cloud at 1 cm: all but a few points (measured: 30 of 73,685, in the
-        // corner where the thread meets the head) settle on the zero level (within 1e-9 m),
-        // with the function's normal.
+        // The bolt's cloud at 1 cm: every point but a few (measured: 30 of 73,685, in the
+        // corner where the thread meets the head) faces within 10° of the function's normal:
+        // kept as sampled where its quad did, else put on the zero level (within 1e-9 m) with
+        // the function's normal.
         let bolt = ImplicitShape::Bolt { radius: 0.255 };
         let (mesh, _) = bolt.surface("bolt").expect("a closed surface");
         // The grid's surface simplifies (it keeps a few triangles of no area, dropped).
@@ -501,19 +515,18 @@ mod tests {
         assert!(simple.flat > 0);
         let sampled = mesh.sample(0.01);
         let cloud = bolt.settle(sampled.clone());
-        let on = cloud
-            .points
-            .iter()
-            .zip(&cloud.normals)
-            .filter(|(p, n)| {
-                bolt.distance(p).abs() <= 1e-9 && bolt.gradient(p).normalize().dot(n) > 1.0 - 1e-12
-            })
-            .count();
-        assert!(
-            on >= cloud.points.len() * 999 / 1000,
-            "{on} of {}",
-            cloud.points.len()
-        );
+        let (mut facing, mut moved) = (0, 0);
+        for ((p, n), before) in cloud.points.iter().zip(&cloud.normals).zip(&sampled.points) {
+            let along = bolt.gradient(p).normalize().dot(n);
+            if p != before {
+                assert!(bolt.distance(p).abs() <= 1e-9 && along > 1.0 - 1e-12);
+                moved += 1;
+            }
+            facing += usize::from(along >= KEPT_COSINE);
+        }
+        let n = cloud.points.len();
+        assert!(facing >= n * 999 / 1000, "{facing} of {n}");
+        assert!(moved > 0 && moved < n / 4, "{moved} of {n}");
         // Still closed, and enclosing the mesh's volume within 1 % (measured: 2e-5).
         let area: f64 = cloud.areas.iter().sum();
         assert!(cloud.closure_defect().norm() < 1e-12 * area);

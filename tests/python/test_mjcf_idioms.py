@@ -1199,11 +1199,11 @@ def test_a_nut_screws_down_its_bolt_as_the_thread_demands(tmp_path):
     the thread (z 0.8283 m: MuJoCo's nut there turns and descends steadily from the start), under
     gravity: from 0.02 to 0.12 s it turns 24π radians per metre it descends (the thread's lead)
     within 3 %, and turns as far as MuJoCo's nut does (MuJoCo colliding the plugins' distance
-    functions) within 5 %. Measured: SCM 76.2 rad/m and 0.1928 rad, MuJoCo 75.4 rad/m and
-    0.1969 rad; started at MuJoCo's file's height, at the default 1 cm spacing SCM's nut lost
-    45 % of its spin in 0.2 s (the thread's crests read a few millimetres wrong at that spacing,
-    and the friction of the flanks they squeeze together brakes it), at 5 mm 10 % against
-    MuJoCo's 4 %."""
+    functions) within 5 %. Measured: SCM 74.9 rad/m and 0.1917 rad, MuJoCo 75.4 rad/m and
+    0.1969 rad. Started at MuJoCo's file's height (every point settled), at the default 1 cm
+    spacing SCM's nut lost 45 % of its spin in 0.2 s (the thread's crests read a few
+    millimetres wrong at that spacing, and the friction of the flanks they squeeze together
+    brakes it), at 5 mm 10 % against MuJoCo's 4 %."""
     path = tmp_path / "nut_on_bolt.xml"
     path.write_text(NUT_ON_BOLT)
     start = {"nut.pos.z": 0.8283, "nut.angvel.z": 2.0, "nut.linvel.z": -2.0 / RADIANS_PER_METRE}
@@ -1336,8 +1336,8 @@ def test_gears_of_the_gear_plugin_weigh_and_mesh_as_in_mujoco(tmp_path):
     the driven gear turns as far as the driver within 2 % (equal gears); at every 0.02 s its
     speed is the driver's within 5 % (the teeth roll on each other without chatter; measured
     1.9 %); the pair speeds up as one rigid body of both gears' moments about their axles
-    against the motor and both dampers, within 3 % at 0.6 s (measured 1.8 % slower: the teeth's
-    friction). At 0.6 s both angles are MuJoCo's within 5 % (measured 1 %) with the file's SDF
+    against the motor and both dampers, within 3 % at 0.6 s (measured 2.0 % slower: the teeth's
+    friction). At 0.6 s both angles are MuJoCo's within 5 % (measured 1.1 %) with the file's SDF
     collision settings (5 iterations from 20 points, as MuJoCo's gear.xml); MuJoCo's own spread
     is wide: at its defaults (10 from 40) or at 20 from 40 its gears bounce apart and its driver
     is at 0.052 or 0.068 rad at 0.6 s where it is at 0.116 with the file's settings."""
