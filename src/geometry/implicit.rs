@@ -503,7 +503,7 @@ mod tests {
 
     #[test]
     fn settled_points_lie_on_the_thread_and_read_it_from_afar() {
-        // The bolt's cloud at 1 cm: every point but a few (measured: 30 of 73,685, in the
+        // The bolt's cloud at 1 cm: every point but a few (those that do not settle, in the
         // corner where the thread meets the head) faces within 10° of the function's normal:
         // kept as sampled where its quad did, else put on the zero level (within 1e-9 m) with
         // the function's normal.

@@ -446,7 +446,7 @@ impl ActuatorDefaults {
         // activation's range, which SCM does not derive.
         let kind = match kind.as_str() {
             "intvelocity" | "cylinder" => {
-                if el.attr("inheritrange").is_some() {
+                if resolved.inheritrange > 0.0 {
                     return Err(error(el, "inheritrange on an <intvelocity> is not supported by SCM: give its actrange (and actlimited) instead"));
                 }
                 el.name = "general".into();

@@ -11,6 +11,9 @@ use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
+/// The finest grid side SCM makes a supersphere or supertorus of (MuJoCo's gallery uses 64).
+const MAX_RESOLUTION: i64 = 4096;
+
 /// A built-in mesh's vertices (unit size, before `scale`) and faces (`None`: the convex hull of
 /// the vertices), or why it has no surface.
 pub(super) enum Builtin {
@@ -33,6 +36,12 @@ pub(super) fn builtin(kind: &str, params: &[f64]) -> Result<Builtin, String> {
         }
     };
     let int = |x: f64| x as i64;
+    // MuJoCo's resolutions are C ints; SCM makes at most MAX_RESOLUTION along a side.
+    let too_fine = |n: i64| {
+        Err(format!(
+            "a builtin {kind} of resolution {n}: SCM makes at most {MAX_RESOLUTION} along a side"
+        ))
+    };
     match kind {
         "sphere" => {
             want(1)?;
@@ -51,6 +60,9 @@ pub(super) fn builtin(kind: &str, params: &[f64]) -> Result<Builtin, String> {
         "supersphere" => {
             want(3)?;
             let (res, e, n) = (int(params[0]), params[1], params[2]);
+            if res > MAX_RESOLUTION {
+                return too_fine(res);
+            }
             if res < 3 || e < 0.0 || n < 0.0 {
                 return Err("a supersphere needs a resolution of 3 or more and exponents e, n not negative (MuJoCo refuses others)".into());
             }
@@ -59,6 +71,9 @@ pub(super) fn builtin(kind: &str, params: &[f64]) -> Result<Builtin, String> {
         "supertorus" => {
             want(4)?;
             let (res, radius, s, t) = (int(params[0]), params[1], params[2], params[3]);
+            if res > MAX_RESOLUTION {
+                return too_fine(res);
+            }
             if res < 3 || radius <= 0.0 || radius > 1.0 || s <= 0.0 || t <= 0.0 {
                 return Err("a supertorus needs a resolution of 3 or more, a radius in (0, 1] and positive exponents s, t (MuJoCo refuses others)".into());
             }
@@ -67,13 +82,27 @@ pub(super) fn builtin(kind: &str, params: &[f64]) -> Result<Builtin, String> {
         "cone" => {
             want(2)?;
             let edges = int(params[0]);
+            if edges > MAX_RESOLUTION * MAX_RESOLUTION {
+                return too_fine(edges);
+            }
             if edges < 3 {
                 return Err("a builtin cone needs 3 or more edges".into());
             }
             Ok(cone(edges as usize, params[1]))
         }
-        "wedge" | "plate" => {
-            want(if kind == "wedge" { 5 } else { 2 })?;
+        "wedge" => {
+            want(5)?;
+            let p = params;
+            if p[0] < 1.0 || p[1] < 1.0 || !(p[2] > 0.0 && p[2] <= 180.0) || !(p[3] > 0.0 && p[3] <= 90.0) || !(0.0..=1.0).contains(&p[4]) {
+                return Err("a builtin wedge needs positive resolutions, fields of view in (0, 180] and (0, 90] degrees and gamma in [0, 1] (MuJoCo refuses others)".into());
+            }
+            Ok(Builtin::SensorGrid)
+        }
+        "plate" => {
+            want(2)?;
+            if params[0] < 1.0 || params[1] < 1.0 {
+                return Err("a builtin plate needs positive resolutions (MuJoCo refuses others)".into());
+            }
             Ok(Builtin::SensorGrid)
         }
         _ => Err(format!(

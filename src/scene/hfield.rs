@@ -10,6 +10,9 @@ use super::*;
 use crate::geometry::{Shape, TriMesh};
 use std::path::PathBuf;
 
+/// The most grid points SCM takes in a height field (a 4096 × 4096 image).
+const MAX_POINTS: usize = 1 << 24;
+
 /// A `<hfield>` asset.
 #[derive(Clone, Debug)]
 pub struct HeightField {
@@ -62,8 +65,11 @@ impl Builder {
         let count = |key: &str| -> Result<Option<usize>, SceneError> {
             match el.attr(key).map(|v| v.trim().parse::<i64>()) {
                 None => Ok(None),
-                Some(Ok(n)) if n >= 0 => Ok(Some(n as usize)),
-                Some(_) => Err(self.err(el, format!("{key} must be a non-negative integer"))),
+                Some(Ok(n)) if (0..=i64::from(i32::MAX)).contains(&n) => Ok(Some(n as usize)),
+                Some(_) => Err(self.err(
+                    el,
+                    format!("{key} must be a non-negative integer (MuJoCo's int)"),
+                )),
             }
         };
         let (nrow, ncol) = (count("nrow")?, count("ncol")?);
@@ -85,20 +91,28 @@ impl Builder {
                 let read = if png { read_png(&path) } else { read_custom(&path) };
                 let (nrow, ncol, data) =
                     read.map_err(|why| self.err(el, format!("{}: {why}", path.display())))?;
+                if nrow * ncol > MAX_POINTS {
+                    return Err(self.err(el, format!("a height field of {nrow} x {ncol} points: SCM takes at most {MAX_POINTS}")));
+                }
                 (Some(Grid { nrow, ncol, data }), Some((f, path)))
             }
             (None, Some(text)) => {
                 let (Some(nrow), Some(ncol)) = (nrow, ncol) else {
                     return Err(self.err(el, "elevation=\"...\" needs nrow and ncol"));
                 };
-                let data: Vec<f32> = parse_floats(text)
+                let cells = nrow.checked_mul(ncol).filter(|&n| n <= MAX_POINTS).ok_or_else(|| {
+                    self.err(el, format!("a height field of {nrow} x {ncol} points: SCM takes at most {MAX_POINTS}"))
+                })?;
+                let written: Vec<f32> = parse_floats(text)
                     .ok_or_else(|| self.err(el, "elevation: expected finite numbers"))?
                     .iter()
                     .map(|&x| x as f32)
                     .collect();
-                if data.len() != nrow * ncol {
-                    return Err(self.err(el, format!("elevation has {} numbers where nrow × ncol is {} (MuJoCo refuses it too)", data.len(), nrow * ncol)));
+                if written.len() != cells {
+                    return Err(self.err(el, format!("elevation has {} numbers where nrow × ncol is {cells} (MuJoCo refuses it too)", written.len())));
                 }
+                // Written top to bottom, as MuJoCo reads it: the first row at +y.
+                let data = written.chunks(ncol).rev().flatten().copied().collect();
                 (Some(Grid { nrow, ncol, data }), None)
             }
             (None, None) => {
@@ -159,12 +173,16 @@ impl Builder {
             return Ok(None);
         };
         if body != 0 {
-            return Err(self.err(el, "a height field with elevation data on a moving body is not supported by SCM (MuJoCo gives it no mass either): put it in the worldbody"));
+            return Err(self.err(el, "a height field with elevation data outside the worldbody is not supported by SCM: put its geom in the worldbody"));
         }
         let (vertices, triangles) = grid.solid(&size);
         let label = format!("height field '{name}'");
-        let (mesh, _) = TriMesh::new(&label, vertices, triangles)
+        let (mesh, warnings) = TriMesh::new(&label, vertices, triangles)
             .map_err(|e| self.err(el, format!("{label}: {}", e.problem)))?;
+        for w in warnings {
+            self.warnings
+                .push(format!("{}:{}: <geom> {w}", el.file, el.line));
+        }
         Ok(Some(Shape::Mesh(Arc::new(mesh))))
     }
 }

@@ -239,9 +239,17 @@ impl Builder {
         placement: Placement,
         weighing: (MeshInertia, Option<i64>),
     ) -> Result<(), SceneError> {
-        for key in ["file", "vertex", "face"] {
+        if el.attr("file").is_some() {
+            return Err(self.err(el, "a mesh is built in (builtin=\"...\") or read from file=\"...\", not both (MuJoCo refuses it too): remove one"));
+        }
+        for key in ["vertex", "face"] {
             if el.attr(key).is_some() {
-                return Err(self.err(el, format!("a built-in mesh takes no {key}=\"...\" (MuJoCo refuses it too): remove one")));
+                return Err(self.err(
+                    el,
+                    format!(
+                        "a built-in mesh makes its own vertices and faces: remove {key}=\"...\""
+                    ),
+                ));
             }
         }
         let name = Self::given_name(el)

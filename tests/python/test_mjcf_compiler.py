@@ -1279,7 +1279,8 @@ def test_builtin_meshes_compile_as_mujoco_compiles_them(tmp_path):
     ('<mesh name="m" builtin="supertorus" params="16 1.5 1 1"/>', "radius in (0, 1]"),
     ('<mesh name="m" builtin="supersphere" params="16 1"/>', "takes 3 parameter(s)"),
     ('<mesh name="m" builtin="hemisphere" params="11"/>', "0 to 10"),
-    ('<mesh name="m" builtin="sphere" params="1" file="x.obj"/>', "takes no file"),
+    ('<mesh name="m" builtin="sphere" params="1" file="x.obj"/>', "not both"),
+    ('<mesh name="m" builtin="wedge" params="5 5 200 45 0"/>', "fields of view"),
 ])
 def test_a_builtin_mesh_mujoco_refuses_is_refused_saying_why(tmp_path, mesh, says):
     """Parameters MuJoCo's compiler refuses for a built-in mesh, SCM refuses at the mesh's line."""
@@ -1351,10 +1352,10 @@ HEIGHT_FIELD = """<mujoco>
 """
 
 
-@pytest.mark.parametrize("field", ["png", "custom"])
+@pytest.mark.parametrize("field", ["png", "custom", "inline"])
 def test_height_fields_with_elevation_data_collide_as_in_mujoco(tmp_path, field):
-    """Height fields with elevation data (inline; a grey PNG, as MuJoCo's touch-grid scene; MuJoCo's
-    own binary file), scaled to [0, 1] as MuJoCo scales them. Two balls dropped on a step whose
+    """Height fields with elevation data (inline, written from +y down; a grey PNG, as MuJoCo's
+    touch-grid scene; MuJoCo's own binary file), scaled to [0, 1] as MuJoCo scales them. Two balls dropped on a step whose
     high side is the image's top rows (MuJoCo's +y) rest where MuJoCo's do after 1 s, up and
     down, their heights within 1.5 mm (measured 0.9 mm: SCM's ball sinks 1.1 mm into the field's
     cloud where MuJoCo's sinks 0.2 mm, the pair's softness of docs/mjcf.md), and one on the
@@ -1369,6 +1370,10 @@ def test_height_fields_with_elevation_data_collide_as_in_mujoco(tmp_path, field)
     if field == "png":
         (tmp_path / "step.png").write_bytes(_png(step))
         asset = '<hfield name="step" file="step.png" size="0.4 0.3 0.1 0.05"/>'
+    elif field == "inline":
+        # Written from +y down, as an image (MuJoCo reverses the rows it reads).
+        elevation = "  ".join(" ".join(str(x) for x in r) for r in step)
+        asset = f'<hfield name="step" nrow="4" ncol="5" elevation="{elevation}" size="0.4 0.3 0.1 0.05"/>'
     else:
         rows = step[::-1]  # MuJoCo's file runs from -y
         data = struct.pack("<ii", 4, 5) + struct.pack("<20f", *[x / 255 * 7 + 2 for r in rows for x in r])
@@ -1401,7 +1406,8 @@ def test_height_fields_with_elevation_data_collide_as_in_mujoco(tmp_path, field)
     fmu = tmp_path / "fields.fmu"
     subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True, capture_output=True)
     import zipfile
-    assert f"resources/meshes/step.{'png' if field == 'png' else 'bin'}" in zipfile.ZipFile(fmu).namelist()
+    if field != "inline":
+        assert f"resources/meshes/step.{'png' if field == 'png' else 'bin'}" in zipfile.ZipFile(fmu).namelist()
 
 
 def test_a_flat_height_field_compiles_as_the_plane_of_its_surface(tmp_path):

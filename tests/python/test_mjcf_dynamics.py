@@ -348,6 +348,12 @@ def test_inheritrange_on_an_intvelocity_is_refused(tmp_path):
     mujoco.MjModel.from_xml_path(str(path))
     out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
     assert out.returncode != 0 and "give its actrange" in out.stderr, out.stderr
+    # Also where a default class gives it.
+    classed = xml.replace("<default>", '<default><default class="inherit"><intvelocity inheritrange="1"/></default>')
+    path.write_text(classed.replace('kv="0.4" actrange="-0.5 0.4"', 'kv="0.4" class="inherit"'))
+    mujoco.MjModel.from_xml_path(str(path))
+    out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+    assert out.returncode != 0 and "give its actrange" in out.stderr, out.stderr
 
 
 @pytest.mark.parametrize("integrator", ["Euler", "RK4"])

@@ -129,7 +129,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                         continue;
                     };
                     if let Some(scm::geometry::Shape::Implicit { .. }) = &g.shape {
-                        say!(w, "  geom {}: its points put on the distance function's zero level, with its normals", g.name);
+                        say!(w, "  geom {}: its points facing more than 10° from the distance function's normal put on its zero level, with that normal", g.name);
                     }
                     let uniform = h.coarse.min();
                     match mesh.simplified(uniform) {

@@ -113,7 +113,7 @@ impl TriMesh {
                 })
                 .collect();
             // What sampling needs is a closed, oriented surface: every edge run as often one
-            // way as the other, and no triangle of zero area. A collapse may pinch two sheets
+            // way as the other (triangles of no area are dropped below). A collapse may pinch two sheets
             // of a thin part together (an edge of four triangles): sampling takes that as it
             // is. A volume further off than SIMPLIFY_VOLUME means the tolerance was coarse for
             // the part; then the tolerance is halved, a few times, before the mesh is sampled
