@@ -14,6 +14,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
+use super::gear_profile::gear_profile;
 use super::mesh::{MeshError, TriMesh};
 use super::Aopc;
 
@@ -103,11 +104,17 @@ impl ImplicitShape {
                     .max((p.z + r - 0.22) * HALF_SQRT2);
                 shaft.min(head)
             }
-            ImplicitShape::Gear { thickness, .. } => {
+            ImplicitShape::Gear {
+                alpha,
+                diameter,
+                teeth,
+                thickness,
+                inner,
+            } => {
                 // The profile's distance in the plane, extruded (exact outside the slab's
                 // edges, as the plugin's extrusion).
                 let (w0, w1) = (
-                    self.gear_profile(p.x, p.y, radial),
+                    gear_profile((alpha, diameter, teeth, inner), p.x, p.y, radial),
                     p.z.abs() - thickness / 2.0,
                 );
                 w0.max(w1).min(0.0) + w0.max(0.0).hypot(w1.max(0.0))
@@ -144,59 +151,6 @@ impl ImplicitShape {
             } => Vector3::new(0.625 * diameter, 0.625 * diameter, 0.55 * thickness),
         };
         (Vector3::zeros(), half)
-    }
-
-    /// The gear's profile in the plane at `(x, y)`, `radial` from the axis: the involutes of
-    /// both flanks of the nearest tooth cut by the walls between teeth, smoothly cut at the
-    /// tip circle and smoothly joined to the root circle, less the bore (the plugin's terms).
-    fn gear_profile(&self, x: f64, y: f64, radial: f64) -> f64 {
-        let ImplicitShape::Gear {
-            alpha,
-            diameter,
-            teeth,
-            inner,
-            ..
-        } = *self
-        else {
-            unreachable!("a gear's profile")
-        };
-        let pitch = teeth / diameter; // teeth per metre of diameter
-        let pitch_radius = diameter / 2.0;
-        let tip = pitch_radius + 1.0 / pitch;
-        let depth = 2.2 / pitch;
-        let bore = if inner >= 0.0 {
-            inner / 2.0
-        } else {
-            tip - depth - 0.14 * diameter
-        };
-        if bore > radial {
-            return bore - radial;
-        }
-        if radial - tip > 0.2 {
-            return radial - tip;
-        }
-        let pressure = 3.096e-5 * teeth * teeth - 6.557e-3 * teeth + 0.551;
-        let base = pitch_radius * pressure.cos();
-        let stride = std::f64::consts::PI / pitch / pitch_radius; // angle from tooth to tooth
-        let involute = |a: f64| a.tan() - a;
-        let shift = stride / 2.0 - 2.0 * involute((base / pitch_radius).acos());
-        let azimuth = y.atan2(x) + alpha;
-        let wrap = |a: f64| a - stride * (a / stride).floor();
-        // The angle from each flank's involute start, within the nearest tooth.
-        let fa = wrap(azimuth + shift / 2.0) - shift / 2.0;
-        let fb = wrap(-azimuth - shift / 2.0) - shift / 2.0;
-        let (mut da, mut db) = (-1e6, -1e6);
-        if base < radial {
-            let roll = (base / radial).acos();
-            let along = (radial * radial - base * base).sqrt();
-            da = along - base * (fa + roll);
-            db = along - base * (fb + roll);
-        }
-        let walls = (fa - (stride - shift)).max(fb - (stride - shift));
-        let cogs = da.max(db).max(walls);
-        let cogs = smooth_intersection(radial - tip, cogs, 0.0035 * diameter);
-        let cogs = smooth_union(radial - (tip - depth), cogs, base - tip + depth);
-        cogs.max(bore - radial)
     }
 
     /// The cloud of this shape's surface (sampled from [`ImplicitShape::surface`]) with each
@@ -357,18 +311,6 @@ const GRADIENT_STEP: f64 = 1e-7;
 /// Turns of the bolt's and the nut's thread per metre along the axis (the plugins' `screw`).
 const SCREW: f64 = 12.0;
 const HALF_SQRT2: f64 = std::f64::consts::FRAC_1_SQRT_2;
-
-/// The plugins' smooth union of two distances, blended over `k`.
-fn smooth_union(a: f64, b: f64, k: f64) -> f64 {
-    let h = (0.5 + 0.5 * (b - a) / k).clamp(0.0, 1.0);
-    b * (1.0 - h) + a * h - k * h * (1.0 - h)
-}
-
-/// The plugins' smooth intersection: the intersection less the smooth union of the two
-/// differences.
-fn smooth_intersection(a: f64, b: f64, k: f64) -> f64 {
-    a.max(b).max(-smooth_union(a.max(-b), b.max(-a), k))
-}
 
 /// The thread's profile at `p`: a triangle wave in `12 z - φ/2π` (`φ` the azimuth), between 0
 /// and ½, so that its crest winds once round the axis per 1/12 m.
