@@ -253,19 +253,30 @@ pub(super) fn aopc_exceeds(
             return (true, hint);
         }
     }
-    let (j, dj) = if vmax.is_some() && bvh.len() > 2048 {
+    let approximate = vmax.is_some() && bvh.len() > 2048;
+    let (mut j, mut dj) = if approximate {
         bvh.near(c, hint)
     } else {
         bvh.nearest_hint(c, hint)
     };
-    let (pj, nj) = (bvh.points[j], bvh.normals[j]);
     let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
     // The witness is relevant at the centre; if its plane comes below `need` in the region,
-    // the answer would be `false` anyway (a quick exit, not part of the proof).
-    if nj.dot(&(c - pj)) + q.min_lin(&nj) <= need {
+    // the answer would be `false` anyway (a quick exit, not part of the proof). A witness
+    // found without backtracking ([`Bvh::near`]) can lie on the far side of a thin part (the
+    // outer face of a wall 2 cm thick, 2 cm farther than the inner face, whose plane the query
+    // lies behind): before giving up on it, the exact nearest point is taken and tried.
+    let below = |j: usize| {
+        let (pj, nj) = (bvh.points[j], bvh.normals[j]);
+        nj.dot(&(c - pj)) + q.min_lin(&nj) <= need
+    };
+    if below(j) && approximate {
+        (j, dj) = bvh.nearest_hint(c, j);
+    }
+    if below(j) {
         open.extend_from_slice(front);
         return (false, j);
     }
+    let pj = bvh.points[j];
     // The witness's flat patch, if any (step 1' of [`ssdf_exceeds_over`]).
     let patch = bvh.patch_of(j);
     let start = open.len();

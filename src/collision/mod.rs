@@ -60,7 +60,9 @@ pub use memo::{
     CandidateMemo, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
 };
 pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof};
-pub use reach::{cloud_beyond, out_of_reach, reach_distance, ReachParams, REACH_BUDGET};
+pub use reach::{
+    cloud_beyond, out_of_reach, reach_budget, reach_distance, ReachParams, REACH_BUDGET,
+};
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.

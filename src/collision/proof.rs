@@ -61,13 +61,21 @@ impl ProofSide {
     /// than `life` (s): the proof would not be reused.
     fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
         let (m1_per_eps1, bound, gap) = side.margins();
-        if gap.is_nan() || gap <= 0.0 {
+        let overlapping = matches!(side.planes, Collider::Aopc(_)) && gap <= 0.0;
+        if gap.is_nan() || (gap <= 0.0 && !overlapping) {
             return None;
         }
         let (delta, m1) = match side.planes {
             Collider::Aopc(_) => {
                 let m1 = m1_per_eps1 * eps1;
-                let delta = (0.25 * gap).min(3.0 * m1 / (4.0 * bound));
+                // Root spheres that overlap (two links of one arm) leave the relevance margin
+                // alone to choose the room by.
+                let quarter = if overlapping {
+                    f64::INFINITY
+                } else {
+                    0.25 * gap
+                };
+                let delta = quarter.min(3.0 * m1 / (4.0 * bound));
                 (delta, m1 + 4.0 * delta * (bound + delta) + delta * delta)
             }
             Collider::HalfSpace { .. } => (0.5 * gap, 0.0),

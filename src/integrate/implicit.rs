@@ -81,7 +81,9 @@ impl VectorFunction for ContactImplicitResidual<'_> {
 }
 
 /// The implicit Euler step equation's residual `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` at `vs`,
-/// `from.u` the inputs at the end of the step.
+/// `from.u` the inputs at the end of the step; with `kept`, the pairs' kept out-of-reach proofs
+/// and candidate planes serve each iterate (a proof with room holds wherever it covers, so an
+/// iterate may be switched off by it as the step's start is; docs/performance.md).
 fn step_residual<T: Scalar>(
     model: &Model,
     from: StepFrom<'_, T>,
@@ -93,7 +95,7 @@ fn step_residual<T: Scalar>(
     let q = model.tree.integrate_q(q0, vs, h);
     let mut carried = kept.map(RefCell::borrow_mut);
     let opts = ForwardOptions {
-        reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::Candidates(c)),
+        reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::All(c)),
         ..ForwardOptions::default()
     };
     let a = model.forward_with(&q, vs, u, prm, opts)?.vdot;

@@ -56,9 +56,10 @@ impl PartialEq for WarmJacobian {
 }
 
 /// Newton's method for `residual(x) = 0` from `guess`, with a real Jacobian (see
-/// [`Integrator::ImplicitEuler`](crate::integrator::Integrator::ImplicitEuler)): backtracking line search; in `f64` a Jacobian is kept (also from
-/// the caller's `jac`) while the iterations contract by 4 or more per step; with dual numbers a
-/// fresh one every iteration.
+/// [`Integrator::ImplicitEuler`](crate::integrator::Integrator::ImplicitEuler)): backtracking
+/// line search; in `f64` a Jacobian is kept (also from the caller's `jac`) while the iterations
+/// contract by 4 or more per step and reach the tolerance sooner than a fresh one would
+/// ([`worth_keeping`]); with dual numbers a fresh one every iteration.
 pub(super) fn newton<T: Scalar>(
     residual: &Residual<T>,
     real_jacobian: &RealJacobian,
@@ -160,8 +161,11 @@ pub(super) fn newton<T: Scalar>(
         if alpha == 1.0 && fresh && step <= 1e-7 * scale && contraction > 0.5 {
             return Ok(x);
         }
-        // Slow contraction or a damped step: a fresh Jacobian next time.
-        if alpha < 1.0 || contraction > 0.25 {
+        // Slow contraction, a damped step, or a kept Jacobian's rate (two full steps with it)
+        // that would take more iterations to the tolerance than a fresh one costs: a fresh
+        // Jacobian next time.
+        let slow = !fresh && last_full && !worth_keeping(contraction, step, scale, n);
+        if alpha < 1.0 || contraction > 0.25 || slow {
             refresh = true;
         }
         // Heavily damped steps one after another: the iterate is far from the solution's basin
@@ -174,6 +178,30 @@ pub(super) fn newton<T: Scalar>(
         last_full = alpha == 1.0;
     }
     Err(fail(NEWTON_MAX_ITER, &r))
+}
+
+/// What one pass of dual numbers of [`jacobian`](crate::autodiff::jacobian) costs, in
+/// evaluations of the residual: about 3.5 on robosuite's xArm7 (7 velocities, one pass of
+/// width 8; its residual about 5.8 ms), from the totals of runs under three refresh rules.
+const JACOBIAN_PASS_COST: f64 = 4.0;
+
+/// Whether a kept Jacobian whose last full step contracted by `theta` to `step` is cheaper to
+/// go on with than a fresh one. At that rate the tolerance is `ln(tol / step) / ln θ`
+/// iterations away; a fresh Jacobian costs about two quadratic iterations and its passes
+/// (`⌈n/8⌉`, [`JACOBIAN_PASS_COST`] each), half of which is counted against this step because
+/// it also serves the next ones (on the xArm7 a fresh one contracts by about 0.03 at the next
+/// step). Under the rule of 0.25 alone, a kept Jacobian contracting by 0.19 at every step took
+/// the xArm7 nine residuals a step (61 ms a step, 0.1 s in 3.05 s); with this rule 3.2
+/// residuals and 0.12 Jacobians a step (1.41 s). A rate not in (0, 1) or a step within the
+/// tolerance keeps it (the other tests decide).
+fn worth_keeping(theta: f64, step: f64, scale: f64, n: usize) -> bool {
+    let tol = NEWTON_TOL * scale;
+    if !(theta > 0.0 && theta < 1.0) || step <= tol {
+        return true;
+    }
+    let to_go = (tol / step).ln() / theta.ln();
+    let fresh = 2.0 + 0.5 * JACOBIAN_PASS_COST * n.div_ceil(8) as f64;
+    to_go <= fresh
 }
 
 pub(super) fn re_vec<T: Scalar>(x: &[T]) -> Vec<f64> {
@@ -260,6 +288,43 @@ mod tests {
                 evaluations.get() < waiting,
                 "off by {off}: {} residuals, {waiting} waiting for a tiny step",
                 evaluations.get()
+            );
+        }
+    }
+
+    /// A kept Jacobian that contracts slowly enough to need more iterations than a fresh one
+    /// costs is replaced after the iteration that shows its rate ([`worth_keeping`]); one that
+    /// contracts fast is kept. A linear residual `A x - b` with `A / (1 - θ)` kept contracts
+    /// at exactly `θ`: at 0.19 (the xArm7's) it took ten residuals and no Jacobian under the
+    /// rule of 0.25 alone; now one fresh Jacobian and four residuals. At 0.01, none.
+    #[test]
+    fn a_slowly_contracting_kept_jacobian_is_replaced() {
+        let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.0, 1.0, 3.0, -1.0, 0.0, -1.0, 2.0]);
+        let b = nalgebra::DVector::from_vec(vec![1.0, -2.0, 0.5]);
+        let solution = a.clone().lu().solve(&b).unwrap();
+        let (evaluations, jacobians) = (Cell::new(0), Cell::new(0));
+        let residual = |x: &[f64]| -> Result<Vec<f64>, DynamicsError> {
+            evaluations.set(evaluations.get() + 1);
+            let r = &a * nalgebra::DVector::from_column_slice(x) - &b;
+            Ok(r.iter().copied().collect())
+        };
+        let exact = |_: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
+            jacobians.set(jacobians.get() + 1);
+            Ok(a.clone())
+        };
+        for (theta, fresh, most) in [(0.19, 1, 4), (0.01, 0, 4)] {
+            evaluations.set(0);
+            jacobians.set(0);
+            let mut jac = Some(WarmJacobian::new(a.clone() / (1.0 - theta)));
+            let start: Vec<f64> = solution.iter().map(|x| x + 1e-3).collect();
+            let x = newton(&residual, &exact, start, &mut jac).unwrap();
+            assert!((0..3).all(|i| (x[i] - solution[i]).abs() <= 1e-9));
+            assert_eq!(jacobians.get(), fresh, "θ = {theta}: fresh Jacobians");
+            assert!(
+                evaluations.get() <= most,
+                "θ = {theta}: {} residuals, {} Jacobians",
+                evaluations.get(),
+                jacobians.get()
             );
         }
     }

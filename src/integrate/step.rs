@@ -182,14 +182,12 @@ impl Model {
                 act,
             });
         }
-        // The later stages (RK4's) with the pairs' kept candidate planes: the same results,
-        // at less cost (their proofs fresh, as everywhere but at a step's start).
+        // The later stages (RK4's) with the pairs' kept proofs and candidate planes, as the
+        // first stage.
         let mut kept = carry.pairs;
         let mut accel = |q: &[T], v: &[T], u: &[T]| -> Result<Vec<T>, DynamicsError> {
             let opts = ForwardOptions {
-                reuse: kept
-                    .as_deref_mut()
-                    .map_or(Reuse::Nothing, Reuse::Candidates),
+                reuse: kept.as_deref_mut().map_or(Reuse::Nothing, Reuse::All),
                 ..ForwardOptions::default()
             };
             let f = self.forward_with(q, v, u, prm, opts)?;

@@ -90,8 +90,6 @@ pub enum Reuse<'a> {
     Nothing,
     /// The out-of-reach proofs and the candidate planes.
     All(&'a mut PairCarry),
-    /// The candidate planes only (they change no result), where proofs must be fresh.
-    Candidates(&'a mut PairCarry),
 }
 
 /// One pair's kept out-of-reach proof and candidate planes, as [`Model::visit_pairs`] hands
@@ -128,7 +126,7 @@ impl Reuse<'_> {
     /// Fits the carried data, if any, to `pairs` pairs ([`PairCarry::fit`]; a no-op when it
     /// fits already).
     pub fn fit(&mut self, pairs: usize) {
-        if let Reuse::All(carry) | Reuse::Candidates(carry) = self {
+        if let Reuse::All(carry) = self {
             carry.fit(pairs);
         }
     }
@@ -319,7 +317,6 @@ impl Model {
         let kept: Vec<PairKept<'_>> = match reuse {
             Reuse::Nothing => (0..n).map(|_| (None, None)).collect(),
             Reuse::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).collect(),
-            Reuse::Candidates(all) => all.pairs().map(|(_, c)| (None, c)).collect(),
         };
         debug_assert_eq!(
             kept.len(),
