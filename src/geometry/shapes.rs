@@ -51,9 +51,10 @@ pub enum Shape {
     /// A closed triangle mesh (checked and oriented, see [`TriMesh`]).
     Mesh(Arc<TriMesh>),
     /// A shape given by a distance function (one of MuJoCo's SDF plugins), with the closed
-    /// surface cut from it ([`ImplicitShape::surface`]): it weighs as that mesh does, and its
-    /// points are put back on the function's zero level with the function's normals
-    /// ([`ImplicitShape::settle`]).
+    /// surface cut from it ([`ImplicitShape::surface`]): it weighs as that mesh does; its
+    /// points whose surface patch faces more than 10° away from the function's normal are put
+    /// back on the function's zero level with the function's normal, the others keep their place
+    /// and normal ([`ImplicitShape::settle`]).
     Implicit {
         /// The distance function.
         shape: ImplicitShape,
