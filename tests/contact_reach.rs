@@ -742,3 +742,105 @@ fn a_dense_ball_beside_a_wall_is_settled_within_a_budget_that_grows_with_its_poi
         "2 mm from the wall is in reach"
     );
 }
+
+/// Gymnasium's humanoid lets its hands hang beside its thighs, 5 to 8 mm apart, where the hand's
+/// sphere (4 cm) has planes 0.4 rad around its nearest point that read 2 mm, within the reach
+/// distance (the margin of 2 mm plus 3.5 mm), yet weigh about `e^-40` of the nearest: the
+/// proof by planes fails on every thigh point facing the hand, and the pair (1,960 and 1,107
+/// points) was evaluated in full at every stage of every RK4 step for forces of 1e-28 N. Summed
+/// with their weights, those points' springs are below the bound from a gap of about 1 cm here
+/// (7 mm in the humanoid's own pose, its forearm nearest); wherever the pair is settled, the
+/// unpruned reference pushes less than the bound, and at 4.5 mm it stays in reach. (At 8 mm
+/// some thigh points still sum springs 3 to 1e7 times the limit: a plane of the hand weighs
+/// little, but its spring grows as `e^{-φ/ε3}` with ε3 = 0.1 mm.)
+#[test]
+fn a_hand_beside_a_thigh_is_settled_by_its_points_springs() {
+    use crate::common::{capsule, humanoid_lower_arm};
+    use scm::collision::{out_of_reach_by, Beyond};
+    use scm::geometry::union::sample_union;
+    let v = Vector3::new;
+    let thigh_geoms = [capsule(v(0.0, 0.0, 0.0), v(0.0, 0.01, -0.34), 0.06)];
+    let thigh_sdf = |x: &Vector3<f64>| {
+        thigh_geoms
+            .iter()
+            .map(|(s, p)| s.sdf(&p.inverse_transform_vector(&(x - p.translation.vector))))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let spacing = 0.01;
+    let thigh = Collider::Aopc(sample_union(&thigh_geoms, spacing));
+    let arm_cloud = sample_union(&humanoid_lower_arm(), spacing);
+    let arm = Collider::Aopc(arm_cloud.clone());
+    let prm = ContactParams {
+        margin: 0.002,
+        ..params(1e-5, 1e-4)
+    };
+    let mut rng = Lcg(41);
+    let mut outcomes = Vec::new();
+    for case in 0..24 {
+        // The arm hangs down beside the thigh (its hand lowest), turned about the vertical,
+        // and is pushed out sideways until it clears the thigh by the case's gap.
+        let hang = Rotation3::from_axis_angle(&Vector3::x_axis(), 2.3)
+            * Rotation3::from_axis_angle(&Vector3::z_axis(), rng.range(-3.0, 3.0));
+        let rotation = hang.into_inner();
+        let side = rng.range(-3.0, 3.0);
+        let dir = v(side.cos(), side.sin(), 0.0);
+        let drop = v(0.0, 0.0, -0.05);
+        let want = [0.0045, 0.008, 0.01, 0.012][case % 4];
+        let gap_at = |d: f64| {
+            arm_cloud
+                .points
+                .iter()
+                .map(|p| thigh_sdf(&(rotation * p + drop + dir * d)))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if gap_at(mid) < want {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let fa = Frame {
+            rotation,
+            origin: drop + dir * hi,
+            linvel: rng.direction() * rng.range(0.0, 0.3),
+            angvel: rng.direction() * rng.range(0.0, 1.0),
+        };
+        let fb = Frame::identity();
+        let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
+        let how = out_of_reach_by(&arm, &thigh, &rels, &prm.reach());
+        outcomes.push((want, how));
+        if !how.proven() {
+            continue;
+        }
+        let speed = fa.linvel.norm() + fa.angvel.norm() * 0.6;
+        let bound = force_bound(&prm, 0.8, speed);
+        let n = pair_contact_naive(&arm, &fa, &thigh, &fb, &prm);
+        for w in [&n.on_a, &n.on_b] {
+            assert!(
+                w.force.norm() <= bound && w.torque.norm() <= bound * 0.6,
+                "case {case}: gap {want}: {how:?}, yet the reference pushes with {:e} N (bound {bound:e} N)",
+                w.force.norm()
+            );
+        }
+    }
+    println!("{outcomes:?}");
+    let count = |gap: f64, how: Beyond| {
+        outcomes
+            .iter()
+            .filter(|(g, h)| *g == gap && *h == how)
+            .count()
+    };
+    assert_eq!(count(0.0045, Beyond::Not), 6, "4.5 mm apart stays in reach");
+    assert!(
+        count(0.01, Beyond::Springs) + count(0.012, Beyond::Springs) > 0,
+        "some pairs are settled only by their points' springs"
+    );
+    assert_eq!(
+        count(0.01, Beyond::Not) + count(0.012, Beyond::Not),
+        0,
+        "1 cm and more apart is settled"
+    );
+}

@@ -49,6 +49,7 @@ mod bounds;
 mod memo;
 mod proof;
 mod reach;
+mod settle;
 #[cfg(test)]
 mod tests;
 mod topk;
@@ -61,7 +62,8 @@ pub use memo::{
 };
 pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof};
 pub use reach::{
-    cloud_beyond, out_of_reach, reach_budget, reach_distance, ReachParams, REACH_BUDGET,
+    cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, reach_distance, Beyond, ReachParams,
+    REACH_BUDGET,
 };
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 

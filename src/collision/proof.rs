@@ -3,7 +3,7 @@
 //! comparison, while neither body has moved farther than that room; and a kept proof read from
 //! outside (a restored FMU state) is proven again before it is trusted.
 
-use super::reach::{cloud_beyond, sides, Side};
+use super::reach::{cloud_beyond, out_of_reach_by, reach_budget, sides, Beyond, Side};
 use super::*;
 
 /// An out-of-reach proof kept for the steps after it (docs/performance.md, "A proof that is
@@ -96,14 +96,16 @@ impl ProofSide {
             Collider::HalfSpace { .. } => 1.0,
         };
         eps1 > 0.0
+            // Planes only: a point settled by its springs gives no room.
             && cloud_beyond(
                 planes,
                 query,
-                &self.rotation,
-                &self.translation,
+                (&self.rotation, &self.translation),
                 self.t,
                 eps1,
-            )
+                SpringShape::NONE,
+                &mut reach_budget(query.len()),
+            ) == Beyond::Planes
     }
 }
 
@@ -141,13 +143,12 @@ pub fn out_of_reach_proven(
         }
     }
     *kept = None;
-    let proven = sides
-        .iter()
-        .all(|(_, s)| cloud_beyond(s.planes, s.query, &s.rotation, &s.translation, s.t, eps1));
+    let how = out_of_reach_by(a, b, rels, prm);
     // Out of reach now: prove it again with room to move, and keep that for the next steps.
     // (Only here: a pair near enough to fail the plain proof would fail this one too, and a
-    // failing proof can cost a whole budget of node tests.)
-    if proven {
+    // failing proof can cost a whole budget of node tests. Nor where a point needed its
+    // springs summed: the proof with room is by planes alone, and that point would fail it.)
+    if how == Beyond::Planes {
         let mut fresh = [None, None];
         let roomy = sides.iter().all(|(i, s)| {
             ProofSide::with_room(s, eps1, life)
@@ -159,7 +160,7 @@ pub fn out_of_reach_proven(
             *kept = Some(ReachProof { sides: fresh });
         }
     }
-    proven
+    how.proven()
 }
 
 /// Whether `kept` is a proof that holds for the pair `a`–`b`: each side present where the

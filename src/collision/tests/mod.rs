@@ -2,7 +2,8 @@
 //! against the naive evaluation (`band.rs`), with their shared samplers.
 
 use super::bounds::*;
-use super::reach::{cloud_beyond_with, seed_within};
+use super::reach::cloud_beyond_with;
+use super::settle::seed_within;
 use super::*;
 use crate::geometry::Shape;
 
