@@ -224,8 +224,13 @@ impl Model {
             // The Newton Jacobian of implicit Euler, or of damped Euler in contact, carried
             // from step to step while it serves.
             // With it, implicit Euler's last velocity change V - v, its next start guess.
+            // (The internal step as computed, `duration / n`, can differ by a rounding from the
+            // one the cache was left for, e.g. 0.01 s in calls of 0.01 s or of 0.1 s: a warm
+            // start serves either.)
             let (mut jac, mut dv) = match cache.left {
-                Some((ref s_left, h_left)) if h_left == dt && s_left == state => {
+                Some((ref s_left, h_left))
+                    if (h_left - dt).abs() <= 1e-12 * dt.abs() && s_left == state =>
+                {
                     (cache.jacobian.take(), cache.velocity_change.take())
                 }
                 _ => (None, None),

@@ -331,14 +331,25 @@ fn simulate(
     };
     let header: Vec<&str> = std::iter::once("time").chain(sim.output_names()).collect();
     say!(w, "{}", header.join(","));
-    // Rows every `h`, the last one exactly at `duration` (its step may be shorter).
+    // Rows every `h`, the last one exactly at `duration` (its step may be shorter). Each call
+    // advances by `h` itself, as FMI hosts do, not by the difference of two row times, which
+    // differs from `h` by a rounding: the steps inside are then all alike (the last call's
+    // rounds to `h` where it is within 1e-9 of it).
     let n = (duration / h * (1.0 - 1e-12)).ceil().max(1.0) as usize;
     let at = |k: usize| (k as f64 * h).min(duration);
+    let step = |k: usize| {
+        let d = if k < n { h } else { duration - at(k - 1) };
+        if (d - h).abs() <= 1e-9 * h {
+            h
+        } else {
+            d
+        }
+    };
     let start = std::time::Instant::now();
     let mut progress: Option<indicatif::ProgressBar> = None;
     for k in 0..=n {
         if k > 0 {
-            sim.advance(at(k) - at(k - 1)).map_err(|e| e.to_string())?;
+            sim.advance(step(k)).map_err(|e| e.to_string())?;
         }
         let row: Vec<String> = std::iter::once(at(k))
             .chain(sim.outputs()?)
