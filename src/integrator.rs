@@ -136,6 +136,19 @@ impl Integrator {
         self == Integrator::Dopri5
     }
 
+    /// About how many forward dynamics (each with the pairs' reach proofs) an internal step
+    /// evaluates: RK4's four stages, implicit Euler's Newton residuals (about three once its
+    /// Jacobian is kept), one for the others (damped Euler's contact is frozen at the step's
+    /// start). Dormand–Prince's seven stages are counted, though it proves afresh.
+    pub fn forwards_per_step(self) -> f64 {
+        match self {
+            Integrator::Rk4 => 4.0,
+            Integrator::ImplicitEuler => 3.0,
+            Integrator::Dopri5 => 7.0,
+            Integrator::Euler | Integrator::SemiImplicitEuler | Integrator::DampedEuler => 1.0,
+        }
+    }
+
     /// Order of accuracy.
     pub fn order(self) -> usize {
         match self {

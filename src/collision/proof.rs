@@ -35,19 +35,19 @@ pub struct ProofSide {
 impl ProofSide {
     /// Whether the proof still covers `side` now: every query point has moved at most `δ`
     /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), so a plane relevant now (within `M1 ε1`)
-    /// was within `M1 ε1 + 4δL + δ²` at the proof, and lies farther than `t - δ` now
-    /// (docs/performance.md). Rounding allowances: 1e-9 relative, and 1e-15 of the poses' size.
+    /// was within `M1 ε1 + 4δR` at the proof (`R` the plane cloud's root radius: relevance
+    /// compares `d_i - d_j`, affine in the query point with gradient `2(p_j - p_i)`, and
+    /// `|p_j - p_i| ≤ 2R`), and lies farther than `t - δ` now (docs/performance.md). Rounding
+    /// allowances: 1e-9 relative, and 1e-15 of the poses' size.
     fn covers(&self, side: &Side, eps1: f64) -> bool {
-        let (m1_per_eps1, bound, _) = side.margins();
+        let (m1_per_eps1, spread, _) = side.margins();
         let scale = side.query.bvh().max_norm;
         let delta = ((side.translation - self.translation).norm()
             + (side.rotation - self.rotation).norm() * scale)
             * (1.0 + 1e-9)
             + 1e-15 * (side.translation.norm() + scale);
         let relevant = match side.planes {
-            Collider::Aopc(_) => {
-                m1_per_eps1 * eps1 + 4.0 * delta * bound + delta * delta <= self.m1
-            }
+            Collider::Aopc(_) => m1_per_eps1 * eps1 + 4.0 * delta * spread <= self.m1,
             Collider::HalfSpace { .. } => true,
         };
         delta.is_finite() && side.t + delta <= self.t && relevant
@@ -60,7 +60,7 @@ impl ProofSide {
     /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
     /// than `life` (s): the proof would not be reused.
     fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
-        let (m1_per_eps1, bound, gap) = side.margins();
+        let (m1_per_eps1, spread, gap) = side.margins();
         let overlapping = matches!(side.planes, Collider::Aopc(_)) && gap <= 0.0;
         if gap.is_nan() || (gap <= 0.0 && !overlapping) {
             return None;
@@ -75,8 +75,8 @@ impl ProofSide {
                 } else {
                     0.25 * gap
                 };
-                let delta = quarter.min(3.0 * m1 / (4.0 * bound));
-                (delta, m1 + 4.0 * delta * (bound + delta) + delta * delta)
+                let delta = quarter.min(3.0 * m1 / (4.0 * spread));
+                (delta, m1 + 4.0 * delta * spread * (1.0 + 1e-9))
             }
             Collider::HalfSpace { .. } => (0.5 * gap, 0.0),
         };

@@ -407,9 +407,9 @@ impl Side<'_> {
     }
 
     /// For a cloud of planes: `M1` (the relevance margin per unit ε1, m1 = M1 ε1), the bound
-    /// `L` on `|x - p_i|` over every query point and plane point (the two root spheres), and
-    /// the gap between the root spheres less `t`. For a half-space: `M1 = 0`, `L = 0`, and
-    /// the root sphere's height above the plane less `t`.
+    /// `R` on half the distance between two plane points, `|p_i - p_j| ≤ 2R` (the plane
+    /// cloud's root sphere), and the gap between the root spheres less `t`. For a half-space:
+    /// `M1 = 0`, `R = 0`, and the root sphere's height above the plane less `t`.
     pub(super) fn margins(&self) -> (f64, f64, f64) {
         let (c, r) = self.root();
         match self.planes {
@@ -418,11 +418,7 @@ impl Side<'_> {
             Collider::Aopc(o) => {
                 let (oc, or) = (&o.bvh().nodes[0].centre, o.bvh().nodes[0].radius);
                 let d = (c - oc).norm();
-                (
-                    o.bvh().log_terms,
-                    (d + r + or) * (1.0 + 1e-12),
-                    d - r - or - self.t,
-                )
+                (o.bvh().log_terms, or * (1.0 + 1e-12), d - r - or - self.t)
             }
             Collider::HalfSpace { point, normal } => {
                 (0.0, 0.0, normal.dot(&(c - point)) - r - self.t)
