@@ -349,7 +349,9 @@ fn simulate(
     let mut progress: Option<indicatif::ProgressBar> = None;
     for k in 0..=n {
         if k > 0 {
-            sim.advance(step(k)).map_err(|e| e.to_string())?;
+            // From the row's time as the communication point, as an FMI host calls it: the
+            // time reported is `at(k - 1) + step(k)`, not a sum of rounded steps.
+            sim.do_step(at(k - 1), step(k)).map_err(|e| e.to_string())?;
         }
         let row: Vec<String> = std::iter::once(at(k))
             .chain(sim.outputs()?)
