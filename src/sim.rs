@@ -3,7 +3,7 @@
 //! ([`FmiModel`](crate::fmi::contract::FmiModel), implemented in `sim/fmu.rs`); it holds no
 //! pointer and knows nothing of C.
 
-use crate::contact::{ContactParams, PairContact};
+use crate::contact::ContactParams;
 use crate::dynamics::{JointKind, Tree};
 use crate::fmi::contract::{LogCategory, LogMessage, ModelInfo, ModelResult, StepError, Variable};
 use crate::integrate::{Integrator, State};
@@ -17,6 +17,7 @@ mod derivative_rows;
 mod fmu;
 pub mod jacobian;
 pub mod names;
+mod outputs;
 mod state_bytes;
 pub mod structure;
 mod table;
@@ -239,23 +240,6 @@ impl Simulation {
             self.data.current.mocap.as_slice(),
         ]
         .concat()
-    }
-
-    /// Contact of every pair at the current state.
-    pub fn contacts(&mut self) -> &[PairContact<f64>] {
-        if !matches!(&self.data.outputs, Some((at, _)) if *at == self.data.current) {
-            let kin = self.model.tree.kinematics_with(
-                &self.data.current.state.q,
-                &self.data.current.state.v,
-                &self.data.current.mocap,
-            );
-            let contacts = self.model.contacts(&kin, &self.data.current.params).1;
-            self.data.outputs = Some((self.data.current.clone(), contacts));
-        }
-        self.data
-            .outputs
-            .as_ref()
-            .map_or(&[], |(_, c)| c.as_slice())
     }
 
     /// Soft top-K contact points of every pair at the current positions (world frame), cached

@@ -125,11 +125,76 @@ fn simulate_ends_in_the_same_state_whatever_the_output_interval() {
     }
 }
 
+/// `--outputs` writes the columns asked for, in the patterns' order, each once, with the
+/// values of the run that writes them all; a pattern that matches nothing fails before any file
+/// is written.
+#[test]
+fn simulate_writes_only_the_outputs_asked_for() {
+    let drop = scene("sphere_drop");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", drop.to_str().unwrap(), "--duration", "0.3"];
+        args.extend(extra);
+        let out = scm(&args);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let csv = text(&out.stdout);
+        let rows: Vec<Vec<String>> = csv
+            .lines()
+            .map(|l| l.split(',').map(str::to_owned).collect())
+            .collect();
+        rows
+    };
+    let all = run(&[]);
+    let some = run(&[
+        "--outputs",
+        "contact.*.force.z,ball.pos.z",
+        "--outputs",
+        "ball.pos.*",
+    ]);
+    let header: Vec<&str> = some[0].iter().map(String::as_str).collect();
+    assert_eq!(
+        header,
+        [
+            "time",
+            "contact.world.ball.force.z",
+            "ball.pos.z",
+            "ball.pos.x",
+            "ball.pos.y"
+        ]
+    );
+    assert_eq!(some.len(), all.len());
+    let at = |name: &str| all[0].iter().position(|h| h == name).unwrap();
+    for (row, full) in some.iter().zip(&all).skip(1) {
+        for (k, name) in header.iter().enumerate() {
+            assert_eq!(row[k], full[at(name)], "{name} at t = {}", row[0]);
+        }
+    }
+    let landed: f64 = some.last().unwrap()[1].parse().unwrap();
+    assert!(
+        landed < -1.0,
+        "the ball rests on the floor: {landed} N on it"
+    );
+
+    let dir = std::env::temp_dir().join(format!("scm-cli-outputs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("out.csv");
+    let out = scm(&[
+        "simulate",
+        drop.to_str().unwrap(),
+        "--outputs",
+        "ball.pos.w",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(!csv.exists(), "nothing written on a refusal");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn errors_are_one_readable_line() {
     let drop = scene("sphere_drop");
     let drop = drop.to_str().unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
         (
             &["simulate", drop, "--set", "ball.pos.q=1"],
             "no variable 'ball.pos.q'",
@@ -149,6 +214,14 @@ fn errors_are_one_readable_line() {
         (
             &["simulate", drop, "--duration", "-1"],
             "not a positive number",
+        ),
+        (
+            &["simulate", drop, "--outputs", "ball.pos.z,ball.pos.q*"],
+            "--outputs ball.pos.q*: no output of",
+        ),
+        (
+            &["simulate", drop, "--outputs", "ball.[pos"],
+            "--outputs ball.[pos: not a glob pattern",
         ),
     ];
     for (args, words) in cases {

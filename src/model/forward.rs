@@ -7,6 +7,7 @@
 //! [`Model::frozen_forward`] (src/model/frozen.rs), which computes the same terms once per step
 //! and shares the loop over the pairs.
 
+use super::pairs::Pick;
 use super::*;
 
 /// Where the forward dynamics is evaluated: the state, the generalized applied force and the
@@ -142,8 +143,12 @@ impl Model {
             .contact_velocity
             .map(|vc| self.tree.kinematics_with(q, vc, mocap));
         // With a contact velocity, the same positions, so the wrenches are in the same frames.
-        let (mut wrenches, contacts) =
-            self.contacts_with(contact_kin.as_ref().unwrap_or(&kin), prm, true, opts.reuse);
+        let (mut wrenches, contacts) = self.contacts_with(
+            contact_kin.as_ref().unwrap_or(&kin),
+            prm,
+            Pick::InReach,
+            opts.reuse,
+        );
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);

@@ -6,7 +6,7 @@
 //! and each pair's contact terms ([`PairTape`]), so an evaluation costs the point–plane forces
 //! and one pass of the tree.
 
-use super::pairs::{add_pair_wrenches, PairVisit};
+use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
 use crate::contact::PairTape;
 use crate::dynamics::MassFactor;
@@ -53,7 +53,7 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        let visits = self.visit_pairs(&kin, prm, true, reuse, |p| {
+        let visits = self.visit_pairs(&kin, prm, Pick::InReach, reuse, |p| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
             (

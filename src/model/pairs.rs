@@ -92,6 +92,19 @@ pub enum Reuse<'a> {
     All(&'a mut PairCarry),
 }
 
+/// Which pairs an evaluation of the pairs evaluates ([`Model::visit_pairs`]).
+#[derive(Clone, Copy)]
+pub(super) enum Pick<'a> {
+    /// Every pair with two colliders, none proven out of reach (what the outputs' smooth
+    /// distances need).
+    Every,
+    /// The pairs not proven out of reach: the others' forces are below τ k ε3 and left out
+    /// (what the dynamics apply).
+    InReach,
+    /// The pairs marked `true` here (indexed as [`Model::pairs`]), without proofs.
+    Marked(&'a [bool]),
+}
+
 /// One pair's kept out-of-reach proof and candidate planes, as [`Model::visit_pairs`] hands
 /// them out (either may be absent).
 type PairKept<'a> = (
@@ -257,7 +270,7 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let (wrenches, pairs) = self.contacts_with(kin, prm, false, Reuse::Nothing);
+        let (wrenches, pairs) = self.contacts_with(kin, prm, Pick::Every, Reuse::Nothing);
         let pairs = pairs
             .into_iter()
             .map(|pc| pc.unwrap_or_else(PairContact::none))
@@ -274,20 +287,48 @@ impl Model {
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
-        self.contacts_with(kin, prm, true, Reuse::Nothing)
+        self.contacts_with(kin, prm, Pick::InReach, Reuse::Nothing)
+    }
+
+    /// The contacts the outputs read, from `applied` ([`Model::contact_forces`] at `kin`): a
+    /// pair it left out (proven out of reach) has zero wrenches, as the dynamics apply it, and
+    /// the smooth distance `D` of its full evaluation, as [`Model::contacts`] evaluates it (all
+    /// such pairs at once, on the pair threads).
+    pub fn complete_contacts<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        prm: &ContactParams<T>,
+        applied: &[Option<PairContact<T>>],
+    ) -> Vec<PairContact<T>> {
+        let missing: Vec<bool> = applied.iter().map(Option::is_none).collect();
+        let distances = self.visit_pairs(kin, prm, Pick::Marked(&missing), Reuse::Nothing, |p| {
+            p.evaluate(kin).distance
+        });
+        applied
+            .iter()
+            .zip(distances)
+            .map(|(applied, visit)| match (applied, visit) {
+                (Some(pc), _) => *pc,
+                (None, PairVisit::Evaluated(distance)) => PairContact {
+                    distance,
+                    ..PairContact::none()
+                },
+                (None, _) => unreachable!("a pair left out by the proofs has two colliders"),
+            })
+            .collect()
     }
 
     /// Every pair's contact, with the pair's own friction if it has one (`None`: proven out of
-    /// reach, when `prune`), and the wrenches they add up to ([`Model::visit_pairs`]).
+    /// reach or not picked), and the wrenches they add up to ([`Model::visit_pairs`]).
     pub(super) fn contacts_with<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
-        prune: bool,
+        pick: Pick,
         reuse: Reuse,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let out: Vec<Option<PairContact<T>>> = self
-            .visit_pairs(kin, prm, prune, reuse, |p| p.evaluate(kin))
+            .visit_pairs(kin, prm, pick, reuse, |p| p.evaluate(kin))
             .into_iter()
             .map(|visit| match visit {
                 PairVisit::NoCollider => Some(PairContact::none()),
@@ -298,16 +339,17 @@ impl Model {
         (self.pair_wrenches(&out), out)
     }
 
-    /// The one loop over the pairs: `eval` of every pair in reach, in pair order. The proofs
-    /// come first, in pair order (only when `prune`; with the pairs' kept proofs when `reuse`
-    /// is [`Reuse::All`]); the pairs left are evaluated on [`Model::pair_threads`] threads when
+    /// The one loop over the pairs: `eval` of every pair `pick` picks, in pair order (the others
+    /// are [`PairVisit::OutOfReach`]). The proofs come first, in pair order (only for
+    /// [`Pick::InReach`]; with the pairs' kept proofs when `reuse` is [`Reuse::All`]); the pairs
+    /// left are evaluated on [`Model::pair_threads`] threads when
     /// they are many enough ([`PairThreads`]), each with only its own kept candidates, so the
     /// results are the same bits whatever the threads.
     pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
         &'a self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
-        prune: bool,
+        pick: Pick,
         reuse: Reuse<'a>,
         eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
     ) -> Vec<PairVisit<R>> {
@@ -332,7 +374,12 @@ impl Model {
             };
             let prm = pair.params(prm);
             out.push(PairVisit::OutOfReach);
-            if prune && self.out_of_reach_with(pair, kin, &prm, reach) {
+            let left_out = match pick {
+                Pick::Every => false,
+                Pick::InReach => self.out_of_reach_with(pair, kin, &prm, reach),
+                Pick::Marked(marked) => !marked[k],
+            };
+            if left_out {
                 continue;
             }
             pending.push(PendingPair {

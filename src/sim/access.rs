@@ -130,8 +130,25 @@ impl Simulation {
     /// The Real outputs at the current state (contact forces, distances, limit forces,
     /// accelerations, ...), in the order of [`Simulation::output_names`].
     pub fn outputs(&mut self) -> ModelResult<Vec<f64>> {
+        let all: Vec<usize> = (0..self.output_rows().count()).collect();
+        self.outputs_of(&all)
+    }
+
+    /// The Real outputs numbered `which` (indices into [`Simulation::output_names`]), in that
+    /// order. Only what is read is computed: a contact force costs the pairs in reach (the
+    /// others are proven out of reach and push with zero), a smooth distance costs every pair
+    /// evaluated in full, about as much as the step itself on a robot's self-collision pairs.
+    pub fn outputs_of(&mut self, which: &[usize]) -> ModelResult<Vec<f64>> {
         let slots: Vec<Slot> = self.output_rows().map(|(_, s)| *s).collect();
-        slots.into_iter().map(|s| self.read(s)).collect()
+        which
+            .iter()
+            .map(|&i| {
+                let slot = *slots.get(i).ok_or_else(|| {
+                    format!("output {i} out of range (there are {})", slots.len())
+                })?;
+                self.read(slot)
+            })
+            .collect()
     }
 
     fn output_rows(&self) -> impl Iterator<Item = &(Variable, Slot)> {
@@ -182,8 +199,8 @@ impl Simulation {
             Slot::ActDot(k) => self.activation_rates()[k],
             Slot::Mocap(m, k) => self.data.current.mocap_target[7 * m + k],
             Slot::Param(p) => p.get(&self.data.current.params),
-            Slot::PairForce(p, k) => self.contacts()[p].on_a.force[k],
-            Slot::PairTorque(p, k) => self.contacts()[p].on_a.torque[k],
+            Slot::PairForce(p, k) => self.applied_contacts()[p].map_or(0.0, |c| c.on_a.force[k]),
+            Slot::PairTorque(p, k) => self.applied_contacts()[p].map_or(0.0, |c| c.on_a.torque[k]),
             Slot::PairDistance(p) => self.contacts()[p].distance,
             Slot::LimitForce(j) => {
                 let jt = &self.model.tree.joints[j];

@@ -10,8 +10,8 @@
 //! and `src/collision/reach.rs`; changes nothing), since pairs are evaluated on scoped threads
 //! that each need their own.
 
+use super::outputs::ContactOutputs;
 use super::{PointsCache, SimState};
-use crate::contact::PairContact;
 use crate::fmi::contract::LogMessage;
 use crate::integrate::SolverCache;
 
@@ -28,9 +28,10 @@ pub struct Data {
     /// the guard refuses. FMU state: yes; in memory (`fmi2GetFMUstate`) a whole copy, in the
     /// serialized bytes all but the memos ([`SolverCache::parts`]).
     pub(crate) solver: SolverCache,
-    /// The contact outputs and the state they were computed at: they serve while the current
-    /// state is that one (a memo). Changes a result: no. FMU state: no.
-    pub(super) outputs: Option<(SimState, Vec<PairContact<f64>>)>,
+    /// The contact outputs and the state they were computed at, as far as they have been read,
+    /// and the candidate planes their evaluations keep ([`ContactOutputs`]): they serve while
+    /// the current state is that one (a memo). Changes a result: no. FMU state: no.
+    pub(super) outputs: ContactOutputs,
     /// Soft top-K contact points per pair and the positions and ε1, ε2 they were computed at
     /// (a memo). Changes a result: no. FMU state: no.
     pub(super) points: Option<PointsCache>,
@@ -55,7 +56,7 @@ impl Data {
         Data {
             current: start,
             solver: SolverCache::default(),
-            outputs: None,
+            outputs: ContactOutputs::default(),
             points: None,
             accelerations: None,
             messages,

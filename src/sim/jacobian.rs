@@ -95,32 +95,34 @@ pub fn directional_derivative(
             Slot::PairForce(..) | Slot::PairTorque(..) | Slot::PairDistance(_)
         )
     });
+    let kin = || {
+        model
+            .tree
+            .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..])
+    };
+    // As the outputs read them (`src/sim/outputs.rs`): the applied contacts, a pair out of
+    // reach with zero wrenches (and derivatives) and, only when its distance is asked, that
+    // distance from a full evaluation.
+    let complete = |applied: Vec<Option<PairContact<Dual64>>>| {
+        let skipped_distance = unknowns
+            .iter()
+            .any(|u| matches!(u, Slot::PairDistance(p) if applied[*p].is_none()));
+        if skipped_distance {
+            model.complete_contacts(&kin(), &s.prm, &applied)
+        } else {
+            applied
+                .into_iter()
+                .map(|c| c.unwrap_or_else(PairContact::none))
+                .collect()
+        }
+    };
     let (vdot, contacts) = if needs_vdot {
         let f = model
             .forward(&s.q, &s.v, &driven, &s.prm)
             .map_err(|e| e.to_string())?;
-        // A pair out of reach has zero wrenches (and derivatives) but no distance: only
-        // when one of those distances is asked are the pairs evaluated in full.
-        let skipped_distance = unknowns
-            .iter()
-            .any(|u| matches!(u, Slot::PairDistance(p) if f.contacts[*p].is_none()));
-        let contacts = if skipped_distance {
-            let kin = model
-                .tree
-                .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
-            model.contacts(&kin, &s.prm).1
-        } else {
-            f.contacts
-                .into_iter()
-                .map(|c| c.unwrap_or_else(PairContact::none))
-                .collect()
-        };
-        (Some(f.vdot), Some(contacts))
+        (Some(f.vdot), Some(complete(f.contacts)))
     } else if needs_contacts {
-        let kin = model
-            .tree
-            .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
-        (None, Some(model.contacts(&kin, &s.prm).1))
+        (None, Some(complete(model.contact_forces(&kin(), &s.prm).1)))
     } else {
         (None, None)
     };
@@ -132,9 +134,7 @@ pub fn directional_derivative(
         .iter()
         .any(|u| matches!(u, Slot::PairPoint(..)))
         .then(|| {
-            let kin = model
-                .tree
-                .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..]);
+            let kin = kin();
             model
                 .pairs
                 .iter()

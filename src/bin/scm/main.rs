@@ -31,8 +31,8 @@ enum Command {
         #[arg(long, value_name = "PATH")]
         lib: Option<PathBuf>,
     },
-    /// Simulate a scene natively through the FMU's own code; write every output as CSV (full
-    /// precision), one row per output interval.
+    /// Simulate a scene natively through the FMU's own code; write the outputs as CSV (full
+    /// precision), one row per output interval: every output, or those `--outputs` selects.
     Simulate {
         /// The scene (MJCF).
         scene: PathBuf,
@@ -57,6 +57,13 @@ enum Command {
         /// The CSV file (default: standard output).
         #[arg(short, long, value_name = "OUT.csv")]
         output: Option<PathBuf>,
+        /// The columns to write after `time`: output names or glob patterns
+        /// (`root.pos.*,contact.*.force.*`), comma-separated or repeated, each matching at least
+        /// one output; the columns keep the patterns' order (default: every output). Only what
+        /// is written is computed: a contact's `.distance` evaluates every pair in full, which
+        /// on a robot's self-collision pairs costs more than the step itself.
+        #[arg(long = "outputs", value_name = "PATTERNS", value_delimiter = ',')]
+        outputs: Vec<String>,
     },
     /// Print a body's oriented point cloud as CSV x,y,z,nx,ny,nz (body frame).
     Aopc {
@@ -150,6 +157,7 @@ fn run(command: Command) -> Result<(), Failure> {
             integrator,
             sets,
             output,
+            outputs,
         } => {
             let mut sim = Simulation::from_file(&scene).map_err(|e| e.to_string())?;
             let mut sets = sets;
@@ -162,8 +170,9 @@ fn run(command: Command) -> Result<(), Failure> {
             for s in &sets {
                 set_variable(&mut sim, s)?;
             }
+            let columns = columns(&sim, &outputs)?;
             let h = output_interval.unwrap_or(sim.model.timestep.max(0.01));
-            simulate(&mut sim, duration, h, output)
+            simulate(&mut sim, duration, h, &columns, output)
         }
         Command::Compile { scene } => {
             let c = scm::scene::compile(&scene).map_err(|e| e.to_string())?;
@@ -316,10 +325,42 @@ fn default_library() -> Result<PathBuf, String> {
     }
 }
 
+/// The outputs `scm simulate --outputs` selects, as indices into
+/// [`Simulation::output_names`]: each pattern's matches in the outputs' order, the patterns in
+/// theirs, an output once (every output when there is no pattern).
+fn columns(sim: &Simulation, patterns: &[String]) -> Result<Vec<usize>, String> {
+    let names = sim.output_names();
+    if patterns.is_empty() {
+        return Ok((0..names.len()).collect());
+    }
+    let mut picked: Vec<usize> = Vec::new();
+    for text in patterns {
+        let pattern = glob::Pattern::new(text)
+            .map_err(|e| format!("--outputs {text}: not a glob pattern ({e})"))?;
+        let matches: Vec<usize> = (0..names.len())
+            .filter(|&i| pattern.matches(names[i]))
+            .collect();
+        if matches.is_empty() {
+            return Err(format!(
+                "--outputs {text}: no output of {} matches; `scm variables` lists them (causality output)",
+                sim.model.name
+            ));
+        }
+        picked.extend(
+            matches
+                .into_iter()
+                .filter(|i| !picked.contains(i))
+                .collect::<Vec<_>>(),
+        );
+    }
+    Ok(picked)
+}
+
 fn simulate(
     sim: &mut Simulation,
     duration: f64,
     h: f64,
+    columns: &[usize],
     out: Option<PathBuf>,
 ) -> Result<(), Failure> {
     sim.initialize()?;
@@ -329,7 +370,10 @@ fn simulate(
         )),
         None => Box::new(std::io::stdout().lock()),
     };
-    let header: Vec<&str> = std::iter::once("time").chain(sim.output_names()).collect();
+    let names = sim.output_names();
+    let header: Vec<&str> = std::iter::once("time")
+        .chain(columns.iter().map(|&i| names[i]))
+        .collect();
     say!(w, "{}", header.join(","));
     // Rows every `h`, the last one exactly at `duration` (its step may be shorter). Each call
     // advances by `h` itself, as FMI hosts do, not by the difference of two row times, which
@@ -354,7 +398,7 @@ fn simulate(
             sim.do_step(at(k - 1), step(k)).map_err(|e| e.to_string())?;
         }
         let row: Vec<String> = std::iter::once(at(k))
-            .chain(sim.outputs()?)
+            .chain(sim.outputs_of(columns)?)
             .map(csv_number)
             .collect();
         say!(w, "{}", row.join(","));
