@@ -1,7 +1,8 @@
 """Robots as their files are written, in SCM and in MuJoCo, measured in one run (issue 41's
 speed and memory targets): each file run with its own integrator, step and contact settings,
 from its initial state with no control, SCM through `scm simulate` (one CSV row at the start and
-one at the end, so the outputs cost two evaluations, not one per step) in a child process whose
+one at the end, of one output: the contact outputs' distances, which evaluate every pair in full,
+are left out as MuJoCo's timing leaves out everything but `mj_step`) in a child process whose
 peak resident set is read from the kernel (RUSAGE_CHILDREN), MuJoCo through `mj_step` on the
 same file for the same number of steps.
 
@@ -56,6 +57,22 @@ sys.stderr.write(r.stderr[-3000:])
 """
 
 
+def first_output(scm, xml, timeout):
+    """The name of the scene's first Real output (`scm variables`), or None where it lists none
+    or fails (the run then reports why)."""
+    try:
+        p = subprocess.run([str(scm), "variables", str(xml)], capture_output=True, text=True,
+                           timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None
+    for line in p.stdout.splitlines()[1:]:
+        fields = line.split("\t")
+        if len(fields) > 3 and fields[2] == "Real" and fields[3] == "output":
+            # As a glob pattern that matches itself only.
+            return "".join(f"[{c}]" if c in "[]*?" else c for c in fields[1])
+    return None
+
+
 def scm_run(scm, xml, duration, timeout):
     """SCM's stepping wall time (s), its whole run's (s), peak resident set (MB), and an error
     text or None."""
@@ -63,6 +80,9 @@ def scm_run(scm, xml, duration, timeout):
         out = pathlib.Path(tmp) / "run.csv"
         cmd = [sys.executable, "-c", PEAK, str(scm), "simulate", str(xml), "--duration", repr(duration),
                "--output-interval", repr(duration), "-o", str(out)]
+        one = first_output(scm, xml, timeout)
+        if one is not None:
+            cmd += ["--outputs", one]
         try:
             p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -123,7 +143,8 @@ def main():
         "",
         "Written by `scripts/robots.py` (one run). Each file with its own integrator, step and contact"
         " settings, from its initial state with no control: SCM by `scm simulate` (stepping time, one"
-        " CSV row at each end; peak resident set of the whole process), MuJoCo by `mj_step` on the same"
+        " CSV row at each end with one output: no contact distance, which evaluates every pair in full;"
+        " peak resident set of the whole process), MuJoCo by `mj_step` on the same"
         " file for the same steps (median of 5 runs). Real-time factor: simulated time over wall time."
         " MuJoCo's contacts at the file's initial state and after the run: robosuite's files start at"
         " every joint's zero, where some arms fold through themselves (robosuite sets its own initial"
