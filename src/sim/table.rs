@@ -337,7 +337,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 Some(Initial::Calculated),
                 real(None, "N"),
                 format!(
-                    "Contact force on {na} from {nb} (world frame); {nb} receives the opposite"
+                    "Contact force on {na} from {nb} (world frame; zero where the pair is proven out of reach, as the dynamics apply it); {nb} receives the opposite"
                 ),
                 Slot::PairForce(p, k),
             );
@@ -359,7 +359,7 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             Variability::Continuous,
             Some(Initial::Calculated),
             real(None, "m"),
-            format!("Smooth separation distance between {na} and {nb} (negative: penetration)"),
+            format!("Smooth separation distance between {na} and {nb} (negative: penetration; the first distance read at a state evaluates every pair in full)"),
             Slot::PairDistance(p),
         );
         for k in 0..model.contact_points {
