@@ -321,15 +321,9 @@ fn a_margin_moves_the_reach_with_it() {
 /// thousands of region tests at 16 cm, and gave up).
 #[test]
 fn unions_of_spheres_and_capsules_are_settled_from_a_few_centimetres() {
-    use crate::common::{humanoid_lower_arm, humanoid_torso};
+    use crate::common::{humanoid_lower_arm, humanoid_torso, offset_to_clear};
     use scm::geometry::union::sample_union;
     let (torso_geoms, arm_geoms) = (humanoid_torso(), humanoid_lower_arm());
-    let torso_sdf = |x: &Vector3<f64>| {
-        torso_geoms
-            .iter()
-            .map(|(s, p)| s.sdf(&p.inverse_transform_vector(&(x - p.translation.vector))))
-            .fold(f64::INFINITY, f64::min)
-    };
     let spacing = 0.01;
     let torso = Collider::Aopc(sample_union(&torso_geoms, spacing));
     let arm_cloud = sample_union(&arm_geoms, spacing);
@@ -344,25 +338,17 @@ fn unions_of_spheres_and_capsules_are_settled_from_a_few_centimetres() {
         let dir = rng.direction();
         // Push the arm out along `dir` until it clears the torso by the case's gap.
         let want = rng.range(0.0, 0.2);
-        let gap_at = |d: f64| {
-            arm_cloud
-                .points
-                .iter()
-                .map(|p| torso_sdf(&(rotation * p + dir * d)))
-                .fold(f64::INFINITY, f64::min)
-        };
-        let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if gap_at(mid) < want {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let d = offset_to_clear(
+            &arm_cloud.points,
+            &rotation,
+            Vector3::zeros(),
+            dir,
+            &torso_geoms,
+            want,
+        );
         let fa = Frame {
             rotation,
-            origin: dir * hi,
+            origin: dir * d,
             linvel: rng.direction() * rng.range(0.0, 0.3),
             angvel: rng.direction() * rng.range(0.0, 1.0),
         };
@@ -756,17 +742,11 @@ fn a_dense_ball_beside_a_wall_is_settled_within_a_budget_that_grows_with_its_poi
 /// little, but its spring grows as `e^{-φ/ε3}` with ε3 = 0.1 mm.)
 #[test]
 fn a_hand_beside_a_thigh_is_settled_by_its_points_springs() {
-    use crate::common::{capsule, humanoid_lower_arm};
+    use crate::common::{capsule, humanoid_lower_arm, offset_to_clear};
     use scm::collision::{out_of_reach_by, Beyond};
     use scm::geometry::union::sample_union;
     let v = Vector3::new;
     let thigh_geoms = [capsule(v(0.0, 0.0, 0.0), v(0.0, 0.01, -0.34), 0.06)];
-    let thigh_sdf = |x: &Vector3<f64>| {
-        thigh_geoms
-            .iter()
-            .map(|(s, p)| s.sdf(&p.inverse_transform_vector(&(x - p.translation.vector))))
-            .fold(f64::INFINITY, f64::min)
-    };
     let spacing = 0.01;
     let thigh = Collider::Aopc(sample_union(&thigh_geoms, spacing));
     let arm_cloud = sample_union(&humanoid_lower_arm(), spacing);
@@ -787,25 +767,10 @@ fn a_hand_beside_a_thigh_is_settled_by_its_points_springs() {
         let dir = v(side.cos(), side.sin(), 0.0);
         let drop = v(0.0, 0.0, -0.05);
         let want = [0.0045, 0.008, 0.01, 0.012][case % 4];
-        let gap_at = |d: f64| {
-            arm_cloud
-                .points
-                .iter()
-                .map(|p| thigh_sdf(&(rotation * p + drop + dir * d)))
-                .fold(f64::INFINITY, f64::min)
-        };
-        let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..40 {
-            let mid = 0.5 * (lo + hi);
-            if gap_at(mid) < want {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
+        let d = offset_to_clear(&arm_cloud.points, &rotation, drop, dir, &thigh_geoms, want);
         let fa = Frame {
             rotation,
-            origin: drop + dir * hi,
+            origin: drop + dir * d,
             linvel: rng.direction() * rng.range(0.0, 0.3),
             angvel: rng.direction() * rng.range(0.0, 1.0),
         };

@@ -931,6 +931,42 @@ fn sliding_box(integrator: &str) -> Model {
     ))
 }
 
+/// The sliding box with an integrator, started at 1 m/s along x.
+struct SlidingRun {
+    model: Model,
+}
+
+impl SlidingRun {
+    fn new(integrator: &str) -> Self {
+        SlidingRun {
+            model: sliding_box(integrator),
+        }
+    }
+
+    /// The box at rest on the floor, sliding at 1 m/s.
+    fn start(&self) -> State<f64> {
+        State {
+            q: self.model.tree.q0(),
+            v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            act: Vec::new(),
+        }
+    }
+
+    /// One call from `s` at time `t` for `d` seconds, with `cache` carried.
+    fn call(
+        &self,
+        s: &State<f64>,
+        t: f64,
+        d: f64,
+        cache: &mut scm::integrate::SolverCache,
+    ) -> State<f64> {
+        let m = &self.model;
+        m.advance_cached(s, &[], &m.contact, t, d, &AdvanceOptions::default(), cache)
+            .unwrap()
+            .state
+    }
+}
+
 /// 150 steps of 2 ms of the sliding box with `integrator`, from 1 m/s, once carrying the solver
 /// cache from step to step and once with a fresh one each step: the carried and fresh runs
 /// agree to the Newton tolerance, and the cache saved at step 50 and restored replays the rest
@@ -939,19 +975,11 @@ fn carried_against_fresh(
     integrator: &str,
     mut each: impl FnMut(usize, &State<f64>, &State<f64>, &scm::integrate::SolverCache),
 ) {
-    let model = sliding_box(integrator);
-    let opts = AdvanceOptions::default();
+    let run = SlidingRun::new(integrator);
     let h = 0.002;
-    let start = State {
-        q: model.tree.q0(),
-        v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        act: Vec::new(),
-    };
+    let start = run.start();
     let step = |s: &State<f64>, k: usize, cache: &mut scm::integrate::SolverCache| {
-        model
-            .advance_cached(s, &[], &model.contact, k as f64 * h, h, &opts, cache)
-            .unwrap()
-            .state
+        run.call(s, k as f64 * h, h, cache)
     };
     let mut cache = scm::integrate::SolverCache::default();
     let (mut carried, mut fresh) = (start.clone(), start);
@@ -993,19 +1021,11 @@ fn carried_against_fresh(
 /// so, ended 1.4e-3 rad from its run in one call; now 2e-16.)
 #[test]
 fn implicit_euler_keeps_its_warm_start_over_calls_whose_step_differs_by_a_rounding() {
-    let model = sliding_box("implicit_euler");
-    let opts = AdvanceOptions::default();
+    let run = SlidingRun::new("implicit_euler");
     let h = 0.002;
-    let start = State {
-        q: model.tree.q0(),
-        v: vec![1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        act: Vec::new(),
-    };
+    let start = run.start();
     let step = |s: &State<f64>, t: f64, d: f64, cache: &mut scm::integrate::SolverCache| {
-        model
-            .advance_cached(s, &[], &model.contact, t, d, &opts, cache)
-            .unwrap()
-            .state
+        run.call(s, t, d, cache)
     };
     let (mut exact, mut exact_cache) = (start.clone(), Default::default());
     let (mut rounded, mut rounded_cache) = (start, Default::default());

@@ -74,6 +74,33 @@ pub fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// The signed distance of a union of posed shapes (the least of theirs) at `x`.
+fn union_sdf(geoms: &[(Shape, Isometry3<f64>)], x: &Vector3<f64>) -> f64 {
+    geoms
+        .iter()
+        .map(|(s, p)| s.sdf(&p.inverse_transform_vector(&(x - p.translation.vector))))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// How far along `dir` the points `cloud`, turned by `rotation` and moved by `start`, must go to
+/// clear the union `geoms` by `gap` (the points' least signed distance, bisected on [0, 1] m).
+pub fn offset_to_clear(
+    cloud: &[Vector3<f64>],
+    rotation: &nalgebra::Matrix3<f64>,
+    start: Vector3<f64>,
+    dir: Vector3<f64>,
+    geoms: &[(Shape, Isometry3<f64>)],
+    gap: f64,
+) -> f64 {
+    let clearance = |d: f64| {
+        cloud
+            .iter()
+            .map(|p| union_sdf(geoms, &(rotation * p + start + dir * d)))
+            .fold(f64::INFINITY, f64::min)
+    };
+    bisect(|d| clearance(d) - gap, 0.0, 1.0)
+}
+
 /// Every output of a pair contact (distance, then force and torque on each body) as a flat list.
 pub fn pair_outputs<T: scm::scalar::Scalar>(c: &scm::contact::PairContact<T>) -> Vec<T> {
     let mut out = vec![c.distance];
