@@ -264,7 +264,8 @@ impl PairThreads {
 
 impl Model {
     /// Contact of every pair and the wrench each body receives (world frame, about its origin),
-    /// every pair evaluated in full, its smooth distance included: what the outputs read.
+    /// every pair evaluated in full, its smooth distance included (the reference the outputs'
+    /// [`Model::complete_contacts`] is tested against).
     pub fn contacts<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
@@ -281,7 +282,7 @@ impl Model {
     /// The contact wrenches for the dynamics: as [`Model::contacts`], except that a pair proven
     /// out of reach ([`out_of_reach`]: every force of the pair below τ times the force scale
     /// `k ε3`, see there) costs only that proof and is `None`: zero wrenches, its smooth
-    /// distance not evaluated (the outputs ask [`Model::contacts`] for it).
+    /// distance not evaluated (the outputs complete it with [`Model::complete_contacts`]).
     pub fn contact_forces<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
