@@ -343,9 +343,9 @@ impl Model {
     /// The one loop over the pairs: `eval` of every pair `pick` picks, in pair order (the others
     /// are [`PairVisit::OutOfReach`]). The proofs come first, in pair order (only for
     /// [`Pick::InReach`]; with the pairs' kept proofs when `reuse` is [`Reuse::All`]); the pairs
-    /// left are evaluated on [`Model::pair_threads`] threads when
-    /// they are many enough ([`PairThreads`]), each with only its own kept candidates, so the
-    /// results are the same bits whatever the threads.
+    /// left are evaluated on [`Model::pair_threads`] threads when they are many enough
+    /// ([`PairThreads`]), each with only its own kept candidates, so the results are the same
+    /// bits whatever the threads.
     pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
         &'a self,
         kin: &Kinematics<T>,

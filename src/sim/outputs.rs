@@ -1,7 +1,7 @@
 //! The contact outputs, computed when first read at a state and only as far as they are read:
 //! each pair's wrenches as the dynamics apply them (the pairs proven out of reach cost their
 //! proof and push with zero), and the smooth distances, which need every pair in full, only
-//! once a distance is read (see docs/fmu.md, "Outputs").
+//! once a distance is read (see docs/fmu.md, "What an output read costs").
 
 use super::{SimState, Simulation};
 use crate::contact::PairContact;
