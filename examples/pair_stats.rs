@@ -98,11 +98,13 @@ fn main() {
             }),
             "pair_kept" => {
                 let mut kept = vec![scm::collision::CandidateMemo::default(); m.pairs.len()];
+                let mut scratch = scm::collision::Scratch::default();
                 Box::new(move || {
                     for (p, kept) in m.pairs.iter().zip(&mut kept) {
                         if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
                             let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
-                            black_box(pair_contact_memo(a, fa, b, fb, &prm, Some(kept)));
+                            let s = &mut scratch;
+                            black_box(pair_contact_memo(a, fa, b, fb, &prm, Some(kept), s));
                         }
                     }
                 })
@@ -153,7 +155,9 @@ fn main() {
         );
         let own = p.params(&prm);
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-        let proof = || scm::collision::out_of_reach(a, b, &rels, &own.reach());
+        let (mut proof_scratch, mut scratch) = Default::default();
+        let mut proof =
+            move || scm::collision::out_of_reach(a, b, &rels, &own.reach(), &mut proof_scratch);
         let far = proof();
         let mut kept = scm::collision::CandidateMemo::default();
         let times = time_interleaved(
@@ -166,7 +170,8 @@ fn main() {
                     black_box(pair_contact(a, fa, b, fb, &own));
                 },
                 &mut || {
-                    black_box(pair_contact_memo(a, fa, b, fb, &own, Some(&mut kept)));
+                    let s = &mut scratch;
+                    black_box(pair_contact_memo(a, fa, b, fb, &own, Some(&mut kept), s));
                 },
             ],
         );

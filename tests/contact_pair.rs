@@ -4,7 +4,7 @@
 use crate::common::{central_difference, pair_outputs, Lcg};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use num_dual::Dual64;
-use scm::collision::{Collider, Frame};
+use scm::collision::{Collider, Frame, Scratch};
 use scm::contact::{pair_contact, ContactParams, Dissipation, PairContact};
 use scm::geometry::Shape;
 use scm::scalar::Scalar;
@@ -628,7 +628,8 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
             )
         };
         let (fb, fa) = frames(motion(0.1), motion(0.1));
-        let (tape, recorded) = PairTape::record(a, &fa, b, &fb, &prm, None);
+        let (tape, recorded) =
+            PairTape::record(a, &fa, b, &fb, &prm, None, &mut Scratch::default());
         let full = pair_contact(a, &fa, b, &fb, &prm);
         assert!(full.on_a.force.norm() > 1.0, "the bodies touch: {full:?}");
         assert_eq!(recorded.distance.to_bits(), full.distance.to_bits());

@@ -6,7 +6,7 @@
 use crate::common::Lcg;
 use nalgebra::{Rotation3, Unit, Vector3};
 use scm::collision::{
-    out_of_reach, out_of_reach_proven, reach_distance, Collider, Frame, ReachProof,
+    out_of_reach, out_of_reach_proven, reach_distance, Collider, Frame, ReachProof, Scratch,
 };
 use scm::contact::{pair_contact, pair_contact_naive, ContactParams, Dissipation};
 use scm::fmi::contract::FmiModel;
@@ -39,7 +39,7 @@ fn is_far(
     p: &ContactParams<f64>,
 ) -> bool {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-    out_of_reach(a, b, &rels, &p.reach())
+    out_of_reach(a, b, &rels, &p.reach(), &mut Scratch::default())
 }
 
 /// The bound of `out_of_reach` on every force of a pair it settles:
@@ -485,7 +485,15 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
         };
         let decide = |fa: &Frame<f64>, kept: &mut Option<ReachProof>| {
             let rels = [fa.relative_to(&fb), fb.relative_to(fa)];
-            out_of_reach_proven(a, b, &rels, &prm.reach(), kept, 0.0)
+            out_of_reach_proven(
+                a,
+                b,
+                &rels,
+                &prm.reach(),
+                kept,
+                0.0,
+                &mut Scratch::default(),
+            )
         };
         let mut kept = None;
         if !decide(&fa, &mut kept) || kept.is_none() {
@@ -776,7 +784,7 @@ fn a_hand_beside_a_thigh_is_settled_by_its_points_springs() {
         };
         let fb = Frame::identity();
         let rels = [fa.relative_to(&fb), fb.relative_to(&fa)];
-        let how = out_of_reach_by(&arm, &thigh, &rels, &prm.reach());
+        let how = out_of_reach_by(&arm, &thigh, &rels, &prm.reach(), &mut Scratch::default());
         outcomes.push((want, how));
         if !how.proven() {
             continue;

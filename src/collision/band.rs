@@ -52,19 +52,15 @@ pub(super) fn seed_leaf(
     ni
 }
 
-/// Scratch space of [`band_of`]'s walk, kept per thread: a step walks several bands, and
+/// Scratch space of [`band_of`]'s walk, part of a [`Scratch`]: a step walks several bands, and
 /// growing these vectors again for each was about a twentieth of a resting stack's pairs.
 #[derive(Default)]
-struct Walk {
+pub(super) struct BandWalk {
     /// Open nodes of the other hierarchy, per entry of the stack (see the walk).
     arena: Vec<u32>,
     front: Vec<u32>,
     /// Node, witness hint, and the parent's open nodes `arena[from..to]`.
     stack: Vec<(u32, u32, u32, u32)>,
-}
-
-thread_local! {
-    static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
 }
 
 /// The part of the separation field that can carry weight (module documentation): every
@@ -101,7 +97,7 @@ pub fn separation_band<T: Scalar>(
     eps2: T,
 ) -> SeparationBand<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
-    let mut scratch = Relevant::default();
+    let mut scratch = Scratch::default();
     band_of(
         a,
         b,
@@ -118,8 +114,8 @@ pub fn separation_band<T: Scalar>(
 pub(crate) struct BandWork<'w> {
     /// The SSDF terms kept at most (0: none; [`terms_budget`](super::terms_budget)).
     pub(crate) keep_terms: usize,
-    /// Scratch space for the SSDF queries.
-    pub(crate) scratch: &'w mut Relevant,
+    /// Scratch space for the walk and its SSDF queries.
+    pub(crate) scratch: &'w mut Scratch,
     /// Where `∇Φ_f` of each entry is pushed, if asked.
     pub(crate) grads: Option<&'w mut Vec<Vector3<f64>>>,
     /// The pair's candidate planes kept from one call to the next, if any.
@@ -128,7 +124,7 @@ pub(crate) struct BandWork<'w> {
 
 impl BandWork<'_> {
     /// A walk that keeps no term and no memo and pushes no gradient, with `scratch`.
-    pub(crate) fn bare(scratch: &mut Relevant) -> BandWork<'_> {
+    pub(crate) fn bare(scratch: &mut Scratch) -> BandWork<'_> {
         BandWork {
             keep_terms: 0,
             scratch,
@@ -187,13 +183,17 @@ pub(crate) fn band_of<T: Scalar>(
     // leaves are seeds depends on the poses only, as does the walk's order.
     // `seeds[side]`: the seed leaf's node index.
     let mut seeds = [u32::MAX; 2];
-    // Taken from the thread's scratch and put back at the end (a call made meanwhile would
-    // only allocate its own).
-    let Walk {
+    // Taken from the scratch and put back at the end.
+    let Scratch {
+        band: walk,
+        relevant: scratch,
+        ..
+    } = scratch;
+    let BandWalk {
         mut arena,
         mut front,
         mut stack,
-    } = WALK.with(|w| std::mem::take(&mut *w.borrow_mut()));
+    } = std::mem::take(walk);
     for pass in 0..2 {
         for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
             let Collider::Aopc(s) = query else { continue };
@@ -479,12 +479,10 @@ pub(crate) fn band_of<T: Scalar>(
         Collider::HalfSpace { .. } => 0,
     };
     band.skipped = points(a) + points(b) - band.entries.len();
-    WALK.with(|w| {
-        *w.borrow_mut() = Walk {
-            arena,
-            front,
-            stack,
-        }
-    });
+    *walk = BandWalk {
+        arena,
+        front,
+        stack,
+    };
     band
 }

@@ -154,11 +154,10 @@ pub fn ssdf_exceeds_over(
 }
 
 /// See [`aopc_exceeds`]: a band walk's region gives up at an unsettled cluster smaller than
-/// this times its radius (measured: callgrind, one sphere–box evaluation at sharp ε, 100k
-/// points per body, 23.0 M instructions without, 16.8 M at 0.15, 15.7 M at 0.3, 15.2 M at
-/// 0.4; box–box 10.5 M without, 9.8 M at 0.15, 10.0 M at 0.3, and before the covering bound
-/// reached past the edges 10.7 M at 0.3 against 11.2 M at 0.4; no change at 1k points or at
-/// the scenes' ε).
+/// this times its radius. Why 0.3 (callgrind, one evaluation at sharp ε, 100k points per
+/// body): sphere–box 23.0 M instructions without giving up, 16.8 M at 0.15, 15.7 M at 0.3,
+/// 15.2 M at 0.4; box–box 10.5 M without, 9.8 M at 0.15, 10.0 M at 0.3; no change at 1k
+/// points or at the scenes' ε.
 pub(super) const GIVE_UP_RATIO: f64 = 0.3;
 
 /// The threshold the bound `L` on relevant `v_i` must exceed (step 3 of

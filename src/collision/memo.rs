@@ -37,7 +37,7 @@
 //!   band's points fails at every step, so after a failure its next [`PROOF_RETRY`] visits
 //!   do not try it (`CandidateMemo::try_proof`).
 
-use super::ReachProof;
+use super::{ReachProof, Scratch};
 use crate::geometry::ssdf::{gather_ball, Relevant};
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
@@ -408,10 +408,15 @@ impl SideCandidates {
     }
 }
 
+/// One pair's kept proof and candidate planes ([`PairCarry::pairs`]; no candidates when
+/// [`PairCarry::walk_always`]).
+pub type CarriedPair<'a> = (&'a mut Option<ReachProof>, Option<&'a mut CandidateMemo>);
+
 /// What a model's pairs keep from one evaluation to the next, one entry per pair: the
 /// out-of-reach proofs ([`ReachProof`]; which pairs a step switches off depends on them, so a
 /// saved FMU state carries them) and the candidate planes ([`CandidateMemo`]; a cost, never a
-/// result, so two `PairCarry` with the same proofs are equal).
+/// result, so two `PairCarry` with the same proofs are equal); and, one per pair thread, the
+/// hierarchy walks' scratch ([`Scratch`]; never a result either).
 #[derive(Clone, Debug, Default)]
 pub struct PairCarry {
     /// Per pair, the out-of-reach proof kept from an earlier step, if any.
@@ -420,6 +425,9 @@ pub struct PairCarry {
     pub candidates: Vec<CandidateMemo>,
     /// No candidates are kept (every query walks): for measurements and tests.
     pub walk_always: bool,
+    /// The hierarchy walks' scratch, one per thread that evaluates pairs (grown on demand by
+    /// [`PairCarry::scratch`]). Changes a result: no. FMU state: no (a copy starts empty).
+    scratch: Vec<Scratch>,
 }
 
 impl PartialEq for PairCarry {
@@ -435,6 +443,7 @@ impl PairCarry {
             reach,
             candidates: Vec::new(),
             walk_always: false,
+            scratch: Vec::new(),
         }
     }
 
@@ -454,10 +463,21 @@ impl PairCarry {
 
     /// [`PairCarry::pair`] of every pair at once, in pair order (disjoint borrows, so that pairs
     /// can be evaluated on several threads).
-    pub fn pairs(
+    pub fn pairs(&mut self) -> impl Iterator<Item = CarriedPair<'_>> {
+        self.pairs_and_scratch(1).0
+    }
+
+    /// [`PairCarry::pairs`], and the walks' scratch for `threads` threads (at least one).
+    pub fn pairs_and_scratch(
         &mut self,
-    ) -> impl Iterator<Item = (&mut Option<ReachProof>, Option<&mut CandidateMemo>)> {
+        threads: usize,
+    ) -> (impl Iterator<Item = CarriedPair<'_>>, &mut [Scratch]) {
+        let threads = threads.max(1);
+        if self.scratch.len() < threads {
+            self.scratch.resize_with(threads, Scratch::default);
+        }
         let mut candidates = self.candidates.iter_mut();
-        self.reach.iter_mut().map(move |r| (r, candidates.next()))
+        let pairs = self.reach.iter_mut().map(move |r| (r, candidates.next()));
+        (pairs, &mut self.scratch[..threads])
     }
 }

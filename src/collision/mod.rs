@@ -49,6 +49,7 @@ mod bounds;
 mod memo;
 mod proof;
 mod reach;
+mod scratch;
 mod settle;
 #[cfg(test)]
 mod tests;
@@ -63,8 +64,9 @@ pub use memo::{
 pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof};
 pub use reach::{
     cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, reach_distance, Beyond, ReachParams,
-    REACH_BUDGET,
+    ReachQuestion, REACH_BUDGET,
 };
+pub use scratch::Scratch;
 pub use topk::{contact_points, TOPK_TEMPERATURE};
 
 /// What a body collides with: its AOPC, or (for planes) an exact half-space.

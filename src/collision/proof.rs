@@ -89,7 +89,7 @@ impl ProofSide {
     }
 
     /// Proves this side at its own pose, distance and margin for `planes` and `query`.
-    fn prove(&self, planes: &Collider, query: &Aopc) -> bool {
+    fn prove(&self, planes: &Collider, query: &Aopc, scratch: &mut Scratch) -> bool {
         let eps1 = match planes {
             Collider::Aopc(o) => self.m1 / o.bvh().log_terms,
             // A half-space's SSDF is its plane: ε1 does not enter; any positive value.
@@ -98,13 +98,16 @@ impl ProofSide {
         eps1 > 0.0
             // Planes only: a point settled by its springs gives no room.
             && cloud_beyond(
-                planes,
+                &ReachQuestion {
+                    planes,
+                    rot: &self.rotation,
+                    tr: &self.translation,
+                    t: self.t,
+                    eps1,
+                    spring: SpringShape::NONE,
+                },
                 query,
-                (&self.rotation, &self.translation),
-                self.t,
-                eps1,
-                SpringShape::NONE,
-                &mut reach_budget(query.len()),
+                (&mut reach_budget(query.len()), scratch),
             ) == Beyond::Planes
     }
 }
@@ -116,7 +119,8 @@ impl ProofSide {
 /// [`out_of_reach`]; it can be `true` where a fresh proof would not be (the kept one holds
 /// with room), so the decisions depend on `kept`, which is part of the simulation's state.
 /// `life` (s): a proof with room is made only where the bodies' speed bound lets it last that
-/// long (two internal steps, say): one that would not be reused costs a second proof.
+/// long (two internal steps, say): one that would not be reused costs a second proof. The
+/// walks work in `scratch`.
 pub fn out_of_reach_proven(
     a: &Collider,
     b: &Collider,
@@ -124,6 +128,7 @@ pub fn out_of_reach_proven(
     prm: &ReachParams,
     kept: &mut Option<ReachProof>,
     life: f64,
+    scratch: &mut Scratch,
 ) -> bool {
     let eps1 = prm.eps1;
     let Some(sides) = sides(a, b, rels, prm) else {
@@ -143,7 +148,7 @@ pub fn out_of_reach_proven(
         }
     }
     *kept = None;
-    let how = out_of_reach_by(a, b, rels, prm);
+    let how = out_of_reach_by(a, b, rels, prm, scratch);
     // Out of reach now: prove it again with room to move, and keep that for the next steps.
     // (Only here: a pair near enough to fail the plain proof would fail this one too, and a
     // failing proof can cost a whole budget of node tests. Nor where a point needed its
@@ -152,7 +157,7 @@ pub fn out_of_reach_proven(
         let mut fresh = [None, None];
         let roomy = sides.iter().all(|(i, s)| {
             ProofSide::with_room(s, eps1, life)
-                .filter(|ks| ks.prove(s.planes, s.query))
+                .filter(|ks| ks.prove(s.planes, s.query, scratch))
                 .map(|ks| fresh[*i] = Some(ks))
                 .is_some()
         });
@@ -167,11 +172,12 @@ pub fn out_of_reach_proven(
 /// pair has points, and its proof made again at its own pose succeeds. For a kept proof
 /// read from outside (a restored state's bytes): a forged one must not switch a contact off.
 pub fn reach_proof_holds(a: &Collider, b: &Collider, kept: &ReachProof) -> bool {
+    let mut scratch = Scratch::default();
     [(a, b), (b, a)]
         .into_iter()
         .zip(&kept.sides)
         .all(|((query, planes), side)| match (query, side) {
-            (Collider::Aopc(s), Some(ks)) if !s.is_empty() => ks.prove(planes, s),
+            (Collider::Aopc(s), Some(ks)) if !s.is_empty() => ks.prove(planes, s, &mut scratch),
             (Collider::Aopc(s), None) => s.is_empty(),
             (Collider::HalfSpace { .. }, None) => true,
             _ => false,

@@ -52,11 +52,12 @@ pub fn reach_budget(points: usize) -> usize {
     REACH_BUDGET.max(points / 4)
 }
 
-/// Scratch space of [`cloud_beyond`]'s walk. A step proves several pairs out of reach, each
-/// proof a short walk: kept per thread, the walk allocates nothing once its vectors have grown
-/// (with bodies out of reach, allocating them was a tenth of the step).
+/// Scratch space of [`cloud_beyond`]'s walk, part of a [`Scratch`]. A step proves several
+/// pairs out of reach, each proof a short walk: with the scratch carried from one to the next,
+/// the walk allocates nothing once its vectors have grown (with bodies out of reach,
+/// allocating them was a tenth of the step).
 #[derive(Default)]
-struct Walk {
+pub(super) struct ReachWalk {
     /// Open nodes of the other hierarchy, per entry of the stack (see the walk).
     arena: Vec<u32>,
     front: Vec<u32>,
@@ -67,25 +68,36 @@ struct Walk {
     relevant: Relevant,
 }
 
-thread_local! {
-    static WALK: std::cell::RefCell<Walk> = std::cell::RefCell::new(Walk::default());
+/// What a proof asks of a cloud of query points ([`cloud_beyond`]): whether every distance
+/// the model reads at each of them, posed in the frame of `planes` by `x = rot p + tr`, exceeds
+/// `t` (m), with the SSDF's `eps1` (m²) and, where a point's springs are summed, `spring`.
+#[derive(Clone, Copy)]
+pub struct ReachQuestion<'a> {
+    /// The body whose planes the query points are measured against.
+    pub planes: &'a Collider,
+    /// The query cloud's rotation into the frame of `planes`.
+    pub rot: &'a Matrix3<f64>,
+    /// The query cloud's translation into the frame of `planes` (m).
+    pub tr: &'a Vector3<f64>,
+    /// The threshold (m).
+    pub t: f64,
+    /// The SSDF's smoothing `ε1` (m²).
+    pub eps1: f64,
+    /// The springs' shape, for the points whose springs are summed.
+    pub spring: SpringShape,
 }
 
-/// Whether every distance the model reads at every point of `query` exceeds `t` (m): the
-/// SSDF of `planes` (the bound of [`ssdf_exceeds_over`], which also bounds every relevant
-/// plane: `n_iᵀ(x - p_i) > t`), or else the floor of its polytope, to which every reading is
-/// raised. The points are mapped into the frame of `planes` by `x = rot p + tr`; proven, or
-/// `false`. `eps1` in m².
+/// Whether every distance the model reads at every point of `query` exceeds the threshold of
+/// `q` ([`ReachQuestion`]): the SSDF of its planes (the bound of [`ssdf_exceeds_over`], which
+/// also bounds every relevant plane: `n_iᵀ(x - p_i) > t`), or else the floor of its polytope,
+/// to which every reading is raised; proven, or `false`. The tests it makes are taken from
+/// `budget`; its walk works in `scratch`.
 pub fn cloud_beyond(
-    planes: &Collider,
+    q: &ReachQuestion,
     query: &Aopc,
-    (rot, tr): (&Matrix3<f64>, &Vector3<f64>),
-    t: f64,
-    eps1: f64,
-    spring: SpringShape,
-    budget: &mut usize,
+    (budget, scratch): (&mut usize, &mut Scratch),
 ) -> Beyond {
-    cloud_beyond_with(planes, query, (rot, tr), t, eps1, spring, budget, true)
+    cloud_beyond_with(q, query, (budget, scratch), true)
 }
 
 /// How [`cloud_beyond`] settled a cloud.
@@ -110,17 +122,15 @@ impl Beyond {
 
 /// [`cloud_beyond`], with or without its first look at one point (`seed_within`; without,
 /// for the test that it changes no answer).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn cloud_beyond_with(
-    planes: &Collider,
+    q: &ReachQuestion,
     query: &Aopc,
-    (rot, tr): (&Matrix3<f64>, &Vector3<f64>),
-    t: f64,
-    eps1: f64,
-    spring: SpringShape,
-    budget: &mut usize,
+    (budget, scratch): (&mut usize, &mut Scratch),
     seed: bool,
 ) -> Beyond {
+    let ReachQuestion {
+        planes, rot, tr, t, ..
+    } = *q;
     let bvh = query.bvh();
     if bvh.is_empty() {
         return Beyond::Planes;
@@ -138,39 +148,30 @@ pub(super) fn cloud_beyond_with(
     if matches!(planes, Collider::Aopc(_)) && !vmax.is_finite() || !t.is_finite() {
         return Beyond::Not;
     }
-    let (beyond, tests) = WALK.with(|w| {
-        walk(
-            planes,
-            bvh,
-            (rot, tr),
-            t,
-            eps1,
-            spring,
-            (vmax, *budget),
-            seed,
-            &mut w.borrow_mut(),
-        )
-    });
+    let (beyond, tests) = walk(q, bvh, (vmax, *budget), seed, &mut scratch.reach);
     *budget = budget.saturating_sub(tests);
     beyond
 }
 
 /// The walk of [`cloud_beyond`] over the hierarchy of the query cloud.
-#[allow(clippy::too_many_arguments)]
 fn walk(
-    planes: &Collider,
+    q: &ReachQuestion,
     bvh: &crate::geometry::bvh::Bvh,
-    (rot, tr): (&Matrix3<f64>, &Vector3<f64>),
-    t: f64,
-    eps1: f64,
-    spring: SpringShape,
     (vmax, budget): (f64, usize),
     seed: bool,
-    w: &mut Walk,
+    w: &mut ReachWalk,
 ) -> (Beyond, usize) {
+    let ReachQuestion {
+        planes,
+        rot,
+        tr,
+        t,
+        eps1,
+        spring,
+    } = *q;
     // Depth first, as the band walk: each entry is a node, the witness of its parent's test
     // and the parent's open nodes of the other hierarchy (`arena[from..to]`).
-    let Walk {
+    let ReachWalk {
         arena,
         front,
         unsettled,
@@ -222,10 +223,7 @@ fn walk(
         if settled {
             continue;
         }
-        if seed
-            && tests == 1
-            && seed_within(planes, bvh, (rot, tr), t, eps1, spring, vmax, relevant)
-        {
+        if seed && tests == 1 && seed_within(q, bvh, vmax, relevant) {
             return (Beyond::Not, tests); // in contact: the walk could only fail further down
         }
         if node.is_leaf() {
@@ -345,14 +343,15 @@ impl ReachParams {
 /// the bodies' reach from their origins. A pair with no points on either side is not out of
 /// reach (there is nothing to save). At a point whose springs were summed (`springs_settle`, src/collision/settle.rs)
 /// the relevant planes' springs together are below `τ ε3` over the speed and friction factor,
-/// which gives the same bound.
+/// which gives the same bound. The proof's walks work in `scratch`.
 pub fn out_of_reach(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
+    scratch: &mut Scratch,
 ) -> bool {
-    out_of_reach_by(a, b, rels, prm).proven()
+    out_of_reach_by(a, b, rels, prm, scratch).proven()
 }
 
 /// [`out_of_reach`], saying how: [`Beyond::Springs`] where a point of either side needed its
@@ -362,6 +361,7 @@ pub fn out_of_reach_by(
     b: &Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
+    scratch: &mut Scratch,
 ) -> Beyond {
     let eps1 = prm.eps1;
     let Some(sides) = sides(a, b, rels, prm) else {
@@ -379,7 +379,15 @@ pub fn out_of_reach_by(
             break;
         }
         let (rot, tr) = (&s.rotation, &s.translation);
-        match cloud_beyond(s.planes, s.query, (rot, tr), s.t, eps1, spring, &mut budget) {
+        let q = ReachQuestion {
+            planes: s.planes,
+            rot,
+            tr,
+            t: s.t,
+            eps1,
+            spring,
+        };
+        match cloud_beyond(&q, s.query, (&mut budget, &mut *scratch)) {
             Beyond::Planes => {}
             other => how = other,
         }

@@ -72,17 +72,20 @@ pub(super) fn point_springs_settle(
 /// pruned SSDF above `t` (planes the proof counts irrelevant are within its bound's share) or
 /// the same spring sum below its limit. The allowance is a generous rounding margin of the
 /// computed mean.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn seed_within(
-    planes: &Collider,
+    q: &ReachQuestion,
     bvh: &crate::geometry::bvh::Bvh,
-    (rot, tr): (&Matrix3<f64>, &Vector3<f64>),
-    t: f64,
-    eps1: f64,
-    spring: SpringShape,
     vmax: f64,
     scratch: &mut Relevant,
 ) -> bool {
+    let ReachQuestion {
+        planes,
+        rot,
+        tr,
+        t,
+        eps1,
+        spring,
+    } = *q;
     let target = super::band::toward(planes, bvh);
     let far = |c: &Vector3<f64>| (rot * c + tr - target).norm_squared();
     let node = &bvh.nodes[super::band::seed_leaf(bvh, rot, tr, &target) as usize];

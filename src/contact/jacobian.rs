@@ -34,12 +34,13 @@ pub(super) fn pair_contact_chained<T: Scalar>(
     b: &Collider,
     fb: &Frame<T>,
     prm: &ContactParams<T>,
+    scratch: &mut Scratch,
 ) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let mut inputs = [T::zero(); 2 * SIDE_INPUTS];
     inputs[..SIDE_INPUTS].copy_from_slice(&relative_inputs(&rels[0]));
     inputs[SIDE_INPUTS..].copy_from_slice(&relative_inputs(&rels[1]));
-    let (values, jac) = pair_jacobian(a, b, &[rels[0].re(), rels[1].re()], &prm.re());
+    let (values, jac) = pair_jacobian(a, b, &[rels[0].re(), rels[1].re()], &prm.re(), scratch);
     let mut out = [T::zero(); PAIR_OUTPUTS];
     if !T::chain(&values, &jac, &inputs, &mut out) {
         return pair_contact_generic(a, fa, b, fb, prm);
@@ -215,6 +216,7 @@ pub fn pair_jacobian(
     b: &Collider,
     rels: &[Relative<f64>; 2],
     prm: &ContactParams<f64>,
+    scratch: &mut Scratch,
 ) -> ([f64; PAIR_OUTPUTS], Vec<f64>) {
     const NI: usize = 2 * SIDE_INPUTS;
     let mut jac = vec![0.0; PAIR_OUTPUTS * NI];
@@ -232,7 +234,7 @@ pub fn pair_jacobian(
         prm,
         BandWork {
             keep_terms: terms_budget(a, b),
-            scratch: &mut Relevant::default(),
+            scratch,
             grads: Some(&mut grads),
             memo: None,
         },

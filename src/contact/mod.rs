@@ -7,7 +7,7 @@
 
 use crate::collision::{
     band_of, separation_field_naive, terms_budget, BandWork, CandidateMemo, Collider, Frame,
-    Relative, SeparationBand, SeparationDistribution,
+    Relative, Scratch, SeparationBand, SeparationDistribution,
 };
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
 use crate::geometry::Aopc;
@@ -323,7 +323,9 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         let terms = match (e.terms, planes) {
             (Some((from, to)), _) => &band.terms[from as usize..to as usize],
             (None, Collider::HalfSpace { .. }) => &[],
-            (None, Collider::Aopc(o)) => terms_again(o, &x, prm.eps1, scratch, &mut again),
+            (None, Collider::Aopc(o)) => {
+                terms_again(o, &x, prm.eps1, &mut scratch.relevant, &mut again)
+            }
         };
         let mut snk = sink();
         let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, terms, &mut snk);
@@ -401,12 +403,13 @@ pub fn pair_contact<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
-    pair_contact_memo(a, fa, b, fb, prm, None)
+    pair_contact_memo(a, fa, b, fb, prm, None, &mut Scratch::default())
 }
 
 /// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`
 /// ([`CandidateMemo`]): the same contact to the last bit, at less cost while the bodies move
-/// little between calls. The chain rule's path (first-order duals) does not use them.
+/// little between calls. The chain rule's path (first-order duals) does not use them. The
+/// hierarchy walks work in `scratch`.
 pub fn pair_contact_memo<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
@@ -414,6 +417,7 @@ pub fn pair_contact_memo<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
     kept: Option<&mut CandidateMemo>,
+    scratch: &mut Scratch,
 ) -> PairContact<T> {
     let constant = [
         prm.eps1,
@@ -427,9 +431,9 @@ pub fn pair_contact_memo<T: Scalar>(
     .iter()
     .all(|x| x.is_constant());
     if T::FIRST_ORDER && constant {
-        pair_contact_chained(a, fa, b, fb, prm)
+        pair_contact_chained(a, fa, b, fb, prm, scratch)
     } else {
-        pair_contact_generic_memo(a, fa, b, fb, prm, kept)
+        pair_contact_generic_memo(a, fa, b, fb, prm, kept, scratch)
     }
 }
 
@@ -442,7 +446,7 @@ pub fn pair_contact_generic<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
-    pair_contact_generic_memo(a, fa, b, fb, prm, None)
+    pair_contact_generic_memo(a, fa, b, fb, prm, None, &mut Scratch::default())
 }
 
 /// [`pair_contact_generic`] with kept candidate planes ([`pair_contact_memo`]).
@@ -453,6 +457,7 @@ fn pair_contact_generic_memo<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
     kept: Option<&mut CandidateMemo>,
+    scratch: &mut Scratch,
 ) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let parts = pair_sides(
@@ -462,7 +467,7 @@ fn pair_contact_generic_memo<T: Scalar>(
         prm,
         BandWork {
             keep_terms: terms_budget(a, b),
-            scratch: &mut Relevant::default(),
+            scratch,
             grads: None,
             memo: kept,
         },

@@ -81,9 +81,10 @@ impl PairTape {
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
         kept: Option<&mut CandidateMemo>,
+        scratch: &mut Scratch,
     ) -> (PairTape, PairContact<f64>) {
         let budget = TAPE_TERMS_PER_POINT * (a.len() + b.len()).max(1);
-        Self::record_within(a, fa, b, fb, prm, kept, budget)
+        Self::record_within(a, fa, b, fb, prm, (kept, scratch), budget)
     }
 
     /// [`PairTape::record`] recording at most `budget` terms.
@@ -93,7 +94,7 @@ impl PairTape {
         b: &Collider,
         fb: &Frame<f64>,
         prm: &ContactParams<f64>,
-        kept: Option<&mut CandidateMemo>,
+        (kept, scratch): (Option<&mut CandidateMemo>, &mut Scratch),
         budget: usize,
     ) -> (PairTape, PairContact<f64>) {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
@@ -108,7 +109,7 @@ impl PairTape {
             prm,
             BandWork {
                 keep_terms: terms_budget(a, b),
-                scratch: &mut Relevant::default(),
+                scratch,
                 grads: None,
                 memo: kept,
             },

@@ -296,7 +296,7 @@ fn terms_past_the_budget_are_summed_again_to_the_same_bits() {
             &prm,
             BandWork {
                 keep_terms: keep,
-                scratch: &mut Relevant::default(),
+                scratch: &mut Scratch::default(),
                 grads: None,
                 memo: None,
             },
@@ -347,11 +347,27 @@ fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
             .map(f64::to_bits)
             .collect()
     };
-    let (full, w_full) = PairTape::record_within(&a, &fa, &b, &fb, &prm, None, usize::MAX);
+    let (full, w_full) = PairTape::record_within(
+        &a,
+        &fa,
+        &b,
+        &fb,
+        &prm,
+        (None, &mut Scratch::default()),
+        usize::MAX,
+    );
     let default_budget = TAPE_TERMS_PER_POINT * (a.len() + b.len());
     assert!(full.recorded_terms() > default_budget, "a wide softmax");
     for budget in [0, 5000, default_budget] {
-        let (tape, w) = PairTape::record_within(&a, &fa, &b, &fb, &prm, None, budget);
+        let (tape, w) = PairTape::record_within(
+            &a,
+            &fa,
+            &b,
+            &fb,
+            &prm,
+            (None, &mut Scratch::default()),
+            budget,
+        );
         assert!(tape.recorded_terms() <= budget, "{budget}");
         assert_eq!(
             bits(&[w.on_a, w.on_b]),
@@ -366,6 +382,6 @@ fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
         );
     }
     // The default path is the budgeted one.
-    let (tape, _) = PairTape::record(&a, &fa, &b, &fb, &prm, None);
+    let (tape, _) = PairTape::record(&a, &fa, &b, &fb, &prm, None, &mut Scratch::default());
     assert!(tape.recorded_terms() <= default_budget);
 }

@@ -53,14 +53,14 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        let visits = self.visit_pairs(&kin, prm, Pick::InReach, reuse, |p| {
+        let visits = self.visit_pairs(&kin, prm, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
             (
                 a,
                 b,
                 p.prm,
-                PairTape::record(ca, fa, cb, fb, &p.prm, p.candidates),
+                PairTape::record(ca, fa, cb, fb, &p.prm, p.candidates, scratch),
             )
         });
         let mut tapes = Vec::new();

@@ -5,7 +5,7 @@
 
 use super::Model;
 use crate::collision::{
-    out_of_reach, out_of_reach_proven, CandidateMemo, Collider, PairCarry, ReachProof,
+    out_of_reach, out_of_reach_proven, CandidateMemo, Collider, PairCarry, ReachProof, Scratch,
 };
 use crate::contact::{pair_contact_memo, ContactParams, PairContact, Wrench};
 use crate::dynamics::Kinematics;
@@ -105,13 +105,6 @@ pub(super) enum Pick<'a> {
     Marked(&'a [bool]),
 }
 
-/// One pair's kept out-of-reach proof and candidate planes, as [`Model::visit_pairs`] hands
-/// them out (either may be absent).
-type PairKept<'a> = (
-    Option<&'a mut Option<ReachProof>>,
-    Option<&'a mut CandidateMemo>,
-);
-
 /// What [`Model::visit_pairs`] did with one pair.
 pub(super) enum PairVisit<R> {
     /// One of its bodies has no collider: nothing to evaluate.
@@ -169,8 +162,8 @@ impl<T: Scalar> PendingPair<'_, T> {
             .sum()
     }
 
-    /// The pair's contact at `kin`.
-    fn evaluate(self, kin: &Kinematics<T>) -> PairContact<T> {
+    /// The pair's contact at `kin`, the walks working in `scratch`.
+    fn evaluate(self, kin: &Kinematics<T>, scratch: &mut Scratch) -> PairContact<T> {
         let [a, b] = self.bodies;
         let [ca, cb] = self.sides;
         pair_contact_memo(
@@ -180,6 +173,7 @@ impl<T: Scalar> PendingPair<'_, T> {
             &kin.frames[b],
             &self.prm,
             self.candidates,
+            scratch,
         )
     }
 }
@@ -222,18 +216,23 @@ impl PairThreads {
     pub const MIN_PAIRS: usize = 8;
 
     /// `f` of every pair of `pending`, with the pair's index, in pair order: on one thread, or
-    /// split over up to [`PairThreads::threads`] by their points.
+    /// split over up to [`PairThreads::threads`] by their points, each thread with its own of
+    /// `scratch` (which has one per thread).
     pub(crate) fn map<'a, T: Scalar, R: Send>(
         &self,
         pending: Vec<PendingPair<'a, T>>,
-        f: impl Fn(PendingPair<'a, T>) -> R + Sync,
+        scratch: &mut [Scratch],
+        f: impl Fn(PendingPair<'a, T>, &mut Scratch) -> R + Sync,
     ) -> Vec<(usize, R)> {
         let f = &f;
-        let run = move |group: Vec<PendingPair<'a, T>>| -> Vec<(usize, R)> {
-            group.into_iter().map(|p| (p.k, f(p))).collect()
+        let run = move |group: Vec<PendingPair<'a, T>>, s: &mut Scratch| -> Vec<(usize, R)> {
+            group.into_iter().map(|p| (p.k, f(p, s))).collect()
         };
+        let (first, more) = scratch
+            .split_first_mut()
+            .expect("the pair loop has scratch for one thread at least");
         if self.threads < 2 || pending.len() < self.min_pairs.max(2) {
-            return run(pending);
+            return run(pending, first);
         }
         // Largest first, each to the group with the fewest points so far.
         let mut pending = pending;
@@ -249,8 +248,11 @@ impl PairThreads {
         let mut groups = split.into_iter().map(|(_, g)| g);
         let own = groups.next().unwrap_or_default();
         let mut all = std::thread::scope(|s| {
-            let others: Vec<_> = groups.map(|g| s.spawn(move || run(g))).collect();
-            let mut all = run(own);
+            let others: Vec<_> = groups
+                .zip(more.iter_mut())
+                .map(|(g, scratch)| s.spawn(move || run(g, scratch)))
+                .collect();
+            let mut all = run(own, first);
             for h in others {
                 // A panic in a worker is the same panic here.
                 all.extend(h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
@@ -302,9 +304,10 @@ impl Model {
         applied: &[Option<PairContact<T>>],
     ) -> Vec<PairContact<T>> {
         let missing: Vec<bool> = applied.iter().map(Option::is_none).collect();
-        let distances = self.visit_pairs(kin, prm, Pick::Marked(&missing), Reuse::Nothing, |p| {
-            p.evaluate(kin).distance
-        });
+        let distances =
+            self.visit_pairs(kin, prm, Pick::Marked(&missing), Reuse::Nothing, |p, s| {
+                p.evaluate(kin, s).distance
+            });
         applied
             .iter()
             .zip(distances)
@@ -329,7 +332,7 @@ impl Model {
         reuse: Reuse,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let out: Vec<Option<PairContact<T>>> = self
-            .visit_pairs(kin, prm, pick, reuse, |p| p.evaluate(kin))
+            .visit_pairs(kin, prm, pick, reuse, |p, s| p.evaluate(kin, s))
             .into_iter()
             .map(|visit| match visit {
                 PairVisit::NoCollider => Some(PairContact::none()),
@@ -345,21 +348,30 @@ impl Model {
     /// [`Pick::InReach`]; with the pairs' kept proofs when `reuse` is [`Reuse::All`]); the pairs
     /// left are evaluated on [`Model::pair_threads`] threads when they are many enough
     /// ([`PairThreads`]), each with only its own kept candidates, so the results are the same
-    /// bits whatever the threads.
+    /// bits whatever the threads. The walks work in the carried scratch ([`PairCarry`]: one
+    /// per thread), or in scratch of this call's own when nothing is carried.
     pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
         &'a self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         pick: Pick,
         reuse: Reuse<'a>,
-        eval: impl Fn(PendingPair<'a, T>) -> R + Sync,
+        eval: impl Fn(PendingPair<'a, T>, &mut Scratch) -> R + Sync,
     ) -> Vec<PairVisit<R>> {
         let n = self.pairs.len();
+        let threads = self.pair_threads.threads.max(1);
+        let mut own = Vec::new();
         // Fitted by the callers that carry data (`forward_at`, `frozen_forward`), before any
         // check that can fail, so a failing call leaves a fitted carry.
-        let kept: Vec<PairKept<'_>> = match reuse {
-            Reuse::Nothing => (0..n).map(|_| (None, None)).collect(),
-            Reuse::All(all) => all.pairs().map(|(r, c)| (Some(r), c)).collect(),
+        let (kept, scratch): (Vec<_>, &mut [Scratch]) = match reuse {
+            Reuse::Nothing => {
+                own.resize_with(threads, Scratch::default);
+                ((0..n).map(|_| (None, None)).collect(), &mut own)
+            }
+            Reuse::All(all) => {
+                let (pairs, scratch) = all.pairs_and_scratch(threads);
+                (pairs.map(|(r, c)| (Some(r), c)).collect(), scratch)
+            }
         };
         debug_assert_eq!(
             kept.len(),
@@ -377,7 +389,7 @@ impl Model {
             out.push(PairVisit::OutOfReach);
             let left_out = match pick {
                 Pick::Every => false,
-                Pick::InReach => self.out_of_reach_with(pair, kin, &prm, reach),
+                Pick::InReach => self.out_of_reach_with(pair, kin, &prm, reach, &mut scratch[0]),
                 Pick::Marked(marked) => !marked[k],
             };
             if left_out {
@@ -391,7 +403,7 @@ impl Model {
                 candidates,
             });
         }
-        for (k, r) in self.pair_threads.map(pending, eval) {
+        for (k, r) in self.pair_threads.map(pending, scratch, eval) {
             out[k] = PairVisit::Evaluated(r);
         }
         out
@@ -413,13 +425,15 @@ impl Model {
     }
 
     /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
-    /// with the pair's kept proof if given ([`out_of_reach_proven`]).
+    /// with the pair's kept proof if given ([`out_of_reach_proven`]), the walks working in
+    /// `scratch`.
     pub(crate) fn out_of_reach_with<T: Scalar>(
         &self,
         pair: &Pair,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
         kept: Option<&mut Option<ReachProof>>,
+        scratch: &mut Scratch,
     ) -> bool {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return true;
@@ -439,8 +453,9 @@ impl Model {
                 // (With two steps asked of RK4, gymnasium's humanoid's limbs, moving at about
                 // 0.5 m/s, never had room enough: pelvis–arm pairs proven afresh at every stage.)
                 2.0 * self.timestep / self.integrator.forwards_per_step(),
+                scratch,
             ),
-            None => out_of_reach(ca, cb, &rels, &p.reach()),
+            None => out_of_reach(ca, cb, &rels, &p.reach(), scratch),
         }
     }
 }

@@ -4,11 +4,10 @@
 //! (`fmi2GetFMUstate`, and the bytes of `src/sim/state_bytes.rs`).
 //!
 //! Outside it, by design: the model's solver settings (integrator, step, tolerance: part of
-//! the FMU state, set through the model as MuJoCo's `mjModel.opt`); each point cloud's
-//! hierarchy, built once on first use (`OnceLock` in `src/geometry/aopc.rs`; changes nothing);
-//! and the hierarchy walks' scratch, one per thread (thread-locals in `src/collision/band.rs`
-//! and `src/collision/reach.rs`; changes nothing), since pairs are evaluated on scoped threads
-//! that each need their own.
+//! the FMU state, set through the model as MuJoCo's `mjModel.opt`); and each point cloud's
+//! hierarchy, built once on first use (`OnceLock` in `src/geometry/aopc.rs`; changes nothing).
+//! The hierarchy walks' scratch is carried with the pairs' data in [`SolverCache`], one per
+//! pair thread (`Scratch`, `src/collision/scratch.rs`); nothing is kept in thread-locals.
 
 use super::outputs::ContactOutputs;
 use super::{PointsCache, SimState};
@@ -23,7 +22,7 @@ pub struct Data {
     pub current: SimState,
     /// What the integrator carries from one communication step to the next
     /// ([`SolverCache`]: Newton's warm Jacobian, the energy guard's ledger, the pairs' proofs
-    /// and candidate memos, the kinematics memo). Changes a result: in the last bits (where
+    /// and candidate memos, the walks' scratch, the kinematics memo). Changes a result: in the last bits (where
     /// Newton starts), in which pairs a proof switches off (below its bound), and in which steps
     /// the guard refuses. FMU state: yes; in memory (`fmi2GetFMUstate`) a whole copy, in the
     /// serialized bytes all but the memos ([`SolverCache::parts`]).

@@ -48,7 +48,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             },
             BandWork {
                 keep_terms: usize::MAX,
-                scratch: &mut Relevant::default(),
+                scratch: &mut Scratch::default(),
                 grads: None,
                 memo: None,
             },
@@ -175,7 +175,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                     },
                     BandWork {
                         keep_terms: usize::MAX,
-                        scratch: &mut Relevant::default(),
+                        scratch: &mut Scratch::default(),
                         grads: None,
                         memo: kept,
                     },
@@ -221,7 +221,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             },
             BandWork {
                 keep_terms: usize::MAX,
-                scratch: &mut Relevant::default(),
+                scratch: &mut Scratch::default(),
                 grads: None,
                 memo: Some(&mut kept),
             },
@@ -289,39 +289,30 @@ fn the_reach_proofs_first_look_at_one_point_changes_no_answer() {
             unreachable!()
         };
         let budget = reach_budget(q.len());
-        let with = cloud_beyond_with(
+        let question = ReachQuestion {
             planes,
-            q,
-            (&rot, &tr),
+            rot: &rot,
+            tr: &tr,
             t,
-            1e-5,
+            eps1: 1e-5,
             spring,
-            &mut { budget },
+        };
+        let with = cloud_beyond_with(
+            &question,
+            q,
+            (&mut { budget }, &mut Scratch::default()),
             true,
         );
         let without = cloud_beyond_with(
-            planes,
+            &question,
             q,
-            (&rot, &tr),
-            t,
-            1e-5,
-            spring,
-            &mut { budget },
+            (&mut { budget }, &mut Scratch::default()),
             false,
         );
         assert_eq!(with, without, "case {case}: gap {gap}, threshold {t}");
         proven += with.proven() as usize;
         // (The allowance's `vmax` only widens it: 0 here, so these are surely within.)
-        let seen = seed_within(
-            planes,
-            q.bvh(),
-            (&rot, &tr),
-            t,
-            1e-5,
-            spring,
-            0.0,
-            &mut Relevant::default(),
-        );
+        let seen = seed_within(&question, q.bvh(), 0.0, &mut Relevant::default());
         assert!(
             !(seen && with.proven()),
             "case {case}: a point within, yet proven beyond"
@@ -365,7 +356,7 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
             },
             BandWork {
                 keep_terms: usize::MAX,
-                scratch: &mut Relevant::default(),
+                scratch: &mut Scratch::default(),
                 grads: Some(grads),
                 memo: None,
             },
@@ -434,7 +425,7 @@ fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
                 },
                 BandWork {
                     keep_terms: terms_budget(&a, &b),
-                    scratch: &mut Relevant::default(),
+                    scratch: &mut Scratch::default(),
                     grads: None,
                     memo: Some(&mut kept),
                 },
