@@ -19,6 +19,11 @@ case "${1:-}" in
   "") ;;
   *) echo "usage: scripts/test.sh [--quick]" >&2; exit 2 ;;
 esac
+if $quick; then
+  # Incremental release builds: after an edit, only the changed code is compiled again (about
+  # 2 minutes of the tier's rebuild saved; the same code, so the same results). CI builds afresh.
+  export CARGO_INCREMENTAL=1
+fi
 scripts/setup.sh
 if $quick; then
   cargo fmt --check

@@ -77,12 +77,48 @@ def robotics_id(path):
     return f"{path.stem}_fetch" if path.parent.name == "fetch" and path.stem == "reach" else path.stem
 
 
+# Tests of about 5 s or more each on the 2-core development machine (pytest --durations), by
+# name: marked `slow` here rather than in their modules, since several are one case of a
+# parametrized test. The quick tier leaves them out; CI runs them.
+SLOW_BY_NAME = {
+    "test_a_nut_screws_down_its_bolt_as_the_thread_demands",
+    "test_gears_of_the_gear_plugin_weigh_and_mesh_as_in_mujoco",
+    "test_a_robot_with_dense_meshes_runs_its_first_steps_in_bounded_memory[fourier_left_hand]",
+    "test_nut_on_bolt_derivatives_are_exact_in_the_thread",
+    "test_a_long_run_shows_its_progress_on_a_terminal",
+    "test_no_progress_where_standard_error_is_not_a_terminal",
+    "test_height_fields_with_elevation_data_collide_as_in_mujoco[png]",
+    "test_height_fields_with_elevation_data_collide_as_in_mujoco[inline]",
+    "test_height_fields_with_elevation_data_collide_as_in_mujoco[custom]",
+    "test_sdf_plugin_shapes_weigh_as_mujoco_weighs_them",
+    "test_generated_names_never_panic_and_always_validate",
+    "test_co_simulation_and_model_exchange_agree[horseshoe]",
+    "test_a_bounded_contact_damping_carries_the_humanoids_fall_at_its_own_step",
+    "test_the_bodies_that_collide_are_those_mujoco_lets_touch[dm_control-dog]",
+    "test_the_bodies_that_collide_are_those_mujoco_lets_touch[dm_control-dog_v2_dog]",
+    "test_a_scheduler_and_workers_started_by_hand",
+    "test_a_sweep_on_two_workers_equals_the_serial_runs",
+    "test_corpus_file_packs_validates_and_runs[humanoid]",
+    "test_corpus_file_packs_validates_and_runs[humanoidstandup]",
+    "test_a_robot_runs_the_same_bits_every_time",
+    "test_builtin_meshes_compile_as_mujoco_compiles_them",
+    "test_sdf_nut_and_bolt_weigh_as_mujoco_weighs_them",
+    "test_sdf_torus_dropped_on_a_floor_lands_flat_as_in_mujoco",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.name in SLOW_BY_NAME:
+            item.add_marker(pytest.mark.slow)
+
+
 def pytest_configure(config):
     config.addinivalue_line(
         "markers",
         "slow: left out of `scripts/test.sh --quick` (the report, the contact-on envelope, the bench, the "
         "inference studies, the dm_control and gymnasium-robotics corpora, the wheel's build: each costs tens "
-        "of seconds or more); CI runs them")
+        "of seconds or more; and the tests of about 5 s or more named in SLOW_BY_NAME); CI runs them")
 
 
 @pytest.fixture(scope="session")
