@@ -1,6 +1,6 @@
 //! Load: a long run with steady memory and no drift of the quaternion norms: 10⁶ steps of
 //! `t_push` (2000 s simulated, the finger making and breaking contact every second; about
-//! 3–4 minutes in release at ~0.2 ms per step) and 10⁴ steps of `box_stack` (three free boxes
+//! 7 minutes in release on the shared 2-core machine, 447 s in one run) and 10⁴ steps of `box_stack` (three free boxes
 //! settling and resting). `cargo run --release --example long_run` runs the same code with
 //! progress lines, 10⁶ steps of each; its numbers are in docs/fmu.md, Errors and limits.
 //!
