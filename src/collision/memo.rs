@@ -426,7 +426,7 @@ pub struct PairCarry {
     /// No candidates are kept (every query walks): for measurements and tests.
     pub walk_always: bool,
     /// The hierarchy walks' scratch, one per thread that evaluates pairs (grown on demand by
-    /// [`PairCarry::scratch`]). Changes a result: no. FMU state: no (a copy starts empty).
+    /// [`PairCarry::pairs_and_scratch`]). Changes a result: no. FMU state: no (a copy starts empty).
     scratch: Vec<Scratch>,
 }
 

@@ -1,7 +1,7 @@
 //! [`Scratch`]: the working vectors of the hierarchy walks (the separation band's walk, the
 //! out-of-reach proof's walk, and the relevant-plane queries both make), handed to the walks
 //! by whoever owns them instead of kept in thread-locals. A running simulation keeps one per
-//! pair thread in its carried pair data ([`PairCarry::scratch`](super::PairCarry::scratch)), so
+//! pair thread in its carried pair data ([`PairCarry::pairs_and_scratch`](super::PairCarry::pairs_and_scratch)), so
 //! that the walks allocate nothing once the vectors have grown; a one-off evaluation makes its
 //! own. What a walk leaves in it never changes a result: every walk clears what it reads
 //! before reading it, and a stale nearest-point hint only changes where a search starts

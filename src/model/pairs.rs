@@ -209,7 +209,7 @@ impl PairThreads {
         }
     }
 
-    /// The default [`PairThreads::min_pairs`]. Measured on 2 cores (`docs/performance.md`),
+    /// The default [`PairThreads::min_pairs`]. Measured on 2 cores,
     /// with a scoped thread started per evaluation: 8 and 32 boxes resting on a floor (8 and
     /// 32 pairs in reach) step 1.2–1.4× faster on two threads, while gymnasium's ant (4 legs on
     /// the floor) gains nothing, `box_stack` (3 pairs) and the half cheetah (2) lose 35–40 %.
@@ -245,6 +245,11 @@ impl PairThreads {
             split[g].0 += p.points();
             split[g].1.push(p);
         }
+        // Every group has scratch of its own: none may be left out unevaluated.
+        assert!(
+            more.len() + 1 >= groups,
+            "the pair loop has scratch for each thread"
+        );
         let mut groups = split.into_iter().map(|(_, g)| g);
         let own = groups.next().unwrap_or_default();
         let mut all = std::thread::scope(|s| {

@@ -22,10 +22,11 @@ pub struct Data {
     pub current: SimState,
     /// What the integrator carries from one communication step to the next
     /// ([`SolverCache`]: Newton's warm Jacobian, the energy guard's ledger, the pairs' proofs
-    /// and candidate memos, the walks' scratch, the kinematics memo). Changes a result: in the last bits (where
-    /// Newton starts), in which pairs a proof switches off (below its bound), and in which steps
-    /// the guard refuses. FMU state: yes; in memory (`fmi2GetFMUstate`) a whole copy, in the
-    /// serialized bytes all but the memos ([`SolverCache::parts`]).
+    /// and candidate memos, the walks' scratch, the kinematics memo). Changes a result: in the
+    /// last bits (where Newton starts), in which pairs a proof switches off (below its bound), and in which steps
+    /// the guard refuses. FMU state: yes; in memory (`fmi2GetFMUstate`) a whole copy (but the
+    /// scratch, which starts empty), in the serialized bytes all but the memos and the scratch
+    /// ([`SolverCache::parts`]).
     pub(crate) solver: SolverCache,
     /// The contact outputs and the state they were computed at, as far as they have been read,
     /// and the candidate planes their evaluations keep ([`ContactOutputs`]): they serve while
