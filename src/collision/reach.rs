@@ -63,9 +63,6 @@ pub(super) struct ReachWalk {
     front: Vec<u32>,
     unsettled: Vec<u32>,
     stack: Vec<(u32, usize, u32, u32)>,
-    /// The relevant set of `seed_within`'s point, and of the points whose springs are
-    /// summed.
-    relevant: Relevant,
 }
 
 /// What a proof asks of a cloud of query points ([`cloud_beyond`]): whether every distance
@@ -148,7 +145,7 @@ pub(super) fn cloud_beyond_with(
     if matches!(planes, Collider::Aopc(_)) && !vmax.is_finite() || !t.is_finite() {
         return Beyond::Not;
     }
-    let (beyond, tests) = walk(q, bvh, (vmax, *budget), seed, &mut scratch.reach);
+    let (beyond, tests) = walk(q, bvh, (vmax, *budget), seed, scratch);
     *budget = budget.saturating_sub(tests);
     beyond
 }
@@ -159,7 +156,7 @@ fn walk(
     bvh: &crate::geometry::bvh::Bvh,
     (vmax, budget): (f64, usize),
     seed: bool,
-    w: &mut ReachWalk,
+    scratch: &mut Scratch,
 ) -> (Beyond, usize) {
     let ReachQuestion {
         planes,
@@ -171,13 +168,19 @@ fn walk(
     } = *q;
     // Depth first, as the band walk: each entry is a node, the witness of its parent's test
     // and the parent's open nodes of the other hierarchy (`arena[from..to]`).
-    let ReachWalk {
-        arena,
-        front,
-        unsettled,
-        stack,
+    // `relevant`: the relevant set of `seed_within`'s point, and of the points whose springs
+    // are summed.
+    let Scratch {
+        reach:
+            ReachWalk {
+                arena,
+                front,
+                unsettled,
+                stack,
+            },
         relevant,
-    } = w;
+        ..
+    } = scratch;
     arena.clear();
     arena.push(0);
     stack.clear();

@@ -19,8 +19,9 @@ pub struct Scratch {
     pub(super) band: BandWalk,
     /// The out-of-reach proof's walk ([`cloud_beyond`](super::cloud_beyond)).
     pub(super) reach: ReachWalk,
-    /// The relevant planes of one query point at a time (the band's entries, and the forces
-    /// of the entries whose terms the band did not keep).
+    /// The relevant planes of one query point at a time (the band's entries, the forces of
+    /// the entries whose terms the band did not keep, and the proof's points whose SSDF or
+    /// springs it sums).
     pub(crate) relevant: Relevant,
 }
 

@@ -347,19 +347,8 @@ fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
             .map(f64::to_bits)
             .collect()
     };
-    let (full, w_full) = PairTape::record_within(
-        &a,
-        &fa,
-        &b,
-        &fb,
-        &prm,
-        (None, &mut Scratch::default()),
-        usize::MAX,
-    );
-    let default_budget = TAPE_TERMS_PER_POINT * (a.len() + b.len());
-    assert!(full.recorded_terms() > default_budget, "a wide softmax");
-    for budget in [0, 5000, default_budget] {
-        let (tape, w) = PairTape::record_within(
+    let record = |budget| {
+        PairTape::record_within(
             &a,
             &fa,
             &b,
@@ -367,7 +356,13 @@ fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
             &prm,
             (None, &mut Scratch::default()),
             budget,
-        );
+        )
+    };
+    let (full, w_full) = record(usize::MAX);
+    let default_budget = TAPE_TERMS_PER_POINT * (a.len() + b.len());
+    assert!(full.recorded_terms() > default_budget, "a wide softmax");
+    for budget in [0, 5000, default_budget] {
+        let (tape, w) = record(budget);
         assert!(tape.recorded_terms() <= budget, "{budget}");
         assert_eq!(
             bits(&[w.on_a, w.on_b]),
