@@ -441,6 +441,37 @@ fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
 /// motion would switch a pushing pair off: checked), half by up to 0.3 mm and 0.002 rad.
 #[test]
 fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
+    let (kept_made, covered, refused, _) = kept_proofs_against_the_unpruned_reference(0.0);
+    println!("{kept_made} proofs kept; after the move {covered} still covered, {refused} not");
+    assert!(
+        covered >= 30 && refused >= 30,
+        "both outcomes occur: {covered} {refused}"
+    );
+}
+
+/// As [`a_kept_proof_switches_a_pair_off_only_while_it_cannot_push`], with proofs asked to last
+/// 10 ms at the bodies' speeds (up to about 1.5 m/s here): most are then made by the bounding
+/// polytope's floor alone, with a room of four times that motion (docs/performance.md, "A
+/// proof that is kept"), which no relevance margin caps; wherever such a proof switches a
+/// moved pair off, the unpruned reference pushes less than the bound.
+#[test]
+fn a_kept_proof_by_the_floor_alone_switches_a_pair_off_only_while_it_cannot_push() {
+    let (kept_made, covered, refused, by_floor) = kept_proofs_against_the_unpruned_reference(0.01);
+    println!(
+        "{kept_made} proofs kept ({by_floor} with a side by the floor alone); after the move \
+         {covered} still covered, {refused} not"
+    );
+    assert!(
+        by_floor >= 30 && covered >= 30 && refused >= 30,
+        "every outcome occurs: {by_floor} {covered} {refused}"
+    );
+}
+
+/// The cases of [`a_kept_proof_switches_a_pair_off_only_while_it_cannot_push`], proofs made to
+/// last `life` (s); asserts the bound wherever a kept proof switches a moved pair off, and
+/// returns the proofs kept, those still covering after the move, those not, and those kept
+/// with a side by the floor alone.
+fn kept_proofs_against_the_unpruned_reference(life: f64) -> (usize, usize, usize, usize) {
     let mut rng = Lcg(7);
     // Sphere, box and capsule.
     let mut colliders = sampled_shapes();
@@ -450,7 +481,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
         let axis = Unit::new_normalize(rng.direction());
         Rotation3::from_axis_angle(&axis, rng.range(lo, hi)).into_inner()
     };
-    let (mut kept_made, mut covered, mut refused) = (0, 0, 0);
+    let (mut kept_made, mut covered, mut refused, mut by_floor) = (0, 0, 0, 0);
     for case in 0..300 {
         let (a, ra) = &colliders[case % colliders.len()];
         let against_plane = case % 4 == 3;
@@ -491,7 +522,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
                 &rels,
                 &prm.reach(),
                 kept,
-                0.0,
+                life,
                 &mut Scratch::default(),
             )
         };
@@ -500,6 +531,11 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
             continue;
         }
         kept_made += 1;
+        let floor_side = |k: &Option<ReachProof>| {
+            k.as_ref()
+                .is_some_and(|k| k.sides.iter().flatten().any(|s| s.m1 == f64::INFINITY))
+        };
+        by_floor += usize::from(floor_side(&kept));
         let made = kept.clone();
         // Moved and turned (velocities unchanged): decided by the kept proof where it still
         // covers the pose (the kept proof unchanged), else proven afresh.
@@ -533,11 +569,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
             );
         }
     }
-    println!("{kept_made} proofs kept; after the move {covered} still covered, {refused} not");
-    assert!(
-        covered >= 30 && refused >= 30,
-        "both outcomes occur: {covered} {refused}"
-    );
+    (kept_made, covered, refused, by_floor)
 }
 
 /// Kept proofs are part of the FMU state: they round-trip through its bytes, a run restored
@@ -602,6 +634,32 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
         .unwrap();
     sim.set_state(&negative).unwrap();
     sim.do_step(10.0 * h, h).unwrap();
+
+    // A proof by the floor alone (an infinite margin, its side flagged 2 since layout version
+    // 8): the box and the sphere, 0.5 m apart, are so proven at the saved pose; it round-trips
+    // and replays, a version 7 reader's bytes may not carry it, and moved onto the box it is
+    // refused.
+    let mut by_floor = reach.to_vec();
+    for side in by_floor[pair].as_mut().unwrap().sides.iter_mut().flatten() {
+        side.m1 = f64::INFINITY;
+    }
+    let state = with_proofs(&saved, by_floor.clone());
+    sim.set_state(&state).unwrap();
+    assert_restored_run_replays(&mut sim, &state, h, 10..40);
+    let bytes = sim.serialize_state(&state).unwrap();
+    assert_eq!(bytes[..4], 8u32.to_le_bytes());
+    let as_7 = [&7u32.to_le_bytes()[..], &bytes[4..]].concat();
+    let old = sim.deserialize_state(&as_7).unwrap_err().to_string();
+    assert!(old.contains("flag 2"), "{old}");
+    by_floor[pair].as_mut().unwrap().sides[0]
+        .as_mut()
+        .unwrap()
+        .translation = Vector3::new(0.09, 0.0, 0.0);
+    let onto = sim
+        .deserialize_state(&sim.serialize_state(&with_proofs(&saved, by_floor)).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(onto.contains("does not hold"), "{onto}");
 }
 
 /// A negative margin (MuJoCo takes one: its contact then acts only that deep) makes proofs of

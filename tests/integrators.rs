@@ -1137,7 +1137,8 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
         s
     };
     let saved = without_proofs(&saved);
-    // Version 7 adds the activations, none here: its bytes are version 6's.
+    // Version 7 adds the activations, none here: its bytes are version 6's; version 8 a
+    // kept proof's side flag 2, none here: its bytes are version 7's.
     let as_version = |version: u32, bytes: &[u8]| {
         let cut = match version {
             6.. => 0,
@@ -1146,11 +1147,11 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
         };
         [&version.to_le_bytes()[..], &bytes[4..bytes.len() - cut]].concat()
     };
-    let version_7 = sim.serialize_state(&saved).unwrap();
-    assert_eq!(version_7[..4], 7u32.to_le_bytes());
-    assert_eq!(version_7[version_7.len() - 4..], 0u32.to_le_bytes());
-    let version_6 = version_7;
-    for old in [4, 5, 6] {
+    let version_8 = sim.serialize_state(&saved).unwrap();
+    assert_eq!(version_8[..4], 8u32.to_le_bytes());
+    assert_eq!(version_8[version_8.len() - 4..], 0u32.to_le_bytes());
+    let version_6 = version_8;
+    for old in [4, 5, 6, 7] {
         assert_eq!(
             sim.deserialize_state(&as_version(old, &version_6)).unwrap(),
             saved

@@ -78,7 +78,9 @@ pub struct ReachQuestion<'a> {
     pub tr: &'a Vector3<f64>,
     /// The threshold (m).
     pub t: f64,
-    /// The SSDF's smoothing `ε1` (m²).
+    /// The SSDF's smoothing `ε1` (m²). Infinite: every plane counts as relevant, which no
+    /// point of a closed surface's outside passes, so only the floor of the plane body's
+    /// polytope settles a point (a proof by the floor alone, `ProofSide::floor_room`).
     pub eps1: f64,
     /// The springs' shape, for the points whose springs are summed.
     pub spring: SpringShape,
@@ -185,6 +187,9 @@ fn walk(
     arena.push(0);
     stack.clear();
     stack.push((0u32, usize::MAX, 0u32, 1u32));
+    // A proof by the floor alone (`eps1` infinite) tries no plane: with every plane relevant
+    // the planes facing away fail it at the first node (a sound answer, found slowly).
+    let floors_only = eps1 == f64::INFINITY;
     let mut tests = 0;
     let mut springs_used = false;
     while let Some((ni, hint, from, to)) = stack.pop() {
@@ -212,6 +217,7 @@ fn walk(
             // node's ball is above `t`: settled by 26 plane values, whatever the SSDF's own
             // planes read (beside a flat face's edge they pass near far-away points).
             Collider::Aopc(o) if floor_above(o, &region.centre, region.radius, t) => continue,
+            Collider::Aopc(_) if floors_only => (false, hint, (from, to)),
             Collider::Aopc(o) => {
                 front.clear();
                 front.extend_from_slice(&arena[from as usize..to as usize]);
@@ -226,7 +232,7 @@ fn walk(
         if settled {
             continue;
         }
-        if seed && tests == 1 && seed_within(q, bvh, vmax, relevant) {
+        if seed && !floors_only && tests == 1 && seed_within(q, bvh, vmax, relevant) {
             return (Beyond::Not, tests); // in contact: the walk could only fail further down
         }
         if node.is_leaf() {
@@ -242,6 +248,7 @@ fn walk(
                 let one = QueryRegion::ball(x, 1e-12 * (x.norm() + 1.0));
                 let ok = match planes {
                     Collider::Aopc(o) if floor_above(o, &one.centre, one.radius, t) => true,
+                    Collider::Aopc(_) if floors_only => false,
                     Collider::Aopc(o) => {
                         unsettled.clear();
                         let front = &arena[cfrom as usize..cto as usize];

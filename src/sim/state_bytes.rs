@@ -21,7 +21,7 @@
 //! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
 //! | `left` | 1 (+ 8 (nq + nv + na + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, `act` (since version 7), step; or 2, `q`, `v`, `act`, step, implicit Euler's last velocity change `V - v` |
 //! | `ledger` | 1 (+ 8 (nq + nv + na + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`, `act` since version 7), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
-//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1, rotation (column-major), translation, distance, relevance margin; each proven again when read |
+//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1 (by planes) or 2 (by the floor alone, since version 8), rotation (column-major), translation, distance, relevance margin (0 for flag 2); each proven again when read |
 //!
 //! The sections are written in this order, and [`decode`] reads them in it; a test holds this
 //! table against what [`encode`] writes, section by section and byte by byte.
@@ -38,10 +38,10 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
 /// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy,
-/// version 6 the kept out-of-reach proofs, version 7 the activations; [`decode`] also reads
-/// versions 3 (never flag 2), 4 and 5 (no kept proofs) and 6 (no activations: of a model
-/// without them).
-pub const STATE_VERSION: u32 = 7;
+/// version 6 the kept out-of-reach proofs, version 7 the activations, version 8 the kept
+/// proofs by the floor alone (a side's flag 2); [`decode`] also reads versions 3 (never flag
+/// 2), 4 and 5 (no kept proofs), 6 (no activations: of a model without them) and 7.
+pub const STATE_VERSION: u32 = 8;
 
 /// The bytes of a state as [`encode`] writes them, with where each section of the module's
 /// table begins (what the layout test compares with the table).
@@ -157,12 +157,21 @@ fn write(state: &FmuState) -> Writer {
         for side in &k.sides {
             match side {
                 None => w.flag(0),
-                Some(ks) => w.flag(1).reals(
-                    ks.rotation
-                        .iter()
-                        .chain(&ks.translation)
-                        .chain([&ks.t, &ks.m1]),
-                ),
+                Some(ks) => {
+                    // A proof by the floor alone (an infinite margin) is flagged 2, its
+                    // margin written as 0.
+                    let (flag, m1) = if ks.m1 == f64::INFINITY {
+                        (2, 0.0)
+                    } else {
+                        (1, ks.m1)
+                    };
+                    w.flag(flag).reals(
+                        ks.rotation
+                            .iter()
+                            .chain(&ks.translation)
+                            .chain([&ks.t, &m1]),
+                    )
+                }
             };
         }
     }
@@ -366,7 +375,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),
     };
     let reach = if version >= 6 {
-        reach_proofs(model, &mut r)?
+        reach_proofs(model, &mut r, version)?
     } else {
         vec![]
     };
@@ -400,10 +409,14 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     })
 }
 
-/// The kept out-of-reach proofs of a state (version 6 on): none, or one entry per pair, each
+/// The kept out-of-reach proofs of a state (version 6 on; by the floor alone from 8): none, or one entry per pair, each
 /// proven again at its own pose before it is accepted (a forged proof would switch a contact
 /// off).
-fn reach_proofs(model: &Model, r: &mut Reader) -> Result<Vec<Option<ReachProof>>, String> {
+fn reach_proofs(
+    model: &Model,
+    r: &mut Reader,
+    version: u32,
+) -> Result<Vec<Option<ReachProof>>, String> {
     let n = r.u32("the number of kept out-of-reach proofs")? as usize;
     if n != 0 && n != model.pairs.len() {
         return Err(format!(
@@ -420,7 +433,7 @@ fn reach_proofs(model: &Model, r: &mut Reader) -> Result<Vec<Option<ReachProof>>
                 for side in &mut sides {
                     match r.take(1, "a kept proof's side flag")?[0] {
                         0 => {}
-                        1 => {
+                        f @ (1 | 2) if f == 1 || version >= 8 => {
                             let mut x = [0.0; 14];
                             for v in &mut x {
                                 *v = finite(r, "a kept out-of-reach proof's value")?;
@@ -439,7 +452,7 @@ fn reach_proofs(model: &Model, r: &mut Reader) -> Result<Vec<Option<ReachProof>>
                                 rotation,
                                 translation: Vector3::new(x[9], x[10], x[11]),
                                 t: x[12],
-                                m1: x[13],
+                                m1: if f == 2 { f64::INFINITY } else { x[13] },
                             });
                         }
                         f => {
