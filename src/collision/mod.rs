@@ -61,7 +61,7 @@ pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
 pub use memo::{
     CandidateMemo, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
 };
-pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof};
+pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof, FLOOR_ROOM_LIVES};
 pub use reach::{
     cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, reach_distance, Beyond, ReachParams,
     ReachQuestion, REACH_BUDGET,

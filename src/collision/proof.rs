@@ -6,7 +6,8 @@
 use super::reach::{cloud_beyond, out_of_reach_by, reach_budget, sides, Beyond, Side};
 use super::*;
 
-/// How many lives a proof by the floor alone is given room for ([`ProofSide::floor_room`]).
+/// How many lives a proof by the floor alone is given room for (`ProofSide::floor_room`): its
+/// room is that many times the motion the bodies' speed bound allows in the life asked.
 pub const FLOOR_ROOM_LIVES: f64 = 4.0;
 
 /// An out-of-reach proof kept for the steps after it (docs/performance.md, "A proof that is
@@ -41,8 +42,9 @@ impl ProofSide {
     /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), so a plane relevant now (within `M1 ε1`)
     /// was within `M1 ε1 + 4δR` at the proof (`R` the plane cloud's root radius: relevance
     /// compares `d_i - d_j`, affine in the query point with gradient `2(p_j - p_i)`, and
-    /// `|p_j - p_i| ≤ 2R`), and lies farther than `t - δ` now (docs/performance.md). Rounding
-    /// allowances: 1e-9 relative, and 1e-15 of the poses' size.
+    /// `|p_j - p_i| ≤ 2R`), and lies farther than `t - δ` now (docs/performance.md); a proof
+    /// by the floor alone (`m1` infinite) needs only the latter. Rounding allowances: 1e-9
+    /// relative, and 1e-15 of the poses' size.
     fn covers(&self, side: &Side, eps1: f64) -> bool {
         let (m1_per_eps1, spread, _) = side.margins();
         let scale = side.query.bvh().max_norm;
@@ -64,6 +66,19 @@ impl ProofSide {
     /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
     /// than `life` (s): the proof would not be reused.
     fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
+        Self::planes_room(side, eps1)
+            .filter(|&(delta, _)| delta >= side.speed * life)
+            .map(|(delta, m1)| ProofSide {
+                rotation: side.rotation,
+                translation: side.translation,
+                t: side.t + delta,
+                m1,
+            })
+    }
+
+    /// The room `δ_b` of [`ProofSide::with_room`] and the margin its proof is made over, before
+    /// the speed is looked at; `None` without a gap or room.
+    fn planes_room(side: &Side, eps1: f64) -> Option<(f64, f64)> {
         let (m1_per_eps1, spread, gap) = side.margins();
         let overlapping = matches!(side.planes, Collider::Aopc(_)) && gap <= 0.0;
         if gap.is_nan() || (gap <= 0.0 && !overlapping) {
@@ -84,28 +99,27 @@ impl ProofSide {
             }
             Collider::HalfSpace { .. } => (0.5 * gap, 0.0),
         };
-        (delta > 0.0 && delta.is_finite() && delta >= side.speed * life).then_some(ProofSide {
-            rotation: side.rotation,
-            translation: side.translation,
-            t: side.t + delta,
-            m1,
-        })
+        (delta > 0.0 && delta.is_finite()).then_some((delta, m1))
     }
 
     /// The proof by the polytope's floor alone to attempt for `side` when the planes give no
-    /// room that lasts `life` (s): room `δ` = [`FLOOR_ROOM_LIVES`] times what the bodies'
-    /// speed bound uses up in `life`. The floor is 1-Lipschitz and reads no relevance, so the
-    /// room is not capped by `3 m₁ / 4R` as a proof by planes is: limbs of gymnasium's
-    /// humanoid falling at 1 to 3 m/s, 4 to 12 cm apart, get rooms of 0.1 to 0.3 mm by their
-    /// planes (none lasting half an RK4 step) and several millimetres by the floor. `None`
-    /// for a half-space (its planes' room has no such cap), a cloud without a polytope, or
-    /// bodies at rest (the planes' room serves them).
-    pub(super) fn floor_room(side: &Side, life: f64) -> Option<ProofSide> {
+    /// room that lasts `life` (s) ([`ProofSide::with_room`]): room `δ` = [`FLOOR_ROOM_LIVES`]
+    /// times what the bodies' speed bound uses up in `life`. The floor is 1-Lipschitz and
+    /// reads no relevance, so the room is not capped by `3 m₁ / 4R` as a proof by planes is:
+    /// limbs of gymnasium's humanoid falling at 1 to 3 m/s, 4 to 12 cm apart, get rooms of 0.1
+    /// to 0.3 mm by their planes (none lasting half an RK4 step) and several millimetres by
+    /// the floor. `None` for a half-space (its planes' room has no such cap), a cloud without a
+    /// polytope, bodies whose speed bound is 0, or where the planes' room lasts.
+    pub(super) fn floor_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
         let Collider::Aopc(o) = side.planes else {
             return None;
         };
         o.bvh().polytope.as_ref()?;
-        let delta = FLOOR_ROOM_LIVES * side.speed * life;
+        let used = side.speed * life;
+        if Self::planes_room(side, eps1).is_some_and(|(delta, _)| delta >= used) {
+            return None;
+        }
+        let delta = FLOOR_ROOM_LIVES * used;
         (delta > 0.0 && delta.is_finite()).then_some(ProofSide {
             rotation: side.rotation,
             translation: side.translation,
@@ -139,13 +153,16 @@ impl ProofSide {
 }
 
 /// [`out_of_reach`], keeping proofs across calls in `kept`: a pair still covered by its kept
-/// proof (`ProofSide::covers`) costs no walk; otherwise it is proven as [`out_of_reach`]
-/// does, and where that succeeds, proven again with room to move and that proof kept. What it
+/// proof (`ProofSide::covers`) costs no walk. Otherwise, where the planes' room would not last
+/// `life` (s; two internal steps, say), each side is first proven by its polytope's floor
+/// alone with room for [`FLOOR_ROOM_LIVES`] lives (`ProofSide::floor_room`): where both sides
+/// pass, that proof is kept and the pair is out of reach. Else the pair is proven as
+/// [`out_of_reach`] does, and where that succeeds, each side the floor did not prove is proven
+/// again with room to move by planes (made only where the speed bound lets it last `life`: one
+/// that would not be reused costs a second proof), and the two sides kept together. What it
 /// returns is `true` only where every force of the pair is below the bound of
 /// [`out_of_reach`]; it can be `true` where a fresh proof would not be (the kept one holds
-/// with room), so the decisions depend on `kept`, which is part of the simulation's state.
-/// `life` (s): a proof with room is made only where the bodies' speed bound lets it last that
-/// long (two internal steps, say): one that would not be reused costs a second proof. The
+/// with room), so the decisions depend on `kept`, which is part of the simulation's state. The
 /// walks work in `scratch`.
 pub fn out_of_reach_proven(
     a: &Collider,
@@ -180,7 +197,7 @@ pub fn out_of_reach_proven(
     let mut floor = [None, None];
     for (i, s) in sides.iter() {
         floor[*i] =
-            ProofSide::floor_room(s, life).filter(|ks| ks.prove(s.planes, s.query, scratch));
+            ProofSide::floor_room(s, eps1, life).filter(|ks| ks.prove(s.planes, s.query, scratch));
     }
     if sides.iter().all(|(i, _)| floor[*i].is_some()) {
         *kept = Some(ReachProof { sides: floor });

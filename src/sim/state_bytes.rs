@@ -409,9 +409,9 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     })
 }
 
-/// The kept out-of-reach proofs of a state (version 6 on; by the floor alone from 8): none, or one entry per pair, each
-/// proven again at its own pose before it is accepted (a forged proof would switch a contact
-/// off).
+/// The kept out-of-reach proofs of a state (version 6 on; by the floor alone from 8): none, or
+/// one entry per pair, each proven again at its own pose before it is accepted (a forged proof
+/// would switch a contact off).
 fn reach_proofs(
     model: &Model,
     r: &mut Reader,
@@ -445,7 +445,11 @@ fn reach_proofs(
                             // at its own pose before it serves (`reach_proof_holds`).
                             let skew =
                                 (rotation.transpose() * rotation - Matrix3::identity()).norm();
-                            if !(skew <= 1e-9 && rotation.determinant() > 0.0 && x[13] >= 0.0) {
+                            if !(skew <= 1e-9
+                                && rotation.determinant() > 0.0
+                                && x[13] >= 0.0
+                                && (f == 1 || x[13] == 0.0))
+                            {
                                 return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m²", x[12], x[13]));
                             }
                             *side = Some(ProofSide {
