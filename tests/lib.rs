@@ -40,6 +40,7 @@ mod host_fmi_crate;
 mod integrators;
 mod layers;
 mod long_run;
+mod mjcf_attach;
 mod mjcf_compile;
 mod mocap;
 mod scene_errors;

@@ -183,7 +183,7 @@ impl ContactParams<f64> {
 }
 
 /// A tunable contact parameter (`scm.<name>`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Param {
     /// ε1 (m²).
     Eps1,

@@ -215,6 +215,18 @@ fn posed(name: &str) -> bool {
     )
 }
 
+/// The mark `<attach>` leaves on the elements it brings from another model
+/// (`super::attach`): they are canonical already, under that model's defaults and angles, so
+/// this file's defaults must not reach them. Not a name XML can write (it holds a space).
+pub(super) const ATTACHED: &str = "scm attached";
+
+/// Whether `el` carries the [`ATTACHED`] mark; the mark is removed.
+fn take_attached(el: &mut Element) -> bool {
+    let before = el.attrs.len();
+    el.attrs.retain(|(k, _)| k != ATTACHED);
+    el.attrs.len() != before
+}
+
 /// Brings the tree under `<worldbody>` (and the actuator, tendon, contact and equality
 /// sections) into canonical form.
 pub fn canonicalize(
@@ -234,17 +246,21 @@ pub fn canonicalize(
             }
             "actuator" | "tendon" | "contact" => {
                 for el in section.children.iter_mut() {
-                    defaults.apply(el, MAIN)?;
+                    if !take_attached(el) {
+                        defaults.apply(el, MAIN)?;
+                    }
                 }
             }
             "equality" => {
                 for el in section.children.iter_mut() {
-                    defaults.apply_equality(el)?;
+                    if !take_attached(el) {
+                        defaults.apply_equality(el)?;
+                    }
                 }
             }
             "asset" => {
                 for el in section.children.iter_mut() {
-                    if super::defaults::slot(&el.name).is_some() {
+                    if !take_attached(el) && super::defaults::slot(&el.name).is_some() {
                         defaults.apply(el, MAIN)?;
                     }
                 }
@@ -301,6 +317,13 @@ fn body_children(
                 let kids = std::mem::take(&mut el.children);
                 out.extend(body_children(kids, &inner, &inner_class, defaults, angles)?);
             }
+            "body" if el.attr(ATTACHED).is_some() => {
+                take_attached(&mut el);
+                // Brought by an `<attach>`: only its place here is composed.
+                let p = frame * pose(&el, angles)?;
+                write_pose(&mut el, &p);
+                out.push(el);
+            }
             "body" => {
                 let inner_class = class_here(&el)?;
                 el.attrs.retain(|(k, _)| k != "childclass");
@@ -316,7 +339,9 @@ fn body_children(
             }
             "freejoint" => out.push(el),
             _ => {
-                defaults.apply(&mut el, childclass)?;
+                if !take_attached(&mut el) {
+                    defaults.apply(&mut el, childclass)?;
+                }
                 if el.name == "geom" && el.attr("fromto").is_some() {
                     if let Some(k) = ["pos", "quat", "axisangle", "euler", "xyaxes", "zaxis"]
                         .into_iter()

@@ -41,6 +41,24 @@ fn in_fmu(main: &Path, wanted: &Path) -> Option<PathBuf> {
     packed.exists().then_some(packed)
 }
 
+/// Where a file named `file` by an element of the file `holder` is, for a scene whose main file
+/// is in `main`: MuJoCo's order (the main file's folder, then the holder's), then, inside an
+/// FMU, where `scm pack` put a file reached through `..` (`super::paths::packed_relative`).
+/// A file found nowhere resolves against `main`, so that the error names that path.
+pub(super) fn resolve(main: &Path, holder: &Path, file: &str) -> PathBuf {
+    let here = super::scene_dir(holder).join(file);
+    let first = main.join(file);
+    if first.exists() {
+        first
+    } else if here.exists() {
+        here
+    } else {
+        in_fmu(main, &first)
+            .or_else(|| in_fmu(main, &here))
+            .unwrap_or(first)
+    }
+}
+
 fn expand_in(
     el: &mut Element,
     main: &Path,
@@ -71,19 +89,7 @@ fn expand_in(
         if !child.children.is_empty() {
             return Err(err("an include cannot have child elements".into()));
         }
-        let here = super::scene_dir(path).join(&file);
-        let first = main.join(&file);
-        let target = if first.exists() {
-            first
-        } else if here.exists() {
-            here
-        } else {
-            // Inside an FMU, a file the scene reached through `..` out of its folder is where
-            // `scm pack` put it (`super::paths::packed_relative`), in the same order.
-            in_fmu(main, &first)
-                .or_else(|| in_fmu(main, &here))
-                .unwrap_or(first)
-        };
+        let target = resolve(main, path, &file);
         if chain.iter().any(|p| p == &target) || chain.len() > MAX_DEPTH {
             return Err(err(format!(
                 "'{file}' includes itself (through {})",

@@ -9,6 +9,7 @@ mod actuator;
 mod actuator_defaults;
 mod assemble;
 mod assets;
+mod attach;
 mod body;
 mod builtin_mesh;
 pub mod canonical;
@@ -233,6 +234,20 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
 
 /// Parses, expands includes, reads compiler and defaults, canonicalizes and reads the tree.
 fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>), SceneError> {
+    let (mut b, root, files) = prepare(text, path, &mut vec![path.to_path_buf()])?;
+    b.scene(&root)?;
+    Ok((b, files))
+}
+
+/// A file read up to its canonical tree: parsed, its includes expanded, its compiler settings
+/// and default classes read, the models it attaches brought in (`chain`: the files attaching,
+/// outermost first), its replicates expanded, its names checked, its tree canonical. Returns
+/// the builder holding its compiler settings, the tree, and the files read besides `path`.
+fn prepare(
+    text: &str,
+    path: &Path,
+    chain: &mut Vec<std::path::PathBuf>,
+) -> Result<(Builder, Element, Vec<include::IncludedFile>), SceneError> {
     let file = path.display().to_string();
     let mut root = xml::parse(text, &file).map_err(|e| SceneError {
         file: file.clone(),
@@ -244,7 +259,7 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
     if root.name != "mujoco" {
         return Err(b.err(&root, "the root element must be <mujoco>"));
     }
-    let includes = include::expand(&mut root, path)?;
+    let mut files = include::expand(&mut root, path)?;
     let mut defaults = defaults::Defaults::default();
     for el in &root.children {
         match el.name.as_str() {
@@ -254,13 +269,14 @@ fn read(text: &str, path: &Path) -> Result<(Builder, Vec<include::IncludedFile>)
         }
     }
     // Stray text as written (a replicate's once, not once per copy); replicates placed in the
-    // compiler's angle unit and sequence, before the names are read.
+    // compiler's angle unit and sequence, before the names are read; then the attached models,
+    // copy by copy of a replicate that holds them (MuJoCo's order of their actuators).
     b.stray_text(&root);
     replicate::expand(&mut root, &b.angles)?;
+    files.extend(attach::expand(&mut root, &mut b, path, chain)?);
     b.names = names::Names::read(&root)?;
     canonical::canonicalize(&mut root, &defaults, &b.angles)?;
-    b.scene(&root)?;
-    Ok((b, includes))
+    Ok((b, root, files))
 }
 
 /// Loads a scene from text; `path` names it in errors and anchors relative paths (meshes,

@@ -30,12 +30,12 @@ use std::collections::BTreeSet;
 
 /// The sections whose elements can name bodies, joints, geoms, sites or tendons, in the order
 /// their references are resolved (an actuator can name a tendon, a tendon no actuator).
-const REFERRING: [&str; 5] = ["tendon", "equality", "contact", "actuator", "sensor"];
+pub(super) const REFERRING: [&str; 5] = ["tendon", "equality", "contact", "actuator", "sensor"];
 
 /// The kind of element an attribute names (MuJoCo's references, in every section above), or
 /// `Some("")` for one that can name any kind (its kind is given by another attribute); `None`
 /// for an attribute that names nothing.
-fn kind_of_reference(attr: &str) -> Option<&'static str> {
+pub(super) fn kind_of_reference(attr: &str) -> Option<&'static str> {
     Some(match attr {
         "joint" | "joint1" | "joint2" | "jointinparent" => "joint",
         "tendon" | "tendon1" | "tendon2" => "tendon",
@@ -59,10 +59,10 @@ fn kind_of_element<'a>(element: &'a str, section: &'a str) -> &'a str {
 }
 
 /// Replicated names by kind.
-type Named = BTreeSet<(String, String)>;
+pub(super) type Named = BTreeSet<(String, String)>;
 
 /// Whether `named` holds `value` for the attribute `attr` (by its kind).
-fn names(named: &Named, attr: &str, value: &str) -> bool {
+pub(super) fn names(named: &Named, attr: &str, value: &str) -> bool {
     match kind_of_reference(attr) {
         None => false,
         Some("") => named.iter().any(|(_, n)| n == value),
@@ -202,7 +202,7 @@ fn three(rep: &Element, key: &str) -> Result<Vector3<f64>, SceneError> {
 }
 
 /// Every `name` in `el`'s subtree (`el` read in `section`), by kind, as written.
-fn collect_names(el: &Element, section: &str, out: &mut Named) {
+pub(super) fn collect_names(el: &Element, section: &str, out: &mut Named) {
     if let Some(n) = el.attr("name") {
         out.insert((
             kind_of_element(&el.name, section).to_string(),
@@ -217,18 +217,45 @@ fn collect_names(el: &Element, section: &str, out: &mut Named) {
 /// Appends `suffix` to every `name` in `el`'s subtree, and to every reference to one of
 /// `named`.
 fn add_suffix(el: &mut Element, suffix: &str, named: &Named) {
-    for (k, v) in el.attrs.iter_mut() {
-        if k == "name" || names(named, k, v) {
-            v.push_str(suffix);
+    rename(el, named, &|v| format!("{v}{suffix}"));
+    suffix_attaches(el, suffix);
+}
+
+/// Appends `suffix` to the suffix each `<attach>` in `el`'s subtree gives the names it brings
+/// ([`super::attach::SUFFIX`]; attaches are expanded after replicates, copy by copy).
+fn suffix_attaches(el: &mut Element, suffix: &str) {
+    if el.name == "attach" {
+        match el
+            .attrs
+            .iter_mut()
+            .find(|(k, _)| k == super::attach::SUFFIX)
+        {
+            Some(slot) => slot.1.push_str(suffix),
+            None => el
+                .attrs
+                .push((super::attach::SUFFIX.to_string(), suffix.to_string())),
         }
     }
     for c in el.children.iter_mut() {
-        add_suffix(c, suffix, named);
+        suffix_attaches(c, suffix);
+    }
+}
+
+/// Renames by `new` every `name` in `el`'s subtree (an empty name stays empty: the object
+/// stays unnamed, as in MuJoCo), and every reference to one of `named`.
+pub(super) fn rename(el: &mut Element, named: &Named, new: &dyn Fn(&str) -> String) {
+    for (k, v) in el.attrs.iter_mut() {
+        if (k == "name" && !v.is_empty()) || names(named, k, v) {
+            *v = new(v);
+        }
+    }
+    for c in el.children.iter_mut() {
+        rename(c, named, new);
     }
 }
 
 /// Whether `el` or an element inside it (a tendon's path) names one of `named`.
-fn refers(el: &Element, named: &Named) -> bool {
+pub(super) fn refers(el: &Element, named: &Named) -> bool {
     el.attrs.iter().any(|(k, v)| names(named, k, v)) || el.children.iter().any(|c| refers(c, named))
 }
 

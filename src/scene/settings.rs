@@ -15,7 +15,7 @@ pub(super) enum InertiaFromGeom {
 }
 
 /// `<compiler>` settings that shape the model.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct CompilerSettings {
     /// Joint and control ranges make a joint or control limited when `limited` is not given.
     pub(super) autolimits: bool,

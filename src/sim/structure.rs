@@ -381,11 +381,14 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
 /// derivative (in the order of the continuous states), and the initial unknowns (calculated
 /// outputs and the state derivatives), each with its exact dependencies.
 pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructure {
-    let vr_of = |slot: Slot| {
-        rows.iter()
-            .find(|(_, s)| *s == slot)
-            .map(|(v, _)| v.value_reference)
-    };
+    // Each slot's first row, by hash: a scene of thousands of pairs has hundreds of thousands
+    // of rows, and a search per dependency made this quadratic (minutes for 22 humanoids).
+    let mut first: std::collections::HashMap<Slot, u32> =
+        std::collections::HashMap::with_capacity(rows.len());
+    for (v, s) in rows {
+        first.entry(*s).or_insert(v.value_reference);
+    }
+    let vr_of = |slot: Slot| first.get(&slot).copied();
     let to_vrs = |k: &Knowns, with_params: bool| -> Vec<u32> {
         let mut out: Vec<u32> = Vec::new();
         out.extend(k.q.iter().filter_map(|&i| vr_of(Slot::Q(i))));
@@ -408,9 +411,27 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
         out
     };
     let mut structure = ModelStructure::default();
+    // The accelerations of one subtree share their knowns: each subtree's are gathered once
+    // (they scan every pair, and a scene of many bodies has many of both).
+    let mut by_root: std::collections::HashMap<usize, Knowns> = std::collections::HashMap::new();
     for (v, slot) in rows {
-        let Some(k) = knowns_of(model, *slot) else {
-            continue;
+        let k = match *slot {
+            Slot::VDot(i) => {
+                let Some(j) = (model.tree.joints.iter())
+                    .find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&i))
+                else {
+                    continue;
+                };
+                let root = subtree_root(model, j.body);
+                by_root
+                    .entry(root)
+                    .or_insert_with(|| coupled_knowns(model, root))
+                    .clone()
+            }
+            _ => match knowns_of(model, *slot) {
+                Some(k) => k,
+                None => continue,
+            },
         };
         if v.causality == Causality::Output {
             structure

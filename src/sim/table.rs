@@ -11,7 +11,7 @@ use crate::fmi::contract::{
 use crate::model::Model;
 
 /// What a row of the variable table reads or writes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Slot {
     /// Simulation time.
     Time,

@@ -1715,3 +1715,110 @@ def test_elements_naming_replicated_ones_are_copied_as_mujoco_copies_them(tmp_pa
     assert len(names) == 2 + 2 * 5
 
 
+
+
+ATTACH_CHILD = """<mujoco model="arm">
+  <compiler angle="radian" eulerseq="zyx" meshdir="assets"/>
+  <option timestep="0.01" gravity="0 0 -1"/>
+  <default>
+    <joint damping="0.5" armature="0.01"/>
+    <geom size="0.03" density="800" friction="0.6"/>
+    <default class="finger"><geom type="capsule" size="0.01 0.04"/><joint range="-0.5 1.2"/></default>
+  </default>
+  <asset><mesh name="knob" file="knob.obj" scale="0.5 0.5 0.5"/><mesh file="lug.obj"/></asset>
+  <worldbody>
+    <geom name="table" type="box" size="0.3 0.3 0.02" pos="0 0 -0.1"/>
+    <body name="upper" pos="0 0 0.3" euler="0.3 0.2 0.1">
+      <joint name="shoulder" axis="0 1 0" range="-1 1" springref="0.2" stiffness="3"/>
+      <geom name="upper" type="capsule" fromto="0 0 0 0.2 0 0"/>
+      <body name="fore" pos="0.2 0 0">
+        <joint name="elbow" axis="0 1 0"/>
+        <geom type="mesh" mesh="knob"/>
+        <geom type="mesh" mesh="lug" pos="0.05 0 0"/>
+        <site name="tip" pos="0.1 0 0"/>
+        <body name="finger" childclass="finger" pos="0.1 0 0">
+          <joint name="curl" axis="0 0 1"/>
+          <geom name="nail"/>
+        </body>
+      </body>
+    </body>
+    <body name="left_behind" pos="1 0 0"><joint name="lone"/><geom size="0.05"/></body>
+  </worldbody>
+  <tendon><fixed name="couple" stiffness="2"><joint joint="shoulder" coef="1"/><joint joint="elbow" coef="-0.5"/></fixed></tendon>
+  <equality><joint joint1="curl" joint2="elbow" polycoef="0 0.5 0 0 0"/></equality>
+  <contact><exclude body1="upper" body2="finger"/></contact>
+  <actuator>
+    <motor name="lift" joint="shoulder" gear="2" ctrlrange="-1 1"/>
+    <position joint="curl" kp="4"/>
+    <motor name="pull" tendon="couple"/>
+    <motor name="alone" joint="lone"/>
+  </actuator>
+  <keyframe><key name="bent" qpos="0.1 0.2 0.3 0.4"/></keyframe>
+</mujoco>
+"""
+
+ATTACH_PARENT = """<mujoco model="bench">
+  <default><joint damping="9" armature="0.2"/><geom size="0.2" friction="0.9"/></default>
+  <asset><model name="arm" file="kid/arm.xml"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="cart" pos="0 0 0.5">
+      <joint name="rail" type="slide" axis="1 0 0"/>
+      <geom type="box" size="0.1 0.1 0.05"/>
+      <frame pos="0 0 0.1" euler="0 0 90">
+        <attach model="arm" body="upper" prefix="a_"/>
+      </frame>
+    </body>
+    <replicate count="2" offset="0 0.8 0" sep="-">
+      <body name="post" pos="-1 -1 0.2"><geom type="box" size="0.05 0.05 0.2"/>
+        <attach model="arm" body="fore" prefix="b_"/>
+      </body>
+    </replicate>
+    <body name="shelf" pos="1 1 0.5"><attach model="arm" prefix="c_"/></body>
+  </worldbody>
+  <actuator><motor name="push" joint="rail"/></actuator>
+</mujoco>
+"""
+
+
+def _cube_obj(half):
+    v = [(x, y, z) for x in (-half, half) for y in (-half, half) for z in (-half, half)]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    faces = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return "".join(f"v {x} {y} {z}\n" for x, y, z in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces)
+
+
+def test_attached_models_compile_as_mujoco_attaches_them(tmp_path):
+    """<attach>: a body of another model, grafted inside a frame of a moving body, inside a
+    replicate (prefix, then the replicate's suffix), and a whole model's world: the child keeps its
+    own defaults (not the parent's), its angle unit and Euler sequence, its meshes (found under its
+    own meshdir); its tendons, equalities, exclusions and actuators that name what is attached come
+    along, those that name what is left behind do not. Bodies, joints (ranges in the child's unit),
+    geoms, tendons, equalities and actuators as MuJoCo compiles them, with MuJoCo's names."""
+    (tmp_path / "kid" / "assets").mkdir(parents=True)
+    (tmp_path / "kid" / "arm.xml").write_text(ATTACH_CHILD)
+    (tmp_path / "kid" / "assets" / "knob.obj").write_text(_cube_obj(0.03))
+    (tmp_path / "kid" / "assets" / "lug.obj").write_text(_cube_obj(0.01))
+    path = tmp_path / "bench.xml"
+    path.write_text(ATTACH_PARENT)
+    ours = compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert [b["name"] for b in ours["bodies"]] == [m.body(i).name for i in range(m.nbody)]
+    assert [j["name"] for j in ours["joints"]] == [m.joint(i).name for i in range(m.njnt)]
+    named = [a["name"] for i, a in enumerate(ours["actuators"]) if m.actuator(i).name]
+    assert named == [m.actuator(i).name for i in range(m.nu) if m.actuator(i).name]
+    assert "a_alone" not in named and "c_alone" in named
+    assert [t["name"] for t in ours["tendons"]] == [m.tendon(i).name for i in range(m.ntendon)]
+    # The equality inside `fore` comes with every attach; the exclusion of `upper` and `finger`
+    # only with those that attach both; the coupling tendon (and its actuator) only with those
+    # that attach both its joints: MuJoCo drops the others, and SCM lists them as unused.
+    assert m.neq == len(ours["equalities"]) == 4 and m.nexclude == 2
+    assert [t["name"] for t in ours["tendons"]] == ["a_couple", "c_couple"]
+    dropped = [u for u in ours["unused"] if "leaves behind in model 'arm'" in u]
+    assert len(dropped) == 2 * 2, dropped  # the tendon and the exclusion, for each b_ copy
+    # The child's own defaults and unit: the shoulder's range is 1 radian, its damping the child's.
+    shoulder = next(j for j in ours["joints"] if j["name"] == "a_shoulder")
+    assert shoulder["range"] == pytest.approx([-1, 1]) and shoulder["damping"] == 0.5
+    # The meshes come once per attach (a replicate's copies share theirs), from the child's meshdir.
+    assert {g["mesh"] for g in ours["geoms"] if g["mesh"]} == {
+        m.mesh(i).name for i in range(m.nmesh)} == {f"{p}_{n}" for p in "abc" for n in ("knob", "lug")}
