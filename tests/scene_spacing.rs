@@ -213,3 +213,41 @@ fn per_geom_spacings_that_name_nothing_useful_are_refused_or_reported() {
         scene.warnings
     );
 }
+
+/// The copies of one body (here a replicate's) are sampled once and get the same cloud; a copy
+/// whose geom has a spacing of its own is sampled apart, at that spacing.
+#[test]
+fn copies_of_one_body_share_their_cloud_and_a_changed_copy_does_not() {
+    let s = load_str(
+        r#"<mujoco>
+  <custom><numeric name="scm_spacing:bead-1" data="0.004"/></custom>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <replicate count="3" offset="0.2 0 0" sep="-">
+      <body name="bead" pos="0 0 0.1" euler="0 0 30"><freejoint/><geom name="bead" type="capsule" size="0.02 0.03"/></body>
+    </replicate>
+  </worldbody>
+</mujoco>"#,
+        Path::new("beads.xml"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let cloud = |name: &str| {
+        let b = s
+            .model
+            .tree
+            .bodies
+            .iter()
+            .position(|b| b.name == name)
+            .unwrap();
+        match &s.model.colliders[b] {
+            Some(Collider::Aopc(a)) => (a.points.clone(), a.normals.clone(), a.areas.clone()),
+            _ => panic!("{name} has no cloud"),
+        }
+    };
+    assert_eq!(cloud("bead-0"), cloud("bead-2"));
+    let (fine, coarse) = (cloud("bead-1").0.len(), cloud("bead-0").0.len());
+    assert!(
+        fine > 4 * coarse,
+        "{fine} points at 4 mm against {coarse} at 1 cm"
+    );
+}

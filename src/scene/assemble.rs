@@ -463,8 +463,9 @@ impl Builder {
             let (pairs, colliding) = self.pairs()?;
             self.assign_spacings(spacing, resolution, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
-            for (b, slot) in colliders.iter_mut().enumerate() {
-                *slot = self.collider(b, &colliding)?;
+            let mut sampled = HashMap::new();
+            for b in 0..colliders.len() {
+                colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
             }
             let pairs = pairs
                 .into_iter()

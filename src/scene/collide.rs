@@ -51,10 +51,16 @@ impl Builder {
     /// A body's collider from its geoms that can touch something: the exact half-space of a
     /// plane, or the AOPC of the union of the other geoms, each at its own spacing
     /// ([`Geom::spacing`], set by [`Builder::assign_spacings`]).
+    ///
+    /// `sampled` holds, by what makes a cloud (the geoms' shapes, poses in the body and
+    /// spacings), the first body of `made` (the colliders so far) sampled so: the copies of one
+    /// body (a replicate's, an attach's) are sampled once, to the same bits.
     pub(super) fn collider(
         &self,
         b: usize,
         colliding: &[bool],
+        sampled: &mut HashMap<String, usize>,
+        made: &[Option<Collider>],
     ) -> Result<Option<Collider>, SceneError> {
         let geoms: Vec<&Geom> = self
             .geoms
@@ -115,6 +121,11 @@ impl Builder {
                 message: format!("body '{}' (geoms {listed}) would get about {estimate:.3e} AOPC points (at most {MAX_AOPC_POINTS:e}): increase scm_spacing, sample large geoms coarsely away from their edges with scm_resolution (16 quads per radius or half-extent: <numeric name=\"scm_resolution\" data=\"16\"/>), give a geom its own spacing with scm_spacing:NAME, or make the geoms smaller", self.bodies[b].name),
             });
         }
+        let key = format!("{parts:?} {spacings:?}");
+        if let Some(Some(Collider::Aopc(same))) = sampled.get(&key).map(|&first| &made[first]) {
+            return Ok(Some(Collider::Aopc(same.clone())));
+        }
+        sampled.insert(key, b);
         let aopc = crate::geometry::union::sample_union_spaced(&parts, &spacings);
         Ok(Some(Collider::Aopc(aopc)))
     }
