@@ -1855,28 +1855,28 @@ fn equality_joints_read_equality_defaults_and_an_inertial_may_be_a_point_mass() 
     );
 }
 
-/// An actuator computed by an engine plugin (MuJoCo's `mujoco.pid`, as Shadow's DEX-EE uses)
-/// is refused at its line naming the plugin; the `<extension>` declaring it is listed as
-/// unused.
+/// An actuator computed by an engine plugin SCM does not build (anything but `mujoco.pid`, whose
+/// PD law is a `<general>`: the Python dynamics test) is refused at its line naming the plugin;
+/// the `<extension>` declaring it is listed as unused.
 #[test]
 fn a_plugin_actuator_is_refused_naming_the_plugin() {
     let text = r#"<mujoco>
-  <extension><plugin plugin="mujoco.pid"><instance name="pid"/></plugin></extension>
+  <extension><plugin plugin="acme.thruster"><instance name="jet"/></plugin></extension>
   <worldbody>
     <body><joint name="j"/><geom size="0.1"/></body>
   </worldbody>
   <actuator>
-    <plugin name="a" plugin="mujoco.pid" instance="pid" joint="j" actdim="2"/>
+    <plugin name="a" plugin="acme.thruster" instance="jet" joint="j" actdim="2"/>
   </actuator>
 </mujoco>
 "#;
     let e = refuse(text);
     assert!(
-        e.line == 7 && e.message.contains("engine plugin (mujoco.pid)"),
+        e.line == 7 && e.message.contains("engine plugin acme.thruster"),
         "{e}"
     );
     let s = load(&text.replace(
-        r#"<plugin name="a" plugin="mujoco.pid" instance="pid" joint="j" actdim="2"/>"#,
+        r#"<plugin name="a" plugin="acme.thruster" instance="jet" joint="j" actdim="2"/>"#,
         r#"<motor joint="j"/>"#,
     ));
     assert!(

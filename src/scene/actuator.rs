@@ -71,10 +71,8 @@ impl Builder {
 
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
         if el.name == "plugin" {
-            return Err(self.err(
-                el,
-                format!("an actuator computed by an engine plugin ({}) is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead", el.attr("plugin").or(el.attr("instance")).unwrap_or("unnamed")),
-            ));
+            let general = self.pid_as_general(el)?;
+            return self.actuator(&general);
         }
         if el.attr("body").is_some() {
             return Err(self.err(

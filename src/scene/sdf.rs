@@ -33,7 +33,8 @@ impl Builder {
                 return Err(self.err(p, "an <extension> holds <plugin> elements"));
             }
             let plugin = p.attr("plugin").unwrap_or_default().to_string();
-            if !KNOWN.contains(&plugin.as_str()) {
+            // (`mujoco.pid` is built where an actuator uses it: `Builder::pid_as_general`.)
+            if !KNOWN.contains(&plugin.as_str()) && plugin != "mujoco.pid" {
                 self.unused(
                     p,
                     "engine plugins, declared (an element that uses one is refused at its line)",
@@ -199,4 +200,84 @@ impl Builder {
             },
         })
     }
+}
+
+impl Builder {
+    /// An actuator computed by MuJoCo's `mujoco.pid` plugin, as the `<general>` it equals
+    /// when it keeps no state: `force = kp (u - L) - kd L̇` (the plugin's law with no integral
+    /// and no slew limit, `L` the actuator's length) is `gainprm="kp 0 0"` with
+    /// `biasprm="0 -kp -kd"`. The integral (`ki`) and the slew limit (`slewmax`) keep states
+    /// whose rates read the joint's position, which SCM's activations never do: refused. Any
+    /// other plugin is refused.
+    pub(super) fn pid_as_general(&mut self, el: &Element) -> Result<Element, SceneError> {
+        let (plugin, config) = match el.attr("instance") {
+            Some(name) => match self.sdf_instances.get(name) {
+                Some((plugin, i)) => (plugin.clone(), i.clone()),
+                None => {
+                    return Err(self.err(
+                        el,
+                        format!("no plugin instance named '{name}' (declare it in <extension>)"),
+                    ))
+                }
+            },
+            None => (
+                el.attr("plugin").unwrap_or_default().to_string(),
+                el.clone(),
+            ),
+        };
+        if plugin != "mujoco.pid" {
+            return Err(self.err(
+                el,
+                format!("an actuator computed by the engine plugin {plugin} is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead"),
+            ));
+        }
+        let mut gains = [("kp", 0.0), ("kd", 0.0)];
+        for c in config.children.iter().filter(|c| c.name == "config") {
+            let key = c.attr("key").unwrap_or_default();
+            let value = c.attr("value").unwrap_or_default();
+            let number = value.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+            match (key, number) {
+                ("ki" | "imax", Some(0.0)) => {}
+                ("ki" | "imax" | "slewmax", _) => {
+                    return Err(self.err(c, format!("the PID plugin's {key} keeps a state that reads the joint's position (an integral of its error, or the last control), which SCM's actuators do not have: leave it out (a PD controller: kp and kd), or use an <intvelocity> or <position> actuator")));
+                }
+                ("kp" | "kd", Some(v)) => {
+                    for g in gains.iter_mut().filter(|g| g.0 == key) {
+                        g.1 = v;
+                    }
+                }
+                ("kp" | "kd", None) => {
+                    return Err(self.err(
+                        c,
+                        format!("{key}=\"{value}\": expected one finite number"),
+                    ))
+                }
+                _ => {
+                    return Err(self.err(
+                        c,
+                        format!("'{key}' is not a configuration of the PID plugin (kp, ki, kd, imax, slewmax)"),
+                    ))
+                }
+            }
+        }
+        let [(_, kp), (_, kd)] = gains;
+        let mut general = el.clone();
+        general.name = "general".into();
+        general.children.clear();
+        let drop = |k: &str| {
+            matches!(k, "plugin" | "instance") || (k == "actdim" && general_actdim_zero(el))
+        };
+        general.attrs.retain(|(k, _)| !drop(k));
+        general.attrs.push(("gainprm".into(), format!("{kp} 0 0")));
+        general
+            .attrs
+            .push(("biasprm".into(), format!("0 {} {}", -kp, -kd)));
+        general.attrs.push(("biastype".into(), "affine".into()));
+        Ok(general)
+    }
+}
+
+/// Whether a plugin actuator's `actdim` is absent or 0 (a PID without states has none).
+fn general_actdim_zero(el: &Element) -> bool {
+    el.attr("actdim").is_none_or(|v| v.trim() == "0")
 }
