@@ -10,15 +10,23 @@ use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
 
+/// The size past which a position or velocity coordinate has diverged (MuJoCo's `mjMAXVAL`).
+/// An energy balance cannot catch every blow-up: an explicit step that makes a stiff actuator's
+/// damping unstable credits the energy it creates to the actuator's work.
+pub const DIVERGED: f64 = 1e10;
+
 impl Model {
-    /// Name of the first non-finite coordinate of a state, if any ("the position of joint J" or
-    /// "the velocity of joint J").
+    /// Name of the first coordinate of a state that diverged, if any ("the position of joint J"
+    /// or "the velocity of joint J"): not finite, or beyond [`DIVERGED`] in size, where MuJoCo
+    /// declares a simulation unstable and resets it (`mjMAXVAL` in its position and velocity
+    /// checks), so no run MuJoCo integrates is refused by it.
     pub fn first_non_finite(&self, s: &State<f64>) -> Option<String> {
+        let bad = |x: &f64| !x.is_finite() || x.abs() > DIVERGED;
         for j in &self.tree.joints {
-            if (j.qadr..j.qadr + j.kind.nq()).any(|i| !s.q[i].is_finite()) {
+            if s.q[j.qadr..j.qadr + j.kind.nq()].iter().any(bad) {
                 return Some(format!("the position of joint {}", j.name));
             }
-            if (j.dadr..j.dadr + j.kind.nv()).any(|i| !s.v[i].is_finite()) {
+            if s.v[j.dadr..j.dadr + j.kind.nv()].iter().any(bad) {
                 return Some(format!("the velocity of joint {}", j.name));
             }
         }
@@ -362,7 +370,7 @@ impl Model {
                 Ok(out) => {
                     cause = self
                         .first_non_finite(&out.state)
-                        .map(|q| format!("made {q} non-finite"));
+                        .map(|q| format!("made {q} diverge"));
                     let x0 = s.q.iter().chain(&s.v).chain(&s.act);
                     let x1 = (out.state.q.iter())
                         .chain(&out.state.v)
@@ -512,8 +520,8 @@ pub enum StepFailure {
         /// The error.
         error: DynamicsError,
     },
-    /// A coordinate of the state became NaN or infinite.
-    #[error("the state diverged: {quantity} became non-finite at t = {time} s (internal step {step}, h = {h} s)")]
+    /// A coordinate of the state became NaN, infinite or larger than [`DIVERGED`].
+    #[error("the state diverged: {quantity} became non-finite or larger than 1e10 (where MuJoCo warns that the simulation is unstable) at t = {time} s (internal step {step}, h = {h} s)")]
     NonFinite {
         /// End of the internal step (s).
         time: f64,
@@ -554,7 +562,7 @@ pub enum StepFailure {
         /// `solver.tolerance`.
         tolerance: f64,
         /// What went wrong in the last trial, if more than the tolerance ("made the velocity of
-        /// joint J non-finite", "failed: …").
+        /// joint J diverge", "failed: …").
         cause: Option<String>,
     },
     /// A fixed-step advance would need more than [`AdvanceOptions::max_steps`] internal steps;

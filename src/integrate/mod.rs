@@ -29,7 +29,7 @@ mod newton;
 mod step;
 
 pub use crate::integrator::{Integrator, State};
-pub use advance::{AdvanceOptions, Advanced, StepFailure};
+pub use advance::{AdvanceOptions, Advanced, StepFailure, DIVERGED};
 pub use cache::{CacheMark, CacheParts, SolverCache};
 pub use guard::{contact_energy, EnergyLedger};
 pub use step::Dopri5Step;

@@ -510,3 +510,29 @@ def test_pid_plugin_actuators_without_state_follow_mujoco(tmp_path):
     mujoco.MjModel.from_xml_path(str(path))  # MuJoCo takes it, with the integral's state
     out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
     assert out.returncode != 0 and ":5: <config>" in out.stderr and "ki keeps a state" in out.stderr, out.stderr
+
+
+def test_a_blow_up_the_energy_balance_credits_to_an_actuator_is_refused_where_mujoco_warns(tmp_path):
+    """A servo whose damping explicit Euler cannot carry at the file's step (kv gear² h / I ≈ 5)
+    pumps energy that the guard's balance books as the actuator's work. MuJoCo warns that the
+    simulation is unstable (its acceleration past 1e10) and resets; SCM refuses the run where a
+    coordinate passes that size, naming it, instead of writing 1e133 rad and exit status 0."""
+    path = tmp_path / "unstable_servo.xml"
+    path.write_text("""<mujoco>
+  <worldbody>
+    <body pos="0.2 0 0"><joint name="j2" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.5" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <actuator><general name="a2" joint="j2" gear="2" gainprm="40" biasprm="0 -40 -4" biastype="affine"/></actuator>
+</mujoco>
+""")
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    d.ctrl[0] = 0.4
+    for _ in range(250):  # 0.5 s (MuJoCo resets its time with the state when it warns)
+        mujoco.mj_step(m, d)
+    assert d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+    out = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.5", "--set", "a2.ctrl=0.4"],
+                         capture_output=True, text=True)
+    assert out.returncode != 0, out.stdout[-300:]
+    assert "the velocity of joint j2" in out.stderr and "larger than 1e10" in out.stderr, out.stderr
