@@ -143,6 +143,13 @@ pub struct ActuatorDefaults {
     chain: Vec<Option<(String, State)>>,
 }
 
+impl ActuatorDefaults {
+    /// Whether the class or an ancestor wrote an actuator default.
+    pub fn is_empty(&self) -> bool {
+        self.chain.iter().all(Option::is_none)
+    }
+}
+
 impl Default for ActuatorDefaults {
     fn default() -> Self {
         ActuatorDefaults { chain: vec![None] }

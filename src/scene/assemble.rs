@@ -463,7 +463,7 @@ impl Builder {
             let (pairs, colliding) = self.pairs()?;
             self.assign_spacings(spacing, resolution, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
-            let mut sampled = HashMap::new();
+            let mut sampled = Vec::new();
             for b in 0..colliders.len() {
                 colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
             }

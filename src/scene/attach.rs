@@ -80,7 +80,6 @@ pub(super) fn expand(
     if declared.is_empty() && !attaches {
         return Ok(Vec::new());
     }
-    let main = scene_dir(&chain[0]);
     let mut files = Vec::new();
     let mut children = Vec::new();
     for el in declared {
@@ -93,8 +92,11 @@ pub(super) fn expand(
             b.unused(&el, "a model that no <attach> uses");
             continue;
         }
-        let target = resolve(&main, path, &file);
-        if chain.contains(&target) || chain.len() > MAX_DEPTH {
+        // A model's file is found from the folder of the file declaring it (MuJoCo's rule).
+        let target = resolve(&scene_dir(path), path, &file);
+        let real = target.canonicalize().ok();
+        let same = |p: &PathBuf| p == &target || (real.is_some() && p.canonicalize().ok() == real);
+        if chain.iter().any(same) || chain.len() > MAX_DEPTH {
             let through: Vec<String> = chain.iter().map(|p| p.display().to_string()).collect();
             return Err(element_error(
                 &el,

@@ -246,6 +246,12 @@ pub fn canonicalize(
             }
             "actuator" | "tendon" | "contact" => {
                 for el in section.children.iter_mut() {
+                    // MuJoCo gives an actuator plugin its class's actuator defaults; SCM builds
+                    // the PID plugin's actuator from what is written on it alone.
+                    let class = el.attr("class").unwrap_or(MAIN).to_string();
+                    if el.name == "plugin" && defaults.gives_actuators(&class) {
+                        return Err(error(el, format!("default class '{class}' gives actuators defaults, which MuJoCo applies to a plugin actuator too and SCM does not apply to one yet: write the attributes on this actuator and keep it out of that class")));
+                    }
                     if !take_attached(el) {
                         defaults.apply(el, MAIN)?;
                     }

@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// What made a body's cloud: its colliding geoms' shapes and poses in the body, their
+/// spacings, and the body ([`Builder::collider`]).
+pub(super) type Sampled = (Vec<(Shape, Isometry3<f64>)>, Vec<Spacing>, usize);
+
 impl Builder {
     /// A static body (welded to the world) may hold planes beside other geoms, as MuJoCo's
     /// worldbody usually does (floor and fixed obstacles); SCM's collider is one shape per
@@ -52,14 +56,14 @@ impl Builder {
     /// plane, or the AOPC of the union of the other geoms, each at its own spacing
     /// ([`Geom::spacing`], set by [`Builder::assign_spacings`]).
     ///
-    /// `sampled` holds, by what makes a cloud (the geoms' shapes, poses in the body and
-    /// spacings), the first body of `made` (the colliders so far) sampled so: the copies of one
+    /// `sampled` holds what made each cloud so far (the geoms' shapes, poses in the body and
+    /// spacings) with the body of `made` (the colliders so far) that has it: the copies of one
     /// body (a replicate's, an attach's) are sampled once, to the same bits.
     pub(super) fn collider(
         &self,
         b: usize,
         colliding: &[bool],
-        sampled: &mut HashMap<String, usize>,
+        sampled: &mut Vec<Sampled>,
         made: &[Option<Collider>],
     ) -> Result<Option<Collider>, SceneError> {
         let geoms: Vec<&Geom> = self
@@ -121,12 +125,16 @@ impl Builder {
                 message: format!("body '{}' (geoms {listed}) would get about {estimate:.3e} AOPC points (at most {MAX_AOPC_POINTS:e}): increase scm_spacing, sample large geoms coarsely away from their edges with scm_resolution (16 quads per radius or half-extent: <numeric name=\"scm_resolution\" data=\"16\"/>), give a geom its own spacing with scm_spacing:NAME, or make the geoms smaller", self.bodies[b].name),
             });
         }
-        let key = format!("{parts:?} {spacings:?}");
-        if let Some(Some(Collider::Aopc(same))) = sampled.get(&key).map(|&first| &made[first]) {
+        // Compared exactly (a linear search: the distinct bodies of a scene are few).
+        let first = sampled
+            .iter()
+            .find(|(p, h, _)| *p == parts && *h == spacings)
+            .map(|s| s.2);
+        if let Some(Some(Collider::Aopc(same))) = first.map(|first| &made[first]) {
             return Ok(Some(Collider::Aopc(same.clone())));
         }
-        sampled.insert(key, b);
         let aopc = crate::geometry::union::sample_union_spaced(&parts, &spacings);
+        sampled.push((parts, spacings, b));
         Ok(Some(Collider::Aopc(aopc)))
     }
 

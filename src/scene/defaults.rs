@@ -151,6 +151,13 @@ impl Defaults {
         self.classes.contains_key(class)
     }
 
+    /// Whether `class` (or an ancestor) gives actuators defaults.
+    pub fn gives_actuators(&self, class: &str) -> bool {
+        self.classes.get(class).is_some_and(|c| {
+            c.slots.get("actuator").is_some_and(|a| !a.is_empty()) || !c.actuator.is_empty()
+        })
+    }
+
     /// Fills in the attributes `el` does not set from its class (its `class` attribute, else
     /// `inherited`), and drops `class`. Elements without defaults are left as they are.
     pub fn apply(&self, el: &mut Element, inherited: &str) -> Result<(), SceneError> {

@@ -231,6 +231,10 @@ impl Builder {
                 format!("an actuator computed by the engine plugin {plugin} is not supported by SCM: give a <position>, <velocity> or <general> actuator its gains instead"),
             ));
         }
+        // With activation dynamics the plugin reads the activation and adds kd times its rate.
+        if el.attr("dyntype").is_some_and(|d| d.trim() != "none") {
+            return Err(self.err(el, "a PID plugin actuator with activation dynamics (dyntype) is not supported by SCM: leave dyntype out"));
+        }
         let mut gains = [("kp", 0.0), ("kd", 0.0)];
         for c in config.children.iter().filter(|c| c.name == "config") {
             let key = c.attr("key").unwrap_or_default();

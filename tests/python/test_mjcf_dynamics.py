@@ -510,6 +510,17 @@ def test_pid_plugin_actuators_without_state_follow_mujoco(tmp_path):
     mujoco.MjModel.from_xml_path(str(path))  # MuJoCo takes it, with the integral's state
     out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
     assert out.returncode != 0 and ":5: <config>" in out.stderr and "ki keeps a state" in out.stderr, out.stderr
+    # MuJoCo gives a plugin actuator its class's actuator defaults (a gear here): SCM does not
+    # apply them to one yet, and refuses rather than drop them; activation dynamics likewise.
+    for changed, wanted in [
+        (PID_SCENE.replace("<worldbody>", '<default><general gear="3"/></default>\n  <worldbody>'),
+         "default class 'main' gives actuators defaults"),
+        (PID_SCENE.replace('instance="p" ctrlrange', 'instance="p" dyntype="filter" ctrlrange'),
+         "activation dynamics (dyntype)"),
+    ]:
+        path.write_text(changed)
+        out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
+        assert out.returncode != 0 and wanted in out.stderr and "<plugin>" in out.stderr, out.stderr
 
 
 def test_a_blow_up_the_energy_balance_credits_to_an_actuator_is_refused_where_mujoco_warns(tmp_path):
