@@ -16,10 +16,8 @@ use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
 pub const DIVERGED: f64 = 1e10;
 
 impl Model {
-    /// Name of the first coordinate of a state that diverged, if any ("the position of joint J"
-    /// or "the velocity of joint J"): not finite, or beyond [`DIVERGED`] in size, where MuJoCo
-    /// declares a simulation unstable and resets it (`mjMAXVAL` in its position and velocity
-    /// checks), so no run MuJoCo integrates is refused by it.
+    /// The first coordinate of a state that diverged, if any ("the velocity of joint J"): not
+    /// finite, or past [`DIVERGED`], where MuJoCo declares a run unstable and resets it.
     pub fn first_non_finite(&self, s: &State<f64>) -> Option<String> {
         let bad = |x: &f64| !x.is_finite() || x.abs() > DIVERGED;
         for j in &self.tree.joints {
