@@ -681,3 +681,165 @@ fn a_thin_plate_simplifies_to_a_closed_surface_or_not_at_all() {
         assert!(closure.norm() < 1e-12, "spacing {spacing}: {closure}");
     }
 }
+
+/// A CAD-style cylinder: each side segment two slivers the cylinder's length long, each cap a
+/// fan of thin triangles from its centre (`segments` around).
+fn sliver_cylinder(r: f64, half: f64, segments: u32) -> TriMesh {
+    let mut v = vec![Vector3::new(0.0, 0.0, -half), Vector3::new(0.0, 0.0, half)];
+    for k in 0..segments {
+        let a = std::f64::consts::TAU * k as f64 / segments as f64;
+        v.push(Vector3::new(r * a.cos(), r * a.sin(), -half));
+        v.push(Vector3::new(r * a.cos(), r * a.sin(), half));
+    }
+    let mut t = Vec::new();
+    for k in 0..segments {
+        let (b0, t0) = (2 + 2 * k, 3 + 2 * k);
+        let (b1, t1) = (2 + 2 * ((k + 1) % segments), 3 + 2 * ((k + 1) % segments));
+        t.push([b0, b1, t1]);
+        t.push([b0, t1, t0]);
+        t.push([0, b1, b0]);
+        t.push([1, t0, t1]);
+    }
+    TriMesh::new("cylinder", v, t).expect("a closed cylinder").0
+}
+
+#[test]
+fn a_mesh_of_slivers_is_sampled_in_patches_as_far_apart_as_the_spacing() {
+    // A 3 cm cylinder 10 cm long as CAD exports it: 48 slivers 10 cm long and 4 mm wide per
+    // side, caps as fans. One point per triangle no longer than the spacing and three quads
+    // per longer one put about nine times the points the spacing asks on it (robosuite's
+    // Franka links: 2 to 4 times); patches of about the spacing put as many as the spacing
+    // asks, never straddle the caps' sharp edges, keep the surface closed, and read distances
+    // near the surface as well as SCM's cylinder primitive at the same spacing does.
+    let (r, half, spacing) = (0.03, 0.05, 0.01);
+    let mesh = sliver_cylinder(r, half, 48);
+    let area: f64 = mesh.sample_as_is(spacing).areas.iter().sum();
+    let asked = area / (spacing * spacing);
+    let (triangles, patches) = (mesh.sample_as_is(spacing), mesh.sample_patches(spacing));
+    let primitive = scm::geometry::Shape::Cylinder {
+        radius: r,
+        half_length: half,
+    }
+    .sample(spacing);
+    println!(
+        "area / spacing² {asked:.0}: per triangle {} points, in patches {}, primitive {}",
+        triangles.len(),
+        patches.len(),
+        primitive.len()
+    );
+    assert!(triangles.len() as f64 > 2.0 * asked);
+    assert!(
+        (0.75 * asked..=1.25 * asked).contains(&(patches.len() as f64)),
+        "{} patches where the spacing asks {asked:.0}",
+        patches.len()
+    );
+    // Closed. The enclosed volume `⅓ Σ p·A` falls short where patches are curved: a patch
+    // spanning ±φ of the side counts `sin²φ / φ²` of its pieces' share, `1 - φ²/3`; a patch
+    // takes in pieces within 26° of its first, so at most 6.9 % short.
+    assert!(patches.closure_defect().norm() < 1e-15);
+    let volume = mesh.mass_properties().volume;
+    let short = 1.0 - patches.enclosed_volume() / volume;
+    println!("enclosed volume {:.2} % short", short * 100.0);
+    let phi = scm::geometry::mesh::PATCH_ANGLE_COSINE.acos();
+    assert!((0.0..phi * phi / 3.0).contains(&short), "{short}");
+    // A patch is on a cap or on the side, never across their edge (whose normals would mix
+    // a cap's and the side's, |z| near 0.5; the simplification tilts side triangles by up to
+    // a few thousandths, measured 0.0024).
+    for n in &patches.normals {
+        assert!(
+            n.z.abs() > 0.99 || n.z.abs() < 0.01,
+            "a patch across an edge: {:?}",
+            n.as_slice()
+        );
+    }
+    // The SSDF at a sharp ε1 near the surface (2 mm inside to 5 mm outside, over the side, the
+    // caps and their edges) against the mesh's signed distance.
+    let mut state = 11u64;
+    let mut u = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut worst = [0.0f64; 3];
+    for _ in 0..600 {
+        let a = std::f64::consts::TAU * u();
+        let (rho, z) = if u() < 0.5 {
+            (r - 0.002 + 0.007 * u(), half * (2.0 * u() - 1.0))
+        } else {
+            (r * u().sqrt(), half - 0.002 + 0.007 * u())
+        };
+        let p = Vector3::new(rho * a.cos(), rho * a.sin(), if u() < 0.5 { z } else { -z });
+        let exact = mesh.sdf(&p);
+        for (k, cloud) in [&triangles, &patches, &primitive].into_iter().enumerate() {
+            let e = (scm::geometry::ssdf(cloud, &p, 1e-8) - exact).abs();
+            worst[k] = worst[k].max(e);
+        }
+    }
+    println!(
+        "SSDF error (mm): per triangle {:.3}, patches {:.3}, primitive {:.3}",
+        worst[0] * 1e3,
+        worst[1] * 1e3,
+        worst[2] * 1e3
+    );
+    assert!(
+        worst[1] <= worst[2],
+        "patches {} against the primitive's {}",
+        worst[1],
+        worst[2]
+    );
+}
+
+#[test]
+fn a_scene_chooses_patches_or_triangles_for_its_meshes() {
+    // A file's mesh in patches by default; `scm_mesh_sampling` = `triangles` samples it
+    // triangle by triangle (the horseshoe's ring, to keep its symmetry); another word is
+    // refused with its line.
+    let dir = tmp("sampling");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut obj = String::new();
+    let cyl = sliver_cylinder(0.03, 0.05, 48);
+    for v in &cyl.vertices {
+        obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
+    }
+    for t in &cyl.triangles {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(dir.join("cyl.obj"), obj).unwrap();
+    let xml = |setting: &str| {
+        format!(
+            r#"<mujoco>
+  <custom>{setting}</custom>
+  <asset><mesh name="m" file="cyl.obj"/></asset>
+  <worldbody><geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.2"><freejoint/><geom type="mesh" mesh="m"/></body></worldbody>
+</mujoco>"#
+        )
+    };
+    let points = |setting: &str| {
+        let sc = scm::scene::load_str(&xml(setting), &dir.join("s.xml")).unwrap();
+        sc.model
+            .colliders
+            .iter()
+            .flatten()
+            .find_map(|c| match c {
+                Collider::Aopc(s) => Some(s.len()),
+                _ => None,
+            })
+            .expect("a sampled body")
+    };
+    let patches = points("");
+    let triangles = points(r#"<text name="scm_mesh_sampling" data="triangles"/>"#);
+    assert_eq!(
+        patches,
+        points(r#"<text name="scm_mesh_sampling" data="patches"/>"#)
+    );
+    assert!(triangles > 2 * patches, "{triangles} against {patches}");
+    let e = scm::scene::load_str(
+        &xml(r#"<text name="scm_mesh_sampling" data="quads"/>"#),
+        &dir.join("s.xml"),
+    )
+    .unwrap_err();
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.message.contains("'quads' must be 'patches'"), "{e}");
+}

@@ -238,10 +238,13 @@ fn ssdf_error_near_the_surface_shrinks_with_spacing_and_eps1() {
 fn ssdf_of_a_mesh_tracks_its_exact_sdf() {
     // Meshes of the same torus at two resolutions, sampled on their own triangles: the error
     // near the surface shrinks. Sampled as a scene samples them (simplified first within
-    // `SIMPLIFY_TOLERANCE` × the spacing of the file's surface), the error is at most the
-    // own triangles' plus that tolerance.
+    // `SIMPLIFY_TOLERANCE` × the spacing of the file's surface, then one point per patch of
+    // at most `PATCH_RADIUS` × the spacing), the error is at most the own triangles' plus that
+    // tolerance plus a patch's sagitta on the tube (radius 3 cm): a patch's plane departs from
+    // a surface of radius R by ρ² / 2R at ρ from its point.
     let spacing = 0.01;
-    let tolerance = scm::geometry::mesh::SIMPLIFY_TOLERANCE * spacing;
+    let rho = scm::geometry::mesh::PATCH_RADIUS * spacing;
+    let tolerance = scm::geometry::mesh::SIMPLIFY_TOLERANCE * spacing + rho * rho / (2.0 * 0.03);
     let (own, scene): (Vec<f64>, Vec<f64>) = [(24, 12), (48, 24)]
         .iter()
         .map(|&(nu, nv)| {

@@ -9,7 +9,7 @@
 //! is what a capsule's hemispheres and a cylinder's side meet.
 
 use super::implicit::ImplicitShape;
-use super::mesh::TriMesh;
+use super::mesh::{MeshSampling, TriMesh};
 use super::sample::{sample_box, sample_capsule, sample_cylinder, sample_ellipsoid, Spacing};
 use super::Aopc;
 use nalgebra::{Matrix3, Vector3};
@@ -263,7 +263,10 @@ impl Shape {
                 radius,
                 half_length,
             } => sample_cylinder(*radius, *half_length, uniform),
-            Shape::Mesh(m) => m.sample(uniform),
+            Shape::Mesh(m) => match m.sampling {
+                MeshSampling::Patches => m.sample_patches(uniform),
+                MeshSampling::Triangles => m.sample(uniform),
+            },
             Shape::Implicit { shape, mesh } => shape.settle(mesh.sample(uniform)),
         };
         out.weld(1e-9 * self.size().max(1e-9));

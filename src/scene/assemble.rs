@@ -4,6 +4,7 @@
 
 use super::mechanics::Mechanics;
 use super::*;
+use crate::geometry::mesh::MeshSampling;
 
 /// The initial positions, velocities, controls and activations.
 type InitialState = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
@@ -341,6 +342,7 @@ impl Builder {
         // 0: not set (the machine's default, `PairThreads::default_for_machine`).
         let mut pair_threads = 0.0;
         let mut keyframe: Option<(String, Place)> = None;
+        let mut mesh_sampling = MeshSampling::Patches;
         for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
                 if value <= 0.0 {
@@ -454,10 +456,33 @@ impl Builder {
                     })?
                 }
                 "scm_keyframe" => keyframe = Some((value, at)),
+                "scm_mesh_sampling" => {
+                    mesh_sampling = match value.as_str() {
+                        "patches" => MeshSampling::Patches,
+                        "triangles" => MeshSampling::Triangles,
+                        _ => {
+                            return Err(self.setting_error(
+                                &at,
+                                &name,
+                                format!("'{value}' must be 'patches' (points as far apart as the spacing, the default) or 'triangles' (triangle by triangle, keeping a mesh's symmetry)"),
+                            ))
+                        }
+                    }
+                }
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             }
         }
         // With contacts switched off (<flag contact="disable">) no body collides.
+        // File meshes triangle by triangle where the scene asks (height fields always are).
+        if mesh_sampling == MeshSampling::Triangles {
+            for g in &mut self.geoms {
+                if let Some(Shape::Mesh(m)) = &mut g.shape {
+                    if m.sampling != mesh_sampling {
+                        Arc::make_mut(m).sampling = mesh_sampling;
+                    }
+                }
+            }
+        }
         let (mut pairs, colliders, colliding) = if self.flags.contact {
             self.split_static_planes();
             let (pairs, colliding) = self.pairs()?;

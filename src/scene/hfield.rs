@@ -177,8 +177,10 @@ impl Builder {
         }
         let (vertices, triangles) = grid.solid(&size);
         let label = format!("height field '{name}'");
-        let (mesh, warnings) = TriMesh::new(&label, vertices, triangles)
+        let (mut mesh, warnings) = TriMesh::new(&label, vertices, triangles)
             .map_err(|e| self.err(el, format!("{label}: {}", e.problem)))?;
+        // A regular grid of the data's cells: sampled cell by cell, as even as it is.
+        mesh.sampling = crate::geometry::mesh::MeshSampling::Triangles;
         for w in warnings {
             self.warnings
                 .push(format!("{}:{}: <geom> {w}", el.file, el.line));

@@ -132,10 +132,18 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                         say!(w, "  geom {}: its points facing more than 10° from the distance function's normal put on its zero level, with that normal", g.name);
                     }
                     let uniform = h.coarse.min();
+                    // In patches (`TriMesh::sample_patches`) or triangle by triangle
+                    // (`TriMesh::sample`: an implicit shape's mesh, a height field's, or any
+                    // where the scene asks).
+                    let how = match (&g.shape, mesh.sampling) {
+                        (Some(scm::geometry::Shape::Implicit { .. }), _)
+                        | (_, scm::geometry::mesh::MeshSampling::Triangles) => "sampled at",
+                        _ => "sampled in patches of about",
+                    };
                     match mesh.simplified(uniform) {
                         Some(simple) => say!(
                     w,
-                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then sampled at {uniform} m",
+                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then {how} {uniform} m",
                             g.name,
                             mesh.triangles.len(),
                             simple.mesh.triangles.len(),
@@ -151,7 +159,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                         ),
                         None => say!(
                     w,
-                            "  geom {}: sampled on its mesh's own {} triangles at {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
+                            "  geom {}: its mesh's own {} triangles {how} {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
                             g.name,
                             mesh.triangles.len(),
                             scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3,

@@ -1,12 +1,12 @@
 //! Closed triangle meshes (OBJ through tobj, STL through stl_io): checks with clear errors, mass
 //! properties, exact signed distance, and the AOPC of the surface as a quad mesh.
 //!
-//! A mesh becomes an AOPC in `sample.rs`: simplified within a small fraction of the spacing
-//! where that leaves fewer triangles ([`TriMesh::simplified`]); then a triangle no longer than
-//! the spacing gives one point (its centroid, normal and area), and a longer one is refined by
-//! longest-edge bisection until no edge is longer than 5 × the spacing (a split never moves the
-//! surface and never crosses an edge of the input, so sharp feature edges stay edges) and cut
-//! into three quads through its centroid and edge midpoints.
+//! A mesh becomes an AOPC after it is simplified within a small fraction of the spacing where
+//! that leaves fewer triangles ([`TriMesh::simplified`], `sample.rs`). A file's mesh is then
+//! cut into pieces grouped in patches of about the spacing that never straddle a sharp edge,
+//! one point per patch (`patches.rs`, [`TriMesh::sample_patches`]). An implicit shape's mesh
+//! (even triangles from its distance function) keeps one point per triangle no longer than the
+//! spacing and three quads per longer one ([`TriMesh::sample`]).
 
 use super::MassProperties;
 use nalgebra::{Matrix3, Vector3};
@@ -145,6 +145,22 @@ pub struct TriMesh {
     pub vertices: Vec<Vector3<f64>>,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// How it becomes an AOPC ([`MeshSampling`]).
+    pub sampling: MeshSampling,
+}
+
+/// How a mesh becomes an AOPC (docs/geometry.md, "Patches of a mesh").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MeshSampling {
+    /// In patches of about the spacing ([`TriMesh::sample_patches`]): as many points as the
+    /// spacing asks, whatever the triangles' shapes (a file's mesh, by default).
+    #[default]
+    Patches,
+    /// Triangle by triangle ([`TriMesh::sample`]): one point per triangle no longer than the
+    /// spacing, three quads per longer one; keeps a mesh's own symmetry and regular grid (a
+    /// height field's, an implicit shape's, or a file's when the scene asks
+    /// `scm_mesh_sampling` = `triangles`).
+    Triangles,
 }
 
 impl TriMesh {
@@ -317,6 +333,7 @@ impl TriMesh {
             file: file.to_string(),
             vertices: merged,
             triangles: tris,
+            sampling: MeshSampling::default(),
         };
         let volume = mesh.mass_properties().volume;
         if volume <= 1e-9 * size.powi(3) {
@@ -453,11 +470,13 @@ fn closest_on_triangle(p: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> Vector3<f64> 
 
 mod hull;
 mod mass;
+mod patches;
 mod quickhull;
 mod read;
 mod sample;
 
 pub use mass::{legacy_mass_properties, shell_mass_properties};
+pub use patches::{PATCH_ANGLE_COSINE, PATCH_RADIUS};
 pub use read::signed_volume;
 pub use sample::{Simplified, SIMPLIFY_TOLERANCE, SIMPLIFY_TRIES, SIMPLIFY_VOLUME};
 

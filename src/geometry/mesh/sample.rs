@@ -122,6 +122,7 @@ impl TriMesh {
                 file: self.file.clone(),
                 vertices,
                 triangles,
+                sampling: self.sampling,
             };
             let off = (mesh.mass_properties().volume - volume).abs();
             if !mesh.is_closed_and_oriented() || off > SIMPLIFY_VOLUME * volume.abs() {
@@ -322,6 +323,7 @@ fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::mesh::MeshSampling;
 
     fn tetra(o: Vector3<f64>, first: u32) -> (Vec<Vector3<f64>>, Vec<[u32; 3]>) {
         let v = vec![o, o + Vector3::x(), o + Vector3::y(), o + Vector3::z()];
@@ -348,6 +350,7 @@ mod tests {
             file: "pinched".into(),
             vertices: v,
             triangles: t.clone(),
+            sampling: MeshSampling::default(),
         };
         assert!(pinched.is_closed_and_oriented());
         assert!(TriMesh::new("pinched", pinched.vertices.clone(), t.clone()).is_err());
@@ -394,6 +397,7 @@ mod tests {
             file: "tetra".into(),
             vertices: v,
             triangles: t,
+            sampling: MeshSampling::default(),
         };
         // Longest edges √2: one point per face at a spacing of 2, three quads each at 1.2.
         let fine = mesh.sample_as_is(2.0);
