@@ -21,6 +21,10 @@ pub struct Aopc {
     pub vertices: Vec<Vector3<f64>>,
     /// Quads as four indices into `vertices`, counter-clockwise seen from outside.
     pub faces: Vec<[u32; 4]>,
+    /// Points of the surface that no face corner marks (m, body frame): a mesh sampled in
+    /// patches, whose faces are rectangles standing for their pieces, keeps its vertices here,
+    /// so that the bounding polytope ([`super::polytope`]) holds the whole surface.
+    pub reach: Vec<Vector3<f64>>,
     /// The hierarchy over `points`, built on first use.
     bvh: OnceLock<Arc<Bvh>>,
     /// The certificate of a union of spheres and capsules ([`super::rounded`]), set by
@@ -36,6 +40,7 @@ impl PartialEq for Aopc {
             && self.areas == o.areas
             && self.vertices == o.vertices
             && self.faces == o.faces
+            && self.reach == o.reach
     }
 }
 
@@ -54,6 +59,7 @@ impl Aopc {
             areas,
             vertices,
             faces,
+            reach: Vec::new(),
             bvh: OnceLock::new(),
             rounded: None,
         }
@@ -67,7 +73,13 @@ impl Aopc {
         );
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
-            b.set_surface(&self.points, &self.normals, &self.vertices, &self.faces);
+            b.set_surface(
+                &self.points,
+                &self.normals,
+                &self.vertices,
+                &self.faces,
+                &self.reach,
+            );
             b.rounded = self
                 .rounded
                 .as_ref()
@@ -104,13 +116,15 @@ impl Aopc {
     /// The same surface moved by `pose` (e.g. a geom's pose in its body).
     pub fn transformed(&self, pose: &Isometry3<f64>) -> Aopc {
         let tp = |v: &Vector3<f64>| (pose * Point3::from(*v)).coords;
-        Aopc::new(
+        let mut out = Aopc::new(
             self.points.iter().map(tp).collect(),
             self.normals.iter().map(|n| pose.rotation * n).collect(),
             self.areas.clone(),
             self.vertices.iter().map(tp).collect(),
             self.faces.clone(),
-        )
+        );
+        out.reach = self.reach.iter().map(tp).collect();
+        out
     }
 
     /// Appends another AOPC (vertex indices renumbered).
@@ -123,6 +137,7 @@ impl Aopc {
         self.vertices.extend_from_slice(&other.vertices);
         self.faces
             .extend(other.faces.iter().map(|f| f.map(|i| i + base)));
+        self.reach.extend_from_slice(&other.reach);
     }
 
     /// The faces whose centre satisfies `keep` (vertices are kept whole; unused ones are
@@ -130,6 +145,7 @@ impl Aopc {
     pub fn retain(&self, keep: impl Fn(&Vector3<f64>) -> bool) -> Aopc {
         let mut out = Aopc {
             vertices: self.vertices.clone(),
+            reach: self.reach.clone(),
             ..Default::default()
         };
         for i in 0..self.len() {

@@ -153,6 +153,7 @@ impl Bvh {
         normals: &[Vector3<f64>],
         vertices: &[Vector3<f64>],
         faces: &[[u32; 4]],
+        reach: &[Vector3<f64>],
     ) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
         self.cuboid = super::cuboid::find_cuboid(points, normals, vertices, faces, &of, &patches);
@@ -164,7 +165,7 @@ impl Bvh {
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
         self.spine = super::spine::find_spine(points, normals, vertices, faces);
-        self.polytope = super::polytope::Polytope::of(points, vertices, faces);
+        self.polytope = super::polytope::Polytope::of(points, vertices, faces, reach);
     }
 
     /// The flat patch of the point `k` (leaf order), if any.

@@ -5,7 +5,8 @@
 //! infinite: beside the edge of a flat face it passes close to a query that is far from the
 //! surface, and reads it touching or inside. The polytope proves where that cannot be so.
 //!
-//! The polytope is the 26-sided bounding volume of the quad mesh (the supporting planes
+//! The polytope is the 26-sided bounding volume of the quad mesh and of the surface points no
+//! corner marks (a mesh in patches keeps its vertices there: `Aopc::reach`) (the supporting planes
 //! `u_kᵀy ≤ h_k` for the 26 directions of the cube's faces, edges and corners). The surface
 //! lies inside it, so at any point `x` its largest plane value `max_k (u_kᵀx - h_k)` is at
 //! most the surface's signed distance: outside, the distance to the polytope is at least
@@ -58,13 +59,15 @@ pub struct Polytope {
 }
 
 impl Polytope {
-    /// The polytope of a quad mesh (`points` its face centres, `vertices` and `faces` as in
-    /// [`super::Aopc`]); `None` without faces or with a zero cover radius (a cloud given as
-    /// bare points: nothing to bound its planes by).
+    /// The polytope of a quad mesh (`points` its face centres, `vertices`, `faces` and
+    /// `reach`, the surface's points no corner marks, as in [`super::Aopc`]); `None` without
+    /// faces or with a zero cover radius (a cloud given as bare points: nothing to bound its
+    /// planes by).
     pub fn of(
         points: &[Vector3<f64>],
         vertices: &[Vector3<f64>],
         faces: &[[u32; 4]],
+        reach: &[Vector3<f64>],
     ) -> Option<Polytope> {
         let mut cover: f64 = 0.0;
         for (p, f) in points.iter().zip(faces) {
@@ -76,7 +79,7 @@ impl Polytope {
             return None;
         }
         let mut support = [f64::NEG_INFINITY; 26];
-        for y in vertices.iter().chain(points) {
+        for y in vertices.iter().chain(points).chain(reach) {
             for (k, u) in AXES.iter().enumerate() {
                 let d = u[0] * y.x + u[1] * y.y + u[2] * y.z;
                 support[k] = support[k].max(d);
@@ -253,7 +256,7 @@ mod tests {
     #[test]
     fn the_floor_lies_below_the_surface_everywhere_and_margin_below_near_it() {
         let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces).expect("a quad mesh");
+        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).expect("a quad mesh");
         assert!(
             p.cover() > 0.004 && p.cover() < 0.0075,
             "cover {}",
@@ -283,7 +286,7 @@ mod tests {
     #[test]
     fn a_reading_near_the_truth_is_left_bit_for_bit_and_one_far_below_is_raised() {
         let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces).unwrap();
+        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
         // Beside the top face's edge, 4 cm out in its plane: the top plane reads 0.
         let x = Vector3::new(0.09, 0.0, 0.02);
         let mut f = p.floor(&x);
@@ -300,7 +303,7 @@ mod tests {
     #[test]
     fn the_raised_reading_and_floor_match_central_differences() {
         let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces).unwrap();
+        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
         let x0 = Vector3::new(0.061, 0.033, 0.018);
         let h = 1e-7;
         for dir in 0..3 {

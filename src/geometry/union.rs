@@ -136,6 +136,11 @@ pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacin
         }
         fates.push((part, fate));
     }
+    // Every geom's points no face corner marks (a mesh in patches): the union's surface lies
+    // within their geoms' hulls, so the bounding polytope keeps them all.
+    for (part, _) in &fates {
+        out.reach.extend_from_slice(&part.reach);
+    }
     out.weld(tol);
     // Only a union of spheres and capsules has the rounded certificate: no work for others.
     let rounded = geoms

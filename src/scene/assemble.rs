@@ -472,7 +472,6 @@ impl Builder {
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             }
         }
-        // With contacts switched off (<flag contact="disable">) no body collides.
         // File meshes triangle by triangle where the scene asks (height fields always are).
         if mesh_sampling == MeshSampling::Triangles {
             for g in &mut self.geoms {
@@ -483,6 +482,7 @@ impl Builder {
                 }
             }
         }
+        // With contacts switched off (<flag contact="disable">) no body collides.
         let (mut pairs, colliders, colliding) = if self.flags.contact {
             self.split_static_planes();
             let (pairs, colliding) = self.pairs()?;

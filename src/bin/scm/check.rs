@@ -121,7 +121,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                     exact,
                     100.0 * (volume - exact) / exact
                 );
-                // How each mesh geom's triangles became its points (`TriMesh::sample`).
+                // How each mesh geom's triangles became its points.
                 for g in sc.geoms.iter().filter(|g| g.body == b) {
                     let (Some(mesh), Some(h)) =
                         (g.shape.as_ref().and_then(|s| s.mesh()), &g.spacing)

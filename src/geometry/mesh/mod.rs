@@ -1,12 +1,14 @@
 //! Closed triangle meshes (OBJ through tobj, STL through stl_io): checks with clear errors, mass
-//! properties, exact signed distance, and the AOPC of the surface as a quad mesh.
+//! properties, exact signed distance, and the AOPC of the surface.
 //!
 //! A mesh becomes an AOPC after it is simplified within a small fraction of the spacing where
 //! that leaves fewer triangles ([`TriMesh::simplified`], `sample.rs`). A file's mesh is then
-//! cut into pieces grouped in patches of about the spacing that never straddle a sharp edge,
-//! one point per patch (`patches.rs`, [`TriMesh::sample_patches`]). An implicit shape's mesh
-//! (even triangles from its distance function) keeps one point per triangle no longer than the
-//! spacing and three quads per longer one ([`TriMesh::sample`]).
+//! cut into pieces grouped in patches of about the spacing, each taking in only pieces that
+//! face within 26° of its first, one point per patch (`patches.rs`,
+//! [`TriMesh::sample_patches`]). A height field's, an implicit shape's (even triangles from its
+//! distance function), or any where the scene asks (`scm_mesh_sampling`) keeps one point per
+//! triangle no longer than the spacing and three quads per longer one ([`TriMesh::sample`]);
+//! [`MeshSampling`] says which.
 
 use super::MassProperties;
 use nalgebra::{Matrix3, Vector3};

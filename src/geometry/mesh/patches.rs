@@ -1,15 +1,19 @@
 //! A mesh's AOPC with its points as far apart as the spacing asks, whatever the shapes of its
 //! triangles (docs/geometry.md, "Patches of a mesh"): the surface is cut into pieces no longer
-//! than half the spacing, the pieces are grouped into patches of about the spacing that never
-//! take in a piece facing more than [`PATCH_ANGLE_COSINE`] away from the patch's first, and each
-//! patch gives one point: its area centroid, and its summed area vector as normal and area.
+//! than half the spacing; pieces along sharp edges first, then the rest in a space-filling
+//! order, start patches where no patch near enough would take them (within [`PATCH_RADIUS`] of
+//! its first piece, facing within [`PATCH_ANGLE_COSINE`] of it); every piece joins the nearest
+//! patch that would; each patch gives one point: its area centroid, its summed area vector as
+//! normal and area, and as face a square in its plane whose corners lie at its reach. The mesh's
+//! vertices are kept as the cloud's `reach`, so that its bounding polytope holds the surface.
 //!
 //! Summing area vectors keeps the cloud closed (`Σ n·area` is the mesh's, zero) whatever the
 //! grouping; a flat patch stands for its pieces exactly (one plane), a curved one departs from
 //! them by about its sagitta, and its share of the cloud's enclosed volume (`⅓ p·A`) falls
-//! short of its pieces' by about `φ²/3` for a patch spanning `±φ` of a cylinder. A CAD mesh's thin triangles (a cylinder's side cut into slivers
-//! 7 cm long and a few millimetres wide) gave three quads each, twice to four times the points
-//! the spacing asks on robosuite's Franka; a patch takes in pieces of several slivers.
+//! short of its pieces' by about `φ²/3` for a patch spanning `±φ` of a cylinder. A CAD mesh's
+//! thin triangles (a cylinder's side cut into slivers 7 cm long and a few millimetres wide)
+//! gave three quads each, two to four times the points the spacing asks on robosuite's Franka;
+//! a patch takes in pieces of several slivers.
 
 use super::TriMesh;
 use crate::geometry::aopc::z_to;
@@ -32,6 +36,8 @@ struct Piece {
     centre: Vector3<f64>,
     normal: Vector3<f64>,
     area: f64,
+    /// The largest distance from the centre to a corner.
+    radius: f64,
     by_edge: bool,
 }
 
@@ -126,15 +132,25 @@ impl TriMesh {
         // Each piece joins the nearest patch that would take it (its own, if it is a first).
         // Per patch: area, first moment, area vector.
         let mut sums = vec![(0.0, Vector3::zeros(), Vector3::zeros()); firsts.len()];
+        let mut of = Vec::with_capacity(pieces.len());
         for p in &pieces {
             let s = nearest(&grid, &firsts, p).expect("every piece is within reach of a patch");
             let (area, moment, vector) = &mut sums[s as usize];
             *area += p.area;
             *moment += p.centre * p.area;
             *vector += p.normal * p.area;
+            of.push(s as usize);
+        }
+        // Each patch's reach: the largest distance from its point (the area centroid) to a
+        // corner of its pieces, bounded by a piece's centre distance plus its radius.
+        let mut reach = vec![0.0f64; sums.len()];
+        for (p, &s) in pieces.iter().zip(&of) {
+            let (area, moment, _) = &sums[s];
+            let centroid = moment / *area;
+            reach[s] = reach[s].max((p.centre - centroid).norm() + p.radius);
         }
         let mut out = Aopc::default();
-        for (area, moment, vector) in sums {
+        for ((area, moment, vector), r) in sums.into_iter().zip(reach) {
             let (Some(normal), true) = (vector.try_normalize(0.0), area > 0.0) else {
                 continue;
             };
@@ -144,14 +160,17 @@ impl TriMesh {
             // beyond a convex patch: on a sphere at `R Σa / |A|` from the centre. Measured,
             // it doubled the mean SSDF error on robosuite's Franka link5.)
             let point = moment / area;
-            // The face: a square of the patch's area in its plane (what the soft top-K and
-            // `scm check` read of a face), counter-clockwise seen from outside.
-            let r = z_to(&normal);
-            let h = 0.5 * size.sqrt();
-            let (u, v) = (r * Vector3::x() * h, r * Vector3::y() * h);
-            let corners = [point - u - v, point + u - v, point + u + v, point - u + v];
+            // The face: a square in the patch's plane whose corners lie at its reach (what the
+            // bounding polytope's cover radius reads: how far the patch's plane stands for the
+            // surface), counter-clockwise seen from outside (`u × v = n`).
+            let rot = z_to(&normal);
+            let (u, v) = (rot * Vector3::x() * r, rot * Vector3::y() * r);
+            let corners = [point + u, point + v, point - u, point - v];
             out.push_face(corners, point, normal, size);
         }
+        // The surface's vertices: the faces stand for their pieces in their planes only, and
+        // the bounding polytope must hold the whole surface.
+        out.reach = self.vertices.clone();
         out
     }
 }
@@ -210,6 +229,10 @@ fn cut(out: &mut Vec<Piece>, t: [Vector3<f64>; 3], normal: &Vector3<f64>, max_le
                 centre: (t[0] + t[1] + t[2]) / 3.0,
                 normal: *normal,
                 area: 0.5 * (t[1] - t[0]).cross(&(t[2] - t[0])).norm(),
+                radius: t
+                    .iter()
+                    .map(|v| (v - (t[0] + t[1] + t[2]) / 3.0).norm())
+                    .fold(0.0, f64::max),
                 by_edge: false,
             });
             continue;
