@@ -17,6 +17,7 @@
 
 use super::TriMesh;
 use crate::geometry::aopc::z_to;
+use crate::geometry::spine::nearest_on_segment;
 use crate::geometry::Aopc;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -75,11 +76,8 @@ impl TriMesh {
             );
             for p in &mut pieces[from..] {
                 p.by_edge = sharp[k].iter().any(|&(a, b)| {
-                    segment_distance(
-                        &p.centre,
-                        &self.vertices[a as usize],
-                        &self.vertices[b as usize],
-                    ) <= 0.25 * spacing
+                    let (a, b) = (&self.vertices[a as usize], &self.vertices[b as usize]);
+                    (p.centre - nearest_on_segment(a, b, &p.centre)).norm() <= 0.25 * spacing
                 });
             }
         }
@@ -206,13 +204,6 @@ impl TriMesh {
         }
         sharp
     }
-}
-
-/// The distance from `p` to the segment `a b`.
-fn segment_distance(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-    let ab = b - a;
-    let t = ((p - a).dot(&ab) / ab.norm_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-    (p - (a + ab * t)).norm()
 }
 
 /// Cuts a triangle by longest-edge bisection until no edge is longer than `max_len`, pushing
