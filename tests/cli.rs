@@ -273,7 +273,13 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
     std::fs::write(&path, body(" contype=\"0\" conaffinity=\"0\"")).unwrap();
     let out = scm(&["check", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(text(&out.stdout).contains("1 geom(s) (sampled at: body1_geom0 0.01 m)"));
+    assert!(
+        text(&out.stdout).contains(
+            "1 geom(s) (sampled at: body1_geom0 0.01 m [the default: no larger than 16 spacings])"
+        ),
+        "{}",
+        text(&out.stdout)
+    );
     // Both colliding: both are sampled and measured.
     std::fs::write(&path, body("")).unwrap();
     let out = scm(&["check", path.to_str().unwrap()]);

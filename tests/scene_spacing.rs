@@ -138,8 +138,9 @@ fn a_geoms_own_spacing_overrides_the_scenes() {
 
 #[test]
 fn a_ground_box_too_large_for_scm_spacing_loads_graded() {
-    // A 10 m × 10 m ground box (a common MJCF floor) at 1 cm would be 2·10⁶ points: refused,
-    // with what to do; graded it is a few thousand, and a ball rests on it as on a plane.
+    // A 10 m × 10 m ground box (a common MJCF floor) at an even 1 cm would be 2·10⁶ points:
+    // refused, with what to do; graded (scm_resolution 16, or a scene that sets no spacing) it
+    // is a few thousand, and a ball rests on it as on a plane.
     let ball = |ground: &str, settings: &str| {
         format!(
             r#"<mujoco><custom>{settings}</custom><worldbody>{ground}
@@ -149,21 +150,24 @@ fn a_ground_box_too_large_for_scm_spacing_loads_graded() {
         )
     };
     let boxed = r#"<geom name="ground" type="box" pos="0 0 -0.1" size="5 5 0.1"/>"#;
-    let err = load_str(&ball(boxed, ""), Path::new("ground.xml")).unwrap_err();
+    let err = load_str(&ball(boxed, SPACING), Path::new("ground.xml")).unwrap_err();
     assert!(
         err.message.contains("scm_resolution") && err.message.contains("'ground'"),
         "{err}"
     );
-    let graded = load(&ball(boxed, GRADED));
-    let n = cloud(&graded, "world").len();
-    assert!(n < 10_000, "{n} points");
     let plane = load(&ball(r#"<geom type="plane" size="5 5 0.1"/>"#, ""));
-    let ((a, va), (b, vb)) = (run(&graded, 1.0), run(&plane, 1.0));
-    println!("ball on the graded box at {a:?} (moved {va:.1e} m in 0.2 s), on a plane at {b:?} ({vb:.1e} m)");
-    // The box's top is the plane z = 0 (every top quad's plane), and its quad centres are
-    // centimetres from the ball: the forces of a half-space but for the box's own points'
-    // few terms, the same rest to a micrometre (the ball itself creeps 5 µm on either).
-    assert!(va < 1e-5 && (a - b).norm() < 1e-6, "{a:?} vs {b:?}");
+    // Graded by scm_resolution, and by the scene's defaults when it says nothing.
+    for (settings, most) in [(GRADED, 10_000), ("", 10_000)] {
+        let graded = load(&ball(boxed, settings));
+        let n = cloud(&graded, "world").len();
+        assert!(n < most, "{settings}: {n} points");
+        let ((a, va), (b, vb)) = (run(&graded, 1.0), run(&plane, 1.0));
+        println!("{settings}: ball on the graded box ({n} points) at {a:?} (moved {va:.1e} m in 0.2 s), on a plane at {b:?} ({vb:.1e} m)");
+        // The box's top is the plane z = 0 (every top quad's plane), and its quad centres are
+        // centimetres from the ball: the forces of a half-space but for the box's own points'
+        // few terms, the same rest to a micrometre (the ball itself creeps 5 µm on either).
+        assert!(va < 1e-5 && (a - b).norm() < 1e-6, "{a:?} vs {b:?}");
+    }
 }
 
 #[test]
@@ -250,4 +254,65 @@ fn copies_of_one_body_share_their_cloud_and_a_changed_copy_does_not() {
         fine > 4 * coarse,
         "{fine} points at 4 mm against {coarse} at 1 cm"
     );
+}
+
+/// The table scene's spacing setting, removed to leave the spacing to the scene's defaults.
+const SPACING: &str = r#"<numeric name="scm_spacing" data="0.01"/>"#;
+
+/// With neither scm_spacing nor scm_resolution, the table is graded at its size / 16 (3,664
+/// points instead of 124,000). A cube put down anywhere but on the even grid's symmetric places
+/// creeps sideways until the table's points under it are symmetric about it (SCM's force
+/// averages over both bodies' deepest points; docs/geometry.md): measured over these eight
+/// places, 1.4 to 4.4 mm on the even table, 1.4 µm to 2.1 mm on the graded one, whose few
+/// points mostly miss the cube. The test holds the graded table to the even one's largest
+/// creep and rest height.
+#[test]
+fn a_scene_that_says_nothing_samples_a_large_geom_graded() {
+    let places = [
+        (0.3033, 0.2047),
+        (0.3071, 0.2011),
+        (0.2113, -0.1252),
+        (-0.4261, 0.3318),
+        (0.0149, 0.0078),
+        (0.6624, -0.5463),
+        (-0.9037, 0.1981),
+        (0.1234, 0.5678),
+    ];
+    let (mut worst_auto, mut worst_even) = (0.0f64, 0.0f64);
+    for (x, y) in places {
+        let auto = load(&table(x, y, "").replace(SPACING, ""));
+        let even = load(&table(x, y, ""));
+        let top = auto.geoms.iter().find(|g| g.name == "top").unwrap();
+        assert_eq!(
+            top.spacing.map(|h| (h.fine, h.coarse)),
+            Some((0.01, Vector3::new(1.5 / 16.0, 1.0 / 16.0, 0.01)))
+        );
+        assert!(
+            top.spacing_reason.starts_with("graded"),
+            "{}",
+            top.spacing_reason
+        );
+        let cube = auto.geoms.iter().find(|g| g.name == "cube").unwrap();
+        assert_eq!(cube.spacing, Some(scm::geometry::Spacing::uniform(0.01)));
+        assert_eq!(cloud(&auto, "cube"), cloud(&even, "cube"));
+        let (na, ne) = (cloud(&auto, "table").len(), cloud(&even, "table").len());
+        assert!(na < 4_000 && ne == 124_000, "{na} {ne} points");
+        let ((a, _), (b, _)) = (run(&auto, 1.6), run(&even, 1.6));
+        let start = Vector3::new(x, y, 0.5452);
+        let (da, de) = ((a - start).xy().norm(), (b - start).xy().norm());
+        println!(
+            "cube at ({x}, {y}): crept {da:.3e} (graded) / {de:.3e} m (even), rests at {:.7} / {:.7} m",
+            a.z, b.z
+        );
+        // Resting on the top, sunk no more than twice as deep as on the even table.
+        assert!(
+            a.z < 0.545 && a.z > 0.545 - 2.0 * (0.545 - b.z),
+            "{} {}",
+            a.z,
+            b.z
+        );
+        worst_auto = worst_auto.max(da);
+        worst_even = worst_even.max(de);
+    }
+    assert!(worst_auto <= worst_even, "{worst_auto} > {worst_even}");
 }

@@ -432,6 +432,10 @@ impl Builder {
             }
             *slot = value;
         }
+        // The scene's defaults choose each geom's spacing from its size and its partners' only
+        // when it sets neither (docs/geometry.md, "Spacing per geom").
+        let said = |n: &str| self.numeric.iter().any(|(name, _, _)| name == n);
+        let resolution_set = (said("scm_spacing") || said("scm_resolution")).then_some(resolution);
         for (name, value, at) in self.text.clone() {
             match name.as_str() {
                 "scm_integrator" => {
@@ -486,7 +490,7 @@ impl Builder {
         let (mut pairs, colliders, colliding) = if self.flags.contact {
             self.split_static_planes();
             let (pairs, colliding) = self.pairs()?;
-            self.assign_spacings(spacing, resolution, &spacing_overrides, &colliding)?;
+            self.assign_spacings(spacing, resolution_set, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
             let mut sampled = Vec::new();
             for b in 0..colliders.len() {
@@ -505,7 +509,7 @@ impl Builder {
             // Nothing is sampled: per-geom spacings are checked and reported unused.
             self.assign_spacings(
                 spacing,
-                resolution,
+                resolution_set,
                 &spacing_overrides,
                 &vec![false; self.geoms.len()],
             )?;

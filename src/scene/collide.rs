@@ -138,14 +138,16 @@ impl Builder {
         Ok(Some(Collider::Aopc(aopc)))
     }
 
-    /// Sets every colliding geom's spacing (docs/geometry.md, "Spacing per geom"): its own
-    /// `scm_spacing:NAME` when the scene gives one, else [`Shape::spacing_for`] the scene's
-    /// `spacing` and `resolution`. A per-geom setting that names no geom, or a plane (exact, not
-    /// sampled), is an error; one for a geom that collides with nothing is a warning (unused).
+    /// Sets every colliding geom's spacing and why (docs/geometry.md, "Spacing per geom"): its
+    /// own `scm_spacing:NAME` when the scene gives one; else [`Shape::spacing_for`] the scene's
+    /// `spacing` and `resolution`, with [`AUTO_RESOLUTION`] when the scene sets neither
+    /// `scm_spacing` nor `scm_resolution` (`resolution` is `None`). A per-geom setting that
+    /// names no geom, or a plane (exact, not sampled), is an error; one for a geom that
+    /// collides with nothing is a warning (unused).
     pub(super) fn assign_spacings(
         &mut self,
         spacing: f64,
-        resolution: f64,
+        resolution: Option<f64>,
         overrides: &[(String, f64, Place)],
         colliding: &[bool],
     ) -> Result<(), SceneError> {
@@ -173,19 +175,29 @@ impl Builder {
             }
         }
         for (g, geom) in self.geoms.iter_mut().enumerate() {
-            geom.spacing = match (&geom.shape, colliding[g]) {
-                (Some(shape), true) => Some(
-                    overrides
-                        .iter()
-                        .rev()
-                        .find(|(n, _, _)| *n == geom.name)
-                        .map_or_else(
-                            || shape.spacing_for(spacing, resolution),
-                            |(_, v, _)| Spacing::uniform(*v),
+            let (spacing, reason) = match (&geom.shape, colliding[g]) {
+                (Some(shape), true) => {
+                    let own = overrides.iter().rev().find(|(n, _, _)| *n == geom.name);
+                    match (own, resolution) {
+                        (Some((_, v, _)), _) => (
+                            Some(Spacing::uniform(*v)),
+                            format!("its own: {GEOM_SPACING_PREFIX}{}", geom.name),
                         ),
-                ),
-                _ => None,
+                        (None, Some(n)) if n.is_finite() => (
+                            Some(shape.spacing_for(spacing, n)),
+                            format!("scm_spacing, graded up to its size / {n} by scm_resolution"),
+                        ),
+                        (None, Some(_)) => (Some(Spacing::uniform(spacing)), "scm_spacing".into()),
+                        (None, None) => (
+                            Some(shape.spacing_for(spacing, AUTO_RESOLUTION)),
+                            auto_reason(shape, spacing),
+                        ),
+                    }
+                }
+                _ => (None, String::new()),
             };
+            geom.spacing = spacing;
+            geom.spacing_reason = reason;
         }
         Ok(())
     }
@@ -443,6 +455,18 @@ impl Builder {
         } else {
             compatible
         }
+    }
+}
+
+/// Why a geom has the spacing the scene's defaults gave it (`scm check`).
+fn auto_reason(shape: &Shape, spacing: f64) -> String {
+    let n = AUTO_RESOLUTION;
+    if shape.mesh().is_some() {
+        "the default: a mesh's size does not tell its smallest feature".into()
+    } else if shape.feature_length().max() / n <= spacing {
+        format!("the default: no larger than {n} spacings")
+    } else {
+        format!("graded: the default at its edges, its size / {n} inside")
     }
 }
 

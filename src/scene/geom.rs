@@ -346,6 +346,7 @@ impl Builder {
             file: el.file.to_string(),
             line: el.line,
             spacing: None,
+            spacing_reason: String::new(),
         });
         Ok(())
     }

@@ -155,16 +155,23 @@ pub struct Geom {
     /// The spacing its AOPC is sampled at, `None` for a plane or a geom that collides with
     /// nothing (docs/geometry.md, "Spacing per geom").
     pub spacing: Option<Spacing>,
+    /// Why it has that spacing, for `scm check` (empty where `spacing` is `None`).
+    pub spacing_reason: String,
 }
 
 /// Default spacing between AOPC points when the scene gives no `scm_spacing` (m).
 pub const DEFAULT_SPACING: f64 = 0.01;
-/// Quads per feature length when the scene gives no `scm_resolution`: infinitely many, so that
-/// every geom is sampled at `scm_spacing` unless the scene asks otherwise. With
-/// `scm_resolution` = N, a geom whose feature length is above `N × scm_spacing` is sampled
-/// more coarsely, at N quads per radius of curvature or per box half-extent (docs/geometry.md,
-/// "Spacing per geom", with what that costs in accuracy).
+/// Quads per feature length when the scene sets `scm_spacing` but no `scm_resolution`:
+/// infinitely many, so that every geom is sampled at `scm_spacing`. With `scm_resolution` = N,
+/// a geom whose feature length is above `N × scm_spacing` is sampled more coarsely, at N quads
+/// per radius of curvature or per box half-extent (docs/geometry.md, "Spacing per geom", with
+/// what that costs in accuracy).
 pub const DEFAULT_RESOLUTION: f64 = f64::INFINITY;
+/// Quads per feature length when the scene sets neither `scm_spacing` nor `scm_resolution`
+/// (docs/geometry.md, "Spacing per geom"): a geom larger than 16 spacings is sampled graded,
+/// as with `scm_resolution` = 16, so that a 10 m ground box loads and a body resting on a large
+/// geom meets few of its points (which the measurements there show to be what keeps it still).
+pub const AUTO_RESOLUTION: f64 = 16.0;
 /// Prefix of a per-geom spacing setting: `<numeric name="scm_spacing:GEOM" data="0.05"/>`.
 pub const GEOM_SPACING_PREFIX: &str = "scm_spacing:";
 /// Most AOPC points one body may get, estimated from its geoms' surface area before sampling

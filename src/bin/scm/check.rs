@@ -98,11 +98,17 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                     .iter()
                     .filter(|g| g.body == b)
                     .filter_map(|g| {
-                        g.spacing
-                            .map(|h| format!("{} {}", g.name, scm::scene::spacing_text(&h)))
+                        g.spacing.map(|h| {
+                            format!(
+                                "{} {} [{}]",
+                                g.name,
+                                scm::scene::spacing_text(&h),
+                                g.spacing_reason
+                            )
+                        })
                     })
                     .collect::<Vec<_>>()
-                    .join(", ");
+                    .join("; ");
                 let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
                 let closure = s.closure_defect().norm();
                 let volume = s.enclosed_volume();
