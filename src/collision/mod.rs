@@ -159,6 +159,20 @@ pub struct Relative<T: Scalar> {
     pub angvel_planes: Vector3<T>,
 }
 
+impl Relative<f64> {
+    /// A placeholder for the side of a pair whose query body has no points (a half-space):
+    /// identity pose, at rest. Nothing reads it.
+    pub fn unread() -> Self {
+        Relative {
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            linvel: Vector3::zeros(),
+            angvel: Vector3::zeros(),
+            angvel_planes: Vector3::zeros(),
+        }
+    }
+}
+
 impl<T: Scalar> Relative<T> {
     /// Real parts.
     pub fn re(&self) -> Relative<f64> {

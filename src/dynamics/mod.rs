@@ -373,10 +373,15 @@ impl Tree {
         }
         let mut m = DMatrix::zeros(self.nv, self.nv);
         for i in 0..n {
-            for a in self.node_dofs(i) {
+            let dofs = self.node_dofs(i);
+            for a in dofs.clone() {
                 let mut f = ic[i] * kin.s[a];
-                for b in self.node_dofs(i) {
-                    m[(a, b)] = f.dot(&kin.s[b]);
+                // The node's own block, symmetric: each entry computed once, on and below the
+                // diagonal (the entries the factorization reads), and mirrored above it.
+                for b in dofs.start..=a {
+                    let val = f.dot(&kin.s[b]);
+                    m[(a, b)] = val;
+                    m[(b, a)] = val;
                 }
                 let mut j = i;
                 while let Some(p) = self.nodes[j].parent {

@@ -236,9 +236,9 @@ impl Aopc {
     /// Merges vertices closer than `tol` (m), so that neighbouring quads share them (the soft
     /// top-K sums a vertex's weight over the faces that use it), and drops unused ones.
     pub fn weld(&mut self, tol: f64) {
-        use std::collections::HashMap;
+        use rustc_hash::FxHashMap as HashMap;
         let key = |v: &Vector3<f64>| v.map(|x| (x / tol).round() as i64);
-        let mut map: HashMap<[i64; 3], u32> = HashMap::new();
+        let mut map: HashMap<[i64; 3], u32> = HashMap::default();
         let mut remap = vec![u32::MAX; self.vertices.len()];
         let mut kept: Vec<Vector3<f64>> = Vec::new();
         for f in &self.faces {

@@ -185,6 +185,7 @@ impl Model {
                 m.ledger.kinetic = e.kinetic;
                 let total = e.total();
                 m.energy = total;
+                m.ledger.energy = total;
                 if !total.is_finite() || total > m.ledger.allowed(m.floor) {
                     let l = &m.ledger;
                     return Err(StepFailure::EnergyGrowth {

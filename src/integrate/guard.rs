@@ -63,10 +63,10 @@ impl Model {
     ) -> Option<EnergyMonitor> {
         let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm));
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
-        let e = self.energy(&state.q, &state.v);
         let ledger = match ledger {
-            // Carried on: the kinetic energy at this state is the one the last call's final
-            // check computed, kept with the ledger. The energy stored in contact counts as
+            // Carried on: the mechanical and kinetic energies at this state are the ones the
+            // last call's final check computed, kept with the ledger (not computed again: on a
+            // scene of free bodies that was a tenth of a step). The energy stored in contact counts as
             // energy in motion only as far as the balance admits it, `U ≤ A - E` (`A` the
             // allowance the state passed): the estimate reads the pair's whole force, damping
             // included, and in a blow-up that drives a body into another it reads thousands of
@@ -76,7 +76,7 @@ impl Model {
             // kinetic energy than `2 (E₀ + U₀ + E_floor - V_min)`.
             Some(l) if l.at == *state && l.params == *prm => {
                 let admitted = if stored > 0.0 {
-                    let headroom = l.allowed(floor) - e.total();
+                    let headroom = l.allowed(floor) - l.energy;
                     stored.min(headroom.max(0.0))
                 } else {
                     0.0
@@ -85,10 +85,13 @@ impl Model {
                     scale: l.scale.max(l.kinetic + admitted),
                     ..l.clone()
                 };
-                carried.tighten(e.total(), e.kinetic, stored, t0, floor);
+                carried.tighten(l.energy, l.kinetic, stored, t0, floor);
                 carried
             }
-            _ => EnergyLedger::started(state.clone(), *prm, e.total(), e.kinetic, stored, t0),
+            _ => {
+                let e = self.energy(&state.q, &state.v);
+                EnergyLedger::started(state.clone(), *prm, e.total(), e.kinetic, stored, t0)
+            }
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
             ledger,
@@ -125,6 +128,9 @@ pub struct EnergyLedger {
     /// Kinetic energy `T` at `at` (J), as the guard computed it there: a call that carries the
     /// ledger on starts from it instead of evaluating the energy again.
     pub kinetic: f64,
+    /// Mechanical energy `E` at `at` (J), as the guard computed it there. Not kept in a
+    /// saved model state: a restored ledger computes it again from `at`, to the same bits.
+    pub energy: f64,
 }
 
 impl EnergyLedger {
@@ -153,6 +159,7 @@ impl EnergyLedger {
             gross_work: 0.0,
             scale: kinetic + stored,
             kinetic,
+            energy,
         }
     }
 
@@ -165,6 +172,7 @@ impl EnergyLedger {
         self.gross_work = 0.0;
         self.scale = kinetic + stored;
         self.kinetic = kinetic;
+        self.energy = energy;
     }
 
     /// Moves the balance's start to the state the run has reached (mechanical energy `energy`,

@@ -349,11 +349,13 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 next("the energy ledger's gross work")?,
                 next("the energy ledger's scale")?,
             );
-            // Versions before 5 did not keep the kinetic energy: the same function gives it.
+            // The mechanical energy at the ledger's state is not kept: the function the guard
+            // computed it with gives the same bits. Nor, before version 5, the kinetic energy.
+            let at = model.energy(&q, &v);
             let kinetic = if version >= 5 {
                 next("the energy ledger's kinetic energy")?
             } else {
-                model.energy(&q, &v).kinetic
+                at.kinetic
             };
             if gross_work < 0.0 || scale < 0.0 || work.abs() > gross_work * (1.0 + 1e-9) {
                 return Err(format!("model state is corrupt: an energy ledger with work {work} J, gross work {gross_work} J and scale {scale} J"));
@@ -370,6 +372,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 gross_work,
                 scale,
                 kinetic,
+                energy: at.total(),
             })
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),

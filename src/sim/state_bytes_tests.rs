@@ -44,6 +44,7 @@ fn full_state() -> FmuState {
         gross_work: 0.0,
         scale: 1.0,
         kinetic: 0.5,
+        energy: 0.75,
     };
     FmuState {
         sim: SimState {
