@@ -432,8 +432,8 @@ impl Builder {
             }
             *slot = value;
         }
-        // The scene's defaults choose each geom's spacing from its size and its partners' only
-        // when it sets neither (docs/geometry.md, "Spacing per geom").
+        // Each geom's spacing comes from its size ([`AUTO_RESOLUTION`]) only when the scene sets
+        // neither (docs/geometry.md, "Spacing per geom").
         let said = |n: &str| self.numeric.iter().any(|(name, _, _)| name == n);
         let resolution_set = (said("scm_spacing") || said("scm_resolution")).then_some(resolution);
         for (name, value, at) in self.text.clone() {

@@ -185,9 +185,12 @@ impl Builder {
                         ),
                         (None, Some(n)) if n.is_finite() => (
                             Some(shape.spacing_for(spacing, n)),
-                            format!("scm_spacing, graded up to its size / {n} by scm_resolution"),
+                            format!("the scene's spacing, graded up to its size / {n} by scm_resolution"),
                         ),
-                        (None, Some(_)) => (Some(Spacing::uniform(spacing)), "scm_spacing".into()),
+                        (None, Some(_)) => (
+                            Some(Spacing::uniform(spacing)),
+                            "the scene's scm_spacing".into(),
+                        ),
                         (None, None) => (
                             Some(shape.spacing_for(spacing, AUTO_RESOLUTION)),
                             auto_reason(shape, spacing),
