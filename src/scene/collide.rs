@@ -183,13 +183,13 @@ impl Builder {
                             Some(Spacing::uniform(*v)),
                             format!("its own: {GEOM_SPACING_PREFIX}{}", geom.name),
                         ),
-                        (None, Some(n)) if n.is_finite() => (
+                        // An infinite resolution (`scm_spacing` alone) samples evenly.
+                        (None, Some(n)) => (
                             Some(shape.spacing_for(spacing, n)),
-                            format!("the scene's spacing, graded up to its size / {n} by scm_resolution"),
-                        ),
-                        (None, Some(_)) => (
-                            Some(Spacing::uniform(spacing)),
-                            "the scene's scm_spacing".into(),
+                            match n.is_finite() {
+                                true => format!("the scene's spacing, graded up to its size / {n} by scm_resolution"),
+                                false => "the scene's scm_spacing".into(),
+                            },
                         ),
                         (None, None) => (
                             Some(shape.spacing_for(spacing, AUTO_RESOLUTION)),
