@@ -263,7 +263,7 @@ const SPACING: &str = r#"<numeric name="scm_spacing" data="0.01"/>"#;
 /// points instead of 124,000). A cube put down anywhere but on the even grid's symmetric places
 /// creeps sideways until the table's points under it are symmetric about it (SCM's force
 /// averages over both bodies' deepest points; docs/geometry.md): measured over these eight
-/// places, 1.4 to 4.4 mm on the even table, 1.4 µm to 2.1 mm on the graded one, whose few
+/// places, 1.4 to 4.4 mm on the even table, 1.5 µm to 2.0 mm on the graded one, whose few
 /// points mostly miss the cube. The test holds the graded table to the even one's largest
 /// creep and rest height.
 #[test]

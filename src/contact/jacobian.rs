@@ -116,11 +116,12 @@ pub fn point_plane_force_jacobian_at(
 
 /// Derivatives of one point–SSDF force with respect to its query point `x`, its velocity `v`
 /// and the plane body's angular velocity `ω_p` (plane body's frame), from the terms' real
-/// parts. With `σ_i = w_i/Z`, `∂w_i/∂x = -(2/ε1) w_i r_i`, `v_i = v + [p_i]× ω_p`:
-/// `∂F/∂x = Σ σ_i λ_φ,i n_iᵀ - (2/ε1)(Σ σ_i λ_i r_iᵀ - F r̄ᵀ)` (`r̄ = Σ σ_i r_i`),
-/// `∂F/∂v = Σ σ_i ∂λ_i/∂v`, `∂F/∂ω_p = Σ σ_i ∂λ_i/∂v [p_i]×`, and the same for
-/// `G = Σ σ_i [p_i]× λ_i` with `[p_i]×` on the left. A half-space (one plane, no softmax) has
-/// `σ = 1` and no weight derivative.
+/// parts. With `σ_i = w_i/Z`, `∂w_i/∂x = -(2/ε1) w_i r_i`, and every plane reading the
+/// sliding velocity `u = v - ω_p × x` (docs/method.md, departure 6):
+/// `∂F/∂x = Σ σ_i λ_φ,i n_iᵀ - (2/ε1)(Σ σ_i λ_i r_iᵀ - F r̄ᵀ) - (∂F/∂v) [ω_p]×`
+/// (`r̄ = Σ σ_i r_i`), `∂F/∂v = Σ σ_i ∂λ_i/∂u`, `∂F/∂ω_p = (∂F/∂v) [x]×`; the reaction's
+/// moment `G = x × F` has `∂G/∂x = [x]× ∂F/∂x - [F]×` and `[x]×` on the left of the others.
+/// A half-space (one plane, no softmax) has `σ = 1` and no weight derivative.
 #[derive(Clone, Debug)]
 pub(super) struct LocalJacobian {
     prm: ContactParams<f64>,
@@ -129,31 +130,19 @@ pub(super) struct LocalJacobian {
     sr: Vector3<f64>,
     lphi_n: Matrix3<f64>,
     lam_r: Matrix3<f64>,
-    plphi_n: Matrix3<f64>,
-    plam_r: Matrix3<f64>,
     lv: Matrix3<f64>,
-    plv: Matrix3<f64>,
-    lvp: Matrix3<f64>,
-    plvp: Matrix3<f64>,
 }
 
 impl ForceSink for LocalJacobian {
     const ON: bool = true;
     fn term(&mut self, t: &PlaneTerm) {
-        let (w, r, n, p, v, phi, dphi) = (t.w, &t.r, t.n, t.p, &t.v, t.phi, t.dphi);
+        let (w, r, n, v, phi, dphi) = (t.w, &t.r, t.n, &t.v, t.phi, t.dphi);
         let (lambda, lphi, lv) = point_plane_force_jacobian_at(phi, n, v, &self.prm);
-        let px = skew(p);
         self.z += w;
         self.sr += r * w;
         self.lphi_n += lphi * dphi.transpose() * w;
         self.lam_r += lambda * r.transpose() * w;
-        self.plphi_n += p.cross(&lphi) * dphi.transpose() * w;
-        self.plam_r += p.cross(&lambda) * r.transpose() * w;
-        let plv = px * lv;
         self.lv += lv * w;
-        self.plv += plv * w;
-        self.lvp += lv * px * w;
-        self.plvp += plv * px * w;
     }
 }
 
@@ -167,33 +156,29 @@ impl LocalJacobian {
             sr: Vector3::zeros(),
             lphi_n: z,
             lam_r: z,
-            plphi_n: z,
-            plam_r: z,
             lv: z,
-            plv: z,
-            lvp: z,
-            plvp: z,
         }
     }
 
-    /// `(∂F/∂x, ∂F/∂v, ∂F/∂ω_p, ∂G/∂x, ∂G/∂v, ∂G/∂ω_p)` given the values `F`, `G`.
-    fn blocks(&self, f: &Vector3<f64>, g: &Vector3<f64>) -> [Matrix3<f64>; 6] {
+    /// `(∂F/∂x, ∂F/∂v, ∂F/∂ω_p, ∂G/∂x, ∂G/∂v, ∂G/∂ω_p)` given the force `F` at the query
+    /// point `x` against planes turning with `ω_p`.
+    fn blocks(
+        &self,
+        f: &Vector3<f64>,
+        x: &Vector3<f64>,
+        omega_p: &Vector3<f64>,
+    ) -> [Matrix3<f64>; 6] {
         let inv = 1.0 / self.z;
-        let (mut fx, mut gx) = (self.lphi_n * inv, self.plphi_n * inv);
+        let fv = self.lv * inv;
+        let mut fx = self.lphi_n * inv - fv * skew(omega_p);
         if self.softmax {
             let k = 2.0 / self.prm.eps1;
             let rbar = self.sr * inv;
             fx += (f * rbar.transpose() - self.lam_r * inv) * k;
-            gx += (g * rbar.transpose() - self.plam_r * inv) * k;
         }
-        [
-            fx,
-            self.lv * inv,
-            self.lvp * inv,
-            gx,
-            self.plv * inv,
-            self.plvp * inv,
-        ]
+        let xx = skew(x);
+        let fw = fv * xx;
+        [fx, fv, fw, xx * fx - skew(f), xx * fv, xx * fw]
     }
 }
 
@@ -273,7 +258,8 @@ pub fn pair_jacobian(
         let g = grads[*i];
         let mut lj = snk.clone();
         lj.softmax = !halfspace[side];
-        let [fx, fv, fw, gx, gv, gw] = lj.blocks(&pf.force, &pf.moment);
+        let [fx, fv, fw, gx, gv, gw] =
+            lj.blocks(&pf.force, &(arm + rel.translation), &rel.angvel_planes);
         let wf = pf.force * *w;
         let (ax, av, aw) = ((fx - pf.force * g.transpose() / e2) * *w, fv * *w, fw * *w);
         let (bx, bv, bw) = ((gx - pf.moment * g.transpose() / e2) * *w, gv * *w, gw * *w);

@@ -25,8 +25,8 @@ use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
 pub(crate) use point::{
-    half_space_force, point_force, point_force_naive, ForceSink, NoForceSink, PlaneTerm,
-    PointForce, SoftAverage,
+    half_space_force, point_force, point_force_naive, sliding_velocity, ForceSink, NoForceSink,
+    PlaneTerm, PointForce, SoftAverage,
 };
 pub use point::{point_plane_force, point_plane_force_at};
 pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
@@ -176,30 +176,19 @@ pub(super) fn for_each_force<T: Scalar>(
     let fric = (1.0 + prm_re.friction * prm_re.friction).sqrt();
     let inv_vd = 1.0 / prm_re.dissipation_velocity.abs();
     let norm = dist.normaliser.re();
-    // Per side: rotation, origin velocity, angular velocities (real parts), the query AOPC and
-    // the largest distance of a plane point from its body's origin.
-    type Side<'s> = Option<(Matrix3<f64>, Vector3<f64>, Vector3<f64>, f64, &'s Aopc)>;
-    let sides: [Side; 2] = [(a, b, &rels[0]), (b, a, &rels[1])].map(|(q, p, rel)| {
-        let Collider::Aopc(s) = q else { return None };
-        let reach = match p {
-            Collider::Aopc(o) => o.bvh().max_norm,
-            Collider::HalfSpace { point, .. } => point.norm(),
-        };
-        Some((
-            rel.rotation.map(|x| x.re()),
-            re3(&rel.linvel),
-            re3(&rel.angvel),
-            re3(&rel.angvel_planes).norm() * reach,
-            s,
-        ))
-    });
+    // Per side, real parts: the relative motion and the query AOPC.
+    let sides: [Option<(Relative<f64>, &Aopc)>; 2] =
+        [(a, &rels[0]), (b, &rels[1])].map(|(q, rel)| {
+            let Collider::Aopc(s) = q else { return None };
+            Some((rel.re(), s))
+        });
     bounds.clear();
     for (i, e) in band.entries.iter().enumerate() {
         let phi = e.phi.re();
         if phi > cutoff {
             continue;
         }
-        let Some((rot, u, wq, spin, s)) = &sides[e.side as usize] else {
+        let Some((rel, s)) = &sides[e.side as usize] else {
             continue;
         };
         let w = weights[i].re() / norm;
@@ -207,8 +196,9 @@ pub(super) fn for_each_force<T: Scalar>(
         if w == 0.0 || spring == 0.0 {
             continue; // zero or subnormal (doc of `pair_contact`)
         }
-        let arm = rot * s.bvh().points[e.k as usize];
-        let speed = (u + wq.cross(&arm)).norm() + spin;
+        let arm = rel.rotation * s.bvh().points[e.k as usize];
+        let v_point = rel.linvel + rel.angvel.cross(&arm);
+        let speed = sliding_velocity(&(arm + rel.translation), &v_point, &rel.angvel_planes).norm();
         bounds.push((i, w * spring * (1.0 + speed * inv_vd) * fric));
     }
     let Some(first) = (0..bounds.len()).max_by(|&x, &y| bounds[x].1.total_cmp(&bounds[y].1)) else {

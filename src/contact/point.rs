@@ -68,33 +68,46 @@ pub(crate) fn plane_reading<T: Scalar>(
     }
 }
 
-/// Accumulated point–SSDF force on one query point: `F = Σ σ_i λ_i` and the moment about the
-/// plane body's origin of the reactions, `G = Σ σ_i p_i × λ_i` (plane body's frame).
+/// Accumulated point–SSDF force on one query point `x`: `F = Σ σ_i λ_i` and the moment about
+/// the plane body's origin of its reaction, `G = x × F` (plane body's frame): the reaction acts
+/// on the plane body's material point at `x`, on the line of `F` (docs/method.md, departure 6).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PointForce<T: Scalar> {
     pub(crate) force: Vector3<T>,
     pub(crate) moment: Vector3<T>,
 }
 
-/// The force of one half-space on a query point moving with `v_point` (plane body's frame),
-/// `phi` its distance from the plane through `p` with normal `n`: the point–plane force, not
-/// weighted, and its moment about the plane body's origin; with the point's velocity relative
-/// to the plane's material point. Written once for the live evaluation ([`point_force`]) and the
-/// tape's replay (`PairTape::replay`), so the two cannot drift apart.
+/// The velocity of a query point `x` moving with `v_point` relative to the material point of
+/// the plane body at `x`, which turns with `angvel_planes` (plane body's frame): the sliding
+/// velocity every plane of that body reads at `x` (docs/method.md, departure 6).
+#[inline]
+pub(crate) fn sliding_velocity<T: Scalar>(
+    x: &Vector3<T>,
+    v_point: &Vector3<T>,
+    angvel_planes: &Vector3<T>,
+) -> Vector3<T> {
+    v_point - angvel_planes.cross(x)
+}
+
+/// The force of one half-space on a query point `x` moving with `v_point` (plane body's frame),
+/// `phi` its distance from the plane with normal `n`: the point–plane force, not weighted, and
+/// its reaction's moment about the plane body's origin; with the point's velocity relative to
+/// the plane body's material point at `x` (returned too). Written once for the live evaluation
+/// ([`point_force`]) and the tape's replay (`PairTape::replay`), so the two cannot drift apart.
 #[inline]
 pub(crate) fn half_space_force<T: Scalar>(
-    p: &Vector3<T>,
+    x: &Vector3<T>,
     n: &Vector3<T>,
     phi: T,
     v_point: &Vector3<T>,
     angvel_planes: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> (PointForce<T>, Vector3<T>) {
-    let v = v_point - angvel_planes.cross(p);
+    let v = sliding_velocity(x, v_point, angvel_planes);
     let lambda = point_plane_force_at(phi, n, &v, prm);
     let pf = PointForce {
         force: lambda,
-        moment: p.cross(&lambda),
+        moment: x.cross(&lambda),
     };
     (pf, v)
 }
@@ -104,67 +117,68 @@ pub(crate) fn half_space_force<T: Scalar>(
 /// ([`point_force`]) and the tape's replay (`PairTape::replay`) alike, so a replay at the
 /// recorded velocity equals the evaluation bit for bit by construction.
 pub(crate) struct SoftAverage<'a, T: Scalar> {
-    /// The query point's velocity and the plane body's angular velocity (plane body's frame).
-    v_point: &'a Vector3<T>,
-    angvel_planes: &'a Vector3<T>,
+    /// The query point and its velocity relative to the plane body's material point there
+    /// (plane body's frame).
+    x: Vector3<T>,
+    v: Vector3<T>,
     prm: &'a ContactParams<T>,
     force: Vector3<T>,
-    moment: Vector3<T>,
     weight: T,
 }
 
 impl<'a, T: Scalar> SoftAverage<'a, T> {
-    /// No term yet, for a query point moving with `v_point` against planes turning with
+    /// No term yet, for a query point `x` moving with `v_point` against planes turning with
     /// `angvel_planes`.
     #[inline]
     pub(crate) fn new(
-        v_point: &'a Vector3<T>,
-        angvel_planes: &'a Vector3<T>,
+        x: Vector3<T>,
+        v_point: &Vector3<T>,
+        angvel_planes: &Vector3<T>,
         prm: &'a ContactParams<T>,
     ) -> Self {
         SoftAverage {
-            v_point,
-            angvel_planes,
+            v: sliding_velocity(&x, v_point, angvel_planes),
+            x,
             prm,
             force: Vector3::zeros(),
-            moment: Vector3::zeros(),
             weight: T::zero(),
         }
     }
 
-    /// Adds the term of the plane through `p` with normal `n`, softmax weight `w`, whose
-    /// spring reads `phi` ([`plane_reading`]); returns the query point's velocity relative to
-    /// the plane's material point.
+    /// The query point's velocity relative to the plane body's material point at it, which
+    /// every term reads.
     #[inline]
-    pub(crate) fn add(&mut self, w: T, p: &Vector3<T>, n: &Vector3<T>, phi: T) -> Vector3<T> {
-        self.weight += w;
-        let v = self.v_point - self.angvel_planes.cross(p);
-        let lambda = point_plane_force_at(phi, n, &v, self.prm) * w;
-        self.force += lambda;
-        self.moment += p.cross(&lambda);
-        v
+    pub(crate) fn velocity(&self) -> &Vector3<T> {
+        &self.v
     }
 
-    /// The average: the weighted sums divided by the total weight.
+    /// Adds the term of the plane with normal `n`, softmax weight `w`, whose spring reads
+    /// `phi` ([`plane_reading`]).
+    #[inline]
+    pub(crate) fn add(&mut self, w: T, n: &Vector3<T>, phi: T) {
+        self.weight += w;
+        self.force += point_plane_force_at(phi, n, &self.v, self.prm) * w;
+    }
+
+    /// The average: the weighted sum divided by the total weight, and its reaction's moment.
     #[inline]
     pub(crate) fn finish(self) -> PointForce<T> {
-        let inv = self.weight.recip();
+        let force = self.force * self.weight.recip();
         PointForce {
-            force: self.force * inv,
-            moment: self.moment * inv,
+            moment: self.x.cross(&force),
+            force,
         }
     }
 }
 
 /// One term of a point–SSDF force, real parts: softmax weight `w` (1 for a half-space), offset
 /// `r = x - p` from the plane point `p` with normal `n`, the velocity `v` of the query point
-/// relative to the plane's material point, and the distance `phi` the spring reads with its
-/// gradient `dphi` with respect to `x` ([`plane_reading`]).
+/// relative to the plane body's material point at `x`, and the distance `phi` the spring reads
+/// with its gradient `dphi` with respect to `x` ([`plane_reading`]).
 pub(crate) struct PlaneTerm<'a> {
     pub(crate) w: f64,
     pub(crate) r: Vector3<f64>,
     pub(crate) n: &'a Vector3<f64>,
-    pub(crate) p: &'a Vector3<f64>,
     pub(crate) v: Vector3<f64>,
     pub(crate) phi: f64,
     pub(crate) dphi: &'a Vector3<f64>,
@@ -209,13 +223,12 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
             let r = x - p;
             let n = lift3::<T>(normal);
             let phi = n.dot(&r);
-            let (pf, v) = half_space_force(&p, &n, phi, v_point, angvel_planes, prm);
+            let (pf, v) = half_space_force(x, &n, phi, v_point, angvel_planes, prm);
             if S::ON {
                 sink.term(&PlaneTerm {
                     w: 1.0,
                     r: re3(&r),
                     n: normal,
-                    p: point,
                     v: re3(&v),
                     phi: phi.re(),
                     dphi: normal,
@@ -226,21 +239,21 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
         Collider::Aopc(s) => {
             let bvh = s.bvh();
             let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
-            let mut average = SoftAverage::new(v_point, angvel_planes, prm);
+            let mut average = SoftAverage::new(*x, v_point, angvel_planes, prm);
+            let v = re3(average.velocity());
             for &(k, w) in terms {
                 let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
                 let p = lift3::<T>(q);
                 let r = x - p;
                 let n = lift3::<T>(nq);
                 let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
-                let v = average.add(w, &p, &n, phi);
+                average.add(w, &n, phi);
                 if S::ON {
                     sink.term(&PlaneTerm {
                         w: w.re(),
                         r: re3(&r),
                         n: nq,
-                        p: q,
-                        v: re3(&v),
+                        v,
                         phi: phi.re(),
                         dphi: &dphi,
                     });
@@ -271,7 +284,8 @@ pub(crate) fn point_force_naive<T: Scalar>(
         ),
         Collider::Aopc(s) => {
             let xr = re3(x);
-            let (mut force, mut moment) = (Vector3::zeros(), Vector3::zeros());
+            let mut force = Vector3::zeros();
+            let v = sliding_velocity(x, v_point, angvel_planes);
             let dmin = s
                 .points
                 .iter()
@@ -283,17 +297,14 @@ pub(crate) fn point_force_naive<T: Scalar>(
                 let p = lift3::<T>(q);
                 let r = x - p;
                 let w = sum.add(r.dot(&r));
-                let v = v_point - angvel_planes.cross(&p);
                 let n = lift3::<T>(nq);
                 let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq);
-                let lambda = point_plane_force_at(phi, &n, &v, prm) * w;
-                force += lambda;
-                moment += p.cross(&lambda);
+                force += point_plane_force_at(phi, &n, &v, prm) * w;
             }
-            let inv = sum.weight.recip();
+            let force = force * sum.weight.recip();
             PointForce {
-                force: force * inv,
-                moment: moment * inv,
+                moment: x.cross(&force),
+                force,
             }
         }
     }

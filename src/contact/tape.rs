@@ -18,13 +18,12 @@
 
 use super::*;
 
-/// One term of a point–SSDF force: softmin weight, normal, plane point, and the distance its
-/// spring reads ([`plane_reading`](super::point::plane_reading)).
+/// One term of a point–SSDF force: softmin weight, normal, and the distance its spring reads
+/// ([`plane_reading`](super::point::plane_reading)).
 #[derive(Clone, Debug)]
 struct Term {
     w: f64,
     n: Vector3<f64>,
-    p: Vector3<f64>,
     phi: f64,
 }
 
@@ -38,7 +37,6 @@ impl ForceSink for TermSink {
         self.0.push(Term {
             w: t.w,
             n: *t.n,
-            p: *t.p,
             phi: t.phi,
         });
     }
@@ -57,7 +55,7 @@ struct Entry {
     half_space: bool,
 }
 
-/// Terms a tape records per point of the pair's two clouds, at most (64 bytes each): past that
+/// Terms a tape records per point of the pair's two clouds, at most (40 bytes each): past that
 /// budget an entry keeps its query point only, and a replay sums its terms again (the same
 /// relevant set and weights, so the same bits), which keeps a tape's memory `O(I1 + I2)`.
 pub const TAPE_TERMS_PER_POINT: usize = 8;
@@ -151,7 +149,7 @@ impl PairTape {
         (tape, contact)
     }
 
-    /// How many terms the tape recorded (its memory is about 64 bytes each).
+    /// How many terms the tape recorded (its memory is about 40 bytes each).
     pub fn recorded_terms(&self) -> usize {
         self.terms.len()
     }
@@ -175,17 +173,19 @@ impl PairTape {
             let rel = &rels[e.side];
             let v_point = rel.linvel + rel.angvel.cross(&e.arm);
             let w_planes = &rel.angvel_planes;
+            // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation).
+            let x = e.arm + rel.translation;
             // The point force by the arithmetic the live evaluation uses (`point_force`),
             // from the recorded terms or, past the budget, from the terms found again.
             let pf = match &e.terms {
                 Some(range) if e.half_space => {
                     let t = &self.terms[range.start];
-                    half_space_force(&t.p, &t.n, t.phi, &v_point, w_planes, prm).0
+                    half_space_force(&x, &t.n, t.phi, &v_point, w_planes, prm).0
                 }
                 Some(range) => {
-                    let mut average = SoftAverage::new(&v_point, w_planes, prm);
+                    let mut average = SoftAverage::new(x, &v_point, w_planes, prm);
                     for t in &self.terms[range.clone()] {
-                        average.add(t.w, &t.p, &t.n, t.phi);
+                        average.add(t.w, &t.n, t.phi);
                     }
                     average.finish()
                 }
@@ -194,9 +194,7 @@ impl PairTape {
                     let Collider::Aopc(o) = planes else {
                         unreachable!("a term past the budget is a point against an AOPC")
                     };
-                    // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation),
-                    // its relevant set and weights.
-                    let x = e.arm + rel.translation;
+                    // Its relevant set and weights, as `pair_sides` found them.
                     let terms = terms_again(o, &x, prm.eps1, &mut scratch, &mut again);
                     point_force(planes, &x, &v_point, w_planes, prm, terms, &mut NoForceSink)
                 }

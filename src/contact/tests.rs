@@ -380,3 +380,71 @@ fn a_tapes_entries_past_its_budget_replay_to_the_same_bits() {
     let (tape, _) = PairTape::record(&a, &fa, &b, &fb, &prm, None, &mut Scratch::default());
     assert!(tape.recorded_terms() <= default_budget);
 }
+
+#[test]
+fn a_pairs_wrenches_are_equal_and_opposite_on_one_line() {
+    // Each point force's reaction acts on the plane body's material point at the query point
+    // (docs/method.md, departure 6), so a pair adds neither force nor moment to the two
+    // bodies together: their total linear and angular momentum are the pair's to exchange,
+    // never to create. Checked with both bodies moving and turning, for the pruned and the
+    // naive evaluation, a sampled sphere against a sampled box (softmax on both sides) and a
+    // box against a half-space (one plane), pressed and sliding. Round-off: 1e-12 of the
+    // largest force times the largest lever.
+    use crate::geometry::Shape;
+    let (a, b, fa, fb, prm) = wide_overlap();
+    let cube = Collider::Aopc(
+        Shape::Box {
+            half: Vector3::new(0.02, 0.03, 0.01),
+        }
+        .sample(0.005),
+    );
+    let ground = Collider::HalfSpace {
+        point: Vector3::new(0.0, 0.0, 0.001),
+        normal: Vector3::z(),
+    };
+    let tilted = Frame {
+        rotation: *nalgebra::Rotation3::from_euler_angles(0.05, -0.03, 0.7).matrix(),
+        origin: Vector3::new(0.3, -0.2, 0.0105),
+        linvel: Vector3::new(0.2, -0.1, -0.05),
+        angvel: Vector3::new(0.5, -0.3, 2.0),
+    };
+    let turning = Frame {
+        angvel: Vector3::new(0.0, 0.0, 0.3),
+        ..Frame::identity()
+    };
+    let prm_default = ContactParams::default();
+    let cases = [
+        (&a, fa, &b, fb, prm, "sphere against box"),
+        (
+            &cube,
+            tilted,
+            &ground,
+            turning,
+            prm_default,
+            "box on a half-space",
+        ),
+    ];
+    for (a, fa, b, fb, prm, what) in cases {
+        for (c, how) in [
+            (pair_contact(a, &fa, b, &fb, &prm), "pruned"),
+            (pair_contact_naive(a, &fa, b, &fb, &prm), "naive"),
+        ] {
+            let largest = c.on_a.force.norm().max(c.on_b.force.norm());
+            assert!(largest > 1e-3, "{what}: the bodies press ({largest} N)");
+            let lever = fa.origin.norm().max(fb.origin.norm()) + 0.05;
+            let net_force = c.on_a.force + c.on_b.force;
+            let net_moment = c.on_a.torque
+                + fa.origin.cross(&c.on_a.force)
+                + c.on_b.torque
+                + fb.origin.cross(&c.on_b.force);
+            assert!(
+                net_force.norm() <= 1e-12 * largest,
+                "{what} ({how}): net force {net_force:?} of {largest} N"
+            );
+            assert!(
+                net_moment.norm() <= 1e-12 * largest * lever,
+                "{what} ({how}): net moment {net_moment:?} N m of {largest} N"
+            );
+        }
+    }
+}
