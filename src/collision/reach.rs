@@ -492,13 +492,11 @@ pub(super) fn sides<'a>(
         if s.is_empty() {
             continue;
         }
-        let reach = match planes {
-            Collider::Aopc(o) => o.bvh().max_norm,
-            Collider::HalfSpace { point, .. } => point.norm(),
-        };
-        let speed = rel.linvel.norm()
-            + rel.angvel.norm() * s.bvh().max_norm
-            + rel.angvel_planes.norm() * reach;
+        // A query point `x = arm + t` moves against the plane body's material point at it
+        // (the sliding velocity every plane reads there, docs/method.md, departure 6) with
+        // `(linvel - ω_p × t) + (ω_q - ω_p) × arm`: bounded over the cloud by its largest arm.
+        let speed = (rel.linvel - rel.angvel_planes.cross(&rel.translation)).norm()
+            + (rel.angvel - rel.angvel_planes).norm() * s.bvh().max_norm;
         // The springs rest at the margin: the reach distance counts from there.
         let t = margin + reach_distance(eps3, speed, dissipation_velocity, friction)?;
         if !t.is_finite() {

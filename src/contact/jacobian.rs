@@ -117,9 +117,9 @@ pub fn point_plane_force_jacobian_at(
 /// Derivatives of one point–SSDF force with respect to its query point `x`, its velocity `v`
 /// and the plane body's angular velocity `ω_p` (plane body's frame), from the terms' real
 /// parts. With `σ_i = w_i/Z`, `∂w_i/∂x = -(2/ε1) w_i r_i`, and every plane reading the
-/// sliding velocity `u = v - ω_p × x` (docs/method.md, departure 6):
+/// sliding velocity `v_s = v - ω_p × x` (docs/method.md, departure 6):
 /// `∂F/∂x = Σ σ_i λ_φ,i n_iᵀ - (2/ε1)(Σ σ_i λ_i r_iᵀ - F r̄ᵀ) - (∂F/∂v) [ω_p]×`
-/// (`r̄ = Σ σ_i r_i`), `∂F/∂v = Σ σ_i ∂λ_i/∂u`, `∂F/∂ω_p = (∂F/∂v) [x]×`; the reaction's
+/// (`r̄ = Σ σ_i r_i`), `∂F/∂v = Σ σ_i ∂λ_i/∂v_s`, `∂F/∂ω_p = (∂F/∂v) [x]×`; the reaction's
 /// moment `G = x × F` has `∂G/∂x = [x]× ∂F/∂x - [F]×` and `[x]×` on the left of the others.
 /// A half-space (one plane, no softmax) has `σ = 1` and no weight derivative.
 #[derive(Clone, Debug)]

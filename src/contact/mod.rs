@@ -348,11 +348,12 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
 ///
 /// # The force bound
 /// An entry of the band contributes `W_f F_f` to the force on each body (and `W_f arm_f × F_f`,
-/// `W_f G_f` to the torques), where `F_f = Σ_i σ_i λ_i` is its point–SSDF force and
-/// `G_f = Σ_i σ_i p_i × λ_i`. Each `|λ_i| = c_i d(s_i) |n_i - μ u_i|` with the spring
-/// `c_i = k s⁺_ε3(m - φ_i)` (`m` the pair's margin), `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`|v_i| ≤ V_f = |v_f| + |ω_p|
-/// max_i |p_i|`) and `|n_i - μ u_i| ≤ √(1 + μ²)` (`u_i ⊥ n_i`, `|u_i| < 1`), so
-/// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f max_i |p_i|`, with
+/// `W_f G_f` to the torques), where `F_f = Σ_i σ_i λ_i` is its point–SSDF force at the query
+/// point `x_f` and `G_f = x_f × F_f`. Each `|λ_i| = c_i d(s_i) |n_i - μ u_i|` with the spring
+/// `c_i = k s⁺_ε3(m - φ_i)` (`m` the pair's margin), `d(s) ≤ 1 + max(0, -s) ≤ 1 + V_f/v_d` (`V_f`
+/// the speed at which `x_f` slides on the plane body, the same for every plane)
+/// and `|n_i - μ u_i| ≤ √(1 + μ²)` (`u_i ⊥ n_i`, `|u_i| < 1`), so
+/// `|F_f| ≤ Λ_f := k B_f (1 + V_f/v_d) √(1 + μ²)` and `|G_f| ≤ Λ_f |x_f|`, with
 /// `B_f ≥ Σ_i σ_i s⁺_ε3(m - φ_i)` bounded while the SSDF is summed ([`BandEntry::springs`](crate::collision::BandEntry::springs)).
 /// An entry is skipped when its separation weight is below the band's cutoff, when `W_f Λ_f`
 /// is zero in `f64` (every term's `w_i e^{(m - φ_i)/ε3}` is below e^-745, so its force is zero or
@@ -360,7 +361,9 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
 /// `W_f Λ_f < (τ/N) M`, `M` the largest summand `W_g |F_g|` evaluated so far (the entry with
 /// the largest bound is evaluated first) and `N` the number of entries within the cutoff: each
 /// skipped summand is below the relative weight τ/N of the largest, and all of them together
-/// change the force by less than `τ M`, the torques by less than `τ M` times the bodies' size.
+/// change the force by less than `τ M`, the torques by less than `τ M` times the largest lever
+/// (`|arm_f|` on the query body, `|x_f|` on the plane body: for a half-space, the contact's
+/// distance from its body's origin).
 ///
 /// # Example
 ///

@@ -209,8 +209,8 @@ def test_a_ball_resting_on_a_sampled_box_gains_no_energy_and_stays_as_in_mujoco(
     of its own, and this ball, friction on, gained up to 8.3 mJ after settling and rolled 15 cm
     in 2 s; sampled at 2 cm it gained enough for the guard to refuse the run at 0.7 s.
     Measured now: at most 0.02 mJ above its settled energy, 3.2 mm from where it was put (it
-    shifts within a cell of the box's 1 cm grid). The bound on the energy, 0.1 mJ, is a tenth
-    of what its resting contact stores (about eps3 m g + (m g)^2 / 2k, 2.8 mJ), which the
+    shifts within a cell of the box's 1 cm grid). The bound on the energy, 0.1 mJ, is under
+    4 % of what its resting contact stores (about eps3 m g + (m g)^2 / 2k, 2.8 mJ), which the
     kinetic plus potential energy measured here leaves out and exchanges with as the ball
     settles. Without friction (condim 1) the pair's force is still not quite a potential's
     gradient (the separation distribution's weights change with the pose): the same measure
