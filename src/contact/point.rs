@@ -31,14 +31,33 @@ pub fn point_plane_force_at<T: Scalar>(
     v: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
+    match spring_at(phi, prm) {
+        Some(spring) => force_of_spring(spring, n, v, prm),
+        None => Vector3::zeros(),
+    }
+}
+
+/// The spring `c = k s⁺_ε3(m - φ)` of a plane whose reading is `phi` ([`point_plane_force_at`]):
+/// what of the point–plane force does not depend on the velocity. `None` far outside the
+/// plane, where the spring underflows to exactly zero and the whole force (normal and friction
+/// both scale with it) with it.
+#[inline]
+pub(crate) fn spring_at<T: Scalar>(phi: T, prm: &ContactParams<T>) -> Option<T> {
     // The spring reads the distance past the margin, where it rests.
     let phi = phi - prm.margin;
-    // Far outside the plane the spring term underflows to exactly zero, and the whole force
-    // (normal and friction both scale with it) with it: return that zero without the work.
-    if phi.re() > 746.0 * prm.eps3.re() {
-        return Vector3::zeros();
-    }
-    let spring = prm.stiffness * softplus(-phi, prm.eps3);
+    (phi.re() <= 746.0 * prm.eps3.re()).then(|| prm.stiffness * softplus(-phi, prm.eps3))
+}
+
+/// The point–plane force of a plane whose spring is `spring` ([`spring_at`]) on a point moving
+/// with `v` relative to the plane body's material point: the spring times the dissipation
+/// factor, along the normal, and the regularized Coulomb friction.
+#[inline]
+pub(crate) fn force_of_spring<T: Scalar>(
+    spring: T,
+    n: &Vector3<T>,
+    v: &Vector3<T>,
+    prm: &ContactParams<T>,
+) -> Vector3<T> {
     let vn = n.dot(v);
     let lambda_n = spring
         * prm
@@ -90,7 +109,8 @@ pub(crate) fn sliding_velocity<T: Scalar>(
 }
 
 /// The force of one half-space on a query point `x` moving with `v_point` (plane body's frame),
-/// `phi` its distance from the plane with normal `n`: the point–plane force, not weighted, and
+/// `spring` the spring of its distance from the plane with normal `n` ([`spring_at`]): the
+/// point–plane force, not weighted, and
 /// its reaction's moment about the plane body's origin; with the point's velocity relative to
 /// the plane body's material point at `x` (returned too). Written once for the live evaluation
 /// ([`point_force`]) and the tape's replay (`PairTape::replay`), so the two cannot drift apart.
@@ -98,13 +118,13 @@ pub(crate) fn sliding_velocity<T: Scalar>(
 pub(crate) fn half_space_force<T: Scalar>(
     x: &Vector3<T>,
     n: &Vector3<T>,
-    phi: T,
+    spring: Option<T>,
     v_point: &Vector3<T>,
     angvel_planes: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> (PointForce<T>, Vector3<T>) {
     let v = sliding_velocity(x, v_point, angvel_planes);
-    let lambda = point_plane_force_at(phi, n, &v, prm);
+    let lambda = spring.map_or_else(Vector3::zeros, |c| force_of_spring(c, n, &v, prm));
     let pf = PointForce {
         force: lambda,
         moment: x.cross(&lambda),
@@ -153,11 +173,22 @@ impl<'a, T: Scalar> SoftAverage<'a, T> {
     }
 
     /// Adds the term of the plane with normal `n`, softmax weight `w`, whose spring reads
-    /// `phi` ([`plane_reading`]).
+    /// `phi` ([`plane_reading`]); returns the spring ([`spring_at`]), for a replay.
     #[inline]
-    pub(crate) fn add(&mut self, w: T, n: &Vector3<T>, phi: T) {
+    pub(crate) fn add(&mut self, w: T, n: &Vector3<T>, phi: T) -> Option<T> {
+        let spring = spring_at(phi, self.prm);
+        self.add_spring(w, n, spring);
+        spring
+    }
+
+    /// Adds the term of the plane with normal `n`, softmax weight `w` and spring `spring`
+    /// ([`spring_at`]): the sum [`SoftAverage::add`] makes, without the spring's work.
+    #[inline]
+    pub(crate) fn add_spring(&mut self, w: T, n: &Vector3<T>, spring: Option<T>) {
         self.weight += w;
-        self.force += point_plane_force_at(phi, n, &self.v, self.prm) * w;
+        if let Some(c) = spring {
+            self.force += force_of_spring(c, n, &self.v, self.prm) * w;
+        }
     }
 
     /// The average: the weighted sum divided by the total weight, and its reaction's moment.
@@ -174,13 +205,15 @@ impl<'a, T: Scalar> SoftAverage<'a, T> {
 /// One term of a point–SSDF force, real parts: softmax weight `w` (1 for a half-space), offset
 /// `r = x - p` from the plane point `p` with normal `n`, the velocity `v` of the query point
 /// relative to the plane body's material point at `x`, and the distance `phi` the spring reads
-/// with its gradient `dphi` with respect to `x` ([`plane_reading`]).
+/// with its gradient `dphi` with respect to `x` ([`plane_reading`]), and the spring
+/// ([`spring_at`]).
 pub(crate) struct PlaneTerm<'a> {
     pub(crate) w: f64,
     pub(crate) r: Vector3<f64>,
     pub(crate) n: &'a Vector3<f64>,
     pub(crate) v: Vector3<f64>,
     pub(crate) phi: f64,
+    pub(crate) spring: Option<f64>,
     pub(crate) dphi: &'a Vector3<f64>,
 }
 
@@ -223,7 +256,8 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
             let r = x - p;
             let n = lift3::<T>(normal);
             let phi = n.dot(&r);
-            let (pf, v) = half_space_force(x, &n, phi, v_point, angvel_planes, prm);
+            let spring = spring_at(phi, prm);
+            let (pf, v) = half_space_force(x, &n, spring, v_point, angvel_planes, prm);
             if S::ON {
                 sink.term(&PlaneTerm {
                     w: 1.0,
@@ -231,6 +265,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                     n: normal,
                     v: re3(&v),
                     phi: phi.re(),
+                    spring: spring.map(|c| c.re()),
                     dphi: normal,
                 });
             }
@@ -247,7 +282,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                 let r = x - p;
                 let n = lift3::<T>(nq);
                 let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
-                average.add(w, &n, phi);
+                let spring = average.add(w, &n, phi);
                 if S::ON {
                     sink.term(&PlaneTerm {
                         w: w.re(),
@@ -255,6 +290,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                         n: nq,
                         v,
                         phi: phi.re(),
+                        spring: spring.map(|c| c.re()),
                         dphi: &dphi,
                     });
                 }

@@ -18,13 +18,14 @@
 
 use super::*;
 
-/// One term of a point–SSDF force: softmin weight, normal, and the distance its spring reads
-/// ([`plane_reading`](super::point::plane_reading)).
+/// One term of a point–SSDF force: softmin weight, normal, and its spring
+/// ([`spring_at`](super::point::spring_at): it does not depend on the velocity, so a replay
+/// does not compute it again).
 #[derive(Clone, Debug)]
 struct Term {
     w: f64,
     n: Vector3<f64>,
-    phi: f64,
+    spring: Option<f64>,
 }
 
 /// The terms of one point–SSDF force, in the order they were summed.
@@ -37,7 +38,7 @@ impl ForceSink for TermSink {
         self.0.push(Term {
             w: t.w,
             n: *t.n,
-            phi: t.phi,
+            spring: t.spring,
         });
     }
 }
@@ -55,7 +56,7 @@ struct Entry {
     half_space: bool,
 }
 
-/// Terms a tape records per point of the pair's two clouds, at most (40 bytes each): past that
+/// Terms a tape records per point of the pair's two clouds, at most (48 bytes each): past that
 /// budget an entry keeps its query point only, and a replay sums its terms again (the same
 /// relevant set and weights, so the same bits), which keeps a tape's memory `O(I1 + I2)`.
 pub const TAPE_TERMS_PER_POINT: usize = 8;
@@ -149,7 +150,7 @@ impl PairTape {
         (tape, contact)
     }
 
-    /// How many terms the tape recorded (its memory is about 40 bytes each).
+    /// How many terms the tape recorded (its memory is about 48 bytes each).
     pub fn recorded_terms(&self) -> usize {
         self.terms.len()
     }
@@ -180,12 +181,12 @@ impl PairTape {
             let pf = match &e.terms {
                 Some(range) if e.half_space => {
                     let t = &self.terms[range.start];
-                    half_space_force(&x, &t.n, t.phi, &v_point, w_planes, prm).0
+                    half_space_force(&x, &t.n, t.spring, &v_point, w_planes, prm).0
                 }
                 Some(range) => {
                     let mut average = SoftAverage::new(x, &v_point, w_planes, prm);
                     for t in &self.terms[range.clone()] {
-                        average.add(t.w, &t.n, t.phi);
+                        average.add_spring(t.w, &t.n, t.spring);
                     }
                     average.finish()
                 }
