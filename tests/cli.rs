@@ -273,13 +273,16 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
     std::fs::write(&path, body(" contype=\"0\" conaffinity=\"0\"")).unwrap();
     let out = scm(&["check", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(
-        text(&out.stdout).contains(
-            "1 geom(s) (sampled at: body1_geom0 0.01 m [the default: no larger than 16 spacings])"
-        ),
-        "{}",
-        text(&out.stdout)
-    );
+    // The one colliding geom gives all of its body's points, and says so.
+    let stdout = text(&out.stdout);
+    let head =
+        "1 geom(s) (sampled at: body1_geom0 0.01 m [the default: no larger than 16 spacings], ";
+    let at = stdout.find(head).unwrap_or_else(|| panic!("{stdout}")) + head.len();
+    let count = |s: &str| -> usize { s[..s.find(' ').unwrap()].parse().unwrap() };
+    let own = count(&stdout[at..]);
+    let rest = &stdout[at..];
+    let body_points = count(&rest[rest.find("points), ").unwrap() + "points), ".len()..]);
+    assert!(own > 0 && own == body_points, "{stdout}");
     // Both colliding: both are sampled and measured.
     std::fs::write(&path, body("")).unwrap();
     let out = scm(&["check", path.to_str().unwrap()]);

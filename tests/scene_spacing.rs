@@ -316,3 +316,43 @@ fn a_scene_that_says_nothing_samples_a_large_geom_graded() {
     }
     assert!(worst_auto <= worst_even, "{worst_auto} > {worst_even}");
 }
+
+/// `scm check` prints how many of a body's points each geom gives (issue 41, "the points per
+/// geom and why"): the counts are of the union's points, the faces inside the body's other
+/// geoms dropped, so they add up to the body's cloud, and a body's copies have the same.
+#[test]
+fn each_geom_knows_its_points_in_its_bodys_cloud() {
+    let xml = r#"<mujoco><worldbody>
+  <body name="t" pos="0 0 0.1"><freejoint/>
+    <geom name="bar" type="box" size="0.1 0.025 0.02"/>
+    <geom name="stem" type="box" size="0.025 0.08 0.02" pos="0 -0.1 0"/>
+  </body>
+  <body name="u" pos="1 0 0.1"><freejoint/>
+    <geom name="bar2" type="box" size="0.1 0.025 0.02"/>
+    <geom name="stem2" type="box" size="0.025 0.08 0.02" pos="0 -0.1 0"/>
+  </body>
+  <geom name="floor" type="plane" size="5 5 0.1"/>
+</worldbody></mujoco>"#;
+    let scene = load(xml);
+    let points = |name: &str| {
+        scene
+            .geoms
+            .iter()
+            .find(|g| g.name == name)
+            .unwrap()
+            .points
+            .unwrap()
+    };
+    let (bar, stem) = (points("bar"), points("stem"));
+    assert_eq!(bar + stem, cloud(&scene, "t").len());
+    assert_eq!(
+        (points("bar2"), points("stem2")),
+        (bar, stem),
+        "a copy's counts"
+    );
+    // The stem's end inside the bar is dropped: fewer than the stem sampled alone.
+    let alone = load(&xml.replace(r#"<geom name="bar" type="box" size="0.1 0.025 0.02"/>"#, ""));
+    assert!(stem < cloud(&alone, "t").len(), "{stem}");
+    let floor = scene.geoms.iter().find(|g| g.name == "floor").unwrap();
+    assert_eq!(floor.points, None, "a plane is not sampled");
+}

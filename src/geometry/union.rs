@@ -32,6 +32,16 @@ pub fn sample_union(geoms: &[(Shape, Isometry3<f64>)], spacing: f64) -> Aopc {
 /// The union of `geoms`, each sampled at its own spacing (`spacings[k]`, as
 /// [`Shape::sample_spaced`]).
 pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacing]) -> Aopc {
+    sample_union_counted(geoms, spacings).0
+}
+
+/// [`sample_union_spaced`], with the number of the union's points that come from each geom
+/// (its faces kept whole or in part: the faces inside another geom are dropped), in the order
+/// of `geoms`.
+pub fn sample_union_counted(
+    geoms: &[(Shape, Isometry3<f64>)],
+    spacings: &[Spacing],
+) -> (Aopc, Vec<usize>) {
     assert_eq!(geoms.len(), spacings.len(), "one spacing per geom");
     let (size, tol) = size_and_tolerance(geoms, spacings);
     let mut out = Aopc::default();
@@ -136,6 +146,10 @@ pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacin
         }
         fates.push((part, fate));
     }
+    let counts = fates
+        .iter()
+        .map(|(_, fate)| fate.iter().flatten().count())
+        .collect();
     // Every geom's points no face corner marks (a mesh in patches): the union's surface lies
     // within their geoms' hulls, so the bounding polytope keeps them all.
     for (part, _) in &fates {
@@ -160,7 +174,7 @@ pub fn sample_union_spaced(geoms: &[(Shape, Isometry3<f64>)], spacings: &[Spacin
         let rounded = find_rounded(&members, &out.points);
         out.set_rounded(rounded);
     }
-    out
+    (out, counts)
 }
 
 /// The union's size (m: the farthest reach of a geom from the body origin, at least the

@@ -5,7 +5,12 @@ use super::*;
 
 /// What made a body's cloud: its colliding geoms' shapes and poses in the body, their
 /// spacings, and the body ([`Builder::collider`]).
-pub(super) type Sampled = (Vec<(Shape, Isometry3<f64>)>, Vec<Spacing>, usize);
+pub(super) type Sampled = (
+    Vec<(Shape, Isometry3<f64>)>,
+    Vec<Spacing>,
+    usize,
+    Vec<usize>,
+);
 
 impl Builder {
     /// A static body (welded to the world) may hold planes beside other geoms, as MuJoCo's
@@ -58,21 +63,19 @@ impl Builder {
     ///
     /// `sampled` holds what made each cloud so far (the geoms' shapes, poses in the body and
     /// spacings) with the body of `made` (the colliders so far) that has it: the copies of one
-    /// body (a replicate's, an attach's) are sampled once, to the same bits.
+    /// body (a replicate's, an attach's) are sampled once, to the same bits. Sets each sampled
+    /// geom's [`Geom::points`].
     pub(super) fn collider(
-        &self,
+        &mut self,
         b: usize,
         colliding: &[bool],
         sampled: &mut Vec<Sampled>,
         made: &[Option<Collider>],
     ) -> Result<Option<Collider>, SceneError> {
-        let geoms: Vec<&Geom> = self
-            .geoms
-            .iter()
-            .zip(colliding)
-            .filter(|(g, &c)| c && g.body == b)
-            .map(|(g, _)| g)
+        let members: Vec<usize> = (0..self.geoms.len())
+            .filter(|&g| colliding[g] && self.geoms[g].body == b)
             .collect();
+        let geoms: Vec<&Geom> = members.iter().map(|&g| &self.geoms[g]).collect();
         if let Some(p) = geoms.iter().find(|g| g.shape.is_none()) {
             if geoms.len() > 1 {
                 return Err(SceneError {
@@ -128,13 +131,20 @@ impl Builder {
         // Compared exactly (a linear search: the distinct bodies of a scene are few).
         let first = sampled
             .iter()
-            .find(|(p, h, _)| *p == parts && *h == spacings)
-            .map(|s| s.2);
-        if let Some(Some(Collider::Aopc(same))) = first.map(|first| &made[first]) {
-            return Ok(Some(Collider::Aopc(same.clone())));
+            .find(|(p, h, _, _)| *p == parts && *h == spacings);
+        if let Some((_, _, first, counts)) = first {
+            if let Some(Collider::Aopc(same)) = &made[*first] {
+                for (&g, &n) in members.iter().zip(counts) {
+                    self.geoms[g].points = Some(n);
+                }
+                return Ok(Some(Collider::Aopc(same.clone())));
+            }
         }
-        let aopc = crate::geometry::union::sample_union_spaced(&parts, &spacings);
-        sampled.push((parts, spacings, b));
+        let (aopc, counts) = crate::geometry::union::sample_union_counted(&parts, &spacings);
+        for (&g, &n) in members.iter().zip(&counts) {
+            self.geoms[g].points = Some(n);
+        }
+        sampled.push((parts, spacings, b, counts));
         Ok(Some(Collider::Aopc(aopc)))
     }
 

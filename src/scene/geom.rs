@@ -347,6 +347,7 @@ impl Builder {
             line: el.line,
             spacing: None,
             spacing_reason: String::new(),
+            points: None,
         });
         Ok(())
     }

@@ -157,6 +157,9 @@ pub struct Geom {
     pub spacing: Option<Spacing>,
     /// Why it has that spacing, for `scm check` (empty where `spacing` is `None`).
     pub spacing_reason: String,
+    /// How many points of its body's cloud come from it, the faces inside the body's other
+    /// geoms dropped (`None` where `spacing` is `None`).
+    pub points: Option<usize>,
 }
 
 /// Default spacing between AOPC points when the scene gives no `scm_spacing` (m).

@@ -99,8 +99,10 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                     .filter(|g| g.body == b)
                     .filter_map(|g| {
                         g.spacing.map(|h| {
+                            let points =
+                                g.points.map_or(String::new(), |n| format!(", {n} points"));
                             format!(
-                                "{} {} [{}]",
+                                "{} {} [{}]{points}",
                                 g.name,
                                 scm::scene::spacing_text(&h),
                                 g.spacing_reason
