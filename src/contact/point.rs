@@ -110,9 +110,8 @@ pub(crate) fn sliding_velocity<T: Scalar>(
 
 /// The force of one half-space on a query point `x` moving with `v_point` (plane body's frame),
 /// `spring` the spring of its distance from the plane with normal `n` ([`spring_at`]): the
-/// point–plane force, not weighted, and
-/// its reaction's moment about the plane body's origin; with the point's velocity relative to
-/// the plane body's material point at `x` (returned too). Written once for the live evaluation
+/// point–plane force, not weighted, and its reaction's moment about the plane body's origin;
+/// with the point's velocity relative to the plane body's material point at `x` (returned too). Written once for the live evaluation
 /// ([`point_force`]) and the tape's replay (`PairTape::replay`), so the two cannot drift apart.
 #[inline]
 pub(crate) fn half_space_force<T: Scalar>(

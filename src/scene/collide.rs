@@ -129,22 +129,21 @@ impl Builder {
             });
         }
         // Compared exactly (a linear search: the distinct bodies of a scene are few).
-        let first = sampled
+        let copy = sampled
             .iter()
-            .find(|(p, h, _, _)| *p == parts && *h == spacings);
-        if let Some((_, _, first, counts)) = first {
-            if let Some(Collider::Aopc(same)) = &made[*first] {
-                for (&g, &n) in members.iter().zip(counts) {
-                    self.geoms[g].points = Some(n);
-                }
-                return Ok(Some(Collider::Aopc(same.clone())));
-            }
-        }
-        let (aopc, counts) = crate::geometry::union::sample_union_counted(&parts, &spacings);
+            .find(|(p, h, _, _)| *p == parts && *h == spacings)
+            .and_then(|(_, _, first, counts)| match &made[*first] {
+                Some(Collider::Aopc(same)) => Some((same.clone(), counts.clone())),
+                _ => None,
+            });
+        let (aopc, counts) = copy.unwrap_or_else(|| {
+            let (aopc, counts) = crate::geometry::union::sample_union_counted(&parts, &spacings);
+            sampled.push((parts, spacings, b, counts.clone()));
+            (aopc, counts)
+        });
         for (&g, &n) in members.iter().zip(&counts) {
             self.geoms[g].points = Some(n);
         }
-        sampled.push((parts, spacings, b, counts));
         Ok(Some(Collider::Aopc(aopc)))
     }
 
