@@ -856,6 +856,35 @@ fn forward_jacobians_with_welds_and_connects_match_central_differences() {
 }
 
 #[test]
+fn forward_jacobians_with_wrapping_tendons_match_central_differences() {
+    // The wrapping fixture (a rope over a fixed sphere, a belt round a cylinder on a sprung
+    // carriage, a sling round a sphere held by a side site inside it) moved and moving, every
+    // tendon wrapped: the tangent points follow the sites and the geoms, and the tendons pull
+    // the geoms' bodies at them.
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/tendon_wrap.xml");
+    let model = scm::scene::load(&path).unwrap().model;
+    let mut p = Point::start(&model);
+    p.q = vec![0.35, 0.025, -0.02, 0.04, -0.05];
+    p.v = vec![-1.2, 0.3, -0.4, 0.6, -0.5];
+    let kin = model.tree.kinematics(&p.q, &p.v);
+    for t in &model.spatial_tendons {
+        let (l, _) = t.length_and_rate(&kin.frames);
+        let mut straight = t.clone();
+        straight.segments.iter_mut().for_each(|s| s.wrap = None);
+        let (ls, _) = straight.length_and_rate(&kin.frames);
+        assert!(
+            l > ls + 1e-3,
+            "tendon {} wraps: {l} vs {ls} straight",
+            t.name
+        );
+    }
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        check_forward_jacobian_step(&format!("wraps {coords:?}"), &model, &p, coords, 1e-5);
+    }
+}
+
+#[test]
 fn forward_jacobians_with_fluid_forces_match_central_differences() {
     // MuJoCo's inertia-box fluid model (viscous and quadratic drag) on a hinged arm and a free
     // body whose inertia comes from two geoms (principal axes from the eigenvectors), moving in

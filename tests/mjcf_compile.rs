@@ -1420,13 +1420,18 @@ fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
         scm::model::Transmission::Spatial(0)
     );
 
+    // A geom between two sites wraps the segment (tests/python/test_tendon_wrap.py compares
+    // it with MuJoCo).
+    let s = load(&scene(
+        r#"<spatial><site site="hook"/><geom geom="drum"/><site site="tip"/></spatial>"#,
+        "",
+    ));
+    let w = s.model.spatial_tendons[0].segments[0]
+        .wrap
+        .expect("the segment wraps");
+    assert_eq!((w.body, w.radius), (0, 0.1));
+
     for (tendon, after, element, says) in [
-        (
-            r#"<spatial><site site="hook"/><geom geom="drum"/><site site="tip"/></spatial>"#,
-            "",
-            "geom",
-            "wrapping",
-        ),
         (
             r#"<spatial><site site="hook"/><site site="tip"/><pulley divisor="2"/></spatial>"#,
             "",

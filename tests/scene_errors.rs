@@ -254,6 +254,53 @@ fn structural_mistakes_are_refused() {
 }
 
 #[test]
+fn a_wrapping_geom_is_refused_where_mujoco_refuses_it() {
+    // A tendon wraps a sphere or a cylinder between two sites (MuJoCo's compiler refuses the
+    // rest the same way).
+    let scene = |path: &str| {
+        format!(
+            r#"<mujoco><worldbody>
+  <geom name="g" size=".1" pos="0 0 1"/><geom name="b" type="box" size=".1 .1 .1" pos="0 0 2"/>
+  <site name="a" pos="-1 0 1"/><site name="c" pos="1 0 1"/>
+  <body><joint type="slide"/><geom size=".1"/></body>
+</worldbody>
+<tendon><spatial>{path}</spatial></tendon></mujoco>"#
+        )
+    };
+    for (path, says) in [
+        (
+            r#"<site site="a"/><geom geom="b"/><site site="c"/>"#,
+            "a tendon wraps only a sphere or a cylinder",
+        ),
+        (
+            r#"<geom geom="g"/><site site="a"/><site site="c"/>"#,
+            "must follow a site",
+        ),
+        (
+            r#"<site site="a"/><site site="c"/><geom geom="g"/>"#,
+            "must be followed by a site",
+        ),
+        (
+            r#"<site site="a"/><geom geom="nope"/><site site="c"/>"#,
+            "no geom named 'nope'",
+        ),
+        (
+            r#"<site site="a"/><geom geom="g" sidesite="nope"/><site site="c"/>"#,
+            "no site named 'nope'",
+        ),
+    ] {
+        let e = err(&scene(path));
+        assert!(
+            e.element == "geom" && e.line == 6 && e.to_string().contains(says),
+            "{e}"
+        );
+    }
+    let fine = scene(r#"<site site="a"/><geom geom="g"/><site site="c"/>"#);
+    let s = load_str(&fine, Path::new("wrap.xml")).unwrap();
+    assert!(s.model.spatial_tendons[0].segments[0].wrap.is_some());
+}
+
+#[test]
 fn a_missing_file_is_named() {
     let e = load(Path::new("/nonexistent/scene.xml")).unwrap_err();
     assert!(e.to_string().starts_with("/nonexistent/scene.xml:"), "{e}");

@@ -24,6 +24,7 @@ pub use kinematics::Kinematics;
 pub use lie::{quat_exp, quat_from, quat_log, quat_matrix};
 pub mod spatial;
 pub mod tendon;
+pub mod wrap;
 
 use crate::scalar::{c, Scalar};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3, Vector6};

@@ -12,6 +12,7 @@
 //! `1 / tendon_invweight0`).
 
 use super::limit::JointLimit;
+use super::wrap::{geom_frame, wrap, Wrap, Wrapped};
 use crate::collision::Frame;
 use crate::contact::Wrench;
 use crate::scalar::{c, Scalar};
@@ -154,7 +155,8 @@ pub struct SpatialTendon {
     pub law: TendonLaw,
 }
 
-/// A straight segment of a spatial tendon between two sites.
+/// A segment of a spatial tendon between two sites: straight, or wrapped around a sphere or a
+/// cylinder ([`Wrap`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
     /// The first site: its body and its point in the body's frame.
@@ -163,47 +165,96 @@ pub struct Segment {
     pub to: (usize, Vector3<f64>),
     /// `1 / divisor` of the pulley branch the segment is on.
     pub scale: f64,
+    /// The geom the segment wraps around, if any.
+    pub wrap: Option<Wrap>,
 }
 
-/// A segment's state: the unit vector from its first point to its second (zero for a segment of
-/// zero length), its scaled length and rate, and the two points' arms from their bodies' origins.
-struct SegmentState<T: Scalar> {
+/// A straight piece of a segment: the unit vector from its first point to its second (zero
+/// for a piece of zero length), its scaled length and rate, and each end's body and arm from
+/// that body's origin.
+struct Piece<T: Scalar> {
     unit: Vector3<T>,
     length: T,
     rate: T,
-    arms: [Vector3<T>; 2],
+    ends: [(usize, Vector3<T>); 2],
+}
+
+/// A point of a body (its index and the point in its frame) in world coordinates: position,
+/// velocity and arm from the body's origin.
+fn material<T: Scalar>(frames: &[Frame<T>], b: usize, p: &Vector3<T>) -> [Vector3<T>; 3] {
+    let f = &frames[b];
+    let arm = f.rotation * p;
+    [f.origin + arm, f.linvel + f.angvel.cross(&arm), arm]
+}
+
+/// The straight piece between two points of bodies `a` and `b` (in their frames), scaled.
+fn piece<T: Scalar>(
+    frames: &[Frame<T>],
+    (a, pa): (usize, Vector3<T>),
+    (b, pb): (usize, Vector3<T>),
+    scale: f64,
+) -> Piece<T> {
+    let [xa, va, arm_a] = material(frames, a, &pa);
+    let [xb, vb, arm_b] = material(frames, b, &pb);
+    let d = xb - xa;
+    let n2 = d.dot(&d);
+    let ends = [(a, arm_a), (b, arm_b)];
+    if n2.re() == 0.0 {
+        return Piece {
+            unit: Vector3::zeros(),
+            length: T::zero(),
+            rate: T::zero(),
+            ends,
+        };
+    }
+    let n = n2.sqrt();
+    let unit = d / n;
+    let rate = if a == b {
+        T::zero()
+    } else {
+        unit.dot(&(vb - va)) * scale
+    };
+    Piece {
+        unit,
+        length: n * scale,
+        rate,
+        ends,
+    }
 }
 
 impl Segment {
-    fn state<T: Scalar>(&self, frames: &[Frame<T>]) -> SegmentState<T> {
-        let point = |(b, p): (usize, Vector3<f64>)| {
-            let f = &frames[b];
-            let arm = f.rotation * p.map(c::<T>);
-            (f.origin + arm, f.linvel + f.angvel.cross(&arm), arm)
+    /// The segment's straight pieces (one, or two around a wrapping geom) and the scaled
+    /// length along the geom's surface between them (zero for a straight segment).
+    fn pieces<T: Scalar>(&self, frames: &[Frame<T>]) -> ([Option<Piece<T>>; 2], T) {
+        let lift = |(b, p): (usize, Vector3<f64>)| (b, p.map(c::<T>));
+        let (from, to) = (lift(self.from), lift(self.to));
+        let straight = || [Some(piece(frames, from, to, self.scale)), None];
+        let Some(w) = &self.wrap else {
+            return (straight(), T::zero());
         };
-        let ((pa, va, arm_a), (pb, vb, arm_b)) = (point(self.from), point(self.to));
-        let d = pb - pa;
-        let n2 = d.dot(&d);
-        if n2.re() == 0.0 {
-            return SegmentState {
-                unit: Vector3::zeros(),
-                length: T::zero(),
-                rate: T::zero(),
-                arms: [arm_a, arm_b],
-            };
-        }
-        let n = n2.sqrt();
-        let unit = d / n;
-        let rate = if self.from.0 == self.to.0 {
-            T::zero()
-        } else {
-            unit.dot(&(vb - va)) * self.scale
-        };
-        SegmentState {
-            unit,
-            length: n * self.scale,
-            rate,
-            arms: [arm_a, arm_b],
+        // The sites (and the side site) in the geom's frame.
+        let g = &frames[w.body];
+        let (rot, origin) = geom_frame(&g.rotation, &g.origin, &w.pose);
+        let local =
+            |(b, p): (usize, Vector3<T>)| rot.transpose() * (material(frames, b, &p)[0] - origin);
+        let side = w.side.map(|s| local(lift(s)));
+        match wrap(w.shape, w.radius, &local(from), &local(to), side.as_ref()) {
+            None => (straight(), T::zero()),
+            Some(Wrapped { points, arc }) => {
+                // The tangent points as points of the geom's body.
+                let pose = w.pose.to_homogeneous().map(c::<T>);
+                let on_body = |t: &Vector3<T>| {
+                    let h = pose * t.push(T::one());
+                    (w.body, Vector3::new(h.x, h.y, h.z))
+                };
+                (
+                    [
+                        Some(piece(frames, from, on_body(&points[0]), self.scale)),
+                        Some(piece(frames, on_body(&points[1]), to, self.scale)),
+                    ],
+                    arc * self.scale,
+                )
+            }
         }
     }
 }
@@ -214,8 +265,11 @@ impl SpatialTendon {
         self.segments
             .iter()
             .fold((T::zero(), T::zero()), |(l, r), s| {
-                let st = s.state(frames);
-                (l + st.length, r + st.rate)
+                let (pieces, arc) = s.pieces(frames);
+                pieces
+                    .into_iter()
+                    .flatten()
+                    .fold((l + arc, r), |(l, r), p| (l + p.length, r + p.rate))
             })
     }
 
@@ -240,14 +294,20 @@ impl SpatialTendon {
     /// Adds the point forces of a force `f` along the tendon (positive lengthens it: an
     /// actuator's, or the tendon's own) to the bodies' wrenches.
     pub fn add_force_wrenches<T: Scalar>(&self, frames: &[Frame<T>], f: T, w: &mut [Wrench<T>]) {
-        // The segments' states again rather than kept: no allocation per step.
-        for s in self.segments.iter().filter(|s| s.from.0 != s.to.0) {
-            let st = s.state(frames);
-            let force = st.unit * (f * s.scale);
-            w[s.to.0].force += force;
-            w[s.to.0].torque += st.arms[1].cross(&force);
-            w[s.from.0].force -= force;
-            w[s.from.0].torque -= st.arms[0].cross(&force);
+        // The segments' pieces again rather than kept: no allocation per step. A piece within
+        // one body exerts nothing (its forces cancel).
+        for s in &self.segments {
+            for p in s.pieces(frames).0.into_iter().flatten() {
+                let [(a, arm_a), (b, arm_b)] = p.ends;
+                if a == b {
+                    continue;
+                }
+                let force = p.unit * (f * s.scale);
+                w[b].force += force;
+                w[b].torque += arm_b.cross(&force);
+                w[a].force -= force;
+                w[a].torque -= arm_a.cross(&force);
+            }
         }
     }
 
@@ -256,13 +316,19 @@ impl SpatialTendon {
         self.law.energy(self.length_and_rate(frames).0)
     }
 
-    /// The bodies the tendon's segments join across (each segment's two bodies, when they
-    /// differ).
+    /// The bodies the tendon's length depends on: each segment's two sites' bodies (when they
+    /// differ or the segment wraps) and its wrapping geom's and side site's.
     pub fn bodies(&self) -> impl Iterator<Item = usize> + '_ {
         self.segments
             .iter()
-            .filter(|s| s.from.0 != s.to.0)
-            .flat_map(|s| [s.from.0, s.to.0])
+            .filter(|s| s.from.0 != s.to.0 || s.wrap.is_some())
+            .flat_map(|s| {
+                let wrap = s
+                    .wrap
+                    .iter()
+                    .flat_map(|w| std::iter::once(w.body).chain(w.side.map(|(b, _)| b)));
+                [s.from.0, s.to.0].into_iter().chain(wrap)
+            })
     }
 }
 
@@ -325,6 +391,7 @@ mod tests {
             from: (a, Vector3::from(pa)),
             to: (b, Vector3::from(pb)),
             scale,
+            wrap: None,
         };
         let tendon = SpatialTendon {
             name: "s".into(),

@@ -212,9 +212,23 @@ impl Compiled {
                         ])
                     })
                     .collect();
+                // Per segment, the geom it wraps around (null for a straight one).
+                let wraps: Vec<Value> = (tendon.segments.iter())
+                    .map(|s| match &s.wrap {
+                        None => Value::Null,
+                        Some(w) => json!({
+                            "body": names[w.body],
+                            "shape": format!("{:?}", w.shape).to_lowercase(),
+                            "radius": w.radius,
+                            "pos": v3(&w.pose.translation.vector),
+                            "sidesite": w.side.map(|(b, p)| json!([names[b], v3(&p)])),
+                        }),
+                    })
+                    .collect();
                 let mut out = law(&tendon.law);
                 out["name"] = json!(tendon.name);
                 out["segments"] = json!(segments);
+                out["wraps"] = json!(wraps);
                 out["length0"] = json!(tendon.length_and_rate(&at_q0.frames).0);
                 out
             })

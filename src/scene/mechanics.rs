@@ -492,6 +492,7 @@ pub(super) fn spatial_geometry(spec: &TendonSpec, segments: &[SegmentSpec]) -> S
                 from: s.from,
                 to: s.to,
                 scale: s.scale,
+                wrap: s.wrap,
             })
             .collect(),
         law: TendonLaw {

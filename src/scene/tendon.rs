@@ -2,6 +2,7 @@
 //! pulleys), with their springs, dampers, dry friction and limits.
 
 use super::*;
+use crate::dynamics::wrap::{Wrap, WrapShape};
 
 /// A fixed tendon as read, before the tree gives its joints' coordinates.
 #[derive(Clone, Debug)]
@@ -22,13 +23,14 @@ pub(super) struct TendonSpec {
     pub(super) place: Place,
 }
 
-/// A straight segment of a spatial tendon: the two sites (body, point in its frame) and
-/// `1 / divisor` of its pulley branch.
+/// A segment of a spatial tendon: the two sites (body, point in its frame), `1 / divisor` of
+/// its pulley branch and the geom it wraps around, if any.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct SegmentSpec {
     pub(super) from: (usize, Vector3<f64>),
     pub(super) to: (usize, Vector3<f64>),
     pub(super) scale: f64,
+    pub(super) wrap: Option<Wrap>,
 }
 
 impl Builder {
@@ -178,6 +180,7 @@ impl Builder {
         enum Item {
             Site(String, usize, Vector3<f64>),
             Pulley(f64),
+            Geom(Wrap),
         }
         let mut path = Vec::new();
         for (i, x) in el.children.iter().enumerate() {
@@ -210,8 +213,27 @@ impl Builder {
                     }
                     path.push(Item::Pulley(divisor));
                 }
-                "geom" => return Err(self.err(x, "wrapping a spatial tendon around a geom is not supported by SCM yet: route the tendon through sites instead (add sites where it would leave and meet the geom)")),
-                _ => return Err(self.err(x, "a spatial tendon's path holds <site>, <geom> and <pulley> elements")),
+                "geom" => {
+                    let wrap = self.wrap_geom(x)?;
+                    if !matches!(path.last(), Some(Item::Site(..))) {
+                        return Err(
+                            self.err(x, "a wrapping geom must follow a site in the tendon's path")
+                        );
+                    }
+                    if !matches!(el.children.get(i + 1), Some(n) if n.name == "site") {
+                        return Err(self.err(
+                            x,
+                            "a wrapping geom must be followed by a site in the tendon's path",
+                        ));
+                    }
+                    path.push(Item::Geom(wrap));
+                }
+                _ => {
+                    return Err(self.err(
+                        x,
+                        "a spatial tendon's path holds <site>, <geom> and <pulley> elements",
+                    ))
+                }
             }
         }
         if path.len() < 2 {
@@ -238,17 +260,75 @@ impl Builder {
         }
         let mut scale = 1.0;
         let mut segments = Vec::new();
-        for pair in path.windows(2) {
-            match pair {
-                [Item::Pulley(d), _] => scale = 1.0 / d,
-                [Item::Site(_, b0, p0), Item::Site(_, b1, p1)] => segments.push(SegmentSpec {
+        for (i, pair) in path.windows(2).enumerate() {
+            let segment = |to: &Item, wrap| match (&pair[0], to) {
+                (Item::Site(_, b0, p0), Item::Site(_, b1, p1)) => Some(SegmentSpec {
                     from: (*b0, *p0),
                     to: (*b1, *p1),
                     scale,
+                    wrap,
                 }),
+                _ => None,
+            };
+            match pair {
+                [Item::Pulley(d), _] => scale = 1.0 / d,
+                [Item::Site(..), Item::Geom(w)] => segments.extend(segment(&path[i + 2], Some(*w))),
+                [Item::Site(..), to] => segments.extend(segment(to, None)),
                 _ => {}
             }
         }
         Ok(segments)
+    }
+
+    /// A wrapping geom of a spatial tendon's path (`<geom geom sidesite>`): a sphere or a
+    /// cylinder (MuJoCo wraps no other shape), with its side site.
+    fn wrap_geom(&mut self, x: &Element) -> Result<Wrap, SceneError> {
+        self.check_attrs(x, &["geom", "sidesite"])?;
+        let name = x
+            .attr("geom")
+            .ok_or_else(|| self.err(x, "geom=\"NAME\" is required"))?;
+        let g = (self.geoms.iter().find(|g| g.name == name))
+            .ok_or_else(|| self.err(x, format!("no geom named '{name}'")))?;
+        let (shape, radius) = match g.shape {
+            Some(Shape::Sphere { radius }) => (WrapShape::Sphere, radius),
+            Some(Shape::Cylinder { radius, .. }) => (WrapShape::Cylinder, radius),
+            _ => {
+                return Err(self.err(
+                    x,
+                    format!(
+                        "geom '{name}': a tendon wraps only a sphere or a cylinder (as MuJoCo's)"
+                    ),
+                ))
+            }
+        };
+        let side = match x.attr("sidesite") {
+            None => None,
+            Some(s) => match self.sites.get(s) {
+                Some(Some((body, pose))) => Some((*body, pose.translation.vector)),
+                Some(None) => return Err(self.err(x, format!("site '{s}' is placed by fromto, which SCM does not read for sites: give it pos (and quat) instead"))),
+                None => return Err(self.err(x, format!("no site named '{s}'"))),
+            },
+        };
+        // A side site outside the geom picks the side as MuJoCo's published algorithm does,
+        // which MuJoCo 4.0 departs from in some poses (docs/mjcf.md, "Spatial tendons").
+        let (body, pose) = (g.body, g.pose);
+        let outside = side.map(|(b, p)| {
+            b != body
+                || pose
+                    .inverse_transform_point(&nalgebra::Point3::from(p))
+                    .coords
+                    .norm()
+                    >= radius
+        });
+        if outside == Some(true) {
+            self.warnings.push(format!("{}:{}: <geom> tendon wrapping geom '{name}' with side site '{}' outside it{}: SCM wraps as MuJoCo's published algorithm does, and MuJoCo 4.0 wraps differently in some poses (where the side site pulls the tendon round a geom its straight path misses, and in a few where it meets it: docs/mjcf.md, \"Spatial tendons\"); with no side site, or one inside the geom, the two agree to rounding", x.file, x.line, x.attr("sidesite").unwrap_or_default(), if side.is_some_and(|(b, _)| b != body) { " (or on another body)" } else { "" }));
+        }
+        Ok(Wrap {
+            body,
+            pose,
+            shape,
+            radius,
+            side,
+        })
     }
 }

@@ -342,12 +342,10 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
         }
         // A tendon limit's force depends on the coordinates and velocities of its joints.
         // A spatial tendon's limit force depends on the poses and velocities of the bodies of
-        // its sites (and a mocap body's inputs).
+        // its sites, wrapping geoms and side sites (and a mocap body's inputs).
         Slot::SpatialTendonLimitForce(t) => {
             let tendon = &model.spatial_tendons[t];
-            let bodies: BTreeSet<usize> = (tendon.segments.iter())
-                .flat_map(|s| [s.from.0, s.to.0])
-                .collect();
+            let bodies: BTreeSet<usize> = tendon.bodies().collect();
             let joints: Vec<usize> = bodies.iter().flat_map(|&b| path_joints(model, b)).collect();
             let mut k = coordinates(model, &joints, true);
             for b in bodies {

@@ -327,16 +327,32 @@ def compare(path, inertia_tol=TOL):
         adr, num = m.tendon_adr[i], m.tendon_num[i]
         kinds = [int(m.wrap_type[w]) for w in range(adr, adr + num)]
         site, pulley = int(mujoco.mjtWrap.mjWRAP_SITE), int(mujoco.mjtWrap.mjWRAP_PULLEY)
-        assert set(kinds) <= {site, pulley}, f"{tag}: only sites and pulleys"
+        wrapping = {int(mujoco.mjtWrap.mjWRAP_SPHERE): "sphere", int(mujoco.mjtWrap.mjWRAP_CYLINDER): "cylinder"}
+        assert set(kinds) <= {site, pulley} | set(wrapping), f"{tag}: sites, pulleys, spheres, cylinders"
         expected, scale = [], 1.0
         for w in range(adr, adr + num - 1):
             if kinds[w - adr] == pulley:
                 scale = 1.0 / m.wrap_prm[w]
-            elif kinds[w + 1 - adr] == site:
-                s0, s1 = m.wrap_objid[w], m.wrap_objid[w + 1]
-                expected.append((s0, s1, scale))
+            elif kinds[w - adr] == site and kinds[w + 1 - adr] == site:
+                expected.append((m.wrap_objid[w], m.wrap_objid[w + 1], scale, None))
+            elif kinds[w - adr] == site and kinds[w + 1 - adr] in wrapping:
+                # site, geom (with its side site in wrap_prm, -1 for none), site
+                g = m.wrap_objid[w + 1]
+                expected.append((m.wrap_objid[w], m.wrap_objid[w + 2], scale,
+                                 (wrapping[kinds[w + 1 - adr]], g, int(round(m.wrap_prm[w + 1])))))
         assert len(ten["segments"]) == len(expected), f"{tag}: segments"
-        for (b0, p0, b1, p1, sc), (s0, s1, want) in zip(ten["segments"], expected):
+        for wrap, (_, _, _, want_wrap) in zip(ten["wraps"], expected):
+            if want_wrap is None:
+                assert wrap is None, tag
+                continue
+            kind, g, side = want_wrap
+            assert wrap["shape"] == kind and wrap["body"] == ours["bodies"][m.geom_bodyid[g]]["name"], tag
+            close(f"{tag} wrap radius", wrap["radius"], m.geom_size[g][0])
+            close(f"{tag} wrap centre", wrap["pos"], m.geom_pos[g])
+            assert (wrap["sidesite"] is None) == (side < 0), tag
+            if side >= 0:
+                close(f"{tag} side site", wrap["sidesite"][1], m.site_pos[side])
+        for (b0, p0, b1, p1, sc), (s0, s1, want, _) in zip(ten["segments"], expected):
             assert b0 == ours["bodies"][m.site_bodyid[s0]]["name"], tag
             assert b1 == ours["bodies"][m.site_bodyid[s1]]["name"], tag
             close(f"{tag} site point", p0, m.site_pos[s0])
@@ -618,6 +634,21 @@ def test_a_servo_that_moves_nothing_at_qpos0_gets_mujocos_zero_damping(tmp_path)
     ours = compare(path)
     assert ours["actuators"][0]["biasprm"][2] == 0.0
     assert [w for w in ours["warnings"] if "dampratio gives kv = 0" in w], ours["warnings"]
+
+
+def test_wrapping_tendons_compile_as_mujoco_compiles_them(tmp_path):
+    """Spatial tendons wrapping a sphere and a cylinder, one with a side site inside its geom,
+    the geoms on moving bodies: segments, each wrap's geom (body, centre, radius) and side site,
+    and the lengths at qpos0; a side site outside its geom is warned about (MuJoCo 4.0 departs
+    from its published algorithm in some poses: docs/mjcf.md, "Spatial tendons")."""
+    fixture = pathlib.Path(__file__).resolve().parents[1] / "fixtures" / "tendon_wrap.xml"
+    ours = compare(fixture)
+    assert [[w is not None for w in t["wraps"]] for t in ours["spatial_tendons"]] == [[True]] * 3
+    assert not [w for w in ours["warnings"] if "side site" in w], ours["warnings"]
+    path = tmp_path / "outside.xml"
+    path.write_text(fixture.read_text().replace('<site name="core" pos="0.01 0 0"/>', '<site name="core" pos="0 0 0.2"/>'))
+    ours = compare(path)
+    assert [w for w in ours["warnings"] if "side site 'core' outside it" in w], ours["warnings"]
 
 
 def test_site_transmissions_compile_as_mujoco_compiles_them(tmp_path):
