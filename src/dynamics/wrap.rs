@@ -113,7 +113,16 @@ pub fn wrap<T: Scalar>(
             ([t, t], T::zero())
         }
         None => {
-            let sd = side.map(|s| flat(s).normalize() * c::<T>(radius));
+            // A side site over the centre gives no direction: the plane's first axis then
+            // (MuJoCo normalizes a zero vector to it).
+            let sd = side.map(|s| {
+                let f = flat(s);
+                if f.norm().re() < TINY {
+                    Vector2::new(c::<T>(radius), T::zero())
+                } else {
+                    f.normalize() * c::<T>(radius)
+                }
+            });
             circle(&d0, &d1, sd.as_ref(), radius)?
         }
     };
@@ -333,5 +342,28 @@ mod tests {
         let h = 1e-6;
         let fd = (len(Dual64::from(0.1 + h)).re - len(Dual64::from(0.1 - h)).re) / (2.0 * h);
         assert!((fd - dl).abs() < 1e-7, "{fd} vs {dl}");
+    }
+
+    /// A cylinder's side site on its axis has no direction in the cross-section: the wrap takes
+    /// the plane's first axis, as a side site along it would give, and stays finite.
+    #[test]
+    fn a_side_site_on_the_axis_picks_the_first_axis() {
+        let (p0, p1) = (Vector3::new(-2.0, 0.1, 0.3), Vector3::new(2.0, 0.1, -0.2));
+        let on_axis = wrap::<f64>(
+            WrapShape::Cylinder,
+            1.0,
+            &p0,
+            &p1,
+            Some(&Vector3::new(0.0, 0.0, 3.0)),
+        );
+        let along_x = wrap::<f64>(
+            WrapShape::Cylinder,
+            1.0,
+            &p0,
+            &p1,
+            Some(&Vector3::new(1.5, 0.0, 0.0)),
+        );
+        let (a, b) = (on_axis.expect("wraps"), along_x.expect("wraps"));
+        assert!(a.arc.is_finite() && a.arc == b.arc && a.points == b.points);
     }
 }
