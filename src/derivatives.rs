@@ -226,7 +226,7 @@ impl VectorFunction for ForwardFn<'_> {
         self.model.check_activations(&self.chart.point.act)?;
         let (q, v, u, p) = self.chart.unpack(z);
         let act: Vec<T> = self.chart.point.act.iter().map(|&a| c(a)).collect();
-        let u = self.model.driven_inputs(&u, &act, None);
+        let u = self.model.driven_inputs(&u, &act, &q, None);
         Ok(self
             .model
             .forward(&q, &v, &u, &p)?

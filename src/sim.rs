@@ -453,7 +453,9 @@ impl Simulation {
                 .forward(
                     &c.state.q,
                     &c.state.v,
-                    &self.model.driven_inputs(&self.inputs(), &c.state.act, None),
+                    &self
+                        .model
+                        .driven_inputs(&self.inputs(), &c.state.act, &c.state.q, None),
                     &c.params,
                 )
                 .map_err(|e| format!("forward dynamics at t = {} s: {e}", c.time))?;
@@ -506,10 +508,11 @@ impl Simulation {
         s.q.iter().chain(&s.v).chain(&s.act).copied().collect()
     }
 
-    /// The activations' rates `ȧ` at the current activations and controls.
+    /// The activations' rates `ȧ` at the current activations, controls and configuration.
     pub fn activation_rates(&self) -> Vec<f64> {
         let c = &self.data.current;
-        self.model.activation_rates(&c.state.act, &c.ctrl)
+        self.model
+            .activation_rates(&c.state.act, &c.ctrl, &c.state.q)
     }
 
     /// Queues one `logContact` message per pair with its smooth distance, force and torque at

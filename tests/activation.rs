@@ -63,7 +63,8 @@ fn the_laws_are_read_as_mujoco_reads_them_and_stepped_as_it_steps_them() {
     // Rates: the controls clamped to their ranges first (2 -> 1, -3 -> -1).
     let act = [0.1, 0.25, -0.2, 0.4];
     let ctrl = [2.0, -3.0, 0.5, -1.0, 7.0];
-    let r = m.activation_rates(&act, &ctrl);
+    let q = m.q0.clone();
+    let r = m.activation_rates(&act, &ctrl, &q);
     let expect = [
         (1.0 - 0.1) / 0.05,
         -1.0,
@@ -87,11 +88,11 @@ fn the_laws_are_read_as_mujoco_reads_them_and_stepped_as_it_steps_them() {
     assert_eq!(up[1], 0.3);
     // The force laws read the activations (the motor its control); with actearly, the
     // activation after the step.
-    let u = m.driven_inputs(&ctrl, &act, Some(h));
+    let u = m.driven_inputs(&ctrl, &act, &q, Some(h));
     assert_eq!(&u[..3], &act[..3]);
     assert!((u[3] - next[3]).abs() < 1e-15);
     assert_eq!(u[4], 7.0);
-    assert_eq!(m.driven_inputs(&ctrl, &act, None)[3], act[3]);
+    assert_eq!(m.driven_inputs(&ctrl, &act, &q, None)[3], act[3]);
 }
 
 #[test]

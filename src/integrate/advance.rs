@@ -120,7 +120,7 @@ impl Model {
                 self.forward_with(
                     &state.q,
                     &state.v,
-                    &self.driven_inputs(&u, &state.act, first_h),
+                    &self.driven_inputs(&u, &state.act, &state.q, first_h),
                     prm,
                     reuse_all(&mut cache.pairs, known),
                 )
@@ -277,7 +277,7 @@ impl Model {
                                     .forward_with(
                                         &s.q,
                                         &s.v,
-                                        &self.driven_inputs(&uk, &s.act, Some(dt)),
+                                        &self.driven_inputs(&uk, &s.act, &s.q, Some(dt)),
                                         prm,
                                         reuse_all(&mut cache.pairs, known.take()),
                                     )

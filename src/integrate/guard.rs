@@ -42,7 +42,7 @@ impl Model {
             };
         }
         Held {
-            tau: (self.actuator_forces(&s.q, &s.v, &self.driven_inputs(ctrl, &s.act, None)))
+            tau: (self.actuator_forces(&s.q, &s.v, &self.driven_inputs(ctrl, &s.act, &s.q, None)))
                 .as_slice()
                 .to_vec(),
             v: s.v.clone(),

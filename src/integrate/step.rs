@@ -216,24 +216,28 @@ impl Model {
                 let raw = from.u;
                 let (u_half, u_end) = (self.inputs_after(raw, half), self.inputs_after(raw, h));
                 // The activations through the stages as MuJoCo's RK4 takes them (unclamped
-                // within the step), each stage's inputs driven by its own.
+                // within the step), each stage's inputs driven by its own and its rates read at
+                // its own configuration (a PID's integral reads the actuator's length).
                 let a1 = &state.act;
                 let ctrl = &raw[..self.actuators.len()];
-                let r1 = self.activation_rates(a1, ctrl);
-                let a2 = axpy(a1, half, &r1);
-                let r2 = self.activation_rates(&a2, ctrl);
-                let a3 = axpy(a1, half, &r2);
-                let r3 = self.activation_rates(&a3, ctrl);
-                let a4 = axpy(a1, h, &r3);
-                let r4 = self.activation_rates(&a4, ctrl);
-                let stage = |u: &[T], a: &[T]| self.driven_inputs(u, a, Some(h));
+                let stage = |u: &[T], a: &[T], q: &[T]| self.driven_inputs(u, a, q, Some(h));
+                let r1 = self.activation_rates(a1, ctrl, q1);
                 let dq1 = tree.qdot(q1, v1);
                 let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
-                let (dq2, dv2) = (tree.qdot(&q2, &v2), accel(&q2, &v2, &stage(&u_half, &a2))?);
+                let a2 = axpy(a1, half, &r1);
+                let r2 = self.activation_rates(&a2, ctrl, &q2);
+                let dq2 = tree.qdot(&q2, &v2);
+                let dv2 = accel(&q2, &v2, &stage(&u_half, &a2, &q2))?;
                 let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
-                let (dq3, dv3) = (tree.qdot(&q3, &v3), accel(&q3, &v3, &stage(&u_half, &a3))?);
+                let a3 = axpy(a1, half, &r2);
+                let r3 = self.activation_rates(&a3, ctrl, &q3);
+                let dq3 = tree.qdot(&q3, &v3);
+                let dv3 = accel(&q3, &v3, &stage(&u_half, &a3, &q3))?;
                 let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
-                let (dq4, dv4) = (tree.qdot(&q4, &v4), accel(&q4, &v4, &stage(&u_end, &a4))?);
+                let a4 = axpy(a1, h, &r3);
+                let r4 = self.activation_rates(&a4, ctrl, &q4);
+                let dq4 = tree.qdot(&q4, &v4);
+                let dv4 = accel(&q4, &v4, &stage(&u_end, &a4, &q4))?;
                 let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
                 let rate = combine(
                     &vec![T::zero(); a1.len()],
@@ -266,9 +270,10 @@ impl Model {
         if act.is_empty() {
             return (from.u.to_vec(), Vec::new());
         }
-        let rates = self.activation_rates(act, &from.u[..self.actuators.len()]);
+        let q = &from.state.q;
+        let rates = self.activation_rates(act, &from.u[..self.actuators.len()], q);
         let end = self.next_activations(act, &rates, from.h);
-        (self.driven_inputs(from.u, act, Some(from.h)), end)
+        (self.driven_inputs(from.u, act, q, Some(from.h)), end)
     }
 
     /// One Dormand–Prince 5(4) step of length `h`; `first`: `(q̇, v̇)` at the start if known
@@ -298,12 +303,12 @@ impl Model {
                 self.accel(
                     &state.q,
                     &state.v,
-                    &self.driven_inputs(u, &state.act, None),
+                    &self.driven_inputs(u, &state.act, &state.q, None),
                     prm,
                 )?,
             ),
         };
-        ka.push(self.activation_rates(&state.act, ctrl));
+        ka.push(self.activation_rates(&state.act, ctrl, &state.q));
         kq.push(dq0);
         kv.push(dv0);
         let terms = |w: &[f64], k: &[Vec<T>]| -> Vec<(f64, Vec<T>)> {
@@ -319,10 +324,10 @@ impl Model {
             let q = at(&state.q, a, &kq);
             let v = at(&state.v, a, &kv);
             let act = at(&state.act, a, &ka);
-            let us = self.driven_inputs(&self.inputs_after(u, h * dp::C[s]), &act, None);
+            let us = self.driven_inputs(&self.inputs_after(u, h * dp::C[s]), &act, &q, None);
             kq.push(tree.qdot(&q, &v));
             kv.push(self.accel(&q, &v, &us, prm)?);
-            ka.push(self.activation_rates(&act, ctrl));
+            ka.push(self.activation_rates(&act, ctrl, &q));
         }
         let mut q = at(&state.q, &dp::B, &kq);
         tree.normalize_q(&mut q);
@@ -331,11 +336,11 @@ impl Model {
         // Clamped before the last stage, which the next step takes as its first: that step
         // starts from the clamped activations.
         self.clamp_activations(&mut act);
-        let u_end = self.driven_inputs(&self.inputs_after(u, h), &act, None);
+        let u_end = self.driven_inputs(&self.inputs_after(u, h), &act, &q, None);
         let last = (tree.qdot(&q, &v), self.accel(&q, &v, &u_end, prm)?);
         kq.push(last.0.clone());
         kv.push(last.1.clone());
-        ka.push(self.activation_rates(&act, ctrl));
+        ka.push(self.activation_rates(&act, ctrl, &q));
         let zq = vec![T::zero(); nq];
         let zv = vec![T::zero(); nv];
         let za = vec![T::zero(); act.len()];

@@ -71,8 +71,26 @@ impl Builder {
 
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
         if el.name == "plugin" {
-            let general = self.pid_as_general(el)?;
-            return self.actuator(&general);
+            let (general, integral) = self.pid_as_general(el)?;
+            self.actuator(&general)?;
+            if let Some(law) = integral {
+                // Its step is the file's (filled in at assembly). MuJoCo refuses an actrange
+                // without dyntype, so the integral has no range but its imax.
+                let target = self.actuators.last().map(|a| a.target);
+                if !matches!(
+                    target,
+                    Some(Transmission::Joint(_) | Transmission::Tendon(_))
+                ) {
+                    return Err(self.err(el, "a PID plugin's integral (ki) on a spatial tendon, a site or a slider-crank is not supported by SCM: its error reads the actuator's length, which SCM reads for joints and fixed tendons only; drive a joint or a fixed tendon"));
+                }
+                let a = self.actuators.last_mut().expect("the actuator just added");
+                a.activation = Some(Activation {
+                    law,
+                    range: None,
+                    early: false,
+                });
+            }
+            return Ok(());
         }
         if el.attr("body").is_some() {
             return Err(self.err(

@@ -525,6 +525,16 @@ impl Builder {
         self.apply_dampratios(&tree)?;
         // MuJoCo's refsafe holds the time constants at twice the file's step, whatever SCM's.
         let file_step = self.timestep.unwrap_or(DEFAULT_STEP);
+        // A PID's integral reads the file's step (MuJoCo's opt.timestep), whatever SCM's.
+        for a in self.actuators.iter_mut() {
+            if let Some(Activation {
+                law: ActivationLaw::PidIntegral { step, .. },
+                ..
+            }) = a.activation.as_mut()
+            {
+                *step = file_step;
+            }
+        }
         let pair_laws = self.pair_laws(
             &tree,
             &mut pairs,

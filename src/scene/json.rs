@@ -165,11 +165,14 @@ impl Compiled {
                         Some(ActivationLaw::Integrator) => "integrator",
                         Some(ActivationLaw::Filter { .. }) => "filter",
                         Some(ActivationLaw::FilterExact { .. }) => "filterexact",
+                        // MuJoCo's PID plugin keeps its integral as a plugin activation.
+                        Some(ActivationLaw::PidIntegral { .. }) => "none",
                     },
                     "timeconst": a.activation.and_then(|d| match d.law {
                         ActivationLaw::Filter { tau } | ActivationLaw::FilterExact { tau } => Some(tau),
-                        ActivationLaw::Integrator => None,
+                        ActivationLaw::Integrator | ActivationLaw::PidIntegral { .. } => None,
                     }),
+                    "actnum": usize::from(a.activation.is_some()),
                     "actlimited": a.activation.is_some_and(|d| d.range.is_some()),
                     "actrange": a.activation.and_then(|d| d.range).map(|(lo, hi)| vec![lo, hi]),
                     "actearly": a.activation.is_some_and(|d| d.early),

@@ -203,13 +203,18 @@ impl Builder {
 }
 
 impl Builder {
-    /// An actuator computed by MuJoCo's `mujoco.pid` plugin, as the `<general>` it equals
-    /// when it keeps no state: `force = kp (u - L) - kd L̇` (the plugin's law with no integral
-    /// and no slew limit, `L` the actuator's length) is `gainprm="kp 0 0"` with
-    /// `biasprm="0 -kp -kd"`. The integral (`ki`) and the slew limit (`slewmax`) keep states
-    /// whose rates read the joint's position, which SCM's activations never do: refused. Any
-    /// other plugin is refused.
-    pub(super) fn pid_as_general(&mut self, el: &Element) -> Result<Element, SceneError> {
+    /// An actuator computed by MuJoCo's `mujoco.pid` plugin, as the `<general>` it equals,
+    /// with the integral's law where it has one. Without `ki` the plugin's
+    /// `force = kp (u - L) - kd L̇` (`L` the actuator's length) is `gainprm="kp 0 0"` with
+    /// `biasprm="0 -kp -kd"`. With `ki` it keeps its error integral `I` as an activation
+    /// (MuJoCo's `actdim="1"`): the `<general>` with `gainprm="1 0 0"` reads `kp u + ki I⁺`
+    /// ([`ActivationLaw::PidIntegral`]), whose step the assembly fills in from the file's. The
+    /// slew limit (`slewmax`) keeps the last control, which it reads only after the first
+    /// step (`time > 0`): refused. Any other plugin is refused.
+    pub(super) fn pid_as_general(
+        &mut self,
+        el: &Element,
+    ) -> Result<(Element, Option<ActivationLaw>), SceneError> {
         let (plugin, config) = match el.attr("instance") {
             Some(name) => match self.sdf_instances.get(name) {
                 Some((plugin, i)) => (plugin.clone(), i.clone()),
@@ -235,22 +240,24 @@ impl Builder {
         if el.attr("dyntype").is_some_and(|d| d.trim() != "none") {
             return Err(self.err(el, "a PID plugin actuator with activation dynamics (dyntype) is not supported by SCM: leave dyntype out"));
         }
-        let mut gains = [("kp", 0.0), ("kd", 0.0)];
+        let mut gains = [("kp", 0.0), ("kd", 0.0), ("ki", 0.0), ("imax", f64::NAN)];
         for c in config.children.iter().filter(|c| c.name == "config") {
             let key = c.attr("key").unwrap_or_default();
             let value = c.attr("value").unwrap_or_default();
             let number = value.trim().parse::<f64>().ok().filter(|v| v.is_finite());
             match (key, number) {
-                ("ki" | "imax", Some(0.0)) => {}
-                ("ki" | "imax" | "slewmax", _) => {
-                    return Err(self.err(c, format!("the PID plugin's {key} keeps a state that reads the joint's position (an integral of its error, or the last control), which SCM's actuators do not have: leave it out (a PD controller: kp and kd), or use an <intvelocity> or <position> actuator")));
+                ("slewmax", _) => {
+                    return Err(self.err(c, "the PID plugin's slewmax keeps the last control and limits the next one's change only after the first step (time > 0), a state SCM's actuators do not have: leave it out, or filter the control with dyntype=\"filter\" on a <general> actuator"));
                 }
-                ("kp" | "kd", Some(v)) => {
+                ("imax", Some(v)) if v < 0.0 => {
+                    return Err(self.err(c, format!("imax=\"{v}\" is negative (MuJoCo refuses it too): give the largest force of the integral term, 0 or more")));
+                }
+                ("kp" | "kd" | "ki" | "imax", Some(v)) => {
                     for g in gains.iter_mut().filter(|g| g.0 == key) {
                         g.1 = v;
                     }
                 }
-                ("kp" | "kd", None) => {
+                ("kp" | "kd" | "ki" | "imax", None) => {
                     return Err(self.err(
                         c,
                         format!("{key}=\"{value}\": expected one finite number"),
@@ -264,24 +271,43 @@ impl Builder {
                 }
             }
         }
-        let [(_, kp), (_, kd)] = gains;
+        let [(_, kp), (_, kd), (_, ki), (_, imax)] = gains;
+        // MuJoCo's plugin asks for one activation for the integral, none without it.
+        let expected = usize::from(ki != 0.0);
+        let actdim = match el.attr("actdim").map(|v| v.trim().parse::<usize>()) {
+            None => 0,
+            Some(Ok(n)) => n,
+            Some(Err(_)) => {
+                return Err(self.err(el, "actdim: expected a whole number of activations"))
+            }
+        };
+        if actdim != expected {
+            return Err(self.err(el, format!("actdim=\"{actdim}\", but this PID keeps {expected} activation{} (MuJoCo refuses it too): write actdim=\"{expected}\"", if expected == 1 { "" } else { "s" })));
+        }
         let mut general = el.clone();
         general.name = "general".into();
         general.children.clear();
-        let drop = |k: &str| {
-            matches!(k, "plugin" | "instance") || (k == "actdim" && general_actdim_zero(el))
-        };
+        let drop = |k: &str| matches!(k, "plugin" | "instance" | "actdim");
         general.attrs.retain(|(k, _)| !drop(k));
-        general.attrs.push(("gainprm".into(), format!("{kp} 0 0")));
+        // The plugin's imax is a force: the integral's clamp is imax / ki.
+        let bound = (ki != 0.0 && !imax.is_nan()).then_some(imax / ki);
+        if bound.is_some_and(|b| b < 0.0) {
+            return Err(self.err(el, format!("imax / ki = {imax} / {ki} is negative, which MuJoCo refuses (\"negative imax\"): give ki and imax the same sign")));
+        }
+        let law = (ki != 0.0).then_some(ActivationLaw::PidIntegral {
+            kp,
+            ki,
+            bound,
+            step: f64::NAN,
+        });
+        let gain = if law.is_some() { 1.0 } else { kp };
+        general
+            .attrs
+            .push(("gainprm".into(), format!("{gain} 0 0")));
         general
             .attrs
             .push(("biasprm".into(), format!("0 {} {}", -kp, -kd)));
         general.attrs.push(("biastype".into(), "affine".into()));
-        Ok(general)
+        Ok((general, law))
     }
-}
-
-/// Whether a plugin actuator's `actdim` is absent or 0 (a PID without states has none).
-fn general_actdim_zero(el: &Element) -> bool {
-    el.attr("actdim").is_none_or(|v| v.trim() == "0")
 }

@@ -88,7 +88,7 @@ pub fn directional_derivative(
     let s = seed(model, state, knowns, dv, model_exchange)?;
     let needs_vdot = unknowns.iter().any(|u| matches!(u, Slot::VDot(_)));
     // The force laws read the activations where they have them.
-    let driven = model.driven_inputs(&s.u, &s.act, None);
+    let driven = model.driven_inputs(&s.u, &s.act, &s.q, None);
     let needs_contacts = unknowns.iter().any(|u| {
         matches!(
             u,
@@ -162,7 +162,9 @@ pub fn directional_derivative(
                 Slot::Q(i) => s.q[i],
                 Slot::V(i) => s.v[i],
                 Slot::Act(k) => s.act[k],
-                Slot::ActDot(k) => model.activation_rates(&s.act, &s.u[..model.actuators.len()])[k],
+                Slot::ActDot(k) => {
+                    model.activation_rates(&s.act, &s.u[..model.actuators.len()], &s.q)[k]
+                }
                 Slot::QDot(i) => qdot.as_ref().ok_or_else(missing)?[i],
                 Slot::VDot(i) => vdot.as_ref().ok_or_else(missing)?[i],
                 Slot::PairForce(p, k) => contacts.as_ref().ok_or_else(missing)?[p].on_a.force[k],

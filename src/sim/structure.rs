@@ -14,7 +14,7 @@ use super::{Param, Slot};
 use crate::collision::Collider;
 use crate::dynamics::JointKind;
 use crate::fmi::contract::{Causality, Initial, ModelStructure, VarType, Variable};
-use crate::model::Model;
+use crate::model::{ActivationLaw, Model};
 
 /// A set of knowns, by what they are (not yet by value reference).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -136,15 +136,26 @@ fn subtree_knowns(model: &Model, root: usize) -> Knowns {
         .filter(|&j| subtree_root(model, tree.joints[j].body) == root)
         .collect();
     let mut k = coordinates(model, &joints, true);
-    // An actuator's force reads its control, or its activation where it has one.
+    // An actuator's force reads its control, or its activation where it has one (a PID's
+    // integral: both, and its length's coordinates).
     let mut activation = 0;
     for (a, act) in model.actuators.iter().enumerate() {
         let drives = (model.actuator_joints(act).iter()).any(|j| joints.contains(j));
-        match act.activation {
-            Some(_) if drives => k.act.insert(activation),
-            None if drives => k.ctrl.insert(a),
-            _ => false,
-        };
+        if drives {
+            match act.activation.map(|d| d.law) {
+                Some(ActivationLaw::PidIntegral { .. }) => {
+                    k.act.insert(activation);
+                    k.ctrl.insert(a);
+                    k.union(&coordinates(model, &model.actuator_joints(act), false));
+                }
+                Some(_) => {
+                    k.act.insert(activation);
+                }
+                None => {
+                    k.ctrl.insert(a);
+                }
+            }
+        }
         activation += usize::from(act.activation.is_some());
     }
     if joints.iter().any(|&j| tree.joints[j].frictionloss > 0.0) {
@@ -293,18 +304,27 @@ pub fn knowns_of(model: &Model, slot: Slot) -> Option<Knowns> {
             ..Knowns::default()
         },
         // An activation's rate reads its actuator's control, and the activation itself
-        // unless it integrates the control.
+        // unless it integrates the control; a PID's integral reads the actuator's length too.
         Slot::ActDot(k) => {
             let (a, d) = (model.actuators.iter().enumerate())
                 .filter_map(|(a, x)| x.activation.map(|d| (a, d)))
                 .nth(k)?;
-            Knowns {
+            let own = Knowns {
                 ctrl: [a].into(),
                 act: match d.law {
-                    crate::model::ActivationLaw::Integrator => BTreeSet::new(),
+                    ActivationLaw::Integrator => BTreeSet::new(),
                     _ => [k].into(),
                 },
                 ..Knowns::default()
+            };
+            match d.law {
+                ActivationLaw::PidIntegral { .. } => {
+                    let mut k =
+                        coordinates(model, &model.actuator_joints(&model.actuators[a]), false);
+                    k.union(&own);
+                    k
+                }
+                _ => own,
             }
         }
         Slot::QDot(i) => {

@@ -304,10 +304,16 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
                 unit: None,
                 derivative: None,
             },
-            format!(
-                "Activation of actuator {} (its force law reads it in place of its control)",
-                a.name
-            ),
+            match a.activation.map(|d| d.law) {
+                Some(crate::model::ActivationLaw::PidIntegral { ki, .. }) => format!(
+                    "Error integral of PID actuator {} (its force adds {ki} times its next value)",
+                    a.name
+                ),
+                _ => format!(
+                    "Activation of actuator {} (its force law reads it in place of its control)",
+                    a.name
+                ),
+            },
             Slot::Act(k),
         );
     }

@@ -275,6 +275,7 @@ def compare(path, inertia_tol=TOL):
         if act["actlimited"]:
             close(f"{tag} actrange", act["actrange"], m.actuator_actrange[a])
         assert act["actearly"] == bool(m.actuator_actearly[a]), f"{tag} actearly"
+        assert act["actnum"] == m.actuator_actnum[a], f"{tag} actnum"
         affine_gain = int(m.actuator_gaintype[a]) == int(mujoco.mjtGain.mjGAIN_AFFINE)
         affine_bias = int(m.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
         gain = m.actuator_gainprm[a, :3] if affine_gain else [m.actuator_gainprm[a, 0], 0, 0]

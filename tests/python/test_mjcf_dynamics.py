@@ -481,8 +481,8 @@ def test_pid_plugin_actuators_without_state_follow_mujoco(tmp_path):
     """MuJoCo's `mujoco.pid` actuator plugin as a PD controller (kp; kp and kd; its instance
     declared in <extension> or its configuration on the actuator), with a control range, a gear
     and a force range that clamps: the FMU's run matches MuJoCo's (Euler, 2 ms) within 1e-12 over
-    0.5 s. With an integral term (ki) the plugin keeps a state whose rate reads the joint's
-    position: refused at the configuration's line, saying so."""
+    0.5 s. A PID with an integral (ki) keeps one activation, which MuJoCo asks for with
+    actdim="1": without it, refused as MuJoCo refuses it."""
     path = tmp_path / "pid.xml"
     path.write_text(PID_SCENE)
     fmu = tmp_path / "pid.fmu"
@@ -504,12 +504,12 @@ def test_pid_plugin_actuators_without_state_follow_mujoco(tmp_path):
     assert clamped, "the force range must act for the comparison to cover it"
     assert d.qpos[0] == pytest.approx(0.3, abs=0.2), "the first servo moves toward its clamped control"
 
-    integral = PID_SCENE.replace('<config key="ki" value="0"/>', '<config key="ki" value="4"/>').replace(
-        'instance="pd" gear', 'instance="pd" actdim="1" gear')
+    integral = PID_SCENE.replace('<config key="ki" value="0"/>', '<config key="ki" value="4"/>')
     path.write_text(integral)
-    mujoco.MjModel.from_xml_path(str(path))  # MuJoCo takes it, with the integral's state
+    with pytest.raises(ValueError, match="expected 1"):
+        mujoco.MjModel.from_xml_path(str(path))
     out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
-    assert out.returncode != 0 and ":5: <config>" in out.stderr and "ki keeps a state" in out.stderr, out.stderr
+    assert out.returncode != 0 and ":16: <plugin>" in out.stderr and 'write actdim="1"' in out.stderr, out.stderr
     # MuJoCo gives a plugin actuator its class's actuator defaults (a gear here): SCM does not
     # apply them to one yet, and refuses rather than drop them; activation dynamics likewise.
     for changed, wanted in [
@@ -521,6 +521,116 @@ def test_pid_plugin_actuators_without_state_follow_mujoco(tmp_path):
         path.write_text(changed)
         out = subprocess.run([str(SCM), "check", str(path)], capture_output=True, text=True)
         assert out.returncode != 0 and wanted in out.stderr and "<plugin>" in out.stderr, out.stderr
+
+
+PID_INTEGRAL_SCENE = """<mujoco>
+  <option integrator="INTEGRATOR"/>
+  <extension>
+    <plugin plugin="mujoco.pid">
+      <instance name="pid"><config key="kp" value="4"/><config key="ki" value="4"/><config key="kd" value="0.4"/></instance>
+      <instance name="clamped"><config key="kp" value="2"/><config key="ki" value="8"/><config key="kd" value="0.1"/><config key="imax" value="0.1"/></instance>
+    </plugin>
+  </extension>
+  <worldbody>
+    <body><joint name="j1" type="slide" axis="0 0 1"/><geom size="0.05" mass="0.5" contype="0" conaffinity="0"/></body>
+    <body pos="0.2 0 0"><joint name="j2" axis="0 1 0" damping="0.01"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.5" contype="0" conaffinity="0"/></body>
+    <body pos="0.4 0 0"><joint name="j3" type="slide" axis="0 0 1"/><geom size="0.05" mass="2" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <tendon><fixed name="t"><joint joint="j3" coef="1.5"/></fixed></tendon>
+  <actuator>
+    <plugin name="a1" joint="j1" plugin="mujoco.pid" instance="pid" ctrlrange="0 0.15" actdim="1"/>
+    <plugin name="a2" joint="j2" plugin="mujoco.pid" instance="clamped" gear="2" actdim="1"/>
+    <plugin name="a3" tendon="t" plugin="mujoco.pid" actdim="1">
+      <config key="kp" value="30"/><config key="ki" value="40"/><config key="kd" value="3"/></plugin>
+  </actuator>
+</mujoco>
+"""
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "RK4"])
+def test_pid_plugin_integrals_follow_mujoco(integrator, tmp_path):
+    """MuJoCo's PID plugin with its integral (ki; the gallery's `plugin/actuator/pid.xml`): the
+    error integral is an activation whose next value is clamp(I + e h, ±imax/ki) at the file's
+    step h, and the force is kp e + kd ė + ki times that. Three PIDs under gravity (one whose
+    control range clamps, one whose imax clamps its integral, one on a fixed tendon): joints and
+    integrals through the FMU in fmpy follow MuJoCo's run within 1e-12 over 1 s, under Euler
+    and under RK4 (whose stages read the integral's rate at their own configuration)."""
+    path = tmp_path / "pid_integral.xml"
+    path.write_text(PID_INTEGRAL_SCENE.replace("INTEGRATOR", integrator))
+    fmu = tmp_path / "pid_integral.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert m.na == 3
+    d = mujoco.MjData(m)
+    ctrl = {"a1.ctrl": 0.5, "a2.ctrl": 0.4, "a3.ctrl": 0.1}
+    d.ctrl[:] = list(ctrl.values())
+    outputs = ["j1.q", "j2.q", "j3.q", "a1.act", "a2.act", "a3.act"]
+    res = simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=outputs, start_values=ctrl)
+    worst, clamped = 0.0, False
+    bound = 0.1 / 8
+    for row in res:
+        n = round(row["time"] / m.opt.timestep)
+        while round(d.time / m.opt.timestep) < n:
+            mujoco.mj_step(m, d)
+            clamped |= abs(d.act[1]) == bound
+        ours = np.array([row[o] for o in outputs])
+        err = np.max(np.abs(ours - np.concatenate([d.qpos, d.act])))
+        worst = max(worst, err)
+        assert err < 1e-12, f"t = {row['time']:.2f}: {ours} vs {d.qpos}, {d.act}"
+    assert clamped, "imax must clamp the second integral for the comparison to cover it"
+    assert d.act[0] > 0.5, "the first integral grows while gravity holds its body below the set point"
+    print(f"{integrator}: largest difference {worst:.2e}; integrals {d.act}")
+
+
+def test_pid_integral_rates_and_derivatives_are_mujocos(tmp_path):
+    """In Model Exchange a PID's integral is a continuous state: at a state off equilibrium the
+    FMU's der(a.act) are MuJoCo's act_dot and its accelerations MuJoCo's qacc; the exact
+    directional derivatives of both with respect to the joints, the integrals and the controls
+    match central differences of MuJoCo's, and the model structure declares what the integral's
+    rate reads (its control, itself and its joint's position)."""
+    from hosts import Opened, get_dx, get_x, set_x
+    path = tmp_path / "pid_integral_me.xml"
+    path.write_text(PID_INTEGRAL_SCENE.replace("INTEGRATOR", "Euler"))
+    fmu = tmp_path / "pid_integral_me.fmu"
+    subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(m)
+    x0 = np.array([0.03, 0.2, -0.05, 0.1, -0.3, 0.2, 0.004, 0.01, -0.002])
+    u0 = np.array([0.12, 0.4, 0.1])
+
+    def mujoco_dx(x, u):
+        d.qpos[:], d.qvel[:], d.act[:] = x[:3], x[3:6], x[6:]
+        d.ctrl[:] = u
+        mujoco.mj_forward(m, d)
+        return np.concatenate([d.qvel, d.qacc, d.act_dot])
+
+    opened = Opened(str(fmu))
+    model = opened.instance("ME")
+    n = opened.md.numberOfContinuousStates
+    assert n == 9
+    for k, name in enumerate(["a1.ctrl", "a2.ctrl", "a3.ctrl"]):
+        model.setReal([opened.var[name].valueReference], [u0[k]])
+    set_x(model, x0)
+    assert np.allclose(get_x(model, n), x0)
+    dx = get_dx(model, n)
+    assert np.allclose(dx, mujoco_dx(x0, u0), rtol=1e-12, atol=1e-12), (dx, mujoco_dx(x0, u0))
+    states = [u.variable.derivative.valueReference for u in opened.md.derivatives]
+    ders = [u.variable.valueReference for u in opened.md.derivatives]
+    ctrls = [opened.var[f"a{k}.ctrl"].valueReference for k in (1, 2, 3)]
+    step = 1e-6
+    for j, known in enumerate(states + ctrls):
+        seed = np.zeros(n + 3)
+        seed[j] = step
+        fd = (mujoco_dx(x0 + seed[:n], u0 + seed[n:]) - mujoco_dx(x0 - seed[:n], u0 - seed[n:])) / (2 * step)
+        exact = np.array(model.getDirectionalDerivative(ders, [known], [1.0]))
+        assert np.allclose(exact, fd, rtol=1e-6, atol=1e-6), (j, exact, fd)
+    # The integral's rate of a2 (on j2): its control, itself and j2's position.
+    (der,) = [u for u in opened.md.derivatives if u.variable.name == "der(a2.act)"]
+    deps = {k.name for k in der.dependencies}
+    assert deps == {"a2.ctrl", "a2.act", "j2.q"}, deps
+    model.terminate()
+    model.freeInstance()
 
 
 def test_a_blow_up_the_energy_balance_credits_to_an_actuator_is_refused_where_mujoco_warns(tmp_path):
