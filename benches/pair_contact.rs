@@ -125,6 +125,8 @@ fn params(sharp: bool) -> ContactParams<f64> {
         friction: 0.5,
         dissipation_force: f64::INFINITY,
         margin: 0.0,
+        adhesion: 0.0,
+        gap: 0.0,
         dissipation: Dissipation::Paper,
     }
 }

@@ -131,7 +131,7 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
 }
 
 /// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant,
-/// dissipation force and margin (constants).
+/// dissipation force, margin, adhesion and gap (constants).
 pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
     ContactParams {
         eps1: x[0],
@@ -143,6 +143,8 @@ pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactPara
         friction: x[6],
         dissipation_force: c(like.dissipation_force),
         margin: c(like.margin),
+        adhesion: like.adhesion,
+        gap: like.gap,
         dissipation: like.dissipation,
     }
 }

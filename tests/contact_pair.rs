@@ -36,6 +36,8 @@ fn params() -> ContactParams<f64> {
         friction: 0.5,
         dissipation_force: f64::INFINITY,
         margin: 0.0,
+        adhesion: 0.0,
+        gap: 0.0,
         dissipation: Dissipation::Paper,
     }
 }
@@ -241,6 +243,8 @@ fn pair_derivatives_match_central_differences() {
                 friction: inp[12],
                 dissipation_force: 4.0,
                 margin: 0.004,
+                adhesion: 0.0,
+                gap: 0.0,
                 dissipation: Dissipation::Paper,
             };
             pair_outputs(&spheres(
@@ -262,6 +266,8 @@ fn pair_derivatives_match_central_differences() {
                 friction: d[12],
                 dissipation_force: Dual64::from(4.0),
                 margin: Dual64::from(0.004),
+                adhesion: 0.0,
+                gap: 0.0,
                 dissipation: Dissipation::Paper,
             };
             let exact: Vec<f64> =
@@ -482,20 +488,26 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     let mut rng = Lcg(77);
     let (mut checked, mut worst) = (0, 0.0f64);
     for (name, a, b, origin) in cases {
+        // The last law adhesive (departure 7: 2 N within 3 mm past a 2 mm margin), so that the
+        // points pressed, those in the gap and those past it all count.
         let laws = [Dissipation::Paper, Dissipation::Smooth]
             .into_iter()
-            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f)));
-        for (dissipation, dissipation_force) in laws {
+            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f, false)))
+            .chain([(Dissipation::Paper, 3.0, true)]);
+        for (dissipation, dissipation_force, adhesive) in laws {
             // A margin (6 mm, where the springs rest) with the smooth law's dissipation force.
-            let margin = if dissipation == Dissipation::Smooth && dissipation_force.is_finite() {
-                0.006
-            } else {
-                0.0
+            let margin = match (dissipation, dissipation_force.is_finite(), adhesive) {
+                (_, _, true) => 0.002,
+                (Dissipation::Smooth, true, _) => 0.006,
+                _ => 0.0,
             };
+            let (adhesion, gap) = if adhesive { (2.0, 0.003) } else { (0.0, 0.0) };
             let prm = ContactParams {
                 dissipation,
                 dissipation_force,
                 margin,
+                adhesion,
+                gap,
                 ..params()
             };
             let mut base = [0.0; N];
@@ -558,13 +570,13 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 let scale = dg.amax().max(1e-300);
                 for k in 0..N {
                     worst = worst.max((dc[k] - dg[k]).abs() / scale);
-                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?} {dissipation_force}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
+                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?} {dissipation_force} {adhesion}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
                     let h = 1e-7;
                     let fd = central_difference(|x| value(x)[o], &base, k, h);
                     // Differences of a value of size |v| carry ~1e-16 |v| / h of round-off.
                     assert!(
                         (dc[k] - fd).abs() <= 1e-5 * scale + 1e-8 * v0[o].abs().max(1.0),
-                        "{name} {dissipation:?} {dissipation_force}: d{o}/dz{k}: hand {} vs fd {fd}",
+                        "{name} {dissipation:?} {dissipation_force} {adhesion}: d{o}/dz{k}: hand {} vs fd {fd}",
                         dc[k]
                     );
                     checked += 1;
@@ -573,7 +585,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
         }
     }
     println!("largest hand − generic difference: {worst:.1e} of the output's largest derivative");
-    assert_eq!(checked, 5 * 4 * 13 * N);
+    assert_eq!(checked, 5 * 5 * 13 * N);
 }
 
 /// A pair's contact recorded at one configuration ([`PairTape`]) equals `pair_contact` bit for

@@ -27,6 +27,8 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         friction: 0.5,
         dissipation_force: f64::INFINITY,
         margin: 0.0,
+        adhesion: 0.0,
+        gap: 0.0,
         dissipation: Dissipation::Paper,
     }
 }
@@ -44,11 +46,12 @@ fn is_far(
 
 /// The bound of `out_of_reach` on every force of a pair it settles:
 /// `τ k (ε3 + (ℓ + m + ε3 ln 2) (1 + V/v_d) √(1 + μ²))`, with `ℓ` and `V` taken generously
-/// here (the two bodies' bounding spheres, every speed summed), `m` the margin.
+/// here (the two bodies' bounding spheres, every speed summed), `m` the margin; with adhesion
+/// `k` and `m` are the bound's (`ContactParams::bound_stiffness`, `bound_margin`).
 fn force_bound(p: &ContactParams<f64>, ell: f64, speed: f64) -> f64 {
     let factor = (1.0 + speed / p.dissipation_velocity) * (1.0 + p.friction * p.friction).sqrt();
-    let springs = ell + p.margin + p.eps3 * std::f64::consts::LN_2;
-    PRUNE_TOLERANCE * p.stiffness * (p.eps3 + springs * factor)
+    let springs = ell + p.bound_margin() + p.eps3 * std::f64::consts::LN_2;
+    PRUNE_TOLERANCE * p.bound_stiffness() * (p.eps3 + springs * factor)
 }
 
 /// A sphere, a box, a capsule and a cylinder sampled at 1 cm, each with its bounding radius (m).
@@ -105,12 +108,21 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
             (b, *rb)
         };
         let p = [(1e-5, 1e-4), (1e-6, 1e-3), (1e-8, 1e-5)][case % 3];
-        // A margin (MuJoCo's, where the springs rest) on every other pair but one in eight.
+        // A margin (MuJoCo's, where the springs rest) on every other pair but one in eight; one
+        // case in eight adhesive (3 N within 3 mm past the margin, departure 7), one of them
+        // with a 5 mm margin too: the proof counts from the gap's edge, where the pull ends.
         let margin = [0.0, 0.002, 0.0, 0.01, 0.0, 0.0, 0.0, 0.005][case % 8];
+        let (adhesion, adhesive_gap) = match case % 16 {
+            6 | 7 => (3.0, 0.003),
+            _ => (0.0, 0.0),
+        };
         let prm = ContactParams {
             margin,
+            adhesion,
+            gap: adhesive_gap,
             ..params(p.0, p.1)
         };
+        let margin = prm.bound_margin();
         // Gaps between the bounding spheres from touching to 5 cm past the margin: most pairs
         // are within a few reach distances, where the proof has to be sharp to settle anything.
         let gap = rng.range(0.0, 0.05) + margin;

@@ -1047,3 +1047,35 @@ fn forward_jacobians_with_joint_actuator_force_ranges_match_central_differences(
         Coordinates::Embedded,
     );
 }
+
+#[test]
+fn forward_jacobians_with_adhesion_match_central_differences() {
+    // An adhesive box (departure 7: 1 N within 2 mm, with a 1 mm margin) hanging tilted from a
+    // ceiling, one edge pressed 0.3 mm past the margin and the other 4 mm out: points pressed,
+    // pulling in the gap and past it all count, sliding and turning.
+    let xml = r#"<mujoco>
+  <worldbody>
+    <geom name="ceiling" type="plane" size="1 1 0.1" pos="0 0 0.3" zaxis="0 0 -1"/>
+    <body name="box" pos="0 0 0.25">
+      <freejoint/>
+      <geom type="box" size="0.05 0.04 0.05" mass="0.1" adhesion="1" gap="0.002" margin="0.001"/>
+    </body>
+  </worldbody>
+</mujoco>"#;
+    let model = scm::scene::load_str(xml, std::path::Path::new("adhesion.xml"))
+        .unwrap()
+        .model;
+    assert_eq!((model.pairs[0].adhesion, model.pairs[0].gap), (1.0, 0.002));
+    let mut p = Point::start(&model);
+    // Tilted 0.043 rad about y: the top face's edges 0.05 m from the axis rise and sink by
+    // 2.15 mm, from 0.3 mm past the margin's rest to 4 mm away.
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.043, 0.0));
+    p.q = vec![0.0, 0.0, 0.3 - 0.05 - 0.001 - 0.0018, r.w, r.i, r.j, r.k];
+    p.v = vec![0.02, -0.01, 0.005, 0.1, -0.2, 0.05];
+    let f = model.forward(&p.q, &p.v, &p.u, &p.params).unwrap();
+    let pc = f.contacts[0].as_ref().expect("in reach");
+    assert!(pc.on_a.force.norm() > 0.1, "{:?}", pc.on_a.force);
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        check_forward_jacobian_step(&format!("adhesion {coords:?}"), &model, &p, coords, 1e-6);
+    }
+}

@@ -496,6 +496,8 @@ fn a_one_point_aopc() {
         friction: 0.5,
         dissipation_force: f64::INFINITY,
         margin: 0.0,
+        adhesion: 0.0,
+        gap: 0.0,
         dissipation: Dissipation::Paper,
     };
     let frame = |z: f64| Frame {

@@ -20,6 +20,8 @@ fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
         friction: 0.5,
         dissipation_force: f64::INFINITY,
         margin: 0.0,
+        adhesion: 0.0,
+        gap: 0.0,
         dissipation: Dissipation::Paper,
     }
 }
@@ -135,16 +137,20 @@ fn pruned_pair_matches_naive_on_random_configurations() {
         } else {
             fa
         };
-        // The last with a 1 cm margin (the springs rest 1 cm outside: the band's spring bounds
-        // and the force pruning count from there).
-        for (eps1, eps2, margin) in [
-            (1e-5, 1e-3, 0.0),
-            (1e-6, 1e-4, 0.0),
-            (1e-8, 1e-6, 0.0),
-            (1e-5, 1e-3, 0.01),
+        // The fourth with a 1 cm margin (the springs rest 1 cm outside: the band's spring
+        // bounds and the force pruning count from there), the last adhesive too (2 N within
+        // 4 mm past a 2 mm margin, departure 7: the bounds count from 6 mm out).
+        for (eps1, eps2, margin, (adhesion, gap)) in [
+            (1e-5, 1e-3, 0.0, (0.0, 0.0)),
+            (1e-6, 1e-4, 0.0, (0.0, 0.0)),
+            (1e-8, 1e-6, 0.0, (0.0, 0.0)),
+            (1e-5, 1e-3, 0.01, (0.0, 0.0)),
+            (1e-5, 1e-3, 0.002, (2.0, 0.004)),
         ] {
             let prm = ContactParams {
                 margin,
+                adhesion,
+                gap,
                 ..params(eps1, eps2)
             };
             let p = pair_contact(a, &fa, b, &fb, &prm);
@@ -153,7 +159,7 @@ fn pruned_pair_matches_naive_on_random_configurations() {
                 &p,
                 &n,
                 eps2,
-                &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}, margin {margin}"),
+                &format!("case {case}, dist {dist}, eps {eps1:e}/{eps2:e}, margin {margin}, adhesion {adhesion}"),
             );
             let band = separation_band(a, &fa, b, &fb, eps1, eps2);
             pruned_points += a.len() + b.len() - band.evaluated;

@@ -13,7 +13,7 @@ const GOOD: &str = r#"<mujoco model="m">
     <geom name="ground" type="plane" size="1 1 0.1"/>
     <body name="ball" pos="0 0 0.3">
       <freejoint/>
-      <geom type="sphere" size="0.05" mass="1"/>
+      <geom name="g" type="sphere" size="0.05" mass="1"/>
     </body>
   </worldbody>
 </mujoco>"#;
@@ -81,6 +81,27 @@ fn each_kind_of_mistake_is_named_with_its_line() {
             "size needs 2",
         ),
         (r#"type="sphere""#, r#"type="blob""#, 6, "geom", "blob"),
+        (
+            r#"size="0.05" mass="1""#,
+            r#"size="0.05" mass="1" adhesion="-1""#,
+            6,
+            "geom",
+            "0 or more",
+        ),
+        (
+            r#"size="0.05" mass="1""#,
+            r#"size="0.05" mass="1" adhesion="1" gap="0.1 0.2""#,
+            6,
+            "geom",
+            "expected one number",
+        ),
+        (
+            r#"</worldbody>"#,
+            "</worldbody>\n<contact><pair geom1=\"ground\" geom2=\"g\" adhesion=\"-2\"/></contact>",
+            9,
+            "pair",
+            "must not be negative",
+        ),
         (
             r#"<body name="ball" pos="0 0 0.3">"#,
             r#"<body name="ball" pos="0 0 0.3" quat="0 0 0 0">"#,
@@ -217,8 +238,8 @@ fn structural_mistakes_are_refused() {
         .contains("body name 'ball' is given twice"));
     // A moving body without mass.
     let massless = GOOD.replace(
-        r#"<geom type="sphere" size="0.05" mass="1"/>"#,
-        r#"<geom type="sphere" size="0.05" mass="0"/>"#,
+        r#"<geom name="g" type="sphere" size="0.05" mass="1"/>"#,
+        r#"<geom name="g" type="sphere" size="0.05" mass="0"/>"#,
     );
     assert!(err(&massless).to_string().contains("no mass"));
     // An actuator on a joint that does not exist.

@@ -87,11 +87,30 @@ pub fn point_plane_force_jacobian_at(
     prm: &ContactParams<f64>,
 ) -> (Vector3<f64>, Vector3<f64>, Matrix3<f64>) {
     let phi = phi - prm.margin;
-    if phi > 746.0 * prm.eps3 {
+    if phi > prm.bound_margin() - prm.margin + 746.0 * prm.eps3 {
         return (Vector3::zeros(), Vector3::zeros(), Matrix3::zeros());
     }
-    let spring = prm.stiffness * softplus(-phi, prm.eps3);
-    let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
+    // The spring c and its slope; with adhesion (departure 7) c = W f and the pull p = W δ,
+    // W = σ((g - y)/ε3) with W' = -W (1 - W)/ε3, f = k s⁺_ε3(δ/k - y).
+    let (spring, dspring, pull, dpull) = if prm.adhesion > 0.0 {
+        // The same operations in the same order as `adhesive_spring`, so the values agree
+        // to the bit with `point_plane_force_at`'s.
+        let window = logistic((prm.gap - phi) / prm.eps3);
+        let dwindow = -window * (1.0 - window) / prm.eps3;
+        let shift = prm.adhesion / prm.stiffness;
+        let f = softplus(shift - phi, prm.eps3);
+        let df = -1.0 / (1.0 + ((phi - shift) / prm.eps3).exp());
+        (
+            window * prm.stiffness * f,
+            prm.stiffness * (dwindow * f + window * df),
+            window * prm.adhesion,
+            dwindow * prm.adhesion,
+        )
+    } else {
+        let spring = prm.stiffness * softplus(-phi, prm.eps3);
+        let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
+        (spring, dspring, 0.0, 0.0)
+    };
     let vn = n.dot(v);
     let vd = prm.dissipation_velocity_at(spring);
     let (d, dd) = prm.dissipation.factor_slope(vn / vd);
@@ -101,13 +120,18 @@ pub fn point_plane_force_jacobian_at(
     } else {
         d
     };
-    let lambda_n = spring * d;
+    let pressed = spring * d;
     let vt = v - n * vn;
     let norm = smooth_norm(&vt, prm.stiction_velocity);
-    let lambda = n * lambda_n + vt * (-prm.friction * lambda_n / norm);
+    let lambda_n = if prm.adhesion > 0.0 {
+        pressed - pull
+    } else {
+        pressed
+    };
+    let lambda = n * lambda_n + vt * (-prm.friction * pressed / norm);
     let u = vt / norm;
     let e = n - u * prm.friction;
-    let dphi = e * (dspring * d_through_spring);
+    let dphi = e * (dspring * d_through_spring) - n * dpull;
     let dv = e * n.transpose() * (spring * dd / vd)
         - (Matrix3::identity() - n * n.transpose() - u * u.transpose())
             * (spring * prm.friction * d / norm);

@@ -25,8 +25,8 @@ use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
 pub use params::{ContactParams, Dissipation, Param};
 pub(crate) use point::{
-    half_space_force, point_force, point_force_naive, sliding_velocity, ForceSink, NoForceSink,
-    PlaneTerm, PointForce, SoftAverage,
+    half_space_force, logistic, point_force, point_force_naive, sliding_velocity, ForceSink,
+    NoForceSink, PlaneTerm, PointForce, SoftAverage,
 };
 pub use point::{point_plane_force, point_plane_force_at};
 pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
@@ -192,7 +192,8 @@ pub(super) fn for_each_force<T: Scalar>(
             continue;
         };
         let w = weights[i].re() / norm;
-        let spring = prm_re.stiffness.abs() * e.springs;
+        // With adhesion the bound's stiffness and margin (departure 7).
+        let spring = prm_re.bound_stiffness() * e.springs;
         if w == 0.0 || spring == 0.0 {
             continue; // zero or subnormal (doc of `pair_contact`)
         }
@@ -281,7 +282,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         prm.eps2,
         SpringShape {
             eps3: prm.eps3.re(),
-            margin: prm.margin.re(),
+            margin: prm.bound_margin(),
         },
         BandWork {
             keep_terms,

@@ -102,6 +102,13 @@ pub struct ContactParams<T> {
     /// `<pair margin>`; docs/mjcf.md). 0: the paper's law. A pair's own value
     /// ([`crate::model::Pair`]), not an FMU parameter.
     pub margin: T,
+    /// Adhesion δ (N; MuJoCo's geom `adhesion`): the contact can pull with up to δ, within the
+    /// gap past its margin (docs/method.md, departure 7). 0: none, the paper's law. A pair's
+    /// own value, not an FMU parameter.
+    pub adhesion: f64,
+    /// Gap g (m; MuJoCo's geom `gap`): how far past the margin an adhesive contact still pulls.
+    /// Read only with adhesion. A pair's own value.
+    pub gap: f64,
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
 }
@@ -118,6 +125,8 @@ impl Default for ContactParams<f64> {
             friction: 0.5,
             dissipation_force: f64::INFINITY,
             margin: 0.0,
+            adhesion: 0.0,
+            gap: 0.0,
             dissipation: Dissipation::Paper,
         }
     }
@@ -147,7 +156,32 @@ impl<T: Scalar> ContactParams<T> {
             friction: self.friction.re(),
             dissipation_force: self.dissipation_force.re(),
             margin: self.margin.re(),
+            adhesion: self.adhesion,
+            gap: self.gap,
             dissipation: self.dissipation,
+        }
+    }
+
+    /// Where the bounds of the pair's forces count from (m): the margin, or with adhesion
+    /// `m + max(δ/k, g)`. With `k* = `[`ContactParams::bound_stiffness`] every point–plane
+    /// force is at most `k* s⁺_ε3(m* - φ) (1 + V/v_d) √(1 + μ²)`, the paper's bound with
+    /// `(k*, m*)` for `(k, m)` (docs/method.md, departure 7), so the pruning and the proofs of
+    /// being out of reach read these two and nothing else of the adhesion.
+    pub fn bound_margin(&self) -> f64 {
+        if self.adhesion > 0.0 {
+            self.margin.re() + self.gap.max(self.adhesion / self.stiffness.re().abs())
+        } else {
+            self.margin.re()
+        }
+    }
+
+    /// The stiffness the force bounds read (N/m): `k`, or with adhesion `k + δ/ε3`
+    /// ([`ContactParams::bound_margin`]).
+    pub fn bound_stiffness(&self) -> f64 {
+        if self.adhesion > 0.0 {
+            self.stiffness.re().abs() + self.adhesion / self.eps3.re()
+        } else {
+            self.stiffness.re().abs()
         }
     }
 }
@@ -159,7 +193,7 @@ impl ContactParams<f64> {
         crate::collision::ReachParams {
             eps1: self.eps1,
             eps3: self.eps3,
-            margin: self.margin,
+            margin: self.bound_margin(),
             dissipation_velocity: self.dissipation_velocity,
             friction: self.friction,
         }
@@ -177,6 +211,8 @@ impl ContactParams<f64> {
             friction: c(self.friction),
             dissipation_force: c(self.dissipation_force),
             margin: c(self.margin),
+            adhesion: self.adhesion,
+            gap: self.gap,
             dissipation: self.dissipation,
         }
     }

@@ -37,34 +37,92 @@ pub fn point_plane_force_at<T: Scalar>(
     }
 }
 
-/// The spring `c = k s⁺_ε3(m - φ)` of a plane whose reading is `phi` ([`point_plane_force_at`]):
-/// what of the point–plane force does not depend on the velocity. `None` far outside the
-/// plane, where the spring underflows to exactly zero and the whole force (normal and friction
-/// both scale with it) with it.
+/// What of a point–plane force does not depend on the velocity: the spring `c` the
+/// dissipation factor and the friction scale, and the adhesion's pull `p` (0 without).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Spring<T> {
+    pub(crate) c: T,
+    pub(crate) pull: T,
+}
+
+impl<T: Scalar> Spring<T> {
+    /// Real parts.
+    pub(crate) fn re(&self) -> Spring<f64> {
+        Spring {
+            c: self.c.re(),
+            pull: self.pull.re(),
+        }
+    }
+}
+
+/// The spring of a plane whose reading is `phi` ([`point_plane_force_at`]): `c = k s⁺_ε3(m - φ)`,
+/// no pull; with adhesion δ and gap g (docs/method.md, departure 7), with `y = φ - m` and the
+/// window `W = σ((g - y)/ε3)`, `c = W k s⁺_ε3(δ/k - y)` and `p = W δ`. `None` far outside the
+/// plane, where the spring (and the window) underflow to exactly zero and the whole force
+/// (normal and friction both scale with them) with it.
 #[inline]
-pub(crate) fn spring_at<T: Scalar>(phi: T, prm: &ContactParams<T>) -> Option<T> {
+pub(crate) fn spring_at<T: Scalar>(phi: T, prm: &ContactParams<T>) -> Option<Spring<T>> {
     // The spring reads the distance past the margin, where it rests.
     let phi = phi - prm.margin;
-    (phi.re() <= 746.0 * prm.eps3.re()).then(|| prm.stiffness * softplus(-phi, prm.eps3))
+    if prm.adhesion > 0.0 {
+        return adhesive_spring(phi, prm);
+    }
+    (phi.re() <= 746.0 * prm.eps3.re()).then(|| Spring {
+        c: prm.stiffness * softplus(-phi, prm.eps3),
+        pull: T::zero(),
+    })
+}
+
+/// [`spring_at`] of an adhesive pair, `y` the reading less the margin.
+#[inline]
+fn adhesive_spring<T: Scalar>(y: T, prm: &ContactParams<T>) -> Option<Spring<T>> {
+    let reach = prm.bound_margin() - prm.margin.re();
+    if y.re() > reach + 746.0 * prm.eps3.re() {
+        return None;
+    }
+    let window = logistic((c::<T>(prm.gap) - y) / prm.eps3);
+    let shift = c::<T>(prm.adhesion) / prm.stiffness;
+    Some(Spring {
+        c: window * prm.stiffness * softplus(shift - y, prm.eps3),
+        pull: window * prm.adhesion,
+    })
+}
+
+/// The logistic function `1 / (1 + e^{-x})`, 0 and 1 at the ends without overflow.
+#[inline]
+pub(crate) fn logistic<T: Scalar>(x: T) -> T {
+    if x.re() >= 0.0 {
+        (T::one() + (-x).exp()).recip()
+    } else {
+        let e = x.exp();
+        e / (T::one() + e)
+    }
 }
 
 /// The point–plane force of a plane whose spring is `spring` ([`spring_at`]) on a point moving
 /// with `v` relative to the plane body's material point: the spring times the dissipation
-/// factor, along the normal, and the regularized Coulomb friction.
+/// factor, less the adhesion's pull, along the normal, and the regularized Coulomb friction
+/// of the spring times the factor (MuJoCo's friction budget `μ (f_N + δ)`).
 #[inline]
 pub(crate) fn force_of_spring<T: Scalar>(
-    spring: T,
+    spring: Spring<T>,
     n: &Vector3<T>,
     v: &Vector3<T>,
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
+    let Spring { c: spring, pull } = spring;
     let vn = n.dot(v);
-    let lambda_n = spring
+    let pressed = spring
         * prm
             .dissipation
             .factor(vn / prm.dissipation_velocity_at(spring));
     let vt = v - n * vn;
-    let lambda_t = vt * (-prm.friction * lambda_n / smooth_norm(&vt, prm.stiction_velocity));
+    let lambda_t = vt * (-prm.friction * pressed / smooth_norm(&vt, prm.stiction_velocity));
+    let lambda_n = if prm.adhesion > 0.0 {
+        pressed - pull
+    } else {
+        pressed
+    };
     n * lambda_n + lambda_t
 }
 
@@ -117,7 +175,7 @@ pub(crate) fn sliding_velocity<T: Scalar>(
 pub(crate) fn half_space_force<T: Scalar>(
     x: &Vector3<T>,
     n: &Vector3<T>,
-    spring: Option<T>,
+    spring: Option<Spring<T>>,
     v_point: &Vector3<T>,
     angvel_planes: &Vector3<T>,
     prm: &ContactParams<T>,
@@ -174,7 +232,7 @@ impl<'a, T: Scalar> SoftAverage<'a, T> {
     /// Adds the term of the plane with normal `n`, softmax weight `w`, whose spring reads
     /// `phi` ([`plane_reading`]); returns the spring ([`spring_at`]), for a replay.
     #[inline]
-    pub(crate) fn add(&mut self, w: T, n: &Vector3<T>, phi: T) -> Option<T> {
+    pub(crate) fn add(&mut self, w: T, n: &Vector3<T>, phi: T) -> Option<Spring<T>> {
         let spring = spring_at(phi, self.prm);
         self.add_spring(w, n, spring);
         spring
@@ -183,7 +241,7 @@ impl<'a, T: Scalar> SoftAverage<'a, T> {
     /// Adds the term of the plane with normal `n`, softmax weight `w` and spring `spring`
     /// ([`spring_at`]): the sum [`SoftAverage::add`] makes, without the spring's work.
     #[inline]
-    pub(crate) fn add_spring(&mut self, w: T, n: &Vector3<T>, spring: Option<T>) {
+    pub(crate) fn add_spring(&mut self, w: T, n: &Vector3<T>, spring: Option<Spring<T>>) {
         self.weight += w;
         if let Some(c) = spring {
             self.force += force_of_spring(c, n, &self.v, self.prm) * w;
@@ -212,7 +270,7 @@ pub(crate) struct PlaneTerm<'a> {
     pub(crate) n: &'a Vector3<f64>,
     pub(crate) v: Vector3<f64>,
     pub(crate) phi: f64,
-    pub(crate) spring: Option<f64>,
+    pub(crate) spring: Option<Spring<f64>>,
     pub(crate) dphi: &'a Vector3<f64>,
 }
 

@@ -25,7 +25,7 @@ use super::*;
 struct Term {
     w: f64,
     n: Vector3<f64>,
-    spring: Option<f64>,
+    spring: Option<super::point::Spring<f64>>,
 }
 
 /// The terms of one point–SSDF force, in the order they were summed.

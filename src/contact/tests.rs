@@ -40,13 +40,16 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     // nearly at rest, for both dissipation laws.
     // With a finite dissipation force (2 N and 20 N: the spring pushes with 10 N at 1 mm) the
     // spring moves the factor's argument too. With a 4 mm margin the same readings 4 mm
-    // farther out, and the force is the unshifted one at `φ - m`, to the bit.
+    // farther out, and the force is the unshifted one at `φ - m`, to the bit. With adhesion
+    // (3 N within a 0.5 mm gap, departure 7) the readings 0.3 mm and 0.6 mm out are inside the
+    // gap and at its edge, where the window turns the pull off.
     let n = Vector3::new(0.2, -0.3, 0.9).normalize();
     let laws = [Dissipation::Paper, Dissipation::Smooth]
         .into_iter()
         .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)))
-        .flat_map(|(d, f)| [0.0, 4e-3].map(|m| (d, f, m)));
-    for (dissipation, dissipation_force, margin) in laws {
+        .flat_map(|(d, f)| [0.0, 4e-3].map(|m| (d, f, m)))
+        .flat_map(|(d, f, m)| [(0.0, 0.0), (3.0, 5e-4)].map(|a| (d, f, m, a)));
+    for (dissipation, dissipation_force, margin, (adhesion, gap)) in laws {
         let prm = ContactParams {
             eps3: 1e-4,
             stiffness: 1e4,
@@ -56,12 +59,15 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             dissipation,
             dissipation_force,
             margin,
+            adhesion,
+            gap,
             ..ContactParams::default()
         };
         for (depth, vn, vt) in [
             (1e-3, -0.05, 0.03),
             (2e-4, 0.05, -0.2),
             (-3e-4, 0.15, 1e-3),
+            (-6e-4, -0.02, 0.05),
             (5e-4, 0.25, 0.1),
             (1e-3, 0.0, 0.0),
         ] {
@@ -98,11 +104,11 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             let fd = (along(1e-9) - along(-1e-9)) / 2e-9;
             assert!(
                 (dphi - dual).amax() <= 1e-12 * scale,
-                "{dissipation:?} {dissipation_force} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
+                "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
             );
             assert!(
                 (dphi - fd).amax() <= 1e-6 * scale,
-                "{dissipation:?} {dissipation_force} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
+                "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
             );
             for k in 0..3 {
                 let mut e = Vector3::zeros();
@@ -120,12 +126,12 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
                     / (2.0 * h);
                 assert!(
                     (dv.column(k) - dual).amax() <= 1e-12 * scale,
-                    "{dissipation:?} {dissipation_force} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
+                    "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
                     dv.column(k)
                 );
                 assert!(
                     (dv.column(k) - fd).amax() <= 1e-6 * scale,
-                    "{dissipation:?} {dissipation_force} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
+                    "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
                     dv.column(k)
                 );
             }
@@ -445,6 +451,79 @@ fn a_pairs_wrenches_are_equal_and_opposite_on_one_line() {
                 net_moment.norm() <= 1e-12 * largest * lever,
                 "{what} ({how}): net moment {net_moment:?} N m of {largest} N"
             );
+        }
+    }
+}
+
+#[test]
+fn an_adhesive_contact_presses_as_before_pulls_within_its_gap_and_stays_in_its_bound() {
+    // Departure 7 (docs/method.md): with adhesion δ and gap g the point–plane force at rest is
+    // the ordinary spring k (m - φ) in contact, a pull of δ from δ/k past the margin to the
+    // gap's edge, nothing past it; its friction scales with what presses (none in the gap).
+    // Sharp ε3 (10 µm) so the plateaus are flat to e^-10; the tolerances are those tails.
+    let n = Vector3::z();
+    let (k, eps3, delta, gap, margin) = (1e4, 1e-5, 3.0, 5e-4, 2e-3);
+    let plain = ContactParams {
+        stiffness: k,
+        eps3,
+        dissipation_velocity: 0.1,
+        stiction_velocity: 0.01,
+        friction: 0.5,
+        margin,
+        ..ContactParams::default()
+    };
+    let prm = ContactParams {
+        adhesion: delta,
+        gap,
+        ..plain
+    };
+    let at = |y: f64, v: Vector3<f64>, p: &ContactParams<f64>| {
+        point_plane_force_at(margin + y, &n, &v, p)
+    };
+    // Pressed 1 mm: the plain spring (10 N); sliding, the friction is μ times the spring,
+    // which is what presses plus δ (MuJoCo's budget μ (f_N + δ)).
+    let sliding = Vector3::new(0.3, 0.0, 0.0);
+    let (a, b) = (at(-1e-3, sliding, &prm), at(-1e-3, sliding, &plain));
+    assert!((a.z - b.z).abs() <= 1e-9 * b.z, "{a:?} vs {b:?}");
+    let budget = b.x * (b.z + delta) / b.z;
+    assert!(
+        (a.x - budget).abs() <= 1e-9 * budget.abs(),
+        "{a:?} vs {b:?}"
+    );
+    // In the gap: a pull of δ along -n, no friction.
+    for y in [delta / k + 10.0 * eps3, 4e-4, gap - 10.0 * eps3] {
+        let f = at(y, sliding, &prm);
+        assert!((f.z + delta).abs() <= 1e-4 * delta, "{y}: {f:?}");
+        assert!(f.x.abs() <= 1e-4 * delta, "{y}: {f:?}");
+    }
+    // Past the gap the pull is gone: e^-40 of δ 40 ε3 out, exactly 0 past the reach.
+    assert!(at(gap + 40.0 * eps3, sliding, &prm).norm() <= 1e-17 * delta);
+    let reach = prm.bound_margin() - margin + 746.0 * eps3;
+    assert_eq!(at(reach * 1.001, sliding, &prm), Vector3::zeros());
+    // The bound the pruning reads: |λ| ≤ k* s⁺(m* - φ) (1 + |v_n|/v_d) √(1 + μ²), and the
+    // damping only takes energy out: λ_n(v) - λ_n(0) has the sign of -v_n.
+    let (ks, ms) = (prm.bound_stiffness(), prm.bound_margin());
+    for i in 0..400 {
+        let y = -2e-3 + 3e-3 * (i as f64 / 399.0);
+        let rest = at(y, Vector3::zeros(), &prm).z;
+        for (vn, vt) in [
+            (-0.3, 0.1),
+            (-0.01, 0.0),
+            (0.02, 0.5),
+            (0.15, -0.05),
+            (0.4, 0.0),
+        ] {
+            let v = Vector3::new(vt, 0.0, vn);
+            let f = at(y, v, &prm);
+            let bound = ks
+                * crate::scalar::softplus(ms - (margin + y), eps3)
+                * (1.0 + vn.abs() / prm.dissipation_velocity)
+                * (1.0 + prm.friction.powi(2)).sqrt();
+            assert!(
+                f.norm() <= bound * (1.0 + 1e-12),
+                "{y} {vn}: {f:?} > {bound}"
+            );
+            assert!((f.z - rest) * vn <= 0.0, "{y} {vn}: {} vs {rest}", f.z);
         }
     }
 }

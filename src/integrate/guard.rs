@@ -234,7 +234,8 @@ pub(super) struct EnergyMonitor {
 /// while the bodies approach (damping adds to `|F|`) and low where forces of one pair cancel
 /// (one body inside another: the `k D²` term covers that). The old per-step bound `k (D² + ε3²)`
 /// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
-/// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`.
+/// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`. An adhesive pair adds
+/// `δ min((D - m)⁺, g)`, the work its pull can still do (docs/method.md, departure 7).
 pub fn contact_energy(
     pairs: &[crate::model::Pair],
     contacts: &[Option<crate::contact::PairContact<f64>>],
@@ -250,7 +251,12 @@ pub fn contact_energy(
             let f = pc.on_a.force.norm();
             // The spring reads the distance less the pair's margin.
             let deep = (pair.margin - pc.distance).max(0.0);
-            (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep)
+            // An adhesive pair (departure 7) pulls with up to δ from its gap's edge in to its
+            // margin: the work that pull can still do, `δ` times how far it can still pull,
+            // counted from the well's bottom so that what is stored is never negative (the
+            // balance reads it as energy that may turn into motion).
+            let well = pair.adhesion * (pc.distance - pair.margin).clamp(0.0, pair.gap);
+            (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep) + well
         })
         .sum()
 }

@@ -39,6 +39,12 @@ pub struct Pair {
     /// The pair's contact margin (m; [`ContactParams::margin`]): MuJoCo's `includemargin`,
     /// the sum of its geoms' `margin` or a `<pair>`'s own (docs/mjcf.md). 0: none.
     pub margin: f64,
+    /// The pair's adhesion (N; [`ContactParams::adhesion`]): MuJoCo's sum of its geoms'
+    /// `adhesion`, the higher `priority`'s, or a `<pair>`'s own. 0: none.
+    pub adhesion: f64,
+    /// The pair's gap (m; [`ContactParams::gap`]): the sum of its geoms' `gap` or a `<pair>`'s
+    /// own; read only with adhesion.
+    pub gap: f64,
     /// The pair's stiction floor per unit of friction coefficient (s·m/s² = m/s; 0: none):
     /// its stiction velocity is at least this times its friction coefficient, whatever the
     /// contact parameter says (above it the parameter acts). `κ h g` under an integrator that
@@ -68,6 +74,8 @@ impl Pair {
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
             margin: c(self.margin),
+            adhesion: self.adhesion,
+            gap: self.gap,
             ..*prm
         }
     }
@@ -487,6 +495,8 @@ mod tests {
             dissipation_velocity: None,
             dissipation_force: None,
             margin: 0.004,
+            adhesion: 0.0,
+            gap: 0.0,
             stiction_floor,
         }
     }

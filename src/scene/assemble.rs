@@ -268,6 +268,7 @@ impl Builder {
                         body1: name(p.a),
                         body2: name(p.b),
                         margin: p.margin,
+                        adhesion: (p.adhesion, p.gap),
                         stiction_floor: p.stiction_floor * p.friction.unwrap_or(f64::NAN),
                         law: law?,
                     })

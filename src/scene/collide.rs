@@ -244,6 +244,8 @@ impl Builder {
             friction,
             frictionless,
             margin,
+            adhesion,
+            gap,
             line,
             ..
         } in &self.explicit_pairs
@@ -279,7 +281,7 @@ impl Builder {
                 false => *friction,
             };
             explicit_friction.push(((x.min(y), x.max(y)), friction));
-            explicit_margin.push(((x.min(y), x.max(y)), *margin));
+            explicit_margin.push(((x.min(y), x.max(y)), *margin, (*adhesion, *gap)));
         }
         let rules = filter::Rules {
             bodies: &self.bodies,
@@ -337,10 +339,15 @@ impl Builder {
                     .find(|(k, _)| *k == (a, b))
                     .and_then(|(_, f)| *f);
                 let friction = own.or_else(|| self.geom_friction(a, b, &colliding));
-                let margin = match explicit_margin.iter().find(|(k, _)| *k == (a, b)) {
+                let explicit = explicit_margin.iter().find(|(k, _, _)| *k == (a, b));
+                let margin = match explicit {
                     _ if self.flags.override_contacts => self.contact_override.margin,
-                    Some((_, m)) => *m,
+                    Some((_, m, _)) => *m,
                     None => self.geom_margin(a, b, &colliding),
+                };
+                let (adhesion, gap) = match explicit {
+                    Some((_, _, own)) => *own,
+                    None => self.geom_adhesion(a, b, &colliding),
                 };
                 Pair {
                     a,
@@ -350,6 +357,8 @@ impl Builder {
                     dissipation_velocity: None,
                     dissipation_force: None,
                     margin,
+                    adhesion,
+                    gap,
                     stiction_floor: 0.0,
                 }
             })
@@ -444,6 +453,38 @@ impl Builder {
         }
     }
 
+    /// A body pair's adhesion and gap from its geoms as MuJoCo's collision driver combines
+    /// them per geom pair (adhesion: the sum, or the higher `priority`'s; gap: the sum); SCM's
+    /// pair is between bodies, so the largest of each over its geom pairs, with a warning
+    /// where they differ. `(0, 0)` without adhesive geoms.
+    pub(super) fn geom_adhesion(&mut self, a: usize, b: usize, colliding: &[bool]) -> (f64, f64) {
+        let values: Vec<(f64, f64)> = self
+            .geom_pairs(a, b, colliding)
+            .into_iter()
+            .map(|(x, y)| {
+                let (px, py) = (x.softness.priority, y.softness.priority);
+                let adhesion = match px.cmp(&py) {
+                    std::cmp::Ordering::Greater => x.adhesion,
+                    std::cmp::Ordering::Less => y.adhesion,
+                    std::cmp::Ordering::Equal => x.adhesion + y.adhesion,
+                };
+                (adhesion, x.gap + y.gap)
+            })
+            .collect();
+        let largest = values
+            .iter()
+            .fold((0.0f64, 0.0f64), |m, v| (m.0.max(v.0), m.1.max(v.1)));
+        if largest.0 > 0.0 && values.iter().any(|&v| v != largest) {
+            let (na, nb) = (&self.bodies[a].name, &self.bodies[b].name);
+            self.warnings.push(format!(
+                "bodies '{na}' and '{nb}': their geom pairs have different adhesion or gap ({}); SCM's contact acts between whole bodies and uses the largest, adhesion {} N within a gap of {} m, so they pull wherever they come that near, not only at the adhesive geoms",
+                values.iter().map(|v| format!("{} N, {} m", v.0, v.1)).collect::<Vec<_>>().join("; "),
+                largest.0, largest.1
+            ));
+        }
+        largest
+    }
+
     /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
     /// collide, or, for an explicit pair or whole-body contact past the bits, every pair of
     /// their colliding geoms.
@@ -502,7 +543,7 @@ impl Builder {
                         c,
                         &[
                             "name", "geom1", "geom2", "friction", "condim", "solref", "solimp",
-                            "margin",
+                            "margin", "adhesion", "gap",
                         ],
                     )?;
                     let friction = self.friction_list(c, "friction", 5)?.map(|v| v[0]);
@@ -518,12 +559,19 @@ impl Builder {
                         .ok_or_else(|| self.err(c, "geom2 is required"))?;
                     let softness = self.softness(c, contact::Softness::default())?;
                     let margin = self.float(c, "margin")?.unwrap_or(0.0);
+                    let adhesion = self.float(c, "adhesion")?.unwrap_or(0.0);
+                    let gap = self.float(c, "gap")?.unwrap_or(0.0);
+                    if adhesion < 0.0 || gap < 0.0 {
+                        return Err(self.err(c, "adhesion and gap must not be negative"));
+                    }
                     self.explicit_pairs.push(ExplicitPair {
                         geoms: [g1.into(), g2.into()],
                         friction,
                         frictionless: c.attr("condim") == Some("1"),
                         softness,
                         margin,
+                        adhesion,
+                        gap,
                         line: c.line,
                     });
                 }

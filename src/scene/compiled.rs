@@ -54,6 +54,8 @@ pub struct CompiledPair {
     pub body2: String,
     /// Its margin (m; [`crate::model::Pair::margin`]).
     pub margin: f64,
+    /// Its adhesion (N) and gap (m; [`crate::model::Pair::adhesion`], [`crate::model::Pair::gap`]).
+    pub adhesion: (f64, f64),
     /// The least stiction velocity it takes (m/s; [`crate::model::Pair::stiction_floor`] times
     /// its friction; NaN where the scene's `scm_friction` gives it, 0 for none).
     pub stiction_floor: f64,

@@ -26,6 +26,7 @@ impl Builder {
                 "solmix",
                 "priority",
                 "margin",
+                "adhesion",
                 "mesh",
                 "fluidshape",
                 "fluidcoef",
@@ -89,6 +90,21 @@ impl Builder {
         };
         let softness = self.geom_softness(el)?;
         let margin = self.float(el, "margin")?.unwrap_or(0.0);
+        let adhesion = self.float(el, "adhesion")?.unwrap_or(0.0);
+        if adhesion < 0.0 {
+            return Err(self.err(el, format!("adhesion=\"{adhesion}\" is negative: it is the pull a contact can hold (N), 0 or more")));
+        }
+        // Read only where a pair is adhesive (the attribute stays in the list of those noted
+        // unused otherwise).
+        let gap = match el.attr("gap") {
+            Some(g) => parse_floats(g)
+                .filter(|v| v.len() == 1 && v[0] >= 0.0)
+                .map(|v| v[0])
+                .ok_or_else(|| {
+                    self.err(el, format!("gap=\"{g}\": expected one number, 0 or more"))
+                })?,
+            None => 0.0,
+        };
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         // MuJoCo's `sdf` geom collides by its plugin's distance field; SCM by the closed
         // surface of its mesh (`sdf.rs`), as a mesh geom.
@@ -343,6 +359,8 @@ impl Builder {
             condim,
             softness,
             margin,
+            adhesion,
+            gap,
             file: el.file.to_string(),
             line: el.line,
             spacing: None,

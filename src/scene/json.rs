@@ -68,6 +68,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         "friction": g.friction, "condim": g.condim,
         "solref": g.softness.softness.solref, "solimp": g.softness.softness.solimp,
         "solmix": g.softness.solmix, "priority": g.softness.priority, "margin": g.margin,
+        "adhesion": g.adhesion, "gap": g.gap,
     })
 }
 
@@ -301,8 +302,9 @@ impl Compiled {
             "joints": joints,
             "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
             "actuators": actuators,
-            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, stiction_floor, law }| json!({
+            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, adhesion, stiction_floor, law }| json!({
                 "body1": body1, "body2": body2, "margin": margin,
+                "adhesion": adhesion.0, "gap": adhesion.1,
                 "stiction_floor": if stiction_floor.is_nan() { None } else { Some(stiction_floor) },
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
                 "mass": law.mass, "mujoco_depth": law.depth,

@@ -88,6 +88,10 @@ struct ExplicitPair {
     frictionless: bool,
     softness: contact::Softness,
     margin: f64,
+    /// `adhesion` and `gap`, its own (0 if not given: MuJoCo does not take a pair's from its
+    /// geoms).
+    adhesion: f64,
+    gap: f64,
     line: usize,
 }
 
@@ -148,6 +152,12 @@ pub struct Geom {
     /// `margin` (m, default 0): the geom's share of its contacts' margin (MuJoCo adds the two
     /// geoms', [`crate::model::Pair::margin`]).
     pub margin: f64,
+    /// `adhesion` (N, default 0): the pull its contacts can hold (MuJoCo adds the two geoms',
+    /// or takes the higher `priority`'s, [`crate::model::Pair::adhesion`]).
+    pub adhesion: f64,
+    /// `gap` (m, default 0): how far past the margin its adhesive contacts still pull (MuJoCo
+    /// adds the two geoms').
+    pub gap: f64,
     /// The file that declares the geom.
     pub file: String,
     /// Its line there.

@@ -221,6 +221,14 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         } else {
             String::new()
         };
+        let margin = if p.adhesion > 0.0 {
+            format!(
+                "{margin}, adhesion {} N within {} m past the margin (it pulls)",
+                p.adhesion, p.gap
+            )
+        } else {
+            margin
+        };
         let floor = match p.friction {
             _ if p.stiction_floor == 0.0 => String::new(),
             Some(mu) => format!(
