@@ -27,7 +27,7 @@ fi
 scripts/setup.sh
 if $quick; then
   cargo fmt --check
-  # 10⁶ steps of t_push (about 7 min), 10⁴ random FMI call sequences, two fine pruned-vs-naive pairs.
+  # 10⁵ steps of t_push (about a minute), 10⁴ random FMI call sequences, two fine pruned-vs-naive pairs.
   # The examples are not built here (about 25 s of the rebuild after an engine edit): clippy
   # and the full suite build them, and no quick test runs one.
   cargo test --release --lib --bins --tests -- --skip long_run::t_push \
