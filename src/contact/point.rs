@@ -45,6 +45,16 @@ pub(crate) struct Spring<T> {
     pub(crate) pull: T,
 }
 
+impl Spring<f64> {
+    /// The same spring on scalar `T` (no derivative part).
+    pub(crate) fn lift<T: Scalar>(&self) -> Spring<T> {
+        Spring {
+            c: c(self.c),
+            pull: c(self.pull),
+        }
+    }
+}
+
 impl<T: Scalar> Spring<T> {
     /// Real parts.
     pub(crate) fn re(&self) -> Spring<f64> {

@@ -157,36 +157,41 @@ impl PairTape {
 
     /// The wrenches on `a` and `b` (the colliders it was recorded for) with the bodies moving
     /// as `fa` and `fb` say, at the positions the tape was recorded at (`fa`, `fb` must have
-    /// those poses).
-    pub fn replay(
+    /// those poses). On dual numbers whose positions carry no derivative, the replay's
+    /// derivatives with respect to the bodies' velocities: what damped Euler's Newton
+    /// Jacobian is made of (`FrozenForward::step_jacobian`); on `f64`, the same arithmetic.
+    pub fn replay<T: Scalar>(
         &self,
         a: &Collider,
-        fa: &Frame<f64>,
+        fa: &Frame<T>,
         b: &Collider,
-        fb: &Frame<f64>,
-        prm: &ContactParams<f64>,
-    ) -> [Wrench<f64>; 2] {
+        fb: &Frame<T>,
+        prm: &ContactParams<T>,
+    ) -> [Wrench<T>; 2] {
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let mut sums = [SideSums::zero(), SideSums::zero()];
         // Terms summed again for the entries past the budget.
         let (mut scratch, mut again) = (Relevant::default(), Vec::new());
         for e in &self.entries {
             let rel = &rels[e.side];
-            let v_point = rel.linvel + rel.angvel.cross(&e.arm);
+            let arm = lift3(&e.arm);
+            let v_point = rel.linvel + rel.angvel.cross(&arm);
             let w_planes = &rel.angvel_planes;
             // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation).
-            let x = e.arm + rel.translation;
+            let x = arm + rel.translation;
             // The point force by the arithmetic the live evaluation uses (`point_force`),
             // from the recorded terms or, past the budget, from the terms found again.
             let pf = match &e.terms {
                 Some(range) if e.half_space => {
                     let t = &self.terms[range.start];
-                    half_space_force(&x, &t.n, t.spring, &v_point, w_planes, prm).0
+                    let spring = t.spring.as_ref().map(super::point::Spring::lift);
+                    half_space_force(&x, &lift3(&t.n), spring, &v_point, w_planes, prm).0
                 }
                 Some(range) => {
                     let mut average = SoftAverage::new(x, &v_point, w_planes, prm);
                     for t in &self.terms[range.clone()] {
-                        average.add_spring(t.w, &t.n, t.spring);
+                        let spring = t.spring.as_ref().map(super::point::Spring::lift);
+                        average.add_spring(c(t.w), &lift3(&t.n), spring);
                     }
                     average.finish()
                 }
@@ -200,7 +205,7 @@ impl PairTape {
                     point_force(planes, &x, &v_point, w_planes, prm, terms, &mut NoForceSink)
                 }
             };
-            sums[e.side].add(&e.arm, &pf, e.weight);
+            sums[e.side].add(&arm, &pf, c(e.weight));
         }
         SideSums::wrenches(sums, fa, fb)
     }

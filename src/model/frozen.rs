@@ -4,18 +4,24 @@
 //! several `V` per step; here everything that does not depend on `V` is computed once: the
 //! kinematics, the damped mass matrix and its factorization, the passive and actuator forces,
 //! and each pair's contact terms ([`PairTape`]), so an evaluation costs the point–plane forces
-//! and one pass of the tree.
+//! and one pass of the tree. Newton's Jacobian of the step equation comes from the same tapes
+//! ([`FrozenForward::contact_force`], [`FrozenForward::step_jacobian`]): only the contact forces depend on `V`, so only they
+//! are differentiated, where a Jacobian through `Model::forward_at` on dual numbers would find
+//! the contact again and build the mass matrix on dual numbers in every pass.
 
 use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
 use crate::contact::PairTape;
 use crate::dynamics::MassFactor;
+use nalgebra::DMatrix;
 
 /// [`Model::forward_at`] on `f64` with a contact velocity, frozen at a configuration (see the
 /// module).
 pub struct FrozenForward<'m> {
     model: &'m Model,
     q: Vec<f64>,
+    /// The start velocity.
+    v: Vec<f64>,
     mocap: Vec<f64>,
     /// Kinematics at the start velocity (what every term but the contact is taken at).
     kin: Kinematics<f64>,
@@ -78,6 +84,7 @@ impl Model {
         let frozen = FrozenForward {
             model: self,
             q: q.to_vec(),
+            v: v.to_vec(),
             mocap: mocap.to_vec(),
             kin,
             rhs,
@@ -107,18 +114,61 @@ impl FrozenForward<'_> {
 
     /// The accelerations with the contact forces taken at the end velocity `v_contact`.
     pub fn vdot(&self, v_contact: &[f64]) -> Vec<f64> {
+        let at = self
+            .model
+            .tree
+            .kinematics_with(&self.q, v_contact, &self.mocap);
+        self.solve(self.contact_wrenches(&at, |p| *p))
+    }
+
+    /// The generalized contact force `τ_c(V) = Σ Jᵀ Λ(V)` at the end velocity `v_contact`, plus
+    /// terms that do not depend on it (gravity, the velocity products at the start velocity):
+    /// the only part of the step equation that depends on `V`. On dual numbers (the positions
+    /// carry none) the tapes replay the contact's velocity derivatives, and `Jᵀ` is the recursive
+    /// Newton–Euler pass at the start kinematics.
+    pub fn contact_force<T: Scalar>(&self, v_contact: &[T]) -> Vec<T> {
+        let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
+        let (q, v, mocap) = (lift(&self.q), lift(&self.v), lift(&self.mocap));
+        let tree = &self.model.tree;
+        let at = tree.kinematics_with(&q, v_contact, &mocap);
+        let wrenches = self.contact_wrenches(&at, |p| p.lift());
+        let start = tree.kinematics_with(&q, &v, &mocap);
+        // The bias with vdot = 0 is c(q, v) - Σ Jᵀ f_ext: its negative carries Σ Jᵀ Λ(V).
+        let bias = tree.rnea(&start, &vec![T::zero(); tree.nv], &wrenches);
+        bias.iter().map(|&b| -b).collect()
+    }
+
+    /// The Jacobian `∂r/∂V = I - h (M + h D)⁻¹ ∂τ_c/∂V` of damped Euler's step equation
+    /// `r(V) = V - v - h v̇(V)`, from `force_jacobian`, the Jacobian of
+    /// [`FrozenForward::contact_force`] at the same `V`: exact for [`FrozenForward::vdot`].
+    pub fn step_jacobian(&self, force_jacobian: &DMatrix<f64>, h: f64) -> DMatrix<f64> {
+        let n = force_jacobian.ncols();
+        let mut out = DMatrix::identity(n, n);
+        for k in 0..n {
+            let column = self.mass.solve(&force_jacobian.column(k).into_owned());
+            out.column_mut(k).axpy(-h, &column, 1.0);
+        }
+        out
+    }
+
+    /// Each recorded pair's wrenches at the kinematics `at` (the recorded positions), on the
+    /// bodies; `prm` gives a pair's parameters on `at`'s scalar.
+    fn contact_wrenches<T: Scalar>(
+        &self,
+        at: &Kinematics<T>,
+        prm: impl Fn(&ContactParams<f64>) -> ContactParams<T>,
+    ) -> Vec<Wrench<T>> {
         let m = self.model;
-        let at = m.tree.kinematics_with(&self.q, v_contact, &self.mocap);
         let mut wrenches = vec![Wrench::zero(); m.tree.bodies.len()];
         for (a, b, p, tape) in &self.tapes {
             let (Some(ca), Some(cb)) = (&m.colliders[*a], &m.colliders[*b]) else {
                 unreachable!("a recorded pair has both colliders")
             };
             let (fa, fb) = (&at.frames[*a], &at.frames[*b]);
-            let [on_a, on_b] = tape.replay(ca, fa, cb, fb, p);
+            let [on_a, on_b] = tape.replay(ca, fa, cb, fb, &prm(p));
             add_pair_wrenches(&mut wrenches, *a, *b, [&on_a, &on_b]);
         }
-        self.solve(wrenches)
+        wrenches
     }
 
     /// `(M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)` for the contact wrenches `wrenches`.
