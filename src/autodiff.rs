@@ -38,6 +38,16 @@ pub fn jacobian<F: VectorFunction + ?Sized>(
     }
 }
 
+/// How many passes of dual numbers [`jacobian`] takes for `n` inputs: one up to 16, else
+/// `⌈n/8⌉`.
+pub fn passes(n: usize) -> usize {
+    if n <= 16 {
+        1
+    } else {
+        n.div_ceil(8)
+    }
+}
+
 fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(
     f: &F,
     x: &[f64],
