@@ -38,6 +38,7 @@ fn params() -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        surface: None,
         dissipation: Dissipation::Paper,
     }
 }
@@ -245,6 +246,7 @@ fn pair_derivatives_match_central_differences() {
                 margin: 0.004,
                 adhesion: 0.0,
                 gap: 0.0,
+                surface: None,
                 dissipation: Dissipation::Paper,
             };
             pair_outputs(&spheres(
@@ -268,6 +270,7 @@ fn pair_derivatives_match_central_differences() {
                 margin: Dual64::from(0.004),
                 adhesion: 0.0,
                 gap: 0.0,
+                surface: None,
                 dissipation: Dissipation::Paper,
             };
             let exact: Vec<f64> =

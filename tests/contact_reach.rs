@@ -29,6 +29,7 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        surface: None,
         dissipation: Dissipation::Paper,
     }
 }
@@ -120,6 +121,7 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
             margin,
             adhesion,
             gap: adhesive_gap,
+            surface: None,
             ..params(p.0, p.1)
         };
         let margin = prm.bound_margin();

@@ -498,6 +498,7 @@ fn a_one_point_aopc() {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        surface: None,
         dissipation: Dissipation::Paper,
     };
     let frame = |z: f64| Frame {

@@ -154,7 +154,15 @@ fn attach_mistakes_are_refused_with_their_line_and_what_to_do() {
             r#"model="gripper" frame="f" prefix="l_""#,
             "attach the body it holds",
         ),
-        (r#"body="palm" prefix="l_""#, "no model=\"...\""),
+        // Without a model: a part of this same file, which has no body 'palm'.
+        (
+            r#"body="palm" prefix="l_""#,
+            "this model has no body named 'palm'",
+        ),
+        (
+            r#"prefix="l_""#,
+            "needs one of body=\"...\" or frame=\"...\"",
+        ),
         (
             r#"model="gripper" body="palm" prefix="l_" scale="2""#,
             "attribute 'scale'",

@@ -157,6 +157,36 @@ pub struct Relative<T: Scalar> {
     pub angvel: Vector3<T>,
     /// Angular velocity of the plane body.
     pub angvel_planes: Vector3<T>,
+    /// The moving surfaces' velocity field (MuJoCo's geom `surfacevel`; docs/method.md,
+    /// departure 8): the query body's surface material relative to the plane body's, `l + w × x`
+    /// at a point `x` (plane body's frame); `None` where neither body's surface moves.
+    pub surface: Option<Twist<T>>,
+}
+
+/// A velocity field of rigid motion, `lin + ang × x` at a point `x` of the frame it is written
+/// in: how a moving surface's material flows (MuJoCo's geom `surfacevel`, in its body's frame),
+/// or two such flows' difference.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Twist<T> {
+    /// The field's value at the frame's origin (m/s).
+    pub lin: Vector3<T>,
+    /// Its angular velocity (rad/s).
+    pub ang: Vector3<T>,
+}
+
+impl<T: Scalar> Twist<T> {
+    /// The field's value at `x`.
+    #[inline]
+    pub fn at(&self, x: &Vector3<T>) -> Vector3<T> {
+        self.lin + self.ang.cross(x)
+    }
+}
+
+impl Twist<f64> {
+    /// Whether the field is zero everywhere.
+    pub fn is_zero(&self) -> bool {
+        self.lin == Vector3::zeros() && self.ang == Vector3::zeros()
+    }
 }
 
 impl Relative<f64> {
@@ -169,6 +199,7 @@ impl Relative<f64> {
             linvel: Vector3::zeros(),
             angvel: Vector3::zeros(),
             angvel_planes: Vector3::zeros(),
+            surface: None,
         }
     }
 }
@@ -182,7 +213,40 @@ impl<T: Scalar> Relative<T> {
             linvel: crate::scalar::re3(&self.linvel),
             angvel: crate::scalar::re3(&self.angvel),
             angvel_planes: crate::scalar::re3(&self.angvel_planes),
+            surface: self.surface.map(|f| Twist {
+                lin: crate::scalar::re3(&f.lin),
+                ang: crate::scalar::re3(&f.ang),
+            }),
         }
+    }
+
+    /// This motion with the surface flows of the query body (`query`, in its frame) and of the
+    /// plane body (`planes`, in its frame): the query body's field carried into the plane
+    /// body's frame, `R l_q - (R w_q) × t + (R w_q) × x`, less the plane body's,
+    /// `l_p + w_p × x`.
+    pub fn with_surfaces(mut self, query: &Twist<f64>, planes: &Twist<f64>) -> Self {
+        let w = self.rotation * lift3::<T>(&query.ang);
+        let lin = self.rotation * lift3::<T>(&query.lin) - w.cross(&self.translation);
+        self.surface = Some(Twist {
+            lin: lin - lift3::<T>(&planes.lin),
+            ang: w - lift3::<T>(&planes.ang),
+        });
+        self
+    }
+}
+
+/// The two sides' motions of a pair of bodies with frames `fa` and `fb` (`a`'s points against
+/// `b`'s planes, then `b`'s against `a`'s), with the bodies' surface flows `surfaces` (`a`'s,
+/// `b`'s, each in its body's frame) where a surface moves.
+pub fn pair_relatives<T: Scalar>(
+    fa: &Frame<T>,
+    fb: &Frame<T>,
+    surfaces: Option<&[Twist<f64>; 2]>,
+) -> [Relative<T>; 2] {
+    let (ra, rb) = (fa.relative_to(fb), fb.relative_to(fa));
+    match surfaces {
+        None => [ra, rb],
+        Some([sa, sb]) => [ra.with_surfaces(sa, sb), rb.with_surfaces(sb, sa)],
     }
 }
 
@@ -217,6 +281,7 @@ impl<T: Scalar> Frame<T> {
             linvel: rt * (self.linvel - planes.linvel),
             angvel: rt * self.angvel,
             angvel_planes: rt * planes.angvel,
+            surface: None,
         }
     }
 }

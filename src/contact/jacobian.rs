@@ -220,6 +220,10 @@ impl LocalJacobian {
 /// `S = Σ_f W_f s_f`: `dS = Σ_f W_f (ds_f - s_f dΦ_f/ε2) + S dΦ̄/ε2`, and
 /// `dD = Σ_g W_g (1 - (Φ_g - D)/ε2) dΦ_g`. Finally `dx_f = dR a_f + dt`,
 /// `dv_f = du - [arm_f]× dω_q + [ω_q]× dR a_f`, `d arm_f = dR a_f`.
+///
+/// The paper's law only: a pair whose surfaces move (`prm.surface`, docs/method.md,
+/// departure 8) is refused (a panic); [`pair_contact`](super::pair_contact) takes dual numbers
+/// through such a pair instead.
 pub fn pair_jacobian(
     a: &Collider,
     b: &Collider,
@@ -227,6 +231,10 @@ pub fn pair_jacobian(
     prm: &ContactParams<f64>,
     scratch: &mut Scratch,
 ) -> ([f64; PAIR_OUTPUTS], Vec<f64>) {
+    assert!(
+        prm.surface.is_none() && rels.iter().all(|r| r.surface.is_none()),
+        "pair_jacobian is derived for surfaces at rest"
+    );
     const NI: usize = 2 * SIDE_INPUTS;
     let mut jac = vec![0.0; PAIR_OUTPUTS * NI];
     let mut grads = Vec::new();

@@ -6,8 +6,8 @@
 //! and a plane, [`pair_contact`] the contact between two colliders.
 
 use crate::collision::{
-    band_of, separation_field_naive, terms_budget, BandWork, CandidateMemo, Collider, Frame,
-    Relative, Scratch, SeparationBand, SeparationDistribution,
+    band_of, pair_relatives, separation_field_naive, terms_budget, BandWork, CandidateMemo,
+    Collider, Frame, Relative, Scratch, SeparationBand, SeparationDistribution,
 };
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
 use crate::geometry::Aopc;
@@ -17,6 +17,8 @@ use nalgebra::{Matrix3, Vector3};
 mod jacobian;
 mod params;
 mod point;
+#[cfg(test)]
+mod surface_tests;
 mod tape;
 #[cfg(test)]
 mod tests;
@@ -319,7 +321,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
             }
         };
         let mut snk = sink();
-        let pf = point_force(planes, &x, &v, &rel.angvel_planes, prm, terms, &mut snk);
+        let pf = point_force(planes, &x, &v, rel, prm, terms, &mut snk);
         let w = weights[i] / dist.normaliser;
         sums[side].add(&arm, &pf, w);
         let size = w.re() * re3(&pf.force).norm();
@@ -424,7 +426,9 @@ pub fn pair_contact_memo<T: Scalar>(
     ]
     .iter()
     .all(|x| x.is_constant());
-    if T::FIRST_ORDER && constant {
+    // The hand-derived Jacobian is the paper's law's: a moving surface's flow (departure 8)
+    // takes the path of every other scalar.
+    if T::FIRST_ORDER && constant && prm.surface.is_none() {
         pair_contact_chained(a, fa, b, fb, prm, scratch)
     } else {
         pair_contact_generic_memo(a, fa, b, fb, prm, kept, scratch)
@@ -453,7 +457,7 @@ fn pair_contact_generic_memo<T: Scalar>(
     kept: Option<&mut CandidateMemo>,
     scratch: &mut Scratch,
 ) -> PairContact<T> {
-    let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+    let rels = pair_relatives(fa, fb, prm.surface.as_ref());
     let parts = pair_sides(
         a,
         b,
@@ -495,18 +499,18 @@ pub fn pair_contact_naive<T: Scalar>(
             distance: dist.distance,
         };
     }
-    for (query, qf, planes, pf, phis, q_is_a) in [
-        (a, fa, b, fb, &field.of_a, true),
-        (b, fb, a, fa, &field.of_b, false),
+    let rels = pair_relatives(fa, fb, prm.surface.as_ref());
+    for (query, rel, planes, pf, phis, q_is_a) in [
+        (a, &rels[0], b, fb, &field.of_a, true),
+        (b, &rels[1], a, fa, &field.of_b, false),
     ] {
         let Collider::Aopc(s) = query else { continue };
-        let rel = qf.relative_to(pf);
         let mut sums = SideSums::zero();
         for (p, &phi) in s.points.iter().zip(phis) {
             let arm = rel.rotation * lift3::<T>(p);
             let x = arm + rel.translation;
             let v = rel.linvel + rel.angvel.cross(&arm);
-            let pf = point_force_naive(planes, &x, &v, &rel.angvel_planes, prm);
+            let pf = point_force_naive(planes, &x, &v, rel, prm);
             sums.add(&arm, &pf, dist.weight(0, phi));
         }
         sums.finish(pf, q_is_a, &mut on_a, &mut on_b);

@@ -109,6 +109,11 @@ pub struct ContactParams<T> {
     /// Gap g (m; MuJoCo's geom `gap`): how far past the margin an adhesive contact still pulls.
     /// Read only with adhesion. A pair's own value.
     pub gap: f64,
+    /// The moving surfaces of the pair's two bodies, `a`'s then `b`'s, each in its body's
+    /// frame (MuJoCo's geom `surfacevel`; docs/method.md, departure 8): the friction reads the
+    /// sliding of material on material. `None`: neither surface moves, the paper's law. A
+    /// pair's own value, not an FMU parameter.
+    pub surface: Option<[crate::collision::Twist<f64>; 2]>,
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
 }
@@ -127,6 +132,7 @@ impl Default for ContactParams<f64> {
             margin: 0.0,
             adhesion: 0.0,
             gap: 0.0,
+            surface: None,
             dissipation: Dissipation::Paper,
         }
     }
@@ -158,6 +164,7 @@ impl<T: Scalar> ContactParams<T> {
             margin: self.margin.re(),
             adhesion: self.adhesion,
             gap: self.gap,
+            surface: self.surface,
             dissipation: self.dissipation,
         }
     }
@@ -213,6 +220,7 @@ impl ContactParams<f64> {
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,
+            surface: self.surface,
             dissipation: self.dissipation,
         }
     }

@@ -3,7 +3,7 @@
 //! (paper eqs. 23–24; docs/method.md).
 
 use super::ContactParams;
-use crate::collision::Collider;
+use crate::collision::{Collider, Relative};
 use crate::geometry::polytope::Floor;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, SoftminSum};
 use nalgebra::Vector3;
@@ -32,7 +32,7 @@ pub fn point_plane_force_at<T: Scalar>(
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
     match spring_at(phi, prm) {
-        Some(spring) => force_of_spring(spring, n, v, prm),
+        Some(spring) => force_of_spring(spring, n, v, None, prm),
         None => Vector3::zeros(),
     }
 }
@@ -112,12 +112,16 @@ pub(crate) fn logistic<T: Scalar>(x: T) -> T {
 /// The point–plane force of a plane whose spring is `spring` ([`spring_at`]) on a point moving
 /// with `v` relative to the plane body's material point: the spring times the dissipation
 /// factor, less the adhesion's pull, along the normal, and the regularized Coulomb friction
-/// of the spring times the factor (MuJoCo's friction budget `μ (f_N + δ)`).
+/// of the spring times the factor (MuJoCo's friction budget `μ (f_N + δ)`). `surface`: the
+/// moving surfaces' relative flow at the point ([`Relative::surface`]), which the friction
+/// reads in the plane's tangent plane and the normal part does not (docs/method.md,
+/// departure 8).
 #[inline]
 pub(crate) fn force_of_spring<T: Scalar>(
     spring: Spring<T>,
     n: &Vector3<T>,
     v: &Vector3<T>,
+    surface: Option<&Vector3<T>>,
     prm: &ContactParams<T>,
 ) -> Vector3<T> {
     let Spring { c: spring, pull } = spring;
@@ -126,7 +130,13 @@ pub(crate) fn force_of_spring<T: Scalar>(
         * prm
             .dissipation
             .factor(vn / prm.dissipation_velocity_at(spring));
-    let vt = v - n * vn;
+    let vt = match surface {
+        None => v - n * vn,
+        Some(s) => {
+            let slide = v + s;
+            slide - n * n.dot(&slide)
+        }
+    };
     let lambda_t = vt * (-prm.friction * pressed / smooth_norm(&vt, prm.stiction_velocity));
     let lambda_n = if prm.adhesion > 0.0 {
         pressed - pull
@@ -176,22 +186,32 @@ pub(crate) fn sliding_velocity<T: Scalar>(
     v_point - angvel_planes.cross(x)
 }
 
+/// The moving surfaces' relative flow at the query point `x` ([`Relative::surface`]), if any.
+#[inline]
+pub(crate) fn surface_at<T: Scalar>(rel: &Relative<T>, x: &Vector3<T>) -> Option<Vector3<T>> {
+    rel.surface.as_ref().map(|f| f.at(x))
+}
+
 /// The force of one half-space on a query point `x` moving with `v_point` (plane body's frame),
-/// `spring` the spring of its distance from the plane with normal `n` ([`spring_at`]): the
-/// point–plane force, not weighted, and its reaction's moment about the plane body's origin;
-/// with the point's velocity relative to the plane body's material point at `x` (returned too). Written once for the live evaluation
-/// ([`point_force`]) and the tape's replay (`PairTape::replay`), so the two cannot drift apart.
+/// `spring` the spring of its distance from the plane with normal `n` ([`spring_at`]), the
+/// bodies' motion `rel`: the point–plane force, not weighted, and its reaction's moment about
+/// the plane body's origin; with the point's velocity relative to the plane body's material
+/// point at `x` (returned too). Written once for the live evaluation ([`point_force`]) and the
+/// tape's replay (`PairTape::replay`), so the two cannot drift apart.
 #[inline]
 pub(crate) fn half_space_force<T: Scalar>(
     x: &Vector3<T>,
     n: &Vector3<T>,
     spring: Option<Spring<T>>,
     v_point: &Vector3<T>,
-    angvel_planes: &Vector3<T>,
+    rel: &Relative<T>,
     prm: &ContactParams<T>,
 ) -> (PointForce<T>, Vector3<T>) {
-    let v = sliding_velocity(x, v_point, angvel_planes);
-    let lambda = spring.map_or_else(Vector3::zeros, |c| force_of_spring(c, n, &v, prm));
+    let v = sliding_velocity(x, v_point, &rel.angvel_planes);
+    let surface = surface_at(rel, x);
+    let lambda = spring.map_or_else(Vector3::zeros, |c| {
+        force_of_spring(c, n, &v, surface.as_ref(), prm)
+    });
     let pf = PointForce {
         force: lambda,
         moment: x.cross(&lambda),
@@ -208,23 +228,26 @@ pub(crate) struct SoftAverage<'a, T: Scalar> {
     /// (plane body's frame).
     x: Vector3<T>,
     v: Vector3<T>,
+    /// The moving surfaces' relative flow at `x`, if any.
+    surface: Option<Vector3<T>>,
     prm: &'a ContactParams<T>,
     force: Vector3<T>,
     weight: T,
 }
 
 impl<'a, T: Scalar> SoftAverage<'a, T> {
-    /// No term yet, for a query point `x` moving with `v_point` against planes turning with
-    /// `angvel_planes`.
+    /// No term yet, for a query point `x` moving with `v_point` against the planes of the
+    /// bodies' motion `rel`.
     #[inline]
     pub(crate) fn new(
         x: Vector3<T>,
         v_point: &Vector3<T>,
-        angvel_planes: &Vector3<T>,
+        rel: &Relative<T>,
         prm: &'a ContactParams<T>,
     ) -> Self {
         SoftAverage {
-            v: sliding_velocity(&x, v_point, angvel_planes),
+            v: sliding_velocity(&x, v_point, &rel.angvel_planes),
+            surface: surface_at(rel, &x),
             x,
             prm,
             force: Vector3::zeros(),
@@ -254,7 +277,7 @@ impl<'a, T: Scalar> SoftAverage<'a, T> {
     pub(crate) fn add_spring(&mut self, w: T, n: &Vector3<T>, spring: Option<Spring<T>>) {
         self.weight += w;
         if let Some(c) = spring {
-            self.force += force_of_spring(c, n, &self.v, self.prm) * w;
+            self.force += force_of_spring(c, n, &self.v, self.surface.as_ref(), self.prm) * w;
         }
     }
 
@@ -312,7 +335,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
     planes: &Collider,
     x: &Vector3<T>,
     v_point: &Vector3<T>,
-    angvel_planes: &Vector3<T>,
+    rel: &Relative<T>,
     prm: &ContactParams<T>,
     terms: &[(u32, T)],
     sink: &mut S,
@@ -324,7 +347,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
             let n = lift3::<T>(normal);
             let phi = n.dot(&r);
             let spring = spring_at(phi, prm);
-            let (pf, v) = half_space_force(x, &n, spring, v_point, angvel_planes, prm);
+            let (pf, v) = half_space_force(x, &n, spring, v_point, rel, prm);
             if S::ON {
                 sink.term(&PlaneTerm {
                     w: 1.0,
@@ -341,7 +364,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
         Collider::Aopc(s) => {
             let bvh = s.bvh();
             let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
-            let mut average = SoftAverage::new(*x, v_point, angvel_planes, prm);
+            let mut average = SoftAverage::new(*x, v_point, rel, prm);
             let v = re3(average.velocity());
             for &(k, w) in terms {
                 let (q, nq) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
@@ -372,23 +395,18 @@ pub(crate) fn point_force_naive<T: Scalar>(
     planes: &Collider,
     x: &Vector3<T>,
     v_point: &Vector3<T>,
-    angvel_planes: &Vector3<T>,
+    rel: &Relative<T>,
     prm: &ContactParams<T>,
 ) -> PointForce<T> {
     match planes {
-        Collider::HalfSpace { .. } => point_force(
-            planes,
-            x,
-            v_point,
-            angvel_planes,
-            prm,
-            &[],
-            &mut NoForceSink,
-        ),
+        Collider::HalfSpace { .. } => {
+            point_force(planes, x, v_point, rel, prm, &[], &mut NoForceSink)
+        }
         Collider::Aopc(s) => {
             let xr = re3(x);
             let mut force = Vector3::zeros();
-            let v = sliding_velocity(x, v_point, angvel_planes);
+            let v = sliding_velocity(x, v_point, &rel.angvel_planes);
+            let surface = surface_at(rel, x);
             let dmin = s
                 .points
                 .iter()
@@ -402,7 +420,9 @@ pub(crate) fn point_force_naive<T: Scalar>(
                 let w = sum.add(r.dot(&r));
                 let n = lift3::<T>(nq);
                 let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq);
-                force += point_plane_force_at(phi, &n, &v, prm) * w;
+                if let Some(spring) = spring_at(phi, prm) {
+                    force += force_of_spring(spring, &n, &v, surface.as_ref(), prm) * w;
+                }
             }
             let force = force * sum.weight.recip();
             PointForce {

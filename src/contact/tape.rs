@@ -96,7 +96,7 @@ impl PairTape {
         (kept, scratch): (Option<&mut CandidateMemo>, &mut Scratch),
         budget: usize,
     ) -> (PairTape, PairContact<f64>) {
-        let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+        let rels = crate::collision::pair_relatives(fa, fb, prm.surface.as_ref());
         // Each force's terms go to the tape as it is evaluated, while they fit the budget (a
         // force against a half-space has one term and always fits).
         let mut terms = Vec::new();
@@ -168,7 +168,7 @@ impl PairTape {
         fb: &Frame<T>,
         prm: &ContactParams<T>,
     ) -> [Wrench<T>; 2] {
-        let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+        let rels = crate::collision::pair_relatives(fa, fb, prm.surface.as_ref());
         let mut sums = [SideSums::zero(), SideSums::zero()];
         // Terms summed again for the entries past the budget.
         let (mut scratch, mut again) = (Relevant::default(), Vec::new());
@@ -176,7 +176,6 @@ impl PairTape {
             let rel = &rels[e.side];
             let arm = lift3(&e.arm);
             let v_point = rel.linvel + rel.angvel.cross(&arm);
-            let w_planes = &rel.angvel_planes;
             // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation).
             let x = arm + rel.translation;
             // The point force by the arithmetic the live evaluation uses (`point_force`),
@@ -185,10 +184,10 @@ impl PairTape {
                 Some(range) if e.half_space => {
                     let t = &self.terms[range.start];
                     let spring = t.spring.as_ref().map(super::point::Spring::lift);
-                    half_space_force(&x, &lift3(&t.n), spring, &v_point, w_planes, prm).0
+                    half_space_force(&x, &lift3(&t.n), spring, &v_point, rel, prm).0
                 }
                 Some(range) => {
-                    let mut average = SoftAverage::new(x, &v_point, w_planes, prm);
+                    let mut average = SoftAverage::new(x, &v_point, rel, prm);
                     for t in &self.terms[range.clone()] {
                         let spring = t.spring.as_ref().map(super::point::Spring::lift);
                         average.add_spring(c(t.w), &lift3(&t.n), spring);
@@ -202,7 +201,7 @@ impl PairTape {
                     };
                     // Its relevant set and weights, as `pair_sides` found them.
                     let terms = terms_again(o, &x, prm.eps1, &mut scratch, &mut again);
-                    point_force(planes, &x, &v_point, w_planes, prm, terms, &mut NoForceSink)
+                    point_force(planes, &x, &v_point, rel, prm, terms, &mut NoForceSink)
                 }
             };
             sums[e.side].add(&arm, &pf, c(e.weight));

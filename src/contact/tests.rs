@@ -254,7 +254,7 @@ fn a_nan_temperature_gives_a_nan_contact_not_a_panic() {
 
 /// Two dense clouds overlapping under a wide ε1 (every plane relevant at every point: the band's
 /// terms would be `I1 I2` without a budget), with relative motion.
-fn wide_overlap() -> (
+pub(super) fn wide_overlap() -> (
     Collider,
     Collider,
     Frame<f64>,

@@ -176,7 +176,7 @@ impl Model {
                 let kin = self.tree.kinematics(&s.q, &s.v);
                 let e = self.energy_at(&kin, &s.q, &s.v);
                 known = self.tree.mocap.is_empty().then_some(kin);
-                let now = self.held(s, ctrl);
+                let now = self.held(s, ctrl, prm);
                 let dw = self.step_work(&m.last, &now, h);
                 m.ledger.work += dw;
                 m.ledger.gross_work += dw.abs();

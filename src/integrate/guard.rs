@@ -22,26 +22,65 @@ impl Model {
             Integrator::ImplicitEuler => 1.0,
             Integrator::Rk4 | Integrator::Dopri5 => 0.5,
         };
-        (0..before.tau.len())
+        let actuators = (0..before.tau.len())
             .map(|k| {
                 let tau = before.tau[k] * (1.0 - weight) + after.tau[k] * weight;
                 tau * 0.5 * (before.v[k] + after.v[k])
             })
-            .sum::<f64>()
-            * h
+            .sum::<f64>();
+        // The moving surfaces' power, by the trapezoid.
+        (actuators + 0.5 * (before.surface + after.surface)) * h
+    }
+
+    /// The power the moving surfaces put into the bodies at `s` (W; MuJoCo's geom
+    /// `surfacevel`, docs/method.md, departure 8): per pair whose surfaces move and in reach,
+    /// `-Σ (R l)·F + (R w)·τ` over its two bodies, `(l, w)` a body's surface flow and `(F, τ)`
+    /// the contact's wrench on it (about its origin). That is `-Σ λ·s` over the contact's point
+    /// forces `λ` and the flows' difference `s` where they act: the power by which friction
+    /// drags the bodies along, exact where the flow is tangent to the surfaces in contact
+    /// (rollers, turntables, a belt's face); where it is not (a belt's end face) it also counts
+    /// the normal force against the flow's normal part, which the law does not read. 0 where
+    /// no surface moves.
+    pub(super) fn surface_power(&self, s: &State<f64>, prm: &ContactParams<f64>) -> f64 {
+        if self.pairs.iter().all(|p| p.surface.is_none()) {
+            return 0.0;
+        }
+        let kin = self.tree.kinematics(&s.q, &s.v);
+        let mut scratch = crate::collision::Scratch::default();
+        let mut power = 0.0;
+        for pair in self.pairs.iter().filter(|p| p.surface.is_some()) {
+            let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
+                continue;
+            };
+            let p = pair.params(prm);
+            if self.out_of_reach_with(pair, &kin, &p, None, &mut scratch) {
+                continue;
+            }
+            let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);
+            let pc = crate::contact::pair_contact(ca, fa, cb, fb, &p);
+            let flows = pair.surface.as_ref().expect("filtered");
+            for (frame, flow, wrench) in [(fa, &flows[0], &pc.on_a), (fb, &flows[1], &pc.on_b)] {
+                power -= (frame.rotation * flow.lin).dot(&wrench.force)
+                    + (frame.rotation * flow.ang).dot(&wrench.torque);
+            }
+        }
+        power
     }
 
     /// The actuators' generalized forces and the velocities at `s`; nothing where those forces
     /// are zero whatever the state: no actuators and no joint's actuator force range to clamp
     /// into (their work is then zero, a sum over nothing in [`Model::step_work`]).
-    pub(super) fn held(&self, s: &State<f64>, ctrl: &[f64]) -> Held {
+    pub(super) fn held(&self, s: &State<f64>, ctrl: &[f64], prm: &ContactParams<f64>) -> Held {
+        let surface = self.surface_power(s, prm);
         if self.actuators.is_empty() && self.actuator_ranges.is_empty() {
             return Held {
                 tau: Vec::new(),
                 v: Vec::new(),
+                surface,
             };
         }
         Held {
+            surface,
             tau: (self.actuator_forces(&s.q, &s.v, &self.driven_inputs(ctrl, &s.act, &s.q, None)))
                 .as_slice()
                 .to_vec(),
@@ -95,7 +134,7 @@ impl Model {
         };
         (ledger.reference.is_finite() && ledger.scale.is_finite()).then(|| EnergyMonitor {
             ledger,
-            last: self.held(state, ctrl),
+            last: self.held(state, ctrl, prm),
             floor,
             energy: f64::NAN,
         })
@@ -199,11 +238,13 @@ impl EnergyLedger {
 }
 
 /// What the work of the next internal step starts from: the actuators' generalized forces
-/// (N or N·m) and the velocities.
+/// (N or N·m), the velocities, and the moving surfaces' power.
 #[derive(Clone, Debug)]
 pub(super) struct Held {
     tau: Vec<f64>,
     v: Vec<f64>,
+    /// The moving surfaces' power (W, [`Model::surface_power`]).
+    surface: f64,
 }
 
 /// The guard's working state during one [`Model::advance`](crate::model::Model::advance) call.

@@ -52,6 +52,9 @@ pub struct Pair {
     /// `scm_stiction_floor` or 2), so that the friction's slope at zero slip, `μ N / v_s`,
     /// stays within what the integrator carries at that step (docs/mjcf.md, "Stiction floor").
     pub stiction_floor: f64,
+    /// The flows of the two bodies' moving surfaces (`a`'s, `b`'s, each in its body's frame;
+    /// MuJoCo's geom `surfacevel`, [`ContactParams::surface`]); `None` where neither moves.
+    pub surface: Option<[crate::collision::Twist<f64>; 2]>,
 }
 
 impl Pair {
@@ -76,6 +79,7 @@ impl Pair {
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,
+            surface: self.surface,
             ..*prm
         }
     }
@@ -498,6 +502,7 @@ mod tests {
             adhesion: 0.0,
             gap: 0.0,
             stiction_floor,
+            surface: None,
         }
     }
 

@@ -489,7 +489,7 @@ impl Builder {
         }
         // With contacts switched off (<flag contact="disable">) no body collides.
         let (mut pairs, colliders, colliding) = if self.flags.contact {
-            self.split_static_planes();
+            self.split_static_geoms();
             let (pairs, colliding) = self.pairs()?;
             self.assign_spacings(spacing, resolution_set, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
@@ -497,12 +497,28 @@ impl Builder {
             for b in 0..colliders.len() {
                 colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
             }
+            let surfaces = (0..self.bodies.len())
+                .map(|b| self.surface_flow(b, &colliding))
+                .collect::<Result<Vec<_>, _>>()?;
+            let still = Twist {
+                lin: Vector3::zeros(),
+                ang: Vector3::zeros(),
+            };
             let pairs = pairs
                 .into_iter()
                 .filter(|p| match (&colliders[p.a], &colliders[p.b]) {
                     (Some(Collider::HalfSpace { .. }), Some(Collider::HalfSpace { .. })) => false,
                     (Some(_), Some(_)) => true,
                     _ => false,
+                })
+                .map(|p| Pair {
+                    surface: (surfaces[p.a].is_some() || surfaces[p.b].is_some()).then(|| {
+                        [
+                            surfaces[p.a].unwrap_or(still),
+                            surfaces[p.b].unwrap_or(still),
+                        ]
+                    }),
+                    ..p
                 })
                 .collect();
             (pairs, colliders, colliding)

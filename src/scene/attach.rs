@@ -20,6 +20,12 @@
 //! A `<replicate>` holding an `<attach>` copies the attach, which then brings its model copy by
 //! copy, in the tree's order, the replicate's suffix after the name ([`SUFFIX`]): `_torso-00`,
 //! as MuJoCo names it and orders what it brings.
+//!
+//! Without `model`, an `<attach body="B">` or `frame="F"` copies a body or frame of this same
+//! file (MuJoCo's self-attachment, as its luggage carousel builds three conveyors from one):
+//! the copy as the file writes it, before any attach is expanded, in this file's defaults (its
+//! class where it was written), prefixed, with the other sections' elements that name only
+//! what it copies.
 
 use super::canonical::{numbers, ATTACHED};
 use super::include::{resolve, IncludedFile};
@@ -142,8 +148,19 @@ pub(super) fn expand(
         });
     }
     let mut extra: Vec<(String, Element)> = Vec::new();
+    // A self-attachment copies from this file as written (before any attach is expanded).
+    let own = root
+        .children
+        .iter()
+        .filter(|s| s.name == "worldbody")
+        .any(attaches_itself)
+        .then(|| root.clone());
+    let mut models = Models {
+        children: &mut children,
+        own: own.as_ref(),
+    };
     for w in root.children.iter_mut().filter(|s| s.name == "worldbody") {
-        graft_in(&mut w.children, b, &mut children, &mut extra)?;
+        graft_in(&mut w.children, b, &mut models, &mut extra)?;
     }
     // The other sections' elements after this file's own, in a section of their kind.
     for (section, el) in extra {
@@ -185,11 +202,25 @@ fn holds_attach(el: &Element) -> bool {
         .any(|c| c.name == "attach" || holds_attach(c))
 }
 
+/// Whether an `<attach>` without `model` (a self-attachment) is anywhere under `el`.
+fn attaches_itself(el: &Element) -> bool {
+    el.children
+        .iter()
+        .any(|c| (c.name == "attach" && c.attr("model").is_none()) || attaches_itself(c))
+}
+
+/// Where `<attach>`es take from: the declared models, and this file as written (for a
+/// self-attachment; `None` when the file has none).
+struct Models<'a> {
+    children: &'a mut [Child],
+    own: Option<&'a Element>,
+}
+
 /// Replaces the `<attach>`s among `children` (and in their bodies and frames).
 fn graft_in(
     children: &mut Vec<Element>,
     b: &mut Builder,
-    models: &mut [Child],
+    models: &mut Models,
     extra: &mut Vec<(String, Element)>,
 ) -> Result<(), SceneError> {
     let mut out = Vec::with_capacity(children.len());
@@ -210,7 +241,7 @@ fn graft_in(
 }
 
 /// What one `<attach>` brings (see the module).
-fn graft(att: &Element, b: &mut Builder, models: &mut [Child]) -> Result<Graft, SceneError> {
+fn graft(att: &Element, b: &mut Builder, models: &mut Models) -> Result<Graft, SceneError> {
     b.check_attrs(att, &["model", "body", "frame", "prefix", SUFFIX])?;
     let suffix = att.attr(SUFFIX).unwrap_or("");
     if !att.children.is_empty() {
@@ -220,13 +251,16 @@ fn graft(att: &Element, b: &mut Builder, models: &mut [Child]) -> Result<Graft, 
         element_error(att, "prefix=\"...\" is required (MuJoCo requires it too): it keeps the attached names apart from this file's")
     })?;
     let Some(model) = att.attr("model") else {
-        return Err(element_error(att, "attaching a part of this same model (no model=\"...\") is not supported by SCM: write the copy out, or declare the file as an <asset><model> and attach from it"));
+        let own = models
+            .own
+            .expect("a self-attachment keeps the file as written");
+        return graft_self(att, b, own, &|v: &str| format!("{prefix}{v}{suffix}"));
     };
     if att.attr("frame").is_some() {
-        return Err(element_error(att, "attaching a <frame> (frame=\"...\") is not supported by SCM: attach the body it holds (body=\"...\"), or the whole model (neither)"));
+        return Err(element_error(att, "attaching a <frame> (frame=\"...\") of another model is not supported by SCM: attach the body it holds (body=\"...\"), or the whole model (neither); a frame of this same model attaches (no model=\"...\")"));
     }
-    let Some(child) = models.iter_mut().find(|c| c.name == model) else {
-        let known: Vec<&str> = models.iter().map(|c| c.name.as_str()).collect();
+    let Some(child) = models.children.iter_mut().find(|c| c.name == model) else {
+        let known: Vec<&str> = models.children.iter().map(|c| c.name.as_str()).collect();
         return Err(element_error(
             att,
             format!(
@@ -293,31 +327,16 @@ fn graft(att: &Element, b: &mut Builder, models: &mut [Child]) -> Result<Graft, 
     }
     // The other sections: a kind's elements that name what is attached (and what the kinds
     // before it brought: an actuator on an attached tendon), in the child's order.
-    for kind in REFERRING {
-        let mut brought = Vec::new();
-        for s in child.root.children.iter().filter(|s| s.name == kind) {
-            for el in s.children.iter().filter(|el| refers(el, &named)) {
-                if let Some((k, v)) = foreign(el, &named) {
-                    b.unused(
-                        el,
-                        format!("it names '{v}' ({k}), which the <attach> at {}:{} leaves behind in model '{model}': not attached (MuJoCo drops it too)", att.file, att.line),
-                    );
-                    continue;
-                }
-                brought.push(el.clone());
-            }
-        }
-        for el in &brought {
-            collect_names(el, kind, &mut named);
-        }
-        for mut el in brought {
-            rename(&mut el, &named, &prefixed);
-            if kind != "sensor" {
-                el.attrs.push((ATTACHED.to_string(), String::new()));
-            }
-            other.push((kind.to_string(), el));
-        }
-    }
+    let from = format!("model '{model}'");
+    other.extend(bring_referring(
+        att,
+        b,
+        &child.root,
+        &from,
+        &mut named,
+        &prefixed,
+        true,
+    ));
     for s in &child.root.children {
         let why = match s.name.as_str() {
             "keyframe" => "keyframes of an attached model (MuJoCo keeps them through one attachment only): give the pose in a key of the attaching file",
@@ -328,6 +347,108 @@ fn graft(att: &Element, b: &mut Builder, models: &mut [Child]) -> Result<Graft, 
         b.unused(s, why);
     }
     Ok((here, other))
+}
+
+/// The elements of `root`'s other sections (tendons, equalities, contact, actuators, sensors)
+/// that name what is attached (`named`, which grows with what each kind brings: an actuator on
+/// an attached tendon), renamed by `prefixed`, in `root`'s order; those that also name
+/// something left behind in `from` are dropped and listed as unused, as MuJoCo drops them.
+/// `attached`: the elements come from another model, already canonical
+/// ([`ATTACHED`](super::canonical::ATTACHED)).
+fn bring_referring(
+    att: &Element,
+    b: &mut Builder,
+    root: &Element,
+    from: &str,
+    named: &mut Named,
+    prefixed: &dyn Fn(&str) -> String,
+    attached: bool,
+) -> Vec<(String, Element)> {
+    let mut other = Vec::new();
+    for kind in REFERRING {
+        let mut brought = Vec::new();
+        for s in root.children.iter().filter(|s| s.name == kind) {
+            for el in s.children.iter().filter(|el| refers(el, named)) {
+                if let Some((k, v)) = foreign(el, named) {
+                    b.unused(
+                        el,
+                        format!("it names '{v}' ({k}), which the <attach> at {}:{} leaves behind in {from}: not attached (MuJoCo drops it too)", att.file, att.line),
+                    );
+                    continue;
+                }
+                brought.push(el.clone());
+            }
+        }
+        for el in &brought {
+            collect_names(el, kind, named);
+        }
+        for mut el in brought {
+            rename(&mut el, named, prefixed);
+            if attached && kind != "sensor" {
+                el.attrs.push((ATTACHED.to_string(), String::new()));
+            }
+            other.push((kind.to_string(), el));
+        }
+    }
+    other
+}
+
+/// What a self-attachment brings (`<attach body="B">` or `frame="F"` without `model`, MuJoCo's
+/// attachment within the same model): a copy of the body or frame as this file writes it,
+/// `own` the file before any attach is expanded, every name in it renamed by `prefixed`, and
+/// the other sections' elements that name only what is copied. The copy keeps the default
+/// class it had where it was written (the innermost `childclass` above it). It may not itself
+/// hold an `<attach>`.
+fn graft_self(
+    att: &Element,
+    b: &mut Builder,
+    own: &Element,
+    prefixed: &dyn Fn(&str) -> String,
+) -> Result<Graft, SceneError> {
+    let (kind, name) = match (att.attr("body"), att.attr("frame")) {
+        (Some(n), None) => ("body", n),
+        (None, Some(n)) => ("frame", n),
+        _ => return Err(element_error(att, "attaching a part of this same model (no model=\"...\") needs one of body=\"...\" or frame=\"...\", as MuJoCo does")),
+    };
+    let found = own
+        .children
+        .iter()
+        .filter(|s| s.name == "worldbody")
+        .find_map(|w| find_in(w, kind, name, None))
+        .ok_or_else(|| element_error(att, format!("this model has no {kind} named '{name}'")))?;
+    let (found, class) = found;
+    if holds_attach(found) {
+        return Err(element_error(att, format!("the {kind} '{name}' holds an <attach> itself: SCM attaches a part of this model only where it attaches nothing")));
+    }
+    let mut copy = found.clone();
+    if let Some(class) = class.filter(|_| copy.attr("childclass").is_none()) {
+        copy.attrs
+            .push(("childclass".to_string(), class.to_string()));
+    }
+    let mut named = Named::new();
+    collect_names(&copy, "worldbody", &mut named);
+    rename(&mut copy, &named, prefixed);
+    let other = bring_referring(att, b, own, "this model", &mut named, prefixed, false);
+    Ok((vec![copy], other))
+}
+
+/// The `kind` element (`body` or `frame`) named `name` at or below `el`, with the innermost
+/// `childclass` above it (`class` the one in effect at `el`).
+fn find_in<'a>(
+    el: &'a Element,
+    kind: &str,
+    name: &str,
+    class: Option<&'a str>,
+) -> Option<(&'a Element, Option<&'a str>)> {
+    el.children
+        .iter()
+        .filter(|c| matches!(c.name.as_str(), "body" | "frame"))
+        .find_map(|c| {
+            if c.name == kind && c.attr("name") == Some(name) {
+                return Some((c, class));
+            }
+            find_in(c, kind, name, c.attr("childclass").or(class))
+        })
 }
 
 /// The body named `name` at or below `el` (a canonical tree: bodies hold bodies).

@@ -32,6 +32,7 @@ impl Builder {
                 "fluidcoef",
                 "fitscale",
                 "hfield",
+                "surfacevel",
             ],
         )?;
         // MuJoCo's default fluid model is the bodies' inertia boxes (fluidshape="none"), which
@@ -105,6 +106,17 @@ impl Builder {
                 })?,
             None => 0.0,
         };
+        // MuJoCo's moving surface, `v + ω × (x - p)` in the geom's frame (docs/method.md,
+        // departure 8); all zeros is none.
+        let surfacevel = self
+            .floats(el, "surfacevel", 6)?
+            .filter(|v| v.iter().any(|&x| x != 0.0))
+            .map(|v| {
+                (
+                    Vector3::new(v[0], v[1], v[2]),
+                    Vector3::new(v[3], v[4], v[5]),
+                )
+            });
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         // MuJoCo's `sdf` geom collides by its plugin's distance field; SCM by the closed
         // surface of its mesh (`sdf.rs`), as a mesh geom.
@@ -361,6 +373,7 @@ impl Builder {
             margin,
             adhesion,
             gap,
+            surfacevel,
             file: el.file.to_string(),
             line: el.line,
             spacing: None,

@@ -69,6 +69,7 @@ fn geom(g: &Geom, bodies: &[String]) -> Value {
         "solref": g.softness.softness.solref, "solimp": g.softness.softness.solimp,
         "solmix": g.softness.solmix, "priority": g.softness.priority, "margin": g.margin,
         "adhesion": g.adhesion, "gap": g.gap,
+        "surfacevel": g.surfacevel.map(|(v, w)| [v.x, v.y, v.z, w.x, w.y, w.z]),
     })
 }
 

@@ -48,7 +48,7 @@ use settings::{advice, CompilerSettings, Flags, InertiaFromGeom, UNUSED_ATTRIBUT
 use tendon::{SegmentSpec, TendonSpec};
 pub mod xml;
 
-use crate::collision::Collider;
+use crate::collision::{Collider, Twist};
 use crate::contact::{ContactParams, Dissipation};
 use crate::dynamics::fluid::{Fluid, FluidBody};
 use crate::dynamics::spatial::Inertia;
@@ -158,6 +158,9 @@ pub struct Geom {
     /// `gap` (m, default 0): how far past the margin its adhesive contacts still pull (MuJoCo
     /// adds the two geoms').
     pub gap: f64,
+    /// `surfacevel` (MuJoCo's moving surface): the linear and angular velocity of its surface's
+    /// flow in the geom's frame, about the geom's origin; `None` for all zeros.
+    pub surfacevel: Option<(Vector3<f64>, Vector3<f64>)>,
     /// The file that declares the geom.
     pub file: String,
     /// Its line there.

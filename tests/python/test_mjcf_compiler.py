@@ -1854,3 +1854,51 @@ def test_attached_models_compile_as_mujoco_attaches_them(tmp_path):
     # The meshes come once per attach (a replicate's copies share theirs), from the child's meshdir.
     assert {g["mesh"] for g in ours["geoms"] if g["mesh"]} == {
         m.mesh(i).name for i in range(m.nmesh)} == {f"{p}_{n}" for p in "abc" for n in ("knob", "lug")}
+
+
+SELF_ATTACH = """<mujoco model="belts">
+  <default>
+    <default class="heavy"><geom density="3000" friction="0.7"/><joint damping="2"/></default>
+  </default>
+  <worldbody>
+    <geom name="floor" type="plane" size="3 3 0.1"/>
+    <frame pos="0 -1 0.3" euler="0 0 90">
+      <frame name="conveyor">
+        <geom name="belt" type="box" size=".7 .3 .05" surfacevel=".5 0 0 0 0 0"/>
+        <geom name="rail" type="box" size=".7 .02 .1" pos="0 .33 .04"/>
+      </frame>
+    </frame>
+    <frame pos="1 0 0.6" euler="0 -20 0"><attach frame="conveyor" prefix="up_"/></frame>
+    <body name="base" pos="0 1 0.5" childclass="heavy">
+      <body name="arm">
+        <joint name="swing" axis="0 1 0"/>
+        <geom name="link" type="capsule" size=".03" fromto="0 0 0 .3 0 0"/>
+      </body>
+    </body>
+    <body name="stand" pos="1 1 0.5"><attach body="arm" prefix="copy_"/></body>
+  </worldbody>
+  <actuator><motor name="drive" joint="swing"/></actuator>
+</mujoco>
+"""
+
+
+def test_a_part_of_the_same_model_attaches_as_mujoco_attaches_it(tmp_path):
+    """<attach> without model= (MuJoCo's self-attachment): a frame of geoms copied under another
+    frame (as MuJoCo's luggage carousel builds its conveyors), and a body under another body, which
+    keeps the default class it had where it was written (its geoms' density and friction, its
+    joint's damping) and brings the actuator on its joint, prefixed. Bodies, joints, geoms and
+    actuators as MuJoCo compiles them, with MuJoCo's names."""
+    path = tmp_path / "belts.xml"
+    path.write_text(SELF_ATTACH)
+    ours = compare(path)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    assert [b["name"] for b in ours["bodies"]] == [m.body(i).name for i in range(m.nbody)]
+    assert [g["name"] for g in ours["geoms"]] == [m.geom(i).name for i in range(m.ngeom)]
+    assert [j["name"] for j in ours["joints"]] == [m.joint(i).name for i in range(m.njnt)]
+    assert [a["name"] for a in ours["actuators"]] == [m.actuator(i).name for i in range(m.nu)]
+    assert "up_belt" in [m.geom(i).name for i in range(m.ngeom)]
+    copied = next(g for g in ours["geoms"] if g["name"] == "copy_link")
+    assert copied["friction"] == 0.7 and copied["surfacevel"] is None
+    belt = next(g for g in ours["geoms"] if g["name"] == "up_belt")
+    assert belt["surfacevel"] == [0.5, 0, 0, 0, 0, 0]
+    assert next(j for j in ours["joints"] if j["name"] == "copy_swing")["damping"] == 2

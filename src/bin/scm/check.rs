@@ -229,6 +229,20 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         } else {
             margin
         };
+        let margin = match &p.surface {
+            Some(flows) => {
+                let v = |x: &nalgebra::Vector3<f64>| format!("({} {} {})", x.x, x.y, x.z);
+                let text = |f: &scm::collision::Twist<f64>| {
+                    format!("{} m/s + {} rad/s x r", v(&f.lin), v(&f.ang))
+                };
+                format!(
+                    "{margin}, moving surfaces (in each body's frame) {} and {}",
+                    text(&flows[0]),
+                    text(&flows[1])
+                )
+            }
+            None => margin,
+        };
         let floor = match p.friction {
             _ if p.stiction_floor == 0.0 => String::new(),
             Some(mu) => format!(
