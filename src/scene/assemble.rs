@@ -497,13 +497,6 @@ impl Builder {
             for b in 0..colliders.len() {
                 colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
             }
-            let surfaces = (0..self.bodies.len())
-                .map(|b| self.surface_flow(b, &colliding))
-                .collect::<Result<Vec<_>, _>>()?;
-            let still = Twist {
-                lin: Vector3::zeros(),
-                ang: Vector3::zeros(),
-            };
             let pairs = pairs
                 .into_iter()
                 .filter(|p| match (&colliders[p.a], &colliders[p.b]) {
@@ -511,16 +504,8 @@ impl Builder {
                     (Some(_), Some(_)) => true,
                     _ => false,
                 })
-                .map(|p| Pair {
-                    surface: (surfaces[p.a].is_some() || surfaces[p.b].is_some()).then(|| {
-                        [
-                            surfaces[p.a].unwrap_or(still),
-                            surfaces[p.b].unwrap_or(still),
-                        ]
-                    }),
-                    ..p
-                })
                 .collect();
+            let pairs = self.with_surfaces(pairs, &colliding)?;
             (pairs, colliders, colliding)
         } else {
             // Nothing is sampled: per-geom spacings are checked and reported unused.

@@ -27,9 +27,10 @@
 //! class where it was written), prefixed, with the other sections' elements that name only
 //! what it copies.
 
-use super::canonical::{numbers, ATTACHED};
+use super::canonical::{convert_angles, ATTACHED};
 use super::include::{resolve, IncludedFile};
 use super::replicate::{collect_names, kind_of_reference, names, refers, rename, Named, REFERRING};
+use super::self_attach::{attaches_itself, graft_self};
 use super::xml::Element;
 use super::{element_error, scene_dir, Builder, SceneError};
 use std::path::{Component, Path, PathBuf};
@@ -59,7 +60,7 @@ struct Child {
 
 /// What one `<attach>` brings: the elements taking its place, and those of other sections
 /// (by section name, in order).
-type Graft = (Vec<Element>, Vec<(String, Element)>);
+pub(super) type Graft = (Vec<Element>, Vec<(String, Element)>);
 
 /// Replaces every `<attach>` under `root`'s `<worldbody>` (read from `path`, attached from the
 /// files in `chain`) by what it attaches, and the `<asset><model>`s by nothing. Returns the
@@ -196,17 +197,10 @@ pub(super) fn expand(
 }
 
 /// Whether an `<attach>` is anywhere under `el`.
-fn holds_attach(el: &Element) -> bool {
+pub(super) fn holds_attach(el: &Element) -> bool {
     el.children
         .iter()
         .any(|c| c.name == "attach" || holds_attach(c))
-}
-
-/// Whether an `<attach>` without `model` (a self-attachment) is anywhere under `el`.
-fn attaches_itself(el: &Element) -> bool {
-    el.children
-        .iter()
-        .any(|c| (c.name == "attach" && c.attr("model").is_none()) || attaches_itself(c))
 }
 
 /// Where `<attach>`es take from: the declared models, and this file as written (for a
@@ -355,7 +349,7 @@ fn graft(att: &Element, b: &mut Builder, models: &mut Models) -> Result<Graft, S
 /// something left behind in `from` are dropped and listed as unused, as MuJoCo drops them.
 /// `attached`: the elements come from another model, already canonical
 /// ([`ATTACHED`](super::canonical::ATTACHED)).
-fn bring_referring(
+pub(super) fn bring_referring(
     att: &Element,
     b: &mut Builder,
     root: &Element,
@@ -391,64 +385,6 @@ fn bring_referring(
         }
     }
     other
-}
-
-/// What a self-attachment brings (`<attach body="B">` or `frame="F"` without `model`, MuJoCo's
-/// attachment within the same model): a copy of the body or frame as this file writes it,
-/// `own` the file before any attach is expanded, every name in it renamed by `prefixed`, and
-/// the other sections' elements that name only what is copied. The copy keeps the default
-/// class it had where it was written (the innermost `childclass` above it). It may not itself
-/// hold an `<attach>`.
-fn graft_self(
-    att: &Element,
-    b: &mut Builder,
-    own: &Element,
-    prefixed: &dyn Fn(&str) -> String,
-) -> Result<Graft, SceneError> {
-    let (kind, name) = match (att.attr("body"), att.attr("frame")) {
-        (Some(n), None) => ("body", n),
-        (None, Some(n)) => ("frame", n),
-        _ => return Err(element_error(att, "attaching a part of this same model (no model=\"...\") needs one of body=\"...\" or frame=\"...\", as MuJoCo does")),
-    };
-    let found = own
-        .children
-        .iter()
-        .filter(|s| s.name == "worldbody")
-        .find_map(|w| find_in(w, kind, name, None))
-        .ok_or_else(|| element_error(att, format!("this model has no {kind} named '{name}'")))?;
-    let (found, class) = found;
-    if holds_attach(found) {
-        return Err(element_error(att, format!("the {kind} '{name}' holds an <attach> itself: SCM attaches a part of this model only where it attaches nothing")));
-    }
-    let mut copy = found.clone();
-    if let Some(class) = class.filter(|_| copy.attr("childclass").is_none()) {
-        copy.attrs
-            .push(("childclass".to_string(), class.to_string()));
-    }
-    let mut named = Named::new();
-    collect_names(&copy, "worldbody", &mut named);
-    rename(&mut copy, &named, prefixed);
-    let other = bring_referring(att, b, own, "this model", &mut named, prefixed, false);
-    Ok((vec![copy], other))
-}
-
-/// The `kind` element (`body` or `frame`) named `name` at or below `el`, with the innermost
-/// `childclass` above it (`class` the one in effect at `el`).
-fn find_in<'a>(
-    el: &'a Element,
-    kind: &str,
-    name: &str,
-    class: Option<&'a str>,
-) -> Option<(&'a Element, Option<&'a str>)> {
-    el.children
-        .iter()
-        .filter(|c| matches!(c.name.as_str(), "body" | "frame"))
-        .find_map(|c| {
-            if c.name == kind && c.attr("name") == Some(name) {
-                return Some((c, class));
-            }
-            find_in(c, kind, name, c.attr("childclass").or(class))
-        })
 }
 
 /// The body named `name` at or below `el` (a canonical tree: bodies hold bodies).
@@ -520,39 +456,6 @@ fn compiler_differences(parent: &Builder, child: &Builder) -> Vec<String> {
     );
     cmp("fitaabb", p.fit_aabb.to_string(), c.fit_aabb.to_string());
     out
-}
-
-/// Rewrites the angles of the hinge and ball joints under `el` (`range`, `ref`, `springref`)
-/// from the child's unit (`degrees` or radians) into the other one, which the attaching file
-/// reads. (Orientations are unit quaternions already, in the child's canonical tree.)
-fn convert_angles(el: &mut Element, degrees: bool) -> Result<(), SceneError> {
-    if el.name == "joint" && matches!(el.attr("type"), None | Some("hinge") | Some("ball")) {
-        for key in ["range", "ref", "springref"] {
-            let n = el.attr(key).map_or(0, |v| v.split_whitespace().count());
-            if n == 0 {
-                continue;
-            }
-            let v = numbers(el, key, n)?.unwrap_or_default();
-            let shown: Vec<String> = v
-                .iter()
-                .map(|x| {
-                    if degrees {
-                        x.to_radians()
-                    } else {
-                        x.to_degrees()
-                    }
-                    .to_string()
-                })
-                .collect();
-            if let Some(slot) = el.attrs.iter_mut().find(|(k, _)| k == key) {
-                slot.1 = shown.join(" ");
-            }
-        }
-    }
-    for c in el.children.iter_mut() {
-        convert_angles(c, degrees)?;
-    }
-    Ok(())
 }
 
 /// Copies into `out` (once each) the child's meshes and height fields that the geoms under

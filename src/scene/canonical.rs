@@ -382,6 +382,39 @@ fn body_children(
     Ok(out)
 }
 
+/// Rewrites the angles of the hinge and ball joints under `el` (`range`, `ref`, `springref`)
+/// from the child's unit (`degrees` or radians) into the other one, which the attaching file
+/// reads. (Orientations are unit quaternions already, in the child's canonical tree.)
+pub(super) fn convert_angles(el: &mut Element, degrees: bool) -> Result<(), SceneError> {
+    if el.name == "joint" && matches!(el.attr("type"), None | Some("hinge") | Some("ball")) {
+        for key in ["range", "ref", "springref"] {
+            let n = el.attr(key).map_or(0, |v| v.split_whitespace().count());
+            if n == 0 {
+                continue;
+            }
+            let v = numbers(el, key, n)?.unwrap_or_default();
+            let shown: Vec<String> = v
+                .iter()
+                .map(|x| {
+                    if degrees {
+                        x.to_radians()
+                    } else {
+                        x.to_degrees()
+                    }
+                    .to_string()
+                })
+                .collect();
+            if let Some(slot) = el.attrs.iter_mut().find(|(k, _)| k == key) {
+                slot.1 = shown.join(" ");
+            }
+        }
+    }
+    for c in el.children.iter_mut() {
+        convert_angles(c, degrees)?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
