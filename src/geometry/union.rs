@@ -44,6 +44,21 @@ pub fn sample_union_counted(
 ) -> (Aopc, Vec<usize>) {
     assert_eq!(geoms.len(), spacings.len(), "one spacing per geom");
     let (size, tol) = size_and_tolerance(geoms, spacings);
+    // Each geom's bounding ball in the body (an implicit shape's surface may pass its mesh's
+    // vertices by a fraction of its grid: a tenth more): a point farther than `tol` outside it
+    // is outside the geom, which the classification below then keeps it from, without its
+    // signed distance (the work of loading a body of many geoms).
+    let balls: Vec<(Vector3<f64>, f64)> = geoms
+        .iter()
+        .map(|(shape, pose)| {
+            let grow = if matches!(shape, Shape::Implicit { .. }) {
+                1.1
+            } else {
+                1.0
+            };
+            (pose.translation.vector, shape.size() * grow)
+        })
+        .collect();
     let mut out = Aopc::default();
     // Per geom: its full sampling and what became of each quad (the rounded certificate).
     let mut fates: Vec<(Aopc, Vec<Option<Vector3<f64>>>)> = Vec::new();
@@ -61,6 +76,10 @@ pub fn sample_union_counted(
                 .enumerate()
                 .filter(|(m, _)| *m != k)
                 .all(|(m, (other, opose))| {
+                    let (centre, radius) = &balls[m];
+                    if (p - centre).norm() > radius + tol {
+                        return true;
+                    }
                     let q = (opose.inverse() * Point3::from(*p)).coords;
                     let d = other.sdf(&q);
                     if d < -tol {
@@ -82,6 +101,20 @@ pub fn sample_union_counted(
         for (f, face) in part.faces.iter().enumerate() {
             let (p, n) = (part.points[f], part.normals[f]);
             let c = face.map(|i| part.vertices[i as usize]);
+            // A face whose sub-samples cannot reach another geom is kept whole, as the
+            // classification below would keep it: they lie in the quad's hull moved onto the
+            // surface by at most the sagitta, so within twice the quad's radius of its centre.
+            let centre = (c[0] + c[1] + c[2] + c[3]) / 4.0;
+            let reach = 2.0 * c.iter().map(|v| (v - centre).norm()).fold(0.0, f64::max)
+                + (p - centre).norm();
+            let alone = balls.iter().enumerate().all(|(m, (other, radius))| {
+                m == k || (centre - other).norm() > reach + radius + 2.0 * tol
+            });
+            if alone {
+                out.push_face(c, p, n, part.areas[f]);
+                fate.push(Some(p));
+                continue;
+            }
             // Sub-samples of the face (bilinear in its corners), on a curved shape moved onto its
             // surface: a chord's points lie inside by the sagitta, so where another geom's
             // surface coincides with this one (two capsules' caps around one joint) they read as
