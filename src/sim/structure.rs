@@ -430,10 +430,13 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
     };
     let mut structure = ModelStructure::default();
     // The accelerations of one subtree share their knowns: each subtree's are gathered once
-    // (they scan every pair, and a scene of many bodies has many of both).
-    let mut by_root: std::collections::HashMap<usize, Knowns> = std::collections::HashMap::new();
+    // (they scan every pair, and a scene of many bodies has many of both), and listed once as
+    // value references, without and with the parameters (300 free leaves that can all touch:
+    // 1,800 accelerations of 3,600 knowns each).
+    let mut by_root: std::collections::HashMap<usize, (Vec<u32>, Vec<u32>)> =
+        std::collections::HashMap::new();
     for (v, slot) in rows {
-        let k = match *slot {
+        let (deps, with_params) = match *slot {
             Slot::VDot(i) => {
                 let Some(j) = (model.tree.joints.iter())
                     .find(|j| (j.dadr..j.dadr + j.kind.nv()).contains(&i))
@@ -443,18 +446,21 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
                 let root = subtree_root(model, j.body);
                 by_root
                     .entry(root)
-                    .or_insert_with(|| coupled_knowns(model, root))
+                    .or_insert_with(|| {
+                        let k = coupled_knowns(model, root);
+                        (to_vrs(&k, false), to_vrs(&k, true))
+                    })
                     .clone()
             }
             _ => match knowns_of(model, *slot) {
-                Some(k) => k,
+                Some(k) => (to_vrs(&k, false), to_vrs(&k, true)),
                 None => continue,
             },
         };
         if v.causality == Causality::Output {
             structure
                 .outputs
-                .push((v.value_reference, Some(to_vrs(&k, false))));
+                .push((v.value_reference, Some(deps.clone())));
         }
         let is_derivative = matches!(
             v.var_type,
@@ -464,9 +470,7 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
             }
         );
         if is_derivative {
-            structure
-                .derivatives
-                .push((v.value_reference, Some(to_vrs(&k, false))));
+            structure.derivatives.push((v.value_reference, Some(deps)));
         }
         // Initial unknowns: everything computed from the exact start values (states,
         // inputs, parameters).
@@ -474,7 +478,7 @@ pub fn model_structure(model: &Model, rows: &[(Variable, Slot)]) -> ModelStructu
         if calculated && (v.causality == Causality::Output || is_derivative) {
             structure
                 .initial_unknowns
-                .push((v.value_reference, Some(to_vrs(&k, true))));
+                .push((v.value_reference, Some(with_params)));
         }
     }
     structure

@@ -75,6 +75,10 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
     // What the clouds' own measures flag: not refusals (`scm pack` and the FMU take such a
     // cloud), warnings that a spacing or a mesh may want a look.
     let mut cloud_warnings = Vec::new();
+    // The union's volume by geoms (an estimate on a 128³ grid where it is not exact): the
+    // copies of one body (a replicate's) are measured once.
+    type Parts = Vec<(scm::geometry::Shape, nalgebra::Isometry3<f64>)>;
+    let mut volumes: Vec<(Parts, (f64, bool))> = Vec::new();
     for (b, body) in m.tree.bodies.iter().enumerate() {
         match &m.colliders[b] {
             None => say!(w, "body {}: no collider", body.name),
@@ -111,7 +115,14 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                     })
                     .collect::<Vec<_>>()
                     .join("; ");
-                let (exact, is_exact) = scm::geometry::union::union_volume(&parts);
+                let (exact, is_exact) = match volumes.iter().find(|(p, _)| *p == parts) {
+                    Some((_, v)) => *v,
+                    None => {
+                        let v = scm::geometry::union::union_volume(&parts);
+                        volumes.push((parts.clone(), v));
+                        v
+                    }
+                };
                 let closure = s.closure_defect().norm();
                 let volume = s.enclosed_volume();
                 say!(
