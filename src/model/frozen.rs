@@ -5,9 +5,10 @@
 //! kinematics, the damped mass matrix and its factorization, the passive and actuator forces,
 //! and each pair's contact terms ([`PairTape`]), so an evaluation costs the point–plane forces
 //! and one pass of the tree. Newton's Jacobian of the step equation comes from the same tapes
-//! ([`FrozenForward::contact_force`], [`FrozenForward::step_jacobian`]): only the contact forces depend on `V`, so only they
-//! are differentiated, where a Jacobian through `Model::forward_at` on dual numbers would find
-//! the contact again and build the mass matrix on dual numbers in every pass.
+//! ([`FrozenForward::contact_force`], [`FrozenForward::step_jacobian`]): only the contact
+//! forces depend on `V`, so only they are differentiated, where a Jacobian through
+//! `Model::forward_at` on dual numbers would find the contact again and build the mass matrix
+//! on dual numbers in every pass.
 
 use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
@@ -121,11 +122,11 @@ impl FrozenForward<'_> {
         self.solve(self.contact_wrenches(&at, |p| *p))
     }
 
-    /// The generalized contact force `τ_c(V) = Σ Jᵀ Λ(V)` at the end velocity `v_contact`, plus
-    /// terms that do not depend on it (gravity, the velocity products at the start velocity):
-    /// the only part of the step equation that depends on `V`. On dual numbers (the positions
-    /// carry none) the tapes replay the contact's velocity derivatives, and `Jᵀ` is the recursive
-    /// Newton–Euler pass at the start kinematics.
+    /// The generalized contact force `τ_c(V) = Σ Jᵀ Λ(V)` at the end velocity `v_contact`,
+    /// plus terms that do not depend on it (gravity, the velocity products at the start
+    /// velocity): the only part of the step equation that depends on `V`. On dual numbers (the
+    /// positions carry none) the tapes replay the contact's velocity derivatives, and `Jᵀ` is
+    /// the recursive Newton–Euler pass at the start kinematics.
     pub fn contact_force<T: Scalar>(&self, v_contact: &[T]) -> Vec<T> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
         let (q, v, mocap) = (lift(&self.q), lift(&self.v), lift(&self.mocap));
