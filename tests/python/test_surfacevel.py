@@ -57,8 +57,9 @@ def yaw(w, z):
     return 2.0 * math.atan2(z, w)
 
 
-def mujoco_spread(xml, duration):
-    """Final (x, y, yaw) and speed of the load over MuJoCo's 18 runs, the nominal one first."""
+def mujoco_runs(xml, duration, measure):
+    """`measure(m, d)` at the end of each of MuJoCo's 18 runs (friction x1, x0.8, x1.2; solref
+    time constant x1, x0.5, x2; pyramidal then elliptic cone), the nominal one first."""
     out = []
     for cone in (mujoco.mjtCone.mjCONE_PYRAMIDAL, mujoco.mjtCone.mjCONE_ELLIPTIC):
         for friction in (1.0, 0.8, 1.2):
@@ -70,21 +71,30 @@ def mujoco_spread(xml, duration):
                 d = mujoco.MjData(m)
                 while d.time < duration - 1e-9:
                     mujoco.mj_step(m, d)
-                q = d.qpos
-                out.append((q[0], q[1], yaw(q[3], q[6]), np.linalg.norm(d.qvel[:2])))
+                out.append(measure(m, d))
     return np.array(out)
 
 
-def scm_final(xml, duration, tmp_path):
+def mujoco_spread(xml, duration):
+    """Final (x, y, yaw) and speed of the load over MuJoCo's 18 runs, the nominal one first."""
+    return mujoco_runs(xml, duration, lambda m, d: (
+        d.qpos[0], d.qpos[1], yaw(d.qpos[3], d.qpos[6]), np.linalg.norm(d.qvel[:2])))
+
+
+def scm_run(xml, duration, outputs, tmp_path):
+    """The outputs `outputs` (patterns) of SCM's run at its end, by name."""
     path = tmp_path / "machine.xml"
     path.write_text(xml)
     run = subprocess.run([str(SCM), "simulate", str(path), "--duration", str(duration),
-                          "--output-interval", str(duration),
-                          "--outputs", "load.pos.*,load.quat.*,load.linvel.*"],
+                          "--output-interval", str(duration), "--outputs", outputs],
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     rows = list(csv.reader(io.StringIO(run.stdout)))
-    v = dict(zip(rows[0], map(float, rows[-1])))
+    return dict(zip(rows[0], map(float, rows[-1])))
+
+
+def scm_final(xml, duration, tmp_path):
+    v = scm_run(xml, duration, "load.pos.*,load.quat.*,load.linvel.*", tmp_path)
     return (v["load.pos.x"], v["load.pos.y"], yaw(v["load.quat.w"], v["load.quat.z"]),
             math.hypot(v["load.linvel.x"], v["load.linvel.y"]))
 
@@ -185,27 +195,9 @@ def test_a_flow_on_a_moving_body_composes_with_its_motion(tmp_path):
     # flow relative to the cart, stays where it is along x. After 1 s both bodies' positions
     # lie in MuJoCo's spread (as above) widened by 1 mm. Measured: the cart at x -1.1940
     # (MuJoCo's nominal run -1.1896), the box at -0.9963 (-0.9940), y 5.4 mm apart.
-    path = tmp_path / "cart.xml"
-    path.write_text(CART)
-    run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "1", "--output-interval", "1",
-                          "--outputs", "cart.pos.*,rider.pos.*,cart.linvel.*,rider.linvel.*"],
-                         capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    rows = list(csv.reader(io.StringIO(run.stdout)))
-    v = dict(zip(rows[0], map(float, rows[-1])))
-    spread = []
-    for cone in (mujoco.mjtCone.mjCONE_PYRAMIDAL, mujoco.mjtCone.mjCONE_ELLIPTIC):
-        for friction in (1.0, 0.8, 1.2):
-            for timeconst in (1.0, 0.5, 2.0):
-                m = mujoco.MjModel.from_xml_string(CART)
-                m.opt.cone = cone
-                m.geom_friction[:, 0] *= friction
-                m.geom_solref[:, 0] *= timeconst
-                d = mujoco.MjData(m)
-                while d.time < 1 - 1e-9:
-                    mujoco.mj_step(m, d)
-                spread.append([d.xpos[m.body(b).id][k] for b in ("cart", "rider") for k in (0, 1)])
-    spread = np.array(spread)
+    v = scm_run(CART, 1.0, "cart.pos.*,rider.pos.*,cart.linvel.*,rider.linvel.*", tmp_path)
+    spread = mujoco_runs(CART, 1.0, lambda m, d: [
+        d.xpos[m.body(b).id][k] for b in ("cart", "rider") for k in (0, 1)])
     ours = [v[f"{b}.pos.{k}"] for b in ("cart", "rider") for k in "xy"]
     for k, what in enumerate(["cart x", "cart y", "box x", "box y"]):
         low, high = spread[:, k].min() - 1e-3, spread[:, k].max() + 1e-3
