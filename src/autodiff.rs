@@ -59,13 +59,7 @@ fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(
         let xd: Vec<DualSVec64<N>> = x
             .iter()
             .enumerate()
-            .map(|(i, &xi)| {
-                let mut d = DualSVec64::<N>::from_re(xi);
-                if (start..start + N).contains(&i) {
-                    d.eps = Derivative::derivative_generic(Const::<N>, U1, i - start);
-                }
-                d
-            })
+            .map(|(i, &xi)| seeded(xi, i.checked_sub(start)))
             .collect();
         let out = f.eval(&xd)?;
         if start == 0 {
@@ -73,14 +67,34 @@ fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(
             jac = DMatrix::zeros(out.len(), n);
         }
         for (r, o) in out.iter().enumerate() {
-            if let Some(e) = &o.eps.0 {
-                for k in 0..N.min(n - start) {
-                    jac[(r, start + k)] = e[k];
-                }
+            let e = derivatives(o);
+            for k in 0..N.min(n - start) {
+                jac[(r, start + k)] = e[k];
             }
         }
     }
     Ok((values, jac))
+}
+
+/// `x` as a dual number of width `N` whose derivative is the unit vector of `direction` (none,
+/// or one past the width: a constant).
+pub fn seeded<const N: usize>(x: f64, direction: Option<usize>) -> DualSVec64<N> {
+    let mut d = DualSVec64::<N>::from_re(x);
+    if let Some(i) = direction.filter(|&i| i < N) {
+        d.eps = Derivative::derivative_generic(Const::<N>, U1, i);
+    }
+    d
+}
+
+/// The derivatives of a dual number of width `N` (zeros where it carries none).
+pub fn derivatives<const N: usize>(d: &DualSVec64<N>) -> [f64; N] {
+    let mut out = [0.0; N];
+    if let Some(e) = &d.eps.0 {
+        for (o, x) in out.iter_mut().zip(e.iter()) {
+            *o = *x;
+        }
+    }
+    out
 }
 
 /// Block size of the Hessian passes.

@@ -909,3 +909,62 @@ fn wrench_forces_are_the_external_part_of_rnea() {
     assert!((got - &want).amax() < 1e-12 * want.amax(), "{want}");
     assert!(want.amax() > 1.0);
 }
+
+/// A body's Jacobian columns (`Tree::body_jacobian`) give its frame velocity and the
+/// generalized force of a wrench on it, on a branching tree (a free torso, a ball-jointed limb
+/// below a hinge, a body of two joints, a body welded below a hinge), a slide, a mocap body and
+/// the world; at a random configuration and velocity, to rounding.
+#[test]
+fn body_jacobians_carry_frame_velocities_and_wrenches() {
+    let m = model_of(
+        r#"<mujoco><worldbody>
+      <body name="torso" pos="1 0 1"><freejoint/><geom type="capsule" size="0.03 0.1" mass="0.5"/>
+        <body name="upper" pos="0.1 0.05 0"><joint type="hinge" axis="0 0 1"/>
+          <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.3"/>
+          <body name="lower" pos="0.3 0 0.02"><joint type="ball" pos="0.01 0 0"/>
+            <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.2"/>
+            <body name="welded" pos="0.2 0.01 0" euler="0.3 0 0.2">
+              <geom type="box" size="0.02 0.03 0.01" mass="0.1"/></body></body></body>
+        <body name="two" pos="0 0 -0.1"><joint type="hinge" axis="0 1 0" pos="0 0 0.02"/>
+          <joint type="slide" axis="1 0 0.5"/>
+          <geom type="sphere" size="0.05" mass="0.2"/></body></body>
+      <body name="s" pos="2 0 1"><joint type="slide" axis="1 0 0"/>
+        <geom type="sphere" size="0.05" mass="0.4"/></body>
+      <body name="m" mocap="true" pos="0 2 0"><geom type="sphere" size="0.05"/></body>
+    </worldbody></mujoco>"#,
+    );
+    let tree = &m.tree;
+    let mut rng = Lcg(11);
+    let (q, v, _) = random_point(&m, &mut rng, 0.2);
+    let kin = tree.kinematics(&q, &v);
+    let mut moving = 0;
+    for b in 0..tree.bodies.len() {
+        let cols = tree.body_jacobian(&kin, b);
+        let (mut lin, mut ang) = (Vector3::zeros(), Vector3::zeros());
+        for (d, l, a) in &cols {
+            lin += l * v[*d];
+            ang += a * v[*d];
+        }
+        let frame = &kin.frames[b];
+        let scale = 1.0 + frame.linvel.norm() + frame.angvel.norm();
+        assert!((lin - frame.linvel).norm() < 1e-13 * scale, "body {b}");
+        assert!((ang - frame.angvel).norm() < 1e-13 * scale, "body {b}");
+        // A wrench on this body alone, as generalized forces.
+        let mut wrenches = vec![Wrench::zero(); tree.bodies.len()];
+        wrenches[b] = Wrench {
+            force: Vector3::new(1.0, -2.0, 0.5),
+            torque: Vector3::new(-0.3, 0.4, 1.1),
+        };
+        let want = tree.wrench_forces(&kin, &wrenches);
+        let mut got = DVector::zeros(tree.nv);
+        for (d, l, a) in &cols {
+            got[*d] += l.dot(&wrenches[b].force) + a.dot(&wrenches[b].torque);
+        }
+        assert!((&got - &want).amax() < 1e-13 * (1.0 + want.amax()), "body {b}");
+        moving += usize::from(!cols.is_empty());
+    }
+    // The torso, upper, lower, welded, two and the slider move; the world and the mocap body
+    // have no columns.
+    assert_eq!(moving, 6);
+    assert!(tree.body_jacobian(&kin, 0).is_empty());
+}

@@ -198,3 +198,43 @@ impl Tree {
         dofs.fold(Vector6::zeros(), |acc, k| acc + s[k] * v[k])
     }
 }
+
+/// One velocity coordinate's share of a body's frame velocity (a column of the body's
+/// Jacobian): `(dof, linear, angular)`, the velocity of the body origin and the angular
+/// velocity (world frame) that a unit velocity of `dof` gives the body.
+pub type BodyColumn<T> = (usize, Vector3<T>, Vector3<T>);
+
+impl Tree {
+    /// The columns of body `b`'s Jacobian at the configuration of `kin`: for every velocity
+    /// coordinate that moves it, the frame velocity ([`crate::collision::Frame`]'s `linvel`
+    /// and `angvel`) a unit velocity of that coordinate gives it, so that
+    /// `Σ (linear, angular) v[dof]` is the body's frame velocity and `Σ (linear·f + angular·τ)`
+    /// over the columns gives the generalized force of a wrench `(f, τ)` on the body (world
+    /// frame, torque about its origin), as [`Tree::wrench_forces`]. Empty for the world, a
+    /// mocap body and a body welded to either. Costs the depth of the body's node: each
+    /// ancestor's motion subspace is carried down to the body's node by the composed joint
+    /// transforms.
+    pub fn body_jacobian<T: Scalar>(&self, kin: &Kinematics<T>, b: usize) -> Vec<BodyColumn<T>> {
+        let mut out = Vec::new();
+        let Some(i) = self.body_node[b] else {
+            return out;
+        };
+        let rotation = kin.frames[b].rotation;
+        // From node j's frame to node i's, starting at j = i.
+        let mut down = Transform::identity();
+        let mut j = i;
+        loop {
+            for d in self.node_dofs(j) {
+                let m = down.motion(&kin.s[d]);
+                out.push((d, rotation * spatial::lin(&m), rotation * spatial::ang(&m)));
+            }
+            match self.nodes[j].parent {
+                Some(p) => {
+                    down = kin.x[j].then(&down);
+                    j = p;
+                }
+                None => return out,
+            }
+        }
+    }
+}

@@ -20,7 +20,7 @@ mod lie;
 pub mod limit;
 
 pub use factor::MassFactor;
-pub use kinematics::Kinematics;
+pub use kinematics::{BodyColumn, Kinematics};
 pub use lie::{quat_exp, quat_from, quat_log, quat_matrix};
 pub mod spatial;
 pub mod tendon;

@@ -11,7 +11,7 @@ use crate::autodiff::{jacobian, passes, VectorFunction};
 use crate::collision::PairCarry;
 use crate::contact::{ContactParams, PairContact};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, EvalPoint, ForwardOptions, FrozenForward, Model, Reuse};
+use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::TypeId;
@@ -80,15 +80,6 @@ impl VectorFunction for ContactImplicitResidual<'_> {
     }
 }
 
-/// [`FrozenForward::contact_force`] as a function to differentiate.
-struct ContactForceOf<'f, 'm>(&'f FrozenForward<'m>);
-
-impl VectorFunction for ContactForceOf<'_, '_> {
-    fn eval<T: Scalar>(&self, x: &[T]) -> Result<Vec<T>, DynamicsError> {
-        Ok(self.0.contact_force(x))
-    }
-}
-
 /// The implicit Euler step equation's residual `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` at `vs`,
 /// `from.u` the inputs at the end of the step; with `kept`, the pairs' kept out-of-reach proofs
 /// and candidate planes serve each iterate (a proof with room holds wherever it covers, so an
@@ -135,7 +126,7 @@ impl Model {
     /// velocity `V = v`, on the real Jacobian from dual numbers, as
     /// [`Integrator::ImplicitEuler`]'s (with dual numbers a fresh one at every iteration, so the
     /// derivatives of the step are exact; in `f64` past one pass of duals, the frozen
-    /// contact's own, [`FrozenForward::step_jacobian`]). Newton starts from `v`, not from the
+    /// contact's own, [`crate::model::FrozenForward::step_jacobian`]). Newton starts from `v`, not from the
     /// explicit step: where friction is a stiff damper (`h μ F / (v_s m) ≫ 1`) the explicit step
     /// reverses the sliding velocity many times over, far outside the basin; from `v` the first
     /// iteration is the linearly implicit step. On dm_control's dog (5 ms, 18 to 22 pairs in
@@ -202,15 +193,16 @@ impl Model {
                     .collect())
             };
             // Past one pass of dual numbers, its Jacobian from the same tapes: only the contact
-            // forces differentiated, where each pass of the full evaluation finds every pair's
-            // contact again and builds the mass matrix on duals (dm_control's dog, 85
-            // velocities, 0.1 s: 4.22 s -> 3.55 s). In one pass the full evaluation's
-            // hand-derived pair Jacobians cost less than the tapes replayed on duals of width
-            // 16 (robosuite's Fourier hand, 10 steps: 0.53 s against 0.98 s; Jaco 0.50 / 0.58).
+            // forces differentiated, each pair's tape once against its two bodies' velocities
+            // (`FrozenForward::contact_force_jacobian`), where each pass of the full evaluation
+            // finds every pair's contact again and builds the mass matrix on duals (dm_control's
+            // dog, 85 velocities, 0.1 s: 4.22 s -> 3.55 s with the tapes replayed per pass of
+            // 8 velocities). In one pass the full evaluation's hand-derived pair Jacobians cost
+            // less than the tapes replayed on duals of width 16 (robosuite's Fourier hand, 10
+            // steps: 0.53 s against 0.98 s; Jaco 0.50 / 0.58).
             if passes(v.len()) > 1 {
                 let frozen_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
-                    let (_, force) = jacobian(&ContactForceOf(&frozen), x)?;
-                    Ok(frozen.step_jacobian(&force, real.h))
+                    Ok(frozen.step_jacobian(&frozen.contact_force_jacobian(x), real.h))
                 };
                 return newton(&residual, &frozen_jacobian, v.to_vec(), jac);
             }
