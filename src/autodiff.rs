@@ -3,7 +3,7 @@
 //! dynamics, a step and the separation distance.
 
 use crate::model::DynamicsError;
-use crate::scalar::Scalar;
+use crate::scalar::{derivatives, seeded, Scalar};
 use nalgebra::{Const, DMatrix, U1};
 use num_dual::{Derivative, DualSVec64, HyperDualSVec64};
 
@@ -74,27 +74,6 @@ fn jacobian_width<F: VectorFunction + ?Sized, const N: usize>(
         }
     }
     Ok((values, jac))
-}
-
-/// `x` as a dual number of width `N` whose derivative is the unit vector of `direction` (none,
-/// or one past the width: a constant).
-pub fn seeded<const N: usize>(x: f64, direction: Option<usize>) -> DualSVec64<N> {
-    let mut d = DualSVec64::<N>::from_re(x);
-    if let Some(i) = direction.filter(|&i| i < N) {
-        d.eps = Derivative::derivative_generic(Const::<N>, U1, i);
-    }
-    d
-}
-
-/// The derivatives of a dual number of width `N` (zeros where it carries none).
-pub fn derivatives<const N: usize>(d: &DualSVec64<N>) -> [f64; N] {
-    let mut out = [0.0; N];
-    if let Some(e) = &d.eps.0 {
-        for (o, x) in out.iter_mut().zip(e.iter()) {
-            *o = *x;
-        }
-    }
-    out
 }
 
 /// Block size of the Hessian passes.

@@ -5,7 +5,8 @@
 //! (point–plane, point–SSDF and SSDF–SSDF forces) → [`dynamics`] (kinematic trees, forward and
 //! inverse dynamics) → [`model`] (the whole scene's dynamics) → [`integrate`] (time stepping,
 //! the methods named in [`integrator`]), with exact first and second derivatives of all of it in
-//! [`derivatives`] (on the engines of [`autodiff`]). That is the engine; above it, in layers
+//! [`derivatives`] (on the engines of [`autodiff`]; [`linalg`]'s block inverses serve the
+//! mass matrix and the implicit steps). That is the engine; above it, in layers
 //! that import only downwards (checked by `tests/layers.rs`): [`scene`] (MJCF in, a [`Model`]
 //! out), [`sim`] (a running simulation and its variable table), [`fmi`] (the FMI 2.0 C ABI) and
 //! [`pack`] (the `.fmu` archive). The math never sees a file, a pointer or XML.
@@ -31,6 +32,7 @@ pub mod fmi;
 pub mod geometry;
 pub mod integrate;
 pub mod integrator;
+pub mod linalg;
 pub mod model;
 pub mod pack;
 pub mod scalar;

@@ -4,8 +4,11 @@
 //! Branches look at real parts only ([`re`]), so a dual number follows the same path as the
 //! `f64` it extends, and every function here is smooth wherever the `f64` version is.
 
+use nalgebra::U1;
 use nalgebra::{Const, RealField, SVector, Vector3};
-use num_dual::{Derivative, Dual, Dual2, Dual2Vec, DualNum, DualVec, HyperDual, HyperDualVec};
+use num_dual::{
+    Derivative, Dual, Dual2, Dual2Vec, DualNum, DualSVec64, DualVec, HyperDual, HyperDualVec,
+};
 
 /// A real number that the math can be evaluated on: `f64`, `Dual64`, `DualSVec64<N>`,
 /// `Dual2_64`, `Dual2SVec64<N>`, `HyperDual64`, `HyperDualSVec64<M, N>`.
@@ -126,6 +129,27 @@ impl<const M: usize, const N: usize> ChainRule for HyperDualVec<f64, Const<M>, C
     fn chain(_: &[f64], _: &[f64], _: &[Self], _: &mut [Self]) -> bool {
         false
     }
+}
+
+/// `x` as a dual number of width `N` whose derivative is the unit vector of `direction` (none,
+/// or one past the width: a constant).
+pub fn seeded<const N: usize>(x: f64, direction: Option<usize>) -> DualSVec64<N> {
+    let mut d = DualSVec64::<N>::from_re(x);
+    if let Some(i) = direction.filter(|&i| i < N) {
+        d.eps = Derivative::derivative_generic(Const::<N>, U1, i);
+    }
+    d
+}
+
+/// The derivatives of a dual number of width `N` (zeros where it carries none).
+pub fn derivatives<const N: usize>(d: &DualSVec64<N>) -> [f64; N] {
+    let mut out = [0.0; N];
+    if let Some(e) = &d.eps.0 {
+        for (o, x) in out.iter_mut().zip(e.iter()) {
+            *o = *x;
+        }
+    }
+    out
 }
 
 /// Real part of a scalar (the value without its derivative parts).

@@ -960,7 +960,10 @@ fn body_jacobians_carry_frame_velocities_and_wrenches() {
         for (d, l, a) in &cols {
             got[*d] += l.dot(&wrenches[b].force) + a.dot(&wrenches[b].torque);
         }
-        assert!((&got - &want).amax() < 1e-13 * (1.0 + want.amax()), "body {b}");
+        assert!(
+            (&got - &want).amax() < 1e-13 * (1.0 + want.amax()),
+            "body {b}"
+        );
         moving += usize::from(!cols.is_empty());
     }
     // The torso, upper, lower, welded, two and the slider move; the world and the mocap body

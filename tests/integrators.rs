@@ -1365,7 +1365,10 @@ fn frozen_jacobian_against_central_differences_and_the_full_one(model: &Model, v
         assert!(gap <= 1e-13 * seeded.amax(), "{gap} of {}", seeded.amax());
         // Every coordinate moves a body of a pair in reach (the arm's four move the forearm).
         for k in 0..n {
-            assert!(force.column(k).amax() > 0.0, "coordinate {k} reads no contact");
+            assert!(
+                force.column(k).amax() > 0.0,
+                "coordinate {k} reads no contact"
+            );
         }
         let ours = frozen.step_jacobian(&force, h);
         // The contact matters: the Jacobian is not the identity.

@@ -10,6 +10,7 @@ use std::path::Path;
 const ENGINE: &[&str] = &[
     "scalar",
     "autodiff",
+    "linalg",
     "geometry",
     "collision",
     "contact",

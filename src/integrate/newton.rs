@@ -3,6 +3,7 @@
 //! residual's norm, and a fresh Jacobian at every iteration on dual numbers so that the
 //! derivatives of the solution are exact.
 
+use crate::linalg::block_inverse;
 use crate::model::DynamicsError;
 use crate::scalar::Scalar;
 use nalgebra::DMatrix;
@@ -19,9 +20,11 @@ type RealJacobian<'a> = dyn Fn(&[f64]) -> Result<DMatrix<f64>, DynamicsError> + 
 
 /// A real Newton Jacobian kept from step to step while it serves, with its inverse, computed
 /// when first needed and kept with it: for 32 free boxes (192 velocities) inverting the
-/// Jacobian at every step cost about a fifth of the implicit step. The inverse is a function of
-/// the matrix (the same LU), so a Jacobian restored from an FMU state gives the same iterates
-/// to the bit; it is neither compared nor serialized.
+/// Jacobian at every step cost about a fifth of the implicit step. The inverse is taken island
+/// by island (the groups of velocities no nonzero entry joins: trees that no pair in reach,
+/// tendon or equality couples), each block's LU. It is a function of the matrix, so a Jacobian
+/// restored from an FMU state gives the same iterates to the bit; it is neither compared nor
+/// serialized.
 #[derive(Clone, Debug)]
 pub(crate) struct WarmJacobian {
     matrix: DMatrix<f64>,
@@ -43,7 +46,8 @@ impl WarmJacobian {
     /// The inverse, computed on the first call; `None` for a singular matrix.
     fn inverse(&mut self) -> Option<&DMatrix<f64>> {
         if self.inverse.is_none() {
-            self.inverse = self.matrix.clone().lu().try_inverse();
+            // Island by island: trees no pair in reach couples (`crate::linalg`).
+            self.inverse = block_inverse(&self.matrix, |b| b.lu().try_inverse());
         }
         self.inverse.as_ref()
     }

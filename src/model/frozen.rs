@@ -12,10 +12,10 @@
 
 use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
-use crate::contact::PairTape;
-use crate::autodiff::{derivatives, seeded};
 use crate::collision::Frame;
+use crate::contact::PairTape;
 use crate::dynamics::{BodyColumn, MassFactor};
+use crate::scalar::{derivatives, seeded};
 use nalgebra::{DMatrix, SMatrix};
 use num_dual::DualSVec64;
 
@@ -169,7 +169,10 @@ impl FrozenForward<'_> {
             let (Some(ca), Some(cb)) = (&m.colliders[*a], &m.colliders[*b]) else {
                 unreachable!("a recorded pair has both colliders")
             };
-            let (fa, fb) = (seeded_frame(&at.frames[*a], 0), seeded_frame(&at.frames[*b], 6));
+            let (fa, fb) = (
+                seeded_frame(&at.frames[*a], 0),
+                seeded_frame(&at.frames[*b], 6),
+            );
             let [on_a, on_b] = tape.replay(ca, &fa, cb, &fb, &p.lift());
             // Rows: force and torque on a, then on b; columns: a's linear and angular
             // velocity, then b's.
@@ -192,8 +195,8 @@ impl FrozenForward<'_> {
                     let u = k.fixed_columns::<3>(cs) * lc + k.fixed_columns::<3>(cs + 3) * ac;
                     for (rs, rbody) in sides {
                         for (dr, lr, ar) in columns[rbody].as_deref().unwrap_or_default() {
-                            out[(*dr, *dc)] += lr.dot(&u.fixed_rows::<3>(rs))
-                                + ar.dot(&u.fixed_rows::<3>(rs + 3));
+                            out[(*dr, *dc)] +=
+                                lr.dot(&u.fixed_rows::<3>(rs)) + ar.dot(&u.fixed_rows::<3>(rs + 3));
                         }
                     }
                 }

@@ -149,48 +149,7 @@ pub(super) fn mass_at_q0(tree: &Tree) -> (nalgebra::DMatrix<f64>, Option<nalgebr
     let q0 = tree.q0();
     let kin = tree.kinematics(&q0, &vec![0.0; tree.nv]);
     let m = tree.mass_matrix(&kin);
-    let inv = block_inverse(&m);
+    // Block-diagonal over the free-moving trees: inverted per tree (`crate::linalg`).
+    let inv = crate::linalg::block_inverse(&m, |b| b.cholesky().map(|c| c.inverse()));
     (m, inv)
-}
-
-/// The inverse of a symmetric positive definite `m` block by block: the velocities fall into
-/// groups that no nonzero entry of `m` joins (one per free-moving tree of bodies), `m` is
-/// block-diagonal over them and so is its inverse, each block's Cholesky inverse. `None` when a
-/// block is not positive definite. (The whole matrix's inverse was O(nv³): 300 free leaves,
-/// 1,800 velocities, took seconds per call, and the compiler asks for it several times.)
-fn block_inverse(m: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DMatrix<f64>> {
-    let n = m.nrows();
-    // Union-find over the nonzero entries.
-    let mut root: Vec<usize> = (0..n).collect();
-    fn find(root: &mut [usize], mut i: usize) -> usize {
-        while root[i] != i {
-            root[i] = root[root[i]];
-            i = root[i];
-        }
-        i
-    }
-    for a in 0..n {
-        for b in 0..a {
-            if m[(a, b)] != 0.0 {
-                let (ra, rb) = (find(&mut root, a), find(&mut root, b));
-                root[ra.max(rb)] = ra.min(rb);
-            }
-        }
-    }
-    let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for i in 0..n {
-        let r = find(&mut root, i);
-        groups.entry(r).or_default().push(i);
-    }
-    let mut inv = nalgebra::DMatrix::zeros(n, n);
-    for idx in groups.values() {
-        let block = m.select_rows(idx).select_columns(idx);
-        let block_inv = block.cholesky()?.inverse();
-        for (i, &a) in idx.iter().enumerate() {
-            for (j, &b) in idx.iter().enumerate() {
-                inv[(a, b)] = block_inv[(i, j)];
-            }
-        }
-    }
-    Some(inv)
 }
