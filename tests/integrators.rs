@@ -1389,7 +1389,7 @@ fn frozen_jacobian_against_central_differences_and_the_full_one(model: &Model, v
                 );
             }
         }
-        let (_, full) = jacobian(&Full(&model, q.clone(), v.clone(), h), &x).unwrap();
+        let (_, full) = jacobian(&Full(model, q.clone(), v.clone(), h), &x).unwrap();
         let gap = (&ours - &full).amax();
         assert!(
             gap <= 1e-12 * full.amax(),
