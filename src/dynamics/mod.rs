@@ -19,7 +19,7 @@ mod kinematics;
 mod lie;
 pub mod limit;
 
-pub use factor::MassFactor;
+pub use factor::{MassFactor, TreeMatrix};
 pub use kinematics::{BodyColumn, Kinematics};
 pub use lie::{quat_exp, quat_from, quat_log, quat_matrix};
 pub mod spatial;
@@ -155,6 +155,8 @@ pub struct Tree {
     body_node: Vec<Option<usize>>,
     /// Parent DOF of each DOF ([`Tree::factor`]).
     dof_parent: std::sync::Arc<[Option<usize>]>,
+    /// Where each DOF's row of a [`TreeMatrix`] starts, and the end of the last.
+    dof_adr: std::sync::Arc<[usize]>,
 }
 
 /// Why a tree cannot be built.
@@ -252,8 +254,11 @@ impl Tree {
             nodes,
             body_node,
             dof_parent: std::sync::Arc::from(Vec::new()),
+            dof_adr: std::sync::Arc::from(Vec::new()),
         };
-        tree.dof_parent = tree.dof_parents().into();
+        let parent = tree.dof_parents();
+        tree.dof_adr = Tree::dof_rows(&parent).into();
+        tree.dof_parent = parent.into();
         // MuJoCo's rule: every body with joints, together with the jointless bodies welded to
         // it (they move as one), has a mass and a rotational inertia; a welded body alone may
         // have none (a body that only holds a site, or a massless frame around the geoms).
@@ -359,10 +364,17 @@ impl Tree {
     }
 
     /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
-    /// included.
+    /// included, dense.
+    pub fn mass_matrix<T: Scalar>(&self, kin: &Kinematics<T>) -> DMatrix<T> {
+        self.mass_matrix_sparse(kin).to_dense()
+    }
+
+    /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
+    /// included, at its tree sparsity (what [`Tree::factor`] takes): each entry is between a
+    /// DOF and one of its ancestors (or itself), computed once.
     // Nodes are visited by index: each step reads several per-node arrays and walks parents.
     #[allow(clippy::needless_range_loop)]
-    pub fn mass_matrix<T: Scalar>(&self, kin: &Kinematics<T>) -> DMatrix<T> {
+    pub fn mass_matrix_sparse<T: Scalar>(&self, kin: &Kinematics<T>) -> TreeMatrix<T> {
         let n = self.nodes.len();
         let mut ic: Vec<nalgebra::Matrix6<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
         for i in (0..n).rev() {
@@ -372,33 +384,28 @@ impl Tree {
                 ic[p] += add;
             }
         }
-        let mut m = DMatrix::zeros(self.nv, self.nv);
+        let mut m = self.tree_matrix();
         for i in 0..n {
             let dofs = self.node_dofs(i);
             for a in dofs.clone() {
                 let mut f = ic[i] * kin.s[a];
-                // The node's own block, symmetric: each entry computed once, on and below the
-                // diagonal (the entries the factorization reads), and mirrored above it.
+                // The node's own block: the earlier DOFs of a joint are ancestors of the later.
                 for b in dofs.start..=a {
-                    let val = f.dot(&kin.s[b]);
-                    m[(a, b)] = val;
-                    m[(b, a)] = val;
+                    *m.entry_mut(a, b) = f.dot(&kin.s[b]);
                 }
                 let mut j = i;
                 while let Some(p) = self.nodes[j].parent {
                     f = kin.x[j].force_to_parent(&f);
                     j = p;
                     for b in self.node_dofs(j) {
-                        let val = f.dot(&kin.s[b]);
-                        m[(a, b)] = val;
-                        m[(b, a)] = val;
+                        *m.entry_mut(a, b) = f.dot(&kin.s[b]);
                     }
                 }
             }
         }
         for jt in &self.joints {
             for k in 0..jt.kind.nv() {
-                m[(jt.dadr + k, jt.dadr + k)] += c::<T>(jt.armature);
+                *m.entry_mut(jt.dadr + k, jt.dadr + k) += c::<T>(jt.armature);
             }
         }
         m

@@ -195,8 +195,8 @@ impl Model {
         v: &[T],
         prm: &ContactParams<T>,
         implicit_damping: Option<T>,
-    ) -> nalgebra::DMatrix<T> {
-        let mut m = self.tree.mass_matrix(kin);
+    ) -> crate::dynamics::TreeMatrix<T> {
+        let mut m = self.tree.mass_matrix_sparse(kin);
         if let Some(h) = implicit_damping {
             let vs2 = prm.stiction_velocity * prm.stiction_velocity;
             for j in &self.tree.joints {
@@ -210,10 +210,10 @@ impl Model {
                         let r = vs2 + vi * vi;
                         d += vs2 * j.frictionloss / (r * r.sqrt());
                     }
-                    m[(j.dadr + k, j.dadr + k)] += h * d;
+                    *m.entry_mut(j.dadr + k, j.dadr + k) += h * d;
                 }
                 if let Some(l) = &j.limit {
-                    m[(j.dadr, j.dadr)] += h * l.damping_slope(q[j.qadr], v[j.dadr]);
+                    *m.entry_mut(j.dadr, j.dadr) += h * l.damping_slope(q[j.qadr], v[j.dadr]);
                 }
             }
         }
