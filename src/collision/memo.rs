@@ -64,6 +64,35 @@ pub struct CandidateMemo {
     sides: [SideCandidates; 2],
     /// Queries answered so far, from a kept ball or not.
     counts: MemoCounts,
+    /// The pair's last hand-derived Jacobian, with the real inputs it was taken at.
+    pub linearized: Option<Box<Linearized>>,
+}
+
+/// A function's value and Jacobian at one input (a pair's hand-derived Jacobian, which the chain
+/// rule's path takes at the real parts of the pair's inputs: `crate::contact::pair_jacobian`).
+/// The passes of dual numbers of one Jacobian ([`crate::autodiff::jacobian`]) evaluate every
+/// pair at the same real inputs, so the first pass takes it and the others find it here. Read
+/// only where `key` equals the new inputs in every bit: a cost, never a result.
+#[derive(Clone, Debug, Default)]
+pub struct Linearized {
+    /// The inputs, with the parameters they were taken with, as the caller lists them.
+    pub key: Vec<f64>,
+    /// The value.
+    pub values: Vec<f64>,
+    /// The Jacobian, as the caller lays it out.
+    pub jacobian: Vec<f64>,
+}
+
+impl Linearized {
+    /// Whether it was taken at `key`, every bit equal.
+    pub fn taken_at(&self, key: &[f64]) -> bool {
+        self.key.len() == key.len()
+            && self
+                .key
+                .iter()
+                .zip(key)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
 }
 
 /// One side's kept balls.
@@ -169,7 +198,11 @@ impl CandidateMemo {
                     + 8 * s.xyz.iter().map(Vec::capacity).sum::<usize>()
                     + 8 * s.spare.1.iter().map(Vec::capacity).sum::<usize>()
             })
-            .sum()
+            .sum::<usize>()
+            + self.linearized.as_ref().map_or(0, |l| {
+                std::mem::size_of::<Linearized>()
+                    + 8 * (l.key.capacity() + l.values.capacity() + l.jacobian.capacity())
+            })
     }
 
     /// Starts a band walk of the pair `(a, b)` at `eps1` (m²): drops everything kept if

@@ -59,7 +59,8 @@ pub(crate) use band::{band_of, BandWork};
 pub use band::{separation_band, BandEntry, SeparationBand};
 pub use bounds::{ssdf_exceeds, ssdf_exceeds_over, QueryRegion};
 pub use memo::{
-    CandidateMemo, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY, UNUSED_WALKS,
+    CandidateMemo, Linearized, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY,
+    UNUSED_WALKS,
 };
 pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof, FLOOR_ROOM_LIVES};
 pub use reach::{

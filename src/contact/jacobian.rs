@@ -3,6 +3,7 @@
 //! direction through every term.
 
 use super::*;
+use crate::collision::Linearized;
 
 /// Number of inputs of [`pair_jacobian`] per side: the rotation (9 entries, row-major), the
 /// translation, the linear velocity, the query body's and the plane body's angular velocities
@@ -34,15 +35,53 @@ pub(super) fn pair_contact_chained<T: Scalar>(
     b: &Collider,
     fb: &Frame<T>,
     prm: &ContactParams<T>,
+    kept: Option<&mut Option<Box<Linearized>>>,
     scratch: &mut Scratch,
 ) -> PairContact<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
     let mut inputs = [T::zero(); 2 * SIDE_INPUTS];
     inputs[..SIDE_INPUTS].copy_from_slice(&relative_inputs(&rels[0]));
     inputs[SIDE_INPUTS..].copy_from_slice(&relative_inputs(&rels[1]));
-    let (values, jac) = pair_jacobian(a, b, &[rels[0].re(), rels[1].re()], &prm.re(), scratch);
+    let (rels_re, prm_re) = ([rels[0].re(), rels[1].re()], prm.re());
+    // The key: the real inputs and every parameter the Jacobian reads (surfaces are at rest on
+    // this path).
+    let key: Vec<f64> = (inputs.iter().map(|x| x.re()))
+        .chain([
+            prm_re.eps1,
+            prm_re.eps2,
+            prm_re.eps3,
+            prm_re.stiffness,
+            prm_re.dissipation_velocity,
+            prm_re.stiction_velocity,
+            prm_re.friction,
+            prm_re.dissipation_force,
+            prm_re.margin,
+            prm_re.adhesion,
+            prm_re.gap,
+            prm_re.dissipation as u8 as f64,
+        ])
+        .collect();
+    let found = kept
+        .as_deref()
+        .and_then(Option::as_deref)
+        .filter(|l| l.taken_at(&key));
     let mut out = [T::zero(); PAIR_OUTPUTS];
-    if !T::chain(&values, &jac, &inputs, &mut out) {
+    let chained = match found {
+        Some(l) => T::chain(&l.values, &l.jacobian, &inputs, &mut out),
+        None => {
+            let (values, jac) = pair_jacobian(a, b, &rels_re, &prm_re, scratch);
+            let chained = T::chain(&values, &jac, &inputs, &mut out);
+            if let Some(slot) = kept {
+                *slot = Some(Box::new(Linearized {
+                    key,
+                    values: values.to_vec(),
+                    jacobian: jac,
+                }));
+            }
+            chained
+        }
+    };
+    if !chained {
         return pair_contact_generic(a, fa, b, fb, prm);
     }
     let sums = [

@@ -404,8 +404,10 @@ pub fn pair_contact<T: Scalar>(
 
 /// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`
 /// ([`CandidateMemo`]): the same contact to the last bit, at less cost while the bodies move
-/// little between calls. The chain rule's path (first-order duals) does not use them. The
-/// hierarchy walks work in `scratch`.
+/// little between calls. The chain rule's path (first-order duals) does not use them; it keeps
+/// there its hand-derived Jacobian with the real inputs it was taken at, and takes it again
+/// only at other inputs (the passes of one Jacobian of dual numbers share it). The hierarchy
+/// walks work in `scratch`.
 pub fn pair_contact_memo<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
@@ -429,7 +431,8 @@ pub fn pair_contact_memo<T: Scalar>(
     // The hand-derived Jacobian is the paper's law's: a moving surface's flow (departure 8)
     // takes the path of every other scalar.
     if T::FIRST_ORDER && constant && prm.surface.is_none() {
-        pair_contact_chained(a, fa, b, fb, prm, scratch)
+        let linearized = kept.map(|k| &mut k.linearized);
+        pair_contact_chained(a, fa, b, fb, prm, linearized, scratch)
     } else {
         pair_contact_generic_memo(a, fa, b, fb, prm, kept, scratch)
     }

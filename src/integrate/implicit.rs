@@ -29,6 +29,12 @@ struct StepResidual<'a> {
     h: f64,
     u: Vec<f64>,
     prm: ContactParams<f64>,
+    /// What the pairs keep from one pass of dual numbers of the Jacobian to the next, all at the
+    /// same real point: each pair's proof and hand-derived Jacobian, found in the first pass
+    /// (a fresh carry per Jacobian: the same decisions and numbers as without one). On MuJoCo's
+    /// cards (318 velocities, 40 passes) every pass took every pair's Jacobian again: 88 % of
+    /// a run.
+    pairs: RefCell<PairCarry>,
 }
 
 impl VectorFunction for StepResidual<'_> {
@@ -43,7 +49,9 @@ impl VectorFunction for StepResidual<'_> {
             prm: &prm,
             h: c(self.h),
         };
-        step_residual(self.model, from, x, None)
+        let mut pairs = self.pairs.borrow_mut();
+        let kept = RefCell::new(&mut *pairs);
+        step_residual(self.model, from, x, Some(&kept))
     }
 }
 
@@ -263,6 +271,7 @@ impl Model {
                 h: h.re(),
                 u: re_vec(&u1),
                 prm: prm.re(),
+                pairs: RefCell::default(),
             };
             Ok(jacobian(&f, x)?.1)
         };
