@@ -1646,3 +1646,49 @@ fn pairs_on_several_threads_change_no_bit() {
         );
     }
 }
+
+/// Three steel balls in a row, the last two touching, the first thrown at the second at
+/// 0.5 m/s with MuJoCo's undamped contact (`solref="-k -0"`, as in MuJoCo's newton_cradle.xml:
+/// an infinite dissipation velocity) and no friction, run as MuJoCo's Euler (damped Euler, 18
+/// velocities: Newton's Jacobian from the tapes pair by pair). The undamped contact's Jacobian
+/// was not a number (its dual velocity divided by an infinite constant) and the first step
+/// failed. Now the last ball leaves at the thrower's speed: momentum kept to 1e-9 (the
+/// contact's forces are equal and opposite, no other force acts) and the kinetic energy to
+/// 1e-3 (no damping; measured 0.49999 m/s, the first ball back at -0.0032 m/s).
+#[test]
+fn an_undamped_contact_passes_the_momentum_along_a_row_of_balls() {
+    let model = model_of(
+        r#"<mujoco><option timestep="0.0001" gravity="0 0 0"/>
+<default><geom type="sphere" size="0.02" density="8000" friction="0" solref="-1e5 -0"/></default>
+<worldbody>
+<body name="a" pos="-0.05 0 0"><freejoint/><geom/></body>
+<body name="b" pos="0 0 0"><freejoint/><geom/></body>
+<body name="c" pos="0.0401 0 0"><freejoint/><geom/></body>
+</worldbody></mujoco>"#,
+    );
+    assert_eq!(model.integrator, Integrator::DampedEuler);
+    for pair in &model.pairs {
+        assert_eq!(
+            pair.params(&model.contact).dissipation_velocity,
+            f64::INFINITY
+        );
+    }
+    let mut state = State::new(model.tree.q0(), vec![0.0; 18]);
+    state.v[0] = 0.5;
+    let done = model
+        .advance(
+            &state,
+            &[],
+            &model.contact,
+            0.0,
+            0.1,
+            &AdvanceOptions::default(),
+        )
+        .unwrap();
+    let vx: Vec<f64> = (0..3).map(|b| done.state.v[6 * b]).collect();
+    let momentum: f64 = vx.iter().sum();
+    assert!((momentum - 0.5).abs() < 1e-9, "{vx:?}");
+    let energy: f64 = vx.iter().map(|v| v * v).sum();
+    assert!((energy - 0.25).abs() < 0.25e-3, "{vx:?}");
+    assert!(vx[2] > 0.49 && vx[0].abs() < 0.01, "{vx:?}");
+}

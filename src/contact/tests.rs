@@ -218,6 +218,45 @@ fn point_plane_force_pushes_out_and_opposes_sliding() {
 }
 
 #[test]
+fn an_undamped_contact_has_finite_derivatives() {
+    // MuJoCo's `solref="-k -0"` (newton_cradle.xml) is an infinite dissipation velocity: no
+    // damping. Its point force on dual numbers seeded on the velocity and the depth: finite
+    // derivatives, those of a dissipation velocity of 1e200 m/s (to 1e-12), and the real force
+    // of the hand-derived Jacobian's `f64` path. (Dividing a dual velocity by an infinite
+    // constant gave `∞ · 0`, not a number, and Newton's Jacobian with it.)
+    let still = ContactParams {
+        dissipation_velocity: f64::INFINITY,
+        ..ContactParams::default()
+    };
+    let huge = ContactParams {
+        dissipation_velocity: 1e200,
+        ..still
+    };
+    let n = Vector3::<f64>::z().map(Dual64::from);
+    for seed in 0..2 {
+        let (depth, vz) = if seed == 0 {
+            (Dual64::new(-1e-3, 1.0), Dual64::from(-0.2))
+        } else {
+            (Dual64::from(-1e-3), Dual64::new(-0.2, 1.0))
+        };
+        let r = Vector3::new(Dual64::from(0.0), Dual64::from(0.0), depth);
+        let v = Vector3::new(Dual64::from(0.05), Dual64::from(0.0), vz);
+        let a = point_plane_force(&r, &n, &v, &still.lift());
+        let b = point_plane_force(&r, &n, &v, &huge.lift());
+        for k in 0..3 {
+            assert!(a[k].eps.is_finite(), "{seed}: {a:?}");
+            assert!(
+                (a[k].eps - b[k].eps).abs() <= 1e-12 * (1.0 + b[k].eps.abs()),
+                "{a:?} {b:?}"
+            );
+            assert!((a[k].re - b[k].re).abs() <= 1e-12 * (1.0 + b[k].re.abs()));
+        }
+        let real = point_plane_force(&r.map(|x| x.re), &Vector3::z(), &v.map(|x| x.re), &still);
+        assert_eq!(real, a.map(|x| x.re));
+    }
+}
+
+#[test]
 fn a_nan_temperature_gives_a_nan_contact_not_a_panic() {
     // ε2 = NaN makes the band's cutoff NaN: no entry is above it, so every entry is kept with
     // its terms (the band's test is the force's, "not above") and evaluated; the contact comes
