@@ -183,13 +183,6 @@ impl<T: Scalar> Twist<T> {
     }
 }
 
-impl Twist<f64> {
-    /// Whether the field is zero everywhere.
-    pub fn is_zero(&self) -> bool {
-        self.lin == Vector3::zeros() && self.ang == Vector3::zeros()
-    }
-}
-
 impl Relative<f64> {
     /// A placeholder for the side of a pair whose query body has no points (a half-space):
     /// identity pose, at rest. Nothing reads it.

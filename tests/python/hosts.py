@@ -60,3 +60,34 @@ def get_dx(model, nx):
     dx = np.zeros(nx)
     model.getDerivatives(_ptr(dx), nx)
     return dx
+
+
+def derivative_and_central_difference(model, states, x0, unknown, known):
+    """A Model Exchange instance's exact directional derivative of `unknown` along `known` (a
+    state of `states`, or an input) at the continuous states `x0`, with its central difference
+    (steps of 1e-8 on a state, 1e-7 on an input) and the unknown's value there: `(exact, fd, y,
+    h)`. Leaves the instance at `x0` with the input as it was."""
+    (exact,) = model.getDirectionalDerivative([unknown.valueReference], [known.valueReference], [1.0])
+    if known in states:
+        j, h = states.index(known), 1e-8
+
+        def at(xj):
+            x = x0.copy()
+            x[j] = xj
+            set_x(model, x)
+            (y,) = model.getReal([unknown.valueReference])
+            return y
+        fd = (at(x0[j] + h) - at(x0[j] - h)) / (2 * h)
+        set_x(model, x0)
+    else:
+        h = 1e-7
+        (u0,) = model.getReal([known.valueReference])
+
+        def at(u):
+            model.setReal([known.valueReference], [u])
+            (y,) = model.getReal([unknown.valueReference])
+            return y
+        fd = (at(u0 + h) - at(u0 - h)) / (2 * h)
+        model.setReal([known.valueReference], [u0])
+    (y,) = model.getReal([unknown.valueReference])
+    return exact, fd, y, h

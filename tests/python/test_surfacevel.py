@@ -141,7 +141,7 @@ def test_model_exchange_derivatives_of_a_load_on_a_belt_match_central_difference
     through a contact whose surface moves, the box pressed 0.5 mm into the turned belt and moving
     on every coordinate, against central differences of the same FMU (the tolerance of
     test_directional_derivatives.py)."""
-    from hosts import Opened, get_x, set_x
+    from hosts import Opened, derivative_and_central_difference, get_x, set_x
     from test_directional_derivatives import close
     path = tmp_path / "belt.xml"
     path.write_text(BELT)
@@ -160,18 +160,7 @@ def test_model_exchange_derivatives_of_a_load_on_a_belt_match_central_difference
     declared = [(u.variable, k) for u in f.md.derivatives for k in (u.dependencies or []) if k in states]
     assert len(declared) > 50
     for unknown, known in declared:
-        (exact,) = model.getDirectionalDerivative([unknown.valueReference], [known.valueReference], [1.0])
-        j, h = states.index(known), 1e-8
-
-        def at(xj):
-            x = x0.copy()
-            x[j] = xj
-            set_x(model, x)
-            (y,) = model.getReal([unknown.valueReference])
-            return y
-        fd = (at(x0[j] + h) - at(x0[j] - h)) / (2 * h)
-        set_x(model, x0)
-        (y,) = model.getReal([unknown.valueReference])
+        exact, fd, y, h = derivative_and_central_difference(model, states, x0, unknown, known)
         assert close(exact, fd, y, h), (unknown.name, known.name, exact, fd)
     # The belt drags the box along its flow: the box's acceleration along (cos 30, sin 30).
     (ax, ay) = model.getReal([f.vr["der(load.linvel.x)"], f.vr["der(load.linvel.y)"]])
