@@ -92,7 +92,8 @@ pub struct Forward<T: Scalar> {
     pub vdot: DVector<T>,
     /// Contact per pair, in the order of `Model::pairs` (see [`Model::contact_forces`]):
     /// `None` for a pair out of reach, whose wrenches are zero and whose smooth distance was
-    /// not evaluated.
+    /// not evaluated. Empty where the options did not ask for it
+    /// ([`ForwardOptions::list_contacts`]).
     pub contacts: Vec<Option<PairContact<T>>>,
 }
 

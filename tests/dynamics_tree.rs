@@ -981,3 +981,33 @@ fn body_jacobians_carry_frame_velocities_and_wrenches() {
     assert_eq!(moving, 6);
     assert!(tree.body_jacobian(&kin, 0).is_empty());
 }
+
+/// A forward dynamics that does not list the pairs' contacts (`ForwardOptions::list_contacts`,
+/// what a residual reads) gives the accelerations of one that does, to the bit, on every
+/// bundled scene at random states near their start (pairs in reach among them).
+#[test]
+fn accelerations_without_the_contact_list_are_the_same_bits() {
+    use scm::model::ForwardOptions;
+    let mut rng = Lcg(29);
+    let mut in_reach = 0;
+    for (name, model) in bundled() {
+        for _ in 0..3 {
+            let (q, v, u) = random_point(&model, &mut rng, 0.01);
+            let listed = model
+                .forward_with(&q, &v, &u, &model.contact, ForwardOptions::default())
+                .unwrap();
+            let opts = ForwardOptions {
+                list_contacts: false,
+                ..ForwardOptions::default()
+            };
+            let bare = model
+                .forward_with(&q, &v, &u, &model.contact, opts)
+                .unwrap();
+            let bits = |x: &DVector<f64>| x.iter().map(|a| a.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&listed.vdot), bits(&bare.vdot), "{name}");
+            assert!(bare.contacts.is_empty());
+            in_reach += listed.contacts.iter().flatten().count();
+        }
+    }
+    assert!(in_reach > 0);
+}

@@ -81,6 +81,7 @@ impl VectorFunction for ContactImplicitResidual<'_> {
         let opts = ForwardOptions {
             contact_velocity: Some(x),
             implicit_damping: Some(c(self.h)),
+            list_contacts: false,
             ..ForwardOptions::default()
         };
         let a = self.model.forward_at(at, &self.prm.lift(), opts)?.vdot;
@@ -104,6 +105,7 @@ fn step_residual<T: Scalar>(
     let mut carried = kept.map(RefCell::borrow_mut);
     let opts = ForwardOptions {
         reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::All(c)),
+        list_contacts: false,
         ..ForwardOptions::default()
     };
     let a = model.forward_with(&q, vs, u, prm, opts)?.vdot;

@@ -44,6 +44,9 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// The kinematics of `(q, v, mocap)`, if the caller has them already (they are the same
     /// bits as those computed here).
     pub kinematics: Option<Kinematics<T>>,
+    /// Whether the result lists every pair's contact ([`Forward::contacts`]); without, it is
+    /// empty and the accelerations are the same bits (a residual that reads only them).
+    pub list_contacts: bool,
 }
 
 impl<T: Scalar> Default for ForwardOptions<'_, T> {
@@ -53,6 +56,7 @@ impl<T: Scalar> Default for ForwardOptions<'_, T> {
             implicit_damping: None,
             reuse: Reuse::Nothing,
             kinematics: None,
+            list_contacts: true,
         }
     }
 }
@@ -143,12 +147,13 @@ impl Model {
             .contact_velocity
             .map(|vc| self.tree.kinematics_with(q, vc, mocap));
         // With a contact velocity, the same positions, so the wrenches are in the same frames.
-        let (mut wrenches, contacts) = self.contacts_with(
-            contact_kin.as_ref().unwrap_or(&kin),
-            prm,
-            Pick::InReach,
-            opts.reuse,
-        );
+        let at = contact_kin.as_ref().unwrap_or(&kin);
+        let (mut wrenches, contacts) = if opts.list_contacts {
+            self.contacts_with(at, prm, Pick::InReach, opts.reuse)
+        } else {
+            let wrenches = self.wrenches_with(at, prm, Pick::InReach, opts.reuse);
+            (wrenches, Vec::new())
+        };
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
