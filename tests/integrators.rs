@@ -1186,35 +1186,39 @@ fn implicit_euler_starts_from_the_last_velocity_change_and_its_state_carries_it(
     assert_eq!(damped.deserialize_state(&old).unwrap(), state);
 }
 
-/// A box resting tilted on a floor and pressed by a sphere, damped Euler at 2 ms: the frozen
-/// contact's tests.
-const TILTED_BOX_PRESSED: &str = r#"<mujoco>
+/// A box resting tilted on a floor, damped Euler at 2 ms, with the bodies `$rest` adds: the
+/// frozen contact's scenes.
+macro_rules! tilted_box_and {
+    ($rest:literal) => {
+        concat!(
+            r#"<mujoco>
   <option timestep="0.002"/>
   <custom><text name="scm_integrator" data="damped_euler"/></custom>
   <worldbody>
     <geom name="floor" type="plane" size="1 1 0.1"/>
     <body name="b" pos="0 0 0.0195" euler="0.02 -0.01 0.3"><freejoint/>
       <geom type="box" size="0.05 0.04 0.02" mass="0.2"/></body>
-    <body name="s" pos="0.01 0 0.068"><freejoint/>
-      <geom type="sphere" size="0.03" mass="0.1"/></body>
-  </worldbody>
-</mujoco>"#;
+"#,
+            $rest,
+            "\n  </worldbody>\n</mujoco>"
+        )
+    };
+}
 
-/// A forearm of a two-joint arm (a ball at the shoulder, a hinge at the elbow) pressing a box on
-/// a floor: a pair whose columns are several bodies' coordinates.
-const ARM_PRESSING_BOX: &str = r#"<mujoco>
-  <option timestep="0.002"/>
-  <custom><text name="scm_integrator" data="damped_euler"/></custom>
-  <worldbody>
-    <geom name="floor" type="plane" size="1 1 0.1"/>
-    <body name="b" pos="0 0 0.0195" euler="0.02 -0.01 0.3"><freejoint/>
-      <geom type="box" size="0.05 0.04 0.02" mass="0.2"/></body>
-    <body name="upper" pos="-0.2 0 0.2"><joint type="ball"/>
+/// The tilted box pressed by a sphere.
+const TILTED_BOX_PRESSED: &str = tilted_box_and!(
+    r#"    <body name="s" pos="0.01 0 0.068"><freejoint/>
+      <geom type="sphere" size="0.03" mass="0.1"/></body>"#
+);
+
+/// A forearm of a two-joint arm (a ball at the shoulder, a hinge at the elbow) pressing the
+/// tilted box: a pair whose columns are several bodies' coordinates.
+const ARM_PRESSING_BOX: &str = tilted_box_and!(
+    r#"    <body name="upper" pos="-0.2 0 0.2"><joint type="ball"/>
       <geom type="capsule" fromto="0 0 0 0.1 0 0" size="0.015" mass="0.1"/>
       <body name="fore" pos="0.1 0 0"><joint type="hinge" axis="0 1 0"/>
-        <geom type="capsule" fromto="0 0 0 0.12 0 -0.146" size="0.015" mass="0.1"/></body></body>
-  </worldbody>
-</mujoco>"#;
+        <geom type="capsule" fromto="0 0 0 0.12 0 -0.146" size="0.015" mass="0.1"/></body></body>"#
+);
 
 #[test]
 fn damped_euler_frozen_contact_equals_the_full_evaluation() {

@@ -14,6 +14,8 @@ use crate::geometry::Aopc;
 use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, PRUNE_TOLERANCE};
 use nalgebra::{Matrix3, Vector3};
 
+#[cfg(test)]
+mod chain_tests;
 mod jacobian;
 mod params;
 mod point;
