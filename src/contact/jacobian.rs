@@ -43,35 +43,35 @@ pub(super) fn pair_contact_chained<T: Scalar>(
     inputs[..SIDE_INPUTS].copy_from_slice(&relative_inputs(&rels[0]));
     inputs[SIDE_INPUTS..].copy_from_slice(&relative_inputs(&rels[1]));
     let (rels_re, prm_re) = ([rels[0].re(), rels[1].re()], prm.re());
-    // The key: the real inputs and every parameter the Jacobian reads (surfaces are at rest on
-    // this path).
-    let key: Vec<f64> = (inputs.iter().map(|x| x.re()))
-        .chain([
-            prm_re.eps1,
-            prm_re.eps2,
-            prm_re.eps3,
-            prm_re.stiffness,
-            prm_re.dissipation_velocity,
-            prm_re.stiction_velocity,
-            prm_re.friction,
-            prm_re.dissipation_force,
-            prm_re.margin,
-            prm_re.adhesion,
-            prm_re.gap,
-            prm_re.dissipation as u8 as f64,
-        ])
-        .collect();
-    let found = kept
-        .as_deref()
-        .and_then(Option::as_deref)
-        .filter(|l| l.taken_at(&key));
+    // The key, only where there is a memo: the real inputs and every parameter the Jacobian
+    // reads (surfaces are at rest on this path).
+    let key: Option<Vec<f64>> = kept.is_some().then(|| {
+        (inputs.iter().map(|x| x.re()))
+            .chain([
+                prm_re.eps1,
+                prm_re.eps2,
+                prm_re.eps3,
+                prm_re.stiffness,
+                prm_re.dissipation_velocity,
+                prm_re.stiction_velocity,
+                prm_re.friction,
+                prm_re.dissipation_force,
+                prm_re.margin,
+                prm_re.adhesion,
+                prm_re.gap,
+                prm_re.dissipation as u8 as f64,
+            ])
+            .collect()
+    });
+    let found = (kept.as_deref().and_then(Option::as_deref))
+        .filter(|l| key.as_deref().is_some_and(|k| l.taken_at(k)));
     let mut out = [T::zero(); PAIR_OUTPUTS];
     let chained = match found {
         Some(l) => T::chain(&l.values, &l.jacobian, &inputs, &mut out),
         None => {
             let (values, jac) = pair_jacobian(a, b, &rels_re, &prm_re, scratch);
             let chained = T::chain(&values, &jac, &inputs, &mut out);
-            if let Some(slot) = kept {
+            if let (Some(slot), Some(key)) = (kept, key) {
                 *slot = Some(Box::new(Linearized {
                     key,
                     values: values.to_vec(),
