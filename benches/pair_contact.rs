@@ -127,6 +127,7 @@ fn params(sharp: bool) -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        pull: None,
         surface: None,
         dissipation: Dissipation::Paper,
     }

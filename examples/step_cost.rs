@@ -707,7 +707,7 @@ fn run() -> Result<String, String> {
         let distances: Vec<String> = {
             let kin = model.tree.kinematics(&state.q, &state.v);
             model
-                .contacts(&kin, &prm)
+                .contacts(&kin, &prm, &[])
                 .1
                 .iter()
                 .map(|p| format!("{:e}", p.distance))

@@ -131,7 +131,7 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
 }
 
 /// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant,
-/// dissipation force, margin, adhesion, gap and moving surfaces (constants).
+/// dissipation force, margin, adhesion, gap, actuators' pull and moving surfaces (constants).
 pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
     ContactParams {
         eps1: x[0],
@@ -145,6 +145,7 @@ pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactPara
         margin: c(like.margin),
         adhesion: like.adhesion,
         gap: like.gap,
+        pull: like.pull.map(c),
         surface: like.surface,
         dissipation: like.dissipation,
     }

@@ -295,7 +295,9 @@ impl Model {
 
     /// Inverse dynamics (paper eq. 27): the generalized actuation `τ = ID(q, v, v̇) = M v̇ + c -
     /// Σ Λ - τ_passive` that produces accelerations `vdot`, contact included, so that
-    /// `ID(q, v, FD(q, v, τ)) = τ`. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty.
+    /// `ID(q, v, FD(q, v, τ)) = τ`. `mocap`: [`MOCAP_INPUTS`] per mocap body, or empty;
+    /// `pulls`: the adhesion actuators' ([`Model::pulls`] of the controls, or empty: none), whose
+    /// force acts through the contacts, not in `τ`.
     pub fn inverse<T: Scalar>(
         &self,
         q: &[T],
@@ -303,9 +305,10 @@ impl Model {
         vdot: &[T],
         mocap: &[T],
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
     ) -> DVector<T> {
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let (mut wrenches, _) = self.contact_forces(&kin, prm);
+        let (mut wrenches, _) = self.contact_forces(&kin, prm, pulls);
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);

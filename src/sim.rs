@@ -51,6 +51,14 @@ pub struct SimState {
     pub mocap_sampled: Option<(f64, Vec<f64>)>,
 }
 
+impl SimState {
+    /// The inputs the actuators' force laws read now ([`Model::driven_inputs`]): the controls,
+    /// an activation in its actuator's place.
+    pub(crate) fn driven(&self, model: &Model) -> Vec<f64> {
+        model.driven_inputs(&self.ctrl, &self.state.act, &self.state.q, None)
+    }
+}
+
 /// What `fmi2GetFMUstate` saves: the time-varying state and the solver settings (which the
 /// host may set before initialization), so that restoring it reproduces a rollout bit for bit.
 #[derive(Clone, Debug, PartialEq)]

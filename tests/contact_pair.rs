@@ -38,6 +38,7 @@ fn params() -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        pull: None,
         surface: None,
         dissipation: Dissipation::Paper,
     }
@@ -246,6 +247,7 @@ fn pair_derivatives_match_central_differences() {
                 margin: 0.004,
                 adhesion: 0.0,
                 gap: 0.0,
+                pull: None,
                 surface: None,
                 dissipation: Dissipation::Paper,
             };
@@ -270,6 +272,7 @@ fn pair_derivatives_match_central_differences() {
                 margin: Dual64::from(0.004),
                 adhesion: 0.0,
                 gap: 0.0,
+                pull: None,
                 surface: None,
                 dissipation: Dissipation::Paper,
             };
@@ -491,26 +494,36 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     let mut rng = Lcg(77);
     let (mut checked, mut worst) = (0, 0.0f64);
     for (name, a, b, origin) in cases {
-        // The last law adhesive (departure 7: 2 N within 3 mm past a 2 mm margin), so that the
-        // points pressed, those in the gap and those past it all count.
+        // The last laws adhesive (departure 7: 2 N within 3 mm past a 2 mm margin) and pulled
+        // by an adhesion actuator (departure 9: 1.5 N within the same gap), so that the points
+        // pressed, those in the gap and those past it all count.
         let laws = [Dissipation::Paper, Dissipation::Smooth]
             .into_iter()
-            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f, false)))
-            .chain([(Dissipation::Paper, 3.0, true)]);
-        for (dissipation, dissipation_force, adhesive) in laws {
+            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f, false, None)))
+            .chain([
+                (Dissipation::Paper, 3.0, true, None),
+                (Dissipation::Smooth, f64::INFINITY, false, Some(1.5)),
+            ]);
+        for (dissipation, dissipation_force, adhesive, pull) in laws {
             // A margin (6 mm, where the springs rest) with the smooth law's dissipation force.
             let margin = match (dissipation, dissipation_force.is_finite(), adhesive) {
+                _ if pull.is_some() => 0.002,
                 (_, _, true) => 0.002,
                 (Dissipation::Smooth, true, _) => 0.006,
                 _ => 0.0,
             };
-            let (adhesion, gap) = if adhesive { (2.0, 0.003) } else { (0.0, 0.0) };
+            let (adhesion, gap) = match (adhesive, pull) {
+                (true, _) => (2.0, 0.003),
+                (false, Some(_)) => (0.0, 0.003),
+                (false, None) => (0.0, 0.0),
+            };
             let prm = ContactParams {
                 dissipation,
                 dissipation_force,
                 margin,
                 adhesion,
                 gap,
+                pull,
                 ..params()
             };
             let mut base = [0.0; N];
@@ -588,7 +601,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
         }
     }
     println!("largest hand − generic difference: {worst:.1e} of the output's largest derivative");
-    assert_eq!(checked, 5 * 5 * 13 * N);
+    assert_eq!(checked, 5 * 6 * 13 * N);
 }
 
 /// A pair's contact recorded at one configuration ([`PairTape`]) equals `pair_contact` bit for

@@ -29,6 +29,7 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        pull: None,
         surface: None,
         dissipation: Dissipation::Paper,
     }
@@ -113,14 +114,18 @@ fn a_pair_proven_out_of_reach_pushes_less_than_the_bound() {
         // case in eight adhesive (3 N within 3 mm past the margin, departure 7), one of them
         // with a 5 mm margin too: the proof counts from the gap's edge, where the pull ends.
         let margin = [0.0, 0.002, 0.0, 0.01, 0.0, 0.0, 0.0, 0.005][case % 8];
-        let (adhesion, adhesive_gap) = match case % 16 {
-            6 | 7 => (3.0, 0.003),
-            _ => (0.0, 0.0),
+        // One in sixteen pulled by an adhesion actuator instead (4 N within the same gap,
+        // departure 9).
+        let (adhesion, adhesive_gap, pull) = match case % 16 {
+            6 | 7 => (3.0, 0.003, None),
+            14 => (0.0, 0.003, Some(4.0)),
+            _ => (0.0, 0.0, None),
         };
         let prm = ContactParams {
             margin,
             adhesion,
             gap: adhesive_gap,
+            pull,
             surface: None,
             ..params(p.0, p.1)
         };
@@ -429,7 +434,7 @@ fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
         assert_eq!(az, -9.81, "body {body} falls freely");
     }
     let kin = model.tree.kinematics(&model.q0, &v);
-    let (_, full) = model.contacts(&kin, &model.contact);
+    let (_, full) = model.contacts(&kin, &model.contact, &[]);
     for (pair, pc) in model.pairs.iter().zip(&full) {
         let (ca, cb) = (
             model.colliders[pair.a].as_ref().unwrap(),

@@ -28,6 +28,7 @@ pub fn bundled() -> Vec<(String, Model)> {
         "box_stack",
         "arm_push",
         "mocap_push",
+        "adhesion_pick",
     ] {
         let path = scene(name);
         if path.exists() {
@@ -206,9 +207,10 @@ fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
                 v: &v,
                 tau: &tau,
                 mocap,
+                pulls: &[],
             };
             let fd = model.forward_at(at, &prm, Default::default()).unwrap();
-            let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm);
+            let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm, &[]);
             // Scale: the largest generalized force involved (τ, contact, gravity through M v̇).
             let kin = model.tree.kinematics_with(&q, &v, mocap);
             let mvdot = model.tree.mass_matrix(&kin) * &fd.vdot;
@@ -226,7 +228,8 @@ fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
             }
             // The actuated form: ID(FD(u)) is the actuators' generalized force.
             let fd = model.forward(&q, &v, &u, &prm).unwrap();
-            let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm);
+            let pulls = model.pulls(&u);
+            let id = model.inverse(&q, &v, fd.vdot.as_slice(), mocap, &prm, &pulls);
             let act = model.actuator_forces(&q, &v, &u[..model.actuators.len()]);
             assert!(
                 (id - act).amax() <= 1e-10 * scale.max(1.0),

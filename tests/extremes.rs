@@ -498,6 +498,7 @@ fn a_one_point_aopc() {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        pull: None,
         surface: None,
         dissipation: Dissipation::Paper,
     };

@@ -148,6 +148,16 @@ fn in_contact(name: &str) -> Simulation {
                 .unwrap();
             sim.do_step(0.0, 0.35).unwrap();
         }
+        // The box hanging from the pad, the pull's control inside its range (at its end, 0,
+        // a central difference halves the one-sided slope).
+        "adhesion_pick" => {
+            for (input, value) in [("grip.ctrl", 0.6), ("lift.ctrl", 0.01)] {
+                let vr = vr(sim.info(), input);
+                sim.set_real(vr, value, scm::fmi::contract::Phase::Simulation)
+                    .unwrap();
+            }
+            sim.do_step(0.0, 0.3).unwrap();
+        }
         _ => {}
     }
     let mut rng = crate::common::Lcg(7);

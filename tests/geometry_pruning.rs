@@ -22,6 +22,7 @@ fn params(eps1: f64, eps2: f64) -> ContactParams<f64> {
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
+        pull: None,
         surface: None,
         dissipation: Dissipation::Paper,
     }

@@ -708,7 +708,7 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
     let at = |z: f64| {
         let q = [0.0, 0.0, z, 1.0, 0.0, 0.0, 0.0];
         let kin = model.tree.kinematics_with(&q, &[0.0; 6], &[]);
-        model.contacts(&kin, &prm).1
+        model.contacts(&kin, &prm, &[]).1
     };
     let force = |z: f64| at(z)[0].on_b.force.z.abs().max(at(z)[0].on_a.force.z.abs());
     // Resting height: the lift equals m g.
@@ -729,7 +729,7 @@ fn the_contact_energy_estimate_is_the_work_of_the_contact_force_within_a_small_f
             .map(|i| 0.5 * (force(z + i as f64 * dz) + force(z + (i + 1) as f64 * dz)) * dz)
             .sum();
         let in_reach: Vec<_> = at(z).into_iter().map(Some).collect();
-        let estimate = scm::integrate::contact_energy(&model.pairs, &in_reach, &prm);
+        let estimate = scm::integrate::contact_energy(&model.pairs, &in_reach, &prm, &[]);
         println!(
             "{:.1} mm below rest: work {work:.4e} J, estimate {estimate:.4e} J, ratio {:.3}",
             depth * 1e3,
@@ -759,7 +759,12 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
     let (h, prm) = (model.timestep, model.contact);
     let stored = |s: &State<f64>| {
         let kin = model.tree.kinematics(&s.q, &s.v);
-        scm::integrate::contact_energy(&model.pairs, &model.contact_forces(&kin, &prm).1, &prm)
+        scm::integrate::contact_energy(
+            &model.pairs,
+            &model.contact_forces(&kin, &prm, &[]).1,
+            &prm,
+            &[],
+        )
     };
     let potential = |s: &State<f64>| {
         let e = model.energy(&s.q, &s.v);
@@ -1241,6 +1246,7 @@ fn damped_euler_frozen_contact_equals_the_full_evaluation() {
         v: &v,
         tau: &tau,
         mocap: &[],
+        pulls: &[],
     };
     fn damped(h: f64, contact_velocity: Option<&[f64]>) -> ForwardOptions<'_, f64> {
         ForwardOptions {
@@ -1333,6 +1339,7 @@ fn frozen_jacobian_against_central_differences_and_the_full_one(model: &Model, v
                 v: &v,
                 tau: &tau,
                 mocap: &[],
+                pulls: &[],
             };
             let opts = ForwardOptions {
                 contact_velocity: Some(x),
@@ -1353,6 +1360,7 @@ fn frozen_jacobian_against_central_differences_and_the_full_one(model: &Model, v
         v: &v,
         tau: &tau,
         mocap: &[],
+        pulls: &[],
     };
     let (frozen, _) = model.frozen_forward(at, &prm, h, Reuse::Nothing).unwrap();
     let residual = |x: &[f64]| -> Vec<f64> {
@@ -1618,7 +1626,7 @@ fn pairs_on_several_threads_change_no_bit() {
                 continue;
             }
             let kin = serial.tree.kinematics(&states[0].q, &states[0].v);
-            let forces = |m: &Model| m.contact_forces(&kin, &m.contact).1;
+            let forces = |m: &Model| m.contact_forces(&kin, &m.contact, &[]).1;
             let in_reach = forces(&serial).iter().flatten().count();
             most_in_reach = most_in_reach.max(in_reach);
             // The contact outputs too, pair by pair, every tenth step.

@@ -3,6 +3,7 @@
 //! (tests/python/test_mjcf_compiler.py checks the same against MuJoCo itself.)
 
 use nalgebra::{UnitQuaternion, Vector3};
+use scm::model::Transmission;
 use scm::scene::{compile, load_str, Scene, SceneError};
 use std::path::{Path, PathBuf};
 
@@ -1514,8 +1515,9 @@ fn spatial_tendons_read_as_mujoco_reads_them_and_refuse_what_it_refuses() {
 }
 
 /// An actuator on a site reads MuJoCo's 6-vector gear (missing entries zero, default along
-/// the site's x axis) and keeps a scalar gear of 1; what SCM does not model (a `refsite`, an
-/// adhesion's body transmission) and what MuJoCo refuses is refused at the actuator's line.
+/// the site's x axis) and keeps a scalar gear of 1; an adhesion drives its body (its gain, its
+/// class's, no gear read); what SCM does not model (a `refsite`) and what MuJoCo refuses (an
+/// adhesion's negative or missing control range) is refused at the actuator's line.
 #[test]
 fn site_transmissions_read_their_gear_and_refuse_what_they_cannot_drive() {
     let scene = |act: &str| {
@@ -1531,11 +1533,41 @@ fn site_transmissions_read_their_gear_and_refuse_what_they_cannot_drive() {
         ]
     );
     assert!(s.model.actuators.iter().all(|a| a.gear == 1.0));
+    // MuJoCo's adhesion: a fixed gain (its own, else its class's), no bias, on its body.
+    let s = load(
+        &scene(r#"<adhesion body="b" ctrlrange="0 1" gain="4"/>"#).replace(
+            "<mujoco>",
+            r#"<mujoco><default><adhesion gain="7"/></default>"#,
+        ),
+    );
+    let a = &s.model.actuators[0];
+    assert_eq!(a.target, Transmission::Body(1));
+    assert_eq!(a.kind.gain_bias(), ([4.0, 0.0, 0.0], [0.0; 3]));
+    let s = load(&scene(r#"<adhesion body="b" ctrlrange="0 1"/>"#).replace(
+        "<mujoco>",
+        r#"<mujoco><default><adhesion gain="7"/></default>"#,
+    ));
+    assert_eq!(s.model.actuators[0].kind.gain_bias().0, [7.0, 0.0, 0.0]);
+    assert_eq!(s.model.actuators[0].ctrlrange, Some((0.0, 1.0)));
     for (act, says) in [
         (r#"<motor site="s" refsite="t"/>"#, "refsite"),
         (
-            r#"<adhesion body="b" ctrlrange="0 1"/>"#,
-            "body transmissions",
+            r#"<adhesion body="b" ctrlrange="-1 1"/>"#,
+            "ctrlrange cannot be negative",
+        ),
+        (r#"<adhesion body="b"/>"#, "needs a ctrlrange"),
+        (
+            r#"<adhesion body="b" ctrlrange="0 1" gain="-2"/>"#,
+            "must not be negative",
+        ),
+        (
+            r#"<adhesion body="c" ctrlrange="0 1"/>"#,
+            "no body named 'c'",
+        ),
+        (r#"<adhesion body="world" ctrlrange="0 1"/>"#, "world body"),
+        (
+            r#"<adhesion body="b" site="s" ctrlrange="0 1"/>"#,
+            "one thing",
         ),
         (r#"<motor site="nowhere"/>"#, "no site named 'nowhere'"),
         (r#"<motor site="drawn"/>"#, "fromto"),

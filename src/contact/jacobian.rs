@@ -59,6 +59,7 @@ pub(super) fn pair_contact_chained<T: Scalar>(
                 prm_re.margin,
                 prm_re.adhesion,
                 prm_re.gap,
+                prm_re.pull.unwrap_or(-1.0),
                 prm_re.dissipation as u8 as f64,
             ])
             .collect()
@@ -130,8 +131,16 @@ pub fn point_plane_force_jacobian_at(
         return (Vector3::zeros(), Vector3::zeros(), Matrix3::zeros());
     }
     // The spring c and its slope; with adhesion (departure 7) c = W f and the pull p = W δ,
-    // W = σ((g - y)/ε3) with W' = -W (1 - W)/ε3, f = k s⁺_ε3(δ/k - y).
-    let (spring, dspring, pull, dpull) = if prm.adhesion > 0.0 {
+    // W = σ((g - y)/ε3) with W' = -W (1 - W)/ε3, f = k s⁺_ε3(δ/k - y); the actuators' pull a
+    // (departure 9) adds W a to the pull and leaves the plain spring where δ = 0.
+    let (spring, dspring, pull, dpull) = if let (Some(a), false) = (prm.pull, prm.adhesion > 0.0) {
+        let window = logistic((prm.gap - phi) / prm.eps3);
+        let dwindow = -window * (1.0 - window) / prm.eps3;
+        let spring = prm.stiffness * softplus(-phi, prm.eps3);
+        let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
+        (spring, dspring, window * a, dwindow * a)
+    } else if prm.adhesion > 0.0 {
+        let total = prm.pull.map_or(prm.adhesion, |a| a + prm.adhesion);
         // The same operations in the same order as `adhesive_spring`, so the values agree
         // to the bit with `point_plane_force_at`'s.
         let window = logistic((prm.gap - phi) / prm.eps3);
@@ -142,8 +151,8 @@ pub fn point_plane_force_jacobian_at(
         (
             window * prm.stiffness * f,
             prm.stiffness * (dwindow * f + window * df),
-            window * prm.adhesion,
-            dwindow * prm.adhesion,
+            window * total,
+            dwindow * total,
         )
     } else {
         let spring = prm.stiffness * softplus(-phi, prm.eps3);
@@ -162,7 +171,7 @@ pub fn point_plane_force_jacobian_at(
     let pressed = spring * d;
     let vt = v - n * vn;
     let norm = smooth_norm(&vt, prm.stiction_velocity);
-    let lambda_n = if prm.adhesion > 0.0 {
+    let lambda_n = if prm.adhesive() {
         pressed - pull
     } else {
         pressed

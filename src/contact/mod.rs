@@ -20,6 +20,8 @@ mod jacobian;
 mod params;
 mod point;
 #[cfg(test)]
+mod pull_tests;
+#[cfg(test)]
 mod surface_tests;
 mod tape;
 #[cfg(test)]
@@ -429,6 +431,7 @@ pub fn pair_contact_memo<T: Scalar>(
         prm.friction,
     ]
     .iter()
+    .chain(&prm.pull)
     .all(|x| x.is_constant());
     // The hand-derived Jacobian is the paper's law's: a moving surface's flow (departure 8)
     // takes the path of every other scalar.

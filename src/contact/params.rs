@@ -107,8 +107,15 @@ pub struct ContactParams<T> {
     /// own value, not an FMU parameter.
     pub adhesion: f64,
     /// Gap g (m; MuJoCo's geom `gap`): how far past the margin an adhesive contact still pulls.
-    /// Read only with adhesion. A pair's own value.
+    /// Read only where the pair can pull ([`ContactParams::adhesive`]). A pair's own value.
     pub gap: f64,
+    /// The pull of the adhesion actuators on the pair's bodies (N; MuJoCo's `<adhesion>`, a
+    /// body transmission): within the gap past the margin, as the adhesion's pull, but with
+    /// the plain spring (docs/method.md, departure 9). `None`: no such actuator drives either
+    /// body; `Some(0)`: one does and is off (the same force as `None`, with the derivative
+    /// with respect to its control). Set per evaluation from the controls, not an FMU
+    /// parameter.
+    pub pull: Option<T>,
     /// The moving surfaces of the pair's two bodies, `a`'s then `b`'s, each in its body's
     /// frame (MuJoCo's geom `surfacevel`; docs/method.md, departure 8): the friction reads the
     /// sliding of material on material. `None`: neither surface moves, the paper's law. A
@@ -132,6 +139,7 @@ impl Default for ContactParams<f64> {
             margin: 0.0,
             adhesion: 0.0,
             gap: 0.0,
+            pull: None,
             surface: None,
             dissipation: Dissipation::Paper,
         }
@@ -164,29 +172,41 @@ impl<T: Scalar> ContactParams<T> {
             margin: self.margin.re(),
             adhesion: self.adhesion,
             gap: self.gap,
+            pull: self.pull.map(|p| p.re()),
             surface: self.surface,
             dissipation: self.dissipation,
         }
     }
 
-    /// Where the bounds of the pair's forces count from (m): the margin, or with adhesion
-    /// `m + max(δ/k, g)`. With `k* = `[`ContactParams::bound_stiffness`] every point–plane
+    /// Whether the pair can pull: it has adhesion, or an adhesion actuator drives one of its
+    /// bodies (departures 7 and 9).
+    pub fn adhesive(&self) -> bool {
+        self.adhesion > 0.0 || self.pull.is_some()
+    }
+
+    /// The adhesion and the actuators' pull together (N, real part): what the pull can reach.
+    pub fn pull_bound(&self) -> f64 {
+        self.adhesion + self.pull.map_or(0.0, |p| p.re().max(0.0))
+    }
+
+    /// Where the bounds of the pair's forces count from (m): the margin, or where the pair
+    /// can pull ([`ContactParams::adhesive`]) `m + max(δ/k, g)`. With `k* = `[`ContactParams::bound_stiffness`] every point–plane
     /// force is at most `k* s⁺_ε3(m* - φ) (1 + V/v_d) √(1 + μ²)`, the paper's bound with
     /// `(k*, m*)` for `(k, m)` (docs/method.md, departure 7), so the pruning and the proofs of
     /// being out of reach read these two and nothing else of the adhesion.
     pub fn bound_margin(&self) -> f64 {
-        if self.adhesion > 0.0 {
+        if self.adhesive() {
             self.margin.re() + self.gap.max(self.adhesion / self.stiffness.re().abs())
         } else {
             self.margin.re()
         }
     }
 
-    /// The stiffness the force bounds read (N/m): `k`, or with adhesion `k + δ/ε3`
-    /// ([`ContactParams::bound_margin`]).
+    /// The stiffness the force bounds read (N/m): `k`, or where the pair can pull
+    /// `k + (δ + a)/ε3`, `a` the actuators' pull ([`ContactParams::bound_margin`]).
     pub fn bound_stiffness(&self) -> f64 {
-        if self.adhesion > 0.0 {
-            self.stiffness.re().abs() + self.adhesion / self.eps3.re()
+        if self.adhesive() {
+            self.stiffness.re().abs() + self.pull_bound() / self.eps3.re()
         } else {
             self.stiffness.re().abs()
         }
@@ -220,6 +240,7 @@ impl ContactParams<f64> {
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,
+            pull: self.pull.map(c),
             surface: self.surface,
             dissipation: self.dissipation,
         }

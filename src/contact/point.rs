@@ -67,14 +67,15 @@ impl<T: Scalar> Spring<T> {
 
 /// The spring of a plane whose reading is `phi` ([`point_plane_force_at`]): `c = k s⁺_ε3(m - φ)`,
 /// no pull; with adhesion δ and gap g (docs/method.md, departure 7), with `y = φ - m` and the
-/// window `W = σ((g - y)/ε3)`, `c = W k s⁺_ε3(δ/k - y)` and `p = W δ`. `None` far outside the
+/// window `W = σ((g - y)/ε3)`, `c = W k s⁺_ε3(δ/k - y)` and `p = W δ`; with the adhesion
+/// actuators' pull `a` (departure 9) `p = W (δ + a)`, the spring unchanged by `a`. `None` far outside the
 /// plane, where the spring (and the window) underflow to exactly zero and the whole force
 /// (normal and friction both scale with them) with it.
 #[inline]
 pub(crate) fn spring_at<T: Scalar>(phi: T, prm: &ContactParams<T>) -> Option<Spring<T>> {
     // The spring reads the distance past the margin, where it rests.
     let phi = phi - prm.margin;
-    if prm.adhesion > 0.0 {
+    if prm.adhesive() {
         return adhesive_spring(phi, prm);
     }
     (phi.re() <= 746.0 * prm.eps3.re()).then(|| Spring {
@@ -91,10 +92,20 @@ fn adhesive_spring<T: Scalar>(y: T, prm: &ContactParams<T>) -> Option<Spring<T>>
         return None;
     }
     let window = logistic((c::<T>(prm.gap) - y) / prm.eps3);
-    let shift = c::<T>(prm.adhesion) / prm.stiffness;
+    let pull = match prm.pull {
+        Some(a) => a + prm.adhesion,
+        None => c(prm.adhesion),
+    };
+    let spring = if prm.adhesion > 0.0 {
+        let shift = c::<T>(prm.adhesion) / prm.stiffness;
+        window * prm.stiffness * softplus(shift - y, prm.eps3)
+    } else {
+        // The actuators' pull alone: the plain spring.
+        prm.stiffness * softplus(-y, prm.eps3)
+    };
     Some(Spring {
-        c: window * prm.stiffness * softplus(shift - y, prm.eps3),
-        pull: window * prm.adhesion,
+        c: spring,
+        pull: window * pull,
     })
 }
 
@@ -143,7 +154,7 @@ pub(crate) fn force_of_spring<T: Scalar>(
         }
     };
     let lambda_t = vt * (-prm.friction * pressed / smooth_norm(&vt, prm.stiction_velocity));
-    let lambda_n = if prm.adhesion > 0.0 {
+    let lambda_n = if prm.adhesive() {
         pressed - pull
     } else {
         pressed

@@ -42,14 +42,23 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     // spring moves the factor's argument too. With a 4 mm margin the same readings 4 mm
     // farther out, and the force is the unshifted one at `φ - m`, to the bit. With adhesion
     // (3 N within a 0.5 mm gap, departure 7) the readings 0.3 mm and 0.6 mm out are inside the
-    // gap and at its edge, where the window turns the pull off.
+    // gap and at its edge, where the window turns the pull off; an adhesion actuator's pull
+    // (2 N, departure 9) alone and with the adhesion the same way.
     let n = Vector3::new(0.2, -0.3, 0.9).normalize();
     let laws = [Dissipation::Paper, Dissipation::Smooth]
         .into_iter()
         .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)))
         .flat_map(|(d, f)| [0.0, 4e-3].map(|m| (d, f, m)))
-        .flat_map(|(d, f, m)| [(0.0, 0.0), (3.0, 5e-4)].map(|a| (d, f, m, a)));
-    for (dissipation, dissipation_force, margin, (adhesion, gap)) in laws {
+        .flat_map(|(d, f, m)| {
+            [
+                (0.0, 0.0, None),
+                (3.0, 5e-4, None),
+                (0.0, 5e-4, Some(2.0)),
+                (3.0, 5e-4, Some(2.0)),
+            ]
+            .map(|a| (d, f, m, a))
+        });
+    for (dissipation, dissipation_force, margin, (adhesion, gap, pull)) in laws {
         let prm = ContactParams {
             eps3: 1e-4,
             stiffness: 1e4,
@@ -61,6 +70,7 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             margin,
             adhesion,
             gap,
+            pull,
             ..ContactParams::default()
         };
         for (depth, vn, vt) in [
@@ -104,11 +114,11 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             let fd = (along(1e-9) - along(-1e-9)) / 2e-9;
             assert!(
                 (dphi - dual).amax() <= 1e-12 * scale,
-                "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
+                "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
             );
             assert!(
                 (dphi - fd).amax() <= 1e-6 * scale,
-                "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
+                "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
             );
             for k in 0..3 {
                 let mut e = Vector3::zeros();
@@ -126,12 +136,12 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
                     / (2.0 * h);
                 assert!(
                     (dv.column(k) - dual).amax() <= 1e-12 * scale,
-                    "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
+                    "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
                     dv.column(k)
                 );
                 assert!(
                     (dv.column(k) - fd).amax() <= 1e-6 * scale,
-                    "{dissipation:?} {dissipation_force} {adhesion} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
+                    "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
                     dv.column(k)
                 );
             }

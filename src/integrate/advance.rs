@@ -273,17 +273,20 @@ impl Model {
                         // There the guard's balance may restart, with the contacts found.
                         let a = match first.take() {
                             None if i != Integrator::DampedEuler => {
+                                let driven = self.driven_inputs(&uk, &s.act, &s.q, Some(dt));
                                 let f = self
                                     .forward_with(
                                         &s.q,
                                         &s.v,
-                                        &self.driven_inputs(&uk, &s.act, &s.q, Some(dt)),
+                                        &driven,
                                         prm,
                                         reuse_all(&mut cache.pairs, known.take()),
                                     )
                                     .map_err(dyn_err)?;
                                 if let Some(m) = monitor.as_mut() {
-                                    let stored = contact_energy(&self.pairs, &f.contacts, prm);
+                                    let pulls = self.pulls(&driven);
+                                    let stored =
+                                        contact_energy(&self.pairs, &f.contacts, prm, &pulls);
                                     let at = t0 + k as f64 * dt;
                                     let kinetic = m.ledger.kinetic;
                                     m.ledger.tighten(m.energy, kinetic, stored, at, m.floor);

@@ -100,7 +100,8 @@ impl Model {
         t0: f64,
         ledger: Option<&EnergyLedger>,
     ) -> Option<EnergyMonitor> {
-        let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm));
+        let pulls = self.pulls(&self.driven_inputs(ctrl, &state.act, &state.q, None));
+        let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm, &pulls));
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
         let ledger = match ledger {
             // Carried on: the mechanical and kinetic energies at this state are the ones the
@@ -276,11 +277,14 @@ pub(super) struct EnergyMonitor {
 /// (one body inside another: the `k D²` term covers that). The old per-step bound `k (D² + ε3²)`
 /// allowed `k ε3²` for every pair in reach however far apart (10 J at `k = 1e9`, `ε3 = 1e-4`)
 /// where a 1 kg sphere resting on a plane stores about `ε3 m g ≈ 1 mJ`. An adhesive pair adds
-/// `δ min((D - m)⁺, g)`, the work its pull can still do (docs/method.md, departure 7).
+/// `δ min((D - m)⁺, g)`, the work its pull can still do (docs/method.md, departure 7), and a
+/// pair an adhesion actuator pulls `a` the same way with its pull `a` from `pulls`
+/// ([`Model::pulls`](crate::model::Model::pulls), at the controls of now; departure 9).
 pub fn contact_energy(
     pairs: &[crate::model::Pair],
     contacts: &[Option<crate::contact::PairContact<f64>>],
     prm: &ContactParams<f64>,
+    pulls: &[Option<f64>],
 ) -> f64 {
     pairs
         .iter()
@@ -296,7 +300,9 @@ pub fn contact_energy(
             // margin: the work that pull can still do, `δ` times how far it can still pull,
             // counted from the well's bottom so that what is stored is never negative (the
             // balance reads it as energy that may turn into motion).
-            let well = pair.adhesion * (pc.distance - pair.margin).clamp(0.0, pair.gap);
+            // The adhesion actuators' pull (departure 9) likewise, at the controls of now.
+            let pull = pair.adhesion + pair.pull(pulls).map_or(0.0, |p| p.max(0.0));
+            let well = pull * (pc.distance - pair.margin).clamp(0.0, pair.gap);
             (prm.eps3 * f + f * f / (2.0 * k)).max(k * deep * deep) + well
         })
         .sum()

@@ -63,6 +63,7 @@ struct ContactImplicitResidual<'a> {
     v: Vec<f64>,
     tau: Vec<f64>,
     mocap: Vec<f64>,
+    pulls: Vec<Option<f64>>,
     prm: ContactParams<f64>,
     h: f64,
 }
@@ -72,11 +73,13 @@ impl VectorFunction for ContactImplicitResidual<'_> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
         let (q, v) = (lift(&self.q), lift(&self.v));
         let (tau, mocap) = (lift(&self.tau), lift(&self.mocap));
+        let pulls: Vec<Option<T>> = self.pulls.iter().map(|p| p.map(c)).collect();
         let at = EvalPoint {
             q: &q,
             v: &v,
             tau: &tau,
             mocap: &mocap,
+            pulls: &pulls,
         };
         let opts = ForwardOptions {
             contact_velocity: Some(x),
@@ -166,12 +169,14 @@ impl Model {
             .actuator_forces_at(q, v, ctrl, mocap)
             .as_slice()
             .to_vec();
+        let pulls = self.pulls(ctrl);
         let real = ContactImplicitResidual {
             model: self,
             q: re_vec(q),
             v: re_vec(v),
             tau: re_vec(&tau),
             mocap: re_vec(mocap),
+            pulls: pulls.iter().map(|p| p.map(|p| p.re())).collect(),
             prm: prm.re(),
             h: h.re(),
         };
@@ -186,6 +191,7 @@ impl Model {
                 v: &real.v,
                 tau: &real.tau,
                 mocap: &real.mocap,
+                pulls: &real.pulls,
             };
             let reuse = kept.map_or(Reuse::Nothing, Reuse::All);
             let (frozen, a0) = self.frozen_forward(at, &real.prm, real.h, reuse)?;
@@ -223,6 +229,7 @@ impl Model {
             v,
             tau: &tau,
             mocap,
+            pulls: &pulls,
         };
         let start = self.forward_at(at, prm, damped(h, None))?;
         let explicit = axpy(v, h, start.vdot.as_slice());

@@ -46,6 +46,7 @@ impl Model {
                 let sc = &self.slider_cranks[k];
                 format!("slider-crank {} / {}", sc.crank.0, sc.slider.0)
             }
+            Transmission::Body(b) => format!("body {}", self.tree.bodies[b].name),
         }
     }
 
@@ -75,6 +76,9 @@ impl Model {
                 joints.dedup();
                 joints
             }
+            // Its own; the pairs it pulls move their other bodies' joints too (their
+            // dependencies: `crate::sim`'s model structure).
+            Transmission::Body(b) => self.tree.path_joints(b),
         }
     }
 }
@@ -262,6 +266,10 @@ pub enum Transmission {
     /// A slider-crank (by index into [`Model::slider_cranks`]): its length is `gear · L(q)`,
     /// see [`SliderCrank`].
     SliderCrank(usize),
+    /// A body (by index; MuJoCo's body transmission, which its `<adhesion>` actuator uses): its
+    /// length is 0, the gear is not read, and the force pulls the body's pairs together within
+    /// their gap ([`Model::pulls`], docs/method.md, departure 9).
+    Body(usize),
 }
 
 /// An actuator on a 1-DOF joint or a fixed tendon. The generalized force is `gear · force`
@@ -287,6 +295,38 @@ pub struct Actuator {
 }
 
 impl Actuator {
+    /// The actuator's force for its input `u` (the clamped control, or the activation) at
+    /// joint or tendon position `qj` and rate `vj` (the gear not yet applied), clamped to its
+    /// force range.
+    pub fn force<T: Scalar>(&self, u: T, qj: T, vj: T) -> T {
+        let force = match self.kind {
+            ActuatorKind::Motor => u,
+            ActuatorKind::Position { kp, kv } => (u - qj * self.gear) * kp - vj * (kv * self.gear),
+            ActuatorKind::Velocity { kv } => (u - vj * self.gear) * kv,
+            ActuatorKind::General { gain, bias } => {
+                let (l, ldot) = (qj * self.gear, vj * self.gear);
+                (l * gain[1] + ldot * gain[2] + gain[0]) * u
+                    + l * bias[1]
+                    + ldot * bias[2]
+                    + bias[0]
+            }
+        };
+        match self.forcerange {
+            Some((lo, _)) if force.re() < lo => c(lo),
+            Some((_, hi)) if force.re() > hi => c(hi),
+            _ => force,
+        }
+    }
+
+    /// The control as the force law reads it: the activation where the actuator has one
+    /// ([`Model::driven_inputs`]), else the control clamped to its range.
+    fn input<T: Scalar>(&self, u: T) -> T {
+        match self.activation {
+            Some(_) => u,
+            None => self.clamped_control(u),
+        }
+    }
+
     /// A control clamped to the control range (the derivative beyond it is zero).
     pub fn clamped_control<T: Scalar>(&self, u: T) -> T {
         match self.ctrlrange {
@@ -336,10 +376,7 @@ impl Model {
             None => Vec::new(),
         };
         for (a, &u) in self.actuators.iter().zip(ctrl) {
-            let u = match a.activation {
-                Some(_) => u,
-                None => a.clamped_control(u),
-            };
+            let u = a.input(u);
             let (qj, vj) = match a.target {
                 Transmission::Joint(j) => {
                     let j = &self.tree.joints[j];
@@ -367,24 +404,10 @@ impl Model {
                     crank
                         .length_and_rate(&kin.frames, (moves(crank.crank.1), moves(crank.slider.1)))
                 }
+                // Its force acts through the contacts ([`Model::pulls`]).
+                Transmission::Body(_) => continue,
             };
-            let force = match a.kind {
-                ActuatorKind::Motor => u,
-                ActuatorKind::Position { kp, kv } => (u - qj * a.gear) * kp - vj * (kv * a.gear),
-                ActuatorKind::Velocity { kv } => (u - vj * a.gear) * kv,
-                ActuatorKind::General { gain, bias } => {
-                    let (l, ldot) = (qj * a.gear, vj * a.gear);
-                    (l * gain[1] + ldot * gain[2] + gain[0]) * u
-                        + l * bias[1]
-                        + ldot * bias[2]
-                        + bias[0]
-                }
-            };
-            let force = match a.forcerange {
-                Some((lo, _)) if force.re() < lo => c(lo),
-                Some((_, hi)) if force.re() > hi => c(hi),
-                _ => force,
-            };
+            let force = a.force(u, qj, vj);
             match a.target {
                 Transmission::Joint(j) => tau[self.tree.joints[j].dadr] += force * a.gear,
                 Transmission::Tendon(t) => {
@@ -411,6 +434,7 @@ impl Model {
                     let crank = &self.slider_cranks[k];
                     crank.add_force_wrenches(&kin.frames, force * a.gear, &mut wrenches);
                 }
+                Transmission::Body(_) => unreachable!("passed over above"),
             }
         }
         if let Some(kin) = &spatial {
@@ -424,5 +448,25 @@ impl Model {
             }
         }
         tau
+    }
+
+    /// The pull of the adhesion actuators ([`Transmission::Body`]) on each body for the inputs
+    /// `ctrl` (as [`Model::actuator_forces`] reads them): `None` for a body no such actuator
+    /// drives, the sum of their forces for one they drive; empty where the model has none.
+    /// MuJoCo applies the force as the average of the normal Jacobians of the body's contacts
+    /// (within their gap), minus: a total pull of the force spread over its contacts; SCM pulls
+    /// each of the body's pairs within their gap with it (docs/method.md, departure 9).
+    pub fn pulls<T: Scalar>(&self, ctrl: &[T]) -> Vec<Option<T>> {
+        if !(self.actuators.iter()).any(|a| matches!(a.target, Transmission::Body(_))) {
+            return Vec::new();
+        }
+        let mut pulls = vec![None; self.tree.bodies.len()];
+        for (a, &u) in self.actuators.iter().zip(ctrl) {
+            if let Transmission::Body(b) = a.target {
+                let f = a.force(a.input(u), T::zero(), T::zero());
+                pulls[b] = Some(pulls[b].map_or(f, |p: T| p + f));
+            }
+        }
+        pulls
     }
 }

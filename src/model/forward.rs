@@ -22,6 +22,8 @@ pub struct EvalPoint<'a, T> {
     pub tau: &'a [T],
     /// [`MOCAP_INPUTS`] per mocap body, or empty (the bodies at their scene poses, at rest).
     pub mocap: &'a [T],
+    /// The adhesion actuators' pull per body ([`Model::pulls`]), or empty (none).
+    pub pulls: &'a [Option<T>],
 }
 
 /// What an evaluation of the forward dynamics takes differently from the plain dynamics, and
@@ -116,11 +118,13 @@ impl Model {
     ) -> Result<Forward<T>, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let tau = self.actuator_forces_at(q, v, ctrl, mocap);
+        let pulls = self.pulls(ctrl);
         let at = EvalPoint {
             q,
             v,
             tau: tau.as_slice(),
             mocap,
+            pulls: &pulls,
         };
         self.forward_at(at, prm, opts)
     }
@@ -136,7 +140,13 @@ impl Model {
         prm: &ContactParams<T>,
         opts: ForwardOptions<'_, T>,
     ) -> Result<Forward<T>, DynamicsError> {
-        let EvalPoint { q, v, tau, mocap } = at;
+        let EvalPoint {
+            q,
+            v,
+            tau,
+            mocap,
+            pulls,
+        } = at;
         let mut opts = opts;
         opts.reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
@@ -149,9 +159,9 @@ impl Model {
         // With a contact velocity, the same positions, so the wrenches are in the same frames.
         let at = contact_kin.as_ref().unwrap_or(&kin);
         let (mut wrenches, contacts) = if opts.list_contacts {
-            self.contacts_with(at, prm, Pick::InReach, opts.reuse)
+            self.contacts_with(at, prm, pulls, Pick::InReach, opts.reuse)
         } else {
-            let wrenches = self.wrenches_with(at, prm, Pick::InReach, opts.reuse);
+            let wrenches = self.wrenches_with(at, prm, pulls, Pick::InReach, opts.reuse);
             (wrenches, Vec::new())
         };
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);

@@ -52,7 +52,13 @@ impl Model {
         h: f64,
         reuse: Reuse,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
-        let EvalPoint { q, v, tau, mocap } = at;
+        let EvalPoint {
+            q,
+            v,
+            tau,
+            mocap,
+            pulls,
+        } = at;
         let mut reuse = reuse;
         reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
@@ -63,7 +69,7 @@ impl Model {
             .tree
             .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
             .ok_or(DynamicsError::Singular)?;
-        let visits = self.visit_pairs(&kin, prm, Pick::InReach, reuse, |p, scratch| {
+        let visits = self.visit_pairs(&kin, prm, pulls, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
             (

@@ -84,6 +84,18 @@ impl Pair {
         }
     }
 
+    /// The adhesion actuators' pull on the pair from `pulls` ([`Model::pulls`], per body; empty:
+    /// none): the sum of its two bodies', `None` where neither has one.
+    pub fn pull<T: Scalar>(&self, pulls: &[Option<T>]) -> Option<T> {
+        let (Some(&a), Some(&b)) = (pulls.get(self.a), pulls.get(self.b)) else {
+            return None;
+        };
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a + b),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// Whether the pair has its own value of `p`, which the contact parameter does not change.
     pub fn owns(&self, p: crate::contact::Param) -> bool {
         use crate::contact::Param;
@@ -286,12 +298,14 @@ impl Model {
     /// Contact of every pair and the wrench each body receives (world frame, about its origin),
     /// every pair evaluated in full, its smooth distance included (the reference the outputs'
     /// [`Model::complete_contacts`] is tested against).
+    /// `pulls`: the adhesion actuators' ([`Model::pulls`], or empty).
     pub fn contacts<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
     ) -> (Vec<Wrench<T>>, Vec<PairContact<T>>) {
-        let (wrenches, pairs) = self.contacts_with(kin, prm, Pick::Every, Reuse::Nothing);
+        let (wrenches, pairs) = self.contacts_with(kin, prm, pulls, Pick::Every, Reuse::Nothing);
         let pairs = pairs
             .into_iter()
             .map(|pc| pc.unwrap_or_else(PairContact::none))
@@ -307,8 +321,9 @@ impl Model {
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
-        self.contacts_with(kin, prm, Pick::InReach, Reuse::Nothing)
+        self.contacts_with(kin, prm, pulls, Pick::InReach, Reuse::Nothing)
     }
 
     /// The contacts the outputs read, from `applied` ([`Model::contact_forces`] at `kin`): a
@@ -319,13 +334,14 @@ impl Model {
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
         applied: &[Option<PairContact<T>>],
     ) -> Vec<PairContact<T>> {
         let missing: Vec<bool> = applied.iter().map(Option::is_none).collect();
-        let distances =
-            self.visit_pairs(kin, prm, Pick::Marked(&missing), Reuse::Nothing, |p, s| {
-                p.evaluate(kin, s).distance
-            });
+        let pick = Pick::Marked(&missing);
+        let distances = self.visit_pairs(kin, prm, pulls, pick, Reuse::Nothing, |p, s| {
+            p.evaluate(kin, s).distance
+        });
         applied
             .iter()
             .zip(distances)
@@ -346,11 +362,12 @@ impl Model {
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
         pick: Pick,
         reuse: Reuse,
     ) -> (Vec<Wrench<T>>, Vec<Option<PairContact<T>>>) {
         let out: Vec<Option<PairContact<T>>> = self
-            .visit_pairs(kin, prm, pick, reuse, |p, s| p.evaluate(kin, s))
+            .visit_pairs(kin, prm, pulls, pick, reuse, |p, s| p.evaluate(kin, s))
             .into_iter()
             .map(|visit| match visit {
                 PairVisit::NoCollider => Some(PairContact::none()),
@@ -370,10 +387,13 @@ impl Model {
         &self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
         pick: Pick,
         reuse: Reuse,
     ) -> Vec<Wrench<T>> {
-        let visits = self.visit_pairs(kin, prm, pick, reuse, |p, s| Box::new(p.evaluate(kin, s)));
+        let visits = self.visit_pairs(kin, prm, pulls, pick, reuse, |p, s| {
+            Box::new(p.evaluate(kin, s))
+        });
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
         let none = PairContact::none();
         for (pair, visit) in self.pairs.iter().zip(&visits) {
@@ -393,11 +413,14 @@ impl Model {
     /// left are evaluated on [`Model::pair_threads`] threads when they are many enough
     /// ([`PairThreads`]), each with only its own kept candidates, so the results are the same
     /// bits whatever the threads. The walks work in the carried scratch ([`PairCarry`]: one
-    /// per thread), or in scratch of this call's own when nothing is carried.
+    /// per thread), or in scratch of this call's own when nothing is carried. A pair one of
+    /// whose bodies an adhesion actuator drives is pulled with `pulls` ([`Model::pulls`]; empty:
+    /// none) of its two bodies.
     pub(super) fn visit_pairs<'a, T: Scalar, R: Send>(
         &'a self,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
+        pulls: &[Option<T>],
         pick: Pick,
         reuse: Reuse<'a>,
         eval: impl Fn(PendingPair<'a, T>, &mut Scratch) -> R + Sync,
@@ -429,7 +452,8 @@ impl Model {
                 out.push(PairVisit::NoCollider);
                 continue;
             };
-            let prm = pair.params(prm);
+            let mut prm = pair.params(prm);
+            prm.pull = pair.pull(pulls);
             out.push(PairVisit::OutOfReach);
             let left_out = match pick {
                 Pick::Every => false,

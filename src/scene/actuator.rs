@@ -69,6 +69,35 @@ impl Builder {
         )))
     }
 
+    /// A body transmission (`body=`), MuJoCo's adhesion's: the body alone to drive, and for an
+    /// `<adhesion>` a control range that is given and not negative (MuJoCo refuses it
+    /// otherwise; its control is always limited).
+    fn body_transmission(&mut self, el: &Element) -> Result<Transmission, SceneError> {
+        if ["joint", "tendon", "site", "cranksite"]
+            .iter()
+            .any(|k| el.attr(k).is_some())
+        {
+            return Err(self.err(el, "an actuator drives one thing: a body (body=\"NAME\", MuJoCo's adhesion) or a joint, a tendon or a site, not both"));
+        }
+        let name = el.attr("body").unwrap_or_default();
+        let body = (self.bodies.iter())
+            .position(|b| b.name == name)
+            .ok_or_else(|| self.err(el, format!("no body named '{name}'")))?;
+        if body == 0 {
+            return Err(self.err(el, "an adhesion on the world body pulls nothing SCM can move (MuJoCo's contacts with the world are the other bodies'): name the moving body to pull"));
+        }
+        if el.name == "adhesion" {
+            match self.floats(el, "ctrlrange", 2)? {
+                Some(r) if r[0] < 0.0 || r[1] < 0.0 => {
+                    return Err(self.err(el, "an adhesion's ctrlrange cannot be negative (MuJoCo refuses it too)"))
+                }
+                Some(_) => {}
+                None => return Err(self.err(el, "an adhesion needs a ctrlrange (its control is always limited, and MuJoCo's default range 0 0 pulls with nothing): give ctrlrange=\"0 1\", say")),
+            }
+        }
+        Ok(Transmission::Body(body))
+    }
+
     pub(super) fn actuator(&mut self, el: &Element) -> Result<(), SceneError> {
         if el.name == "plugin" {
             let (general, integral) = self.pid_as_general(el)?;
@@ -92,12 +121,6 @@ impl Builder {
             }
             return Ok(());
         }
-        if el.attr("body").is_some() {
-            return Err(self.err(
-                el,
-                "body transmissions (adhesion) are not supported by SCM: drive a joint (joint=\"NAME\"), a tendon (tendon=\"NAME\") or a site (site=\"NAME\")",
-            ));
-        }
         if el.attr("refsite").is_some() {
             return Err(self.err(
                 el,
@@ -113,6 +136,8 @@ impl Builder {
                 "joint",
                 "tendon",
                 "site",
+                "body",
+                "gain",
                 "gear",
                 "kp",
                 "kv",
@@ -143,6 +168,7 @@ impl Builder {
         };
         let crank = self.slider_crank(el)?;
         let target = match (crank, el.attr("joint"), el.attr("tendon"), el.attr("site")) {
+            _ if el.attr("body").is_some() => self.body_transmission(el)?,
             (Some(t), ..) => t,
             (None, None, None, Some(sname)) => {
                 let (body, pose) = match self.sites.get(sname) {
@@ -201,8 +227,9 @@ impl Builder {
             }
         };
         let gear = match el.attr("gear") {
-            // A site's gear is its transmission's 6-vector.
-            _ if matches!(target, Transmission::Site(_)) => 1.0,
+            // A site's gear is its transmission's 6-vector; MuJoCo's body transmission does
+            // not read it.
+            _ if matches!(target, Transmission::Site(_) | Transmission::Body(_)) => 1.0,
             None => 1.0,
             Some(s) => match parse_floats(s) {
                 Some(v) if !v.is_empty() && v[1..].iter().all(|&x| x == 0.0) => v[0],
@@ -249,14 +276,17 @@ impl Builder {
                 }
             }
             "general" => self.general(el)?,
-            _ => {
-                return Err(self.err(
-                    el,
-                    "unsupported actuator: use motor, position, velocity, damper or general",
-                ))
-            }
+            // MuJoCo's adhesion: a fixed gain, no bias.
+            "adhesion" => ActuatorKind::General {
+                gain: [gain("gain", 1.0)?, 0.0, 0.0],
+                bias: [0.0; 3],
+            },
+            _ => return Err(self.err(
+                el,
+                "unsupported actuator: use motor, position, velocity, damper, adhesion or general",
+            )),
         };
-        let written = if el.name == "damper" {
+        let written = if el.name == "damper" || el.name == "adhesion" {
             self.floats(el, "ctrlrange", 2)?.map(|r| (r[0], r[1]))
         } else if let Some(r) = self.float(el, "inheritrange")?.filter(|&r| r > 0.0) {
             // MuJoCo's inheritrange: the control range around the middle of the target's
@@ -266,7 +296,9 @@ impl Builder {
                 Transmission::Joint(j) => self.limits[j].as_ref().map(|(lo, hi, _)| (*lo, *hi)),
                 Transmission::Tendon(t) => self.tendons[t].range,
                 Transmission::Spatial(t) => self.spatial_tendons[t].0.range,
-                Transmission::Site(_) | Transmission::SliderCrank(_) => None,
+                Transmission::Site(_) | Transmission::SliderCrank(_) | Transmission::Body(_) => {
+                    None
+                }
             };
             let Some((lo, hi)) = range else {
                 return Err(self.err(el, "inheritrange needs the range of the joint or tendon it drives (a limited one): give that range, or a ctrlrange"));

@@ -78,6 +78,7 @@ const PARAMETERS: &[(&str, &[&str])] = &[
         &["kp", "kv", "dampratio", "timeconst", "inheritrange"],
     ),
     ("cylinder", &["timeconst", "bias", "area", "diameter"]),
+    ("adhesion", &["gain"]),
 ];
 
 /// Every parameter attribute of [`PARAMETERS`].
@@ -349,6 +350,9 @@ fn shortcut(start: &Parameters, el: &Element) -> Result<Parameters, SceneError> 
             p.gainprm = [0.0; N];
             p.gainprm[2] = -kv;
         }
+        "adhesion" => {
+            p.gainprm[0] = number(el, "gain")?.unwrap_or(start.gainprm[0]);
+        }
         other => unreachable!("shortcut() is called for SCM's shortcuts, not <{other}>"),
     }
     Ok(p)
@@ -442,7 +446,8 @@ impl ActuatorDefaults {
                 State::Known(p) => general(*p, el)?,
                 State::Other(other) => return Err(inherits_other(el, &other)),
             },
-            "motor" | "position" | "velocity" | "damper" | "intvelocity" | "cylinder" => {
+            "motor" | "position" | "velocity" | "damper" | "intvelocity" | "cylinder"
+            | "adhesion" => {
                 let start = self.start(&kind, el)?;
                 shortcut(&start, el)?
             }
@@ -491,6 +496,7 @@ impl ActuatorDefaults {
             }
             "velocity" => put("kv", text(resolved.gainprm[0])),
             "damper" => put("kv", text(0.0 - resolved.gainprm[2])),
+            "adhesion" => put("gain", text(resolved.gainprm[0])),
             "general" => {
                 put("gaintype", resolved.gaintype.clone());
                 put("gainprm", vector_text(&resolved.gainprm));

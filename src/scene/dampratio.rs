@@ -53,6 +53,8 @@ impl Builder {
                         })
                         .collect()
                 }
+                // No moment without contacts (an adhesion has no damping ratio to read).
+                Transmission::Body(_) => Vec::new(),
                 // The site's moment at qpos0: its velocity for a unit velocity of each dof.
                 Transmission::Site(k) => {
                     let site = &self.transmissions.sites[k];

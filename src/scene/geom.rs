@@ -329,10 +329,18 @@ impl Builder {
                 };
                 let gi = geom_inertia(&mp, mass, &pose);
                 self.geom_inertia[body] = self.geom_inertia[body].add(&gi);
-                self.mass_geom_frames
-                    .entry(body)
-                    .or_default()
-                    .push(pose.rotation);
+                // MuJoCo's compiler moves a mesh to its principal frame, and its geom's frame
+                // with it: the axes of the fluid's inertia box where the geom is its body's
+                // only mass (a primitive's own frame is principal already).
+                let frame = match &mesh_name {
+                    Some(_) => {
+                        let axes = super::mesh_weight::principal_axes(&mp.inertia).1;
+                        let r = nalgebra::Rotation3::from_matrix_unchecked(axes);
+                        pose.rotation * UnitQuaternion::from_rotation_matrix(&r)
+                    }
+                    None => pose.rotation,
+                };
+                self.mass_geom_frames.entry(body).or_default().push(frame);
             }
         } else if self.moves_with_joints(body) {
             return Err(self.err(el, format!("a {kind} can only belong to a body welded to the world (this body or one it hangs from has joints), as MuJoCo requires")));

@@ -135,7 +135,7 @@ impl Compiled {
                     "name": a.name, "gear": a.gear,
                     "joint": match a.target {
                         Transmission::Joint(j) => Some(t.joints[j].name.clone()),
-                        Transmission::Tendon(_) | Transmission::Spatial(_) | Transmission::Site(_) | Transmission::SliderCrank(_) => None,
+                        _ => None,
                     },
                     "site": match a.target {
                         Transmission::Site(k) => Some(self.transmissions.sites[k].name.clone()),
@@ -148,7 +148,11 @@ impl Compiled {
                     "tendon": match a.target {
                         Transmission::Tendon(i) => Some(self.tendons[i].name.clone()),
                         Transmission::Spatial(i) => Some(self.spatial_tendons[i].name.clone()),
-                        Transmission::Joint(_) | Transmission::Site(_) | Transmission::SliderCrank(_) => None,
+                        _ => None,
+                    },
+                    "body": match a.target {
+                        Transmission::Body(b) => Some(t.bodies[b].name.clone()),
+                        _ => None,
                     },
                     "slidercrank": match a.target {
                         Transmission::SliderCrank(k) => {

@@ -104,7 +104,7 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ),
     (
         "gap",
-        "MuJoCo's inactive contacts, listed in its mjData.contact with no force; SCM keeps no such list (read only where the contact is adhesive, as the reach of its pull)",
+        "MuJoCo's inactive contacts, listed in its mjData.contact with no force; SCM keeps no such list (read only where the contact can pull: a geom's adhesion or an adhesion actuator on one of its bodies, as the reach of the pull)",
     ),
     (
         "solref",

@@ -100,6 +100,7 @@ pub fn directional_derivative(
             .tree
             .kinematics_with(&s.q, &s.v, &s.u[model.actuators.len()..])
     };
+    let pulls = model.pulls(&driven);
     // As the outputs read them (`src/sim/outputs.rs`): the applied contacts, a pair out of
     // reach with zero wrenches (and derivatives) and, only when its distance is asked, that
     // distance from a full evaluation.
@@ -108,7 +109,7 @@ pub fn directional_derivative(
             .iter()
             .any(|u| matches!(u, Slot::PairDistance(p) if applied[*p].is_none()));
         if skipped_distance {
-            model.complete_contacts(&kin(), &s.prm, &applied)
+            model.complete_contacts(&kin(), &s.prm, &pulls, &applied)
         } else {
             applied
                 .into_iter()
@@ -122,7 +123,10 @@ pub fn directional_derivative(
             .map_err(|e| e.to_string())?;
         (Some(f.vdot), Some(complete(f.contacts)))
     } else if needs_contacts {
-        (None, Some(complete(model.contact_forces(&kin(), &s.prm).1)))
+        (
+            None,
+            Some(complete(model.contact_forces(&kin(), &s.prm, &pulls).1)),
+        )
     } else {
         (None, None)
     };

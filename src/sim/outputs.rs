@@ -46,10 +46,12 @@ impl Simulation {
                 .model
                 .tree
                 .kinematics_with(&at.state.q, &at.state.v, &at.mocap);
-            memo.complete = Some(
-                self.model
-                    .complete_contacts(&kin, &at.params, &memo.applied),
-            );
+            let pulls = self.model.pulls(&at.driven(&self.model));
+            memo.complete =
+                Some(
+                    self.model
+                        .complete_contacts(&kin, &at.params, &pulls, &memo.applied),
+                );
         }
         memo.complete.as_deref().unwrap_or(&[])
     }
@@ -65,7 +67,8 @@ impl Simulation {
                 .model
                 .tree
                 .kinematics_with(&at.state.q, &at.state.v, &at.mocap);
-            memo.applied = self.model.contact_forces(&kin, &at.params).1;
+            let pulls = self.model.pulls(&at.driven(&self.model));
+            memo.applied = self.model.contact_forces(&kin, &at.params, &pulls).1;
             memo.complete = None;
             memo.at = Some(at.clone());
         }
@@ -106,7 +109,7 @@ mod tests {
             .model
             .tree
             .kinematics_with(&at.state.q, &at.state.v, &at.mocap);
-        sim.model.contacts(&kin, &at.params).1
+        sim.model.contacts(&kin, &at.params, &[]).1
     }
 
     #[test]

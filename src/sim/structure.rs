@@ -14,7 +14,7 @@ use super::{Param, Slot};
 use crate::collision::Collider;
 use crate::dynamics::JointKind;
 use crate::fmi::contract::{Causality, Initial, ModelStructure, VarType, Variable};
-use crate::model::{ActivationLaw, Model};
+use crate::model::{ActivationLaw, Model, Transmission};
 
 /// A set of knowns, by what they are (not yet by value reference).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -106,6 +106,19 @@ fn pair_knowns(model: &Model, p: usize, distance_only: bool) -> Knowns {
     let mut joints = path_joints(model, pair.a);
     joints.extend(path_joints(model, pair.b));
     let mut k = coordinates(model, &joints, !distance_only);
+    // An adhesion actuator on either body pulls the pair: its forces read its control (or
+    // its activation).
+    let mut activation = 0;
+    for (a, act) in model.actuators.iter().enumerate() {
+        let pulls = matches!(act.target, Transmission::Body(b) if b == pair.a || b == pair.b);
+        if pulls && !distance_only {
+            match act.activation {
+                Some(_) => k.act.insert(activation),
+                None => k.ctrl.insert(a),
+            };
+        }
+        activation += usize::from(act.activation.is_some());
+    }
     for body in [pair.a, pair.b] {
         if let Some(m) = model.tree.mocap.iter().position(|&b| b == body) {
             k.mocap.extend((0..7).map(|c| (m, c)));
@@ -195,7 +208,7 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
             model
                 .actuators
                 .iter()
-                .any(|a| a.target == crate::model::Transmission::Tendon(t))
+                .any(|a| a.target == Transmission::Tendon(t))
         };
         for (_, t) in (model.tendons.iter().enumerate()).filter(|(i, t)| t.acts() || actuated(*i)) {
             let tied: Vec<usize> = t.joints.iter().map(|&(_, d, _)| root_of_dof(d)).collect();
@@ -216,9 +229,8 @@ fn coupled_knowns(model: &Model, root: usize) -> Knowns {
                 roots.extend(tied);
             }
         }
-        let actuated_spatial = |t: usize| {
-            (model.actuators.iter()).any(|a| a.target == crate::model::Transmission::Spatial(t))
-        };
+        let actuated_spatial =
+            |t: usize| (model.actuators.iter()).any(|a| a.target == Transmission::Spatial(t));
         for (_, t) in (model.spatial_tendons.iter().enumerate())
             .filter(|(i, t)| t.law.acts() || actuated_spatial(*i))
         {

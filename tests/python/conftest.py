@@ -57,9 +57,7 @@ def dm_id(path):
 
 #: The dm_control files SCM refuses, and the reason its message must give (at the file and line
 #: of the element). Everything else loads.
-DM_CONTROL_REFUSED = {
-    "fruitfly_v2_fruitfly": ("fruitfly.xml:890: <adhesion>", "body transmissions (adhesion) are not supported"),
-}
+DM_CONTROL_REFUSED: dict = {}
 
 #: gymnasium-robotics' models, a third corpus (unpacked from its wheel by scripts/setup.sh): the
 #: files its environments load (the others are included by these).

@@ -255,10 +255,13 @@ def compare(path, inertia_tol=TOL):
             assert crank["cranksite"] == m.site(m.actuator_trnid[a, 0]).name, tag
             assert crank["slidersite"] == m.site(m.actuator_trnid[a, 1]).name, tag
             close(f"{tag} cranklength", crank["cranklength"], m.actuator_cranklength[a])
+        elif int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_BODY):
+            assert act["body"] == m.body(m.actuator_trnid[a, 0]).name, tag
         else:
             assert int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT), tag
             assert act["joint"] == ours["joints"][m.actuator_trnid[a, 0]]["name"], tag
-        if act["site"] is None:
+        # A site's gear is its 6-vector (above); MuJoCo's body transmission reads none.
+        if act["site"] is None and act["body"] is None:
             close(f"{tag} gear", act["gear"], m.actuator_gear[a, 0])
         assert act["ctrllimited"] == bool(m.actuator_ctrllimited[a]), f"{tag} ctrllimited"
         if act["ctrllimited"]:

@@ -240,6 +240,23 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         } else {
             margin
         };
+        // The adhesion actuators that pull the pair (a body transmission on either body).
+        let pullers: Vec<&str> = (m.actuators.iter())
+            .filter(
+                |a| matches!(a.target, scm::model::Transmission::Body(b) if b == p.a || b == p.b),
+            )
+            .map(|a| a.name.as_str())
+            .collect();
+        let margin = if pullers.is_empty() {
+            margin
+        } else {
+            format!(
+                "{margin}, pulled by the adhesion actuator{} {} within {} m past the margin",
+                if pullers.len() > 1 { "s" } else { "" },
+                pullers.join(", "),
+                p.gap
+            )
+        };
         let margin = match &p.surface {
             Some(flows) => {
                 let v = |x: &nalgebra::Vector3<f64>| format!("({} {} {})", x.x, x.y, x.z);
