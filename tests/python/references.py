@@ -35,6 +35,12 @@ SIGNALS = {
     # The paddle starts 3 cm behind the box and moves +x at 10 cm/s for 1.5 s, then stops: it
     # reaches the box at 0.3 s and pushes it about 12 cm.
     "mocap_push": {"paddle.pos.x": lambda t: -0.11 + 0.1 * np.minimum(t, 1.5)},
+    # The pad grips the box from the start, lifts it 4 cm between 0.4 s and 0.9 s, and lets go
+    # at 1.5 s: the box drops back to the floor.
+    "adhesion_pick": {
+        "grip.ctrl": lambda t: np.where(t < 1.5, 1.0, 0.0),
+        "lift.ctrl": lambda t: 0.04 * np.clip((t - 0.4) / 0.5, 0.0, 1.0),
+    },
 }
 
 REGENERATE = "scripts/regenerate_references.sh"

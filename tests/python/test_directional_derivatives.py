@@ -64,16 +64,22 @@ def in_contact_state(f, name):
         x = {"ball.pos.z": 0.05 - 5e-4, "ball.quat.w": np.cos(0.2), "ball.quat.x": np.sin(0.2)}
     elif name == "sphere_pair":
         x = {}
+    elif name == "adhesion_pick":
+        # The box pressed into the floor, the pad 1 mm above it, within its gap: the pull acts.
+        x = {"box.pos.z": 0.03 - 5e-4}
     else:
         x = {"finger_y.q": 0.25 - 0.1375 - 0.015 + 2e-3, "finger_x.q": 0.01}
     return x, rng
 
 
-@pytest.mark.parametrize("name", ["sphere_drop", "sphere_pair", "t_push"])
+START = {"t_push": {"act_y.ctrl": 0.1}, "adhesion_pick": {"grip.ctrl": 0.6, "lift.ctrl": 0.01}}
+
+
+@pytest.mark.parametrize("name", ["sphere_drop", "sphere_pair", "t_push", "adhesion_pick"])
 def test_model_exchange_jacobians_match_central_differences(fmu, name):
     """ME: ∂ẋ/∂x, ∂ẋ/∂u, ∂y/∂x, ∂y/∂u for every pair declared in Derivatives and Outputs."""
     f = Opened(fmu(name))
-    model = f.instance("ME", start_values={"act_y.ctrl": 0.1} if name == "t_push" else None)
+    model = f.instance("ME", start_values=START.get(name))
     states = [d.variable.derivative for d in f.md.derivatives]
     nx = len(states)
     x0 = get_x(model, nx)
