@@ -184,9 +184,11 @@ impl<T: Scalar> ContactParams<T> {
         self.adhesion > 0.0 || self.pull.is_some()
     }
 
-    /// The adhesion and the actuators' pull together (N, real part): what the pull can reach.
+    /// The adhesion and the size of the actuators' pull together (N, real part): the most the
+    /// window's term can add to a point force (a `<general body>` with a negative force
+    /// pushes within the gap as much).
     pub fn pull_bound(&self) -> f64 {
-        self.adhesion + self.pull.map_or(0.0, |p| p.re().max(0.0))
+        self.adhesion + self.pull.map_or(0.0, |p| p.re().abs())
     }
 
     /// Where the bounds of the pair's forces count from (m): the margin, or where the pair

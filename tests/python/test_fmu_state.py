@@ -28,7 +28,7 @@ def rollout(f, slave, first, n):
     return np.array(rows)
 
 
-@pytest.mark.parametrize("name", ["sphere_drop", "t_push"])
+@pytest.mark.parametrize("name", ["sphere_drop", "t_push", "adhesion_pick"])
 def test_resume_from_saved_and_serialized_state_is_bit_identical(fmu, name):
     f = Opened(fmu(name))
     slave = f.instance("CS")
