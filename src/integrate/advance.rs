@@ -274,15 +274,9 @@ impl Model {
                         let a = match first.take() {
                             None if i != Integrator::DampedEuler => {
                                 let driven = self.driven_inputs(&uk, &s.act, &s.q, Some(dt));
-                                let f = self
-                                    .forward_with(
-                                        &s.q,
-                                        &s.v,
-                                        &driven,
-                                        prm,
-                                        reuse_all(&mut cache.pairs, known.take()),
-                                    )
-                                    .map_err(dyn_err)?;
+                                let reuse = reuse_all(&mut cache.pairs, known.take());
+                                let f = self.forward_with(&s.q, &s.v, &driven, prm, reuse);
+                                let f = f.map_err(dyn_err)?;
                                 if let Some(m) = monitor.as_mut() {
                                     let pulls = self.pulls(&driven);
                                     let stored =
