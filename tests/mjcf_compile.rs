@@ -1566,7 +1566,11 @@ fn site_transmissions_read_their_gear_and_refuse_what_they_cannot_drive() {
         ),
         (r#"<adhesion body="world" ctrlrange="0 1"/>"#, "world body"),
         (
-            r#"<adhesion body="b" site="s" ctrlrange="0 1"/>"#,
+            r#"<adhesion body="b" ctrlrange="0 1" gear="2"/>"#,
+            "not an attribute of <adhesion>",
+        ),
+        (
+            r#"<general body="b" site="s" ctrlrange="0 1"/>"#,
             "one thing",
         ),
         (r#"<motor site="nowhere"/>"#, "no site named 'nowhere'"),

@@ -200,6 +200,36 @@ pub fn check_parameters(el: &Element) -> Result<(), SceneError> {
             "'ctrllimited' is not an attribute of <damper> (MuJoCo refuses it too): a damper's control is always limited by its ctrlrange",
         ));
     }
+    if el.name == "adhesion" {
+        // MuJoCo's schema of an adhesion: no gear, no dynamics, its control always limited.
+        const ADHESION: &[&str] = &[
+            "name",
+            "class",
+            "group",
+            "nsample",
+            "interp",
+            "delay",
+            "ctrlrange",
+            "user",
+            "forcelimited",
+            "forcerange",
+            "body",
+            "gain",
+        ];
+        if let Some((k, _)) = el
+            .attrs
+            .iter()
+            .find(|(k, _)| !ADHESION.contains(&k.as_str()))
+        {
+            return Err(error(
+                el,
+                format!(
+                    "'{k}' is not an attribute of <adhesion> (MuJoCo refuses it too): it has {}",
+                    ADHESION.join(", ")
+                ),
+            ));
+        }
+    }
     let Some((_, own)) = PARAMETERS.iter().find(|(k, _)| *k == el.name) else {
         return Ok(());
     };
