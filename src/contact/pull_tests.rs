@@ -52,23 +52,8 @@ fn an_actuated_pull_acts_within_the_gap_and_leaves_the_spring_and_its_friction_a
     let reach = pulled.bound_margin() - margin + 746.0 * eps3;
     assert_eq!(at(reach * 1.001, sliding, &pulled), Vector3::zeros());
     // The bound the pruning and the proofs read, and the damping passive, as for adhesion.
-    let (ks, ms) = (pulled.bound_stiffness(), pulled.bound_margin());
-    for i in 0..300 {
-        let y = -2e-3 + 3e-3 * (i as f64 / 299.0);
-        let rest = at(y, Vector3::zeros(), &pulled).z;
-        for (vn, vt) in [(-0.3, 0.1), (0.02, 0.5), (0.4, 0.0)] {
-            let f = at(y, Vector3::new(vt, 0.0, vn), &pulled);
-            let bound = ks
-                * crate::scalar::softplus(ms - (margin + y), eps3)
-                * (1.0 + vn.abs() / pulled.dissipation_velocity)
-                * (1.0 + pulled.friction.powi(2)).sqrt();
-            assert!(
-                f.norm() <= bound * (1.0 + 1e-12),
-                "{y} {vn}: {f:?} > {bound}"
-            );
-            assert!((f.z - rest) * vn <= 0.0, "{y} {vn}: {} vs {rest}", f.z);
-        }
-    }
+    let speeds = [(-0.3, 0.1), (0.02, 0.5), (0.4, 0.0)];
+    super::tests::assert_bounded_and_passive(|y, v| at(y, v, &pulled), &pulled, 300, &speeds);
     // The derivative with respect to the pull (the actuator's control, through its gain): -W
     // along n, 1 pressed and in the gap, 0 past it.
     let seeded = ContactParams {

@@ -510,23 +510,35 @@ fn an_adhesive_contact_presses_as_before_pulls_within_its_gap_and_stays_in_its_b
     assert!(at(gap + 40.0 * eps3, sliding, &prm).norm() <= 1e-17 * delta);
     let reach = prm.bound_margin() - margin + 746.0 * eps3;
     assert_eq!(at(reach * 1.001, sliding, &prm), Vector3::zeros());
-    // The bound the pruning reads: |λ| ≤ k* s⁺(m* - φ) (1 + |v_n|/v_d) √(1 + μ²), and the
-    // damping only takes energy out: λ_n(v) - λ_n(0) has the sign of -v_n.
+    // The bound the pruning reads, and the damping only takes energy out.
+    let speeds = [
+        (-0.3, 0.1),
+        (-0.01, 0.0),
+        (0.02, 0.5),
+        (0.15, -0.05),
+        (0.4, 0.0),
+    ];
+    assert_bounded_and_passive(|y, v| at(y, v, &prm), &prm, 400, &speeds);
+}
+
+/// The bound the pruning reads, `|λ| ≤ k* s⁺(m* - φ) (1 + |v_n|/v_d) √(1 + μ²)`, and the
+/// damping only taking energy out (`λ_n(v) - λ_n(0)` has the sign of `-v_n`), at `n` readings
+/// `y` past the margin from 2 mm in to 1 mm out, each at the normal and sliding speeds
+/// `speeds` (`(v_n, v_t)`); `at(y, v)` is the point force there along `z`.
+pub(super) fn assert_bounded_and_passive(
+    at: impl Fn(f64, Vector3<f64>) -> Vector3<f64>,
+    prm: &ContactParams<f64>,
+    n: usize,
+    speeds: &[(f64, f64)],
+) {
     let (ks, ms) = (prm.bound_stiffness(), prm.bound_margin());
-    for i in 0..400 {
-        let y = -2e-3 + 3e-3 * (i as f64 / 399.0);
-        let rest = at(y, Vector3::zeros(), &prm).z;
-        for (vn, vt) in [
-            (-0.3, 0.1),
-            (-0.01, 0.0),
-            (0.02, 0.5),
-            (0.15, -0.05),
-            (0.4, 0.0),
-        ] {
-            let v = Vector3::new(vt, 0.0, vn);
-            let f = at(y, v, &prm);
+    for i in 0..n {
+        let y = -2e-3 + 3e-3 * (i as f64 / (n - 1) as f64);
+        let rest = at(y, Vector3::zeros()).z;
+        for &(vn, vt) in speeds {
+            let f = at(y, Vector3::new(vt, 0.0, vn));
             let bound = ks
-                * crate::scalar::softplus(ms - (margin + y), eps3)
+                * crate::scalar::softplus(ms - (prm.margin + y), prm.eps3)
                 * (1.0 + vn.abs() / prm.dissipation_velocity)
                 * (1.0 + prm.friction.powi(2)).sqrt();
             assert!(

@@ -24,14 +24,8 @@ import numpy as np
 
 import references as R
 from conftest import SCENES, SCM
-
-STEP = 0.002
-DURATION = 1.0
-CEILING = 0.3
-FINE = ('<custom><numeric name="scm_spacing" data="0.005"/>'
-        '<numeric name="scm_eps2" data="1e-4"/></custom>')
-SHAPES = {"sphere": 'type="sphere" size="0.05"', "box": 'type="box" size="0.05 0.05 0.05"'}
-HELD = 0.002  # within 2 mm of the ceiling after 1 s; a dropped body has fallen metres
+# The geoms' adhesion's ceiling, step, shapes, fine sampling and what counts as held.
+from test_contact_adhesion import CEILING, DURATION, FINE, HELD, SHAPES, STEP
 
 
 def scene(shape, below, extra=""):
