@@ -132,33 +132,30 @@ pub fn point_plane_force_jacobian_at(
     }
     // The spring c and its slope; with adhesion (departure 7) c = W f and the pull p = W δ,
     // W = σ((g - y)/ε3) with W' = -W (1 - W)/ε3, f = k s⁺_ε3(δ/k - y); the actuators' pull a
-    // (departure 9) adds W a to the pull and leaves the plain spring where δ = 0.
-    let (spring, dspring, pull, dpull) = if let (Some(a), false) = (prm.pull, prm.adhesion > 0.0) {
+    // (departure 9) adds W a to the pull and leaves the plain spring where δ = 0. The same
+    // operations in the same order as `spring_at`, so the values agree to the bit with
+    // `point_plane_force_at`'s.
+    let (window, dwindow) = if prm.adhesive() {
         let window = logistic((prm.gap - phi) / prm.eps3);
-        let dwindow = -window * (1.0 - window) / prm.eps3;
-        let spring = prm.stiffness * softplus(-phi, prm.eps3);
-        let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
-        (spring, dspring, window * a, dwindow * a)
-    } else if prm.adhesion > 0.0 {
-        let total = prm.pull.map_or(prm.adhesion, |a| a + prm.adhesion);
-        // The same operations in the same order as `adhesive_spring`, so the values agree
-        // to the bit with `point_plane_force_at`'s.
-        let window = logistic((prm.gap - phi) / prm.eps3);
-        let dwindow = -window * (1.0 - window) / prm.eps3;
+        (window, -window * (1.0 - window) / prm.eps3)
+    } else {
+        (1.0, 0.0)
+    };
+    let (spring, dspring) = if prm.adhesion > 0.0 {
         let shift = prm.adhesion / prm.stiffness;
         let f = softplus(shift - phi, prm.eps3);
         let df = -1.0 / (1.0 + ((phi - shift) / prm.eps3).exp());
         (
             window * prm.stiffness * f,
             prm.stiffness * (dwindow * f + window * df),
-            window * total,
-            dwindow * total,
         )
     } else {
         let spring = prm.stiffness * softplus(-phi, prm.eps3);
-        let dspring = -prm.stiffness / (1.0 + (phi / prm.eps3).exp());
-        (spring, dspring, 0.0, 0.0)
+        (spring, -prm.stiffness / (1.0 + (phi / prm.eps3).exp()))
     };
+    // Zero where the pair cannot pull.
+    let total = prm.pull.map_or(prm.adhesion, |a| a + prm.adhesion);
+    let (pull, dpull) = (window * total, dwindow * total);
     let vn = n.dot(v);
     let vd = prm.dissipation_velocity_at(spring);
     let (d, dd) = prm.dissipation.factor_slope(vn / vd);
