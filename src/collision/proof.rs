@@ -190,7 +190,14 @@ pub fn out_of_reach_proven(
             return true;
         }
     }
-    *kept = None;
+    // A pair whose last proof was by planes with room, now used up, is usually proven with
+    // room again (gymnasium's humanoid: limbs a few centimetres apart, proven afresh every
+    // other RK4 stage): for it the proof with room comes first, and where it holds it also
+    // proves the pair out of reach now (it covers the pose it is made at), so the plain proof
+    // is not made.
+    let room_first = kept
+        .take()
+        .is_some_and(|k| k.sides.iter().flatten().any(|ks| ks.m1.is_finite()));
     // The floor alone first, with room to move: it reads no plane (a walk of 26 plane values
     // per node), and where every side passes, the pair is out of reach with that room, no
     // proof by planes needed. A side it proves is kept for the room stage below.
@@ -203,13 +210,12 @@ pub fn out_of_reach_proven(
         *kept = Some(ReachProof { sides: floor });
         return true;
     }
-    let how = out_of_reach_by(a, b, rels, prm, scratch);
-    // Out of reach now: prove it again with room to move by planes where the floor gave none,
-    // and keep that for the next steps. (Only here: a pair near enough to fail the plain proof
-    // would fail this one too, and a failing proof can cost a whole budget of node tests. Nor
-    // where a point needed its springs summed: the proof with room is by planes alone, and
-    // that point would fail it.)
-    if how == Beyond::Planes {
+    // Each side the floor did not prove, proven with room to move by planes, and the two sides
+    // kept together; whether every side was (the same poses give the same answer, so it is
+    // asked at most once).
+    let with_room = |floor: &mut [Option<ProofSide>; 2],
+                     kept: &mut Option<ReachProof>,
+                     scratch: &mut Scratch| {
         let roomy = sides.iter().all(|(i, s)| {
             floor[*i]
                 .or_else(|| {
@@ -220,8 +226,21 @@ pub fn out_of_reach_proven(
                 .is_some()
         });
         if roomy {
-            *kept = Some(ReachProof { sides: floor });
+            *kept = Some(ReachProof { sides: *floor });
         }
+        roomy
+    };
+    if room_first && with_room(&mut floor, kept, scratch) {
+        return true;
+    }
+    let how = out_of_reach_by(a, b, rels, prm, scratch);
+    // Out of reach now: prove it again with room to move by planes where the floor gave none,
+    // and keep that for the next steps. (Only here: a pair near enough to fail the plain proof
+    // would fail this one too, and a failing proof can cost a whole budget of node tests. Nor
+    // where a point needed its springs summed: the proof with room is by planes alone, and
+    // that point would fail it.)
+    if how == Beyond::Planes && !room_first {
+        with_room(&mut floor, kept, scratch);
     }
     how.proven()
 }
