@@ -452,23 +452,47 @@ fn solver_and_renderer_settings_are_accepted_and_listed_as_unused() {
 </mujoco>"#,
     );
     let all = s.unused.join("\n");
-    for word in [
-        "iterations",
-        "solver",
-        "cone",
-        "impratio",
-        "gap",
-        "visual",
-        "size",
-    ] {
+    for word in ["iterations", "solver", "gap", "visual", "size"] {
         assert!(all.contains(word), "'{word}' not listed as unused:\n{all}");
     }
     assert!(all.contains("m.xml:2:"), "{all}");
-    // A geom's solref, solimp and margin size its contact (docs/mjcf.md): used, not listed.
+    // A geom's solref, solimp and margin size its contact, and so do the friction cone and
+    // impratio (docs/mjcf.md): used, not listed.
+    for word in ["solref", "solimp", "margin", "cone", "impratio"] {
+        assert!(!all.contains(word), "'{word}' listed as unused:\n{all}");
+    }
+}
+
+/// A friction cone MuJoCo does not have, or a `<pair>` condim it does not take, is refused
+/// with the line; a pair's own condim sizes its law (docs/mjcf.md, "The friction cone").
+#[test]
+fn a_cone_or_pair_condim_mujoco_does_not_know_is_refused_with_the_line() {
+    let e = refuse("<mujoco>\n<option cone=\"cubic\"/>\n<worldbody/></mujoco>");
+    assert_eq!(e.line, 2, "{e}");
     assert!(
-        !all.contains("solref") && !all.contains("solimp") && !all.contains("margin"),
-        "{all}"
+        e.to_string().contains("expected pyramidal or elliptic"),
+        "{e}"
     );
+    let pair = |condim: &str| {
+        format!(
+            r#"<mujoco><worldbody><geom name="floor" type="plane" size="1 1 .1"/>
+<body pos="0 0 0.1"><freejoint/><geom name="ball" type="sphere" size="0.1" friction="1.9"/></body>
+</worldbody><contact><pair geom1="floor" geom2="ball" friction="1.9" condim="{condim}"/></contact></mujoco>"#
+        )
+    };
+    let e = refuse(&pair("2"));
+    assert_eq!(e.line, 3, "{e}");
+    assert!(e.to_string().contains("expected 1, 3, 4 or 6"), "{e}");
+    // The pair's condim 4 holds the normal on six edges instead of four: 3/2 the share.
+    let law = |condim: &str| load(&pair(condim)).pair_laws[0].expect("a law");
+    let (three, four) = (law("3"), law("4"));
+    assert!(
+        (four.cone / three.cone - 1.5).abs() < 1e-12,
+        "{} {}",
+        three.cone,
+        four.cone
+    );
+    assert!(four.stiffness > three.stiffness && law("1").cone == 1.0);
 }
 
 #[test]

@@ -331,35 +331,13 @@ impl Builder {
         if self.numeric.iter().any(|(n, _, _)| n == "scm_friction") {
             return None;
         }
-        let over = self
-            .flags
-            .override_contacts
-            .then_some(self.contact_override.friction);
+        let over = self.friction_override();
         let combine = |x: &Geom, y: &Geom| {
-            if let Some(mu) = over {
-                // MuJoCo's override replaces the friction, not the condim.
-                let frictionless = if x.softness.priority != y.softness.priority {
-                    let g = if x.softness.priority > y.softness.priority {
-                        x
-                    } else {
-                        y
-                    };
-                    g.condim == 1
-                } else {
-                    x.condim == 1 && y.condim == 1
-                };
-                return if frictionless { 0.0 } else { mu };
-            }
-            let (px, py) = (x.softness.priority, y.softness.priority);
-            if px != py {
-                // The geom of higher priority gives its friction and condim whole.
-                let g = if px > py { x } else { y };
-                return if g.condim == 1 { 0.0 } else { g.friction };
-            }
-            if x.condim == 1 && y.condim == 1 {
+            let (mu, condim) = mixed_contact(x, y, over);
+            if condim == 1 {
                 0.0
             } else {
-                x.friction.max(y.friction)
+                mu
             }
         };
         let values: Vec<f64> = self
@@ -445,6 +423,13 @@ impl Builder {
     /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
     /// collide, or, for an explicit pair or whole-body contact past the bits, every pair of
     /// their colliding geoms.
+    /// `<flag override>`'s `o_friction`, where the flag is on.
+    pub(super) fn friction_override(&self) -> Option<f64> {
+        self.flags
+            .override_contacts
+            .then_some(self.contact_override.friction)
+    }
+
     pub(super) fn geom_pairs(&self, a: usize, b: usize, colliding: &[bool]) -> Vec<(&Geom, &Geom)> {
         let of = |body: usize| -> Vec<&Geom> {
             self.geoms
@@ -466,6 +451,20 @@ impl Builder {
             compatible
         }
     }
+}
+
+/// A geom pair's sliding friction and `condim` as MuJoCo's collision driver mixes them: the
+/// geom of higher `priority` gives both whole; at equal priority the larger of each. Under
+/// `<flag override>` (`over`: its `o_friction`) the friction is replaced, not the condim.
+pub(super) fn mixed_contact(x: &Geom, y: &Geom, over: Option<f64>) -> (f64, u32) {
+    let (px, py) = (x.softness.priority, y.softness.priority);
+    let (mu, condim) = if px != py {
+        let g = if px > py { x } else { y };
+        (g.friction, g.condim)
+    } else {
+        (x.friction.max(y.friction), x.condim.max(y.condim))
+    };
+    (over.unwrap_or(mu), condim)
 }
 
 /// Why a geom has the spacing the scene's defaults gave it (`scm check`).
@@ -504,10 +503,18 @@ impl Builder {
                         ],
                     )?;
                     let friction = self.friction_list(c, "friction", 5)?.map(|v| v[0]);
-                    let friction = match c.attr("condim") {
-                        Some("1") => Some(0.0),
-                        _ => friction,
+                    let condim: u32 = match c.attr("condim") {
+                        None => 3,
+                        Some(v) => v
+                            .trim()
+                            .parse()
+                            .ok()
+                            .filter(|c| [1, 3, 4, 6].contains(c))
+                            .ok_or_else(|| {
+                                self.err(c, format!("condim=\"{v}\": expected 1, 3, 4 or 6"))
+                            })?,
                     };
+                    let friction = if condim == 1 { Some(0.0) } else { friction };
                     let g1 = c
                         .attr("geom1")
                         .ok_or_else(|| self.err(c, "geom1 is required"))?;
@@ -524,7 +531,8 @@ impl Builder {
                     self.explicit_pairs.push(ExplicitPair {
                         geoms: [g1.into(), g2.into()],
                         friction,
-                        frictionless: c.attr("condim") == Some("1"),
+                        frictionless: condim == 1,
+                        condim,
                         softness,
                         margin,
                         adhesion,

@@ -5,6 +5,7 @@
 //! pair's effective mass so that a body at rest sinks as deep as in MuJoCo and its contact is
 //! damped there as MuJoCo's is.
 
+use super::collide::mixed_contact;
 use super::*;
 
 impl Builder {
@@ -118,14 +119,15 @@ impl Builder {
         let g = tree.gravity.norm();
         let refsafe = self.flags.refsafe.then_some(step);
         let body_of = |name: &str| self.geoms.iter().find(|g| g.name == name).map(|g| g.body);
-        let explicit: Vec<((usize, usize), Softness)> = self
+        let explicit: Vec<((usize, usize), Softness, u32)> = self
             .explicit_pairs
             .iter()
             .filter_map(|p| {
                 let (x, y) = (body_of(&p.geoms[0])?, body_of(&p.geoms[1])?);
-                Some(((x.min(y), x.max(y)), p.softness))
+                Some(((x.min(y), x.max(y)), p.softness, p.condim))
             })
             .collect();
+        let over = self.friction_override();
         let mut notes = Vec::new();
         let laws = pairs
             .iter_mut()
@@ -143,17 +145,30 @@ impl Builder {
                 } else {
                     return None;
                 };
-                let law = |s: Softness| PairLaw::new(s, mass, g, eps3, refsafe, per_weight);
-                let candidates: Vec<PairLaw> =
-                    match explicit.iter().find(|(k, _)| *k == (pair.a, pair.b)) {
-                        _ if self.flags.override_contacts => vec![law(self.contact_override.softness)],
-                        Some((_, s)) => vec![law(*s)],
-                        None => self
-                            .geom_pairs(pair.a, pair.b, colliding)
-                            .into_iter()
-                            .map(|(x, y)| law(mix(&x.softness, &y.softness)))
-                            .collect(),
-                    };
+                let law = |s: Softness, (mu, condim): (f64, u32)| {
+                    let cone = cone_share(self.cone, mu, condim);
+                    PairLaw::new(s, mass, cone, g, eps3, refsafe, per_weight)
+                };
+                // Each geom pair's friction and condim as MuJoCo mixes them; a `<pair>`'s own
+                // condim, and the friction the pair was given.
+                let geom_pairs: Vec<_> = self
+                    .geom_pairs(pair.a, pair.b, colliding)
+                    .into_iter()
+                    .map(|(x, y)| (mix(&x.softness, &y.softness), mixed_contact(x, y, over)))
+                    .collect();
+                let explicit_pair = explicit.iter().find(|(k, _, _)| *k == (pair.a, pair.b));
+                let own = |condim: u32| (pair.friction.unwrap_or(1.0), condim);
+                let candidates: Vec<PairLaw> = match explicit_pair {
+                    _ if self.flags.override_contacts => {
+                        let s = self.contact_override.softness;
+                        match explicit_pair {
+                            Some((_, _, condim)) => vec![law(s, own(*condim))],
+                            None => geom_pairs.iter().map(|(_, c)| law(s, *c)).collect(),
+                        }
+                    }
+                    Some((_, s, condim)) => vec![law(*s, own(*condim))],
+                    None => geom_pairs.iter().map(|(s, c)| law(*s, *c)).collect(),
+                };
                 let stiffest = candidates
                     .iter()
                     .copied()
@@ -445,10 +460,46 @@ pub const EXPLICIT_DISSIPATION_FORCE: f64 = 4.0;
 /// (docs/mjcf.md, "Stiction floor").
 pub const EXPLICIT_STICTION_FLOOR: f64 = 2.0;
 
+/// MuJoCo's friction cone as a scene sets it (`<option cone impratio>`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    /// `cone="elliptic"` (MuJoCo's default is pyramidal).
+    pub elliptic: bool,
+    /// `impratio` (default 1), held at no less than MuJoCo's `mjMINVAL` (1e-15).
+    pub impratio: f64,
+}
+
+impl Default for Cone {
+    fn default() -> Self {
+        Cone {
+            elliptic: false,
+            impratio: 1.0,
+        }
+    }
+}
+
+/// The share `c` of MuJoCo's friction cone in a contact's normal force, against one normal row
+/// regularized by `R = (1 - d)/d · Â` (docs/mjcf.md, "Contact stiffness from solref and
+/// solimp"): 1 for an elliptic cone, a frictionless contact (`condim` 1) or no friction. A
+/// pyramidal cone of `condim` `n` holds the normal on its `2(n - 1)` edges, each regularized
+/// by `2 μ² (1 + μ²) R / impratio` (MuJoCo's `mj_makeImpedance` and `mj_diagApprox`: an
+/// edge's inverse weight is `Â (1 + μ²)`, and every edge takes the regularization that makes
+/// the pyramid's friction as soft as the elliptic cone's), so at a depth it pushes
+/// `c = (n - 1) impratio / (μ² (1 + μ²))` times one row's force: 1 at `μ` = 1 (condim 3), 1.36
+/// at 0.9, 0.120 at 1.9 (`μ` the contact's sliding friction).
+pub fn cone_share(cone: Cone, mu: f64, condim: u32) -> f64 {
+    if cone.elliptic || condim <= 1 || mu <= 0.0 || !mu.is_finite() {
+        return 1.0;
+    }
+    f64::from(condim - 1) * cone.impratio.max(MIN_VALUE) / (mu * mu * (1.0 + mu * mu))
+}
+
 /// SCM's contact law of one pair, sized from MuJoCo's: the stiffness `k` that holds the pair's
 /// effective mass `m̂` under gravity `g` at MuJoCo's resting depth `r` (`k s⁺_ε3(-φ) = m̂ g` at
 /// `φ = -r`), and the dissipation velocity and force that give the motion about that rest
 /// MuJoCo's damping there, `m̂ d(r) B` (MuJoCo's constraint moves as `r̈ = -d B ṙ - d² K r + …`).
+/// In a pyramidal friction cone ([`cone_share`] `c`) the normal is one row regularized by `R / c`:
+/// `r` is the depth one row would rest at under `g / c`, and `d` becomes `c d / (1 - d + c d)`.
 /// SCM's damping coefficient is `c / V(c)` (the slope of the dissipation factor is `-1` at zero
 /// speed), `V(c) = v_d (1 + c/F_d)`: the paper's law (`F_d` infinite) gives `m̂ g / v_d` at rest,
 /// so `v_d = g / (d(r) B)`, whatever the mass. A scene's `scm_dissipation_force` `f` sets
@@ -466,6 +517,9 @@ pub struct PairLaw {
     /// Its effective mass `m̂ = 1 / (w₁ + w₂)`, `w` MuJoCo's translational `body_invweight0`;
     /// the mass that moves with the two bodies where `w₁ + w₂` is below 1e-15 (kg).
     pub mass: f64,
+    /// The share `c` of MuJoCo's friction cone in its normal force at a depth, against a
+    /// single normal row's ([`cone_share`]): 1 for an elliptic cone or a frictionless contact.
+    pub cone: f64,
     /// MuJoCo's resting depth under `g` (m).
     pub depth: f64,
     /// SCM's stiffness (N/m).
@@ -483,24 +537,33 @@ impl PairLaw {
     /// dissipation force per unit of resting force `f` (the scene's `scm_dissipation_force`, or
     /// the integrator's default, [`EXPLICIT_DISSIPATION_FORCE`]; `None`: infinite, the paper's
     /// law).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         softness: Softness,
         mass: f64,
+        cone: f64,
         g: f64,
         eps3: f64,
         refsafe_step: Option<f64>,
         dissipation_force: Option<f64>,
     ) -> PairLaw {
         let g = if g > 0.0 { g } else { NOMINAL_GRAVITY };
-        let depth = softness.resting_depth(g, refsafe_step);
+        // The cone's edges hold `c` times a single row's force at a depth: MuJoCo's contact
+        // rests where a single row would under `g / c`.
+        let depth = softness.resting_depth(g / cone, refsafe_step);
         // The contact force's own softplus, s⁺_ε3(r).
         let stiffness = mass * g / crate::scalar::softplus(depth, eps3);
         let (_, b) = softness.reference(refsafe_step);
         let f = dissipation_force.unwrap_or(f64::INFINITY);
-        let dissipation_velocity = g / ((1.0 + 1.0 / f) * softness.impedance(depth) * b);
+        // The normal's impedance in the cone: its regularization is `R / c`, so
+        // `(1 - d') / d' = (1 - d) / (c d)`.
+        let d = softness.impedance(depth);
+        let d_cone = cone * d / (1.0 - d + cone * d);
+        let dissipation_velocity = g / ((1.0 + 1.0 / f) * d_cone * b);
         PairLaw {
             softness,
             mass,
+            cone,
             depth,
             stiffness,
             dissipation_velocity,

@@ -57,14 +57,18 @@ fn refsafe_holds_the_time_constant_at_twice_the_step() {
 
 #[test]
 fn the_pair_law_holds_the_weight_at_the_resting_depth_with_mujocos_damping() {
-    for (mass, zeta) in [(0.1, 1.0), (1.0, 0.5), (40.0, 2.0)] {
+    // Cone shares: an elliptic cone's (or μ = 1 in a pyramid), a pyramid at μ 0.9 and 1.9.
+    for ((mass, zeta), cone) in [(0.1, 1.0), (1.0, 0.5), (40.0, 2.0)]
+        .into_iter()
+        .flat_map(|m| [1.0, 1.364, 0.120].map(|c| (m, c)))
+    {
         let s = Softness {
             solref: [0.02, zeta],
             ..Softness::default()
         };
         let eps3 = 1e-4;
         for f in [None, Some(4.0)] {
-            let law = PairLaw::new(s, mass, 9.81, eps3, None, f);
+            let law = PairLaw::new(s, mass, cone, 9.81, eps3, None, f);
             // The spring k s⁺(r) carries m̂ g at r: checked against a direct evaluation.
             let spring = |r: f64| law.stiffness * eps3 * (r / eps3).exp().ln_1p();
             assert!((spring(law.depth) - mass * 9.81).abs() < 1e-9 * mass * 9.81);
@@ -83,11 +87,45 @@ fn the_pair_law_holds_the_weight_at_the_resting_depth_with_mujocos_damping() {
                 }
                 None => assert_eq!(law.dissipation_force, f64::INFINITY),
             }
-            let mujoco = mass * s.impedance(law.depth) * 2.0 / (0.95 * 0.02);
+            // MuJoCo's normal in the cone: regularized by R / c, its impedance d' has
+            // (1 - d') / d' = (1 - d) / (c d).
+            let d = s.impedance(law.depth);
+            let d_cone = 1.0 / (1.0 + (1.0 - d) / (cone * d));
+            let mujoco = mass * d_cone * 2.0 / (0.95 * 0.02);
             assert!((c - mujoco).abs() < 1e-9 * mujoco, "{c} vs {mujoco}");
+            // At rest the cone's regularized force carries the weight: c d²/(1 - d) r K = g.
+            let k_ref = 1.0 / (0.95f64 * 0.95 * 0.02 * 0.02 * zeta * zeta);
+            let held = cone * d * d / (1.0 - d) * law.depth * k_ref;
+            assert!((held - 9.81).abs() < 1e-9 * 9.81, "{held}");
             // The depth does not depend on the mass, the stiffness is proportional to it.
-            assert!((law.depth - s.resting_depth(9.81, None)).abs() < 1e-15);
+            assert!((law.depth - s.resting_depth(9.81 / cone, None)).abs() < 1e-15);
         }
+    }
+}
+
+/// The pyramid's share of the normal against one row (MuJoCo's `mj_makeImpedance`): the
+/// normal match at μ = 1 for condim 3, `(n - 1) impratio / (μ² (1 + μ²))` otherwise, and none
+/// for an elliptic cone or a frictionless contact.
+#[test]
+fn the_cone_share_is_mujocos_pyramid_against_one_row() {
+    let pyramid = Cone::default();
+    let elliptic = Cone {
+        elliptic: true,
+        ..Cone::default()
+    };
+    let share = |cone, mu, n| cone_share(cone, mu, n);
+    assert_eq!(share(pyramid, 1.0, 3), 1.0);
+    assert!((share(pyramid, 0.9, 3) - 2.0 / (0.81 * 1.81)).abs() < 1e-15);
+    assert!((share(pyramid, 1.9, 3) - 2.0 / (3.61 * 4.61)).abs() < 1e-15);
+    assert!((share(pyramid, 1.0, 4) - 1.5).abs() < 1e-15);
+    assert!((share(pyramid, 1.0, 6) - 2.5).abs() < 1e-15);
+    let stiffer = Cone {
+        impratio: 10.0,
+        ..Cone::default()
+    };
+    assert!((share(stiffer, 1.0, 3) - 10.0).abs() < 1e-14);
+    for (cone, mu, n) in [(elliptic, 1.9, 3), (pyramid, 1.9, 1), (pyramid, 0.0, 3)] {
+        assert_eq!(share(cone, mu, n), 1.0);
     }
 }
 

@@ -11,7 +11,8 @@
 //! their segments (bodies, points, `1 / divisor`), length at `qpos0` and the same. Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
 //! body frame, with `solref`, `solimp`, `solmix` and `priority`. Pairs: each contact pair's
-//! mixed `solref` and `solimp`, effective mass (`1 / (w₁ + w₂)`), MuJoCo's resting depth and
+//! mixed `solref` and `solimp`, effective mass (`1 / (w₁ + w₂)`), the share of its friction
+//! cone in the normal force (`cone_share`, 1 but in a pyramid), MuJoCo's resting depth and
 //! SCM's stiffness and dissipation velocity from them (docs/mjcf.md).
 
 use super::{Compiled, CompiledPair, Geom};
@@ -312,7 +313,7 @@ impl Compiled {
                 "adhesion": adhesion.0, "gap": adhesion.1,
                 "stiction_floor": if stiction_floor.is_nan() { None } else { Some(stiction_floor) },
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
-                "mass": law.mass, "mujoco_depth": law.depth,
+                "mass": law.mass, "cone_share": law.cone, "mujoco_depth": law.depth,
                 "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,
                 "dissipation_force": law.dissipation_force,
             })).collect::<Vec<_>>(),

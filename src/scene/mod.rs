@@ -88,6 +88,8 @@ struct ExplicitPair {
     friction: Option<f64>,
     /// `condim="1"`: the pair is frictionless, whatever `override` says.
     frictionless: bool,
+    /// Its `condim` (default 3), which MuJoCo reads instead of its geoms'.
+    condim: u32,
     softness: contact::Softness,
     margin: f64,
     /// `adhesion` and `gap`, its own (0 if not given: MuJoCo does not take a pair's from its
@@ -358,6 +360,8 @@ struct Builder {
     /// Elements and attributes accepted and unused by SCM (file:line: what, why).
     unused: Vec<String>,
     flags: Flags,
+    /// `<option cone impratio>`, which size each pair's law ([`contact::cone_share`]).
+    cone: contact::Cone,
     /// `<keyframe><key>` elements, in order; `scm_keyframe` picks the initial state.
     keys: Vec<Element>,
     /// Refusals found while reading (reported after the whole file is read).
@@ -458,6 +462,7 @@ impl Builder {
             warnings: vec![],
             unused: vec![],
             flags: Flags::default(),
+            cone: contact::Cone::default(),
             fluid: None,
             medium: (0.0, 0.0),
             wind: Vector3::zeros(),

@@ -136,8 +136,6 @@ pub(super) const UNUSED_ATTRIBUTES: &[(&str, &str)] = &[
     ("ls_tolerance", "MuJoCo's constraint solver"),
     ("noslip_tolerance", "MuJoCo's constraint solver"),
     ("ccd_tolerance", "MuJoCo's collision detection"),
-    ("impratio", "MuJoCo's friction cone"),
-    ("cone", "MuJoCo's friction cone"),
     ("jacobian", "MuJoCo's constraint solver"),
     ("solver", "MuJoCo's constraint solver"),
     ("apirate", "MuJoCo's remote API"),
@@ -309,8 +307,24 @@ impl Builder {
                 "o_solref",
                 "o_solimp",
                 "o_friction",
+                "cone",
+                "impratio",
             ],
         )?;
+        // The friction cone: its pyramid's normal is softer or stiffer than the elliptic
+        // cone's with the friction coefficient, and each pair's law follows it
+        // (`contact::cone_share`).
+        match el.attr("cone") {
+            None => {}
+            Some("pyramidal") => self.cone.elliptic = false,
+            Some("elliptic") => self.cone.elliptic = true,
+            Some(c) => {
+                return Err(self.err(el, format!("cone=\"{c}\": expected pyramidal or elliptic")))
+            }
+        }
+        if let Some(r) = self.float(el, "impratio")? {
+            self.cone.impratio = r;
+        }
         if let Some(t) = self.float(el, "timestep")? {
             if t <= 0.0 {
                 return Err(self.err(el, format!("timestep=\"{t}\" must be positive")));

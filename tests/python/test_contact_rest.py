@@ -128,6 +128,41 @@ def test_mujoco_rests_shallower_the_more_contacts_share_the_weight():
         assert abs(depth - predicted) < 1e-3 * predicted, (shape, depth, predicted)
 
 
+def cone_scene(mu, condim, cone, extra=""):
+    """A 1 kg sphere dropped 0.5 mm onto a plane, both of friction `mu` and `condim`, under
+    MuJoCo's friction `cone`."""
+    geom = f'friction="{mu} 0.005 0.0001" condim="{condim}"'
+    return f"""<mujoco><option timestep="{STEP}" cone="{cone}"/>{extra}
+<worldbody><geom name="floor" type="plane" size="1 1 0.1" {geom}/>
+<body name="a" pos="0 0 0.0505"><freejoint/><geom type="sphere" size="0.05" mass="1" {geom}/></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("mu,condim", [(0.5, 3), (0.9, 3), (1.9, 3), (1.0, 4), (1.9, 6)])
+def test_the_pyramidal_cone_softens_or_stiffens_the_normal_with_the_friction_as_in_mujoco(mu, condim, tmp_path):
+    """MuJoCo's default cone is a pyramid whose edges share one regularization, sized so that its
+    friction is as soft as the elliptic cone's: at a depth its normal force is
+    c = (condim - 1) / (mu^2 (1 + mu^2)) times one row's (1 at mu = 1, condim 3), so a body rests
+    where one row would under g / c, and the elliptic cone does not depend on the friction
+    (docs/mjcf.md, "Contact stiffness from solref and solimp"). Gymnasium's walker2d, whose
+    feet have friction 0.9 and 1.9, sinks one foot 5.5 times deeper than the other in MuJoCo and
+    topples over backwards on it; with both feet alike it folds at the knees instead.
+
+    SCM's pair law takes the share: its sphere rests at MuJoCo's depth under either cone."""
+    c = (condim - 1) / (mu * mu * (1 + mu * mu))
+    for cone, share in [("pyramidal", c), ("elliptic", 1.0)]:
+        run, ncon = mujoco_heights(cone_scene(mu, condim, cone))
+        mj_depth = 0.05 - run[-1, 1]
+        predicted = mujoco_static_depth(9.81 / share)
+        ours = scm_heights(cone_scene(mu, condim, cone, FINE), tmp_path)
+        depth, _ = depth_and_settling(ours, 0.05)
+        print(f"mu {mu} condim {condim} {cone}: MuJoCo {mj_depth * 1e3:.4f} mm (predicted "
+              f"{predicted * 1e3:.4f}), SCM {depth * 1e3:.4f} mm")
+        assert ncon == 1
+        assert abs(mj_depth - predicted) < 1e-3 * predicted, (cone, mj_depth, predicted)
+        assert abs(depth - mj_depth) <= max(0.2 * mj_depth, 3e-4), (cone, depth, mj_depth)
+
+
 def test_a_sphere_rests_deeper_by_the_separation_distributions_band(tmp_path):
     """At the default eps2 = 1 mm a curved body's force is averaged over a band of its points:
     over a sphere the heights above its lowest point are spread evenly by area, so the weights

@@ -212,7 +212,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             .map_or("scm_friction".to_string(), |mu| format!("{mu}"));
         let law = match sc.pair_laws.get(k).copied().flatten() {
             Some(l) => format!(
-                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s, {} (solref {:?}, solimp {:?}, effective mass {:.4e} kg: MuJoCo rests at {:.3} mm)",
+                "stiffness {:.4e} N/m, dissipation velocity {:.4e} m/s, {} (solref {:?}, solimp {:?}, effective mass {:.4e} kg{}: MuJoCo rests at {:.3} mm)",
                 l.stiffness,
                 l.dissipation_velocity,
                 if l.dissipation_force.is_finite() {
@@ -223,6 +223,11 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                 l.softness.solref,
                 l.softness.solimp,
                 l.mass,
+                if l.cone != 1.0 {
+                    format!(", its pyramidal friction cone holding {:.3} times one row's normal force", l.cone)
+                } else {
+                    String::new()
+                },
                 l.depth * 1e3
             ),
             None => "stiffness and dissipation velocity: scm_stiffness, scm_dissipation_velocity".into(),
