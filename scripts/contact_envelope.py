@@ -85,7 +85,9 @@ def mujoco_finals(path, seconds):
     return m, np.array(finals)
 
 
-def scm_final(path, seconds, stiffness=None):
+def scm_final(path, seconds, stiffness=None, sets=()):
+    """SCM's final values of every output after `seconds`, or (None, why it stopped); `sets`:
+    FMU variables set before the run (`scm.eps2=1e-4`)."""
     copy = None
     if stiffness is not None:
         text = path.read_text()
@@ -95,7 +97,8 @@ def scm_final(path, seconds, stiffness=None):
         copy.write_text(re.sub(r"(<mujoco[^>]*>)", r"\1" + custom, text, count=1))
     try:
         run = subprocess.run([str(SCM), "simulate", str(copy or path), "--duration", str(seconds),
-                              "--output-interval", str(seconds)], capture_output=True, text=True)
+                              "--output-interval", str(seconds)] + [f"--set={x}" for x in sets],
+                             capture_output=True, text=True)
     finally:
         if copy is not None:
             copy.unlink()

@@ -49,7 +49,7 @@ OUT = {
         "(before, it folded at the knees, as MuJoCo's does with both feet alike or under the elliptic cone: "
         "1.30 rad out on a thigh), 0.4 s sooner, reaching pitch -4.17 rad at 1.2 s (MuJoCo's -4.08 at 1.8 s), "
         "then rolls back to -2.91 while sliding to x 0.47 m (MuJoCo's 27 runs end at -0.01 to 0.24 m); under "
-        "damped_euler only x is out, by 0.04 m"),
+        "damped_euler only x is out, by 0.04 m, and with eps2 = 0.1 mm it ends inside (tested below)"),
 }
 
 
@@ -124,3 +124,19 @@ def test_walker2d_topples_over_its_softer_foot_as_in_mujoco_and_folds_at_its_kne
         print(f"{xml.name}: hips at 1 s, MuJoCo {theirs}, SCM {ours}")
         for q in theirs + ours:
             assert (q < -0.3) if flexed else (abs(q) < 0.02), (xml.name, theirs, ours)
+
+
+def test_walker2d_ends_inside_mujocos_envelope_when_its_feet_push_at_their_deepest_points():
+    """What keeps gymnasium's walker2d outside (OUT above) is SCM's separation smoothing: at the
+    default eps2 = 1 mm a foot's force acts at the weighted mean of its points within about a
+    millimetre of the deepest, so a foot landing flat is pushed at its middle, 10 cm ahead of
+    its ankle, and tips (the right foot 0.27 rad at 0.2 s, 0.015 at eps2 = 0.1 mm, MuJoCo's 0.002).
+    At eps2 = 0.1 mm the force
+    acts at the deepest points, as MuJoCo's contacts do at a capsule's ends, and the walker's
+    fall ends inside MuJoCo's envelope (pitch -3.41 rad, x 0.094 m)."""
+    path = next(p for p in envelope.GYM if p.stem == "walker2d")
+    model, finals = envelope.mujoco_finals(path, 2.0)
+    ours, error = envelope.scm_final(path, 2.0, sets=["scm.eps2=1e-4"])
+    assert error is None, error
+    inside, worst, where = envelope.compare(model, finals, ours)
+    assert inside, f"{worst:.3g} (m or rad) outside MuJoCo's envelope at {where}"
