@@ -532,12 +532,12 @@ pub struct PairLaw {
 }
 
 impl PairLaw {
-    /// The law for `softness` on effective mass `mass` (kg), gravity `g` (m/s², its magnitude;
+    /// The law for `softness` on effective mass `mass` (kg) in a friction cone of share `cone`
+    /// ([`cone_share`]), gravity `g` (m/s², its magnitude;
     /// [`NOMINAL_GRAVITY`] where it is zero), SCM's `eps3` (m), MuJoCo's `refsafe` step and the
     /// dissipation force per unit of resting force `f` (the scene's `scm_dissipation_force`, or
     /// the integrator's default, [`EXPLICIT_DISSIPATION_FORCE`]; `None`: infinite, the paper's
     /// law).
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         softness: Softness,
         mass: f64,
