@@ -2,8 +2,9 @@
 from solref and solimp"), compared with MuJoCo on the same file: the solref and solimp MuJoCo's
 collision driver gives each contact (d.contact after mj_forward: geoms mixed by solmix, the higher
 priority winning, negative solref by the smaller entry, a <pair>'s own values and its default
-class's) against `scm compile`'s pairs, and each pair's effective mass against MuJoCo's
-body_invweight0. A host's setting of a contact parameter that no pair uses is refused with why."""
+class's) against `scm compile`'s pairs, each pair's effective mass against MuJoCo's
+body_invweight0, and the share of its pyramidal friction cone against the friction and condim
+MuJoCo's driver gives the contact. A host's setting of a contact parameter that no pair uses is refused with why."""
 import json
 import subprocess
 
@@ -24,11 +25,11 @@ SCENE = """<mujoco>
     <body name="mixed" pos="0 0 0.049"><freejoint/>
       <geom type="sphere" size="0.05" solref="0.03 0.5" solimp="0.8 0.9 0.002 0.4 3"/></body>
     <body name="priority" pos="0.2 0 0.049"><freejoint/>
-      <geom type="sphere" size="0.05" priority="1" solref="0.04 1.2" mass="3"/></body>
+      <geom type="sphere" size="0.05" priority="1" solref="0.04 1.2" mass="3" friction="0.5"/></body>
     <body name="direct" pos="0.4 0 0.049"><freejoint/>
       <geom type="sphere" size="0.05" solref="-20000 -50"/></body>
     <body name="solmix0" pos="0.6 0 0.049"><freejoint/>
-      <geom type="sphere" size="0.05" solmix="0" solimp="0.7 0.8 0.01"/></body>
+      <geom type="sphere" size="0.05" solmix="0" solimp="0.7 0.8 0.01" condim="4" friction="1.3"/></body>
     <body name="explicit" pos="0.8 0 0.049"><freejoint/>
       <geom name="alone" type="sphere" size="0.05" contype="0" conaffinity="0"/></body>
     <body name="arm" pos="1.2 0 0.3">
@@ -38,7 +39,7 @@ SCENE = """<mujoco>
         <geom type="sphere" size="0.031" mass="0.2"/></body>
     </body>
   </worldbody>
-  <contact><pair geom1="floor" geom2="alone" solref="0.06 1"/></contact>
+  <contact><pair geom1="floor" geom2="alone" solref="0.06 1" condim="6" friction="0.8 0.8 0.005 0.0001 0.0001"/></contact>
 </mujoco>
 """
 
@@ -68,6 +69,11 @@ def test_pairs_mix_solref_and_solimp_as_mujoco_does(both):
         b1, b2 = (m.body(n).id for n in bodies)
         mass = 1.0 / (m.body_invweight0[b1, 0] + m.body_invweight0[b2, 0])
         assert pair["mass"] == pytest.approx(mass, rel=1e-9), bodies
+        # The share of MuJoCo's pyramidal cone in the normal, from the friction and condim its
+        # collision driver gave the contact (docs/mjcf.md, "The friction cone").
+        mu = c.friction[0]
+        share = (c.dim - 1) * m.opt.impratio / (mu * mu * (1 + mu * mu)) if c.dim > 1 else 1.0
+        assert pair["cone_share"] == pytest.approx(share, rel=1e-12), (bodies, mu, c.dim)
         seen.add(bodies)
     # Every body touches the floor in MuJoCo, the two arm links and the pair's sphere included.
     assert len(seen) == 7, seen
