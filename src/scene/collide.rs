@@ -198,7 +198,7 @@ impl Builder {
         for ExplicitPair {
             geoms: [g1, g2],
             friction,
-            frictionless,
+            condim,
             margin,
             adhesion,
             gap,
@@ -232,7 +232,7 @@ impl Builder {
             // Under `override` a pair takes `o_friction` unless its own condim makes it
             // frictionless (MuJoCo reads the pair's condim, not its geoms').
             let friction = match self.flags.override_contacts {
-                true if *frictionless => Some(0.0),
+                true if *condim == 1 => Some(0.0),
                 true => Some(self.contact_override.friction),
                 false => *friction,
             };
@@ -420,9 +420,6 @@ impl Builder {
         largest
     }
 
-    /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
-    /// collide, or, for an explicit pair or whole-body contact past the bits, every pair of
-    /// their colliding geoms.
     /// `<flag override>`'s `o_friction`, where the flag is on.
     pub(super) fn friction_override(&self) -> Option<f64> {
         self.flags
@@ -430,6 +427,9 @@ impl Builder {
             .then_some(self.contact_override.friction)
     }
 
+    /// The geom pairs through which bodies `a` and `b` touch: those whose bits let them
+    /// collide, or, for an explicit pair or whole-body contact past the bits, every pair of
+    /// their colliding geoms.
     pub(super) fn geom_pairs(&self, a: usize, b: usize, colliding: &[bool]) -> Vec<(&Geom, &Geom)> {
         let of = |body: usize| -> Vec<&Geom> {
             self.geoms
@@ -503,17 +503,7 @@ impl Builder {
                         ],
                     )?;
                     let friction = self.friction_list(c, "friction", 5)?.map(|v| v[0]);
-                    let condim: u32 = match c.attr("condim") {
-                        None => 3,
-                        Some(v) => v
-                            .trim()
-                            .parse()
-                            .ok()
-                            .filter(|c| [1, 3, 4, 6].contains(c))
-                            .ok_or_else(|| {
-                                self.err(c, format!("condim=\"{v}\": expected 1, 3, 4 or 6"))
-                            })?,
-                    };
+                    let condim = self.condim(c)?;
                     let friction = if condim == 1 { Some(0.0) } else { friction };
                     let g1 = c
                         .attr("geom1")
@@ -531,7 +521,6 @@ impl Builder {
                     self.explicit_pairs.push(ExplicitPair {
                         geoms: [g1.into(), g2.into()],
                         friction,
-                        frictionless: condim == 1,
                         condim,
                         softness,
                         margin,

@@ -80,15 +80,7 @@ impl Builder {
                 v[0]
             }
         };
-        let condim: u32 = match el.attr("condim") {
-            None => 3,
-            Some(c) => c
-                .trim()
-                .parse()
-                .ok()
-                .filter(|c| [1, 3, 4, 6].contains(c))
-                .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6")))?,
-        };
+        let condim = self.condim(el)?;
         let softness = self.geom_softness(el)?;
         let margin = self.float(el, "margin")?.unwrap_or(0.0);
         let adhesion = self.float(el, "adhesion")?.unwrap_or(0.0);

@@ -86,9 +86,8 @@ pub struct SceneError {
 struct ExplicitPair {
     geoms: [String; 2],
     friction: Option<f64>,
-    /// `condim="1"`: the pair is frictionless, whatever `override` says.
-    frictionless: bool,
-    /// Its `condim` (default 3), which MuJoCo reads instead of its geoms'.
+    /// Its `condim` (default 3), which MuJoCo reads instead of its geoms': 1 keeps the pair
+    /// frictionless, whatever `override` says.
     condim: u32,
     softness: contact::Softness,
     margin: f64,

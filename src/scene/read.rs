@@ -25,6 +25,19 @@ impl Builder {
         element_error(el, message)
     }
 
+    /// An element's `condim` (a geom's or a `<pair>`'s): 1, 3, 4 or 6, default 3.
+    pub(super) fn condim(&self, el: &Element) -> Result<u32, SceneError> {
+        match el.attr("condim") {
+            None => Ok(3),
+            Some(c) => c
+                .trim()
+                .parse()
+                .ok()
+                .filter(|c| [1, 3, 4, 6].contains(c))
+                .ok_or_else(|| self.err(el, format!("condim=\"{c}\": expected 1, 3, 4 or 6"))),
+        }
+    }
+
     /// Rejects attributes outside `allowed`; those in [`UNUSED_ATTRIBUTES`] are accepted and
     /// noted as unused by SCM.
     pub(super) fn check_attrs(&mut self, el: &Element, allowed: &[&str]) -> Result<(), SceneError> {
