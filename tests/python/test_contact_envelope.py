@@ -39,8 +39,13 @@ OUT = {
         "no floor) its feet hold where MuJoCo's creep (torso 0.625 m at 2 s against 0.561). Under implicit_euler, "
         "whose limits have MuJoCo's statics, it ends inside (docs/mjcf.md)"),
     "gymnasium/humanoidstandup": (
-        "outside", "3.0 mm out in x, lying on the floor (RK4, 3 ms; inside from a stiction floor of 3 h mu g, "
-                   "and under damped_euler or implicit_euler)"),
+        "outside",
+        "3.0 mm out in x, lying on the floor (RK4, 3 ms). It starts with its arms 3.6 cm into the floor, which "
+        "SCM's spring, holding MuJoCo's static depth, pushes out 9.3 times harder than MuJoCo's reference "
+        "motion, and RK4's bounded damping lets it fling the arms (shoulder -0.87 rad at 60 ms, MuJoCo's "
+        "-0.10): the body slides +1.6 cm where MuJoCo's slides -1.3 cm. Started with its arms out of the floor "
+        "it ends inside (test_contact_overlap.py); as written it is inside under damped_euler or implicit_euler, "
+        "whose pair law keeps the paper's damping (docs/mjcf.md, 'Deep overlaps')"),
     "gymnasium/walker2d": (
         "outside",
         "0.21 m out in x (RK4, 2 ms). Its feet's friction, 0.9 and 1.9, has MuJoCo's pyramidal cone hold the "
