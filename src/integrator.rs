@@ -35,6 +35,23 @@ pub enum Integrator {
     /// off its limits, the step is MuJoCo's `Euler` exactly. MJCF's `integrator="Euler"` maps to it (to
     /// `semi_implicit_euler` with `<flag eulerdamp="disable">`).
     DampedEuler,
+    /// Classic fourth-order Runge–Kutta whose every stage takes its acceleration as damped
+    /// Euler does over the whole step, `(V - v)/h` with `V = v + h (M + h D)⁻¹ f(q, V)` in the
+    /// contact's velocities (each stage's contact terms recorded at its positions and replayed
+    /// at its trial velocities): the joints' frictionloss, the limits' damping and the
+    /// contact's damping and friction act implicitly in velocity at every stage, as MuJoCo's
+    /// constraint solver makes them at each of its RK4's stages; the joints' viscous damping
+    /// stays explicit, a passive force in MuJoCo's RK4. A stage's acceleration then decays a
+    /// velocity at a rate of at most `1/h`, which RK4 carries (`h λ < 2.79`), however stiff the
+    /// friction at low slip or the damping of a deep overlap: the friction keeps its own
+    /// stiction velocity (no floor) and the contact the paper's damping. The limits keep their
+    /// reference gains, as under `rk4` ([`Integrator::takes_limits_implicitly`]). Where nothing
+    /// damps (contact-free, off the limits, no frictionloss) every stage is the forward
+    /// dynamics and the step is classic RK4 to rounding; in contact the damping's implicit part
+    /// costs an error of order `h` in those forces, as in damped Euler. MJCF's
+    /// `integrator="RK4"` still maps to [`Integrator::Rk4`]: what this one changes on the
+    /// contact-on comparison, and what it costs, is measured in docs/dynamics.md.
+    DampedRk4,
     /// Implicit (backward) Euler: `v' = v + h v̇(q', v')`, `q' = q ⊕ h v'`, its step equation in
     /// `v'` solved by Newton iterations on the exact Jacobian from dual numbers. MuJoCo's
     /// `implicit` and `implicitfast` (implicit in velocity) map to it.
@@ -77,7 +94,11 @@ impl Integrator {
     /// Whether a step of this integrator takes a joint's limit damping implicitly (`tendon`
     /// false) or a tendon's, so that the limit can act with MuJoCo's statics (docs/mjcf.md,
     /// "Joint limits"): implicit Euler both, damped Euler the joints' (its `D` is diagonal),
-    /// the explicit integrators neither.
+    /// the others neither. Damped RK4 takes a limit's damping implicitly at every stage but
+    /// keeps the reference gains: with MuJoCo's statics (20 times stiffer) its later stages
+    /// step past the limit's edge before any stage damps the joint, and the spring's energy
+    /// there is created (gymnasium's ant's ankle, swinging onto its limit at 8.6 rad/s at 10 ms:
+    /// 151 J to 345 J in one step, refused by the guard; measured).
     pub fn takes_limits_implicitly(self, tendon: bool) -> bool {
         match self {
             Integrator::ImplicitEuler => true,
@@ -88,17 +109,19 @@ impl Integrator {
 
     /// Whether a step of this integrator acts the equality constraints with MuJoCo's statics
     /// (docs/mjcf.md, "Equality constraints"): where it takes their damping implicitly across
-    /// the coordinates they couple, implicit Euler only (damped Euler's `D` is diagonal).
+    /// the coordinates they couple, implicit Euler only (damped Euler's `D` is diagonal, and
+    /// damped RK4's stages are damped Euler's).
     pub fn raises_equalities(self) -> bool {
         self == Integrator::ImplicitEuler
     }
 
     /// Every integrator.
-    pub const ALL: [Integrator; 6] = [
+    pub const ALL: [Integrator; 7] = [
         Integrator::Euler,
         Integrator::SemiImplicitEuler,
         Integrator::DampedEuler,
         Integrator::Rk4,
+        Integrator::DampedRk4,
         Integrator::ImplicitEuler,
         Integrator::Dopri5,
     ];
@@ -110,6 +133,7 @@ impl Integrator {
             Integrator::SemiImplicitEuler => "semi_implicit_euler",
             Integrator::DampedEuler => "damped_euler",
             Integrator::Rk4 => "rk4",
+            Integrator::DampedRk4 => "damped_rk4",
             Integrator::ImplicitEuler => "implicit_euler",
             Integrator::Dopri5 => "dopri5",
         }
@@ -126,9 +150,18 @@ impl Integrator {
     }
 
     /// Whether the method takes the contact forces' dependence on velocity (their damping and
-    /// friction) explicitly: all but `damped_euler` and `implicit_euler`.
+    /// friction) explicitly: all but `damped_euler`, `damped_rk4` and `implicit_euler`.
     pub fn takes_contact_damping_explicitly(self) -> bool {
-        !matches!(self, Integrator::DampedEuler | Integrator::ImplicitEuler)
+        !matches!(
+            self,
+            Integrator::DampedEuler | Integrator::DampedRk4 | Integrator::ImplicitEuler
+        )
+    }
+
+    /// Whether a step's accelerations are damped Euler's, implicit in the contact's velocities
+    /// and recorded per stage (`damped_euler`, `damped_rk4`).
+    pub fn is_damped(self) -> bool {
+        matches!(self, Integrator::DampedEuler | Integrator::DampedRk4)
     }
 
     /// Whether the method chooses its internal steps by error control.
@@ -137,26 +170,27 @@ impl Integrator {
     }
 
     /// About how many forward dynamics (each with the pairs' reach proofs) an internal step
-    /// evaluates: RK4's four stages, implicit Euler's Newton residuals (about three once its
+    /// evaluates: RK4's four stages (damped RK4's, each recorded once), implicit Euler's Newton residuals (about three once its
     /// Jacobian is kept), one for the others (damped Euler's contact is frozen at the step's
     /// start). Dormand–Prince's seven stages are counted, though it proves afresh.
     pub fn forwards_per_step(self) -> f64 {
         match self {
-            Integrator::Rk4 => 4.0,
+            Integrator::Rk4 | Integrator::DampedRk4 => 4.0,
             Integrator::ImplicitEuler => 3.0,
             Integrator::Dopri5 => 7.0,
             Integrator::Euler | Integrator::SemiImplicitEuler | Integrator::DampedEuler => 1.0,
         }
     }
 
-    /// Order of accuracy.
+    /// Order of accuracy (damped RK4's where nothing damps: in contact its damped forces are
+    /// first order, as damped Euler's).
     pub fn order(self) -> usize {
         match self {
             Integrator::Euler
             | Integrator::SemiImplicitEuler
             | Integrator::DampedEuler
             | Integrator::ImplicitEuler => 1,
-            Integrator::Rk4 => 4,
+            Integrator::Rk4 | Integrator::DampedRk4 => 4,
             Integrator::Dopri5 => 5,
         }
     }

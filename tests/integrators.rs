@@ -1704,3 +1704,49 @@ fn an_undamped_contact_passes_the_momentum_along_a_row_of_balls() {
     assert!((energy - 0.25).abs() < 0.25e-3, "{vx:?}");
     assert!(vx[2] > 0.49 && vx[0].abs() < 0.01, "{vx:?}");
 }
+
+#[test]
+fn damped_rk4_is_classic_rk4_where_nothing_damps_and_differs_where_a_joint_has_frictionloss() {
+    // Contact-free, off its limits, no frictionloss: each stage's damped Euler velocity is the
+    // explicit one and the step is RK4's to rounding (a stage's acceleration is read back as
+    // `(v + h a - v)/h`; a joint's viscous damping stays explicit, a passive force in MuJoCo's
+    // RK4, so a damped pendulum is RK4's too).
+    let text = |frictionloss: f64| {
+        format!(
+            r#"<mujoco model="p"><option timestep="0.004"/>
+  <worldbody><body name="l"><joint name="j" axis="0 1 0" damping="0.4" frictionloss="{frictionloss}"/>
+  <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1" contype="0" conaffinity="0"/></body>
+  </worldbody></mujoco>"#
+        )
+    };
+    let run = |frictionloss: f64, integrator: Integrator| {
+        let t = text(frictionloss);
+        let mut sim = Simulation::new(
+            scm::scene::load_str(&t, std::path::Path::new("p.xml")).unwrap(),
+            &t,
+        );
+        sim.model.integrator = integrator;
+        sim.do_step(0.0, 0.4).unwrap();
+        sim.data.current.state.clone()
+    };
+    let (damped, classic) = (run(0.0, Integrator::DampedRk4), run(0.0, Integrator::Rk4));
+    assert!(
+        (damped.q[0] - classic.q[0]).abs() < 1e-13,
+        "{damped:?} {classic:?}"
+    );
+    assert!(
+        (damped.v[0] - classic.v[0]).abs() < 1e-13,
+        "{damped:?} {classic:?}"
+    );
+    // With frictionloss (a constraint in MuJoCo, solved at each of its RK4's stages) its slope is
+    // implicit at every stage: the swing differs, and both still swing down.
+    let (damped, classic) = (run(0.5, Integrator::DampedRk4), run(0.5, Integrator::Rk4));
+    assert!(
+        (damped.q[0] - classic.q[0]).abs() > 1e-9,
+        "{damped:?} {classic:?}"
+    );
+    assert!(
+        damped.q[0] > 0.1 && classic.q[0] > 0.1,
+        "{damped:?} {classic:?}"
+    );
+}

@@ -104,10 +104,10 @@ impl Model {
         // once here, it also gives the contact state for the energy guard. Damped Euler's first
         // step records every pair's contact at the start itself (its frozen contact): the guard
         // takes it from there, and its balance starts once that step is taken.
-        let damped = self.integrator == Integrator::DampedEuler;
+        let damped = self.integrator.is_damped();
         let needs_start = match self.integrator {
             Integrator::ImplicitEuler => guard,
-            Integrator::DampedEuler => false,
+            Integrator::DampedEuler | Integrator::DampedRk4 => false,
             _ => true,
         };
         // The fixed-step methods' internal step (refused below where it is not sensible), whose
@@ -272,7 +272,7 @@ impl Model {
                         // (the first one's is the start's forward dynamics).
                         // There the guard's balance may restart, with the contacts found.
                         let a = match first.take() {
-                            None if i != Integrator::DampedEuler => {
+                            None if !i.is_damped() => {
                                 let driven = self.driven_inputs(&uk, &s.act, &s.q, Some(dt));
                                 let reuse = reuse_all(&mut cache.pairs, known.take());
                                 let f = self.forward_with(&s.q, &s.v, &driven, prm, reuse);
@@ -289,7 +289,7 @@ impl Model {
                             }
                             a => a,
                         };
-                        if i == Integrator::DampedEuler {
+                        if i.is_damped() {
                             let mut at_start = None;
                             let first_with_guard = k == 0 && guard;
                             let carry = StepCarry {
@@ -331,7 +331,7 @@ impl Model {
             cache.kinematics.keep(&s, known);
             if matches!(
                 self.integrator,
-                Integrator::ImplicitEuler | Integrator::DampedEuler
+                Integrator::ImplicitEuler | Integrator::DampedEuler | Integrator::DampedRk4
             ) {
                 cache.jacobian = jac;
                 // Only implicit Euler's steps write (and read) the velocity change.

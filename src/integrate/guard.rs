@@ -20,7 +20,7 @@ impl Model {
         let weight = match self.integrator {
             Integrator::Euler | Integrator::SemiImplicitEuler | Integrator::DampedEuler => 0.0,
             Integrator::ImplicitEuler => 1.0,
-            Integrator::Rk4 | Integrator::Dopri5 => 0.5,
+            Integrator::Rk4 | Integrator::DampedRk4 | Integrator::Dopri5 => 0.5,
         };
         let actuators = (0..before.tau.len())
             .map(|k| {

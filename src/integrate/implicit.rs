@@ -336,12 +336,13 @@ impl Model {
     }
 
     /// An implicit step of `h` of `integrator` ([`Integrator::ImplicitEuler`], or
-    /// [`Integrator::DampedEuler`], implicit in the contact's velocities); when Newton's
+    /// [`Integrator::DampedEuler`] or [`Integrator::DampedRk4`], implicit in the contact's
+    /// velocities); when Newton's
     /// iterations fail (typically when contact starts within a step much longer than the
     /// contact's period), the step is done as two halves of the same method, recursively, down
     /// to `h / 2⁸`; the halves start from a fresh Jacobian and share it. `depth`: the halvings
     /// so far;
-    /// `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler.
+    /// `at_start`: as [`Model::damped_euler_velocity`]'s, for damped Euler and damped RK4.
     pub(super) fn implicit_step_subdividing(
         &self,
         integrator: Integrator,
@@ -361,6 +362,7 @@ impl Model {
                     act,
                 })
             }
+            Integrator::DampedRk4 => self.damped_rk4_step(from, carry.reborrow(), at_start),
             _ => self.implicit_euler_step(from, carry.reborrow(), None),
         };
         match step {

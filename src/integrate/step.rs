@@ -3,6 +3,7 @@
 //! damped Euler's velocity) in `implicit.rs`.
 
 use super::cache::StepCarry;
+use super::implicit::StartContacts;
 use crate::contact::ContactParams;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
@@ -29,6 +30,9 @@ impl<T: Scalar> Copy for StepFrom<'_, T> {}
 pub(super) fn axpy<T: Scalar>(x: &[T], a: T, y: &[T]) -> Vec<T> {
     x.iter().zip(y).map(|(&xi, &yi)| xi + a * yi).collect()
 }
+
+/// A Runge–Kutta stage's acceleration at `(q, v)` with the stage's inputs.
+type StageAccel<'a, T> = dyn FnMut(&[T], &[T], &[T]) -> Result<Vec<T>, DynamicsError> + 'a;
 
 /// `x + h Σ_j b_j k_j` for the non-zero `b_j`.
 fn combine<T: Scalar>(x: &[T], h: T, terms: &[(f64, &[T])]) -> Vec<T> {
@@ -156,10 +160,11 @@ impl Model {
         }
     }
 
-    /// Euler, semi-implicit Euler, damped Euler or RK4; `a0`: the acceleration at the start, if
-    /// known; from `carry`: damped Euler's Newton Jacobian, carried between steps, and the
-    /// pairs' kept out-of-reach proofs and candidate planes, used by damped Euler's frozen
-    /// contact (values only), and their candidate planes by RK4's later stages.
+    /// Euler, semi-implicit Euler, damped Euler, RK4 or damped RK4; `a0`: the acceleration at
+    /// the start, if known (never damped RK4's: its stages are damped Euler's); from `carry`:
+    /// damped Euler's Newton Jacobian, carried between steps, and the pairs' kept out-of-reach
+    /// proofs and candidate planes, used by damped Euler's frozen contact (values only), and
+    /// their candidate planes by RK4's later stages.
     pub(super) fn explicit_step<T: Scalar>(
         &self,
         integrator: Integrator,
@@ -170,6 +175,9 @@ impl Model {
         let StepFrom { state, prm, h, .. } = from;
         let tree = &self.tree;
         let (q1, v1) = (&state.q, &state.v);
+        if integrator == Integrator::DampedRk4 {
+            return self.damped_rk4_step(from, carry, None);
+        }
         // The activations drive the force laws: the Euler family's at the step's start (or
         // end, `actearly`) for the whole step, RK4's at each stage.
         let (u, act) = self.euler_activations(&from);
@@ -211,56 +219,114 @@ impl Model {
                     act,
                 })
             }
-            _ => {
-                let half = h * 0.5;
-                let raw = from.u;
-                let (u_half, u_end) = (self.inputs_after(raw, half), self.inputs_after(raw, h));
-                // The activations through the stages as MuJoCo's RK4 takes them (unclamped
-                // within the step), each stage's inputs driven by its own and its rates read at
-                // its own configuration (a PID's integral reads the actuator's length).
-                let a1 = &state.act;
-                let ctrl = &raw[..self.actuators.len()];
-                let stage = |u: &[T], a: &[T], q: &[T]| self.driven_inputs(u, a, q, Some(h));
-                let r1 = self.activation_rates(a1, ctrl, q1);
-                let dq1 = tree.qdot(q1, v1);
-                let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
-                let a2 = axpy(a1, half, &r1);
-                let r2 = self.activation_rates(&a2, ctrl, &q2);
-                let dq2 = tree.qdot(&q2, &v2);
-                let dv2 = accel(&q2, &v2, &stage(&u_half, &a2, &q2))?;
-                let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
-                let a3 = axpy(a1, half, &r2);
-                let r3 = self.activation_rates(&a3, ctrl, &q3);
-                let dq3 = tree.qdot(&q3, &v3);
-                let dv3 = accel(&q3, &v3, &stage(&u_half, &a3, &q3))?;
-                let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
-                let a4 = axpy(a1, h, &r3);
-                let r4 = self.activation_rates(&a4, ctrl, &q4);
-                let dq4 = tree.qdot(&q4, &v4);
-                let dv4 = accel(&q4, &v4, &stage(&u_end, &a4, &q4))?;
-                let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
-                let rate = combine(
-                    &vec![T::zero(); a1.len()],
-                    T::one(),
-                    &[(w[0], &r1), (w[1], &r2), (w[2], &r3), (w[3], &r4)],
-                );
-                let mut q = combine(
-                    q1,
-                    h,
-                    &[(w[0], &dq1), (w[1], &dq2), (w[2], &dq3), (w[3], &dq4)],
-                );
-                tree.normalize_q(&mut q);
-                Ok(State {
-                    q,
-                    v: combine(
-                        v1,
-                        h,
-                        &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)],
-                    ),
-                    act: self.next_activations(a1, &rate, h),
-                })
-            }
+            _ => self.rk4_stages(from, dv1, &mut accel),
         }
+    }
+
+    /// One damped RK4 step ([`Integrator::DampedRk4`]): classic RK4 whose stage accelerations
+    /// are damped Euler's over the whole step from the stage's state, `(V - v)/h`
+    /// ([`Model::damped_euler_velocity`]: the contact's damping and friction, the joints'
+    /// damping and frictionloss and the limits' damping implicit in velocity). The stages share
+    /// the carried Newton Jacobian and the pairs' kept proofs and candidate planes; `at_start`
+    /// receives the contacts at the first stage, as damped Euler's. A stage whose Newton
+    /// iterations fail fails the step ([`Model::implicit_step_subdividing`] then halves it).
+    pub(super) fn damped_rk4_step<T: Scalar>(
+        &self,
+        from: StepFrom<'_, T>,
+        carry: StepCarry<'_>,
+        at_start: Option<&mut Option<StartContacts>>,
+    ) -> Result<State<T>, DynamicsError> {
+        let StepFrom { state, prm, h, .. } = from;
+        let (u, _) = self.euler_activations(&from);
+        let StepCarry {
+            jacobian,
+            pairs: mut kept,
+            subdivided,
+        } = carry;
+        let mut at_start = at_start;
+        let mut accel = |q: &[T], v: &[T], u: &[T]| -> Result<Vec<T>, DynamicsError> {
+            let stage = State {
+                q: q.to_vec(),
+                v: v.to_vec(),
+                act: Vec::new(),
+            };
+            let carry = StepCarry {
+                jacobian: &mut *jacobian,
+                pairs: kept.as_deref_mut(),
+                subdivided: &mut *subdivided,
+            };
+            let from = StepFrom {
+                state: &stage,
+                u,
+                prm,
+                h,
+            };
+            let end = self.damped_euler_velocity(from, carry, at_start.take())?;
+            Ok(end.iter().zip(v).map(|(&e, &v)| (e - v) / h).collect())
+        };
+        let dv1 = accel(&state.q, &state.v, &u)?;
+        self.rk4_stages(from, dv1, &mut accel)
+    }
+
+    /// The stages of one RK4 step from `from` after the first (its acceleration `dv1`, at the
+    /// step's start with the activations driving the inputs as the Euler family's first
+    /// stage), each stage's acceleration from `accel(q, v, inputs)`.
+    fn rk4_stages<T: Scalar>(
+        &self,
+        from: StepFrom<'_, T>,
+        dv1: Vec<T>,
+        accel: &mut StageAccel<'_, T>,
+    ) -> Result<State<T>, DynamicsError> {
+        let StepFrom { state, h, .. } = from;
+        let tree = &self.tree;
+        let (q1, v1) = (&state.q, &state.v);
+        let half = h * 0.5;
+        let raw = from.u;
+        let (u_half, u_end) = (self.inputs_after(raw, half), self.inputs_after(raw, h));
+        // The activations through the stages as MuJoCo's RK4 takes them (unclamped
+        // within the step), each stage's inputs driven by its own and its rates read at
+        // its own configuration (a PID's integral reads the actuator's length).
+        let a1 = &state.act;
+        let ctrl = &raw[..self.actuators.len()];
+        let stage = |u: &[T], a: &[T], q: &[T]| self.driven_inputs(u, a, q, Some(h));
+        let r1 = self.activation_rates(a1, ctrl, q1);
+        let dq1 = tree.qdot(q1, v1);
+        let (q2, v2) = (axpy(q1, half, &dq1), axpy(v1, half, &dv1));
+        let a2 = axpy(a1, half, &r1);
+        let r2 = self.activation_rates(&a2, ctrl, &q2);
+        let dq2 = tree.qdot(&q2, &v2);
+        let dv2 = accel(&q2, &v2, &stage(&u_half, &a2, &q2))?;
+        let (q3, v3) = (axpy(q1, half, &dq2), axpy(v1, half, &dv2));
+        let a3 = axpy(a1, half, &r2);
+        let r3 = self.activation_rates(&a3, ctrl, &q3);
+        let dq3 = tree.qdot(&q3, &v3);
+        let dv3 = accel(&q3, &v3, &stage(&u_half, &a3, &q3))?;
+        let (q4, v4) = (axpy(q1, h, &dq3), axpy(v1, h, &dv3));
+        let a4 = axpy(a1, h, &r3);
+        let r4 = self.activation_rates(&a4, ctrl, &q4);
+        let dq4 = tree.qdot(&q4, &v4);
+        let dv4 = accel(&q4, &v4, &stage(&u_end, &a4, &q4))?;
+        let w = [1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
+        let rate = combine(
+            &vec![T::zero(); a1.len()],
+            T::one(),
+            &[(w[0], &r1), (w[1], &r2), (w[2], &r3), (w[3], &r4)],
+        );
+        let mut q = combine(
+            q1,
+            h,
+            &[(w[0], &dq1), (w[1], &dq2), (w[2], &dq3), (w[3], &dq4)],
+        );
+        tree.normalize_q(&mut q);
+        Ok(State {
+            q,
+            v: combine(
+                v1,
+                h,
+                &[(w[0], &dv1), (w[1], &dv2), (w[2], &dv3), (w[3], &dv4)],
+            ),
+            act: self.next_activations(a1, &rate, h),
+        })
     }
 
     /// An Euler-family step's inputs with each activation driving its actuator (at the step's

@@ -214,9 +214,17 @@ impl Model {
         let mut m = self.tree.mass_matrix_sparse(kin);
         if let Some(h) = implicit_damping {
             let vs2 = prm.stiction_velocity * prm.stiction_velocity;
+            // MuJoCo's RK4 takes the joints' viscous damping (a passive force) explicitly, and
+            // its constraints (frictionloss, limits, contact) in its solver at every stage: so
+            // under damped RK4 the viscous damping stays explicit, in `f` alone.
+            let viscous = if self.integrator == Integrator::DampedRk4 {
+                0.0
+            } else {
+                1.0
+            };
             for j in &self.tree.joints {
                 for k in 0..j.kind.nv() {
-                    let mut d = c::<T>(j.damping);
+                    let mut d = c::<T>(viscous * j.damping);
                     if j.frictionloss > 0.0 {
                         // The smooth frictionloss -F v / sqrt(v_s² + v²) is a damper of slope
                         // F v_s² / (v_s² + v²)^{3/2} near rest: stiff (F/v_s) when v_s is small,

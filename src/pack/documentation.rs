@@ -76,6 +76,7 @@ fn integrator_text(name: &str) -> String {
         "semi_implicit_euler" => "semi-implicit (symplectic) Euler: v' = v + h v̇, then q' = q ⊕ h v' (first order, no energy drift on oscillators)".into(),
         "damped_euler" => "MuJoCo's Euler: semi-implicit Euler with the joints' viscous damping taken implicitly, (M + h D) v̇ = f, v' = v + h v̇, q' = q ⊕ h v' (first order)".into(),
         "rk4" => "classic fourth-order Runge–Kutta on (q, v), quaternions renormalized after each step".into(),
+        "damped_rk4" => "MuJoCo's RK4: classic Runge–Kutta whose stages take damped Euler's acceleration over the step, the contact, the limits' damping and the joints' frictionloss implicit in velocity (fourth order where nothing damps)".into(),
         other => format!("{other} (see the README of scm)"),
     }
 }

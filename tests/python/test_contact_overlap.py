@@ -13,7 +13,8 @@ throws the body out.
 
 Measured: a 1 kg sphere started 3.5 cm into the floor (RK4, 3 ms): MuJoCo pushes with 96.8 N and
 the sphere rises to its resting depth, passing it by 0.02 mm; SCM pushes with 902 N and throws it
-19.8 cm up; in a file of MuJoCo's implicitfast SCM's rises to 0.8 mm below the surface and rests.
+19.8 cm up; in a file of MuJoCo's implicitfast SCM's rises to 0.8 mm below the surface and rests, and
+under damped_rk4 named by the scene to 0.5 mm below (docs/dynamics.md, "Damped RK4, measured").
 humanoidstandup starts with its arms 3.6 cm into the floor (MuJoCo's contacts at -3.5 and
 -3.6 cm): SCM flings them up (right shoulder -0.87 rad at 60 ms, MuJoCo's -0.10) and the body
 slides +1.6 cm where MuJoCo's slides -1.3 cm. Started 2 cm higher (arms 1.6 cm in) or clear of
@@ -41,8 +42,11 @@ G = 9.81
 TAU, DMAX = 0.02, 0.95
 
 
-def sphere(integrator):
-    return f"""<mujoco><option timestep="0.003" integrator="{integrator}"/>
+def sphere(integrator, ours=None):
+    """The sphere in a file of MuJoCo's `integrator`; `ours`: SCM's integrator named by the scene
+    (`scm_integrator`; the pair's law follows it, MuJoCo ignores the field)."""
+    custom = f'<custom><text name="scm_integrator" data="{ours}"/></custom>' if ours else ""
+    return f"""<mujoco><option timestep="0.003" integrator="{integrator}"/>{custom}
 <worldbody><geom name="floor" type="plane" size="1 1 0.1"/>
 <body name="a" pos="0 0 {RADIUS - DEPTH}"><freejoint/><geom type="sphere" size="{RADIUS}" mass="1"/></body>
 </worldbody></mujoco>"""
@@ -109,6 +113,13 @@ def test_mujoco_releases_a_deep_overlap_gently_and_scms_rk4_throws_it(tmp_path):
     assert peak_implicit < 0.0
     # Both rest at SCM's depth after (the sphere's band at eps2 = 1 mm: about 1 mm).
     assert rk4[-1, 1] - RADIUS == pytest.approx(implicit[-1, 1] - RADIUS, abs=1e-4)
+    # damped_rk4, named by the scene: RK4 with the contact's damping implicit at every stage,
+    # so the paper's damping and a gentle release (docs/dynamics.md).
+    damped, law = scm_run(sphere("RK4", "damped_rk4"), tmp_path)
+    assert law["dissipation_force"] is None
+    print(f"SCM damped_rk4 {(damped[:, 1].max() - RADIUS) * 1e3:.2f} mm")
+    assert damped[:, 1].max() - RADIUS < 0.0
+    assert damped[-1, 1] - RADIUS == pytest.approx(implicit[-1, 1] - RADIUS, abs=1e-4)
 
 
 @pytest.mark.slow
