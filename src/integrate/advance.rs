@@ -102,8 +102,9 @@ impl Model {
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
         // once here, it also gives the contact state for the energy guard. Damped Euler's first
-        // step records every pair's contact at the start itself (its frozen contact): the guard
-        // takes it from there, and its balance starts once that step is taken.
+        // step (damped RK4's first stage) records every pair's contact at the start itself (its
+        // frozen contact): the guard takes it from there, and its balance starts once that step
+        // is taken.
         let damped = self.integrator.is_damped();
         let needs_start = match self.integrator {
             Integrator::ImplicitEuler => guard,

@@ -36,7 +36,9 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// `Some(h)`: the joints' viscous damping taken implicitly over a step `h`,
     /// `v̇ = (M + h D)⁻¹ (…)`: `D` the diagonal of the joints' damping per degree of freedom plus
     /// the slope of their smooth frictionloss at `v` and their limits' damping where they push
-    /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]).
+    /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]); without the viscous damping when the
+    /// model's integrator is [`Integrator::DampedRk4`], whose stages leave it explicit as
+    /// MuJoCo's RK4 does.
     pub implicit_damping: Option<T>,
     /// What the pairs may use of what they keep across calls ([`Reuse`]). With
     /// [`Reuse::All`], the result can differ from the plain dynamics' only where a pair's

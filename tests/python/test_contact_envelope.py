@@ -34,10 +34,13 @@ OUT = {
     "gymnasium/ant": (
         "outside",
         "0.15 rad out on an ankle: its legs splay onto their limits by 2 s (torso 0.382 m; MuJoCo's 27 runs "
-        "end between 0.495 and 0.619 m). Under RK4 at 10 ms its feet creep at the stiction floor (2 h mu g, "
-        "20 cm/s) that keeps RK4 stable at rest; with its friction implicit in velocity at 1 cm/s (damped_euler, "
-        "no floor) its feet hold where MuJoCo's creep (torso 0.625 m at 2 s against 0.561). Under implicit_euler, "
-        "whose limits have MuJoCo's statics, it ends inside (docs/mjcf.md)"),
+        "end between 0.495 and 0.619 m, MuJoCo's feet held by friction at 0.49 of the normal force with "
+        "the ankles at 0.95 rad). As written (rk4) its feet creep at the stiction floor's scale (2 h mu g, "
+        "20 cm/s): started at MuJoCo's final pose it sinks from 0.561 to 0.419 m in 2 s, where under "
+        "damped_rk4 or implicit_euler (friction implicit, no floor) it holds (0.553 m, feet at 0.51 of the "
+        "normal force). Under damped_rk4 as written it still splays: its ankles overshoot their upper limit "
+        "by 0.026 rad at 0.25 s (MuJoCo's stay below it) and the feet slide at the full mu N; with the "
+        "limits at MuJoCo's statics as well it ends inside (docs/dynamics.md, 'Damped RK4, measured')"),
     "gymnasium/humanoidstandup": (
         "outside",
         "3.0 mm out in x, lying on the floor (RK4, 3 ms). It starts with its arms 3.6 cm into the floor, which "
