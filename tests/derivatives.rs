@@ -353,32 +353,7 @@ fn damped_euler_step_jacobian_with_contact_implicit_matches_central_differences(
     // the end velocity with the contact implicit, and its Jacobian comes from Newton's
     // iterations on dual numbers. Taken with a stiff friction damper (v_s = 1 mm/s), where the
     // implicit step differs most from the explicit one (by more than the Jacobian's scale).
-    let (mut model, mut point) = t_push_point(Dissipation::Paper);
-    point.params.stiction_velocity = 1e-3;
-    model.contact = point.params;
-    model.integrator = Integrator::DampedEuler;
-    let state = State::new(point.q.clone(), point.v.clone());
-    let h = 0.002;
-    let damped = model
-        .step_with(Integrator::DampedEuler, &state, &point.u, &point.params, h)
-        .unwrap();
-    let explicit = model
-        .step_with(
-            Integrator::SemiImplicitEuler,
-            &state,
-            &point.u,
-            &point.params,
-            h,
-        )
-        .unwrap();
-    let apart = (0..damped.v.len())
-        .map(|k| (damped.v[k] - explicit.v[k]).abs())
-        .fold(0.0, f64::max);
-    assert!(
-        apart > 1e-3,
-        "the contact-implicit step must differ: {apart}"
-    );
-    check_step_jacobian(&model, &point, Integrator::DampedEuler, h);
+    check_contact_implicit_step(Integrator::DampedEuler, Integrator::SemiImplicitEuler);
 }
 
 #[test]
@@ -386,26 +361,33 @@ fn damped_rk4_step_jacobian_with_contact_implicit_matches_central_differences() 
     // The same pressing finger: each of damped RK4's four stages solves damped Euler's velocity
     // with the contact implicit (Newton's iterations on dual numbers), and the step's Jacobian
     // runs through all four. It differs from classic RK4's where the friction is a stiff damper.
+    check_contact_implicit_step(Integrator::DampedRk4, Integrator::Rk4);
+}
+
+/// One step of `implicit` (contact implicit in velocity) with T-push's finger pressing the stem
+/// and a stiff friction damper (v_s = 1 mm/s): it differs from `explicit`'s step by more than
+/// 1e-3 in a velocity, and its exact Jacobian matches central differences.
+fn check_contact_implicit_step(implicit: Integrator, explicit: Integrator) {
     let (mut model, mut point) = t_push_point(Dissipation::Paper);
     point.params.stiction_velocity = 1e-3;
     model.contact = point.params;
-    model.integrator = Integrator::DampedRk4;
+    model.integrator = implicit;
     let state = State::new(point.q.clone(), point.v.clone());
     let h = 0.002;
-    let damped = model
-        .step_with(Integrator::DampedRk4, &state, &point.u, &point.params, h)
-        .unwrap();
-    let classic = model
-        .step_with(Integrator::Rk4, &state, &point.u, &point.params, h)
-        .unwrap();
+    let [damped, other] = [implicit, explicit].map(|i| {
+        model
+            .step_with(i, &state, &point.u, &point.params, h)
+            .unwrap()
+    });
     let apart = (0..damped.v.len())
-        .map(|k| (damped.v[k] - classic.v[k]).abs())
+        .map(|k| (damped.v[k] - other.v[k]).abs())
         .fold(0.0, f64::max);
     assert!(
         apart > 1e-3,
-        "the contact-implicit stages must differ: {apart}"
+        "{}: the contact-implicit step must differ: {apart}",
+        implicit.name()
     );
-    check_step_jacobian(&model, &point, Integrator::DampedRk4, h);
+    check_step_jacobian(&model, &point, implicit, h);
 }
 
 /// The exact Jacobian of one step of `integrator` against central differences, in embedded and
