@@ -2,7 +2,7 @@
 //! the contact pipeline's speed):
 //!
 //! ```text
-//! pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--naive] [--profile pair|pair_kept|step|jacobian N]
+//! pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--naive] [--profile pair|pair_kept|proof|step|jacobian N]
 //! ```
 //! The state is reached by simulating `--warmup` seconds with the `--set` values (e.g.
 //! `--set act_y.ctrl=0.13 --warmup 0.5` presses the finger of `t_push.xml` against the T, as
@@ -109,9 +109,28 @@ fn main() {
                     }
                 })
             }
+            "proof" => {
+                let mut scratch = scm::collision::Scratch::default();
+                Box::new(move || {
+                    for p in &m.pairs {
+                        if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
+                            let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
+                            let rels = [fa.relative_to(fb), fb.relative_to(fa)];
+                            let reach = p.params(&prm).reach();
+                            black_box(scm::collision::out_of_reach(
+                                a,
+                                b,
+                                &rels,
+                                &reach,
+                                &mut scratch,
+                            ));
+                        }
+                    }
+                })
+            }
             "step" => Box::new(|| drop(black_box(step()))),
             "jacobian" => Box::new(|| drop(black_box(jac()))),
-            other => panic!("--profile {other}: pair, pair_kept, step or jacobian"),
+            other => panic!("--profile {other}: pair, pair_kept, proof, step or jacobian"),
         };
         profiled_section(n, &mut f);
         return;
