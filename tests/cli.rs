@@ -39,6 +39,14 @@ fn every_command_has_help() {
     ] {
         assert!(sim.contains(opt), "simulate --help lacks {opt}");
     }
+    // `--integrator` names every integrator a scene or `solver.integrator` can take.
+    for i in scm::integrator::Integrator::ALL {
+        assert!(
+            sim.contains(&format!(" {},", i.name())) || sim.contains(&format!(" {} (", i.name())),
+            "simulate --help's --integrator lacks {}",
+            i.name()
+        );
+    }
 }
 
 #[test]

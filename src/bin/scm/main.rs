@@ -46,7 +46,7 @@ enum Command {
         /// Internal step of the integrator (s; default: the scene's), i.e. `solver.step`.
         #[arg(long, value_name = "S", value_parser = positive, allow_hyphen_values = true)]
         step: Option<f64>,
-        /// Integrator: euler, semi_implicit_euler, damped_euler, rk4, implicit_euler, dopri5
+        /// Integrator: euler, semi_implicit_euler, damped_euler, rk4, damped_rk4, implicit_euler, dopri5
         /// (default: the scene's), i.e. `solver.integrator`.
         #[arg(long, value_name = "NAME")]
         integrator: Option<String>,
