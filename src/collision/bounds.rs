@@ -174,84 +174,6 @@ pub(super) fn band_need(t: f64, vmax: f64) -> f64 {
     }) + 1e-12 * (tt.abs() + vmax)
 }
 
-/// The weight a certificate's near margin leaves beyond it ([`certificate_clears`]): `τ_a`.
-/// What it costs, `τ_a (L_a - L_b)`, grows with it, and what the near margin `ε1 ln(I/τ_a)`
-/// loses in a capsule's bound (`/2R`) shrinks with it. Measured on gymnasium's humanoid at 0.5 s
-/// of its fall (`examples/pair_stats --profile proof`, 1,000 proofs of its 75 pairs, less
-/// 0.22 s of set-up): 1/8 1.90 s, 1/32 1.73 s, 1/128 1.79 s, 1/1024 1.94 s; one margin 3.43 s.
-pub(super) const NEAR_WEIGHT: f64 = 1.0 / 32.0;
-
-/// Whether a certificate's closed-form bound proves `φ̂ > t` over a region (step 3 of
-/// [`ssdf_exceeds_over`] with two margins; docs/performance.md, "Two margins"). `bound(m)` is
-/// a lower bound of `v_i` over the points within `m` (m²) of the nearest, `d_i - d_min ≤ m`;
-/// `(m1, eps1)`: the relevance margin `M1 ε1` and `ε1` (m²); `v`: the bound `V` on every
-/// `|v_i|`.
-///
-/// With the softmax weights normalised by the nearest point's (weight 1), the points beyond a
-/// margin `m` weigh at most `I e^{-m/ε1}` of the whole. So beyond `m1` they weigh at most `τ`,
-/// and beyond the near margin `m_a = ε1 ln(I/τ_a)` at most `τ_a` ([`NEAR_WEIGHT`]). With
-/// `L_a = bound(m_a)`, `L_b = bound(m1)` and the weights' fractions `f_b` (between the two
-/// margins) and `f_c` (beyond `m1`), `φ̂ ≥ L_a - f_b (L_a - L_b) - f_c (L_a + V)`, linear in
-/// `(f_b, f_c)` over `f_b, f_c ≥ 0`, `f_c ≤ τ`, `f_b + f_c ≤ τ_a`: its least is at one of that
-/// polygon's four corners. A capsule's or a sphere's bound loses `m/2R` to the relevance margin
-/// (`geometry::spine`): with `m_a` about a quarter of `m1`, its proofs settle regions about
-/// three quarters of that nearer (gymnasium's humanoid: 3.5 mm of a thigh's 6 cm radius).
-#[inline]
-pub(super) fn certificate_clears(
-    bound: impl Fn(f64) -> f64,
-    (m1, eps1): (f64, f64),
-    t: f64,
-    v: f64,
-) -> bool {
-    let far = bound(m1);
-    if far > band_need(t, v) {
-        return true;
-    }
-    let near_margin = m1 - eps1 * (NEAR_WEIGHT / PRUNE_TOLERANCE).ln();
-    // Neither bound may be -∞ or NaN (no bound), nor the near margin empty.
-    if !(far.is_finite() && near_margin > 0.0 && near_margin < m1) {
-        return false;
-    }
-    let near = bound(near_margin).max(far);
-    let (tau, tau_a) = (PRUNE_TOLERANCE, NEAR_WEIGHT);
-    let least = [(0.0, 0.0), (0.0, tau), (tau_a - tau, tau), (tau_a, 0.0)]
-        .iter()
-        .map(|(fb, fc)| near - fb * (near - far) - fc * (near + v))
-        .fold(f64::INFINITY, f64::min);
-    least - 1e-12 * (near.abs() + far.abs() + v) > t
-}
-
-/// Whether a sampled sphere's, capsule's or union's certificate proves `φ̂ > t` over the region
-/// `q` ([`certificate_clears`]), `bvh` the cloud's hierarchy; `false` for a cloud without one.
-/// A sphere's bound (`geometry::radial`) is in the region's distance from its centre, a
-/// capsule's (`geometry::spine`) from its segment, a union's (`geometry::rounded`) member by
-/// member over a region outside all of them.
-pub(super) fn certified(
-    bvh: &crate::geometry::bvh::Bvh,
-    q: &QueryRegion,
-    margins: (f64, f64),
-    t: f64,
-    v: f64,
-) -> bool {
-    let c = &q.centre;
-    if let Some(rad) = &bvh.radial {
-        let s_lo = q.lower_distance_to(&rad.centre);
-        if certificate_clears(|m| rad.plane_bound(s_lo, m), margins, t, v) {
-            return true;
-        }
-    }
-    if let Some(sp) = &bvh.spine {
-        let s_lo = q.lower_distance_to(&sp.nearest(c));
-        if certificate_clears(|m| sp.plane_bound(s_lo, m), margins, t, v) {
-            return true;
-        }
-    }
-    bvh.rounded.as_ref().is_some_and(|un| {
-        let lower = |a: &Vector3<f64>| q.lower_distance_to(a);
-        certificate_clears(|m| un.plane_bound(c, lower, m), margins, t, v)
-    })
-}
-
 /// The walk of [`ssdf_exceeds_over`] for an AOPC, starting from the nodes `front` of its
 /// hierarchy instead of the root. Every node of `front` that it cannot settle (prove
 /// irrelevant or bounded above `t` over the region) is left in `open`: a leaf with a point it
@@ -298,10 +220,26 @@ pub(super) fn aopc_exceeds(
     }
     let (c, r) = (&q.centre, q.radius);
     let m1 = bvh.log_terms * eps1;
-    // A sampled sphere, capsule or union of them bounds its planes in closed form: if that
-    // bound clears the threshold, every cluster is settled.
-    if vmax.is_some_and(|v| certified(bvh, q, (m1, eps1), t, v)) {
-        return (true, hint);
+    // A sampled sphere bounds its planes in closed form (`geometry::radial`) in the distance from
+    // its centre: if that bound clears the threshold at the region's lowest distance, every
+    // cluster is settled.
+    if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
+        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > band_need(t, v) {
+            return (true, hint);
+        }
+    }
+    // So does a sampled capsule (`geometry::spine`), in the distance from its segment.
+    if let (Some(v), Some(sp)) = (vmax, &bvh.spine) {
+        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > band_need(t, v) {
+            return (true, hint);
+        }
+    }
+    // So does a union of spheres and capsules (`geometry::rounded`), member by member, over a
+    // region outside all of them.
+    if let (Some(v), Some(un)) = (vmax, &bvh.rounded) {
+        if un.settles(c, |a| q.lower_distance_to(a), m1, band_need(t, v)) {
+            return (true, hint);
+        }
     }
     // So does a sampled box, face by face (`geometry::cuboid`), over the box of the region's
     // coordinates along the box's axes.

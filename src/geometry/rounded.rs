@@ -119,29 +119,9 @@ impl Rounded {
         m1: f64,
         need: f64,
     ) -> bool {
-        self.plane_bound(c, lower, m1) > need
-    }
-
-    /// The least of the members' [`RoundMember::plane_bound`]s at the region of [`Rounded::settles`]:
-    /// a lower bound of every plane of the union within `m1` (m²) of the nearest, over a region
-    /// outside the union.
-    pub fn plane_bound(
-        &self,
-        c: &Vector3<f64>,
-        lower: impl Fn(&Vector3<f64>) -> f64,
-        m1: f64,
-    ) -> f64 {
         self.members
             .iter()
-            .map(|m| m.plane_bound(lower(&m.nearest(c)), self.cover, m1))
-            // No bound (NaN) from any member: none for the union.
-            .fold(f64::INFINITY, |least, b| {
-                if b.is_nan() {
-                    f64::NEG_INFINITY
-                } else {
-                    least.min(b)
-                }
-            })
+            .all(|m| m.plane_bound(lower(&m.nearest(c)), self.cover, m1) > need)
     }
 }
 
