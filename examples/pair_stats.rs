@@ -25,7 +25,7 @@ use timing::time_interleaved;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let path = args.get(1).expect("usage: pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--profile pair|step|jacobian N]");
+    let path = args.get(1).expect("usage: pair_stats SCENE.xml [--set NAME=VALUE]... [--warmup S] [--naive] [--profile pair|pair_kept|proof|step|jacobian N]");
     let mut sim = Simulation::from_file(std::path::Path::new(path)).expect("scene");
     let (mut warmup, mut profile): (f64, Option<(String, usize)>) = (0.0, None);
     let mut long = false;
