@@ -12,8 +12,8 @@ pub enum Integrator {
     /// frequency, `sqrt(k/m)` in contact). MuJoCo's `Euler`.
     #[default]
     SemiImplicitEuler,
-    /// Classic fourth-order Runge–Kutta. Stable for `h ω ≲ 2.8`; energy error `O(h⁴)`.
-    /// MuJoCo's `RK4`.
+    /// Classic fourth-order Runge–Kutta. Stable for `h ω ≲ 2.8`; energy error `O(h⁴)`. MuJoCo's
+    /// `RK4` without its constraint solver: MJCF's `RK4` maps to [`Integrator::DampedRk4`].
     Rk4,
     /// MuJoCo's `Euler`: semi-implicit Euler with the joints' viscous damping taken implicitly,
     /// `(M + h D) v̇ = f(q, v)`, `v' = v + h v̇`, `q' = q ⊕ h v'`, where `D` holds each degree of
@@ -38,19 +38,21 @@ pub enum Integrator {
     /// Classic fourth-order Runge–Kutta whose every stage takes its acceleration as damped
     /// Euler does over the whole step, `(V - v)/h` with `V = v + h (M + h D)⁻¹ f(q, V)` in the
     /// contact's velocities (each stage's contact terms recorded at its positions and replayed
-    /// at its trial velocities): the joints' frictionloss, the limits' damping and the
-    /// contact's damping and friction act implicitly in velocity at every stage, as MuJoCo's
+    /// at its trial velocities): the joints' frictionloss and the contact's damping and
+    /// friction act implicitly in velocity at every stage, as MuJoCo's
     /// constraint solver makes them at each of its RK4's stages; the joints' viscous damping
     /// stays explicit, a passive force in MuJoCo's RK4. A stage's acceleration then decays a
     /// velocity at a rate of at most `1/h`, which RK4 carries (`h λ < 2.79`), however stiff the
     /// friction at low slip or the damping of a deep overlap: the friction keeps its own
-    /// stiction velocity (no floor) and the contact the paper's damping. The limits keep their
-    /// reference gains, as under `rk4` ([`Integrator::takes_limits_implicitly`]). Where nothing
-    /// damps (contact-free, off the limits, no frictionloss) every stage is the forward
-    /// dynamics and the step is classic RK4 to rounding; in contact the damping's implicit part
-    /// costs an error of order `h` in those forces, as in damped Euler. MJCF's
-    /// `integrator="RK4"` still maps to [`Integrator::Rk4`]: what this one changes on the
-    /// contact-on comparison, and what it costs, is measured in docs/dynamics.md.
+    /// stiction velocity (no floor) and the contact the paper's damping. The joints' limits act
+    /// with MuJoCo's statics and its impedance as an added inertia, which moves them at
+    /// MuJoCo's pace, explicitly, as under `rk4`
+    /// ([`crate::dynamics::limit::LimitLaw::under`]). Where nothing damps (contact-free, off
+    /// the limits, no frictionloss) every stage is the forward dynamics and the step is
+    /// classic RK4 to rounding; in contact the damping's implicit part costs an error of order
+    /// `h` in those forces, as in damped Euler. MJCF's `integrator="RK4"` maps to it: what
+    /// that changes on the contact-on comparison, and what it costs, is measured in
+    /// docs/dynamics.md.
     DampedRk4,
     /// Implicit (backward) Euler: `v' = v + h v̇(q', v')`, `q' = q ⊕ h v'`, its step equation in
     /// `v'` solved by Newton iterations on the exact Jacobian from dual numbers. MuJoCo's
@@ -91,22 +93,6 @@ pub enum Integrator {
 }
 
 impl Integrator {
-    /// Whether a step of this integrator takes a joint's limit damping implicitly (`tendon`
-    /// false) or a tendon's, so that the limit can act with MuJoCo's statics (docs/mjcf.md,
-    /// "Joint limits"): implicit Euler both, damped Euler the joints' (its `D` is diagonal),
-    /// the others neither. Damped RK4 takes a limit's damping implicitly at every stage but
-    /// keeps the reference gains: with MuJoCo's statics (20 times stiffer) its later stages
-    /// step past the limit's edge before any stage damps the joint, and the spring's energy
-    /// there is created (gymnasium's ant's ankle, swinging onto its limit at 8.6 rad/s at 10 ms:
-    /// 151 J to 345 J in one step, refused by the guard; measured).
-    pub fn takes_limits_implicitly(self, tendon: bool) -> bool {
-        match self {
-            Integrator::ImplicitEuler => true,
-            Integrator::DampedEuler => !tendon,
-            _ => false,
-        }
-    }
-
     /// Whether a step of this integrator acts the equality constraints with MuJoCo's statics
     /// (docs/mjcf.md, "Equality constraints"): where it takes their damping implicitly across
     /// the coordinates they couple, implicit Euler only (damped Euler's `D` is diagonal, and

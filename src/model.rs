@@ -10,6 +10,7 @@
 use crate::collision::Collider;
 use crate::contact::{ContactParams, PairContact, Wrench};
 use crate::dynamics::fluid::Fluid;
+use crate::dynamics::limit::LimitLaw;
 use crate::dynamics::{quat_exp, quat_from, quat_log, JointKind, Kinematics, Tree, MOCAP_INPUTS};
 use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
@@ -219,14 +220,14 @@ impl Model {
 
     /// Makes `integrator` the model's, its joint and tendon limits acting with MuJoCo's statics
     /// where that integrator takes their damping implicitly and with the reference gains
-    /// elsewhere ([`Integrator::takes_limits_implicitly`]; docs/mjcf.md, "Joint limits"), and
+    /// elsewhere ([`LimitLaw::under`]; docs/mjcf.md, "Joint limits"), and
     /// its equality constraints so too ([`Integrator::raises_equalities`]; docs/mjcf.md,
     /// "Equality constraints").
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
         let (joints, tendons) = (
-            integrator.takes_limits_implicitly(false),
-            integrator.takes_limits_implicitly(true),
+            LimitLaw::under(integrator, false),
+            LimitLaw::under(integrator, true),
         );
         for j in &mut self.tree.joints {
             j.limit = j.limit.map(|l| l.acting(joints));
@@ -312,10 +313,14 @@ impl Model {
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
-        // Armature is part of M but not of the bodies' inertia.
+        // Armature is part of M but not of the bodies' inertia, and so is the inertia a limit
+        // adds (`Model::damped_mass_matrix`).
         for j in &self.tree.joints {
             for k in 0..j.kind.nv() {
                 tau[j.dadr + k] += vdot[j.dadr + k] * j.armature;
+            }
+            if let Some(l) = &j.limit {
+                tau[j.dadr] += vdot[j.dadr] * l.added_inertia(q[j.qadr], v[j.dadr]);
             }
         }
         tau

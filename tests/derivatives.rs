@@ -334,6 +334,51 @@ fn damped_euler_step_jacobian_with_stiffened_limits_matches_central_differences(
 }
 
 #[test]
+fn jacobians_with_mujocos_impedance_on_the_limits_match_central_differences() {
+    // The T-block's joints past their limits as above, acting with MuJoCo's statics and its
+    // impedance as an added inertia (docs/mjcf.md, "Joint limits"): the mass matrix then
+    // depends on the positions and velocities through each limit's weight, and the forward
+    // dynamics solve twice where a limit lets go. Yaw moves back into its range fast enough
+    // that its own clamp has let go; x and y push.
+    use scm::dynamics::limit::{JointLimit, LimitLaw};
+    let (mut model, mut point) = t_push_point(Dissipation::Smooth);
+    let limits = [(-0.1, 0.0025), (-0.0015, 0.1), (-1.0, 0.04)];
+    for (j, &(lo, hi)) in model.tree.joints.iter_mut().zip(&limits) {
+        j.limit = Some(
+            JointLimit::from_solref(lo, hi, [0.02, 1.0], 0.5)
+                .stiffened(20.0)
+                .acting(LimitLaw::Impedance),
+        );
+    }
+    let yaw = model.tree.joints[2].dadr;
+    point.v[yaw] = -5.0;
+    let added: Vec<f64> = model.tree.joints[..3]
+        .iter()
+        .map(|j| {
+            j.limit
+                .unwrap()
+                .added_inertia(point.q[j.qadr], point.v[j.dadr])
+        })
+        .collect();
+    assert!(added[0] > 0.0 && added[1] > 0.0, "{added:?}");
+    assert_eq!(added[2], 0.0, "the yaw limit lets go: {added:?}");
+    check_forward_jacobian(
+        "t_push with impedance",
+        &model,
+        &point,
+        Coordinates::Embedded,
+    );
+    for integrator in [
+        Integrator::Rk4,
+        Integrator::DampedRk4,
+        Integrator::SemiImplicitEuler,
+    ] {
+        model.integrator = integrator;
+        check_step_jacobian(&model, &point, integrator, 0.002);
+    }
+}
+
+#[test]
 fn step_jacobians_of_every_integrator_match_central_differences() {
     let (mut model, point) = mocap_point();
     // Damping on the free joint, so that damped_euler's implicit damping is exercised.

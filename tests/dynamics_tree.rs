@@ -634,7 +634,7 @@ fn mujoco_integrator_options_map_to_ours() {
     };
     for (mj, ours) in [
         ("Euler", Integrator::DampedEuler),
-        ("RK4", Integrator::Rk4),
+        ("RK4", Integrator::DampedRk4),
         ("implicit", Integrator::ImplicitEuler),
         ("implicitfast", Integrator::ImplicitEuler),
     ] {

@@ -555,10 +555,11 @@ fn compile_reports_every_refusal_without_stopping() {
 
 #[test]
 fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
-    // A hinge limit and a fixed tendon's limit, `solimplimit` dmax 0.9: gains 10 times the
-    // reference where the step takes the limit's damping implicitly (damped Euler the joint's,
-    // implicit Euler both), the reference gains under the explicit integrators; the law follows
-    // `Model::set_integrator` both ways.
+    // A hinge limit and a fixed tendon's limit, `solimplimit` dmax 0.9: the joint's gains 10
+    // times the reference under every integrator, with MuJoCo's impedance as an added inertia
+    // (9 times the joint's) where the step does not take the limit's damping implicitly (all but
+    // damped and implicit Euler); the tendon's 10 times under implicit Euler only, the
+    // reference elsewhere; the law follows `Model::set_integrator` both ways.
     use scm::integrate::Integrator;
     let xml = r#"<mujoco>
   <option timestep="0.002"/>
@@ -592,19 +593,35 @@ fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
             .zip(b)
             .all(|(&(k, d), g)| (k - g).abs() < 1e-12 * g && (d - g).abs() < 1e-12 * g)
     };
+    // The joint's added inertia ([`LimitLaw::Impedance`]): `(statics - 1) I`, zero elsewhere.
+    let added = |m: &scm::model::Model| {
+        let j = m.tree.joints[0].limit.unwrap();
+        (
+            j.impedance / j.inertia,
+            m.tendons[0].limit.unwrap().impedance,
+        )
+    };
     assert_eq!(model.integrator, Integrator::DampedEuler);
     assert!(close(gains(&model), [10.0, 1.0]), "{:?}", gains(&model));
-    for (integrator, expected) in [
-        (Integrator::Rk4, [1.0, 1.0]),
-        (Integrator::ImplicitEuler, [10.0, 10.0]),
-        (Integrator::Euler, [1.0, 1.0]),
-        (Integrator::DampedEuler, [10.0, 1.0]),
+    assert_eq!(added(&model), (0.0, 0.0));
+    for (integrator, expected, inertia) in [
+        (Integrator::Rk4, [10.0, 1.0], 9.0),
+        (Integrator::DampedRk4, [10.0, 1.0], 9.0),
+        (Integrator::ImplicitEuler, [10.0, 10.0], 0.0),
+        (Integrator::Euler, [10.0, 1.0], 9.0),
+        (Integrator::Dopri5, [10.0, 1.0], 9.0),
+        (Integrator::DampedEuler, [10.0, 1.0], 0.0),
     ] {
         model.set_integrator(integrator);
         assert!(
             close(gains(&model), expected),
             "{integrator:?}: {:?}",
             gains(&model)
+        );
+        let (a, t) = added(&model);
+        assert!(
+            (a - inertia).abs() < 1e-12 && t == 0.0,
+            "{integrator:?}: {a} {t}"
         );
     }
 }

@@ -32,6 +32,7 @@
 //! limit's damping implicitly both are `1 / (1 - dmax)` times that, MuJoCo's statics
 //! ([`JointLimit::statics`], [`JointLimit::acting`]; docs/mjcf.md, "Joint limits").
 
+use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
 
 /// A joint's limits and their spring and damper.
@@ -52,11 +53,61 @@ pub struct JointLimit {
     /// The factor MuJoCo's statics ask of them, `1 / (1 - dmax)`, applied where the step takes
     /// the limit's damping implicitly ([`JointLimit::acting`]).
     pub statics: f64,
+    /// The coordinate's effective inertia the gains were sized on (kg or kg·m²).
+    pub inertia: f64,
+    /// The inertia MuJoCo's impedance adds to the coordinate where the limit pushes,
+    /// `(statics - 1) I` under [`LimitLaw::Impedance`], otherwise zero
+    /// ([`JointLimit::added_inertia`]).
+    pub impedance: f64,
+}
+
+/// How a limit acts (docs/mjcf.md, "Joint limits"). MuJoCo's limit is a soft constraint:
+/// with impedance `d` a limited coordinate of effective inertia `I` moves as
+/// `r̈ = (1 - d) a - d B ṙ - d² K r`, `a` its acceleration without the limit. Multiplied by
+/// `I / (1 - d)`, that is a coordinate of inertia `I / (1 - d)` under the load `I a`, held by
+/// a spring and damper `d / (1 - d)` times MuJoCo's reference ones (the [`LimitLaw::Statics`]
+/// gains at `d = dmax`): the limit is a spring-damper whose gains give MuJoCo's statics plus an
+/// inertia `d / (1 - d) I` on the coordinate while it pushes. In joint space that inertia is
+/// `Jᵀ R⁻¹ J` added to the mass matrix, `R` MuJoCo's regularizer, and the forward dynamics with
+/// it are MuJoCo's constraint force `(A + R)⁻¹ (a_ref - J a)` exactly (Woodbury's identity).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitLaw {
+    /// MuJoCo's reference spring and damper: its dynamics, `1 - dmax` of its statics.
+    Reference,
+    /// Both gains raised by [`JointLimit::statics`]: MuJoCo's statics, overdamped (its fast
+    /// mode near `2 / ((1 - dmax) τ)`): for steps that take the limit's damping implicitly.
+    Statics,
+    /// The raised gains and MuJoCo's impedance as an added inertia where the limit pushes:
+    /// MuJoCo's statics and its dynamics (fast mode `1/τ`), for any step.
+    Impedance,
+}
+
+impl LimitLaw {
+    /// How a joint's limit (`tendon` false) or a tendon's acts under `integrator`:
+    /// - implicit Euler: [`LimitLaw::Statics`] for both (it takes everything implicitly, the
+    ///   overdamped limit included);
+    /// - damped Euler: [`LimitLaw::Statics`] for a joint (its `D` takes the limit's damping
+    ///   implicitly; it is diagonal), the reference for a tendon (which couples its joints);
+    /// - the others: [`LimitLaw::Impedance`] for a joint, whose added inertia is a diagonal
+    ///   entry of the mass matrix, and the reference for a tendon, whose inertia would couple
+    ///   the joints it spans across the tree's branches.
+    pub fn under(integrator: Integrator, tendon: bool) -> LimitLaw {
+        match (integrator, tendon) {
+            (Integrator::ImplicitEuler, _) | (Integrator::DampedEuler, false) => LimitLaw::Statics,
+            (_, false) => LimitLaw::Impedance,
+            (_, true) => LimitLaw::Reference,
+        }
+    }
 }
 
 /// Width of the onset of every limit (m or rad): the force reaches its linear law 1 mm (or
 /// 1 mrad) past the limit.
 pub const LIMIT_WIDTH: f64 = 1e-3;
+
+/// The width over which a limit with an added inertia lets go ([`JointLimit::hold`]), as a
+/// share of the spring's force where its onset ends (`k w / 2`): narrow, since a load a limit
+/// does not hold must take the coordinate off it at once, as MuJoCo's solver lets it go.
+pub const HOLD_WIDTH: f64 = 0.01;
 
 /// The smooth ramp `s(d)` and step `σ(d) = s'(d)` of the module doc.
 pub fn ramp<T: Scalar>(d: T, w: f64) -> (T, T) {
@@ -178,32 +229,98 @@ impl JointLimit {
         (below + above) * self.damping
     }
 
+    /// The inertia the limit adds to its coordinate at position `q` and velocity `v`: its
+    /// [`JointLimit::impedance`] weighed as each side pushes, `σ(d) C'(x)²` (`1` past the onset
+    /// while the limit pushes, falling to `0` inside the range and where the limit lets go),
+    /// so that the mass matrix stays smooth and positive definite.
+    pub fn added_inertia<T: Scalar>(&self, q: T, v: T) -> T {
+        if self.impedance == 0.0 {
+            return T::zero();
+        }
+        let (sides, blend) = self.pushes(q, v);
+        let [below, above] = sides.map(|(x, step)| {
+            let slope = one_sided_slope(x, blend);
+            step * slope * slope
+        });
+        (below + above) * self.impedance
+    }
+
+    /// How much of the limit holds, given the coordinate's acceleration `vdot` with it fully
+    /// held: `1` while the limit pushes in all, falling smoothly (`C¹`) to `0` where it would
+    /// pull. With an added inertia `I_a` ([`JointLimit::added_inertia`]) the limit's whole force
+    /// into the range is its spring-damper's push plus `I_a r̈`, `r̈` the acceleration further
+    /// past the limit, and that is MuJoCo's constraint force: an outside force taking the
+    /// coordinate back into its range faster than the reference motion would makes it
+    /// negative, and MuJoCo's solver lets a limit go rather than pull. Without this, a joint
+    /// resting on its limit that a load (gravity on a bending knee) takes off it would be
+    /// `statics` times heavier until it left the onset. The fall is over the blend width of
+    /// [`one_sided`]; without an added inertia the limit always holds (its own clamp lets go).
+    pub fn hold<T: Scalar>(&self, q: T, v: T, vdot: T) -> T {
+        let added = self.added_inertia(q, v);
+        if added.re() == 0.0 {
+            return T::one();
+        }
+        let ([(up, below), (down, above)], blend) = self.pushes(q, v);
+        // One side engages at a time (a range is far wider than the onset).
+        let push = if above.re() >= below.re() {
+            one_sided(down, blend) + added * vdot
+        } else {
+            one_sided(up, blend) - added * vdot
+        };
+        let width = blend * HOLD_WIDTH;
+        if push.re() >= 0.0 {
+            return T::one();
+        }
+        if push.re() <= -width {
+            return T::zero();
+        }
+        let u = push / width + 1.0;
+        u * u * (-(u * 2.0) + 3.0)
+    }
+
     /// The same limit whose statics ask `gain` times its reference gains, acting with them.
     pub fn stiffened(self, gain: f64) -> JointLimit {
         JointLimit {
             statics: gain,
             ..self
         }
-        .acting(true)
+        .acting(LimitLaw::Statics)
     }
 
-    /// The same limit acting with its statics' gains (`stiff`) or with the reference gains:
-    /// the former where the step takes the limit's damping implicitly
-    /// ([`crate::integrate::Integrator::takes_limits_implicitly`]).
-    pub fn acting(self, stiff: bool) -> JointLimit {
-        let gain = if stiff { self.statics } else { 1.0 };
+    /// The same limit acting by `law`: the statics' gains ([`LimitLaw::Statics`]), those with
+    /// MuJoCo's impedance as an added inertia ([`LimitLaw::Impedance`]), or the reference gains
+    /// ([`LimitLaw::under`]).
+    pub fn acting(self, law: LimitLaw) -> JointLimit {
+        let gain = match law {
+            LimitLaw::Reference => 1.0,
+            LimitLaw::Statics | LimitLaw::Impedance => self.statics,
+        };
+        let impedance = match law {
+            LimitLaw::Impedance => (self.statics - 1.0).max(0.0) * self.inertia,
+            _ => 0.0,
+        };
         JointLimit {
             stiffness: self.reference.0 * gain,
             damping: self.reference.1 * gain,
+            impedance,
             ..self
         }
     }
 
-    /// The energy stored in the limit's spring at position `q`.
+    /// The energy stored in the limit's spring at position `q`. With an added inertia
+    /// ([`LimitLaw::Impedance`]) the spring's energy is counted at the reference stiffness,
+    /// `1 / statics` of the spring's: that is what the motion conserves, the coordinate being
+    /// `statics` times heavier while the limit pushes (a coordinate swinging onto the limit
+    /// with kinetic energy `E` stores `statics E` in the stiff spring and gives `E` back).
     pub fn energy<T: Scalar>(&self, q: T) -> T {
+        let stiffness = if self.impedance > 0.0 {
+            self.stiffness / self.statics
+        } else {
+            self.stiffness
+        };
         (ramp_energy(c::<T>(self.lo) - q, self.width)
             + ramp_energy(q - c::<T>(self.hi), self.width))
-            * self.stiffness
+            * stiffness
     }
 
     /// Stiffness and damping from MuJoCo's `solref` and the joint's effective inertia.
@@ -217,6 +334,8 @@ impl JointLimit {
             width: LIMIT_WIDTH,
             reference: (stiffness, damping),
             statics: 1.0,
+            inertia,
+            impedance: 0.0,
         }
     }
 }
@@ -225,6 +344,71 @@ impl JointLimit {
 mod tests {
     use super::*;
     use num_dual::{first_derivative, Dual64};
+
+    #[test]
+    fn the_impedance_adds_inertia_where_the_limit_pushes_and_lets_go_where_it_would_pull() {
+        let l = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3)
+            .stiffened(20.0)
+            .acting(LimitLaw::Impedance);
+        assert_eq!(l.impedance, 19.0 * 0.3);
+        // Inside the range nothing; past the onset, pushing, all of it.
+        assert_eq!(l.added_inertia(0.2, 0.0), 0.0);
+        assert!((l.added_inertia(0.51, 0.0) - 5.7).abs() < 1e-12);
+        // Leaving fast, the damper's push turns over and the clamp lets go of the inertia too.
+        assert_eq!(l.added_inertia(0.51, -100.0), 0.0);
+        // The whole force into the range is the push plus the added inertia times the
+        // acceleration further past: it holds while that is positive, not once it pulls.
+        let push = l.force(0.51, 0.0).abs();
+        assert_eq!(l.hold(0.51, 0.0, 0.0), 1.0);
+        assert_eq!(l.hold(0.51, 0.0, -0.5 * push / 5.7), 1.0);
+        assert_eq!(l.hold(0.51, 0.0, -2.0 * push / 5.7), 0.0);
+        assert_eq!(l.hold(-0.51, 0.0, 2.0 * push / 5.7), 0.0);
+        assert_eq!(l.hold(-0.51, 0.0, -2.0 * push / 5.7), 1.0);
+        // Between, it falls smoothly over HOLD_WIDTH of the onset's force: its derivatives (in
+        // the acceleration, the velocity and the position) are the central differences'.
+        let width = 0.5 * l.stiffness * l.width * HOLD_WIDTH;
+        let a = -(push + 0.4 * width) / 5.7;
+        let g = l.hold(0.51, 0.0, a);
+        assert!(0.1 < g && g < 0.9, "{g}");
+        let e = 1e-7 * width / 5.7;
+        let fd = (l.hold(0.51, 0.0, a + e) - l.hold(0.51, 0.0, a - e)) / (2.0 * e);
+        let (_, dual) = first_derivative(
+            |x: Dual64| l.hold(Dual64::from(0.51), Dual64::from(0.0), x),
+            a,
+        );
+        assert!((dual - fd).abs() < 1e-6 * dual.abs(), "{dual} vs {fd}");
+        for (which, x0) in [(0, 0.51), (1, 0.0)] {
+            let at = |x: f64| {
+                if which == 0 {
+                    l.hold(x, 0.0, a)
+                } else {
+                    l.hold(0.51, x, a)
+                }
+            };
+            let e = 1e-9;
+            let fd = (at(x0 + e) - at(x0 - e)) / (2.0 * e);
+            let (_, dual) = first_derivative(
+                |x: Dual64| {
+                    let (q, v) = if which == 0 {
+                        (x, Dual64::from(0.0))
+                    } else {
+                        (Dual64::from(0.51), x)
+                    };
+                    l.hold(q, v, Dual64::from(a))
+                },
+                x0,
+            );
+            assert!(
+                (dual - fd).abs() < 1e-5 * dual.abs().max(1.0),
+                "{which}: {dual} vs {fd}"
+            );
+        }
+        // The spring's energy is counted at the reference stiffness (what the motion conserves).
+        let reference = JointLimit::from_solref(-0.5, 0.5, [0.02, 1.0], 0.3);
+        assert!((l.energy(0.52) - reference.energy(0.52)).abs() < 1e-12);
+        // Without the impedance a limit always holds.
+        assert_eq!(l.acting(LimitLaw::Statics).hold(0.51, 0.0, -1e9), 1.0);
+    }
 
     #[test]
     fn the_ramp_is_twice_continuously_differentiable_and_its_energy_integrates_it() {

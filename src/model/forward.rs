@@ -172,13 +172,53 @@ impl Model {
         let rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
-        let m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
-        let vdot = self
+        let mut rhs = rhs;
+        let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
+        let mut vdot = self
             .tree
-            .factor(m)
+            .factor(m.clone())
             .ok_or(DynamicsError::Singular)?
             .solve(&rhs);
+        if self.release_limits(q, v, &vdot, &mut m, &mut rhs) {
+            vdot = self
+                .tree
+                .factor(m)
+                .ok_or(DynamicsError::Singular)?
+                .solve(&rhs);
+        }
         Ok(Forward { vdot, contacts })
+    }
+
+    /// Lets go of the limits with an added inertia that would pull, given the accelerations
+    /// `vdot` solved with every limit held ([`crate::dynamics::limit::JointLimit::hold`]):
+    /// where a limit holds the share `g < 1`, its added inertia in `m` and its force in `rhs`
+    /// are taken at `g` of their values. Returns whether anything changed (then the caller
+    /// solves again: two solves where a limit lets go, as MuJoCo's solver finds a limit
+    /// inactive). The share is read from the first solve, so a limit let go in part changes
+    /// the others' only through the second.
+    pub(crate) fn release_limits<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        vdot: &DVector<T>,
+        m: &mut crate::dynamics::TreeMatrix<T>,
+        rhs: &mut DVector<T>,
+    ) -> bool {
+        let mut changed = false;
+        for j in &self.tree.joints {
+            let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) else {
+                continue;
+            };
+            let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
+            let g = l.hold(qi, vi, vdot[d]);
+            if g.re() < 1.0 {
+                let lost = -g + 1.0;
+                *m.entry_mut(d, d) -= l.added_inertia(qi, vi) * lost;
+                rhs[d] -= l.force(qi, vi) * lost;
+                changed = true;
+            }
+        }
+        changed
     }
 
     /// An error naming the first joint whose position or velocity is not finite.
@@ -201,7 +241,8 @@ impl Model {
         Ok(())
     }
 
-    /// The mass matrix at `kin`, with `h D` added when `implicit_damping` is `Some(h)`: `D` the
+    /// The mass matrix at `kin` with the inertia the limits add where they push
+    /// ([`crate::dynamics::limit::JointLimit::added_inertia`], MuJoCo's impedance), and `h D` added when `implicit_damping` is `Some(h)`: `D` the
     /// joints' viscous damping plus the slope of their smooth frictionloss at `v` and the
     /// damping of their limits where they push at `(q, v)`
     /// ([`crate::dynamics::limit::JointLimit::damping_slope`]).
@@ -214,6 +255,11 @@ impl Model {
         implicit_damping: Option<T>,
     ) -> crate::dynamics::TreeMatrix<T> {
         let mut m = self.tree.mass_matrix_sparse(kin);
+        for j in &self.tree.joints {
+            if let Some(l) = &j.limit {
+                *m.entry_mut(j.dadr, j.dadr) += l.added_inertia(q[j.qadr], v[j.dadr]);
+            }
+        }
         if let Some(h) = implicit_damping {
             let vs2 = prm.stiction_velocity * prm.stiction_velocity;
             // MuJoCo's RK4 takes the joints' viscous damping (a passive force) explicitly, and
@@ -237,7 +283,10 @@ impl Model {
                     }
                     *m.entry_mut(j.dadr + k, j.dadr + k) += h * d;
                 }
-                if let Some(l) = &j.limit {
+                // A limit with MuJoCo's impedance (an added inertia) moves at MuJoCo's pace, its
+                // damping `2/τ` per unit of that inertia, which the stages carry explicitly as
+                // MuJoCo's own RK4 does.
+                if let Some(l) = j.limit.as_ref().filter(|l| l.impedance == 0.0) {
                     *m.entry_mut(j.dadr, j.dadr) += h * l.damping_slope(q[j.qadr], v[j.dadr]);
                 }
             }

@@ -65,9 +65,10 @@ impl Model {
         let kin = self.tree.kinematics_with(q, v, mocap);
         let rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
+        let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
         let mass = self
             .tree
-            .factor(self.damped_mass_matrix(&kin, q, v, prm, Some(h)))
+            .factor(matrix.clone())
             .ok_or(DynamicsError::Singular)?;
         let visits = self.visit_pairs(&kin, prm, pulls, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
@@ -91,7 +92,7 @@ impl Model {
             });
         }
         let wrenches = self.pair_wrenches(&contacts);
-        let frozen = FrozenForward {
+        let mut frozen = FrozenForward {
             model: self,
             q: q.to_vec(),
             v: v.to_vec(),
@@ -103,7 +104,22 @@ impl Model {
             contacts,
             stiction_velocity: prm.stiction_velocity,
         };
-        let vdot = frozen.solve(wrenches);
+        let mut vdot = frozen.solve(wrenches.clone());
+        // A limit that would pull is let go as `forward_at` lets it go, read here at the start
+        // velocity for every trial end velocity (docs/dynamics.md, "Damped RK4").
+        let mut matrix = matrix;
+        let mut rhs = frozen.rhs.clone();
+        if self.release_limits(
+            q,
+            v,
+            &DVector::from_vec(vdot.clone()),
+            &mut matrix,
+            &mut rhs,
+        ) {
+            frozen.mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
+            frozen.rhs = rhs;
+            vdot = frozen.solve(wrenches);
+        }
         Ok((frozen, vdot))
     }
 }

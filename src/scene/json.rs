@@ -117,6 +117,7 @@ impl Compiled {
                     "range": limit.map(|(a, b)| vec![a, b]),
                     "limit_stiffness": j.limit.map(|l| l.stiffness),
                     "limit_damping": j.limit.map(|l| l.damping),
+                    "limit_added_inertia": j.limit.map(|l| l.impedance),
                     "actuatorfrcrange": actuator_range.map(|(a, b)| vec![a, b]),
                 })
             })

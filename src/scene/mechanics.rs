@@ -5,7 +5,7 @@
 use super::weights::{body_weights, joint_inertia, mass_at_q0, unit_velocity_kinematics};
 use super::*;
 use crate::dynamics::equality::{Connect, Gains, Linear, Orientation, ScalarEquality};
-use crate::dynamics::limit::{solref_gains, JointLimit};
+use crate::dynamics::limit::{solref_gains, JointLimit, LimitLaw};
 use crate::dynamics::tendon::{FixedTendon, Segment, SpatialTendon, TendonLaw};
 
 impl Builder {
@@ -42,11 +42,11 @@ impl Builder {
         (lo, hi): (f64, f64),
         softness: &contact::Softness,
         inertia: f64,
-        implicit: bool,
+        law: LimitLaw,
     ) -> JointLimit {
         JointLimit::from_solref(lo, hi, self.held(softness.solref), inertia)
             .stiffened(1.0 / (1.0 - softness.dmax()))
-            .acting(implicit)
+            .acting(law)
     }
 
     /// An equality's gains on effective inertia `inertia` (docs/mjcf.md, "Equality
@@ -90,10 +90,10 @@ impl Builder {
         self.integrator_as_run().raises_equalities()
     }
 
-    /// Whether the file's integrator takes a joint's (`tendon` false) or a tendon's limit
-    /// damping implicitly ([`Integrator::takes_limits_implicitly`]).
-    fn implicit_limits(&self, tendon: bool) -> bool {
-        self.integrator_as_run().takes_limits_implicitly(tendon)
+    /// How the file's integrator acts a joint's (`tendon` false) or a tendon's limit
+    /// ([`LimitLaw::under`]).
+    fn limits_law(&self, tendon: bool) -> LimitLaw {
+        LimitLaw::under(self.integrator_as_run(), tendon)
     }
 
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
@@ -105,7 +105,7 @@ impl Builder {
     /// step.)
     pub(super) fn set_limits(&self, tree: &mut Tree) {
         let (m, m_inv) = mass_at_q0(tree);
-        let implicit = self.implicit_limits(false);
+        let law = self.limits_law(false);
         for (j, limit) in self.limits.iter().enumerate() {
             if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
                 (limit, tree.joints[j].kind)
@@ -113,7 +113,7 @@ impl Builder {
                 let inertia = joint_inertia(tree, j, &m, &m_inv);
                 let joint = &mut tree.joints[j];
                 joint.limit =
-                    Some(self.limit_law((*lo, *hi), &self.limit_softness[j], inertia, implicit));
+                    Some(self.limit_law((*lo, *hi), &self.limit_softness[j], inertia, law));
             }
         }
     }
@@ -152,7 +152,7 @@ impl Builder {
                             (lo, hi),
                             &t.limit_softness,
                             limit_inertia(t, inv_weight)?,
-                            self.implicit_limits(true),
+                            self.limits_law(true),
                         ))
                     }
                     _ => None,
@@ -415,7 +415,7 @@ impl Builder {
                         (lo, hi),
                         &t.limit_softness,
                         limit_inertia(t, inv_weight)?,
-                        self.implicit_limits(true),
+                        self.limits_law(true),
                     ));
                 }
                 Ok(tendon)

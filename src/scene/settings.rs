@@ -367,7 +367,9 @@ impl Builder {
             // MuJoCo's "Euler" is semi-implicit in velocity, with joint damping implicit
             // (unless <flag eulerdamp="disable">, applied in `apply_flags`).
             Some("Euler") => self.option_integrator = Some(Integrator::DampedEuler),
-            Some("RK4") => self.option_integrator = Some(Integrator::Rk4),
+            // MuJoCo's RK4 solves its constraints at every stage: the contact's damping and
+            // friction implicit in velocity there, as damped RK4's stages take them.
+            Some("RK4") => self.option_integrator = Some(Integrator::DampedRk4),
             // MuJoCo's implicit integrators are implicit in the velocity-dependent forces; SCM's
             // implicit Euler covers that and the stiff contact too.
             Some("implicit") | Some("implicitfast") => {

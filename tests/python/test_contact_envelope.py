@@ -5,8 +5,9 @@ envelope of MuJoCo's final poses under plausible contact parameters (solref's ti
 x0.5, x1, x2, friction x0.8, x1, x1.2, with Euler, RK4 and implicitfast), widened by 2 cm and
 0.1 rad. The runs and the comparison are scripts/contact_envelope.py's, which prints the table.
 
-A file SCM does not bring inside yet is a strict xfail with what was measured about it: it fails
-the day it comes inside, so the list stays true. dm_control's humanoid_CMU (57 joints, 2 s),
+A file SCM does not bring inside is a strict xfail with what was measured about it (OUT): it fails
+the day it comes inside, so the list stays true. Since MJCF's RK4 maps to damped_rk4 and the
+joints' limits have MuJoCo's impedance (docs/mjcf.md, "Joint limits") the list is empty. dm_control's humanoid_CMU (57 joints, 2 s),
 once left to the script for SCM's 320 s on it, is run here: SCM now takes 1.6 s.
 """
 import pathlib
@@ -30,35 +31,7 @@ NOT_HERE = {
 #: Files SCM's final pose is outside MuJoCo's envelope on: whether SCM runs and ends outside
 #: ("outside") or stops ("stopped", the implicit step's Newton iterations), and what was measured
 #: (docs/mjcf.md).
-OUT = {
-    "gymnasium/ant": (
-        "outside",
-        "0.15 rad out on an ankle: its legs splay onto their limits by 2 s (torso 0.382 m; MuJoCo's 27 runs "
-        "end between 0.495 and 0.619 m, MuJoCo's feet held by friction at 0.49 of the normal force with "
-        "the ankles at 0.95 rad). As written (rk4) its feet creep at the stiction floor's scale (2 h mu g, "
-        "20 cm/s): started at MuJoCo's final pose it sinks from 0.561 to 0.419 m in 2 s, where under "
-        "damped_rk4 or implicit_euler (friction implicit, no floor) it holds (0.553 m, feet at 0.51 of the "
-        "normal force). Under damped_rk4 as written it still splays: its ankles overshoot their upper limit "
-        "by 0.026 rad at 0.25 s (MuJoCo's stay below it) and the feet slide at the full mu N; with the "
-        "limits at MuJoCo's statics as well it ends inside (docs/dynamics.md, 'Damped RK4, measured')"),
-    "gymnasium/humanoidstandup": (
-        "outside",
-        "3.0 mm out in x, lying on the floor (RK4, 3 ms). It starts with its arms 3.6 cm into the floor, which "
-        "SCM's spring, holding MuJoCo's static depth, pushes out 9.3 times harder than MuJoCo's reference "
-        "motion, and RK4's bounded damping lets it fling the arms (shoulder -0.87 rad at 60 ms, MuJoCo's "
-        "-0.10): the body slides +1.6 cm where MuJoCo's slides -1.3 cm. Started with its arms out of the floor "
-        "it ends inside (test_contact_overlap.py); as written it is inside under damped_euler or implicit_euler, "
-        "whose pair law keeps the paper's damping (docs/mjcf.md, 'Deep overlaps')"),
-    "gymnasium/walker2d": (
-        "outside",
-        "0.21 m out in x (RK4, 2 ms). Its feet's friction, 0.9 and 1.9, has MuJoCo's pyramidal cone hold the "
-        "left foot 5.7 times deeper than the right, and the walker topples over backwards onto it; SCM's pair "
-        "law takes the cone's share (docs/mjcf.md, 'The friction cone') and its walker topples the same way "
-        "(before, it folded at the knees, as MuJoCo's does with both feet alike or under the elliptic cone: "
-        "1.30 rad out on a thigh), 0.4 s sooner, reaching pitch -4.17 rad at 1.2 s (MuJoCo's -4.08 at 1.8 s), "
-        "then rolls back to -2.91 while sliding to x 0.47 m (MuJoCo's 27 runs end at -0.01 to 0.24 m); under "
-        "damped_euler only x is out, by 0.04 m, and with eps2 = 0.1 mm it ends inside (tested below)"),
-}
+OUT = {}
 
 
 def files():
@@ -99,7 +72,7 @@ def test_contact_on_ends_inside_mujocos_envelope(path, name):
 
 
 def test_walker2d_topples_over_its_softer_foot_as_in_mujoco_and_folds_at_its_knees_without(tmp_path):
-    """Why gymnasium's walker2d falls as it does (OUT above): its feet's friction, 0.9 and 1.9, has
+    """Why gymnasium's walker2d falls as it does (docs/mjcf.md, "The friction cone"): its feet's friction, 0.9 and 1.9, has
     MuJoCo's default pyramidal cone hold the left foot 5.7 times deeper than the right; the
     walker tips towards it and flexes its hips. Under the elliptic cone, whose normal does not
     depend on the friction, MuJoCo's walker folds at the knees instead, hips on their limits.
@@ -135,7 +108,8 @@ def test_walker2d_topples_over_its_softer_foot_as_in_mujoco_and_folds_at_its_kne
 
 
 def test_walker2d_ends_inside_mujocos_envelope_when_its_feet_push_at_their_deepest_points():
-    """What keeps gymnasium's walker2d outside (OUT above) is SCM's separation smoothing: at the
+    """What kept gymnasium's walker2d outside when MJCF's RK4 was SCM's rk4 (as damped_rk4 it ends
+    inside as written) was SCM's separation smoothing: at the
     default eps2 = 1 mm a foot's force acts at the weighted mean of its points within about a
     millimetre of the deepest, so a foot landing flat is pushed at its middle, 10 cm ahead of
     its ankle, and tips (the right foot 0.27 rad at 0.2 s, 0.015 at eps2 = 0.1 mm, MuJoCo's 0.002).

@@ -1,5 +1,6 @@
 """A deep overlap at the start, in MuJoCo and in SCM (docs/mjcf.md, "Deep overlaps"): why
-gymnasium's humanoidstandup ends outside MuJoCo's envelope under its own RK4.
+gymnasium's humanoidstandup ended outside MuJoCo's envelope when MJCF's RK4 was SCM's rk4 (as
+damped_rk4 now it ends inside).
 
 MuJoCo's contact is an acceleration-level soft constraint: at rest at a depth r past its
 solimp width, its force is m^ dmax (a + K dmax r), with a the acceleration the rest of the
@@ -8,13 +9,14 @@ overlap along its critically damped reference motion. SCM's spring is the one th
 MuJoCo's static depth, k = m^ g / r_g, about 1 / (1 - dmax) times MuJoCo's slope K dmax^2: at
 3.5 cm it pushes 9.3 times harder. Under the integrators that take the contact's damping
 implicitly SCM keeps the paper's damping, which grows with the depth and releases the overlap
-gently; under RK4 the damping is bounded (docs/method.md, departure 4) and the overlap's energy
-throws the body out.
+gently (damped_rk4, MJCF's RK4, is one of them); under rk4 the damping is bounded (docs/method.md,
+departure 4) and the overlap's energy throws the body out.
 
 Measured: a 1 kg sphere started 3.5 cm into the floor (RK4, 3 ms): MuJoCo pushes with 96.8 N and
 the sphere rises to its resting depth, passing it by 0.02 mm; SCM pushes with 902 N and throws it
-19.8 cm up; in a file of MuJoCo's implicitfast SCM's rises to 0.8 mm below the surface and rests, and
-under damped_rk4 named by the scene to 0.5 mm below (docs/dynamics.md, "Damped RK4, measured").
+19.8 cm up under rk4 (named by the scene); in a file of MuJoCo's implicitfast SCM's rises to 0.8 mm
+below the surface and rests, and in a file of its RK4 (damped_rk4) to 0.5 mm below (docs/dynamics.md,
+"Damped RK4, measured").
 humanoidstandup starts with its arms 3.6 cm into the floor (MuJoCo's contacts at -3.5 and
 -3.6 cm): SCM flings them up (right shoulder -0.87 rad at 60 ms, MuJoCo's -0.10) and the body
 slides +1.6 cm where MuJoCo's slides -1.3 cm. Started 2 cm higher (arms 1.6 cm in) or clear of
@@ -99,7 +101,10 @@ def test_mujoco_releases_a_deep_overlap_gently_and_scms_rk4_throws_it(tmp_path):
     # 0.022 mm at most (measured), still in the floor.
     assert heights[-1] == pytest.approx(-3.67e-4, abs=1e-5)
     assert max(heights) < heights[-1] + 5e-5
-    rk4, _ = scm_run(sphere("RK4"), tmp_path)
+    # SCM's rk4, named by the scene: the contact's damping explicit, so bounded (MJCF's RK4 was
+    # rk4 until it became damped_rk4).
+    rk4, law = scm_run(sphere("RK4", "rk4"), tmp_path)
+    assert law["dissipation_force"] is not None
     # The same sphere in a file that names MuJoCo's implicitfast (SCM's implicit_euler, whose
     # pair law keeps the paper's damping: the law follows the file's integrator).
     implicit, law = scm_run(sphere("implicitfast"), tmp_path)
@@ -113,9 +118,9 @@ def test_mujoco_releases_a_deep_overlap_gently_and_scms_rk4_throws_it(tmp_path):
     assert peak_implicit < 0.0
     # Both rest at SCM's depth after (the sphere's band at eps2 = 1 mm: about 1 mm).
     assert rk4[-1, 1] - RADIUS == pytest.approx(implicit[-1, 1] - RADIUS, abs=1e-4)
-    # damped_rk4, named by the scene: RK4 with the contact's damping implicit at every stage,
+    # MJCF's RK4, SCM's damped_rk4: RK4 with the contact's damping implicit at every stage,
     # so the paper's damping and a gentle release (docs/dynamics.md).
-    damped, law = scm_run(sphere("RK4", "damped_rk4"), tmp_path)
+    damped, law = scm_run(sphere("RK4"), tmp_path)
     assert law["dissipation_force"] is None
     print(f"SCM damped_rk4 {(damped[:, 1].max() - RADIUS) * 1e3:.2f} mm")
     assert damped[:, 1].max() - RADIUS < 0.0

@@ -120,16 +120,18 @@ def compile_with(path, before_worldbody):
 
 def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
     """Each pair's dissipation force (docs/method.md, departure 4) is four times its resting
-    force m̂ g under an integrator that takes the contact's damping explicitly (RK4 here), none
-    (the paper's law, null in the JSON) under MuJoCo's Euler (damped_euler) and implicit
-    integrators, and f m̂ g where the scene sets scm_dissipation_force f (0: none). The damping
+    force m̂ g under an integrator that takes the contact's damping explicitly (rk4, named by the
+    scene's scm_integrator), none (the paper's law, null in the JSON) under MuJoCo's Euler
+    (damped_euler), RK4 (damped_rk4) and implicit integrators, and f m̂ g where the scene sets
+    scm_dissipation_force f (0: none). The damping
     at rest, F/V at the resting force, is MuJoCo's m̂ d B in every case."""
     path, compiled, m, d = both
     g = 9.81
     settings = {
         "": None,
         '<option integrator="implicitfast"/>': None,
-        '<option integrator="RK4"/>': 4.0,
+        '<option integrator="RK4"/>': None,
+        '<custom><text name="scm_integrator" data="rk4"/></custom>': 4.0,
         '<custom><numeric name="scm_dissipation_force" data="2.5"/></custom>': 2.5,
         '<option integrator="RK4"/><custom><numeric name="scm_dissipation_force" data="0"/></custom>': None,
     }
@@ -244,21 +246,24 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
         assert out.returncode == 0, out.stderr
         return json.loads(out.stdout)["pairs"][0]["stiction_floor"]
 
-    assert floor(scene('integrator="RK4"')) == pytest.approx(2 * 0.005 * 0.6 * 9.81, rel=1e-12)
+    # SCM's rk4, named by the scene, takes the friction explicitly.
+    rk4 = '<text name="scm_integrator" data="rk4"/>'
+    assert floor(scene("", f"<custom>{rk4}</custom>")) == pytest.approx(2 * 0.005 * 0.6 * 9.81, rel=1e-12)
+    assert floor(scene('integrator="RK4"')) == 0.0  # MuJoCo's RK4: SCM's damped_rk4, friction implicit
     assert floor(scene("")) == 0.0  # MuJoCo's Euler: SCM's damped_euler, friction implicit
     assert floor(scene('integrator="implicitfast"')) == 0.0
     custom = '<custom><numeric name="scm_stiction_floor" data="{}"/></custom>'
     assert floor(scene("", custom.format(3))) == pytest.approx(3 * 0.005 * 0.6 * 9.81, rel=1e-12)
-    assert floor(scene('integrator="RK4"', custom.format(0))) == 0.0
+    assert floor(scene("", f'<custom>{rk4}<numeric name="scm_stiction_floor" data="0"/></custom>')) == 0.0
     # A scene that sets its own stiction velocity chose it: no floor, unless it sets one too.
-    own = '<custom><numeric name="scm_stiction_velocity" data="0.002"/>{}</custom>'
-    assert floor(scene('integrator="RK4"', own.format(""))) == 0.0
+    own = '<custom>' + rk4 + '<numeric name="scm_stiction_velocity" data="0.002"/>{}</custom>'
+    assert floor(scene("", own.format(""))) == 0.0
     both = own.format('<numeric name="scm_stiction_floor" data="1"/>')
-    assert floor(scene('integrator="RK4"', both)) == pytest.approx(0.005 * 0.6 * 9.81, rel=1e-12)
+    assert floor(scene("", both)) == pytest.approx(0.005 * 0.6 * 9.81, rel=1e-12)
     bad = subprocess.run([str(SCM), "check", str(scene("", custom.format(-1)))], capture_output=True,
                          text=True)
     assert bad.returncode != 0 and "scm_stiction_floor" in bad.stdout + bad.stderr
-    path = scene('integrator="RK4"')
+    path = scene("", f"<custom>{rk4}</custom>")
     line = next(l for l in subprocess.run([str(SCM), "check", str(path)], capture_output=True,
                                           text=True).stdout.splitlines() if l.startswith("pair"))
     assert "stiction velocity at least 5.8860e-2 m/s (its stiction floor)" in line, line
@@ -281,15 +286,15 @@ def test_the_stiction_floor_follows_the_integrator_and_a_setting_below_it_is_ref
 
 
 def test_under_rk4_a_loaded_box_creeps_at_the_stiction_floors_scale_where_mujocos_holds(tmp_path):
-    """The ant's splay (docs/mjcf.md, "Stiction floor"), in a small scene: a 1 kg box on a floor
-    under a sideways load of 0.3 times its weight (gravity tilted), 10 ms. SCM's regularized
-    friction lets a foot under a tangential load F_t slide at about v_s F_t / (mu N): under RK4,
-    whose stiction velocity is held at 2 h mu g (19.6 cm/s here), about 6 cm/s; under
-    damped_euler and implicit_euler, where the friction is implicit in velocity and the default
+    """The ant's splay when MJCF's RK4 was SCM's rk4 (docs/mjcf.md, "Stiction floor"), in a small
+    scene: a 1 kg box on a floor under a sideways load of 0.3 times its weight (gravity tilted),
+    10 ms. SCM's regularized friction lets a foot under a tangential load F_t slide at about
+    v_s F_t / (mu N): under rk4 (named by the scene), whose stiction velocity is held at
+    2 h mu g (19.6 cm/s here), about 6 cm/s; under damped_euler (MuJoCo's Euler), damped_rk4
+    (its RK4: RK4 with the friction implicit at every stage, as MuJoCo's solver makes it) and
+    implicit_euler (its implicitfast), where the friction is implicit in velocity and the default
     1 cm/s stands, 3 mm/s. MuJoCo's friction is an acceleration-level constraint whatever the
-    integrator: its box creeps at 1.5 mm/s under Euler, RK4 and implicitfast alike (measured).
-    SCM's damped_rk4 (named by the scene), RK4 with the friction implicit at every stage as
-    MuJoCo's solver makes it, needs no floor: 3 mm/s, as damped_euler (docs/dynamics.md)."""
+    integrator: its box creeps at 1.5 mm/s under Euler, RK4 and implicitfast alike (measured)."""
     def scene(integrator, ours=None):
         custom = f'<custom><text name="scm_integrator" data="{ours}"/></custom>' if ours else ""
         return f"""<mujoco><option timestep="0.01" integrator="{integrator}" gravity="{0.3 * 9.81} 0 -9.81"/>
@@ -323,7 +328,6 @@ def test_under_rk4_a_loaded_box_creeps_at_the_stiction_floors_scale_where_mujoco
     # v = v_s 0.3 / sqrt(1 - 0.09): 3.145 mm/s at 1 cm/s (measured 3.14), 61.7 mm/s at the floor
     # (measured 64.4 under RK4: 4.4 % more, not explained yet).
     ratio = 0.3 / np.sqrt(1 - 0.09)
-    assert speeds["RK4"][1] == pytest.approx(ratio * 2 * 0.01 * 9.81, rel=0.06)
-    assert speeds["Euler"][1] == pytest.approx(ratio * 0.01, rel=0.01)
-    assert speeds["implicitfast"][1] == pytest.approx(ratio * 0.01, rel=0.01)
-    assert scm_speed("RK4", "damped_rk4") == pytest.approx(ratio * 0.01, rel=0.01)
+    assert scm_speed("RK4", "rk4") == pytest.approx(ratio * 2 * 0.01 * 9.81, rel=0.06)
+    for integrator in ("RK4", "Euler", "implicitfast"):
+        assert speeds[integrator][1] == pytest.approx(ratio * 0.01, rel=0.01), integrator

@@ -83,14 +83,19 @@ def refsafe_held(m, solref):
 
 
 def limit_statics_gain(m, solimp, tendon):
-    """The factor SCM stiffens a limit's reference gains by (docs/mjcf.md, "Joint limits"):
-    1 / (1 - dmax) under the integrators that take the limit's damping implicitly (MuJoCo's
-    implicit and implicitfast for joints and tendons, its Euler for joints unless eulerdamp is
-    off), 1 under the explicit ones."""
+    """The factor SCM stiffens a limit's reference gains by (docs/mjcf.md, "Joint limits"),
+    1 / (1 - dmax), and the inertia it adds to a joint's coordinate, as a multiple of the
+    joint's effective inertia: a joint's limit is stiffened under every integrator, with the
+    added inertia (gain - 1) where the step does not take its damping implicitly (all but
+    MuJoCo's implicit and implicitfast, and its Euler unless eulerdamp is off); a tendon's is
+    stiffened under implicit and implicitfast only, and never adds inertia."""
     i = m.opt.integrator
-    implicit = i in (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST) or (
-        i == mujoco.mjtIntegrator.mjINT_EULER and not tendon and not disabled(m, "EULERDAMP"))
-    return 1.0 / (1.0 - min(max(solimp[1], 1e-4), 0.9999)) if implicit else 1.0
+    gain = 1.0 / (1.0 - min(max(solimp[1], 1e-4), 0.9999))
+    implicit = i in (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+    if tendon:
+        return (gain if implicit else 1.0), 0.0
+    damped = implicit or (i == mujoco.mjtIntegrator.mjINT_EULER and not disabled(m, "EULERDAMP"))
+    return gain, (0.0 if damped else gain - 1.0)
 
 
 def disabled(m, flag):
@@ -168,10 +173,11 @@ def compare(path, inertia_tol=TOL):
                 k, b = inertia / (tau * zeta) ** 2, 2 * inertia / tau
             else:
                 k, b = -tau * inertia, -zeta * inertia
-            gain = limit_statics_gain(m, m.jnt_solimp[j], tendon=False)
+            gain, added = limit_statics_gain(m, m.jnt_solimp[j], tendon=False)
             k, b = k * gain, b * gain
             close(f"{tag} limit stiffness", joint["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", joint["limit_damping"], b, TOL_FROM_M)
+            close(f"{tag} limit added inertia", joint["limit_added_inertia"], added * inertia, TOL_FROM_M)
         if kind in ("slide", "hinge"):
             close(f"{tag} pos", joint["pos"], m.jnt_pos[j])
             close(f"{tag} axis", joint["axis"], m.jnt_axis[j])
@@ -303,7 +309,7 @@ def compare(path, inertia_tol=TOL):
             tau, zeta = refsafe_held(m, m.tendon_solref_lim[i])
             inertia = 1.0 / m.tendon_invweight0[i]
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
-            gain = limit_statics_gain(m, m.tendon_solimp_lim[i], tendon=True)
+            gain, _ = limit_statics_gain(m, m.tendon_solimp_lim[i], tendon=True)
             k, b = k * gain, b * gain
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", ten["limit_damping"], b, TOL_FROM_M)
