@@ -139,7 +139,8 @@ impl Model {
     /// velocity `V = v`, on the real Jacobian from dual numbers, as
     /// [`Integrator::ImplicitEuler`]'s (with dual numbers a fresh one at every iteration, so the
     /// derivatives of the step are exact; in `f64` past one pass of duals, the frozen
-    /// contact's own, [`crate::model::FrozenForward::step_jacobian`]). Newton starts from `v`, not from the
+    /// contact's own, [`crate::model::FrozenForward::step_jacobian`], and so in every damped
+    /// RK4 stage, `rk4_stage`). Newton starts from `v`, not from the
     /// explicit step: where friction is a stiff damper (`h μ F / (v_s m) ≫ 1`) the explicit step
     /// reverses the sliding velocity many times over, far outside the basin; from `v` the first
     /// iteration is the linearly implicit step. On dm_control's dog (5 ms, 18 to 22 pairs in
@@ -156,6 +157,7 @@ impl Model {
         from: StepFrom<'_, T>,
         carry: StepCarry<'_>,
         at_start: Option<&mut Option<StartContacts>>,
+        rk4_stage: bool,
     ) -> Result<Vec<T>, DynamicsError> {
         let StepFrom { state, u, prm, h } = from;
         let (q, v) = (&state.q[..], &state.v[..]);
@@ -215,8 +217,11 @@ impl Model {
             // dog, 85 velocities, 0.1 s: 4.22 s -> 3.55 s with the tapes replayed per pass of
             // 8 velocities). In one pass the full evaluation's hand-derived pair Jacobians cost
             // less than the tapes replayed on duals of width 16 (robosuite's Fourier hand, 10
-            // steps: 0.53 s against 0.98 s; Jaco 0.50 / 0.58).
-            if passes(v.len()) > 1 {
+            // steps: 0.53 s against 0.98 s; Jaco 0.50 / 0.58), but not in damped RK4's stages
+            // (`rk4_stage`), where the tapes' took 0.53 of the cpu on gymnasium's walker2d,
+            // 0.67 on walker2d_v5, 0.81 on the ant and 1.01 on the hopper (1 s each, farm-bench;
+            // the same runs under damped Euler: Fourier hand 1.11, Jaco 1.23, Franka 1.02).
+            if passes(v.len()) > 1 || rk4_stage {
                 let frozen_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
                     Ok(frozen.step_jacobian(&frozen.contact_force_jacobian(x), real.h))
                 };
@@ -356,7 +361,7 @@ impl Model {
             Integrator::DampedEuler => {
                 let (driven, act) = self.euler_activations(&from);
                 let at = StepFrom { u: &driven, ..from };
-                (self.damped_euler_velocity(at, carry.reborrow(), at_start)).map(|v| State {
+                (self.damped_euler_velocity(at, carry.reborrow(), at_start, false)).map(|v| State {
                     q: self.tree.integrate_q(&s.q, &v, h),
                     v,
                     act,

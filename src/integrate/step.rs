@@ -183,7 +183,7 @@ impl Model {
         let (u, act) = self.euler_activations(&from);
         let u = u.as_slice();
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(StepFrom { u, ..from }, carry, None)?;
+            let v = self.damped_euler_velocity(StepFrom { u, ..from }, carry, None, false)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,
@@ -262,7 +262,7 @@ impl Model {
                 prm,
                 h,
             };
-            let end = self.damped_euler_velocity(from, carry, at_start.take())?;
+            let end = self.damped_euler_velocity(from, carry, at_start.take(), true)?;
             Ok(end.iter().zip(v).map(|(&e, &v)| (e - v) / h).collect())
         };
         let dv1 = accel(&state.q, &state.v, &u)?;
