@@ -96,6 +96,10 @@ pub struct Forward<T: Scalar> {
     /// not evaluated. Empty where the options did not ask for it
     /// ([`ForwardOptions::list_contacts`]).
     pub contacts: Vec<Option<PairContact<T>>>,
+    /// The share each joint's limit held ([`crate::dynamics::limit::JointLimit::hold`]), one
+    /// per joint, where a limit with MuJoCo's impedance let go in part or in all; `None` where
+    /// every limit held in all (or the options gave the shares, [`ForwardOptions::holds`]).
+    pub holds: Option<Vec<T>>,
 }
 
 /// Why the dynamics could not be evaluated.
@@ -218,9 +222,10 @@ impl Model {
         }
     }
 
-    /// Makes `integrator` the model's, its joint and tendon limits acting with MuJoCo's statics
-    /// where that integrator takes their damping implicitly and with the reference gains
-    /// elsewhere ([`LimitLaw::under`]; docs/mjcf.md, "Joint limits"), and
+    /// Makes `integrator` the model's, its joint and tendon limits acting as that integrator
+    /// takes them ([`LimitLaw::under`]: MuJoCo's statics, with its impedance as an added inertia
+    /// where the step does not take their damping implicitly, or a tendon's reference gains
+    /// where it does not; docs/mjcf.md, "Joint limits"), and
     /// its equality constraints so too ([`Integrator::raises_equalities`]; docs/mjcf.md,
     /// "Equality constraints").
     pub fn set_integrator(&mut self, integrator: Integrator) {
@@ -314,13 +319,16 @@ impl Model {
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
         // Armature is part of M but not of the bodies' inertia, and so is the inertia a limit
-        // adds (`Model::damped_mass_matrix`).
+        // adds (`Model::damped_mass_matrix`); a limit that lets go at `vdot` is taken at the
+        // share it holds there, its inertia and its force (`Model::release_limits`).
         for j in &self.tree.joints {
             for k in 0..j.kind.nv() {
                 tau[j.dadr + k] += vdot[j.dadr + k] * j.armature;
             }
-            if let Some(l) = &j.limit {
-                tau[j.dadr] += vdot[j.dadr] * l.added_inertia(q[j.qadr], v[j.dadr]);
+            if let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) {
+                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
+                let g = l.hold(qi, vi, vdot[d]);
+                tau[d] += vdot[d] * l.added_inertia(qi, vi) * g + l.force(qi, vi) * (-g + 1.0);
             }
         }
         tau

@@ -339,7 +339,7 @@ fn jacobians_with_mujocos_impedance_on_the_limits_match_central_differences() {
     // impedance as an added inertia (docs/mjcf.md, "Joint limits"): the mass matrix then
     // depends on the positions and velocities through each limit's weight, and the forward
     // dynamics solve twice where a limit lets go. Yaw moves back into its range fast enough
-    // that its own clamp has let go; x and y push.
+    // that its own clamp has let go; x and y push (how much of them holds is checked below).
     use scm::dynamics::limit::{JointLimit, LimitLaw};
     let (mut model, mut point) = t_push_point(Dissipation::Smooth);
     let limits = [(-0.1, 0.0025), (-0.0015, 0.1), (-1.0, 0.04)];
@@ -368,6 +368,60 @@ fn jacobians_with_mujocos_impedance_on_the_limits_match_central_differences() {
         &point,
         Coordinates::Embedded,
     );
+    // Then with x's limit let go in part, x at rest: the finger's push on the block, along x,
+    // pulls x off one of its limits, which lets go where the limit's own push is small (just
+    // past it) and holds deep past it; between lies a depth where it holds a share (found by
+    // bisection), the band where the share's own derivatives enter.
+    let with_x_past = |side: f64, depth: f64| {
+        let mut m = model.clone();
+        let mut p = point.clone();
+        p.v[0] = 0.0;
+        let x = p.q[0];
+        let (lo, hi) = if side > 0.0 {
+            (x - depth - 1.0, x - depth)
+        } else {
+            (x + depth, x + depth + 1.0)
+        };
+        m.tree.joints[0].limit = Some(
+            JointLimit::from_solref(lo, hi, [0.02, 1.0], 0.5)
+                .stiffened(20.0)
+                .acting(LimitLaw::Impedance),
+        );
+        (m, p)
+    };
+    let x_holds = |side: f64, depth: f64| {
+        let (m, p) = with_x_past(side, depth);
+        let f = m.forward(&p.q, &p.v, &p.u, &p.params).unwrap();
+        f.holds.map_or(1.0, |h| h[0])
+    };
+    let side = [1.0, -1.0]
+        .into_iter()
+        .find(|&side| x_holds(side, 1.2e-3) < 1.0)
+        .expect("the finger pulls x off one of its limits");
+    let (mut shallow, mut deep) = (1.2e-3, 0.5);
+    assert_eq!(x_holds(side, deep), 1.0);
+    let mut depth = shallow;
+    for _ in 0..200 {
+        depth = 0.5 * (shallow + deep);
+        let g = x_holds(side, depth);
+        if (0.2..0.8).contains(&g) {
+            break;
+        }
+        if g < 0.2 {
+            shallow = depth;
+        } else {
+            deep = depth;
+        }
+    }
+    let g = x_holds(side, depth);
+    assert!((0.2..0.8).contains(&g), "x holds {g}");
+    let (mut banded, share) = with_x_past(side, depth);
+    check_forward_jacobian(
+        "t_push, x let go in part",
+        &banded,
+        &share,
+        Coordinates::Embedded,
+    );
     for integrator in [
         Integrator::Rk4,
         Integrator::DampedRk4,
@@ -375,6 +429,8 @@ fn jacobians_with_mujocos_impedance_on_the_limits_match_central_differences() {
     ] {
         model.integrator = integrator;
         check_step_jacobian(&model, &point, integrator, 0.002);
+        banded.integrator = integrator;
+        check_step_jacobian(&banded, &share, integrator, 0.002);
     }
 }
 

@@ -187,6 +187,70 @@ pub fn chain(extra_joint_attrs: &str) -> String {
 }
 
 #[test]
+fn inverse_of_forward_dynamics_is_the_identity_where_a_limit_holds_or_lets_go() {
+    // The chain's hinge and slide past their upper limits, acting with MuJoCo's statics and
+    // impedance (an added inertia, docs/mjcf.md "Joint limits"); generalized forces from
+    // pushing them deeper (the limits hold) to pulling them out hard (the limits let go).
+    use scm::dynamics::limit::{JointLimit, LimitLaw};
+    let mut model = model_of(&chain(r#"armature="0.01""#));
+    model.integrator = scm::integrate::Integrator::Rk4;
+    let (q, _, _) = random_point(&model, &mut Lcg(5), 0.0);
+    // At rest, so that the dampers do not let go by themselves.
+    let v = vec![0.0; model.tree.nv];
+    for j in model.tree.joints.iter_mut() {
+        if matches!(j.kind, JointKind::Hinge | JointKind::Slide) {
+            let hi = q[j.qadr] - 0.01;
+            j.limit = Some(
+                JointLimit::from_solref(hi - 1.0, hi, [0.02, 1.0], 0.05)
+                    .stiffened(20.0)
+                    .acting(LimitLaw::Impedance),
+            );
+        }
+    }
+    let limited: Vec<usize> = (model.tree.joints.iter())
+        .filter(|j| j.limit.is_some())
+        .map(|j| j.dadr)
+        .collect();
+    assert_eq!(limited.len(), 2);
+    let prm = model.contact;
+    let (mut held, mut let_go) = (0, 0);
+    for push in [-200.0, -50.0, -5.0, 0.0, 5.0, 50.0, 200.0] {
+        let mut tau = vec![0.0; model.tree.nv];
+        for &d in &limited {
+            tau[d] = push;
+        }
+        let at = EvalPoint {
+            q: &q,
+            v: &v,
+            tau: &tau,
+            mocap: &[],
+            pulls: &[],
+        };
+        let fd = model.forward_at(at, &prm, Default::default()).unwrap();
+        match &fd.holds {
+            Some(h)
+                if limited.iter().any(|&d| {
+                    h[model.tree.joints.iter().position(|j| j.dadr == d).unwrap()] < 1.0
+                }) =>
+            {
+                let_go += 1
+            }
+            _ => held += 1,
+        }
+        let id = model.inverse(&q, &v, fd.vdot.as_slice(), &[], &prm, &[]);
+        for k in 0..model.tree.nv {
+            assert!(
+                (id[k] - tau[k]).abs() <= 1e-9 * (1.0 + push.abs()),
+                "push {push}: dof {k}: ID(FD(τ)) = {} vs τ = {}",
+                id[k],
+                tau[k]
+            );
+        }
+    }
+    assert!(held > 0 && let_go > 0, "held {held}, let go {let_go}");
+}
+
+#[test]
 fn inverse_of_forward_dynamics_is_the_identity_on_every_scene() {
     let mut models = bundled();
     models.push((

@@ -28,9 +28,10 @@
 //! `ζ`; default 0.02 s and 1) and the joint's effective inertia `I` (`1 / (M⁻¹)ᵢᵢ`, armature
 //! included, at the reference configuration: MuJoCo's `1 / dof_invweight0`): `k = I / (τ ζ)²`, `b = 2 I / τ`,
 //! the constants of MuJoCo's reference acceleration for a unit impedance. A negative `solref`
-//! gives them directly as `k = -solref[0] I`, `b = -solref[1] I`. Where the step takes the
-//! limit's damping implicitly both are `1 / (1 - dmax)` times that, MuJoCo's statics
-//! ([`JointLimit::statics`], [`JointLimit::acting`]; docs/mjcf.md, "Joint limits").
+//! gives them directly as `k = -solref[0] I`, `b = -solref[1] I`. A joint's limit acts with
+//! both `1 / (1 - dmax)` times that, MuJoCo's statics, and, where the step does not take its
+//! damping implicitly, with MuJoCo's impedance as an added inertia, which gives it MuJoCo's
+//! dynamics as well ([`JointLimit::statics`], [`LimitLaw`]; docs/mjcf.md, "Joint limits").
 
 use crate::integrator::Integrator;
 use crate::scalar::{c, Scalar};
@@ -50,8 +51,8 @@ pub struct JointLimit {
     pub width: f64,
     /// The spring and damper of MuJoCo's reference acceleration, `(k, b)` (see the module).
     pub reference: (f64, f64),
-    /// The factor MuJoCo's statics ask of them, `1 / (1 - dmax)`, applied where the step takes
-    /// the limit's damping implicitly ([`JointLimit::acting`]).
+    /// The factor MuJoCo's statics ask of them, `1 / (1 - dmax)`, applied as [`LimitLaw`] says
+    /// ([`JointLimit::acting`]).
     pub statics: f64,
     /// The coordinate's effective inertia the gains were sized on (kg or kg·m²).
     pub inertia: f64,
@@ -309,9 +310,12 @@ impl JointLimit {
 
     /// The energy stored in the limit's spring at position `q`. With an added inertia
     /// ([`LimitLaw::Impedance`]) the spring's energy is counted at the reference stiffness,
-    /// `1 / statics` of the spring's: that is what the motion conserves, the coordinate being
-    /// `statics` times heavier while the limit pushes (a coordinate swinging onto the limit
-    /// with kinetic energy `E` stores `statics E` in the stiff spring and gives `E` back).
+    /// `1 / statics` of the spring's: that is what the motion conserves without a load on the
+    /// coordinate, the coordinate being `statics` times heavier while the limit pushes (a
+    /// coordinate swinging onto the limit with kinetic energy `E` stores `statics E` in the
+    /// stiff spring and gives `E` back). Under a load `G` the count drifts by
+    /// `(1 - 1/statics) G Δr` over a depth `Δr` past the limit, down going in and back coming
+    /// out: about `G² / k` at rest, small against the guard's margin.
     pub fn energy<T: Scalar>(&self, q: T) -> T {
         let stiffness = if self.impedance > 0.0 {
             self.stiffness / self.statics

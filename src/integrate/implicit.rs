@@ -66,6 +66,8 @@ struct ContactImplicitResidual<'a> {
     pulls: Vec<Option<f64>>,
     prm: ContactParams<f64>,
     h: f64,
+    /// The share each joint's limit holds, decided at the step's start ([`crate::model::Forward::holds`]).
+    holds: Option<Vec<f64>>,
 }
 
 impl VectorFunction for ContactImplicitResidual<'_> {
@@ -74,6 +76,7 @@ impl VectorFunction for ContactImplicitResidual<'_> {
         let (q, v) = (lift(&self.q), lift(&self.v));
         let (tau, mocap) = (lift(&self.tau), lift(&self.mocap));
         let pulls: Vec<Option<T>> = self.pulls.iter().map(|p| p.map(c)).collect();
+        let holds = self.holds.as_deref().map(lift);
         let at = EvalPoint {
             q: &q,
             v: &v,
@@ -85,6 +88,7 @@ impl VectorFunction for ContactImplicitResidual<'_> {
             contact_velocity: Some(x),
             implicit_damping: Some(c(self.h)),
             list_contacts: false,
+            holds: holds.as_deref(),
             ..ForwardOptions::default()
         };
         let a = self.model.forward_at(at, &self.prm.lift(), opts)?.vdot;
@@ -172,7 +176,7 @@ impl Model {
             .as_slice()
             .to_vec();
         let pulls = self.pulls(ctrl);
-        let real = ContactImplicitResidual {
+        let mut real = ContactImplicitResidual {
             model: self,
             q: re_vec(q),
             v: re_vec(v),
@@ -181,9 +185,8 @@ impl Model {
             pulls: pulls.iter().map(|p| p.map(|p| p.re())).collect(),
             prm: prm.re(),
             h: h.re(),
+            holds: None,
         };
-        let real_jacobian =
-            |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(&real, x)?.1) };
         if TypeId::of::<T>() == TypeId::of::<f64>() {
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
@@ -204,6 +207,13 @@ impl Model {
             if frozen.contact_free() {
                 return Ok(explicit);
             }
+            // The limits that let go at the start are let go at every iterate, as the frozen
+            // evaluation lets them go.
+            real.holds = self.limits_can_let_go().then(|| match frozen.holds() {
+                Some(h) => h.to_vec(),
+                None => vec![1.0; self.tree.joints.len()],
+            });
+            let real = &real;
             let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
                 let a = frozen.vdot(&re_vec(x));
                 Ok((0..x.len())
@@ -227,6 +237,8 @@ impl Model {
                 };
                 return newton(&residual, &frozen_jacobian, v.to_vec(), jac);
             }
+            let real_jacobian =
+                |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(real, x)?.1) };
             return newton(&residual, &real_jacobian, v.to_vec(), jac);
         }
         let at = EvalPoint {
@@ -241,10 +253,21 @@ impl Model {
         if start.contacts.iter().all(Option::is_none) {
             return Ok(explicit);
         }
+        // The limits that let go at the start are let go at every iterate, as in `f64`.
+        let holds = (self.limits_can_let_go())
+            .then(|| (start.holds).unwrap_or_else(|| vec![T::one(); self.tree.joints.len()]));
+        real.holds = holds.as_deref().map(re_vec);
         let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
-            let a = self.forward_at(at, prm, damped(h, Some(x)))?.vdot;
+            let opts = ForwardOptions {
+                holds: holds.as_deref(),
+                ..damped(h, Some(x))
+            };
+            let a = self.forward_at(at, prm, opts)?.vdot;
             Ok((0..x.len()).map(|k| x[k] - v[k] - h * a[k]).collect())
         };
+        let real = &real;
+        let real_jacobian =
+            |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(real, x)?.1) };
         newton(&residual, &real_jacobian, v.to_vec(), jac)
     }
 

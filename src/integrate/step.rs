@@ -225,9 +225,9 @@ impl Model {
 
     /// One damped RK4 step ([`Integrator::DampedRk4`]): classic RK4 whose stage accelerations
     /// are damped Euler's over the whole step from the stage's state, `(V - v)/h`
-    /// ([`Model::damped_euler_velocity`]: the contact's damping and friction, the joints'
-    /// frictionloss and the limits' damping implicit in velocity; the joints' viscous damping
-    /// explicit, as MuJoCo's RK4 takes it). The stages share
+    /// ([`Model::damped_euler_velocity`]: the contact's damping and friction and the joints'
+    /// frictionloss implicit in velocity; the joints' viscous damping and the limits, which
+    /// have MuJoCo's impedance, explicit, as MuJoCo's RK4 takes them). The stages share
     /// the carried Newton Jacobian and the pairs' kept proofs and candidate planes; `at_start`
     /// receives the contacts at the first stage, as damped Euler's. A stage whose Newton
     /// iterations fail fails the step ([`Model::implicit_step_subdividing`] then halves it).

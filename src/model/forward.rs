@@ -36,9 +36,10 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// `Some(h)`: the joints' viscous damping taken implicitly over a step `h`,
     /// `v̇ = (M + h D)⁻¹ (…)`: `D` the diagonal of the joints' damping per degree of freedom plus
     /// the slope of their smooth frictionloss at `v` and their limits' damping where they push
-    /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]); without the viscous damping when the
-    /// model's integrator is [`Integrator::DampedRk4`], whose stages leave it explicit as
-    /// MuJoCo's RK4 does.
+    /// (MuJoCo's `Euler`, [`Integrator::DampedEuler`]), but not a limit's with an added
+    /// inertia (MuJoCo's impedance, whose pace an explicit step carries); without the viscous
+    /// damping when the model's integrator is [`Integrator::DampedRk4`], whose stages leave it
+    /// explicit as MuJoCo's RK4 does.
     pub implicit_damping: Option<T>,
     /// What the pairs may use of what they keep across calls ([`Reuse`]). With
     /// [`Reuse::All`], the result can differ from the plain dynamics' only where a pair's
@@ -51,6 +52,11 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// Whether the result lists every pair's contact ([`Forward::contacts`]); without, it is
     /// empty and the accelerations are the same bits (a residual that reads only them).
     pub list_contacts: bool,
+    /// The share each joint's limit holds, one per joint, if the caller decided them
+    /// ([`Forward::holds`] of an earlier evaluation: damped Euler's iterations take them from
+    /// the step's start, as its frozen evaluation does); `None`: decided here
+    /// (`Model::release_limits`).
+    pub holds: Option<&'a [T]>,
 }
 
 impl<T: Scalar> Default for ForwardOptions<'_, T> {
@@ -60,6 +66,7 @@ impl<T: Scalar> Default for ForwardOptions<'_, T> {
             implicit_damping: None,
             reuse: Reuse::Nothing,
             kinematics: None,
+            holds: None,
             list_contacts: true,
         }
     }
@@ -132,10 +139,12 @@ impl Model {
     }
 
     /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
-    /// (M + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `h D` only with
+    /// (M + M_a + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `M_a` the inertia the
+    /// limits with MuJoCo's impedance add where they push, `h D` only with
     /// [`ForwardOptions::implicit_damping`]; the one evaluation every other entry calls. Order:
     /// kinematics, contact (`Model::visit_pairs`: proofs, then the pairs in reach), the
-    /// forces on the bodies, RNEA, the (damped) mass matrix, its factorization and solve.
+    /// forces on the bodies, RNEA, the (damped) mass matrix, its factorization and solve; where
+    /// a limit would pull, a second solve with it let go (`Model::release_limits`).
     pub fn forward_at<T: Scalar>(
         &self,
         at: EvalPoint<'_, T>,
@@ -174,51 +183,97 @@ impl Model {
             - bias;
         let mut rhs = rhs;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
-        let mut vdot = self
-            .tree
-            .factor(m.clone())
-            .ok_or(DynamicsError::Singular)?
-            .solve(&rhs);
-        if self.release_limits(q, v, &vdot, &mut m, &mut rhs) {
-            vdot = self
-                .tree
-                .factor(m)
-                .ok_or(DynamicsError::Singular)?
-                .solve(&rhs);
+        let solve = |m, rhs: &DVector<T>| {
+            Ok::<_, DynamicsError>(
+                self.tree
+                    .factor(m)
+                    .ok_or(DynamicsError::Singular)?
+                    .solve(rhs),
+            )
+        };
+        if let Some(holds) = opts.holds {
+            self.let_go(q, v, holds, &mut m, &mut rhs);
+            let vdot = solve(m, &rhs)?;
+            return Ok(Forward {
+                vdot,
+                contacts,
+                holds: None,
+            });
         }
-        Ok(Forward { vdot, contacts })
+        if !self.limits_can_let_go() {
+            let vdot = solve(m, &rhs)?;
+            return Ok(Forward {
+                vdot,
+                contacts,
+                holds: None,
+            });
+        }
+        let held = solve(m.clone(), &rhs)?;
+        let Some(holds) = self.release_limits(q, v, &held) else {
+            return Ok(Forward {
+                vdot: held,
+                contacts,
+                holds: None,
+            });
+        };
+        self.let_go(q, v, &holds, &mut m, &mut rhs);
+        let vdot = solve(m, &rhs)?;
+        Ok(Forward {
+            vdot,
+            contacts,
+            holds: Some(holds),
+        })
     }
 
-    /// Lets go of the limits with an added inertia that would pull, given the accelerations
-    /// `vdot` solved with every limit held ([`crate::dynamics::limit::JointLimit::hold`]):
-    /// where a limit holds the share `g < 1`, its added inertia in `m` and its force in `rhs`
-    /// are taken at `g` of their values. Returns whether anything changed (then the caller
-    /// solves again: two solves where a limit lets go, as MuJoCo's solver finds a limit
-    /// inactive). The share is read from the first solve, so a limit let go in part changes
-    /// the others' only through the second.
+    /// Whether a joint's limit has MuJoCo's impedance, an added inertia, and so may let go
+    /// ([`crate::dynamics::limit::JointLimit::hold`]).
+    pub(crate) fn limits_can_let_go(&self) -> bool {
+        let with = |j: &crate::dynamics::Joint| j.limit.is_some_and(|l| l.impedance > 0.0);
+        self.tree.joints.iter().any(with)
+    }
+
+    /// The share each joint's limit holds given the accelerations `vdot` solved with every
+    /// limit held ([`crate::dynamics::limit::JointLimit::hold`]), one per joint, or `None` where
+    /// every limit holds in all. The caller then solves again with them ([`Model::let_go`]):
+    /// two solves where a limit lets go, as MuJoCo's solver finds a limit inactive. The share
+    /// is read from the first solve, so a limit let go in part changes the others' only
+    /// through the second.
     pub(crate) fn release_limits<T: Scalar>(
         &self,
         q: &[T],
         v: &[T],
         vdot: &DVector<T>,
+    ) -> Option<Vec<T>> {
+        let holds: Vec<T> = (self.tree.joints.iter())
+            .map(|j| match j.limit.as_ref().filter(|l| l.impedance > 0.0) {
+                Some(l) => l.hold(q[j.qadr], v[j.dadr], vdot[j.dadr]),
+                None => T::one(),
+            })
+            .collect();
+        holds.iter().any(|g| g.re() < 1.0).then_some(holds)
+    }
+
+    /// Takes each joint's limit at the share `holds` of its added inertia (in `m`) and of its
+    /// force (in `rhs`).
+    pub(crate) fn let_go<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        holds: &[T],
         m: &mut crate::dynamics::TreeMatrix<T>,
         rhs: &mut DVector<T>,
-    ) -> bool {
-        let mut changed = false;
-        for j in &self.tree.joints {
+    ) {
+        for (j, &g) in self.tree.joints.iter().zip(holds) {
             let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) else {
                 continue;
             };
-            let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
-            let g = l.hold(qi, vi, vdot[d]);
             if g.re() < 1.0 {
+                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
                 let lost = -g + 1.0;
                 *m.entry_mut(d, d) -= l.added_inertia(qi, vi) * lost;
                 rhs[d] -= l.force(qi, vi) * lost;
-                changed = true;
             }
         }
-        changed
     }
 
     /// An error naming the first joint whose position or velocity is not finite.

@@ -38,6 +38,8 @@ pub struct FrozenForward<'m> {
     contacts: Vec<Option<PairContact<f64>>>,
     /// The stiction velocity of the tendons' dry friction.
     stiction_velocity: f64,
+    /// The share each joint's limit holds, where one lets go ([`Forward::holds`]).
+    holds: Option<Vec<f64>>,
 }
 
 impl Model {
@@ -66,10 +68,9 @@ impl Model {
         let rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
-        let mass = self
-            .tree
-            .factor(matrix.clone())
-            .ok_or(DynamicsError::Singular)?;
+        // Kept for a second factorization where a limit lets go.
+        let unfactored = self.limits_can_let_go().then(|| matrix.clone());
+        let mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
         let visits = self.visit_pairs(&kin, prm, pulls, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
@@ -103,23 +104,25 @@ impl Model {
             tapes,
             contacts,
             stiction_velocity: prm.stiction_velocity,
+            holds: None,
         };
-        let mut vdot = frozen.solve(wrenches.clone());
-        // A limit that would pull is let go as `forward_at` lets it go, read here at the start
-        // velocity for every trial end velocity (docs/dynamics.md, "Damped RK4").
-        let mut matrix = matrix;
-        let mut rhs = frozen.rhs.clone();
-        if self.release_limits(
-            q,
-            v,
-            &DVector::from_vec(vdot.clone()),
-            &mut matrix,
-            &mut rhs,
-        ) {
-            frozen.mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
-            frozen.rhs = rhs;
-            vdot = frozen.solve(wrenches);
-        }
+        let Some(matrix) = unfactored else {
+            let vdot = frozen.solve(wrenches);
+            return Ok((frozen, vdot));
+        };
+        let held = frozen.solve(wrenches.clone());
+        // A limit that would pull is let go as `forward_at` lets it go, its share read here,
+        // at the start velocity, for every trial end velocity (the dual-number path takes the
+        // same shares from its start: `ForwardOptions::holds`).
+        let Some(holds) = self.release_limits(q, v, &DVector::from_vec(held.clone())) else {
+            return Ok((frozen, held));
+        };
+        let (mut matrix, mut rhs) = (matrix, frozen.rhs.clone());
+        self.let_go(q, v, &holds, &mut matrix, &mut rhs);
+        frozen.mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
+        frozen.rhs = rhs;
+        frozen.holds = Some(holds);
+        let vdot = frozen.solve(wrenches);
         Ok((frozen, vdot))
     }
 }
@@ -136,6 +139,12 @@ impl FrozenForward<'_> {
     /// [`Forward::contacts`] there for every pair whose bodies both have a collider.
     pub fn contacts(&self) -> &[Option<PairContact<f64>>] {
         &self.contacts
+    }
+
+    /// The share each joint's limit holds where one lets go at the start velocity, one per
+    /// joint ([`Forward::holds`]).
+    pub fn holds(&self) -> Option<&[f64]> {
+        self.holds.as_deref()
     }
 
     /// The accelerations with the contact forces taken at the end velocity `v_contact`.

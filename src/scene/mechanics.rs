@@ -29,14 +29,14 @@ impl Builder {
     /// constraint moves as `r̈ = (1 - d) a - d B ṙ - d² K r` (`a` the acceleration the limit
     /// would have without it): its reference spring and damper carry only `1 - d` of a load, so
     /// statically it is `1 / (1 - d)` times stiffer than the reference (20 times at the default
-    /// `dmax` 0.95). Where the step takes the limit's damping implicitly (`implicit`), the
-    /// limit is that: MuJoCo's reference gains at `d = dmax` divided by `1 - dmax`, which
-    /// holds a load at MuJoCo's static deflection. Overdamped, it throws a joint that starts
-    /// outside its range back in at about `r₀ / (2τ)` where MuJoCo's critically damped
-    /// reference lets go at `r₀ / (τ e)` (measured: 11.7 against 9.3 rad/s from 0.5 rad at
-    /// τ = 0.02 s). Its fast mode, near `2 / ((1 - dmax) τ)`, is beyond an explicit step at
-    /// MuJoCo's steps, so the explicit integrators keep the reference gains: MuJoCo's dynamics,
-    /// `1 - dmax` of its statics (docs/mjcf.md, "Joint limits").
+    /// `dmax` 0.95). The limit's gains are that, MuJoCo's reference gains at `d = dmax`
+    /// divided by `1 - dmax`, which hold a load at MuJoCo's static deflection, and `law` says
+    /// how it acts ([`LimitLaw`]): with MuJoCo's impedance as an added inertia, which gives it
+    /// MuJoCo's dynamics too, or without it where the step takes the limit's damping
+    /// implicitly (overdamped, it throws a joint that starts outside its range back in at about
+    /// `r₀ / (2τ)` where MuJoCo's critically damped reference lets go at `r₀ / (τ e)`: 11.7
+    /// against 9.3 rad/s from 0.5 rad at τ = 0.02 s), or a tendon's with the reference gains
+    /// (docs/mjcf.md, "Joint limits").
     fn limit_law(
         &self,
         (lo, hi): (f64, f64),

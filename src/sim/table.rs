@@ -231,8 +231,15 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
             Some(Initial::Calculated),
             real(None, unit),
             format!(
-                "Force of joint {}'s limit [{}, {}] along the joint (positive towards larger values): a smooth one-sided spring and damper, zero inside the range",
-                jt.name, limit.lo, limit.hi
+                "Force of joint {}'s limit [{}, {}] along the joint (positive towards larger values): a smooth one-sided spring and damper, zero inside the range{}",
+                jt.name,
+                limit.lo,
+                limit.hi,
+                if limit.impedance > 0.0 {
+                    "; the spring and damper's push only: the limit also adds an inertia where it pushes (MuJoCo's impedance) and lets go where the whole would pull"
+                } else {
+                    ""
+                }
             ),
             Slot::LimitForce(j),
         );
