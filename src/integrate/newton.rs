@@ -70,6 +70,22 @@ pub(super) fn newton<T: Scalar>(
     guess: Vec<T>,
     jac: &mut Option<WarmJacobian>,
 ) -> Result<Vec<T>, DynamicsError> {
+    if guess.is_empty() {
+        return Ok(guess);
+    }
+    let r = residual(&guess)?;
+    newton_from(residual, real_jacobian, guess, r, jac)
+}
+
+/// [`newton`] with the residual at `guess` known (`r`: the same bits `residual(guess)` gives,
+/// where the caller has it already: damped Euler's frozen evaluation at the start velocity).
+pub(super) fn newton_from<T: Scalar>(
+    residual: &Residual<T>,
+    real_jacobian: &RealJacobian,
+    guess: Vec<T>,
+    r: Vec<T>,
+    jac: &mut Option<WarmJacobian>,
+) -> Result<Vec<T>, DynamicsError> {
     let n = guess.len();
     if n == 0 {
         return Ok(guess);
@@ -80,7 +96,7 @@ pub(super) fn newton<T: Scalar>(
         residual: inf_norm(&re_vec(r)),
     };
     let mut x = guess;
-    let mut r = residual(&x)?;
+    let mut r = r;
     if jac.as_ref().is_some_and(|j| j.matrix.nrows() != n) {
         *jac = None;
     }
