@@ -222,12 +222,18 @@ impl JointLimit {
     /// definite at any step, and smooth (`C'` is `C¹`), so the step's derivatives stay
     /// continuous.
     pub fn damping_slope<T: Scalar>(&self, q: T, v: T) -> T {
+        self.pushing(q, v) * self.damping
+    }
+
+    /// How much the limit pushes, `σ(d₋) C'(x₋)² + σ(d₊) C'(x₊)²`: the weight of its damping
+    /// slope and of its added inertia.
+    fn pushing<T: Scalar>(&self, q: T, v: T) -> T {
         let (sides, blend) = self.pushes(q, v);
         let [below, above] = sides.map(|(x, step)| {
             let slope = one_sided_slope(x, blend);
             step * slope * slope
         });
-        (below + above) * self.damping
+        below + above
     }
 
     /// The inertia the limit adds to its coordinate at position `q` and velocity `v`: its
@@ -238,12 +244,7 @@ impl JointLimit {
         if self.impedance == 0.0 {
             return T::zero();
         }
-        let (sides, blend) = self.pushes(q, v);
-        let [below, above] = sides.map(|(x, step)| {
-            let slope = one_sided_slope(x, blend);
-            step * slope * slope
-        });
-        (below + above) * self.impedance
+        self.pushing(q, v) * self.impedance
     }
 
     /// How much of the limit holds, given the coordinate's acceleration `vdot` with it fully
@@ -254,8 +255,9 @@ impl JointLimit {
     /// coordinate back into its range faster than the reference motion would makes it
     /// negative, and MuJoCo's solver lets a limit go rather than pull. Without this, a joint
     /// resting on its limit that a load (gravity on a bending knee) takes off it would be
-    /// `statics` times heavier until it left the onset. The fall is over the blend width of
-    /// [`one_sided`]; without an added inertia the limit always holds (its own clamp lets go).
+    /// `statics` times heavier until it left the onset. The fall is over [`HOLD_WIDTH`] of the
+    /// width of [`one_sided`]'s blend; without an added inertia the limit always holds (its own
+    /// clamp lets go).
     pub fn hold<T: Scalar>(&self, q: T, v: T, vdot: T) -> T {
         let added = self.added_inertia(q, v);
         if added.re() == 0.0 {

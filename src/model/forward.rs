@@ -178,50 +178,35 @@ impl Model {
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let zero = vec![T::zero(); self.tree.nv];
         let bias = self.tree.rnea(&kin, &zero, &wrenches);
-        let rhs = DVector::from_column_slice(tau)
+        let mut rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
-        let mut rhs = rhs;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
         let solve = |m, rhs: &DVector<T>| {
-            Ok::<_, DynamicsError>(
-                self.tree
-                    .factor(m)
-                    .ok_or(DynamicsError::Singular)?
-                    .solve(rhs),
-            )
+            let factor = self.tree.factor(m).ok_or(DynamicsError::Singular)?;
+            Ok::<_, DynamicsError>(factor.solve(rhs))
         };
-        if let Some(holds) = opts.holds {
-            self.let_go(q, v, holds, &mut m, &mut rhs);
-            let vdot = solve(m, &rhs)?;
-            return Ok(Forward {
-                vdot,
-                contacts,
-                holds: None,
-            });
-        }
-        if !self.limits_can_let_go() {
-            let vdot = solve(m, &rhs)?;
-            return Ok(Forward {
-                vdot,
-                contacts,
-                holds: None,
-            });
-        }
-        let held = solve(m.clone(), &rhs)?;
-        let Some(holds) = self.release_limits(q, v, &held) else {
-            return Ok(Forward {
-                vdot: held,
-                contacts,
-                holds: None,
-            });
+        let (vdot, holds) = match opts.holds {
+            Some(holds) => {
+                self.let_go(q, v, holds, &mut m, &mut rhs);
+                (solve(m, &rhs)?, None)
+            }
+            None if !self.limits_can_let_go() => (solve(m, &rhs)?, None),
+            None => {
+                let held = solve(m.clone(), &rhs)?;
+                match self.release_limits(q, v, &held) {
+                    None => (held, None),
+                    Some(holds) => {
+                        self.let_go(q, v, &holds, &mut m, &mut rhs);
+                        (solve(m, &rhs)?, Some(holds))
+                    }
+                }
+            }
         };
-        self.let_go(q, v, &holds, &mut m, &mut rhs);
-        let vdot = solve(m, &rhs)?;
         Ok(Forward {
             vdot,
             contacts,
-            holds: Some(holds),
+            holds,
         })
     }
 
