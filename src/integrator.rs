@@ -93,14 +93,6 @@ pub enum Integrator {
 }
 
 impl Integrator {
-    /// Whether a step of this integrator acts the equality constraints with MuJoCo's statics
-    /// (docs/mjcf.md, "Equality constraints"): where it takes their damping implicitly across
-    /// the coordinates they couple, implicit Euler only (damped Euler's `D` is diagonal, and
-    /// damped RK4's stages are damped Euler's).
-    pub fn raises_equalities(self) -> bool {
-        self == Integrator::ImplicitEuler
-    }
-
     /// Every integrator.
     pub const ALL: [Integrator; 7] = [
         Integrator::Euler,

@@ -18,6 +18,7 @@ use nalgebra::{DVector, Vector3};
 
 mod activation;
 mod actuator;
+mod coupled;
 mod energy;
 mod forward;
 mod frozen;
@@ -96,8 +97,9 @@ pub struct Forward<T: Scalar> {
     /// not evaluated. Empty where the options did not ask for it
     /// ([`ForwardOptions::list_contacts`]).
     pub contacts: Vec<Option<PairContact<T>>>,
-    /// The share each joint's limit held ([`crate::dynamics::limit::JointLimit::hold`]), one
-    /// per joint, where a limit with MuJoCo's impedance let go in part or in all; `None` where
+    /// The share each limit held ([`crate::dynamics::limit::JointLimit::hold`]), one per joint,
+    /// fixed tendon and spatial tendon, where a limit with MuJoCo's impedance let go in part or
+    /// in all; `None` where
     /// every limit held in all (or the options gave the shares, [`ForwardOptions::holds`]).
     pub holds: Option<Vec<T>>,
 }
@@ -222,15 +224,13 @@ impl Model {
         }
     }
 
-    /// Makes `integrator` the model's, its joint and tendon limits acting as that integrator
-    /// takes them ([`LimitLaw::under`]: MuJoCo's statics, with its impedance as an added inertia
-    /// where the step does not take their damping implicitly, or a tendon's reference gains
-    /// where it does not; docs/mjcf.md, "Joint limits"), and
-    /// its equality constraints so too ([`Integrator::raises_equalities`]; docs/mjcf.md,
-    /// "Equality constraints").
+    /// Makes `integrator` the model's, its joint and tendon limits and its equality
+    /// constraints acting as that integrator takes them ([`LimitLaw::under`]: MuJoCo's
+    /// statics, with its impedance as an added inertia where the step does not take their
+    /// damping implicitly; docs/mjcf.md, "Joint limits" and "Equality constraints").
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
-        let (joints, tendons) = (
+        let (joints, coupled) = (
             LimitLaw::under(integrator, false),
             LimitLaw::under(integrator, true),
         );
@@ -238,19 +238,21 @@ impl Model {
             j.limit = j.limit.map(|l| l.acting(joints));
         }
         for t in &mut self.tendons {
-            t.limit = t.limit.map(|l| l.acting(tendons));
+            t.limit = t.limit.map(|l| l.acting(coupled));
         }
         for t in &mut self.spatial_tendons {
-            t.law.limit = t.law.limit.map(|l| l.acting(tendons));
+            t.law.limit = t.law.limit.map(|l| l.acting(coupled));
         }
-        let raised = integrator.raises_equalities();
         for e in &mut self.equalities {
-            (e.stiffness, e.damping) = e.gains.acting(raised);
+            (e.stiffness, e.damping) = e.gains.acting(coupled);
+            e.impedance = e.gains.added_inertia(coupled);
         }
         for c in &mut self.connects {
-            (c.stiffness, c.damping) = c.gains.acting(raised);
+            (c.stiffness, c.damping) = c.gains.acting(coupled);
+            c.impedance = c.gains.added_inertia(coupled);
             if let Some(o) = &mut c.orientation {
-                (o.stiffness, o.damping) = o.gains.acting(raised);
+                (o.stiffness, o.damping) = o.gains.acting(coupled);
+                o.impedance = o.gains.added_inertia(coupled);
             }
         }
     }
@@ -318,19 +320,14 @@ impl Model {
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let mut tau = self.tree.rnea(&kin, vdot, &wrenches)
             - self.passive_forces(q, v, prm.stiction_velocity);
-        // Armature is part of M but not of the bodies' inertia, and so is the inertia a limit
-        // adds (`Model::damped_mass_matrix`); a limit that lets go at `vdot` is taken at the
-        // share it holds there, its inertia and its force (`Model::release_limits`).
+        // Armature is part of M but not of the bodies' inertia, and so is the inertia MuJoCo's
+        // impedance adds (`Model::add_impedance_forces`).
         for j in &self.tree.joints {
             for k in 0..j.kind.nv() {
                 tau[j.dadr + k] += vdot[j.dadr + k] * j.armature;
             }
-            if let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) {
-                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
-                let g = l.hold(qi, vi, vdot[d]);
-                tau[d] += vdot[d] * l.added_inertia(qi, vi) * g + l.force(qi, vi) * (-g + 1.0);
-            }
         }
+        self.add_impedance_forces(&kin, q, v, vdot, &mut tau);
         tau
     }
 

@@ -197,6 +197,21 @@ fn check_forward_jacobian_step(
     coords: Coordinates,
     rel: f64,
 ) {
+    check_forward_jacobian_values(label, model, point, coords, rel, 1e-12);
+}
+
+/// [`check_forward_jacobian_step`] with the dual-number values within `values` of the `f64`
+/// ones (relative to the largest acceleration). They differ by rounding only: num-dual divides
+/// by multiplying with the reciprocal, `f64` divides, and stiff springs held by a large added
+/// inertia cancel most of what they add to the accelerations, which magnifies that rounding.
+fn check_forward_jacobian_values(
+    label: &str,
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+    rel: f64,
+    values: f64,
+) {
     let jac = forward_jacobian(model, point, coords).unwrap();
     let z = z0(model, point, coords);
     let n_state_inputs = z.len() - 7;
@@ -214,8 +229,10 @@ fn check_forward_jacobian_step(
     let scales = floors(&z, n_state_inputs);
     let value = DVector::from_vec(f(&z));
     assert!(
-        (jac.value.clone() - &value).amax() <= 1e-12 * value.amax(),
-        "{label}: values differ"
+        (jac.value.clone() - &value).amax() <= values * value.amax(),
+        "{label}: values differ: {} against {}",
+        jac.value,
+        value
     );
     assert_close(
         &format!("{label} forward Jacobian"),
@@ -494,6 +511,12 @@ fn check_contact_implicit_step(implicit: Integrator, explicit: Integrator) {
 /// The exact Jacobian of one step of `integrator` against central differences, in embedded and
 /// tangent coordinates.
 fn check_step_jacobian(model: &Model, point: &Point, integrator: Integrator, h: f64) {
+    check_step_jacobian_rel(model, point, integrator, h, 1e-6);
+}
+
+/// [`check_step_jacobian`] with central differences of relative step `rel` (as
+/// [`check_forward_jacobian_step`]'s).
+fn check_step_jacobian_rel(model: &Model, point: &Point, integrator: Integrator, h: f64, rel: f64) {
     for coords in [Coordinates::Embedded, Coordinates::Tangent] {
         let (next, jac) = step_jacobian(model, integrator, point, h, coords).unwrap();
         let z = z0(model, point, coords);
@@ -510,7 +533,7 @@ fn check_step_jacobian(model: &Model, point: &Point, integrator: Integrator, h: 
             out.extend(s.v);
             out
         };
-        let fd = fd_jacobian(&f, &z, 1e-6, &floors(&z, n_state_inputs));
+        let fd = fd_jacobian(&f, &z, rel, &floors(&z, n_state_inputs));
         let label = format!("{} step ({coords:?})", integrator.name());
         // The implicit steps converge their Newton iterations to 1e-12 (relative), which the
         // differences see as 1e-12/1e-6: 1e-5 leaves room for it.
@@ -961,7 +984,12 @@ fn forward_jacobians_with_welds_and_connects_match_central_differences() {
     let without = free.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
     assert!((with - without).amax() > 1.0, "the welds act");
     for coords in [Coordinates::Tangent, Coordinates::Embedded] {
-        check_forward_jacobian_step(&format!("welds {coords:?}"), &model, &p, coords, 1e-4);
+        // Under the file's Euler the welds have MuJoCo's statics and its impedance as an added
+        // inertia (check_forward_jacobian_values on why the values then round apart); the box
+        // held by three of them is stiff enough that differences need steps of 1e-3 (of the
+        // coordinate or its floor): at 3e-4 their rounding is 3e-5 of the entries.
+        let label = format!("welds {coords:?}");
+        check_forward_jacobian_values(&label, &model, &p, coords, 1e-3, 1e-11);
     }
 }
 
@@ -1188,4 +1216,171 @@ fn forward_jacobians_with_adhesion_match_central_differences() {
     for coords in [Coordinates::Tangent, Coordinates::Embedded] {
         check_forward_jacobian_step(&format!("adhesion {coords:?}"), &model, &p, coords, 1e-6);
     }
+}
+
+/// The coupled fixture (tests/fixtures/coupled.xml, RK4: every constraint with MuJoCo's
+/// impedance as inertia added along its rows) moved past both tendons' upper limits, away from
+/// its equalities' held values, and moving deeper past the limits.
+fn coupled_point() -> (Model, Point) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/coupled.xml");
+    let model = scm::scene::load(&path).unwrap().model;
+    let mut p = Point::start(&model);
+    let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.05, -0.03, 0.08));
+    p.q = vec![
+        0.4, -0.2, 0.01, 0.1, 0.2, 2.01, -0.01, 1.02, r.w, r.i, r.j, r.k,
+    ];
+    p.v = vec![0.3, -0.1, 0.2, -0.4, 0.5, 0.1, -0.2, 0.3, 0.4, -0.6, 0.2];
+    p.u = vec![0.7];
+    (model, p)
+}
+
+#[test]
+fn jacobians_with_mujocos_impedance_on_coupled_constraints_match_central_differences() {
+    // Every row acts: both tendons push with an added inertia, and the equalities (a joint
+    // equality across branches, a connect's three rows and a weld's six) carry theirs.
+    let (model, p) = coupled_point();
+    let kin = model.tree.kinematics(&p.q, &p.v);
+    let fixed = model.tendons[0].limit.unwrap();
+    let (l, ldot) = (
+        model.tendons[0].length(&p.q),
+        model.tendons[0].velocity(&p.v),
+    );
+    assert!(
+        l > fixed.hi + 1e-3 && fixed.added_inertia(l, ldot) > 0.0,
+        "{l} {ldot}"
+    );
+    let spatial = model.spatial_tendons[0].law.limit.unwrap();
+    let (l, ldot) = model.spatial_tendons[0].length_and_rate(&kin.frames);
+    assert!(
+        l > spatial.hi + 1e-3 && spatial.added_inertia(l, ldot) > 0.0,
+        "{l} {ldot}"
+    );
+    assert!(model.equalities[0].impedance > 0.0);
+    assert!(model.connects.iter().all(|c| c.impedance > 0.0));
+    // The added inertia changes the accelerations (against the same gains without it).
+    let mut light = model.clone();
+    light.equalities[0].impedance = 0.0;
+    light.connects.iter_mut().for_each(|c| c.impedance = 0.0);
+    let with = model.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    let without = light.forward(&p.q, &p.v, &p.u, &p.params).unwrap().vdot;
+    assert!((with - without).amax() > 1.0, "the rows' inertia acts");
+    for coords in [Coordinates::Tangent, Coordinates::Embedded] {
+        // The weld's free body: accelerations of 600 m/s² from springs 20 times MuJoCo's
+        // reference, of which the added inertia cancels most, and the weld's error a difference
+        // of positions 2 m from the origin: the values carry rounding of about 1e-12 of
+        // themselves, so the differences take steps of 1e-4 (of the coordinate or its floor).
+        let label = format!("coupled {coords:?}");
+        check_forward_jacobian_values(&label, &model, &p, coords, 1e-4, 1e-11);
+    }
+    let mut model = model;
+    for integrator in [
+        Integrator::Rk4,
+        Integrator::DampedRk4,
+        Integrator::DampedEuler,
+        Integrator::SemiImplicitEuler,
+        Integrator::ImplicitEuler,
+    ] {
+        model.integrator = integrator;
+        check_step_jacobian_rel(&model, &p, integrator, 0.002, 1e-4);
+    }
+}
+
+#[test]
+fn jacobians_where_a_tendon_limit_lets_go_in_part_match_central_differences() {
+    // The fixed tendon at rest a depth past its upper limit, the motor pulling it back into
+    // its range: just past the limit its push is small and the pull takes it off (the limit
+    // lets go), deep past it the limit holds; between lies a depth where it holds a share
+    // (found by bisection), the band where the share's own derivatives enter.
+    // Without the weld, whose stiff rows on the free body round at 1e-12 of its accelerations
+    // (differences through the band need smaller steps than those allow).
+    let (mut model, mut p) = coupled_point();
+    model.connects.retain(|c| c.orientation.is_none());
+    p.v = vec![0.0; model.tree.nv];
+    p.u = vec![-3.0];
+    let l = model.tendons[0].length(&p.q);
+    let slot = model.tree.joints.len();
+    let past = |depth: f64| {
+        let mut m = model.clone();
+        let limit = m.tendons[0].limit.as_mut().unwrap();
+        limit.hi = l - depth;
+        m
+    };
+    let holds = |depth: f64| {
+        let m = past(depth);
+        let f = m.forward(&p.q, &p.v, &p.u, &p.params).unwrap();
+        f.holds.map_or(1.0, |h| h[slot])
+    };
+    let (mut shallow, mut deep) = (1.2e-3, 0.5);
+    assert!(holds(shallow) < 1e-9, "{}", holds(shallow));
+    assert_eq!(holds(deep), 1.0);
+    let mut depth = shallow;
+    for _ in 0..200 {
+        depth = 0.5 * (shallow + deep);
+        let g = holds(depth);
+        if (0.2..0.8).contains(&g) {
+            break;
+        }
+        if g < 0.2 {
+            shallow = depth;
+        } else {
+            deep = depth;
+        }
+    }
+    let g = holds(depth);
+    assert!((0.2..0.8).contains(&g), "the tendon's limit holds {g}");
+    let mut banded = past(depth);
+    // On the band the accelerations curve sharply (the share goes from 0 to 1 over 1 % of the
+    // onset's force): the differences converge to the exact Jacobian as h², but only at steps
+    // near 1e-7 rad of the arms' angles, where the velocities' columns already see their
+    // rounding (measured: d v̇₀/d q₀ exact -2362.7688, differences -2358.44 at a step of
+    // 1e-5 rad, -2362.7266 at 1e-6, -2362.7683 at 1e-7).
+    let coords = Coordinates::Embedded;
+    let jac = forward_jacobian(&banded, &p, coords).unwrap();
+    let f = |z: &[f64]| -> Vec<f64> {
+        let (q, v, u, prm) = unpack(&banded, &p, coords, z);
+        let a = banded.forward(&q, &v, &u, &prm).unwrap().vdot;
+        a.iter().copied().collect()
+    };
+    let label = "coupled, the tendon let go in part";
+    assert_differences_converge(label, &banded, &p, coords, &jac.full, &f);
+    // The shares of the step's start are taken in f64 and on dual numbers alike.
+    for integrator in [Integrator::DampedRk4, Integrator::DampedEuler] {
+        banded.integrator = integrator;
+        let (_, jac) = step_jacobian(&banded, integrator, &p, 0.002, coords).unwrap();
+        let f = |z: &[f64]| -> Vec<f64> {
+            let (q, v, u, prm) = unpack(&banded, &p, coords, z);
+            let s = (banded.step_with(integrator, &State::new(q, v), &u, &prm, 0.002)).unwrap();
+            s.q.into_iter().chain(s.v).collect()
+        };
+        let label = format!("{label}, {} step", integrator.name());
+        assert_differences_converge(&label, &banded, &p, coords, &jac.full, &f);
+    }
+}
+
+/// Asserts that the central differences of `f` at the point converge to `exact`: each entry
+/// is compared with the nearest of the differences at steps from 1e-4 to 1e-8 of its
+/// coordinate (or its floor), as [`assert_close`] compares. For functions that curve sharply
+/// where a single step is either too long for their curvature or too short for their rounding.
+fn assert_differences_converge(
+    label: &str,
+    model: &Model,
+    point: &Point,
+    coords: Coordinates,
+    exact: &DMatrix<f64>,
+    f: &dyn Fn(&[f64]) -> Vec<f64>,
+) {
+    let z = z0(model, point, coords);
+    let scales = floors(&z, z.len() - 7);
+    let steps = [1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7, 3e-8, 1e-8];
+    let fds: Vec<DMatrix<f64>> = (steps.iter())
+        .map(|&rel| fd_jacobian(f, &z, rel, &scales))
+        .collect();
+    let nearest = DMatrix::from_fn(exact.nrows(), exact.ncols(), |i, k| {
+        let e = exact[(i, k)];
+        (fds.iter().map(|fd| fd[(i, k)]))
+            .min_by(|a, b| (a - e).abs().total_cmp(&(b - e).abs()))
+            .unwrap()
+    });
+    let names = names(model, point, coords);
+    assert_close(label, exact, &nearest, &scales, 1e-5, &names);
 }

@@ -333,7 +333,9 @@ fn dependencies_follow_tendons_across_subtrees() {
     // The connect ties a fifth arm to the fourth.
     assert!(deps("der(je.v)").contains(&"jd.q".to_string()));
     assert!(deps("der(jd.v)").contains(&"je.v".to_string()));
-    check_dependencies("tendons", &mut sim);
+    // The equalities and the tendon's limit act at MuJoCo's statics with its impedance (the
+    // file's Euler): steps 100 times longer, and rounding of 1e-12 of the unknowns.
+    check_dependencies_stepped("tendons", &mut sim, 100.0, 1e-12);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -485,6 +487,16 @@ fn site_actuators_depend_on_their_bodies_and_match_central_differences() {
 /// Every declared (unknown, known) pair of `sim`'s `<ModelStructure>` against central
 /// differences; every pair that is not declared exactly zero.
 fn check_dependencies(name: &str, sim: &mut Simulation) {
+    check_dependencies_stepped(name, sim, 1.0, 64.0 * f64::EPSILON);
+}
+
+/// [`check_dependencies`] with the steps of the states and inputs `longer` times
+/// [`known_step`]'s and the unknowns' rounding taken as `rounding` of their size: for scenes
+/// whose values round further than 64 ε (equalities and tendon limits at MuJoCo's statics,
+/// gains 10 to 20 times their reference, most of whose force the inertia MuJoCo's impedance
+/// adds cancels: 1e-11 absolute on accelerations of 50 rad/s², measured), and whose own scale
+/// is far above the steps.
+fn check_dependencies_stepped(name: &str, sim: &mut Simulation, longer: f64, rounding: f64) {
     {
         let info = sim.info().clone();
         let rows: Vec<_> = sim.rows().to_vec();
@@ -520,7 +532,10 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
             let uvrs: Vec<u32> = unknowns.iter().map(|u| u.0).collect();
             let exact = sim.directional_derivative(&uvrs, &[*kvr], &[1.0]).unwrap();
             let x0 = sim.get_real(*kvr).unwrap();
-            let h = known_step(*kslot, x0);
+            let h = match kslot {
+                Slot::Param(_) => known_step(*kslot, x0),
+                _ => known_step(*kslot, x0) * longer,
+            };
             let mut eval = |x: f64| -> Vec<f64> {
                 set_known(sim, *kslot, *kvr, x);
                 let out = uvrs.iter().map(|&u| sim.get_real(u).unwrap()).collect();
@@ -536,8 +551,7 @@ fn check_dependencies(name: &str, sim: &mut Simulation) {
                 // about ε·|y|/h times the cancellation inside the model (forces of ~10 N summed
                 // into accelerations), e.g. 64 · 2e-16 · 10 / 1e-8 m = 1e-5 against partials of
                 // 1e2..1e4.
-                let tol = 1e-5 * exact[i].abs().max(fd.abs())
-                    + 64.0 * f64::EPSILON * value.abs().max(1.0) / h;
+                let tol = 1e-5 * exact[i].abs().max(fd.abs()) + rounding * value.abs().max(1.0) / h;
                 assert!((exact[i] - fd).abs() <= tol, "{name}: d {uname} / d {kname}: exact {} vs central difference {fd} (tol {tol})", exact[i]);
                 if declared(*uvr, *kvr) {
                     checked += 1;

@@ -5,6 +5,7 @@ mod cli;
 mod common;
 mod contact_pair;
 mod contact_reach;
+mod coupled_constraints;
 mod derivatives;
 mod dynamics_tree;
 mod extremes;

@@ -558,8 +558,9 @@ fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
     // A hinge limit and a fixed tendon's limit, `solimplimit` dmax 0.9: the joint's gains 10
     // times the reference under every integrator, with MuJoCo's impedance as an added inertia
     // (9 times the joint's) where the step does not take the limit's damping implicitly (all but
-    // damped and implicit Euler); the tendon's 10 times under implicit Euler only, the
-    // reference elsewhere; the law follows `Model::set_integrator` both ways.
+    // damped and implicit Euler); the tendon's 10 times with its added inertia (9 times the
+    // tendon's) under every integrator, its row added to the tree's factor; the law follows
+    // `Model::set_integrator` both ways.
     use scm::integrate::Integrator;
     let xml = r#"<mujoco>
   <option timestep="0.002"/>
@@ -596,21 +597,19 @@ fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
     // The joint's added inertia ([`LimitLaw::Impedance`]): `(statics - 1) I`, zero elsewhere.
     let added = |m: &scm::model::Model| {
         let j = m.tree.joints[0].limit.unwrap();
-        (
-            j.impedance / j.inertia,
-            m.tendons[0].limit.unwrap().impedance,
-        )
+        let t = m.tendons[0].limit.unwrap();
+        (j.impedance / j.inertia, t.impedance / t.inertia)
     };
     assert_eq!(model.integrator, Integrator::DampedEuler);
-    assert!(close(gains(&model), [10.0, 1.0]), "{:?}", gains(&model));
-    assert_eq!(added(&model), (0.0, 0.0));
+    assert!(close(gains(&model), [10.0, 10.0]), "{:?}", gains(&model));
+    assert_eq!(added(&model).0, 0.0);
     for (integrator, expected, inertia) in [
-        (Integrator::Rk4, [10.0, 1.0], 9.0),
-        (Integrator::DampedRk4, [10.0, 1.0], 9.0),
+        (Integrator::Rk4, [10.0, 10.0], 9.0),
+        (Integrator::DampedRk4, [10.0, 10.0], 9.0),
         (Integrator::ImplicitEuler, [10.0, 10.0], 0.0),
-        (Integrator::Euler, [10.0, 1.0], 9.0),
-        (Integrator::Dopri5, [10.0, 1.0], 9.0),
-        (Integrator::DampedEuler, [10.0, 1.0], 0.0),
+        (Integrator::Euler, [10.0, 10.0], 9.0),
+        (Integrator::Dopri5, [10.0, 10.0], 9.0),
+        (Integrator::DampedEuler, [10.0, 10.0], 0.0),
     ] {
         model.set_integrator(integrator);
         assert!(
@@ -620,7 +619,7 @@ fn limits_take_mujocos_statics_under_the_integrator_a_run_uses() {
         );
         let (a, t) = added(&model);
         assert!(
-            (a - inertia).abs() < 1e-12 && t == 0.0,
+            (a - inertia).abs() < 1e-12 && (t - 9.0).abs() < 1e-12,
             "{integrator:?}: {a} {t}"
         );
     }

@@ -14,36 +14,54 @@
 /// A linear combination of coordinates: `(position index, velocity index, coefficient)`.
 pub type Linear = Vec<(usize, usize, f64)>;
 
+use super::limit::LimitLaw;
 use super::tendon::{linear_rate as rate, linear_value as value};
 
 /// An equality's spring and damper gains as the file defines them (docs/mjcf.md, "Equality
 /// constraints"): the reference gains `(k, b)` (MuJoCo's reference acceleration for its
-/// `solref` on the effective inertia) and the factor `statics` by which MuJoCo's impedance
-/// (`solimp`) raises them at rest. An equality acts with the raised gains where the step takes
-/// its damping implicitly across the coordinates it couples (implicit Euler), with the
-/// reference gains elsewhere (`Model::set_integrator`).
+/// `solref` on the effective inertia `I`) and the factor `statics` by which MuJoCo's impedance
+/// (`solimp`) raises them at rest. An equality acts as [`LimitLaw`] says
+/// (`Model::set_integrator`): with the raised gains where the step takes its damping
+/// implicitly across the coordinates it couples (implicit Euler), and elsewhere with the raised
+/// gains and the inertia `(statics - 1) I` MuJoCo's impedance adds along its rows, which gives
+/// it MuJoCo's statics and MuJoCo's pace.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gains {
     /// `(k, b)` of the reference.
     pub reference: (f64, f64),
     /// The factor MuJoCo's statics ask (1: none).
     pub statics: f64,
+    /// The effective inertia `I` the reference gains were sized on (kg or kg·m², per row).
+    pub inertia: f64,
 }
 
 impl Gains {
-    /// The reference gains `(k, b)`, not raised.
-    pub fn reference(k: f64, b: f64) -> Gains {
+    /// The reference gains `(k, b)`, not raised, on the effective inertia `inertia`.
+    pub fn reference(k: f64, b: f64, inertia: f64) -> Gains {
         Gains {
             reference: (k, b),
             statics: 1.0,
+            inertia,
         }
     }
 
-    /// The gains `(k, b)` an equality acts with: raised by `statics` (`raised`) or the
-    /// reference.
-    pub fn acting(&self, raised: bool) -> (f64, f64) {
-        let g = if raised { self.statics } else { 1.0 };
+    /// The gains `(k, b)` an equality acts with under `law`: raised by `statics`
+    /// ([`LimitLaw::Statics`], [`LimitLaw::Impedance`]) or the reference.
+    pub fn acting(&self, law: LimitLaw) -> (f64, f64) {
+        let g = match law {
+            LimitLaw::Reference => 1.0,
+            LimitLaw::Statics | LimitLaw::Impedance => self.statics,
+        };
         (self.reference.0 * g, self.reference.1 * g)
+    }
+
+    /// The inertia MuJoCo's impedance adds along each of the equality's rows under `law`:
+    /// `(statics - 1) I` with [`LimitLaw::Impedance`], otherwise zero.
+    pub fn added_inertia(&self, law: LimitLaw) -> f64 {
+        match law {
+            LimitLaw::Impedance => (self.statics - 1.0).max(0.0) * self.inertia,
+            _ => 0.0,
+        }
     }
 }
 
@@ -64,6 +82,8 @@ pub struct ScalarEquality {
     pub damping: f64,
     /// The gains the file defines, from which `stiffness` and `damping` act.
     pub gains: Gains,
+    /// The inertia added along each of its rows as it acts ([`Gains::added_inertia`]).
+    pub impedance: f64,
 }
 
 impl ScalarEquality {
@@ -106,6 +126,22 @@ impl ScalarEquality {
         e * e * (0.5 * self.stiffness)
     }
 
+    /// The constraint's row `∂e/∂q`, one entry per velocity coordinate of `nv`: the first
+    /// coordinate's coefficients, and the second's times `∂e/∂x₂`.
+    pub fn row<T: crate::scalar::Scalar>(&self, q: &[T], nv: usize) -> nalgebra::DVector<T> {
+        let (_, slope) = self.error(q);
+        let mut row = nalgebra::DVector::zeros(nv);
+        for &(_, vi, c) in &self.first.0 {
+            row[vi] += crate::scalar::c::<T>(c);
+        }
+        if let Some((x, _)) = &self.second {
+            for &(_, vi, c) in x {
+                row[vi] += slope * c;
+            }
+        }
+        row
+    }
+
     /// The velocity indices the constraint acts on.
     pub fn dofs(&self) -> impl Iterator<Item = usize> + '_ {
         self.first
@@ -129,7 +165,8 @@ mod tests {
             poly: [0.02, 0.7, -0.3, 0.2, 0.1],
             stiffness: 40.0,
             damping: 0.0,
-            gains: Gains::reference(40.0, 0.0),
+            gains: Gains::reference(40.0, 0.0, 1.0),
+            impedance: 0.0,
         }
     }
 
@@ -159,6 +196,25 @@ mod tests {
             assert!(
                 (de - fd).abs() < 1e-7 * (1.0 + de.abs()),
                 "{k}: {de} vs {fd}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_row_is_the_errors_gradient() {
+        let eq = coupling();
+        let q = [0.4, -0.2, 0.3];
+        let row = eq.row(&q, 3);
+        for k in 0..3 {
+            let seeded: Vec<Dual64> = (0..3)
+                .map(|i| Dual64::new(q[i], if i == k { 1.0 } else { 0.0 }))
+                .collect();
+            let (e, _) = eq.error(&seeded);
+            assert!(
+                (e.eps - row[k]).abs() < 1e-12,
+                "{k}: {} vs {}",
+                e.eps,
+                row[k]
             );
         }
     }
@@ -205,6 +261,8 @@ pub struct Connect {
     pub damping: f64,
     /// The gains the file defines, from which `stiffness` and `damping` act.
     pub gains: Gains,
+    /// The inertia added along each of its rows as it acts ([`Gains::added_inertia`]).
+    pub impedance: f64,
     /// For a weld, the orientation it holds; `None` for a connect.
     pub orientation: Option<Orientation>,
 }
@@ -231,6 +289,8 @@ pub struct Orientation {
     pub damping: f64,
     /// The gains the file defines, from which `stiffness` and `damping` act.
     pub gains: Gains,
+    /// The inertia added along each of its rows as it acts ([`Gains::added_inertia`]).
+    pub impedance: f64,
 }
 
 impl Orientation {
@@ -315,6 +375,55 @@ impl Connect {
         }
     }
 
+    /// Each row of the constraint and the inertia added along it: three for the points' error
+    /// `p₁ - p₂` along the world axes, and three more for a weld's rotation (body 1's angular
+    /// velocity less body 2's, world axes), as `(row, added inertia)` with `row` `0..6`
+    /// ([`Connect::add_row_wrenches`]). Rows without an added inertia are left out.
+    pub fn rows(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let rotation = self.orientation.as_ref().map_or(0.0, |o| o.impedance);
+        (0..6)
+            .map(move |k| (k, if k < 3 { self.impedance } else { rotation }))
+            .filter(|&(k, a)| a > 0.0 && (k < 3 || self.orientation.is_some()))
+    }
+
+    /// The rates of its six rows (the points' error along the world axes, then body 1's
+    /// angular velocity less body 2's): `Jₖ v` for row `k` of [`Connect::rows`].
+    pub fn row_rates<T: crate::scalar::Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+    ) -> [T; 6] {
+        let [(_, v1, _), (_, v2, _)] = self.points(frames);
+        let w = frames[self.first.0].angvel - frames[self.second.0].angvel;
+        let d = v1 - v2;
+        [d.x, d.y, d.z, w.x, w.y, w.z]
+    }
+
+    /// Adds to `w` the wrenches whose generalized force is the transposed row `k` of
+    /// [`Connect::rows`]: a unit force along world axis `k` at `p₁` on body 1 and its opposite
+    /// at `p₂` on body 2, or (`k ≥ 3`) a unit torque about axis `k - 3` on body 1 and its
+    /// opposite on body 2.
+    pub fn add_row_wrenches<T: crate::scalar::Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+        k: usize,
+        w: &mut [crate::contact::Wrench<T>],
+    ) {
+        let (b1, b2) = (self.first.0, self.second.0);
+        let unit = nalgebra::Vector3::from_fn(|i, _| {
+            crate::scalar::c::<T>(if i == k % 3 { 1.0 } else { 0.0 })
+        });
+        if k >= 3 {
+            w[b1].torque += unit;
+            w[b2].torque -= unit;
+            return;
+        }
+        let [(_, _, arm1), (_, _, arm2)] = self.points(frames);
+        w[b1].force += unit;
+        w[b1].torque += arm1.cross(&unit);
+        w[b2].force -= unit;
+        w[b2].torque -= arm2.cross(&unit);
+    }
+
     /// The springs' energy `½ k |e|²`, and a weld's rotational spring's.
     pub fn energy<T: crate::scalar::Scalar>(&self, frames: &[crate::collision::Frame<T>]) -> T {
         let [(p1, _, _), (p2, _, _), ..] = self.points(frames);
@@ -352,12 +461,14 @@ mod weld_tests {
             second: (2, Vector3::new(0.0, 0.3, 0.1)),
             stiffness: 50.0,
             damping,
-            gains: Gains::reference(50.0, damping),
+            gains: Gains::reference(50.0, damping, 1.0),
+            impedance: 0.0,
             orientation: Some(Orientation {
                 relative: *Rotation3::new(Vector3::new(0.3, -0.5, 0.2)).matrix(),
                 stiffness: 7.0,
                 damping,
-                gains: Gains::reference(7.0, damping),
+                gains: Gains::reference(7.0, damping, 0.1),
+                impedance: 0.0,
             }),
         }
     }
@@ -474,5 +585,36 @@ mod weld_tests {
                 .sum();
             assert!(power < 0.0, "turn {turn}: {power}");
         }
+    }
+
+    #[test]
+    fn a_rows_wrenches_do_the_power_of_its_rate() {
+        // The power of row k's wrenches over the bodies' motion is the row times the
+        // velocity, the row's rate: the points' error's along axis k, or the relative angular
+        // velocity's for a weld's rotation rows.
+        let mut c = weld(0.0);
+        c.impedance = 2.0;
+        c.orientation.as_mut().unwrap().impedance = 0.3;
+        let f = frames();
+        let rates = c.row_rates(&f);
+        let rows: Vec<(usize, f64)> = c.rows().collect();
+        assert_eq!(
+            rows,
+            [(0, 2.0), (1, 2.0), (2, 2.0), (3, 0.3), (4, 0.3), (5, 0.3)]
+        );
+        for (k, _) in rows {
+            let mut w = vec![crate::contact::Wrench::zero(); 3];
+            c.add_row_wrenches(&f, k, &mut w);
+            let power: f64 = (1..3)
+                .map(|b| w[b].force.dot(&f[b].linvel) + w[b].torque.dot(&f[b].angvel))
+                .sum();
+            let rate = rates[k];
+            assert!((power - rate).abs() < 1e-12, "row {k}: {power} vs {rate}");
+        }
+        // A connect has its three point rows only; rows without inertia are left out.
+        c.orientation = None;
+        assert_eq!(c.rows().count(), 3);
+        c.impedance = 0.0;
+        assert_eq!(c.rows().count(), 0);
     }
 }

@@ -12,6 +12,7 @@
 //! Its pose and velocity enter [`Tree::kinematics_with`] as [`MOCAP_INPUTS`] numbers per mocap
 //! body (see [`Tree::mocap`]).
 
+mod coupled;
 pub mod equality;
 mod factor;
 pub mod fluid;
@@ -19,6 +20,7 @@ mod kinematics;
 mod lie;
 pub mod limit;
 
+pub use coupled::{CoupledFactor, Row};
 pub use factor::{MassFactor, TreeMatrix};
 pub use kinematics::{BodyColumn, Kinematics};
 pub use lie::{quat_exp, quat_from, quat_log, quat_matrix};

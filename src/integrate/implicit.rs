@@ -66,7 +66,7 @@ struct ContactImplicitResidual<'a> {
     pulls: Vec<Option<f64>>,
     prm: ContactParams<f64>,
     h: f64,
-    /// The share each joint's limit holds, decided at the step's start ([`crate::model::Forward::holds`]).
+    /// The share each limit holds, decided at the step's start ([`crate::model::Forward::holds`]).
     holds: Option<Vec<f64>>,
 }
 
@@ -211,7 +211,7 @@ impl Model {
             // evaluation lets them go.
             real.holds = self.limits_can_let_go().then(|| match frozen.holds() {
                 Some(h) => h.to_vec(),
-                None => vec![1.0; self.tree.joints.len()],
+                None => vec![1.0; self.limit_slots()],
             });
             let real = &real;
             let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
@@ -262,7 +262,7 @@ impl Model {
         }
         // The limits that let go at the start are let go at every iterate, as in `f64`.
         let holds = (self.limits_can_let_go())
-            .then(|| (start.holds).unwrap_or_else(|| vec![T::one(); self.tree.joints.len()]));
+            .then(|| (start.holds).unwrap_or_else(|| vec![T::one(); self.limit_slots()]));
         real.holds = holds.as_deref().map(re_vec);
         let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
             let opts = ForwardOptions {

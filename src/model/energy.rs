@@ -8,7 +8,8 @@ use crate::scalar::{c, Scalar};
 /// Mechanical energy of a state (J).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Energy<T> {
-    /// Kinetic energy of the bodies with joints, armature included (J).
+    /// Kinetic energy of the bodies with joints, armature included, and of the inertia
+    /// MuJoCo's impedance adds along the equalities' rows (J).
     pub kinetic: T,
     /// Potential energy of gravity, zero at the world origin (J).
     pub gravity: T,
@@ -25,7 +26,8 @@ impl<T: Scalar> Energy<T> {
 
 impl Model {
     /// Mechanical energy of a state, computed from the bodies' motion (not from `M`): kinetic
-    /// energy `Σ ½ m |v_com|² + ½ ωᵀ I_c ω + Σ ½ armature v²`, gravity `-Σ (1 - gravcomp) m gᵀ
+    /// energy `Σ ½ m |v_com|² + ½ ωᵀ I_c ω + Σ ½ armature v²` and the equalities' added inertia's
+    /// (`Model::added_kinetic`), gravity `-Σ (1 - gravcomp) m gᵀ
     /// x_com`, springs
     /// `½ k q²` (slide, hinge) and `½ k |θ|²` (ball). Mocap bodies are not counted.
     pub fn energy<T: Scalar>(&self, q: &[T], v: &[T]) -> Energy<T> {
@@ -71,6 +73,7 @@ impl Model {
                 _ => {}
             }
         }
+        kinetic += self.added_kinetic(kin, q, v);
         for t in self.tendons.iter().filter(|t| t.acts()) {
             springs += t.energy(q);
         }

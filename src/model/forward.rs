@@ -52,10 +52,10 @@ pub struct ForwardOptions<'a, T: Scalar> {
     /// Whether the result lists every pair's contact ([`Forward::contacts`]); without, it is
     /// empty and the accelerations are the same bits (a residual that reads only them).
     pub list_contacts: bool,
-    /// The share each joint's limit holds, one per joint, if the caller decided them
-    /// ([`Forward::holds`] of an earlier evaluation: damped Euler's iterations take them from
-    /// the step's start, as its frozen evaluation does); `None`: decided here
-    /// (`Model::release_limits`).
+    /// The share each limit holds, one per joint, fixed tendon and spatial tendon
+    /// (`Model::limit_slots`), if the caller decided them ([`Forward::holds`] of an earlier
+    /// evaluation: damped Euler's iterations take them from the step's start, as its frozen
+    /// evaluation does); `None`: decided here (`Model::release_limits`).
     pub holds: Option<&'a [T]>,
 }
 
@@ -139,8 +139,9 @@ impl Model {
     }
 
     /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
-    /// (M + M_a + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `M_a` the inertia the
-    /// limits with MuJoCo's impedance add where they push, `h D` only with
+    /// (M + M_a + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `M_a` the inertia
+    /// MuJoCo's impedance adds where a limit pushes and along an equality's rows
+    /// (src/model/coupled.rs), `h D` only with
     /// [`ForwardOptions::implicit_damping`]; the one evaluation every other entry calls. Order:
     /// kinematics, contact (`Model::visit_pairs`: proofs, then the pairs in reach), the
     /// forces on the bodies, RNEA, the (damped) mass matrix, its factorization and solve; where
@@ -182,23 +183,23 @@ impl Model {
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
-        let solve = |m, rhs: &DVector<T>| {
-            let factor = self.tree.factor(m).ok_or(DynamicsError::Singular)?;
-            Ok::<_, DynamicsError>(factor.solve(rhs))
+        let coupled = self.coupled_at(&kin, q, v);
+        let solve = |m, rhs: &DVector<T>, holds: Option<&[T]>| {
+            Ok::<_, DynamicsError>(coupled.factor(self, m, holds)?.solve(rhs))
         };
         let (vdot, holds) = match opts.holds {
             Some(holds) => {
-                self.let_go(q, v, holds, &mut m, &mut rhs);
-                (solve(m, &rhs)?, None)
+                self.let_go(q, v, holds, &coupled, &mut m, &mut rhs);
+                (solve(m, &rhs, Some(holds))?, None)
             }
-            None if !self.limits_can_let_go() => (solve(m, &rhs)?, None),
+            None if !self.limits_can_let_go() => (solve(m, &rhs, None)?, None),
             None => {
-                let held = solve(m.clone(), &rhs)?;
-                match self.release_limits(q, v, &held) {
+                let held = solve(m.clone(), &rhs, None)?;
+                match self.release_limits(q, v, &held, &coupled) {
                     None => (held, None),
                     Some(holds) => {
-                        self.let_go(q, v, &holds, &mut m, &mut rhs);
-                        (solve(m, &rhs)?, Some(holds))
+                        self.let_go(q, v, &holds, &coupled, &mut m, &mut rhs);
+                        (solve(m, &rhs, Some(&holds))?, Some(holds))
                     }
                 }
             }
@@ -208,57 +209,6 @@ impl Model {
             contacts,
             holds,
         })
-    }
-
-    /// Whether a joint's limit has MuJoCo's impedance, an added inertia, and so may let go
-    /// ([`crate::dynamics::limit::JointLimit::hold`]).
-    pub(crate) fn limits_can_let_go(&self) -> bool {
-        let with = |j: &crate::dynamics::Joint| j.limit.is_some_and(|l| l.impedance > 0.0);
-        self.tree.joints.iter().any(with)
-    }
-
-    /// The share each joint's limit holds given the accelerations `vdot` solved with every
-    /// limit held ([`crate::dynamics::limit::JointLimit::hold`]), one per joint, or `None` where
-    /// every limit holds in all. The caller then solves again with them ([`Model::let_go`]):
-    /// two solves where a limit lets go, as MuJoCo's solver finds a limit inactive. The share
-    /// is read from the first solve, so a limit let go in part changes the others' only
-    /// through the second.
-    pub(crate) fn release_limits<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        vdot: &DVector<T>,
-    ) -> Option<Vec<T>> {
-        let holds: Vec<T> = (self.tree.joints.iter())
-            .map(|j| match j.limit.as_ref().filter(|l| l.impedance > 0.0) {
-                Some(l) => l.hold(q[j.qadr], v[j.dadr], vdot[j.dadr]),
-                None => T::one(),
-            })
-            .collect();
-        holds.iter().any(|g| g.re() < 1.0).then_some(holds)
-    }
-
-    /// Takes each joint's limit at the share `holds` of its added inertia (in `m`) and of its
-    /// force (in `rhs`).
-    pub(crate) fn let_go<T: Scalar>(
-        &self,
-        q: &[T],
-        v: &[T],
-        holds: &[T],
-        m: &mut crate::dynamics::TreeMatrix<T>,
-        rhs: &mut DVector<T>,
-    ) {
-        for (j, &g) in self.tree.joints.iter().zip(holds) {
-            let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) else {
-                continue;
-            };
-            if g.re() < 1.0 {
-                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
-                let lost = -g + 1.0;
-                *m.entry_mut(d, d) -= l.added_inertia(qi, vi) * lost;
-                rhs[d] -= l.force(qi, vi) * lost;
-            }
-        }
     }
 
     /// An error naming the first joint whose position or velocity is not finite.

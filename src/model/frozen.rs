@@ -14,7 +14,7 @@ use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
 use crate::collision::Frame;
 use crate::contact::PairTape;
-use crate::dynamics::{BodyColumn, MassFactor};
+use crate::dynamics::{BodyColumn, CoupledFactor};
 use crate::scalar::{derivatives, seeded};
 use nalgebra::{DMatrix, SMatrix};
 use num_dual::DualSVec64;
@@ -30,7 +30,8 @@ pub struct FrozenForward<'m> {
     /// Kinematics at the start velocity (what every term but the contact is taken at).
     kin: Kinematics<f64>,
     rhs: DVector<f64>,
-    mass: MassFactor<f64>,
+    /// The damped mass matrix with MuJoCo's impedance along the coupled constraints' rows.
+    mass: CoupledFactor<f64>,
     /// Each pair in reach: its bodies, its parameters and its recorded contact.
     tapes: Vec<(usize, usize, ContactParams<f64>, PairTape)>,
     /// The contact of every pair where it was recorded (at the start velocity), in pair order:
@@ -38,7 +39,7 @@ pub struct FrozenForward<'m> {
     contacts: Vec<Option<PairContact<f64>>>,
     /// The stiction velocity of the tendons' dry friction.
     stiction_velocity: f64,
-    /// The share each joint's limit holds, where one lets go ([`Forward::holds`]).
+    /// The share each limit holds, where one lets go ([`Forward::holds`]).
     holds: Option<Vec<f64>>,
 }
 
@@ -68,9 +69,10 @@ impl Model {
         let rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
+        let coupled = self.coupled_at(&kin, q, v);
         // Kept for a second factorization where a limit lets go.
         let unfactored = self.limits_can_let_go().then(|| matrix.clone());
-        let mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
+        let mass = coupled.factor(self, matrix, None)?;
         let visits = self.visit_pairs(&kin, prm, pulls, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
@@ -114,12 +116,13 @@ impl Model {
         // A limit that would pull is let go as `forward_at` lets it go, its share read here,
         // at the start velocity, for every trial end velocity (the dual-number path takes the
         // same shares from its start: `ForwardOptions::holds`).
-        let Some(holds) = self.release_limits(q, v, &DVector::from_vec(held.clone())) else {
+        let held_vdot = DVector::from_vec(held.clone());
+        let Some(holds) = self.release_limits(q, v, &held_vdot, &coupled) else {
             return Ok((frozen, held));
         };
         let (mut matrix, mut rhs) = (matrix, frozen.rhs.clone());
-        self.let_go(q, v, &holds, &mut matrix, &mut rhs);
-        frozen.mass = self.tree.factor(matrix).ok_or(DynamicsError::Singular)?;
+        self.let_go(q, v, &holds, &coupled, &mut matrix, &mut rhs);
+        frozen.mass = coupled.factor(self, matrix, Some(&holds))?;
         frozen.rhs = rhs;
         frozen.holds = Some(holds);
         let vdot = frozen.solve(wrenches);
@@ -141,8 +144,8 @@ impl FrozenForward<'_> {
         &self.contacts
     }
 
-    /// The share each joint's limit holds where one lets go at the start velocity, one per
-    /// joint ([`Forward::holds`]).
+    /// The share each limit holds where one lets go at the start velocity, one per slot
+    /// ([`Forward::holds`]).
     pub fn holds(&self) -> Option<&[f64]> {
         self.holds.as_deref()
     }

@@ -6,9 +6,12 @@
 //! and `axis` in the body frame, `ref` (MuJoCo's `qpos0` of slide and hinge joints),
 //! `springref`, passive properties and limits in SI units, with the limit spring's stiffness and
 //! damping (from `solreflimit` and MuJoCo's `1 / dof_invweight0`, times `1 / (1 - dmax)` of
-//! `solimplimit` where the file's integrator takes the limit implicitly). Fixed tendons: joints and
-//! coefficients, spring, damper, friction, spring length and limits; spatial tendons (apart):
-//! their segments (bodies, points, `1 / divisor`), length at `qpos0` and the same. Geoms: `size` as MuJoCo stores it
+//! `solimplimit`) and the inertia MuJoCo's impedance adds while it pushes, where the file's
+//! integrator takes it so (`limit_added_inertia`). Fixed tendons: joints and coefficients,
+//! spring, damper, friction, spring length and limits; spatial tendons (apart): their segments
+//! (bodies, points, `1 / divisor`), length at `qpos0` and the same. Equalities, connects and
+//! welds: the reference gains, the factor of MuJoCo's statics, the gains that act and the
+//! inertia added along each row (`added_inertia`). Geoms: `size` as MuJoCo stores it
 //! (a capsule's or cylinder's half-length second, a box's half-extents), `pos`/`quat` in the
 //! body frame, with `solref`, `solimp`, `solmix` and `priority`. Pairs: each contact pair's
 //! mixed `solref` and `solimp`, effective mass (`1 / (w₁ + w₂)`), the share of its friction
@@ -42,6 +45,7 @@ fn law(law: &TendonLaw) -> Value {
         "range": law.limit.map(|l| vec![l.lo, l.hi]),
         "limit_stiffness": law.limit.map(|l| l.stiffness),
         "limit_damping": law.limit.map(|l| l.damping),
+        "limit_added_inertia": law.limit.map(|l| l.impedance),
     })
 }
 
@@ -253,6 +257,7 @@ impl Compiled {
                     "reference": [Some(e.first.1), e.second.as_ref().map(|s| s.1)],
                     "stiffness": e.gains.reference.0, "damping": e.gains.reference.1,
                     "statics": e.gains.statics, "acting": [e.stiffness, e.damping],
+                    "added_inertia": e.impedance,
                 })
             })
             .collect();
@@ -269,6 +274,7 @@ impl Compiled {
                         "relative": [q.w, q.i, q.j, q.k],
                         "stiffness": o.gains.reference.0, "damping": o.gains.reference.1,
                         "statics": o.gains.statics, "acting": [o.stiffness, o.damping],
+                        "added_inertia": o.impedance,
                     })
                 });
                 json!({
@@ -277,6 +283,7 @@ impl Compiled {
                     "body2": names[c.second.0], "anchor2": v3(&c.second.1),
                     "stiffness": c.gains.reference.0, "damping": c.gains.reference.1,
                     "statics": c.gains.statics, "acting": [c.stiffness, c.damping],
+                    "added_inertia": c.impedance,
                     "orientation": orientation,
                 })
             })

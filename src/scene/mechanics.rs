@@ -58,9 +58,9 @@ impl Builder {
     /// factor is the ratio of the two at the constraint's own weight, `a = g` (the impedance
     /// varies with the error, so under another load the ratio is off by at most
     /// `(1 - d0) / (1 - dmax)`, twice at the default), as a contact's stiffness is set at its
-    /// weight. It acts where the step takes the damping implicitly across the coordinates an
-    /// equality couples (implicit Euler, [`Builder::raised_equalities`]); raised so, the
-    /// spring's fast mode is beyond an explicit step at MuJoCo's steps, as a limit's is.
+    /// weight. The raised gains act with MuJoCo's impedance as an inertia added along the
+    /// equality's rows where the step does not take its damping implicitly, alone where it
+    /// does (implicit Euler): [`Builder::limits_law`] with `coupled`.
     fn equality_gains(&self, tree: &Tree, softness: &contact::Softness, inertia: f64) -> Gains {
         let solref = self.held(softness.solref);
         let (k, b) = solref_gains(solref, inertia);
@@ -81,19 +81,14 @@ impl Builder {
             } else {
                 1.0
             },
+            inertia,
         }
     }
 
-    /// Whether the file's integrator acts the equalities with MuJoCo's statics
-    /// ([`Integrator::raises_equalities`]).
-    fn raised_equalities(&self) -> bool {
-        self.integrator_as_run().raises_equalities()
-    }
-
-    /// How the file's integrator acts a joint's (`tendon` false) or a tendon's limit
-    /// ([`LimitLaw::under`]).
-    fn limits_law(&self, tendon: bool) -> LimitLaw {
-        LimitLaw::under(self.integrator_as_run(), tendon)
+    /// How the file's integrator acts a joint's limit (`coupled` false), or a tendon's limit
+    /// or an equality ([`LimitLaw::under`]).
+    fn limits_law(&self, coupled: bool) -> LimitLaw {
+        LimitLaw::under(self.integrator_as_run(), coupled)
     }
 
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
@@ -206,7 +201,8 @@ impl Builder {
                 let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
                 let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
                 let gains = self.equality_gains(tree, &e.softness, inertia);
-                let (stiffness, damping) = gains.acting(self.raised_equalities());
+                let law = self.limits_law(true);
+                let (stiffness, damping) = gains.acting(law);
                 ScalarEquality {
                     name: e.name.clone(),
                     first: (first.clone(), at_q0(&first)),
@@ -218,6 +214,7 @@ impl Builder {
                     stiffness,
                     damping,
                     gains,
+                    impedance: gains.added_inertia(law),
                 }
             })
             .collect()
@@ -277,21 +274,22 @@ impl Builder {
                     let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
                     self.equality_gains(tree, &c.softness, inertia)
                 };
-                let raised = self.raised_equalities();
+                let law = self.limits_law(true);
                 let translation = gains(t1 + t2);
-                let (stiffness, damping) = translation.acting(raised);
+                let (stiffness, damping) = translation.acting(law);
                 // torquescale 0 frees the rotation; for any other value SCM's spring on the
                 // angle keeps solref's time constant (MuJoCo's soft constraint does not: warned
                 // where the weld is read).
                 let orientation = match (relative, c.weld) {
                     (Some(relative), Some(scale)) if scale != 0.0 => {
                         let rotation = gains(r1 + r2);
-                        let (stiffness, damping) = rotation.acting(raised);
+                        let (stiffness, damping) = rotation.acting(law);
                         Some(Orientation {
                             relative,
                             stiffness,
                             damping,
                             gains: rotation,
+                            impedance: rotation.added_inertia(law),
                         })
                     }
                     _ => None,
@@ -303,6 +301,7 @@ impl Builder {
                     stiffness,
                     damping,
                     gains: translation,
+                    impedance: translation.added_inertia(law),
                     orientation,
                 }
             })

@@ -1,0 +1,258 @@
+//! MuJoCo's impedance as added inertia, where it acts ([`LimitLaw::Impedance`](crate::dynamics::limit::LimitLaw)):
+//! on a joint's limit, one diagonal entry of the mass matrix; on a tendon's limit or an
+//! equality, whose coordinate couples joints across the tree's branches, rows added to the
+//! tree's factor ([`CoupledFactor`]); and the limits' let-go, where the whole force of a limit
+//! with an added inertia would pull (docs/mjcf.md, "Joint limits" and "Equality constraints").
+//!
+//! The shares the limits hold ([`Forward::holds`]) are one per joint, then one per fixed
+//! tendon, then one per spatial tendon ([`Model::limit_slots`]).
+
+use super::*;
+use crate::dynamics::limit::JointLimit;
+use crate::dynamics::{CoupledFactor, Row, TreeMatrix};
+
+/// A tendon's limit with an added inertia, at one evaluation.
+struct TendonLimit<T: Scalar> {
+    /// Its place among the shares ([`Model::limit_slots`]).
+    slot: usize,
+    limit: JointLimit,
+    /// The tendon's length and rate.
+    length: T,
+    rate: T,
+    /// `∂L/∂q`: the tendon's row.
+    row: DVector<T>,
+}
+
+/// The coupled constraints with an added inertia at one configuration ([`Model::coupled_at`]).
+pub(crate) struct Coupled<T: Scalar> {
+    limits: Vec<TendonLimit<T>>,
+    /// The equalities' rows, each with its added inertia (they always hold).
+    equalities: Vec<Row<T>>,
+}
+
+impl<T: Scalar> Coupled<T> {
+    /// Every row with its added inertia, a tendon limit's weighed as it pushes and by the
+    /// share it holds (`holds`, [`Model::limit_slots`]; `None`: in all).
+    pub(crate) fn rows(&self, holds: Option<&[T]>) -> Vec<Row<T>> {
+        let limits = self.limits.iter().map(|t| {
+            let g = holds.map_or(T::one(), |h| h[t.slot]);
+            Row {
+                jacobian: t.row.clone(),
+                inertia: t.limit.added_inertia(t.length, t.rate) * g,
+            }
+        });
+        limits.chain(self.equalities.iter().cloned()).collect()
+    }
+
+    /// `M + Jᵀ A J` factored, from `m` (the tree's part, with the joints' own added inertia)
+    /// and the rows at the shares `holds`.
+    pub(crate) fn factor(
+        &self,
+        model: &Model,
+        m: TreeMatrix<T>,
+        holds: Option<&[T]>,
+    ) -> Result<CoupledFactor<T>, DynamicsError> {
+        let tree = model.tree.factor(m).ok_or(DynamicsError::Singular)?;
+        Ok(CoupledFactor::new(tree, &self.rows(holds)))
+    }
+}
+
+impl Model {
+    /// The number of shares the limits hold ([`Forward::holds`]): one per joint, fixed tendon
+    /// and spatial tendon.
+    pub(crate) fn limit_slots(&self) -> usize {
+        self.tree.joints.len() + self.tendons.len() + self.spatial_tendons.len()
+    }
+
+    /// Each tendon's limit with an added inertia, with its slot among the shares.
+    fn tendon_limits(&self) -> impl Iterator<Item = (usize, JointLimit)> + '_ {
+        let n = self.tree.joints.len();
+        let fixed = self.tendons.iter().map(|t| t.limit);
+        let spatial = self.spatial_tendons.iter().map(|t| t.law.limit);
+        fixed
+            .chain(spatial)
+            .enumerate()
+            .filter_map(move |(k, l)| l.filter(|l| l.impedance > 0.0).map(|l| (n + k, l)))
+    }
+
+    /// The coupled constraints with an added inertia at the configuration of `kin` (positions
+    /// `q`, velocities `v`): each tendon limit's row and each equality's rows. A spatial
+    /// tendon's row, and a connect's or weld's, is the generalized force of its unit wrenches
+    /// ([`crate::dynamics::Tree::wrench_forces`]).
+    pub(crate) fn coupled_at<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        q: &[T],
+        v: &[T],
+    ) -> Coupled<T> {
+        let (nv, nj, nt) = (self.tree.nv, self.tree.joints.len(), self.tendons.len());
+        let unit_row = |add: &dyn Fn(&mut [Wrench<T>])| {
+            let mut w = vec![Wrench::zero(); self.tree.bodies.len()];
+            add(&mut w);
+            self.tree.wrench_forces(kin, &w)
+        };
+        let limits = (self.tendon_limits())
+            .map(|(slot, limit)| {
+                let (length, rate, row) = match self.tendons.get(slot - nj) {
+                    Some(t) => {
+                        let mut row = DVector::zeros(nv);
+                        for &(_, vi, coef) in &t.joints {
+                            row[vi] += c::<T>(coef);
+                        }
+                        (t.length(q), t.velocity(v), row)
+                    }
+                    None => {
+                        let t = &self.spatial_tendons[slot - nj - nt];
+                        let (length, rate) = t.length_and_rate(&kin.frames);
+                        let row = unit_row(&|w| t.add_force_wrenches(&kin.frames, T::one(), w));
+                        (length, rate, row)
+                    }
+                };
+                TendonLimit {
+                    slot,
+                    limit,
+                    length,
+                    rate,
+                    row,
+                }
+            })
+            .collect();
+        let mut equalities: Vec<Row<T>> = (self.equalities.iter())
+            .filter(|e| e.impedance > 0.0)
+            .map(|e| Row {
+                jacobian: e.row(q, nv),
+                inertia: c(e.impedance),
+            })
+            .collect();
+        for k in &self.connects {
+            for (row, inertia) in k.rows() {
+                equalities.push(Row {
+                    jacobian: unit_row(&|w| k.add_row_wrenches(&kin.frames, row, w)),
+                    inertia: c(inertia),
+                });
+            }
+        }
+        Coupled { limits, equalities }
+    }
+
+    /// The kinetic energy of the inertia MuJoCo's impedance adds along the equalities' rows,
+    /// `½ Σ aᵢ (Jᵢ v)²`. An equality always holds, so with it and its spring at the gains
+    /// that act the total is what its motion conserves, under a load too (where counting the
+    /// spring at its reference gains, as a limit's, drifts by `(1 - 1/statics)` of the load's
+    /// work: ±4.8 J a swing on a body hung 2.2 m from its weld's point, measured). The rows'
+    /// turning (`J̇ v`, which MuJoCo's constraint leaves out too) is not conserved.
+    pub(crate) fn added_kinetic<T: Scalar>(&self, kin: &Kinematics<T>, q: &[T], v: &[T]) -> T {
+        let mut out = T::zero();
+        let vs = DVector::from_column_slice(v);
+        for e in self.equalities.iter().filter(|e| e.impedance > 0.0) {
+            let rate = e.row(q, self.tree.nv).dot(&vs);
+            out += rate * rate * (0.5 * e.impedance);
+        }
+        for k in &self.connects {
+            let rates = k.row_rates(&kin.frames);
+            for (row, a) in k.rows() {
+                out += rates[row] * rates[row] * (0.5 * a);
+            }
+        }
+        out
+    }
+
+    /// Whether a limit has MuJoCo's impedance, an added inertia, and so may let go
+    /// ([`JointLimit::hold`]).
+    pub(crate) fn limits_can_let_go(&self) -> bool {
+        let with = |j: &crate::dynamics::Joint| j.limit.is_some_and(|l| l.impedance > 0.0);
+        self.tree.joints.iter().any(with) || self.tendon_limits().next().is_some()
+    }
+
+    /// The share each limit holds given the accelerations `vdot` solved with every limit held
+    /// ([`JointLimit::hold`]), one per slot ([`Model::limit_slots`]), or `None` where every
+    /// limit holds in all. The caller then solves again with them ([`Model::let_go`]): two
+    /// solves where a limit lets go, as MuJoCo's solver finds a limit inactive. The share is
+    /// read from the first solve, so a limit let go in part changes the others' only through
+    /// the second. A tendon's acceleration is its row times `vdot` (MuJoCo's constraint reads
+    /// `J v̇` too).
+    pub(crate) fn release_limits<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        vdot: &DVector<T>,
+        coupled: &Coupled<T>,
+    ) -> Option<Vec<T>> {
+        let mut holds: Vec<T> = vec![T::one(); self.limit_slots()];
+        for (j, g) in self.tree.joints.iter().zip(&mut holds) {
+            if let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) {
+                *g = l.hold(q[j.qadr], v[j.dadr], vdot[j.dadr]);
+            }
+        }
+        for t in &coupled.limits {
+            holds[t.slot] = t.limit.hold(t.length, t.rate, t.row.dot(vdot));
+        }
+        holds.iter().any(|g| g.re() < 1.0).then_some(holds)
+    }
+
+    /// Takes each joint's limit at the share `holds` of its added inertia (in `m`) and of its
+    /// force (in `rhs`), and each tendon's limit at its share of its force (its inertia's
+    /// share is taken by [`Coupled::rows`]).
+    pub(crate) fn let_go<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        holds: &[T],
+        coupled: &Coupled<T>,
+        m: &mut TreeMatrix<T>,
+        rhs: &mut DVector<T>,
+    ) {
+        for (j, &g) in self.tree.joints.iter().zip(holds) {
+            let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) else {
+                continue;
+            };
+            if g.re() < 1.0 {
+                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
+                let lost = -g + 1.0;
+                *m.entry_mut(d, d) -= l.added_inertia(qi, vi) * lost;
+                rhs[d] -= l.force(qi, vi) * lost;
+            }
+        }
+        for t in &coupled.limits {
+            let g = holds[t.slot];
+            if g.re() < 1.0 {
+                let lost = t.limit.force(t.length, t.rate) * (-g + 1.0);
+                rhs.axpy(-lost, &t.row, T::one());
+            }
+        }
+    }
+
+    /// What the limits and the coupled constraints add to the inverse dynamics at `vdot`:
+    /// `Σ aᵢ Jᵢᵀ (Jᵢ v̇)` over the rows and each joint's added inertia times its acceleration,
+    /// a limit at the share it holds there (its inertia and its force: the share let go is
+    /// taken back from the passive force the caller subtracted).
+    pub(crate) fn add_impedance_forces<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        q: &[T],
+        v: &[T],
+        vdot: &[T],
+        tau: &mut DVector<T>,
+    ) {
+        for j in &self.tree.joints {
+            if let Some(l) = j.limit.as_ref().filter(|l| l.impedance > 0.0) {
+                let (qi, vi, d) = (q[j.qadr], v[j.dadr], j.dadr);
+                let g = l.hold(qi, vi, vdot[d]);
+                tau[d] += vdot[d] * l.added_inertia(qi, vi) * g + l.force(qi, vi) * (-g + 1.0);
+            }
+        }
+        let coupled = self.coupled_at(kin, q, v);
+        let vdot = DVector::from_column_slice(vdot);
+        let mut holds = vec![T::one(); self.limit_slots()];
+        for t in &coupled.limits {
+            let g = t.limit.hold(t.length, t.rate, t.row.dot(&vdot));
+            holds[t.slot] = g;
+            let lost = t.limit.force(t.length, t.rate) * (-g + 1.0);
+            tau.axpy(lost, &t.row, T::one());
+        }
+        for r in coupled.rows(Some(&holds)) {
+            let along = r.jacobian.dot(&vdot) * r.inertia;
+            tau.axpy(along, &r.jacobian, T::one());
+        }
+    }
+}
