@@ -230,18 +230,20 @@ impl Model {
     /// damping implicitly; docs/mjcf.md, "Joint limits" and "Equality constraints").
     pub fn set_integrator(&mut self, integrator: Integrator) {
         self.integrator = integrator;
-        let (joints, coupled) = (
-            LimitLaw::under(integrator, false),
-            LimitLaw::under(integrator, true),
+        use crate::dynamics::limit::Held;
+        let (joints, tendons, coupled) = (
+            LimitLaw::under(integrator, Held::Joint),
+            LimitLaw::under(integrator, Held::Tendon),
+            LimitLaw::under(integrator, Held::Equality),
         );
         for j in &mut self.tree.joints {
             j.limit = j.limit.map(|l| l.acting(joints));
         }
         for t in &mut self.tendons {
-            t.limit = t.limit.map(|l| l.acting(coupled));
+            t.limit = t.limit.map(|l| l.acting(tendons));
         }
         for t in &mut self.spatial_tendons {
-            t.law.limit = t.law.limit.map(|l| l.acting(coupled));
+            t.law.limit = t.law.limit.map(|l| l.acting(tendons));
         }
         for e in &mut self.equalities {
             (e.stiffness, e.damping) = e.gains.acting(coupled);

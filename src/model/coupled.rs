@@ -21,6 +21,8 @@ struct TendonLimit<T: Scalar> {
     rate: T,
     /// `∂L/∂q`: the tendon's row.
     row: DVector<T>,
+    /// `h` where the step takes the limit's damping implicitly along the row (damped Euler).
+    damped: Option<T>,
 }
 
 /// The coupled constraints with an added inertia at one configuration ([`Model::coupled_at`]).
@@ -32,13 +34,18 @@ pub(crate) struct Coupled<T: Scalar> {
 
 impl<T: Scalar> Coupled<T> {
     /// Every row with its added inertia, a tendon limit's weighed as it pushes and by the
-    /// share it holds (`holds`, [`Model::limit_slots`]; `None`: in all).
+    /// share it holds (`holds`, [`Model::limit_slots`]; `None`: in all), with `h` times its
+    /// damping slope where the step takes its damping implicitly.
     pub(crate) fn rows(&self, holds: Option<&[T]>) -> Vec<Row<T>> {
         let limits = self.limits.iter().map(|t| {
             let g = holds.map_or(T::one(), |h| h[t.slot]);
+            let mut inertia = t.limit.added_inertia(t.length, t.rate);
+            if let Some(h) = t.damped {
+                inertia += t.limit.damping_slope(t.length, t.rate) * h;
+            }
             Row {
                 jacobian: t.row.clone(),
-                inertia: t.limit.added_inertia(t.length, t.rate) * g,
+                inertia: inertia * g,
             }
         });
         limits.chain(self.equalities.iter().cloned()).collect()
@@ -76,14 +83,18 @@ impl Model {
     }
 
     /// The coupled constraints with an added inertia at the configuration of `kin` (positions
-    /// `q`, velocities `v`): each tendon limit's row and each equality's rows. A spatial
-    /// tendon's row, and a connect's or weld's, is the generalized force of its unit wrenches
+    /// `q`, velocities `v`): each tendon limit's row and each equality's rows; with
+    /// `implicit_damping` `Some(h)` outside damped RK4 (damped Euler), a tendon limit's row
+    /// also carries `h` times its damping slope (its damping implicit, as a joint's limit's in
+    /// `D`; [`crate::dynamics::limit::LimitLaw::under`]). A spatial tendon's row, and a
+    /// connect's or weld's, is the generalized force of its unit wrenches
     /// ([`crate::dynamics::Tree::wrench_forces`]).
     pub(crate) fn coupled_at<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
         q: &[T],
         v: &[T],
+        implicit_damping: Option<T>,
     ) -> Coupled<T> {
         let (nv, nj, nt) = (self.tree.nv, self.tree.joints.len(), self.tendons.len());
         let unit_row = |add: &dyn Fn(&mut [Wrench<T>])| {
@@ -91,29 +102,34 @@ impl Model {
             add(&mut w);
             self.tree.wrench_forces(kin, &w)
         };
+        let tendon_at = |slot: usize| -> (T, T, DVector<T>) {
+            match self.tendons.get(slot - nj) {
+                Some(t) => {
+                    let mut row = DVector::zeros(nv);
+                    for &(_, vi, coef) in &t.joints {
+                        row[vi] += c::<T>(coef);
+                    }
+                    (t.length(q), t.velocity(v), row)
+                }
+                None => {
+                    let t = &self.spatial_tendons[slot - nj - nt];
+                    let (length, rate) = t.length_and_rate(&kin.frames);
+                    let row = unit_row(&|w| t.add_force_wrenches(&kin.frames, T::one(), w));
+                    (length, rate, row)
+                }
+            }
+        };
+        let damped = implicit_damping.filter(|_| self.integrator != Integrator::DampedRk4);
         let limits = (self.tendon_limits())
             .map(|(slot, limit)| {
-                let (length, rate, row) = match self.tendons.get(slot - nj) {
-                    Some(t) => {
-                        let mut row = DVector::zeros(nv);
-                        for &(_, vi, coef) in &t.joints {
-                            row[vi] += c::<T>(coef);
-                        }
-                        (t.length(q), t.velocity(v), row)
-                    }
-                    None => {
-                        let t = &self.spatial_tendons[slot - nj - nt];
-                        let (length, rate) = t.length_and_rate(&kin.frames);
-                        let row = unit_row(&|w| t.add_force_wrenches(&kin.frames, T::one(), w));
-                        (length, rate, row)
-                    }
-                };
+                let (length, rate, row) = tendon_at(slot);
                 TendonLimit {
                     slot,
                     limit,
                     length,
                     rate,
                     row,
+                    damped,
                 }
             })
             .collect();
@@ -241,7 +257,7 @@ impl Model {
                 tau[d] += vdot[d] * l.added_inertia(qi, vi) * g + l.force(qi, vi) * (-g + 1.0);
             }
         }
-        let coupled = self.coupled_at(kin, q, v);
+        let coupled = self.coupled_at(kin, q, v, None);
         let vdot = DVector::from_column_slice(vdot);
         let mut holds = vec![T::one(); self.limit_slots()];
         for t in &coupled.limits {

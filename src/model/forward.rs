@@ -183,7 +183,7 @@ impl Model {
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
-        let coupled = self.coupled_at(&kin, q, v);
+        let coupled = self.coupled_at(&kin, q, v, opts.implicit_damping);
         let solve = |m, rhs: &DVector<T>, holds: Option<&[T]>| {
             Ok::<_, DynamicsError>(coupled.factor(self, m, holds)?.solve(rhs))
         };

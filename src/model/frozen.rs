@@ -69,7 +69,7 @@ impl Model {
         let rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
-        let coupled = self.coupled_at(&kin, q, v);
+        let coupled = self.coupled_at(&kin, q, v, Some(h));
         // Kept for a second factorization where a limit lets go.
         let unfactored = self.limits_can_let_go().then(|| matrix.clone());
         let mass = coupled.factor(self, matrix, None)?;

@@ -5,7 +5,7 @@
 use super::weights::{body_weights, joint_inertia, mass_at_q0, unit_velocity_kinematics};
 use super::*;
 use crate::dynamics::equality::{Connect, Gains, Linear, Orientation, ScalarEquality};
-use crate::dynamics::limit::{solref_gains, JointLimit, LimitLaw};
+use crate::dynamics::limit::{solref_gains, Held, JointLimit, LimitLaw};
 use crate::dynamics::tendon::{FixedTendon, Segment, SpatialTendon, TendonLaw};
 
 impl Builder {
@@ -59,8 +59,7 @@ impl Builder {
     /// varies with the error, so under another load the ratio is off by at most
     /// `(1 - d0) / (1 - dmax)`, twice at the default), as a contact's stiffness is set at its
     /// weight. The raised gains act with MuJoCo's impedance as an inertia added along the
-    /// equality's rows where the step does not take its damping implicitly, alone where it
-    /// does (implicit Euler): [`Builder::limits_law`] with `coupled`.
+    /// equality's rows ([`Builder::limits_law`]).
     fn equality_gains(&self, tree: &Tree, softness: &contact::Softness, inertia: f64) -> Gains {
         let solref = self.held(softness.solref);
         let (k, b) = solref_gains(solref, inertia);
@@ -85,10 +84,10 @@ impl Builder {
         }
     }
 
-    /// How the file's integrator acts a joint's limit (`coupled` false), or a tendon's limit
-    /// or an equality ([`LimitLaw::under`]).
-    fn limits_law(&self, coupled: bool) -> LimitLaw {
-        LimitLaw::under(self.integrator_as_run(), coupled)
+    /// How the file's integrator acts a joint's or a tendon's limit or an equality
+    /// ([`LimitLaw::under`]).
+    fn limits_law(&self, held: Held) -> LimitLaw {
+        LimitLaw::under(self.integrator_as_run(), held)
     }
 
     /// Limited slide and hinge joints get their smooth limit springs, stiffened by their
@@ -100,7 +99,7 @@ impl Builder {
     /// step.)
     pub(super) fn set_limits(&self, tree: &mut Tree) {
         let (m, m_inv) = mass_at_q0(tree);
-        let law = self.limits_law(false);
+        let law = self.limits_law(Held::Joint);
         for (j, limit) in self.limits.iter().enumerate() {
             if let (Some((lo, hi, _)), JointKind::Slide | JointKind::Hinge) =
                 (limit, tree.joints[j].kind)
@@ -147,7 +146,7 @@ impl Builder {
                             (lo, hi),
                             &t.limit_softness,
                             limit_inertia(t, inv_weight)?,
-                            self.limits_law(true),
+                            self.limits_law(Held::Tendon),
                         ))
                     }
                     _ => None,
@@ -201,7 +200,7 @@ impl Builder {
                 let w = weight(&first) + second.as_ref().map_or(0.0, &weight);
                 let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
                 let gains = self.equality_gains(tree, &e.softness, inertia);
-                let law = self.limits_law(true);
+                let law = self.limits_law(Held::Equality);
                 let (stiffness, damping) = gains.acting(law);
                 ScalarEquality {
                     name: e.name.clone(),
@@ -274,7 +273,7 @@ impl Builder {
                     let inertia = if w > 0.0 { 1.0 / w } else { 0.0 };
                     self.equality_gains(tree, &c.softness, inertia)
                 };
-                let law = self.limits_law(true);
+                let law = self.limits_law(Held::Equality);
                 let translation = gains(t1 + t2);
                 let (stiffness, damping) = translation.acting(law);
                 // torquescale 0 frees the rotation; for any other value SCM's spring on the
@@ -414,7 +413,7 @@ impl Builder {
                         (lo, hi),
                         &t.limit_softness,
                         limit_inertia(t, inv_weight)?,
-                        self.limits_law(true),
+                        self.limits_law(Held::Tendon),
                     ));
                 }
                 Ok(tendon)

@@ -88,14 +88,15 @@ def limit_statics_gain(m, solimp, tendon):
     joint's effective inertia: a joint's limit is stiffened under every integrator, with the
     added inertia (gain - 1) where the step does not take its damping implicitly (all but
     MuJoCo's implicit and implicitfast, and its Euler unless eulerdamp is off); a tendon's is
-    stiffened under implicit and implicitfast only, and never adds inertia."""
+    stiffened and adds (gain - 1) of the tendon's inertia along its row under every integrator
+    (docs/mjcf.md, "Equality constraints", "Rows across branches")."""
     i = m.opt.integrator
     gain = 1.0 / (1.0 - min(max(solimp[1], 1e-4), 0.9999))
     implicit = i in (mujoco.mjtIntegrator.mjINT_IMPLICIT, mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
+    euler = i == mujoco.mjtIntegrator.mjINT_EULER and not disabled(m, "EULERDAMP")
     if tendon:
-        return (gain if implicit else 1.0), 0.0
-    damped = implicit or (i == mujoco.mjtIntegrator.mjINT_EULER and not disabled(m, "EULERDAMP"))
-    return gain, (0.0 if damped else gain - 1.0)
+        return gain, gain - 1.0
+    return gain, (0.0 if implicit or euler else gain - 1.0)
 
 
 def disabled(m, flag):
@@ -309,10 +310,11 @@ def compare(path, inertia_tol=TOL):
             tau, zeta = refsafe_held(m, m.tendon_solref_lim[i])
             inertia = 1.0 / m.tendon_invweight0[i]
             k, b = (inertia / (tau * zeta) ** 2, 2 * inertia / tau) if tau > 0 else (-tau * inertia, -zeta * inertia)
-            gain, _ = limit_statics_gain(m, m.tendon_solimp_lim[i], tendon=True)
+            gain, added = limit_statics_gain(m, m.tendon_solimp_lim[i], tendon=True)
             k, b = k * gain, b * gain
             close(f"{tag} limit stiffness", ten["limit_stiffness"], k, TOL_FROM_M)
             close(f"{tag} limit damping", ten["limit_damping"], b, TOL_FROM_M)
+            close(f"{tag} limit added inertia", ten["limit_added_inertia"], added * inertia, TOL_FROM_M)
 
     # Fixed tendons: joints and coefficients, spring, damper, friction, spring length (MuJoCo's
     # default is the length at qpos0), and the limit spring from solreflimit and
