@@ -234,7 +234,7 @@ fn sq_norm(x: &[f64]) -> f64 {
 
 /// The largest magnitude; NaN if any entry is NaN (`f64::max` would skip it, and a NaN step
 /// would then read as converged).
-fn inf_norm(x: &[f64]) -> f64 {
+pub(super) fn inf_norm(x: &[f64]) -> f64 {
     x.iter()
         .map(|a| a.abs())
         .fold(0.0f64, |m, a| if a > m || a.is_nan() { a } else { m })

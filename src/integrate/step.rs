@@ -183,7 +183,7 @@ impl Model {
         let (u, act) = self.euler_activations(&from);
         let u = u.as_slice();
         if integrator == Integrator::DampedEuler {
-            let v = self.damped_euler_velocity(StepFrom { u, ..from }, carry, None, false)?;
+            let v = self.damped_euler_velocity(StepFrom { u, ..from }, carry, None, false, None)?;
             return Ok(State {
                 q: tree.integrate_q(q1, &v, h),
                 v,
@@ -245,6 +245,9 @@ impl Model {
             subdivided,
         } = carry;
         let mut at_start = at_start;
+        // The stage before's acceleration: its end velocity from this stage's start is the
+        // guess Newton's iterations start from, where it is nearer than the start velocity.
+        let mut before: Option<Vec<f64>> = None;
         let mut accel = |q: &[T], v: &[T], u: &[T]| -> Result<Vec<T>, DynamicsError> {
             let stage = State {
                 q: q.to_vec(),
@@ -262,8 +265,13 @@ impl Model {
                 prm,
                 h,
             };
-            let end = self.damped_euler_velocity(from, carry, at_start.take(), true)?;
-            Ok(end.iter().zip(v).map(|(&e, &v)| (e - v) / h).collect())
+            let guess: Option<Vec<f64>> = (before.as_deref())
+                .map(|a| v.iter().zip(a).map(|(v, a)| v.re() + h.re() * a).collect());
+            let end =
+                self.damped_euler_velocity(from, carry, at_start.take(), true, guess.as_deref())?;
+            let dv: Vec<T> = end.iter().zip(v).map(|(&e, &v)| (e - v) / h).collect();
+            before = Some(dv.iter().map(|a| a.re()).collect());
+            Ok(dv)
         };
         let dv1 = accel(&state.q, &state.v, &u)?;
         self.rk4_stages(from, dv1, &mut accel)
