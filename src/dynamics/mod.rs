@@ -12,11 +12,13 @@
 //! Its pose and velocity enter [`Tree::kinematics_with`] as [`MOCAP_INPUTS`] numbers per mocap
 //! body (see [`Tree::mocap`]).
 
+mod connect;
 mod coupled;
 pub mod equality;
 mod factor;
 pub mod fluid;
 mod kinematics;
+mod law;
 mod lie;
 pub mod limit;
 
