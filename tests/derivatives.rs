@@ -1222,8 +1222,7 @@ fn forward_jacobians_with_adhesion_match_central_differences() {
 /// impedance as inertia added along its rows) moved past both tendons' upper limits, away from
 /// its equalities' held values, and moving deeper past the limits.
 fn coupled_point() -> (Model, Point) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/coupled.xml");
-    let model = scm::scene::load(&path).unwrap().model;
+    let model = crate::coupled_constraints::coupled();
     let mut p = Point::start(&model);
     let r = UnitQuaternion::from_scaled_axis(Vector3::new(0.05, -0.03, 0.08));
     p.q = vec![

@@ -171,3 +171,35 @@ pub fn humanoid_lower_arm() -> Vec<(Shape, Isometry3<f64>)> {
         sphere(v(0.18, 0.18, 0.18), 0.04),
     ]
 }
+
+/// The forward dynamics of `model` at rest-or-moving state `(q, v)` under the generalized force
+/// `tau` (no mocap bodies, no adhesion), checked against the inverse dynamics:
+/// `ID(q, v, FD(q, v, τ)) = τ` to 1e-9 of `1 + max |τ|`. Returns the shares the limits held
+/// ([`scm::model::Forward::holds`]).
+pub fn forward_then_inverse(
+    model: &scm::model::Model,
+    q: &[f64],
+    v: &[f64],
+    tau: &[f64],
+) -> Option<Vec<f64>> {
+    let prm = model.contact;
+    let at = scm::model::EvalPoint {
+        q,
+        v,
+        tau,
+        mocap: &[],
+        pulls: &[],
+    };
+    let fd = model.forward_at(at, &prm, Default::default()).unwrap();
+    let id = model.inverse(q, v, fd.vdot.as_slice(), &[], &prm, &[]);
+    let scale = 1.0 + tau.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+    for k in 0..tau.len() {
+        assert!(
+            (id[k] - tau[k]).abs() <= 1e-9 * scale,
+            "dof {k}: ID(FD(τ)) = {} vs τ = {}",
+            id[k],
+            tau[k]
+        );
+    }
+    fd.holds
+}
