@@ -281,7 +281,8 @@ impl Model {
                                 if let Some(m) = monitor.as_mut() {
                                     let pulls = self.pulls(&driven);
                                     let stored =
-                                        contact_energy(&self.pairs, &f.contacts, prm, &pulls);
+                                        contact_energy(&self.pairs, &f.contacts, prm, &pulls)
+                                            + self.limits_drift(&s.q);
                                     let at = t0 + k as f64 * dt;
                                     let kinetic = m.ledger.kinetic;
                                     m.ledger.tighten(m.energy, kinetic, stored, at, m.floor);
@@ -451,7 +452,8 @@ pub struct AdvanceOptions {
     /// ([`EnergyLedger`], carried in the [`SolverCache`]), also when the energy grows by a
     /// little in every communication step. The test, after every internal step, is
     /// `E > E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor`, with `E₀ + U₀` the energy where the ledger
-    /// started (`U` estimated by [`contact_energy`](super::contact_energy)), `S` the largest energy in motion seen
+    /// started (`U` estimated by [`contact_energy`](super::contact_energy), with the drift the
+    /// limits' energy count can still give back, [`Model::limits_drift`]), `S` the largest energy in motion seen
     /// since (`T` after each internal step; `T + U` at the start of each call, `U` there only up
     /// to the headroom `A - E` the state had under the allowance `A` it passed, all of it where
     /// the ledger starts), `Σ|ΔW|` the actuators' work counted without sign and `E_floor` the

@@ -101,7 +101,8 @@ impl Model {
         ledger: Option<&EnergyLedger>,
     ) -> Option<EnergyMonitor> {
         let pulls = self.pulls(&self.driven_inputs(ctrl, &state.act, &state.q, None));
-        let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm, &pulls));
+        let stored = contacts.map_or(0.0, |c| contact_energy(&self.pairs, c, prm, &pulls))
+            + self.limits_drift(&state.q);
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
         let ledger = match ledger {
             // Carried on: the mechanical and kinetic energies at this state are the ones the

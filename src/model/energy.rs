@@ -92,4 +92,35 @@ impl Model {
             springs,
         }
     }
+
+    /// How far the energy count of the limits with an added inertia can still drift at `q`
+    /// (J), summed over the joints' and the tendons' limits
+    /// ([`JointLimit::load_drift`](crate::dynamics::limit::JointLimit::load_drift)): what the
+    /// energy guard counts as stored with the contacts' energy. Zero where no limit has an
+    /// added inertia or none is past its onset; the kinematics are computed only for a spatial
+    /// tendon's limit that has one.
+    pub fn limits_drift(&self, q: &[f64]) -> f64 {
+        let joints: f64 = (self.tree.joints.iter())
+            .filter(|j| matches!(j.kind, JointKind::Slide | JointKind::Hinge))
+            .filter_map(|j| j.limit.map(|l| l.load_drift(q[j.qadr])))
+            .sum();
+        let fixed: f64 = (self.tendons.iter())
+            .filter_map(|t| t.limit.map(|l| l.load_drift(t.length(q))))
+            .sum();
+        let spatial = self
+            .spatial_tendons
+            .iter()
+            .filter(|t| t.law.limit.is_some_and(|l| l.impedance > 0.0));
+        let mut frames = None;
+        let mut strings = 0.0;
+        for t in spatial {
+            let frames = frames.get_or_insert_with(|| {
+                let v = vec![0.0; self.tree.nv];
+                self.tree.kinematics(q, &v).frames
+            });
+            let limit = t.law.limit.expect("filtered");
+            strings += limit.load_drift(t.length_and_rate(frames).0);
+        }
+        joints + fixed + strings
+    }
 }
