@@ -169,6 +169,27 @@ impl Connect {
         [d.x, d.y, d.z, w.x, w.y, w.z]
     }
 
+    /// The turning `J̇ₖ v` of its six rows ([`Connect::row_rates`]) given every body's
+    /// velocity-product accelerations `bias` ([`crate::dynamics::Tree::bias_accelerations`]):
+    /// the points' accelerations at zero joint accelerations, `a + α × r + ω × (ω × r)`, one less
+    /// the other, then body 1's angular `α` less body 2's.
+    pub fn row_turnings<T: crate::scalar::Scalar>(
+        &self,
+        frames: &[crate::collision::Frame<T>],
+        bias: &[(nalgebra::Vector3<T>, nalgebra::Vector3<T>)],
+    ) -> [T; 6] {
+        let [(_, _, arm1), (_, _, arm2)] = self.points(frames);
+        let point = |b: usize, arm: &nalgebra::Vector3<T>| {
+            let (alpha, a) = &bias[b];
+            let w = &frames[b].angvel;
+            a + alpha.cross(arm) + w.cross(&w.cross(arm))
+        };
+        let (b1, b2) = (self.first.0, self.second.0);
+        let d = point(b1, &arm1) - point(b2, &arm2);
+        let alpha = bias[b1].0 - bias[b2].0;
+        [d.x, d.y, d.z, alpha.x, alpha.y, alpha.z]
+    }
+
     /// Adds to `w` the wrenches whose generalized force is the transposed row `k` of
     /// [`Connect::rows`]: a unit force along world axis `k` at `p₁` on body 1 and its opposite
     /// at `p₂` on body 2, or (`k ≥ 3`) a unit torque about axis `k - 3` on body 1 and its

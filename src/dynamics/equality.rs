@@ -143,6 +143,19 @@ impl ScalarEquality {
         row
     }
 
+    /// The row's turning `J̇ v`: `-p''(x₂) ẋ₂²` (each coordinate is linear in `q`, so only the
+    /// polynomial's curvature turns the row), zero without a second coordinate.
+    pub fn turning<T: crate::scalar::Scalar>(&self, q: &[T], v: &[T]) -> T {
+        let Some((x, r)) = &self.second else {
+            return T::zero();
+        };
+        let p = &self.poly;
+        let d = value(x, q) - *r;
+        let curvature = (d * (12.0 * p[4]) + 6.0 * p[3]) * d + 2.0 * p[2];
+        let xdot = rate(x, v);
+        -(curvature * xdot * xdot)
+    }
+
     /// The velocity indices the constraint acts on.
     pub fn dofs(&self) -> impl Iterator<Item = usize> + '_ {
         self.first

@@ -500,6 +500,37 @@ impl Tree {
             .collect();
         self.backward(kin, f)
     }
+
+    /// Each body's acceleration where every joint's acceleration is zero and without gravity,
+    /// world axes: `(α, a)`, its angular acceleration and its origin's linear acceleration,
+    /// the velocity products `J̇ v` of the body's motion (a point at `r` from the origin then
+    /// accelerates at `a + α × r + ω × (ω × r)`). The world and mocap bodies' are zero. RNEA's
+    /// forward pass at `v̇ = 0` with the spatial accelerations turned classical
+    /// (`a = R (a_s + ω × v)` in body coordinates).
+    pub fn bias_accelerations<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+    ) -> Vec<(Vector3<T>, Vector3<T>)> {
+        let mut acc: Vec<Vector6<T>> = Vec::with_capacity(self.nodes.len());
+        for (i, node) in self.nodes.iter().enumerate() {
+            let from_parent = node
+                .parent
+                .map_or_else(Vector6::zeros, |p| kin.x[i].motion(&acc[p]));
+            acc.push(from_parent + kin.bias_acc[i]);
+        }
+        (self.body_node.iter().enumerate())
+            .map(|(b, node)| match node {
+                Some(_) if self.bodies[b].mocap => (Vector3::zeros(), Vector3::zeros()),
+                None => (Vector3::zeros(), Vector3::zeros()),
+                Some(i) => {
+                    let r = &kin.frames[b].rotation;
+                    let (w, v) = (spatial::ang(&kin.vel[*i]), spatial::lin(&kin.vel[*i]));
+                    let (alpha, a) = (spatial::ang(&acc[*i]), spatial::lin(&acc[*i]));
+                    (r * alpha, r * (a + w.cross(&v)))
+                }
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

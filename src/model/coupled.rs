@@ -30,6 +30,8 @@ pub(crate) struct Coupled<T: Scalar> {
     limits: Vec<TendonLimit<T>>,
     /// The equalities' rows, each with its added inertia (they always hold).
     equalities: Vec<Row<T>>,
+    /// Each equality row's turning `J̇ v`, in the order of `equalities`.
+    turnings: Vec<T>,
 }
 
 impl<T: Scalar> Coupled<T> {
@@ -49,6 +51,18 @@ impl<T: Scalar> Coupled<T> {
             }
         });
         limits.chain(self.equalities.iter().cloned()).collect()
+    }
+
+    /// Adds the force of the equalities' rows turning, `-Σ aᵢ Jᵢᵀ (J̇ᵢ v)`, to `rhs`: the added
+    /// inertia `aᵢ` resists the row's whole acceleration `Jᵢ v̇ + J̇ᵢ v`, so that the count
+    /// `½ vᵀ (M + Σ aᵢ Jᵢᵀ Jᵢ) v` plus the springs is what the motion conserves
+    /// ([`Model::added_kinetic`]). MuJoCo's constraint reads `J v̇` alone; without this term an
+    /// undamped joint equality and connect on one body pumped energy, 6.6 J into a 19.6 J swing
+    /// in 1 s (docs/mjcf.md, "Equality constraints").
+    pub(crate) fn add_turning_force(&self, rhs: &mut DVector<T>) {
+        for (row, &turning) in self.equalities.iter().zip(&self.turnings) {
+            rhs.axpy(-(turning * row.inertia), &row.jacobian, T::one());
+        }
     }
 
     /// `M + Jᵀ A J` factored, from `m` (the tree's part, with the joints' own added inertia)
@@ -133,30 +147,45 @@ impl Model {
                 }
             })
             .collect();
-        let mut equalities: Vec<Row<T>> = (self.equalities.iter())
-            .filter(|e| e.impedance > 0.0)
-            .map(|e| Row {
-                jacobian: e.row(q, nv),
-                inertia: c(e.impedance),
+        let scalar = self.equalities.iter().filter(|e| e.impedance > 0.0);
+        let (mut equalities, mut turnings): (Vec<Row<T>>, Vec<T>) = scalar
+            .map(|e| {
+                let row = Row {
+                    jacobian: e.row(q, nv),
+                    inertia: c(e.impedance),
+                };
+                (row, e.turning(q, v))
             })
-            .collect();
+            .unzip();
+        let mut bias = None;
         for k in &self.connects {
-            for (row, inertia) in k.rows() {
+            let mut rows = k.rows().peekable();
+            if rows.peek().is_none() {
+                continue;
+            }
+            let bias = bias.get_or_insert_with(|| self.tree.bias_accelerations(kin));
+            let turning = k.row_turnings(&kin.frames, bias);
+            for (row, inertia) in rows {
                 equalities.push(Row {
                     jacobian: unit_row(&|w| k.add_row_wrenches(&kin.frames, row, w)),
                     inertia: c(inertia),
                 });
+                turnings.push(turning[row]);
             }
         }
-        Coupled { limits, equalities }
+        Coupled {
+            limits,
+            equalities,
+            turnings,
+        }
     }
 
     /// The kinetic energy of the inertia MuJoCo's impedance adds along the equalities' rows,
     /// `½ Σ aᵢ (Jᵢ v)²`. An equality always holds, so with it and its spring at the gains
     /// that act the total is what its motion conserves, under a load too (where counting the
     /// spring at its reference gains, as a limit's, drifts by `(1 - 1/statics)` of the load's
-    /// work: ±4.8 J a swing on a body hung 2.2 m from its weld's point, measured). The rows'
-    /// turning (`J̇ v`, which MuJoCo's constraint leaves out too) is not conserved.
+    /// work: ±4.8 J a swing on a body hung 2.2 m from its weld's point, measured), the rows'
+    /// turning included ([`Coupled::add_turning_force`]).
     pub(crate) fn added_kinetic<T: Scalar>(&self, kin: &Kinematics<T>, q: &[T], v: &[T]) -> T {
         let mut out = T::zero();
         let vs = DVector::from_column_slice(v);
@@ -270,5 +299,9 @@ impl Model {
             let along = r.jacobian.dot(&vdot) * r.inertia;
             tau.axpy(along, &r.jacobian, T::one());
         }
+        // The rows' turning, which the forward dynamics take as a force (`-Σ aᵢ Jᵢᵀ J̇ᵢ v`).
+        let mut turning = DVector::zeros(tau.len());
+        coupled.add_turning_force(&mut turning);
+        *tau -= turning;
     }
 }

@@ -184,6 +184,7 @@ impl Model {
             - bias;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
         let coupled = self.coupled_at(&kin, q, v, opts.implicit_damping);
+        coupled.add_turning_force(&mut rhs);
         let solve = |m, rhs: &DVector<T>, holds: Option<&[T]>| {
             Ok::<_, DynamicsError>(coupled.factor(self, m, holds)?.solve(rhs))
         };

@@ -66,10 +66,11 @@ impl Model {
         reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
         let kin = self.tree.kinematics_with(q, v, mocap);
-        let rhs =
+        let mut rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
         let coupled = self.coupled_at(&kin, q, v, Some(h));
+        coupled.add_turning_force(&mut rhs);
         // Kept for a second factorization where a limit lets go.
         let unfactored = self.limits_can_let_go().then(|| matrix.clone());
         let mass = coupled.factor(self, matrix, None)?;
