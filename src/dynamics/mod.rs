@@ -21,6 +21,7 @@ mod kinematics;
 mod law;
 mod lie;
 pub mod limit;
+mod ramp;
 
 pub use coupled::{CoupledFactor, Row};
 pub use factor::{MassFactor, TreeMatrix};

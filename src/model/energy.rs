@@ -2,6 +2,7 @@
 //! balances and the tests of conservation read.
 
 use super::Model;
+use crate::dynamics::limit::JointLimit;
 use crate::dynamics::{quat_from, quat_log, JointKind, Kinematics};
 use crate::scalar::{c, Scalar};
 
@@ -100,25 +101,24 @@ impl Model {
     /// added inertia or none is past its onset; the kinematics are computed only for a spatial
     /// tendon's limit that has one.
     pub fn limits_drift(&self, q: &[f64]) -> f64 {
+        let drifts = |l: &Option<JointLimit>| l.filter(|l| l.impedance > 0.0);
         let joints: f64 = (self.tree.joints.iter())
             .filter(|j| matches!(j.kind, JointKind::Slide | JointKind::Hinge))
-            .filter_map(|j| j.limit.map(|l| l.load_drift(q[j.qadr])))
+            .filter_map(|j| drifts(&j.limit).map(|l| l.load_drift(q[j.qadr])))
             .sum();
         let fixed: f64 = (self.tendons.iter())
-            .filter_map(|t| t.limit.map(|l| l.load_drift(t.length(q))))
+            .filter_map(|t| drifts(&t.limit).map(|l| l.load_drift(t.length(q))))
             .sum();
-        let spatial = self
-            .spatial_tendons
-            .iter()
-            .filter(|t| t.law.limit.is_some_and(|l| l.impedance > 0.0));
         let mut frames = None;
         let mut strings = 0.0;
-        for t in spatial {
+        for t in &self.spatial_tendons {
+            let Some(limit) = drifts(&t.law.limit) else {
+                continue;
+            };
             let frames = frames.get_or_insert_with(|| {
                 let v = vec![0.0; self.tree.nv];
                 self.tree.kinematics(q, &v).frames
             });
-            let limit = t.law.limit.expect("filtered");
             strings += limit.load_drift(t.length_and_rate(frames).0);
         }
         joints + fixed + strings
