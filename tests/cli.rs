@@ -281,10 +281,10 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
     std::fs::write(&path, body(" contype=\"0\" conaffinity=\"0\"")).unwrap();
     let out = scm(&["check", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    // The one colliding geom gives all of its body's points, and says so.
+    // The one colliding geom gives all of its body's points, and says so, with its spacing
+    // and why: a smooth shape of radius 3 cm, √(8 × 0.03 × 0.0005) = 1.095 cm floored to 0.1 mm.
     let stdout = text(&out.stdout);
-    let head =
-        "1 geom(s) (sampled at: body1_geom0 0.01 m [the default: no larger than 16 spacings], ";
+    let head = "1 geom(s) (sampled at: body1_geom0 0.0109 m [the default for a smooth shape: 0.5 mm sagitta on its 0.03 m radius of curvature], ";
     let at = stdout.find(head).unwrap_or_else(|| panic!("{stdout}")) + head.len();
     let count = |s: &str| -> usize { s[..s.find(' ').unwrap()].parse().unwrap() };
     let own = count(&stdout[at..]);

@@ -836,9 +836,10 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
 
 #[test]
 fn smooth_dissipation_gives_continuous_second_derivatives() {
-    // A 1 kg sphere on a vertical slide pressed 1 mm into the floor; its normal velocity crosses
+    // A 1 kg sphere (sampled at 1 cm, a point at its pole) on a vertical slide pressed 1 mm
+    // into the floor; its normal velocity crosses
     // 0 (s = v_n / v_d = 0), where the paper's d(s) has a jump in d'' and the smooth one not.
-    let text = r#"<mujoco model="slide"><custom><numeric name="scm_stiffness" data="1e4"/>DISSIPATION</custom>
+    let text = r#"<mujoco model="slide"><custom><numeric name="scm_stiffness" data="1e4"/><numeric name="scm_spacing" data="0.01"/>DISSIPATION</custom>
   <worldbody><geom type="plane" size="1 1 0.1"/>
     <body name="b" pos="0 0 0.049"><joint name="z" type="slide" axis="0 0 1"/><geom type="sphere" size="0.05" mass="1"/></body>
   </worldbody></mujoco>"#;

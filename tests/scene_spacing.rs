@@ -145,7 +145,7 @@ fn a_ground_box_too_large_for_scm_spacing_loads_graded() {
         format!(
             r#"<mujoco><custom>{settings}</custom><worldbody>{ground}
             <body name="ball" pos="0.3 0.2 0.0501"><freejoint/>
-              <geom type="sphere" size="0.05" mass="1"/></body>
+              <geom name="ball" type="sphere" size="0.05" mass="1"/></body>
             </worldbody></mujoco>"#
         )
     };
@@ -155,10 +155,14 @@ fn a_ground_box_too_large_for_scm_spacing_loads_graded() {
         err.message.contains("scm_resolution") && err.message.contains("'ground'"),
         "{err}"
     );
-    let plane = load(&ball(r#"<geom type="plane" size="5 5 0.1"/>"#, ""));
-    // Graded by scm_resolution, and by the scene's defaults when it says nothing.
-    for (settings, most) in [(GRADED, 10_000), ("", 10_000)] {
+    // Graded by scm_resolution, and by the scene's defaults when it says nothing of the
+    // ground; the ball on a plane sampled as on the box (the same settings), at 1 cm in both
+    // (its own setting: sampled to its curvature by the defaults, 1.41 cm, it creeps 2.3 µm
+    // on the plane, on the box 0.06 µm, and rests at the same height to 1e-11 m).
+    let ball_at_1cm = r#"<numeric name="scm_spacing:ball" data="0.01"/>"#;
+    for (settings, most) in [(GRADED, 10_000), (ball_at_1cm, 10_000)] {
         let graded = load(&ball(boxed, settings));
+        let plane = load(&ball(r#"<geom type="plane" size="5 5 0.1"/>"#, settings));
         let n = cloud(&graded, "world").len();
         assert!(n < most, "{settings}: {n} points");
         let ((a, va), (b, vb)) = (run(&graded, 1.0), run(&plane, 1.0));
@@ -355,4 +359,126 @@ fn each_geom_knows_its_points_in_its_bodys_cloud() {
     assert!(stem < cloud(&alone, "t").len(), "{stem}");
     let floor = scene.geoms.iter().find(|g| g.name == "floor").unwrap();
     assert_eq!(floor.points, None, "a plane is not sampled");
+}
+
+/// The largest `|SSDF - exact distance|` (m) of `shape`'s cloud `cloud` over 2,000 points of
+/// its surface pushed out by `offset` (m) along the normal (a Fibonacci lattice of directions
+/// from the shape's axis), at the scenes' default ε1 = 1e-5 m².
+fn ssdf_error(shape: &scm::geometry::Shape, cloud: &scm::geometry::Aopc, offset: f64) -> f64 {
+    use scm::geometry::Shape;
+    let n = 2000;
+    let (radius, half) = match shape {
+        Shape::Sphere { radius } => (*radius, 0.0),
+        Shape::Capsule {
+            radius,
+            half_length,
+        } => (*radius, *half_length),
+        _ => unreachable!("a smooth shape"),
+    };
+    (0..n)
+        .map(|k| {
+            let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let phi = k as f64 * 2.399_963_229_728_653;
+            let r = (1.0 - z * z).sqrt();
+            let dir = Vector3::new(r * phi.cos(), r * phi.sin(), z);
+            let p = Vector3::new(0.0, 0.0, z * half) + dir * (radius + offset);
+            (scm::geometry::ssdf(cloud, &p, 1e-5) - shape.sdf(&p)).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A file that says nothing samples a smooth geom (sphere, capsule, ellipsoid) at the spacing
+/// whose sagitta on its radius is 0.5 mm (docs/geometry.md, "Spacing per geom"): larger than
+/// 1 cm above a 2.5 cm radius, where that spacing's error is no larger than what 1 cm already
+/// gives on a 2.5 cm radius, and a body resting on it moves by no more than that error. A box
+/// and a cylinder (edges), and a small sphere, keep 1 cm.
+#[test]
+fn a_smooth_geom_is_sampled_to_its_curvature_when_the_file_says_nothing() {
+    use scm::geometry::Shape;
+    let scene = |settings: &str| {
+        load(&format!(
+            r#"<mujoco><custom>{settings}</custom><worldbody>
+  <geom name="floor" type="plane" size="5 5 0.1"/>
+  <body name="ball" pos="0 0 0.0895"><freejoint/><geom name="ball" type="sphere" size="0.09" mass="1"/></body>
+  <body name="rod" pos="1 0 0.0595" euler="90 0 0"><freejoint/><geom name="rod" type="capsule" size="0.06 0.15" mass="1"/></body>
+  <body name="bead" pos="2 0 0.0195"><freejoint/><geom name="bead" type="sphere" size="0.02" mass="0.1"/></body>
+  <body name="brick" pos="3 0 0.1"><freejoint/><geom name="brick" type="box" size="0.1 0.1 0.1"/></body>
+  <body name="drum" pos="4 0 0.1"><freejoint/><geom name="drum" type="cylinder" size="0.1 0.1"/></body>
+</worldbody></mujoco>"#
+        ))
+    };
+    let (auto, even) = (
+        &scene(""),
+        &scene(r#"<numeric name="scm_spacing" data="0.01"/>"#),
+    );
+    fn geom<'a>(s: &'a Scene, name: &str) -> &'a scm::scene::Geom {
+        s.geoms.iter().find(|g| g.name == name).unwrap()
+    }
+    // √(8 ρ × 0.5 mm), floored to 0.1 mm: 1.89 cm on the 9 cm ball, 1.54 cm on the 6 cm rod.
+    for (name, spacing) in [("ball", 0.0189), ("rod", 0.0154)] {
+        let g = geom(auto, name);
+        assert_eq!(g.spacing.map(|h| h.coarse.min()), Some(spacing), "{name}");
+        assert!(
+            g.spacing_reason.contains("0.5 mm sagitta"),
+            "{}",
+            g.spacing_reason
+        );
+    }
+    for name in ["bead", "brick", "drum"] {
+        assert_eq!(
+            geom(auto, name).spacing,
+            geom(even, name).spacing,
+            "{name} keeps the scene's default"
+        );
+        assert_eq!(cloud(auto, name), cloud(even, name), "{name}");
+    }
+    // What 1 cm gives on a 2.5 cm radius: the error the default already accepts.
+    let small = Shape::Sphere { radius: 0.025 };
+    let accepted = ssdf_error(&small, &small.sample(0.01), 0.0);
+    let mut fewer = Vec::new();
+    for name in ["ball", "rod"] {
+        let shape = geom(auto, name).shape.clone().unwrap();
+        let (ca, ce) = (cloud(auto, name), cloud(even, name));
+        let (ea, ee) = (ssdf_error(&shape, ca, 0.0), ssdf_error(&shape, ce, 0.0));
+        let far = ssdf_error(&shape, ca, 3e-3);
+        println!(
+            "{name}: {} points (1 cm: {}), |SSDF - distance| at most {:.3} mm on the surface, {:.3} mm 3 mm off (1 cm: {:.3} mm; 1 cm on a 2.5 cm radius: {:.3} mm)",
+            ca.len(),
+            ce.len(),
+            ea * 1e3,
+            far * 1e3,
+            ee * 1e3,
+            accepted * 1e3
+        );
+        assert!(ea <= accepted && far <= accepted && ee < ea, "{name}");
+        fewer.push(ca.len() as f64 / ce.len() as f64);
+    }
+    assert!(fewer.iter().all(|&r| r < 0.6), "{fewer:?}");
+    // Resting on the floor (MuJoCo's default contact), 1 s of semi-implicit Euler at 1 ms:
+    // each body's rest height moves by less than the sampling error that moved it.
+    let rest = |s: &Scene| {
+        let m = &s.model;
+        let mut st = State::new(m.q0.clone(), m.v0.clone());
+        for _ in 0..1000 {
+            st = m
+                .step_with(
+                    Integrator::SemiImplicitEuler,
+                    &st,
+                    &m.u0(),
+                    &m.contact,
+                    1e-3,
+                )
+                .unwrap();
+        }
+        [st.q[2], st.q[9]]
+    };
+    let (ra, re) = (rest(auto), rest(even));
+    for (k, name) in ["ball", "rod"].iter().enumerate() {
+        println!(
+            "{name} rests at {:.4} mm (1 cm: {:.4} mm) above its centre's touching height",
+            (ra[k] - [0.09, 0.06][k]) * 1e3,
+            (re[k] - [0.09, 0.06][k]) * 1e3
+        );
+        assert!((ra[k] - re[k]).abs() <= accepted, "{name}");
+    }
 }

@@ -460,7 +460,7 @@ impl<'a> Sides<'a> {
     /// The tests the pair's proof may spend, both sides together: the sum of the sides'
     /// [`reach_budget`]s, so that a side may use what the other leaves (a proof that succeeds
     /// within each side's own budget still does). Beside a thigh, the humanoid's lower arm
-    /// (1,107 points, 276 tests of its own) settles in about 330 tests, the thigh's side in
+    /// sampled at 1 cm (1,107 points, 276 tests of its own) settles in about 330 tests, the thigh's side in
     /// about 280 of its 490.
     pub(super) fn budget(&self) -> usize {
         self.iter().map(|(_, s)| reach_budget(s.query.len())).sum()

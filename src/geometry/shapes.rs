@@ -237,6 +237,29 @@ impl Shape {
         }
     }
 
+    /// [`spacing_for`](Self::spacing_for), a smooth shape (a sphere, a capsule, an ellipsoid:
+    /// curved everywhere, no edge) sampled evenly at no less than the spacing whose sagitta
+    /// on its smallest radius of curvature `ρ` is `sagitta` (m): neighbouring points `s` apart
+    /// on an arc of radius `ρ` stand `s² / 8ρ` off the chord between them, so
+    /// `s = √(8 ρ sagitta)`, floored to 0.1 mm (docs/geometry.md, "Spacing per geom"). A box, a cylinder (whose
+    /// rims are edges) and a mesh keep `spacing_for`'s.
+    pub fn spacing_within(&self, spacing: f64, resolution: f64, sagitta: f64) -> Spacing {
+        let smooth = matches!(
+            self,
+            Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Ellipsoid { .. }
+        );
+        let even = match smooth {
+            // Floored to a tenth of a millimetre: a spacing a person can read and set.
+            true => spacing
+                .max(((8.0 * self.feature_length().min() * sagitta).sqrt() * 1e4).floor() / 1e4),
+            false => spacing,
+        };
+        Spacing {
+            fine: even,
+            coarse: self.spacing_for(even, resolution).coarse,
+        }
+    }
+
     /// Samples the surface as an AOPC with faces about `spacing` (m) apart (see the module
     /// documentation). Vertices shared by neighbouring quads are merged.
     pub fn sample(&self, spacing: f64) -> Aopc {

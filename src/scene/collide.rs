@@ -157,7 +157,7 @@ impl Builder {
                             },
                         ),
                         (None, None) => (
-                            Some(shape.spacing_for(spacing, AUTO_RESOLUTION)),
+                            Some(shape.spacing_within(spacing, AUTO_RESOLUTION, AUTO_SAGITTA)),
                             auto_reason(shape, spacing),
                         ),
                     }
@@ -470,8 +470,15 @@ pub(super) fn mixed_contact(x: &Geom, y: &Geom, over: Option<f64>) -> (f64, u32)
 /// Why a geom has the spacing the scene's defaults gave it (`scm check`).
 fn auto_reason(shape: &Shape, spacing: f64) -> String {
     let n = AUTO_RESOLUTION;
+    let even = shape.spacing_within(spacing, n, AUTO_SAGITTA).fine;
     if shape.mesh().is_some() {
         "the default: a mesh's size does not tell its smallest feature".into()
+    } else if even > spacing && shape.feature_length().max() / n <= even {
+        format!(
+            "the default for a smooth shape: {} mm sagitta on its {} m radius of curvature",
+            AUTO_SAGITTA * 1e3,
+            shape.feature_length().min()
+        )
     } else if shape.feature_length().max() / n <= spacing {
         format!("the default: no larger than {n} spacings")
     } else {

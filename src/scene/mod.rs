@@ -191,6 +191,10 @@ pub const DEFAULT_RESOLUTION: f64 = f64::INFINITY;
 /// as with `scm_resolution` = 16, so that a 10 m ground box loads and a body resting on a large
 /// geom meets few of its points (which the measurements there show to be what keeps it still).
 pub const AUTO_RESOLUTION: f64 = 16.0;
+/// Largest sagitta (m) of a smooth geom's sampling when the scene sets neither `scm_spacing`
+/// nor `scm_resolution` ([`crate::geometry::shapes::Shape::spacing_within`]; docs/geometry.md,
+/// "Spacing per geom", with what it costs in accuracy).
+pub const AUTO_SAGITTA: f64 = 5e-4;
 /// Prefix of a per-geom spacing setting: `<numeric name="scm_spacing:GEOM" data="0.05"/>`.
 pub const GEOM_SPACING_PREFIX: &str = "scm_spacing:";
 /// Most AOPC points one body may get, estimated from its geoms' surface area before sampling

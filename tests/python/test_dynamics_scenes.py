@@ -94,6 +94,7 @@ STIFF = """<mujoco model="stiff">
     <numeric name="scm_eps2" data="2e-4"/>
     <numeric name="scm_eps3" data="1e-6"/>
     <numeric name="scm_stiction_velocity" data="0.05"/>
+    <numeric name="scm_spacing" data="0.01"/>
   </custom>
   <worldbody>
     <geom name="ground" type="plane" size="1 1 0.1"/>
