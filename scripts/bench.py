@@ -61,15 +61,16 @@ BUNDLED = [
 ]
 
 
-def floating(n=3):
-    """Bodies 0.5 m apart above a floor, no gravity: nothing is ever in reach."""
+def floating(n=3, gravity=False):
+    """Bodies 0.5 m apart, 0.5 m above a floor: without gravity nothing is ever in reach; with
+    it they fall, out of reach for the first 0.3 s."""
     shapes = ['type="box" size="0.05 0.05 0.05"', 'type="sphere" size="0.05"',
               'type="capsule" size="0.03 0.05"']
     bodies = "\n".join(
         f'    <body name="b{i}" pos="{0.5 * (i % 2)} {0.5 * (i // 2)} 0.5"><freejoint/>'
         f'<geom {shapes[i % 3]} mass="1"/></body>' for i in range(n))
     return f"""<mujoco model="floating{n}">
-  <option gravity="0 0 0" timestep="{H}" integrator="Euler"/>
+  <option{"" if gravity else ' gravity="0 0 0"'} timestep="{H}" integrator="Euler"/>
   <worldbody>
     <geom name="floor" type="plane" size="3 3 0.1"/>
 {bodies}
@@ -128,6 +129,49 @@ def file_controls(xml):
     return sets
 
 
+# Bodies out of reach under each of MuJoCo's integrators and the SCM method its MJCF name maps
+# to (docs/mjcf.md, `<option integrator>`), with MuJoCo's `Euler` as written (its implicit joint
+# damping on), and semi-implicit Euler on both sides: (MuJoCo's name, `mjtIntegrator`, `eulerdamp`,
+# SCM's integrator).
+REACH_METHODS = [("Euler", "EULER", True, "damped_euler"), ("RK4", "RK4", True, "damped_rk4"),
+                 ("implicitfast", "IMPLICITFAST", True, "implicit_euler"),
+                 ("Euler, eulerdamp off", "EULER", False, "semi_implicit_euler")]
+# The warm-up before those steps: with gravity on, the bodies have fallen 1.2 cm of their 0.5 m.
+REACH_WARMUP = 0.05
+
+
+def out_of_reach_rows(work, rounds):
+    """The out-of-reach table's rows: for `floating3` with gravity off and on, per method of
+    REACH_METHODS, SCM's step and MuJoCo's (s), each the median of `rounds` timings in turn."""
+    rows = []
+    for gravity in (False, True):
+        name = f"floating3_{'gravity' if gravity else 'weightless'}"
+        path = work / f"{name}.xml"
+        path.write_text(floating(3, gravity))
+        unpacked = work / name
+        fmu = work / f"{name}.fmu"
+        subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True, capture_output=True)
+        with zipfile.ZipFile(fmu) as z:
+            z.extractall(unpacked)
+        ours, theirs = {m[3]: [] for m in REACH_METHODS}, {m[0]: [] for m in REACH_METHODS}
+        for _ in range(max(1, rounds)):
+            p = subprocess.run([str(STEP_COST), str(unpacked), "--h", repr(H), "--warmup", repr(REACH_WARMUP),
+                                "--integrators", ",".join(m[3] for m in REACH_METHODS), "--steps-only",
+                                "--budget", "0.3"], capture_output=True, text=True)
+            if p.returncode != 0:
+                raise SystemExit(f"bench: step_cost {path}: {p.stderr.strip()}")
+            for r in json.loads(p.stdout)["results"]:
+                ours[r["integrator"]].append(r["ffi_step_s"])
+            for label, integrator, damp, _ in REACH_METHODS:
+                t, ncon = mujoco_step_time(path, {}, REACH_WARMUP, h=H, eulerdamp=damp, integrator=integrator)
+                if ncon:
+                    raise SystemExit(f"bench: {name}: MuJoCo has {ncon} contacts after the warm-up")
+                theirs[label].append(t)
+        for label, _, _, method in REACH_METHODS:
+            rows.append((name, label, method, float(np.median(ours[method])), float(np.median(theirs[label]))))
+    return rows
+
+
 def pose_difference(m, a, b):
     """The largest difference of a body's pose between two MjData: (position (m), rotation angle
     (rad)), from the poses of their current states."""
@@ -172,6 +216,8 @@ def main():
                     help="SCM and MuJoCo timed in turn this many times per scene (medians)")
     ap.add_argument("--files", default=",".join(FILES),
                     help="MuJoCo model files among gymnasium's (names without .xml), or 'none'")
+    ap.add_argument("--no-reach", dest="reach", action="store_false",
+                    help="leave out the table of bodies out of reach under every integrator")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     files = [] if a.files == "none" else a.files.split(",")
@@ -214,6 +260,8 @@ def main():
             error, check = mujoco_error(xml, sets, warmup, divisions)
             rows.append(dict(name=name, ours=ours, theirs=theirs, ncon=ncon, theirs_error=error,
                              theirs_check=check))
+        print("bench: out of reach, every integrator", file=sys.stderr, flush=True)
+        reach = out_of_reach_rows(work, a.rounds) if a.reach else []
     lines = ["# Step cost against MuJoCo", "",
              "Written by `scripts/bench.sh` (one run; medians of interleaved rounds, the two engines timed in "
              f"turn {a.rounds} times per scene). One internal step of "
@@ -257,6 +305,17 @@ def main():
     if boxes:
         lines += ["", "Cost per body (resting boxes): " + ", ".join(
             f"{n}: SCM {o / n * 1e6:.1f} µs, MuJoCo {t / n * 1e6:.2f} µs" for n, o, t in boxes) + "."]
+    if reach:
+        lines += ["", "## Bodies out of reach, every integrator", "",
+                  f"`floating3` (above) without and with gravity ({REACH_WARMUP:g} s after the start: "
+                  "fallen 1.2 cm of their 0.5 m, nothing in reach on either side), one step of "
+                  f"{H * 1e3:g} ms under each of MuJoCo's integrators against the SCM method its MJCF name "
+                  "maps to (docs/mjcf.md), MuJoCo's `Euler` as written (its implicit joint damping on); "
+                  "the last row semi-implicit Euler on both sides. Medians of the rounds above.", "",
+                  "| scene | MuJoCo integrator | SCM method | SCM step (µs) | MuJoCo step (µs) | SCM / MuJoCo |",
+                  "| --- | --- | --- | ---: | ---: | ---: |"]
+        lines += [f"| {n} | {label} | `{method}` | {o * 1e6:.2f} | {t * 1e6:.2f} | {o / t:.2f} |"
+                  for n, label, method, o, t in reach]
     (a.out / "bench.md").write_text("\n".join(lines) + "\n")
     try:
         import matplotlib

@@ -1048,10 +1048,12 @@ fn body_jacobians_carry_frame_velocities_and_wrenches() {
 
 /// A forward dynamics that does not list the pairs' contacts (`ForwardOptions::list_contacts`,
 /// what a residual reads) gives the accelerations of one that does, to the bit, on every
-/// bundled scene at random states near their start (pairs in reach among them).
+/// bundled scene at random states near their start (pairs in reach among them); and
+/// `Model::contacts_only` the contacts it lists, the pairs' kept proofs alike.
 #[test]
 fn accelerations_without_the_contact_list_are_the_same_bits() {
-    use scm::model::ForwardOptions;
+    use scm::collision::PairCarry;
+    use scm::model::{ForwardOptions, Reuse};
     let mut rng = Lcg(29);
     let mut in_reach = 0;
     for (name, model) in bundled() {
@@ -1071,6 +1073,23 @@ fn accelerations_without_the_contact_list_are_the_same_bits() {
             assert_eq!(bits(&listed.vdot), bits(&bare.vdot), "{name}");
             assert!(bare.contacts.is_empty());
             in_reach += listed.contacts.iter().flatten().count();
+            // The contacts alone (what implicit Euler's guard reads at a call's start): the
+            // list's contacts, and with the pairs' kept proofs the same proofs kept after.
+            let alone = model
+                .contacts_only(&q, &v, &u, &model.contact, ForwardOptions::default())
+                .unwrap();
+            assert_eq!(alone, listed.contacts, "{name}");
+            let (mut by_forward, mut by_contacts) = (PairCarry::default(), PairCarry::default());
+            for _ in 0..2 {
+                let kept = |carry| ForwardOptions {
+                    reuse: Reuse::All(carry),
+                    ..ForwardOptions::default()
+                };
+                let f = model.forward_with(&q, &v, &u, &model.contact, kept(&mut by_forward));
+                let c = model.contacts_only(&q, &v, &u, &model.contact, kept(&mut by_contacts));
+                assert_eq!(c.unwrap(), f.unwrap().contacts, "{name}");
+                assert_eq!(by_contacts.reach, by_forward.reach, "{name}");
+            }
         }
     }
     assert!(in_reach > 0);

@@ -76,15 +76,16 @@ def mujoco_apply_sets(m, d, sets):
     mujoco.mj_forward(m, d)
 
 
-def mujoco_warmed(xml, sets, warmup, h=H, eulerdamp=True):
-    """MuJoCo's model and data on `xml`, `Euler` at `h` (with its implicit joint damping unless
-    `eulerdamp` is False: then it is semi-implicit Euler, SCM's `semi_implicit_euler`), the `sets`
-    applied, advanced by `warmup` s."""
+def mujoco_warmed(xml, sets, warmup, h=H, eulerdamp=True, integrator="EULER"):
+    """MuJoCo's model and data on `xml`, `integrator` (a `mjtIntegrator` name without `mjINT_`;
+    `Euler` by default) at `h` (`Euler` with its implicit joint damping unless `eulerdamp` is
+    False: then it is semi-implicit Euler, SCM's `semi_implicit_euler`), the `sets` applied,
+    advanced by `warmup` s."""
     import mujoco
     m = mujoco.MjModel.from_xml_path(str(xml))
     d = mujoco.MjData(m)
     m.opt.timestep = h
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
     if not eulerdamp:
         m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
     mujoco_apply_sets(m, d, sets)
@@ -92,14 +93,14 @@ def mujoco_warmed(xml, sets, warmup, h=H, eulerdamp=True):
     return m, d
 
 
-def mujoco_step_time(xml, sets, warmup, n=2000, h=H, eulerdamp=True):
-    """MuJoCo's time per step (`Euler` at `h`) at the state reached after `warmup` s from the
+def mujoco_step_time(xml, sets, warmup, n=2000, h=H, eulerdamp=True, integrator="EULER"):
+    """MuJoCo's time per step (`integrator` at `h`, as in `mujoco_warmed`) at the state reached after `warmup` s from the
     start with the `sets`, and its contact count there (also the benchmark's, scripts/bench.py).
     Each of 9 rounds restores that state and times runs of 100 steps (`n` steps per round in
     all), less the restore's own time, so the steps timed stay near the state the contacts are
     counted at (as SCM's step is timed at one state), not tens of seconds later."""
     import mujoco
-    m, d = mujoco_warmed(xml, sets, warmup, h, eulerdamp)
+    m, d = mujoco_warmed(xml, sets, warmup, h, eulerdamp, integrator)
     warm = mujoco.MjData(m)
     mujoco.mj_copyData(warm, m, d)
     runs, length = max(1, n // 100), 100

@@ -101,10 +101,10 @@ impl Model {
         });
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
-        // once here, it also gives the contact state for the energy guard. Damped Euler's first
-        // step (damped RK4's first stage) records every pair's contact at the start itself (its
-        // frozen contact): the guard takes it from there, and its balance starts once that step
-        // is taken.
+        // once here, it also gives the contact state for the energy guard (implicit Euler's guard
+        // takes the contacts alone: it reads no acceleration there). Damped Euler's first step
+        // (damped RK4's first stage) records every pair's contact at the start itself (its frozen
+        // contact): the guard takes it from there, and its balance starts once that step is taken.
         let damped = self.integrator.is_damped();
         let needs_start = match self.integrator {
             Integrator::ImplicitEuler => guard,
@@ -115,25 +115,26 @@ impl Model {
         // first stage's inputs are driven by the activations as that step takes them.
         let steps = ((duration / self.timestep) * (1.0 - 1e-12)).ceil().max(1.0);
         let first_h = (!self.integrator.is_adaptive()).then_some(duration / steps);
-        let start = if needs_start {
+        let (start_contacts, a0) = if needs_start {
             let known = cache.kinematics.take(state);
-            Some(
-                self.forward_with(
-                    &state.q,
-                    &state.v,
-                    &self.driven_inputs(&u, &state.act, &state.q, first_h),
-                    prm,
-                    reuse_all(&mut cache.pairs, known),
-                )
-                .map_err(|error| StepFailure::Dynamics {
-                    time: t0,
-                    step: 1,
-                    h: 0.0,
-                    error,
-                })?,
-            )
+            let driven = self.driven_inputs(&u, &state.act, &state.q, first_h);
+            let reuse = reuse_all(&mut cache.pairs, known);
+            match self.integrator {
+                Integrator::ImplicitEuler => self
+                    .contacts_only(&state.q, &state.v, &driven, prm, reuse)
+                    .map(|c| (Some(c), None)),
+                _ => self
+                    .forward_with(&state.q, &state.v, &driven, prm, reuse)
+                    .map(|f| (Some(f.contacts), Some(f.vdot.iter().copied().collect()))),
+            }
+            .map_err(|error| StepFailure::Dynamics {
+                time: t0,
+                step: 1,
+                h: 0.0,
+                error,
+            })?
         } else {
-            None
+            (None, None)
         };
         let mut monitor = (guard && !damped)
             .then(|| {
@@ -141,13 +142,12 @@ impl Model {
                     state,
                     ctrl,
                     prm,
-                    start.as_ref().map(|f| f.contacts.as_slice()),
+                    start_contacts.as_deref(),
                     t0,
                     cache.ledger.as_ref(),
                 )
             })
             .flatten();
-        let a0 = start.map(|f| f.vdot.iter().copied().collect::<Vec<f64>>());
         let mut report = Advanced {
             state: state.clone(),
             steps: 0,

@@ -138,6 +138,32 @@ impl Model {
         self.forward_at(at, prm, opts)
     }
 
+    /// The contacts [`Model::forward_with`] lists ([`Forward::contacts`], the same bits, the
+    /// pairs' kept proofs and candidates used and updated alike), without the dynamics that
+    /// follow them: what implicit Euler's energy guard reads at a call's start, where the
+    /// accelerations would be thrown away (on three free bodies out of reach the mass matrix,
+    /// its factor and the bias forces were a fifth of the step).
+    pub fn contacts_only(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        opts: ForwardOptions<'_, f64>,
+    ) -> Result<Vec<Option<PairContact<f64>>>, DynamicsError> {
+        let (ctrl, mocap) = self.split_inputs(u)?;
+        let pulls = self.pulls(ctrl);
+        let mut opts = opts;
+        opts.reuse.fit(self.pairs.len());
+        self.check_finite(q, v)?;
+        let kin = opts
+            .kinematics
+            .unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
+        Ok(self
+            .contacts_with(&kin, prm, &pulls, Pick::InReach, opts.reuse)
+            .1)
+    }
+
     /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
     /// (M + M_a + h D)⁻¹ (τ + τ_passive - c + Σ Λ)`, contact included, `M_a` the inertia
     /// MuJoCo's impedance adds where a limit pushes and along an equality's rows
