@@ -40,6 +40,7 @@ ROBOTS = [
     ("TIAGo (robosuite)", ROBOSUITE / "robots/tiago/robot.xml", 0.05),
     ("Jaco (robosuite)", ROBOSUITE / "robots/jaco/robot.xml", 0.02),
     ("Fourier hand (robosuite)", ROBOSUITE / "grippers/fourier_left_hand.xml", 0.02),
+    ("Inspire hand (robosuite)", ROBOSUITE / "grippers/inspire_right_hand.xml", 0.05),
     ("Robotiq 140 (robosuite)", ROBOSUITE / "grippers/robotiq_gripper_140.xml", 0.05),
     ("Shadow hand reach (gymnasium-robotics)", ROBOTICS / "hand/reach.xml", 0.2),
 ]

@@ -843,3 +843,71 @@ fn a_scene_chooses_patches_or_triangles_for_its_meshes() {
     assert_eq!(e.line, 2, "{e}");
     assert!(e.message.contains("'quads' must be 'patches'"), "{e}");
 }
+
+/// A thin mesh gets at least three points across its thinnest extent when the file sets no
+/// spacing (docs/geometry.md, "Thin meshes"): its inertia box's smallest side over
+/// `MESH_POINTS_ACROSS`, floored to 0.1 mm; a thick one keeps 1 cm, and a file's own spacing
+/// wins. The inertia box is a box's own half-sizes, and a cylinder's `√3/2 r` across.
+#[test]
+fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
+    use scm::geometry::shapes::MESH_POINTS_ACROSS;
+    // A 2 × 4 × 6 cm box's inertia, turned: its half-sizes back, smallest first.
+    let (a, b, c) = (0.03, 0.01, 0.02);
+    let volume = 8.0 * a * b * c;
+    let turn = nalgebra::Rotation3::from_euler_angles(0.3, -0.7, 1.1);
+    let diag = nalgebra::Matrix3::from_diagonal(&Vector3::new(
+        volume * (b * b + c * c) / 3.0,
+        volume * (a * a + c * c) / 3.0,
+        volume * (a * a + b * b) / 3.0,
+    ));
+    let props = scm::geometry::shapes::MassProperties {
+        volume,
+        com: Vector3::zeros(),
+        inertia: turn * diag * turn.transpose(),
+    };
+    let half = props.inertia_box().unwrap();
+    assert!((half - Vector3::new(b, c, a)).amax() < 1e-12, "{half}");
+    let dir = tmp("thin");
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, r) in [("finger", 0.007), ("arm", 0.03)] {
+        let mut obj = String::new();
+        let cyl = sliver_cylinder(r, 0.02, 48);
+        for v in &cyl.vertices {
+            obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
+        }
+        for t in &cyl.triangles {
+            obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+        std::fs::write(dir.join(format!("{name}.obj")), obj).unwrap();
+    }
+    let scene = |setting: &str| {
+        let xml = format!(
+            r#"<mujoco>
+  <custom>{setting}</custom>
+  <asset><mesh name="finger" file="finger.obj"/><mesh name="arm" file="arm.obj"/></asset>
+  <worldbody><geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.2"><freejoint/><geom name="finger" type="mesh" mesh="finger"/></body>
+    <body pos="0.5 0 0.2"><freejoint/><geom name="arm" type="mesh" mesh="arm"/></body></worldbody>
+</mujoco>"#
+        );
+        scm::scene::load_str(&xml, &dir.join("s.xml")).unwrap()
+    };
+    let spacing = |s: &scm::scene::Scene, name: &str| {
+        let g = s.geoms.iter().find(|g| g.name == name).unwrap();
+        (g.spacing.unwrap().fine, g.spacing_reason.clone())
+    };
+    let auto = scene("");
+    // The 48-gon's inertia box: 2 × 0.866 × 7 mm across, 12.1 mm: 4.0 mm at three across.
+    let (finger, why) = spacing(&auto, "finger");
+    assert_eq!(MESH_POINTS_ACROSS, 3.0);
+    assert_eq!(finger, 0.004, "{why}");
+    assert!(
+        why.contains("thin mesh: 3 points across its 0.0121 m"),
+        "{why}"
+    );
+    let (arm, why) = spacing(&auto, "arm");
+    assert_eq!(arm, 0.01, "{why}");
+    assert!(why.contains("does not tell"), "{why}");
+    let set = scene(r#"<numeric name="scm_spacing" data="0.01"/>"#);
+    assert_eq!(spacing(&set, "finger").0, 0.01);
+}

@@ -75,6 +75,44 @@ pub struct MassProperties {
     pub inertia: Matrix3<f64>,
 }
 
+impl MassProperties {
+    /// The half-sizes of the uniform box with this volume's inertia along its principal axes
+    /// (MuJoCo's "inertia box"), smallest first: `aᵢ² = 3 (Iⱼ + Iₖ - Iᵢ) / 2V`. `None` for a
+    /// solid without a positive volume (an open surface's).
+    pub fn inertia_box(&self) -> Option<Vector3<f64>> {
+        if self.volume.is_nan() || self.volume <= 0.0 {
+            return None;
+        }
+        let i = self.inertia.symmetric_eigen().eigenvalues;
+        let sum = i.sum();
+        let mut half: Vec<f64> = (0..3)
+            .map(|k| (1.5 * (sum - 2.0 * i[k]) / self.volume).max(0.0).sqrt())
+            .collect();
+        half.sort_by(f64::total_cmp);
+        let half = Vector3::new(half[0], half[1], half[2]);
+        half.iter().all(|x| x.is_finite()).then_some(half)
+    }
+}
+
+/// A mesh sampled by default gets at least this many points across its thinnest extent (its
+/// inertia box's smallest side): a spacing of that extent over it where the scene's is coarser
+/// ([`Shape::spacing_within`]).
+pub const MESH_POINTS_ACROSS: f64 = 3.0;
+
+/// The finest spacing (m) [`MESH_POINTS_ACROSS`] gives a thin mesh.
+pub const MESH_FINEST_SPACING: f64 = 1e-3;
+
+impl TriMesh {
+    /// The spacing (m) that puts [`MESH_POINTS_ACROSS`] points across the mesh's thinnest
+    /// extent (its inertia box's smallest side), floored to a tenth of a millimetre and no finer
+    /// than [`MESH_FINEST_SPACING`]; `None` for a mesh without a positive volume.
+    pub fn thin_spacing(&self) -> Option<f64> {
+        let thinnest = 2.0 * self.mass_properties().inertia_box()?.x;
+        let s = ((thinnest / MESH_POINTS_ACROSS) * 1e4).floor() / 1e4;
+        Some(s.max(MESH_FINEST_SPACING))
+    }
+}
+
 impl Shape {
     /// Exact signed distance of a point (shape frame, m): negative inside.
     pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
@@ -241,18 +279,23 @@ impl Shape {
     /// curved everywhere, no edge) sampled evenly at no less than the spacing whose sagitta
     /// on its smallest radius of curvature `ρ` is `sagitta` (m): neighbouring points `s` apart
     /// on an arc of radius `ρ` stand `s² / 8ρ` off the chord between them, so
-    /// `s = √(8 ρ sagitta)`, floored to 0.1 mm (docs/geometry.md, "Spacing per geom"). A box, a cylinder (whose
-    /// rims are edges) and a mesh keep `spacing_for`'s.
+    /// `s = √(8 ρ sagitta)`, floored to 0.1 mm (docs/geometry.md, "Spacing per geom"). A mesh
+    /// thinner than [`MESH_POINTS_ACROSS`] spacings is sampled finer, at
+    /// [`TriMesh::thin_spacing`]: with patches as wide as its sides, a point beside it read the
+    /// plane of a patch round its edge (robosuite's inspire hand: fingers 4.7 mm apart read
+    /// 3.2 mm inside each other at 1 cm). A box and a cylinder (whose rims are edges) keep
+    /// `spacing_for`'s.
     pub fn spacing_within(&self, spacing: f64, resolution: f64, sagitta: f64) -> Spacing {
         let smooth = matches!(
             self,
             Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Ellipsoid { .. }
         );
-        let even = match smooth {
-            // Floored to a tenth of a millimetre: a spacing a person can read and set.
-            true => spacing
-                .max(((8.0 * self.feature_length().min() * sagitta).sqrt() * 1e4).floor() / 1e4),
-            false => spacing,
+        // Floored to a tenth of a millimetre: a spacing a person can read and set.
+        let tenth = |x: f64| (x * 1e4).floor() / 1e4;
+        let even = match self {
+            _ if smooth => spacing.max(tenth((8.0 * self.feature_length().min() * sagitta).sqrt())),
+            Shape::Mesh(m) => spacing.min(m.thin_spacing().unwrap_or(spacing)),
+            _ => spacing,
         };
         Spacing {
             fine: even,

@@ -471,7 +471,14 @@ pub(super) fn mixed_contact(x: &Geom, y: &Geom, over: Option<f64>) -> (f64, u32)
 fn auto_reason(shape: &Shape, spacing: f64) -> String {
     let n = AUTO_RESOLUTION;
     let even = shape.spacing_within(spacing, n, AUTO_SAGITTA).fine;
-    if shape.mesh().is_some() {
+    if let Some(m) = shape.mesh().filter(|_| even < spacing) {
+        let thinnest = 2.0 * m.mass_properties().inertia_box().map_or(0.0, |b| b.x);
+        format!(
+            "the default for a thin mesh: {} points across its {thinnest:.4} m \
+             thinnest extent",
+            crate::geometry::shapes::MESH_POINTS_ACROSS
+        )
+    } else if shape.mesh().is_some() {
         "the default: a mesh's size does not tell its smallest feature".into()
     } else if even > spacing && shape.feature_length().max() / n <= even {
         format!(

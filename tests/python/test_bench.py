@@ -17,8 +17,19 @@ def test_bench_times_every_scene_against_mujoco(tmp_path):
                         "--files", "reacher", "--rounds", "2"],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
-    table = (tmp_path / "bench.md").read_text()
+    text = (tmp_path / "bench.md").read_text()
+    table, reach = text.split("## Bodies out of reach, every integrator")
     rows = [l.split("|")[1:-1] for l in table.splitlines() if l.startswith("| ") and "---" not in l][1:]
+    # The second table: floating3 without and with gravity, under each MJCF integrator and the SCM
+    # method it maps to, both engines' steps measured.
+    reach_rows = [[x.strip() for x in l.split("|")[1:-1]] for l in reach.splitlines()
+                  if l.startswith("| ") and "---" not in l][1:]
+    assert [(r[0], r[2]) for r in reach_rows] == [
+        (f"floating3_{g}", f"`{m}`") for g in ("weightless", "gravity")
+        for m in ("damped_euler", "damped_rk4", "implicit_euler", "semi_implicit_euler")]
+    for r in reach_rows:
+        ours, theirs, ratio = float(r[3]), float(r[4]), float(r[5])
+        assert ours > 0 and theirs > 0 and abs(ratio - ours / theirs) < 0.01 * ratio + 0.005, r
     names = [r[0].strip() for r in rows]
     assert names == ["sphere_drop", "box_stack", "t_push", "arm_push", "horseshoe", "floating3", "boxes2",
                      "reacher"]
