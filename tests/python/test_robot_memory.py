@@ -80,8 +80,9 @@ GAP = 0.02
 #: which ended xArm7's 164 N across 4.25 cm, but its margin grows with the cloud's largest face
 #: (its cover radius). Meshes sampled in patches of the spacing (docs/geometry.md, "Patches of
 #: a mesh") have faces as large as their patches: the Fourier hand's palm pushes its index
-#: intermediate link with 2.6e-6 N across more than 2 cm (3e-5 N on its middle links when
-#: sampled triangle by triangle), and the Jaco gripper's index and pinky proximal links push
+#: intermediate link with 5.5e-3 N where MuJoCo measures 27 mm (2.6e-6 N with the finger in
+#: patches of 1 cm, before thin meshes got three points across; 3e-5 N on its middle links
+#: when sampled triangle by triangle), and the Jaco gripper's index and pinky proximal links push
 #: with 4.5e-4 N where MuJoCo measures more than 2 cm (none triangle by triangle). Sampled in
 #: patches of 1 cm, the inspire hand's pinky proximal link read its middle proximal link's SSDF
 #: at 0.85 mm across the ring finger, where MuJoCo measures 23.5 mm (0.035 N), and the Jaco
