@@ -95,8 +95,9 @@ def resting_boxes(n):
 """
 
 
-def scm_step(xml, sets, warmup, work, error=True):
-    """SCM's step times (s), and with `error` its errors: {integrator: result of step_cost}."""
+def scm_step(xml, sets, warmup, work, error=True, integrators=("semi_implicit_euler", "implicit_euler")):
+    """SCM's step times (s) under `integrators`, and with `error` its errors: {integrator: result
+    of step_cost}."""
     unpacked = work / xml.stem
     if not unpacked.exists():
         fmu = work / (xml.stem + ".fmu")
@@ -106,7 +107,7 @@ def scm_step(xml, sets, warmup, work, error=True):
         with zipfile.ZipFile(fmu) as z:
             z.extractall(unpacked)
     args = [str(STEP_COST), str(unpacked), "--h", repr(H), "--warmup", repr(warmup),
-            "--integrators", "semi_implicit_euler,implicit_euler", "--steps-only", "--budget", "0.3"]
+            "--integrators", ",".join(integrators), "--steps-only", "--budget", "0.3"]
     if error:
         args += ["--error", repr(ERROR_T)]
     for n, x in sets.items():
@@ -148,20 +149,11 @@ def out_of_reach_rows(work, rounds):
         name = f"floating3_{'gravity' if gravity else 'weightless'}"
         path = work / f"{name}.xml"
         path.write_text(floating(3, gravity))
-        unpacked = work / name
-        fmu = work / f"{name}.fmu"
-        subprocess.run([str(SCM), "pack", str(path), "-o", str(fmu)], check=True, capture_output=True)
-        with zipfile.ZipFile(fmu) as z:
-            z.extractall(unpacked)
         ours, theirs = {m[3]: [] for m in REACH_METHODS}, {m[0]: [] for m in REACH_METHODS}
         for _ in range(max(1, rounds)):
-            p = subprocess.run([str(STEP_COST), str(unpacked), "--h", repr(H), "--warmup", repr(REACH_WARMUP),
-                                "--integrators", ",".join(m[3] for m in REACH_METHODS), "--steps-only",
-                                "--budget", "0.3"], capture_output=True, text=True)
-            if p.returncode != 0:
-                raise SystemExit(f"bench: step_cost {path}: {p.stderr.strip()}")
-            for r in json.loads(p.stdout)["results"]:
-                ours[r["integrator"]].append(r["ffi_step_s"])
+            timed = scm_step(path, {}, REACH_WARMUP, work, error=False, integrators=list(ours))
+            for method, r in timed.items():
+                ours[method].append(r["ffi_step_s"])
             for label, integrator, damp, _ in REACH_METHODS:
                 t, ncon = mujoco_step_time(path, {}, REACH_WARMUP, h=H, eulerdamp=damp, integrator=integrator)
                 if ncon:

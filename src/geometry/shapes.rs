@@ -102,14 +102,18 @@ pub const MESH_POINTS_ACROSS: f64 = 3.0;
 /// The finest spacing (m) [`MESH_POINTS_ACROSS`] gives a thin mesh.
 pub const MESH_FINEST_SPACING: f64 = 1e-3;
 
+/// `x` (m) floored to a tenth of a millimetre: a spacing a person can read and set.
+fn tenth_mm(x: f64) -> f64 {
+    (x * 1e4).floor() / 1e4
+}
+
 impl TriMesh {
     /// The spacing (m) that puts [`MESH_POINTS_ACROSS`] points across the mesh's thinnest
     /// extent (its inertia box's smallest side), floored to a tenth of a millimetre and no finer
     /// than [`MESH_FINEST_SPACING`]; `None` for a mesh without a positive volume.
     pub fn thin_spacing(&self) -> Option<f64> {
         let thinnest = 2.0 * self.mass_properties().inertia_box()?.x;
-        let s = ((thinnest / MESH_POINTS_ACROSS) * 1e4).floor() / 1e4;
-        Some(s.max(MESH_FINEST_SPACING))
+        Some(tenth_mm(thinnest / MESH_POINTS_ACROSS).max(MESH_FINEST_SPACING))
     }
 }
 
@@ -290,10 +294,10 @@ impl Shape {
             self,
             Shape::Sphere { .. } | Shape::Capsule { .. } | Shape::Ellipsoid { .. }
         );
-        // Floored to a tenth of a millimetre: a spacing a person can read and set.
-        let tenth = |x: f64| (x * 1e4).floor() / 1e4;
         let even = match self {
-            _ if smooth => spacing.max(tenth((8.0 * self.feature_length().min() * sagitta).sqrt())),
+            _ if smooth => spacing.max(tenth_mm(
+                (8.0 * self.feature_length().min() * sagitta).sqrt(),
+            )),
             Shape::Mesh(m) => spacing.min(m.thin_spacing().unwrap_or(spacing)),
             _ => spacing,
         };

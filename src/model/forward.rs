@@ -154,14 +154,28 @@ impl Model {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let pulls = self.pulls(ctrl);
         let mut opts = opts;
-        opts.reuse.fit(self.pairs.len());
-        self.check_finite(q, v)?;
-        let kin = opts
-            .kinematics
-            .unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
+        let kin = self.evaluation_start(q, v, mocap, &mut opts)?;
         Ok(self
             .contacts_with(&kin, prm, &pulls, Pick::InReach, opts.reuse)
             .1)
+    }
+
+    /// What every evaluation at `(q, v)` starts with: the pairs' reuse in `opts` fitted to
+    /// the model's pairs, the state checked finite, and the kinematics `opts` carries (taken)
+    /// or computed here.
+    fn evaluation_start<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        mocap: &[T],
+        opts: &mut ForwardOptions<'_, T>,
+    ) -> Result<Kinematics<T>, DynamicsError> {
+        opts.reuse.fit(self.pairs.len());
+        self.check_finite(q, v)?;
+        Ok(opts
+            .kinematics
+            .take()
+            .unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap)))
     }
 
     /// The forward dynamics at `at` for a generalized applied force: `v̇ = FD(q, v, τ) =
@@ -186,11 +200,7 @@ impl Model {
             pulls,
         } = at;
         let mut opts = opts;
-        opts.reuse.fit(self.pairs.len());
-        self.check_finite(q, v)?;
-        let kin = opts
-            .kinematics
-            .unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
+        let kin = self.evaluation_start(q, v, mocap, &mut opts)?;
         let contact_kin = opts
             .contact_velocity
             .map(|vc| self.tree.kinematics_with(q, vc, mocap));
