@@ -56,7 +56,6 @@ impl Relevant {
         self.items.clear();
         let mut cands = std::mem::take(&mut self.walk);
         gather(bvh, pr, 0.0, eps1, hint, &mut cands);
-        cands.sort_unstable();
         self.filter(s, pr, eps1, &cands);
         self.walk = cands;
     }
@@ -69,7 +68,6 @@ impl Relevant {
         let bvh = s.bvh();
         let mut cands = std::mem::take(&mut self.ball);
         gather(bvh, c, r, eps1, usize::MAX, &mut cands);
-        cands.sort_unstable();
         for (d, coord) in self.ball_xyz.iter_mut().enumerate() {
             coord.clear();
             coord.extend(cands.iter().map(|&k| bvh.points[k as usize][d]));
@@ -199,7 +197,6 @@ fn cutoff(bvh: &super::bvh::Bvh, pr: &Vector3<f64>, eps1: f64, best: f64) -> f64
 /// [`Relevant::find`].
 pub fn gather_ball(s: &Aopc, c: &Vector3<f64>, r: f64, eps1: f64, hint: usize, out: &mut Vec<u32>) {
     gather(s.bvh(), c, r, eps1, hint, out);
-    out.sort_unstable();
 }
 
 /// The points of `bvh` that can be relevant (module documentation) at some point `x` of the
@@ -227,21 +224,33 @@ fn gather(
         let x = r + ((best.sqrt() + r).powi(2) + slack).sqrt();
         x * x * (1.0 + 1e-12)
     };
-    let mut best = if hint < bvh.len() {
-        (c - bvh.points[hint]).norm_squared()
+    // A first bound on the nearest distance, from the hint or from the leaf a greedy descent
+    // reaches, so that the walk below can go in leaf order (left child first) and still prune
+    // early: its output is then by increasing index without a sort.
+    let start = if hint < bvh.len() {
+        hint
     } else {
-        f64::INFINITY
+        let mut ni = 0usize;
+        while !bvh.nodes[ni].is_leaf() {
+            let a = bvh.nodes[ni].left as usize;
+            ni = if bvh.nodes[a].min_sq_dist(c) <= bvh.nodes[a + 1].min_sq_dist(c) {
+                a
+            } else {
+                a + 1
+            };
+        }
+        bvh.nodes[ni].start as usize
     };
+    let mut best = (c - bvh.points[start]).norm_squared();
     let mut limit = reach(best);
-    let mut stack: [(u32, f64); 64] = [(0, 0.0); 64];
+    let mut stack: [u32; 64] = [0; 64];
     let mut top = 1usize;
     while top > 0 {
         top -= 1;
-        let (ni, dlo) = stack[top];
-        if dlo > limit {
+        let node = &bvh.nodes[stack[top] as usize];
+        if node.min_sq_dist(c) > limit {
             continue;
         }
-        let node = &bvh.nodes[ni as usize];
         if node.is_leaf() {
             for k in node.start..node.start + node.count {
                 let d = (c - bvh.points[k as usize]).norm_squared();
@@ -254,22 +263,15 @@ fn gather(
                 }
             }
         } else {
-            // Nearer child last, so that it is walked first and the limit drops early.
-            let (a, b) = (node.left, node.left + 1);
-            let (da, db) = (
-                bvh.nodes[a as usize].min_sq_dist(c),
-                bvh.nodes[b as usize].min_sq_dist(c),
-            );
-            let (first, second) = if da <= db {
-                ((a, da), (b, db))
-            } else {
-                ((b, db), (a, da))
-            };
-            stack[top] = second;
-            stack[top + 1] = first;
+            // The right child below the left, so that the left (lower indices) is walked first.
+            stack[top] = node.left + 1;
+            stack[top + 1] = node.left;
             top += 2;
         }
     }
+    // Every point within the final limit was kept: the nearest point always passes, so the
+    // final `best` is the true one whatever the order of the walk.
+    debug_assert!(out.is_sorted());
     out.retain(|&k| (c - bvh.points[k as usize]).norm_squared() <= limit);
 }
 
