@@ -139,7 +139,13 @@ pub(super) fn newton_from<T: Scalar>(
             && !fresh
             && theta < 1.0
             && theta / (1.0 - theta) * dx_re <= NEWTON_TOL * scale_end;
-        if ((fresh || last_full) && dx_re <= NEWTON_TOL * scale_end) || tail_small {
+        // Or, whatever the Jacobian, the step equation already holds at this iterate within
+        // the tolerance (`r` is its defect, in the unknowns' own units) and the step to take is
+        // within it too: an extrapolated start that is the solution to rounding (free flight
+        // under implicit Euler) needs no second residual to show it.
+        let defect_small = inf_norm(&re_vec(&r)) <= NEWTON_TOL * scale_end;
+        let holds = defect_small && dx_re <= NEWTON_TOL * scale_end;
+        if ((fresh || last_full || holds) && dx_re <= NEWTON_TOL * scale_end) || tail_small {
             return Ok(x_end);
         }
         // Backtracking (Armijo on the merit ½|r|², for which the Newton direction descends):
@@ -312,6 +318,42 @@ mod tests {
         }
     }
 
+    /// A start at which the step equation already holds within the tolerance (implicit
+    /// Euler's extrapolated start in free flight) returns after its one residual, even with a
+    /// kept Jacobian that is off by half; a start whose defect is ten times the tolerance still
+    /// iterates, and ends within the tolerance of the solution.
+    #[test]
+    fn a_start_that_solves_the_equation_costs_one_residual() {
+        let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.0, 1.0, 3.0, -1.0, 0.0, -1.0, 2.0]);
+        let b = nalgebra::DVector::from_vec(vec![1.0, -2.0, 0.5]);
+        let solution = a.clone().lu().solve(&b).unwrap();
+        let exact = |_: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(a.clone()) };
+        for (shift, residuals) in [(0.0, 1), (1e-3 * NEWTON_TOL, 1), (10.0 * NEWTON_TOL, 2)] {
+            let evaluations = Cell::new(0);
+            let residual = |x: &[f64]| -> Result<Vec<f64>, DynamicsError> {
+                evaluations.set(evaluations.get() + 1);
+                let r = &a * nalgebra::DVector::from_column_slice(x) - &b;
+                Ok(r.iter().copied().collect())
+            };
+            let start: Vec<f64> = solution.iter().map(|x| x + shift).collect();
+            let mut jac = Some(WarmJacobian::new(&a * 1.5));
+            let x = newton(&residual, &exact, start, &mut jac).unwrap();
+            let error = inf_norm(&(0..3).map(|i| x[i] - solution[i]).collect::<Vec<_>>());
+            assert!(
+                error <= NEWTON_TOL * (1.0 + inf_norm(&x)),
+                "shift {shift:e}: error {error:e}"
+            );
+            assert!(
+                evaluations.get() >= residuals,
+                "shift {shift:e}: {} residuals",
+                evaluations.get()
+            );
+            if residuals == 1 {
+                assert_eq!(evaluations.get(), 1, "shift {shift:e}");
+            }
+        }
+    }
+
     /// A kept Jacobian that contracts slowly enough to need more iterations than a fresh one
     /// costs is replaced after the iteration that shows its rate ([`worth_keeping`]); one that
     /// contracts fast is kept. A linear residual `A x - b` with `A / (1 - θ)` kept contracts
@@ -352,8 +394,8 @@ mod tests {
     /// Convergence is tested on the full step before the residual at its end is evaluated:
     /// a linear residual with its exact Jacobian costs two residuals (the start, and the
     /// solution, whose next step is below the tolerance), not a third at the last step's end.
-    /// Started at the solution with that Jacobian kept, the first (tiny) step still goes
-    /// through the line search (a kept Jacobian's small step is not trusted alone): two.
+    /// Started at the solution with that Jacobian kept, one: a kept Jacobian's small step is
+    /// not trusted alone, but the defect there is within the tolerance too.
     /// A NaN residual is a failure, not a converged NaN.
     #[test]
     fn no_residual_is_evaluated_at_the_accepted_point() {
@@ -373,10 +415,10 @@ mod tests {
             assert!((x[i] - solution[i]).abs() <= 1e-12);
         }
         assert_eq!(evaluations.get(), 2, "the start and the first update's end");
-        // From the solution itself, with the Jacobian kept: two.
+        // From the solution itself, with the Jacobian kept: one.
         evaluations.set(0);
         let again = newton(&residual, &exact, x.clone(), &mut jac).unwrap();
-        assert_eq!(evaluations.get(), 2);
+        assert_eq!(evaluations.get(), 1);
         assert!((0..3).all(|i| (again[i] - x[i]).abs() <= 1e-12));
         // A residual that turns NaN: an error, with a fresh Jacobian and with a kept one.
         let nan = |_: &[f64]| -> Result<Vec<f64>, DynamicsError> { Ok(vec![f64::NAN, 0.0, 0.0]) };
