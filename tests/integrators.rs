@@ -1488,10 +1488,19 @@ fn kept_candidate_planes_change_no_bit_of_any_integrators_run() {
 /// falling onto a floor and onto each other, with two explicit methods and implicit Euler,
 /// 150 communication steps: one run carries its cache, the other rebuilds it from its parts
 /// (which drop the kept kinematics) before every call. Every 20th call starts from a state a
-/// host set (the velocities changed), where the kept kinematics must not be used.
+/// host set (the velocities changed), where the kept kinematics must not be used. Damped Euler
+/// and damped RK4 take them into their frozen evaluation at the step's start, and within a call
+/// the guard's kinematics after each internal step serve the next one: calls of five steps
+/// give the same bits as with the guard off (which computes none).
 #[test]
 fn the_guards_kinematics_carried_to_the_next_call_change_no_bit() {
-    for integrator in ["semi_implicit_euler", "rk4", "implicit_euler"] {
+    for integrator in [
+        "semi_implicit_euler",
+        "rk4",
+        "implicit_euler",
+        "damped_euler",
+        "damped_rk4",
+    ] {
         let model = model_of(&format!(
             r#"<mujoco>
   <option timestep="0.002"/>
@@ -1537,6 +1546,29 @@ fn the_guards_kinematics_carried_to_the_next_call_change_no_bit() {
         }
         // Every call but the first and those from a state set by the host found them.
         assert_eq!(kept, 150 - 1 - 7, "{integrator}");
+        // Within a call: five internal steps per call, guard on against guard off.
+        let unguarded = AdvanceOptions {
+            energy_guard: false,
+            ..AdvanceOptions::default()
+        };
+        let (mut on, mut off) = (
+            scm::integrate::SolverCache::default(),
+            scm::integrate::SolverCache::default(),
+        );
+        let mut c = State::new(model.tree.q0(), vec![0.0; model.tree.nv]);
+        let mut d = c.clone();
+        for k in 0..30 {
+            let t = 5.0 * k as f64 * h;
+            c = (model.advance_cached(&c, &[], &model.contact, t, 5.0 * h, &opts, &mut on))
+                .unwrap()
+                .state;
+            d = (model.advance_cached(&d, &[], &model.contact, t, 5.0 * h, &unguarded, &mut off))
+                .unwrap()
+                .state;
+            assert_eq!(c, d, "{integrator}: call {k} of five steps");
+        }
+        assert!(on.holds_kinematics_of(&c), "{integrator}");
+        assert!(!off.holds_kinematics_of(&d), "{integrator}");
     }
 }
 

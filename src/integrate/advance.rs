@@ -1,14 +1,13 @@
 //! A communication step covered by internal steps that land exactly on its end, and the guard
 //! that refuses a step that diverges (non-finite state, energy growth no input explains).
 
-use super::cache::{SolverCache, StepCarry};
+use super::cache::{reuse_all, SolverCache, StepCarry};
 use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
 use super::step::StepFrom;
-use crate::collision::PairCarry;
 use crate::contact::ContactParams;
 use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, ForwardOptions, Model, Reuse};
+use crate::model::{DynamicsError, Model};
 
 /// The size past which a position or velocity coordinate has diverged (MuJoCo's `mjMAXVAL`).
 /// An energy balance cannot catch every blow-up: an explicit step that makes a stiff actuator's
@@ -264,6 +263,7 @@ impl Model {
                             jacobian: &mut jac,
                             pairs: Some(&mut cache.pairs),
                             subdivided: &mut report.subdivided,
+                            kinematics: None,
                         };
                         self.implicit_step_extrapolating(from, carry, &mut dv)
                             .map_err(dyn_err)?
@@ -294,10 +294,16 @@ impl Model {
                         if i.is_damped() {
                             let mut at_start = None;
                             let first_with_guard = k == 0 && guard;
+                            // The guard's kinematics of `s` for its frozen evaluation (at the
+                            // first step, those the last call left, if of `s`).
+                            if let Some(kin) = known.take() {
+                                cache.kinematics.keep(&s, Some(kin));
+                            }
                             let carry = StepCarry {
                                 jacobian: &mut jac,
                                 pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
+                                kinematics: Some(&mut cache.kinematics),
                             };
                             let end = self.implicit_step_subdividing(
                                 i,
@@ -322,6 +328,7 @@ impl Model {
                                 jacobian: &mut jac,
                                 pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
+                                kinematics: None,
                             };
                             self.explicit_step(i, from, a, carry)
                         }
@@ -587,14 +594,4 @@ pub enum StepFailure {
         /// The limit.
         steps: usize,
     },
-}
-
-/// The options of a step's first stage: the pairs' kept proofs and candidate planes, and the
-/// kinematics of the state if they are known already.
-fn reuse_all(kept: &mut PairCarry, kinematics: Option<Kinematics<f64>>) -> ForwardOptions<'_, f64> {
-    ForwardOptions {
-        reuse: Reuse::All(kept),
-        kinematics,
-        ..ForwardOptions::default()
-    }
 }

@@ -9,6 +9,7 @@ use super::newton::WarmJacobian;
 use crate::collision::{PairCarry, ReachProof};
 use crate::dynamics::Kinematics;
 use crate::integrator::State;
+use crate::model::{ForwardOptions, Reuse};
 use nalgebra::DMatrix;
 
 /// What [`Model::advance_cached`](crate::model::Model::advance_cached) carries from one call to the next.
@@ -48,6 +49,9 @@ pub(super) struct StepCarry<'c> {
     pub(super) pairs: Option<&'c mut PairCarry>,
     /// How many steps were halved so far because Newton's iterations failed.
     pub(super) subdivided: &'c mut usize,
+    /// The kinematics the energy guard computed of the state it checked last, for damped
+    /// Euler's frozen evaluation at that very state (bit for bit; `None`: none kept).
+    pub(super) kinematics: Option<&'c mut KinematicsMemo>,
 }
 
 impl StepCarry<'_> {
@@ -57,6 +61,7 @@ impl StepCarry<'_> {
             jacobian: &mut *self.jacobian,
             pairs: self.pairs.as_deref_mut(),
             subdivided: &mut *self.subdivided,
+            kinematics: self.kinematics.as_deref_mut(),
         }
     }
 }
@@ -85,16 +90,26 @@ impl KinematicsMemo {
 
     /// The kept kinematics if they are those of `s`, bit for bit; the memo is emptied.
     pub(super) fn take(&mut self, s: &State<f64>) -> Option<Kinematics<f64>> {
-        let hit = self.of(s);
+        self.take_at(&s.q, &s.v)
+    }
+
+    /// [`KinematicsMemo::take`] at positions `q` and velocities `v`.
+    pub(super) fn take_at(&mut self, q: &[f64], v: &[f64]) -> Option<Kinematics<f64>> {
+        let hit = self.at(q, v);
         self.0.take().filter(|_| hit).map(|(_, kin)| kin)
     }
 
     /// Whether the kept kinematics are those of `s`, bit for bit.
     pub(super) fn of(&self, s: &State<f64>) -> bool {
+        self.at(&s.q, &s.v)
+    }
+
+    /// Whether the kept kinematics are those of `(q, v)`, bit for bit.
+    fn at(&self, q: &[f64], v: &[f64]) -> bool {
         let same = |a: &[f64], b: &[f64]| {
             a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
         };
-        (self.0.as_ref()).is_some_and(|(at, _)| same(&at.q, &s.q) && same(&at.v, &s.v))
+        (self.0.as_ref()).is_some_and(|(at, _)| same(&at.q, q) && same(&at.v, v))
     }
 }
 
@@ -171,5 +186,18 @@ impl SolverCache {
             pairs: PairCarry::with_reach(parts.reach),
             kinematics: KinematicsMemo::default(),
         }
+    }
+}
+
+/// The options of a step's first stage: the pairs' kept proofs and candidate planes, and the
+/// kinematics of the state if they are known already.
+pub(super) fn reuse_all(
+    kept: &mut PairCarry,
+    kinematics: Option<Kinematics<f64>>,
+) -> ForwardOptions<'_, f64> {
+    ForwardOptions {
+        reuse: Reuse::All(kept),
+        kinematics,
+        ..ForwardOptions::default()
     }
 }

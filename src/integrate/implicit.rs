@@ -169,6 +169,7 @@ impl Model {
         let StepCarry {
             jacobian: jac,
             pairs: kept,
+            kinematics: known,
             ..
         } = carry;
         let (ctrl, mocap) = self.split_inputs(u)?;
@@ -200,7 +201,10 @@ impl Model {
                 pulls: &real.pulls,
             };
             let reuse = kept.map_or(Reuse::Nothing, Reuse::All);
-            let (frozen, a0) = self.frozen_forward(at, &real.prm, real.h, reuse)?;
+            // The guard's kinematics of this very state, if it kept them (the memo is of a
+            // model without mocap bodies, so they are those of `at`).
+            let known = known.and_then(|m| m.take_at(&real.q, &real.v));
+            let (frozen, a0) = self.frozen_forward_from(at, &real.prm, real.h, reuse, known)?;
             if let Some(slot) = at_start {
                 *slot = Some(frozen.contacts().to_vec());
             }

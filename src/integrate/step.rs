@@ -152,6 +152,7 @@ impl Model {
             jacobian: &mut jacobian,
             pairs: None,
             subdivided: &mut subdivided,
+            kinematics: None,
         };
         match integrator {
             Integrator::ImplicitEuler => self.implicit_euler_step(from, carry, None),
@@ -243,6 +244,7 @@ impl Model {
             jacobian,
             pairs: mut kept,
             subdivided,
+            mut kinematics,
         } = carry;
         let mut at_start = at_start;
         // The stage before's acceleration: its end velocity from this stage's start is the
@@ -258,6 +260,7 @@ impl Model {
                 jacobian: &mut *jacobian,
                 pairs: kept.as_deref_mut(),
                 subdivided: &mut *subdivided,
+                kinematics: kinematics.as_deref_mut(),
             };
             let from = StepFrom {
                 state: &stage,

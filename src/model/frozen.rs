@@ -55,6 +55,20 @@ impl Model {
         h: f64,
         reuse: Reuse,
     ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+        self.frozen_forward_from(at, prm, h, reuse, None)
+    }
+
+    /// [`Model::frozen_forward`] from `known`, the kinematics of `at`'s positions and velocities
+    /// if the caller has them already (the energy guard's of the state it checked): the same
+    /// bits, one kinematics pass fewer.
+    pub fn frozen_forward_from(
+        &self,
+        at: EvalPoint<'_, f64>,
+        prm: &ContactParams<f64>,
+        h: f64,
+        reuse: Reuse,
+        known: Option<Kinematics<f64>>,
+    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
         let EvalPoint {
             q,
             v,
@@ -65,7 +79,7 @@ impl Model {
         let mut reuse = reuse;
         reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
-        let kin = self.tree.kinematics_with(q, v, mocap);
+        let kin = known.unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
         let mut rhs =
             DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
