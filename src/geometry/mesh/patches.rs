@@ -95,36 +95,67 @@ impl TriMesh {
         // First pieces of the patches, and a grid of them by cells of the radius.
         let mut firsts: Vec<usize> = Vec::new();
         let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::default();
-        let nearest = |grid: &HashMap<[i64; 3], Vec<u32>>, firsts: &[usize], p: &Piece| {
-            let k = grid_key(&p.centre);
-            let mut best: Option<(f64, u32)> = None;
+        // The first pieces in the 27 cells around a cell, with their centres and normals (read
+        // contiguously, not through the pieces), gathered once for a run of pieces in the same
+        // cell: the Morton order keeps a cell's pieces together, and a dense mesh has tens in
+        // a cell (the 27 lookups per piece and the reads through two indices were a third of a
+        // robot's load).
+        type Candidate = (Vector3<f64>, Vector3<f64>, u32);
+        let around = |grid: &HashMap<[i64; 3], Vec<u32>>,
+                      firsts: &[usize],
+                      k: [i64; 3],
+                      out: &mut Vec<Candidate>| {
+            out.clear();
             for dx in -1..=1 {
                 for dy in -1..=1 {
                     for dz in -1..=1 {
-                        let Some(list) = grid.get(&[k.x + dx, k.y + dy, k.z + dz]) else {
-                            continue;
-                        };
-                        for &s in list {
-                            let f = &pieces[firsts[s as usize]];
-                            let d = (f.centre - p.centre).norm();
-                            if d <= radius
-                                && f.normal.dot(&p.normal) >= PATCH_ANGLE_COSINE
-                                && best.is_none_or(|(bd, bs)| d < bd || (d == bd && s < bs))
-                            {
-                                best = Some((d, s));
-                            }
+                        if let Some(list) = grid.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                            out.extend(list.iter().map(|&s| {
+                                let f = &pieces[firsts[s as usize]];
+                                (f.centre, f.normal, s)
+                            }));
                         }
                     }
                 }
             }
+        };
+        // The nearest first piece within the radius whose normal is near the piece's, the
+        // least index among equals (so the order of the candidates does not matter). The
+        // square root only where the squared distance can pass (the same test, bit for bit).
+        let near_sq = radius * radius * (1.0 + 1e-9);
+        let nearest = |candidates: &[Candidate], p: &Piece| {
+            let mut best: Option<(f64, u32)> = None;
+            for (centre, normal, s) in candidates {
+                let d2 = (centre - p.centre).norm_squared();
+                if d2 > near_sq {
+                    continue;
+                }
+                let d = d2.sqrt();
+                if d <= radius
+                    && normal.dot(&p.normal) >= PATCH_ANGLE_COSINE
+                    && best.is_none_or(|(bd, bs)| d < bd || (d == bd && *s < bs))
+                {
+                    best = Some((d, *s));
+                }
+            }
             best.map(|(_, s)| s)
         };
+        let key_of = |p: &Piece| {
+            let k = grid_key(&p.centre);
+            [k.x, k.y, k.z]
+        };
+        let (mut cached, mut candidates) = (None, Vec::new());
         for (i, p) in pieces.iter().enumerate() {
-            if nearest(&grid, &firsts, p).is_none() {
-                let k = grid_key(&p.centre);
-                grid.entry([k.x, k.y, k.z])
-                    .or_default()
-                    .push(firsts.len() as u32);
+            let k = key_of(p);
+            if cached != Some(k) {
+                around(&grid, &firsts, k, &mut candidates);
+                cached = Some(k);
+            }
+            if nearest(&candidates, p).is_none() {
+                // A new first, in this very cell: the cached neighbourhood holds it too.
+                let s = firsts.len() as u32;
+                grid.entry(k).or_default().push(s);
+                candidates.push((p.centre, p.normal, s));
                 firsts.push(i);
             }
         }
@@ -132,8 +163,14 @@ impl TriMesh {
         // Per patch: area, first moment, area vector.
         let mut sums = vec![(0.0, Vector3::zeros(), Vector3::zeros()); firsts.len()];
         let mut of = Vec::with_capacity(pieces.len());
+        cached = None;
         for p in &pieces {
-            let s = nearest(&grid, &firsts, p).expect("every piece is within reach of a patch");
+            let k = key_of(p);
+            if cached != Some(k) {
+                around(&grid, &firsts, k, &mut candidates);
+                cached = Some(k);
+            }
+            let s = nearest(&candidates, p).expect("every piece is within reach of a patch");
             let (area, moment, vector) = &mut sums[s as usize];
             *area += p.area;
             *moment += p.centre * p.area;
