@@ -911,3 +911,44 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     let set = scene(r#"<numeric name="scm_spacing" data="0.01"/>"#);
     assert_eq!(spacing(&set, "finger").0, 0.01);
 }
+
+/// The shortcuts of a mesh's signed distance: outside the vertices' bounding box its sign is
+/// read without the solid angles, and the distance to that box is a floor of the distance to
+/// the mesh (the union sampling skips a geom's triangles where that floor passes its
+/// tolerance). On the bundled bracket (concave, 3 mm holes) at points around and inside it:
+/// the sign is the winding number's everywhere, and the floor is never above the distance.
+#[test]
+fn a_meshs_bounding_box_gives_its_sign_outside_and_a_floor_of_its_distance() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("resources/meshes/bracket.stl");
+    let (m, _) = TriMesh::load(&path, &Placement::scaled(Vector3::repeat(1.0))).unwrap();
+    let (lo, hi) = m.bounds();
+    let (centre, extent) = ((lo + hi) / 2.0, hi - lo);
+    let mut seed = 12345u64;
+    let mut unit = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut outside_box, mut inside_mesh) = (0, 0);
+    for _ in 0..600 {
+        // Points over a box twice the bounding box's size: a third outside it or so.
+        let p = centre + Vector3::from_fn(|k, _| (2.0 * unit() - 1.0) * extent[k]);
+        let d = m.sdf(&p);
+        let inside = m.winding_number(&p) > 0.5;
+        assert_eq!(d < 0.0, inside, "sign at {p:?}: {d}");
+        let floor = m.distance_floor(&p);
+        assert!(
+            floor <= d.abs() * (1.0 + 1e-12),
+            "floor {floor} above {d} at {p:?}"
+        );
+        let out = (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]);
+        assert_eq!(floor > 0.0, out, "floor {floor} at {p:?}");
+        outside_box += usize::from(out);
+        inside_mesh += usize::from(inside);
+    }
+    assert!(
+        outside_box > 100 && inside_mesh > 10,
+        "{outside_box} outside, {inside_mesh} inside"
+    );
+}

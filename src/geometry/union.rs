@@ -81,6 +81,14 @@ pub fn sample_union_counted(
                         return true;
                     }
                     let q = (opose.inverse() * Point3::from(*p)).coords;
+                    // A mesh's bounding box first: beyond `tol` from it (with room for the
+                    // rounding of either distance), beyond `tol` from the mesh, so kept, as the
+                    // exact distance (a pass over every triangle) would decide.
+                    if let Some(m) = other.mesh() {
+                        if m.distance_floor(&q) > tol * (1.0 + 1e-9) {
+                            return true;
+                        }
+                    }
                     let d = other.sdf(&q);
                     if d < -tol {
                         return false;

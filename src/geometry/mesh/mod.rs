@@ -392,6 +392,24 @@ impl TriMesh {
         winding(&self.vertices, self.triangles.iter(), p)
     }
 
+    /// The vertices' bounding box (m): `(lower corner, upper corner)`.
+    pub fn bounds(&self) -> (Vector3<f64>, Vector3<f64>) {
+        self.vertices.iter().fold(
+            (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(f64::NEG_INFINITY),
+            ),
+            |(lo, hi), v| (lo.inf(v), hi.sup(v)),
+        )
+    }
+
+    /// A lower bound of the distance from `p` to the mesh (m): the distance to its bounding
+    /// box, 0 inside it.
+    pub fn distance_floor(&self, p: &Vector3<f64>) -> f64 {
+        let (lo, hi) = self.bounds();
+        (lo - p).sup(&(p - hi)).sup(&Vector3::zeros()).norm()
+    }
+
     /// Exact signed distance (m): distance to the nearest triangle, negative inside.
     pub fn sdf(&self, p: &Vector3<f64>) -> f64 {
         let d = self
@@ -402,7 +420,12 @@ impl TriMesh {
             })
             .fold(f64::INFINITY, f64::min)
             .sqrt();
-        if self.winding_number(p) > 0.5 {
+        // Outside the vertices' bounding box a closed mesh winds 0 times around `p`: its sign
+        // without the solid angles (an `atan2` per triangle, most of a body's union sampling,
+        // whose geoms ask about every point in their bounding balls).
+        let (lo, hi) = self.bounds();
+        let outside = (0..3).any(|k| p[k] < lo[k] || p[k] > hi[k]);
+        if !outside && self.winding_number(p) > 0.5 {
             -d
         } else {
             d
