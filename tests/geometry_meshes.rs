@@ -923,17 +923,11 @@ fn a_meshs_bounding_box_gives_its_sign_outside_and_a_floor_of_its_distance() {
     let (m, _) = TriMesh::load(&path, &Placement::scaled(Vector3::repeat(1.0))).unwrap();
     let (lo, hi) = m.bounds();
     let (centre, extent) = ((lo + hi) / 2.0, hi - lo);
-    let mut seed = 12345u64;
-    let mut unit = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = crate::common::Lcg(12345);
     let (mut outside_box, mut inside_mesh) = (0, 0);
     for _ in 0..600 {
         // Points over a box twice the bounding box's size: a third outside it or so.
-        let p = centre + Vector3::from_fn(|k, _| (2.0 * unit() - 1.0) * extent[k]);
+        let p = centre + Vector3::from_fn(|k, _| rng.range(-1.0, 1.0) * extent[k]);
         let d = m.sdf(&p);
         let inside = m.winding_number(&p) > 0.5;
         assert_eq!(d < 0.0, inside, "sign at {p:?}: {d}");

@@ -18,6 +18,7 @@
 //! them, so that no quad straddles it: the union of aligned boxes (the T-block) is meshed exactly,
 //! with the same quads as one box wherever the union is one box.
 
+use super::mesh::box_distance;
 use super::rounded::{find_rounded, MemberSampling};
 use super::sample::{sample_box, Spacing};
 use super::shapes::Shape;
@@ -59,6 +60,11 @@ pub fn sample_union_counted(
             (pose.translation.vector, shape.size() * grow)
         })
         .collect();
+    // Each mesh geom's bounding box in its own frame, once (the test below reads it first).
+    let boxes: Vec<_> = geoms
+        .iter()
+        .map(|(shape, _)| shape.mesh().map(|m| m.bounds()))
+        .collect();
     let mut out = Aopc::default();
     // Per geom: its full sampling and what became of each quad (the rounded certificate).
     let mut fates: Vec<(Aopc, Vec<Option<Vector3<f64>>>)> = Vec::new();
@@ -84,8 +90,8 @@ pub fn sample_union_counted(
                     // A mesh's bounding box first: beyond `tol` from it (with room for the
                     // rounding of either distance), beyond `tol` from the mesh, so kept, as the
                     // exact distance (a pass over every triangle) would decide.
-                    if let Some(m) = other.mesh() {
-                        if m.distance_floor(&q) > tol * (1.0 + 1e-9) {
+                    if let Some(b) = &boxes[m] {
+                        if box_distance(b, &q) > tol * (1.0 + 1e-9) {
                             return true;
                         }
                     }

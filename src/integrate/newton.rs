@@ -143,8 +143,7 @@ pub(super) fn newton_from<T: Scalar>(
         // the tolerance (`r` is its defect, in the unknowns' own units) and the step to take is
         // within it too: an extrapolated start that is the solution to rounding (free flight
         // under implicit Euler) needs no second residual to show it.
-        let defect_small = inf_norm(&re_vec(&r)) <= NEWTON_TOL * scale_end;
-        let holds = defect_small && dx_re <= NEWTON_TOL * scale_end;
+        let holds = inf_norm(&re_vec(&r)) <= NEWTON_TOL * scale_end;
         if ((fresh || last_full || holds) && dx_re <= NEWTON_TOL * scale_end) || tail_small {
             return Ok(x_end);
         }
