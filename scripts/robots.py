@@ -74,9 +74,23 @@ def first_output(scm, xml, timeout):
     return None
 
 
+def with_tolerance(xml, tolerance):
+    """A copy of `xml` beside it (so that its meshes and includes resolve) whose `<custom>` sets
+    `scm_prune_tolerance`; the caller removes it."""
+    text = xml.read_text()
+    tag = f'<numeric name="scm_prune_tolerance" data="{tolerance!r}"/>'
+    if "<custom>" in text:
+        text = text.replace("<custom>", "<custom>" + tag, 1)
+    else:
+        text = re.sub(r"<worldbody\b", "<custom>" + tag + "</custom><worldbody", text, count=1)
+    out = xml.with_name(f".{xml.stem}.prune_tolerance{xml.suffix}")
+    out.write_text(text)
+    return out
+
+
 def scm_run(scm, xml, duration, timeout):
-    """SCM's stepping wall time (s), its whole run's (s), peak resident set (MB), and an error
-    text or None."""
+    """SCM's stepping wall time (s), its whole run's (s), peak resident set (MB), an error text
+    or None, and the last row of the one output it wrote (or None)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "run.csv"
         cmd = [sys.executable, "-c", PEAK, str(scm), "simulate", str(xml), "--duration", repr(duration),
@@ -87,15 +101,17 @@ def scm_run(scm, xml, duration, timeout):
         try:
             p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:
-            return None, None, None, f"not done within {timeout} s"
+            return None, None, None, f"not done within {timeout} s", None
+        rows = out.read_text().splitlines() if out.exists() else []
+        last = float(rows[-1].split(",")[-1]) if len(rows) > 1 and one is not None else None
     code, peak_kb, whole = p.stdout.split()
     m = re.search(r"in ([0-9.]+) s wall time", p.stderr)
     if int(code) != 0 or not m:
-        last = [line for line in p.stderr.splitlines() if line.strip()][-1:] or ["(no message)"]
-        return None, float(whole), int(peak_kb) / 1024, f"exit {code}: {last[0][:200]}"
+        tail = [line for line in p.stderr.splitlines() if line.strip()][-1:] or ["(no message)"]
+        return None, float(whole), int(peak_kb) / 1024, f"exit {code}: {tail[0][:200]}", None
     if float(m.group(1)) == 0:
-        return None, float(whole), int(peak_kb) / 1024, "stepped in under 1 ms of wall time (scm's resolution): give a longer duration"
-    return float(m.group(1)), float(whole), int(peak_kb) / 1024, None
+        return None, float(whole), int(peak_kb) / 1024, "stepped in under 1 ms of wall time (scm's resolution): give a longer duration", None
+    return float(m.group(1)), float(whole), int(peak_kb) / 1024, None, last
 
 
 def mujoco_run(xml, steps):
@@ -125,6 +141,8 @@ def main():
     ap.add_argument("--file", type=pathlib.Path, action="append", default=[],
                     help="time this MJCF file instead of the list (repeatable; with --duration)")
     ap.add_argument("--duration", type=float, default=0.02, help="simulated time of each --file (s)")
+    ap.add_argument("--tolerance", type=float, default=1e-9,
+                    help="also time each file at this scm_prune_tolerance (0: not)")
     a = ap.parse_args()
     robots = [(f.stem, f, a.duration) for f in a.file] if a.file else ROBOTS
     rows = []
@@ -135,10 +153,17 @@ def main():
             raise SystemExit(f"robots: {xml} missing: run scripts/setup.sh")
         t_mj, integrator, h, ncon = mujoco_run(xml, max(1, round(duration / 0.002)))
         steps = max(1, round(duration / h))
-        wall, whole, peak, err = scm_run(a.scm, xml, steps * h, a.timeout)
+        wall, whole, peak, err, end = scm_run(a.scm, xml, steps * h, a.timeout)
+        loose = None
+        if a.tolerance > 0 and not err:
+            variant = with_tolerance(xml, a.tolerance)
+            try:
+                loose = scm_run(a.scm, variant, steps * h, a.timeout)
+            finally:
+                variant.unlink()
         print(f"{label}: {integrator} h={h}: SCM {wall} s stepping ({whole} s in all), {peak} MB; "
-              f"MuJoCo {t_mj * 1e6:.1f} us/step; {err or ''}", file=sys.stderr)
-        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err))
+              f"MuJoCo {t_mj * 1e6:.1f} us/step; {err or ''}; at the looser tolerance {loose}", file=sys.stderr)
+        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose))
     lines = [
         "# Robots as written, against MuJoCo",
         "",
@@ -149,24 +174,39 @@ def main():
         " file for the same steps (median of 5 runs). Real-time factor: simulated time over wall time."
         " MuJoCo's contacts at the file's initial state and after the run: robosuite's files start at"
         " every joint's zero, where some arms fold through themselves (robosuite sets its own initial"
-        " pose before a run), so their steps are timed in deep self-contact on both sides.",
+        " pose before a run), so their steps are timed in deep self-contact on both sides."
+        + (f" The last three columns: the same SCM run with the scene's pruning tolerance at {a.tolerance:g}"
+           " (`scm_prune_tolerance`, default 1e-15: docs/method.md, \"Numerical rules\"), and how far the"
+           " run's one output (the file's first) ended from the default's." if a.tolerance > 0 else ""),
         "",
         "| robot | file's integrator, step | steps | SCM per step (ms) | MuJoCo per step (µs) | SCM / MuJoCo |"
-        " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) | MuJoCo contacts (start, end) |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) | MuJoCo contacts (start, end) |"
+        + (f" SCM per step at τ = {a.tolerance:g} (ms) | SCM / MuJoCo at τ = {a.tolerance:g} | output's end apart |"
+           if a.tolerance > 0 else ""),
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+        + (" ---: | ---: | ---: |" if a.tolerance > 0 else ""),
     ]
     notes = []
-    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err in rows:
+    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose in rows:
         mj = f"{t_mj * 1e6:.1f}"
         mj_rtf = f"{h / t_mj:.0f}"
         if err:
             notes.append(f"- {label}: {err}")
             lines.append(f"| {label} | {integrator}, {h} s | {steps} | — | {mj} | — | — | {mj_rtf} | — |"
-                         f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |")
+                         f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |"
+                         + (" — | — | — |" if a.tolerance > 0 else ""))
             continue
         per = wall / steps
+        extra = ""
+        if a.tolerance > 0:
+            if loose is None or loose[3]:
+                extra = f" — | — | {loose[3] if loose else '—'} |"
+            else:
+                lper = loose[0] / steps
+                apart = f"{abs(loose[4] - end):.1e}" if end is not None and loose[4] is not None else "—"
+                extra = f" {lper * 1e3:.4g} | {lper / t_mj:.0f} | {apart} |"
         lines.append(f"| {label} | {integrator}, {h} s | {steps} | {per * 1e3:.4g} | {mj} | {per / t_mj:.0f} |"
-                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |")
+                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |" + extra)
     if notes:
         lines += ["", "Runs that did not finish:", *notes]
     lines.append("")

@@ -46,6 +46,12 @@ fn random_frame(rng: &mut Lcg, origin: Vector3<f64>) -> Frame<f64> {
 /// to the largest point force, so far apart, where every force is ~1e-150 N, only the scale of
 /// the contact force means anything. The distance agrees to 1e-12 of `|D| + ε2`.
 fn assert_close(p: &PairContact<f64>, n: &PairContact<f64>, eps2: f64, what: &str) {
+    assert_within(p, n, eps2, 1e-12, what);
+}
+
+/// [`assert_close`] to `rel` instead of 1e-12: a thousand times the pruning tolerance, as 1e-12
+/// is at the default 1e-15 (SPEC §3).
+fn assert_within(p: &PairContact<f64>, n: &PairContact<f64>, eps2: f64, rel: f64, what: &str) {
     let f0 = 1e4 * 1e-4;
     for (x, y, name, scale) in [
         (p.on_a.force, n.on_a.force, "force a", f0),
@@ -54,13 +60,13 @@ fn assert_close(p: &PairContact<f64>, n: &PairContact<f64>, eps2: f64, what: &st
         (p.on_b.torque, n.on_b.torque, "torque b", 0.2 * f0),
     ] {
         assert!(
-            (x - y).norm() <= 1e-12 * (y.norm() + scale),
+            (x - y).norm() <= rel * (y.norm() + scale),
             "{what}: {name}: pruned {x:?} vs naive {y:?} (rel {:e})",
             (x - y).norm() / y.norm()
         );
     }
     assert!(
-        (p.distance - n.distance).abs() <= 1e-12 * (n.distance.abs() + eps2),
+        (p.distance - n.distance).abs() <= rel * (n.distance.abs() + eps2),
         "{what}: distance {} vs {}",
         p.distance,
         n.distance
@@ -173,6 +179,90 @@ fn pruned_pair_matches_naive_on_random_configurations() {
         pruned_points * 4 > total_points,
         "the band bound prunes little: {pruned_points} of {total_points}"
     );
+}
+
+/// A scene's looser pruning tolerance (`scm_prune_tolerance`, carried by each cloud): a pair's
+/// wrenches and distance stay within a thousand times it of the naive sums (the ratio of SPEC
+/// §3's 1e-12 to the default 1e-15), on spheres, boxes, a floor and rounded unions from deep
+/// in to well apart, while the band evaluates fewer query points than at the default.
+#[test]
+fn a_looser_pruning_tolerance_stays_within_its_bound_and_prunes_more() {
+    use crate::common::{humanoid_lower_arm, humanoid_torso};
+    use scm::geometry::union::sample_union;
+    use scm::scalar::PRUNE_TOLERANCE;
+    let at = |s: scm::geometry::Aopc, tolerance: f64| {
+        let mut s = s;
+        s.set_tolerance(tolerance);
+        Collider::Aopc(s)
+    };
+    let sphere = Shape::Sphere { radius: 0.05 }.sample(0.01);
+    let boxed = Shape::Box {
+        half: Vector3::new(0.1, 0.06, 0.03),
+    }
+    .sample(0.01);
+    let torso = sample_union(&humanoid_torso(), 0.012);
+    let arm = sample_union(&humanoid_lower_arm(), 0.012);
+    let plane = Collider::HalfSpace {
+        point: Vector3::new(0.0, 0.0, 0.01),
+        normal: Vector3::z(),
+    };
+    let mut rng = Lcg(31);
+    for tolerance in [1e-9, 1e-6] {
+        let (mut loose, mut strict) = (0, 0);
+        for case in 0..24 {
+            let pick = |s: &scm::geometry::Aopc, t: f64| at(s.clone(), t);
+            let (a, b, reach) = match case % 4 {
+                0 => (&sphere, Some(&boxed), 0.15),
+                1 => (&boxed, Some(&boxed), 0.25),
+                2 => (&arm, Some(&torso), 0.3),
+                _ => (&boxed, None, 0.1),
+            };
+            let dist = rng.range(0.3, 1.3) * reach;
+            let fa = random_frame(&mut rng, Vector3::zeros());
+            let (fa, fb) = match b {
+                Some(_) => {
+                    let origin = rng.direction() * dist;
+                    (fa, random_frame(&mut rng, origin))
+                }
+                None => (
+                    Frame {
+                        origin: Vector3::new(0.0, 0.0, dist - 0.05),
+                        ..fa
+                    },
+                    Frame::identity(),
+                ),
+            };
+            let (eps1, eps2) = if case % 2 == 0 {
+                (1e-5, 1e-3)
+            } else {
+                (1e-6, 1e-4)
+            };
+            let prm = params(eps1, eps2);
+            let (la, sa) = (pick(a, tolerance), pick(a, PRUNE_TOLERANCE));
+            let (lb, sb) = match b {
+                Some(b) => (pick(b, tolerance), pick(b, PRUNE_TOLERANCE)),
+                None => (plane.clone(), plane.clone()),
+            };
+            let p = pair_contact(&la, &fa, &lb, &fb, &prm);
+            let n = pair_contact_naive(&la, &fa, &lb, &fb, &prm);
+            assert_within(
+                &p,
+                &n,
+                eps2,
+                1e3 * tolerance,
+                &format!("tolerance {tolerance:e}, case {case}, dist {dist}"),
+            );
+            loose += separation_band(&la, &fa, &lb, &fb, eps1, eps2).evaluated;
+            strict += separation_band(&sa, &fa, &sb, &fb, eps1, eps2).evaluated;
+        }
+        println!(
+            "tolerance {tolerance:e}: {loose} query points evaluated, {strict} at the default"
+        );
+        assert!(
+            loose < strict,
+            "tolerance {tolerance:e}: {loose} query points evaluated, {strict} at the default"
+        );
+    }
 }
 
 /// Unions of spheres and capsules (gymnasium's humanoid's torso and lower arm, whose planes the

@@ -181,6 +181,14 @@ fn bad_settings_are_refused() {
             r#"<numeric name="scm_pair_threads" data="65"/>"#,
             "scm_pair_threads",
         ),
+        (
+            r#"<numeric name="scm_prune_tolerance" data="0"/>"#,
+            "from above 0 to 1e-3",
+        ),
+        (
+            r#"<numeric name="scm_prune_tolerance" data="0.01"/>"#,
+            "scm_prune_tolerance",
+        ),
     ] {
         let e = err(&with(custom));
         assert!(
@@ -208,6 +216,22 @@ fn bad_settings_are_refused() {
         }
     );
     assert_eq!(threads(""), scm::model::PairThreads::default_for_machine());
+    // The pruning tolerance: on every cloud as set, else the default.
+    let tolerances = |custom: &str| -> Vec<Option<f64>> {
+        let s = load_str(&with(custom), Path::new("ok.xml")).unwrap();
+        s.model
+            .colliders
+            .iter()
+            .flatten()
+            .map(|c| c.tolerance())
+            .collect()
+    };
+    assert_eq!(
+        tolerances(r#"<numeric name="scm_prune_tolerance" data="1e-9"/>"#),
+        [None, Some(1e-9)],
+        "the floor has none, the ball's cloud the scene's"
+    );
+    assert_eq!(tolerances(""), [None, Some(scm::scalar::PRUNE_TOLERANCE)]);
     // Settings MuJoCo ignores and we do not own pass through.
     assert!(load_str(
         &with(r#"<numeric name="other_tool" data="1 2 3"/>"#),

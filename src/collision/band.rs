@@ -160,7 +160,7 @@ pub(crate) fn band_of<T: Scalar>(
         mut grads,
         memo: mut kept,
     } = work;
-    let margin = ((a.len() + b.len()).max(1) as f64 / PRUNE_TOLERANCE).ln();
+    let margin = ((a.len() + b.len()).max(1) as f64 / super::pair_tolerance(a, b)).ln();
     // Room for a resting contact's band at once (growing them a few times cost more).
     let mut band = SeparationBand {
         entries: Vec::with_capacity(64),

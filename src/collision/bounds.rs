@@ -161,14 +161,15 @@ pub fn ssdf_exceeds_over(
 pub(super) const GIVE_UP_RATIO: f64 = 0.3;
 
 /// The threshold the bound `L` on relevant `v_i` must exceed (step 3 of
-/// [`ssdf_exceeds_over`]): `φ̂ ≥ min(L, (1 - τ) L) - τ V > t`, with a little room for rounding.
+/// [`ssdf_exceeds_over`]): `φ̂ ≥ min(L, (1 - τ) L) - τ V > t`, with a little room for rounding,
+/// `τ` the cloud's pruning tolerance ([`crate::geometry::bvh::Bvh::tolerance`]).
 /// It grows with `t` (for a fixed `V`), so a bound proven against a larger `t` holds for a
 /// smaller one.
 #[inline]
-pub(super) fn band_need(t: f64, vmax: f64) -> f64 {
-    let tt = t + PRUNE_TOLERANCE * vmax;
+pub(super) fn band_need(t: f64, vmax: f64, tolerance: f64) -> f64 {
+    let tt = t + tolerance * vmax;
     (if tt >= 0.0 {
-        tt / (1.0 - PRUNE_TOLERANCE)
+        tt / (1.0 - tolerance)
     } else {
         tt
     }) + 1e-12 * (tt.abs() + vmax)
@@ -224,20 +225,26 @@ pub(super) fn aopc_exceeds(
     // its centre: if that bound clears the threshold at the region's lowest distance, every
     // cluster is settled.
     if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
-        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > band_need(t, v) {
+        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > band_need(t, v, bvh.tolerance) {
             return (true, hint);
         }
     }
     // So does a sampled capsule (`geometry::spine`), in the distance from its segment.
     if let (Some(v), Some(sp)) = (vmax, &bvh.spine) {
-        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > band_need(t, v) {
+        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > band_need(t, v, bvh.tolerance)
+        {
             return (true, hint);
         }
     }
     // So does a union of spheres and capsules (`geometry::rounded`), member by member, over a
     // region outside all of them.
     if let (Some(v), Some(un)) = (vmax, &bvh.rounded) {
-        if un.settles(c, |a| q.lower_distance_to(a), m1, band_need(t, v)) {
+        if un.settles(
+            c,
+            |a| q.lower_distance_to(a),
+            m1,
+            band_need(t, v, bvh.tolerance),
+        ) {
             return (true, hint);
         }
     }
@@ -248,7 +255,7 @@ pub(super) fn aopc_exceeds(
         let mid = u * c;
         let lo = Vector3::from_fn(|k, _| mid[k] + q.min_lin(&u.row(k).transpose()));
         let hi = Vector3::from_fn(|k, _| mid[k] - q.min_lin(&-u.row(k).transpose()));
-        if cub.settles(&lo, &hi, c.norm() + r, band_need(t, v), m1) {
+        if cub.settles(&lo, &hi, c.norm() + r, band_need(t, v, bvh.tolerance), m1) {
             return (true, hint);
         }
     }
@@ -258,7 +265,11 @@ pub(super) fn aopc_exceeds(
     } else {
         bvh.nearest_hint(c, hint)
     };
-    let need = band_need(t, vmax.unwrap_or(dj.sqrt() + r + bvh.diameter));
+    let need = band_need(
+        t,
+        vmax.unwrap_or(dj.sqrt() + r + bvh.diameter),
+        bvh.tolerance,
+    );
     // The witness is relevant at the centre; if its plane comes below `need` in the region,
     // the answer would be `false` anyway (a quick exit, not part of the proof). A witness
     // found without backtracking ([`Bvh::near`]) can lie on the far side of a thin part (the

@@ -85,12 +85,32 @@ pub enum Collider {
     },
 }
 
+/// The pruning tolerance `τ` of a pair's separation band and point forces: the smaller of its
+/// clouds' ([`Collider::tolerance`]; a scene gives all its clouds the same), or
+/// [`PRUNE_TOLERANCE`] between two half-spaces.
+pub fn pair_tolerance(a: &Collider, b: &Collider) -> f64 {
+    match (a.tolerance(), b.tolerance()) {
+        (Some(x), Some(y)) => x.min(y),
+        (Some(x), None) | (None, Some(x)) => x,
+        (None, None) => PRUNE_TOLERANCE,
+    }
+}
+
 impl Collider {
     /// Number of points the collider contributes to a separation field.
     pub fn len(&self) -> usize {
         match self {
             Collider::Aopc(s) => s.len(),
             Collider::HalfSpace { .. } => 0,
+        }
+    }
+
+    /// The pruning tolerance of its softmax sums and of the contacts its points make
+    /// ([`Aopc::tolerance`]); `None` for a half-space, which has none.
+    pub fn tolerance(&self) -> Option<f64> {
+        match self {
+            Collider::Aopc(s) => Some(s.tolerance()),
+            Collider::HalfSpace { .. } => None,
         }
     }
 

@@ -294,7 +294,8 @@ fn floor_above(o: &Aopc, c: &Vector3<f64>, rho: f64, t: f64) -> bool {
 }
 
 /// The distance (m) beyond which a point cannot push: every relevant plane at least this far
-/// makes a point–SSDF force smaller than `τ k ε3` ([`PRUNE_TOLERANCE`]). With `V` a bound on
+/// makes a point–SSDF force smaller than `τ k ε3`, `τ` the pair's pruning `tolerance`
+/// ([`PRUNE_TOLERANCE`] unless the scene sets another, [`super::pair_tolerance`]). With `V` a bound on
 /// the speed of a query point relative to the plane body's material point, a point–plane
 /// force is at most `k s⁺_ε3(-φ) (1 + V/v_d) √(1 + μ²)` (the force bound of
 /// [`pair_contact`](crate::contact::pair_contact)), and `s⁺_ε3(-φ) ≤ ε3 e^{-φ/ε3}` for
@@ -305,9 +306,10 @@ pub fn reach_distance(
     speed: f64,
     dissipation_velocity: f64,
     friction: f64,
+    tolerance: f64,
 ) -> Option<f64> {
     let factor = (1.0 + speed / dissipation_velocity.abs()) * (1.0 + friction * friction).sqrt();
-    let t = eps3 * (factor / PRUNE_TOLERANCE).ln();
+    let t = eps3 * (factor / tolerance).ln();
     (eps3 > 0.0 && t.is_finite()).then_some(t * (1.0 + 1e-12))
 }
 
@@ -486,6 +488,7 @@ pub(super) fn sides<'a>(
     if eps1.is_nan() || eps1 <= 0.0 {
         return None;
     }
+    let tolerance = super::pair_tolerance(a, b);
     let mut out = Sides([None, None]);
     for (k, (query, planes, rel)) in [(a, b, &rels[0]), (b, a, &rels[1])].into_iter().enumerate() {
         let Collider::Aopc(s) = query else { continue };
@@ -498,7 +501,7 @@ pub(super) fn sides<'a>(
         let speed = (rel.linvel - rel.angvel_planes.cross(&rel.translation)).norm()
             + (rel.angvel - rel.angvel_planes).norm() * s.bvh().max_norm;
         // The springs rest at the margin: the reach distance counts from there.
-        let t = margin + reach_distance(eps3, speed, dissipation_velocity, friction)?;
+        let t = margin + reach_distance(eps3, speed, dissipation_velocity, friction, tolerance)?;
         if !t.is_finite() {
             return None;
         }

@@ -11,7 +11,7 @@ use crate::collision::{
 };
 use crate::geometry::ssdf::{ssdf_over, NoSink, Relevant, SpringShape};
 use crate::geometry::Aopc;
-use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar, PRUNE_TOLERANCE};
+use crate::scalar::{c, lift3, re3, smooth_norm, softplus, Scalar};
 use nalgebra::{Matrix3, Vector3};
 
 #[cfg(test)]
@@ -211,7 +211,7 @@ pub(super) fn for_each_force<T: Scalar>(
     let Some(first) = (0..bounds.len()).max_by(|&x, &y| bounds[x].1.total_cmp(&bounds[y].1)) else {
         return;
     };
-    let tol = PRUNE_TOLERANCE / bounds.len() as f64;
+    let tol = crate::collision::pair_tolerance(a, b) / bounds.len() as f64;
     let mut largest = eval(bounds[first].0);
     for (j, &(i, bound)) in bounds.iter().enumerate() {
         if j != first && bound >= tol * largest {

@@ -9,7 +9,7 @@ use std::sync::{Arc, OnceLock};
 ///
 /// A bounding-volume hierarchy over the points is built on first use (pruned queries) and kept;
 /// change the fields only before the first query, or call [`Aopc::invalidate`].
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Aopc {
     /// Face centres `p_i` (m, body frame).
     pub points: Vec<Vector3<f64>>,
@@ -27,6 +27,9 @@ pub struct Aopc {
     pub reach: Vec<Vector3<f64>>,
     /// The hierarchy over `points`, built on first use.
     bvh: OnceLock<Arc<Bvh>>,
+    /// The pruning tolerance of softmax sums over the points and of the contacts they make
+    /// ([`Bvh::tolerance`]).
+    tolerance: f64,
     /// The certificate of a union of spheres and capsules ([`super::rounded`]), set by
     /// [`super::union::sample_union`], with a fingerprint of the points and normals it holds
     /// for: the hierarchy takes it only while they are unchanged (the fields are public).
@@ -41,6 +44,13 @@ impl PartialEq for Aopc {
             && self.vertices == o.vertices
             && self.faces == o.faces
             && self.reach == o.reach
+    }
+}
+
+impl Default for Aopc {
+    /// No points, at the default pruning tolerance.
+    fn default() -> Self {
+        Aopc::new(Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new())
     }
 }
 
@@ -61,6 +71,7 @@ impl Aopc {
             faces,
             reach: Vec::new(),
             bvh: OnceLock::new(),
+            tolerance: crate::scalar::PRUNE_TOLERANCE,
             rounded: None,
         }
     }
@@ -73,6 +84,9 @@ impl Aopc {
         );
         self.bvh.get_or_init(|| {
             let mut b = Bvh::build(&self.points, &self.normals);
+            if !self.points.is_empty() {
+                b.set_tolerance(self.tolerance);
+            }
             b.set_surface(
                 &self.points,
                 &self.normals,
@@ -94,6 +108,21 @@ impl Aopc {
     pub fn invalidate(&mut self) {
         self.bvh = OnceLock::new();
         self.rounded = None;
+    }
+
+    /// The pruning tolerance `τ` ([`Bvh::tolerance`]).
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    /// Sets the pruning tolerance `τ` of this cloud's softmax sums and of the contacts its
+    /// points make ([`Bvh::set_tolerance`]): a scene's `scm_prune_tolerance`. The hierarchy is
+    /// built again on its next use.
+    pub fn set_tolerance(&mut self, tolerance: f64) {
+        if tolerance != self.tolerance {
+            self.tolerance = tolerance;
+            self.bvh = OnceLock::new();
+        }
     }
 
     /// Attaches the certificate of a rounded union (before the hierarchy is built).
@@ -124,6 +153,7 @@ impl Aopc {
             self.faces.clone(),
         );
         out.reach = self.reach.iter().map(tp).collect();
+        out.tolerance = self.tolerance;
         out
     }
 
@@ -146,6 +176,7 @@ impl Aopc {
         let mut out = Aopc {
             vertices: self.vertices.clone(),
             reach: self.reach.clone(),
+            tolerance: self.tolerance,
             ..Default::default()
         };
         for i in 0..self.len() {

@@ -117,9 +117,13 @@ pub struct Bvh {
     pub diameter: f64,
     /// Largest distance of a point from the AOPC's origin (m; rounded up).
     pub max_norm: f64,
-    /// `ln(I/τ)`, `I` the number of points and `τ` = [`PRUNE_TOLERANCE`]: the margin (in units
-    /// of the temperature) beyond which a softmax term over these points is negligible.
+    /// `ln(I/τ)`, `I` the number of points and `τ` its pruning tolerance ([`Bvh::tolerance`]):
+    /// the margin (in units of the temperature) beyond which a softmax term over these points
+    /// is negligible.
     pub log_terms: f64,
+    /// The pruning tolerance `τ` of softmax sums over these points and of the contacts they
+    /// make ([`PRUNE_TOLERANCE`] unless the scene sets another, [`Bvh::set_tolerance`]).
+    pub tolerance: f64,
     /// Flat patch of each point in leaf order (an index into `patches`, `u32::MAX` for none);
     /// empty until [`Bvh::set_surface`].
     pub patch: Vec<u32>,
@@ -180,7 +184,10 @@ impl Bvh {
     pub fn build(points: &[Vector3<f64>], normals: &[Vector3<f64>]) -> Bvh {
         let n = points.len();
         let mut order: Vec<u32> = (0..n as u32).collect();
-        let mut bvh = Bvh::default();
+        let mut bvh = Bvh {
+            tolerance: PRUNE_TOLERANCE,
+            ..Bvh::default()
+        };
         if n == 0 {
             return bvh;
         }
@@ -256,8 +263,16 @@ impl Bvh {
         bvh.diameter = (bvh.nodes[0].hi - bvh.nodes[0].lo).norm();
         bvh.max_norm =
             bvh.points.iter().map(|p| p.norm()).fold(0.0, f64::max) * (1.0 + 4.0 * f64::EPSILON);
-        bvh.log_terms = (n as f64 / PRUNE_TOLERANCE).ln();
+        bvh.set_tolerance(PRUNE_TOLERANCE);
         bvh
+    }
+
+    /// Sets the pruning tolerance `τ` (and `log_terms` with it): a skipped softmax term or
+    /// point force weighs less than `τ` relative to the largest (docs/method.md, numerical
+    /// rules).
+    pub fn set_tolerance(&mut self, tolerance: f64) {
+        self.tolerance = tolerance;
+        self.log_terms = (self.points.len() as f64 / tolerance).ln();
     }
 
     fn make_node(

@@ -1,6 +1,6 @@
-//! From what was read to the engine's model: inertias as the compiler settings say, option
-//! flags applied, the initial state, fluid forces and the finished `Model` (its mechanics:
-//! `mechanics.rs`).
+//! From what was read to the engine's model: inertias as the compiler settings say, the
+//! initial state, fluid forces and the finished `Model` (its mechanics: `mechanics.rs`; the
+//! option flags: `settings.rs`).
 
 use super::mechanics::Mechanics;
 use super::*;
@@ -46,70 +46,6 @@ impl Builder {
                 }
             }
         }
-    }
-
-    /// Applies the `<option><flag>` switches; returns what SCM refuses to simulate (features
-    /// that change the physics and that SCM does not model), first in file order first.
-    pub(super) fn apply_flags(&mut self) -> Vec<SceneError> {
-        let mut refused = Vec::new();
-        let f = self.flags;
-        // MuJoCo's default integrator is its Euler.
-        let mujoco = self.option_integrator.unwrap_or(Integrator::DampedEuler);
-        if !f.eulerdamp && mujoco == Integrator::DampedEuler {
-            self.option_integrator = Some(Integrator::SemiImplicitEuler);
-        }
-        if !f.gravity {
-            self.gravity = Vector3::zeros();
-        }
-        // MuJoCo (3, 4) computes gravity compensation with the passive forces, which it skips
-        // when both springs and dampers are disabled (measured in MuJoCo 4.0).
-        if !f.spring && !f.damper {
-            for b in &mut self.bodies {
-                b.gravcomp = 0.0;
-            }
-        }
-        for j in &mut self.joints {
-            if !f.frictionloss {
-                j.frictionloss = 0.0;
-            }
-            if !f.spring {
-                j.stiffness = 0.0;
-            }
-            if !f.damper {
-                j.damping = 0.0;
-            }
-        }
-        if let Some(el) = &self.fluid {
-            if self.wind != Vector3::zeros() {
-                refused.push(self.err(
-                    el,
-                    "wind is not supported by SCM's fluid forces yet: remove it (the fluid is then still)",
-                ));
-            }
-        }
-        if f.limit {
-            for (j, (_, _, el)) in self
-                .limits
-                .iter()
-                .enumerate()
-                .filter_map(|(j, l)| l.as_ref().map(|l| (j, l)))
-            {
-                if self.joints[j].kind == JointKind::Ball {
-                    refused.push(self.err(el, "ball joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
-                }
-            }
-        }
-        if !f.actuation && !self.actuators.is_empty() {
-            refused.push(SceneError {
-                file: self.file.clone(),
-                line: 0,
-                element: "flag".into(),
-                message: "actuation=\"disable\" with actuators is not supported by SCM: remove the actuators instead".into(),
-            });
-        }
-        refused.extend(std::mem::take(&mut self.refused));
-        refused.sort_by(|a, b| (a.file.as_str(), a.line).cmp(&(b.file.as_str(), b.line)));
-        refused
     }
 
     /// The initial state: the reference configuration at rest with zero controls, or the
@@ -339,6 +275,7 @@ impl Builder {
         let mut step = self.timestep.unwrap_or(DEFAULT_STEP);
         let mut integrator = self.option_integrator.unwrap_or(Integrator::DampedEuler);
         let mut tolerance = 1e-6;
+        let mut prune_tolerance = crate::scalar::PRUNE_TOLERANCE;
         let mut contact_points = 0.0;
         // 0: not set (the machine's default, `PairThreads::default_for_machine`).
         let mut pair_threads = 0.0;
@@ -365,6 +302,19 @@ impl Builder {
                         format!("{value} is out of range (each pair's stiction velocity is at least this times h mu g; 0 for no floor)"),
                     ));
                 }
+                continue;
+            }
+            if name == "scm_prune_tolerance" {
+                // A relative weight: below 1 for the bounds to hold, and far below it to mean
+                // what it says (docs/method.md, numerical rules).
+                if !(value > 0.0 && value <= 1e-3) {
+                    return Err(self.setting_error(
+                        &at,
+                        &name,
+                        format!("{value} is out of range (the relative weight below which a softmax term or point force is skipped: from above 0 to 1e-3; 1e-15 by default)"),
+                    ));
+                }
+                prune_tolerance = value;
                 continue;
             }
             if name == "scm_dissipation_force" {
@@ -496,6 +446,12 @@ impl Builder {
             let mut sampled = Vec::new();
             for b in 0..colliders.len() {
                 colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
+            }
+            // The scene's pruning tolerance, on every cloud (each pair reads its clouds').
+            for c in colliders.iter_mut().flatten() {
+                if let Collider::Aopc(s) = c {
+                    s.set_tolerance(prune_tolerance);
+                }
             }
             let pairs = pairs
                 .into_iter()

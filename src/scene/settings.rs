@@ -480,4 +480,68 @@ impl Builder {
         }
         Ok(())
     }
+
+    /// Applies the `<option><flag>` switches; returns what SCM refuses to simulate (features
+    /// that change the physics and that SCM does not model), first in file order first.
+    pub(super) fn apply_flags(&mut self) -> Vec<SceneError> {
+        let mut refused = Vec::new();
+        let f = self.flags;
+        // MuJoCo's default integrator is its Euler.
+        let mujoco = self.option_integrator.unwrap_or(Integrator::DampedEuler);
+        if !f.eulerdamp && mujoco == Integrator::DampedEuler {
+            self.option_integrator = Some(Integrator::SemiImplicitEuler);
+        }
+        if !f.gravity {
+            self.gravity = Vector3::zeros();
+        }
+        // MuJoCo (3, 4) computes gravity compensation with the passive forces, which it skips
+        // when both springs and dampers are disabled (measured in MuJoCo 4.0).
+        if !f.spring && !f.damper {
+            for b in &mut self.bodies {
+                b.gravcomp = 0.0;
+            }
+        }
+        for j in &mut self.joints {
+            if !f.frictionloss {
+                j.frictionloss = 0.0;
+            }
+            if !f.spring {
+                j.stiffness = 0.0;
+            }
+            if !f.damper {
+                j.damping = 0.0;
+            }
+        }
+        if let Some(el) = &self.fluid {
+            if self.wind != Vector3::zeros() {
+                refused.push(self.err(
+                    el,
+                    "wind is not supported by SCM's fluid forces yet: remove it (the fluid is then still)",
+                ));
+            }
+        }
+        if f.limit {
+            for (j, (_, _, el)) in self
+                .limits
+                .iter()
+                .enumerate()
+                .filter_map(|(j, l)| l.as_ref().map(|l| (j, l)))
+            {
+                if self.joints[j].kind == JointKind::Ball {
+                    refused.push(self.err(el, "ball joint limits are not supported by SCM yet: remove range (or set limited=\"false\"), or switch limits off with <option><flag limit=\"disable\"/></option>"));
+                }
+            }
+        }
+        if !f.actuation && !self.actuators.is_empty() {
+            refused.push(SceneError {
+                file: self.file.clone(),
+                line: 0,
+                element: "flag".into(),
+                message: "actuation=\"disable\" with actuators is not supported by SCM: remove the actuators instead".into(),
+            });
+        }
+        refused.extend(std::mem::take(&mut self.refused));
+        refused.sort_by(|a, b| (a.file.as_str(), a.line).cmp(&(b.file.as_str(), b.line)));
+        refused
+    }
 }

@@ -44,6 +44,15 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         m.integrator.name(),
         m.timestep
     );
+    // The pruning tolerance, where the scene sets one (every cloud carries the scene's).
+    let tolerance = m.colliders.iter().flatten().find_map(|c| c.tolerance());
+    if let Some(t) = tolerance.filter(|&t| t != scm::scalar::PRUNE_TOLERANCE) {
+        say!(
+            w,
+            "pruning tolerance {t:e} (scm_prune_tolerance; the default is {:e}): softmax terms and point forces below it relative to the largest are skipped",
+            scm::scalar::PRUNE_TOLERANCE
+        );
+    }
     for a in &sc.meshes {
         // A mesh whose surface is not closed is used by its convex hull (listed with the
         // warnings), or by no geom (its problem is listed with the geoms left out).
