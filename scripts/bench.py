@@ -31,6 +31,7 @@ import zipfile
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from report.common import with_setting  # noqa: E402
 from report.speed import mujoco_step_time, mujoco_warmed  # noqa: E402  (shared with the report)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -59,6 +60,10 @@ BUNDLED = [
     ("arm_push", {"shoulder.q": 1.42, "shoulder_motor.ctrl": 0.5}, 0.4),
     ("horseshoe", {}, 0.3),
 ]
+
+
+# The files also timed at a looser pruning tolerance (`--tolerance`).
+TOLERANCE_ROWS = ("t_push", "humanoid")
 
 
 def floating(n=3, gravity=False):
@@ -208,6 +213,8 @@ def main():
                     help="SCM and MuJoCo timed in turn this many times per scene (medians)")
     ap.add_argument("--files", default=",".join(FILES),
                     help="MuJoCo model files among gymnasium's (names without .xml), or 'none'")
+    ap.add_argument("--tolerance", type=float, default=1e-9,
+                    help="also time t_push and the humanoid (where run) at this scm_prune_tolerance (0: not)")
     ap.add_argument("--no-reach", dest="reach", action="store_false",
                     help="leave out the table of bodies out of reach under every integrator")
     a = ap.parse_args()
@@ -231,6 +238,14 @@ def main():
             if not path.exists():
                 raise SystemExit(f"bench: {path}: no such MuJoCo model (gymnasium's assets)")
             cases.append((path, file_controls(path) if f in CONTROLLED else {}, 0.3, f))
+        # The same files at a looser pruning tolerance (docs/method.md, "Numerical rules"):
+        # what it buys, in the same run.
+        if a.tolerance > 0:
+            for xml, sets, w, name in list(cases):
+                if name in TOLERANCE_ROWS:
+                    path = work / f"{name}_prune_tolerance.xml"
+                    path.write_text(with_setting(xml.read_text(), "scm_prune_tolerance", a.tolerance))
+                    cases.append((path, sets, w, f"{name} at τ = {a.tolerance:g}"))
         for xml, sets, warmup, name in cases:
             print(f"bench: {name}", file=sys.stderr, flush=True)
             # The two engines timed in turn, a.rounds times each, and the medians kept: a change

@@ -25,6 +25,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from report.common import with_setting  # noqa: E402  (shared with the report and the benchmark)
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCM = ROOT / "target" / "release" / "scm"
 ROBOSUITE = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets"
@@ -77,14 +80,8 @@ def first_output(scm, xml, timeout):
 def with_tolerance(xml, tolerance):
     """A copy of `xml` beside it (so that its meshes and includes resolve) whose `<custom>` sets
     `scm_prune_tolerance`; the caller removes it."""
-    text = xml.read_text()
-    tag = f'<numeric name="scm_prune_tolerance" data="{tolerance!r}"/>'
-    if "<custom>" in text:
-        text = text.replace("<custom>", "<custom>" + tag, 1)
-    else:
-        text = re.sub(r"<worldbody\b", "<custom>" + tag + "</custom><worldbody", text, count=1)
     out = xml.with_name(f".{xml.stem}.prune_tolerance{xml.suffix}")
-    out.write_text(text)
+    out.write_text(with_setting(xml.read_text(), "scm_prune_tolerance", tolerance))
     return out
 
 

@@ -144,15 +144,21 @@ def file_digest(path: pathlib.Path) -> str:
     return h.hexdigest()
 
 
-def with_spacing(text: str, spacing: float) -> str:
-    """The scene text with its `scm_spacing` set to `spacing` (added to <custom> if absent)."""
-    entry = f'<numeric name="scm_spacing" data="{spacing!r}"/>'
-    pat = re.compile(r'<numeric\s+name="scm_spacing"\s+data="[^"]*"\s*/>')
+def with_setting(text: str, name: str, value: float) -> str:
+    """The scene text with SCM's numeric setting `name` (`scm_spacing`, `scm_prune_tolerance`...)
+    set to `value` (added to <custom> if absent; MuJoCo ignores it)."""
+    entry = f'<numeric name="{name}" data="{value!r}"/>'
+    pat = re.compile(r'<numeric\s+name="' + re.escape(name) + r'"\s+data="[^"]*"\s*/>')
     if pat.search(text):
         return pat.sub(entry, text)
     if re.search(r"<custom>", text):
         return re.sub(r"<custom>", "<custom>\n    " + entry, text, count=1)
     return re.sub(r"(<mujoco[^>]*>)", r"\1\n  <custom>" + entry + "</custom>", text, count=1)
+
+
+def with_spacing(text: str, spacing: float) -> str:
+    """The scene text with its `scm_spacing` set to `spacing` (added to <custom> if absent)."""
+    return with_setting(text, "scm_spacing", spacing)
 
 
 class Variant:
