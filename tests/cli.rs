@@ -300,6 +300,21 @@ fn check_compares_a_body_with_its_colliding_geoms_only() {
         "{}",
         text(&out.stdout)
     );
+    // No pruning tolerance line at the default; the scene's, where it sets one.
+    assert!(!text(&out.stdout).contains("pruning tolerance"));
+    let loose = body("").replace(
+        "<worldbody>",
+        "<custom><numeric name=\"scm_prune_tolerance\" data=\"1e-9\"/></custom>\n  <worldbody>",
+    );
+    std::fs::write(&path, loose).unwrap();
+    let out = scm(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout)
+            .contains("pruning tolerance 1e-9 (scm_prune_tolerance; the default is 1e-15)"),
+        "{}",
+        text(&out.stdout)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
