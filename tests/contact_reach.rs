@@ -56,6 +56,18 @@ fn force_bound(p: &ContactParams<f64>, ell: f64, speed: f64, tolerance: f64) -> 
     tolerance * p.bound_stiffness() * (p.eps3 + springs * factor)
 }
 
+/// The reach distance of bodies at rest with `p`'s parameters, at the default tolerance.
+fn reach_at_rest(p: &ContactParams<f64>) -> f64 {
+    reach_distance(
+        p.eps3,
+        0.0,
+        p.dissipation_velocity,
+        p.friction,
+        PRUNE_TOLERANCE,
+    )
+    .unwrap()
+}
+
 /// A sphere, a box, a capsule and a cylinder sampled at 1 cm, each with its bounding radius (m),
 /// at the default pruning tolerance.
 fn sampled_shapes() -> Vec<(Collider, f64)> {
@@ -258,14 +270,7 @@ fn bodies_a_few_reach_distances_apart_are_settled() {
         }
         .sample(0.01),
     );
-    let t = reach_distance(
-        prm.eps3,
-        0.0,
-        prm.dissipation_velocity,
-        prm.friction,
-        PRUNE_TOLERANCE,
-    )
-    .unwrap();
+    let t = reach_at_rest(&prm);
     assert!((3e-3..5e-3).contains(&t), "reach distance {t}");
     // A capsule's side beside a box reaches as far as a box does (its points beyond the box's
     // top and bottom lie behind those faces' planes); beside a sphere, only its own reach.
@@ -333,14 +338,7 @@ fn a_margin_moves_the_reach_with_it() {
         origin: Vector3::new(0.1 + gap, 0.0, 0.0),
         ..Frame::identity()
     };
-    let t = reach_distance(
-        prm.eps3,
-        0.0,
-        prm.dissipation_velocity,
-        prm.friction,
-        PRUNE_TOLERANCE,
-    )
-    .unwrap();
+    let t = reach_at_rest(&prm);
     let far = |gap: f64| is_far(&ball, &at(gap), &cube, &Frame::identity(), &prm);
     let pushed = pair_contact_naive(&ball, &at(0.01), &cube, &Frame::identity(), &prm);
     assert!(!far(0.01), "within the margin is in reach");
