@@ -447,6 +447,85 @@ fn a_plane_reads_no_closer_than_the_polytope_proves() {
     assert!((side.distance - side_bare.distance).abs() <= 1e-12);
 }
 
+/// A finger-like slab (6 × 1.2 × 1.2 cm) sampled at 3 mm, with its two end caps either in
+/// 3 mm faces like the rest (`big_caps` false) or each one face of 12 mm (as a mesh in patches
+/// of unequal size is: flat sides in large patches, small ones elsewhere).
+fn slab(big_caps: bool) -> Collider {
+    let half = Vector3::new(0.03, 0.006, 0.006);
+    let sampled = Shape::Box { half }.sample(0.003);
+    if !big_caps {
+        return Collider::Aopc(sampled);
+    }
+    let mut cloud = sampled.retain(|p| p.x.abs() < half.x - 1e-6);
+    for s in [1.0, -1.0] {
+        let (y, z) = (half.y, half.z);
+        let c = |a: f64, b: f64| Vector3::new(s * half.x, a, b);
+        // Counter-clockwise seen from outside (+x for the cap at +x).
+        let mut quad = [c(-y, -z), c(y, -z), c(y, z), c(-y, z)];
+        if s < 0.0 {
+            quad.reverse();
+        }
+        cloud.push_quad(quad);
+    }
+    Collider::Aopc(cloud)
+}
+
+#[test]
+fn a_plane_reads_no_closer_than_its_own_face_proves() {
+    // A ball of 5 mm radius 4 mm beside the slab's side face, level with its top edge: the top
+    // face's planes near that edge read the ball's points 1 to 3 mm inside them, with softmax
+    // weights of e^-1 to e^-3 against the side face's. Each plane's reading is held to the
+    // polytope's proof less one and a half of its own face's cover radius (2.1 mm for the 3 mm
+    // faces): 4 mm less 3.2 mm, so the ball is not pushed. Two 12 mm end caps 3 cm away, with
+    // no weight at the ball, must not change that: with the cloud's largest cover radius
+    // (8.5 mm) as every plane's margin (and its temperature, r/80), their readings stood and
+    // the slab pushed the ball with 0.42 N, as without a floor (measured). Now both slabs push
+    // it with 1.9e-6 N: 4e-7 of the ball's force pressed 0.5 mm in, below.
+    let prm = params();
+    let ball = Collider::Aopc(Shape::Sphere { radius: 0.005 }.sample(0.0025));
+    let at = frame(Vector3::new(0.0, 0.015, 0.004), Vector3::zeros());
+    let fa = Frame::identity();
+    let (even, caps) = (slab(false), slab(true));
+    let Collider::Aopc(cloud) = &caps else {
+        unreachable!()
+    };
+    let r = cloud.bvh().polytope.as_ref().expect("faces").cover();
+    assert!(r > 0.008, "the end caps' cover radius: {r}");
+    // The far field is there to hold: without a polytope the same planes push.
+    let bare = pair_contact(&without_polytope(cloud), &fa, &ball, &at, &prm);
+    println!("no floor: force {:.2e} N", bare.on_b.force.norm());
+    assert!(
+        bare.on_b.force.norm() > 0.1,
+        "the top face's planes push without a floor: {:?}",
+        bare.on_b.force
+    );
+    for (name, slab) in [("3 mm faces", &even), ("12 mm end caps", &caps)] {
+        let pc = pair_contact(slab, &fa, &ball, &at, &prm);
+        println!("{name}: force {:.2e} N", pc.on_b.force.norm());
+        assert!(
+            pc.on_b.force.norm() < 1e-5 && pc.on_a.torque.norm() < 1e-6,
+            "{name}: the ball 4 mm away is pushed: {:?}",
+            pc.on_b.force
+        );
+    }
+    // In contact, the end caps change next to nothing: the ball pressed 0.5 mm into the side
+    // face, whose top and bottom planes are raised to their own floors in both slabs (measured
+    // 5.8e-12 of the force apart: sums over hierarchies of other shapes, whose pruning keeps
+    // other planes below its 1e-15 bound).
+    let pressed = frame(Vector3::new(0.0, 0.0105, 0.0), Vector3::zeros());
+    let (e, c) = (
+        pair_contact(&even, &fa, &ball, &pressed, &prm),
+        pair_contact(&caps, &fa, &ball, &pressed, &prm),
+    );
+    assert!(e.on_b.force.y > 1.0, "pressed: {:?}", e.on_b.force);
+    assert!(
+        (e.on_b.force - c.on_b.force).norm() <= 1e-10 * e.on_b.force.norm(),
+        "{:?} against {:?}",
+        e.on_b.force,
+        c.on_b.force
+    );
+}
+
 #[test]
 fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     // `pair_contact` with first-order duals and constant parameters runs the pair in f64 and

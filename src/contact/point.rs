@@ -163,19 +163,20 @@ pub(crate) fn force_of_spring<T: Scalar>(
 }
 
 /// The distance a plane's spring reads at a query point: the plane's `nᵀr` (`phi`) raised to
-/// the floor of the plane body's polytope, if any (docs/method.md, departure 3), and its
-/// gradient with respect to the query point (real part): `n` where the floor leaves it,
-/// `(1 - s) n + s ∇b` where it raises it.
+/// plane `k`'s floor (leaf order) under the plane body's polytope, if any (docs/method.md,
+/// departure 3), and its gradient with respect to the query point (real part): `n` where the
+/// floor leaves it, `(1 - s) n + s ∇b_k` where it raises it.
 #[inline]
 pub(crate) fn plane_reading<T: Scalar>(
     floor: &mut Option<Floor<'_, T>>,
     phi: T,
     n: &Vector3<f64>,
+    k: usize,
 ) -> (T, Vector3<f64>) {
     match floor {
-        Some(f) if !f.leaves(phi.re()) => {
-            let (raised, s) = f.raise(phi);
-            (raised, n * (1.0 - s) + f.gradient() * s)
+        Some(f) if !f.leaves_plane(phi.re(), k) => {
+            let (raised, s, grad) = f.raise_plane(phi, k);
+            (raised, n * (1.0 - s) + grad * s)
         }
         _ => (phi, *n),
     }
@@ -387,7 +388,7 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
                 let p = lift3::<T>(q);
                 let r = x - p;
                 let n = lift3::<T>(nq);
-                let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq);
+                let (phi, dphi) = plane_reading(&mut floor, n.dot(&r), nq, k as usize);
                 let spring = average.add(w, &n, phi);
                 if S::ON {
                     sink.term(&PlaneTerm {
@@ -419,23 +420,25 @@ pub(crate) fn point_force_naive<T: Scalar>(
             point_force(planes, x, v_point, rel, prm, &[], &mut NoForceSink)
         }
         Collider::Aopc(s) => {
+            // Every plane, in the hierarchy's leaf order, whose index each plane's floor takes.
+            let bvh = s.bvh();
             let xr = re3(x);
             let mut force = Vector3::zeros();
             let v = sliding_velocity(x, v_point, &rel.angvel_planes);
             let surface = surface_at(rel, x);
-            let dmin = s
+            let dmin = bvh
                 .points
                 .iter()
                 .map(|q| (xr - q).norm_squared())
                 .fold(f64::INFINITY, f64::min);
             let mut sum = SoftminSum::new(c(dmin), prm.eps1);
-            let mut floor = s.bvh().polytope.as_ref().map(|p| p.floor(x));
-            for (q, nq) in s.points.iter().zip(&s.normals) {
+            let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
+            for (k, (q, nq)) in bvh.points.iter().zip(&bvh.normals).enumerate() {
                 let p = lift3::<T>(q);
                 let r = x - p;
                 let w = sum.add(r.dot(&r));
                 let n = lift3::<T>(nq);
-                let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq);
+                let (phi, _) = plane_reading(&mut floor, n.dot(&r), nq, k);
                 if let Some(spring) = spring_at(phi, prm) {
                     force += force_of_spring(spring, &n, &v, surface.as_ref(), prm) * w;
                 }

@@ -170,6 +170,9 @@ impl Bvh {
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
         self.spine = super::spine::find_spine(points, normals, vertices, faces);
         self.polytope = super::polytope::Polytope::of(points, vertices, faces, reach);
+        if let Some(p) = &mut self.polytope {
+            p.reorder(&self.index);
+        }
     }
 
     /// The flat patch of the point `k` (leaf order), if any.

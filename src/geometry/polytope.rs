@@ -20,6 +20,17 @@
 //! below it, and a distance `φ` is left exactly as it is. Only a reading more than `r/2`
 //! below what the polytope proves is raised, smoothly, by the soft maximum
 //! `φ' = φ + T s⁺(b - φ)` (the softplus of width `T`, `b` the floor): `φ' ≥ max(φ, b)`.
+//!
+//! A plane's own reading is held to its own face's floor: margin `1.5 r_k`, with `r_k` the
+//! largest distance from that face's point to its corners, at the temperature of the cloud's
+//! smallest face, `T_p = min r_k / 80` (no less than `T/64`), so that a plane's reading within
+//! `r_k` of the truth is left as it is (every face's, down to `r/64`). A plane
+//! honestly reads below the truth by its own face's extent, not by the cloud's largest face's:
+//! on a mesh in patches of unequal size (a finger's flat sides in large patches, its rounded
+//! parts in small ones), the cloud's largest `r` let a small face's plane read a point beside
+//! the finger millimetres inside it (docs/method.md, departure 3, "Each plane's own margin").
+//! The separation field's entries, each a softmax over many planes, keep the cloud's floor;
+//! every plane's lies above it (`r_k ≤ r`), so what it proves holds for them all.
 
 use crate::scalar::{c, re3, softplus, Scalar};
 use nalgebra::Vector3;
@@ -56,6 +67,12 @@ pub struct Polytope {
     support: [f64; 26],
     /// Largest distance from a face's point to its corners (m): the cover radius `r`.
     cover: f64,
+    /// Per face, its own cover radius `r_k` (m), in the cloud's order until
+    /// [`Polytope::reorder`].
+    covers: Vec<f64>,
+    /// The planes' floors' temperature `T_p` (m): the smallest face's cover radius over 80,
+    /// and no less than the cloud's temperature over 64.
+    plane_temperature: f64,
 }
 
 impl Polytope {
@@ -69,12 +86,15 @@ impl Polytope {
         faces: &[[u32; 4]],
         reach: &[Vector3<f64>],
     ) -> Option<Polytope> {
-        let mut cover: f64 = 0.0;
+        let mut covers = Vec::with_capacity(faces.len());
         for (p, f) in points.iter().zip(faces) {
+            let mut r: f64 = 0.0;
             for &v in f {
-                cover = cover.max((vertices.get(v as usize)? - p).norm());
+                r = r.max((vertices.get(v as usize)? - p).norm());
             }
+            covers.push(r);
         }
+        let cover = covers.iter().copied().fold(0.0, f64::max);
         if faces.len() != points.len() || cover <= 0.0 || !cover.is_finite() {
             return None;
         }
@@ -90,12 +110,34 @@ impl Polytope {
         for h in &mut support {
             *h += 1e-12 * (1.0 + h.abs());
         }
-        Some(Polytope { support, cover })
+        let smallest = covers.iter().copied().fold(cover, f64::min);
+        Some(Polytope {
+            support,
+            cover,
+            covers,
+            plane_temperature: smallest.max(cover / 64.0) / 80.0,
+        })
+    }
+
+    /// Puts the faces' margins in the order `index` gives (`index[k]` the cloud's face of the
+    /// `k`-th plane: a hierarchy's leaf order, in which the planes are read).
+    pub fn reorder(&mut self, index: &[u32]) {
+        let covers = index
+            .iter()
+            .map(|&i| self.covers.get(i as usize).copied().unwrap_or(self.cover))
+            .collect();
+        self.covers = covers;
     }
 
     /// The cover radius `r` (m).
     pub fn cover(&self) -> f64 {
         self.cover
+    }
+
+    /// Plane `k`'s own cover radius `r_k` (m; the cloud's for a plane it does not know).
+    #[inline]
+    fn cover_of(&self, k: usize) -> f64 {
+        self.covers.get(k).copied().unwrap_or(self.cover)
     }
 
     /// The floor at `x` (the polytope's frame), evaluated lazily: most readings are far above
@@ -108,6 +150,7 @@ impl Polytope {
             values,
             upper: self.upper(&values),
             smooth: None,
+            planes: None,
         }
     }
 
@@ -170,11 +213,14 @@ pub struct Floor<'p, T: Scalar> {
     upper: f64,
     /// `b` and its gradient (real part), once needed.
     smooth: Option<(T, Vector3<f64>)>,
+    /// The planes' floors less their margins, `b_k + 1.5 r_k`, and their gradient (real
+    /// part), once needed.
+    planes: Option<(T, Vector3<f64>)>,
 }
 
 impl<T: Scalar> Floor<'_, T> {
     /// A lower bound of `b` (real part): the smoothing takes at most `T ln 26` off the maximum
-    /// (and a little more for rounding).
+    /// (and a little more for rounding). Every plane's own floor lies above it too.
     pub fn lower(&self) -> f64 {
         self.polytope.lower(self.upper)
     }
@@ -185,15 +231,31 @@ impl<T: Scalar> Floor<'_, T> {
         phi >= self.upper + UNTOUCHED * self.polytope.temperature()
     }
 
-    /// `b` and its gradient with respect to `x` (real part). The planes more than `40 T` below
-    /// the largest are left out of the sum (each would add less than `e^-40` to a sum of at
-    /// least 1, and their `exp` would mostly underflow, slowly).
+    /// Whether plane `k`'s reading `phi` (real part) is left exactly as it is by its own floor
+    /// ([`Floor::raise_plane`]).
+    #[inline]
+    pub fn leaves_plane(&self, phi: f64, k: usize) -> bool {
+        let p = self.polytope;
+        phi >= self.upper + 1.5 * (p.cover - p.cover_of(k)) + UNTOUCHED * p.plane_temperature
+    }
+
+    /// `b` and its gradient with respect to `x` (real part).
     pub fn value(&mut self) -> (T, Vector3<f64>) {
         if let Some(v) = self.smooth {
             return v;
         }
         let p = self.polytope;
-        let t = p.temperature();
+        let v = self.smooth_max(p.temperature(), 1.5 * p.cover);
+        self.smooth = Some(v);
+        v
+    }
+
+    /// The polytope's smooth maximum at temperature `t` less `m`,
+    /// `t ln(Σ_k exp((u_kᵀx - h_k)/t)) - t ln 26 - m`, and its gradient (real part). The
+    /// planes more than `40 t` below the largest are left out of the sum (each would add less
+    /// than `e^-40` to a sum of at least 1, and their `exp` would mostly underflow, slowly).
+    fn smooth_max(&self, t: f64, m: f64) -> (T, Vector3<f64>) {
+        let p = self.polytope;
         let top = self.upper + 1.5 * p.cover;
         let mut sum = T::zero();
         let mut grad = Vector3::zeros();
@@ -208,10 +270,21 @@ impl<T: Scalar> Floor<'_, T> {
             sum += w;
             grad += u * w.re();
         }
-        let b: T = c::<T>(top) + sum.ln() * c::<T>(t) - c::<T>(t * 26f64.ln() + 1.5 * p.cover);
-        let v = (b, grad / sum.re());
-        self.smooth = Some(v);
-        v
+        let b: T = c::<T>(top) + sum.ln() * c::<T>(t) - c::<T>(t * 26f64.ln() + m);
+        (b, grad / sum.re())
+    }
+
+    /// Plane `k`'s floor `b_k` and its gradient (real part).
+    fn plane_floor(&mut self, k: usize) -> (T, Vector3<f64>) {
+        let (b, grad) = match self.planes {
+            Some(v) => v,
+            None => {
+                let v = self.smooth_max(self.polytope.plane_temperature, 0.0);
+                self.planes = Some(v);
+                v
+            }
+        };
+        (b - c::<T>(1.5 * self.polytope.cover_of(k)), grad)
     }
 
     /// The reading `phi` raised to the floor, `φ' = φ + T s⁺(b - φ)`, and `∂φ'/∂b` (real
@@ -221,17 +294,37 @@ impl<T: Scalar> Floor<'_, T> {
         if self.leaves(phi.re()) {
             return (phi, 0.0);
         }
-        let t = c::<T>(self.polytope.temperature());
         let (b, _) = self.value();
-        let z = (b - phi) / t;
-        let s = 1.0 / (1.0 + (-z.re()).exp());
-        (phi + softplus(b - phi, t), s)
+        raised(phi, b, self.polytope.temperature())
+    }
+
+    /// Plane `k`'s reading `phi` raised to its own floor `b_k`: the polytope's smooth maximum
+    /// at the planes' temperature `T_p` less `1.5 r_k` (module documentation),
+    /// `φ' = φ + T_p s⁺(b_k - φ)`, with `∂φ'/∂b_k` and `∇b_k` (real parts; `0` and no gradient
+    /// where `phi` is left as it is, bit for bit).
+    #[inline]
+    pub fn raise_plane(&mut self, phi: T, k: usize) -> (T, f64, Vector3<f64>) {
+        if self.leaves_plane(phi.re(), k) {
+            return (phi, 0.0, Vector3::zeros());
+        }
+        let (b, grad) = self.plane_floor(k);
+        let (raised, s) = raised(phi, b, self.polytope.plane_temperature);
+        (raised, s, grad)
     }
 
     /// The gradient of `b` with respect to `x` (real part).
     pub fn gradient(&mut self) -> Vector3<f64> {
         self.value().1
     }
+}
+
+/// `φ' = φ + t s⁺(b - φ)` and `∂φ'/∂b`, the logistic of `(b - φ)/t` (real part).
+#[inline]
+fn raised<T: Scalar>(phi: T, b: T, t: f64) -> (T, f64) {
+    let t = c::<T>(t);
+    let z = (b - phi) / t;
+    let s = 1.0 / (1.0 + (-z.re()).exp());
+    (phi + softplus(b - phi, t), s)
 }
 
 #[cfg(test)]
@@ -300,21 +393,77 @@ mod tests {
         }
     }
 
+    /// The box above with its +x face as one face (6 × 4 cm, cover radius 3.6 cm), its other
+    /// faces as sampled (cover radius 7.1 mm), and the index of one of those.
+    fn capped() -> (Polytope, usize) {
+        let mut s = boxed().retain(|p| p.x < 0.0499);
+        let v = |y: f64, z: f64| Vector3::new(0.05, y, z);
+        s.push_quad([
+            v(-0.03, -0.02),
+            v(0.03, -0.02),
+            v(0.03, 0.02),
+            v(-0.03, 0.02),
+        ]);
+        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
+        (p, 0)
+    }
+
+    #[test]
+    fn a_plane_is_raised_to_its_own_faces_floor() {
+        let (p, k) = capped();
+        assert!((p.cover() - 0.036).abs() < 1e-3, "cover {}", p.cover());
+        let rk = p.cover_of(k);
+        assert!(
+            (rk - 0.005 * 2f64.sqrt()).abs() < 1e-9,
+            "its own cover radius {rk}"
+        );
+        // Beside the top face's edge, 4 cm out: the polytope proves 4 cm, less 5.4 cm for
+        // the cloud, less 1.1 cm for a sampled face's plane, which reads 0 there.
+        let x = Vector3::new(0.09, 0.0, 0.02);
+        let mut f = p.floor(&x);
+        let (b, _) = f.value();
+        assert!(b < -0.01 && b > -0.02, "the cloud's floor {b}");
+        let (raised, s, _) = f.raise_plane(0.0, k);
+        assert!(raised > 0.04 - 1.5 * rk - 1e-3 && s > 0.99, "{raised}");
+        // The truth, or anything within half its face's cover radius below it, is left as it
+        // is by the plane's floor (the cloud's reaches that far only within 1.8 cm).
+        for phi in [0.04, 0.04 - 0.5 * rk] {
+            assert_eq!(f.raise_plane(phi, k), (phi, 0.0, Vector3::zeros()));
+        }
+        // A plane the polytope does not know gets the cloud's margin, at the planes' sharper
+        // temperature: at least the cloud's floor, and within `T ln 26` of it.
+        let (cloud, _) = f.raise(-0.05);
+        let (unknown, _, _) = f.raise_plane(-0.05, usize::MAX);
+        assert!(unknown >= cloud && unknown <= cloud + p.temperature() * 26f64.ln() + 1e-12);
+    }
+
     #[test]
     fn the_raised_reading_and_floor_match_central_differences() {
         let s = boxed();
         let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
+        // The cloud's floor, and a plane's own on the capped box (a 7.1 mm face, whose floor
+        // lies 4 cm above its cloud's): each where a reading that depends on x too is near it
+        // (the soft part).
+        let (capped, k) = capped();
         let x0 = Vector3::new(0.061, 0.033, 0.018);
+        let cases = [(&p, None, 0.0609), (&capped, Some(k), 0.0609)];
         let h = 1e-7;
-        for dir in 0..3 {
+        for ((p, plane, at_x), dir) in cases.into_iter().flat_map(|c| (0..3).map(move |d| (c, d))) {
             let at = |e: f64| {
                 let mut x = x0.map(Dual64::from);
                 x[dir] += Dual64::new(e, 1.0);
                 let mut f = p.floor(&x);
-                // A reading that depends on x too, near the floor (the soft part).
-                let phi = x[0] - Dual64::from(0.06);
-                let (b, g) = f.value();
-                let (r, _) = f.raise(phi);
+                let phi = x[0] - Dual64::from(at_x);
+                let ((b, g), (r, s)) = match plane {
+                    Some(k) => {
+                        let (r, s, g) = f.raise_plane(phi, k);
+                        let (b, gk) = f.plane_floor(k);
+                        assert_eq!(g, gk);
+                        ((b, g), (r, s))
+                    }
+                    None => (f.value(), f.raise(phi)),
+                };
+                assert!(s > 0.01 && s < 0.99, "the soft part: {s}");
                 (b, g[dir], r)
             };
             let (b, g, r) = at(0.0);
