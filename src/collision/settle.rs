@@ -6,7 +6,8 @@ use super::*;
 
 /// Whether the point `x` (the frame of `o`) is settled by its springs against `o`: over its
 /// relevant planes `rel` (found at `x`, as the band finds them), with softmax weights `σ_i`
-/// and readings `φ_i` raised to at least the polytope's floor `low`,
+/// and readings `φ_i` raised to at least the polytope's floor `low` (each plane's to its own,
+/// [`crate::geometry::polytope::Polytope::lift_of`]),
 /// `Σ_i σ_i s⁺_ε3(m - φ_i) ≤ ε3 Σ_i σ_i e^{(m - φ_i)/ε3} ≤ ε3 e^{-(t - m)/ε3}`, so the point
 /// pushes less than a point whose every plane reads `t` (the reach distance, [`super::reach_distance`],
 /// where that spring is τ ε3 over the speed and friction factor). Checked as
@@ -30,8 +31,10 @@ pub(super) fn springs_settle(
     let bvh = o.bvh();
     let (inv1, inv3) = (1.0 / eps1, 1.0 / spring.eps3);
     let (mut weights, mut springs) = (0.0, 0.0);
+    let lifts = bvh.polytope.as_ref().filter(|_| low > f64::NEG_INFINITY);
     for &(k, d) in &rel.items {
         let (p, n) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
+        let low = lifts.map_or(low, |l| low + l.lift_of(k as usize));
         let phi = n.dot(&(x - p)).max(low);
         let e = -(d - rel.dmin) * inv1;
         weights += e.exp();

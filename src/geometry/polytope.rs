@@ -134,6 +134,16 @@ impl Polytope {
         self.cover
     }
 
+    /// How far plane `k`'s floor lies at least above the cloud's (m):
+    /// `1.5 (r - r_k) + (T - T_p) ln 26`, to add to a lower bound of the cloud's floor
+    /// ([`Floor::lower`]) for one of plane `k`'s (a smooth maximum less `T ln 26` takes at most
+    /// that off the largest plane value).
+    #[inline]
+    pub fn lift_of(&self, k: usize) -> f64 {
+        1.5 * (self.cover - self.cover_of(k))
+            + (self.temperature() - self.plane_temperature) * 26f64.ln()
+    }
+
     /// Plane `k`'s own cover radius `r_k` (m; the cloud's for a plane it does not know).
     #[inline]
     fn cover_of(&self, k: usize) -> f64 {
@@ -430,6 +440,26 @@ mod tests {
         for phi in [0.04, 0.04 - 0.5 * rk] {
             assert_eq!(f.raise_plane(phi, k), (phi, 0.0, Vector3::zeros()));
         }
+        // Every plane's floor lies above the cloud's lower bound lifted by `lift_of` (what the
+        // spring bounds and the reach proofs take), and below the surface less its margin.
+        let mut state = 11u64;
+        for _ in 0..300 {
+            let x = Vector3::new(
+                0.2 * crate::geometry::lcg(&mut state),
+                0.2 * crate::geometry::lcg(&mut state),
+                0.2 * crate::geometry::lcg(&mut state),
+            );
+            let mut f = p.floor(&x);
+            for j in 0..p.covers.len() {
+                let (bj, _) = f.plane_floor(j);
+                assert!(bj >= f.lower() + p.lift_of(j), "{x:?}, plane {j}: {bj}");
+                assert!(
+                    bj <= box_sdf(&x) - 1.5 * p.cover_of(j) + 1e-12,
+                    "{x:?}, plane {j}"
+                );
+            }
+        }
+        let mut f = p.floor(&x);
         // A plane the polytope does not know gets the cloud's margin, at the planes' sharper
         // temperature: at least the cloud's floor, and within `T ln 26` of it.
         let (cloud, _) = f.raise(-0.05);

@@ -88,7 +88,8 @@ impl GradientSink {
 /// `terms`, each term's leaf-order index and weight `w_i` are pushed in summation order (the
 /// point–SSDF force at `p` sums the same terms with the same weights; `contact`). `floor`: a
 /// lower bound of every distance the springs read at `p` (the polytope's floor,
-/// [`super::polytope::Floor::lower`]; `-∞` for none), which the spring bound may use.
+/// [`super::polytope::Floor::lower`]; `-∞` for none), which the spring bound may use, each
+/// plane's raised to its own ([`super::polytope::Polytope::lift_of`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn ssdf_over<T: Scalar, S: SsdfSink>(
@@ -105,6 +106,7 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
     let mut sum = SoftminSum::new(c(rel.dmin), eps1);
     let mut acc = T::zero();
     let mut springs = SpringBound::new(rel.dmin, eps1.re(), spring.eps3);
+    let lifts = bvh.polytope.as_ref().filter(|_| floor > f64::NEG_INFINITY);
     for &(k, d) in &rel.items {
         let (q, n) = (&bvh.points[k as usize], &bvh.normals[k as usize]);
         let r = p - lift3::<T>(q);
@@ -112,6 +114,7 @@ pub fn ssdf_over<T: Scalar, S: SsdfSink>(
         let phi = r.x * n.x + r.y * n.y + r.z * n.z;
         acc += w * phi;
         if spring.eps3 > 0.0 {
+            let floor = lifts.map_or(floor, |l| floor + l.lift_of(k as usize));
             springs.add(d, w.re(), phi.re().max(floor) - spring.margin);
         }
         if S::ON {
