@@ -480,7 +480,7 @@ fn a_plane_reads_no_closer_than_its_own_face_proves() {
     // no weight at the ball, must not change that: with the cloud's largest cover radius
     // (8.5 mm) as every plane's margin (and its temperature, r/80), their readings stood and
     // the slab pushed the ball with 0.42 N, as without a floor (measured). Now both slabs push
-    // it with 1.9e-6 N: 4e-7 of the ball's force pressed 0.5 mm in, below.
+    // it with 1.9e-6 N: 9e-7 of the ball's force pressed 0.5 mm in, below.
     let prm = params();
     let ball = Collider::Aopc(Shape::Sphere { radius: 0.005 }.sample(0.0025));
     let at = frame(Vector3::new(0.0, 0.015, 0.004), Vector3::zeros());
@@ -510,8 +510,8 @@ fn a_plane_reads_no_closer_than_its_own_face_proves() {
     }
     // In contact, the end caps change next to nothing: the ball pressed 0.5 mm into the side
     // face, whose top and bottom planes are raised to their own floors in both slabs (measured
-    // 5.8e-12 of the force apart: sums over hierarchies of other shapes, whose pruning keeps
-    // other planes below its 1e-15 bound).
+    // 5.8e-12 of the force apart: sums over two hierarchies of other shapes, in other orders,
+    // each pruned within its bound).
     let pressed = frame(Vector3::new(0.0, 0.0105, 0.0), Vector3::zeros());
     let (e, c) = (
         pair_contact(&even, &fa, &ball, &pressed, &prm),
