@@ -350,6 +350,12 @@ mod tests {
         .sample(0.01)
     }
 
+    /// A point drawn from the 20 cm cube around the box above.
+    fn around_the_box(state: &mut u64) -> Vector3<f64> {
+        let mut draw = || 0.2 * crate::geometry::lcg(state);
+        Vector3::new(draw(), draw(), draw())
+    }
+
     /// The exact signed distance of the box above.
     fn box_sdf(x: &Vector3<f64>) -> f64 {
         let q = x.abs() - Vector3::new(0.05, 0.03, 0.02);
@@ -367,11 +373,7 @@ mod tests {
         );
         let mut state = 7u64;
         for _ in 0..2000 {
-            let x = Vector3::new(
-                0.2 * crate::geometry::lcg(&mut state),
-                0.2 * crate::geometry::lcg(&mut state),
-                0.2 * crate::geometry::lcg(&mut state),
-            );
+            let x = around_the_box(&mut state);
             let mut f = p.floor(&x);
             let (b, _) = f.value();
             let sdf = box_sdf(&x);
@@ -444,11 +446,7 @@ mod tests {
         // spring bounds and the reach proofs take), and below the surface less its margin.
         let mut state = 11u64;
         for _ in 0..300 {
-            let x = Vector3::new(
-                0.2 * crate::geometry::lcg(&mut state),
-                0.2 * crate::geometry::lcg(&mut state),
-                0.2 * crate::geometry::lcg(&mut state),
-            );
+            let x = around_the_box(&mut state);
             let mut f = p.floor(&x);
             for j in 0..p.covers.len() {
                 let (bj, _) = f.plane_floor(j);
