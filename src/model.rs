@@ -224,6 +224,27 @@ impl Model {
         }
     }
 
+    /// The pruning tolerance `τ` its point clouds carry (docs/method.md, "Numerical rules"):
+    /// the scene's `scm_prune_tolerance`, or the FMU's `scm.prune_tolerance`; `None` for a model
+    /// without a point cloud, where nothing reads it.
+    pub fn prune_tolerance(&self) -> Option<f64> {
+        self.colliders.iter().flatten().find_map(|c| match c {
+            Collider::Aopc(s) => Some(s.tolerance()),
+            Collider::HalfSpace { .. } => None,
+        })
+    }
+
+    /// Gives every point cloud the pruning tolerance `tolerance` (each pair reads its two
+    /// clouds'); a cloud whose tolerance changes builds its hierarchy again on its next use,
+    /// as the scene loader's does.
+    pub fn set_prune_tolerance(&mut self, tolerance: f64) {
+        for c in self.colliders.iter_mut().flatten() {
+            if let Collider::Aopc(s) = c {
+                s.set_tolerance(tolerance);
+            }
+        }
+    }
+
     /// Makes `integrator` the model's, its joint and tendon limits and its equality
     /// constraints acting as that integrator takes them ([`LimitLaw::under`]: MuJoCo's
     /// statics, with its impedance as an added inertia where the step does not take their

@@ -242,6 +242,16 @@ impl<T: Scalar> SoftminSum<T> {
 /// Relative weight below which a softmax term may be skipped (docs/method.md, numerical rules).
 pub const PRUNE_TOLERANCE: f64 = 1e-15;
 
+/// The largest pruning tolerance a scene or a host may set: below 1 for the bounds to hold,
+/// and far below it to mean what it says (docs/method.md, numerical rules).
+pub const PRUNE_TOLERANCE_MAX: f64 = 1e-3;
+
+/// Whether `tolerance` is a pruning tolerance a scene or a host may set: above 0, at most
+/// [`PRUNE_TOLERANCE_MAX`].
+pub fn prune_tolerance_ok(tolerance: f64) -> bool {
+    tolerance > 0.0 && tolerance <= PRUNE_TOLERANCE_MAX
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

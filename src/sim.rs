@@ -133,8 +133,9 @@ pub struct Simulation {
     info: ModelInfo,
     /// The scene's start state, restored by `fmi2Reset`.
     start: SimState,
-    /// Solver settings of the scene (restored by `fmi2Reset`).
-    start_solver: (Integrator, f64, f64),
+    /// Solver settings of the scene (restored by `fmi2Reset`): integrator, step, tolerance and
+    /// the clouds' pruning tolerance.
+    start_solver: (Integrator, f64, f64, Option<f64>),
     /// Whether the host instantiated Model Exchange (mocap inputs then act at once).
     model_exchange: bool,
     /// Everything that changes while it runs: the current state, what the integrator carries,
@@ -174,7 +175,12 @@ impl Simulation {
                 text,
             })
             .collect();
-        let start_solver = (model.integrator, model.timestep, model.tolerance);
+        let start_solver = (
+            model.integrator,
+            model.timestep,
+            model.tolerance,
+            model.prune_tolerance(),
+        );
         let mut sim = Simulation {
             model,
             rows,

@@ -1,8 +1,8 @@
 //! Bad values through the C ABI, table-driven over every settable variable of every bundled
 //! scene: NaN and ±Inf everywhere, zero and negative values where a quantity must be positive
-//! (ε1, ε2, ε3, k, v_d, v_s, `solver.step`, `solver.tolerance`; a negative friction), unknown
-//! integrator names, and bad communication steps (negative, zero, non-finite, not at the FMU's
-//! time, past `stopTime`).
+//! (ε1, ε2, ε3, k, v_d, v_s, `solver.step`, `solver.tolerance`; a negative friction; a pruning
+//! tolerance out of its range), unknown integrator names, and bad communication steps
+//! (negative, zero, non-finite, not at the FMU's time, past `stopTime`).
 //!
 //! Each is refused with `fmi2Error` and a message to the host's logger that names the variable
 //! (or argument) and the value; the variable keeps its value, a valid call right after works,
@@ -38,7 +38,8 @@ fn table(name: &str) -> (Vec<Settable>, Option<u32>, u32) {
             | Slot::Mocap(..)
             | Slot::Param(_)
             | Slot::SolverStep
-            | Slot::SolverTolerance => {
+            | Slot::SolverTolerance
+            | Slot::PruneTolerance => {
                 assert!(matches!(var.var_type, VarType::Real { .. }), "{}", var.name);
                 settable.push(Settable {
                     vr,
@@ -65,6 +66,8 @@ fn bad_values(slot: Slot) -> Vec<f64> {
         Slot::Param(_) | Slot::SolverStep | Slot::SolverTolerance => {
             bad.extend([0.0, -0.0, -1.0, -1e-300])
         }
+        // A relative weight: above 0, at most 1e-3.
+        Slot::PruneTolerance => bad.extend([0.0, -0.0, -1e-300, 2e-3, 1.0]),
         _ => {}
     }
     bad

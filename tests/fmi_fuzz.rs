@@ -301,6 +301,7 @@ impl Model {
             Slot::Param(Param::Friction) => value >= 0.0,
             Slot::Param(_) => value > 0.0,
             Slot::SolverStep | Slot::SolverTolerance => self.before_init() && value > 0.0,
+            Slot::PruneTolerance => self.before_init() && value > 0.0 && value <= 1e-3,
             _ => false,
         }
     }

@@ -305,13 +305,11 @@ impl Builder {
                 continue;
             }
             if name == "scm_prune_tolerance" {
-                // A relative weight: below 1 for the bounds to hold, and far below it to mean
-                // what it says (docs/method.md, numerical rules).
-                if !(value > 0.0 && value <= 1e-3) {
+                if !crate::scalar::prune_tolerance_ok(value) {
                     return Err(self.setting_error(
                         &at,
                         &name,
-                        format!("{value} is out of range (the relative weight below which a softmax term or point force is skipped: from above 0 to 1e-3; 1e-15 by default)"),
+                        format!("{value} is out of range (the relative weight below which a softmax term or point force is skipped: from above 0 to {:e}; 1e-15 by default)", crate::scalar::PRUNE_TOLERANCE_MAX),
                     ));
                 }
                 prune_tolerance = value;

@@ -231,6 +231,7 @@ impl Simulation {
             Slot::PairPoint(p, k, i) => self.contact_points()[p].get(k).map_or(f64::NAN, |c| c[i]),
             Slot::SolverStep => self.model.timestep,
             Slot::SolverTolerance => self.model.tolerance,
+            Slot::PruneTolerance => self.model.prune_tolerance().unwrap_or(f64::NAN),
             Slot::SolverIntegrator => return Err("solver.integrator is a String variable".into()),
             Slot::QDot(i) => self
                 .model
@@ -296,6 +297,19 @@ impl Simulation {
             }
             Slot::SolverIntegrator => {
                 return Err(format!("{} is a String variable", var.name));
+            }
+            Slot::PruneTolerance if before_init => {
+                if !crate::scalar::prune_tolerance_ok(value) {
+                    return Err(format!(
+                        "{} = {value:?} refused: it must be above 0 and at most {:e} (the relative weight below which a softmax term or point force is skipped)",
+                        var.name,
+                        crate::scalar::PRUNE_TOLERANCE_MAX
+                    ));
+                }
+                if self.model.prune_tolerance() != Some(value) {
+                    self.model.set_prune_tolerance(value);
+                    self.data.forget_model();
+                }
             }
             _ => {
                 return Err(format!(

@@ -64,4 +64,14 @@ impl Data {
             started: false,
         }
     }
+
+    /// Forgets what was carried or kept for the model as it was: the integrator's carry and
+    /// the memos (after a change to the model itself, such as its pruning tolerance, that the
+    /// state they are keyed by does not show).
+    pub(super) fn forget_model(&mut self) {
+        self.solver = SolverCache::default();
+        self.outputs = ContactOutputs::default();
+        self.points = None;
+        self.accelerations = None;
+    }
 }

@@ -45,20 +45,24 @@ pub(super) fn push_derivative_rows(rows: &mut Vec<(Variable, Slot)>) {
                 "m/s2",
                 Slot::VDot(i),
                 Causality::Local,
-                "Acceleration (time derivative)",
+                "Acceleration, the time derivative",
             ),
             (Slot::V(i), _) => (
                 "rad/s2",
                 Slot::VDot(i),
                 Causality::Local,
-                "Acceleration (time derivative)",
+                "Acceleration, the time derivative",
             ),
-            (Slot::Act(i), _) => ("1/s", Slot::ActDot(i), Causality::Local, "Rate"),
+            (Slot::Act(i), _) => (
+                "1/s",
+                Slot::ActDot(i),
+                Causality::Local,
+                "Rate, the time derivative",
+            ),
             _ => continue,
         };
         let value_reference = rows.len() as u32;
-        let description =
-            format!("{what} time derivative of {name} (Model Exchange state derivative)");
+        let description = format!("{what} of {name} (Model Exchange state derivative)");
         let var_type = VarType::Real {
             start: None,
             unit: Some(unit),

@@ -52,10 +52,14 @@ impl FmiModel for Simulation {
 
     fn reset(&mut self) -> ModelResult<()> {
         self.data.current = self.start.clone();
-        let (integrator, step, tolerance) = self.start_solver;
+        let (integrator, step, tolerance, prune) = self.start_solver;
         // The integrator brings its own limit law (`Model::set_integrator`).
         self.model.set_integrator(integrator);
         (self.model.timestep, self.model.tolerance) = (step, tolerance);
+        if let Some(prune) = prune.filter(|&p| self.model.prune_tolerance() != Some(p)) {
+            self.model.set_prune_tolerance(prune);
+            self.data.forget_model();
+        }
         self.data.solver = Default::default();
         self.data.started = false;
         self.data.messages.push(LogMessage {

@@ -9,6 +9,7 @@ use crate::fmi::contract::{
     Capabilities, Causality, DefaultExperiment, Initial, ModelInfo, VarType, Variability, Variable,
 };
 use crate::model::Model;
+use crate::scalar::PRUNE_TOLERANCE_MAX;
 
 /// What a row of the variable table reads or writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -50,6 +51,8 @@ pub enum Slot {
     SolverTolerance,
     /// Integrator name (String).
     SolverIntegrator,
+    /// The point clouds' pruning tolerance (`scm.prune_tolerance`, fixed).
+    PruneTolerance,
     /// Time derivative of the position coordinate `q[i]` (a Model Exchange state derivative).
     QDot(usize),
     /// Time derivative of the velocity coordinate `v[i]`: an acceleration (a Model Exchange
@@ -430,6 +433,18 @@ pub fn variable_table(model: &Model) -> Vec<(Variable, Slot)> {
         "Local error tolerance of the adaptive integrator".into(),
         Slot::SolverTolerance,
     );
+    // Only where a point cloud reads it: a parameter a host sets acts, or is not there.
+    if let Some(tolerance) = model.prune_tolerance() {
+        push(
+            "scm.prune_tolerance".into(),
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Initial::Exact),
+            real(Some(tolerance), "1"),
+            format!("Pruning tolerance: softmax terms and point forces below this weight relative to the largest are skipped, from above 0 to {PRUNE_TOLERANCE_MAX:e} (the scene's scm_prune_tolerance; 1e-15 by default); larger is faster and less exact"),
+            Slot::PruneTolerance,
+        );
+    }
     // Distinct MJCF names give distinct FMU names, except where two kinds of element share
     // variable names (a free joint and a mocap body of one name): resolved, never refused.
     let mut all: Vec<String> = rows.iter().map(|(v, _)| v.name.clone()).collect();

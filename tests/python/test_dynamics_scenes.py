@@ -16,7 +16,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
-from conftest import SCM
+from conftest import SCENES, SCM
 
 DYNAMICS_SCENES = ["box_stack", "arm_push", "t_push", "mocap_push"]
 INTEGRATORS = ["euler", "semi_implicit_euler", "rk4", "implicit_euler", "dopri5"]
@@ -219,3 +219,45 @@ def test_mocap_paddle_pushes_the_box_in_model_exchange_as_in_co_simulation(fmu):
     # Over the last half second the box keeps the paddle's pace on average.
     pace = (me["box.pos.x"][-1] - me["box.pos.x"][-51]) / (me["time"][-1] - me["time"][-51])
     assert pace == pytest.approx(0.1, rel=0.03)
+
+
+def test_a_hosts_pruning_tolerance_runs_as_the_scenes(fmu, tmp_path):
+    """`scm.prune_tolerance`, set by fmpy before initialization, runs t_push's finger through
+    the T as the same scene with `scm_prune_tolerance` does, to the last digit; its push ends
+    within the tolerance's bound of the default's, and fmpy's setReal of a value out of range
+    is refused."""
+    loose = 1e-9
+    names = ["t_x.q", "t_y.q", "t_yaw.q", "contact.tblock.finger.force.y"]
+    run = dict(stop_time=1.5, output_interval=0.01, output=names)
+    start = {"act_x.ctrl": 0.0, "act_y.ctrl": 0.13}
+    by_host = simulate_fmu(fmu("t_push"), start_values={**start, "scm.prune_tolerance": loose}, **run)
+    text = (SCENES / "t_push.xml").read_text()
+    in_scene = tmp_path / "t_push.xml"
+    in_scene.write_text(text.replace(
+        "<worldbody>", f'<custom><numeric name="scm_prune_tolerance" data="{loose:g}"/></custom>\n  <worldbody>', 1))
+    packed = tmp_path / "t_push_loose.fmu"
+    subprocess.run([str(SCM), "pack", str(in_scene), "-o", str(packed)], check=True, capture_output=True)
+    md = read_model_description(str(packed))
+    assert float(next(v for v in md.modelVariables if v.name == "scm.prune_tolerance").start) == loose
+    by_scene = simulate_fmu(str(packed), start_values=start, **run)
+    by_default = simulate_fmu(fmu("t_push"), start_values=start, **run)
+    force = "contact.tblock.finger.force.y"
+    assert np.max(np.abs(by_default[force])) > 0.1, "the finger never pushed"
+    for n in names:
+        assert np.array_equal(by_host[n], by_scene[n]), n
+        # Pruned terms weigh less than 1000 tau of the largest (docs/method.md), so over 1.5 s
+        # of pushing the two runs stay far closer than the push itself moves the T.
+        scale = max(1.0, float(np.max(np.abs(by_default[n]))))
+        assert np.max(np.abs(by_host[n] - by_default[n])) < 1e-6 * scale, n
+    assert any(not np.array_equal(by_host[n], by_default[n]) for n in names), "the tolerance changed nothing"
+
+    from hosts import Opened
+    from fmpy.fmi2 import FMU2Slave
+    opened = Opened(fmu("t_push"))
+    inst = FMU2Slave(guid=opened.md.guid, unzipDirectory=opened.dir,
+                     modelIdentifier=opened.md.coSimulation.modelIdentifier, instanceName="bad")
+    inst.instantiate()
+    inst.setupExperiment(startTime=0.0)
+    with pytest.raises(FMICallException):
+        inst.setReal([opened.vr["scm.prune_tolerance"]], [0.01])
+    inst.freeInstance()

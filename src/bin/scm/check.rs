@@ -45,8 +45,10 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         m.timestep
     );
     // The pruning tolerance, where the scene sets one (every cloud carries the scene's).
-    let tolerance = m.colliders.iter().flatten().find_map(|c| c.tolerance());
-    if let Some(t) = tolerance.filter(|&t| t != scm::scalar::PRUNE_TOLERANCE) {
+    if let Some(t) = m
+        .prune_tolerance()
+        .filter(|&t| t != scm::scalar::PRUNE_TOLERANCE)
+    {
         say!(
             w,
             "pruning tolerance {t:e} (scm_prune_tolerance; the default is {:e}): softmax terms and point forces below it relative to the largest are skipped",
