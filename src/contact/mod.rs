@@ -35,7 +35,7 @@ pub(crate) use point::{
     NoForceSink, PlaneTerm, PointForce, SoftAverage,
 };
 pub use point::{point_plane_force, point_plane_force_at};
-pub use tape::{PairTape, TAPE_TERMS_PER_POINT};
+pub use tape::{PairTape, Seeds, TAPE_TERMS_PER_POINT};
 
 /// A rigid-body wrench in the world frame: force, and torque about the body's origin.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -17,6 +17,13 @@
 //! many orders of magnitude).
 
 use super::*;
+use crate::scalar::{derivatives, seeded};
+use nalgebra::SVector;
+use num_dual::{Derivative, DualSVec64};
+
+/// The dual numbers a tape's velocity Jacobian is seeded with ([`PairTape::replay_seeded`]):
+/// the two bodies' linear and angular velocities, 12 directions.
+pub type Seeds = DualSVec64<12>;
 
 /// One term of a point–SSDF force: softmin weight, normal, and its spring
 /// ([`spring_at`](super::point::spring_at): it does not depend on the velocity, so a replay
@@ -171,41 +178,119 @@ impl PairTape {
         let rels = crate::collision::pair_relatives(fa, fb, prm.surface.as_ref());
         let mut sums = [SideSums::zero(), SideSums::zero()];
         // Terms summed again for the entries past the budget.
-        let (mut scratch, mut again) = (Relevant::default(), Vec::new());
+        let mut work = (Relevant::default(), Vec::new());
         for e in &self.entries {
             let rel = &rels[e.side];
             let arm = lift3(&e.arm);
             let v_point = rel.linvel + rel.angvel.cross(&arm);
             // As `pair_sides` evaluated it: x = R p + t (the arm plus the translation).
             let x = arm + rel.translation;
-            // The point force by the arithmetic the live evaluation uses (`point_force`),
-            // from the recorded terms or, past the budget, from the terms found again.
-            let pf = match &e.terms {
-                Some(range) if e.half_space => {
-                    let t = &self.terms[range.start];
-                    let spring = t.spring.as_ref().map(super::point::Spring::lift);
-                    half_space_force(&x, &lift3(&t.n), spring, &v_point, rel, prm).0
-                }
-                Some(range) => {
-                    let mut average = SoftAverage::new(x, &v_point, rel, prm);
-                    for t in &self.terms[range.clone()] {
-                        let spring = t.spring.as_ref().map(super::point::Spring::lift);
-                        average.add_spring(c(t.w), &lift3(&t.n), spring);
-                    }
-                    average.finish()
-                }
-                None => {
-                    let planes = if e.side == 0 { b } else { a };
-                    let Collider::Aopc(o) = planes else {
-                        unreachable!("a term past the budget is a point against an AOPC")
-                    };
-                    // Its relevant set and weights, as `pair_sides` found them.
-                    let terms = terms_again(o, &x, prm.eps1, &mut scratch, &mut again);
-                    point_force(planes, &x, &v_point, rel, prm, terms, &mut NoForceSink)
-                }
+            let planes = if e.side == 0 { b } else { a };
+            let pf = self.entry_force(e, planes, &x, &v_point, rel, prm, &mut work);
+            sums[e.side].add(&arm, &pf, c(e.weight));
+        }
+        SideSums::wrenches(sums, fa, fb)
+    }
+
+    /// [`PairTape::replay`] on frames whose velocities are seeded as the 12 directions of
+    /// `Seeds` (positions carrying none): the wrenches' derivatives with respect to the two
+    /// bodies' linear and angular velocities, the same as that replay gives on these frames
+    /// to rounding. Each point force reads the velocities only through the sliding velocity
+    /// `v` of its query point (3 numbers: `SoftAverage`, `half_space_force`), so it is summed
+    /// on dual numbers of width 3 seeded on `v` and chained with `v`'s 12 derivatives: a
+    /// point's terms cost a width-3 sum instead of a width-12 one (gymnasium's humanoid as
+    /// written, RK4: these Jacobians were a fifth of its run).
+    pub fn replay_seeded(
+        &self,
+        a: &Collider,
+        fa: &Frame<Seeds>,
+        b: &Collider,
+        fb: &Frame<Seeds>,
+        prm: &ContactParams<f64>,
+    ) -> [Wrench<Seeds>; 2] {
+        type D3 = DualSVec64<3>;
+        let rels = crate::collision::pair_relatives(fa, fb, prm.surface.as_ref());
+        let prm3: ContactParams<D3> = prm.lift();
+        let mut sums = [SideSums::zero(), SideSums::zero()];
+        let mut work = (Relevant::default(), Vec::new());
+        for e in &self.entries {
+            let rel = &rels[e.side];
+            let arm = lift3(&e.arm);
+            let v_point = rel.linvel + rel.angvel.cross(&arm);
+            let x = arm + rel.translation;
+            let v = sliding_velocity(&x, &v_point, &rel.angvel_planes);
+            // At the point, a body pair whose only motion is `v` (the plane body still): the
+            // force reads `v - 0 × x`, which is `v`.
+            let real3 = |u: &Vector3<Seeds>| u.map(|c| D3::from_re(c.re));
+            let at = Relative::<D3> {
+                rotation: rel.rotation.map(|c| D3::from_re(c.re)),
+                translation: real3(&rel.translation),
+                linvel: Vector3::zeros(),
+                angvel: Vector3::zeros(),
+                angvel_planes: Vector3::zeros(),
+                surface: rel.surface.as_ref().map(|t| crate::collision::Twist {
+                    lin: real3(&t.lin),
+                    ang: real3(&t.ang),
+                }),
+            };
+            let v3 = Vector3::from_fn(|k, _| seeded::<3>(v[k].re, Some(k)));
+            let planes = if e.side == 0 { b } else { a };
+            let pf3 = self.entry_force(e, planes, &real3(&x), &v3, &at, &prm3, &mut work);
+            // Chained: d force = (d force / d v) (d v / d velocities).
+            let dv = [derivatives(&v[0]), derivatives(&v[1]), derivatives(&v[2])];
+            let force = Vector3::from_fn(|i, _| {
+                let g = derivatives(&pf3.force[i]);
+                let d = SVector::<f64, 12>::from_fn(|j, _| {
+                    g[0] * dv[0][j] + g[1] * dv[1][j] + g[2] * dv[2][j]
+                });
+                Seeds::new(pf3.force[i].re, Derivative::some(d))
+            });
+            let pf = PointForce {
+                moment: x.cross(&force),
+                force,
             };
             sums[e.side].add(&arm, &pf, c(e.weight));
         }
         SideSums::wrenches(sums, fa, fb)
+    }
+
+    /// The point force of entry `e` of this tape at the query point `x` moving with `v_point`
+    /// against the planes of `planes` (the bodies' motion `rel`), by the arithmetic the live
+    /// evaluation uses (`point_force`): from the recorded terms or, past the budget, from the
+    /// terms found again (`work`: the walk's scratch and those terms).
+    #[allow(clippy::too_many_arguments)]
+    fn entry_force<T: Scalar>(
+        &self,
+        e: &Entry,
+        planes: &Collider,
+        x: &Vector3<T>,
+        v_point: &Vector3<T>,
+        rel: &Relative<T>,
+        prm: &ContactParams<T>,
+        (scratch, again): &mut (Relevant, Vec<(u32, T)>),
+    ) -> PointForce<T> {
+        match &e.terms {
+            Some(range) if e.half_space => {
+                let t = &self.terms[range.start];
+                let spring = t.spring.as_ref().map(super::point::Spring::lift);
+                half_space_force(x, &lift3(&t.n), spring, v_point, rel, prm).0
+            }
+            Some(range) => {
+                let mut average = SoftAverage::new(*x, v_point, rel, prm);
+                for t in &self.terms[range.clone()] {
+                    let spring = t.spring.as_ref().map(super::point::Spring::lift);
+                    average.add_spring(c(t.w), &lift3(&t.n), spring);
+                }
+                average.finish()
+            }
+            None => {
+                let Collider::Aopc(o) = planes else {
+                    unreachable!("a term past the budget is a point against an AOPC")
+                };
+                // Its relevant set and weights, as `pair_sides` found them.
+                let terms = terms_again(o, x, prm.eps1, scratch, again);
+                point_force(planes, x, v_point, rel, prm, terms, &mut NoForceSink)
+            }
+        }
     }
 }

@@ -13,11 +13,10 @@
 use super::pairs::{add_pair_wrenches, PairVisit, Pick};
 use super::*;
 use crate::collision::Frame;
-use crate::contact::PairTape;
+use crate::contact::{PairTape, Seeds};
 use crate::dynamics::{BodyColumn, CoupledFactor};
 use crate::scalar::{derivatives, seeded};
 use nalgebra::{DMatrix, SMatrix};
-use num_dual::DualSVec64;
 
 /// [`Model::forward_at`] on `f64` with a contact velocity, frozen at a configuration (see the
 /// module).
@@ -195,13 +194,13 @@ impl FrozenForward<'_> {
     /// [`FrozenForward::contact_force`], pair by pair. Each recorded pair's wrenches depend on
     /// `V` only through its two bodies' frame velocities, so its tape is replayed once on dual
     /// numbers of width 12 seeded on those (the 12 × 12 `K` of its wrenches against the two
-    /// bodies' velocities), and `Σ Jᵀ K J` is gathered over the columns of the two bodies'
+    /// bodies' velocities; each point force on width 3, [`PairTape::replay_seeded`]), and `Σ Jᵀ K J` is gathered over the columns of the two bodies'
     /// Jacobians ([`crate::dynamics::Tree::body_jacobian`], at the recorded positions). The
     /// same derivatives as [`FrozenForward::contact_force`] on dual numbers of every velocity,
     /// which replays every tape once per pass of 8 velocities: on MuJoCo's stonehenge (456
     /// velocities, 57 passes) those replays were 85 % of a run.
     pub fn contact_force_jacobian(&self, v_contact: &[f64]) -> DMatrix<f64> {
-        type D = DualSVec64<12>;
+        type D = Seeds;
         let m = self.model;
         let n = m.tree.nv;
         let at = m.tree.kinematics_with(&self.q, v_contact, &self.mocap);
@@ -222,7 +221,7 @@ impl FrozenForward<'_> {
                 seeded_frame(&at.frames[*a], 0),
                 seeded_frame(&at.frames[*b], 6),
             );
-            let [on_a, on_b] = tape.replay(ca, &fa, cb, &fb, &p.lift());
+            let [on_a, on_b] = tape.replay_seeded(ca, &fa, cb, &fb, p);
             // Rows: force and torque on a, then on b; columns: a's linear and angular
             // velocity, then b's.
             let mut k = SMatrix::<f64, 12, 12>::zeros();
