@@ -18,7 +18,7 @@
 
 use super::*;
 use crate::scalar::{derivatives, seeded};
-use nalgebra::SVector;
+use nalgebra::{Matrix3, SMatrix};
 use num_dual::{Derivative, DualSVec64};
 
 /// The dual numbers a tape's velocity Jacobian is seeded with ([`PairTape::replay_seeded`]):
@@ -196,9 +196,13 @@ impl PairTape {
     /// `Seeds` (positions carrying none): the wrenches' derivatives with respect to the two
     /// bodies' linear and angular velocities, the same as that replay gives on these frames
     /// to rounding. Each point force reads the velocities only through the sliding velocity
-    /// `v` of its query point (3 numbers: `SoftAverage`, `half_space_force`), so it is summed
-    /// on dual numbers of width 3 seeded on `v` and chained with `v`'s 12 derivatives: a
-    /// point's terms cost a width-3 sum instead of a width-12 one (gymnasium's humanoid as
+    /// `v = u + ω × arm - ω_p × x` of its query point (3 numbers: `SoftAverage`,
+    /// `half_space_force`), so it is summed on dual numbers of width 3 seeded on `v`, giving
+    /// `G = ∂f/∂v`; and the sums are linear in each force with the point's arm and position
+    /// as coefficients, so each side gathers `Σ w G`, `Σ w G [arm]×`, `Σ w G [x]×` and the
+    /// same with `[arm]×` in front (3 × 3 each), chained once at the end with the 3 × 12
+    /// derivatives of the side's `u`, `ω` and `ω_p`. A point costs a width-3 sum and a few
+    /// 3 × 3 products instead of its terms and sums on width 12 (gymnasium's humanoid as
     /// written, RK4: these Jacobians were a fifth of its run).
     pub fn replay_seeded(
         &self,
@@ -209,20 +213,16 @@ impl PairTape {
         prm: &ContactParams<f64>,
     ) -> [Wrench<Seeds>; 2] {
         type D3 = DualSVec64<3>;
+        type Rows = SMatrix<f64, 3, 12>;
         let rels = crate::collision::pair_relatives(fa, fb, prm.surface.as_ref());
         let prm3: ContactParams<D3> = prm.lift();
-        let mut sums = [SideSums::zero(), SideSums::zero()];
-        let mut work = (Relevant::default(), Vec::new());
-        for e in &self.entries {
-            let rel = &rels[e.side];
-            let arm = lift3(&e.arm);
-            let v_point = rel.linvel + rel.angvel.cross(&arm);
-            let x = arm + rel.translation;
-            let v = sliding_velocity(&x, &v_point, &rel.angvel_planes);
-            // At the point, a body pair whose only motion is `v` (the plane body still): the
-            // force reads `v - 0 × x`, which is `v`.
+        let rows = |u: &Vector3<Seeds>| Rows::from_fn(|i, j| derivatives(&u[i])[j]);
+        // Per side: its motion's real parts, the derivatives of `u`, `ω`, `ω_p`, and the
+        // motion a point force reads when `v` is all of it (the plane body still: `v - 0 × x`
+        // is `v`).
+        let sides = rels.each_ref().map(|rel| {
             let real3 = |u: &Vector3<Seeds>| u.map(|c| D3::from_re(c.re));
-            let at = Relative::<D3> {
+            let still = Relative::<D3> {
                 rotation: rel.rotation.map(|c| D3::from_re(c.re)),
                 translation: real3(&rel.translation),
                 linvel: Vector3::zeros(),
@@ -233,24 +233,75 @@ impl PairTape {
                     ang: real3(&t.ang),
                 }),
             };
-            let v3 = Vector3::from_fn(|k, _| seeded::<3>(v[k].re, Some(k)));
+            let real = |u: &Vector3<Seeds>| u.map(|c| c.re);
+            (
+                [
+                    real(&rel.linvel),
+                    real(&rel.angvel),
+                    real(&rel.angvel_planes),
+                ],
+                real(&rel.translation),
+                [
+                    rows(&rel.linvel),
+                    rows(&rel.angvel),
+                    rows(&rel.angvel_planes),
+                ],
+                still,
+            )
+        });
+        let mut values = [SideSums::<f64>::zero(), SideSums::zero()];
+        let mut gathered = [[Matrix3::<f64>::zeros(); 6]; 2];
+        let mut work = (Relevant::default(), Vec::new());
+        for e in &self.entries {
+            let ([u, om, om_p], tr, _, still) = &sides[e.side];
+            let arm = e.arm;
+            // As the replay on `Seeds` computes the real parts.
+            let v_point = u + om.cross(&arm);
+            let x = arm + tr;
+            let v = sliding_velocity(&x, &v_point, om_p);
+            let v3 = Vector3::from_fn(|k, _| seeded::<3>(v[k], Some(k)));
             let planes = if e.side == 0 { b } else { a };
-            let pf3 = self.entry_force(e, planes, &real3(&x), &v3, &at, &prm3, &mut work);
-            // Chained: d force = (d force / d v) (d v / d velocities).
-            let dv = [derivatives(&v[0]), derivatives(&v[1]), derivatives(&v[2])];
-            let force = Vector3::from_fn(|i, _| {
-                let g = derivatives(&pf3.force[i]);
-                let d = SVector::<f64, 12>::from_fn(|j, _| {
-                    g[0] * dv[0][j] + g[1] * dv[1][j] + g[2] * dv[2][j]
-                });
-                Seeds::new(pf3.force[i].re, Derivative::some(d))
-            });
+            let x3 = x.map(D3::from_re);
+            let pf3 = self.entry_force(e, planes, &x3, &v3, still, &prm3, &mut work);
+            let force = pf3.force.map(|c| c.re);
+            let g = Matrix3::from_fn(|i, k| derivatives(&pf3.force[i])[k]);
             let pf = PointForce {
                 moment: x.cross(&force),
                 force,
             };
-            sums[e.side].add(&arm, &pf, c(e.weight));
+            values[e.side].add(&arm, &pf, e.weight);
+            let (wg, ax, xx) = (g * e.weight, arm.cross_matrix(), x.cross_matrix());
+            let awg = ax * wg;
+            let m = &mut gathered[e.side];
+            m[0] += wg;
+            m[1] += wg * ax;
+            m[2] += wg * xx;
+            m[3] += awg;
+            m[4] += awg * ax;
+            m[5] += awg * xx;
         }
+        let sums = [0, 1].map(|side| {
+            let (_, tr, [du, dom, dom_p], _) = &sides[side];
+            let m = &gathered[side];
+            // dv = du - [arm]× dω + [x]× dω_p, summed with the gathered coefficients.
+            let df_q = m[0] * du - m[1] * dom + m[2] * dom_p;
+            let dt_q = m[3] * du - m[4] * dom + m[5] * dom_p;
+            // f_p = -f_q; t_p = -Σ w x × f, with x = arm + t: -(t_q + t × f_q).
+            let df_p = -df_q;
+            let dt_p = -(dt_q + tr.cross_matrix() * df_q);
+            let dual = |value: &Vector3<f64>, d: &Rows| {
+                Vector3::from_fn(|i, _| {
+                    Seeds::new(value[i], Derivative::some(d.row(i).transpose()))
+                })
+            };
+            let v = &values[side];
+            SideSums {
+                f_q: dual(&v.f_q, &df_q),
+                t_q: dual(&v.t_q, &dt_q),
+                f_p: dual(&v.f_p, &df_p),
+                t_p: dual(&v.t_p, &dt_p),
+            }
+        });
         SideSums::wrenches(sums, fa, fb)
     }
 
