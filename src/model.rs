@@ -228,10 +228,10 @@ impl Model {
     /// the scene's `scm_prune_tolerance`, or the FMU's `scm.prune_tolerance`; `None` for a model
     /// without a point cloud, where nothing reads it.
     pub fn prune_tolerance(&self) -> Option<f64> {
-        self.colliders.iter().flatten().find_map(|c| match c {
-            Collider::Aopc(s) => Some(s.tolerance()),
-            Collider::HalfSpace { .. } => None,
-        })
+        self.colliders
+            .iter()
+            .flatten()
+            .find_map(Collider::tolerance)
     }
 
     /// Gives every point cloud the pruning tolerance `tolerance` (each pair reads its two

@@ -175,12 +175,8 @@ impl Simulation {
                 text,
             })
             .collect();
-        let start_solver = (
-            model.integrator,
-            model.timestep,
-            model.tolerance,
-            model.prune_tolerance(),
-        );
+        let prune = model.prune_tolerance();
+        let start_solver = (model.integrator, model.timestep, model.tolerance, prune);
         let mut sim = Simulation {
             model,
             rows,

@@ -25,6 +25,8 @@ mod pull_tests;
 mod surface_tests;
 mod tape;
 #[cfg(test)]
+mod tape_tests;
+#[cfg(test)]
 mod tests;
 
 use jacobian::pair_contact_chained;

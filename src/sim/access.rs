@@ -241,6 +241,15 @@ impl Simulation {
         })
     }
 
+    /// Gives the model's point clouds the pruning tolerance `tolerance` where it is another,
+    /// and forgets what was carried or kept for the old one (`Data::forget_model`).
+    pub(super) fn set_prune_tolerance(&mut self, tolerance: f64) {
+        if self.model.prune_tolerance() != Some(tolerance) {
+            self.model.set_prune_tolerance(tolerance);
+            self.data.forget_model();
+        }
+    }
+
     /// Writes a Real row; `before_init`: start values, fixed parameters and solver settings
     /// may be set (before the FMU's initialization, or through the facade).
     pub(crate) fn write(
@@ -306,10 +315,7 @@ impl Simulation {
                         crate::scalar::PRUNE_TOLERANCE_MAX
                     ));
                 }
-                if self.model.prune_tolerance() != Some(value) {
-                    self.model.set_prune_tolerance(value);
-                    self.data.forget_model();
-                }
+                self.set_prune_tolerance(value);
             }
             _ => {
                 return Err(format!(

@@ -56,9 +56,8 @@ impl FmiModel for Simulation {
         // The integrator brings its own limit law (`Model::set_integrator`).
         self.model.set_integrator(integrator);
         (self.model.timestep, self.model.tolerance) = (step, tolerance);
-        if let Some(prune) = prune.filter(|&p| self.model.prune_tolerance() != Some(p)) {
-            self.model.set_prune_tolerance(prune);
-            self.data.forget_model();
+        if let Some(prune) = prune {
+            self.set_prune_tolerance(prune);
         }
         self.data.solver = Default::default();
         self.data.started = false;
