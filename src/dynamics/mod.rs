@@ -418,13 +418,23 @@ impl Tree {
 
     /// Recursive Newton–Euler: the generalized force that produces acceleration `vdot` under
     /// gravity and external body wrenches `f_ext` (per body, world frame, torque about the body
-    /// origin). With `vdot = 0` this is the bias `c(q, v) - Σ Jᵀ f_ext`.
+    /// origin). With `vdot = 0` this is the bias `c(q, v) - Σ Jᵀ f_ext`; an empty `vdot` is
+    /// taken as zero (the bias, without a vector of zeros to allocate at every evaluation).
+    ///
+    /// # Panics
+    /// If `vdot` is neither empty nor one entry per velocity coordinate.
     pub fn rnea<T: Scalar>(
         &self,
         kin: &Kinematics<T>,
         vdot: &[T],
         f_ext: &[crate::contact::Wrench<T>],
     ) -> DVector<T> {
+        assert!(
+            vdot.is_empty() || vdot.len() == self.nv,
+            "{} accelerations for {} velocity coordinates",
+            vdot.len(),
+            self.nv
+        );
         let n = self.nodes.len();
         let g = self.gravity.map(c::<T>);
         let a0 = spatial::spatial(&Vector3::zeros(), &(-g));
@@ -436,8 +446,11 @@ impl Tree {
                 Some(p) => kin.x[i].motion(&acc[p]),
                 None => kin.x[i].motion(&a0),
             };
-            let aj = self.joint_velocity(&kin.s, vdot, self.node_dofs(i));
-            let ai = ap + aj + kin.bias_acc[i];
+            let ai = if vdot.is_empty() {
+                ap + kin.bias_acc[i]
+            } else {
+                ap + self.joint_velocity(&kin.s, vdot, self.node_dofs(i)) + kin.bias_acc[i]
+            };
             let inertia = self.node_inertia::<T>(i);
             let mut fi = inertia * ai + cross_force(&kin.vel[i], &(inertia * kin.vel[i]));
             if node.carries_inertia {

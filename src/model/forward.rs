@@ -213,8 +213,7 @@ impl Model {
             (wrenches, Vec::new())
         };
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
-        let zero = vec![T::zero(); self.tree.nv];
-        let bias = self.tree.rnea(&kin, &zero, &wrenches);
+        let bias = self.tree.rnea(&kin, &[], &wrenches);
         let mut rhs = DVector::from_column_slice(tau)
             + self.passive_forces(q, v, prm.stiction_velocity)
             - bias;

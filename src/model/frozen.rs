@@ -186,7 +186,7 @@ impl FrozenForward<'_> {
         let wrenches = self.contact_wrenches(&at, |p| p.lift());
         let start = tree.kinematics_with(&q, &v, &mocap);
         // The bias with vdot = 0 is c(q, v) - Σ Jᵀ f_ext: its negative carries Σ Jᵀ Λ(V).
-        let bias = tree.rnea(&start, &vec![T::zero(); tree.nv], &wrenches);
+        let bias = tree.rnea(&start, &[], &wrenches);
         bias.iter().map(|&b| -b).collect()
     }
 
@@ -294,8 +294,7 @@ impl FrozenForward<'_> {
     fn solve(&self, mut wrenches: Vec<Wrench<f64>>) -> Vec<f64> {
         let m = self.model;
         m.add_body_forces(&self.kin, self.stiction_velocity, &mut wrenches);
-        let zero = vec![0.0; m.tree.nv];
-        let bias = m.tree.rnea(&self.kin, &zero, &wrenches);
+        let bias = m.tree.rnea(&self.kin, &[], &wrenches);
         let rhs = &self.rhs - bias;
         self.mass.solve(&rhs).as_slice().to_vec()
     }
