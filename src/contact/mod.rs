@@ -16,6 +16,8 @@ use nalgebra::{Matrix3, Vector3};
 
 #[cfg(test)]
 mod chain_tests;
+#[cfg(test)]
+mod distance_tests;
 mod jacobian;
 mod params;
 mod point;
@@ -406,6 +408,35 @@ pub fn pair_contact<T: Scalar>(
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
     pair_contact_memo(a, fa, b, fb, prm, None, &mut Scratch::default())
+}
+
+/// The smooth separation distance `D = Wᵀ Φ` of the pair `a`–`b` alone: the same bits as
+/// [`pair_contact`]'s `distance` (the same band, whose entries do not depend on what else the
+/// walk bounds or keeps), without the point forces, the springs' bounds or the SSDF terms kept
+/// for them. What an output of the distance needs for a pair the proofs left out: on
+/// gymnasium's humanoid, the forces were about a third of such an evaluation
+/// (docs/fmu.md, "What an output read costs"). The walks work in `scratch`.
+pub fn pair_distance<T: Scalar>(
+    a: &Collider,
+    fa: &Frame<T>,
+    b: &Collider,
+    fb: &Frame<T>,
+    prm: &ContactParams<T>,
+    scratch: &mut Scratch,
+) -> T {
+    let rels = pair_relatives(fa, fb, prm.surface.as_ref());
+    let band = band_of(
+        a,
+        b,
+        &rels,
+        prm.eps1,
+        prm.eps2,
+        SpringShape::NONE,
+        BandWork::bare(scratch),
+    );
+    SeparationDistribution::from_band_weights(&band, prm.eps2)
+        .0
+        .distance
 }
 
 /// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`

@@ -8,7 +8,7 @@ use crate::collision::{
     out_of_reach, out_of_reach_proven, CandidateMemo, Collider, Frame, PairCarry, ReachProof,
     Relative, Scratch,
 };
-use crate::contact::{pair_contact_memo, ContactParams, PairContact, Wrench};
+use crate::contact::{pair_contact_memo, pair_distance, ContactParams, PairContact, Wrench};
 use crate::dynamics::Kinematics;
 use crate::scalar::{c, Scalar};
 
@@ -201,6 +201,14 @@ impl<T: Scalar> PendingPair<'_, T> {
             scratch,
         )
     }
+
+    /// The pair's smooth distance at `kin` alone ([`pair_distance`]: the same bits as its
+    /// evaluation's), the walks working in `scratch`.
+    fn distance(self, kin: &Kinematics<T>, scratch: &mut Scratch) -> T {
+        let [a, b] = self.bodies;
+        let [ca, cb] = self.sides;
+        pair_distance(ca, &kin.frames[a], cb, &kin.frames[b], &self.prm, scratch)
+    }
 }
 
 /// How many threads evaluate the pairs in reach ([`Model::pair_threads`]). A pair's evaluation
@@ -340,7 +348,7 @@ impl Model {
         let missing: Vec<bool> = applied.iter().map(Option::is_none).collect();
         let pick = Pick::Marked(&missing);
         let distances = self.visit_pairs(kin, prm, pulls, pick, Reuse::Nothing, |p, s| {
-            p.evaluate(kin, s).distance
+            p.distance(kin, s)
         });
         applied
             .iter()
