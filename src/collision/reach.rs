@@ -472,6 +472,7 @@ impl<'a> Sides<'a> {
 /// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
 /// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
 /// (nothing can be proven).
+#[inline]
 pub(super) fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,

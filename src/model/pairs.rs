@@ -438,24 +438,30 @@ impl Model {
         let mut own = Vec::new();
         // Fitted by the callers that carry data (`forward_at`, `frozen_forward`), before any
         // check that can fail, so a failing call leaves a fitted carry.
-        let (kept, scratch): (Vec<_>, &mut [Scratch]) = match reuse {
+        // What each pair carries, read in pair order as the pairs are (no vector of them: this
+        // runs at every evaluation).
+        let (mut carried, scratch) = match reuse {
             Reuse::Nothing => {
                 own.resize_with(threads, Scratch::default);
-                ((0..n).map(|_| (None, None)).collect(), &mut own)
+                (None, &mut own[..])
             }
             Reuse::All(all) => {
                 let (pairs, scratch) = all.pairs_and_scratch(threads);
-                (pairs.map(|(r, c)| (Some(r), c)).collect(), scratch)
+                (Some(pairs), scratch)
             }
         };
-        debug_assert_eq!(
-            kept.len(),
-            n,
-            "the carried pair data is fitted to the pairs"
-        );
         let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();
-        for (k, (pair, (reach, candidates))) in self.pairs.iter().zip(kept).enumerate() {
+        for (k, pair) in self.pairs.iter().enumerate() {
+            let (reach, candidates) = match carried.as_mut() {
+                None => (None, None),
+                Some(pairs) => {
+                    let (r, c) = pairs
+                        .next()
+                        .expect("the carried pair data is fitted to the pairs");
+                    (Some(r), c)
+                }
+            };
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
                 out.push(PairVisit::NoCollider);
                 continue;
