@@ -438,8 +438,7 @@ impl Model {
         let mut own = Vec::new();
         // Fitted by the callers that carry data (`forward_at`, `frozen_forward`), before any
         // check that can fail, so a failing call leaves a fitted carry.
-        // What each pair carries, read in pair order as the pairs are (no vector of them: this
-        // runs at every evaluation).
+        // What each pair carries, read in pair order (no vector of it at every evaluation).
         let (mut carried, scratch) = match reuse {
             Reuse::Nothing => {
                 own.resize_with(threads, Scratch::default);
@@ -453,14 +452,10 @@ impl Model {
         let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();
         for (k, pair) in self.pairs.iter().enumerate() {
-            let (reach, candidates) = match carried.as_mut() {
+            let (reach, candidates) = match carried.as_mut().map(|pairs| pairs.next()) {
                 None => (None, None),
-                Some(pairs) => {
-                    let (r, c) = pairs
-                        .next()
-                        .expect("the carried pair data is fitted to the pairs");
-                    (Some(r), c)
-                }
+                Some(Some((r, c))) => (Some(r), c),
+                Some(None) => unreachable!("the carried pair data is fitted to the pairs"),
             };
             let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
                 out.push(PairVisit::NoCollider);
