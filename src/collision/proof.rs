@@ -51,13 +51,9 @@ impl ProofSide {
             + (side.rotation - self.rotation).norm() * scale)
             * (1.0 + 1e-9)
             + 1e-15 * (side.translation.norm() + scale);
-        // `M1` and `R` as `Side::margins` gives them, without the root spheres' gap it also
-        // computes (a kept proof is checked at every forward of every pair it settles).
         let relevant = match side.planes {
-            Collider::Aopc(o) if o.is_empty() => 0.0 <= self.m1,
-            Collider::Aopc(o) => {
-                let (m1_per_eps1, spread) =
-                    (o.bvh().log_terms, o.bvh().nodes[0].radius * (1.0 + 1e-12));
+            Collider::Aopc(_) => {
+                let (m1_per_eps1, spread) = side.relevance();
                 m1_per_eps1 * eps1 + 4.0 * delta * spread <= self.m1
             }
             Collider::HalfSpace { .. } => true,

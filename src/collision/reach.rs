@@ -431,18 +431,28 @@ impl Side<'_> {
     /// cloud's root sphere), and the gap between the root spheres less `t`. For a half-space:
     /// `M1 = 0`, `R = 0`, and the root sphere's height above the plane less `t`.
     pub(super) fn margins(&self) -> (f64, f64, f64) {
+        let (m1_per_eps1, spread) = self.relevance();
         let (c, r) = self.root();
-        match self.planes {
+        let gap = match self.planes {
             // No planes: nothing to be near; no room to choose (`with_room` gives none).
-            Collider::Aopc(o) if o.is_empty() => (0.0, 0.0, f64::INFINITY),
+            Collider::Aopc(o) if o.is_empty() => f64::INFINITY,
             Collider::Aopc(o) => {
                 let (oc, or) = (&o.bvh().nodes[0].centre, o.bvh().nodes[0].radius);
-                let d = (c - oc).norm();
-                (o.bvh().log_terms, or * (1.0 + 1e-12), d - r - or - self.t)
+                (c - oc).norm() - r - or - self.t
             }
-            Collider::HalfSpace { point, normal } => {
-                (0.0, 0.0, normal.dot(&(c - point)) - r - self.t)
+            Collider::HalfSpace { point, normal } => normal.dot(&(c - point)) - r - self.t,
+        };
+        (m1_per_eps1, spread, gap)
+    }
+
+    /// The first two of [`Side::margins`], `M1` and `R`, without the root spheres' gap (a kept
+    /// proof's check reads only these, at every forward of every pair it settles).
+    pub(super) fn relevance(&self) -> (f64, f64) {
+        match self.planes {
+            Collider::Aopc(o) if !o.is_empty() => {
+                (o.bvh().log_terms, o.bvh().nodes[0].radius * (1.0 + 1e-12))
             }
+            _ => (0.0, 0.0),
         }
     }
 }
