@@ -4,7 +4,7 @@
 //! the outputs still give their smooth distance.
 
 use crate::common::Lcg;
-use nalgebra::{Rotation3, Unit, Vector3};
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use scm::collision::{
     out_of_reach, out_of_reach_proven, reach_distance, Collider, Frame, ReachProof, Scratch,
 };
@@ -504,7 +504,8 @@ fn far_pairs_are_skipped_by_the_dynamics_and_measured_by_the_outputs() {
 /// motion would switch a pushing pair off: checked), half by up to 0.3 mm and 0.002 rad.
 #[test]
 fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
-    let (kept_made, covered, refused, _, renewed) = kept_proofs_against_the_unpruned_reference(0.0);
+    let (kept_made, covered, refused, _, renewed) =
+        kept_proofs_against_the_unpruned_reference(0.0, 0.015, 900);
     println!(
         "{kept_made} proofs kept; after the move {covered} still covered, {refused} not, of \
          which {renewed} proven again with room"
@@ -523,7 +524,7 @@ fn a_kept_proof_switches_a_pair_off_only_while_it_cannot_push() {
 #[test]
 fn a_kept_proof_by_the_floor_alone_switches_a_pair_off_only_while_it_cannot_push() {
     let (kept_made, covered, refused, by_floor, _) =
-        kept_proofs_against_the_unpruned_reference(0.01);
+        kept_proofs_against_the_unpruned_reference(0.01, 0.1, 300);
     println!(
         "{kept_made} proofs kept; after the move {covered} still covered, {refused} not; with a \
          side by the floor alone: {} made, {} covered",
@@ -540,9 +541,14 @@ fn a_kept_proof_by_the_floor_alone_switches_a_pair_off_only_while_it_cannot_push
 /// returns the proofs kept, those still covering after the move, those not, of those with a
 /// side by the floor alone how many were made and how many still covered after the move, and
 /// how many proofs by planes that no longer covered were made again with room (the first thing
-/// `out_of_reach_proven` tries for them).
+/// `out_of_reach_proven` tries for them). Gaps from 3 mm to `widest` (m): beyond about 2 cm
+/// most pairs are proven by the floor over the query's root ball, whose room of centimetres
+/// the planes' cannot match (`ProofSide::far_floor`), so the proofs by planes, and their
+/// renewal with room, are those of nearer pairs. `cases` pairs are tried.
 fn kept_proofs_against_the_unpruned_reference(
     life: f64,
+    widest: f64,
+    cases: usize,
 ) -> (usize, usize, usize, (usize, usize), usize) {
     let mut rng = Lcg(7);
     // Sphere, box and capsule.
@@ -555,7 +561,7 @@ fn kept_proofs_against_the_unpruned_reference(
     };
     let (mut kept_made, mut covered, mut refused, mut by_floor) = (0, 0, 0, (0, 0));
     let mut renewed = 0;
-    for case in 0..300 {
+    for case in 0..cases {
         let (a, ra) = &colliders[case % colliders.len()];
         let against_plane = case % 4 == 3;
         let (b, rb) = if against_plane {
@@ -565,7 +571,7 @@ fn kept_proofs_against_the_unpruned_reference(
             (b, *rb)
         };
         let prm = params([1e-5, 1e-6][case % 2], [1e-4, 1e-3][(case / 2) % 2]);
-        let gap = rng.range(0.003, 0.1);
+        let gap = rng.range(0.003, widest);
         let dir = if against_plane {
             Vector3::z()
         } else {
@@ -989,4 +995,49 @@ fn a_hand_beside_a_thigh_is_settled_by_its_points_springs() {
         0,
         "1 cm and more apart is settled"
     );
+}
+
+/// Two bodies far apart (a sphere and a box 30 cm apart, moving at 1 m/s and 2 rad/s) are
+/// kept out of reach by the floor over the query's root ball with room of centimetres
+/// (`ProofSide::far_floor`), not by their planes' millimetres: the kept proof still covers
+/// them after each has moved 5 cm towards the other, with no proof made again, and no longer
+/// once they touch.
+#[test]
+fn bodies_far_apart_keep_a_proof_with_room_of_centimetres() {
+    let shapes = sampled_shapes();
+    let (sphere, box_) = (&shapes[0].0, &shapes[1].0);
+    let prm = params(1e-5, 1e-4);
+    let at = |gap: f64| Frame {
+        rotation: Matrix3::identity(),
+        origin: Vector3::new(0.05 + 0.08 + gap, 0.0, 0.0),
+        linvel: Vector3::new(-1.0, 0.0, 0.0),
+        angvel: Vector3::new(0.0, 0.0, 2.0),
+    };
+    let fb = Frame::identity();
+    let decide = |fa: &Frame<f64>, kept: &mut Option<ReachProof>| {
+        let rels = [fa.relative_to(&fb), fb.relative_to(fa)];
+        out_of_reach_proven(
+            sphere,
+            box_,
+            &rels,
+            &prm.reach(),
+            kept,
+            0.002,
+            &mut Scratch::default(),
+        )
+    };
+    let mut kept = None;
+    assert!(decide(&at(0.3), &mut kept), "out of reach at 30 cm");
+    let made = kept.clone().expect("a proof is kept");
+    for side in made.sides.iter().flatten() {
+        assert_eq!(side.m1, f64::INFINITY, "a proof by the floor alone");
+        assert!(side.t > 0.05, "room of centimetres: proven at {} m", side.t);
+    }
+    assert!(decide(&at(0.2), &mut kept), "still out of reach at 20 cm");
+    assert_eq!(
+        kept.as_ref(),
+        Some(&made),
+        "covered by the kept proof, none made again"
+    );
+    assert!(!decide(&at(0.0), &mut kept), "in reach when touching");
 }

@@ -51,6 +51,7 @@ mod proof;
 mod reach;
 mod scratch;
 mod settle;
+mod shapes;
 #[cfg(test)]
 mod tests;
 mod topk;

@@ -130,6 +130,32 @@ impl ProofSide {
         })
     }
 
+    /// The proof by the polytope's floor over the query cloud's root ball alone, with half the
+    /// room that floor leaves above `t`: what a pair far apart gets. One floor reading (26
+    /// plane values) decides; [`ProofSide::prove`] then settles it at the root node. Where the
+    /// planes' room lasts, the floor's is not otherwise tried, and that room is capped by the
+    /// relevance margin (`3 m₁ / 4R`): gymnasium's humanoid's limbs 0.2 to 1 m apart got 1.3 to
+    /// 4 mm by their planes, used up in about ten forwards, and now get centimetres to
+    /// decimetres. `None` for a half-space (its planes' room is already half the gap), a cloud
+    /// without a polytope, or a room no larger than the planes' ([`ProofSide::with_room`]) or
+    /// than what [`ProofSide::floor_room`] asks ([`FLOOR_ROOM_LIVES`] lives).
+    fn far_floor(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
+        let Collider::Aopc(o) = side.planes else {
+            return None;
+        };
+        let polytope = o.bvh().polytope.as_ref()?;
+        let (centre, radius) = side.root();
+        let delta = 0.5 * (polytope.floor_over_ball(&centre, radius) - side.t);
+        let planes = Self::planes_room(side, eps1).map_or(0.0, |(room, _)| room);
+        let least = planes.max(FLOOR_ROOM_LIVES * side.speed * life);
+        (delta > least && delta.is_finite()).then_some(ProofSide {
+            rotation: side.rotation,
+            translation: side.translation,
+            t: side.t + delta,
+            m1: f64::INFINITY,
+        })
+    }
+
     /// Proves this side at its own pose, distance and margin for `planes` and `query`.
     fn prove(&self, planes: &Collider, query: &Aopc, scratch: &mut Scratch) -> bool {
         let eps1 = match planes {
@@ -205,8 +231,12 @@ pub fn out_of_reach_proven(
     // proof by planes needed. A side it proves is kept for the room stage below.
     let mut floor = [None, None];
     for (i, s) in sides.iter() {
-        floor[*i] =
-            ProofSide::floor_room(s, eps1, life).filter(|ks| ks.prove(s.planes, s.query, scratch));
+        floor[*i] = ProofSide::far_floor(s, eps1, life)
+            .filter(|ks| ks.prove(s.planes, s.query, scratch))
+            .or_else(|| {
+                ProofSide::floor_room(s, eps1, life)
+                    .filter(|ks| ks.prove(s.planes, s.query, scratch))
+            });
     }
     if sides.iter().all(|(i, _)| floor[*i].is_some()) {
         *kept = Some(ReachProof { sides: floor });

@@ -147,6 +147,15 @@ pub(super) fn cloud_beyond_with(
     if matches!(planes, Collider::Aopc(_)) && !vmax.is_finite() || !t.is_finite() {
         return Beyond::Not;
     }
+    // Both clouds' shapes first: one test for the whole side where they settle it.
+    if let Collider::Aopc(o) = planes {
+        let m1 = o.bvh().log_terms * q.eps1;
+        let need = super::bounds::band_need(t, vmax, o.bvh().tolerance);
+        if m1.is_finite() && super::shapes::shapes_settle(o, query, rot, tr, m1, need) {
+            *budget = budget.saturating_sub(1);
+            return Beyond::Planes;
+        }
+    }
     let (beyond, tests) = walk(q, bvh, (vmax, *budget), seed, scratch);
     *budget = budget.saturating_sub(tests);
     beyond
@@ -421,7 +430,7 @@ pub(super) struct Side<'a> {
 
 impl Side<'_> {
     /// The query root sphere's centre in the plane body's frame, and its radius.
-    fn root(&self) -> (Vector3<f64>, f64) {
+    pub(super) fn root(&self) -> (Vector3<f64>, f64) {
         let n = &self.query.bvh().nodes[0];
         (self.rotation * n.centre + self.translation, n.radius)
     }

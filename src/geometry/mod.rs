@@ -7,6 +7,7 @@ pub mod aopc;
 pub mod bvh;
 pub mod cuboid;
 mod gear_profile;
+pub mod holders;
 pub mod implicit;
 pub mod mesh;
 pub mod patch;

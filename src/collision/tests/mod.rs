@@ -32,3 +32,4 @@ fn sample_region(q: &QueryRegion, s: &mut u64) -> Vector3<f64> {
 
 mod band;
 mod bounds;
+mod shapes;
