@@ -58,22 +58,16 @@ impl QueryRegion {
         let len = n.norm();
         let (lo, hi) = (self.lo.max(-r), self.hi.min(r).max(self.lo.max(-r)));
         let slack = 1e-12 * (len * r);
-        if len > 0.0 {
-            let s = -alpha * r / len;
-            if (lo..=hi).contains(&s) {
-                // The slab does not bind: `g(s*) = -r|n|`, the ball's own minimum (one square
-                // root in all: this is most calls, and the bound walks' hot spot).
-                return -r * len - slack;
-            }
+        let free = if len > 0.0 { -alpha * r / len } else { lo };
+        if len > 0.0 && (lo..=hi).contains(&free) {
+            // The slab does not bind: `g(s*) = -r|n|`, the ball's own minimum (one square root
+            // in all: this is most calls, and the bound walks' hot spot).
+            return -r * len - slack;
         }
         // `s*` clamped to an end of the slab: `g(s) = α s - √(β² (r² - s²))`, with `β²` from
         // the components of `n - α m` (not `|n|² - α²`, which cancels when `n` is nearly
         // along `m`).
-        let s = if len > 0.0 {
-            (-alpha * r / len).clamp(lo, hi)
-        } else {
-            lo
-        };
+        let s = free.clamp(lo, hi);
         let beta2 = (n - self.m * alpha).norm_squared();
         // The slack covers the rounding of these few operations (and of |m| = 1 to rounding).
         alpha * s - (beta2 * (r * r - s * s).max(0.0)).sqrt() - slack
