@@ -711,6 +711,15 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     assert!(onto.contains("does not hold"), "{onto}");
     let scaled = forge(&|s| s.rotation *= 2.0);
     assert!(scaled.contains("orthonormal"), "{scaled}");
+    // A room below zero is corrupt, and so is one on a proof by the floor alone (which reads
+    // no relevance margin to widen).
+    let negative_room = forge(&|s| s.room = -1e-3);
+    assert!(negative_room.contains("room -0.001 m"), "{negative_room}");
+    let floor_room = forge(&|s| {
+        s.m1 = f64::INFINITY;
+        s.room = 1e-3
+    });
+    assert!(floor_room.contains("room 0.001 m"), "{floor_room}");
     // A negative distance is a proof's own (a pair with a negative margin makes them): it is
     // proven again at its pose, and it never covers a pair whose reach is positive, so the
     // restored run makes its own proof.
@@ -730,13 +739,29 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     let mut by_floor = reach.to_vec();
     for side in by_floor[pair].as_mut().unwrap().sides.iter_mut().flatten() {
         side.m1 = f64::INFINITY;
+        side.room = 0.0;
     }
     let state = with_proofs(&saved, by_floor.clone());
     sim.set_state(&state).unwrap();
     assert_restored_run_replays(&mut sim, &state, h, 10..40);
+    // With only this pair's proof, its two sides (a flag and 15 numbers each) end the bytes:
+    // without their rooms (the last number of each) they are a version 8 state's, which reads
+    // as the same state, and read as version 7 their flag 2 is refused.
+    assert_eq!(pair, sim.model.pairs.len() - 1, "the pair is the last one");
+    let mut only = vec![None; reach.len()];
+    only[pair] = by_floor[pair].clone();
+    let state = with_proofs(&saved, only);
     let bytes = sim.serialize_state(&state).unwrap();
-    assert_eq!(bytes[..4], 8u32.to_le_bytes());
-    let as_7 = [&7u32.to_le_bytes()[..], &bytes[4..]].concat();
+    assert_eq!(bytes[..4], 9u32.to_le_bytes());
+    let n = bytes.len();
+    let as_8 = [
+        &8u32.to_le_bytes()[..],
+        &bytes[4..n - 129],
+        &bytes[n - 121..n - 8],
+    ]
+    .concat();
+    assert_eq!(sim.deserialize_state(&as_8).unwrap(), state);
+    let as_7 = [&7u32.to_le_bytes()[..], &as_8[4..]].concat();
     let old = sim.deserialize_state(&as_7).unwrap_err().to_string();
     assert!(old.contains("side flag 2"), "{old}");
     by_floor[pair].as_mut().unwrap().sides[0]

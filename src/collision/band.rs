@@ -277,7 +277,7 @@ pub(crate) fn band_of<T: Scalar>(
                                 o,
                                 &region,
                                 t,
-                                e1,
+                                (e1, 0.0),
                                 hint as usize,
                                 Some(vmax),
                                 &front,

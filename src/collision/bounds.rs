@@ -30,6 +30,10 @@ pub struct QueryRegion {
     pub hi: f64,
 }
 
+/// Below this radius (m) a [`QueryRegion`] is a point given a rounding allowance (the reach
+/// walk's points): [`QueryRegion::min_lin`] then bounds by `|n|₁`, which needs no square root.
+pub const POINT_RADIUS: f64 = 1e-9;
+
 impl QueryRegion {
     /// The whole ball (the slab is the ball's extent along any axis).
     pub fn ball(centre: Vector3<f64>, radius: f64) -> Self {
@@ -51,19 +55,28 @@ impl QueryRegion {
     /// `[-r, r]` (`g'' = β r²/(r² - s²)^{3/2} ≥ 0`) with its minimum at `s* = -α r/|n|`
     /// (`g'(s*) = 0`; the ball's own minimiser `-r n/|n|`), so over `s ∈ [lo, hi]` the minimum
     /// is at `s*` clamped to the interval. For the whole ball this is `-r|n|`.
-    #[inline]
+    #[inline(always)]
     pub fn min_lin(&self, n: &Vector3<f64>) -> f64 {
         let r = self.radius;
+        if r <= POINT_RADIUS {
+            // A point's region (a rounding allowance wide): `|n|₁ ≥ |n|` bounds the ball's
+            // minimum without a square root, at most `0.74 r` looser.
+            return -r * (n.x.abs() + n.y.abs() + n.z.abs()) * (1.0 + 1e-12);
+        }
         let alpha = n.dot(&self.m);
         let len = n.norm();
         let (lo, hi) = (self.lo.max(-r), self.hi.min(r).max(self.lo.max(-r)));
         let slack = 1e-12 * (len * r);
-        let free = if len > 0.0 { -alpha * r / len } else { lo };
-        if len > 0.0 && (lo..=hi).contains(&free) {
+        // `s* ∈ [lo, hi]`, multiplied through by `|n| > 0` (no division). Rounding may decide
+        // either way at an end of the slab; both answers are lower bounds there (the ball's
+        // minimum bounds any part of it, and `g` is flat at `s*`).
+        let turn = -alpha * r;
+        if len > 0.0 && lo * len <= turn && turn <= hi * len {
             // The slab does not bind: `g(s*) = -r|n|`, the ball's own minimum (one square root
             // in all: this is most calls, and the bound walks' hot spot).
             return -r * len - slack;
         }
+        let free = if len > 0.0 { turn / len } else { lo };
         // `s*` clamped to an end of the slab: `g(s) = α s - √(β² (r² - s²))`, with `β²` from
         // the components of `n - α m` (not `|n|² - α²`, which cancels when `n` is nearly
         // along `m`).
@@ -71,6 +84,17 @@ impl QueryRegion {
         let beta2 = (n - self.m * alpha).norm_squared();
         // The slack covers the rounding of these few operations (and of |m| = 1 to rounding).
         alpha * s - (beta2 * (r * r - s * s).max(0.0)).sqrt() - slack
+    }
+
+    /// Whether `base + min_lin(n) > bound`, proven: the ball's own bound `-r|n|` first,
+    /// compared in squares (no square root; with an allowance for the slack and rounding),
+    /// then [`QueryRegion::min_lin`] where the slab may help.
+    #[inline(always)]
+    pub fn lin_exceeds(&self, base: f64, n: &Vector3<f64>, bound: f64) -> bool {
+        let e = base - bound;
+        let r = self.radius;
+        (e > 0.0 && e * e > r * r * n.norm_squared() * (1.0 + 1e-10))
+            || base + self.min_lin(n) > bound
     }
 
     /// A lower bound of the distance from the region's points to a convex set, given `a`, the
@@ -154,7 +178,7 @@ pub fn ssdf_exceeds_over(
         ),
         Collider::Aopc(s) => {
             let mut open = Vec::new();
-            aopc_exceeds(s, q, t, eps1, hint, None, &[0], &mut open)
+            aopc_exceeds(s, q, t, (eps1, 0.0), hint, None, &[0], &mut open)
         }
     }
 }
@@ -215,7 +239,7 @@ pub(super) fn aopc_exceeds(
     s: &Aopc,
     q: &QueryRegion,
     t: f64,
-    eps1: f64,
+    (eps1, room): (f64, f64),
     hint: usize,
     vmax: Option<f64>,
     front: &[u32],
@@ -226,44 +250,11 @@ pub(super) fn aopc_exceeds(
         return (true, usize::MAX);
     }
     let (c, r) = (&q.centre, q.radius);
-    let m1 = bvh.log_terms * eps1;
-    // A sampled sphere bounds its planes in closed form (`geometry::radial`) in the distance from
-    // its centre: if that bound clears the threshold at the region's lowest distance, every
-    // cluster is settled.
-    if let (Some(v), Some(rad)) = (vmax, &bvh.radial) {
-        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > band_need(t, v, bvh.tolerance) {
-            return (true, hint);
-        }
-    }
-    // So does a sampled capsule (`geometry::spine`), in the distance from its segment.
-    if let (Some(v), Some(sp)) = (vmax, &bvh.spine) {
-        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > band_need(t, v, bvh.tolerance)
-        {
-            return (true, hint);
-        }
-    }
-    // So does a union of spheres and capsules (`geometry::rounded`), member by member, over a
-    // region outside all of them.
-    if let (Some(v), Some(un)) = (vmax, &bvh.rounded) {
-        if un.settles(
-            c,
-            |a| q.lower_distance_to(a),
-            m1,
-            band_need(t, v, bvh.tolerance),
-        ) {
-            return (true, hint);
-        }
-    }
-    // So does a sampled box, face by face (`geometry::cuboid`), over the box of the region's
-    // coordinates along the box's axes.
-    if let (Some(v), Some(cub)) = (vmax, &bvh.cuboid) {
-        let u = &cub.axes;
-        let mid = u * c;
-        let lo = Vector3::from_fn(|k, _| mid[k] + q.min_lin(&u.row(k).transpose()));
-        let hi = Vector3::from_fn(|k, _| mid[k] - q.min_lin(&-u.row(k).transpose()));
-        if cub.settles(&lo, &hi, c.norm() + r, band_need(t, v, bvh.tolerance), m1) {
-            return (true, hint);
-        }
+    let base = bvh.log_terms * eps1;
+    // Without room the closed forms come first (they need no witness); with room their margin
+    // is the region's, which the witness gives.
+    if room == 0.0 && super::shapes::closed_forms_settle(s, q, t, vmax, base) {
+        return (true, hint);
     }
     let approximate = vmax.is_some() && bvh.len() > 2048;
     let (mut j, mut dj) = if approximate {
@@ -271,6 +262,10 @@ pub(super) fn aopc_exceeds(
     } else {
         bvh.nearest_hint(c, hint)
     };
+    let m1 = widened_margin(base, room, bvh.nodes[0].radius, dj, r);
+    if room > 0.0 && super::shapes::closed_forms_settle(s, q, t, vmax, m1) {
+        return (true, j);
+    }
     let need = band_need(
         t,
         vmax.unwrap_or(dj.sqrt() + r + bvh.diameter),
@@ -283,7 +278,7 @@ pub(super) fn aopc_exceeds(
     // lies behind): before giving up on it, the exact nearest point is taken and tried.
     let below = |j: usize| {
         let (pj, nj) = (bvh.points[j], bvh.normals[j]);
-        nj.dot(&(c - pj)) + q.min_lin(&nj) <= need
+        !q.lin_exceeds(nj.dot(&(c - pj)), &nj, need)
     };
     if below(j) && approximate {
         (j, dj) = bvh.nearest_hint(c, j);
@@ -292,6 +287,41 @@ pub(super) fn aopc_exceeds(
         open.extend_from_slice(front);
         return (false, j);
     }
+    // A nearer witness found above gives a smaller widening; the one computed with the
+    // farther point is still sound (it bounds `d_min` from above), only wider.
+    let m1 = m1.min(widened_margin(base, room, bvh.nodes[0].radius, dj, r));
+    walk_clusters(s, q, (need, m1, vmax.is_some()), (j, dj), front, open)
+}
+
+/// The relevance margin (m²) over a region of radius `r` (m) whose centre is `dj` (m²) from a
+/// point of the cloud, for a proof that must hold after every query point moves by up to
+/// `room` (m) (docs/performance.md, "A proof that is kept"): `base` plus
+/// `4δ (√(D + base) + δ)`, `D = (√dj + r)²` bounding the squared distance to the nearest point
+/// anywhere in the region, and at most `4δR` (`R` the cloud's root radius, `|p_i - p_j| ≤ 2R`),
+/// with a rounding allowance; `base` itself without room.
+#[inline]
+pub(super) fn widened_margin(base: f64, room: f64, root_radius: f64, dj: f64, r: f64) -> f64 {
+    if room == 0.0 {
+        return base;
+    }
+    let d = dj.sqrt() + r;
+    let local = 4.0 * room * ((d * d + base).sqrt() + room);
+    base + local.min(4.0 * room * root_radius) * (1.0 + 1e-9)
+}
+
+/// The cluster walk of [`aopc_exceeds`] from the nodes `front`, with the threshold `need`, the
+/// relevance margin `m1` (m²) and the witness `j` at `dj` (m²) from the region's centre;
+/// `give_up`: whether a wide region gives up at a small unsettled cluster ([`GIVE_UP_RATIO`]).
+fn walk_clusters(
+    s: &Aopc,
+    q: &QueryRegion,
+    (need, m1, give_up): (f64, f64, bool),
+    (j, dj): (usize, f64),
+    front: &[u32],
+    open: &mut Vec<u32>,
+) -> (bool, usize) {
+    let bvh = s.bvh();
+    let (c, r) = (&q.centre, q.radius);
     let pj = bvh.points[j];
     // The witness's flat patch, if any (step 1' of [`ssdf_exceeds_over`]).
     let patch = bvh.patch_of(j);
@@ -302,8 +332,10 @@ pub(super) fn aopc_exceeds(
     while let Some(ni) = stack.pop() {
         let node = &bvh.nodes[ni as usize];
         let gap = node.min_sq_dist(c) - dj;
-        if gap - 2.0 * r * node.max_sq_dist(&pj).sqrt() > m1
-            || gap + 2.0 * (q.min_lin(&(pj - node.centre)) - r * node.radius) > m1
+        // `gap - 2r max|p_j - p| > m1`, in squares.
+        let e = gap - m1;
+        if (e > 0.0 && e * e > 4.0 * r * r * node.max_sq_dist(&pj) * (1.0 + 1e-10))
+            || q.lin_exceeds(gap - 2.0 * r * node.radius, &((pj - node.centre) * 2.0), m1)
         {
             continue; // irrelevant cluster
         }
@@ -322,7 +354,7 @@ pub(super) fn aopc_exceeds(
                 continue; // irrelevant wherever its planes could be below `need`
             }
         }
-        if vmax.is_some() && node.radius < GIVE_UP_RATIO * r && r * r > 16.0 * m1 {
+        if give_up && node.radius < GIVE_UP_RATIO * r && r * r > 16.0 * m1 {
             open.push(ni);
             open.extend(stack.iter().rev());
             return (false, j);
@@ -337,11 +369,11 @@ pub(super) fn aopc_exceeds(
                 let (pi, ni_) = (&bvh.points[k], &bvh.normals[k]);
                 let gap = (c - pi).norm_squared() - dj;
                 let a = (pj - pi) * 2.0;
-                if gap + q.min_lin(&a) > m1 {
+                if q.lin_exceeds(gap, &a, m1) {
                     continue; // irrelevant point
                 }
                 let v0 = ni_.dot(&(c - pi));
-                if v0 + q.min_lin(ni_) > need {
+                if q.lin_exceeds(v0, ni_, need) {
                     continue;
                 }
                 if ball_halfspace_min(v0, ni_, r, &a, a.norm(), m1 - gap) <= need

@@ -20,9 +20,12 @@ pub struct ReachProof {
 }
 
 /// One side of a [`ReachProof`]: at the pose `x = rotation p + translation`, at every query
-/// point either every plane whose squared distance is within `m1` (m²) of the nearest one's
-/// lies farther than `t` (m), or the polytope's floor does (for a half-space, its plane; `m1`
-/// is then unused and 0). Both hold `δ` less after a move of at most `δ` (the floor is
+/// point either every plane whose squared distance is within `m1 + W` (m²) of the nearest
+/// one's lies farther than `t` (m), or the polytope's floor does (for a half-space, its plane;
+/// `m1` is then unused and 0). `W` widens the margin for a motion of `room` (m): at a point
+/// whose squared distance to the nearest plane point is `D`,
+/// `W = min(4δR, 4δ(√(D + m1) + δ))` with `δ = room` (`bounds::widened_margin`;
+/// 0 without room). Both hold `δ` less after a move of at most `δ` (the floor is
 /// 1-Lipschitz), which is what `ProofSide::covers` uses. `m1` infinite: a proof by the floor
 /// alone (`ProofSide::floor_room`), whose room no relevance margin limits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,18 +36,24 @@ pub struct ProofSide {
     pub translation: Vector3<f64>,
     /// The distance proven (m).
     pub t: f64,
-    /// The relevance margin it was proven over (m²).
+    /// The relevance margin it was proven over (m²), before the widening for `room`.
     pub m1: f64,
+    /// The motion the relevance margin was widened for, point by point (m).
+    pub room: f64,
 }
 
 impl ProofSide {
     /// Whether the proof still covers `side` now: every query point has moved at most `δ`
-    /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), so a plane relevant now (within `M1 ε1`)
-    /// was within `M1 ε1 + 4δR` at the proof (`R` the plane cloud's root radius: relevance
-    /// compares `d_i - d_j`, affine in the query point with gradient `2(p_j - p_i)`, and
-    /// `|p_j - p_i| ≤ 2R`), and lies farther than `t - δ` now (docs/performance.md); a proof
-    /// by the floor alone (`m1` infinite) needs only the latter. Rounding allowances: 1e-9
-    /// relative, and 1e-15 of the poses' size.
+    /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), and lies farther than `t - δ` from every
+    /// plane the proof read; a plane relevant now (within `m₁ = M1 ε1`) was within
+    /// `m₁ + 2δ|p_j - p_i|` at the proof (relevance compares `d_j - d_i`, affine in the query
+    /// point with gradient `2(p_i - p_j)`, `i` the nearest point at the proof), and
+    /// `|p_j - p_i|` is at most `2R` (`R` the plane cloud's root radius) and at most
+    /// `2√(D + m₁) + 2δ` (`D` the squared distance to the nearest point at the proof:
+    /// docs/performance.md). So the proof covers where `m₁ + 4δR` is within its margin, or
+    /// where `m₁` is and `δ` is within its room. A proof by the floor alone (`m1` infinite)
+    /// needs only the distance. Rounding allowances: 1e-9 relative, and 1e-15 of the poses'
+    /// size.
     fn covers(&self, side: &Side, eps1: f64) -> bool {
         let scale = side.query.bvh().max_norm;
         let delta = ((side.translation - self.translation).norm()
@@ -54,7 +63,8 @@ impl ProofSide {
         let relevant = match side.planes {
             Collider::Aopc(_) => {
                 let (m1_per_eps1, spread) = side.relevance();
-                m1_per_eps1 * eps1 + 4.0 * delta * spread <= self.m1
+                let m1 = m1_per_eps1 * eps1;
+                m1 + 4.0 * delta * spread <= self.m1 || (m1 <= self.m1 && delta <= self.room)
             }
             Collider::HalfSpace { .. } => true,
         };
@@ -62,9 +72,12 @@ impl ProofSide {
     }
 
     /// The proof to attempt for `side` with room to move: `δ_b` a quarter of the root spheres'
-    /// gap (half of a half-space's), for a cloud of planes also at most what widens the
-    /// relevance margin fourfold (the proof must still exclude the planes facing away: at
-    /// sixteenfold a box 0.5 m from a sphere was no longer settled, at eightfold it was);
+    /// gap (half of a half-space's), for a cloud of planes also at most `3 m₁ / 4R`, what
+    /// would widen the relevance margin fourfold if it were widened by `4δR` everywhere (it is
+    /// widened by less near the plane body: [`ProofSide`]); the proof must still exclude the
+    /// planes facing away (with the uniform widening, at sixteenfold a box 0.5 m from a sphere
+    /// was no longer settled, at eightfold it was; rooms of 1.5 and 2 times `3 m₁ / 4R` with
+    /// the local widening cost gymnasium's humanoid 1.00 and 1.02 times the instructions).
     /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
     /// than `life` (s): the proof would not be reused.
     fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
@@ -75,11 +88,13 @@ impl ProofSide {
                 translation: side.translation,
                 t: side.t + delta,
                 m1,
+                room: if m1 > 0.0 { delta } else { 0.0 },
             })
     }
 
-    /// The room `δ_b` of [`ProofSide::with_room`] and the margin its proof is made over, before
-    /// the speed is looked at; `None` without a gap or room.
+    /// The room `δ_b` of [`ProofSide::with_room`] and the margin `m₁ = M1 ε1` its proof is
+    /// made over (0 over a half-space), before the speed is looked at; `None` without a gap or
+    /// room.
     fn planes_room(side: &Side, eps1: f64) -> Option<(f64, f64)> {
         let (m1_per_eps1, spread, gap) = side.margins();
         let overlapping = matches!(side.planes, Collider::Aopc(_)) && gap <= 0.0;
@@ -96,8 +111,7 @@ impl ProofSide {
                 } else {
                     0.25 * gap
                 };
-                let delta = quarter.min(3.0 * m1 / (4.0 * spread));
-                (delta, m1 + 4.0 * delta * spread * (1.0 + 1e-9))
+                (quarter.min(3.0 * m1 / (4.0 * spread)), m1)
             }
             Collider::HalfSpace { .. } => (0.5 * gap, 0.0),
         };
@@ -107,11 +121,12 @@ impl ProofSide {
     /// The proof by the polytope's floor alone to attempt for `side` when the planes give no
     /// room that lasts `life` (s) ([`ProofSide::with_room`]): room `δ` = [`FLOOR_ROOM_LIVES`]
     /// times what the bodies' speed bound uses up in `life`. The floor is 1-Lipschitz and
-    /// reads no relevance, so the room is not capped by `3 m₁ / 4R` as a proof by planes is:
-    /// limbs of gymnasium's humanoid falling at 1 to 3 m/s, 4 to 12 cm apart, get rooms of 0.1
-    /// to 0.3 mm by their planes (none lasting half an RK4 step) and several millimetres by
-    /// the floor. `None` for a half-space (its planes' room has no such cap), a cloud without a
-    /// polytope, bodies whose speed bound is 0, or where the planes' room lasts.
+    /// reads no relevance, so its room is not capped by the relevance margin as a proof by
+    /// planes is: limbs of gymnasium's humanoid falling at 1 to 3 m/s, 4 to 12 cm apart, got
+    /// rooms of 0.1 to 0.3 mm by their planes widened uniformly (none lasting half an RK4
+    /// step) and several millimetres by the floor. `None` for a half-space (its planes' room
+    /// has no such cap), a cloud without a polytope, bodies whose speed bound is 0, or where
+    /// the planes' room lasts.
     pub(super) fn floor_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
         let Collider::Aopc(o) = side.planes else {
             return None;
@@ -127,6 +142,7 @@ impl ProofSide {
             translation: side.translation,
             t: side.t + delta,
             m1: f64::INFINITY,
+            room: 0.0,
         })
     }
 
@@ -153,13 +169,15 @@ impl ProofSide {
             translation: side.translation,
             t: side.t + delta,
             m1: f64::INFINITY,
+            room: 0.0,
         })
     }
 
     /// Proves this side at its own pose, distance and margin for `planes` and `query`.
     fn prove(&self, planes: &Collider, query: &Aopc, scratch: &mut Scratch) -> bool {
+        // The margin with a rounding allowance: `M1 (m1 / M1)` may come out below `m1`.
         let eps1 = match planes {
-            Collider::Aopc(o) => self.m1 / o.bvh().log_terms,
+            Collider::Aopc(o) => self.m1 * (1.0 + 1e-12) / o.bvh().log_terms,
             // A half-space's SSDF is its plane: ε1 does not enter; any positive value.
             Collider::HalfSpace { .. } => 1.0,
         };
@@ -173,6 +191,7 @@ impl ProofSide {
                     t: self.t,
                     eps1,
                     spring: SpringShape::NONE,
+                    room: self.room,
                 },
                 query,
                 (&mut reach_budget(query.len()), scratch),

@@ -30,7 +30,7 @@
 //! thighs, 7 mm apart, went from a failed proof and a full evaluation at every RK4 stage to a
 //! proof, and its run of 1 s from 3.3 s to 2.6 s.
 
-use super::bounds::aopc_exceeds;
+use super::bounds::{aopc_exceeds, widened_margin};
 use super::settle::{point_springs_settle, seed_within};
 use super::*;
 
@@ -84,6 +84,11 @@ pub struct ReachQuestion<'a> {
     pub eps1: f64,
     /// The springs' shape, for the points whose springs are summed.
     pub spring: SpringShape,
+    /// The motion (m) the proof must survive (a kept proof's room, 0 for a proof at this pose
+    /// only): at each query point the relevance margin `M1 ε1` is widened by
+    /// `4δ (√(D + M1 ε1) + δ)`, `D` the squared distance to the nearest plane point
+    /// (`bounds::widened_margin`, docs/performance.md).
+    pub room: f64,
 }
 
 /// Whether every distance the model reads at every point of `query` exceeds the threshold of
@@ -149,7 +154,9 @@ pub(super) fn cloud_beyond_with(
     }
     // Both clouds' shapes first: one test for the whole side where they settle it.
     if let Collider::Aopc(o) = planes {
-        let m1 = o.bvh().log_terms * q.eps1;
+        let base = o.bvh().log_terms * q.eps1;
+        // No witness here: a room's widening at its cap, `4δR`.
+        let m1 = widened_margin(base, q.room, o.bvh().nodes[0].radius, f64::INFINITY, 0.0);
         let need = super::bounds::band_need(t, vmax, o.bvh().tolerance);
         if m1.is_finite() && super::shapes::shapes_settle(o, query, rot, tr, m1, need) {
             *budget = budget.saturating_sub(1);
@@ -176,6 +183,7 @@ fn walk(
         t,
         eps1,
         spring,
+        room,
     } = *q;
     // Depth first, as the band walk: each entry is a node, the witness of its parent's test
     // and the parent's open nodes of the other hierarchy (`arena[from..to]`).
@@ -230,7 +238,8 @@ fn walk(
             Collider::Aopc(o) => {
                 front.clear();
                 front.extend_from_slice(&arena[from as usize..to as usize]);
-                let (ok, j) = aopc_exceeds(o, &region, t, eps1, hint, Some(vmax), front, arena);
+                let (ok, j) =
+                    aopc_exceeds(o, &region, t, (eps1, room), hint, Some(vmax), front, arena);
                 (ok, j, (to, arena.len() as u32))
             }
             Collider::HalfSpace { .. } => {
@@ -261,7 +270,17 @@ fn walk(
                     Collider::Aopc(o) => {
                         unsettled.clear();
                         let front = &arena[cfrom as usize..cto as usize];
-                        aopc_exceeds(o, &one, t, eps1, witness, Some(vmax), front, unsettled).0 || {
+                        aopc_exceeds(
+                            o,
+                            &one,
+                            t,
+                            (eps1, room),
+                            witness,
+                            Some(vmax),
+                            front,
+                            unsettled,
+                        )
+                        .0 || {
                             // Its springs summed: a second test's worth.
                             tests += 1;
                             by_springs = tests <= budget
@@ -407,6 +426,7 @@ pub fn out_of_reach_by(
             t: s.t,
             eps1,
             spring,
+            room: 0.0,
         };
         match cloud_beyond(&q, s.query, (&mut budget, &mut *scratch)) {
             Beyond::Planes => {}

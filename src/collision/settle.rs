@@ -88,6 +88,7 @@ pub(super) fn seed_within(
         t,
         eps1,
         spring,
+        ..
     } = *q;
     let target = super::band::toward(planes, bvh);
     let far = |c: &Vector3<f64>| (rot * c + tr - target).norm_squared();

@@ -4,7 +4,9 @@
 //! closed form in the distance from its own segments (a sampled sphere, capsule or rounded
 //! union: [`crate::geometry::radial`], [`crate::geometry::spine`], [`crate::geometry::rounded`]),
 //! the distance between segments bounds from below the distance from every query point to the
-//! plane cloud's segments, and with it every relevant plane.
+//! plane cloud's segments, and with it every relevant plane. The same closed forms over one
+//! region of query points ([`closed_forms_settle`], with a sampled box's face by face) are the
+//! first thing every node test of the walks tries.
 //!
 //! Why: two limbs side by side whose bounding spheres overlap (gymnasium's humanoid, a lower
 //! arm hanging beside a thigh) were proven out of reach by walking both hierarchies down to
@@ -60,4 +62,54 @@ pub(super) fn shapes_settle(
             .iter()
             .all(|m| lowest(&m.start, &m.end).is_some_and(|s| m.plane_bound(s, u.cover, m1) > need))
     })
+}
+
+/// The closed-form bounds of a sampled sphere, capsule, union of both or box
+/// ([`super::bounds::aopc_exceeds`]): whether one of them settles the whole region over the margin `m1`.
+pub(super) fn closed_forms_settle(
+    s: &Aopc,
+    q: &QueryRegion,
+    t: f64,
+    vmax: Option<f64>,
+    m1: f64,
+) -> bool {
+    let bvh = s.bvh();
+    let Some(v) = vmax else {
+        return false;
+    };
+    let need = super::bounds::band_need(t, v, bvh.tolerance);
+    let c = &q.centre;
+    // A sampled sphere bounds its planes in closed form (`geometry::radial`) in the distance from
+    // its centre: if that bound clears the threshold at the region's lowest distance, every
+    // cluster is settled.
+    if let Some(rad) = &bvh.radial {
+        if rad.plane_bound(q.lower_distance_to(&rad.centre), m1) > need {
+            return true;
+        }
+    }
+    // So does a sampled capsule (`geometry::spine`), in the distance from its segment.
+    if let Some(sp) = &bvh.spine {
+        if sp.plane_bound(q.lower_distance_to(&sp.nearest(c)), m1) > need {
+            return true;
+        }
+    }
+    // So does a union of spheres and capsules (`geometry::rounded`), member by member, over a
+    // region outside all of them.
+    if let Some(un) = &bvh.rounded {
+        if un.settles(c, |a| q.lower_distance_to(a), m1, need) {
+            return true;
+        }
+    }
+    // So does a sampled box, face by face (`geometry::cuboid`), over the box of the region's
+    // coordinates along the box's axes.
+    if let Some(cub) = &bvh.cuboid {
+        let u = &cub.axes;
+        let mid = u * c;
+        let lo = Vector3::from_fn(|k, _| mid[k] + q.min_lin(&u.row(k).transpose()));
+        let hi = Vector3::from_fn(|k, _| mid[k] - q.min_lin(&-u.row(k).transpose()));
+        if cub.settles(&lo, &hi, c.norm() + q.radius, need, m1) {
+            return true;
+        }
+    }
+    false
 }

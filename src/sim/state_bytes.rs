@@ -21,7 +21,7 @@
 //! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
 //! | `left` | 1 (+ 8 (nq + nv + na + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, `act` (since version 7), step; or 2, `q`, `v`, `act`, step, implicit Euler's last velocity change `V - v` |
 //! | `ledger` | 1 (+ 8 (nq + nv + na + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`, `act` since version 7), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
-//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 14)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1 (by planes) or 2 (by the floor alone, since version 8), rotation (column-major), translation, distance, relevance margin (0 for flag 2); each proven again when read |
+//! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 15)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1 (by planes) or 2 (by the floor alone, since version 8), rotation (column-major), translation, distance, relevance margin (0 for flag 2), room the margin is widened for (since version 9; 0 for flag 2, and for versions 6 to 8); each proven again when read |
 //!
 //! The sections are written in this order, and [`decode`] reads them in it; a test holds this
 //! table against what [`encode`] writes, section by section and byte by byte.
@@ -39,9 +39,11 @@ use nalgebra::{Matrix3, Vector3};
 /// Version of the layout written by [`encode`]. Version 4 added the solver cache state's flag
 /// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy,
 /// version 6 the kept out-of-reach proofs, version 7 the activations, version 8 the kept
-/// proofs by the floor alone (a side's flag 2); [`decode`] also reads versions 3 (never flag
-/// 2), 4 and 5 (no kept proofs), 6 (no activations: of a model without them) and 7.
-pub const STATE_VERSION: u32 = 8;
+/// proofs by the floor alone (a side's flag 2), version 9 a kept proof's room (its relevance
+/// margin widened point by point, [`ProofSide`]); [`decode`] also reads versions 3 (never flag
+/// 2), 4 and 5 (no kept proofs), 6 (no activations: of a model without them), 7 and 8 (no
+/// room: 0).
+pub const STATE_VERSION: u32 = 9;
 
 /// The bytes of a state as [`encode`] writes them, with where each section of the module's
 /// table begins (what the layout test compares with the table).
@@ -169,7 +171,7 @@ fn write(state: &FmuState) -> Writer {
                         ks.rotation
                             .iter()
                             .chain(&ks.translation)
-                            .chain([&ks.t, &m1]),
+                            .chain([&ks.t, &m1, &ks.room]),
                     )
                 }
             };
@@ -437,8 +439,9 @@ fn reach_proofs(
                     match r.take(1, "a kept proof's side flag")?[0] {
                         0 => {}
                         f @ (1 | 2) if f == 1 || version >= 8 => {
-                            let mut x = [0.0; 14];
-                            for v in &mut x {
+                            let mut x = [0.0; 15];
+                            let count = if version >= 9 { 15 } else { 14 };
+                            for v in &mut x[..count] {
                                 *v = finite(r, "a kept out-of-reach proof's value")?;
                             }
                             let rotation = Matrix3::from_column_slice(&x[..9]);
@@ -451,15 +454,17 @@ fn reach_proofs(
                             if !(skew <= 1e-9
                                 && rotation.determinant() > 0.0
                                 && x[13] >= 0.0
-                                && (f == 1 || x[13] == 0.0))
+                                && x[14] >= 0.0
+                                && (f == 1 || (x[13] == 0.0 && x[14] == 0.0)))
                             {
-                                return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m²", x[12], x[13]));
+                                return Err(format!("model state is corrupt: a kept out-of-reach proof with a rotation {skew:e} from orthonormal, distance {} m, margin {} m², room {} m", x[12], x[13], x[14]));
                             }
                             *side = Some(ProofSide {
                                 rotation,
                                 translation: Vector3::new(x[9], x[10], x[11]),
                                 t: x[12],
                                 m1: if f == 2 { f64::INFINITY } else { x[13] },
+                                room: x[14],
                             });
                         }
                         f => {

@@ -34,6 +34,7 @@ fn full_state() -> FmuState {
         translation: Vector3::new(1.0, 0.0, 0.0),
         t: 0.1,
         m1: 0.01,
+        room: 0.001,
     };
     let ledger = EnergyLedger {
         at: state.clone(),
@@ -186,7 +187,7 @@ fn the_formulas_read_as_meant() {
         1 + 8 * 15 + 48
     );
     assert_eq!(
-        evaluate("4 + per pair (1 + 2 (1 + 8 × 14))"),
-        4 + 2 * (1 + 2 * 113)
+        evaluate("4 + per pair (1 + 2 (1 + 8 × 15))"),
+        4 + 2 * (1 + 2 * 121)
     );
 }

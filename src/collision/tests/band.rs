@@ -296,6 +296,7 @@ fn the_reach_proofs_first_look_at_one_point_changes_no_answer() {
             t,
             eps1: 1e-5,
             spring,
+            room: 0.0,
         };
         let with = cloud_beyond_with(
             &question,

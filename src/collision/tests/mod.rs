@@ -32,4 +32,5 @@ fn sample_region(q: &QueryRegion, s: &mut u64) -> Vector3<f64> {
 
 mod band;
 mod bounds;
+mod room;
 mod shapes;

@@ -6,7 +6,7 @@ use super::*;
 use crate::geometry::union::sample_union;
 use nalgebra::{Isometry3, Rotation3, Translation3, Unit, UnitQuaternion};
 
-fn capsule(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
+pub(super) fn capsule(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
     let axis = b - a;
     (
         Shape::Capsule {
@@ -20,7 +20,7 @@ fn capsule(a: Vector3<f64>, b: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f
     )
 }
 
-fn sphere(c: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
+pub(super) fn sphere(c: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
     (
         Shape::Sphere { radius },
         Isometry3::translation(c.x, c.y, c.z),
@@ -29,7 +29,7 @@ fn sphere(c: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
 
 /// The least plane over the planes that carry weight at `x` (within `m1` of the nearest
 /// point's squared distance), read point by point.
-fn least_relevant_plane(o: &Aopc, x: &Vector3<f64>, m1: f64) -> f64 {
+pub(super) fn least_relevant_plane(o: &Aopc, x: &Vector3<f64>, m1: f64) -> f64 {
     let d: Vec<f64> = o.points.iter().map(|p| (x - p).norm_squared()).collect();
     let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
     o.points
