@@ -60,7 +60,7 @@ impl QueryRegion {
         let r = self.radius;
         if r <= POINT_RADIUS {
             // A point's region (a rounding allowance wide): `|n|₁ ≥ |n|` bounds the ball's
-            // minimum without a square root, at most `0.74 r` looser.
+            // minimum without a square root, at most `0.73 r|n|` looser.
             return -r * (n.x.abs() + n.y.abs() + n.z.abs()) * (1.0 + 1e-12);
         }
         let alpha = n.dot(&self.m);
@@ -87,13 +87,14 @@ impl QueryRegion {
     }
 
     /// Whether `base + min_lin(n) > bound`, proven: the ball's own bound `-r|n|` first,
-    /// compared in squares (no square root; with an allowance for the slack and rounding),
-    /// then [`QueryRegion::min_lin`] where the slab may help.
+    /// compared in squares (no square root; with an allowance for the slack and rounding; not
+    /// for radii whose square would underflow), then [`QueryRegion::min_lin`] where the slab
+    /// may help.
     #[inline(always)]
     pub fn lin_exceeds(&self, base: f64, n: &Vector3<f64>, bound: f64) -> bool {
         let e = base - bound;
         let r = self.radius;
-        (e > 0.0 && e * e > r * r * n.norm_squared() * (1.0 + 1e-10))
+        (e > 0.0 && r > 1e-100 && e * e > r * r * n.norm_squared() * (1.0 + 1e-10))
             || base + self.min_lin(n) > bound
     }
 
@@ -334,7 +335,7 @@ fn walk_clusters(
         let gap = node.min_sq_dist(c) - dj;
         // `gap - 2r max|p_j - p| > m1`, in squares.
         let e = gap - m1;
-        if (e > 0.0 && e * e > 4.0 * r * r * node.max_sq_dist(&pj) * (1.0 + 1e-10))
+        if (e > 0.0 && r > 1e-100 && e * e > 4.0 * r * r * node.max_sq_dist(&pj) * (1.0 + 1e-10))
             || q.lin_exceeds(gap - 2.0 * r * node.radius, &((pj - node.centre) * 2.0), m1)
         {
             continue; // irrelevant cluster

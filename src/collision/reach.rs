@@ -86,8 +86,9 @@ pub struct ReachQuestion<'a> {
     pub spring: SpringShape,
     /// The motion (m) the proof must survive (a kept proof's room, 0 for a proof at this pose
     /// only): at each query point the relevance margin `M1 ε1` is widened by
-    /// `4δ (√(D + M1 ε1) + δ)`, `D` the squared distance to the nearest plane point
-    /// (`bounds::widened_margin`, docs/performance.md).
+    /// `4δ (√(D + M1 ε1) + δ)`, at most `4δR`, `D` the squared distance to the nearest plane
+    /// point and `R` the plane cloud's root radius (`bounds::widened_margin`,
+    /// docs/performance.md).
     pub room: f64,
 }
 
