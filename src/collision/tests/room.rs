@@ -3,17 +3,10 @@
 //! relevant after a move within the room, and near the other body it is far narrower than the
 //! uniform `4δR`, which is what lets limbs a centimetre or two apart keep a proof.
 
-use super::shapes::{capsule, least_relevant_plane, sphere};
+use super::shapes::{capsule, distances, least_relevant_plane, sphere};
 use super::*;
 use crate::geometry::union::sample_union;
 use nalgebra::{Rotation3, Unit};
-
-/// The squared distances from `x` to every point of `o`, and the least of them.
-fn distances(o: &Aopc, x: &Vector3<f64>) -> (Vec<f64>, f64) {
-    let d: Vec<f64> = o.points.iter().map(|p| (x - p).norm_squared()).collect();
-    let least = d.iter().cloned().fold(f64::INFINITY, f64::min);
-    (d, least)
-}
 
 /// At points near a capsule, moved by `δ` toward each plane point `p_j` from the nearest one
 /// (the move that brings `p_j` nearest to relevance), every plane relevant after the move was

@@ -27,11 +27,17 @@ pub(super) fn sphere(c: Vector3<f64>, radius: f64) -> (Shape, Isometry3<f64>) {
     )
 }
 
+/// The squared distances from `x` to every point of `o`, and the least of them.
+pub(super) fn distances(o: &Aopc, x: &Vector3<f64>) -> (Vec<f64>, f64) {
+    let d: Vec<f64> = o.points.iter().map(|p| (x - p).norm_squared()).collect();
+    let least = d.iter().cloned().fold(f64::INFINITY, f64::min);
+    (d, least)
+}
+
 /// The least plane over the planes that carry weight at `x` (within `m1` of the nearest
 /// point's squared distance), read point by point.
 pub(super) fn least_relevant_plane(o: &Aopc, x: &Vector3<f64>, m1: f64) -> f64 {
-    let d: Vec<f64> = o.points.iter().map(|p| (x - p).norm_squared()).collect();
-    let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
+    let (d, dmin) = distances(o, x);
     o.points
         .iter()
         .zip(&o.normals)
