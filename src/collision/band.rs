@@ -61,6 +61,12 @@ pub(super) struct BandWalk {
     front: Vec<u32>,
     /// Node, witness hint, and the parent's open nodes `arena[from..to]`.
     stack: Vec<(u32, u32, u32, u32)>,
+    /// The most entries and kept terms the last band walked here held before its cutoff
+    /// dropped any: the next band's vectors start that large where no pair's own sizes are
+    /// kept ([`CandidateMemo`]). The band is handed to its caller, so its vectors are new at
+    /// each walk; grown from a fixed start they were reallocated a few times at every
+    /// evaluation of a pair in contact.
+    sizes: (usize, usize),
 }
 
 /// The part of the separation field that can carry weight (module documentation): every
@@ -161,14 +167,19 @@ pub(crate) fn band_of<T: Scalar>(
         memo: mut kept,
     } = work;
     let margin = ((a.len() + b.len()).max(1) as f64 / super::pair_tolerance(a, b)).ln();
-    // Room for a resting contact's band at once (growing them a few times cost more).
+    // Room for a resting contact's band at once, or for the pair's last band (with kept
+    // candidates; else the last walked in this scratch) where it was larger (growing them a
+    // few times cost more).
+    let (last_entries, last_terms) = kept
+        .as_deref()
+        .map_or(scratch.band.sizes, |kc| kc.band_sizes);
     let mut band = SeparationBand {
-        entries: Vec::with_capacity(64),
+        entries: Vec::with_capacity(last_entries.max(64)),
         min: f64::INFINITY,
         skipped: 0,
         evaluated: 0,
         margin,
-        terms: Vec::with_capacity(128),
+        terms: Vec::with_capacity(last_terms.max(128)),
     };
     let (e1, e2) = (re(eps1), re(eps2));
     let grads_from = grads.as_ref().map_or(0, |g| g.len());
@@ -193,6 +204,7 @@ pub(crate) fn band_of<T: Scalar>(
         mut arena,
         mut front,
         mut stack,
+        ..
     } = std::mem::take(walk);
     for pass in 0..2 {
         for (side, query, planes, rel) in [(0u8, a, b, &rels[0]), (1u8, b, a, &rels[1])] {
@@ -449,6 +461,10 @@ pub(crate) fn band_of<T: Scalar>(
     // in walk order, whose order is the poses' alone, so the band is the same to the last bit
     // whichever sound proofs skipped what.
     // ("Beyond", so that a NaN entry stays: NaN is never beyond.)
+    let sizes = (band.entries.len(), band.terms.len());
+    if let Some(kc) = kept {
+        kc.band_sizes = sizes;
+    }
     let cutoff = band.min + margin * e2;
     let beyond = |e: &BandEntry<T>| e.phi.re() > cutoff;
     if let Some(g) = grads {
@@ -483,6 +499,7 @@ pub(crate) fn band_of<T: Scalar>(
         arena,
         front,
         stack,
+        sizes,
     };
     band
 }

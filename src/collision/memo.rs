@@ -66,6 +66,9 @@ pub struct CandidateMemo {
     counts: MemoCounts,
     /// The pair's last hand-derived Jacobian, with the real inputs it was taken at.
     pub linearized: Option<Box<Linearized>>,
+    /// The most entries and kept terms the pair's last band held (`band_of`'s start sizes
+    /// for its next: a cost, never a result).
+    pub(crate) band_sizes: (usize, usize),
 }
 
 /// A function's value and Jacobian at one input (a pair's hand-derived Jacobian, which the chain

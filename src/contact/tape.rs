@@ -108,6 +108,10 @@ impl PairTape {
         // force against a half-space has one term and always fits).
         let mut terms = Vec::new();
         let mut order: Vec<(usize, f64, Option<std::ops::Range<usize>>)> = Vec::new();
+        // One force's terms at a time, in one vector handed from force to force (a new one for
+        // each force grew term by term: 0.6 % of gymnasium's humanoid's instructions in its
+        // reallocations alone).
+        let spare = std::cell::Cell::new(Vec::new());
         let parts = pair_sides(
             a,
             b,
@@ -119,13 +123,15 @@ impl PairTape {
                 grads: None,
                 memo: kept,
             },
-            || TermSink(Vec::new()),
-            |i, w, _, sink| {
+            || TermSink(spare.take()),
+            |i, w, _, TermSink(mut sunk)| {
                 let start = terms.len();
-                let fits = start + sink.0.len() <= budget || sink.0.len() <= 1;
+                let fits = start + sunk.len() <= budget || sunk.len() <= 1;
                 if fits {
-                    terms.extend(sink.0);
+                    terms.append(&mut sunk);
                 }
+                sunk.clear();
+                spare.set(sunk);
                 order.push((i, w, fits.then_some(start..terms.len())));
             },
         );
