@@ -456,8 +456,13 @@ impl VectorFunction for DistanceFn<'_> {
         let (Some(a), Some(b)) = (&self.model.colliders[pr.a], &self.model.colliders[pr.b]) else {
             return Ok(vec![c(f64::INFINITY)]);
         };
-        let field =
-            crate::collision::separation_field(a, &kin.frames[pr.a], b, &kin.frames[pr.b], p.eps1);
+        let field = crate::collision::separation_field(
+            a,
+            &kin.frames[pr.a],
+            b,
+            &kin.frames[pr.b],
+            pr.eps1(p.eps1),
+        );
         Ok(vec![
             crate::collision::SeparationDistribution::new(&field, p.eps2).distance,
         ])

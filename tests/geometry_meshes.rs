@@ -844,7 +844,7 @@ fn a_scene_chooses_patches_or_triangles_for_its_meshes() {
     assert!(e.message.contains("'quads' must be 'patches'"), "{e}");
 }
 
-/// A thin mesh gets at least three points across its thinnest extent when the file sets no
+/// A thin mesh gets at least five points across its thinnest extent when the file sets no
 /// spacing (docs/geometry.md, "Thin meshes"): its inertia box's smallest side over
 /// `MESH_POINTS_ACROSS`, floored to 0.1 mm; a thick one keeps 1 cm, and a file's own spacing
 /// wins. The inertia box is a box's own half-sizes, and a cylinder's `√3/2 r` across.
@@ -869,9 +869,10 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     assert!((half - Vector3::new(b, c, a)).amax() < 1e-12, "{half}");
     let dir = tmp("thin");
     std::fs::create_dir_all(&dir).unwrap();
-    for (name, r) in [("finger", 0.007), ("arm", 0.03)] {
+    // The arm 6 cm long and 5.2 cm across: thicker than five spacings of 1 cm.
+    for (name, r, half) in [("finger", 0.007, 0.02), ("arm", 0.03, 0.03)] {
         let mut obj = String::new();
-        let cyl = sliver_cylinder(r, 0.02, 48);
+        let cyl = sliver_cylinder(r, half, 48);
         for v in &cyl.vertices {
             obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
         }
@@ -897,12 +898,12 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
         (g.spacing.unwrap().fine, g.spacing_reason.clone())
     };
     let auto = scene("");
-    // The 48-gon's inertia box: 2 × 0.866 × 7 mm across, 12.1 mm: 4.0 mm at three across.
+    // The 48-gon's inertia box: 2 × 0.866 × 7 mm across, 12.1 mm: 2.4 mm at five across.
     let (finger, why) = spacing(&auto, "finger");
-    assert_eq!(MESH_POINTS_ACROSS, 3.0);
-    assert_eq!(finger, 0.004, "{why}");
+    assert_eq!(MESH_POINTS_ACROSS, 5.0);
+    assert_eq!(finger, 0.0024, "{why}");
     assert!(
-        why.contains("thin mesh: 3 points across its 0.0121 m"),
+        why.contains("thin mesh: 5 points across its 0.0121 m"),
         "{why}"
     );
     let (arm, why) = spacing(&auto, "arm");
@@ -910,6 +911,40 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     assert!(why.contains("does not tell"), "{why}");
     let set = scene(r#"<numeric name="scm_spacing" data="0.01"/>"#);
     assert_eq!(spacing(&set, "finger").0, 0.01);
+    // A pad on the thin link's body is sampled as finely, so that the body's pairs read one ε1
+    // (docs/method.md, "ε1 follows the spacing"); a geom with its own spacing keeps it, and a
+    // body without a thin mesh keeps 1 cm.
+    let xml = r#"<mujoco>
+  <custom><numeric name="scm_spacing:own" data="0.008"/></custom>
+  <asset><mesh name="finger" file="finger.obj"/><mesh name="arm" file="arm.obj"/></asset>
+  <worldbody><geom type="plane" size="1 1 0.1"/>
+    <body name="link" pos="0 0 0.2"><freejoint/><geom name="finger" type="mesh" mesh="finger"/>
+      <geom name="pad" type="box" size="0.01 0.01 0.003" pos="0 0 0.025"/>
+      <geom name="own" type="box" size="0.01 0.01 0.003" pos="0 0 -0.025"/></body>
+    <body name="upper" pos="0.5 0 0.2"><freejoint/><geom name="arm" type="mesh" mesh="arm"/>
+      <geom name="cap" type="box" size="0.01 0.01 0.003" pos="0 0 0.025"/></body></worldbody>
+</mujoco>"#;
+    let s = scm::scene::load_str(xml, &dir.join("pad.xml")).unwrap();
+    let (pad, why) = spacing(&s, "pad");
+    assert_eq!(pad, 0.0024, "{why}");
+    assert!(why.contains("its body's thin mesh 'finger'"), "{why}");
+    assert_eq!(spacing(&s, "own").0, 0.008);
+    assert_eq!(spacing(&s, "cap").0, 0.01);
+    // The link's pair with the floor reads ε1 at its cloud's longest quad (the own box's
+    // 8 mm), the upper arm's at the default.
+    let eps1 = |body: &str| {
+        let b = s
+            .model
+            .tree
+            .bodies
+            .iter()
+            .position(|x| x.name == body)
+            .unwrap();
+        let p = s.model.pairs.iter().find(|p| p.a == b || p.b == b).unwrap();
+        p.eps1_scale
+    };
+    assert!((eps1("link") - 0.64).abs() < 1e-12, "{}", eps1("link"));
+    assert_eq!(eps1("upper"), 1.0);
 }
 
 /// The shortcuts of a mesh's signed distance: outside the vertices' bounding box its sign is

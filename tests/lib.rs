@@ -44,6 +44,7 @@ mod long_run;
 mod mjcf_attach;
 mod mjcf_compile;
 mod mocap;
+mod scene_eps1;
 mod scene_errors;
 mod scene_spacing;
 mod scene_sphere_drop;

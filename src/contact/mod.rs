@@ -33,7 +33,7 @@ mod tests;
 
 use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
-pub use params::{ContactParams, Dissipation, Param};
+pub use params::{eps1_scale, ContactParams, Dissipation, Param, EPS1_SPACING};
 pub(crate) use point::{
     half_space_force, logistic, point_force, point_force_naive, sliding_velocity, ForceSink,
     NoForceSink, PlaneTerm, PointForce, SoftAverage,

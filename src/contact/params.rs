@@ -72,6 +72,25 @@ impl Dissipation {
     }
 }
 
+/// The spacing (m) the default ε1 (1e-5 m², `√ε1` about a third of it) was chosen for, the
+/// paper's: a pair whose clouds sample finer reads ε1 scaled by the square of their spacing
+/// over this ([`eps1_scale`]).
+pub const EPS1_SPACING: f64 = 0.01;
+
+/// The factor on ε1 of a pair whose coarser cloud's longest quad is `longest` (m): `(longest /
+/// EPS1_SPACING)²` below [`EPS1_SPACING`], 1 at it and above. The softmax's weights
+/// `e^{-(d_i - d_min)/ε1}` then fall over the same number of neighbouring planes at every
+/// spacing: a cloud scaled by λ with ε1 scaled by λ² reads the same SSDF times λ
+/// (docs/method.md, "ε1 follows the spacing").
+pub fn eps1_scale(longest: f64) -> f64 {
+    if longest > 0.0 && longest < EPS1_SPACING {
+        let r = longest / EPS1_SPACING;
+        r * r
+    } else {
+        1.0
+    }
+}
+
 /// Parameters of the contact model. Every field but `dissipation` is a scalar so that
 /// derivatives with respect to it come out of the same code.
 #[derive(Clone, Copy, Debug, PartialEq)]

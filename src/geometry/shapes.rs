@@ -97,7 +97,7 @@ impl MassProperties {
 /// A mesh sampled by default gets at least this many points across its thinnest extent (its
 /// inertia box's smallest side): a spacing of that extent over it where the scene's is coarser
 /// ([`Shape::spacing_within`]).
-pub const MESH_POINTS_ACROSS: f64 = 3.0;
+pub const MESH_POINTS_ACROSS: f64 = 5.0;
 
 /// The finest spacing (m) [`MESH_POINTS_ACROSS`] gives a thin mesh.
 pub const MESH_FINEST_SPACING: f64 = 1e-3;

@@ -55,12 +55,28 @@ pub struct Pair {
     /// The flows of the two bodies' moving surfaces (`a`'s, `b`'s, each in its body's frame;
     /// MuJoCo's geom `surfacevel`, [`ContactParams::surface`]); `None` where neither moves.
     pub surface: Option<[crate::collision::Twist<f64>; 2]>,
+    /// The pair's SSDF temperature relative to the contact parameter ε1 (1: the parameter as
+    /// it is): `(L / EPS1_SPACING)²` where the coarser of its two clouds samples finer than
+    /// [`crate::contact::EPS1_SPACING`], `L` that cloud's longest quad, so that the softmax
+    /// blends over the same number of neighbouring planes at every spacing
+    /// (docs/method.md, "ε1 follows the spacing"); 1 where the scene sets `scm_eps1`.
+    pub eps1_scale: f64,
 }
 
 impl Pair {
+    /// The pair's ε1 (m²): the contact parameter `eps1` times [`Pair::eps1_scale`].
+    pub fn eps1<T: Scalar>(&self, eps1: T) -> T {
+        if self.eps1_scale == 1.0 {
+            eps1
+        } else {
+            eps1 * c::<T>(self.eps1_scale)
+        }
+    }
+
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
-    /// dissipation velocity and dissipation force where it has them, its margin, and its
-    /// stiction velocity raised to its floor (`stiction_floor μ`) where it is below.
+    /// dissipation velocity and dissipation force where it has them, its margin, its ε1
+    /// ([`Pair::eps1`]), and its stiction velocity raised to its floor (`stiction_floor μ`)
+    /// where it is below.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
         let friction = own(self.friction, prm.friction);
@@ -80,6 +96,7 @@ impl Pair {
             adhesion: self.adhesion,
             gap: self.gap,
             surface: self.surface,
+            eps1: self.eps1(prm.eps1),
             ..*prm
         }
     }
@@ -545,53 +562,5 @@ impl Model {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use num_dual::Dual64;
-
-    fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
-        Pair {
-            a: 0,
-            b: 1,
-            friction,
-            stiffness: None,
-            dissipation_velocity: None,
-            dissipation_force: None,
-            margin: 0.004,
-            adhesion: 0.0,
-            gap: 0.0,
-            stiction_floor,
-            surface: None,
-        }
-    }
-
-    #[test]
-    fn a_pairs_stiction_velocity_is_held_at_its_floor_and_the_parameter_acts_above() {
-        // Floor 0.02 m/s per unit of friction: 0.012 m/s at the pair's own 0.6.
-        let prm = ContactParams::default(); // v_s 0.01 m/s, friction 0.5
-        let own = pair(Some(0.6), 0.02).params(&prm);
-        assert_eq!(own.stiction_velocity, 0.02 * 0.6);
-        assert_eq!(own.margin, 0.004);
-        let above = ContactParams {
-            stiction_velocity: 0.05,
-            ..prm
-        };
-        assert_eq!(pair(Some(0.6), 0.02).params(&above).stiction_velocity, 0.05);
-        assert_eq!(pair(Some(0.6), 0.0).params(&prm).stiction_velocity, 0.01);
-        // Without its own friction the floor follows the parameter friction, with its
-        // derivative: d v_s / d mu = floor where the floor holds, and none from v_s.
-        let dual = ContactParams {
-            friction: Dual64::new(0.5, 1.0),
-            stiction_velocity: Dual64::new(0.01, 0.0),
-            ..prm.lift()
-        };
-        let held = pair(None, 0.04).params(&dual).stiction_velocity;
-        assert_eq!((held.re, held.eps), (0.04 * 0.5, 0.04));
-        let dual = ContactParams {
-            stiction_velocity: Dual64::new(0.05, 1.0),
-            ..prm.lift()
-        };
-        let free = pair(None, 0.04).params(&dual).stiction_velocity;
-        assert_eq!((free.re, free.eps), (0.05, 1.0));
-    }
-}
+#[path = "pairs_tests.rs"]
+mod tests;

@@ -459,7 +459,8 @@ impl Builder {
                     _ => false,
                 })
                 .collect();
-            let pairs = self.with_surfaces(pairs, &colliding)?;
+            let mut pairs = self.with_surfaces(pairs, &colliding)?;
+            self.eps1_scales(&mut pairs, &colliding);
             (pairs, colliders, colliding)
         } else {
             // Nothing is sampled: per-geom spacings are checked and reported unused.

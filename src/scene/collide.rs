@@ -167,6 +167,9 @@ impl Builder {
             geom.spacing = spacing;
             geom.spacing_reason = reason;
         }
+        if resolution.is_none() {
+            self.share_thin_spacings(colliding, spacing, overrides);
+        }
         Ok(())
     }
 
@@ -317,6 +320,7 @@ impl Builder {
                     gap,
                     stiction_floor: 0.0,
                     surface: None,
+                    eps1_scale: 1.0,
                 }
             })
             .collect();

@@ -35,6 +35,7 @@ mod replicate;
 mod sdf;
 mod self_attach;
 mod settings;
+mod smoothing;
 mod surface;
 mod tendon;
 mod weights;

@@ -149,7 +149,7 @@ pub fn directional_derivative(
                             &kin.frames[pair.a],
                             b,
                             &kin.frames[pair.b],
-                            s.prm.eps1,
+                            pair.eps1(s.prm.eps1),
                             s.prm.eps2,
                             model.contact_points,
                         ),

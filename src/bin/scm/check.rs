@@ -298,9 +298,21 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                 p.stiction_floor
             ),
         };
+        // The SSDF's temperature the pair reads (docs/method.md, "ε1 follows the spacing").
+        let eps1 = if p.eps1_scale == 1.0 {
+            format!("ε1 {:.4e} m² (scm.eps1)", m.contact.eps1)
+        } else {
+            format!(
+                "ε1 {:.4e} m² (scm.eps1 times {:.4}: its clouds' longest quad is {:.4} m, finer than {} m)",
+                p.eps1(m.contact.eps1),
+                p.eps1_scale,
+                scm::contact::EPS1_SPACING * p.eps1_scale.sqrt(),
+                scm::contact::EPS1_SPACING
+            )
+        };
         say!(
             w,
-            "pair {} - {}: friction {friction}{margin}{floor}, {law}",
+            "pair {} - {}: friction {friction}{margin}{floor}, {eps1}, {law}",
             m.tree.bodies[p.a].name,
             m.tree.bodies[p.b].name
         );

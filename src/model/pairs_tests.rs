@@ -1,0 +1,74 @@
+//! Tests of a pair's own law: its stiction velocity held at its floor, its ε1 scaled.
+
+use super::*;
+use crate::contact::eps1_scale;
+use num_dual::Dual64;
+
+fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
+    Pair {
+        a: 0,
+        b: 1,
+        friction,
+        stiffness: None,
+        dissipation_velocity: None,
+        dissipation_force: None,
+        margin: 0.004,
+        adhesion: 0.0,
+        gap: 0.0,
+        stiction_floor,
+        surface: None,
+        eps1_scale: 1.0,
+    }
+}
+
+#[test]
+fn a_pairs_stiction_velocity_is_held_at_its_floor_and_the_parameter_acts_above() {
+    // Floor 0.02 m/s per unit of friction: 0.012 m/s at the pair's own 0.6.
+    let prm = ContactParams::default(); // v_s 0.01 m/s, friction 0.5
+    let own = pair(Some(0.6), 0.02).params(&prm);
+    assert_eq!(own.stiction_velocity, 0.02 * 0.6);
+    assert_eq!(own.margin, 0.004);
+    let above = ContactParams {
+        stiction_velocity: 0.05,
+        ..prm
+    };
+    assert_eq!(pair(Some(0.6), 0.02).params(&above).stiction_velocity, 0.05);
+    assert_eq!(pair(Some(0.6), 0.0).params(&prm).stiction_velocity, 0.01);
+    // Without its own friction the floor follows the parameter friction, with its
+    // derivative: d v_s / d mu = floor where the floor holds, and none from v_s.
+    let dual = ContactParams {
+        friction: Dual64::new(0.5, 1.0),
+        stiction_velocity: Dual64::new(0.01, 0.0),
+        ..prm.lift()
+    };
+    let held = pair(None, 0.04).params(&dual).stiction_velocity;
+    assert_eq!((held.re, held.eps), (0.04 * 0.5, 0.04));
+    let dual = ContactParams {
+        stiction_velocity: Dual64::new(0.05, 1.0),
+        ..prm.lift()
+    };
+    let free = pair(None, 0.04).params(&dual).stiction_velocity;
+    assert_eq!((free.re, free.eps), (0.05, 1.0));
+}
+
+#[test]
+fn a_pairs_eps1_is_the_parameter_times_its_scale_with_its_derivative() {
+    // docs/method.md, "ε1 follows the spacing": a pair of clouds at 5 mm reads a quarter of
+    // the parameter, and its derivative with respect to the parameter is that quarter.
+    let prm = ContactParams::default();
+    let mut fine = pair(None, 0.0);
+    fine.eps1_scale = eps1_scale(0.005);
+    assert_eq!(fine.eps1_scale, 0.25);
+    let dual = ContactParams {
+        eps1: Dual64::new(1e-5, 1.0),
+        ..prm.lift()
+    };
+    let e = fine.params(&dual).eps1;
+    assert_eq!((e.re, e.eps), (2.5e-6, 0.25));
+    // At 1 cm and coarser, and for a non-positive or non-finite length, the parameter as it is.
+    for l in [0.01, 0.05, 0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert_eq!(eps1_scale(l), 1.0, "{l}");
+    }
+    let e = pair(None, 0.0).params(&dual).eps1;
+    assert_eq!((e.re, e.eps), (1e-5, 1.0));
+}

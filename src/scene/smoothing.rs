@@ -1,0 +1,86 @@
+//! Each pair's SSDF temperature from its clouds' spacing (docs/method.md, "ε1 follows the
+//! spacing"), and the spacing a body's geoms share where one of them is a thin mesh.
+
+use super::{Builder, Place};
+use crate::contact::eps1_scale;
+use crate::geometry::sample::Spacing;
+use crate::geometry::shapes::Shape;
+use crate::model::Pair;
+
+impl Builder {
+    /// Where a body has a thin mesh sampled finer than the scene's `spacing` (m) by default
+    /// ([`Shape::spacing_within`]), its other colliding geoms without a spacing of their own
+    /// are sampled no coarser: the body's cloud then has one spacing, and its pairs' ε1 follows
+    /// it ([`Builder::eps1_scales`]). One geom left at 1 cm (a fingertip's pad beside its thin
+    /// link) would hold the body's pairs at the default ε1 on a cloud sampled finer.
+    pub(super) fn share_thin_spacings(
+        &mut self,
+        colliding: &[bool],
+        spacing: f64,
+        overrides: &[(String, f64, Place)],
+    ) {
+        let own = |g: &super::Geom| overrides.iter().any(|(n, _, _)| *n == g.name);
+        let thin = |g: &super::Geom| match &g.shape {
+            Some(Shape::Mesh(m)) if !own(g) => m.thin_spacing().filter(|t| *t < spacing),
+            _ => None,
+        };
+        for b in 0..self.bodies.len() {
+            let finest = (self.geoms.iter().zip(colliding))
+                .filter(|(g, &c)| c && g.body == b)
+                .filter_map(|(g, _)| thin(g).map(|t| (t, g.name.clone())))
+                .reduce(|x, y| if y.0 < x.0 { y } else { x });
+            let Some((finest, name)) = finest else {
+                continue;
+            };
+            for (g, &c) in self.geoms.iter_mut().zip(colliding) {
+                if !c || g.body != b || own(g) {
+                    continue;
+                }
+                let (Some(shape), Some(s)) = (&g.shape, g.spacing.as_mut()) else {
+                    continue;
+                };
+                if longest_quad(shape, s) <= finest {
+                    continue;
+                }
+                *s = Spacing::uniform(finest);
+                g.spacing_reason = format!("its body's thin mesh '{name}' at {finest} m, so that the body's pairs read one ε1");
+            }
+        }
+    }
+
+    /// Gives each pair its ε1 scale ([`Pair::eps1_scale`]) from the longest quad of its
+    /// coarser cloud (over each body's colliding geoms), unless the scene sets `scm_eps1`:
+    /// every pair then reads the parameter as it is, the value the scene chose.
+    pub(super) fn eps1_scales(&self, pairs: &mut [Pair], colliding: &[bool]) {
+        if self.numeric.iter().any(|(n, _, _)| n == "scm_eps1") {
+            return;
+        }
+        let longest = |b: usize| {
+            self.geoms
+                .iter()
+                .zip(colliding)
+                .filter(|(g, &c)| c && g.body == b)
+                .filter_map(|(g, _)| Some(longest_quad(g.shape.as_ref()?, g.spacing.as_ref()?)))
+                .reduce(f64::max)
+        };
+        for p in pairs {
+            let longest = match (longest(p.a), longest(p.b)) {
+                (Some(x), Some(y)) => x.max(y),
+                (Some(x), None) | (None, Some(x)) => x,
+                // Two planes never pair; nothing to scale.
+                (None, None) => continue,
+            };
+            p.eps1_scale = eps1_scale(longest);
+        }
+    }
+}
+
+/// The longest quad a geom is sampled with (m): a box's grid grows from `fine` at its edges to
+/// `coarse` per axis away from them; every other shape is sampled evenly at the smallest
+/// entry of `coarse` ([`Shape::sample_spaced`]).
+pub(super) fn longest_quad(shape: &Shape, spacing: &Spacing) -> f64 {
+    match shape {
+        Shape::Box { .. } => spacing.coarse.max().max(spacing.fine),
+        _ => spacing.coarse.min(),
+    }
+}
