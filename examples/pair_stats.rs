@@ -92,7 +92,8 @@ fn main() {
             "pair" => Box::new(|| {
                 for p in &m.pairs {
                     if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
-                        black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &prm));
+                        let own = p.params(&prm);
+                        black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &own));
                     }
                 }
             }),
@@ -104,7 +105,8 @@ fn main() {
                         if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
                             let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
                             let s = &mut scratch;
-                            black_box(pair_contact_memo(a, fa, b, fb, &prm, Some(kept), s));
+                            let own = p.params(&prm);
+                            black_box(pair_contact_memo(a, fa, b, fb, &own, Some(kept), s));
                         }
                     }
                 })
@@ -141,7 +143,9 @@ fn main() {
             continue;
         };
         let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
-        let band = separation_band(a, fa, b, fb, prm.eps1, prm.eps2);
+        // The pair's own parameters (its ε1 from its spacing, its stiffness from the file).
+        let own = p.params(&prm);
+        let band = separation_band(a, fa, b, fb, own.eps1, own.eps2);
         let mut terms = 0;
         for e in &band.entries {
             let (q, fq, pl, fp) = if e.side == 0 {
@@ -155,9 +159,9 @@ fn main() {
             };
             let rel = fq.relative_to(fp);
             let x = rel.rotation * qs.bvh().points[e.k as usize] + rel.translation;
-            terms += count_terms(ps, &x, prm.eps1);
+            terms += count_terms(ps, &x, own.eps1);
         }
-        let pc = pair_contact(a, fa, b, fb, &prm);
+        let pc = pair_contact(a, fa, b, fb, &own);
         println!(
             "{} - {}: {} + {} points; band: {} evaluated, {} within the cutoff, {} points not in it, {} plane terms, min Φ {:.3e} m; D = {:.4e} m, force on a {:?}",
             m.tree.bodies[p.a].name,
@@ -172,7 +176,6 @@ fn main() {
             pc.distance,
             pc.on_a.force.as_slice()
         );
-        let own = p.params(&prm);
         let rels = [fa.relative_to(fb), fb.relative_to(fa)];
         let (mut proof_scratch, mut scratch) = Default::default();
         let mut proof =
@@ -209,7 +212,7 @@ fn main() {
         let t = Instant::now();
         let nn = 5;
         for _ in 0..nn {
-            black_box(pair_contact_naive(a, fa, b, fb, &prm));
+            black_box(pair_contact_naive(a, fa, b, fb, &own));
         }
         println!(
             "  naive pair evaluation: {:.1} µs",
@@ -219,7 +222,8 @@ fn main() {
     let pair_all = || {
         for p in &m.pairs {
             if let (Some(a), Some(b)) = (&m.colliders[p.a], &m.colliders[p.b]) {
-                black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &prm));
+                let own = p.params(&prm);
+                black_box(pair_contact(a, &kin.frames[p.a], b, &kin.frames[p.b], &own));
             }
         }
     };

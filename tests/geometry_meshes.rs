@@ -922,7 +922,9 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
       <geom name="pad" type="box" size="0.01 0.01 0.003" pos="0 0 0.025"/>
       <geom name="own" type="box" size="0.01 0.01 0.003" pos="0 0 -0.025"/></body>
     <body name="upper" pos="0.5 0 0.2"><freejoint/><geom name="arm" type="mesh" mesh="arm"/>
-      <geom name="cap" type="box" size="0.01 0.01 0.003" pos="0 0 0.025"/></body></worldbody>
+      <geom name="cap" type="box" size="0.01 0.01 0.003" pos="0 0 0.025"/></body>
+    <body name="tray" pos="0 0.8 0.2"><freejoint/><geom name="rim" type="mesh" mesh="finger"/>
+      <geom name="slab" type="box" size="0.3 0.3 0.004" pos="0 0 0.03"/></body></worldbody>
 </mujoco>"#;
     let s = scm::scene::load_str(xml, &dir.join("pad.xml")).unwrap();
     let (pad, why) = spacing(&s, "pad");
@@ -945,6 +947,13 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     };
     assert!((eps1("link") - 0.64).abs() < 1e-12, "{}", eps1("link"));
     assert_eq!(eps1("upper"), 1.0);
+    // A large geom beside a thin mesh keeps its graded grid (at 2.4 mm the 60 cm slab would
+    // be 1.3e5 points), and its body's pairs the default ε1.
+    let slab = s.geoms.iter().find(|g| g.name == "slab").unwrap();
+    let grid = slab.spacing.unwrap();
+    assert_eq!(grid.fine, 0.01, "{}", slab.spacing_reason);
+    assert!(grid.coarse.max() > 0.01, "{:?}", grid.coarse);
+    assert_eq!(eps1("tray"), 1.0);
 }
 
 /// The shortcuts of a mesh's signed distance: outside the vertices' bounding box its sign is

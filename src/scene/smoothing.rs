@@ -9,10 +9,12 @@ use crate::model::Pair;
 
 impl Builder {
     /// Where a body has a thin mesh sampled finer than the scene's `spacing` (m) by default
-    /// ([`Shape::spacing_within`]), its other colliding geoms without a spacing of their own
-    /// are sampled no coarser: the body's cloud then has one spacing, and its pairs' ε1 follows
-    /// it ([`Builder::eps1_scales`]). One geom left at 1 cm (a fingertip's pad beside its thin
-    /// link) would hold the body's pairs at the default ε1 on a cloud sampled finer.
+    /// ([`Shape::spacing_within`]), its other colliding geoms sampled at that spacing, without
+    /// one of their own, are sampled no coarser: the body's cloud then has one spacing, and its
+    /// pairs' ε1 follows it ([`Builder::eps1_scales`]). One geom left at 1 cm (a fingertip's
+    /// pad beside its thin link) would hold the body's pairs at the default ε1 on a cloud
+    /// sampled finer. Called only where the scene sets neither `scm_spacing` nor
+    /// `scm_resolution` (then no mesh is sampled thin).
     pub(super) fn share_thin_spacings(
         &mut self,
         colliding: &[bool],
@@ -39,7 +41,11 @@ impl Builder {
                 let (Some(shape), Some(s)) = (&g.shape, g.spacing.as_mut()) else {
                     continue;
                 };
-                if longest_quad(shape, s) <= finest {
+                // Only geoms at the scene's plain spacing: a large one, graded or sampled
+                // coarser (a table, a long link), keeps its grid, whose points would grow as
+                // `1/finest²` over its whole area (and the body's ε1 then stays the default).
+                let longest = longest_quad(shape, s);
+                if longest <= finest || longest > spacing {
                     continue;
                 }
                 *s = Spacing::uniform(finest);
