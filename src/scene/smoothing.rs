@@ -61,16 +61,16 @@ impl Builder {
         if self.numeric.iter().any(|(n, _, _)| n == "scm_eps1") {
             return;
         }
-        let longest = |b: usize| {
-            self.geoms
-                .iter()
-                .zip(colliding)
-                .filter(|(g, &c)| c && g.body == b)
-                .filter_map(|(g, _)| Some(longest_quad(g.shape.as_ref()?, g.spacing.as_ref()?)))
-                .reduce(f64::max)
-        };
+        // Each body's longest quad, once (a scene may have tens of thousands of pairs).
+        let mut longest: Vec<Option<f64>> = vec![None; self.bodies.len()];
+        for (g, _) in self.geoms.iter().zip(colliding).filter(|(_, &c)| c) {
+            if let (Some(shape), Some(spacing)) = (&g.shape, &g.spacing) {
+                let l = longest_quad(shape, spacing);
+                longest[g.body] = Some(longest[g.body].map_or(l, |x: f64| x.max(l)));
+            }
+        }
         for p in pairs {
-            let longest = match (longest(p.a), longest(p.b)) {
+            let longest = match (longest[p.a], longest[p.b]) {
                 (Some(x), Some(y)) => x.max(y),
                 (Some(x), None) | (None, Some(x)) => x,
                 // Two planes never pair; nothing to scale.
