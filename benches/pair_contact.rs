@@ -117,6 +117,7 @@ fn params(sharp: bool) -> ContactParams<f64> {
     let (eps1, eps2) = if sharp { (1e-9, 1e-7) } else { (1e-5, 1e-3) };
     ContactParams {
         eps1,
+        eps1_scale: [1.0; 2],
         eps2,
         eps3: 1e-4,
         stiffness: 1e4,

@@ -145,7 +145,7 @@ fn main() {
         let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
         // The pair's own parameters (its ε1 from its spacing, its stiffness from the file).
         let own = p.params(&prm);
-        let band = separation_band(a, fa, b, fb, own.eps1, own.eps2);
+        let band = separation_band(a, fa, b, fb, own.eps1_sides(), own.eps2);
         let mut terms = 0;
         for e in &band.entries {
             let (q, fq, pl, fp) = if e.side == 0 {
@@ -159,7 +159,7 @@ fn main() {
             };
             let rel = fq.relative_to(fp);
             let x = rel.rotation * qs.bvh().points[e.k as usize] + rel.translation;
-            terms += count_terms(ps, &x, own.eps1);
+            terms += count_terms(ps, &x, own.eps1_sides()[e.side as usize]);
         }
         let pc = pair_contact(a, fa, b, fb, &own);
         println!(

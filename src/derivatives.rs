@@ -130,11 +130,12 @@ pub fn params_vec<T: Copy>(p: &ContactParams<T>) -> Vec<T> {
     PARAMS.iter().map(|k| k.get(p)).collect()
 }
 
-/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s dissipation variant,
-/// dissipation force, margin, adhesion, gap, actuators' pull and moving surfaces (constants).
+/// Parameters from a vector in [`PARAMS`] order, keeping `like`'s clouds' ε1 factors,
+/// dissipation variant, dissipation force, margin, adhesion, gap, actuators' pull and moving surfaces (constants).
 pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactParams<T> {
     ContactParams {
         eps1: x[0],
+        eps1_scale: like.eps1_scale,
         eps2: x[1],
         eps3: x[2],
         stiffness: x[3],
@@ -461,7 +462,7 @@ impl VectorFunction for DistanceFn<'_> {
             &kin.frames[pr.a],
             b,
             &kin.frames[pr.b],
-            pr.eps1(p.eps1),
+            pr.eps1_sides(p.eps1),
         );
         Ok(vec![
             crate::collision::SeparationDistribution::new(&field, p.eps2).distance,

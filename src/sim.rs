@@ -278,7 +278,7 @@ impl Simulation {
                             &kin.frames[pair.a],
                             b,
                             &kin.frames[pair.b],
-                            pair.eps1(e1),
+                            pair.eps1_sides(e1),
                             e2,
                             self.model.contact_points,
                         ),

@@ -28,6 +28,7 @@ fn frame<T: Scalar>(origin: Vector3<T>, linvel: Vector3<T>) -> Frame<T> {
 fn params() -> ContactParams<f64> {
     ContactParams {
         eps1: 1e-5,
+        eps1_scale: [1.0; 2],
         eps2: 1e-3,
         eps3: 1e-4,
         stiffness: 1e4,
@@ -237,6 +238,7 @@ fn pair_derivatives_match_central_differences() {
         let eval = |inp: &[f64]| -> Vec<f64> {
             let p = ContactParams {
                 eps1: inp[6],
+                eps1_scale: [1.0; 2],
                 eps2: inp[7],
                 eps3: inp[8],
                 stiffness: inp[9],
@@ -262,6 +264,7 @@ fn pair_derivatives_match_central_differences() {
             d[k].eps = 1.0;
             let p = ContactParams {
                 eps1: d[6],
+                eps1_scale: [1.0; 2],
                 eps2: d[7],
                 eps3: d[8],
                 stiffness: d[9],
@@ -596,6 +599,13 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 (false, Some(_)) => (0.0, 0.003),
                 (false, None) => (0.0, 0.0),
             };
+            // Each cloud's planes read with its own ε1 on the two pairs of clouds (docs/method.md,
+            // "ε1 follows the spacing"): the softmax's weight derivative `2/ε1` per side.
+            let eps1_scale = match name {
+                "box on box" => [0.5, 1.0],
+                "ball on box" => [1.0, 0.3],
+                _ => [1.0; 2],
+            };
             let prm = ContactParams {
                 dissipation,
                 dissipation_force,
@@ -603,6 +613,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 adhesion,
                 gap,
                 pull,
+                eps1_scale,
                 ..params()
             };
             let mut base = [0.0; N];
@@ -711,10 +722,12 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
     let mut motion = |scale: f64| -> [Vector3<f64>; 2] {
         [rng.direction() * scale, rng.direction() * (3.0 * scale)]
     };
+    // a's planes read at half the ε1 of b's (each cloud its own, docs/method.md).
     let prm = ContactParams {
         stiffness: 2e4,
         dissipation_force: 5.0,
         margin: 0.003,
+        eps1_scale: [0.5, 1.0],
         ..params()
     };
     for (a, b, at) in &cases {

@@ -19,6 +19,7 @@ use std::path::Path;
 fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
     ContactParams {
         eps1,
+        eps1_scale: [1.0; 2],
         eps2: 1e-3,
         eps3,
         stiffness: 1e4,
@@ -157,12 +158,16 @@ fn proven_out_of_reach_below_the_bound(tolerance: f64, cases: usize) {
             14 => (0.0, 0.003, Some(4.0)),
             _ => (0.0, 0.0, None),
         };
+        // Each cloud's planes read with its own ε1 (docs/method.md, "ε1 follows the spacing"):
+        // one case in three reads b's planes at a quarter, one a's at a tenth.
+        let eps1_scale = [[1.0, 1.0], [1.0, 0.25], [0.1, 1.0]][(case / 7) % 3];
         let prm = ContactParams {
             margin,
             adhesion,
             gap: adhesive_gap,
             pull,
             surface: None,
+            eps1_scale,
             ..params(p.0, p.1)
         };
         let margin = prm.bound_margin();
@@ -570,7 +575,11 @@ fn kept_proofs_against_the_unpruned_reference(
             let (b, rb) = &colliders[(case / 3) % colliders.len()];
             (b, *rb)
         };
-        let prm = params([1e-5, 1e-6][case % 2], [1e-4, 1e-3][(case / 2) % 2]);
+        let prm = ContactParams {
+            // One case in three with each cloud's own ε1 (b's planes at a quarter).
+            eps1_scale: [[1.0, 1.0], [1.0, 1.0], [1.0, 0.25]][(case / 5) % 3],
+            ..params([1e-5, 1e-6][case % 2], [1e-4, 1e-3][(case / 2) % 2])
+        };
         let gap = rng.range(0.003, widest);
         let dir = if against_plane {
             Vector3::z()

@@ -732,7 +732,7 @@ fn distance_hessians_match_differences_of_the_exact_gradient() {
                     &kin.frames[pr.a],
                     b,
                     &kin.frames[pr.b],
-                    p.eps1,
+                    pr.eps1_sides(p.eps1),
                 ),
                 p.eps2,
             )

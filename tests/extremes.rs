@@ -488,6 +488,7 @@ fn a_one_point_aopc() {
     // Against a plane and against a sphere: finite, and pushed out along the normal when pressed in.
     let prm = ContactParams {
         eps1: 1e-5,
+        eps1_scale: [1.0; 2],
         eps2: 1e-3,
         eps3: 1e-4,
         stiffness: 1e4,

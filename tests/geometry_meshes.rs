@@ -191,7 +191,10 @@ fn horseshoe_rests_on_two_separated_modes_without_sideways_bias() {
         m.colliders[ring].as_ref().unwrap(),
     );
     let (fa, fb) = (&kin.frames[bar], &kin.frames[ring]);
-    let band = separation_band(ca, fa, cb, fb, m.contact.eps1, m.contact.eps2);
+    // The ε1 each side reads with: the pair's own (its clouds' scales).
+    let pair = m.pairs.iter().find(|p| p.a == bar && p.b == ring).unwrap();
+    let eps1 = pair.eps1_sides(m.contact.eps1);
+    let band = separation_band(ca, fa, cb, fb, eps1, m.contact.eps2);
     let dist = SeparationDistribution::from_band(&band, m.contact.eps2);
     // Weight of the field by the side of x the point is on (world frame).
     let (mut left, mut right, mut middle) = (0.0, 0.0, 0.0);
@@ -911,9 +914,9 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     assert!(why.contains("does not tell"), "{why}");
     let set = scene(r#"<numeric name="scm_spacing" data="0.01"/>"#);
     assert_eq!(spacing(&set, "finger").0, 0.01);
-    // A pad on the thin link's body is sampled as finely, so that the body's pairs read one ε1
-    // (docs/method.md, "ε1 follows the spacing"); a geom with its own spacing keeps it, and a
-    // body without a thin mesh keeps 1 cm.
+    // A pad on the thin link's body is sampled as finely, so that the body's planes are read
+    // with one ε1 (docs/method.md, "ε1 follows the spacing"); a geom with its own spacing keeps
+    // it, and a body without a thin mesh keeps 1 cm.
     let xml = r#"<mujoco>
   <custom><numeric name="scm_spacing:own" data="0.008"/></custom>
   <asset><mesh name="finger" file="finger.obj"/><mesh name="arm" file="arm.obj"/></asset>
@@ -932,8 +935,8 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
     assert!(why.contains("its body's thin mesh 'finger'"), "{why}");
     assert_eq!(spacing(&s, "own").0, 0.008);
     assert_eq!(spacing(&s, "cap").0, 0.01);
-    // The link's pair with the floor reads ε1 at its cloud's longest quad (the own box's
-    // 8 mm), the upper arm's at the default.
+    // The link's planes are read with ε1 at its cloud's longest quad (the own box's 8 mm),
+    // the upper arm's at the default.
     let eps1 = |body: &str| {
         let b = s
             .model
@@ -943,7 +946,7 @@ fn a_thin_mesh_is_sampled_with_points_across_it_by_default() {
             .position(|x| x.name == body)
             .unwrap();
         let p = s.model.pairs.iter().find(|p| p.a == b || p.b == b).unwrap();
-        p.eps1_scale
+        p.eps1_scale[usize::from(p.b == b)]
     };
     assert!((eps1("link") - 0.64).abs() < 1e-12, "{}", eps1("link"));
     assert_eq!(eps1("upper"), 1.0);

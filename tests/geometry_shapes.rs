@@ -526,7 +526,7 @@ fn soft_top_k_points_find_the_contacts_and_are_smooth() {
         linvel: Vector3::zeros(),
         angvel: Vector3::zeros(),
     };
-    let pts = contact_points(&ground, &Frame::identity(), &block, &fb, 1e-5, 1e-3, 3);
+    let pts = contact_points(&ground, &Frame::identity(), &block, &fb, [1e-5; 2], 1e-3, 3);
     assert_eq!(pts.len(), 3);
     for c in &pts {
         assert!(
@@ -549,7 +549,7 @@ fn soft_top_k_points_find_the_contacts_and_are_smooth() {
             &Frame::identity(),
             &block,
             &f,
-            Dual64::from(1e-5),
+            [Dual64::from(1e-5); 2],
             Dual64::from(1e-3),
             2,
         )

@@ -93,13 +93,15 @@ pub struct SeparationBand<T> {
 }
 
 /// Soft collision detection with pruning: the entries of the separation field that matter
-/// (module documentation). `eps1` in m², `eps2` in m.
+/// (module documentation). `eps1` (m²): the ε1 each side reads the other body's planes with
+/// (0: `a`'s points against `b`'s planes, 1: the reverse; [`crate::contact::eps1_sides`]),
+/// `eps2` in m.
 pub fn separation_band<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
-    eps1: T,
+    eps1: [T; 2],
     eps2: T,
 ) -> SeparationBand<T> {
     let rels = [fa.relative_to(fb), fb.relative_to(fa)];
@@ -155,7 +157,7 @@ pub(crate) fn band_of<T: Scalar>(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<T>; 2],
-    eps1: T,
+    eps1: [T; 2],
     eps2: T,
     spring: SpringShape,
     work: BandWork<'_>,
@@ -181,10 +183,10 @@ pub(crate) fn band_of<T: Scalar>(
         margin,
         terms: Vec::with_capacity(last_terms.max(128)),
     };
-    let (e1, e2) = (re(eps1), re(eps2));
+    let e2 = re(eps2);
     let grads_from = grads.as_ref().map_or(0, |g| g.len());
     if let Some(kc) = kept.as_deref_mut() {
-        kc.begin(e1, a, b);
+        kc.begin(eps1.map(re), a, b);
     }
     // Two passes. The seed pass evaluates one leaf per side, the one reached by descending
     // nearer-first to the other body's centre (where the deepest points usually are), so that
@@ -212,6 +214,9 @@ pub(crate) fn band_of<T: Scalar>(
             if s.is_empty() || matches!(planes, Collider::Aopc(o) if o.is_empty()) {
                 continue;
             }
+            // The ε1 of the planes this side reads.
+            let eps1 = eps1[side as usize];
+            let e1 = re(eps1);
             let rot = rel.rotation.map(re);
             let tr = crate::scalar::re3(&rel.translation);
             let bvh = s.bvh();

@@ -58,8 +58,9 @@ pub const PROOF_RETRY: u8 = 8;
 /// of the pair's evaluations that are given it ([`pair_contact_memo`](crate::contact::pair_contact_memo)).
 #[derive(Clone, Debug, Default)]
 pub struct CandidateMemo {
-    /// The `ε1` (m²) the candidates were gathered for (bits): another one drops them all.
-    eps1: u64,
+    /// The `ε1` (m²) of each side's planes the candidates were gathered for (bits): another
+    /// one drops them all.
+    eps1: [u64; 2],
     /// Per side: 0 the points of `a` against the planes of `b`, 1 the reverse.
     sides: [SideCandidates; 2],
     /// Queries answered so far, from a kept ball or not.
@@ -208,14 +209,15 @@ impl CandidateMemo {
             })
     }
 
-    /// Starts a band walk of the pair `(a, b)` at `eps1` (m²): drops everything kept if
-    /// `eps1` is not the one it was kept for, a side's balls if they were kept for other point
+    /// Starts a band walk of the pair `(a, b)` whose sides read their planes with `eps1` (m²,
+    /// per side): drops everything kept if `eps1` is not what it was kept for, a side's balls if they were kept for other point
     /// clouds, and the balls no query read for [`UNUSED_WALKS`] walks.
-    pub(crate) fn begin(&mut self, eps1: f64, a: &super::Collider, b: &super::Collider) {
-        if self.eps1 != eps1.to_bits() {
+    pub(crate) fn begin(&mut self, eps1: [f64; 2], a: &super::Collider, b: &super::Collider) {
+        let bits = eps1.map(f64::to_bits);
+        if self.eps1 != bits {
             let counts = self.counts;
             *self = CandidateMemo {
-                eps1: eps1.to_bits(),
+                eps1: bits,
                 counts,
                 ..Default::default()
             };

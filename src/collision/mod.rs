@@ -347,17 +347,18 @@ fn field_one_side<T: Scalar>(
 }
 
 /// Soft collision detection between two colliders: the separation field, every entry (each
-/// SSDF pruned to its bound).
+/// SSDF pruned to its bound). `eps1` (m²): the ε1 each side reads the other body's planes
+/// with (0: `a`'s points against `b`'s planes; [`crate::contact::eps1_sides`]).
 pub fn separation_field<T: Scalar>(
     a: &Collider,
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
-    eps1: T,
+    eps1: [T; 2],
 ) -> SeparationField<T> {
     SeparationField {
-        of_a: field_one_side(a, fa, b, fb, eps1, false),
-        of_b: field_one_side(b, fb, a, fa, eps1, false),
+        of_a: field_one_side(a, fa, b, fb, eps1[0], false),
+        of_b: field_one_side(b, fb, a, fa, eps1[1], false),
     }
 }
 
@@ -367,11 +368,11 @@ pub fn separation_field_naive<T: Scalar>(
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
-    eps1: T,
+    eps1: [T; 2],
 ) -> SeparationField<T> {
     SeparationField {
-        of_a: field_one_side(a, fa, b, fb, eps1, true),
-        of_b: field_one_side(b, fb, a, fa, eps1, true),
+        of_a: field_one_side(a, fa, b, fb, eps1[0], true),
+        of_b: field_one_side(b, fb, a, fa, eps1[1], true),
     }
 }
 

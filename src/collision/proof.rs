@@ -54,7 +54,7 @@ impl ProofSide {
     /// where `m₁` is and `δ` is within its room. A proof by the floor alone (`m1` infinite)
     /// needs only the distance. Rounding allowances: 1e-9 relative, and 1e-15 of the poses'
     /// size.
-    fn covers(&self, side: &Side, eps1: f64) -> bool {
+    fn covers(&self, side: &Side) -> bool {
         let scale = side.query.bvh().max_norm;
         let delta = ((side.translation - self.translation).norm()
             + (side.rotation - self.rotation).norm() * scale)
@@ -63,7 +63,7 @@ impl ProofSide {
         let relevant = match side.planes {
             Collider::Aopc(_) => {
                 let (m1_per_eps1, spread) = side.relevance();
-                let m1 = m1_per_eps1 * eps1;
+                let m1 = m1_per_eps1 * side.eps1;
                 m1 + 4.0 * delta * spread <= self.m1 || (m1 <= self.m1 && delta <= self.room)
             }
             Collider::HalfSpace { .. } => true,
@@ -80,8 +80,8 @@ impl ProofSide {
     /// the local widening cost gymnasium's humanoid 1.00 and 1.02 times the instructions).
     /// `None` without a gap, or when the bodies' relative speed would use `δ_b` up in less
     /// than `life` (s): the proof would not be reused.
-    fn with_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
-        Self::planes_room(side, eps1)
+    fn with_room(side: &Side, life: f64) -> Option<ProofSide> {
+        Self::planes_room(side)
             .filter(|&(delta, _)| delta >= side.speed * life)
             .map(|(delta, m1)| ProofSide {
                 rotation: side.rotation,
@@ -95,7 +95,7 @@ impl ProofSide {
     /// The room `δ_b` of [`ProofSide::with_room`] and the margin `m₁ = M1 ε1` its proof is
     /// made over (0 over a half-space), before the speed is looked at; `None` without a gap or
     /// room.
-    fn planes_room(side: &Side, eps1: f64) -> Option<(f64, f64)> {
+    fn planes_room(side: &Side) -> Option<(f64, f64)> {
         let (m1_per_eps1, spread, gap) = side.margins();
         let overlapping = matches!(side.planes, Collider::Aopc(_)) && gap <= 0.0;
         if gap.is_nan() || (gap <= 0.0 && !overlapping) {
@@ -103,7 +103,7 @@ impl ProofSide {
         }
         let (delta, m1) = match side.planes {
             Collider::Aopc(_) => {
-                let m1 = m1_per_eps1 * eps1;
+                let m1 = m1_per_eps1 * side.eps1;
                 // Root spheres that overlap (two links of one arm) leave the relevance margin
                 // alone to choose the room by.
                 let quarter = if overlapping {
@@ -127,13 +127,13 @@ impl ProofSide {
     /// step) and several millimetres by the floor. `None` for a half-space (its planes' room
     /// has no such cap), a cloud without a polytope, bodies whose speed bound is 0, or where
     /// the planes' room lasts.
-    pub(super) fn floor_room(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
+    pub(super) fn floor_room(side: &Side, life: f64) -> Option<ProofSide> {
         let Collider::Aopc(o) = side.planes else {
             return None;
         };
         o.bvh().polytope.as_ref()?;
         let used = side.speed * life;
-        if Self::planes_room(side, eps1).is_some_and(|(delta, _)| delta >= used) {
+        if Self::planes_room(side).is_some_and(|(delta, _)| delta >= used) {
             return None;
         }
         let delta = FLOOR_ROOM_LIVES * used;
@@ -155,14 +155,14 @@ impl ProofSide {
     /// decimetres. `None` for a half-space (its planes' room is already half the gap), a cloud
     /// without a polytope, or a room no larger than the planes' ([`ProofSide::with_room`]) or
     /// than what [`ProofSide::floor_room`] asks ([`FLOOR_ROOM_LIVES`] lives).
-    fn far_floor(side: &Side, eps1: f64, life: f64) -> Option<ProofSide> {
+    fn far_floor(side: &Side, life: f64) -> Option<ProofSide> {
         let Collider::Aopc(o) = side.planes else {
             return None;
         };
         let polytope = o.bvh().polytope.as_ref()?;
         let (centre, radius) = side.root();
         let delta = 0.5 * (polytope.floor_over_ball(&centre, radius) - side.t);
-        let planes = Self::planes_room(side, eps1).map_or(0.0, |(room, _)| room);
+        let planes = Self::planes_room(side).map_or(0.0, |(room, _)| room);
         let least = planes.max(FLOOR_ROOM_LIVES * side.speed * life);
         (delta > least && delta.is_finite()).then_some(ProofSide {
             rotation: side.rotation,
@@ -220,7 +220,6 @@ pub fn out_of_reach_proven(
     life: f64,
     scratch: &mut Scratch,
 ) -> bool {
-    let eps1 = prm.eps1;
     let Some(sides) = sides(a, b, rels, prm) else {
         *kept = None;
         return false;
@@ -232,7 +231,7 @@ pub fn out_of_reach_proven(
     if let Some(k) = kept {
         if sides
             .iter()
-            .all(|(i, s)| k.sides[*i].is_some_and(|ks| ks.covers(s, eps1)))
+            .all(|(i, s)| k.sides[*i].is_some_and(|ks| ks.covers(s)))
         {
             return true;
         }
@@ -250,11 +249,10 @@ pub fn out_of_reach_proven(
     // proof by planes needed. A side it proves is kept for the room stage below.
     let mut floor = [None, None];
     for (i, s) in sides.iter() {
-        floor[*i] = ProofSide::far_floor(s, eps1, life)
+        floor[*i] = ProofSide::far_floor(s, life)
             .filter(|ks| ks.prove(s.planes, s.query, scratch))
             .or_else(|| {
-                ProofSide::floor_room(s, eps1, life)
-                    .filter(|ks| ks.prove(s.planes, s.query, scratch))
+                ProofSide::floor_room(s, life).filter(|ks| ks.prove(s.planes, s.query, scratch))
             });
     }
     if sides.iter().all(|(i, _)| floor[*i].is_some()) {
@@ -270,8 +268,7 @@ pub fn out_of_reach_proven(
         let roomy = sides.iter().all(|(i, s)| {
             floor[*i]
                 .or_else(|| {
-                    ProofSide::with_room(s, eps1, life)
-                        .filter(|ks| ks.prove(s.planes, s.query, scratch))
+                    ProofSide::with_room(s, life).filter(|ks| ks.prove(s.planes, s.query, scratch))
                 })
                 .map(|ks| floor[*i] = Some(ks))
                 .is_some()

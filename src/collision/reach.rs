@@ -343,12 +343,13 @@ pub fn reach_distance(
 }
 
 /// What a pair's proof of being out of reach reads of its contact parameters (real parts):
-/// the SSDF's ε1 (m²), the spring's ε3 (m), the margin where its springs rest (m), the
+/// the SSDF's ε1 (m²) on each side, the spring's ε3 (m), the margin where its springs rest (m), the
 /// dissipation velocity (m/s) and the friction coefficient.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReachParams {
-    /// The SSDF's smoothing ε1 (m²).
-    pub eps1: f64,
+    /// The SSDF's smoothing ε1 (m²) each side reads the other body's planes with (0: `a`'s
+    /// points against `b`'s planes, 1: the reverse; [`crate::contact::eps1_sides`]).
+    pub eps1: [f64; 2],
     /// The spring's smoothing ε3 (m).
     pub eps3: f64,
     /// Where the pair's springs rest (m): they read the distance less it.
@@ -404,7 +405,6 @@ pub fn out_of_reach_by(
     prm: &ReachParams,
     scratch: &mut Scratch,
 ) -> Beyond {
-    let eps1 = prm.eps1;
     let Some(sides) = sides(a, b, rels, prm) else {
         return Beyond::Not;
     };
@@ -425,7 +425,7 @@ pub fn out_of_reach_by(
             rot,
             tr,
             t: s.t,
-            eps1,
+            eps1: s.eps1,
             spring,
             room: 0.0,
         };
@@ -447,6 +447,8 @@ pub(super) struct Side<'a> {
     pub(super) t: f64,
     /// The bound on the query points' speed relative to the planes (m/s).
     pub(super) speed: f64,
+    /// The ε1 (m²) the query points read the planes with.
+    pub(super) eps1: f64,
 }
 
 impl Side<'_> {
@@ -526,7 +528,7 @@ pub(super) fn sides<'a>(
         dissipation_velocity,
         friction,
     } = *prm;
-    if eps1.is_nan() || eps1 <= 0.0 {
+    if eps1.iter().any(|e| e.is_nan() || *e <= 0.0) {
         return None;
     }
     let tolerance = super::pair_tolerance(a, b);
@@ -555,6 +557,7 @@ pub(super) fn sides<'a>(
                 translation: rel.translation,
                 t,
                 speed,
+                eps1: eps1[k],
             },
         ));
     }

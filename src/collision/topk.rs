@@ -11,7 +11,8 @@ pub const TOPK_TEMPERATURE: f64 = 0.1;
 /// from faces to their vertices, `z_v = Σ_f [v ∈ f] W_f`, then `c_k = Σ_v Γ_kv y_v` with the
 /// successive softmax `Γ_k = softmax(ℓ_k)`, `ℓ_1 = ln z / t` ([`TOPK_TEMPERATURE`]),
 /// `ℓ_{k+1} = ℓ_k + ln(1 - Γ_k)`: closed form and smooth, no iterative solver. Points are in
-/// the world frame (m). Vertices of faces whose weight is below the pruning bound carry
+/// the world frame (m); `eps1` (m²) is the ε1 each side reads the other body's planes with
+/// ([`crate::contact::eps1_sides`]). Vertices of faces whose weight is below the pruning bound carry
 /// nothing (their `z` would be below τ). If fewer than `k` vertices carry weight, the last
 /// point repeats. Empty when neither body has points.
 pub fn contact_points<T: Scalar>(
@@ -19,7 +20,7 @@ pub fn contact_points<T: Scalar>(
     fa: &Frame<T>,
     b: &Collider,
     fb: &Frame<T>,
-    eps1: T,
+    eps1: [T; 2],
     eps2: T,
     k: usize,
 ) -> Vec<Vector3<T>> {

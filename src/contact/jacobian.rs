@@ -49,6 +49,8 @@ pub(super) fn pair_contact_chained<T: Scalar>(
         (inputs.iter().map(|x| x.re()))
             .chain([
                 prm_re.eps1,
+                prm_re.eps1_scale[0],
+                prm_re.eps1_scale[1],
                 prm_re.eps2,
                 prm_re.eps3,
                 prm_re.stiffness,
@@ -194,7 +196,8 @@ pub fn point_plane_force_jacobian_at(
 #[derive(Clone, Debug)]
 pub(super) struct LocalJacobian {
     prm: ContactParams<f64>,
-    softmax: bool,
+    /// The ε1 (m²) of the planes' softmax; `None` against a half-space (one plane).
+    softmax: Option<f64>,
     z: f64,
     sr: Vector3<f64>,
     lphi_n: Matrix3<f64>,
@@ -216,11 +219,11 @@ impl ForceSink for LocalJacobian {
 }
 
 impl LocalJacobian {
-    fn new(prm: &ContactParams<f64>, softmax: bool) -> Self {
+    fn new(prm: &ContactParams<f64>) -> Self {
         let z = Matrix3::zeros();
         LocalJacobian {
             prm: *prm,
-            softmax,
+            softmax: None,
             z: 0.0,
             sr: Vector3::zeros(),
             lphi_n: z,
@@ -240,8 +243,8 @@ impl LocalJacobian {
         let inv = 1.0 / self.z;
         let fv = self.lv * inv;
         let mut fx = self.lphi_n * inv - fv * skew(omega_p);
-        if self.softmax {
-            let k = 2.0 / self.prm.eps1;
+        if let Some(eps1) = self.softmax {
+            let k = 2.0 / eps1;
             let rbar = self.sr * inv;
             fx += (f * rbar.transpose() - self.lam_r * inv) * k;
         }
@@ -300,7 +303,7 @@ pub fn pair_jacobian(
             grads: Some(&mut grads),
             memo: None,
         },
-        || LocalJacobian::new(prm, true),
+        || LocalJacobian::new(prm),
         |i, w, pf, snk| records.push((i, w, *pf, snk)),
     );
     let mut values = [0.0; PAIR_OUTPUTS];
@@ -312,6 +315,7 @@ pub fn pair_jacobian(
     }
     let (band, dist) = (&parts.band, &parts.dist);
     let e2 = prm.eps2;
+    let eps1 = prm.eps1_sides();
     let query = |side: usize| -> &Aopc {
         match if side == 0 { a } else { b } {
             Collider::Aopc(s) => s,
@@ -334,7 +338,7 @@ pub fn pair_jacobian(
         let arm = rel.rotation * a_f;
         let g = grads[*i];
         let mut lj = snk.clone();
-        lj.softmax = !halfspace[side];
+        lj.softmax = (!halfspace[side]).then_some(eps1[side]);
         let [fx, fv, fw, gx, gv, gw] =
             lj.blocks(&pf.force, &(arm + rel.translation), &rel.angvel_planes);
         let wf = pf.force * *w;

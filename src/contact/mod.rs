@@ -33,7 +33,7 @@ mod tests;
 
 use jacobian::pair_contact_chained;
 pub use jacobian::{pair_jacobian, point_plane_force_jacobian, PAIR_OUTPUTS, SIDE_INPUTS};
-pub use params::{eps1_scale, ContactParams, Dissipation, Param, EPS1_SPACING};
+pub use params::{eps1_scale, eps1_sides, ContactParams, Dissipation, Param, EPS1_SPACING};
 pub(crate) use point::{
     half_space_force, logistic, point_force, point_force_naive, sliding_velocity, ForceSink,
     NoForceSink, PlaneTerm, PointForce, SoftAverage,
@@ -288,7 +288,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
         a,
         b,
         rels,
-        prm.eps1,
+        prm.eps1_sides(),
         prm.eps2,
         SpringShape {
             eps3: prm.eps3.re(),
@@ -309,6 +309,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
     let mut bounds = Vec::with_capacity(band.entries.len());
     // The terms of an entry past the band's term budget, summed again (one entry at a time).
     let mut again = Vec::new();
+    let eps1 = prm.eps1_sides();
     for_each_force(a, b, rels, &band, &dist, &weights, prm, &mut bounds, |i| {
         let e = &band.entries[i];
         let side = e.side as usize;
@@ -325,7 +326,7 @@ pub(super) fn pair_sides<T: Scalar, S: ForceSink>(
             (Some((from, to)), _) => &band.terms[from as usize..to as usize],
             (None, Collider::HalfSpace { .. }) => &[],
             (None, Collider::Aopc(o)) => {
-                terms_again(o, &x, prm.eps1, &mut scratch.relevant, &mut again)
+                terms_again(o, &x, eps1[side], &mut scratch.relevant, &mut again)
             }
         };
         let mut snk = sink();
@@ -429,7 +430,7 @@ pub fn pair_distance<T: Scalar>(
         a,
         b,
         &rels,
-        prm.eps1,
+        prm.eps1_sides(),
         prm.eps2,
         SpringShape::NONE,
         BandWork::bare(scratch),
@@ -530,7 +531,7 @@ pub fn pair_contact_naive<T: Scalar>(
     fb: &Frame<T>,
     prm: &ContactParams<T>,
 ) -> PairContact<T> {
-    let field = separation_field_naive(a, fa, b, fb, prm.eps1);
+    let field = separation_field_naive(a, fa, b, fb, prm.eps1_sides());
     let dist = SeparationDistribution::new(&field, prm.eps2);
     let (mut on_a, mut on_b) = (Wrench::zero(), Wrench::zero());
     if !dist.min.is_finite() {
@@ -541,9 +542,10 @@ pub fn pair_contact_naive<T: Scalar>(
         };
     }
     let rels = pair_relatives(fa, fb, prm.surface.as_ref());
-    for (query, rel, planes, pf, phis, q_is_a) in [
-        (a, &rels[0], b, fb, &field.of_a, true),
-        (b, &rels[1], a, fa, &field.of_b, false),
+    let [e1a, e1b] = prm.eps1_sides();
+    for (query, rel, planes, pf, phis, q_is_a, eps1) in [
+        (a, &rels[0], b, fb, &field.of_a, true, e1a),
+        (b, &rels[1], a, fa, &field.of_b, false, e1b),
     ] {
         let Collider::Aopc(s) = query else { continue };
         let mut sums = SideSums::zero();
@@ -551,7 +553,7 @@ pub fn pair_contact_naive<T: Scalar>(
             let arm = rel.rotation * lift3::<T>(p);
             let x = arm + rel.translation;
             let v = rel.linvel + rel.angvel.cross(&arm);
-            let pf = point_force_naive(planes, &x, &v, rel, prm);
+            let pf = point_force_naive(planes, &x, &v, rel, prm, eps1);
             sums.add(&arm, &pf, dist.weight(0, phi));
         }
         sums.finish(pf, q_is_a, &mut on_a, &mut on_b);

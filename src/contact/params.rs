@@ -73,11 +73,11 @@ impl Dissipation {
 }
 
 /// The spacing (m) the default ε1 (1e-5 m², `√ε1` about a third of it) was chosen for, the
-/// paper's: a pair whose clouds sample finer reads ε1 scaled by the square of their spacing
-/// over this ([`eps1_scale`]).
+/// paper's: a cloud sampled finer is read with ε1 scaled by the square of its spacing over
+/// this ([`eps1_scale`]).
 pub const EPS1_SPACING: f64 = 0.01;
 
-/// The factor on ε1 of a pair whose coarser cloud's longest quad is `longest` (m): `(longest /
+/// The factor on ε1 of a cloud whose longest quad is `longest` (m): `(longest /
 /// EPS1_SPACING)²` below [`EPS1_SPACING`], 1 at it and above. The softmax's weights
 /// `e^{-(d_i - d_min)/ε1}` then fall over the same number of neighbouring planes at every
 /// spacing: a cloud scaled by λ with ε1 scaled by λ² reads the same SSDF times λ
@@ -91,12 +91,28 @@ pub fn eps1_scale(longest: f64) -> f64 {
     }
 }
 
+/// The ε1 (m²) each side of a pair reads the other body's planes with, given the parameter
+/// `eps1` and the factors of the pair's two clouds (`a`'s, then `b`'s; [`eps1_scale`]): side 0
+/// (`a`'s points) reads `b`'s planes, side 1 (`b`'s points) `a`'s.
+#[inline]
+pub fn eps1_sides<T: Scalar>(eps1: T, scale: [f64; 2]) -> [T; 2] {
+    let of = |s: f64| if s == 1.0 { eps1 } else { eps1 * c::<T>(s) };
+    [of(scale[1]), of(scale[0])]
+}
+
 /// Parameters of the contact model. Every field but `dissipation` is a scalar so that
 /// derivatives with respect to it come out of the same code.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactParams<T> {
-    /// SSDF softmax temperature ε1 (m²).
+    /// SSDF softmax temperature ε1 (m²): the contact parameter, which each cloud's planes
+    /// read times their factor in `eps1_scale` ([`ContactParams::eps1_sides`]).
     pub eps1: T,
+    /// The factors on ε1 with which the planes of the pair's two bodies are read, `a`'s then
+    /// `b`'s: `(L / EPS1_SPACING)²` for a cloud whose longest quad `L` is finer than
+    /// [`EPS1_SPACING`] ([`eps1_scale`]), 1 for the others and where the scene sets
+    /// `scm_eps1` (docs/method.md, "ε1 follows the spacing"). A pair's own values
+    /// ([`crate::model::Pair`]), not FMU parameters.
+    pub eps1_scale: [f64; 2],
     /// Separation-distribution softmax temperature ε2 (m).
     pub eps2: T,
     /// Softplus smoothing of the penetration ε3 (m).
@@ -148,6 +164,7 @@ impl Default for ContactParams<f64> {
     fn default() -> Self {
         ContactParams {
             eps1: 1e-5,
+            eps1_scale: [1.0; 2],
             eps2: 1e-3,
             eps3: 1e-4,
             stiffness: 1e4,
@@ -177,10 +194,17 @@ impl<T: Scalar> ContactParams<T> {
         }
     }
 
+    /// The ε1 (m²) each side of the pair reads the other body's planes with ([`eps1_sides`]).
+    #[inline]
+    pub fn eps1_sides(&self) -> [T; 2] {
+        eps1_sides(self.eps1, self.eps1_scale)
+    }
+
     /// Real parts.
     pub fn re(&self) -> ContactParams<f64> {
         ContactParams {
             eps1: self.eps1.re(),
+            eps1_scale: self.eps1_scale,
             eps2: self.eps2.re(),
             eps3: self.eps3.re(),
             stiffness: self.stiffness.re(),
@@ -239,7 +263,7 @@ impl ContactParams<f64> {
     /// ([`crate::collision::out_of_reach`]).
     pub fn reach(&self) -> crate::collision::ReachParams {
         crate::collision::ReachParams {
-            eps1: self.eps1,
+            eps1: self.eps1_sides(),
             eps3: self.eps3,
             margin: self.bound_margin(),
             dissipation_velocity: self.dissipation_velocity,
@@ -251,6 +275,7 @@ impl ContactParams<f64> {
     pub fn lift<T: Scalar>(&self) -> ContactParams<T> {
         ContactParams {
             eps1: c(self.eps1),
+            eps1_scale: self.eps1_scale,
             eps2: c(self.eps2),
             eps3: c(self.eps3),
             stiffness: c(self.stiffness),

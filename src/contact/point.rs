@@ -407,13 +407,15 @@ pub(crate) fn point_force<T: Scalar, S: ForceSink>(
     }
 }
 
-/// [`point_force`] summed over every plane (the reference for [`pair_contact_naive`]).
+/// [`point_force`] summed over every plane, whose SSDF reads `eps1` (m²; the reference for
+/// [`pair_contact_naive`]).
 pub(crate) fn point_force_naive<T: Scalar>(
     planes: &Collider,
     x: &Vector3<T>,
     v_point: &Vector3<T>,
     rel: &Relative<T>,
     prm: &ContactParams<T>,
+    eps1: T,
 ) -> PointForce<T> {
     match planes {
         Collider::HalfSpace { .. } => {
@@ -431,7 +433,7 @@ pub(crate) fn point_force_naive<T: Scalar>(
                 .iter()
                 .map(|q| (xr - q).norm_squared())
                 .fold(f64::INFINITY, f64::min);
-            let mut sum = SoftminSum::new(c(dmin), prm.eps1);
+            let mut sum = SoftminSum::new(c(dmin), eps1);
             let mut floor = bvh.polytope.as_ref().map(|p| p.floor(x));
             for (k, (q, nq)) in bvh.points.iter().zip(&bvh.normals).enumerate() {
                 let p = lift3::<T>(q);

@@ -345,7 +345,7 @@ impl PairTape {
                     unreachable!("a term past the budget is a point against an AOPC")
                 };
                 // Its relevant set and weights, as `pair_sides` found them.
-                let terms = terms_again(o, x, prm.eps1, scratch, again);
+                let terms = terms_again(o, x, prm.eps1_sides()[e.side], scratch, again);
                 point_force(planes, x, v_point, rel, prm, terms, &mut NoForceSink)
             }
         }

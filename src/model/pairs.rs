@@ -55,27 +55,25 @@ pub struct Pair {
     /// The flows of the two bodies' moving surfaces (`a`'s, `b`'s, each in its body's frame;
     /// MuJoCo's geom `surfacevel`, [`ContactParams::surface`]); `None` where neither moves.
     pub surface: Option<[crate::collision::Twist<f64>; 2]>,
-    /// The pair's SSDF temperature relative to the contact parameter ε1 (1: the parameter as
-    /// it is): `(L / EPS1_SPACING)²` where the coarser of its two clouds samples finer than
-    /// [`crate::contact::EPS1_SPACING`], `L` that cloud's longest quad, so that the softmax
-    /// blends over the same number of neighbouring planes at every spacing
-    /// (docs/method.md, "ε1 follows the spacing"); 1 where the scene sets `scm_eps1`.
-    pub eps1_scale: f64,
+    /// The factors on the contact parameter ε1 with which the planes of `a`'s and of `b`'s
+    /// cloud are read (1: the parameter as it is): `(L / EPS1_SPACING)²` for a cloud sampled
+    /// finer than [`crate::contact::EPS1_SPACING`], `L` its longest quad, so that each cloud's
+    /// softmax blends over the same number of neighbouring planes at every spacing
+    /// (docs/method.md, "ε1 follows the spacing"); 1 where the scene sets `scm_eps1`
+    /// ([`ContactParams::eps1_scale`]).
+    pub eps1_scale: [f64; 2],
 }
 
 impl Pair {
-    /// The pair's ε1 (m²): the contact parameter `eps1` times [`Pair::eps1_scale`].
-    pub fn eps1<T: Scalar>(&self, eps1: T) -> T {
-        if self.eps1_scale == 1.0 {
-            eps1
-        } else {
-            eps1 * c::<T>(self.eps1_scale)
-        }
+    /// The ε1 (m²) each side reads the other body's planes with, given the contact parameter
+    /// `eps1` ([`ContactParams::eps1_sides`]).
+    pub fn eps1_sides<T: Scalar>(&self, eps1: T) -> [T; 2] {
+        crate::contact::eps1_sides(eps1, self.eps1_scale)
     }
 
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
-    /// dissipation velocity and dissipation force where it has them, its margin, its ε1
-    /// ([`Pair::eps1`]), and its stiction velocity raised to its floor (`stiction_floor μ`)
+    /// dissipation velocity and dissipation force where it has them, its margin, its clouds'
+    /// ε1 factors ([`Pair::eps1_scale`]), and its stiction velocity raised to its floor (`stiction_floor μ`)
     /// where it is below.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
@@ -96,7 +94,7 @@ impl Pair {
             adhesion: self.adhesion,
             gap: self.gap,
             surface: self.surface,
-            eps1: self.eps1(prm.eps1),
+            eps1_scale: self.eps1_scale,
             ..*prm
         }
     }

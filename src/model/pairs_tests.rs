@@ -17,7 +17,7 @@ fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
         gap: 0.0,
         stiction_floor,
         surface: None,
-        eps1_scale: 1.0,
+        eps1_scale: [1.0; 2],
     }
 }
 
@@ -52,23 +52,26 @@ fn a_pairs_stiction_velocity_is_held_at_its_floor_and_the_parameter_acts_above()
 }
 
 #[test]
-fn a_pairs_eps1_is_the_parameter_times_its_scale_with_its_derivative() {
-    // docs/method.md, "ε1 follows the spacing": a pair of clouds at 5 mm reads a quarter of
-    // the parameter, and its derivative with respect to the parameter is that quarter.
+fn each_cloud_reads_eps1_times_its_own_scale_with_its_derivative() {
+    // docs/method.md, "ε1 follows the spacing": a cloud at 5 mm is read with a quarter of the
+    // parameter, and the derivative with respect to the parameter is that quarter; the other
+    // cloud, at 1 cm, with the parameter as it is. Side 0 (a's points) reads b's planes.
     let prm = ContactParams::default();
     let mut fine = pair(None, 0.0);
-    fine.eps1_scale = eps1_scale(0.005);
-    assert_eq!(fine.eps1_scale, 0.25);
+    fine.eps1_scale = [1.0, eps1_scale(0.005)];
+    assert_eq!(fine.eps1_scale, [1.0, 0.25]);
     let dual = ContactParams {
         eps1: Dual64::new(1e-5, 1.0),
         ..prm.lift()
     };
-    let e = fine.params(&dual).eps1;
-    assert_eq!((e.re, e.eps), (2.5e-6, 0.25));
+    let [of_b, of_a] = fine.params(&dual).eps1_sides();
+    assert_eq!((of_b.re, of_b.eps), (2.5e-6, 0.25));
+    assert_eq!((of_a.re, of_a.eps), (1e-5, 1.0));
+    assert_eq!(fine.eps1_sides(dual.eps1), [of_b, of_a]);
     // At 1 cm and coarser, and for a non-positive or non-finite length, the parameter as it is.
     for l in [0.01, 0.05, 0.0, -1.0, f64::NAN, f64::INFINITY] {
         assert_eq!(eps1_scale(l), 1.0, "{l}");
     }
-    let e = pair(None, 0.0).params(&dual).eps1;
-    assert_eq!((e.re, e.eps), (1e-5, 1.0));
+    let e = pair(None, 0.0).params(&dual).eps1_sides();
+    assert_eq!(e.map(|e| (e.re, e.eps)), [(1e-5, 1.0); 2]);
 }

@@ -320,7 +320,7 @@ impl Builder {
                     gap,
                     stiction_floor: 0.0,
                     surface: None,
-                    eps1_scale: 1.0,
+                    eps1_scale: [1.0; 2],
                 }
             })
             .collect();

@@ -1,4 +1,4 @@
-//! Each pair's SSDF temperature from its clouds' spacing (docs/method.md, "ε1 follows the
+//! Each cloud's SSDF temperature from its spacing (docs/method.md, "ε1 follows the
 //! spacing"), and the spacing a body's geoms share where one of them is a thin mesh.
 
 use super::{Builder, Place};
@@ -10,10 +10,10 @@ use crate::model::Pair;
 impl Builder {
     /// Where a body has a thin mesh sampled finer than the scene's `spacing` (m) by default
     /// ([`Shape::spacing_within`]), its other colliding geoms sampled at that spacing, without
-    /// one of their own, are sampled no coarser: the body's cloud then has one spacing, and its
-    /// pairs' ε1 follows it ([`Builder::eps1_scales`]). One geom left at 1 cm (a fingertip's
-    /// pad beside its thin link) would hold the body's pairs at the default ε1 on a cloud
-    /// sampled finer. Called only where the scene sets neither `scm_spacing` nor
+    /// one of their own, are sampled no coarser: the body's cloud then has one spacing, and the
+    /// ε1 its planes are read with follows it ([`Builder::eps1_scales`]). One geom left at
+    /// 1 cm (a fingertip's pad beside its thin link) would hold the body's planes at the
+    /// default ε1 on a cloud sampled finer. Called only where the scene sets neither `scm_spacing` nor
     /// `scm_resolution` (then no mesh is sampled thin).
     pub(super) fn share_thin_spacings(
         &mut self,
@@ -49,14 +49,14 @@ impl Builder {
                     continue;
                 }
                 *s = Spacing::uniform(finest);
-                g.spacing_reason = format!("its body's thin mesh '{name}' at {finest} m, so that the body's pairs read one ε1");
+                g.spacing_reason = format!("its body's thin mesh '{name}' at {finest} m, so that the body's planes are read with one ε1");
             }
         }
     }
 
-    /// Gives each pair its ε1 scale ([`Pair::eps1_scale`]) from the longest quad of its
-    /// coarser cloud (over each body's colliding geoms), unless the scene sets `scm_eps1`:
-    /// every pair then reads the parameter as it is, the value the scene chose.
+    /// Gives each pair its clouds' ε1 factors ([`Pair::eps1_scale`]), each from the longest
+    /// quad of its body's cloud (over the body's colliding geoms), unless the scene sets
+    /// `scm_eps1`: every pair then reads the parameter as it is, the value the scene chose.
     pub(super) fn eps1_scales(&self, pairs: &mut [Pair], colliding: &[bool]) {
         if self.numeric.iter().any(|(n, _, _)| n == "scm_eps1") {
             return;
@@ -69,14 +69,10 @@ impl Builder {
                 longest[g.body] = Some(longest[g.body].map_or(l, |x: f64| x.max(l)));
             }
         }
+        // A plane's (no longest quad) is 1: its SSDF is the plane, whatever ε1.
+        let scale = |b: usize| longest[b].map_or(1.0, eps1_scale);
         for p in pairs {
-            let longest = match (longest[p.a], longest[p.b]) {
-                (Some(x), Some(y)) => x.max(y),
-                (Some(x), None) | (None, Some(x)) => x,
-                // Two planes never pair; nothing to scale.
-                (None, None) => continue,
-            };
-            p.eps1_scale = eps1_scale(longest);
+            p.eps1_scale = [scale(p.a), scale(p.b)];
         }
     }
 }

@@ -149,7 +149,7 @@ pub fn directional_derivative(
                             &kin.frames[pair.a],
                             b,
                             &kin.frames[pair.b],
-                            pair.eps1(s.prm.eps1),
+                            pair.eps1_sides(s.prm.eps1),
                             s.prm.eps2,
                             model.contact_points,
                         ),

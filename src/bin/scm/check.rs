@@ -298,17 +298,25 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                 p.stiction_floor
             ),
         };
-        // The SSDF's temperature the pair reads (docs/method.md, "ε1 follows the spacing").
-        let eps1 = if p.eps1_scale == 1.0 {
+        // The SSDF's temperature each body's planes are read with (docs/method.md, "ε1
+        // follows the spacing").
+        let eps1 = if p.eps1_scale == [1.0; 2] {
             format!("ε1 {:.4e} m² (scm.eps1)", m.contact.eps1)
         } else {
-            format!(
-                "ε1 {:.4e} m² (scm.eps1 times {:.4}: its clouds' longest quad is {:.4} m, finer than {} m)",
-                p.eps1(m.contact.eps1),
-                p.eps1_scale,
-                scm::contact::EPS1_SPACING * p.eps1_scale.sqrt(),
-                scm::contact::EPS1_SPACING
-            )
+            let of = |body: usize, scale: f64| {
+                let name = &m.tree.bodies[body].name;
+                if scale == 1.0 {
+                    format!("ε1 of {name}'s planes {:.4e} m² (scm.eps1)", m.contact.eps1)
+                } else {
+                    format!(
+                        "ε1 of {name}'s planes {:.4e} m² (scm.eps1 times {scale:.4}: its longest quad is {:.4} m, finer than {} m)",
+                        m.contact.eps1 * scale,
+                        scm::contact::EPS1_SPACING * scale.sqrt(),
+                        scm::contact::EPS1_SPACING
+                    )
+                }
+            };
+            format!("{}, {}", of(p.a, p.eps1_scale[0]), of(p.b, p.eps1_scale[1]))
         };
         say!(
             w,

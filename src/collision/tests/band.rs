@@ -40,7 +40,7 @@ fn the_band_keeps_each_entrys_ssdf_terms_within_its_cutoff() {
             &sphere,
             &cube,
             &rels,
-            eps1,
+            [eps1; 2],
             eps2,
             SpringShape {
                 eps3: 1e-4,
@@ -167,7 +167,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
                     &sphere,
                     &cube,
                     &rels,
-                    eps1,
+                    [eps1; 2],
                     eps2,
                     SpringShape {
                         eps3: 1e-4,
@@ -213,7 +213,7 @@ fn kept_candidates_give_the_same_band_to_the_last_bit() {
             &sphere,
             &cube,
             &last.unwrap(),
-            2.0 * eps1,
+            [2.0 * eps1; 2],
             eps2,
             SpringShape {
                 eps3: 1e-4,
@@ -349,7 +349,7 @@ fn the_bands_gradients_follow_its_entries_after_what_the_caller_had() {
             &sphere,
             &cube,
             &rels,
-            1e-6,
+            [1e-6; 2],
             2e-4,
             SpringShape {
                 eps3: 1e-4,
@@ -418,7 +418,7 @@ fn a_pairs_memory_grows_with_its_two_clouds_not_their_product() {
                 &a,
                 &b,
                 &rels,
-                eps1,
+                [eps1; 2],
                 1e-3,
                 SpringShape {
                     eps3: 1e-4,
