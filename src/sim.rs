@@ -200,7 +200,9 @@ impl Simulation {
     /// A warning when a smoothing length (`√ε1`, `ε2`, `ε3`) is as large as the smallest body
     /// in contact: the model is then no longer contact (ε1 smooths the SSDF over the whole
     /// body, ε2 averages the separation distribution instead of taking its minimum, ε3 pushes
-    /// at any distance), though it stays finite. `None` for other parameters or smaller values.
+    /// at any distance), though it stays finite. ε1 is compared body by body, as each body's
+    /// planes are read with it (times the body's factor, [`crate::model::Pair::eps1_scale`]).
+    /// `None` for other parameters or smaller values.
     fn smoothing_warning(&self, p: Param, value: f64) -> Option<String> {
         let (length, what) = match p {
             Param::Eps1 => (value.sqrt(), "its square root smooths each SSDF over the whole body"),
@@ -208,19 +210,36 @@ impl Simulation {
             Param::Eps3 => (value, "the softplus pushes at any distance within the bodies' reach"),
             _ => return None,
         };
-        let smallest = self
-            .model
-            .colliders
-            .iter()
-            .flatten()
-            .filter_map(|c| match c {
-                crate::collision::Collider::Aopc(s) if !s.is_empty() => Some(s.bvh().diameter),
+        // Each body's factor on the length: `√scale` for ε1, 1 for the others.
+        let mut factor = vec![1.0; self.model.colliders.len()];
+        if p == Param::Eps1 {
+            for pair in &self.model.pairs {
+                factor[pair.a] = pair.eps1_scale[0].sqrt();
+                factor[pair.b] = pair.eps1_scale[1].sqrt();
+            }
+        }
+        // The body whose smoothing comes nearest its size: (length over size, size, factor).
+        let worst = (self.model.colliders.iter().zip(&factor))
+            .filter_map(|(c, &f)| match c {
+                Some(crate::collision::Collider::Aopc(s)) if !s.is_empty() => {
+                    let d = s.bvh().diameter;
+                    Some((length * f / d, d, f))
+                }
                 _ => None,
-            });
-        let smallest = smallest.fold(f64::INFINITY, f64::min);
-        (length >= smallest).then(|| {
+            })
+            .fold(None, |w: Option<(f64, f64, f64)>, x| match w {
+                Some(w) if w.0 >= x.0 => Some(w),
+                _ => Some(x),
+            })?;
+        let (ratio, size, f) = worst;
+        (ratio >= 1.0).then(|| {
             let (name, unit, _) = p.describe();
-            format!("scm.{name} = {value:e} {unit} is as large as the smallest colliding body ({smallest:.3e} m across): {what}; the result is finite but no longer contact")
+            let read = if f == 1.0 {
+                String::new()
+            } else {
+                format!(" (read times {:.4} on that body's planes, which its spacing sets)", f * f)
+            };
+            format!("scm.{name} = {value:e} {unit}{read} is as large as the smallest colliding body ({size:.3e} m across): {what}; the result is finite but no longer contact")
         })
     }
 

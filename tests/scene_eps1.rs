@@ -159,3 +159,26 @@ fn the_contact_points_and_the_distance_hessian_read_each_clouds_own_eps1() {
         "∂D/∂ε1 {exact} against {fd}"
     );
 }
+
+#[test]
+fn the_smoothing_warning_reads_each_bodys_own_eps1() {
+    // Boxes 8 cm wide (13.9 cm across) sampled at 5 mm: their planes are read with a quarter
+    // of scm.eps1. At 0.03 m² the parameter's square root (17 cm) is larger than the boxes,
+    // but what they read (8.7 cm) is not: no warning. At 0.1 m² they read 15.8 cm: a warning
+    // that says so.
+    use scm::contact::Param;
+    use scm::fmi::contract::FmiModel;
+    let xml = "boxes.xml";
+    let mut sim = scm::sim::Simulation::new(boxes(0.04, 0.005, ""), xml);
+    let warned = |sim: &mut scm::sim::Simulation, eps1: f64| {
+        sim.take_messages();
+        sim.set_param(Param::Eps1, eps1).unwrap();
+        sim.take_messages()
+            .into_iter()
+            .map(|m| m.text)
+            .find(|t| t.contains("no longer contact"))
+    };
+    assert_eq!(warned(&mut sim, 0.03), None);
+    let text = warned(&mut sim, 0.1).expect("a warning at 0.1 m²");
+    assert!(text.contains("read times 0.2500"), "{text}");
+}

@@ -1216,11 +1216,13 @@ def test_a_nut_screws_down_its_bolt_as_the_thread_demands(tmp_path):
     the thread (z 0.8283 m: MuJoCo's nut there turns and descends steadily from the start), under
     gravity: from 0.02 to 0.12 s it turns 24π radians per metre it descends (the thread's lead)
     within 3 %, and turns as far as MuJoCo's nut does (MuJoCo colliding the plugins' distance
-    functions) within 5 %. Measured: SCM 74.9 rad/m and 0.1917 rad, MuJoCo 75.4 rad/m and
-    0.1969 rad. Started at MuJoCo's file's height (every point settled), at the default 1 cm
-    spacing SCM's nut lost 45 % of its spin in 0.2 s (the thread's crests read a few
-    millimetres wrong at that spacing, and the friction of the flanks they squeeze together
-    brakes it), at 5 mm 10 % against MuJoCo's 4 %."""
+    functions) within 5 %. Measured (2026-12-06, each cloud's ε1 following its 5 mm spacing,
+    docs/method.md, "ε1 follows the spacing"): SCM 73.5 rad/m and 0.1877 rad, MuJoCo 75.4 rad/m
+    and 0.1969 rad, 4.7 % apart, near the tolerance (with ε1 = 1e-5 m² for both clouds, before:
+    74.9 rad/m and 0.1917 rad). Started at MuJoCo's file's height (every point settled), with
+    that fixed ε1, at the default 1 cm spacing SCM's nut lost 45 % of its spin in 0.2 s (the
+    thread's crests read a few millimetres wrong at that spacing, and the friction of the
+    flanks they squeeze together brakes it), at 5 mm 10 % against MuJoCo's 4 %."""
     path = tmp_path / "nut_on_bolt.xml"
     path.write_text(NUT_ON_BOLT)
     start = {"nut.pos.z": 0.8283, "nut.angvel.z": 2.0, "nut.linvel.z": -2.0 / RADIANS_PER_METRE}
