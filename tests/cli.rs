@@ -433,3 +433,37 @@ fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scm check` prints, per pair, the ε1 each body's planes are read with: the parameter as it
+/// is for a cloud at 1 cm, a quarter of it for one at 5 mm, with its longest quad
+/// (docs/method.md, "ε1 follows the spacing").
+#[test]
+fn check_prints_the_eps1_of_each_bodys_planes() {
+    let dir = std::env::temp_dir().join(format!("scm-cli-eps1-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("boxes.xml");
+    std::fs::write(
+        &path,
+        r#"<mujoco>
+  <custom><numeric name="scm_spacing" data="0.01"/><numeric name="scm_spacing:hi" data="0.005"/></custom>
+  <worldbody>
+    <body name="low"><freejoint/><geom name="lo" type="box" size="0.04 0.04 0.04"/></body>
+    <body name="high" pos="0 0 0.1"><freejoint/><geom name="hi" type="box" size="0.04 0.04 0.04"/></body>
+  </worldbody>
+</mujoco>
+"#,
+    )
+    .unwrap();
+    let out = scm(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("pair low - high"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        line.contains("ε1 of low's planes 1.0000e-5 m² (scm.eps1), ε1 of high's planes 2.5000e-6 m² (scm.eps1 times 0.2500: its longest quad is 0.0050 m, finer than 0.01 m)"),
+        "{line}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
