@@ -239,7 +239,7 @@ impl Simulation {
             } else {
                 format!(" (read times {:.4} on that body's planes, which its spacing sets)", f * f)
             };
-            format!("scm.{name} = {value:e} {unit}{read} is as large as the smallest colliding body ({size:.3e} m across): {what}; the result is finite but no longer contact")
+            format!("scm.{name} = {value:e} {unit}{read} is as large as a colliding body ({size:.3e} m across): {what}; the result is finite but no longer contact")
         })
     }
 

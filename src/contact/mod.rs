@@ -542,10 +542,11 @@ pub fn pair_contact_naive<T: Scalar>(
         };
     }
     let rels = pair_relatives(fa, fb, prm.surface.as_ref());
-    let [e1a, e1b] = prm.eps1_sides();
+    // The ε1 of b's planes (read by a's points) and of a's.
+    let [of_b, of_a] = prm.eps1_sides();
     for (query, rel, planes, pf, phis, q_is_a, eps1) in [
-        (a, &rels[0], b, fb, &field.of_a, true, e1a),
-        (b, &rels[1], a, fa, &field.of_b, false, e1b),
+        (a, &rels[0], b, fb, &field.of_a, true, of_b),
+        (b, &rels[1], a, fa, &field.of_b, false, of_a),
     ] {
         let Collider::Aopc(s) = query else { continue };
         let mut sums = SideSums::zero();
