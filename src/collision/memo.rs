@@ -210,8 +210,9 @@ impl CandidateMemo {
     }
 
     /// Starts a band walk of the pair `(a, b)` whose sides read their planes with `eps1` (m²,
-    /// per side): drops everything kept if `eps1` is not what it was kept for, a side's balls if they were kept for other point
-    /// clouds, and the balls no query read for [`UNUSED_WALKS`] walks.
+    /// per side): drops everything kept if `eps1` is not what it was kept for, a side's balls
+    /// if they were kept for other point clouds, and the balls no query read for
+    /// [`UNUSED_WALKS`] walks.
     pub(crate) fn begin(&mut self, eps1: [f64; 2], a: &super::Collider, b: &super::Collider) {
         let bits = eps1.map(f64::to_bits);
         if self.eps1 != bits {
