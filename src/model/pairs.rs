@@ -73,8 +73,8 @@ impl Pair {
 
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
     /// dissipation velocity and dissipation force where it has them, its margin, its clouds'
-    /// ε1 factors ([`Pair::eps1_scale`]), and its stiction velocity raised to its floor (`stiction_floor μ`)
-    /// where it is below.
+    /// ε1 factors ([`Pair::eps1_scale`]), and its stiction velocity raised to its floor
+    /// (`stiction_floor μ`) where it is below.
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
         let friction = own(self.friction, prm.friction);

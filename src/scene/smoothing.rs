@@ -13,8 +13,8 @@ impl Builder {
     /// one of their own, are sampled no coarser: the body's cloud then has one spacing, and the
     /// ε1 its planes are read with follows it ([`Builder::eps1_scales`]). One geom left at
     /// 1 cm (a fingertip's pad beside its thin link) would hold the body's planes at the
-    /// default ε1 on a cloud sampled finer. Called only where the scene sets neither `scm_spacing` nor
-    /// `scm_resolution` (then no mesh is sampled thin).
+    /// default ε1 on a cloud sampled finer. Called only where the scene sets neither
+    /// `scm_spacing` nor `scm_resolution` (then no mesh is sampled thin).
     pub(super) fn share_thin_spacings(
         &mut self,
         colliding: &[bool],
