@@ -41,6 +41,7 @@ mod host_fmi_crate;
 mod integrators;
 mod layers;
 mod long_run;
+mod mesh_hulls;
 mod mjcf_attach;
 mod mjcf_compile;
 mod mocap;

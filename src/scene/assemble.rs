@@ -281,6 +281,7 @@ impl Builder {
         let mut pair_threads = 0.0;
         let mut keyframe: Option<(String, Place)> = None;
         let mut mesh_sampling = MeshSampling::Patches;
+        let mut by_hulls = true;
         for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
                 if value <= 0.0 {
@@ -422,6 +423,19 @@ impl Builder {
                         }
                     }
                 }
+                "scm_mesh_collision" => {
+                    by_hulls = match value.as_str() {
+                        "hull" => true,
+                        "surface" => false,
+                        _ => {
+                            return Err(self.setting_error(
+                                &at,
+                                &name,
+                                format!("'{value}' must be 'hull' (a mesh collides by its convex hull, as in MuJoCo: the default) or 'surface' (by the mesh itself, concave parts included)"),
+                            ))
+                        }
+                    }
+                }
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             }
         }
@@ -439,6 +453,9 @@ impl Builder {
         let (mut pairs, colliders, colliding) = if self.flags.contact {
             self.split_static_geoms();
             let (pairs, colliding) = self.pairs()?;
+            if by_hulls {
+                self.collide_by_hulls(&colliding, mesh_sampling)?;
+            }
             self.assign_spacings(spacing, resolution_set, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];
             let mut sampled = Vec::new();

@@ -45,6 +45,9 @@ pub struct MeshAsset {
     /// The distance function of a mesh made by an SDF plugin, whose geoms collide by it
     /// ([`crate::geometry::Shape::Implicit`]).
     pub implicit: Option<crate::geometry::implicit::ImplicitShape>,
+    /// Whether a distance-field plugin on the file (MuJoCo's sdflib) makes MuJoCo collide it by
+    /// the surface itself rather than by its convex hull.
+    pub by_surface: bool,
 }
 
 /// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
@@ -225,7 +228,8 @@ impl Builder {
         let file = match (el.attr("file"), plugin) {
             (Some(f), p) => {
                 // A plugin on a mesh file (MuJoCo's sdflib) gives MuJoCo a distance field of
-                // that surface; SCM's SSDF takes the surface itself.
+                // that surface, which it collides by instead of the hull; SCM's SSDF takes the
+                // surface itself (`MeshAsset::by_surface`).
                 if let Some(p) = p {
                     self.unused(p, "a distance-field plugin on a mesh file (SCM collides by the surface itself)");
                 }
@@ -287,6 +291,7 @@ impl Builder {
             MeshAsset {
                 file,
                 path,
+                by_surface: plugin.is_some(),
                 ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
             },
         );
@@ -318,12 +323,12 @@ impl Builder {
         }
     }
 
-    /// Records a mesh asset, noting an unused `maxhullvert` where its surface is closed.
+    /// Records a mesh asset, noting that SCM does not reduce its hull (`maxhullvert`).
     pub(super) fn add_mesh(&mut self, el: &Element, asset: MeshAsset) {
-        if asset.maxhullvert.is_some() && asset.problem.is_none() {
+        if asset.maxhullvert.is_some() {
             self.unused(
                 el,
-                "maxhullvert (the size of the hull MuJoCo collides by; SCM samples the closed surface itself)",
+                "maxhullvert (MuJoCo collides by a hull reduced to that many vertices; SCM collides by the full hull, which holds MuJoCo's, and refuses it where a mass weighs by the hull: inertia=\"convex\")",
             );
         }
         self.meshes.push(asset);
@@ -384,6 +389,7 @@ impl MeshAsset {
             used: false,
             inline: None,
             implicit: None,
+            by_surface: false,
         }
     }
 }

@@ -187,7 +187,7 @@ impl Builder {
                 }
             }
         };
-        let mut mesh_name = None;
+        let (mut mesh_name, mut by_hull) = (None, false);
         let shape = match kind {
             "sphere" => {
                 need(1)?;
@@ -253,7 +253,7 @@ impl Builder {
                             Some(hull) => {
                                 let asset = self.meshes.iter_mut().find(|m| m.name == name);
                                 asset.expect("found above").used = true;
-                                mesh_name = Some(name.to_string());
+                                (mesh_name, by_hull) = (Some(name.to_string()), true);
                                 Some(Shape::Mesh(hull))
                             }
                             None => return Ok(()),
@@ -363,6 +363,7 @@ impl Builder {
             body,
             shape,
             mesh: mesh_name,
+            by_hull,
             fitted_to: fit.map(|(mesh, _)| mesh),
             pose,
             contype,
@@ -424,7 +425,8 @@ impl Builder {
             return Err(refuse("it gives its body mass by the mesh's inertia=\"exact\", the solid its surface encloses, and the surface is not closed (MuJoCo's default inertia, without that attribute, or inertia=\"convex\" weigh an open mesh; or give the body an <inertial>)"));
         }
         if collides || gives_mass {
-            let (hull, maxhullvert) = match self.hull_of(mesh) {
+            // A hull MuJoCo reduces (`maxhullvert`) is taken whole, listed with the asset.
+            let (hull, _) = match self.hull_of(mesh) {
                 Some(h) => h,
                 None if collides => {
                     return Err(refuse(
@@ -433,9 +435,6 @@ impl Builder {
                 }
                 None => return Err(refuse(&format!("it gives its body mass by its convex hull, which cannot be made ({})", self.hull_problem(mesh)))),
             };
-            if let Some(n) = maxhullvert {
-                return Err(refuse(&format!("SCM takes its convex hull, which MuJoCo reduces to {n} vertices (maxhullvert) and SCM does not: remove maxhullvert for the full hull in both")));
-            }
             // Its mass is MuJoCo's (`mesh_mass`); its collision surface is the hull.
             if collides {
                 self.warnings.push(format!(

@@ -1,5 +1,6 @@
 //! How a mesh weighs, as MuJoCo weighs it: by its inertia rule (legacy, exact, convex, shell),
-//! its principal frame, its extent in that frame, and its convex hull read on demand.
+//! its principal frame, its extent in that frame, its convex hull read on demand, and the
+//! hulls colliding meshes collide by.
 
 use super::assets::MeshInertia;
 use super::*;
@@ -167,6 +168,50 @@ impl Builder {
         (self.meshes.iter().find(|m| m.name == mesh))
             .and_then(|m| m.hull_problem.clone())
             .unwrap_or_else(|| "unknown".into())
+    }
+
+    /// Every colliding geom (`colliding`, by geom) of a closed file or inline mesh collides by
+    /// that mesh's convex hull, as MuJoCo collides every mesh (docs/mjcf.md, "Meshes"): a body
+    /// tucked into a mesh's concave side is apart from it in MuJoCo, and would be inside the
+    /// surface's points' reach in SCM. Left as they are: a scene's `scm_mesh_collision` =
+    /// `surface`, a mesh whose file carries a distance-field plugin (MuJoCo collides by the
+    /// surface there), an SDF plugin's shape, a mesh that is not closed (its hull already),
+    /// height fields, and geoms that do not collide (their mass was weighed before, by the
+    /// mesh's own rule). The hull is sampled as `sampling` asks.
+    pub(super) fn collide_by_hulls(
+        &mut self,
+        colliding: &[bool],
+        sampling: crate::geometry::mesh::MeshSampling,
+    ) -> Result<(), SceneError> {
+        for i in 0..self.geoms.len() {
+            let g = &self.geoms[i];
+            let (Some(name), Some(Shape::Mesh(_)), true) =
+                (g.mesh.clone(), &g.shape, colliding.get(i) == Some(&true))
+            else {
+                continue;
+            };
+            let Some(asset) = self.meshes.iter().find(|m| m.name == name) else {
+                continue;
+            };
+            if asset.mesh.is_none() || asset.by_surface || asset.implicit.is_some() {
+                continue;
+            }
+            let Some((mut hull, _)) = self.hull_of(&name) else {
+                let g = &self.geoms[i];
+                return Err(SceneError {
+                    file: g.file.clone(),
+                    line: g.line,
+                    element: "geom".into(),
+                    message: format!("geom '{}' collides, and MuJoCo collides a mesh by its convex hull, which cannot be made for mesh '{name}' ({}): set scm_mesh_collision to 'surface' to collide by the mesh itself", g.name, self.hull_problem(&name)),
+                });
+            };
+            if hull.sampling != sampling {
+                Arc::make_mut(&mut hull).sampling = sampling;
+            }
+            self.geoms[i].shape = Some(Shape::Mesh(hull));
+            self.geoms[i].by_hull = true;
+        }
+        Ok(())
     }
 
     /// The convex hull of mesh asset `mesh`'s vertices and its `maxhullvert`: read once, for

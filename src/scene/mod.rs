@@ -137,6 +137,8 @@ pub struct Geom {
     pub shape: Option<Shape>,
     /// Mesh asset name, for mesh geoms.
     pub mesh: Option<String>,
+    /// Whether its shape is its mesh's convex hull, as MuJoCo collides a mesh.
+    pub by_hull: bool,
     /// The mesh a primitive was fitted to (`mesh=` on a sphere, capsule, cylinder, box or
     /// ellipsoid: MuJoCo's mesh-fitted primitive; docs/mjcf.md).
     pub fitted_to: Option<String>,

@@ -1394,3 +1394,36 @@ def test_gears_of_the_gear_plugin_weigh_and_mesh_as_in_mujoco(tmp_path):
     assert abs(w2[-1] - rigid) < 0.03 * rigid
     assert abs(q1[-1] - d.qpos[0]) < 0.05 * abs(d.qpos[0])
     assert abs(q2[-1] - d.qpos[1]) < 0.05 * abs(d.qpos[1])
+
+
+def u_and_ball(tmp_path, custom=""):
+    """A 1 cm ball dropped from 6 cm into the notch of a U-shaped block fixed to the world
+    (tests/fixtures/u_block.obj: 6 x 4 x 3 cm, its notch 2 cm wide from z = 1 cm to its top at
+    3 cm), with `custom` in the file's <custom>."""
+    fixture = pathlib.Path(__file__).resolve().parents[1] / "fixtures" / "u_block.obj"
+    (tmp_path / "u_block.obj").write_bytes(fixture.read_bytes())
+    return f"""<mujoco model="u_and_ball">
+  <option timestep="0.002"/>
+  <custom>{custom}</custom>
+  <asset><mesh name="u" file="u_block.obj"/></asset>
+  <worldbody>
+    <geom name="u" type="mesh" mesh="u"/>
+    <body name="ball" pos="0 0 0.06">
+      <freejoint/>
+      <geom type="sphere" size="0.005" mass="0.01"/>
+    </body>
+  </worldbody>
+</mujoco>"""
+
+
+def test_a_ball_dropped_into_a_concave_mesh_rests_on_its_hull_as_in_mujoco(tmp_path):
+    """MuJoCo collides a mesh by its convex hull, and so does SCM by default (docs/mjcf.md,
+    "How a mesh collides"): the ball rests on the hull's top, its centre 3.5 cm up, not in the
+    notch. Asked to collide by the surface (scm_mesh_collision), SCM lets it fall into the
+    notch onto its floor (centre at 1.5 cm), which MuJoCo cannot do with this file."""
+    ours, m, d = run(tmp_path, u_and_ball(tmp_path), ["ball.pos.z"], 1.0)
+    assert abs(d.qpos[2] - 0.035) < 1e-3, d.qpos[2]
+    assert abs(ours["ball.pos.z"] - d.qpos[2]) < 2e-3, (ours["ball.pos.z"], d.qpos[2])
+    surface = '<text name="scm_mesh_collision" data="surface"/>'
+    ours, _, _ = run(tmp_path, u_and_ball(tmp_path, surface), ["ball.pos.z"], 1.0, name="surface")
+    assert abs(ours["ball.pos.z"] - 0.015) < 2e-3, ours["ball.pos.z"]

@@ -72,9 +72,20 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             }
         };
         let mp = mesh.mass_properties();
+        // A closed mesh's hull, where a geom collides by it (`scm_mesh_collision`).
+        let by_hull = (sc.geoms.iter()).any(|g| g.by_hull && g.mesh.as_ref() == Some(&a.name));
+        let hull = match (&a.mesh, &a.hull) {
+            (Some(_), Some(h)) if by_hull => format!(
+                "; collides by its convex hull, as in MuJoCo: {} vertices, {} triangles, volume {:.4e} m³",
+                h.vertices.len(),
+                h.triangles.len(),
+                h.mass_properties().volume
+            ),
+            _ => String::new(),
+        };
         say!(
             w,
-            "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{}",
+            "mesh {} ({}): {what}{} vertices, {} triangles, volume {:.4e} m³{hull}{}",
             a.name,
             a.source(),
             mesh.vertices.len(),
@@ -170,10 +181,17 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                         | (_, scm::geometry::mesh::MeshSampling::Triangles) => "sampled at",
                         _ => "sampled in patches of about",
                     };
+                    // A mesh collides by its convex hull, as in MuJoCo, unless the scene asks
+                    // for its surface (`scm_mesh_collision`).
+                    let whose = if g.by_hull {
+                        "its mesh's convex hull's"
+                    } else {
+                        "its mesh's"
+                    };
                     match mesh.simplified(uniform) {
                         Some(simple) => say!(
                     w,
-                            "  geom {}: its mesh's {} triangles simplified to {} within {:.2} mm of the file's surface (estimate {:.2} mm{}), then {how} {uniform} m",
+                            "  geom {}: {whose} {} triangles simplified to {} within {:.2} mm of that surface (estimate {:.2} mm{}), then {how} {uniform} m",
                             g.name,
                             mesh.triangles.len(),
                             simple.mesh.triangles.len(),
@@ -189,7 +207,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                         ),
                         None => say!(
                     w,
-                            "  geom {}: its mesh's own {} triangles {how} {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
+                            "  geom {}: {whose} own {} triangles {how} {uniform} m (no simplification within {:.2} mm, nor within a tolerance halved {} times, keeps a closed surface with fewer triangles and the volume to {} %)",
                             g.name,
                             mesh.triangles.len(),
                             scm::geometry::mesh::SIMPLIFY_TOLERANCE * uniform * 1e3,
