@@ -77,6 +77,50 @@ def first_output(scm, xml, timeout):
     return None
 
 
+def across_gaps(scm, xml, timeout, gap=0.003):
+    """At the file's initial state: how many of SCM's contact pairs MuJoCo puts more than `gap`
+    (m) apart (the least `mj_geomDistance` between their colliding geoms), and the largest force
+    component SCM's contact outputs give among them (N): a pair pushing where MuJoCo sees a gap.
+    `None` where the run fails."""
+    import mujoco
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "start.csv"
+        try:
+            p = subprocess.run([str(scm), "simulate", str(xml), "--duration", "0.002", "-o", str(out)],
+                               capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return None
+        if p.returncode != 0 or not out.exists():
+            return None
+        rows = out.read_text().splitlines()
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    names = [m.body(b).name for b in range(m.nbody)]
+    alias = {**{n: n for n in names}, **{f"'{n}'": n for n in names}}
+    colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    fromto = np.zeros(6)
+    row = dict(zip(rows[0].split(","), rows[1].split(",")))
+    count, largest = 0, 0.0
+    for col in row:
+        if not (col.startswith("contact.") and col.endswith(".distance")):
+            continue
+        pair = col[len("contact."):-len(".distance")]
+        split = [(pair[:i], pair[i + 1:]) for i in range(len(pair))
+                 if pair[i] == "." and pair[:i] in alias and pair[i + 1:] in alias]
+        if len(split) != 1:
+            continue
+        a, b = (names.index(alias[x]) for x in split[0])
+        ga = [g for g in colliding if m.geom_bodyid[g] == a]
+        gb = [g for g in colliding if m.geom_bodyid[g] == b]
+        if min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
+               default=1.0) <= gap:
+            continue
+        count += 1
+        largest = max([largest] + [abs(float(row[f"contact.{pair}.force.{x}"])) for x in "xyz"])
+    return count, largest
+
+
 def with_tolerance(xml, tolerance):
     """A copy of `xml` beside it (so that its meshes and includes resolve) whose `<custom>` sets
     `scm_prune_tolerance`; the caller removes it."""
@@ -158,9 +202,10 @@ def main():
                 loose = scm_run(a.scm, variant, steps * h, a.timeout)
             finally:
                 variant.unlink()
+        gaps = across_gaps(a.scm, xml, a.timeout)
         print(f"{label}: {integrator} h={h}: SCM {wall} s stepping ({whole} s in all), {peak} MB; "
               f"MuJoCo {t_mj * 1e6:.1f} us/step; {err or ''}; at the looser tolerance {loose}", file=sys.stderr)
-        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose))
+        rows.append((label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose, gaps))
     lines = [
         "# Robots as written, against MuJoCo",
         "",
@@ -174,23 +219,29 @@ def main():
         " pose before a run), so their steps are timed in deep self-contact on both sides."
         + (f" The last three columns: the same SCM run with the scene's pruning tolerance at {a.tolerance:g}"
            " (`scm_prune_tolerance`, default 1e-15: docs/method.md, \"Numerical rules\"), and how far the"
-           " run's one output (the file's first) ended from the default's." if a.tolerance > 0 else ""),
+           " run's one output (the file's first) ended from the default's." if a.tolerance > 0 else "")
+        + " Across MuJoCo's gaps: at the initial state, SCM's contact pairs whose bodies MuJoCo puts more"
+          " than 3 mm apart (`mj_geomDistance` between their colliding geoms) and the largest force"
+          " component any of them gives in SCM (a pair pushing where MuJoCo sees a gap; one step with"
+          " every contact output, apart from the timed run).",
         "",
         "| robot | file's integrator, step | steps | SCM per step (ms) | MuJoCo per step (µs) | SCM / MuJoCo |"
         " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) | MuJoCo contacts (start, end) |"
+        " pairs across MuJoCo's gaps | largest force across them (N) |"
         + (f" SCM per step at τ = {a.tolerance:g} (ms) | SCM / MuJoCo at τ = {a.tolerance:g} | output's end apart |"
            if a.tolerance > 0 else ""),
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
         + (" ---: | ---: | ---: |" if a.tolerance > 0 else ""),
     ]
     notes = []
-    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose in rows:
+    for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose, gaps in rows:
+        across = f" {gaps[0]} | {gaps[1]:.2g} |" if gaps else " — | — |"
         mj = f"{t_mj * 1e6:.1f}"
         mj_rtf = f"{h / t_mj:.0f}"
         if err:
             notes.append(f"- {label}: {err}")
             lines.append(f"| {label} | {integrator}, {h} s | {steps} | — | {mj} | — | — | {mj_rtf} | — |"
-                         f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |"
+                         f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |{across}"
                          + (" — | — | — |" if a.tolerance > 0 else ""))
             continue
         per = wall / steps
@@ -203,7 +254,8 @@ def main():
                 apart = f"{abs(loose[4] - end):.1e}" if end is not None and loose[4] is not None else "—"
                 extra = f" {lper * 1e3:.4g} | {lper / t_mj:.0f} | {apart} |"
         lines.append(f"| {label} | {integrator}, {h} s | {steps} | {per * 1e3:.4g} | {mj} | {per / t_mj:.0f} |"
-                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |" + extra)
+                     f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |{across}"
+                     + extra)
     if notes:
         lines += ["", "Runs that did not finish:", *notes]
     lines.append("")
