@@ -467,3 +467,57 @@ fn check_prints_the_eps1_of_each_bodys_planes() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `scm check` says which hull a mesh collides by, and warns where that hull fills far more
+/// than the mesh: an L of 5 cm arms 5 mm thick encloses 9.5 cm³, its hull 29.75 cm³ (3.1
+/// times), which a body resting in the L's corner would touch in MuJoCo as in SCM.
+#[test]
+fn check_names_each_meshs_hull_and_warns_where_it_fills_concave_parts() {
+    let dir = std::env::temp_dir().join(format!("scm-cli-hull-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("l.obj"),
+        "v 0 -0.01 0\nv 0.05 -0.01 0\nv 0.05 -0.01 0.005\nv 0.005 -0.01 0.005\nv 0.005 -0.01 0.05\n\
+         v 0 -0.01 0.05\nv 0 0.01 0\nv 0.05 0.01 0\nv 0.05 0.01 0.005\nv 0.005 0.01 0.005\n\
+         v 0.005 0.01 0.05\nv 0 0.01 0.05\nf 1 2 3 4 5 6\nf 12 11 10 9 8 7\nf 1 7 8 2\nf 2 8 9 3\n\
+         f 3 9 10 4\nf 4 10 11 5\nf 5 11 12 6\nf 6 12 7 1\n",
+    )
+    .unwrap();
+    let scene = |custom: &str| {
+        format!(
+            r#"<mujoco>
+  <custom>{custom}</custom>
+  <asset><mesh name="l" file="l.obj"/></asset>
+  <worldbody><body name="l"><freejoint/><geom name="l" type="mesh" mesh="l"/></body>
+    <body name="ball" pos="0.02 0 0.02"><freejoint/><geom type="sphere" size="0.005"/></body></worldbody>
+</mujoco>
+"#
+        )
+    };
+    let path = dir.join("l.xml");
+    std::fs::write(&path, scene("")).unwrap();
+    let out = scm(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("; collides by its convex hull, as in MuJoCo: ")
+            && stdout.contains("geom l: its mesh's convex hull's"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("warning: mesh l: its convex hull, which MuJoCo and SCM collide by, encloses 3.1 times the mesh's volume"),
+        "{stdout}"
+    );
+    // By its own surface: no hull, no warning.
+    std::fs::write(
+        &path,
+        scene(r#"<text name="scm_mesh_collision" data="surface"/>"#),
+    )
+    .unwrap();
+    let stdout = text(&scm(&["check", path.to_str().unwrap()]).stdout);
+    assert!(
+        !stdout.contains("convex hull") && stdout.contains("geom l: its mesh's "),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

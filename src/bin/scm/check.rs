@@ -5,6 +5,10 @@ use super::Failure;
 use std::io::Write;
 use std::path::Path;
 
+/// How many times its mesh's volume a hull a geom collides by may enclose before `scm check`
+/// warns that it fills concave parts.
+const HULL_WARNING: f64 = 2.0;
+
 pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
     // Everything `scm pack` would refuse, all at once, before the colliders are built.
     let compiled = scm::scene::compile(path).map_err(|e| e.to_string())?;
@@ -55,6 +59,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
             scm::scalar::PRUNE_TOLERANCE
         );
     }
+    let mut hull_warnings = Vec::new();
     for a in &sc.meshes {
         // A mesh whose surface is not closed is used by its convex hull (listed with the
         // warnings), or by no geom (its problem is listed with the geoms left out).
@@ -75,12 +80,19 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
         // A closed mesh's hull, where a geom collides by it (`scm_mesh_collision`).
         let by_hull = (sc.geoms.iter()).any(|g| g.by_hull && g.mesh.as_ref() == Some(&a.name));
         let hull = match (&a.mesh, &a.hull) {
-            (Some(_), Some(h)) if by_hull => format!(
-                "; collides by its convex hull, as in MuJoCo: {} vertices, {} triangles, volume {:.4e} m³",
-                h.vertices.len(),
-                h.triangles.len(),
-                h.mass_properties().volume
-            ),
+            (Some(_), Some(h)) if by_hull => {
+                let volume = h.mass_properties().volume;
+                // A hull far larger than its mesh fills concave parts that other bodies may sit
+                // in (as MuJoCo's does): worth a look, not an error.
+                if volume > HULL_WARNING * mp.volume {
+                    hull_warnings.push(format!("mesh {}: its convex hull, which MuJoCo and SCM collide by, encloses {:.1} times the mesh's volume: what sits in its concave parts touches the hull (split the mesh into convex parts, or set scm_mesh_collision to 'surface' to collide by the mesh itself)", a.name, volume / mp.volume));
+                }
+                format!(
+                    "; collides by its convex hull, as in MuJoCo: {} vertices, {} triangles, volume {volume:.4e} m³",
+                    h.vertices.len(),
+                    h.triangles.len(),
+                )
+            }
             _ => String::new(),
         };
         say!(
@@ -96,7 +108,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
     }
     // What the clouds' own measures flag: not refusals (`scm pack` and the FMU take such a
     // cloud), warnings that a spacing or a mesh may want a look.
-    let mut cloud_warnings = Vec::new();
+    let mut cloud_warnings = hull_warnings;
     // The union's volume by geoms (an estimate on a 128³ grid where it is not exact): the
     // copies of one body (a replicate's) are measured once.
     type Parts = Vec<(scm::geometry::Shape, nalgebra::Isometry3<f64>)>;
