@@ -137,3 +137,24 @@ fn a_hull_mujoco_reduces_is_taken_whole_and_listed() {
     );
     assert!((cloud_volume(&s, "u") - 72e-6).abs() < 1e-9);
 }
+
+#[test]
+fn a_geom_written_sdf_collides_by_its_meshs_surface_and_a_mesh_geom_by_the_hull() {
+    // MuJoCo's sdflib gives a mesh file a distance field, which only a `type="sdf"` geom
+    // collides by; a `type="mesh"` geom on the same mesh collides by the hull.
+    let xml = r#"<mujoco model="sdflib">
+  <option gravity="0 0 0"/>
+  <extension><plugin plugin="mujoco.sdf.sdflib"><instance name="field"/></plugin></extension>
+  <asset><mesh name="u" file="u_block.obj" inertia="exact"><plugin instance="field"/></mesh></asset>
+  <worldbody>
+    <body name="by_field"><freejoint/><geom name="f" type="sdf" mesh="u"><plugin instance="field"/></geom></body>
+    <body name="by_mesh" pos="0.2 0 0"><freejoint/><geom name="m" type="mesh" mesh="u"/></body>
+  </worldbody>
+</mujoco>"#;
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures");
+    let s = scm::scene::load_str(xml, &dir.join("sdflib.xml")).unwrap_or_else(|e| panic!("{e}"));
+    let by_hull = |name: &str| s.geoms.iter().find(|g| g.name == name).unwrap().by_hull;
+    assert!(!by_hull("f") && by_hull("m"));
+    assert!((cloud_volume(&s, "by_field") - 56e-6).abs() < 1e-9);
+    assert!((cloud_volume(&s, "by_mesh") - 72e-6).abs() < 1e-9);
+}

@@ -454,7 +454,7 @@ impl Builder {
             self.split_static_geoms();
             let (pairs, colliding) = self.pairs()?;
             if by_hulls {
-                self.collide_by_hulls(&colliding, mesh_sampling)?;
+                self.collide_by_hulls(&colliding, mesh_sampling);
             }
             self.assign_spacings(spacing, resolution_set, &spacing_overrides, &colliding)?;
             let mut colliders: Vec<Option<Collider>> = vec![None; self.bodies.len()];

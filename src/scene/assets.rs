@@ -21,9 +21,9 @@ pub struct MeshAsset {
     /// where a geom collides or gives its body mass, and refuses the mesh there (a geom that
     /// does neither is left out and listed as unused).
     pub problem: Option<SceneError>,
-    /// The convex hull of the vertices of a mesh with a `problem` (what MuJoCo collides it
-    /// by), where they span a volume: what a colliding geom samples instead of the surface.
-    /// Computed when the first geom needs it (a visual mesh never does).
+    /// The convex hull of the mesh's vertices (what MuJoCo collides a mesh by), where they
+    /// span a volume: what a colliding geom samples (`Builder::collide_by_hulls`; a mesh with
+    /// a `problem` always). Computed when the first geom needs it (a visual mesh never does).
     pub hull: Option<Arc<TriMesh>>,
     /// Why its convex hull could not be made, once tried.
     pub hull_problem: Option<String>,
@@ -45,9 +45,6 @@ pub struct MeshAsset {
     /// The distance function of a mesh made by an SDF plugin, whose geoms collide by it
     /// ([`crate::geometry::Shape::Implicit`]).
     pub implicit: Option<crate::geometry::implicit::ImplicitShape>,
-    /// Whether a distance-field plugin on the file (MuJoCo's sdflib) makes MuJoCo collide it by
-    /// the surface itself rather than by its convex hull.
-    pub by_surface: bool,
 }
 
 /// How MuJoCo weighs a mesh: `<mesh inertia>` (`shell` is refused).
@@ -192,8 +189,8 @@ impl Builder {
                 ))
             }
         };
-        // MuJoCo's hull keeps at most maxhullvert vertices; SCM's hull (used where the surface
-        // is not closed) keeps them all, and refuses it there (`geom_without_its_mesh`).
+        // MuJoCo's hull keeps at most maxhullvert vertices; SCM's hull keeps them all (listed
+        // as unused by `add_mesh`; refused where a mass weighs by the hull, `mesh_rule_mass`).
         let maxhullvert = match el.attr("maxhullvert").map(|v| v.trim().parse::<i64>()) {
             None | Some(Ok(-1)) => None,
             Some(Ok(n)) if n > 3 => Some(n),
@@ -228,8 +225,8 @@ impl Builder {
         let file = match (el.attr("file"), plugin) {
             (Some(f), p) => {
                 // A plugin on a mesh file (MuJoCo's sdflib) gives MuJoCo a distance field of
-                // that surface, which it collides by instead of the hull; SCM's SSDF takes the
-                // surface itself (`MeshAsset::by_surface`).
+                // that surface, which a `type="sdf"` geom collides by; SCM's SSDF takes the
+                // surface itself there (`Builder::collide_by_hulls`).
                 if let Some(p) = p {
                     self.unused(p, "a distance-field plugin on a mesh file (SCM collides by the surface itself)");
                 }
@@ -291,7 +288,6 @@ impl Builder {
             MeshAsset {
                 file,
                 path,
-                by_surface: plugin.is_some(),
                 ..MeshAsset::read(name, placement, (inertia, maxhullvert), (mesh, problem))
             },
         );
@@ -328,7 +324,7 @@ impl Builder {
         if asset.maxhullvert.is_some() {
             self.unused(
                 el,
-                "maxhullvert (MuJoCo collides by a hull reduced to that many vertices; SCM collides by the full hull, which holds MuJoCo's, and refuses it where a mass weighs by the hull: inertia=\"convex\")",
+                "maxhullvert (MuJoCo collides a mesh geom by its hull reduced to that many vertices; SCM by the full hull, which holds MuJoCo's and may touch where it does not, unless the scene sets scm_mesh_collision to 'surface'; refused where a mass weighs by the hull: inertia=\"convex\")",
             );
         }
         self.meshes.push(asset);
@@ -389,7 +385,6 @@ impl MeshAsset {
             used: false,
             inline: None,
             implicit: None,
-            by_surface: false,
         }
     }
 }

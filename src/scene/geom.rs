@@ -111,7 +111,8 @@ impl Builder {
             });
         let size = el.attr("size").and_then(parse_floats).unwrap_or_default();
         // MuJoCo's `sdf` geom collides by its plugin's distance field; SCM by the closed
-        // surface of its mesh (`sdf.rs`), as a mesh geom.
+        // surface of its mesh (`sdf.rs`), as a mesh geom, never by its hull.
+        let sdf = el.attr("type") == Some("sdf");
         let kind = match el.attr("type").unwrap_or("sphere") {
             "sdf" => "mesh",
             k => k,
@@ -357,6 +358,9 @@ impl Builder {
             };
             self.fluid_ellipsoids
                 .push((self.geoms.len(), coefs, mesh_frame));
+        }
+        if sdf {
+            self.sdf_geoms.push(self.geoms.len());
         }
         self.geoms.push(Geom {
             name,

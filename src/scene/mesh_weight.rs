@@ -174,15 +174,15 @@ impl Builder {
     /// that mesh's convex hull, as MuJoCo collides every mesh (docs/mjcf.md, "Meshes"): a body
     /// tucked into a mesh's concave side is apart from it in MuJoCo, and would be inside the
     /// surface's points' reach in SCM. Left as they are: a scene's `scm_mesh_collision` =
-    /// `surface`, a mesh whose file carries a distance-field plugin (MuJoCo collides by the
-    /// surface there), an SDF plugin's shape, a mesh that is not closed (its hull already),
-    /// height fields, and geoms that do not collide (their mass was weighed before, by the
-    /// mesh's own rule). The hull is sampled as `sampling` asks.
+    /// `surface`, a geom written `type="sdf"` (MuJoCo collides it by its mesh's distance field,
+    /// sdflib's of a file's surface), an SDF plugin's shape, a mesh that is not closed (its
+    /// hull already), height fields, and geoms that do not collide (their mass was weighed
+    /// before, by the mesh's own rule). The hull is sampled as `sampling` asks.
     pub(super) fn collide_by_hulls(
         &mut self,
         colliding: &[bool],
         sampling: crate::geometry::mesh::MeshSampling,
-    ) -> Result<(), SceneError> {
+    ) {
         for i in 0..self.geoms.len() {
             let g = &self.geoms[i];
             let (Some(name), Some(Shape::Mesh(_)), true) =
@@ -193,25 +193,26 @@ impl Builder {
             let Some(asset) = self.meshes.iter().find(|m| m.name == name) else {
                 continue;
             };
-            if asset.mesh.is_none() || asset.by_surface || asset.implicit.is_some() {
+            if asset.mesh.is_none() || asset.implicit.is_some() || self.sdf_geoms.contains(&i) {
                 continue;
             }
+            // A closed surface whose hull SCM cannot make (its vertices span a volume, so
+            // MuJoCo's can be made) keeps colliding by the surface, said in a warning.
             let Some((mut hull, _)) = self.hull_of(&name) else {
                 let g = &self.geoms[i];
-                return Err(SceneError {
-                    file: g.file.clone(),
-                    line: g.line,
-                    element: "geom".into(),
-                    message: format!("geom '{}' collides, and MuJoCo collides a mesh by its convex hull, which cannot be made for mesh '{name}' ({}): set scm_mesh_collision to 'surface' to collide by the mesh itself", g.name, self.hull_problem(&name)),
-                });
+                let warning = format!("{}:{}: <geom> '{}' collides by the surface of mesh '{name}', not by its convex hull as in MuJoCo: SCM cannot make the hull ({})", g.file, g.line, g.name, self.hull_problem(&name));
+                self.warnings.push(warning);
+                continue;
             };
             if hull.sampling != sampling {
+                // Once per mesh: its other geoms then share this hull.
                 Arc::make_mut(&mut hull).sampling = sampling;
+                let asset = self.meshes.iter_mut().find(|m| m.name == name);
+                asset.expect("found above").hull = Some(hull.clone());
             }
             self.geoms[i].shape = Some(Shape::Mesh(hull));
             self.geoms[i].by_hull = true;
         }
-        Ok(())
     }
 
     /// The convex hull of mesh asset `mesh`'s vertices and its `maxhullvert`: read once, for

@@ -349,8 +349,7 @@ struct Builder {
     gravity: Vector3<f64>,
     timestep: Option<f64>,
     option_integrator: Option<Integrator>,
-    /// `<option>`'s `o_margin`, `o_solref`, `o_solimp` and `o_friction`, which every contact
-    /// takes under `<flag override="enable">`.
+    /// `<option>`'s `o_margin`, `o_solref`, `o_solimp`, `o_friction` (under `override`).
     contact_override: contact::ContactOverride,
     /// `<custom><numeric>` and `<text>` SCM settings: name, value, where they were read.
     numeric: Vec<(String, f64, Place)>,
@@ -385,8 +384,7 @@ struct Builder {
     inertial_axes: std::collections::BTreeMap<usize, UnitQuaternion<f64>>,
     /// Orientation of each geom that gives its body mass, per body.
     mass_geom_frames: std::collections::BTreeMap<usize, Vec<UnitQuaternion<f64>>>,
-    /// Whether each joint is limited (its `range` and line, in SI units) by `limited` or
-    /// `autolimits`.
+    /// Whether each joint is limited (`range` and line, SI units) by `limited` or `autolimits`.
     limits: Vec<Option<(f64, f64, Element)>>,
     /// Each joint's `solreflimit` and `solimplimit` (MuJoCo's defaults `0.02 1` and `0.9 0.95
     /// 0.001 0.5 2`).
@@ -408,13 +406,14 @@ struct Builder {
     sites: std::collections::HashMap<String, Option<(usize, Isometry3<f64>)>>,
     /// The names the scene gives, per kind (and those made up for unnamed objects).
     names: names::Names,
-    /// Each actuator's `dampratio` (position actuators that give one), indexed like
-    /// `actuators`.
+    /// Each actuator's `dampratio` (position actuators that give one), like `actuators`.
     dampratios: Vec<Option<(f64, Place)>>,
     /// Joints with `springdamper="τ ζ"`: index, time constant, damping ratio.
     springdampers: Vec<(usize, f64, f64)>,
     /// Joints whose total actuator force is limited (`actuatorfrcrange`): index, range.
     actuator_ranges: Vec<(usize, f64, f64)>,
+    /// The geoms written `type="sdf"`: MuJoCo collides them by their mesh's distance field.
+    sdf_geoms: Vec<usize>,
 }
 
 impl Builder {
@@ -461,6 +460,7 @@ impl Builder {
             dampratios: vec![],
             springdampers: vec![],
             actuator_ranges: vec![],
+            sdf_geoms: vec![],
             explicit_pairs: vec![],
             excludes: vec![],
             explicit_inertia: vec![false],

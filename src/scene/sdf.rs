@@ -2,7 +2,8 @@
 //! its `<config key value>`s, a `<mesh>` made by an instance (`<plugin instance="NAME"/>`),
 //! and `<geom type="sdf">` on such a mesh. MuJoCo needs the plugin because its collision is
 //! convex; SCM's SSDF takes the closed surface the distance function bounds
-//! ([`ImplicitShape`]), which then weighs and collides as any closed mesh.
+//! ([`ImplicitShape`]), which then weighs as any closed mesh and collides by that surface,
+//! never by its convex hull.
 
 use super::inline_mesh::InlineMesh;
 use super::*;
