@@ -77,12 +77,43 @@ def first_output(scm, xml, timeout):
     return None
 
 
+def pairs_across_gaps(xml, rows, gap=0.003):
+    """The contact pairs of an `scm simulate` CSV (`rows`: its lines, the header and the row at
+    t = 0 first) whose bodies MuJoCo puts more than `gap` (m) apart at the file's initial state
+    (the least `mj_geomDistance` between their colliding geoms): (pair, SCM's distance, SCM's
+    force components) each. A pair whose bodies MuJoCo's model lacks fails an assertion."""
+    import mujoco
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    names = [m.body(b).name for b in range(m.nbody)]
+    # A variable's name quotes a body name that is not a plain identifier ('robot0:base_link').
+    alias = {**{n: n for n in names}, **{f"'{n}'": n for n in names}}
+    colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
+    fromto = np.zeros(6)
+    row = dict(zip(rows[0].split(","), rows[1].split(",")))
+    found = []
+    for col in row:
+        if not (col.startswith("contact.") and col.endswith(".distance")):
+            continue
+        pair = col[len("contact."):-len(".distance")]
+        split = [(pair[:i], pair[i + 1:]) for i in range(len(pair))
+                 if pair[i] == "." and pair[:i] in alias and pair[i + 1:] in alias]
+        assert len(split) == 1, f"{col}: bodies not found in MuJoCo's model"
+        a, b = (names.index(alias[x]) for x in split[0])
+        ga = [g for g in colliding if m.geom_bodyid[g] == a]
+        gb = [g for g in colliding if m.geom_bodyid[g] == b]
+        if min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
+               default=1.0) > gap:
+            force = [float(row[f"contact.{pair}.force.{x}"]) for x in "xyz"]
+            found.append((pair, float(row[col]), force))
+    return found
+
+
 def across_gaps(scm, xml, timeout, gap=0.003):
     """At the file's initial state: how many of SCM's contact pairs MuJoCo puts more than `gap`
-    (m) apart (the least `mj_geomDistance` between their colliding geoms), and the largest force
-    component SCM's contact outputs give among them (N): a pair pushing where MuJoCo sees a gap.
-    `None` where the run fails."""
-    import mujoco
+    (m) apart ([`pairs_across_gaps`]), and the largest force component any of them gives in
+    SCM (N): a pair pushing where MuJoCo sees a gap. `None` where the run fails."""
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "start.csv"
         try:
@@ -93,32 +124,8 @@ def across_gaps(scm, xml, timeout, gap=0.003):
         if p.returncode != 0 or not out.exists():
             return None
         rows = out.read_text().splitlines()
-    m = mujoco.MjModel.from_xml_path(str(xml))
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    names = [m.body(b).name for b in range(m.nbody)]
-    alias = {**{n: n for n in names}, **{f"'{n}'": n for n in names}}
-    colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-    fromto = np.zeros(6)
-    row = dict(zip(rows[0].split(","), rows[1].split(",")))
-    count, largest = 0, 0.0
-    for col in row:
-        if not (col.startswith("contact.") and col.endswith(".distance")):
-            continue
-        pair = col[len("contact."):-len(".distance")]
-        split = [(pair[:i], pair[i + 1:]) for i in range(len(pair))
-                 if pair[i] == "." and pair[:i] in alias and pair[i + 1:] in alias]
-        if len(split) != 1:
-            continue
-        a, b = (names.index(alias[x]) for x in split[0])
-        ga = [g for g in colliding if m.geom_bodyid[g] == a]
-        gb = [g for g in colliding if m.geom_bodyid[g] == b]
-        if min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
-               default=1.0) <= gap:
-            continue
-        count += 1
-        largest = max([largest] + [abs(float(row[f"contact.{pair}.force.{x}"])) for x in "xyz"])
-    return count, largest
+    found = pairs_across_gaps(xml, rows, gap)
+    return len(found), max((abs(f) for _, _, force in found for f in force), default=0.0)
 
 
 def with_tolerance(xml, tolerance):

@@ -22,6 +22,9 @@ import pytest
 
 from conftest import ROOT, SCM
 
+sys.path.insert(0, str(ROOT / "scripts"))
+from robots import pairs_across_gaps  # noqa: E402  (shared with reports/robots.md)
+
 # One pytest-xdist worker runs this module's tests: each robot's first steps are run once and shared by two tests.
 pytestmark = pytest.mark.xdist_group("robot_memory")
 
@@ -94,39 +97,10 @@ def assert_no_contact_where_mujoco_sees_a_gap(scene, rows, gap=GAP, tail=1e-6):
     measured up to 6e-9 N on the Fourier hand). A mesh simplified with a triangle folded into
     the part made TIAGo's arm link push its base with 450 kN from 0.34 m away
     (docs/geometry.md)."""
-    import mujoco
-    import numpy as np
-    m = mujoco.MjModel.from_xml_path(str(scene))
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    names = [m.body(b).name for b in range(m.nbody)]
-    # A variable's name quotes a body name that is not a plain identifier ('robot0:base_link').
-    alias = {**{n: n for n in names}, **{f"'{n}'": n for n in names}}
-    colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
-    fromto = np.zeros(6)
-
-    def distance(a, b):
-        ga = [g for g in colliding if m.geom_bodyid[g] == a]
-        gb = [g for g in colliding if m.geom_bodyid[g] == b]
-        return min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
-                   default=1.0)
-
-    header, first = rows[0].split(","), rows[1].split(",")
-    row = dict(zip(header, first))
     checked = 0
-    for col in header:
-        if not (col.startswith("contact.") and col.endswith(".distance")):
-            continue
-        pair = col[len("contact."):-len(".distance")]
-        split = [(pair[:i], pair[i + 1:]) for i in range(len(pair)) if pair[i] == "."
-                 and pair[:i] in alias and pair[i + 1:] in alias]
-        assert len(split) == 1, f"{col}: bodies not found in MuJoCo's model"
-        a, b = (alias[x] for x in split[0])
-        if distance(names.index(a), names.index(b)) <= gap:
-            continue
+    for pair, distance, force in pairs_across_gaps(scene, rows, gap):
         checked += 1
-        force = [float(row[f"contact.{pair}.force.{x}"]) for x in "xyz"]
-        assert float(row[col]) > 0, f"{pair}: distance {row[col]} where MuJoCo sees a gap"
+        assert distance > 0, f"{pair}: distance {distance} where MuJoCo sees a gap"
         if tail is not None:
             assert max(map(abs, force)) < tail, f"{pair}: force {force} N where MuJoCo sees a gap"
     assert checked > 0
