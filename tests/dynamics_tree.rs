@@ -984,14 +984,9 @@ fn wrench_forces_are_the_external_part_of_rnea() {
     assert!(want.amax() > 1.0);
 }
 
-/// A body's Jacobian columns (`Tree::body_jacobian`) give its frame velocity and the
-/// generalized force of a wrench on it, on a branching tree (a free torso, a ball-jointed limb
-/// below a hinge, a body of two joints, a body welded below a hinge), a slide, a mocap body and
-/// the world; at a random configuration and velocity, to rounding.
-#[test]
-fn body_jacobians_carry_frame_velocities_and_wrenches() {
-    let m = model_of(
-        r#"<mujoco><worldbody>
+/// A branching tree: a free torso, a ball-jointed limb below a hinge, a body of two joints, a
+/// body welded below a hinge, a slide, a mocap body and the world.
+const BRANCHING: &str = r#"<mujoco><worldbody>
       <body name="torso" pos="1 0 1"><freejoint/><geom type="capsule" size="0.03 0.1" mass="0.5"/>
         <body name="upper" pos="0.1 0.05 0"><joint type="hinge" axis="0 0 1"/>
           <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.3"/>
@@ -1005,8 +1000,15 @@ fn body_jacobians_carry_frame_velocities_and_wrenches() {
       <body name="s" pos="2 0 1"><joint type="slide" axis="1 0 0"/>
         <geom type="sphere" size="0.05" mass="0.4"/></body>
       <body name="m" mocap="true" pos="0 2 0"><geom type="sphere" size="0.05"/></body>
-    </worldbody></mujoco>"#,
-    );
+    </worldbody></mujoco>"#;
+
+/// A body's Jacobian columns (`Tree::body_jacobian`) give its frame velocity and the
+/// generalized force of a wrench on it, on a branching tree (a free torso, a ball-jointed limb
+/// below a hinge, a body of two joints, a body welded below a hinge), a slide, a mocap body and
+/// the world; at a random configuration and velocity, to rounding.
+#[test]
+fn body_jacobians_carry_frame_velocities_and_wrenches() {
+    let m = model_of(BRANCHING);
     let tree = &m.tree;
     let mut rng = Lcg(11);
     let (q, v, _) = random_point(&m, &mut rng, 0.2);
@@ -1093,4 +1095,52 @@ fn accelerations_without_the_contact_list_are_the_same_bits() {
         }
     }
     assert!(in_reach > 0);
+}
+
+/// What damped Euler's Newton iterations take apart (`FrozenForward`): the bodies' frames at a
+/// new velocity from the kinematics of another (`Tree::frames_at_velocity`) are those of the
+/// full kinematics there, and RNEA finished from its forward pass (`Tree::rnea_forces`,
+/// `Tree::rnea_with`) is `Tree::rnea`, to the bit, on the branching tree with its mocap body
+/// moved and moving.
+#[test]
+fn frames_at_a_new_velocity_and_rnea_from_its_forward_pass_are_the_same_bits() {
+    let m = model_of(BRANCHING);
+    let tree = &m.tree;
+    let mut rng = Lcg(17);
+    let bits = |x: &[f64]| x.iter().map(|a| a.to_bits()).collect::<Vec<_>>();
+    let frame_bits = |f: &scm::collision::Frame<f64>| {
+        let parts = [f.rotation.as_slice(), f.origin.as_slice()];
+        let vel = [f.linvel.as_slice(), f.angvel.as_slice()];
+        (parts.concat().iter().chain(&vel.concat()))
+            .map(|a| a.to_bits())
+            .collect::<Vec<_>>()
+    };
+    for _ in 0..5 {
+        let (q, v, u) = random_point(&m, &mut rng, 0.2);
+        let (_, mocap) = m.split_inputs(&u).unwrap();
+        assert!(!mocap.is_empty());
+        let kin = tree.kinematics_with(&q, &v, mocap);
+        let v2: Vec<f64> = (0..tree.nv).map(|_| rng.range(-2.0, 2.0)).collect();
+        let want = tree.kinematics_with(&q, &v2, mocap);
+        let got = tree.frames_at_velocity(&kin, &v2, mocap);
+        assert_eq!(got.len(), want.frames.len());
+        let mut moving = 0;
+        for (b, (g, w)) in got.iter().zip(&want.frames).enumerate() {
+            assert_eq!(frame_bits(g), frame_bits(w), "body {b}");
+            moving += usize::from(w.linvel.norm() > 0.0);
+        }
+        assert!(moving >= 7, "the bodies move, the mocap body too: {moving}");
+        let wrenches: Vec<Wrench<f64>> = (0..tree.bodies.len())
+            .map(|_| Wrench {
+                force: rng.direction() * rng.range(0.0, 3.0),
+                torque: rng.direction() * rng.range(0.0, 1.0),
+            })
+            .collect();
+        for vdot in [vec![], v2.clone()] {
+            let whole = tree.rnea(&kin, &vdot, &wrenches);
+            let split = tree.rnea_with(&kin, tree.rnea_forces(&kin, &vdot), &wrenches);
+            assert_eq!(bits(whole.as_slice()), bits(split.as_slice()));
+            assert!(whole.amax() > 0.1);
+        }
+    }
 }

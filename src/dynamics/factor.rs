@@ -151,9 +151,15 @@ impl Tree {
     /// positive definite, or an entry is not finite).
     pub fn factor<T: Scalar>(&self, mut m: TreeMatrix<T>) -> Option<MassFactor<T>> {
         let n = m.dim();
+        let (adr, parent) = (&m.adr, &m.parent);
         for k in (0..n).rev() {
-            let rk = m.adr[k];
-            let d = m.vals[rk];
+            let rk = adr[k];
+            // Every ancestor's row is stored before row k: split there, so that the updates
+            // below read row k and write an ancestor's row as two slices, without bounds
+            // checks in the innermost loop.
+            let (above, row) = m.vals.split_at_mut(rk);
+            let row = &mut row[..adr[k + 1] - rk];
+            let d = row[0];
             // A zero, negative, infinite or NaN pivot is refused.
             let positive = d.re() > 0.0 && d.re().is_finite();
             if !positive {
@@ -162,17 +168,16 @@ impl Tree {
             // Row k's entries past its diagonal are its ancestors in order, and each
             // ancestor's own row continues that list: M[a][b] -= l · M[k][b] for a and the
             // ancestors b of a is one contiguous update of row a.
-            let mut i = m.parent[k];
+            let mut i = parent[k];
             let mut off = 1;
             while let Some(a) = i {
-                let l = m.vals[rk + off] / d;
-                let (ra, len) = (m.adr[a], m.adr[a + 1] - m.adr[a]);
-                for t in 0..len {
-                    let update = l * m.vals[rk + off + t];
-                    m.vals[ra + t] -= update;
+                let l = row[off] / d;
+                let target = &mut above[adr[a]..adr[a + 1]];
+                for (t, &x) in target.iter_mut().zip(&row[off..]) {
+                    *t -= l * x;
                 }
-                m.vals[rk + off] = l;
-                i = m.parent[a];
+                row[off] = l;
+                i = parent[a];
                 off += 1;
             }
         }

@@ -22,6 +22,7 @@ mod law;
 mod lie;
 pub mod limit;
 mod ramp;
+mod rnea;
 
 pub use coupled::{CoupledFactor, Row};
 pub use factor::{MassFactor, TreeMatrix};
@@ -33,7 +34,7 @@ pub mod wrap;
 
 use crate::scalar::{c, Scalar};
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Vector3, Vector6};
-use spatial::{cross_force, cross_motion, skew, Inertia, Transform};
+use spatial::{cross_force, cross_motion, skew, BodyInertia, Inertia, Transform};
 
 /// Kind of a joint and its number of position/velocity coordinates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -359,12 +360,12 @@ impl Tree {
         })
     }
 
-    fn node_inertia<T: Scalar>(&self, i: usize) -> nalgebra::Matrix6<T> {
+    fn node_inertia<T: Scalar>(&self, i: usize) -> BodyInertia<T> {
         let node = &self.nodes[i];
         if node.carries_inertia {
-            self.bodies[node.body].inertia.matrix()
+            self.bodies[node.body].inertia.about_origin()
         } else {
-            nalgebra::Matrix6::zeros()
+            BodyInertia::zero()
         }
     }
 
@@ -381,11 +382,10 @@ impl Tree {
     #[allow(clippy::needless_range_loop)]
     pub fn mass_matrix_sparse<T: Scalar>(&self, kin: &Kinematics<T>) -> TreeMatrix<T> {
         let n = self.nodes.len();
-        let mut ic: Vec<nalgebra::Matrix6<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
+        let mut ic: Vec<BodyInertia<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
         for i in (0..n).rev() {
             if let Some(p) = self.nodes[i].parent {
-                let xm = kin.x[i].matrix();
-                let add = xm.transpose() * ic[i] * xm;
+                let add = ic[i].to_parent(&kin.x[i]);
                 ic[p] += add;
             }
         }
@@ -393,7 +393,7 @@ impl Tree {
         for i in 0..n {
             let dofs = self.node_dofs(i);
             for a in dofs.clone() {
-                let mut f = ic[i] * kin.s[a];
+                let mut f = ic[i].apply(&kin.s[a]);
                 // The node's own block: the earlier DOFs of a joint are ancestors of the later.
                 for b in dofs.start..=a {
                     *m.entry_mut(a, b) = f.dot(&kin.s[b]);
@@ -416,72 +416,6 @@ impl Tree {
         m
     }
 
-    /// Recursive Newton–Euler: the generalized force that produces acceleration `vdot` under
-    /// gravity and external body wrenches `f_ext` (per body, world frame, torque about the body
-    /// origin). With `vdot = 0` this is the bias `c(q, v) - Σ Jᵀ f_ext`; an empty `vdot` is
-    /// taken as zero (the bias, without a vector of zeros to allocate at every evaluation).
-    ///
-    /// # Panics
-    /// If `vdot` is neither empty nor one entry per velocity coordinate.
-    pub fn rnea<T: Scalar>(
-        &self,
-        kin: &Kinematics<T>,
-        vdot: &[T],
-        f_ext: &[crate::contact::Wrench<T>],
-    ) -> DVector<T> {
-        assert!(
-            vdot.is_empty() || vdot.len() == self.nv,
-            "{} accelerations for {} velocity coordinates",
-            vdot.len(),
-            self.nv
-        );
-        let n = self.nodes.len();
-        let g = self.gravity.map(c::<T>);
-        let a0 = spatial::spatial(&Vector3::zeros(), &(-g));
-        let mut f: Vec<Vector6<T>> = Vec::with_capacity(n);
-        let mut acc: Vec<Vector6<T>> = Vec::with_capacity(n);
-        for i in 0..n {
-            let node = &self.nodes[i];
-            let ap = match node.parent {
-                Some(p) => kin.x[i].motion(&acc[p]),
-                None => kin.x[i].motion(&a0),
-            };
-            let ai = if vdot.is_empty() {
-                ap + kin.bias_acc[i]
-            } else {
-                ap + self.joint_velocity(&kin.s, vdot, self.node_dofs(i)) + kin.bias_acc[i]
-            };
-            let inertia = self.node_inertia::<T>(i);
-            let mut fi = inertia * ai + cross_force(&kin.vel[i], &(inertia * kin.vel[i]));
-            if node.carries_inertia {
-                // External wrench (world frame, about the body origin) into body coordinates.
-                let fr = &kin.frames[node.body];
-                let w = &f_ext[node.body];
-                let rt = fr.rotation.transpose();
-                fi -= spatial::spatial(&(rt * w.torque), &(rt * w.force));
-            }
-            acc.push(ai);
-            f.push(fi);
-        }
-        self.backward(kin, f)
-    }
-
-    /// RNEA's backward pass: each node's spatial force `f` (body coordinates) projected on its
-    /// joint's motion subspace, then carried to its parent; the generalized forces.
-    fn backward<T: Scalar>(&self, kin: &Kinematics<T>, mut f: Vec<Vector6<T>>) -> DVector<T> {
-        let mut tau = DVector::zeros(self.nv);
-        for i in (0..self.nodes.len()).rev() {
-            for k in self.node_dofs(i) {
-                tau[k] = kin.s[k].dot(&f[i]);
-            }
-            if let Some(p) = self.nodes[i].parent {
-                let fp = kin.x[i].force_to_parent(&f[i]);
-                f[p] += fp;
-            }
-        }
-        tau
-    }
-
     /// The joints on the path from body `b` to the world.
     pub fn path_joints(&self, mut b: usize) -> Vec<usize> {
         let mut out = Vec::new();
@@ -490,60 +424,6 @@ impl Tree {
             b = self.bodies[b].parent.unwrap_or(0);
         }
         out
-    }
-
-    /// The generalized force `Σ Jᵀ f` of body wrenches `f_ext` (per body, world frame, torque
-    /// about the body origin) at the configuration of `kin`: the backward pass of
-    /// [`Tree::rnea`] alone (`rnea` at rest without gravity would give its negative plus the
-    /// velocity terms).
-    pub fn wrench_forces<T: Scalar>(
-        &self,
-        kin: &Kinematics<T>,
-        f_ext: &[crate::contact::Wrench<T>],
-    ) -> DVector<T> {
-        let f: Vec<Vector6<T>> = (self.nodes.iter())
-            .map(|node| {
-                if !node.carries_inertia {
-                    return Vector6::zeros();
-                }
-                let fr = &kin.frames[node.body];
-                let w = &f_ext[node.body];
-                let rt = fr.rotation.transpose();
-                spatial::spatial(&(rt * w.torque), &(rt * w.force))
-            })
-            .collect();
-        self.backward(kin, f)
-    }
-
-    /// Each body's acceleration where every joint's acceleration is zero and without gravity,
-    /// world axes: `(α, a)`, its angular acceleration and its origin's linear acceleration,
-    /// the velocity products `J̇ v` of the body's motion (a point at `r` from the origin then
-    /// accelerates at `a + α × r + ω × (ω × r)`). The world and mocap bodies' are zero. RNEA's
-    /// forward pass at `v̇ = 0` with the spatial accelerations turned classical
-    /// (`a = R (a_s + ω × v)` in body coordinates).
-    pub fn bias_accelerations<T: Scalar>(
-        &self,
-        kin: &Kinematics<T>,
-    ) -> Vec<(Vector3<T>, Vector3<T>)> {
-        let mut acc: Vec<Vector6<T>> = Vec::with_capacity(self.nodes.len());
-        for (i, node) in self.nodes.iter().enumerate() {
-            let from_parent = node
-                .parent
-                .map_or_else(Vector6::zeros, |p| kin.x[i].motion(&acc[p]));
-            acc.push(from_parent + kin.bias_acc[i]);
-        }
-        (self.body_node.iter().enumerate())
-            .map(|(b, node)| match node {
-                Some(_) if self.bodies[b].mocap => (Vector3::zeros(), Vector3::zeros()),
-                None => (Vector3::zeros(), Vector3::zeros()),
-                Some(i) => {
-                    let r = &kin.frames[b].rotation;
-                    let (w, v) = (spatial::ang(&kin.vel[*i]), spatial::lin(&kin.vel[*i]));
-                    let (alpha, a) = (spatial::ang(&acc[*i]), spatial::lin(&acc[*i]));
-                    (r * alpha, r * (a + w.cross(&v)))
-                }
-            })
-            .collect()
     }
 }
 

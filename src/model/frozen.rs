@@ -28,6 +28,9 @@ pub struct FrozenForward<'m> {
     mocap: Vec<f64>,
     /// Kinematics at the start velocity (what every term but the contact is taken at).
     kin: Kinematics<f64>,
+    /// RNEA's forward pass at `kin` ([`crate::dynamics::Tree::rnea_forces`]): each
+    /// evaluation takes its wrenches from it and runs the backward pass alone.
+    bias_forces: Vec<nalgebra::Vector6<f64>>,
     rhs: DVector<f64>,
     /// The damped mass matrix with MuJoCo's impedance along the coupled constraints' rows.
     mass: CoupledFactor<f64>,
@@ -109,12 +112,14 @@ impl Model {
             });
         }
         let wrenches = self.pair_wrenches(&contacts);
+        let bias_forces = self.tree.rnea_forces(&kin, &[]);
         let mut frozen = FrozenForward {
             model: self,
             q: q.to_vec(),
             v: v.to_vec(),
             mocap: mocap.to_vec(),
             kin,
+            bias_forces,
             rhs,
             mass,
             tapes,
@@ -166,11 +171,8 @@ impl FrozenForward<'_> {
 
     /// The accelerations with the contact forces taken at the end velocity `v_contact`.
     pub fn vdot(&self, v_contact: &[f64]) -> Vec<f64> {
-        let at = self
-            .model
-            .tree
-            .kinematics_with(&self.q, v_contact, &self.mocap);
-        self.solve(self.contact_wrenches(&at, |p| *p))
+        let frames = (self.model.tree).frames_at_velocity(&self.kin, v_contact, &self.mocap);
+        self.solve(self.contact_wrenches(&frames, |p| *p))
     }
 
     /// The generalized contact force `τ_c(V) = Σ Jᵀ Λ(V)` at the end velocity `v_contact`,
@@ -183,7 +185,7 @@ impl FrozenForward<'_> {
         let (q, v, mocap) = (lift(&self.q), lift(&self.v), lift(&self.mocap));
         let tree = &self.model.tree;
         let at = tree.kinematics_with(&q, v_contact, &mocap);
-        let wrenches = self.contact_wrenches(&at, |p| p.lift());
+        let wrenches = self.contact_wrenches(&at.frames, |p| p.lift());
         let start = tree.kinematics_with(&q, &v, &mocap);
         // The bias with vdot = 0 is c(q, v) - Σ Jᵀ f_ext: its negative carries Σ Jᵀ Λ(V).
         let bias = tree.rnea(&start, &[], &wrenches);
@@ -203,7 +205,7 @@ impl FrozenForward<'_> {
         type D = Seeds;
         let m = self.model;
         let n = m.tree.nv;
-        let at = m.tree.kinematics_with(&self.q, v_contact, &self.mocap);
+        let frames = m.tree.frames_at_velocity(&self.kin, v_contact, &self.mocap);
         // Each body's Jacobian columns, found once (positions are those of `self.kin`).
         let mut columns: Vec<Option<Vec<BodyColumn<f64>>>> = vec![None; m.tree.bodies.len()];
         let mut out = DMatrix::zeros(n, n);
@@ -217,10 +219,7 @@ impl FrozenForward<'_> {
             let (Some(ca), Some(cb)) = (&m.colliders[*a], &m.colliders[*b]) else {
                 unreachable!("a recorded pair has both colliders")
             };
-            let (fa, fb) = (
-                seeded_frame(&at.frames[*a], 0),
-                seeded_frame(&at.frames[*b], 6),
-            );
+            let (fa, fb) = (seeded_frame(&frames[*a], 0), seeded_frame(&frames[*b], 6));
             let [on_a, on_b] = tape.replay_seeded(ca, &fa, cb, &fb, p);
             // Rows: force and torque on a, then on b; columns: a's linear and angular
             // velocity, then b's.
@@ -270,11 +269,11 @@ impl FrozenForward<'_> {
         out
     }
 
-    /// Each recorded pair's wrenches at the kinematics `at` (the recorded positions), on the
-    /// bodies; `prm` gives a pair's parameters on `at`'s scalar.
+    /// Each recorded pair's wrenches at the bodies' frames `at` (the recorded positions), on
+    /// the bodies; `prm` gives a pair's parameters on `at`'s scalar.
     fn contact_wrenches<T: Scalar>(
         &self,
-        at: &Kinematics<T>,
+        at: &[Frame<T>],
         prm: impl Fn(&ContactParams<f64>) -> ContactParams<T>,
     ) -> Vec<Wrench<T>> {
         let m = self.model;
@@ -283,7 +282,7 @@ impl FrozenForward<'_> {
             let (Some(ca), Some(cb)) = (&m.colliders[*a], &m.colliders[*b]) else {
                 unreachable!("a recorded pair has both colliders")
             };
-            let (fa, fb) = (&at.frames[*a], &at.frames[*b]);
+            let (fa, fb) = (&at[*a], &at[*b]);
             let [on_a, on_b] = tape.replay(ca, fa, cb, fb, &prm(p));
             add_pair_wrenches(&mut wrenches, *a, *b, [&on_a, &on_b]);
         }
@@ -294,7 +293,7 @@ impl FrozenForward<'_> {
     fn solve(&self, mut wrenches: Vec<Wrench<f64>>) -> Vec<f64> {
         let m = self.model;
         m.add_body_forces(&self.kin, self.stiction_velocity, &mut wrenches);
-        let bias = m.tree.rnea(&self.kin, &[], &wrenches);
+        let bias = (m.tree).rnea_with(&self.kin, self.bias_forces.clone(), &wrenches);
         let rhs = &self.rhs - bias;
         self.mass.solve(&rhs).as_slice().to_vec()
     }
