@@ -87,8 +87,13 @@ def pairs_across_gaps(xml, rows, gap=0.003):
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
     names = [m.body(b).name for b in range(m.nbody)]
-    # A variable's name quotes a body name that is not a plain identifier ('robot0:base_link').
-    alias = {**{n: n for n in names}, **{f"'{n}'": n for n in names}}
+    # A variable's name quotes a body name that is not a plain identifier ('robot0:base_link');
+    # SCM names an unnamed body `body<its index>`, the index in document order that MuJoCo's
+    # ids follow (gymnasium's ant's lower legs).
+    alias = {}
+    for b, n in enumerate(names):
+        for key in ([n, f"'{n}'"] if n else [f"body{b}"]):
+            alias.setdefault(key, b)
     colliding = [g for g in range(m.ngeom) if m.geom_contype[g] or m.geom_conaffinity[g]]
     fromto = np.zeros(6)
     row = dict(zip(rows[0].split(","), rows[1].split(",")))
@@ -100,7 +105,7 @@ def pairs_across_gaps(xml, rows, gap=0.003):
         split = [(pair[:i], pair[i + 1:]) for i in range(len(pair))
                  if pair[i] == "." and pair[:i] in alias and pair[i + 1:] in alias]
         assert len(split) == 1, f"{col}: bodies not found in MuJoCo's model"
-        a, b = (names.index(alias[x]) for x in split[0])
+        a, b = (alias[x] for x in split[0])
         ga = [g for g in colliding if m.geom_bodyid[g] == a]
         gb = [g for g in colliding if m.geom_bodyid[g] == b]
         if min((mujoco.mj_geomDistance(m, d, i, j, 1.0, fromto) for i in ga for j in gb),
