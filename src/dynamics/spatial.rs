@@ -172,10 +172,10 @@ impl Inertia {
 
 /// A spatial inertia about a frame's origin kept by its parts, the 6 × 6 matrix
 /// `[[rot, [h]×], [[h]×ᵀ, m 1]]` ([`Inertia::matrix`]) without its zeros and repeats: what the
-/// composite-rigid-body algorithm and RNEA carry along the tree. Applying it costs about a
-/// third of the 6 × 6 product, and carrying it to a parent frame about a sixth of `Xᵀ I X`
-/// with `X` as a 6 × 6 matrix (on three free bodies out of reach, the dense mass matrix was
-/// a sixth of a step).
+/// composite-rigid-body algorithm and RNEA carry along the tree. Applying it takes 24
+/// multiplications where the 6 × 6 product takes 36, and carrying it to a parent frame about
+/// 100 where `Xᵀ I X` with `X` as a 6 × 6 matrix takes 432: gymnasium's humanoid's mass
+/// matrix over its first 0.3 s took 10.2 M instructions where it took 18.5 M (callgrind).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodyInertia<T: Scalar> {
     /// Mass `m`.
