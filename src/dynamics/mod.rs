@@ -159,10 +159,8 @@ pub struct Tree {
     nodes: Vec<Node>,
     /// Node whose frame is the body frame, per body (`None` for the world).
     body_node: Vec<Option<usize>>,
-    /// Parent DOF of each DOF ([`Tree::factor`]).
-    dof_parent: std::sync::Arc<[Option<usize>]>,
-    /// Where each DOF's row of a [`TreeMatrix`] starts, and the end of the last.
-    dof_adr: std::sync::Arc<[usize]>,
+    /// Where the entries of a [`TreeMatrix`] of this tree are ([`Tree::factor`]).
+    dof_shape: std::sync::Arc<factor::Sparsity>,
 }
 
 /// Why a tree cannot be built.
@@ -259,12 +257,9 @@ impl Tree {
             mocap,
             nodes,
             body_node,
-            dof_parent: std::sync::Arc::from(Vec::new()),
-            dof_adr: std::sync::Arc::from(Vec::new()),
+            dof_shape: std::sync::Arc::new(factor::Sparsity::new(&[])),
         };
-        let parent = tree.dof_parents();
-        tree.dof_adr = Tree::dof_rows(&parent).into();
-        tree.dof_parent = parent.into();
+        tree.dof_shape = std::sync::Arc::new(factor::Sparsity::new(&tree.dof_parents()));
         // MuJoCo's rule: every body with joints, together with the jointless bodies welded to
         // it (they move as one), has a mass and a rotational inertia; a welded body alone may
         // have none (a body that only holds a site, or a massless frame around the geoms).
@@ -393,18 +388,24 @@ impl Tree {
         for i in 0..n {
             let dofs = self.node_dofs(i);
             for a in dofs.clone() {
+                // Row a as stored: a, then its ancestors from the nearest up (`TreeMatrix`),
+                // written in that order.
+                let row = m.row_mut(a);
                 let mut f = ic[i].apply(&kin.s[a]);
                 // The node's own block: the earlier DOFs of a joint are ancestors of the later.
-                for b in dofs.start..=a {
-                    *m.entry_mut(a, b) = f.dot(&kin.s[b]);
+                for (e, b) in row.iter_mut().zip((dofs.start..=a).rev()) {
+                    *e = f.dot(&kin.s[b]);
                 }
+                let mut at = a + 1 - dofs.start;
                 let mut j = i;
                 while let Some(p) = self.nodes[j].parent {
                     f = kin.x[j].force_to_parent(&f);
                     j = p;
-                    for b in self.node_dofs(j) {
-                        *m.entry_mut(a, b) = f.dot(&kin.s[b]);
+                    let up = self.node_dofs(j);
+                    for (e, b) in row[at..].iter_mut().zip(up.clone().rev()) {
+                        *e = f.dot(&kin.s[b]);
                     }
+                    at += up.len();
                 }
             }
         }
