@@ -153,12 +153,10 @@ impl Polytope {
     /// The floor at `x` (the polytope's frame), evaluated lazily: most readings are far above
     /// it and never need more than its cheap upper bound.
     pub fn floor<T: Scalar>(&self, x: &Vector3<T>) -> Floor<'_, T> {
-        let values = self.plane_values(&re3(x));
         Floor {
             polytope: self,
             x: *x,
-            values,
-            upper: self.upper(&values),
+            upper: self.upper(&re3(x)),
             smooth: None,
             planes: None,
         }
@@ -167,33 +165,70 @@ impl Polytope {
     /// A lower bound of the floor `b` over a ball (centre `c`, radius `rho`; the polytope's
     /// frame): each plane value falls by at most `rho` within it.
     pub fn floor_over_ball(&self, c: &Vector3<f64>, rho: f64) -> f64 {
-        self.lower(self.upper(&self.plane_values(c))) - rho * (1.0 + 1e-12)
+        self.lower(self.upper(c)) - rho * (1.0 + 1e-12)
+    }
+
+    /// The 13 dot products `u_kᵀx`, each `u_k[0] x + u_k[1] y + u_k[2] z` summed in that order,
+    /// with the zero components' products left out and the products shared between the
+    /// directions: the same value at every finite `x` (a zero product adds nothing but, at
+    /// most, a zero's sign), in 16 operations instead of 65.
+    #[inline]
+    fn dots(x: &Vector3<f64>) -> [f64; 13] {
+        let [s2, s3] = [AXES[3][0], AXES[9][0]];
+        let (ax, ay, az) = (s2 * x.x, s2 * x.y, s2 * x.z);
+        let (bx, by, bz) = (s3 * x.x, s3 * x.y, s3 * x.z);
+        let (plus, minus) = (bx + by, bx - by);
+        [
+            x.x,
+            x.y,
+            x.z,
+            ax + ay,
+            ax - ay,
+            ax + az,
+            ax - az,
+            ay + az,
+            ay - az,
+            plus + bz,
+            plus - bz,
+            minus + bz,
+            minus - bz,
+        ]
     }
 
     /// The 26 plane values `u_kᵀx - h_k` at `x` (`+u_k` first, then `-u_k`).
     fn plane_values(&self, x: &Vector3<f64>) -> [f64; 26] {
         let mut values = [0.0; 26];
-        for (k, u) in AXES.iter().enumerate() {
-            let d = u[0] * x.x + u[1] * x.y + u[2] * x.z;
+        for (k, d) in Self::dots(x).into_iter().enumerate() {
             values[k] = d - self.support[k];
             values[13 + k] = -d - self.support[13 + k];
         }
         values
     }
 
-    /// An upper bound of `b` from its plane values: their maximum less the margin. Four
-    /// running maxima by comparison, not one `f64::max` chain: every band point and point force
-    /// takes it (a tenth of a pushing pair's evaluation was this fold), and the maximum is the
-    /// same value in any order (a NaN is never taken, as `f64::max` leaves it).
-    fn upper(&self, values: &[f64; 26]) -> f64 {
-        let mut m = [f64::NEG_INFINITY; 4];
-        for chunk in values.chunks(4) {
-            for (m, &v) in m.iter_mut().zip(chunk) {
-                if v > *m {
-                    *m = v;
-                }
+    /// An upper bound of `b` at `x`: the largest plane value less the margin. Every band point
+    /// and point force takes it, so the values are not stored: four running maxima by
+    /// comparison as they are made (not one `f64::max` chain), which is the same value in any
+    /// order (a NaN is never taken, as `f64::max` leaves it). With [`Polytope::dots`], a
+    /// resting box stack's step took 6 % fewer instructions (docs/performance.md).
+    fn upper(&self, x: &Vector3<f64>) -> f64 {
+        let keep = |m: &mut f64, v: f64| {
+            if v > *m {
+                *m = v;
             }
+        };
+        let (d, h) = (Self::dots(x), &self.support);
+        let mut m = [f64::NEG_INFINITY; 4];
+        // Four scalars, so that they stay in registers (an index computed per direction kept
+        // them in memory: a quarter more instructions).
+        let [m0, m1, m2, m3] = &mut m;
+        for k in (0..12).step_by(2) {
+            keep(m0, d[k] - h[k]);
+            keep(m1, -d[k] - h[13 + k]);
+            keep(m2, d[k + 1] - h[k + 1]);
+            keep(m3, -d[k + 1] - h[14 + k]);
         }
+        keep(m0, d[12] - h[12]);
+        keep(m1, -d[12] - h[25]);
         let top = if m[0] > m[1] { m[0] } else { m[1] };
         let other = if m[2] > m[3] { m[2] } else { m[3] };
         (if top > other { top } else { other }) - 1.5 * self.cover
@@ -217,8 +252,6 @@ impl Polytope {
 pub struct Floor<'p, T: Scalar> {
     polytope: &'p Polytope,
     x: Vector3<T>,
-    /// The 26 plane values `u_kᵀx - h_k` (real parts; `+u_k` first, then `-u_k`).
-    values: [f64; 26],
     /// An upper bound of `b` (real part): the plane maximum less the margin.
     upper: f64,
     /// `b` and its gradient (real part), once needed.
@@ -269,7 +302,10 @@ impl<T: Scalar> Floor<'_, T> {
         let top = self.upper + 1.5 * p.cover;
         let mut sum = T::zero();
         let mut grad = Vector3::zeros();
-        for (k, value) in self.values.iter().enumerate() {
+        // The plane values again: few readings need the smooth floor, and the upper bound
+        // every reading takes does not keep them.
+        let values = p.plane_values(&re3(&self.x));
+        for (k, value) in values.iter().enumerate() {
             if *value < top - UNTOUCHED * t {
                 continue;
             }
@@ -385,6 +421,37 @@ mod tests {
                 f.lower() <= b + 1e-15 && b <= f.upper + 1e-15,
                 "bounds of b"
             );
+        }
+    }
+
+    #[test]
+    fn the_plane_values_are_the_directions_dot_products_to_the_bit() {
+        // `u_kᵀx - h_k` summed term by term over all three components, as the definition
+        // reads, against the shared products of `plane_values`: the same numbers at points of
+        // every octant, on the axes and at the origin.
+        let s = boxed();
+        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).expect("a quad mesh");
+        let mut state = 11u64;
+        let mut points: Vec<Vector3<f64>> = (0..500)
+            .map(|_| around_the_box(&mut state) * 1e3f64.powf(crate::geometry::lcg(&mut state)))
+            .collect();
+        points.extend([
+            Vector3::zeros(),
+            Vector3::x(),
+            -Vector3::y(),
+            Vector3::z() * 1e-300,
+        ]);
+        for x in points {
+            let values = p.plane_values(&x);
+            let mut top = f64::NEG_INFINITY;
+            for (k, u) in AXES.iter().enumerate() {
+                let d = u[0] * x.x + u[1] * x.y + u[2] * x.z;
+                assert_eq!(values[k], d - p.support[k], "+u_{k} at {x:?}");
+                assert_eq!(values[13 + k], -d - p.support[13 + k], "-u_{k} at {x:?}");
+                top = top.max(d - p.support[k]).max(-d - p.support[13 + k]);
+            }
+            // The upper bound's running maxima give the largest value, less the margin.
+            assert_eq!(p.upper(&x), top - 1.5 * p.cover, "upper bound at {x:?}");
         }
     }
 
