@@ -354,7 +354,11 @@ pub(crate) fn band_of<T: Scalar>(
                                         continue;
                                     }
                                 }
-                                let mut floor = o.bvh().polytope.as_ref().map(|p| p.floor(&x));
+                                let polytope = o.bvh().polytope.as_ref();
+                                if polytope.is_some_and(|p| p.floor_by_axes(&xr) > t) {
+                                    continue;
+                                }
+                                let mut floor = polytope.map(|p| p.floor(&x));
                                 let low = floor.as_ref().map_or(f64::NEG_INFINITY, |f| f.lower());
                                 if low > t {
                                     continue;
