@@ -70,6 +70,9 @@ pub struct CandidateMemo {
     /// The most entries and kept terms the pair's last band held (`band_of`'s start sizes
     /// for its next: a cost, never a result).
     pub(crate) band_sizes: (usize, usize),
+    /// Whether the pair's out-of-reach proof failed at its last forward: its next proof looks
+    /// at its nearest point first (`collision::Seed::First`; a cost, never a result).
+    pub(crate) proof_failed: bool,
 }
 
 /// A function's value and Jacobian at one input (a pair's hand-derived Jacobian, which the chain

@@ -66,7 +66,7 @@ pub use memo::{
 pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof, FLOOR_ROOM_LIVES};
 pub use reach::{
     cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, reach_distance, Beyond, ReachParams,
-    ReachQuestion, REACH_BUDGET,
+    ReachQuestion, Seed, REACH_BUDGET,
 };
 pub use scratch::Scratch;
 pub use topk::{contact_points, TOPK_TEMPERATURE};

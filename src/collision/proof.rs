@@ -3,7 +3,7 @@
 //! comparison, while neither body has moved farther than that room; and a kept proof read from
 //! outside (a restored FMU state) is proven again before it is trusted.
 
-use super::reach::{cloud_beyond, out_of_reach_by, reach_budget, sides, Beyond, Side};
+use super::reach::{cloud_beyond, out_of_reach_by, reach_budget, sides, Beyond, Seed, Side};
 use super::*;
 
 /// How many lives a proof by the floor alone is given room for (`ProofSide::floor_room`): its
@@ -209,8 +209,10 @@ impl ProofSide {
 /// that would not be reused costs a second proof), and the two sides kept together. What it
 /// returns is `true` only where every force of the pair is below the bound of
 /// [`out_of_reach`]; it can be `true` where a fresh proof would not be (the kept one holds
-/// with room), so the decisions depend on `kept`, which is part of the simulation's state. The
-/// walks work in `scratch`.
+/// with room), so the decisions depend on `kept`, which is part of the simulation's state.
+/// `seed` orders the plain proof's walks ([`Seed`]: a cost, never the answer). The walks work
+/// in `scratch`.
+#[allow(clippy::too_many_arguments)]
 pub fn out_of_reach_proven(
     a: &Collider,
     b: &Collider,
@@ -218,6 +220,7 @@ pub fn out_of_reach_proven(
     prm: &ReachParams,
     kept: &mut Option<ReachProof>,
     life: f64,
+    seed: Seed,
     scratch: &mut Scratch,
 ) -> bool {
     let Some(sides) = sides(a, b, rels, prm) else {
@@ -281,7 +284,7 @@ pub fn out_of_reach_proven(
     if room_first && with_room(&mut floor, kept, scratch) {
         return true;
     }
-    let how = out_of_reach_by(a, b, rels, prm, scratch);
+    let how = out_of_reach_by(a, b, rels, prm, seed, scratch);
     // Out of reach now: prove it again with room to move by planes where the floor gave none,
     // and keep that for the next steps. (Only here: a pair near enough to fail the plain proof
     // would fail this one too, and a failing proof can cost a whole budget of node tests. Nor

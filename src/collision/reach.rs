@@ -102,7 +102,23 @@ pub fn cloud_beyond(
     query: &Aopc,
     (budget, scratch): (&mut usize, &mut Scratch),
 ) -> Beyond {
-    cloud_beyond_with(q, query, (budget, scratch), true)
+    cloud_beyond_with(q, query, (budget, scratch), Seed::AfterRoot)
+}
+
+/// When [`cloud_beyond`]'s walk looks at its one point nearest the other body (`seed_within`),
+/// which ends a proof that cannot succeed. Never the answer, only its cost: the look is sound
+/// (tested), so wherever it ends a walk, every walk ends unproven.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Seed {
+    /// Not at all (for the test that it changes no answer).
+    Off,
+    /// After the root node's test, when that test has not settled the cloud: the order for a
+    /// pair that may be out of reach, which the root test usually settles at once.
+    AfterRoot,
+    /// Before the root node's test: the order for a pair whose plain proof failed at its
+    /// last forward (in contact, as a resting stack's boxes are), where the root test, a walk
+    /// of the other cloud's hierarchy, would fail anyway.
+    First,
 }
 
 /// How [`cloud_beyond`] settled a cloud.
@@ -125,13 +141,12 @@ impl Beyond {
     }
 }
 
-/// [`cloud_beyond`], with or without its first look at one point (`seed_within`; without,
-/// for the test that it changes no answer).
+/// [`cloud_beyond`], with its look at one point where `seed` says ([`Seed`]).
 pub(super) fn cloud_beyond_with(
     q: &ReachQuestion,
     query: &Aopc,
     (budget, scratch): (&mut usize, &mut Scratch),
-    seed: bool,
+    seed: Seed,
 ) -> Beyond {
     let ReachQuestion {
         planes, rot, tr, t, ..
@@ -174,7 +189,7 @@ fn walk(
     q: &ReachQuestion,
     bvh: &crate::geometry::bvh::Bvh,
     (vmax, budget): (f64, usize),
-    seed: bool,
+    seed: Seed,
     scratch: &mut Scratch,
 ) -> (Beyond, usize) {
     let ReachQuestion {
@@ -208,6 +223,9 @@ fn walk(
     // A proof by the floor alone (`eps1` infinite) tries no plane: with every plane relevant
     // the planes facing away fail it at the first node (a sound answer, found slowly).
     let floors_only = eps1 == f64::INFINITY;
+    if seed == Seed::First && !floors_only && seed_within(q, bvh, vmax, relevant) {
+        return (Beyond::Not, 1); // in contact again: the root test would fail
+    }
     let mut tests = 0;
     let mut springs_used = false;
     while let Some((ni, hint, from, to)) = stack.pop() {
@@ -251,7 +269,11 @@ fn walk(
         if settled {
             continue;
         }
-        if seed && !floors_only && tests == 1 && seed_within(q, bvh, vmax, relevant) {
+        if seed == Seed::AfterRoot
+            && !floors_only
+            && tests == 1
+            && seed_within(q, bvh, vmax, relevant)
+        {
             return (Beyond::Not, tests); // in contact: the walk could only fail further down
         }
         if node.is_leaf() {
@@ -393,16 +415,18 @@ pub fn out_of_reach(
     prm: &ReachParams,
     scratch: &mut Scratch,
 ) -> bool {
-    out_of_reach_by(a, b, rels, prm, scratch).proven()
+    out_of_reach_by(a, b, rels, prm, Seed::AfterRoot, scratch).proven()
 }
 
 /// [`out_of_reach`], saying how: [`Beyond::Springs`] where a point of either side needed its
-/// springs summed, [`Beyond::Planes`] where the planes settled every point.
+/// springs summed, [`Beyond::Planes`] where the planes settled every point. `seed` orders each
+/// side's walk ([`Seed`]: the same answer, at another cost).
 pub fn out_of_reach_by(
     a: &Collider,
     b: &Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
+    seed: Seed,
     scratch: &mut Scratch,
 ) -> Beyond {
     let Some(sides) = sides(a, b, rels, prm) else {
@@ -429,7 +453,7 @@ pub fn out_of_reach_by(
             spring,
             room: 0.0,
         };
-        match cloud_beyond(&q, s.query, (&mut budget, &mut *scratch)) {
+        match cloud_beyond_with(&q, s.query, (&mut budget, &mut *scratch), seed) {
             Beyond::Planes => {}
             other => how = other,
         }

@@ -53,7 +53,8 @@ impl Model {
                 continue;
             };
             let p = pair.params(prm);
-            if self.out_of_reach_with(pair, &kin, &p, None, &mut scratch) {
+            let seed = crate::collision::Seed::AfterRoot;
+            if self.out_of_reach_with(pair, &kin, &p, (None, seed), &mut scratch) {
                 continue;
             }
             let (fa, fb) = (&kin.frames[pair.a], &kin.frames[pair.b]);

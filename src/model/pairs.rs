@@ -6,7 +6,7 @@
 use super::Model;
 use crate::collision::{
     out_of_reach, out_of_reach_proven, CandidateMemo, Collider, Frame, PairCarry, ReachProof,
-    Relative, Scratch,
+    Relative, Scratch, Seed,
 };
 use crate::contact::{pair_contact_memo, pair_distance, ContactParams, PairContact, Wrench};
 use crate::dynamics::Kinematics;
@@ -467,7 +467,7 @@ impl Model {
         let mut out: Vec<PairVisit<R>> = Vec::with_capacity(n);
         let mut pending = Vec::new();
         for (k, pair) in self.pairs.iter().enumerate() {
-            let (reach, candidates) = match carried.as_mut().map(|pairs| pairs.next()) {
+            let (reach, mut candidates) = match carried.as_mut().map(|pairs| pairs.next()) {
                 None => (None, None),
                 Some(Some((r, c))) => (Some(r), c),
                 Some(None) => unreachable!("the carried pair data is fitted to the pairs"),
@@ -481,7 +481,20 @@ impl Model {
             out.push(PairVisit::OutOfReach);
             let left_out = match pick {
                 Pick::Every => false,
-                Pick::InReach => self.out_of_reach_with(pair, kin, &prm, reach, &mut scratch[0]),
+                Pick::InReach => {
+                    // A pair whose plain proof failed at its last forward (in contact) looks at
+                    // its nearest point first: a cost, never a result (`Seed`).
+                    let seed = match candidates.as_deref() {
+                        Some(c) if c.proof_failed => Seed::First,
+                        _ => Seed::AfterRoot,
+                    };
+                    let out =
+                        self.out_of_reach_with(pair, kin, &prm, (reach, seed), &mut scratch[0]);
+                    if let Some(c) = candidates.as_deref_mut() {
+                        c.proof_failed = !out;
+                    }
+                    out
+                }
                 Pick::Marked(marked) => !marked[k],
             };
             if left_out {
@@ -517,14 +530,14 @@ impl Model {
     }
 
     /// Whether a pair is proven out of reach ([`out_of_reach`]) at `kin` with its parameters,
-    /// with the pair's kept proof if given ([`out_of_reach_proven`]), the walks working in
-    /// `scratch`.
+    /// with the pair's kept proof if given ([`out_of_reach_proven`], its plain proof's walks in
+    /// the order `seed` says: [`Seed`]), the walks working in `scratch`.
     pub(crate) fn out_of_reach_with<T: Scalar>(
         &self,
         pair: &Pair,
         kin: &Kinematics<T>,
         prm: &ContactParams<T>,
-        kept: Option<&mut Option<ReachProof>>,
+        (kept, seed): (Option<&mut Option<ReachProof>>, Seed),
         scratch: &mut Scratch,
     ) -> bool {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
@@ -552,6 +565,7 @@ impl Model {
                 // (With two steps asked of RK4, gymnasium's humanoid's limbs, moving at about
                 // 0.5 m/s, never had room enough: pelvis–arm pairs proven afresh at every stage.)
                 2.0 * self.timestep / self.integrator.forwards_per_step(),
+                seed,
                 scratch,
             ),
             None => out_of_reach(ca, cb, &rels, &p.reach(), scratch),

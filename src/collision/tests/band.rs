@@ -298,19 +298,24 @@ fn the_reach_proofs_first_look_at_one_point_changes_no_answer() {
             spring,
             room: 0.0,
         };
-        let with = cloud_beyond_with(
-            &question,
-            q,
-            (&mut { budget }, &mut Scratch::default()),
-            true,
-        );
-        let without = cloud_beyond_with(
-            &question,
-            q,
-            (&mut { budget }, &mut Scratch::default()),
-            false,
+        let beyond = |seed| {
+            cloud_beyond_with(
+                &question,
+                q,
+                (&mut { budget }, &mut Scratch::default()),
+                seed,
+            )
+        };
+        let (with, without, first) = (
+            beyond(Seed::AfterRoot),
+            beyond(Seed::Off),
+            beyond(Seed::First),
         );
         assert_eq!(with, without, "case {case}: gap {gap}, threshold {t}");
+        assert_eq!(
+            first, without,
+            "seed first, case {case}: gap {gap}, threshold {t}"
+        );
         proven += with.proven() as usize;
         // (The allowance's `vmax` only widens it: 0 here, so these are surely within.)
         let seen = seed_within(&question, q.bvh(), 0.0, &mut Relevant::default());
