@@ -71,10 +71,7 @@ impl Tree {
     ) -> DVector<T> {
         for (fi, node) in f.iter_mut().zip(&self.nodes) {
             if node.carries_inertia {
-                // External wrench (world frame, about the body origin) into body coordinates.
-                let rt = kin.frames[node.body].rotation.transpose();
-                let w = &f_ext[node.body];
-                *fi -= spatial::spatial(&(rt * w.torque), &(rt * w.force));
+                *fi -= body_wrench(kin, node, f_ext);
             }
         }
         self.backward(kin, f)
@@ -102,14 +99,9 @@ impl Tree {
     /// velocity terms).
     pub fn wrench_forces<T: Scalar>(&self, kin: &Kinematics<T>, f_ext: &[Wrench<T>]) -> DVector<T> {
         let f: Vec<Vector6<T>> = (self.nodes.iter())
-            .map(|node| {
-                if !node.carries_inertia {
-                    return Vector6::zeros();
-                }
-                let fr = &kin.frames[node.body];
-                let w = &f_ext[node.body];
-                let rt = fr.rotation.transpose();
-                spatial::spatial(&(rt * w.torque), &(rt * w.force))
+            .map(|node| match node.carries_inertia {
+                true => body_wrench(kin, node, f_ext),
+                false => Vector6::zeros(),
             })
             .collect();
         self.backward(kin, f)
@@ -145,4 +137,12 @@ impl Tree {
             })
             .collect()
     }
+}
+
+/// The external wrench on `node`'s body (`f_ext`: per body, world frame, torque about the body
+/// origin) as a spatial force in the body's coordinates.
+fn body_wrench<T: Scalar>(kin: &Kinematics<T>, node: &Node, f_ext: &[Wrench<T>]) -> Vector6<T> {
+    let rt = kin.frames[node.body].rotation.transpose();
+    let w = &f_ext[node.body];
+    spatial::spatial(&(rt * w.torque), &(rt * w.force))
 }
