@@ -10,13 +10,6 @@ fn axis_angle<T: Scalar>(axis: &Vector3<f64>, angle: T) -> Matrix3<T> {
     Matrix3::identity() + k * s + k * k * (T::one() - co)
 }
 
-fn lift_iso<T: Scalar>(iso: &Isometry3<f64>) -> Transform<T> {
-    Transform {
-        rotation: iso.rotation.to_rotation_matrix().matrix().map(c::<T>),
-        translation: iso.translation.vector.map(c::<T>),
-    }
-}
-
 /// Everything the dynamics needs from one configuration and velocity.
 #[derive(Clone, Debug)]
 pub struct Kinematics<T: Scalar> {
@@ -59,7 +52,6 @@ impl Tree {
         let mut bias_acc = Vec::with_capacity(n);
         let mut world: Vec<Transform<T>> = Vec::with_capacity(n);
         for node in &self.nodes {
-            let off = lift_iso::<T>(&node.offset);
             let (xj, cj): (Transform<T>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
                 None if self.bodies[node.body].mocap && !mocap.is_empty() => {
                     // A mocap body: its world pose and velocity are inputs (it is top-level).
@@ -145,7 +137,7 @@ impl Tree {
                     }
                 }
             };
-            let xi = off.then(&xj);
+            let xi = node.offset.lift::<T>().then(&xj);
             let parent_world = node
                 .parent
                 .map(|p| world[p])

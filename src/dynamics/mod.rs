@@ -135,10 +135,38 @@ struct Node {
     body: usize,
     joint: Option<usize>,
     parent: Option<usize>,
-    /// Fixed transform before the joint (the body's offset for its first node).
-    offset: Isometry3<f64>,
+    /// Fixed transform before the joint (the body's offset for its first node), as the
+    /// rotation matrix and translation the kinematics compose (made once here, not at every
+    /// evaluation: the same numbers).
+    offset: Transform<f64>,
     /// Whether the body's inertia sits on this node (its last node).
     carries_inertia: bool,
+    /// The inertia this node carries, about its origin (the body's where
+    /// `carries_inertia`, none elsewhere), made once here rather than at every evaluation
+    /// (the same numbers: [`Inertia::about_origin`] computes in `f64`).
+    inertia: BodyInertia<f64>,
+}
+
+impl Node {
+    fn new(
+        body: usize,
+        joint: Option<usize>,
+        parent: Option<usize>,
+        offset: &Isometry3<f64>,
+        carries: Option<&Inertia>,
+    ) -> Node {
+        Node {
+            body,
+            joint,
+            parent,
+            offset: Transform {
+                rotation: offset.rotation.to_rotation_matrix().into_inner(),
+                translation: offset.translation.vector,
+            },
+            carries_inertia: carries.is_some(),
+            inertia: carries.map_or_else(BodyInertia::zero, Inertia::about_origin),
+        }
+    }
 }
 
 /// The mechanical model: bodies, joints, gravity. Immutable once built.
@@ -161,6 +189,12 @@ pub struct Tree {
     body_node: Vec<Option<usize>>,
     /// Where the entries of a [`TreeMatrix`] of this tree are ([`Tree::factor`]).
     dof_shape: std::sync::Arc<factor::Sparsity>,
+    /// Per DOF, `Some(i)` where its motion subspace column is the same unit axis at every
+    /// configuration (entry `i` is 1, the others 0: a free joint's rotations, a ball joint's
+    /// about its body origin, a hinge about a body axis through it, a slide along one), so
+    /// that the mass matrix applies an inertia to it by reading the inertia's entries
+    /// ([`BodyInertia::apply_unit`]; the same numbers, but for the sign of a zero).
+    dof_unit: Vec<Option<usize>>,
 }
 
 /// Why a tree cannot be built.
@@ -209,13 +243,13 @@ impl Tree {
             }
             let parent_node = body_node[parent];
             if body.joints.is_empty() {
-                nodes.push(Node {
-                    body: b,
-                    joint: None,
-                    parent: parent_node,
-                    offset: body.offset,
-                    carries_inertia: true,
-                });
+                nodes.push(Node::new(
+                    b,
+                    None,
+                    parent_node,
+                    &body.offset,
+                    Some(&body.inertia),
+                ));
             } else {
                 for (k, &j) in body.joints.iter().enumerate() {
                     let joint = &mut joints[j];
@@ -237,13 +271,8 @@ impl Tree {
                     } else {
                         Isometry3::identity()
                     };
-                    nodes.push(Node {
-                        body: b,
-                        joint: Some(j),
-                        parent,
-                        offset,
-                        carries_inertia: k + 1 == body.joints.len(),
-                    });
+                    let carries = (k + 1 == body.joints.len()).then_some(&body.inertia);
+                    nodes.push(Node::new(b, Some(j), parent, &offset, carries));
                 }
             }
             body_node[b] = Some(nodes.len() - 1);
@@ -258,8 +287,10 @@ impl Tree {
             nodes,
             body_node,
             dof_shape: std::sync::Arc::new(factor::Sparsity::new(&[])),
+            dof_unit: vec![None; nv],
         };
         tree.dof_shape = std::sync::Arc::new(factor::Sparsity::new(&tree.dof_parents()));
+        tree.dof_unit = tree.unit_columns();
         // MuJoCo's rule: every body with joints, together with the jointless bodies welded to
         // it (they move as one), has a mass and a rotational inertia; a welded body alone may
         // have none (a body that only holds a site, or a massless frame around the geoms).
@@ -273,6 +304,31 @@ impl Tree {
             }
         }
         Ok(tree)
+    }
+
+    /// Which DOFs' motion columns are a fixed unit axis ([`Tree::dof_unit`]): read off the
+    /// kinematics at a neutral configuration, leaving out a free joint's translations (their
+    /// columns turn with the body).
+    fn unit_columns(&self) -> Vec<Option<usize>> {
+        let mut q = vec![0.0; self.nq];
+        for j in &self.joints {
+            match j.kind {
+                JointKind::Free => q[j.qadr + 3] = 1.0,
+                JointKind::Ball => q[j.qadr] = 1.0,
+                _ => {}
+            }
+        }
+        let kin = self.kinematics(&q, &vec![0.0; self.nv]);
+        let mut unit = vec![None; self.nv];
+        for j in &self.joints {
+            let first = if j.kind == JointKind::Free { 3 } else { 0 };
+            let dofs = j.dadr + first..j.dadr + j.kind.nv();
+            for (u, s) in unit[dofs.clone()].iter_mut().zip(&kin.s[dofs]) {
+                let one = s.iter().position(|&x| x == 1.0);
+                *u = one.filter(|&i| s.iter().enumerate().all(|(e, &x)| e == i || x == 0.0));
+            }
+        }
+        unit
     }
 
     /// The inertia of body `b` with every jointless body welded below it, in `b`'s frame.
@@ -356,12 +412,7 @@ impl Tree {
     }
 
     fn node_inertia<T: Scalar>(&self, i: usize) -> BodyInertia<T> {
-        let node = &self.nodes[i];
-        if node.carries_inertia {
-            self.bodies[node.body].inertia.about_origin()
-        } else {
-            BodyInertia::zero()
-        }
+        self.nodes[i].inertia.lift()
     }
 
     /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
@@ -374,8 +425,18 @@ impl Tree {
     /// included, at its tree sparsity (what [`Tree::factor`] takes): each entry is between a
     /// DOF and one of its ancestors (or itself), computed once.
     // Nodes are visited by index: each step reads several per-node arrays and walks parents.
-    #[allow(clippy::needless_range_loop)]
     pub fn mass_matrix_sparse<T: Scalar>(&self, kin: &Kinematics<T>) -> TreeMatrix<T> {
+        self.composite_rigid_body(kin, true)
+    }
+
+    /// [`Tree::mass_matrix_sparse`], with a free joint's block by its fixed loops where
+    /// `fixed_blocks` (the same entries as the general loop's: tested).
+    #[allow(clippy::needless_range_loop)]
+    fn composite_rigid_body<T: Scalar>(
+        &self,
+        kin: &Kinematics<T>,
+        fixed_blocks: bool,
+    ) -> TreeMatrix<T> {
         let n = self.nodes.len();
         let mut ic: Vec<BodyInertia<T>> = (0..n).map(|i| self.node_inertia(i)).collect();
         for i in (0..n).rev() {
@@ -387,25 +448,55 @@ impl Tree {
         let mut m = self.tree_matrix();
         for i in 0..n {
             let dofs = self.node_dofs(i);
+            let free = self.nodes[i]
+                .joint
+                .is_some_and(|j| self.joints[j].kind == JointKind::Free);
+            if free && fixed_blocks {
+                // A free joint (at the top of its tree: no ancestors), its 21 entries written
+                // by loops of fixed length, which unroll: on `floating3` (three free bodies)
+                // the general loop's bookkeeping over rows of 1 to 6 entries was most of the
+                // mass matrix's cost.
+                let block = m.rows_mut(dofs.clone());
+                let s = &kin.s[dofs.clone()];
+                let f: [Vector6<T>; 6] =
+                    std::array::from_fn(|a| match self.dof_unit[dofs.start + a] {
+                        Some(u) => ic[i].apply_unit(u),
+                        None => ic[i].apply(&s[a]),
+                    });
+                let mut at = 0;
+                for a in 0..6 {
+                    for b in (0..a + 1).rev() {
+                        block[at] = f[a].dot(&s[b]);
+                        at += 1;
+                    }
+                }
+                continue;
+            }
             for a in dofs.clone() {
                 // Row a as stored: a, then its ancestors from the nearest up (`TreeMatrix`),
-                // written in that order.
+                // written in that order, each against its DOF's column (slices of the
+                // columns: no index checked per entry).
                 let row = m.row_mut(a);
-                let mut f = ic[i].apply(&kin.s[a]);
+                let mut f = match self.dof_unit[a] {
+                    Some(u) => ic[i].apply_unit(u),
+                    None => ic[i].apply(&kin.s[a]),
+                };
                 // The node's own block: the earlier DOFs of a joint are ancestors of the later.
-                for (e, b) in row.iter_mut().zip((dofs.start..=a).rev()) {
-                    *e = f.dot(&kin.s[b]);
+                let (own, above) = row.split_at_mut(a + 1 - dofs.start);
+                for (e, s) in own.iter_mut().zip(kin.s[dofs.start..a + 1].iter().rev()) {
+                    *e = f.dot(s);
                 }
-                let mut at = a + 1 - dofs.start;
+                let mut rest = above;
                 let mut j = i;
                 while let Some(p) = self.nodes[j].parent {
                     f = kin.x[j].force_to_parent(&f);
                     j = p;
                     let up = self.node_dofs(j);
-                    for (e, b) in row[at..].iter_mut().zip(up.clone().rev()) {
-                        *e = f.dot(&kin.s[b]);
+                    let (here, next) = rest.split_at_mut(up.len());
+                    for (e, s) in here.iter_mut().zip(kin.s[up].iter().rev()) {
+                        *e = f.dot(s);
                     }
-                    at += up.len();
+                    rest = next;
                 }
             }
         }
@@ -429,36 +520,5 @@ impl Tree {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use num_dual::Dual64;
-
-    #[test]
-    fn quaternions_of_any_scale_normalize_to_the_same_rotation_and_derivative() {
-        // Components whose squares overflow (1e200) or underflow (1e-200) give the rotation
-        // of the same direction at scale 1, with the same derivative along a seeded component.
-        let unit = [0.3, -0.5, 0.7, 0.2];
-        let seed = |scale: f64| -> Vec<Dual64> {
-            (0..4)
-                .map(|k| Dual64::new(unit[k] * scale, if k == 1 { scale } else { 0.0 }))
-                .collect()
-        };
-        let want = quat_from(&seed(1.0));
-        for scale in [1e200, 1e-200, 1e300, 1e-300] {
-            let got = quat_from(&seed(scale));
-            for (a, b) in [
-                (got.w, want.w),
-                (got.i, want.i),
-                (got.j, want.j),
-                (got.k, want.k),
-            ] {
-                assert!((a.re - b.re).abs() < 1e-15, "{scale}: {a} vs {b}");
-                assert!((a.eps - b.eps).abs() < 1e-14, "{scale}: {a} vs {b}");
-            }
-        }
-        // In range, the direct normalization, bit for bit.
-        let q = [0.3f64, -0.5, 0.7, 0.2];
-        let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-        assert_eq!(quat_from(&q).w, q[0] / n);
-    }
-}
+#[path = "tree_tests.rs"]
+mod tests;

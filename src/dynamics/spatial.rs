@@ -63,6 +63,17 @@ pub struct Transform<T: Scalar> {
     pub translation: Vector3<T>,
 }
 
+impl Transform<f64> {
+    /// The same transform on `T`.
+    #[inline]
+    pub fn lift<T: Scalar>(&self) -> Transform<T> {
+        Transform {
+            rotation: self.rotation.map(c::<T>),
+            translation: self.translation.map(c::<T>),
+        }
+    }
+}
+
 impl<T: Scalar> Transform<T> {
     /// The identity transform.
     pub fn identity() -> Self {
@@ -186,6 +197,18 @@ pub struct BodyInertia<T: Scalar> {
     pub rot: Matrix3<T>,
 }
 
+impl BodyInertia<f64> {
+    /// The same inertia on `T`.
+    #[inline]
+    pub fn lift<T: Scalar>(&self) -> BodyInertia<T> {
+        BodyInertia {
+            mass: c(self.mass),
+            moment: self.moment.map(c::<T>),
+            rot: self.rot.map(c::<T>),
+        }
+    }
+}
+
 impl<T: Scalar> BodyInertia<T> {
     /// No inertia.
     pub fn zero() -> Self {
@@ -204,6 +227,46 @@ impl<T: Scalar> BodyInertia<T> {
             &(self.rot * w + self.moment.cross(&v)),
             &(v * self.mass - self.moment.cross(&w)),
         )
+    }
+
+    /// [`BodyInertia::apply`] to the unit motion `e_i` (`i < 3` a rotation about axis `i`,
+    /// else a translation along axis `i - 3`), read off the inertia's entries: the same
+    /// numbers but for the sign of a zero.
+    #[inline]
+    pub fn apply_unit(&self, i: usize) -> Vector6<T> {
+        let h = &self.moment;
+        let z = T::zero();
+        match i {
+            // [rot e_i; e_i × h]
+            0 => Vector6::new(
+                self.rot[(0, 0)],
+                self.rot[(1, 0)],
+                self.rot[(2, 0)],
+                z,
+                -h.z,
+                h.y,
+            ),
+            1 => Vector6::new(
+                self.rot[(0, 1)],
+                self.rot[(1, 1)],
+                self.rot[(2, 1)],
+                h.z,
+                z,
+                -h.x,
+            ),
+            2 => Vector6::new(
+                self.rot[(0, 2)],
+                self.rot[(1, 2)],
+                self.rot[(2, 2)],
+                -h.y,
+                h.x,
+                z,
+            ),
+            // [h × e_j; m e_j]
+            3 => Vector6::new(z, h.z, -h.y, self.mass, z, z),
+            4 => Vector6::new(-h.z, z, h.x, z, self.mass, z),
+            _ => Vector6::new(h.y, -h.x, z, z, z, self.mass),
+        }
     }
 
     /// The same body's inertia in the parent frame of `x` (`Xᵀ I X`): rotated by `E`, then
@@ -281,6 +344,29 @@ mod tests {
         assert!((parts.matrix() - i.matrix::<f64>()).norm() < 1e-15);
         let m = Vector6::new(0.3, -1.0, 2.0, 0.5, 0.7, -0.4);
         assert!((parts.apply(&m) - i.matrix::<f64>() * m).norm() < 1e-14);
+    }
+
+    #[test]
+    fn a_unit_motion_applies_as_the_inertia_entries_it_reads() {
+        // `apply_unit(i)` is `apply(e_i)` entry for entry (`==`: a zero's sign aside), on
+        // values and on dual numbers.
+        let parts = body().about_origin::<f64>();
+        let dual = BodyInertia {
+            mass: num_dual::Dual64::new(parts.mass, 0.3),
+            moment: parts.moment.map(|x| num_dual::Dual64::new(x, -x)),
+            rot: parts.rot.map(|x| num_dual::Dual64::new(x, 2.0 * x)),
+        };
+        for i in 0..6 {
+            assert_eq!(
+                parts.apply_unit(i),
+                parts.apply(&Vector6::ith(i, 1.0)),
+                "{i}"
+            );
+            let (a, b) = (dual.apply_unit(i), dual.apply(&Vector6::ith(i, 1.0.into())));
+            for k in 0..6 {
+                assert!(a[k].re == b[k].re && a[k].eps == b[k].eps, "{i}, {k}");
+            }
+        }
     }
 
     #[test]
