@@ -63,10 +63,12 @@ pub use memo::{
     CandidateMemo, Linearized, MemoCounts, PairCarry, CANDIDATES_PER_POINT, PROOF_RETRY,
     UNUSED_WALKS,
 };
-pub use proof::{out_of_reach_proven, reach_proof_holds, ProofSide, ReachProof, FLOOR_ROOM_LIVES};
+pub use proof::{
+    out_of_reach_proven, reach_distance, reach_proof_holds, ProofSide, ReachProof, FLOOR_ROOM_LIVES,
+};
 pub use reach::{
-    cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, reach_distance, Beyond, ReachParams,
-    ReachQuestion, Seed, REACH_BUDGET,
+    cloud_beyond, out_of_reach, out_of_reach_by, reach_budget, Beyond, ReachParams, ReachQuestion,
+    Seed, REACH_BUDGET,
 };
 pub use scratch::Scratch;
 pub use topk::{contact_points, TOPK_TEMPERATURE};

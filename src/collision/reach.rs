@@ -31,6 +31,7 @@
 //! proof, and its run of 1 s from 3.3 s to 2.6 s.
 
 use super::bounds::{aopc_exceeds, widened_margin};
+use super::proof::reach_distance_by;
 use super::settle::{point_springs_settle, seed_within};
 use super::*;
 
@@ -344,26 +345,6 @@ fn floor_above(o: &Aopc, c: &Vector3<f64>, rho: f64, t: f64) -> bool {
         .is_some_and(|p| p.floor_over_ball(c, rho) > t)
 }
 
-/// The distance (m) beyond which a point cannot push: every relevant plane at least this far
-/// makes a point–SSDF force smaller than `τ k ε3`, `τ` the pair's pruning `tolerance`
-/// ([`PRUNE_TOLERANCE`] unless the scene sets another, [`super::pair_tolerance`]). With `V` a bound on
-/// the speed of a query point relative to the plane body's material point, a point–plane
-/// force is at most `k s⁺_ε3(-φ) (1 + V/v_d) √(1 + μ²)` (the force bound of
-/// [`pair_contact`](crate::contact::pair_contact)), and `s⁺_ε3(-φ) ≤ ε3 e^{-φ/ε3}` for
-/// `φ ≥ 0`, so `φ ≥ ε3 ln((1 + V/v_d) √(1 + μ²) / τ)` is enough. `None` when the parameters
-/// leave no such distance (ε3 not positive, not finite values).
-pub fn reach_distance(
-    eps3: f64,
-    speed: f64,
-    dissipation_velocity: f64,
-    friction: f64,
-    tolerance: f64,
-) -> Option<f64> {
-    let factor = (1.0 + speed / dissipation_velocity.abs()) * (1.0 + friction * friction).sqrt();
-    let t = eps3 * (factor / tolerance).ln();
-    (eps3 > 0.0 && t.is_finite()).then_some(t * (1.0 + 1e-12))
-}
-
 /// What a pair's proof of being out of reach reads of its contact parameters (real parts):
 /// the SSDF's ε1 (m²) on each side, the spring's ε3 (m), the margin where its springs rest (m), the
 /// dissipation velocity (m/s) and the friction coefficient.
@@ -429,7 +410,7 @@ pub fn out_of_reach_by(
     seed: Seed,
     scratch: &mut Scratch,
 ) -> Beyond {
-    let Some(sides) = sides(a, b, rels, prm) else {
+    let Some(sides) = sides(a, b, rels, prm, f64::ln) else {
         return Beyond::Not;
     };
     let spring = prm.spring();
@@ -542,11 +523,14 @@ impl<'a> Sides<'a> {
 // compiler it stopped being inlined when unrelated code moved, and the copy of its result
 // cost `floating3`'s semi-implicit step 0.6 k of its 40 k instructions (callgrind).
 #[inline(always)]
+/// The pair's sides at `rels` (as [`out_of_reach`]), each with its reach distance `t`, the
+/// logarithm in it taken by `ln` (`f64::ln`, or `ln_above` for distances bounded from above).
 pub(super) fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
+    ln: fn(f64) -> f64,
 ) -> Option<Sides<'a>> {
     let ReachParams {
         eps1,
@@ -571,7 +555,8 @@ pub(super) fn sides<'a>(
         let speed = (rel.linvel - rel.angvel_planes.cross(&rel.translation)).norm()
             + (rel.angvel - rel.angvel_planes).norm() * s.bvh().max_norm;
         // The springs rest at the margin: the reach distance counts from there.
-        let t = margin + reach_distance(eps3, speed, dissipation_velocity, friction, tolerance)?;
+        let t =
+            margin + reach_distance_by(eps3, speed, dissipation_velocity, friction, tolerance, ln)?;
         if !t.is_finite() {
             return None;
         }
