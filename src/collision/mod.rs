@@ -288,6 +288,21 @@ impl<T: Scalar> Frame<T> {
         }
     }
 
+    /// This body's motion in the world's frame: [`Frame::relative_to`] the world's identity
+    /// frame, the same numbers (but for a zero's sign) without the products by the identity
+    /// (a pair with the floor: three fifths of `relative_to`'s time on three free bodies were
+    /// its matrix products).
+    pub fn relative_to_world(&self) -> Relative<T> {
+        Relative {
+            rotation: self.rotation,
+            translation: self.origin,
+            linvel: self.linvel,
+            angvel: self.angvel,
+            angvel_planes: Vector3::zeros(),
+            surface: None,
+        }
+    }
+
     /// This body's motion in the frame of `planes`. Differences of world positions are taken
     /// once here, so bodies far from the world origin lose no precision in the pair math.
     pub fn relative_to(&self, planes: &Frame<T>) -> Relative<T> {

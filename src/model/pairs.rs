@@ -548,11 +548,17 @@ impl Model {
         // A body's motion seen from the other, for each body with points to query: a
         // half-space has none, and its side's frame is never read (half the frames of a pair
         // with the floor, a tenth of the proofs' time on free bodies).
-        let seen = |query: &Collider, q: &Frame<f64>, planes: &Frame<f64>| match query {
+        // (Seen from the world, body 0, a body's motion is its own frame's.)
+        let seen = |query: &Collider, q: &Frame<f64>, planes: &Frame<f64>, world: bool| match query
+        {
+            Collider::Aopc(_) if world => q.relative_to_world(),
             Collider::Aopc(_) => q.relative_to(planes),
             Collider::HalfSpace { .. } => Relative::unread(),
         };
-        let rels = [seen(ca, &ra, &rb), seen(cb, &rb, &ra)];
+        let rels = [
+            seen(ca, &ra, &rb, pair.b == 0),
+            seen(cb, &rb, &ra, pair.a == 0),
+        ];
         match kept {
             Some(kept) => out_of_reach_proven(
                 ca,

@@ -196,3 +196,29 @@ fn the_logarithm_bounded_from_above_lies_within_2e_3_above_it() {
         assert!(bound == ln || (bound.is_nan() && ln.is_nan()), "{y}");
     }
 }
+
+#[test]
+fn a_body_seen_from_the_world_is_its_own_frame() {
+    // `relative_to_world` is `relative_to` the world's identity frame, entry for entry.
+    let mut state = 5;
+    let mut r = || crate::geometry::lcg(&mut state);
+    for _ in 0..50 {
+        let axis = Unit::new_normalize(Vector3::new(r(), r(), r() + 2.0));
+        let frame = Frame {
+            rotation: *Rotation3::from_axis_angle(&axis, 3.0 * r()).matrix(),
+            origin: Vector3::new(r(), r(), r()) * 10.0,
+            linvel: Vector3::new(r(), r(), r()),
+            angvel: Vector3::new(r(), r(), r()),
+        };
+        let (a, b) = (
+            frame.relative_to_world(),
+            frame.relative_to(&Frame::identity()),
+        );
+        assert_eq!(a.rotation, b.rotation);
+        assert_eq!(a.translation, b.translation);
+        assert_eq!(a.linvel, b.linvel);
+        assert_eq!(a.angvel, b.angvel);
+        assert_eq!(a.angvel_planes, b.angvel_planes);
+        assert!(a.surface.is_none() && b.surface.is_none());
+    }
+}
