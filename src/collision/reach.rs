@@ -31,7 +31,7 @@
 //! proof, and its run of 1 s from 3.3 s to 2.6 s.
 
 use super::bounds::{aopc_exceeds, widened_margin};
-use super::proof::reach_distance_by;
+use super::proof::{ln_above, reach_distance_by};
 use super::settle::{point_springs_settle, seed_within};
 use super::*;
 
@@ -410,7 +410,7 @@ pub fn out_of_reach_by(
     seed: Seed,
     scratch: &mut Scratch,
 ) -> Beyond {
-    let Some(sides) = sides(a, b, rels, prm, f64::ln) else {
+    let Some(sides) = sides(a, b, rels, prm, false) else {
         return Beyond::Not;
     };
     let spring = prm.spring();
@@ -523,14 +523,15 @@ impl<'a> Sides<'a> {
 // compiler it stopped being inlined when unrelated code moved, and the copy of its result
 // cost `floating3`'s semi-implicit step 0.6 k of its 40 k instructions (callgrind).
 #[inline(always)]
-/// The pair's sides at `rels` (as [`out_of_reach`]), each with its reach distance `t`, the
-/// logarithm in it taken by `ln` (`f64::ln`, or `ln_above` for distances bounded from above).
+/// The pair's sides at `rels` (as [`out_of_reach`]), each with its reach distance `t`; where
+/// `above`, `t` is bounded from above without a square root or a logarithm (the speed's
+/// norms by their sums of magnitudes, `ln` by `ln_above`), for a kept proof's quick check.
 pub(super) fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
     rels: &[Relative<f64>; 2],
     prm: &ReachParams,
-    ln: fn(f64) -> f64,
+    above: bool,
 ) -> Option<Sides<'a>> {
     let ReachParams {
         eps1,
@@ -552,8 +553,18 @@ pub(super) fn sides<'a>(
         // A query point `x = arm + t` moves against the plane body's material point at it
         // (the sliding velocity every plane reads there, docs/method.md, departure 6) with
         // `(linvel - ω_p × t) + (ω_q - ω_p) × arm`: bounded over the cloud by its largest arm.
-        let speed = (rel.linvel - rel.angvel_planes.cross(&rel.translation)).norm()
-            + (rel.angvel - rel.angvel_planes).norm() * s.bvh().max_norm;
+        let (lin, ang) = (
+            rel.linvel - rel.angvel_planes.cross(&rel.translation),
+            rel.angvel - rel.angvel_planes,
+        );
+        let max_norm = s.bvh().max_norm;
+        let (speed, ln): (f64, fn(f64) -> f64) = if above {
+            // |x| ≤ Σ|x_i|; the factor covers a last bit of the norm's rounding.
+            let l1 = |x: Vector3<f64>| x.x.abs() + x.y.abs() + x.z.abs();
+            ((l1(lin) + l1(ang) * max_norm) * (1.0 + 1e-12), ln_above)
+        } else {
+            (lin.norm() + ang.norm() * max_norm, f64::ln)
+        };
         // The springs rest at the margin: the reach distance counts from there.
         let t =
             margin + reach_distance_by(eps3, speed, dissipation_velocity, friction, tolerance, ln)?;

@@ -222,3 +222,72 @@ fn a_body_seen_from_the_world_is_its_own_frame() {
         assert!(a.surface.is_none() && b.surface.is_none());
     }
 }
+
+#[test]
+fn the_quick_check_of_a_kept_proof_never_covers_what_the_exact_one_does_not() {
+    // A kept proof's side against moves of every size around its room and its margin, with
+    // the reach distance a little larger in the quick check (as `sides(.., true)` bounds it):
+    // wherever `covers_above` holds, `covers` holds; and it holds often.
+    use super::proof::ProofSide;
+    use super::reach::Side;
+    let v = Vector3::new;
+    let query = sample_union(&[sphere(v(0.0, 0.0, 0.0), 0.05)], 0.01);
+    let planes = [
+        Collider::Aopc(sample_union(
+            &[capsule(v(0.0, 0.0, 0.0), v(0.0, 0.0, 0.3), 0.03)],
+            0.01,
+        )),
+        Collider::HalfSpace {
+            point: Vector3::zeros(),
+            normal: Vector3::z(),
+        },
+    ];
+    let mut s = 9u64;
+    let (mut quick, mut exact) = (0, 0);
+    for case in 0..4000 {
+        let axis = Unit::new_normalize(vec3(&mut s));
+        let rotation = Rotation3::from_axis_angle(&axis, 3.0 * lcg(&mut s)).into_inner();
+        let translation = vec3(&mut s) * 0.5;
+        let room = 0.002 * (1.0 + lcg(&mut s));
+        let kept = ProofSide {
+            rotation,
+            translation,
+            t: 0.01 + 0.005 * lcg(&mut s),
+            m1: if case % 5 == 0 {
+                f64::INFINITY
+            } else {
+                1e-4 * (1.5 + lcg(&mut s))
+            },
+            room,
+        };
+        let size = room * 2f64.powf(3.0 * lcg(&mut s));
+        let turn = Unit::new_normalize(vec3(&mut s));
+        // A turn whose points at the cloud's radius move about `size`, and a shift of `size`.
+        let moved_rot =
+            Rotation3::from_axis_angle(&turn, size * lcg(&mut s) / 0.05).into_inner() * rotation;
+        let moved_tr = translation + vec3(&mut s).normalize() * size;
+        let side = |t: f64| Side {
+            query: &query,
+            planes: &planes[case % 2],
+            rotation: moved_rot,
+            translation: moved_tr,
+            t,
+            speed: 0.0,
+            eps1: 1e-5,
+        };
+        let t = 0.008 * (1.0 + 0.5 * lcg(&mut s));
+        let (exact_side, bounded) = (side(t), side(t * (1.0 + 1e-3 * (1.0 + lcg(&mut s)))));
+        let (a, b) = (kept.covers_above(&bounded), kept.covers(&exact_side));
+        assert!(
+            !a || b,
+            "case {case}: the quick check covers, the exact one does not"
+        );
+        quick += a as usize;
+        exact += b as usize;
+    }
+    println!("covered: quick {quick}, exact {exact} of 4000");
+    assert!(
+        quick * 3 >= exact && quick < exact,
+        "quick {quick}, exact {exact}"
+    );
+}
