@@ -289,7 +289,8 @@ impl<T: Scalar> Frame<T> {
     }
 
     /// This body's motion in the world's frame: [`Frame::relative_to`] the world's identity
-    /// frame, the same numbers (but for a zero's sign) without the products by the identity
+    /// frame, the same numbers for finite entries (but for a zero's sign) without the products
+    /// by the identity
     /// (a pair with the floor: three fifths of `relative_to`'s time on three free bodies were
     /// its matrix products).
     pub fn relative_to_world(&self) -> Relative<T> {

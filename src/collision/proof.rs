@@ -112,24 +112,14 @@ pub struct ProofSide {
 }
 
 impl ProofSide {
-    /// Whether the proof still covers `side` now: every query point has moved at most `δ`
-    /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), and lies farther than `t - δ` from every
-    /// plane the proof read; a plane relevant now (within `m₁ = M1 ε1`) was within
-    /// `m₁ + 2δ|p_j - p_i|` at the proof (relevance compares `d_j - d_i`, affine in the query
-    /// point with gradient `2(p_i - p_j)`, `i` the nearest point at the proof), and
-    /// `|p_j - p_i|` is at most `2R` (`R` the plane cloud's root radius) and at most
-    /// `2√(D + m₁) + 2δ` (`D` the squared distance to the nearest point at the proof:
-    /// docs/performance.md). So the proof covers where `m₁ + 4δR` is within its margin, or
-    /// where `m₁` is and `δ` is within its room. A proof by the floor alone (`m1` infinite)
-    /// needs only the distance. Rounding allowances: 1e-9 relative, and 1e-15 of the poses'
-    /// size.
     /// A sufficient test for [`ProofSide::covers`] without a square root, for `side` with its
     /// distance bounded from above (`sides(.., true)`): `δ`'s two terms `a + b` are at most
     /// `√(2(a² + b²))`, so each `δ ≤ L` that `covers` asks holds where
     /// `2(a² + b²)(1 + 1e-8) ≤ (L - ε)²`, `ε` twice `covers`' rounding allowance of `1e-15` of
     /// the poses' size (bounded by sums of magnitudes) plus `1e-15` of the distances (the
     /// rounding of `t + δ`), and `1e-8` covering `covers`' own `1e-9` and this sum's
-    /// rounding. Where this holds, `covers` does (tested on random moves).
+    /// rounding; where a square overflows (`covers`' norms infinite), `false`. Where this
+    /// holds, `covers` does (tested on random moves).
     pub(super) fn covers_above(&self, side: &Side) -> bool {
         let scale = side.query.bvh().max_norm;
         let (dt, dr) = (
@@ -137,8 +127,12 @@ impl ProofSide {
             side.rotation - self.rotation,
         );
         let r2 = 2.0 * (dt.norm_squared() + dr.norm_squared() * (scale * scale)) * (1.0 + 1e-8);
-        // (With the distances' own size: `t` and `δ` are added before `covers` compares.)
         let tr = &side.translation;
+        // Where a square overflows, `covers`' norms are infinite and it refuses: so does this.
+        if !(r2.is_finite() && tr.norm_squared().is_finite()) {
+            return false;
+        }
+        // (With the distances' own size: `t` and `δ` are added before `covers` compares.)
         let small = 2e-15 * (tr.x.abs() + tr.y.abs() + tr.z.abs() + scale)
             + 1e-15 * (self.t.abs() + side.t.abs());
         let within = |l: f64| {
@@ -156,6 +150,17 @@ impl ProofSide {
         within(self.t - side.t) && relevant
     }
 
+    /// Whether the proof still covers `side` now: every query point has moved at most `δ`
+    /// (`|Δtranslation| + ‖Δrotation‖_F max|p|`), and lies farther than `t - δ` from every
+    /// plane the proof read; a plane relevant now (within `m₁ = M1 ε1`) was within
+    /// `m₁ + 2δ|p_j - p_i|` at the proof (relevance compares `d_j - d_i`, affine in the query
+    /// point with gradient `2(p_i - p_j)`, `i` the nearest point at the proof), and
+    /// `|p_j - p_i|` is at most `2R` (`R` the plane cloud's root radius) and at most
+    /// `2√(D + m₁) + 2δ` (`D` the squared distance to the nearest point at the proof:
+    /// docs/performance.md). So the proof covers where `m₁ + 4δR` is within its margin, or
+    /// where `m₁` is and `δ` is within its room. A proof by the floor alone (`m1` infinite)
+    /// needs only the distance. Rounding allowances: 1e-9 relative, and 1e-15 of the poses'
+    /// size.
     pub(super) fn covers(&self, side: &Side) -> bool {
         let scale = side.query.bvh().max_norm;
         let delta = ((side.translation - self.translation).norm()

@@ -516,16 +516,16 @@ impl<'a> Sides<'a> {
     }
 }
 
-/// The sides of a pair with points, as in [`out_of_reach`] (0: `a`'s points against `b`'s
-/// planes, 1: the reverse); `None` when a side has no reach distance or ε1 is not positive
-/// (nothing can be proven).
+/// The sides of a pair with points at `rels`, as in [`out_of_reach`] (0: `a`'s points against
+/// `b`'s planes, 1: the reverse), each with its reach distance `t`; `None` when a side has no
+/// reach distance or ε1 is not positive (nothing can be proven). Where `above`, `t` is bounded
+/// from above without a square root or a logarithm (the speed's norms by their sums of
+/// magnitudes, `ln` by `ln_above`), for a kept proof's quick check; `None` also where a
+/// speed's square overflows (the exact speed is then infinite, and so is its distance).
 // Always inlined: a kept proof's check (every step, every pair) is mostly this; left to the
 // compiler it stopped being inlined when unrelated code moved, and the copy of its result
 // cost `floating3`'s semi-implicit step 0.6 k of its 40 k instructions (callgrind).
 #[inline(always)]
-/// The pair's sides at `rels` (as [`out_of_reach`]), each with its reach distance `t`; where
-/// `above`, `t` is bounded from above without a square root or a logarithm (the speed's
-/// norms by their sums of magnitudes, `ln` by `ln_above`), for a kept proof's quick check.
 pub(super) fn sides<'a>(
     a: &'a Collider,
     b: &'a Collider,
@@ -559,9 +559,16 @@ pub(super) fn sides<'a>(
         );
         let max_norm = s.bvh().max_norm;
         let (speed, ln): (f64, fn(f64) -> f64) = if above {
-            // |x| ≤ Σ|x_i|; the factor covers a last bit of the norm's rounding.
+            if !(lin.norm_squared().is_finite() && ang.norm_squared().is_finite()) {
+                return None;
+            }
+            // |x| ≤ Σ|x_i|; the factor covers the norm's last bit of rounding, the term its
+            // loss where the squares are below the normal range.
             let l1 = |x: Vector3<f64>| x.x.abs() + x.y.abs() + x.z.abs();
-            ((l1(lin) + l1(ang) * max_norm) * (1.0 + 1e-12), ln_above)
+            (
+                (l1(lin) + l1(ang) * max_norm) * (1.0 + 1e-12) + 1e-140,
+                ln_above,
+            )
         } else {
             (lin.norm() + ang.norm() * max_norm, f64::ln)
         };

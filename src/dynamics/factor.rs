@@ -222,8 +222,8 @@ impl Tree {
         while next > 0 {
             let k = next - 1;
             if shape.chain_end[k] {
-                // Its rows are the last of the chain's ancestors' updates still to make (every
-                // descendant's row comes later in coordinate order, so it is done).
+                // Every update the chain's rows receive from their descendants is done: those
+                // rows come later in coordinate order, and were factored before.
                 let s = k + 1 - CHAIN;
                 let rows = &mut m.vals[adr[s]..adr[s] + CHAIN_ENTRIES];
                 if !factor_root_chain(rows.try_into().expect("a root chain's 21 entries")) {

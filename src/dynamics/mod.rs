@@ -169,7 +169,10 @@ impl Node {
     }
 }
 
-/// The mechanical model: bodies, joints, gravity. Immutable once built.
+/// The mechanical model: bodies, joints, gravity. Immutable once built: its nodes keep each
+/// body's offset and inertia as built, and each DOF's unit axis (`dof_unit`), so a body's
+/// `offset` or `inertia`, or a joint's kind, axis or anchor, changed afterwards would not be
+/// seen (a joint's passive properties and limits are read where they are).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tree {
     /// Bodies; index 0 is the world. Parents come before children.
@@ -193,7 +196,8 @@ pub struct Tree {
     /// configuration (entry `i` is 1, the others 0: a free joint's rotations, a ball joint's
     /// about its body origin, a hinge about a body axis through it, a slide along one), so
     /// that the mass matrix applies an inertia to it by reading the inertia's entries
-    /// ([`BodyInertia::apply_unit`]; the same numbers, but for the sign of a zero).
+    /// ([`BodyInertia::apply_unit`]; the same numbers for finite entries, but for the sign
+    /// of a zero).
     dof_unit: Vec<Option<usize>>,
 }
 
@@ -424,13 +428,13 @@ impl Tree {
     /// Joint-space inertia matrix `M(q)` by the composite-rigid-body algorithm, armature
     /// included, at its tree sparsity (what [`Tree::factor`] takes): each entry is between a
     /// DOF and one of its ancestors (or itself), computed once.
-    // Nodes are visited by index: each step reads several per-node arrays and walks parents.
     pub fn mass_matrix_sparse<T: Scalar>(&self, kin: &Kinematics<T>) -> TreeMatrix<T> {
         self.composite_rigid_body(kin, true)
     }
 
     /// [`Tree::mass_matrix_sparse`], with a free joint's block by its fixed loops where
     /// `fixed_blocks` (the same entries as the general loop's: tested).
+    // Nodes are visited by index: each step reads several per-node arrays and walks parents.
     #[allow(clippy::needless_range_loop)]
     fn composite_rigid_body<T: Scalar>(
         &self,

@@ -230,8 +230,9 @@ impl<T: Scalar> BodyInertia<T> {
     }
 
     /// [`BodyInertia::apply`] to the unit motion `e_i` (`i < 3` a rotation about axis `i`,
-    /// else a translation along axis `i - 3`), read off the inertia's entries: the same
-    /// numbers but for the sign of a zero.
+    /// else a translation along axis `i - 3`), read off the inertia's entries: for finite
+    /// entries the same numbers but for the sign of a zero (an infinite one gives `inf` where
+    /// `apply`'s products by zero give `NaN`).
     #[inline]
     pub fn apply_unit(&self, i: usize) -> Vector6<T> {
         let h = &self.moment;

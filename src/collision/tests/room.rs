@@ -285,6 +285,24 @@ fn the_quick_check_of_a_kept_proof_never_covers_what_the_exact_one_does_not() {
         quick += a as usize;
         exact += b as usize;
     }
+    // Where a square overflows, neither covers (the exact norms are infinite).
+    let kept = ProofSide {
+        rotation: Matrix3::identity(),
+        translation: Vector3::zeros(),
+        t: 1e300,
+        m1: f64::INFINITY,
+        room: 0.0,
+    };
+    let far = Side {
+        query: &query,
+        planes: &planes[1],
+        rotation: Matrix3::identity(),
+        translation: v(1e160, 0.0, 0.0),
+        t: 0.01,
+        speed: 0.0,
+        eps1: 1e-5,
+    };
+    assert!(!kept.covers(&far) && !kept.covers_above(&far));
     println!("covered: quick {quick}, exact {exact} of 4000");
     assert!(
         quick * 3 >= exact && quick < exact,
