@@ -128,13 +128,14 @@ impl ProofSide {
         );
         let r2 = 2.0 * (dt.norm_squared() + dr.norm_squared() * (scale * scale)) * (1.0 + 1e-8);
         let tr = &side.translation;
-        // Where a square overflows, `covers`' norms are infinite and it refuses: so does this.
-        if !(r2.is_finite() && tr.norm_squared().is_finite()) {
+        let tr1 = tr.x.abs() + tr.y.abs() + tr.z.abs();
+        // Where a square may overflow, `covers`' norms may be infinite and it refuse: so does
+        // this.
+        if !(r2.is_finite() && tr1 < 1e150) {
             return false;
         }
         // (With the distances' own size: `t` and `δ` are added before `covers` compares.)
-        let small = 2e-15 * (tr.x.abs() + tr.y.abs() + tr.z.abs() + scale)
-            + 1e-15 * (self.t.abs() + side.t.abs());
+        let small = 2e-15 * (tr1 + scale) + 1e-15 * (self.t.abs() + side.t.abs());
         let within = |l: f64| {
             let l = l - small;
             l >= 0.0 && r2 <= l * l
