@@ -194,4 +194,19 @@ impl<T> State<T> {
             act: Vec::new(),
         }
     }
+
+    /// A state holding no memory (no coordinate), to be written by [`State::assign`].
+    pub fn empty() -> State<T> {
+        State::new(Vec::new(), Vec::new())
+    }
+}
+
+impl<T: Clone> State<T> {
+    /// Makes this state a copy of `from`, reusing its buffers where they are large enough
+    /// (`clone` allocates three vectors; a copy made at every step need not).
+    pub fn assign(&mut self, from: &State<T>) {
+        self.q.clone_from(&from.q);
+        self.v.clone_from(&from.v);
+        self.act.clone_from(&from.act);
+    }
 }

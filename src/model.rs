@@ -102,6 +102,10 @@ pub struct Forward<T: Scalar> {
     /// in all; `None` where
     /// every limit held in all (or the options gave the shares, [`ForwardOptions::holds`]).
     pub holds: Option<Vec<T>>,
+    /// The kinematics of the evaluation's `(q, v, mocap)` ([`ForwardOptions::kinematics`] or
+    /// computed), handed back so that a caller computing kinematics again reuses their buffers
+    /// ([`crate::dynamics::Tree::kinematics_into`]).
+    pub(crate) kinematics: Kinematics<T>,
 }
 
 /// Why the dynamics could not be evaluated.

@@ -38,19 +38,54 @@ impl Tree {
     /// # Panics
     /// If `mocap` is neither empty nor of length `MOCAP_INPUTS · mocap bodies`.
     pub fn kinematics_with<T: Scalar>(&self, q: &[T], v: &[T], mocap: &[T]) -> Kinematics<T> {
+        let mut kin = Kinematics::empty();
+        self.kinematics_into(q, v, mocap, &mut kin);
+        kin
+    }
+
+    /// [`Tree::kinematics_with`] written into `kin`, whose buffers are reused (the same bits,
+    /// whatever `kin` held before): a caller that computes kinematics at every step keeps one
+    /// [`Kinematics`] instead of allocating five vectors each time.
+    ///
+    /// # Panics
+    /// As [`Tree::kinematics_with`].
+    pub fn kinematics_into<T: Scalar>(
+        &self,
+        q: &[T],
+        v: &[T],
+        mocap: &[T],
+        kin: &mut Kinematics<T>,
+    ) {
         assert!(
             mocap.is_empty() || mocap.len() == MOCAP_INPUTS * self.mocap.len(),
             "{} mocap inputs for {} mocap bodies",
             mocap.len(),
             self.mocap.len()
         );
-        let n = self.nodes.len();
-        let mut x = Vec::with_capacity(n);
+        let Kinematics {
+            x,
+            s,
+            vel,
+            bias_acc,
+            frames,
+        } = kin;
+        x.clear();
+        vel.clear();
+        bias_acc.clear();
         // Every DOF's column, at its velocity index (a node's columns are its joint's DOFs).
-        let mut s = vec![Vector6::zeros(); self.nv];
-        let mut vel: Vec<Vector6<T>> = Vec::with_capacity(n);
-        let mut bias_acc = Vec::with_capacity(n);
-        let mut world: Vec<Transform<T>> = Vec::with_capacity(n);
+        s.clear();
+        s.resize(self.nv, Vector6::zeros());
+        // Every body's frame, written at each of its nodes in turn (a body's nodes come one
+        // after the other, its last one its frame): until a body's last node is done, its
+        // entry holds the world pose of the node done last, which is what that body's next
+        // node and only it reads as its parent's. The world and any body without a node
+        // stay at the identity.
+        frames.clear();
+        frames.resize(self.bodies.len(), crate::collision::Frame::identity());
+        let world = |frame: &crate::collision::Frame<T>| Transform {
+            rotation: frame.rotation,
+            translation: frame.origin,
+        };
         for node in &self.nodes {
             let (xj, cj): (Transform<T>, Vector6<T>) = match node.joint.map(|j| &self.joints[j]) {
                 None if self.bodies[node.body].mocap && !mocap.is_empty() => {
@@ -65,9 +100,9 @@ impl Tree {
                     let linvel = Vector3::new(m[7], m[8], m[9]);
                     let angvel = Vector3::new(m[10], m[11], m[12]);
                     x.push(xi);
-                    world.push(xi);
                     vel.push(spatial::spatial(&angvel, &(r.transpose() * linvel)));
                     bias_acc.push(Vector6::zeros());
+                    frames[node.body] = body_frame(&xi, &vel[vel.len() - 1]);
                     continue;
                 }
                 None => (Transform::identity(), Vector6::zeros()),
@@ -129,9 +164,9 @@ impl Tree {
                                 translation: Vector3::new(q[qa], q[qa + 1], q[qa + 2]),
                             };
                             x.push(xj);
-                            world.push(xj);
-                            vel.push(self.joint_velocity(&s, v, da..da + 6));
+                            vel.push(self.joint_velocity(s, v, da..da + 6));
                             bias_acc.push(cj);
+                            frames[node.body] = body_frame(&xj, &vel[vel.len() - 1]);
                             continue;
                         }
                     }
@@ -140,41 +175,41 @@ impl Tree {
             let xi = node.offset.lift::<T>().then(&xj);
             let parent_world = node
                 .parent
-                .map(|p| world[p])
+                .map(|p| world(&frames[self.nodes[p].body]))
                 .unwrap_or_else(Transform::identity);
-            world.push(parent_world.then(&xi));
             let vparent = node
                 .parent
                 .map(|p| xi.motion(&vel[p]))
                 .unwrap_or_else(Vector6::zeros);
-            let vj = self.joint_velocity(&s, v, self.node_dofs_of(node));
+            let vj = self.joint_velocity(s, v, self.node_dofs_of(node));
             let vi = vparent + vj;
             bias_acc.push(cj + cross_motion(&vi, &vj));
             vel.push(vi);
             x.push(xi);
+            frames[node.body] = body_frame(&parent_world.then(&xi), &vi);
         }
-        let frames = self
-            .body_node
-            .iter()
-            .map(|bn| match bn {
-                None => crate::collision::Frame::identity(),
-                Some(i) => {
-                    let w = &world[*i];
-                    crate::collision::Frame {
-                        rotation: w.rotation,
-                        origin: w.translation,
-                        linvel: w.rotation * spatial::lin(&vel[*i]),
-                        angvel: w.rotation * spatial::ang(&vel[*i]),
-                    }
-                }
-            })
-            .collect();
+    }
+}
+
+/// A body's frame from its node's world pose `w` and spatial velocity `vel` (node frame).
+fn body_frame<T: Scalar>(w: &Transform<T>, vel: &Vector6<T>) -> crate::collision::Frame<T> {
+    crate::collision::Frame {
+        rotation: w.rotation,
+        origin: w.translation,
+        linvel: w.rotation * spatial::lin(vel),
+        angvel: w.rotation * spatial::ang(vel),
+    }
+}
+
+impl<T: Scalar> Kinematics<T> {
+    /// Kinematics of nothing, holding no memory: to be filled by [`Tree::kinematics_into`].
+    pub fn empty() -> Kinematics<T> {
         Kinematics {
-            x,
-            s,
-            vel,
-            bias_acc,
-            frames,
+            x: Vec::new(),
+            s: Vec::new(),
+            vel: Vec::new(),
+            bias_acc: Vec::new(),
+            frames: Vec::new(),
         }
     }
 }

@@ -126,3 +126,78 @@ fn quaternions_of_any_scale_normalize_to_the_same_rotation_and_derivative() {
     let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
     assert_eq!(quat_from(&q).w, q[0] / n);
 }
+
+/// Kinematics written into buffers that held another state's, or another tree's, are those
+/// computed afresh, bit for bit; a body of two joints has its frame from both, in order, and
+/// its child and a mocap body theirs.
+#[test]
+fn kinematics_into_reused_buffers_are_fresh_kinematics() {
+    let tree_a = every_joint();
+    // An arm of two joints on one body (a hinge about z, then a slide along x), a hand on it,
+    // a mocap body.
+    let mut joints = tree_a.joints.clone();
+    let (hinge, slide) = (joints[3].clone(), joints[5].clone());
+    joints.truncate(0);
+    joints.push(Joint {
+        axis: Vector3::z(),
+        ..hinge.clone()
+    });
+    joints.push(Joint {
+        axis: Vector3::x(),
+        ..slide
+    });
+    joints.push(hinge);
+    let mut bodies: Vec<Body> = tree_a.bodies[..2].to_vec();
+    bodies[1].joints = vec![0, 1];
+    bodies[1].offset = Isometry3::translation(0.0, 0.0, 1.0);
+    let mut hand = tree_a.bodies[4].clone();
+    (hand.parent, hand.joints) = (Some(1), vec![2]);
+    let mut mocap = tree_a.bodies[5].clone();
+    (mocap.parent, mocap.joints, mocap.mocap) = (Some(0), vec![], true);
+    bodies.extend([hand, mocap]);
+    let tree_b = Tree::new(bodies, joints, Vector3::new(0.0, 0.0, -9.81)).unwrap();
+    let mut state = 11;
+    let mut draw = |n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|_| crate::geometry::lcg(&mut state) - 0.5)
+            .collect()
+    };
+    let mocap_in = draw(MOCAP_INPUTS);
+    let same = |a: &Kinematics<f64>, b: &Kinematics<f64>| format!("{a:?}") == format!("{b:?}");
+    for tree in [&tree_a, &tree_b] {
+        let inputs = if tree.mocap.is_empty() {
+            vec![]
+        } else {
+            mocap_in.clone()
+        };
+        let (q1, v1, q2, v2) = (draw(tree.nq), draw(tree.nv), draw(tree.nq), draw(tree.nv));
+        let fresh = tree.kinematics_with(&q2, &v2, &inputs);
+        // Buffers of the same tree at another state, of the other tree, and none.
+        let mut kin = tree.kinematics_with(&q1, &v1, &inputs);
+        tree.kinematics_into(&q2, &v2, &inputs, &mut kin);
+        assert!(same(&kin, &fresh));
+        let mut other = every_joint().kinematics(&draw(every_joint().nq), &draw(every_joint().nv));
+        tree.kinematics_into(&q2, &v2, &inputs, &mut other);
+        assert!(same(&other, &fresh));
+        let mut empty = Kinematics::empty();
+        tree.kinematics_into(&q2, &v2, &inputs, &mut empty);
+        assert!(same(&empty, &fresh));
+    }
+    // The arm: the hinge's turn about z, then the slide along the turned x.
+    let (q, v) = (vec![0.3, 0.2, -0.4], vec![0.0; 3]);
+    let kin = tree_b.kinematics_with(&q, &v, &mocap_in);
+    let (s, c) = 0.3f64.sin_cos();
+    let arm = &kin.frames[1];
+    assert!((arm.origin - Vector3::new(0.2 * c, 0.2 * s, 1.0)).norm() < 1e-15);
+    assert!((arm.rotation - Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)).norm() < 1e-15);
+    // The hand hangs from the arm's frame; the mocap body is where its inputs put it.
+    let hand = &kin.frames[2];
+    let at = arm.origin + arm.rotation * Vector3::new(0.3, 0.0, 0.0);
+    assert!((hand.origin - at).norm() < 1e-15);
+    let mocap = &kin.frames[3];
+    assert_eq!(
+        mocap.origin,
+        Vector3::new(mocap_in[0], mocap_in[1], mocap_in[2])
+    );
+    assert_eq!(kin.frames[0].origin, Vector3::zeros());
+}

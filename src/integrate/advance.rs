@@ -8,6 +8,7 @@ use crate::contact::ContactParams;
 use crate::dynamics::{Kinematics, MOCAP_INPUTS};
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
+use std::borrow::Cow;
 
 /// The size past which a position or velocity coordinate has diverged (MuJoCo's `mjMAXVAL`).
 /// An energy balance cannot catch every blow-up: an explicit step that makes a stiff actuator's
@@ -91,7 +92,6 @@ impl Model {
                 h: 0.0,
                 error,
             })?;
-        let u = u.to_vec();
         let ctrl = &u[..self.actuators.len()];
         let mocap_moves = (0..self.tree.mocap.len()).any(|m| {
             u[self.actuators.len() + MOCAP_INPUTS * m + 7..][..6]
@@ -114,17 +114,25 @@ impl Model {
         // first stage's inputs are driven by the activations as that step takes them.
         let steps = ((duration / self.timestep) * (1.0 - 1e-12)).ceil().max(1.0);
         let first_h = (!self.integrator.is_adaptive()).then_some(duration / steps);
-        let (start_contacts, a0) = if needs_start {
+        // `spare`: kinematics the forward dynamics are done with, whose buffers the guard's
+        // next check reuses.
+        let (start_contacts, a0, mut spare) = if needs_start {
             let known = cache.kinematics.take(state);
-            let driven = self.driven_inputs(&u, &state.act, &state.q, first_h);
+            let driven = self.driven_inputs(u, &state.act, &state.q, first_h);
             let reuse = reuse_all(&mut cache.pairs, known);
             match self.integrator {
                 Integrator::ImplicitEuler => self
                     .contacts_only(&state.q, &state.v, &driven, prm, reuse)
-                    .map(|c| (Some(c), None)),
+                    .map(|c| (Some(c), None, None)),
                 _ => self
                     .forward_with(&state.q, &state.v, &driven, prm, reuse)
-                    .map(|f| (Some(f.contacts), Some(f.vdot.iter().copied().collect()))),
+                    .map(|f| {
+                        (
+                            Some(f.contacts),
+                            Some(f.vdot.data.into()),
+                            Some(f.kinematics),
+                        )
+                    }),
             }
             .map_err(|error| StepFailure::Dynamics {
                 time: t0,
@@ -133,7 +141,7 @@ impl Model {
                 error,
             })?
         } else {
-            (None, None)
+            (None, None, None)
         };
         let mut monitor = (guard && !damped)
             .then(|| {
@@ -148,7 +156,8 @@ impl Model {
             })
             .flatten();
         let mut report = Advanced {
-            state: state.clone(),
+            // Written where the call ends.
+            state: State::empty(),
             steps: 0,
             rejected: 0,
             subdivided: 0,
@@ -156,12 +165,14 @@ impl Model {
             max_step: 0.0,
         };
         // The guard's check of the state `s` after an internal step: what it computed of `s`'s
-        // kinematics is handed back (with no mocap body, those of the next forward dynamics).
+        // kinematics is handed back (with no mocap body, those of the next forward dynamics),
+        // written into `spare`'s buffers if given (kinematics of another state, done with).
         let check = |monitor: &mut Option<EnergyMonitor>,
                      s: &State<f64>,
                      t: f64,
                      step: usize,
-                     h: f64|
+                     h: f64,
+                     spare: Option<Kinematics<f64>>|
          -> Result<Option<Kinematics<f64>>, StepFailure> {
             if let Some(quantity) = self.first_non_finite(s) {
                 return Err(StepFailure::NonFinite {
@@ -173,7 +184,8 @@ impl Model {
             }
             let mut known = None;
             if let Some(m) = monitor.as_mut() {
-                let kin = self.tree.kinematics(&s.q, &s.v);
+                let mut kin = spare.unwrap_or_else(Kinematics::empty);
+                self.tree.kinematics_into(&s.q, &s.v, &[], &mut kin);
                 let e = self.energy_at(&kin, &s.q, &s.v);
                 known = self.tree.mocap.is_empty().then_some(kin);
                 let now = self.held(s, ctrl, prm);
@@ -202,14 +214,20 @@ impl Model {
             }
             Ok(known)
         };
-        // What the guard leaves for the next call: the balance so far, at the end state.
-        let leave = |monitor: Option<EnergyMonitor>, end: &State<f64>| {
-            monitor.map(|m| EnergyLedger {
-                at: end.clone(),
-                params: *prm,
-                ..m.ledger
-            })
-        };
+        // What the guard leaves for the next call: the balance so far, at the end state (copied
+        // into the buffers of the ledger the last call left, `old`).
+        let leave =
+            |monitor: Option<EnergyMonitor>, end: &State<f64>, old: Option<EnergyLedger>| {
+                monitor.map(|m| {
+                    let mut at = old.map_or_else(State::empty, |l| l.at);
+                    at.assign(end);
+                    EnergyLedger {
+                        at,
+                        params: *prm,
+                        ..m.ledger
+                    }
+                })
+            };
         if !self.integrator.is_adaptive() {
             let n = steps;
             // Refused before any work (the cast below would saturate, and internal steps would
@@ -224,7 +242,8 @@ impl Model {
             }
             let n = n as usize;
             let dt = duration / n as f64;
-            let mut s = state.clone();
+            // The state reached: the start's until the first step is taken (not copied).
+            let mut s = Cow::Borrowed(state);
             let mut first = a0;
             // The kinematics of `s` as the guard computed them, for the next forward dynamics.
             let mut known = None;
@@ -244,7 +263,7 @@ impl Model {
             };
             for k in 0..n {
                 let t = t0 + (k + 1) as f64 * dt;
-                let uk = self.inputs_after(&u, k as f64 * dt);
+                let uk = self.inputs_after(u, k as f64 * dt);
                 let dyn_err = |error| StepFailure::Dynamics {
                     time: t0 + k as f64 * dt,
                     step: k + 1,
@@ -257,7 +276,7 @@ impl Model {
                     prm,
                     h: dt,
                 };
-                s = match self.integrator {
+                s = Cow::Owned(match self.integrator {
                     Integrator::ImplicitEuler => {
                         let carry = StepCarry {
                             jacobian: &mut jac,
@@ -287,7 +306,8 @@ impl Model {
                                     let kinetic = m.ledger.kinetic;
                                     m.ledger.tighten(m.energy, kinetic, stored, at, m.floor);
                                 }
-                                Some(f.vdot.iter().copied().collect())
+                                spare = Some(f.kinematics);
+                                Some(f.vdot.data.into())
                             }
                             a => a,
                         };
@@ -334,8 +354,8 @@ impl Model {
                         }
                         .map_err(dyn_err)?
                     }
-                };
-                known = check(&mut monitor, &s, t, k + 1, dt)?;
+                });
+                known = check(&mut monitor, &s, t, k + 1, dt, spare.take())?;
             }
             cache.kinematics.keep(&s, known);
             if matches!(
@@ -345,10 +365,17 @@ impl Model {
                 cache.jacobian = jac;
                 // Only implicit Euler's steps write (and read) the velocity change.
                 cache.velocity_change = dv.filter(|_| self.integrator == Integrator::ImplicitEuler);
-                cache.left = Some((s.clone(), dt));
+                match &mut cache.left {
+                    // Into the buffers of the mark the last call left.
+                    Some((at, h)) => {
+                        at.assign(&s);
+                        *h = dt;
+                    }
+                    None => cache.left = Some((s.clone().into_owned(), dt)),
+                }
             }
-            cache.ledger = leave(monitor, &s);
-            report.state = s;
+            cache.ledger = leave(monitor, &s, cache.ledger.take());
+            report.state = s.into_owned();
             report.steps = n;
             report.min_step = dt;
             report.max_step = dt;
@@ -368,7 +395,7 @@ impl Model {
                 h = remaining;
             }
             let t = t0 + elapsed;
-            let uk = self.inputs_after(&u, elapsed);
+            let uk = self.inputs_after(u, elapsed);
             let trial = self.dopri5_step(&s, &uk, prm, h, first.clone());
             let cause;
             let (err, out) = match trial {
@@ -407,12 +434,19 @@ impl Model {
                     report.min_step = report.min_step.min(h);
                     report.max_step = report.max_step.max(h);
                     elapsed = if last { duration } else { elapsed + h };
-                    let known = check(&mut monitor, &out.state, t0 + elapsed, report.steps, h)?;
+                    let known = check(
+                        &mut monitor,
+                        &out.state,
+                        t0 + elapsed,
+                        report.steps,
+                        h,
+                        spare.take(),
+                    )?;
                     s = out.state;
                     first = Some(out.last);
                     if last {
                         cache.kinematics.keep(&s, known);
-                        cache.ledger = leave(monitor, &s);
+                        cache.ledger = leave(monitor, &s, cache.ledger.take());
                         report.state = s;
                         return Ok(report);
                     }

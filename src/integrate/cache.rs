@@ -73,8 +73,22 @@ impl StepCarry<'_> {
 /// bit for bit: a memo of a pure function, so it changes no result, and two caches that differ
 /// only in it are equal. Like the rest of the cache it belongs to one model: a tree changed
 /// between calls (its public joints or bodies) needs a new cache.
-#[derive(Clone, Debug, Default)]
-pub(super) struct KinematicsMemo(Option<(State<f64>, Kinematics<f64>)>);
+#[derive(Clone, Debug)]
+pub(super) struct KinematicsMemo {
+    /// The state of `kin`; its buffers are kept when `kin` is taken, for the next one.
+    at: State<f64>,
+    /// The kept kinematics, if any.
+    kin: Option<Kinematics<f64>>,
+}
+
+impl Default for KinematicsMemo {
+    fn default() -> Self {
+        KinematicsMemo {
+            at: State::empty(),
+            kin: None,
+        }
+    }
+}
 
 impl PartialEq for KinematicsMemo {
     fn eq(&self, _: &Self) -> bool {
@@ -85,7 +99,10 @@ impl PartialEq for KinematicsMemo {
 impl KinematicsMemo {
     /// Keeps `kin`, the kinematics of `s` (or forgets, with `None`).
     pub(super) fn keep(&mut self, s: &State<f64>, kin: Option<Kinematics<f64>>) {
-        self.0 = kin.map(|k| (s.clone(), k));
+        if kin.is_some() {
+            self.at.assign(s);
+        }
+        self.kin = kin;
     }
 
     /// The kept kinematics if they are those of `s`, bit for bit; the memo is emptied.
@@ -96,7 +113,7 @@ impl KinematicsMemo {
     /// [`KinematicsMemo::take`] at positions `q` and velocities `v`.
     pub(super) fn take_at(&mut self, q: &[f64], v: &[f64]) -> Option<Kinematics<f64>> {
         let hit = self.at(q, v);
-        self.0.take().filter(|_| hit).map(|(_, kin)| kin)
+        self.kin.take().filter(|_| hit)
     }
 
     /// Whether the kept kinematics are those of `s`, bit for bit.
@@ -109,7 +126,7 @@ impl KinematicsMemo {
         let same = |a: &[f64], b: &[f64]| {
             a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
         };
-        (self.0.as_ref()).is_some_and(|(at, _)| same(&at.q, q) && same(&at.v, v))
+        self.kin.is_some() && same(&self.at.q, q) && same(&self.at.v, v)
     }
 }
 

@@ -123,9 +123,12 @@ impl Model {
                 } else {
                     0.0
                 };
+                // The state it was left at is known (`state`): the call's own ledger holds none
+                // until the call leaves it at its end state.
                 let mut carried = EnergyLedger {
+                    at: State::empty(),
                     scale: l.scale.max(l.kinetic + admitted),
-                    ..l.clone()
+                    ..*l
                 };
                 carried.tighten(l.energy, l.kinetic, stored, t0, floor);
                 carried

@@ -188,9 +188,11 @@ impl Model {
     /// turning included ([`Coupled::add_turning_force`]).
     pub(crate) fn added_kinetic<T: Scalar>(&self, kin: &Kinematics<T>, q: &[T], v: &[T]) -> T {
         let mut out = T::zero();
-        let vs = DVector::from_column_slice(v);
+        // Made only where an equality has an added inertia (a scene without any allocates nothing).
+        let mut vs = None;
         for e in self.equalities.iter().filter(|e| e.impedance > 0.0) {
-            let rate = e.row(q, self.tree.nv).dot(&vs);
+            let vs = vs.get_or_insert_with(|| DVector::from_column_slice(v));
+            let rate = e.row(q, self.tree.nv).dot(vs);
             out += rate * rate * (0.5 * e.impedance);
         }
         for k in &self.connects {

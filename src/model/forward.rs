@@ -244,6 +244,7 @@ impl Model {
             vdot,
             contacts,
             holds,
+            kinematics: kin,
         })
     }
 
