@@ -200,6 +200,19 @@ impl<T: Scalar> ContactParams<T> {
         eps1_sides(self.eps1, self.eps1_scale)
     }
 
+    /// What a proof that a pair is out of reach reads of them, real parts
+    /// ([`crate::collision::out_of_reach`]): those of [`ContactParams::re`]'s, without the
+    /// whole set copied (a pair's proof at every evaluation).
+    pub fn reach(&self) -> crate::collision::ReachParams {
+        crate::collision::ReachParams {
+            eps1: eps1_sides(self.eps1.re(), self.eps1_scale),
+            eps3: self.eps3.re(),
+            margin: self.bound_margin(),
+            dissipation_velocity: self.dissipation_velocity.re(),
+            friction: self.friction.re(),
+        }
+    }
+
     /// Real parts.
     pub fn re(&self) -> ContactParams<f64> {
         ContactParams {
@@ -259,18 +272,6 @@ impl<T: Scalar> ContactParams<T> {
 }
 
 impl ContactParams<f64> {
-    /// What a proof that a pair is out of reach reads of them
-    /// ([`crate::collision::out_of_reach`]).
-    pub fn reach(&self) -> crate::collision::ReachParams {
-        crate::collision::ReachParams {
-            eps1: self.eps1_sides(),
-            eps3: self.eps3,
-            margin: self.bound_margin(),
-            dissipation_velocity: self.dissipation_velocity,
-            friction: self.friction,
-        }
-    }
-
     /// The same parameters in another scalar type (constants: zero derivative).
     pub fn lift<T: Scalar>(&self) -> ContactParams<T> {
         ContactParams {

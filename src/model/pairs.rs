@@ -418,10 +418,11 @@ impl Model {
             Box::new(p.evaluate(kin, s))
         });
         let mut wrenches = vec![Wrench::zero(); self.tree.bodies.len()];
-        let none = PairContact::none();
+        // Made only for a pair without colliders (a large value to build at every evaluation).
+        let mut none = None;
         for (pair, visit) in self.pairs.iter().zip(&visits) {
             let pc = match visit {
-                PairVisit::NoCollider => &none,
+                PairVisit::NoCollider => &*none.get_or_insert_with(PairContact::none),
                 PairVisit::OutOfReach => continue,
                 PairVisit::Evaluated(pc) => pc.as_ref(),
             };
@@ -544,7 +545,6 @@ impl Model {
             return true;
         };
         let (ra, rb) = (kin.frames[pair.a].re(), kin.frames[pair.b].re());
-        let p = prm.re();
         // A body's motion seen from the other, for each body with points to query: a
         // half-space has none, and its side's frame is never read (half the frames of a pair
         // with the floor, a tenth of the proofs' time on free bodies).
@@ -564,7 +564,7 @@ impl Model {
                 ca,
                 cb,
                 &rels,
-                &p.reach(),
+                &prm.reach(),
                 kept,
                 // A kept proof is worth making if it serves the next two forwards: two internal
                 // steps of a one-stage method, half a step of RK4 (its second and third stages).
@@ -574,7 +574,7 @@ impl Model {
                 seed,
                 scratch,
             ),
-            None => out_of_reach(ca, cb, &rels, &p.reach(), scratch),
+            None => out_of_reach(ca, cb, &rels, &prm.reach(), scratch),
         }
     }
 }
