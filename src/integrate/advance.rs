@@ -122,8 +122,8 @@ impl Model {
             let reuse = reuse_all(&mut cache.pairs, known);
             match self.integrator {
                 Integrator::ImplicitEuler => self
-                    .contacts_only(&state.q, &state.v, &driven, prm, reuse)
-                    .map(|c| (Some(c), None, None)),
+                    .contacts_only_at(&state.q, &state.v, &driven, prm, reuse)
+                    .map(|(c, kin)| (Some(c), None, Some(kin))),
                 _ => self
                     .forward_with(&state.q, &state.v, &driven, prm, reuse)
                     .map(|f| {
@@ -355,7 +355,8 @@ impl Model {
                         .map_err(dyn_err)?
                     }
                 });
-                known = check(&mut monitor, &s, t, k + 1, dt, spare.take())?;
+                let buffers = spare.take().or_else(|| cache.kinematics.spare());
+                known = check(&mut monitor, &s, t, k + 1, dt, buffers)?;
             }
             cache.kinematics.keep(&s, known);
             if matches!(

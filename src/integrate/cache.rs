@@ -79,6 +79,9 @@ pub(super) struct KinematicsMemo {
     at: State<f64>,
     /// The kept kinematics, if any.
     kin: Option<Kinematics<f64>>,
+    /// Kinematics of no state in particular, done with: buffers for the next kinematics made
+    /// (the guard's, `Tree::kinematics_into`).
+    spare: Option<Kinematics<f64>>,
 }
 
 impl Default for KinematicsMemo {
@@ -86,6 +89,7 @@ impl Default for KinematicsMemo {
         KinematicsMemo {
             at: State::empty(),
             kin: None,
+            spare: None,
         }
     }
 }
@@ -113,7 +117,23 @@ impl KinematicsMemo {
     /// [`KinematicsMemo::take`] at positions `q` and velocities `v`.
     pub(super) fn take_at(&mut self, q: &[f64], v: &[f64]) -> Option<Kinematics<f64>> {
         let hit = self.at(q, v);
-        self.kin.take().filter(|_| hit)
+        let kin = self.kin.take();
+        if hit {
+            return kin;
+        }
+        self.spare = kin.or(self.spare.take());
+        None
+    }
+
+    /// Keeps kinematics that are done with, for their buffers ([`KinematicsMemo::spare`]).
+    pub(super) fn recycle(&mut self, kin: Kinematics<f64>) {
+        self.spare = Some(kin);
+    }
+
+    /// Kinematics done with ([`KinematicsMemo::recycle`], or kept and missed), to be written
+    /// over.
+    pub(super) fn spare(&mut self) -> Option<Kinematics<f64>> {
+        self.spare.take()
     }
 
     /// Whether the kept kinematics are those of `s`, bit for bit.

@@ -173,16 +173,14 @@ impl Model {
             ..
         } = carry;
         let (ctrl, mocap) = self.split_inputs(u)?;
-        let tau = self
-            .actuator_forces_at(q, v, ctrl, mocap)
-            .as_slice()
-            .to_vec();
+        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
+        let tau = tau.as_slice();
         let pulls = self.pulls(ctrl);
         let mut real = ContactImplicitResidual {
             model: self,
             q: re_vec(q),
             v: re_vec(v),
-            tau: re_vec(&tau),
+            tau: re_vec(tau),
             mocap: re_vec(mocap),
             pulls: pulls.iter().map(|p| p.map(|p| p.re())).collect(),
             prm: prm.re(),
@@ -202,14 +200,26 @@ impl Model {
             };
             let reuse = kept.map_or(Reuse::Nothing, Reuse::All);
             // The guard's kinematics of this very state, if it kept them (the memo is of a
-            // model without mocap bodies, so they are those of `at`).
-            let known = known.and_then(|m| m.take_at(&real.q, &real.v));
+            // model without mocap bodies, so they are those of `at`); else computed into the
+            // buffers of kinematics done with (a damped RK4 stage's before).
+            let mut memo = known;
+            let known = memo.as_deref_mut().and_then(|m| {
+                m.take_at(&real.q, &real.v).or_else(|| {
+                    let mut kin = m.spare()?;
+                    (self.tree).kinematics_into(&real.q, &real.v, &real.mocap, &mut kin);
+                    Some(kin)
+                })
+            });
             let (frozen, a0) = self.frozen_forward_from(at, &real.prm, real.h, reuse, known)?;
             if let Some(slot) = at_start {
                 *slot = Some(frozen.contacts().to_vec());
             }
             let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {
+                // Its kinematics' buffers for the next ones (the guard's, a stage's).
+                if let Some(m) = memo {
+                    m.recycle(frozen.into_kinematics());
+                }
                 return Ok(explicit);
             }
             // The limits that let go at the start are let go at every iterate, as the frozen
@@ -257,20 +267,25 @@ impl Model {
                 }
                 None => (v.to_vec(), r0),
             };
-            if passes(v.len()) > 1 || rk4_stage {
+            let end = if passes(v.len()) > 1 || rk4_stage {
                 let frozen_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
                     Ok(frozen.step_jacobian(&frozen.contact_force_jacobian(x), real.h))
                 };
-                return newton_from(&residual, &frozen_jacobian, x0, r0, jac);
+                newton_from(&residual, &frozen_jacobian, x0, r0, jac)
+            } else {
+                let real_jacobian =
+                    |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(real, x)?.1) };
+                newton_from(&residual, &real_jacobian, x0, r0, jac)
+            };
+            if let Some(m) = memo {
+                m.recycle(frozen.into_kinematics());
             }
-            let real_jacobian =
-                |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(real, x)?.1) };
-            return newton_from(&residual, &real_jacobian, x0, r0, jac);
+            return end;
         }
         let at = EvalPoint {
             q,
             v,
-            tau: &tau,
+            tau,
             mocap,
             pulls: &pulls,
         };

@@ -72,6 +72,9 @@ impl<T: Scalar> Default for ForwardOptions<'_, T> {
     }
 }
 
+/// Every pair's contact ([`Forward::contacts`]) and the kinematics they were found at.
+pub(crate) type ContactsAt = (Vec<Option<PairContact<f64>>>, Kinematics<f64>);
+
 impl Model {
     /// Forward dynamics (paper eq. 28) for inputs `u` (actuator controls, then the mocap
     /// bodies' inputs, see [`Model::nu`]; [`Simulation::inputs`](crate::sim::Simulation::inputs)
@@ -151,13 +154,25 @@ impl Model {
         prm: &ContactParams<f64>,
         opts: ForwardOptions<'_, f64>,
     ) -> Result<Vec<Option<PairContact<f64>>>, DynamicsError> {
+        Ok(self.contacts_only_at(q, v, u, prm, opts)?.0)
+    }
+
+    /// [`Model::contacts_only`], with the kinematics it read handed back (as
+    /// [`Forward::kinematics`]).
+    pub(crate) fn contacts_only_at(
+        &self,
+        q: &[f64],
+        v: &[f64],
+        u: &[f64],
+        prm: &ContactParams<f64>,
+        opts: ForwardOptions<'_, f64>,
+    ) -> Result<ContactsAt, DynamicsError> {
         let (ctrl, mocap) = self.split_inputs(u)?;
         let pulls = self.pulls(ctrl);
         let mut opts = opts;
         let kin = self.evaluation_start(q, v, mocap, &mut opts)?;
-        Ok(self
-            .contacts_with(&kin, prm, &pulls, Pick::InReach, opts.reuse)
-            .1)
+        let contacts = (self.contacts_with(&kin, prm, &pulls, Pick::InReach, opts.reuse)).1;
+        Ok((contacts, kin))
     }
 
     /// What every evaluation at `(q, v)` starts with: the pairs' reuse in `opts` fitted to

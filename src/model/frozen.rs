@@ -156,6 +156,12 @@ impl FrozenForward<'_> {
         self.tapes.is_empty()
     }
 
+    /// The kinematics of the step's start it was made from, for their buffers
+    /// ([`crate::dynamics::Tree::kinematics_into`]) once it is done with.
+    pub fn into_kinematics(self) -> Kinematics<f64> {
+        self.kin
+    }
+
     /// Each pair's contact where it was recorded (the start velocity), in pair order, `None`
     /// out of reach or without a collider: the same bits as the forward dynamics'
     /// [`Forward::contacts`] there for every pair whose bodies both have a collider.
