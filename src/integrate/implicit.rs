@@ -14,7 +14,7 @@ use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
-use std::any::TypeId;
+use std::any::Any;
 use std::cell::RefCell;
 
 /// Each pair's contact at a step's start, in pair order (`None` out of reach).
@@ -173,10 +173,11 @@ impl Model {
             ..
         } = carry;
         let (ctrl, mocap) = self.split_inputs(u)?;
-        let tau = self.actuator_forces_at(q, v, ctrl, mocap);
-        let tau = tau.as_slice();
+        let forces = self.actuator_forces_at(q, v, ctrl, mocap);
+        let tau = forces.as_slice();
         let pulls = self.pulls(ctrl);
-        let mut real = ContactImplicitResidual {
+        // The step's values in `f64`, for the Jacobian by dual numbers.
+        let real = || ContactImplicitResidual {
             model: self,
             q: re_vec(q),
             v: re_vec(v),
@@ -187,16 +188,24 @@ impl Model {
             h: h.re(),
             holds: None,
         };
-        if TypeId::of::<T>() == TypeId::of::<f64>() {
+        if let (Some(s64), Some(tau64), Some(pulls64), Some(prm64)) = (
+            (state as &dyn Any).downcast_ref::<State<f64>>(),
+            (&forces as &dyn Any).downcast_ref::<nalgebra::DVector<f64>>(),
+            (&pulls as &dyn Any).downcast_ref::<Vec<Option<f64>>>(),
+            (prm as &dyn Any).downcast_ref::<ContactParams<f64>>(),
+        ) {
+            let (q64, v64, tau64) = (&s64.q[..], &s64.v[..], tau64.as_slice());
             // Values only: everything but the contact's velocities is frozen at the start of the
             // step, each pair's contact terms recorded there and replayed at each trial end
-            // velocity (`FrozenForward`); the same arithmetic as `forward_at`'s.
+            // velocity (`FrozenForward`); the same arithmetic as `forward_at`'s. (Read where
+            // they are, not copied: a step out of reach has no other use for a copy.)
+            let mocap64 = re_vec(mocap);
             let at = EvalPoint {
-                q: &real.q,
-                v: &real.v,
-                tau: &real.tau,
-                mocap: &real.mocap,
-                pulls: &real.pulls,
+                q: q64,
+                v: v64,
+                tau: tau64,
+                mocap: &mocap64,
+                pulls: pulls64,
             };
             let reuse = kept.map_or(Reuse::Nothing, Reuse::All);
             // The guard's kinematics of this very state, if it kept them (the memo is of a
@@ -204,13 +213,13 @@ impl Model {
             // buffers of kinematics done with (a damped RK4 stage's before).
             let mut memo = known;
             let known = memo.as_deref_mut().and_then(|m| {
-                m.take_at(&real.q, &real.v).or_else(|| {
+                m.take_at(q64, v64).or_else(|| {
                     let mut kin = m.spare()?;
-                    (self.tree).kinematics_into(&real.q, &real.v, &real.mocap, &mut kin);
+                    (self.tree).kinematics_into(q64, v64, &mocap64, &mut kin);
                     Some(kin)
                 })
             });
-            let (frozen, a0) = self.frozen_forward_from(at, &real.prm, real.h, reuse, known)?;
+            let (frozen, a0) = self.frozen_forward_from(at, prm64, h.re(), reuse, known)?;
             if let Some(slot) = at_start {
                 *slot = Some(frozen.contacts().to_vec());
             }
@@ -224,6 +233,7 @@ impl Model {
             }
             // The limits that let go at the start are let go at every iterate, as the frozen
             // evaluation lets them go.
+            let mut real = real();
             real.holds = self.limits_can_let_go().then(|| match frozen.holds() {
                 Some(h) => h.to_vec(),
                 None => vec![1.0; self.limit_slots()],
@@ -297,6 +307,7 @@ impl Model {
         // The limits that let go at the start are let go at every iterate, as in `f64`.
         let holds = (self.limits_can_let_go())
             .then(|| (start.holds).unwrap_or_else(|| vec![T::one(); self.limit_slots()]));
+        let mut real = real();
         real.holds = holds.as_deref().map(re_vec);
         let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
             let opts = ForwardOptions {
