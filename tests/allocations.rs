@@ -81,7 +81,7 @@ fn a_step_out_of_reach_allocates_only_the_forward_dynamics_vectors() {
             13.0,
         ),
         ("damped Euler", r#"integrator="Euler"/>"#, 19.0),
-        ("implicit Euler", r#"integrator="implicitfast"/>"#, 28.0),
+        ("implicit Euler", r#"integrator="implicitfast"/>"#, 23.0),
         ("damped RK4", r#"integrator="RK4"/>"#, 100.0),
     ] {
         let n = per_step(&floating3(option));

@@ -278,11 +278,13 @@ impl Model {
                 };
                 s = Cow::Owned(match self.integrator {
                     Integrator::ImplicitEuler => {
+                        // The memo lends Newton's evaluations the buffers of kinematics done
+                        // with, and takes theirs back.
                         let carry = StepCarry {
                             jacobian: &mut jac,
                             pairs: Some(&mut cache.pairs),
                             subdivided: &mut report.subdivided,
-                            kinematics: None,
+                            kinematics: Some(&mut cache.kinematics),
                         };
                         self.implicit_step_extrapolating(from, carry, &mut dv)
                             .map_err(dyn_err)?
@@ -355,7 +357,9 @@ impl Model {
                         .map_err(dyn_err)?
                     }
                 });
-                let buffers = spare.take().or_else(|| cache.kinematics.spare());
+                let buffers = (spare.take())
+                    .or_else(|| known.take())
+                    .or_else(|| cache.kinematics.spare());
                 known = check(&mut monitor, &s, t, k + 1, dt, buffers)?;
             }
             cache.kinematics.keep(&s, known);

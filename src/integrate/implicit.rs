@@ -10,6 +10,7 @@ use super::step::StepFrom;
 use crate::autodiff::{jacobian, passes, VectorFunction};
 use crate::collision::PairCarry;
 use crate::contact::{ContactParams, PairContact};
+use crate::dynamics::Kinematics;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
 use crate::scalar::{c, Scalar};
@@ -51,7 +52,7 @@ impl VectorFunction for StepResidual<'_> {
         };
         let mut pairs = self.pairs.borrow_mut();
         let kept = RefCell::new(&mut *pairs);
-        step_residual(self.model, from, x, Some(&kept))
+        step_residual(self.model, from, x, Some(&kept), None)
     }
 }
 
@@ -105,17 +106,33 @@ fn step_residual<T: Scalar>(
     from: StepFrom<'_, T>,
     vs: &[T],
     kept: Option<&RefCell<&mut PairCarry>>,
+    buffers: Option<&RefCell<Option<Kinematics<T>>>>,
 ) -> Result<Vec<T>, DynamicsError> {
     let StepFrom { state, u, prm, h } = from;
     let (q0, v0) = (&state.q, &state.v);
     let q = model.tree.integrate_q(q0, vs, h);
     let mut carried = kept.map(RefCell::borrow_mut);
+    // The iterate's kinematics into the buffers lent, if any (the same bits as computed by the
+    // forward dynamics itself), whose own are lent on.
+    let kinematics = match buffers.and_then(|b| b.borrow_mut().take()) {
+        Some(mut kin) => {
+            let (_, mocap) = model.split_inputs(u)?;
+            model.tree.kinematics_into(&q, vs, mocap, &mut kin);
+            Some(kin)
+        }
+        None => None,
+    };
     let opts = ForwardOptions {
         reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::All(c)),
         list_contacts: false,
+        kinematics,
         ..ForwardOptions::default()
     };
-    let a = model.forward_with(&q, vs, u, prm, opts)?.vdot;
+    let f = model.forward_with(&q, vs, u, prm, opts)?;
+    if let Some(b) = buffers {
+        *b.borrow_mut() = Some(f.kinematics);
+    }
+    let a = f.vdot;
     Ok((0..vs.len()).map(|k| vs[k] - v0[k] - h * a[k]).collect())
 }
 
@@ -348,10 +365,23 @@ impl Model {
         let StepCarry {
             jacobian: jac,
             pairs: kept,
+            kinematics: mut memo,
             ..
         } = carry;
         let kept = kept.map(RefCell::new);
-        let residual = |x: &[T]| step_residual(self, at_end, x, kept.as_ref());
+        // Buffers for the iterates' kinematics: the memo's spare ones (in `f64`), handed from
+        // one evaluation to the next and back to the memo at the end.
+        let mut lent = memo.as_deref_mut().and_then(|m| m.spare());
+        let buffers: RefCell<Option<Kinematics<T>>> = RefCell::new(
+            (&mut lent as &mut dyn Any)
+                .downcast_mut::<Option<Kinematics<T>>>()
+                .and_then(Option::take),
+        );
+        // (Not in `f64`: back where they were.)
+        if let (Some(m), Some(kin)) = (memo.as_deref_mut(), lent) {
+            m.recycle(kin);
+        }
+        let residual = |x: &[T]| step_residual(self, at_end, x, kept.as_ref(), Some(&buffers));
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
             let f = StepResidual {
                 model: self,
@@ -370,7 +400,17 @@ impl Model {
             }
             _ => state.v.clone(),
         };
-        let v = newton(&residual, &real_jacobian, start, jac)?;
+        let v = newton(&residual, &real_jacobian, start, jac);
+        let mut back = buffers.into_inner();
+        if let (Some(m), Some(kin)) = (
+            memo,
+            (&mut back as &mut dyn Any)
+                .downcast_mut::<Option<Kinematics<f64>>>()
+                .and_then(Option::take),
+        ) {
+            m.recycle(kin);
+        }
+        let v = v?;
         Ok(State {
             q: self.tree.integrate_q(&state.q, &v, h),
             v,
