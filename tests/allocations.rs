@@ -1,10 +1,13 @@
 //! Allocations per step, counted: a step of a running simulation writes what it repeats into
 //! buffers it keeps (docs/performance.md, "Kept between calls, and the energy guard's cost"),
 //! so on bodies out of reach, where an allocation and its release are a tenth of the step's
-//! wall time, the count per step stays at what the forward dynamics' own vectors take. Counted
-//! per thread by this binary's allocator (its own test target, so no other test pays for it);
-//! the counts are exact, so the bounds are the counts measured when they were set (before the
-//! buffers were kept: 31, 42, 48 and 153 a step).
+//! wall time, the count per step stays at what is still made afresh (the forward dynamics' own
+//! vectors, the step's new state, damped RK4's stage states). Counted per thread by this
+//! binary's allocator (its own test target, so no other test pays for it): the scene keeps every
+//! pair out of reach, so no pair is evaluated on another thread. The counts are exact; the
+//! bounds are those measured when they were set plus one a step, which a change of the standard
+//! library's own allocations may take (before the buffers were kept: 31, 42, 48 and 153 a
+//! step).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -21,20 +24,25 @@ thread_local! {
 // thread-local cell that needs no allocation.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
+        count();
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
+        count();
         unsafe { System.alloc_zeroed(layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
+        count();
         unsafe { System.realloc(ptr, layout, new_size) }
     }
+}
+
+/// One allocation more on this thread (none counted where its storage is gone, at its exit).
+fn count() {
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
 }
 
 #[global_allocator]
@@ -73,8 +81,8 @@ fn per_step(xml: &str) -> f64 {
 }
 
 #[test]
-fn a_step_out_of_reach_allocates_only_the_forward_dynamics_vectors() {
-    for (name, option, bound) in [
+fn a_step_out_of_reach_allocates_no_more_than_when_counted() {
+    let counted: Vec<(&str, f64, f64)> = [
         (
             "semi-implicit Euler",
             r#"integrator="Euler"><flag eulerdamp="disable"/></option>"#,
@@ -83,12 +91,19 @@ fn a_step_out_of_reach_allocates_only_the_forward_dynamics_vectors() {
         ("damped Euler", r#"integrator="Euler"/>"#, 19.0),
         ("implicit Euler", r#"integrator="implicitfast"/>"#, 23.0),
         ("damped RK4", r#"integrator="RK4"/>"#, 100.0),
-    ] {
-        let n = per_step(&floating3(option));
+    ]
+    .into_iter()
+    .map(|(name, option, bound)| (name, per_step(&floating3(option)), bound))
+    .collect();
+    for (name, n, _) in &counted {
         println!("{name}: {n} allocations a step");
+        // The allocator counts: a step makes its new state at least.
+        assert!(*n >= 1.0, "{name}: no allocation counted");
+    }
+    for (name, n, bound) in counted {
         assert!(
-            n <= bound,
-            "{name}: {n} allocations a step, more than {bound}"
+            n <= bound + 1.0,
+            "{name}: {n} allocations a step, more than {bound} + 1"
         );
     }
 }

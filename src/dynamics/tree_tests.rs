@@ -163,13 +163,14 @@ fn kinematics_into_reused_buffers_are_fresh_kinematics() {
             .collect()
     };
     let mocap_in = draw(MOCAP_INPUTS);
+    // `Debug` prints every number so that it reads back to the same bits (zeros' signs too).
     let same = |a: &Kinematics<f64>, b: &Kinematics<f64>| format!("{a:?}") == format!("{b:?}");
-    for tree in [&tree_a, &tree_b] {
-        let inputs = if tree.mocap.is_empty() {
-            vec![]
-        } else {
-            mocap_in.clone()
-        };
+    // The mocap body at its inputs' pose and, without inputs, at its scene pose.
+    for (tree, inputs) in [
+        (&tree_a, vec![]),
+        (&tree_b, mocap_in.clone()),
+        (&tree_b, vec![]),
+    ] {
         let (q1, v1, q2, v2) = (draw(tree.nq), draw(tree.nv), draw(tree.nq), draw(tree.nv));
         let fresh = tree.kinematics_with(&q2, &v2, &inputs);
         // Buffers of the same tree at another state, of the other tree, and none.

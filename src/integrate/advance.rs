@@ -2,10 +2,10 @@
 //! that refuses a step that diverges (non-finite state, energy growth no input explains).
 
 use super::cache::{reuse_all, SolverCache, StepCarry};
-use super::guard::{contact_energy, EnergyLedger, EnergyMonitor};
+use super::guard::{contact_energy, EnergyMonitor};
 use super::step::StepFrom;
 use crate::contact::ContactParams;
-use crate::dynamics::{Kinematics, MOCAP_INPUTS};
+use crate::dynamics::MOCAP_INPUTS;
 use crate::integrator::{Integrator, State};
 use crate::model::{DynamicsError, Model};
 use std::borrow::Cow;
@@ -164,70 +164,6 @@ impl Model {
             min_step: f64::INFINITY,
             max_step: 0.0,
         };
-        // The guard's check of the state `s` after an internal step: what it computed of `s`'s
-        // kinematics is handed back (with no mocap body, those of the next forward dynamics),
-        // written into `spare`'s buffers if given (kinematics of another state, done with).
-        let check = |monitor: &mut Option<EnergyMonitor>,
-                     s: &State<f64>,
-                     t: f64,
-                     step: usize,
-                     h: f64,
-                     spare: Option<Kinematics<f64>>|
-         -> Result<Option<Kinematics<f64>>, StepFailure> {
-            if let Some(quantity) = self.first_non_finite(s) {
-                return Err(StepFailure::NonFinite {
-                    time: t,
-                    step,
-                    h,
-                    quantity,
-                });
-            }
-            let mut known = None;
-            if let Some(m) = monitor.as_mut() {
-                let mut kin = spare.unwrap_or_else(Kinematics::empty);
-                self.tree.kinematics_into(&s.q, &s.v, &[], &mut kin);
-                let e = self.energy_at(&kin, &s.q, &s.v);
-                known = self.tree.mocap.is_empty().then_some(kin);
-                let now = self.held(s, ctrl, prm);
-                let dw = self.step_work(&m.last, &now, h);
-                m.ledger.work += dw;
-                m.ledger.gross_work += dw.abs();
-                m.last = now;
-                m.ledger.scale = m.ledger.scale.max(e.kinetic);
-                m.ledger.kinetic = e.kinetic;
-                let total = e.total();
-                m.energy = total;
-                m.ledger.energy = total;
-                if !total.is_finite() || total > m.ledger.allowed(m.floor) {
-                    let l = &m.ledger;
-                    return Err(StepFailure::EnergyGrowth {
-                        time: t,
-                        step,
-                        h,
-                        since: l.since,
-                        from: l.reference,
-                        to: total,
-                        input: l.work,
-                        allowed: l.allowed(m.floor),
-                    });
-                }
-            }
-            Ok(known)
-        };
-        // What the guard leaves for the next call: the balance so far, at the end state (copied
-        // into the buffers of the ledger the last call left, `old`).
-        let leave =
-            |monitor: Option<EnergyMonitor>, end: &State<f64>, old: Option<EnergyLedger>| {
-                monitor.map(|m| {
-                    let mut at = old.map_or_else(State::empty, |l| l.at);
-                    at.assign(end);
-                    EnergyLedger {
-                        at,
-                        params: *prm,
-                        ..m.ledger
-                    }
-                })
-            };
         if !self.integrator.is_adaptive() {
             let n = steps;
             // Refused before any work (the cast below would saturate, and internal steps would
@@ -357,10 +293,19 @@ impl Model {
                         .map_err(dyn_err)?
                     }
                 });
-                let buffers = (spare.take())
-                    .or_else(|| known.take())
-                    .or_else(|| cache.kinematics.spare());
-                known = check(&mut monitor, &s, t, k + 1, dt, buffers)?;
+                // The guard's kinematics into the buffers of kinematics done with.
+                let buffers = match monitor {
+                    Some(_) => {
+                        (spare.take().or_else(|| known.take())).or_else(|| cache.kinematics.spare())
+                    }
+                    None => None,
+                };
+                let checked =
+                    self.guard_check(&mut monitor, &s, (t, k + 1, dt), ctrl, prm, buffers);
+                known = self.kinematics_kept(checked?, &mut cache.kinematics);
+                if let Some(kin) = spare.take() {
+                    cache.kinematics.recycle(kin);
+                }
             }
             cache.kinematics.keep(&s, known);
             if matches!(
@@ -379,7 +324,7 @@ impl Model {
                     None => cache.left = Some((s.clone().into_owned(), dt)),
                 }
             }
-            cache.ledger = leave(monitor, &s, cache.ledger.take());
+            cache.ledger = EnergyMonitor::leave(monitor, &s, prm, cache.ledger.take());
             report.state = s.into_owned();
             report.steps = n;
             report.min_step = dt;
@@ -393,6 +338,8 @@ impl Model {
         let mut h = self.timestep.min(duration);
         let mut first = a0.map(|a| (self.tree.qdot(&state.q, &state.v), a));
         let mut rejected_last = false;
+        // The guard's kinematics of the last accepted step's state.
+        let mut known = None;
         loop {
             let remaining = duration - elapsed;
             let last = h >= remaining * (1.0 - 1e-9);
@@ -439,19 +386,19 @@ impl Model {
                     report.min_step = report.min_step.min(h);
                     report.max_step = report.max_step.max(h);
                     elapsed = if last { duration } else { elapsed + h };
-                    let known = check(
-                        &mut monitor,
-                        &out.state,
-                        t0 + elapsed,
-                        report.steps,
-                        h,
-                        spare.take(),
-                    )?;
+                    let buffers = match monitor {
+                        Some(_) => spare.take().or_else(|| known.take()),
+                        None => None,
+                    };
+                    let at = (t0 + elapsed, report.steps, h);
+                    let checked =
+                        self.guard_check(&mut monitor, &out.state, at, ctrl, prm, buffers);
+                    known = self.kinematics_kept(checked?, &mut cache.kinematics);
                     s = out.state;
                     first = Some(out.last);
                     if last {
                         cache.kinematics.keep(&s, known);
-                        cache.ledger = leave(monitor, &s, cache.ledger.take());
+                        cache.ledger = EnergyMonitor::leave(monitor, &s, prm, cache.ledger.take());
                         report.state = s;
                         return Ok(report);
                     }
@@ -495,8 +442,8 @@ pub struct AdvanceOptions {
     /// (contact damping, friction, joint damping and frictionloss dissipate). An explicit
     /// integrator on stiff contact adds energy at every bounce; this guard refuses the step
     /// long before the state overflows, and, since it keeps its balance over the whole run
-    /// ([`EnergyLedger`], carried in the [`SolverCache`]), also when the energy grows by a
-    /// little in every communication step. The test, after every internal step, is
+    /// ([`EnergyLedger`](super::guard::EnergyLedger), carried in the [`SolverCache`]), also
+    /// when the energy grows by a little in every communication step. The test, after every internal step, is
     /// `E > E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor`, with `E₀ + U₀` the energy where the ledger
     /// started (`U` estimated by [`contact_energy`](super::contact_energy), with the drift the
     /// limits' energy count can still give back, [`Model::limits_drift`]), `S` the largest energy in motion seen

@@ -32,7 +32,8 @@ pub struct SolverCache {
     /// Per pair, the out-of-reach proof kept from an earlier step ([`ReachProof`]: which pairs
     /// a step switches off depends on it) and the band's candidate planes (a cost only).
     pub(super) pairs: PairCarry,
-    /// The kinematics of the state the last call ended at, as its energy guard computed them.
+    /// The kinematics of the state the last call ended at, as its energy guard computed them,
+    /// and the buffers of kinematics done with ([`KinematicsMemo`]).
     pub(super) kinematics: KinematicsMemo,
 }
 
@@ -50,7 +51,9 @@ pub(super) struct StepCarry<'c> {
     /// How many steps were halved so far because Newton's iterations failed.
     pub(super) subdivided: &'c mut usize,
     /// The kinematics the energy guard computed of the state it checked last, for damped
-    /// Euler's frozen evaluation at that very state (bit for bit; `None`: none kept).
+    /// Euler's frozen evaluation at that very state (bit for bit), and buffers of kinematics
+    /// done with, lent to damped RK4's stages and implicit Euler's iterates and taken back
+    /// (`None`: none kept, none lent).
     pub(super) kinematics: Option<&'c mut KinematicsMemo>,
 }
 
@@ -73,7 +76,12 @@ impl StepCarry<'_> {
 /// bit for bit: a memo of a pure function, so it changes no result, and two caches that differ
 /// only in it are equal. Like the rest of the cache it belongs to one model: a tree changed
 /// between calls (its public joints or bodies) needs a new cache.
-#[derive(Clone, Debug)]
+///
+/// It also keeps the buffers of kinematics done with (its spare ones: a forward dynamics', a
+/// frozen evaluation's, a missed memo's), which the next kinematics made are written into
+/// ([`crate::dynamics::Tree::kinematics_into`]): the guard's, a damped RK4 stage's, an implicit
+/// Euler iterate's. A clone (an FMU state) leaves them out.
+#[derive(Debug)]
 pub(super) struct KinematicsMemo {
     /// The state of `kin`; its buffers are kept when `kin` is taken, for the next one.
     at: State<f64>,
@@ -94,6 +102,16 @@ impl Default for KinematicsMemo {
     }
 }
 
+impl Clone for KinematicsMemo {
+    fn clone(&self) -> Self {
+        KinematicsMemo {
+            at: self.at.clone(),
+            kin: self.kin.clone(),
+            spare: None,
+        }
+    }
+}
+
 impl PartialEq for KinematicsMemo {
     fn eq(&self, _: &Self) -> bool {
         true
@@ -109,7 +127,8 @@ impl KinematicsMemo {
         self.kin = kin;
     }
 
-    /// The kept kinematics if they are those of `s`, bit for bit; the memo is emptied.
+    /// The kept kinematics if they are those of `s`, bit for bit; either way none is kept
+    /// after (kept ones of another state become spare ones).
     pub(super) fn take(&mut self, s: &State<f64>) -> Option<Kinematics<f64>> {
         self.take_at(&s.q, &s.v)
     }

@@ -2,7 +2,10 @@
 //! it keeps over a run ([`EnergyLedger`]), its working state during one call, and the estimate
 //! of the energy stored in contact ([`contact_energy`]).
 
+use super::advance::StepFailure;
+use super::cache::KinematicsMemo;
 use crate::contact::ContactParams;
+use crate::dynamics::Kinematics;
 use crate::integrator::{Integrator, State};
 use crate::model::Model;
 
@@ -265,6 +268,100 @@ pub(super) struct EnergyMonitor {
     /// step's forward dynamics find there, where the balance may restart
     /// ([`EnergyLedger::tighten`]).
     pub(super) energy: f64,
+}
+
+impl EnergyMonitor {
+    /// What the guard leaves for the next call: the balance so far, at the end state `end`
+    /// with the parameters `params` (the state copied into the buffers of the ledger the last
+    /// call left, `old`).
+    pub(super) fn leave(
+        monitor: Option<EnergyMonitor>,
+        end: &State<f64>,
+        params: &ContactParams<f64>,
+        old: Option<EnergyLedger>,
+    ) -> Option<EnergyLedger> {
+        monitor.map(|m| {
+            let mut at = old.map_or_else(State::empty, |l| l.at);
+            at.assign(end);
+            EnergyLedger {
+                at,
+                params: *params,
+                ..m.ledger
+            }
+        })
+    }
+}
+
+impl Model {
+    /// The guard's check of the state `s` after an internal step (`at`: its time, its number
+    /// and its length): a diverged coordinate, then, with a `monitor`, the energy balance. The
+    /// kinematics of `s` it computed for the balance (into `buffers`, kinematics done with, if
+    /// given) are handed back.
+    pub(super) fn guard_check(
+        &self,
+        monitor: &mut Option<EnergyMonitor>,
+        s: &State<f64>,
+        (t, step, h): (f64, usize, f64),
+        ctrl: &[f64],
+        prm: &ContactParams<f64>,
+        buffers: Option<Kinematics<f64>>,
+    ) -> Result<Option<Kinematics<f64>>, StepFailure> {
+        if let Some(quantity) = self.first_non_finite(s) {
+            return Err(StepFailure::NonFinite {
+                time: t,
+                step,
+                h,
+                quantity,
+            });
+        }
+        let Some(m) = monitor.as_mut() else {
+            return Ok(None);
+        };
+        let mut kin = buffers.unwrap_or_else(Kinematics::empty);
+        self.tree.kinematics_into(&s.q, &s.v, &[], &mut kin);
+        let e = self.energy_at(&kin, &s.q, &s.v);
+        let now = self.held(s, ctrl, prm);
+        let dw = self.step_work(&m.last, &now, h);
+        m.ledger.work += dw;
+        m.ledger.gross_work += dw.abs();
+        m.last = now;
+        m.ledger.scale = m.ledger.scale.max(e.kinetic);
+        m.ledger.kinetic = e.kinetic;
+        let total = e.total();
+        m.energy = total;
+        m.ledger.energy = total;
+        if !total.is_finite() || total > m.ledger.allowed(m.floor) {
+            let l = &m.ledger;
+            return Err(StepFailure::EnergyGrowth {
+                time: t,
+                step,
+                h,
+                since: l.since,
+                from: l.reference,
+                to: total,
+                input: l.work,
+                allowed: l.allowed(m.floor),
+            });
+        }
+        Ok(Some(kin))
+    }
+
+    /// The guard's kinematics `kin` of a state, as the next forward dynamics from it can take
+    /// them: with no mocap body (every mocap body at its scene pose, which the next evaluation's
+    /// inputs may not keep, otherwise), else recycled into `memo` for their buffers.
+    pub(super) fn kinematics_kept(
+        &self,
+        kin: Option<Kinematics<f64>>,
+        memo: &mut KinematicsMemo,
+    ) -> Option<Kinematics<f64>> {
+        match kin {
+            Some(kin) if !self.tree.mocap.is_empty() => {
+                memo.recycle(kin);
+                None
+            }
+            kin => kin,
+        }
+    }
 }
 
 /// An estimate of the elastic energy stored in the contacts `contacts` of `pairs` (J), per pair the

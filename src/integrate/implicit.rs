@@ -248,14 +248,6 @@ impl Model {
                 }
                 return Ok(explicit);
             }
-            // The limits that let go at the start are let go at every iterate, as the frozen
-            // evaluation lets them go.
-            let mut real = real();
-            real.holds = self.limits_can_let_go().then(|| match frozen.holds() {
-                Some(h) => h.to_vec(),
-                None => vec![1.0; self.limit_slots()],
-            });
-            let real = &real;
             let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
                 let a = frozen.vdot(&re_vec(x));
                 Ok((0..x.len())
@@ -296,10 +288,19 @@ impl Model {
             };
             let end = if passes(v.len()) > 1 || rk4_stage {
                 let frozen_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
-                    Ok(frozen.step_jacobian(&frozen.contact_force_jacobian(x), real.h))
+                    Ok(frozen.step_jacobian(&frozen.contact_force_jacobian(x), h.re()))
                 };
                 newton_from(&residual, &frozen_jacobian, x0, r0, jac)
             } else {
+                // The full evaluation on dual numbers, from the step's values in `f64`; the
+                // limits that let go at the start are let go at every iterate, as the frozen
+                // evaluation lets them go.
+                let mut real = real();
+                real.holds = self.limits_can_let_go().then(|| match frozen.holds() {
+                    Some(h) => h.to_vec(),
+                    None => vec![1.0; self.limit_slots()],
+                });
+                let real = &real;
                 let real_jacobian =
                     |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> { Ok(jacobian(real, x)?.1) };
                 newton_from(&residual, &real_jacobian, x0, r0, jac)
