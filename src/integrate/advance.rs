@@ -443,7 +443,8 @@ pub struct AdvanceOptions {
     /// integrator on stiff contact adds energy at every bounce; this guard refuses the step
     /// long before the state overflows, and, since it keeps its balance over the whole run
     /// ([`EnergyLedger`](super::guard::EnergyLedger), carried in the [`SolverCache`]), also
-    /// when the energy grows by a little in every communication step. The test, after every internal step, is
+    /// when the energy grows by a little in every communication step. The test, after every
+    /// internal step, is
     /// `E > E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor`, with `E₀ + U₀` the energy where the ledger
     /// started (`U` estimated by [`contact_energy`](super::contact_energy), with the drift the
     /// limits' energy count can still give back, [`Model::limits_drift`]), `S` the largest energy in motion seen

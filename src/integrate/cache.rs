@@ -10,7 +10,9 @@ use crate::collision::{PairCarry, ReachProof};
 use crate::dynamics::Kinematics;
 use crate::integrator::State;
 use crate::model::{ForwardOptions, Reuse};
+use crate::scalar::Scalar;
 use nalgebra::DMatrix;
+use std::any::Any;
 
 /// What [`Model::advance_cached`](crate::model::Model::advance_cached) carries from one call to the next.
 ///
@@ -147,6 +149,28 @@ impl KinematicsMemo {
     /// Keeps kinematics that are done with, for their buffers ([`KinematicsMemo::spare`]).
     pub(super) fn recycle(&mut self, kin: Kinematics<f64>) {
         self.spare = Some(kin);
+    }
+
+    /// Spare kinematics lent as kinematics of `T`, to be written over: only in `f64`, the
+    /// memo's own numbers (none otherwise, the spare ones staying).
+    pub(super) fn lend<T: Scalar>(&mut self) -> Option<Kinematics<T>> {
+        let mut spare = self.spare.take();
+        let lent = (&mut spare as &mut dyn Any)
+            .downcast_mut::<Option<Kinematics<T>>>()
+            .and_then(Option::take);
+        self.spare = spare;
+        lent
+    }
+
+    /// Takes back kinematics lent ([`KinematicsMemo::lend`]) for their buffers.
+    pub(super) fn take_back<T: Scalar>(&mut self, kin: Option<Kinematics<T>>) {
+        let mut kin = kin;
+        let back = (&mut kin as &mut dyn Any)
+            .downcast_mut::<Option<Kinematics<f64>>>()
+            .and_then(Option::take);
+        if back.is_some() {
+            self.spare = back;
+        }
     }
 
     /// Kinematics done with ([`KinematicsMemo::recycle`], or kept and missed), to be written

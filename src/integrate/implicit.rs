@@ -3,7 +3,7 @@
 //! step, and halving where Newton fails) and damped Euler's velocity with the contact taken at
 //! the end velocity ([`Integrator::DampedEuler`]).
 
-use super::cache::StepCarry;
+use super::cache::{KinematicsMemo, StepCarry};
 use super::newton::{inf_norm, newton, newton_from, re_vec};
 use super::step::axpy;
 use super::step::StepFrom;
@@ -370,18 +370,9 @@ impl Model {
             ..
         } = carry;
         let kept = kept.map(RefCell::new);
-        // Buffers for the iterates' kinematics: the memo's spare ones (in `f64`), handed from
-        // one evaluation to the next and back to the memo at the end.
-        let mut lent = memo.as_deref_mut().and_then(|m| m.spare());
-        let buffers: RefCell<Option<Kinematics<T>>> = RefCell::new(
-            (&mut lent as &mut dyn Any)
-                .downcast_mut::<Option<Kinematics<T>>>()
-                .and_then(Option::take),
-        );
-        // (Not in `f64`: back where they were.)
-        if let (Some(m), Some(kin)) = (memo.as_deref_mut(), lent) {
-            m.recycle(kin);
-        }
+        // Buffers for the iterates' kinematics: the memo's spare ones, handed from one
+        // evaluation to the next and back to the memo at the end.
+        let buffers = RefCell::new(memo.as_deref_mut().and_then(KinematicsMemo::lend::<T>));
         let residual = |x: &[T]| step_residual(self, at_end, x, kept.as_ref(), Some(&buffers));
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
             let f = StepResidual {
@@ -402,14 +393,8 @@ impl Model {
             _ => state.v.clone(),
         };
         let v = newton(&residual, &real_jacobian, start, jac);
-        let mut back = buffers.into_inner();
-        if let (Some(m), Some(kin)) = (
-            memo,
-            (&mut back as &mut dyn Any)
-                .downcast_mut::<Option<Kinematics<f64>>>()
-                .and_then(Option::take),
-        ) {
-            m.recycle(kin);
+        if let Some(m) = memo {
+            m.take_back(buffers.into_inner());
         }
         let v = v?;
         Ok(State {
