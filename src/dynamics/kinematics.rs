@@ -79,9 +79,20 @@ impl Tree {
         // after the other, its last one its frame): until a body's last node is done, its
         // entry holds the world pose of the node done last, which is what that body's next
         // node and only it reads as its parent's. The world and any body without a node
-        // stay at the identity.
-        frames.clear();
-        frames.resize(self.bodies.len(), crate::collision::Frame::identity());
+        // stay at the identity. (Reused buffers of this length: only those are set, the
+        // others being written before they are read; a fill of every entry was a fiftieth of
+        // a step of free bodies out of reach.)
+        let identity = crate::collision::Frame::identity();
+        if frames.len() == self.bodies.len() {
+            for (f, node) in frames.iter_mut().zip(&self.body_node) {
+                if node.is_none() {
+                    *f = identity;
+                }
+            }
+        } else {
+            frames.clear();
+            frames.resize(self.bodies.len(), identity);
+        }
         let world = |frame: &crate::collision::Frame<T>| Transform {
             rotation: frame.rotation,
             translation: frame.origin,

@@ -177,6 +177,15 @@ fn kinematics_into_reused_buffers_are_fresh_kinematics() {
         let mut kin = tree.kinematics_with(&q1, &v1, &inputs);
         tree.kinematics_into(&q2, &v2, &inputs, &mut kin);
         assert!(same(&kin, &fresh));
+        // Buffers of this tree's length with every frame written over: the world's entry is
+        // set again, not assumed to be the identity still.
+        let mut scribbled = tree.kinematics_with(&q1, &v1, &inputs);
+        for f in &mut scribbled.frames {
+            (f.origin, f.linvel) = (Vector3::new(1.0, 2.0, 3.0), Vector3::new(4.0, 5.0, 6.0));
+            f.rotation *= 2.0;
+        }
+        tree.kinematics_into(&q2, &v2, &inputs, &mut scribbled);
+        assert!(same(&scribbled, &fresh));
         let mut other = every_joint().kinematics(&draw(every_joint().nq), &draw(every_joint().nv));
         tree.kinematics_into(&q2, &v2, &inputs, &mut other);
         assert!(same(&other, &fresh));

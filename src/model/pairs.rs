@@ -544,7 +544,7 @@ impl Model {
         let (Some(ca), Some(cb)) = (&self.colliders[pair.a], &self.colliders[pair.b]) else {
             return true;
         };
-        let (ra, rb) = (kin.frames[pair.a].re(), kin.frames[pair.b].re());
+        let (ra, rb) = (kin.frames[pair.a].real(), kin.frames[pair.b].real());
         // A body's motion seen from the other, for each body with points to query: a
         // half-space has none, and its side's frame is never read (half the frames of a pair
         // with the floor, a tenth of the proofs' time on free bodies).
