@@ -135,38 +135,75 @@ def file_controls(xml):
     return sets
 
 
-# Bodies out of reach under each of MuJoCo's integrators and the SCM method its MJCF name maps
-# to (docs/mjcf.md, `<option integrator>`), with MuJoCo's `Euler` as written (its implicit joint
-# damping on), and semi-implicit Euler on both sides: (MuJoCo's name, `mjtIntegrator`, `eulerdamp`,
-# SCM's integrator).
+# Every MuJoCo integrator against the SCM method its MJCF name maps to (docs/mjcf.md,
+# `<option integrator>`), with MuJoCo's `Euler` as written (its implicit joint damping on), and
+# semi-implicit Euler on both sides: (MuJoCo's name, `mjtIntegrator`, `eulerdamp`, SCM's
+# integrator).
 REACH_METHODS = [("Euler", "EULER", True, "damped_euler"), ("RK4", "RK4", True, "damped_rk4"),
                  ("implicitfast", "IMPLICITFAST", True, "implicit_euler"),
                  ("Euler, eulerdamp off", "EULER", False, "semi_implicit_euler")]
-# The warm-up before those steps: with gravity on, the bodies have fallen 1.2 cm of their 0.5 m.
+# The warm-up of the bodies out of reach: with gravity on, they have fallen 1.2 cm of their 0.5 m.
 REACH_WARMUP = 0.05
+# The bundled scenes in contact timed under every integrator too (names of BUNDLED): the T pushed
+# MuJoCo's way (its `Euler`, SCM's `damped_euler`) is one of the speed targets.
+CONTACT_EVERY_INTEGRATOR = ("box_stack", "t_push")
+# The speed targets, SCM / MuJoCo in this run: (what, the rows' scene, the MuJoCo integrators of
+# its rows in the every-integrator table (None: all of them; "first": the first table's
+# semi-implicit row instead), the largest ratio allowed). The robots as written are timed over
+# whole runs by scripts/robots.py (reports/robots.md).
+TARGETS = [("`box_stack`, semi-implicit Euler", "box_stack", "first", 1.5),
+           ("`t_push` pushing, MuJoCo's `Euler` (`damped_euler`)", "t_push", ("Euler",), 5.0),
+           ("bodies out of reach, gravity off, every integrator", "floating3_weightless", None, 1.2),
+           ("bodies out of reach, gravity on, every integrator", "floating3_gravity", None, 1.2)]
 
 
-def out_of_reach_rows(work, rounds):
-    """The out-of-reach table's rows: for `floating3` with gravity off and on, per method of
-    REACH_METHODS, SCM's step and MuJoCo's (s), each the median of `rounds` timings in turn."""
-    rows = []
+def every_integrator_rows(work, rounds):
+    """The every-integrator table's rows: `floating3` with gravity off and on (nothing in reach:
+    MuJoCo must count no contact) and the scenes of CONTACT_EVERY_INTEGRATOR (in contact: MuJoCo
+    must count one at least), per method of REACH_METHODS, SCM's step and MuJoCo's (s), each the
+    median of `rounds` timings in turn."""
+    cases = []
     for gravity in (False, True):
         name = f"floating3_{'gravity' if gravity else 'weightless'}"
         path = work / f"{name}.xml"
         path.write_text(floating(3, gravity))
+        cases.append((name, path, {}, REACH_WARMUP, False))
+    cases += [(s, ROOT / "resources" / "scenes" / f"{s}.xml", sets, w, True)
+              for s, sets, w in BUNDLED if s in CONTACT_EVERY_INTEGRATOR]
+    rows = []
+    for name, path, sets, warmup, contact in cases:
+        print(f"bench: {name}, every integrator", file=sys.stderr, flush=True)
         ours, theirs = {m[3]: [] for m in REACH_METHODS}, {m[0]: [] for m in REACH_METHODS}
         for _ in range(max(1, rounds)):
-            timed = scm_step(path, {}, REACH_WARMUP, work, error=False, integrators=list(ours))
+            timed = scm_step(path, sets, warmup, work, error=False, integrators=list(ours))
             for method, r in timed.items():
                 ours[method].append(r["ffi_step_s"])
             for label, integrator, damp, _ in REACH_METHODS:
-                t, ncon = mujoco_step_time(path, {}, REACH_WARMUP, h=H, eulerdamp=damp, integrator=integrator)
-                if ncon:
-                    raise SystemExit(f"bench: {name}: MuJoCo has {ncon} contacts after the warm-up")
+                t, ncon = mujoco_step_time(path, sets, warmup, h=H, eulerdamp=damp, integrator=integrator)
+                if bool(ncon) != contact:
+                    raise SystemExit(f"bench: {name}: MuJoCo has {ncon} contacts after the warm-up "
+                                     f"under {label}")
                 theirs[label].append(t)
         for label, _, _, method in REACH_METHODS:
             rows.append((name, label, method, float(np.median(ours[method])), float(np.median(theirs[label]))))
     return rows
+
+
+def target_lines(rows, every):
+    """The speed targets' table (TARGETS) from this run's rows: the first table's (`rows`) and
+    the every-integrator table's (`every`)."""
+    first = {r["name"]: r["ours"]["semi_implicit_euler"]["ffi_step_s"] / r["theirs"] for r in rows}
+    lines = []
+    for what, scene, labels, most in TARGETS:
+        if labels == "first":
+            ratios = [first[scene]] if scene in first else []
+        else:
+            ratios = [o / t for n, label, _, o, t in every if n == scene and (labels is None or label in labels)]
+        if not ratios:
+            continue
+        worst = max(ratios)
+        lines.append(f"| {what} | ≤ {most:g} | {worst:.2f} | {'met' if worst <= most else 'not met'} |")
+    return lines
 
 
 def pose_difference(m, a, b):
@@ -216,7 +253,7 @@ def main():
     ap.add_argument("--tolerance", type=float, default=1e-9,
                     help="also time t_push and the humanoid (where run) at this scm_prune_tolerance (0: not)")
     ap.add_argument("--no-reach", dest="reach", action="store_false",
-                    help="leave out the table of bodies out of reach under every integrator")
+                    help="leave out the table of every integrator (bodies out of reach, and in contact)")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
     files = [] if a.files == "none" else a.files.split(",")
@@ -267,8 +304,7 @@ def main():
             error, check = mujoco_error(xml, sets, warmup, divisions)
             rows.append(dict(name=name, ours=ours, theirs=theirs, ncon=ncon, theirs_error=error,
                              theirs_check=check))
-        print("bench: out of reach, every integrator", file=sys.stderr, flush=True)
-        reach = out_of_reach_rows(work, a.rounds) if a.reach else []
+        reach = every_integrator_rows(work, a.rounds) if a.reach else []
     lines = ["# Step cost against MuJoCo", "",
              "Written by `scripts/bench.sh` (one run; medians of interleaved rounds, the two engines timed in "
              f"turn {a.rounds} times per scene). One internal step of "
@@ -313,16 +349,26 @@ def main():
         lines += ["", "Cost per body (resting boxes): " + ", ".join(
             f"{n}: SCM {o / n * 1e6:.1f} µs, MuJoCo {t / n * 1e6:.2f} µs" for n, o, t in boxes) + "."]
     if reach:
-        lines += ["", "## Bodies out of reach, every integrator", "",
+        lines += ["", "## Every integrator: bodies out of reach, and in contact", "",
                   f"`floating3` (above) without and with gravity ({REACH_WARMUP:g} s after the start: "
-                  "fallen 1.2 cm of their 0.5 m, nothing in reach on either side), one step of "
+                  "fallen 1.2 cm of their 0.5 m, nothing in reach on either side), and "
+                  + " and ".join(f"`{s}`" for s in CONTACT_EVERY_INTEGRATOR) + " in contact (the first "
+                  "table's states), one step of "
                   f"{H * 1e3:g} ms under each of MuJoCo's integrators against the SCM method its MJCF name "
                   "maps to (docs/mjcf.md), MuJoCo's `Euler` as written (its implicit joint damping on); "
-                  "the last row semi-implicit Euler on both sides. Medians of the rounds above.", "",
+                  "the last row of each scene semi-implicit Euler on both sides. Medians of the rounds above.", "",
                   "| scene | MuJoCo integrator | SCM method | SCM step (µs) | MuJoCo step (µs) | SCM / MuJoCo |",
                   "| --- | --- | --- | ---: | ---: | ---: |"]
         lines += [f"| {n} | {label} | `{method}` | {o * 1e6:.2f} | {t * 1e6:.2f} | {o / t:.2f} |"
                   for n, label, method, o, t in reach]
+    targets = target_lines(rows, reach)
+    if targets:
+        lines += ["", "## Speed targets", "",
+                  "SCM's step over MuJoCo's in this run, the largest of the rows above that each target covers "
+                  "(where the time goes: docs/performance.md). Gymnasium's humanoid, hopper and ant as written, "
+                  "robosuite's Franka arm and the shadow hand are timed over whole runs as their files are "
+                  "written, by `scripts/robots.py` (reports/robots.md).", "",
+                  "| target | SCM / MuJoCo at most | this run | |", "| --- | ---: | ---: | --- |"] + targets
     (a.out / "bench.md").write_text("\n".join(lines) + "\n")
     try:
         import matplotlib
