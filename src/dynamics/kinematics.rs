@@ -83,6 +83,7 @@ impl Tree {
         // others being written before they are read; a fill of every entry was a fiftieth of
         // a step of free bodies out of reach.)
         let identity = crate::collision::Frame::identity();
+        debug_assert_eq!(self.body_node.len(), self.bodies.len());
         if frames.len() == self.bodies.len() {
             for (f, node) in frames.iter_mut().zip(&self.body_node) {
                 if node.is_none() {
