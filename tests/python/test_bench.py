@@ -86,6 +86,32 @@ def test_bench_times_every_scene_against_mujoco(tmp_path):
     assert (tmp_path / "bench.png").stat().st_size > 0
 
 
+def test_speed_targets_are_read_from_the_rows_they_cover():
+    """The bench's targets table (`target_lines`) on made-up rows, no timing: each target takes
+    the largest ratio of the rows it covers (the first table's semi-implicit row, one MuJoCo
+    integrator's row, or every integrator's), says "met" exactly where the printed ratio is
+    within the target, and leaves out a target whose rows the run did not make."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("bench", ROOT / "scripts" / "bench.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    first = [dict(name="box_stack", ours={"semi_implicit_euler": {"ffi_step_s": 3.0}}, theirs=2.0)]
+    every = [("t_push", "Euler", "damped_euler", 50.0, 10.0),
+             ("t_push", "RK4", "damped_rk4", 90.0, 10.0),  # not MuJoCo's Euler: not read
+             ("floating3_weightless", "Euler", "damped_euler", 1.2, 1.0),
+             ("floating3_weightless", "RK4", "damped_rk4", 1.2049, 1.0)]
+    rows = [[x.strip() for x in l.split("|")[1:-1]] for l in bench.target_lines(first, every)]
+    assert rows == [["`box_stack`, semi-implicit Euler", "≤ 1.5", "1.50", "met"],
+                    ["`t_push` pushing, MuJoCo's `Euler` (`damped_euler`)", "≤ 5", "5.00", "met"],
+                    ["bodies out of reach, gravity off, every integrator", "≤ 1.2", "1.20", "met"]]
+    # Past a target by more than the printed rounding: not met.
+    every[0] = ("t_push", "Euler", "damped_euler", 50.1, 10.0)
+    rows = [[x.strip() for x in l.split("|")[1:-1]] for l in bench.target_lines([], every)]
+    assert rows[0][2:] == ["5.01", "not met"]
+    assert [r[0] for r in rows] == ["`t_push` pushing, MuJoCo's `Euler` (`damped_euler`)",
+                                    "bodies out of reach, gravity off, every integrator"]
+
+
 def test_robots_as_written_are_timed_against_mujoco(tmp_path):
     """scripts/robots.py on the two quickest files (the shadow hand, gymnasium's hopper): one row
     each, every time and the peak memory a measured positive number, the step and integrator the
