@@ -755,14 +755,15 @@ fn kept_proofs_travel_with_the_fmu_state_and_forged_ones_are_refused() {
     sim.set_state(&state).unwrap();
     assert_restored_run_replays(&mut sim, &state, h, 10..40);
     // With only this pair's proof, its two sides (a flag and 15 numbers each) end the bytes:
-    // without their rooms (the last number of each) they are a version 8 state's, which reads
-    // as the same state, and read as version 7 their flag 2 is refused.
+    // without their rooms (the last number of each) they are a version 8 state's (a ledger of
+    // flag 1, as every version before 10 writes), which reads as the same state, and read as
+    // version 7 their flag 2 is refused.
     assert_eq!(pair, sim.model.pairs.len() - 1, "the pair is the last one");
     let mut only = vec![None; reach.len()];
     only[pair] = by_floor[pair].clone();
     let state = with_proofs(&saved, only);
     let bytes = sim.serialize_state(&state).unwrap();
-    assert_eq!(bytes[..4], 9u32.to_le_bytes());
+    assert_eq!(bytes[..4], 10u32.to_le_bytes());
     let n = bytes.len();
     let as_8 = [
         &8u32.to_le_bytes()[..],

@@ -101,12 +101,18 @@ impl Model {
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
         // once here, it also gives the contact state for the energy guard (implicit Euler's guard
-        // takes the contacts alone: it reads no acceleration there). Damped Euler's first step
+        // takes the contacts alone: it reads no acceleration there; and only where the ledger it
+        // carries on does not hold their energy already). Damped Euler's first step
         // (damped RK4's first stage) records every pair's contact at the start itself (its frozen
         // contact): the guard takes it from there, and its balance starts once that step is taken.
         let damped = self.integrator.is_damped();
+        // Implicit Euler's contact energy at the start, where the last call left it with the
+        // ledger it carries on (`EnergyLedger::stored`): the contacts need not be listed again.
+        let stored_carried = (self.integrator == Integrator::ImplicitEuler && guard)
+            && (cache.ledger.as_ref())
+                .is_some_and(|l| l.stored.is_some() && l.at == *state && l.params == *prm);
         let needs_start = match self.integrator {
-            Integrator::ImplicitEuler => guard,
+            Integrator::ImplicitEuler => guard && !stored_carried,
             Integrator::DampedEuler | Integrator::DampedRk4 => false,
             _ => true,
         };
@@ -141,6 +147,13 @@ impl Model {
                 error,
             })?
         } else {
+            // Implicit Euler's start read from the ledger: the kinematics the last call left of
+            // this state serve no evaluation, their buffers the next kinematics made.
+            if stored_carried {
+                if let Some(kin) = cache.kinematics.take(state) {
+                    cache.kinematics.recycle(kin);
+                }
+            }
             (None, None, None)
         };
         let mut monitor = (guard && !damped)
@@ -189,6 +202,9 @@ impl Model {
             // (The internal step as computed, `duration / n`, can differ by a rounding from the
             // one the cache was left for, e.g. 0.01 s in calls of 0.01 s or of 0.1 s: a warm
             // start serves either.)
+            // Implicit Euler's contact energy at the end of its last step, for the guard's
+            // next call (only where the guard watches).
+            let mut stored_end = None;
             let (mut jac, mut dv) = match cache.left {
                 Some((ref s_left, h_left))
                     if (h_left - dt).abs() <= 1e-12 * dt.abs() && s_left == state =>
@@ -221,6 +237,7 @@ impl Model {
                             pairs: Some(&mut cache.pairs),
                             subdivided: &mut report.subdivided,
                             kinematics: Some(&mut cache.kinematics),
+                            contact_energy: monitor.is_some().then_some(&mut stored_end),
                         };
                         self.implicit_step_extrapolating(from, carry, &mut dv)
                             .map_err(dyn_err)?
@@ -262,6 +279,7 @@ impl Model {
                                 pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
                                 kinematics: Some(&mut cache.kinematics),
+                                contact_energy: None,
                             };
                             let end = self.implicit_step_subdividing(
                                 i,
@@ -287,6 +305,7 @@ impl Model {
                                 pairs: Some(&mut cache.pairs),
                                 subdivided: &mut report.subdivided,
                                 kinematics: None,
+                                contact_energy: None,
                             };
                             self.explicit_step(i, from, a, carry)
                         }
@@ -324,7 +343,8 @@ impl Model {
                     None => cache.left = Some((s.clone().into_owned(), dt)),
                 }
             }
-            cache.ledger = EnergyMonitor::leave(monitor, &s, prm, cache.ledger.take());
+            let old = cache.ledger.take();
+            cache.ledger = EnergyMonitor::leave(monitor, &s, prm, old, stored_end);
             report.state = s.into_owned();
             report.steps = n;
             report.min_step = dt;
@@ -398,7 +418,8 @@ impl Model {
                     first = Some(out.last);
                     if last {
                         cache.kinematics.keep(&s, known);
-                        cache.ledger = EnergyMonitor::leave(monitor, &s, prm, cache.ledger.take());
+                        let old = cache.ledger.take();
+                        cache.ledger = EnergyMonitor::leave(monitor, &s, prm, old, None);
                         report.state = s;
                         return Ok(report);
                     }
@@ -461,7 +482,8 @@ pub struct AdvanceOptions {
     /// balance moves its start to a later state where `E + U` is not above `E₀ + U₀ + W`
     /// (the run lost energy since; [`EnergyLedger::tighten`](super::EnergyLedger)): checked at the start of every
     /// call and, for the explicit fixed-step methods, of every internal step (where the forward
-    /// dynamics give the contacts). So a blow-up is judged from the least energy the run fell
+    /// dynamics give the contacts; implicit Euler's `U` at a call's start is the one its last
+    /// step found at its final Newton iterate, kept with the ledger, [`EnergyLedger::stored`](super::EnergyLedger)). So a blow-up is judged from the least energy the run fell
     /// to, not from a start that held more (energy in limit springs that damping spends). The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
     /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one

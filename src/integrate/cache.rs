@@ -57,6 +57,13 @@ pub(super) struct StepCarry<'c> {
     /// done with, lent to damped RK4's stages and implicit Euler's iterates and taken back
     /// (`None`: none kept, none lent).
     pub(super) kinematics: Option<&'c mut KinematicsMemo>,
+    /// Where implicit Euler's steps write the estimate of the energy stored in contact (J,
+    /// [`contact_energy`](super::guard::contact_energy)) at their Newton iterations' last real
+    /// iterate, within Newton's tolerance of the state the step ends at, for the energy guard's
+    /// next call ([`EnergyLedger::stored`]); `None` written where none was found (a model with
+    /// mocap bodies or adhesion actuators, whose contacts read inputs the next call may
+    /// change). `None`: not asked.
+    pub(super) contact_energy: Option<&'c mut Option<f64>>,
 }
 
 impl StepCarry<'_> {
@@ -67,6 +74,7 @@ impl StepCarry<'_> {
             pairs: self.pairs.as_deref_mut(),
             subdivided: &mut *self.subdivided,
             kinematics: self.kinematics.as_deref_mut(),
+            contact_energy: self.contact_energy.as_deref_mut(),
         }
     }
 }

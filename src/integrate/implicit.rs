@@ -4,6 +4,7 @@
 //! the end velocity ([`Integrator::DampedEuler`]).
 
 use super::cache::{KinematicsMemo, StepCarry};
+use super::guard::contact_energy;
 use super::newton::{inf_norm, newton, newton_from, re_vec};
 use super::step::axpy;
 use super::step::StepFrom;
@@ -16,7 +17,7 @@ use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::Any;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 /// Each pair's contact at a step's start, in pair order (`None` out of reach).
 pub(super) type StartContacts = Vec<Option<PairContact<f64>>>;
@@ -52,7 +53,12 @@ impl VectorFunction for StepResidual<'_> {
         };
         let mut pairs = self.pairs.borrow_mut();
         let kept = RefCell::new(&mut *pairs);
-        step_residual(self.model, from, x, Some(&kept), None)
+        let at = IterateAt {
+            kept: Some(&kept),
+            buffers: None,
+            energy: None,
+        };
+        step_residual(self.model, from, x, at)
     }
 }
 
@@ -97,17 +103,34 @@ impl VectorFunction for ContactImplicitResidual<'_> {
     }
 }
 
+/// What an iterate of implicit Euler's step equation borrows ([`step_residual`]).
+#[derive(Clone, Copy)]
+struct IterateAt<'a, 'c, T: Scalar> {
+    /// The pairs' kept out-of-reach proofs and candidate planes.
+    kept: Option<&'a RefCell<&'c mut PairCarry>>,
+    /// Kinematics buffers, handed from one iterate to the next.
+    buffers: Option<&'a RefCell<Option<Kinematics<T>>>>,
+    /// Where the contact energy at the iterate is written (only in `f64`).
+    energy: Option<&'a Cell<Option<f64>>>,
+}
+
 /// The implicit Euler step equation's residual `r(V) = V - v0 - h v̇(q0 ⊕ h V, V)` at `vs`,
-/// `from.u` the inputs at the end of the step; with `kept`, the pairs' kept out-of-reach proofs
-/// and candidate planes serve each iterate (a proof with room holds wherever it covers, so an
-/// iterate may be switched off by it as the step's start is; docs/performance.md).
+/// `from.u` the inputs at the end of the step; with `at.kept`, the pairs' kept out-of-reach
+/// proofs and candidate planes serve each iterate (a proof with room holds wherever it covers,
+/// so an iterate may be switched off by it as the step's start is; docs/performance.md); with
+/// `at.energy`, the estimate of the energy stored in the iterate's contacts is written there
+/// ([`contact_energy`], pulled by no adhesion actuator: the caller's to check).
 fn step_residual<T: Scalar>(
     model: &Model,
     from: StepFrom<'_, T>,
     vs: &[T],
-    kept: Option<&RefCell<&mut PairCarry>>,
-    buffers: Option<&RefCell<Option<Kinematics<T>>>>,
+    at: IterateAt<'_, '_, T>,
 ) -> Result<Vec<T>, DynamicsError> {
+    let IterateAt {
+        kept,
+        buffers,
+        energy,
+    } = at;
     let StepFrom { state, u, prm, h } = from;
     let (q0, v0) = (&state.q, &state.v);
     let q = model.tree.integrate_q(q0, vs, h);
@@ -124,11 +147,19 @@ fn step_residual<T: Scalar>(
     };
     let opts = ForwardOptions {
         reuse: (carried.as_deref_mut()).map_or(Reuse::Nothing, |c| Reuse::All(c)),
-        list_contacts: false,
+        list_contacts: energy.is_some(),
         kinematics,
         ..ForwardOptions::default()
     };
     let f = model.forward_with(&q, vs, u, prm, opts)?;
+    if let Some(cell) = energy {
+        let real = (&f.contacts as &dyn Any).downcast_ref::<Vec<Option<PairContact<f64>>>>();
+        let prm = (prm as &dyn Any).downcast_ref::<ContactParams<f64>>();
+        cell.set(
+            real.zip(prm)
+                .map(|(c, p)| contact_energy(&model.pairs, c, p, &[])),
+        );
+    }
     if let Some(b) = buffers {
         *b.borrow_mut() = Some(f.kinematics);
     }
@@ -367,13 +398,28 @@ impl Model {
             jacobian: jac,
             pairs: kept,
             kinematics: mut memo,
+            contact_energy: mut energy_slot,
             ..
         } = carry;
         let kept = kept.map(RefCell::new);
         // Buffers for the iterates' kinematics: the memo's spare ones, handed from one
         // evaluation to the next and back to the memo at the end.
         let buffers = RefCell::new(memo.as_deref_mut().and_then(KinematicsMemo::lend::<T>));
-        let residual = |x: &[T]| step_residual(self, at_end, x, kept.as_ref(), Some(&buffers));
+        // The contact energy at each real iterate, where asked and where the contacts read no
+        // input the next call may change (mocap poses, adhesion actuators' controls).
+        let energy = Cell::new(None);
+        if let Some(slot) = energy_slot.as_deref_mut() {
+            *slot = None;
+        }
+        let watch = energy_slot.is_some() && self.tree.mocap.is_empty() && !self.has_adhesion();
+        let residual = |x: &[T]| {
+            let at = IterateAt {
+                kept: kept.as_ref(),
+                buffers: Some(&buffers),
+                energy: watch.then_some(&energy),
+            };
+            step_residual(self, at_end, x, at)
+        };
         let real_jacobian = |x: &[f64]| -> Result<DMatrix<f64>, DynamicsError> {
             let f = StepResidual {
                 model: self,
@@ -397,6 +443,11 @@ impl Model {
             m.take_back(buffers.into_inner());
         }
         let v = v?;
+        // Newton's last residual was at its last real iterate (the Jacobians' passes are not
+        // real), within its tolerance of `v`.
+        if let Some(slot) = energy_slot {
+            *slot = energy.get();
+        }
         Ok(State {
             q: self.tree.integrate_q(&state.q, &v, h),
             v,

@@ -153,6 +153,7 @@ impl Model {
             pairs: None,
             subdivided: &mut subdivided,
             kinematics: None,
+            contact_energy: None,
         };
         match integrator {
             Integrator::ImplicitEuler => self.implicit_euler_step(from, carry, None),
@@ -245,6 +246,7 @@ impl Model {
             pairs: mut kept,
             subdivided,
             mut kinematics,
+            ..
         } = carry;
         let mut at_start = at_start;
         // The stage before's acceleration: its end velocity from this stage's start is the
@@ -261,6 +263,7 @@ impl Model {
                 pairs: kept.as_deref_mut(),
                 subdivided: &mut *subdivided,
                 kinematics: kinematics.as_deref_mut(),
+                contact_energy: None,
             };
             let from = StepFrom {
                 state: &stage,

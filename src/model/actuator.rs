@@ -457,7 +457,7 @@ impl Model {
     /// (within their gap), minus: a total pull of the force spread over its contacts; SCM pulls
     /// each of the body's pairs within their gap with it (docs/method.md, departure 9).
     pub fn pulls<T: Scalar>(&self, ctrl: &[T]) -> Vec<Option<T>> {
-        if !(self.actuators.iter()).any(|a| matches!(a.target, Transmission::Body(_))) {
+        if !self.has_adhesion() {
             return Vec::new();
         }
         let mut pulls = vec![None; self.tree.bodies.len()];
@@ -468,5 +468,11 @@ impl Model {
             }
         }
         pulls
+    }
+
+    /// Whether an adhesion actuator ([`Transmission::Body`]) pulls a body: the contacts then
+    /// read the controls ([`Model::pulls`]).
+    pub fn has_adhesion(&self) -> bool {
+        (self.actuators.iter()).any(|a| matches!(a.target, Transmission::Body(_)))
     }
 }

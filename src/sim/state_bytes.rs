@@ -20,7 +20,7 @@
 //! | `mocap_sampled` | 1 (+ 8 + 8 × 7 nm) | Model Exchange: mocap poses at the last completed integrator step: 0, or 1, time, poses |
 //! | `jacobian` | 1 (+ 8 + 8 + 8 r c) | the implicit method's cached Newton Jacobian: 0, or 1, rows, columns (u64), entries (column-major) |
 //! | `left` | 1 (+ 8 (nq + nv + na + 1) (+ 8 nv)) | the state and internal step that Jacobian was left for: 0; or 1, `q`, `v`, `act` (since version 7), step; or 2, `q`, `v`, `act`, step, implicit Euler's last velocity change `V - v` |
-//! | `ledger` | 1 (+ 8 (nq + nv + na + 7 + 6)) | the energy guard's ledger ([`EnergyLedger`]): 0, or 1, the state it was left at (`q`, `v`, `act` since version 7), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4) |
+//! | `ledger` | 1 (+ 8 (nq + nv + na + 7 + 6) (+ 8)) | the energy guard's ledger ([`EnergyLedger`]): 0; or 1, the state it was left at (`q`, `v`, `act` since version 7), its contact parameters ([`Param::ALL`] order), start time, reference energy, work, gross work, scale, kinetic energy at that state (since version 5; computed from `q`, `v` for 3 and 4); or 2 (since version 10), the same and the energy stored in contact at that state ([`EnergyLedger::stored`]) |
 //! | `reach` | 4 + per pair (1 + 2 (1 + 8 × 15)) | since version 6, the kept out-of-reach proofs ([`ReachProof`]): their number (0, or one per pair), then per pair 0, or 1 and per side 0, or 1 (by planes) or 2 (by the floor alone, since version 8), rotation (column-major), translation, distance, relevance margin (0 for flag 2), room the margin is widened for (since version 9; 0 for flag 2, and for versions 6 to 8); each proven again when read |
 //!
 //! The sections are written in this order, and [`decode`] reads them in it; a test holds this
@@ -40,10 +40,11 @@ use nalgebra::{Matrix3, Vector3};
 /// 2 (implicit Euler's last velocity change), version 5 the energy ledger's kinetic energy,
 /// version 6 the kept out-of-reach proofs, version 7 the activations, version 8 the kept
 /// proofs by the floor alone (a side's flag 2), version 9 a kept proof's room (its relevance
-/// margin widened point by point, [`ProofSide`]); [`decode`] also reads versions 3 (never flag
-/// 2), 4 and 5 (no kept proofs), 6 (no activations: of a model without them), 7 and 8 (no
-/// room: 0).
-pub const STATE_VERSION: u32 = 9;
+/// margin widened point by point, [`ProofSide`]), version 10 the ledger's energy stored in
+/// contact (its flag 2); [`decode`] also reads versions 3 (never flag 2), 4 and 5 (no kept
+/// proofs), 6 (no activations: of a model without them), 7 and 8 (no room: 0) and 9 (no
+/// ledger flag 2).
+pub const STATE_VERSION: u32 = 10;
 
 /// The bytes of a state as [`encode`] writes them, with where each section of the module's
 /// table begins (what the layout test compares with the table).
@@ -137,7 +138,7 @@ fn write(state: &FmuState) -> Writer {
     match &cache.ledger {
         None => w.flag(0),
         Some(l) => w
-            .flag(1)
+            .flag(if l.stored.is_some() { 2 } else { 1 })
             .reals(l.at.q.iter().chain(&l.at.v).chain(&l.at.act))
             .reals(&Param::ALL.map(|p| p.get(&l.params)))
             .reals([
@@ -147,7 +148,8 @@ fn write(state: &FmuState) -> Writer {
                 &l.gross_work,
                 &l.scale,
                 &l.kinetic,
-            ]),
+            ])
+            .reals(&l.stored),
     };
     w.section("reach").u32(cache.reach.len());
     for kept in &cache.reach {
@@ -322,7 +324,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
     };
     let ledger = match r.take(1, "the energy ledger flag")?[0] {
         0 => None,
-        1 => {
+        f @ (1 | 2) if f == 1 || version >= 10 => {
             let q = (0..nq)
                 .map(|_| finite(&mut r, "the energy ledger's position"))
                 .collect::<Result<Vec<_>, _>>()?;
@@ -365,6 +367,13 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
             if !(0.0..=scale * (1.0 + 1e-9)).contains(&kinetic) {
                 return Err(format!("model state is corrupt: an energy ledger with kinetic energy {kinetic} J outside [0, {scale}] J (its scale)"));
             }
+            let stored = match f {
+                2 => Some(next("the energy ledger's contact energy")?),
+                _ => None,
+            };
+            if stored.is_some_and(|u| u < 0.0) {
+                return Err(format!("model state is corrupt: an energy ledger with a negative contact energy ({} J)", stored.unwrap_or_default()));
+            }
             Some(EnergyLedger {
                 at: State { q, v, act },
                 params,
@@ -375,6 +384,7 @@ pub fn decode(model: &Model, bytes: &[u8]) -> Result<FmuState, String> {
                 scale,
                 kinetic,
                 energy: at.total(),
+                stored,
             })
         }
         f => return Err(format!("model state is corrupt: energy ledger flag {f}")),

@@ -46,6 +46,7 @@ fn full_state() -> FmuState {
         scale: 1.0,
         kinetic: 0.5,
         energy: 0.75,
+        stored: Some(0.125),
     };
     FmuState {
         sim: SimState {
