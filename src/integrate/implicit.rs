@@ -267,9 +267,9 @@ impl Model {
                     Some(kin)
                 })
             });
-            let (frozen, a0) = self.frozen_forward_from(at, prm64, h.re(), reuse, known)?;
+            let (mut frozen, a0) = self.frozen_forward_from(at, prm64, h.re(), reuse, known)?;
             if let Some(slot) = at_start {
-                *slot = Some(frozen.contacts().to_vec());
+                *slot = Some(frozen.take_contacts());
             }
             let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {

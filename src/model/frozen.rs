@@ -22,10 +22,11 @@ use nalgebra::{DMatrix, SMatrix};
 /// module).
 pub struct FrozenForward<'m> {
     model: &'m Model,
-    q: Vec<f64>,
+    // The configuration read where the caller keeps it (a step's start state), not copied.
+    q: &'m [f64],
     /// The start velocity.
-    v: Vec<f64>,
-    mocap: Vec<f64>,
+    v: &'m [f64],
+    mocap: &'m [f64],
     /// Kinematics at the start velocity (what every term but the contact is taken at).
     kin: Kinematics<f64>,
     /// RNEA's forward pass at `kin` ([`crate::dynamics::Tree::rnea_forces`]): each
@@ -50,27 +51,27 @@ impl Model {
     /// implicit_damping: Some(h), reuse, .. })` at everything but `V`; the pairs in reach and
     /// their contact terms are recorded at `V = v` through the same pair loop as the forward
     /// dynamics (`Model::visit_pairs`). Returns it with its accelerations there.
-    pub fn frozen_forward(
-        &self,
-        at: EvalPoint<'_, f64>,
+    pub fn frozen_forward<'m>(
+        &'m self,
+        at: EvalPoint<'m, f64>,
         prm: &ContactParams<f64>,
         h: f64,
         reuse: Reuse,
-    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+    ) -> Result<(FrozenForward<'m>, Vec<f64>), DynamicsError> {
         self.frozen_forward_from(at, prm, h, reuse, None)
     }
 
     /// [`Model::frozen_forward`] from `known`, the kinematics of `at`'s positions and velocities
     /// if the caller has them already (the energy guard's of the state it checked): the same
     /// bits, one kinematics pass fewer.
-    pub fn frozen_forward_from(
-        &self,
-        at: EvalPoint<'_, f64>,
+    pub fn frozen_forward_from<'m>(
+        &'m self,
+        at: EvalPoint<'m, f64>,
         prm: &ContactParams<f64>,
         h: f64,
         reuse: Reuse,
         known: Option<Kinematics<f64>>,
-    ) -> Result<(FrozenForward<'_>, Vec<f64>), DynamicsError> {
+    ) -> Result<(FrozenForward<'m>, Vec<f64>), DynamicsError> {
         let EvalPoint {
             q,
             v,
@@ -82,8 +83,11 @@ impl Model {
         reuse.fit(self.pairs.len());
         self.check_finite(q, v)?;
         let kin = known.unwrap_or_else(|| self.tree.kinematics_with(q, v, mocap));
-        let mut rhs =
-            DVector::from_column_slice(tau) + self.passive_forces(q, v, prm.stiction_velocity);
+        // `τ + τ_passive`, into the passive forces' vector (the same sums: addition commutes).
+        let mut rhs = self.passive_forces(q, v, prm.stiction_velocity);
+        for (r, t) in rhs.iter_mut().zip(tau) {
+            *r += t;
+        }
         let matrix = self.damped_mass_matrix(&kin, q, v, prm, Some(h));
         let coupled = self.coupled_at(&kin, q, v, Some(h));
         coupled.add_turning_force(&mut rhs);
@@ -115,9 +119,9 @@ impl Model {
         let bias_forces = self.tree.rnea_forces(&kin, &[]);
         let mut frozen = FrozenForward {
             model: self,
-            q: q.to_vec(),
-            v: v.to_vec(),
-            mocap: mocap.to_vec(),
+            q,
+            v,
+            mocap,
             kin,
             bias_forces,
             rhs,
@@ -169,6 +173,11 @@ impl FrozenForward<'_> {
         &self.contacts
     }
 
+    /// [`FrozenForward::contacts`], taken out (left empty: nothing else reads them).
+    pub fn take_contacts(&mut self) -> Vec<Option<PairContact<f64>>> {
+        std::mem::take(&mut self.contacts)
+    }
+
     /// The share each limit holds where one lets go at the start velocity, one per slot
     /// ([`Forward::holds`]).
     pub fn holds(&self) -> Option<&[f64]> {
@@ -177,7 +186,7 @@ impl FrozenForward<'_> {
 
     /// The accelerations with the contact forces taken at the end velocity `v_contact`.
     pub fn vdot(&self, v_contact: &[f64]) -> Vec<f64> {
-        let frames = (self.model.tree).frames_at_velocity(&self.kin, v_contact, &self.mocap);
+        let frames = (self.model.tree).frames_at_velocity(&self.kin, v_contact, self.mocap);
         self.solve(self.contact_wrenches(&frames, |p| *p))
     }
 
@@ -188,7 +197,7 @@ impl FrozenForward<'_> {
     /// the recursive Newton–Euler pass at the start kinematics.
     pub fn contact_force<T: Scalar>(&self, v_contact: &[T]) -> Vec<T> {
         let lift = |v: &[f64]| v.iter().map(|&a| c::<T>(a)).collect::<Vec<T>>();
-        let (q, v, mocap) = (lift(&self.q), lift(&self.v), lift(&self.mocap));
+        let (q, v, mocap) = (lift(self.q), lift(self.v), lift(self.mocap));
         let tree = &self.model.tree;
         let at = tree.kinematics_with(&q, v_contact, &mocap);
         let wrenches = self.contact_wrenches(&at.frames, |p| p.lift());
@@ -211,7 +220,7 @@ impl FrozenForward<'_> {
         type D = Seeds;
         let m = self.model;
         let n = m.tree.nv;
-        let frames = m.tree.frames_at_velocity(&self.kin, v_contact, &self.mocap);
+        let frames = m.tree.frames_at_velocity(&self.kin, v_contact, self.mocap);
         // Each body's Jacobian columns, found once (positions are those of `self.kin`).
         let mut columns: Vec<Option<Vec<BodyColumn<f64>>>> = vec![None; m.tree.bodies.len()];
         let mut out = DMatrix::zeros(n, n);
@@ -299,8 +308,12 @@ impl FrozenForward<'_> {
     fn solve(&self, mut wrenches: Vec<Wrench<f64>>) -> Vec<f64> {
         let m = self.model;
         m.add_body_forces(&self.kin, self.stiction_velocity, &mut wrenches);
-        let bias = (m.tree).rnea_with(&self.kin, self.bias_forces.clone(), &wrenches);
-        let rhs = &self.rhs - bias;
-        self.mass.solve(&rhs).as_slice().to_vec()
+        // `rhs - c`, into the bias forces' vector (the same differences), and the solution's
+        // own vector handed out.
+        let mut rhs = (m.tree).rnea_with(&self.kin, self.bias_forces.clone(), &wrenches);
+        for (b, r) in rhs.iter_mut().zip(self.rhs.iter()) {
+            *b = r - *b;
+        }
+        self.mass.solve(&rhs).data.into()
     }
 }
