@@ -88,9 +88,9 @@ fn a_step_out_of_reach_allocates_no_more_than_when_counted() {
             r#"integrator="Euler"><flag eulerdamp="disable"/></option>"#,
             13.0,
         ),
-        ("damped Euler", r#"integrator="Euler"/>"#, 19.0),
-        ("implicit Euler", r#"integrator="implicitfast"/>"#, 23.0),
-        ("damped RK4", r#"integrator="RK4"/>"#, 100.0),
+        ("damped Euler", r#"integrator="Euler"/>"#, 14.0),
+        ("implicit Euler", r#"integrator="implicitfast"/>"#, 21.0),
+        ("damped RK4", r#"integrator="RK4"/>"#, 83.0),
     ]
     .into_iter()
     .map(|(name, option, bound)| (name, per_step(&floating3(option)), bound))
