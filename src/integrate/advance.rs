@@ -203,7 +203,7 @@ impl Model {
             // one the cache was left for, e.g. 0.01 s in calls of 0.01 s or of 0.1 s: a warm
             // start serves either.)
             // Implicit Euler's contact energy at the end of its last step, for the guard's
-            // next call (only where the guard watches).
+            // next call (only where the guard watches; `StepCarry::contact_energy`).
             let mut stored_end = None;
             let (mut jac, mut dv) = match cache.left {
                 Some((ref s_left, h_left))
@@ -237,7 +237,9 @@ impl Model {
                             pairs: Some(&mut cache.pairs),
                             subdivided: &mut report.subdivided,
                             kinematics: Some(&mut cache.kinematics),
-                            contact_energy: monitor.is_some().then_some(&mut stored_end),
+                            // Asked of the call's last step only: the estimate it leaves.
+                            contact_energy: (monitor.is_some() && k + 1 == n)
+                                .then_some(&mut stored_end),
                         };
                         self.implicit_step_extrapolating(from, carry, &mut dv)
                             .map_err(dyn_err)?
@@ -482,8 +484,9 @@ pub struct AdvanceOptions {
     /// balance moves its start to a later state where `E + U` is not above `E₀ + U₀ + W`
     /// (the run lost energy since; [`EnergyLedger::tighten`](super::EnergyLedger)): checked at the start of every
     /// call and, for the explicit fixed-step methods, of every internal step (where the forward
-    /// dynamics give the contacts; implicit Euler's `U` at a call's start is the one its last
-    /// step found at its final Newton iterate, kept with the ledger, [`EnergyLedger::stored`](super::EnergyLedger)). So a blow-up is judged from the least energy the run fell
+    /// dynamics give the contacts; where implicit Euler's call carries the ledger on with an
+    /// estimate of `U` in it, its `U` at the start is that estimate, made by the last call's
+    /// last step at its last evaluated Newton iterate: [`EnergyLedger::stored`](super::EnergyLedger#structfield.stored)). So a blow-up is judged from the least energy the run fell
     /// to, not from a start that held more (energy in limit springs that damping spends). The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
     /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one

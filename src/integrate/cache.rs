@@ -40,10 +40,12 @@ pub struct SolverCache {
 }
 
 /// What one internal step borrows from the [`SolverCache`] (or from its caller) and leaves
-/// there: the Newton Jacobian, the pairs' kept proofs and candidate planes, and the count of
-/// halved steps. The Jacobian can change a result in its last bits (where Newton starts), a
-/// carried [`ReachProof`](crate::collision::ReachProof) which pairs are switched off (below its
-/// bound); the candidate memos and the count change nothing.
+/// there: the Newton Jacobian, the pairs' kept proofs and candidate planes, the count of
+/// halved steps, the kinematics memo and where implicit Euler leaves its contact energy. The
+/// Jacobian can change a result in its last bits (where Newton starts), a carried
+/// [`ReachProof`](crate::collision::ReachProof) which pairs are switched off (below its bound),
+/// the contact energy which steps the guard's next call refuses; the candidate memos, the
+/// kinematics and the count change nothing.
 pub(super) struct StepCarry<'c> {
     /// The last Newton Jacobian of implicit Euler, or of damped Euler in contact: tried first,
     /// replaced when the iterations contract slowly.
@@ -58,11 +60,12 @@ pub(super) struct StepCarry<'c> {
     /// (`None`: none kept, none lent).
     pub(super) kinematics: Option<&'c mut KinematicsMemo>,
     /// Where implicit Euler's steps write the estimate of the energy stored in contact (J,
-    /// [`contact_energy`](super::guard::contact_energy)) at their Newton iterations' last real
-    /// iterate, within Newton's tolerance of the state the step ends at, for the energy guard's
-    /// next call ([`EnergyLedger::stored`]); `None` written where none was found (a model with
-    /// mocap bodies or adhesion actuators, whose contacts read inputs the next call may
-    /// change). `None`: not asked.
+    /// [`contact_energy`](super::guard::contact_energy)) at their Newton iterations' last
+    /// evaluated iterate, one Newton step from the state the step ends at, for the energy
+    /// guard's next call ([`EnergyLedger::stored`]); `None` written where none was found (a
+    /// model with mocap bodies or adhesion actuators, whose contacts read inputs the next call
+    /// may change). `None`: not asked. It changes which steps the guard refuses (its estimate
+    /// of the start's energy), never a state.
     pub(super) contact_energy: Option<&'c mut Option<f64>>,
 }
 

@@ -93,8 +93,10 @@ impl Model {
     }
 
     /// The guard's state at the start of a call from `state` at time `t0` (s), with the contacts
-    /// there (`None`: none evaluated), continuing `ledger` if it was left at this state and
-    /// these parameters. `None` when the energy is not finite (it cannot be judged).
+    /// there (`None`: none evaluated; the energy stored in them is then the ledger's estimate
+    /// where it carries on with one, [`EnergyLedger::stored`], else none), continuing `ledger`
+    /// if it was left at this state and these parameters. `None` when the energy is not finite
+    /// (it cannot be judged).
     pub(super) fn energy_monitor(
         &self,
         state: &State<f64>,
@@ -185,8 +187,9 @@ pub struct EnergyLedger {
     pub energy: f64,
     /// The estimate of the energy stored in contact at `at` (J, [`contact_energy`]) where the
     /// call that left the ledger found it: implicit Euler's last step reads it at its Newton
-    /// iterations' last real iterate, within Newton's tolerance of `at` (its iterations stop
-    /// on a step they do not evaluate). A call that carries the ledger on takes it instead of
+    /// iterations' last evaluated iterate, one Newton step from `at` (its iterations stop on a
+    /// step they do not evaluate: a step within their tolerance, or up to `(1 - θ)/θ` times it
+    /// where they contract at a fast rate θ). A call that carries the ledger on takes it instead of
     /// listing every pair's contact at its start again: on `box_stack` that listing was a
     /// third of implicit Euler's step, on three free bodies out of reach a sixth. `None`: not
     /// known (the next call lists the contacts).

@@ -443,8 +443,8 @@ impl Model {
             m.take_back(buffers.into_inner());
         }
         let v = v?;
-        // Newton's last residual was at its last real iterate (the Jacobians' passes are not
-        // real), within its tolerance of `v`.
+        // Newton's last residual was at its last evaluated iterate (the Jacobians' passes are
+        // on dual numbers and write nothing), one Newton step from `v`.
         if let Some(slot) = energy_slot {
             *slot = energy.get();
         }

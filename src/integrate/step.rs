@@ -201,7 +201,7 @@ impl Model {
                 ..ForwardOptions::default()
             };
             let f = self.forward_with(q, v, u, prm, opts)?;
-            Ok(f.vdot.iter().copied().collect())
+            Ok(f.vdot.data.into())
         };
         let dv1 = match a0 {
             Some(a) => a,
@@ -214,7 +214,11 @@ impl Model {
                 act,
             }),
             Integrator::SemiImplicitEuler => {
-                let v = axpy(v1, h, &dv1);
+                // `v + h v̇`, as `axpy` computes it, into the acceleration's vector.
+                let mut v = dv1;
+                for (a, &x) in v.iter_mut().zip(v1) {
+                    *a = x + h * *a;
+                }
                 Ok(State {
                     q: tree.integrate_q(q1, &v, h),
                     v,

@@ -143,7 +143,8 @@ impl Model {
 
     /// The contacts [`Model::forward_with`] lists ([`Forward::contacts`], the same bits, the
     /// pairs' kept proofs and candidates used and updated alike), without the dynamics that
-    /// follow them: what implicit Euler's energy guard reads at a call's start, where the
+    /// follow them: what implicit Euler's energy guard reads at a call's start where the ledger
+    /// it carries on holds no estimate of their energy, and where the
     /// accelerations would be thrown away (on three free bodies out of reach the mass matrix,
     /// its factor and the bias forces were a fifth of the step).
     pub fn contacts_only(
@@ -229,9 +230,13 @@ impl Model {
         };
         self.add_body_forces(&kin, prm.stiction_velocity, &mut wrenches);
         let bias = self.tree.rnea(&kin, &[], &wrenches);
-        let mut rhs = DVector::from_column_slice(tau)
-            + self.passive_forces(q, v, prm.stiction_velocity)
-            - bias;
+        // `τ + τ_passive - c`, into the passive forces' vector (the same sums: addition
+        // commutes).
+        let mut rhs = self.passive_forces(q, v, prm.stiction_velocity);
+        for (r, &t) in rhs.iter_mut().zip(tau) {
+            *r += t;
+        }
+        rhs -= bias;
         let mut m = self.damped_mass_matrix(&kin, q, v, prm, opts.implicit_damping);
         let coupled = self.coupled_at(&kin, q, v, opts.implicit_damping);
         coupled.add_turning_force(&mut rhs);

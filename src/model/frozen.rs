@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, SMatrix};
 /// module).
 pub struct FrozenForward<'m> {
     model: &'m Model,
-    // The configuration read where the caller keeps it (a step's start state), not copied.
+    /// The positions, read where the caller keeps them (a step's start state), not copied.
     q: &'m [f64],
     /// The start velocity.
     v: &'m [f64],
@@ -173,7 +173,8 @@ impl FrozenForward<'_> {
         &self.contacts
     }
 
-    /// [`FrozenForward::contacts`], taken out (left empty: nothing else reads them).
+    /// [`FrozenForward::contacts`], taken out: [`FrozenForward::contacts`] is empty after
+    /// (nothing else of the evaluation reads them).
     pub fn take_contacts(&mut self) -> Vec<Option<PairContact<f64>>> {
         std::mem::take(&mut self.contacts)
     }

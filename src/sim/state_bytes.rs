@@ -41,9 +41,9 @@ use nalgebra::{Matrix3, Vector3};
 /// version 6 the kept out-of-reach proofs, version 7 the activations, version 8 the kept
 /// proofs by the floor alone (a side's flag 2), version 9 a kept proof's room (its relevance
 /// margin widened point by point, [`ProofSide`]), version 10 the ledger's energy stored in
-/// contact (its flag 2); [`decode`] also reads versions 3 (never flag 2), 4 and 5 (no kept
-/// proofs), 6 (no activations: of a model without them), 7 and 8 (no room: 0) and 9 (no
-/// ledger flag 2).
+/// contact (the ledger's flag 2); [`decode`] also reads versions 3 (never a cache state flag
+/// 2), 4 and 5 (no kept proofs), 6 (no activations: of a model without them), 7 and 8 (no room:
+/// 0) and 9; before 10, never a ledger flag 2.
 pub const STATE_VERSION: u32 = 10;
 
 /// The bytes of a state as [`encode`] writes them, with where each section of the module's
