@@ -28,6 +28,7 @@ pub use actuator::{Actuator, ActuatorKind, SiteTransmission, SliderCrank, Transm
 pub use energy::Energy;
 pub use forward::{EvalPoint, ForwardOptions};
 pub use frozen::FrozenForward;
+pub(crate) use frozen::FrozenStart;
 pub use pairs::{Pair, PairThreads, Reuse};
 
 /// The complete model of a scene (see the module doc for what may change between steps).

@@ -644,8 +644,8 @@ fn the_energy_ledger_restarts_when_the_state_or_the_contact_parameters_are_set()
 fn implicit_euler_leaves_the_contact_energy_at_its_end_for_the_next_call() {
     // Implicit Euler's guard reads the energy stored in contact at a call's start. Its steps'
     // Newton iterations stop on a step they do not evaluate, so the call leaves the estimate at
-    // its last iterate in the ledger (`EnergyLedger::stored`), within Newton's tolerance of the
-    // end state, and the next call takes it instead of listing every contact again. The 1 kg
+    // its last evaluated iterate in the ledger (`EnergyLedger::stored`), one Newton step from
+    // the end state, and the next call takes it instead of listing every contact again. The 1 kg
     // sphere of `stiff_sphere` at k = 3e4 N/m dropped from 1 cm and settling, one internal step
     // per call: the estimate left must be the one the contacts at the end state give.
     let model = model_of(&stiff_sphere(3e4, 2e-3, "implicit_euler"));
@@ -1413,6 +1413,62 @@ const ARM_PRESSING_BOX: &str = tilted_box_and!(
       <body name="fore" pos="0.1 0 0"><joint type="hinge" axis="0 1 0"/>
         <geom type="capsule" fromto="0 0 0 0.12 0 -0.146" size="0.015" mass="0.1"/></body></body>"#
 );
+
+#[test]
+fn damped_euler_without_a_pair_in_reach_is_the_forward_dynamics_step_to_the_bit() {
+    // A step with no pair in reach and no limit takes the frozen evaluation's free start (no
+    // evaluation kept for Newton): its velocity must be `v + h v̇` of the damped forward
+    // dynamics (`forward_at` with the joints' damping implicit) to the bit, as the frozen
+    // evaluation made in full gives it. A box falling far above a floor and a pendulum with
+    // viscous damping and frictionloss, whose implicit terms the damped mass matrix holds.
+    let model = model_of(
+        r#"<mujoco><option timestep="0.002"/>
+  <custom><text name="scm_integrator" data="damped_euler"/></custom>
+  <worldbody><geom type="plane" size="1 1 0.1"/>
+    <body name="box" pos="0 0 0.5" euler="10 20 30"><freejoint/>
+      <geom type="box" size="0.05 0.04 0.03" mass="0.7"/></body>
+    <body name="arm" pos="1 0 1"><joint name="j" type="hinge" axis="0 1 0" damping="0.3"
+      frictionloss="0.05"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.4"/></body>
+  </worldbody></mujoco>"#,
+    );
+    assert_eq!(model.integrator, Integrator::DampedEuler);
+    let q = model.tree.q0();
+    let v = vec![0.1, -0.2, 0.3, 1.0, -2.0, 0.5, 0.7];
+    let (h, prm) = (model.timestep, model.contact);
+    let tau = vec![0.0; v.len()];
+    let at = EvalPoint {
+        q: &q,
+        v: &v,
+        tau: &tau,
+        mocap: &[],
+        pulls: &[],
+    };
+    let damped = ForwardOptions {
+        implicit_damping: Some(h),
+        ..ForwardOptions::default()
+    };
+    let a = model.forward_at(at, &prm, damped).unwrap().vdot;
+    let (frozen, a0) = model.frozen_forward(at, &prm, h, Reuse::Nothing).unwrap();
+    assert!(frozen.contact_free(), "nothing in reach");
+    let bits = |x: &[f64]| x.iter().map(|a| a.to_bits()).collect::<Vec<u64>>();
+    assert_eq!(bits(&a0), bits(a.as_slice()), "the full frozen evaluation");
+    let s = State {
+        q: q.clone(),
+        v: v.clone(),
+        act: Vec::new(),
+    };
+    let end = model
+        .step_with(Integrator::DampedEuler, &s, &[], &prm, h)
+        .unwrap();
+    let v1: Vec<f64> = (0..v.len()).map(|k| v[k] + h * a[k]).collect();
+    assert_eq!(bits(&end.v), bits(&v1), "the step's velocity");
+    assert_eq!(bits(&end.q), bits(&model.tree.integrate_q(&q, &v1, h)));
+    // The damping is implicit: the explicit step would differ.
+    let plain = model
+        .forward_at(at, &prm, ForwardOptions::default())
+        .unwrap();
+    assert_ne!(plain.vdot[6], a[6], "the hinge's damping taken implicitly");
+}
 
 #[test]
 fn damped_euler_frozen_contact_equals_the_full_evaluation() {

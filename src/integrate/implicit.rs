@@ -13,7 +13,7 @@ use crate::collision::PairCarry;
 use crate::contact::{ContactParams, PairContact};
 use crate::dynamics::Kinematics;
 use crate::integrator::{Integrator, State};
-use crate::model::{DynamicsError, EvalPoint, ForwardOptions, Model, Reuse};
+use crate::model::{DynamicsError, EvalPoint, ForwardOptions, FrozenStart, Model, Reuse};
 use crate::scalar::{c, Scalar};
 use nalgebra::DMatrix;
 use std::any::Any;
@@ -267,17 +267,36 @@ impl Model {
                     Some(kin)
                 })
             });
-            let (mut frozen, a0) = self.frozen_forward_from(at, prm64, h.re(), reuse, known)?;
+            let start = self.frozen_start(at, prm64, h.re(), reuse, known, true)?;
+            let explicit =
+                |a0: &[f64]| -> Vec<T> { (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect() };
+            let (mut frozen, a0) = match start {
+                FrozenStart::Free {
+                    vdot,
+                    kin,
+                    contacts,
+                } => {
+                    if let Some(slot) = at_start {
+                        *slot = Some(contacts);
+                    }
+                    // Its kinematics' buffers for the next ones (the guard's, a stage's).
+                    if let Some(m) = memo {
+                        m.recycle(kin);
+                    }
+                    return Ok(explicit(&vdot));
+                }
+                FrozenStart::Recorded(frozen, a0) => (frozen, a0),
+            };
             if let Some(slot) = at_start {
                 *slot = Some(frozen.take_contacts());
             }
-            let explicit: Vec<T> = (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect();
             if frozen.contact_free() {
-                // Its kinematics' buffers for the next ones (the guard's, a stage's).
+                // A limit could let go: the frozen evaluation was made (its accelerations are
+                // those of the limits let go); its kinematics' buffers for the next ones.
                 if let Some(m) = memo {
                     m.recycle(frozen.into_kinematics());
                 }
-                return Ok(explicit);
+                return Ok(explicit(&a0));
             }
             let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
                 let a = frozen.vdot(&re_vec(x));
