@@ -101,16 +101,14 @@ impl Model {
         let guard = opts.energy_guard && !mocap_moves;
         // The first stage of the explicit methods is the forward dynamics at the start: computed
         // once here, it also gives the contact state for the energy guard (implicit Euler's guard
-        // takes the contacts alone: it reads no acceleration there; and only where the ledger it
-        // carries on does not hold their energy already). Damped Euler's first step
+        // takes the contacts alone, where its ledger holds none). Damped Euler's first step
         // (damped RK4's first stage) records every pair's contact at the start itself (its frozen
         // contact): the guard takes it from there, and its balance starts once that step is taken.
         let damped = self.integrator.is_damped();
         // Implicit Euler's contact energy at the start, where the last call left it with the
-        // ledger it carries on (`EnergyLedger::stored`): the contacts need not be listed again.
+        // ledger it carries on (`EnergyLedger::stored`): no listing, no kinematics read.
         let stored_carried = (self.integrator == Integrator::ImplicitEuler && guard)
-            && (cache.ledger.as_ref())
-                .is_some_and(|l| l.stored.is_some() && l.at == *state && l.params == *prm);
+            && (cache.ledger.as_ref()).is_some_and(|l| l.stored_at(state, prm).is_some());
         let needs_start = match self.integrator {
             Integrator::ImplicitEuler => guard && !stored_carried,
             Integrator::DampedEuler | Integrator::DampedRk4 => false,
@@ -147,12 +145,8 @@ impl Model {
                 error,
             })?
         } else {
-            // Implicit Euler's start read from the ledger: the kinematics the last call left of
-            // this state serve no evaluation, their buffers the next kinematics made.
             if stored_carried {
-                if let Some(kin) = cache.kinematics.take(state) {
-                    cache.kinematics.recycle(kin);
-                }
+                cache.kinematics.set_aside();
             }
             (None, None, None)
         };
@@ -202,8 +196,7 @@ impl Model {
             // (The internal step as computed, `duration / n`, can differ by a rounding from the
             // one the cache was left for, e.g. 0.01 s in calls of 0.01 s or of 0.1 s: a warm
             // start serves either.)
-            // Implicit Euler's contact energy at the end of its last step, for the guard's
-            // next call (only where the guard watches; `StepCarry::contact_energy`).
+            // Implicit Euler's contact energy at the end (`StepCarry::contact_energy`).
             let mut stored_end = None;
             let (mut jac, mut dv) = match cache.left {
                 Some((ref s_left, h_left))
@@ -345,8 +338,7 @@ impl Model {
                     None => cache.left = Some((s.clone().into_owned(), dt)),
                 }
             }
-            let old = cache.ledger.take();
-            cache.ledger = EnergyMonitor::leave(monitor, &s, prm, old, stored_end);
+            cache.ledger = EnergyMonitor::leave(monitor, &s, prm, cache.ledger.take(), stored_end);
             report.state = s.into_owned();
             report.steps = n;
             report.min_step = dt;
@@ -484,9 +476,8 @@ pub struct AdvanceOptions {
     /// balance moves its start to a later state where `E + U` is not above `E₀ + U₀ + W`
     /// (the run lost energy since; [`EnergyLedger::tighten`](super::EnergyLedger)): checked at the start of every
     /// call and, for the explicit fixed-step methods, of every internal step (where the forward
-    /// dynamics give the contacts; where implicit Euler's call carries the ledger on with an
-    /// estimate of `U` in it, its `U` at the start is that estimate, made by the last call's
-    /// last step at its last evaluated Newton iterate: [`EnergyLedger::stored`](super::EnergyLedger#structfield.stored)). So a blow-up is judged from the least energy the run fell
+    /// dynamics give the contacts; implicit Euler's `U` at the start is the ledger's estimate
+    /// where it carries one, [`EnergyLedger::stored`](super::EnergyLedger#structfield.stored)). So a blow-up is judged from the least energy the run fell
     /// to, not from a start that held more (energy in limit springs that damping spends). The ledger restarts whenever a call starts from another state than the last one
     /// ended at, or with other contact parameters (the host set them: energy the guard cannot
     /// account for). Mocap bodies put in energy the guard cannot bound: it is off while one

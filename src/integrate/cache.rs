@@ -157,6 +157,14 @@ impl KinematicsMemo {
         None
     }
 
+    /// Sets the kept kinematics aside as spare ones, whatever their state (their buffers for
+    /// the next kinematics made).
+    pub(super) fn set_aside(&mut self) {
+        if let Some(kin) = self.kin.take() {
+            self.spare = Some(kin);
+        }
+    }
+
     /// Keeps kinematics that are done with, for their buffers ([`KinematicsMemo::spare`]).
     pub(super) fn recycle(&mut self, kin: Kinematics<f64>) {
         self.spare = Some(kin);

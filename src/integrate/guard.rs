@@ -110,7 +110,7 @@ impl Model {
         let carried = ledger.filter(|l| l.at == *state && l.params == *prm);
         let in_contact = match contacts {
             Some(c) => contact_energy(&self.pairs, c, prm, &pulls),
-            None => carried.and_then(|l| l.stored).unwrap_or(0.0),
+            None => carried.and_then(|l| l.stored_at(state, prm)).unwrap_or(0.0),
         };
         let stored = in_contact + self.limits_drift(&state.q);
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
@@ -197,6 +197,13 @@ pub struct EnergyLedger {
 }
 
 impl EnergyLedger {
+    /// Its estimate of the energy stored in contact ([`EnergyLedger::stored`]) if it was left
+    /// at `state` with the parameters `prm`.
+    pub(super) fn stored_at(&self, state: &State<f64>, prm: &ContactParams<f64>) -> Option<f64> {
+        self.stored
+            .filter(|_| self.at == *state && self.params == *prm)
+    }
+
     /// The most mechanical energy a state may have (J), given the energy floor `floor` (J):
     /// `E₀ + U₀ + W + ½ (S + Σ|ΔW|) + E_floor` ([`AdvanceOptions::energy_guard`](crate::integrate::AdvanceOptions::energy_guard)).
     pub(super) fn allowed(&self, floor: f64) -> f64 {

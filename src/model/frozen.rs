@@ -58,27 +58,15 @@ impl Model {
         h: f64,
         reuse: Reuse,
     ) -> Result<(FrozenForward<'m>, Vec<f64>), DynamicsError> {
-        self.frozen_forward_from(at, prm, h, reuse, None)
-    }
-
-    /// [`Model::frozen_forward`] from `known`, the kinematics of `at`'s positions and velocities
-    /// if the caller has them already (the energy guard's of the state it checked): the same
-    /// bits, one kinematics pass fewer.
-    pub fn frozen_forward_from<'m>(
-        &'m self,
-        at: EvalPoint<'m, f64>,
-        prm: &ContactParams<f64>,
-        h: f64,
-        reuse: Reuse,
-        known: Option<Kinematics<f64>>,
-    ) -> Result<(FrozenForward<'m>, Vec<f64>), DynamicsError> {
-        match self.frozen_start(at, prm, h, reuse, known, false)? {
+        match self.frozen_start(at, prm, h, reuse, None, false)? {
             FrozenStart::Recorded(frozen, vdot) => Ok((frozen, vdot)),
             FrozenStart::Free { .. } => unreachable!("a free start is only made where asked"),
         }
     }
 
-    /// [`Model::frozen_forward_from`], or with `free` where no pair is in reach and no limit
+    /// [`Model::frozen_forward`] from `known`, the kinematics of `at`'s positions and velocities
+    /// if the caller has them already (the energy guard's of the state it checked: the same
+    /// bits, one kinematics pass fewer); and with `free`, where no pair is in reach and no limit
     /// can let go, only what a step without contact reads of it ([`FrozenStart::Free`]: the
     /// same accelerations to the bit, without the frozen evaluation a step without contact
     /// would build, move and drop, nor the copy of the bias forces its later evaluations keep:
