@@ -640,6 +640,15 @@ fn the_energy_ledger_restarts_when_the_state_or_the_contact_parameters_are_set()
     assert_eq!(since(&cache), None);
 }
 
+/// The guard's estimate of the energy stored in contact at `s` (J), with the model's own
+/// contact parameters and no adhesion pull.
+fn stored_in_contact(model: &Model, s: &State<f64>) -> f64 {
+    let prm = model.contact;
+    let kin = model.tree.kinematics(&s.q, &s.v);
+    let contacts = model.contact_forces(&kin, &prm, &[]).1;
+    scm::integrate::contact_energy(&model.pairs, &contacts, &prm, &[])
+}
+
 #[test]
 fn implicit_euler_leaves_the_contact_energy_at_its_end_for_the_next_call() {
     // Implicit Euler's guard reads the energy stored in contact at a call's start. Its steps'
@@ -651,12 +660,7 @@ fn implicit_euler_leaves_the_contact_energy_at_its_end_for_the_next_call() {
     let model = model_of(&stiff_sphere(3e4, 2e-3, "implicit_euler"));
     assert_eq!(model.integrator, Integrator::ImplicitEuler);
     let (h, prm) = (model.timestep, model.contact);
-    let stored = |s: &State<f64>| {
-        let contacts = model
-            .contacts_only(&s.q, &s.v, &[], &prm, ForwardOptions::default())
-            .unwrap();
-        scm::integrate::contact_energy(&model.pairs, &contacts, &prm, &[])
-    };
+    let stored = |s: &State<f64>| stored_in_contact(&model, s);
     let mut s = State {
         q: vec![0.0, 0.0, 0.06, 1.0, 0.0, 0.0, 0.0],
         v: vec![0.0; 6],
@@ -915,15 +919,7 @@ fn the_contact_energy_estimate_cannot_raise_the_guards_allowance() {
     let model = model_of(&stiff_sphere(3e4, 2e-3, "semi_implicit_euler"));
     assert_eq!(model.integrator, Integrator::SemiImplicitEuler);
     let (h, prm) = (model.timestep, model.contact);
-    let stored = |s: &State<f64>| {
-        let kin = model.tree.kinematics(&s.q, &s.v);
-        scm::integrate::contact_energy(
-            &model.pairs,
-            &model.contact_forces(&kin, &prm, &[]).1,
-            &prm,
-            &[],
-        )
-    };
+    let stored = |s: &State<f64>| stored_in_contact(&model, s);
     let potential = |s: &State<f64>| {
         let e = model.energy(&s.q, &s.v);
         e.gravity + e.springs
