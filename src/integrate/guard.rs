@@ -110,7 +110,7 @@ impl Model {
         let carried = ledger.filter(|l| l.at == *state && l.params == *prm);
         let in_contact = match contacts {
             Some(c) => contact_energy(&self.pairs, c, prm, &pulls),
-            None => carried.and_then(|l| l.stored_at(state, prm)).unwrap_or(0.0),
+            None => carried.and_then(|l| l.stored).unwrap_or(0.0),
         };
         let stored = in_contact + self.limits_drift(&state.q);
         let floor = self.moving_mass() * (self.tree.gravity.norm() * 1e-3 + 0.5 * 1e-4);
