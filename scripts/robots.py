@@ -117,8 +117,10 @@ def pairs_across_gaps(xml, rows, gap=0.003):
 
 def across_gaps(scm, xml, timeout, gap=0.003):
     """At the file's initial state: how many of SCM's contact pairs MuJoCo puts more than `gap`
-    (m) apart ([`pairs_across_gaps`]), and the largest force component any of them gives in
-    SCM (N): a pair pushing where MuJoCo sees a gap. `None` where the run fails."""
+    (m) apart ([`pairs_across_gaps`]), the largest force component any of them gives in SCM
+    (N): a pair pushing where MuJoCo sees a gap, and of the pairs MuJoCo puts apart by any gap
+    the one whose force is largest in SCM, with that force's size (N). `None` where the run
+    fails."""
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "start.csv"
         try:
@@ -130,7 +132,10 @@ def across_gaps(scm, xml, timeout, gap=0.003):
             return None
         rows = out.read_text().splitlines()
     found = pairs_across_gaps(xml, rows, gap)
-    return len(found), max((abs(f) for _, _, force in found for f in force), default=0.0)
+    # Bodies MuJoCo puts apart by any gap: the pair pushing most in SCM (name, force's norm).
+    pushing = ((pair, float(np.linalg.norm(force))) for pair, _, force in pairs_across_gaps(xml, rows, 0.0))
+    apart = max((p for p in pushing if p[1] > 0), key=lambda x: x[1], default=("none", 0.0))
+    return len(found), max((abs(f) for _, _, force in found for f in force), default=0.0), apart
 
 
 def with_tolerance(xml, tolerance):
@@ -235,26 +240,30 @@ def main():
         + " Across MuJoCo's gaps: at the initial state, SCM's contact pairs whose bodies MuJoCo puts more"
           " than 3 mm apart (`mj_geomDistance` between their colliding geoms) and the largest force"
           " component any of them gives in SCM (a pair pushing where MuJoCo sees a gap; one step with"
-          " every contact output, apart from the timed run).",
+          " every contact output, apart from the timed run). The last column: of the pairs MuJoCo puts"
+          " apart by any gap at the initial state, the one pushing most in SCM and its force (N; xArm7's"
+          " base and link 1, 0.2 mm apart in MuJoCo: docs/mjcf.md, \"Contact on, against MuJoCo's spread\").",
         "",
         "| robot | file's integrator, step | steps | SCM per step (ms) | MuJoCo per step (µs) | SCM / MuJoCo |"
         " SCM real-time factor | MuJoCo real-time factor | SCM load (s) | SCM peak (MB) | MuJoCo contacts (start, end) |"
         " pairs across MuJoCo's gaps | largest force across them (N) |"
         + (f" SCM per step at τ = {a.tolerance:g} (ms) | SCM / MuJoCo at τ = {a.tolerance:g} | output's end apart |"
-           if a.tolerance > 0 else ""),
+           if a.tolerance > 0 else "")
+        + " pushing most where MuJoCo's bodies are apart (N) |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
-        + (" ---: | ---: | ---: |" if a.tolerance > 0 else ""),
+        + (" ---: | ---: | ---: |" if a.tolerance > 0 else "") + " --- |",
     ]
     notes = []
     for label, xml, integrator, h, steps, wall, whole, peak, t_mj, ncon, err, end, loose, gaps in rows:
         across = f" {gaps[0]} | {gaps[1]:.2g} |" if gaps else " — | — |"
+        pushing = f" {gaps[2][0]}, {gaps[2][1]:.2g} |" if gaps else " — |"
         mj = f"{t_mj * 1e6:.1f}"
         mj_rtf = f"{h / t_mj:.0f}"
         if err:
             notes.append(f"- {label}: {err}")
             lines.append(f"| {label} | {integrator}, {h} s | {steps} | — | {mj} | — | — | {mj_rtf} | — |"
                          f" {peak and f'{peak:.0f}' or '—'} | {ncon[0]}, {ncon[1]} |{across}"
-                         + (" — | — | — |" if a.tolerance > 0 else ""))
+                         + (" — | — | — |" if a.tolerance > 0 else "") + pushing)
             continue
         per = wall / steps
         extra = ""
@@ -267,7 +276,7 @@ def main():
                 extra = f" {lper * 1e3:.4g} | {lper / t_mj:.0f} | {apart} |"
         lines.append(f"| {label} | {integrator}, {h} s | {steps} | {per * 1e3:.4g} | {mj} | {per / t_mj:.0f} |"
                      f" {h / per:.4g} | {mj_rtf} | {whole - wall:.1f} | {peak:.0f} | {ncon[0]}, {ncon[1]} |{across}"
-                     + extra)
+                     + extra + pushing)
     if notes:
         lines += ["", "Runs that did not finish:", *notes]
     lines.append("")
