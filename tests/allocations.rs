@@ -88,9 +88,9 @@ fn a_step_out_of_reach_allocates_no_more_than_when_counted() {
             r#"integrator="Euler"><flag eulerdamp="disable"/></option>"#,
             11.0,
         ),
-        ("damped Euler", r#"integrator="Euler"/>"#, 13.0),
+        ("damped Euler", r#"integrator="Euler"/>"#, 12.0),
         ("implicit Euler", r#"integrator="implicitfast"/>"#, 20.0),
-        ("damped RK4", r#"integrator="RK4"/>"#, 79.0),
+        ("damped RK4", r#"integrator="RK4"/>"#, 75.0),
     ]
     .into_iter()
     .map(|(name, option, bound)| (name, per_step(&floating3(option)), bound))

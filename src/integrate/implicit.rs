@@ -268,8 +268,17 @@ impl Model {
                 })
             });
             let start = self.frozen_start(at, prm64, h.re(), reuse, known, true)?;
-            let explicit =
-                |a0: &[f64]| -> Vec<T> { (0..v.len()).map(|k| v[k] + h * c::<T>(a0[k])).collect() };
+            // `v + h v̇` into the accelerations' own vector: `T` is `f64` in this branch (its
+            // state is a `State<f64>`), so the same sums and no vector of their own.
+            let h64 = h.re();
+            let explicit = |mut a: Vec<f64>| -> Vec<T> {
+                for (ak, vk) in a.iter_mut().zip(v64) {
+                    *ak = vk + h64 * *ak;
+                }
+                let mut out = Some(a);
+                let out = (&mut out as &mut dyn Any).downcast_mut::<Option<Vec<T>>>();
+                out.and_then(Option::take).expect("the scalar is f64")
+            };
             let (mut frozen, a0) = match start {
                 FrozenStart::Free {
                     vdot,
@@ -283,7 +292,7 @@ impl Model {
                     if let Some(m) = memo {
                         m.recycle(kin);
                     }
-                    return Ok(explicit(&vdot));
+                    return Ok(explicit(vdot));
                 }
                 FrozenStart::Recorded(frozen, a0) => (frozen, a0),
             };
@@ -296,7 +305,7 @@ impl Model {
                 if let Some(m) = memo {
                     m.recycle(frozen.into_kinematics());
                 }
-                return Ok(explicit(&a0));
+                return Ok(explicit(a0));
             }
             let residual = |x: &[T]| -> Result<Vec<T>, DynamicsError> {
                 let a = frozen.vdot(&re_vec(x));

@@ -103,21 +103,24 @@ impl Model {
         // Kept for a second factorization where a limit lets go.
         let unfactored = self.limits_can_let_go().then(|| matrix.clone());
         let mass = coupled.factor(self, matrix, None)?;
+        // Boxed: a visit is one word, not the record's few hundred bytes, so the visits of a
+        // step with nothing in reach fit the allocator's small-block cache.
         let visits = self.visit_pairs(&kin, prm, pulls, Pick::InReach, reuse, |p, scratch| {
             let ([ca, cb], [a, b]) = (p.sides, p.bodies);
             let (fa, fb) = (&kin.frames[a], &kin.frames[b]);
-            (
+            Box::new((
                 a,
                 b,
                 p.prm,
                 PairTape::record(ca, fa, cb, fb, &p.prm, p.candidates, scratch),
-            )
+            ))
         });
         let mut tapes = Vec::new();
         let mut contacts = Vec::with_capacity(visits.len());
         for visit in visits {
             contacts.push(match visit {
-                PairVisit::Evaluated((a, b, p, (tape, contact))) => {
+                PairVisit::Evaluated(record) => {
+                    let (a, b, p, (tape, contact)) = *record;
                     tapes.push((a, b, p, tape));
                     Some(contact)
                 }
