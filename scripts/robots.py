@@ -234,7 +234,7 @@ def main():
         " MuJoCo's contacts at the file's initial state and after the run: robosuite's files start at"
         " every joint's zero, where some arms fold through themselves (robosuite sets its own initial"
         " pose before a run), so their steps are timed in deep self-contact on both sides."
-        + (f" The last three columns: the same SCM run with the scene's pruning tolerance at {a.tolerance:g}"
+        + (f" Columns 14 to 16: the same SCM run with the scene's pruning tolerance at {a.tolerance:g}"
            " (`scm_prune_tolerance`, default 1e-15: docs/method.md, \"Numerical rules\"), and how far the"
            " run's one output (the file's first) ended from the default's." if a.tolerance > 0 else "")
         + " Across MuJoCo's gaps: at the initial state, SCM's contact pairs whose bodies MuJoCo puts more"

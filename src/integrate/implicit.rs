@@ -272,6 +272,7 @@ impl Model {
             // state is a `State<f64>`), so the same sums and no vector of their own.
             let h64 = h.re();
             let explicit = |mut a: Vec<f64>| -> Vec<T> {
+                debug_assert_eq!(a.len(), v64.len());
                 for (ak, vk) in a.iter_mut().zip(v64) {
                     *ak = vk + h64 * *ak;
                 }

@@ -319,9 +319,11 @@ impl Model {
             };
             for j in &self.tree.joints {
                 // Neither damper: `h d` is zero and the diagonal (positive: a mass) unchanged
-                // (`floating3` under damped Euler: 2 % of its step in the sparse entries' lookups).
+                // (`floating3` under damped Euler: 1.6 % of its instructions in the sparse
+                // entries' lookups, docs/performance.md).
                 let damps = viscous * j.damping != 0.0 || j.frictionloss > 0.0;
-                for k in (0..j.kind.nv()).filter(|_| damps) {
+                let damped = if damps { j.kind.nv() } else { 0 };
+                for k in 0..damped {
                     let mut d = c::<T>(viscous * j.damping);
                     if j.frictionloss > 0.0 {
                         // The smooth frictionloss -F v / sqrt(v_s² + v²) is a damper of slope

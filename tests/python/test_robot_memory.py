@@ -10,7 +10,8 @@ peak resident set (the kernel's count for that child alone, not a timing) stays 
 Measured (KB, two steps, 2026-12-05): fourier hand 47,644, inspire hand 45,540, spot 33,844,
 tiago 52,516, xarm7 15,528, panda 23,004, jaco gripper 16,848 (before a pair's memory was
 bounded: fourier hand 260,652, spot 120,760, tiago 250,580, xarm7 89,516, panda 50,188; the
-inspire hand peaked at 468 to 478 MB, its first step about two minutes). At their first row, no pair pushes where MuJoCo measures a gap between its bodies.
+inspire hand peaked at 468 to 478 MB, its first step about two minutes). At their first row, no pair pushes where MuJoCo measures more than 2 cm between its bodies
+(nearer, xArm7's base and link 1 push with 66 N 0.2 mm apart: tests/python/test_robot_contact.py).
 """
 import functools
 import pathlib
