@@ -358,6 +358,7 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
     if m.contact_points > 0 {
         say!(w, "contact points: {} per pair", m.contact_points);
     }
+    cloud_warnings.extend(super::misread::misread_pairs(m));
     for warning in &sc.warnings {
         say!(w, "warning: {warning}");
     }

@@ -145,6 +145,7 @@ macro_rules! say {
 }
 
 mod check;
+mod misread;
 use check::check;
 
 fn run(command: Command) -> Result<(), Failure> {
