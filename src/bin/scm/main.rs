@@ -73,7 +73,8 @@ enum Command {
         body: String,
     },
     /// Report a scene's bodies, point clouds (with warnings where a cloud is not closed or
-    /// misses its geoms' volume), pairs, warnings, what SCM leaves unused, and every refusal
+    /// misses its geoms' volume), pairs (with a warning where a pair pushes at the initial
+    /// pose while its surfaces are apart), warnings, what SCM leaves unused, and every refusal
     /// with file and line; fails exactly where `pack` would refuse.
     Check {
         /// The scene (MJCF).
