@@ -74,7 +74,8 @@ enum Command {
     },
     /// Report a scene's bodies, point clouds (with warnings where a cloud is not closed or
     /// misses its geoms' volume), pairs (with a warning where a pair pushes at the initial
-    /// pose while its surfaces are apart), warnings, what SCM leaves unused, and every refusal
+    /// pose while its sampled points lie outside the other body's hull), warnings, what SCM
+    /// leaves unused, and every refusal
     /// with file and line; fails exactly where `pack` would refuse.
     Check {
         /// The scene (MJCF).

@@ -4,8 +4,9 @@
 //! edge that plane passes beside the surface. The convex hull of a cloud's mesh vertices holds
 //! its sampled surface (each triangle is a convex combination of its corners), so the largest
 //! of the hull's face planes at a point bounds the point's distance from below; a reading well
-//! under that bound, near enough to push, is a pair that pushes where its own surfaces are
-//! apart (robosuite's xArm7: its base and link 1 read 1.36 mm into each other, 0.2 mm apart).
+//! under that bound, near enough to push, is a pair that pushes where its sampled points lie
+//! outside the other body (robosuite's xArm7: its base and link 1 read 1.36 mm into each
+//! other, 0.2 mm apart).
 
 use nalgebra::Vector3;
 use scm::collision::{separation_band, Collider};
@@ -48,11 +49,11 @@ fn floor(planes: &[Plane], x: &Vector3<f64>) -> f64 {
     (planes.iter()).fold(f64::NEG_INFINITY, |m, (n, h)| m.max(n.dot(x) - h))
 }
 
-/// One warning per pair whose surfaces are apart at the scene's initial pose (every query
-/// point of its band lies outside the hull of the other body's mesh vertices, both bodies'
-/// clouds held by such hulls) while a query point, within ten `ε3` of the margin (where its
-/// spring pushes), reads more than [`MISREAD`] nearer than its bound: the pair pushes where
-/// its own surfaces do not touch.
+/// One warning per pair every query point of whose band lies outside the hull of the other
+/// body's mesh vertices at the scene's initial pose (both bodies' clouds held by such hulls),
+/// while a point within ten `ε3` of the margin (where its spring pushes) reads more than
+/// [`MISREAD`] nearer than its bound: the pair pushes where its sampled points do not touch
+/// the other body (the band's points are samples: an edge between them is not checked).
 pub(super) fn misread_pairs(m: &Model) -> Vec<String> {
     let hulls: Vec<Option<Vec<Plane>>> = (m.colliders.iter())
         .map(|c| c.as_ref().and_then(hull_planes))
@@ -103,7 +104,7 @@ pub(super) fn misread_pairs(m: &Model) -> Vec<String> {
             .norm();
         let name = |i: usize| &m.tree.bodies[i].name;
         out.push(format!(
-            "pair {} - {} at the initial pose: its surfaces are apart (each point of its band at least {:.3} mm outside the convex hull of the other body's mesh vertices, which holds that body's sampled surface), but a point of {} reads {:.3} mm from {}'s planes where it lies {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N; a finer scm_spacing reads closer (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
+            "pair {} - {} at the initial pose: every point of its band lies at least {:.3} mm outside the convex hull of the other body's mesh vertices (which holds that body's sampled surface), but a point of {} reads {:.3} mm from {}'s planes where it lies at least {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N; a finer scm_spacing reads closer (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
             name(p.a),
             name(p.b),
             apart * 1e3,
