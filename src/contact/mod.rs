@@ -440,6 +440,38 @@ pub fn pair_distance<T: Scalar>(
         .distance
 }
 
+/// The sizes of a pair's point forces added up, `Σ_f W_f |F_f|` over both sides (N), in `f64`:
+/// with nothing sliding, the pressing its friction acts on, where the net force of
+/// [`pair_contact`] can cancel. Of two bodies stacked axis on axis, the points under one's edge
+/// weigh its side planes, which push them sideways, in every direction round the edge, and the
+/// net force keeps none of it (docs/mjcf.md, "Contact on, against MuJoCo's spread"); where
+/// every point force is parallel (a box resting flat) it is the net force's size.
+pub fn pair_pressing(
+    a: &Collider,
+    fa: &Frame<f64>,
+    b: &Collider,
+    fb: &Frame<f64>,
+    prm: &ContactParams<f64>,
+) -> f64 {
+    let rels = pair_relatives(fa, fb, prm.surface.as_ref());
+    let mut pressing = 0.0;
+    pair_sides(
+        a,
+        b,
+        &rels,
+        prm,
+        BandWork {
+            keep_terms: terms_budget(a, b),
+            scratch: &mut Scratch::default(),
+            grads: None,
+            memo: None,
+        },
+        || NoForceSink,
+        |_, w, pf, _| pressing += w * pf.force.norm(),
+    );
+    pressing
+}
+
 /// [`pair_contact`] with the pair's candidate planes kept from one call to the next in `kept`
 /// ([`CandidateMemo`]): the same contact to the last bit, at less cost while the bodies move
 /// little between calls. The chain rule's path (first-order duals) does not use them; it keeps
