@@ -3,6 +3,7 @@
 mod activation;
 mod cli;
 mod common;
+mod contact_floor;
 mod contact_pair;
 mod contact_reach;
 mod coupled_constraints;

@@ -34,6 +34,9 @@ pub struct Aopc {
     /// [`super::union::sample_union`], with a fingerprint of the points and normals it holds
     /// for: the hierarchy takes it only while they are unchanged (the fields are public).
     rounded: Option<(u64, Arc<super::rounded::Rounded>)>,
+    /// How far below its polytope's proof the floor under its planes lies (a scene's
+    /// `scm_floor`, [`super::polytope::FloorKind`]).
+    floor: super::polytope::FloorKind,
 }
 
 impl PartialEq for Aopc {
@@ -44,6 +47,7 @@ impl PartialEq for Aopc {
             && self.vertices == o.vertices
             && self.faces == o.faces
             && self.reach == o.reach
+            && self.floor == o.floor
     }
 }
 
@@ -73,6 +77,7 @@ impl Aopc {
             bvh: OnceLock::new(),
             tolerance: crate::scalar::PRUNE_TOLERANCE,
             rounded: None,
+            floor: Default::default(),
         }
     }
 
@@ -93,6 +98,7 @@ impl Aopc {
                 &self.vertices,
                 &self.faces,
                 &self.reach,
+                self.floor,
             );
             b.rounded = self
                 .rounded
@@ -125,6 +131,20 @@ impl Aopc {
         }
     }
 
+    /// Sets the floor under the cloud's planes ([`super::polytope::FloorKind`]): a scene's
+    /// `scm_floor`. The hierarchy is built again on its next use.
+    pub fn set_floor(&mut self, floor: super::polytope::FloorKind) {
+        if floor != self.floor {
+            self.floor = floor;
+            self.bvh = OnceLock::new();
+        }
+    }
+
+    /// The floor under the cloud's planes.
+    pub fn floor(&self) -> super::polytope::FloorKind {
+        self.floor
+    }
+
     /// Attaches the certificate of a rounded union (before the hierarchy is built).
     pub(super) fn set_rounded(&mut self, rounded: Option<super::rounded::Rounded>) {
         self.bvh = OnceLock::new();
@@ -154,6 +174,7 @@ impl Aopc {
         );
         out.reach = self.reach.iter().map(tp).collect();
         out.tolerance = self.tolerance;
+        out.floor = self.floor;
         out
     }
 
@@ -167,7 +188,17 @@ impl Aopc {
         self.vertices.extend_from_slice(&other.vertices);
         self.faces
             .extend(other.faces.iter().map(|f| f.map(|i| i + base)));
-        self.reach.extend_from_slice(&other.reach);
+        // A cloud with a reach holds its surface in its points and reach alone (its faces'
+        // corners may stand past it: [`super::polytope::Polytope::of`]); the corners of the
+        // other's faces join it there where only one of them has one.
+        match (self.reach.is_empty(), other.reach.is_empty()) {
+            (true, false) => {
+                self.reach = self.vertices[..base as usize].to_vec();
+                self.reach.extend_from_slice(&other.reach);
+            }
+            (false, true) => self.reach.extend_from_slice(&other.vertices),
+            _ => self.reach.extend_from_slice(&other.reach),
+        }
     }
 
     /// The faces whose centre satisfies `keep` (vertices are kept whole; unused ones are
@@ -177,6 +208,7 @@ impl Aopc {
             vertices: self.vertices.clone(),
             reach: self.reach.clone(),
             tolerance: self.tolerance,
+            floor: self.floor,
             ..Default::default()
         };
         for i in 0..self.len() {

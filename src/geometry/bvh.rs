@@ -149,8 +149,8 @@ pub struct Bvh {
 impl Bvh {
     /// Attaches what the quad mesh whose face centres the points are proves about the surface:
     /// its flat patches and, for a sampled sphere or box, its radial or cuboid certificate
-    /// (`points`, `normals`, `vertices`, `faces` in the cloud's own order, as in
-    /// [`super::Aopc`]).
+    /// (`points`, `normals`, `vertices`, `faces` in the cloud's own order, `reach`, as in
+    /// [`super::Aopc`]), and its bounding polytope with the floor `floor`.
     pub fn set_surface(
         &mut self,
         points: &[Vector3<f64>],
@@ -158,6 +158,7 @@ impl Bvh {
         vertices: &[Vector3<f64>],
         faces: &[[u32; 4]],
         reach: &[Vector3<f64>],
+        floor: super::polytope::FloorKind,
     ) {
         let (of, patches) = super::patch::find_patches(points, normals, vertices, faces);
         self.cuboid = super::cuboid::find_cuboid(points, normals, vertices, faces, &of, &patches);
@@ -169,7 +170,7 @@ impl Bvh {
         self.patches = patches;
         self.radial = super::radial::find_radial(points, normals, vertices, faces);
         self.spine = super::spine::find_spine(points, normals, vertices, faces);
-        self.polytope = super::polytope::Polytope::of(points, vertices, faces, reach);
+        self.polytope = super::polytope::Polytope::of(points, vertices, faces, reach, floor);
         if let Some(p) = &mut self.polytope {
             p.reorder(&self.index);
         }

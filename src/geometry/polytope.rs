@@ -5,9 +5,11 @@
 //! infinite: beside the edge of a flat face it passes close to a query that is far from the
 //! surface, and reads it touching or inside. The polytope proves where that cannot be so.
 //!
-//! The polytope is the 26-sided bounding volume of the quad mesh and of the surface points no
-//! corner marks (a mesh in patches keeps its vertices there: `Aopc::reach`) (the supporting planes
-//! `u_kᵀy ≤ h_k` for the 26 directions of the cube's faces, edges and corners). The surface
+//! The polytope is the 26-sided bounding volume of the surface (the supporting planes
+//! `u_kᵀy ≤ h_k` for the 26 directions of the cube's faces, edges and corners): of the quad
+//! mesh's points and corners, or, for a cloud with a `reach` (`Aopc::reach`: a mesh in patches
+//! keeps its vertices there), of its points and reach, whose patches' square faces reach past
+//! the surface's edges. The surface
 //! lies inside it, so at any point `x` its largest plane value `max_k (u_kᵀx - h_k)` is at
 //! most the surface's signed distance: outside, the distance to the polytope is at least
 //! that, and the surface is farther still; inside, the depth in the surface is at least the
@@ -31,6 +33,12 @@
 //! the finger millimetres inside it (docs/method.md, departure 3, "Each plane's own margin").
 //! The separation field's entries, each a softmax over many planes, keep the cloud's floor;
 //! every plane's lies above it (`r_k ≤ r`), so what it proves holds for them all.
+//!
+//! A scene may ask for the tight floor ([`FloorKind::Tight`], `scm_floor`): no margin, and the
+//! planes' temperature a quarter of the above, so that no plane reads a point nearer than the
+//! polytope proves, less `T_p ln 26`. Robot links a fraction of a millimetre apart read each
+//! other millimetres inside round their edges under the margin, and push (docs/mjcf.md,
+//! "Contact on, against MuJoCo's spread").
 
 use crate::scalar::{c, re3, softplus, Scalar};
 use nalgebra::Vector3;
@@ -71,20 +79,43 @@ pub struct Polytope {
     /// [`Polytope::reorder`].
     covers: Vec<f64>,
     /// The planes' floors' temperature `T_p` (m): the smallest face's cover radius over 80,
-    /// and no less than the cloud's temperature over 64.
+    /// and no less than the cloud's temperature over 64; a quarter of that under
+    /// [`FloorKind::Tight`].
     plane_temperature: f64,
+    /// The floor's margin below the polytope, in cover radii: 1.5, or 0 under
+    /// [`FloorKind::Tight`].
+    margin: f64,
+}
+
+/// How far below the polytope's proof a cloud's floor lies: a scene's `scm_floor`
+/// (docs/method.md, departure 3, "A tight floor").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FloorKind {
+    /// One and a half cover radii below (each plane's own face's), at `T_p = min r_k/80`: a
+    /// reading as good as the sampling allows is left exactly as it is (the default).
+    #[default]
+    Margin,
+    /// At the polytope's proof itself, at a quarter of that temperature: no plane reads a point
+    /// nearer than the polytope proves, less `T_p ln 26` (robot links a fraction of a millimetre
+    /// apart, whose planes read each other millimetres inside round their edges); a reading at
+    /// the polytope's own face is raised by `T_p s⁺(-ln 26)` = 0.038 `T_p`.
+    Tight,
 }
 
 impl Polytope {
     /// The polytope of a quad mesh (`points` its face centres, `vertices`, `faces` and
-    /// `reach`, the surface's points no corner marks, as in [`super::Aopc`]); `None` without
-    /// faces or with a zero cover radius (a cloud given as bare points: nothing to bound its
-    /// planes by).
+    /// `reach`, the surface's points no corner marks, as in [`super::Aopc`]), with the floor
+    /// `kind`; `None` without faces or with a zero cover radius (a cloud given as bare points:
+    /// nothing to bound its planes by). Where a cloud has a `reach` (a mesh in patches), the
+    /// points and the reach hold its surface, and the faces' corners are left out: a patch's
+    /// face is a square at its reach, whose corners stand past the surface's edges (up to
+    /// 6 mm at 1 cm patches, which lowered the floor by as much).
     pub fn of(
         points: &[Vector3<f64>],
         vertices: &[Vector3<f64>],
         faces: &[[u32; 4]],
         reach: &[Vector3<f64>],
+        kind: FloorKind,
     ) -> Option<Polytope> {
         let mut covers = Vec::with_capacity(faces.len());
         for (p, f) in points.iter().zip(faces) {
@@ -99,7 +130,8 @@ impl Polytope {
             return None;
         }
         let mut support = [f64::NEG_INFINITY; 26];
-        for y in vertices.iter().chain(points).chain(reach) {
+        let corners = if reach.is_empty() { vertices } else { &[] };
+        for y in corners.iter().chain(points).chain(reach) {
             for (k, u) in AXES.iter().enumerate() {
                 let d = u[0] * y.x + u[1] * y.y + u[2] * y.z;
                 support[k] = support[k].max(d);
@@ -111,11 +143,16 @@ impl Polytope {
             *h += 1e-12 * (1.0 + h.abs());
         }
         let smallest = covers.iter().copied().fold(cover, f64::min);
+        let (margin, sharper) = match kind {
+            FloorKind::Margin => (1.5, 1.0),
+            FloorKind::Tight => (0.0, 4.0),
+        };
         Some(Polytope {
             support,
             cover,
             covers,
-            plane_temperature: smallest.max(cover / 64.0) / 80.0,
+            plane_temperature: smallest.max(cover / 64.0) / 80.0 / sharper,
+            margin,
         })
     }
 
@@ -135,12 +172,12 @@ impl Polytope {
     }
 
     /// How far plane `k`'s floor lies at least above the cloud's (m):
-    /// `1.5 (r - r_k) + (T - T_p) ln 26`, to add to a lower bound of the cloud's floor
+    /// `m (r - r_k) + (T - T_p) ln 26` (`m` the margin in cover radii), to add to a lower bound of the cloud's floor
     /// ([`Floor::lower`]) for one of plane `k`'s (a smooth maximum less `T ln 26` takes at most
     /// that off the largest plane value).
     #[inline]
     pub fn lift_of(&self, k: usize) -> f64 {
-        1.5 * (self.cover - self.cover_of(k))
+        self.margin * (self.cover - self.cover_of(k))
             + (self.temperature() - self.plane_temperature) * 26f64.ln()
     }
 
@@ -231,7 +268,7 @@ impl Polytope {
         keep(m1, -d[12] - h[25]);
         let top = if m[0] > m[1] { m[0] } else { m[1] };
         let other = if m[2] > m[3] { m[2] } else { m[3] };
-        (if top > other { top } else { other }) - 1.5 * self.cover
+        (if top > other { top } else { other }) - self.margin * self.cover
     }
 
     /// A lower bound of the floor `b` at `x` from the six axis planes alone (`±u_k` for the
@@ -253,7 +290,7 @@ impl Polytope {
         let top = values
             .into_iter()
             .fold(f64::NEG_INFINITY, |m, v| if v > m { v } else { m });
-        self.lower(top - 1.5 * self.cover)
+        self.lower(top - self.margin * self.cover)
     }
 
     /// A lower bound of `b` from its upper bound `upper`: the smoothing takes at most `T ln 26`
@@ -268,8 +305,9 @@ impl Polytope {
     }
 }
 
-/// The floor `b(x)` of one query point: `b = T ln(Σ_k exp((u_kᵀx - h_k)/T)) - T ln 26 - 1.5 r`,
-/// at most the surface's signed distance at `x` less `1.5 r`.
+/// The floor `b(x)` of one query point: `b = T ln(Σ_k exp((u_kᵀx - h_k)/T)) - T ln 26 - m r`,
+/// at most the surface's signed distance at `x` less `m r` (`m` the margin in cover radii, 1.5
+/// or 0: [`FloorKind`]).
 #[derive(Clone, Debug)]
 pub struct Floor<'p, T: Scalar> {
     polytope: &'p Polytope,
@@ -278,7 +316,7 @@ pub struct Floor<'p, T: Scalar> {
     upper: f64,
     /// `b` and its gradient (real part), once needed.
     smooth: Option<(T, Vector3<f64>)>,
-    /// The planes' floors less their margins, `b_k + 1.5 r_k`, and their gradient (real
+    /// The planes' floors less their margins, `b_k + m r_k`, and their gradient (real
     /// part), once needed.
     planes: Option<(T, Vector3<f64>)>,
 }
@@ -301,7 +339,7 @@ impl<T: Scalar> Floor<'_, T> {
     #[inline]
     pub fn leaves_plane(&self, phi: f64, k: usize) -> bool {
         let p = self.polytope;
-        phi >= self.upper + 1.5 * (p.cover - p.cover_of(k)) + UNTOUCHED * p.plane_temperature
+        phi >= self.upper + p.margin * (p.cover - p.cover_of(k)) + UNTOUCHED * p.plane_temperature
     }
 
     /// `b` and its gradient with respect to `x` (real part).
@@ -310,7 +348,7 @@ impl<T: Scalar> Floor<'_, T> {
             return v;
         }
         let p = self.polytope;
-        let v = self.smooth_max(p.temperature(), 1.5 * p.cover);
+        let v = self.smooth_max(p.temperature(), p.margin * p.cover);
         self.smooth = Some(v);
         v
     }
@@ -321,7 +359,7 @@ impl<T: Scalar> Floor<'_, T> {
     /// than `e^-40` to a sum of at least 1, and their `exp` would mostly underflow, slowly).
     fn smooth_max(&self, t: f64, m: f64) -> (T, Vector3<f64>) {
         let p = self.polytope;
-        let top = self.upper + 1.5 * p.cover;
+        let top = self.upper + p.margin * p.cover;
         let mut sum = T::zero();
         let mut grad = Vector3::zeros();
         // The plane values again: few readings need the smooth floor, and the upper bound
@@ -352,7 +390,8 @@ impl<T: Scalar> Floor<'_, T> {
                 v
             }
         };
-        (b - c::<T>(1.5 * self.polytope.cover_of(k)), grad)
+        let p = self.polytope;
+        (b - c::<T>(p.margin * p.cover_of(k)), grad)
     }
 
     /// The reading `phi` raised to the floor, `φ' = φ + T s⁺(b - φ)`, and `∂φ'/∂b` (real
@@ -367,7 +406,7 @@ impl<T: Scalar> Floor<'_, T> {
     }
 
     /// Plane `k`'s reading `phi` raised to its own floor `b_k`: the polytope's smooth maximum
-    /// at the planes' temperature `T_p` less `1.5 r_k` (module documentation),
+    /// at the planes' temperature `T_p` less `m r_k` (module documentation),
     /// `φ' = φ + T_p s⁺(b_k - φ)`, with `∂φ'/∂b_k` and `∇b_k` (real parts; `0` and no gradient
     /// where `phi` is left as it is, bit for bit).
     #[inline]
@@ -396,204 +435,5 @@ fn raised<T: Scalar>(phi: T, b: T, t: f64) -> (T, f64) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::geometry::Shape;
-    use num_dual::Dual64;
-
-    fn boxed() -> crate::geometry::Aopc {
-        Shape::Box {
-            half: Vector3::new(0.05, 0.03, 0.02),
-        }
-        .sample(0.01)
-    }
-
-    /// A point drawn from the 20 cm cube around the box above.
-    fn around_the_box(state: &mut u64) -> Vector3<f64> {
-        let mut draw = || 0.2 * crate::geometry::lcg(state);
-        Vector3::new(draw(), draw(), draw())
-    }
-
-    /// The exact signed distance of the box above.
-    fn box_sdf(x: &Vector3<f64>) -> f64 {
-        let q = x.abs() - Vector3::new(0.05, 0.03, 0.02);
-        q.map(|v| v.max(0.0)).norm() + q.max().min(0.0)
-    }
-
-    #[test]
-    fn the_floor_lies_below_the_surface_everywhere_and_margin_below_near_it() {
-        let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).expect("a quad mesh");
-        assert!(
-            p.cover() > 0.004 && p.cover() < 0.0075,
-            "cover {}",
-            p.cover()
-        );
-        let mut state = 7u64;
-        for _ in 0..2000 {
-            let x = around_the_box(&mut state);
-            let mut f = p.floor(&x);
-            let (b, _) = f.value();
-            let sdf = box_sdf(&x);
-            assert!(
-                b <= sdf - 1.5 * p.cover() + 1e-12,
-                "{x:?}: floor {b} sdf {sdf}"
-            );
-            assert!(
-                f.lower() <= b + 1e-15 && b <= f.upper + 1e-15,
-                "bounds of b"
-            );
-        }
-    }
-
-    #[test]
-    fn the_plane_values_are_the_directions_dot_products_to_the_bit() {
-        // `u_kᵀx - h_k` summed term by term over all three components, as the definition
-        // reads, against the shared products of `plane_values`: the same numbers at points of
-        // every octant, on the axes and at the origin.
-        let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).expect("a quad mesh");
-        let mut state = 11u64;
-        let mut points: Vec<Vector3<f64>> = (0..500)
-            .map(|_| around_the_box(&mut state) * 1e3f64.powf(crate::geometry::lcg(&mut state)))
-            .collect();
-        points.extend([
-            Vector3::zeros(),
-            Vector3::x(),
-            -Vector3::y(),
-            Vector3::z() * 1e-300,
-        ]);
-        for x in points {
-            let values = p.plane_values(&x);
-            let mut top = f64::NEG_INFINITY;
-            for (k, u) in AXES.iter().enumerate() {
-                let d = u[0] * x.x + u[1] * x.y + u[2] * x.z;
-                assert_eq!(values[k], d - p.support[k], "+u_{k} at {x:?}");
-                assert_eq!(values[13 + k], -d - p.support[13 + k], "-u_{k} at {x:?}");
-                top = top.max(d - p.support[k]).max(-d - p.support[13 + k]);
-            }
-            // The upper bound's running maxima give the largest value, less the margin.
-            assert_eq!(p.upper(&x), top - 1.5 * p.cover, "upper bound at {x:?}");
-            // The axes' bound lies below the floor's own lower bound, and so below the floor.
-            let mut floor = p.floor(&x);
-            let by_axes = p.floor_by_axes(&x);
-            assert!(by_axes <= floor.lower(), "axes {by_axes} at {x:?}");
-            assert!(by_axes <= floor.value().0, "axes {by_axes} at {x:?}");
-        }
-    }
-
-    #[test]
-    fn a_reading_near_the_truth_is_left_bit_for_bit_and_one_far_below_is_raised() {
-        let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
-        // Beside the top face's edge, 4 cm out in its plane: the top plane reads 0.
-        let x = Vector3::new(0.09, 0.0, 0.02);
-        let mut f = p.floor(&x);
-        let (b, _) = f.value();
-        assert!(b > 0.02, "the polytope proves 4 cm less the margin: {b}");
-        let (raised, s) = f.raise(0.0);
-        assert!(raised >= b && raised < b + 1e-6 && s > 0.99);
-        // The true distance, or anything within half a cover radius below it, is untouched.
-        for phi in [0.04, 0.04 - 0.5 * p.cover()] {
-            assert_eq!(f.raise(phi), (phi, 0.0));
-        }
-    }
-
-    /// The box above with its +x face as one face (6 × 4 cm, cover radius 3.6 cm), its other
-    /// faces as sampled (cover radius 7.1 mm), and the index of one of those.
-    fn capped() -> (Polytope, usize) {
-        let mut s = boxed().retain(|p| p.x < 0.0499);
-        let v = |y: f64, z: f64| Vector3::new(0.05, y, z);
-        s.push_quad([
-            v(-0.03, -0.02),
-            v(0.03, -0.02),
-            v(0.03, 0.02),
-            v(-0.03, 0.02),
-        ]);
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
-        (p, 0)
-    }
-
-    #[test]
-    fn a_plane_is_raised_to_its_own_faces_floor() {
-        let (p, k) = capped();
-        assert!((p.cover() - 0.036).abs() < 1e-3, "cover {}", p.cover());
-        let rk = p.cover_of(k);
-        assert!(
-            (rk - 0.005 * 2f64.sqrt()).abs() < 1e-9,
-            "its own cover radius {rk}"
-        );
-        // Beside the top face's edge, 4 cm out: the polytope proves 4 cm, less 5.4 cm for
-        // the cloud, less 1.1 cm for a sampled face's plane, which reads 0 there.
-        let x = Vector3::new(0.09, 0.0, 0.02);
-        let mut f = p.floor(&x);
-        let (b, _) = f.value();
-        assert!(b < -0.01 && b > -0.02, "the cloud's floor {b}");
-        let (raised, s, _) = f.raise_plane(0.0, k);
-        assert!(raised > 0.04 - 1.5 * rk - 1e-3 && s > 0.99, "{raised}");
-        // The truth, or anything within half its face's cover radius below it, is left as it
-        // is by the plane's floor (the cloud's reaches that far only within 1.8 cm).
-        for phi in [0.04, 0.04 - 0.5 * rk] {
-            assert_eq!(f.raise_plane(phi, k), (phi, 0.0, Vector3::zeros()));
-        }
-        // Every plane's floor lies above the cloud's lower bound lifted by `lift_of` (what the
-        // spring bounds and the reach proofs take), and below the surface less its margin.
-        let mut state = 11u64;
-        for _ in 0..300 {
-            let x = around_the_box(&mut state);
-            let mut f = p.floor(&x);
-            for j in 0..p.covers.len() {
-                let (bj, _) = f.plane_floor(j);
-                assert!(bj >= f.lower() + p.lift_of(j), "{x:?}, plane {j}: {bj}");
-                assert!(
-                    bj <= box_sdf(&x) - 1.5 * p.cover_of(j) + 1e-12,
-                    "{x:?}, plane {j}"
-                );
-            }
-        }
-        let mut f = p.floor(&x);
-        // A plane the polytope does not know gets the cloud's margin, at the planes' sharper
-        // temperature: at least the cloud's floor, and within `T ln 26` of it.
-        let (cloud, _) = f.raise(-0.05);
-        let (unknown, _, _) = f.raise_plane(-0.05, usize::MAX);
-        assert!(unknown >= cloud && unknown <= cloud + p.temperature() * 26f64.ln() + 1e-12);
-    }
-
-    #[test]
-    fn the_raised_reading_and_floor_match_central_differences() {
-        let s = boxed();
-        let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach).unwrap();
-        // The cloud's floor, and a plane's own on the capped box (a 7.1 mm face, whose floor
-        // lies 4 cm above its cloud's): each where a reading that depends on x too is near it
-        // (the soft part).
-        let (capped, k) = capped();
-        let x0 = Vector3::new(0.061, 0.033, 0.018);
-        let cases = [(&p, None, 0.0609), (&capped, Some(k), 0.0609)];
-        let h = 1e-7;
-        for ((p, plane, at_x), dir) in cases.into_iter().flat_map(|c| (0..3).map(move |d| (c, d))) {
-            let at = |e: f64| {
-                let mut x = x0.map(Dual64::from);
-                x[dir] += Dual64::new(e, 1.0);
-                let mut f = p.floor(&x);
-                let phi = x[0] - Dual64::from(at_x);
-                let ((b, g), (r, s)) = match plane {
-                    Some(k) => {
-                        let (r, s, g) = f.raise_plane(phi, k);
-                        let (b, gk) = f.plane_floor(k);
-                        assert_eq!(g, gk);
-                        ((b, g), (r, s))
-                    }
-                    None => (f.value(), f.raise(phi)),
-                };
-                assert!(s > 0.01 && s < 0.99, "the soft part: {s}");
-                (b, g[dir], r)
-            };
-            let (b, g, r) = at(0.0);
-            let fd_b = (at(h).0.re - at(-h).0.re) / (2.0 * h);
-            let fd_r = (at(h).2.re - at(-h).2.re) / (2.0 * h);
-            assert!((b.eps - fd_b).abs() < 1e-6, "db: {} vs {fd_b}", b.eps);
-            assert!((g - fd_b).abs() < 1e-6, "gradient: {g} vs {fd_b}");
-            assert!((r.eps - fd_r).abs() < 1e-6, "dφ': {} vs {fd_r}", r.eps);
-        }
-    }
-}
+#[path = "polytope_tests.rs"]
+mod tests;

@@ -198,9 +198,15 @@ pub fn sample_union_counted(
         .map(|(_, fate)| fate.iter().flatten().count())
         .collect();
     // Every geom's points no face corner marks (a mesh in patches): the union's surface lies
-    // within their geoms' hulls, so the bounding polytope keeps them all.
+    // within their geoms' hulls, so the bounding polytope keeps them all; where one geom has
+    // them, the others' face corners join them (a cloud with a reach holds its surface in its
+    // points and reach alone: `Polytope::of`).
+    let any_reach = fates.iter().any(|(part, _)| !part.reach.is_empty());
     for (part, _) in &fates {
-        out.reach.extend_from_slice(&part.reach);
+        match (any_reach, part.reach.is_empty()) {
+            (true, true) => out.reach.extend_from_slice(&part.vertices),
+            _ => out.reach.extend_from_slice(&part.reach),
+        }
     }
     out.weld(tol);
     // Only a union of spheres and capsules has the rounded certificate: no work for others.

@@ -5,6 +5,7 @@
 use super::mechanics::Mechanics;
 use super::*;
 use crate::geometry::mesh::MeshSampling;
+use crate::geometry::polytope::FloorKind;
 
 /// The initial positions, velocities, controls and activations.
 type InitialState = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
@@ -282,6 +283,7 @@ impl Builder {
         let mut keyframe: Option<(String, Place)> = None;
         let mut mesh_sampling = MeshSampling::Patches;
         let mut by_hulls = true;
+        let mut floor = FloorKind::Margin;
         for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
                 if value <= 0.0 {
@@ -436,6 +438,13 @@ impl Builder {
                         }
                     }
                 }
+                "scm_floor" => {
+                    floor = match value.as_str() {
+                        "margin" => FloorKind::Margin,
+                        "tight" => FloorKind::Tight,
+                        _ => return Err(self.setting_error(&at, &name, format!("'{value}' must be 'margin' (each plane's reading floored one and a half cover radii below what the other body's polytope proves: the default) or 'tight' (at what it proves)"))),
+                    }
+                }
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
             }
         }
@@ -462,10 +471,12 @@ impl Builder {
             for b in 0..colliders.len() {
                 colliders[b] = self.collider(b, &colliding, &mut sampled, &colliders)?;
             }
-            // The scene's pruning tolerance, on every cloud (each pair reads its clouds').
+            // The scene's pruning tolerance and floor, on every cloud (each pair reads its
+            // clouds').
             for c in colliders.iter_mut().flatten() {
                 if let Collider::Aopc(s) = c {
                     s.set_tolerance(prune_tolerance);
+                    s.set_floor(floor);
                 }
             }
             let pairs = pairs

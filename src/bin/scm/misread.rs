@@ -105,7 +105,7 @@ pub(super) fn misread_pairs(m: &Model) -> Vec<String> {
         let pressing = scm::contact::pair_pressing(a, fa, b, fb, &own);
         let name = |i: usize| &m.tree.bodies[i].name;
         out.push(format!(
-            "pair {} - {} at the initial pose: every point of its band lies at least {:.3} mm outside the convex hull of the other body's mesh vertices (which holds that body's sampled surface), but a point of {} reads {:.3} mm from {}'s planes where it lies at least {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N, its point forces adding up to {pressing:.3} N (what its friction acts on); a finer scm_spacing reads closer (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
+            "pair {} - {} at the initial pose: every point of its band lies at least {:.3} mm outside the convex hull of the other body's mesh vertices (which holds that body's sampled surface), but a point of {} reads {:.3} mm from {}'s planes where it lies at least {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N, its point forces adding up to {pressing:.3} N (what its friction acts on); the scene's <text name=\"scm_floor\" data=\"tight\"/> floors every plane's reading at what the other body's polytope proves, and a scm.eps3 well below the gap shortens the push across it (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
             name(p.a),
             name(p.b),
             apart * 1e3,
