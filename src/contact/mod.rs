@@ -441,8 +441,9 @@ pub fn pair_distance<T: Scalar>(
 }
 
 /// The sizes of a pair's point forces added up, `Σ_f W_f |F_f|` over both sides (N), in `f64`:
-/// with nothing sliding, the pressing its friction acts on, where the net force of
-/// [`pair_contact`] can cancel. Of two bodies stacked axis on axis, the points under one's edge
+/// with nothing moving, at most the pressing its friction acts on (each plane's spring; the
+/// planes of one point may push it different ways), where the net force of [`pair_contact`]
+/// can cancel. Of two bodies stacked axis on axis, the points under one's edge
 /// weigh its side planes, which push them sideways, in every direction round the edge, and the
 /// net force keeps none of it (docs/mjcf.md, "Contact on, against MuJoCo's spread"); where
 /// every point force is parallel (a box resting flat) it is the net force's size.

@@ -18,7 +18,7 @@
 //! largest distance from a face's point to its corners, which is how far an SSDF plane can
 //! honestly read below the true distance. Its temperature is `T = r/80`.
 //!
-//! Wherever a plane is as good as the sampling allows, the floor is at least `r/2 = 40 T`
+//! Under that margin, wherever a plane is as good as the sampling allows, the floor is at least `r/2 = 40 T`
 //! below it, and a distance `φ` is left exactly as it is. Only a reading more than `r/2`
 //! below what the polytope proves is raised, smoothly, by the soft maximum
 //! `φ' = φ + T s⁺(b - φ)` (the softplus of width `T`, `b` the floor): `φ' ≥ max(φ, b)`.
@@ -36,7 +36,8 @@
 //!
 //! A scene may ask for the tight floor ([`FloorKind::Tight`], `scm_floor`): no margin, and the
 //! planes' temperature a quarter of the above, so that no plane reads a point nearer than the
-//! polytope proves, less `T_p ln 26`. Robot links a fraction of a millimetre apart read each
+//! polytope proves, less `T_p ln 26`; a reading at the polytope's face is then no longer left
+//! as it is, but raised by 0.038 of the temperature. Robot links a fraction of a millimetre apart read each
 //! other millimetres inside round their edges under the margin, and push (docs/mjcf.md,
 //! "Contact on, against MuJoCo's spread").
 
@@ -97,8 +98,11 @@ pub enum FloorKind {
     Margin,
     /// At the polytope's proof itself, at a quarter of that temperature: no plane reads a point
     /// nearer than the polytope proves, less `T_p ln 26` (robot links a fraction of a millimetre
-    /// apart, whose planes read each other millimetres inside round their edges); a reading at
-    /// the polytope's own face is raised by `T_p s⁺(-ln 26)` = 0.038 `T_p`.
+    /// apart, whose planes read each other millimetres inside round their edges); a plane's
+    /// reading at the polytope's own face is raised by `T_p s⁺(-ln 26)` = 0.038 `T_p`, a
+    /// separation entry's by 0.038 `T`. The polytope is the sampled surface's: near a curved
+    /// shape turned off its 26 directions a plane's floor may stand up to a sagitta above the
+    /// exact distance.
     Tight,
 }
 
@@ -109,7 +113,7 @@ impl Polytope {
     /// nothing to bound its planes by). Where a cloud has a `reach` (a mesh in patches), the
     /// points and the reach hold its surface, and the faces' corners are left out: a patch's
     /// face is a square at its reach, whose corners stand past the surface's edges (up to
-    /// 6 mm at 1 cm patches, which lowered the floor by as much).
+    /// 6 mm at 1 cm patches, which lowered the floor by up to as much).
     pub fn of(
         points: &[Vector3<f64>],
         vertices: &[Vector3<f64>],

@@ -25,33 +25,29 @@ fn box_sdf(x: &Vector3<f64>) -> f64 {
 #[test]
 fn the_floor_lies_below_the_surface_everywhere_and_margin_below_near_it() {
     let s = boxed();
-    let p = Polytope::of(
-        &s.points,
-        &s.vertices,
-        &s.faces,
-        &s.reach,
-        FloorKind::Margin,
-    )
-    .expect("a quad mesh");
-    assert!(
-        p.cover() > 0.004 && p.cover() < 0.0075,
-        "cover {}",
-        p.cover()
-    );
-    let mut state = 7u64;
-    for _ in 0..2000 {
-        let x = around_the_box(&mut state);
-        let mut f = p.floor(&x);
-        let (b, _) = f.value();
-        let sdf = box_sdf(&x);
+    for kind in [FloorKind::Margin, FloorKind::Tight] {
+        let p =
+            Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, kind).expect("a quad mesh");
         assert!(
-            b <= sdf - 1.5 * p.cover() + 1e-12,
-            "{x:?}: floor {b} sdf {sdf}"
+            p.cover() > 0.004 && p.cover() < 0.0075,
+            "cover {}",
+            p.cover()
         );
-        assert!(
-            f.lower() <= b + 1e-15 && b <= f.upper + 1e-15,
-            "bounds of b"
-        );
+        let mut state = 7u64;
+        for _ in 0..2000 {
+            let x = around_the_box(&mut state);
+            let mut f = p.floor(&x);
+            let (b, _) = f.value();
+            let sdf = box_sdf(&x);
+            assert!(
+                b <= sdf - p.margin * p.cover() + 1e-12,
+                "{kind:?} {x:?}: floor {b} sdf {sdf}"
+            );
+            assert!(
+                f.lower() <= b + 1e-15 && b <= f.upper + 1e-15,
+                "bounds of b"
+            );
+        }
     }
 }
 
@@ -124,7 +120,7 @@ fn a_reading_near_the_truth_is_left_bit_for_bit_and_one_far_below_is_raised() {
 
 /// The box above with its +x face as one face (6 × 4 cm, cover radius 3.6 cm), its other
 /// faces as sampled (cover radius 7.1 mm), and the index of one of those.
-fn capped() -> (Polytope, usize) {
+fn capped(kind: FloorKind) -> (Polytope, usize) {
     let mut s = boxed().retain(|p| p.x < 0.0499);
     let v = |y: f64, z: f64| Vector3::new(0.05, y, z);
     s.push_quad([
@@ -133,20 +129,13 @@ fn capped() -> (Polytope, usize) {
         v(0.03, 0.02),
         v(-0.03, 0.02),
     ]);
-    let p = Polytope::of(
-        &s.points,
-        &s.vertices,
-        &s.faces,
-        &s.reach,
-        FloorKind::Margin,
-    )
-    .unwrap();
+    let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, kind).unwrap();
     (p, 0)
 }
 
 #[test]
 fn a_plane_is_raised_to_its_own_faces_floor() {
-    let (p, k) = capped();
+    let (p, k) = capped(FloorKind::Margin);
     assert!((p.cover() - 0.036).abs() < 1e-3, "cover {}", p.cover());
     let rk = p.cover_of(k);
     assert!(
@@ -167,18 +156,25 @@ fn a_plane_is_raised_to_its_own_faces_floor() {
         assert_eq!(f.raise_plane(phi, k), (phi, 0.0, Vector3::zeros()));
     }
     // Every plane's floor lies above the cloud's lower bound lifted by `lift_of` (what the
-    // spring bounds and the reach proofs take), and below the surface less its margin.
-    let mut state = 11u64;
-    for _ in 0..300 {
-        let x = around_the_box(&mut state);
-        let mut f = p.floor(&x);
-        for j in 0..p.covers.len() {
-            let (bj, _) = f.plane_floor(j);
-            assert!(bj >= f.lower() + p.lift_of(j), "{x:?}, plane {j}: {bj}");
-            assert!(
-                bj <= box_sdf(&x) - 1.5 * p.cover_of(j) + 1e-12,
-                "{x:?}, plane {j}"
-            );
+    // spring bounds and the reach proofs take), and below the surface less its margin; under
+    // the tight floor too (no margin, a quarter the planes' temperature).
+    for kind in [FloorKind::Margin, FloorKind::Tight] {
+        let (p, _) = capped(kind);
+        let mut state = 11u64;
+        for _ in 0..300 {
+            let x = around_the_box(&mut state);
+            let mut f = p.floor(&x);
+            for j in 0..p.covers.len() {
+                let (bj, _) = f.plane_floor(j);
+                assert!(
+                    bj >= f.lower() + p.lift_of(j),
+                    "{kind:?} {x:?}, plane {j}: {bj}"
+                );
+                assert!(
+                    bj <= box_sdf(&x) - p.margin * p.cover_of(j) + 1e-12,
+                    "{kind:?} {x:?}, plane {j}"
+                );
+            }
         }
     }
     let mut f = p.floor(&x);
@@ -203,7 +199,7 @@ fn the_raised_reading_and_floor_match_central_differences() {
     // The cloud's floor, and a plane's own on the capped box (a 7.1 mm face, whose floor
     // lies 4 cm above its cloud's): each where a reading that depends on x too is near it
     // (the soft part).
-    let (capped, k) = capped();
+    let (capped, k) = capped(FloorKind::Margin);
     let x0 = Vector3::new(0.061, 0.033, 0.018);
     // The tight floor (no margin, a quarter the planes' temperature): a plane's reading at its
     // floor beside the box's edge, where its +x, +y and x+y planes read within two of that

@@ -100,6 +100,9 @@ def test_scm_check_reports_pairs_pushing_where_their_surfaces_are_apart():
 # Two bodies stacked axis on axis 0.2 mm apart, the upper one turned about the axis by a motor
 # (0.1 N·m for 0.1 s, implicitfast, 2 ms; friction 1): the xArm7's base and link 1 in a small
 # scene, as cylinders and as 48-sided prisms from a mesh. MuJoCo puts no contact between them.
+TIGHT = '<custom><text name="scm_floor" data="tight"/></custom>'
+
+
 def stacked(tmp_path, shape, floor=""):
     if shape == "mesh":
         sides, ring = 48, []
@@ -164,9 +167,9 @@ def test_scm_check_reports_the_stacked_prisms_pressing_more_than_they_push(tmp_p
     force = float(line.split("pushes with ")[1].split(" N")[0])
     pressing = float(line.split("adding up to ")[1].split(" N")[0])
     assert abs(apart - 0.2) <= 0.01 and force > 1.0 and pressing > 2 * force, line
-
-
-TIGHT = '<custom><text name="scm_floor" data="tight"/></custom>'
+    # Under the tight floor the check has nothing to say of the pair (its readings are floored).
+    run = subprocess.run([str(SCM), "check", str(stacked(tmp_path, "mesh", TIGHT))], capture_output=True, text=True)
+    assert run.returncode == 0 and "every point of its band lies" not in run.stdout, run.stdout[-2000:]
 
 
 @pytest.mark.parametrize("shape", ["cylinder", "mesh"])
@@ -174,7 +177,7 @@ def test_stacked_bodies_turn_as_mujocos_under_the_tight_floor(tmp_path, shape):
     """Under the tight floor no plane reads the other body nearer than its polytope proves, and
     with `ε3` = 2e-5 m the caps' tail across the 0.2 mm is small: measured 0.251849 against
     0.251852 rad (cylinders) and 0.252559 against 0.252572 (prisms; 0.0034 under the default
-    floor at any `ε1`)."""
+    floor at the default `ε1`, 0.0015 at 1e-6 m²)."""
     path = stacked(tmp_path, shape, TIGHT)
     ours = scm_turn(path, "motor", "turn", 0.1, ("scm.eps3=2e-5",))
     theirs = mujoco_stacked_turn(path)
