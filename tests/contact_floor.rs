@@ -5,7 +5,7 @@
 use crate::common::Lcg;
 use nalgebra::{Matrix3, Vector3};
 use scm::collision::{Collider, Frame};
-use scm::contact::{pair_contact, pair_pressing, ContactParams, Dissipation};
+use scm::contact::{pair_contact, pair_pressing, ContactParams};
 use scm::geometry::polytope::FloorKind;
 use scm::geometry::{Aopc, Shape, TriMesh};
 use std::path::Path;
@@ -38,21 +38,10 @@ fn prism() -> (TriMesh, Aopc) {
 
 fn params(eps3: f64) -> ContactParams<f64> {
     ContactParams {
-        eps1: 1e-5,
-        eps1_scale: [1.0; 2],
-        eps2: 1e-3,
         eps3,
         stiffness: 5e4,
-        dissipation_velocity: 0.1,
-        stiction_velocity: 0.01,
         friction: 1.0,
-        dissipation_force: f64::INFINITY,
-        margin: 0.0,
-        adhesion: 0.0,
-        gap: 0.0,
-        pull: None,
-        surface: None,
-        dissipation: Dissipation::Paper,
+        ..Default::default()
     }
 }
 

@@ -3,6 +3,11 @@ use super::*;
 use crate::geometry::Shape;
 use num_dual::Dual64;
 
+/// The polytope of a cloud's quad mesh, with the floor `kind`.
+fn polytope(s: &crate::geometry::Aopc, kind: FloorKind) -> Polytope {
+    Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, kind).expect("a quad mesh")
+}
+
 fn boxed() -> crate::geometry::Aopc {
     Shape::Box {
         half: Vector3::new(0.05, 0.03, 0.02),
@@ -26,8 +31,7 @@ fn box_sdf(x: &Vector3<f64>) -> f64 {
 fn the_floor_lies_below_the_surface_everywhere_and_margin_below_near_it() {
     let s = boxed();
     for kind in [FloorKind::Margin, FloorKind::Tight] {
-        let p =
-            Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, kind).expect("a quad mesh");
+        let p = polytope(&s, kind);
         assert!(
             p.cover() > 0.004 && p.cover() < 0.0075,
             "cover {}",
@@ -57,14 +61,7 @@ fn the_plane_values_are_the_directions_dot_products_to_the_bit() {
     // reads, against the shared products of `plane_values`: the same numbers at points of
     // every octant, on the axes and at the origin.
     let s = boxed();
-    let p = Polytope::of(
-        &s.points,
-        &s.vertices,
-        &s.faces,
-        &s.reach,
-        FloorKind::Margin,
-    )
-    .expect("a quad mesh");
+    let p = polytope(&s, FloorKind::Margin);
     let mut state = 11u64;
     let mut points: Vec<Vector3<f64>> = (0..500)
         .map(|_| around_the_box(&mut state) * 1e3f64.powf(crate::geometry::lcg(&mut state)))
@@ -97,14 +94,7 @@ fn the_plane_values_are_the_directions_dot_products_to_the_bit() {
 #[test]
 fn a_reading_near_the_truth_is_left_bit_for_bit_and_one_far_below_is_raised() {
     let s = boxed();
-    let p = Polytope::of(
-        &s.points,
-        &s.vertices,
-        &s.faces,
-        &s.reach,
-        FloorKind::Margin,
-    )
-    .unwrap();
+    let p = polytope(&s, FloorKind::Margin);
     // Beside the top face's edge, 4 cm out in its plane: the top plane reads 0.
     let x = Vector3::new(0.09, 0.0, 0.02);
     let mut f = p.floor(&x);
@@ -129,7 +119,7 @@ fn capped(kind: FloorKind) -> (Polytope, usize) {
         v(0.03, 0.02),
         v(-0.03, 0.02),
     ]);
-    let p = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, kind).unwrap();
+    let p = polytope(&s, kind);
     (p, 0)
 }
 
@@ -188,14 +178,7 @@ fn a_plane_is_raised_to_its_own_faces_floor() {
 #[test]
 fn the_raised_reading_and_floor_match_central_differences() {
     let s = boxed();
-    let p = Polytope::of(
-        &s.points,
-        &s.vertices,
-        &s.faces,
-        &s.reach,
-        FloorKind::Margin,
-    )
-    .unwrap();
+    let p = polytope(&s, FloorKind::Margin);
     // The cloud's floor, and a plane's own on the capped box (a 7.1 mm face, whose floor
     // lies 4 cm above its cloud's): each where a reading that depends on x too is near it
     // (the soft part).
@@ -204,7 +187,7 @@ fn the_raised_reading_and_floor_match_central_differences() {
     // The tight floor (no margin, a quarter the planes' temperature): a plane's reading at its
     // floor beside the box's edge, where its +x, +y and x+y planes read within two of that
     // temperature of each other.
-    let tight = Polytope::of(&s.points, &s.vertices, &s.faces, &s.reach, FloorKind::Tight).unwrap();
+    let tight = polytope(&s, FloorKind::Tight);
     let corner = Vector3::new(0.0501, 0.0301, 0.0);
     let (b_tight, _) = tight.floor(&corner).plane_floor(0);
     let cases = [
