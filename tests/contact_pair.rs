@@ -844,8 +844,8 @@ fn pressing_adds_the_sizes_of_the_point_forces() {
         let (net, pressing) = stacked(upper, 1e-5, eps3);
         assert!(pressing > ratio * net, "{upper} {eps3}: {pressing} {net}");
     }
-    // ε1 = 3e-6: the same to 4e-9 (measured 3.6e-9; 1e-6 fails by far where the side planes
-    // push, 0.48 of the net force at ε1 = 1e-5).
+    // ε1 = 3e-6: the same to 4e-9 (measured 3.6e-9); a tolerance of 1e-6 fails by far where the
+    // side planes push (0.48 of the net force at ε1 = 1e-5).
     let (net, pressing) = stacked(0.045, 3e-6, 1e-4);
     assert!(
         net > 0.1 && pressing - net <= 1e-6 * net,

@@ -37,7 +37,8 @@
 //! A scene may ask for the tight floor ([`FloorKind::Tight`], `scm_floor`): no margin, and the
 //! planes' temperature a quarter of the above, so that no plane reads a point nearer than the
 //! polytope proves, less `T_p ln 26`; a reading at the polytope's face is then no longer left
-//! as it is, but raised by 0.038 of the temperature. Robot links a fraction of a millimetre apart read each
+//! as it is, but raised by 0.038 of its temperature (`T_p` a plane's, `T` a separation
+//! entry's). Robot links a fraction of a millimetre apart read each
 //! other millimetres inside round their edges under the margin, and push (docs/mjcf.md,
 //! "Contact on, against MuJoCo's spread").
 
