@@ -1,6 +1,6 @@
 //! The floor under a cloud's planes (docs/method.md, departure 3): a mesh in patches bounded by
-//! its own surface, not by its patches' square faces, and the tight floor a scene asks for with
-//! `scm_floor`, which no plane reads below.
+//! its own surface, not by its patches' square faces, and the tight floor, which no plane reads
+//! below: a mesh's cloud's by default, every cloud's where a scene's `scm_floor` asks.
 
 use crate::common::Lcg;
 use nalgebra::{Matrix3, Vector3};
@@ -224,15 +224,21 @@ fn stacked_prisms_push_nothing_across_their_gap_under_the_tight_floor() {
     );
 }
 
-/// `scm_floor` is `margin` or `tight`; any other word is refused with the line and both names.
+/// Unset, the floor is tight on a mesh's cloud in patches and the margin on a primitive's;
+/// `scm_floor` sets `margin` or `tight` for every cloud; any other word is refused with the line
+/// and both names.
 #[test]
-fn the_floor_is_the_scenes_choice_and_a_wrong_one_is_named() {
-    let scene = |floor: &str| {
+fn the_floor_is_tight_on_a_meshs_cloud_unless_the_scene_chooses_and_a_wrong_word_is_named() {
+    let scene = |floor: Option<&str>| {
+        let custom = floor.map_or(String::new(), |f| {
+            format!("<custom><text name=\"scm_floor\" data=\"{f}\"/></custom>")
+        });
         format!(
-            "<mujoco>\n<custom><text name=\"scm_floor\" data=\"{floor}\"/></custom>\n<worldbody>\n<body><freejoint/><geom type=\"box\" size=\"0.1 0.1 0.1\"/></body>\n<geom type=\"plane\" size=\"1 1 0.1\"/>\n</worldbody></mujoco>"
+            "<mujoco><asset><mesh name=\"u\" file=\"u_block.obj\"/></asset>\n{custom}\n<worldbody>\n<body><freejoint/><geom type=\"box\" size=\"0.1 0.1 0.1\"/></body>\n<body pos=\"0.5 0 0.1\"><freejoint/><geom type=\"mesh\" mesh=\"u\"/></body>\n<geom type=\"plane\" size=\"1 1 0.1\"/>\n</worldbody></mujoco>"
         )
     };
-    let e = scm::scene::load_str(&scene("tighter"), Path::new("floor.xml")).unwrap_err();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/floor.xml");
+    let e = scm::scene::load_str(&scene(Some("tighter")), &path).unwrap_err();
     assert_eq!(e.line, 2, "{e}");
     assert!(
         e.message.contains("'tighter'")
@@ -240,19 +246,20 @@ fn the_floor_is_the_scenes_choice_and_a_wrong_one_is_named() {
             && e.message.contains("'tight'"),
         "{e}"
     );
-    for (word, kind) in [("margin", FloorKind::Margin), ("tight", FloorKind::Tight)] {
-        let model = scm::scene::load_str(&scene(word), Path::new("floor.xml"))
-            .unwrap()
-            .model;
+    let (m, t) = (FloorKind::Margin, FloorKind::Tight);
+    for (word, kinds) in [
+        (None, [m, t]),
+        (Some("margin"), [m, m]),
+        (Some("tight"), [t, t]),
+    ] {
+        let model = scm::scene::load_str(&scene(word), &path).unwrap().model;
+        // The box's cloud, then the mesh's (the plane is a half-space).
         let clouds: Vec<_> = (model.colliders.iter().flatten())
             .filter_map(|c| match c {
-                Collider::Aopc(s) => Some(s.floor()),
+                Collider::Aopc(s) => Some((s.reach.is_empty(), s.floor())),
                 _ => None,
             })
             .collect();
-        assert!(
-            !clouds.is_empty() && clouds.iter().all(|&k| k == kind),
-            "{word}: {clouds:?}"
-        );
+        assert_eq!(clouds, [(true, kinds[0]), (false, kinds[1])], "{word:?}");
     }
 }

@@ -131,8 +131,8 @@ impl Aopc {
         }
     }
 
-    /// Sets the floor under the cloud's planes ([`super::polytope::FloorKind`]): a scene's
-    /// `scm_floor`. The hierarchy is built again on its next use.
+    /// Sets the floor under the cloud's planes ([`super::polytope::FloorKind`]): tight for a
+    /// mesh's cloud, or a scene's `scm_floor`. The hierarchy is built again on its next use.
     pub fn set_floor(&mut self, floor: super::polytope::FloorKind) {
         if floor != self.floor {
             self.floor = floor;

@@ -34,13 +34,15 @@
 //! The separation field's entries, each a softmax over many planes, keep the cloud's floor;
 //! every plane's lies above it (`r_k ≤ r`), so what it proves holds for them all.
 //!
-//! A scene may ask for the tight floor ([`FloorKind::Tight`], `scm_floor`): no margin, and the
+//! A mesh's cloud in patches has the tight floor ([`FloorKind::Tight`]; a scene's `scm_floor`
+//! sets one kind for every cloud): no margin, and the
 //! planes' temperature a quarter of the above, so that no plane reads a point nearer than the
 //! polytope proves, less `T_p ln 26`; a reading at the polytope's face is then no longer left
 //! as it is, but raised by 0.038 of its temperature (`T_p` a plane's, `T` a separation
 //! entry's). Robot links a fraction of a millimetre apart read each
 //! other millimetres inside round their edges under the margin, and push (docs/mjcf.md,
-//! "Contact on, against MuJoCo's spread").
+//! "Contact on, against MuJoCo's spread"); a primitive's cloud keeps the margin, under which its
+//! readings at a face are exact.
 
 use crate::scalar::{c, re3, softplus, Scalar};
 use nalgebra::Vector3;
@@ -89,12 +91,14 @@ pub struct Polytope {
     margin: f64,
 }
 
-/// How far below the polytope's proof a cloud's floor lies: a scene's `scm_floor`
-/// (docs/method.md, departure 3, "A tight floor").
+/// How far below the polytope's proof a cloud's floor lies: tight for a mesh's cloud in
+/// patches, the margin for the others, or a scene's `scm_floor` for all (docs/method.md,
+/// departure 3, "A tight floor").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FloorKind {
     /// One and a half cover radii below (each plane's own face's), at `T_p = min r_k/80`: a
-    /// reading as good as the sampling allows is left exactly as it is (the default).
+    /// reading as good as the sampling allows is left exactly as it is (a cloud's own default;
+    /// the scene's for a cloud without a reach).
     #[default]
     Margin,
     /// At the polytope's proof itself, at a quarter of that temperature: no plane reads a point
@@ -103,7 +107,7 @@ pub enum FloorKind {
     /// reading at the polytope's own face is raised by `T_p s⁺(-ln 26)` = 0.038 `T_p`, a
     /// separation entry's by 0.038 `T`. The polytope is the sampled surface's: near a curved
     /// shape turned off its 26 directions a plane's floor may stand up to a sagitta above the
-    /// exact distance.
+    /// exact distance. The scene's default for a cloud with a reach (a mesh in patches).
     Tight,
 }
 

@@ -283,7 +283,9 @@ impl Builder {
         let mut keyframe: Option<(String, Place)> = None;
         let mut mesh_sampling = MeshSampling::Patches;
         let mut by_hulls = true;
-        let mut floor = FloorKind::Margin;
+        // Unset: the tight floor on a cloud with a reach (a mesh in patches, whose planes read
+        // past its faces' edges), the margin on the others (docs/method.md, "A tight floor").
+        let mut floor: Option<FloorKind> = None;
         for (name, value, at) in self.numeric.clone() {
             if let Some(geom) = name.strip_prefix(GEOM_SPACING_PREFIX) {
                 if value <= 0.0 {
@@ -440,9 +442,9 @@ impl Builder {
                 }
                 "scm_floor" => {
                     floor = match value.as_str() {
-                        "margin" => FloorKind::Margin,
-                        "tight" => FloorKind::Tight,
-                        _ => return Err(self.setting_error(&at, &name, format!("'{value}' must be 'margin' (each plane's reading floored one and a half cover radii below what the other body's polytope proves: the default) or 'tight' (at what it proves)"))),
+                        "margin" => Some(FloorKind::Margin),
+                        "tight" => Some(FloorKind::Tight),
+                        _ => return Err(self.setting_error(&at, &name, format!("'{value}' must be 'margin' (each plane's reading floored one and a half cover radii below what the other body's polytope proves: the default for a primitive's cloud) or 'tight' (at what it proves: the default for a mesh's cloud), for every cloud of the scene"))),
                     }
                 }
                 _ => return Err(self.setting_error(&at, &name, "unknown SCM setting".into())),
@@ -476,7 +478,12 @@ impl Builder {
             for c in colliders.iter_mut().flatten() {
                 if let Collider::Aopc(s) = c {
                     s.set_tolerance(prune_tolerance);
-                    s.set_floor(floor);
+                    let mesh = !s.reach.is_empty();
+                    s.set_floor(floor.unwrap_or(if mesh {
+                        FloorKind::Tight
+                    } else {
+                        FloorKind::Margin
+                    }));
                 }
             }
             let pairs = pairs

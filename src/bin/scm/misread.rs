@@ -17,6 +17,10 @@ use scm::model::Model;
 /// How far below its bound a reading must be to be reported (m).
 const MISREAD: f64 = 1e-4;
 
+/// The push across a gap worth a warning, as a depth of the pair's spring (m): as much as the
+/// spring pushes 1 µm deep.
+const TAIL: f64 = 1e-6;
+
 /// How far out of a hull a cloud's point may lie for the hull to hold the cloud (m): rounding.
 const HELD: f64 = 1e-9;
 
@@ -72,11 +76,10 @@ pub(super) fn misread_pairs(m: &Model) -> Vec<String> {
             continue;
         };
         // Under the tight floor every plane's reading is floored at what the polytope proves,
-        // which the band's entries (floored at the cloud's temperature) do not show.
+        // which the band's entries (floored at the cloud's temperature) do not show: what is
+        // left to report is the push across the gap.
         let tight = |c: &Collider| matches!(c, Collider::Aopc(s) if s.floor() == FloorKind::Tight);
-        if tight(a) && tight(b) {
-            continue;
-        }
+        let tight = tight(a) && tight(b);
         let own = p.params(&m.contact);
         let (fa, fb) = (&kin.frames[p.a], &kin.frames[p.b]);
         let band = separation_band(a, fa, b, fb, own.eps1_sides(), own.eps2);
@@ -102,25 +105,44 @@ pub(super) fn misread_pairs(m: &Model) -> Vec<String> {
                 worst = Some((e.phi, bound, q, pl));
             }
         }
-        let Some((phi, bound, q, pl)) = worst.filter(|_| apart > 0.0) else {
+        if apart <= 0.0 {
             continue;
+        }
+        let misread = worst.filter(|_| !tight);
+        let force = || {
+            scm::contact::pair_contact(a, fa, b, fb, &own)
+                .on_a
+                .force
+                .norm()
         };
-        let force = scm::contact::pair_contact(a, fa, b, fb, &own)
-            .on_a
-            .force
-            .norm();
-        let pressing = scm::contact::pair_pressing(a, fa, b, fb, &own);
         let name = |i: usize| &m.tree.bodies[i].name;
-        out.push(format!(
-            "pair {} - {} at the initial pose: every point of its band lies at least {:.3} mm outside the convex hull of the other body's mesh vertices (which holds that body's sampled surface), but a point of {} reads {:.3} mm from {}'s planes where it lies at least {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N, its point forces adding up to {pressing:.3} N (its friction acts on at least that); the scene's <text name=\"scm_floor\" data=\"tight\"/> floors every plane's reading at what the other body's polytope proves, and a scm.eps3 well below the gap shortens the push across it (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
+        let at = format!(
+            "pair {} - {} at the initial pose: every point of its band lies at least {:.3} mm outside the convex hull of the other body's mesh vertices (which holds that body's sampled surface)",
             name(p.a),
             name(p.b),
             apart * 1e3,
-            name(q),
-            phi * 1e3,
-            name(pl),
-            bound * 1e3,
-        ));
+        );
+        let pressing = || scm::contact::pair_pressing(a, fa, b, fb, &own);
+        if let Some((phi, bound, q, pl)) = misread {
+            let (force, pressing) = (force(), pressing());
+            out.push(format!(
+                "{at}, but a point of {} reads {:.3} mm from {}'s planes where it lies at least {:.3} mm outside that hull (a cloud's planes read past their faces' edges), and the pair pushes with {force:.3} N, its point forces adding up to {pressing:.3} N (its friction acts on at least that); the tight floor (a mesh's default, which the scene's scm_floor overrides) floors every plane's reading at what the other body's polytope proves, and a scm.eps3 well below the gap shortens the push across it (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
+                name(q),
+                phi * 1e3,
+                name(pl),
+                bound * 1e3,
+            ));
+            continue;
+        }
+        let force = if tight && apart < near { force() } else { 0.0 };
+        if force > TAIL * own.stiffness {
+            out.push(format!(
+                "{at}, where MuJoCo (margin 0) makes no contact, yet the pair pushes with {force:.3} N across the gap, its point forces adding up to {:.3} N (its friction acts on at least that): the contact law's tail k ε3 s⁺(-d/ε3) at ε3 = {:.0e} m and k = {:.4e} N/m; a scm.eps3 a tenth of the gap or less shortens it (docs/mjcf.md, \"Contact on, against MuJoCo's spread\")",
+                pressing(),
+                own.eps3,
+                own.stiffness,
+            ));
+        }
     }
     out
 }
