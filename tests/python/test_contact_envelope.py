@@ -137,7 +137,7 @@ def test_robosuite_arms_end_inside_mujocos_envelope(arm):
     envelope (measured 2026-12-07: all three). With SCM's contact disabled Franka ends 0.034
     rad and xArm7 0.36 rad outside (joint 6), TIAGo still inside: the test holds the first two
     to their contact. Not half way for xArm7, whose wrist stays on its base for 100 ms where
-    MuJoCo's bounces off in 8 to 10 ms (at 0.5 s joint 4 is 0.09 rad outside; docs/mjcf.md,
+    MuJoCo's bounces off in 8 to 10 ms (at 0.5 s joint 4 is 0.10 rad outside: below; docs/mjcf.md,
     "Contact on, against MuJoCo's spread")."""
     path = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets" / arm
     model, finals = envelope.mujoco_finals(path, 1.0)
@@ -145,4 +145,41 @@ def test_robosuite_arms_end_inside_mujocos_envelope(arm):
     ours, error = envelope.scm_final(path, 1.0)
     assert error is None, f"SCM stopped: {error}"
     inside, worst, where = envelope.compare(model, finals, ours)
+    assert inside, f"{worst:.3g} (m or rad) outside MuJoCo's envelope at {where}"
+
+
+XARM7 = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets" / "robots" / "xarm7" / "robot.xml"
+
+
+def xarm7_at_half_a_second(custom=""):
+    """xArm7 at 0.5 s against MuJoCo's envelope: (inside, worst, where); `custom`, SCM settings
+    put in a copy beside the file (its meshes are named relative to its folder)."""
+    model, finals = envelope.mujoco_finals(XARM7, 0.5)
+    copy = XARM7.parent / f".half{abs(hash(custom))}.robot.xml"
+    copy.write_text(XARM7.read_text().replace("</mujoco>", f"<custom>{custom}</custom></mujoco>"))
+    try:
+        ours, error = envelope.scm_final(copy, 0.5)
+    finally:
+        copy.unlink()
+    assert error is None, f"SCM stopped: {error}"
+    return envelope.compare(model, finals, ours)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="the wrist stays on the base for 100 ms, held by the "
+                   "paper's damping at depth: joint 4 0.10 rad outside at 0.5 s (docs/mjcf.md)")
+def test_xarm7_falls_inside_mujocos_envelope_half_way():
+    inside, worst, where = xarm7_at_half_a_second()
+    assert inside, f"{worst:.3g} (m or rad) outside MuJoCo's envelope at {where}"
+
+
+def test_xarm7_falls_inside_mujocos_envelope_half_way_with_its_damping_bounded():
+    """The cause of the expected failure above, by measurement: under `implicitfast` (SCM's
+    implicit_euler) a pair keeps the paper's damping, which grows with the depth; the wrist
+    strikes the base 2.2 mm deep and is held there 100 ms where MuJoCo's bounces off in 8 to
+    10 ms. With the damping bounded as under RK4 (`scm_dissipation_force` 4: five times the
+    resting value at most) joint 4 is 1.313 rad at 0.5 s, inside MuJoCo's 1.346 to 1.806 rad
+    widened by 0.1 (measured 2026-12-07; 1.206 at 20, 1.143 unbounded). Not the default under
+    the implicit integrators: a body started deep in another is then thrown out
+    (tests/python/test_contact_overlap.py)."""
+    inside, worst, where = xarm7_at_half_a_second('<numeric name="scm_dissipation_force" data="4"/>')
     assert inside, f"{worst:.3g} (m or rad) outside MuJoCo's envelope at {where}"
