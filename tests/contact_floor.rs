@@ -111,9 +111,9 @@ fn a_cloud_joined_to_a_mesh_in_patches_keeps_its_corners_in_the_reach() {
             assert!(b <= 1e-12, "{corner:?}: {b}");
         }
     }
-    // A body of the U-shaped mesh of the fixtures (in patches) and a box beside it.
-    let xml = r#"<mujoco><asset><mesh name="u" file="u_block.obj"/></asset>
-      <custom><text name="scm_floor" data="tight"/></custom><worldbody>
+    // A body of the U-shaped mesh of the fixtures (in patches) and a box beside it: by default
+    // the body's one cloud has the mesh's tight floor, its box's part included.
+    let xml = r#"<mujoco><asset><mesh name="u" file="u_block.obj"/></asset><worldbody>
       <geom type="plane" size="1 1 0.1"/>
       <body name="b" pos="0 0 0.1"><freejoint/><geom type="mesh" mesh="u"/><geom type="box" pos="0.2 0 0" size="0.03 0.02 0.01"/></body>
       </worldbody></mujoco>"#;
