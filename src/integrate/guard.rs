@@ -420,7 +420,7 @@ pub fn contact_energy(
         .filter_map(|(pair, pc)| pc.as_ref().map(|pc| (pair, pc)))
         .filter(|(_, pc)| pc.distance.is_finite())
         .map(|(pair, pc)| {
-            let k = pair.stiffness.unwrap_or(prm.stiffness);
+            let k = pair.stiffness_at(prm.eps3).unwrap_or(prm.stiffness);
             let f = pc.on_a.force.norm();
             // The spring reads the distance less the pair's margin.
             let deep = (pair.margin - pc.distance).max(0.0);

@@ -23,10 +23,11 @@ pub struct Pair {
     /// a `<pair friction>`), which the contact parameter `friction` does not change; `None`:
     /// the pair uses the contact parameter.
     pub friction: Option<f64>,
-    /// The pair's own contact stiffness (N/m; from MuJoCo's `solref` and `solimp` and the
-    /// pair's effective mass, docs/mjcf.md), which the contact parameter `stiffness` does not
-    /// change; `None`: the pair uses the contact parameter.
+    /// The pair's own contact stiffness (N/m; from `solref`, `solimp` and the pair's effective
+    /// mass at the scene's ε3), which the contact parameter `stiffness` does not change.
     pub stiffness: Option<f64>,
+    /// `[m̂ g (N), r_g (m)]` where its law is the file's: `k = m̂ g / s⁺_ε3(r_g)` (docs/mjcf.md).
+    pub rest: Option<[f64; 2]>,
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
     /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]). Where its
@@ -71,6 +72,21 @@ impl Pair {
         crate::contact::eps1_sides(eps1, self.eps1_scale)
     }
 
+    /// The pair's own stiffness at the contact parameter `eps3` (m), from its `rest` or else
+    /// its `stiffness`; `None`: the contact parameter's.
+    pub fn stiffness_at<T: Scalar>(&self, eps3: T) -> Option<T> {
+        match self.rest {
+            Some([weight, depth]) => {
+                let k = c::<T>(weight) / crate::scalar::softplus(c(depth), eps3);
+                // The f64 division's value to the bit (a dual divides by a reciprocal); `exact - k`
+                // is exact (Sterbenz), and a constant added keeps every derivative.
+                let exact = weight / crate::scalar::softplus(depth, eps3.re());
+                Some(k + c::<T>(exact - k.re()))
+            }
+            None => self.stiffness.map(c),
+        }
+    }
+
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
     /// dissipation velocity and dissipation force where it has them, its margin, its clouds'
     /// ε1 factors ([`Pair::eps1_scale`]), and its stiction velocity raised to its floor
@@ -87,7 +103,7 @@ impl Pair {
         ContactParams {
             friction,
             stiction_velocity,
-            stiffness: own(self.stiffness, prm.stiffness),
+            stiffness: self.stiffness_at(prm.eps3).unwrap_or(prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
             margin: c(self.margin),

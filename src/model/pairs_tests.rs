@@ -10,6 +10,7 @@ fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
         b: 1,
         friction,
         stiffness: None,
+        rest: None,
         dissipation_velocity: None,
         dissipation_force: None,
         margin: 0.004,
@@ -74,4 +75,39 @@ fn each_cloud_reads_eps1_times_its_own_scale_with_its_derivative() {
     }
     let e = pair(None, 0.0).params(&dual).eps1_sides();
     assert_eq!(e.map(|e| (e.re, e.eps)), [(1e-5, 1.0); 2]);
+}
+
+/// A pair's stiffness from the file is sized on its rest, `k = m̂ g / s⁺_ε3(r_g)`, at the
+/// contact parameter ε3: to the bit as sized at load at the scene's ε3 (the dual's value
+/// included), the law's at another ε3, and its derivative along ε3 against central
+/// differences. Where `r_g` is below ε3, `k` is about `m̂ g / (ε3 ln 2)`: it moves with ε3.
+#[test]
+fn a_pairs_stiffness_is_sized_on_its_rest_at_the_contact_parameter_eps3() {
+    let softplus = crate::scalar::softplus::<f64>;
+    let (weight, depth, eps3) = (9.81 * 463.0, 2e-7, 1e-4);
+    let mut p = pair(None, 0.0);
+    p.stiffness = Some(weight / softplus(depth, eps3));
+    p.rest = Some([weight, depth]);
+    assert_eq!(p.stiffness_at(eps3), p.stiffness);
+    assert_eq!(p.stiffness_at(2e-5), Some(weight / softplus(depth, 2e-5)));
+    assert!(p.stiffness_at(2e-5).unwrap() > 4.5 * p.stiffness.unwrap());
+    let dual = p.stiffness_at(Dual64::new(eps3, 1.0)).unwrap();
+    assert_eq!(dual.re, p.stiffness.unwrap());
+    for h in [1e-8, 1e-9] {
+        let fd =
+            (p.stiffness_at(eps3 + h).unwrap() - p.stiffness_at(eps3 - h).unwrap()) / (2.0 * h);
+        assert!(
+            (dual.eps - fd).abs() <= 1e-6 * fd.abs(),
+            "{h}: {} against {fd}",
+            dual.eps
+        );
+    }
+    // Without a rest, the stiffness as it is, whatever ε3.
+    p.rest = None;
+    assert_eq!(p.stiffness_at(2e-5), p.stiffness);
+    let params = p.params(&ContactParams {
+        eps3: 2e-5,
+        ..Default::default()
+    });
+    assert_eq!(Some(params.stiffness), p.stiffness);
 }

@@ -313,6 +313,7 @@ impl Builder {
                     b,
                     friction,
                     stiffness: None,
+                    rest: None,
                     dissipation_velocity: None,
                     dissipation_force: None,
                     margin,

@@ -180,6 +180,7 @@ impl Builder {
                     ));
                 }
                 pair.stiffness = Some(stiffest.stiffness);
+                pair.rest = Some([stiffest.weight, stiffest.depth]);
                 pair.dissipation_velocity = Some(stiffest.dissipation_velocity);
                 pair.dissipation_force = Some(stiffest.dissipation_force);
                 Some(stiffest)
@@ -522,7 +523,9 @@ pub struct PairLaw {
     pub cone: f64,
     /// MuJoCo's resting depth under `g` (m).
     pub depth: f64,
-    /// SCM's stiffness (N/m).
+    /// The resting force `m̂ g` (N; `g` nominal where the model has none).
+    pub weight: f64,
+    /// SCM's stiffness (N/m): `weight / s⁺_ε3(depth)` at the scene's ε3.
     pub stiffness: f64,
     /// SCM's dissipation velocity at zero force (m/s).
     pub dissipation_velocity: f64,
@@ -552,7 +555,8 @@ impl PairLaw {
         // rests where a single row would under `g / c`.
         let depth = softness.resting_depth(g / cone, refsafe_step);
         // The contact force's own softplus, s⁺_ε3(r).
-        let stiffness = mass * g / crate::scalar::softplus(depth, eps3);
+        let weight = mass * g;
+        let stiffness = weight / crate::scalar::softplus(depth, eps3);
         let (_, b) = softness.reference(refsafe_step);
         let f = dissipation_force.unwrap_or(f64::INFINITY);
         // The normal's impedance in the cone: its regularization is `R / c`, so
@@ -565,6 +569,7 @@ impl PairLaw {
             mass,
             cone,
             depth,
+            weight,
             stiffness,
             dissipation_velocity,
             dissipation_force: f * mass * g,

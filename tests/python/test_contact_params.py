@@ -331,3 +331,31 @@ def test_under_rk4_a_loaded_box_creeps_at_the_stiction_floors_scale_where_mujoco
     assert scm_speed("RK4", "rk4") == pytest.approx(ratio * 2 * 0.01 * 9.81, rel=0.06)
     for integrator in ("RK4", "Euler", "implicitfast"):
         assert speeds[integrator][1] == pytest.approx(ratio * 0.01, rel=0.01), integrator
+
+
+def test_a_hosts_eps3_sizes_each_pairs_stiffness_as_the_scenes_does(tmp_path):
+    """Each pair's stiffness from the file is `m̂ g / s⁺_ε3(r_g)`. A host's `scm.eps3` sizes it
+    as the scene's `scm_eps3` does. This matters where MuJoCo's resting depth `r_g` is below
+    `ε3`: here `solimp` 0.99 to 0.999 puts it at 0.04 mm. Before, the host's setting kept the
+    stiffness sized at the scene's 1e-4: the nut on its bolt turned 0.1877 rad under the
+    host's 2e-5 against 0.1546 under the scene's (docs/mjcf.md)."""
+    body = """<worldbody><geom type="plane" size="1 1 0.1" solimp="0.99 0.999 0.001"/>
+<body name="box" pos="0 0 0.05"><freejoint/><geom type="box" size="0.05 0.05 0.05" mass="2" solimp="0.99 0.999 0.001"/></body>
+</worldbody></mujoco>"""
+    runs = {}
+    for name, custom, sets in (("default", "", []), ("host", "", ["--set", "scm.eps3=2e-5"]),
+                               ("scene", '<custom><numeric name="scm_eps3" data="2e-5"/></custom>', [])):
+        path = tmp_path / f"{name}.xml"
+        path.write_text(f'<mujoco><option timestep="0.002"/>{custom}{body}')
+        law = json.loads(subprocess.run([str(SCM), "compile", str(path)], capture_output=True, text=True,
+                                        check=True).stdout)["pairs"][0]
+        out = subprocess.run([str(SCM), "simulate", str(path), "--duration", "0.3", "--output-interval", "0.3",
+                              "--outputs", "box.pos.z"] + sets, capture_output=True, text=True, check=True).stdout
+        runs[name] = (law, float(out.strip().splitlines()[-1].split(",")[1]))
+    (law, default), (_, host), (scene_law, scene) = runs["default"], runs["host"], runs["scene"]
+    assert law["mujoco_depth"] < 1e-4
+    # The scene's law is stiffer (the softplus at 2e-5 is smaller at that depth).
+    assert scene_law["stiffness"] > 1.5 * law["stiffness"], (law, scene_law)
+    # Both laws rest at MuJoCo's depth, so the box ends 0.28 µm apart (measured) from the run at
+    # the default; the host's ε3 gives the scene's run to the bit (before, it kept the 1e-4 law).
+    assert abs(scene - default) > 1e-8 and host == scene, (default, host, scene)
