@@ -125,6 +125,7 @@ fn params(sharp: bool) -> ContactParams<f64> {
         stiction_velocity: 0.01,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        hold_separation: false,
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,

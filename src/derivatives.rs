@@ -143,6 +143,7 @@ pub fn params_from<T: Scalar>(x: &[T], like: &ContactParams<f64>) -> ContactPara
         stiction_velocity: x[5],
         friction: x[6],
         dissipation_force: c(like.dissipation_force),
+        hold_separation: like.hold_separation,
         margin: c(like.margin),
         adhesion: like.adhesion,
         gap: like.gap,

@@ -36,6 +36,7 @@ fn params() -> ContactParams<f64> {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        hold_separation: false,
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,
@@ -246,6 +247,7 @@ fn pair_derivatives_match_central_differences() {
                 stiction_velocity: inp[11],
                 friction: inp[12],
                 dissipation_force: 4.0,
+                hold_separation: false,
                 margin: 0.004,
                 adhesion: 0.0,
                 gap: 0.0,
@@ -272,6 +274,7 @@ fn pair_derivatives_match_central_differences() {
                 stiction_velocity: d[11],
                 friction: d[12],
                 dissipation_force: Dual64::from(4.0),
+                hold_separation: false,
                 margin: Dual64::from(0.004),
                 adhesion: 0.0,
                 gap: 0.0,
@@ -726,6 +729,7 @@ fn a_recorded_pair_replays_its_contact_at_other_velocities() {
     let prm = ContactParams {
         stiffness: 2e4,
         dissipation_force: 5.0,
+        hold_separation: false,
         margin: 0.003,
         eps1_scale: [0.5, 1.0],
         ..params()

@@ -27,6 +27,7 @@ fn params(eps1: f64, eps3: f64) -> ContactParams<f64> {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        hold_separation: false,
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,

@@ -496,6 +496,7 @@ fn a_one_point_aopc() {
         stiction_velocity: 0.05,
         friction: 0.5,
         dissipation_force: f64::INFINITY,
+        hold_separation: false,
         margin: 0.0,
         adhesion: 0.0,
         gap: 0.0,

@@ -58,6 +58,7 @@ pub(super) fn pair_contact_chained<T: Scalar>(
                 prm_re.stiction_velocity,
                 prm_re.friction,
                 prm_re.dissipation_force,
+                f64::from(u8::from(prm_re.hold_separation)),
                 prm_re.margin,
                 prm_re.adhesion,
                 prm_re.gap,
@@ -106,11 +107,12 @@ pub(super) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 
 /// `λ` of [`point_plane_force`] (`f64`) with its exact derivatives `∂λ/∂φ` (with `φ = nᵀr`)
 /// and `∂λ/∂v` (3×3), hand-derived: `λ = c(φ) d(s) e` with `c = k s⁺_ε3(m - φ)`,
-/// `s = nᵀv/V`, `V = v_d (1 + c/F_d)`, `e = n - μ u`, `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`.
-/// The spring moves `s` too (`∂s/∂c = -s/(F_d + c)`), so
-/// `∂λ/∂φ = c'(φ) (d - c s d'(s)/(F_d + c)) e` with `c' = -k / (1 + exp((φ - m)/ε3))` (the second
-/// term vanishes for an infinite `F_d`), and
-/// `∂λ/∂v = c (d'(s)/V) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)`.
+/// `s = nᵀv/V`, `V = v_d (1 + (c/F_d) g(nᵀv/v_d))`, `g(x) = 1 - tanh(x/2)`, `e = n - μ u`,
+/// `u = v_t/N`, `N = sqrt(v_s² + |v_t|²)`. The spring moves `s` too
+/// (`∂s/∂c = -s g/(F_d + c g)`), so `∂λ/∂φ = c'(φ) (d - c s d'(s) g/(F_d + c g)) e` with
+/// `c' = -k / (1 + exp((φ - m)/ε3))` (the second term vanishes for an infinite `F_d`), and
+/// `∂λ/∂v = c d'(s) (∂s/∂v_n) e nᵀ - (c μ d / N)(I - n nᵀ - u uᵀ)` with
+/// `∂s/∂v_n = (1 - s (c/F_d) g'(x))/V` (`1/v_d` for an infinite `F_d`).
 pub fn point_plane_force_jacobian(
     r: &Vector3<f64>,
     n: &Vector3<f64>,
@@ -159,13 +161,29 @@ pub fn point_plane_force_jacobian_at(
     let total = prm.pull.map_or(prm.adhesion, |a| a + prm.adhesion);
     let (pull, dpull) = (window * total, dwindow * total);
     let vn = n.dot(v);
-    let vd = prm.dissipation_velocity_at(spring);
+    let vd = prm.dissipation_velocity_at(spring, vn);
     let (d, dd) = prm.dissipation.factor_slope(vn / vd);
-    // d(s) through s's dependence on the spring: zero where F_d is infinite.
-    let d_through_spring = if prm.dissipation_force.is_finite() {
-        d - spring * (vn / vd) * dd / (prm.dissipation_force + spring)
+    // s = v_n/V with V = v_d (1 + (c/F_d) g(v_n/v_d)): through the spring ∂s/∂c = -s g/(F_d + c g),
+    // and along v_n ∂s/∂v_n = (1 - s (c/F_d) g'(x))/V, `along/V`; both the plain ones where F_d
+    // (or v_d) is infinite (V = v_d, `along` 1: the same bits as before the share).
+    // Without the share (`hold_separation` off) g = 1 and g' = 0.
+    let (d_through_spring, along) = if prm.holds_separation() {
+        let x = vn / prm.dissipation_velocity;
+        let g = super::params::separation_share(x);
+        let t = (0.5 * x).tanh();
+        let dg = -0.5 * (1.0 - t * t);
+        let s = vn / vd;
+        (
+            d - spring * s * dd * g / (prm.dissipation_force + spring * g),
+            1.0 - s * (spring / prm.dissipation_force) * dg,
+        )
+    } else if prm.dissipation_force.is_finite() {
+        (
+            d - spring * (vn / vd) * dd / (prm.dissipation_force + spring),
+            1.0,
+        )
     } else {
-        d
+        (d, 1.0)
     };
     let pressed = spring * d;
     let vt = v - n * vn;
@@ -179,7 +197,7 @@ pub fn point_plane_force_jacobian_at(
     let u = vt / norm;
     let e = n - u * prm.friction;
     let dphi = e * (dspring * d_through_spring) - n * dpull;
-    let dv = e * n.transpose() * (spring * dd / vd)
+    let dv = e * n.transpose() * (spring * dd * along / vd)
         - (Matrix3::identity() - n * n.transpose() - u * u.transpose())
             * (spring * prm.friction * d / norm);
     (lambda, dphi, dv)

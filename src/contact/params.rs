@@ -126,10 +126,14 @@ pub struct ContactParams<T> {
     /// Friction coefficient μ (1).
     pub friction: T,
     /// Dissipation force F_d (N): the spring force `c` at which the dissipation velocity has
-    /// doubled. The factor reads `s = v_n / (v_d (1 + c/F_d))`, so a point's damping
-    /// coefficient `c / (v_d (1 + c/F_d))` stops growing with its depth past about `F_d`
-    /// (docs/method.md, departure 4). Infinite: the paper's law, `v_d` at every depth. A
-    /// pair's own value ([`crate::model::Pair`]), not an FMU parameter.
+    /// doubled at rest. The factor reads `s = v_n / V`, `V = v_d (1 + (c/F_d) g(v_n/v_d))`,
+    /// `g(x) = 1 - tanh(x/2)` ([`ContactParams::dissipation_velocity_at`]): at rest (`g` = 1)
+    /// a point's damping coefficient `c / (v_d (1 + c/F_d))` stops growing with its depth past
+    /// about `F_d`, approaching (`g` up to 2) its damping force stays below `F_d |v_n| / v_d`,
+    /// and separating (`g` to 0) its speed is held to a few `v_d` at any depth, so a deep
+    /// overlap is released, not thrown (docs/method.md, departure 4). Infinite: the paper's
+    /// law, `v_d` at every depth and speed. A pair's own value ([`crate::model::Pair`]), not an
+    /// FMU parameter.
     pub dissipation_force: T,
     /// Contact margin m (m): the distance from the surface at which the spring rests. The
     /// spring reads `φ - m`, so a pair pushes from `m` outside the surface on, as MuJoCo's
@@ -158,6 +162,12 @@ pub struct ContactParams<T> {
     pub surface: Option<[crate::collision::Twist<f64>; 2]>,
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
+    /// Whether a finite dissipation force reads the normal speed with its share
+    /// ([`ContactParams::dissipation_velocity_at`]), which holds a separation to a few `v_d` at any depth: where the
+    /// integrator takes the contact's damping implicitly (the pair's law, chosen at load from
+    /// the file's integrator as the dissipation force is). Without it `V = v_d (1 + c/F_d)` at
+    /// every speed, whose damping an explicit integrator carries (docs/method.md, departure 4).
+    pub hold_separation: bool,
 }
 
 impl Default for ContactParams<f64> {
@@ -172,6 +182,7 @@ impl Default for ContactParams<f64> {
             stiction_velocity: 1e-2,
             friction: 0.5,
             dissipation_force: f64::INFINITY,
+            hold_separation: false,
             margin: 0.0,
             adhesion: 0.0,
             gap: 0.0,
@@ -183,15 +194,30 @@ impl Default for ContactParams<f64> {
 }
 
 impl<T: Scalar> ContactParams<T> {
-    /// The dissipation velocity a point whose spring pushes with `spring` (N) reads its normal
-    /// speed against: `v_d (1 + c/F_d)`, or `v_d` where `F_d` is infinite.
+    /// The dissipation velocity `V` a point whose spring pushes with `spring` (N) at the normal
+    /// speed `vn` (m/s, positive apart) reads that speed against: `v_d (1 + c/F_d)`, or with
+    /// [`ContactParams::hold_separation`] `v_d (1 + (c/F_d) g(v_n/v_d))`, `g(x) = 1 - tanh(x/2)`
+    /// (from 2 approaching fast through 1 at rest to 0 separating fast); `v_d` where `F_d` is
+    /// infinite ([`ContactParams::dissipation_force`]).
     #[inline]
-    pub fn dissipation_velocity_at(&self, spring: T) -> T {
-        if self.dissipation_force.re().is_finite() {
-            self.dissipation_velocity * (T::one() + spring / self.dissipation_force)
+    pub fn dissipation_velocity_at(&self, spring: T, vn: T) -> T {
+        let vd = self.dissipation_velocity;
+        if !self.dissipation_force.re().is_finite() {
+            vd
+        } else if self.holds_separation() {
+            vd * (T::one() + spring / self.dissipation_force * separation_share(vn / vd))
         } else {
-            self.dissipation_velocity
+            vd * (T::one() + spring / self.dissipation_force)
         }
+    }
+
+    /// Whether the dissipation velocity takes the normal speed's share: a finite dissipation
+    /// force held in separation ([`ContactParams::hold_separation`]) and a finite `v_d`.
+    #[inline]
+    pub fn holds_separation(&self) -> bool {
+        self.hold_separation
+            && self.dissipation_force.re().is_finite()
+            && self.dissipation_velocity.re().is_finite()
     }
 
     /// The ε1 (m²) each side of the pair reads the other body's planes with ([`eps1_sides`]).
@@ -225,6 +251,7 @@ impl<T: Scalar> ContactParams<T> {
             stiction_velocity: self.stiction_velocity.re(),
             friction: self.friction.re(),
             dissipation_force: self.dissipation_force.re(),
+            hold_separation: self.hold_separation,
             margin: self.margin.re(),
             adhesion: self.adhesion,
             gap: self.gap,
@@ -284,6 +311,7 @@ impl ContactParams<f64> {
             stiction_velocity: c(self.stiction_velocity),
             friction: c(self.friction),
             dissipation_force: c(self.dissipation_force),
+            hold_separation: self.hold_separation,
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,
@@ -373,4 +401,11 @@ impl Param {
                 value > 0.0
             }
     }
+}
+
+/// `g(x) = 1 - tanh(x/2)` of [`ContactParams::dissipation_velocity_at`]: 1 at rest, towards 2
+/// approaching and towards 0 separating, smooth, with `g'(0) = -1/2`.
+#[inline]
+pub fn separation_share<T: Scalar>(x: T) -> T {
+    T::one() - (x * c::<T>(0.5)).tanh()
 }

@@ -137,7 +137,7 @@ pub(crate) fn force_of_spring<T: Scalar>(
 ) -> Vector3<T> {
     let Spring { c: spring, pull } = spring;
     let vn = n.dot(v);
-    let vd = prm.dissipation_velocity_at(spring);
+    let vd = prm.dissipation_velocity_at(spring, vn);
     // An infinite dissipation velocity (MuJoCo's undamped `solref="-k -0"`): no damping, `s = 0`
     // with no derivative; on dual numbers `vn / ∞` would carry `∞ · 0`, not a number.
     let s = if vd.re().is_infinite() {

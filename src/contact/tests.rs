@@ -39,7 +39,8 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     // dissipation's kinks (s < 0, 0 < s < 2, s > 2), pressed and separated, sliding and
     // nearly at rest, for both dissipation laws.
     // With a finite dissipation force (2 N and 20 N: the spring pushes with 10 N at 1 mm) the
-    // spring moves the factor's argument too. With a 4 mm margin the same readings 4 mm
+    // spring moves the factor's argument too, and with the hold of a separation the speed does.
+    // With a 4 mm margin the same readings 4 mm
     // farther out, and the force is the unshifted one at `φ - m`, to the bit. With adhesion
     // (3 N within a 0.5 mm gap, departure 7) the readings 0.3 mm and 0.6 mm out are inside the
     // gap and at its edge, where the window turns the pull off; an adhesion actuator's pull
@@ -47,7 +48,16 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
     let n = Vector3::new(0.2, -0.3, 0.9).normalize();
     let laws = [Dissipation::Paper, Dissipation::Smooth]
         .into_iter()
-        .flat_map(|d| [f64::INFINITY, 2.0, 20.0].map(|f| (d, f)))
+        .flat_map(|d| {
+            [
+                (f64::INFINITY, false),
+                (2.0, false),
+                (20.0, false),
+                (2.0, true),
+                (20.0, true),
+            ]
+            .map(|f| (d, f))
+        })
         .flat_map(|(d, f)| [0.0, 4e-3].map(|m| (d, f, m)))
         .flat_map(|(d, f, m)| {
             [
@@ -58,7 +68,7 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             ]
             .map(|a| (d, f, m, a))
         });
-    for (dissipation, dissipation_force, margin, (adhesion, gap, pull)) in laws {
+    for (dissipation, (dissipation_force, hold_separation), margin, (adhesion, gap, pull)) in laws {
         let prm = ContactParams {
             eps3: 1e-4,
             stiffness: 1e4,
@@ -67,6 +77,7 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             friction: 0.5,
             dissipation,
             dissipation_force,
+            hold_separation,
             margin,
             adhesion,
             gap,
@@ -550,5 +561,40 @@ pub(super) fn assert_bounded_and_passive(
             );
             assert!((f.z - rest) * vn <= 0.0, "{y} {vn}: {} vs {rest}", f.z);
         }
+    }
+}
+
+#[test]
+fn a_dissipation_force_bounds_the_approach_and_holds_a_separation_to_a_few_v_d() {
+    // With the hold (implicit integrators) V = v_d (1 + (c/F_d) g(v_n/v_d)), g = 1 - tanh(x/2)
+    // (docs/method.md, departure 4). Approaching, g ≤ 2 keeps the damping force λ_n - c below
+    // F_d |v_n| / v_d at any depth; separating, g ≤ 2 e^{-x} lets the force vanish from
+    // v_n = v_d (2.2 + ln(1 + 4c/F_d)) on, a few v_d at any depth (else 2 V, 200 v_d at 100 F_d).
+    let n = Vector3::z();
+    let prm = ContactParams {
+        stiffness: 1e5,
+        eps3: 1e-4,
+        dissipation_velocity: 0.1,
+        dissipation_force: 10.0,
+        hold_separation: true,
+        ..ContactParams::default()
+    };
+    for depth in [1e-4, 1e-3, 1e-2, 3.5e-2] {
+        let c = prm.stiffness * crate::scalar::softplus(depth, prm.eps3);
+        let ratio = c / prm.dissipation_force;
+        for vn in [-10.0, -1.0, -0.1, -1e-3] {
+            let lambda = point_plane_force(&(n * -depth), &n, &(n * vn), &prm);
+            let damping = lambda.z - c;
+            let bound = prm.dissipation_force * vn.abs() / prm.dissipation_velocity;
+            assert!(damping > 0.0 && damping < bound, "{depth} {vn}: {damping}");
+        }
+        let cap = prm.dissipation_velocity * (2.2 + (1.0 + 4.0 * ratio).ln());
+        for vn in [cap, 2.0 * cap, 100.0 * cap] {
+            let lambda = point_plane_force(&(n * -depth), &n, &(n * vn), &prm);
+            assert_eq!(lambda, Vector3::zeros(), "{depth} {vn}");
+        }
+        // Below the cap it still pushes; the cap stays under 12 v_d at c = 350 F_d.
+        let lambda = point_plane_force(&(n * -depth), &n, &(n * (0.5 * cap)), &prm);
+        assert!(lambda.z > 0.0 && cap < 1.2, "{depth}: {cap}");
     }
 }

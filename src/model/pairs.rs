@@ -30,13 +30,12 @@ pub struct Pair {
     pub rest: Option<[f64; 2]>,
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
-    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]). Where its
-    /// law comes from the file: `f` times its resting force `m̂ g`, `f` the scene's
-    /// `scm_dissipation_force` or else 4 under an integrator that takes the damping explicitly
-    /// (RK4); infinite (the paper's law) under the others or with `scm_dissipation_force` 0.
-    /// `None` where the scene's `scm_stiffness` or `scm_dissipation_velocity` replaces the
-    /// pairs' laws: the pair uses the contact parameter (infinite by default).
+    /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): from the file
+    /// `f m̂ g`, `f` the scene's `scm_dissipation_force` or 4 under an explicit integrator, else
+    /// infinite (the paper's law); `None` where the scene's own `scm_*` law sets every pair's.
     pub dissipation_force: Option<f64>,
+    /// Whether it holds a separation (implicit damping; [`ContactParams::hold_separation`]).
+    pub hold_separation: bool,
     /// The pair's contact margin (m; [`ContactParams::margin`]): MuJoCo's `includemargin`,
     /// the sum of its geoms' `margin` or a `<pair>`'s own (docs/mjcf.md). 0: none.
     pub margin: f64,
@@ -106,6 +105,7 @@ impl Pair {
             stiffness: self.stiffness_at(prm.eps3).unwrap_or(prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
+            hold_separation: self.hold_separation || prm.hold_separation,
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,

@@ -13,6 +13,7 @@ fn pair(friction: Option<f64>, stiction_floor: f64) -> Pair {
         rest: None,
         dissipation_velocity: None,
         dissipation_force: None,
+        hold_separation: false,
         margin: 0.004,
         adhesion: 0.0,
         gap: 0.0,

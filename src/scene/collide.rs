@@ -316,6 +316,7 @@ impl Builder {
                     rest: None,
                     dissipation_velocity: None,
                     dissipation_force: None,
+                    hold_separation: false,
                     margin,
                     adhesion,
                     gap,

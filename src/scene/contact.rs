@@ -183,6 +183,7 @@ impl Builder {
                 pair.rest = Some([stiffest.weight, stiffest.depth]);
                 pair.dissipation_velocity = Some(stiffest.dissipation_velocity);
                 pair.dissipation_force = Some(stiffest.dissipation_force);
+                pair.hold_separation = !integrator.takes_contact_damping_explicitly();
                 Some(stiffest)
             })
             .collect();
