@@ -218,7 +218,9 @@ fn pair_derivatives_match_central_differences() {
         "stiction_velocity",
         "friction",
     ];
-    for _ in 0..6 {
+    for state in 0..6 {
+        // Every other state with the dissipation force holding a separation (departure 4).
+        let hold = state % 2 == 1;
         let x = rng.direction() * rng.range(0.13, 0.16);
         let v = rng.direction() * rng.range(0.0, 0.2);
         let base = [
@@ -247,7 +249,7 @@ fn pair_derivatives_match_central_differences() {
                 stiction_velocity: inp[11],
                 friction: inp[12],
                 dissipation_force: 4.0,
-                hold_separation: false,
+                hold_separation: hold,
                 margin: 0.004,
                 adhesion: 0.0,
                 gap: 0.0,
@@ -274,7 +276,7 @@ fn pair_derivatives_match_central_differences() {
                 stiction_velocity: d[11],
                 friction: d[12],
                 dissipation_force: Dual64::from(4.0),
-                hold_separation: false,
+                hold_separation: hold,
                 margin: Dual64::from(0.004),
                 adhesion: 0.0,
                 gap: 0.0,
@@ -297,7 +299,7 @@ fn pair_derivatives_match_central_differences() {
                     values.iter().map(|x| x.abs()).fold(0.0, f64::max) / base[k].abs().max(1e-3);
                 assert!(
                     (e - fd).abs() <= 1e-5 * (fd.abs() + scale) + 1e-9,
-                    "d output {i} / d {}: dual {e} vs fd {fd}",
+                    "d output {i} / d {} (hold {hold}): dual {e} vs fd {fd}",
                     names[k]
                 );
             }
@@ -581,15 +583,17 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
     for (name, a, b, origin) in cases {
         // The last laws adhesive (departure 7: 2 N within 3 mm past a 2 mm margin) and pulled
         // by an adhesion actuator (departure 9: 1.5 N within the same gap), so that the points
-        // pressed, those in the gap and those past it all count.
+        // pressed, those in the gap and those past it all count; then the dissipation force
+        // holding a separation (departure 4: its share of the speed).
         let laws = [Dissipation::Paper, Dissipation::Smooth]
             .into_iter()
-            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f, false, None)))
+            .flat_map(|d| [f64::INFINITY, 3.0].map(|f| (d, f, false, None, false)))
             .chain([
-                (Dissipation::Paper, 3.0, true, None),
-                (Dissipation::Smooth, f64::INFINITY, false, Some(1.5)),
+                (Dissipation::Paper, 3.0, true, None, false),
+                (Dissipation::Smooth, f64::INFINITY, false, Some(1.5), false),
+                (Dissipation::Paper, 3.0, false, None, true),
             ]);
-        for (dissipation, dissipation_force, adhesive, pull) in laws {
+        for (dissipation, dissipation_force, adhesive, pull, hold_separation) in laws {
             // A margin (6 mm, where the springs rest) with the smooth law's dissipation force.
             let margin = match (dissipation, dissipation_force.is_finite(), adhesive) {
                 _ if pull.is_some() => 0.002,
@@ -612,6 +616,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
             let prm = ContactParams {
                 dissipation,
                 dissipation_force,
+                hold_separation,
                 margin,
                 adhesion,
                 gap,
@@ -679,13 +684,13 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
                 let scale = dg.amax().max(1e-300);
                 for k in 0..N {
                     worst = worst.max((dc[k] - dg[k]).abs() / scale);
-                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?} {dissipation_force} {adhesion}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
+                    assert!((dc[k] - dg[k]).abs() <= 1e-12 * scale, "{name} {dissipation:?} {dissipation_force} {hold_separation} {adhesion}: d{o}/dz{k}: hand {} vs generic duals {} (scale {scale})", dc[k], dg[k]);
                     let h = 1e-7;
                     let fd = central_difference(|x| value(x)[o], &base, k, h);
                     // Differences of a value of size |v| carry ~1e-16 |v| / h of round-off.
                     assert!(
                         (dc[k] - fd).abs() <= 1e-5 * scale + 1e-8 * v0[o].abs().max(1.0),
-                        "{name} {dissipation:?} {dissipation_force} {adhesion}: d{o}/dz{k}: hand {} vs fd {fd}",
+                        "{name} {dissipation:?} {dissipation_force} {hold_separation} {adhesion}: d{o}/dz{k}: hand {} vs fd {fd}",
                         dc[k]
                     );
                     checked += 1;
@@ -694,7 +699,7 @@ fn hand_jacobian_matches_the_generic_duals_and_central_differences() {
         }
     }
     println!("largest hand − generic difference: {worst:.1e} of the output's largest derivative");
-    assert_eq!(checked, 5 * 6 * 13 * N);
+    assert_eq!(checked, 5 * 7 * 13 * N);
 }
 
 /// A pair's contact recorded at one configuration ([`PairTape`]) equals `pair_contact` bit for

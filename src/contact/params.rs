@@ -163,8 +163,8 @@ pub struct ContactParams<T> {
     /// Which dissipation factor `d(s)` to use.
     pub dissipation: Dissipation,
     /// Whether a finite dissipation force reads the normal speed with its share
-    /// ([`ContactParams::dissipation_velocity_at`]), which holds a separation to a few `v_d` at any depth: where the
-    /// integrator takes the contact's damping implicitly (the pair's law, chosen at load from
+    /// ([`ContactParams::dissipation_velocity_at`]), which holds a separation to a few `v_d` at
+    /// any depth: where the integrator takes the contact's damping implicitly (the pair's law, chosen at load from
     /// the file's integrator as the dissipation force is). Without it `V = v_d (1 + c/F_d)` at
     /// every speed, whose damping an explicit integrator carries (docs/method.md, departure 4).
     pub hold_separation: bool,

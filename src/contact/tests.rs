@@ -125,11 +125,11 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
             let fd = (along(1e-9) - along(-1e-9)) / 2e-9;
             assert!(
                 (dphi - dual).amax() <= 1e-12 * scale,
-                "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
+                "{dissipation:?} {dissipation_force} {hold_separation} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs dual {dual:?}"
             );
             assert!(
                 (dphi - fd).amax() <= 1e-6 * scale,
-                "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
+                "{dissipation:?} {dissipation_force} {hold_separation} {adhesion} {pull:?} {depth} {vn}: dphi {dphi:?} vs fd {fd:?}"
             );
             for k in 0..3 {
                 let mut e = Vector3::zeros();
@@ -147,12 +147,12 @@ fn point_plane_force_jacobian_matches_duals_and_central_differences() {
                     / (2.0 * h);
                 assert!(
                     (dv.column(k) - dual).amax() <= 1e-12 * scale,
-                    "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
+                    "{dissipation:?} {dissipation_force} {hold_separation} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs dual {dual:?}",
                     dv.column(k)
                 );
                 assert!(
                     (dv.column(k) - fd).amax() <= 1e-6 * scale,
-                    "{dissipation:?} {dissipation_force} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
+                    "{dissipation:?} {dissipation_force} {hold_separation} {adhesion} {pull:?} {depth} {vn}: dv[{k}] {:?} vs fd {fd:?}",
                     dv.column(k)
                 );
             }
@@ -567,7 +567,7 @@ pub(super) fn assert_bounded_and_passive(
 #[test]
 fn a_dissipation_force_bounds_the_approach_and_holds_a_separation_to_a_few_v_d() {
     // With the hold (implicit integrators) V = v_d (1 + (c/F_d) g(v_n/v_d)), g = 1 - tanh(x/2)
-    // (docs/method.md, departure 4). Approaching, g ≤ 2 keeps the damping force λ_n - c below
+    // (docs/method.md, departure 4). Approaching, g ≥ 1 keeps the damping force λ_n - c below
     // F_d |v_n| / v_d at any depth; separating, g ≤ 2 e^{-x} lets the force vanish from
     // v_n = v_d (2.2 + ln(1 + 4c/F_d)) on, a few v_d at any depth (else 2 V, 200 v_d at 100 F_d).
     let n = Vector3::z();

@@ -34,7 +34,7 @@ pub struct Pair {
     /// `f m̂ g`, `f` the scene's `scm_dissipation_force` or 4 under an explicit integrator, else
     /// infinite (the paper's law); `None` where the scene's own `scm_*` law sets every pair's.
     pub dissipation_force: Option<f64>,
-    /// Whether it holds a separation (implicit damping; [`ContactParams::hold_separation`]).
+    /// Whether its own force holds a separation ([`ContactParams::hold_separation`]).
     pub hold_separation: bool,
     /// The pair's contact margin (m; [`ContactParams::margin`]): MuJoCo's `includemargin`,
     /// the sum of its geoms' `margin` or a `<pair>`'s own (docs/mjcf.md). 0: none.
@@ -87,11 +87,11 @@ impl Pair {
     }
 
     /// The contact parameters of this pair: `prm` with the pair's own friction, stiffness,
-    /// dissipation velocity and dissipation force where it has them, its margin, its clouds'
-    /// ε1 factors ([`Pair::eps1_scale`]), and its stiction velocity raised to its floor
-    /// (`stiction_floor μ`) where it is below.
+    /// dissipation velocity, force and hold where it has them, margin, clouds' ε1 factors
+    /// ([`Pair::eps1_scale`]), and stiction velocity raised to its floor (`stiction_floor μ`).
     pub fn params<T: Scalar>(&self, prm: &ContactParams<T>) -> ContactParams<T> {
         let own = |x: Option<f64>, p: T| x.map_or(p, c);
+        let hold = self.dissipation_force.is_none() && prm.hold_separation;
         let friction = own(self.friction, prm.friction);
         let floor = friction * self.stiction_floor;
         let stiction_velocity = if prm.stiction_velocity.re() < floor.re() {
@@ -105,7 +105,7 @@ impl Pair {
             stiffness: self.stiffness_at(prm.eps3).unwrap_or(prm.stiffness),
             dissipation_velocity: own(self.dissipation_velocity, prm.dissipation_velocity),
             dissipation_force: own(self.dissipation_force, prm.dissipation_force),
-            hold_separation: self.hold_separation || prm.hold_separation,
+            hold_separation: self.hold_separation || hold,
             margin: c(self.margin),
             adhesion: self.adhesion,
             gap: self.gap,

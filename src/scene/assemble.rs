@@ -207,6 +207,8 @@ impl Builder {
                         margin: p.margin,
                         adhesion: (p.adhesion, p.gap),
                         stiction_floor: p.stiction_floor * p.friction.unwrap_or(f64::NAN),
+                        hold_separation: p.hold_separation
+                            && law.is_some_and(|l| l.dissipation_force.is_finite()),
                         law: law?,
                     })
                 })

@@ -59,6 +59,9 @@ pub struct CompiledPair {
     /// The least stiction velocity it takes (m/s; [`crate::model::Pair::stiction_floor`] times
     /// its friction; NaN where the scene's `scm_friction` gives it, 0 for none).
     pub stiction_floor: f64,
+    /// Whether its finite dissipation force holds a separation
+    /// ([`crate::model::Pair::hold_separation`]; false where the force is infinite).
+    pub hold_separation: bool,
     /// Its stiffness and damping from `solref` and `solimp`.
     pub law: contact::PairLaw,
 }

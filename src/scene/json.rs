@@ -316,14 +316,14 @@ impl Compiled {
             "joints": joints,
             "geoms": self.geoms.iter().map(|g| geom(g, &names)).collect::<Vec<_>>(),
             "actuators": actuators,
-            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, adhesion, stiction_floor, law }| json!({
+            "pairs": self.pair_laws.iter().map(|CompiledPair { body1, body2, margin, adhesion, stiction_floor, hold_separation, law }| json!({
                 "body1": body1, "body2": body2, "margin": margin,
                 "adhesion": adhesion.0, "gap": adhesion.1,
                 "stiction_floor": if stiction_floor.is_nan() { None } else { Some(stiction_floor) },
                 "solref": law.softness.solref, "solimp": law.softness.solimp,
                 "mass": law.mass, "cone_share": law.cone, "mujoco_depth": law.depth,
                 "stiffness": law.stiffness, "dissipation_velocity": law.dissipation_velocity,
-                "dissipation_force": law.dissipation_force,
+                "dissipation_force": law.dissipation_force, "hold_separation": hold_separation,
             })).collect::<Vec<_>>(),
             "refused": self.refused.iter().map(|e| e.to_string()).collect::<Vec<_>>(),
             "unused": self.unused,

@@ -110,7 +110,7 @@ def test_mujoco_releases_a_deep_overlap_gently_and_scms_rk4_throws_it(tmp_path):
     # SCM's rk4, named by the scene: the contact's damping explicit, so bounded (MJCF's RK4 was
     # rk4 until it became damped_rk4).
     rk4, law = scm_run(sphere("RK4", "rk4"), tmp_path)
-    assert law["dissipation_force"] is not None
+    assert law["dissipation_force"] is not None and not law["hold_separation"]
     # The same sphere in a file that names MuJoCo's implicitfast (SCM's implicit_euler, whose
     # pair law keeps the paper's damping: the law follows the file's integrator).
     implicit, law = scm_run(sphere("implicitfast"), tmp_path)
@@ -142,7 +142,7 @@ def test_a_bounded_damping_taken_implicitly_releases_a_deep_overlap_without_thro
     with the damping bounded at every speed (the law before) it was thrown 12.6 cm up."""
     bounded, law = scm_run(sphere("implicitfast", settings='<numeric name="scm_dissipation_force" data="4"/>'),
                            tmp_path)
-    assert law["dissipation_force"] == pytest.approx(4 * law["mass"] * G, rel=1e-12)
+    assert law["dissipation_force"] == pytest.approx(4 * law["mass"] * G, rel=1e-12) and law["hold_separation"]
     paper, law = scm_run(sphere("implicitfast"), tmp_path)
     assert law["dissipation_force"] is None
     peak = bounded[:, 1].max() - RADIUS

@@ -87,6 +87,14 @@ def test_check_shows_each_pairs_law(both):
     line = next(l for l in out.splitlines() if l.startswith("pair world - priority"))
     assert "solref [0.04, 1.2]" in line and "effective mass 3.0000e0 kg" in line, line
     assert "stiffness" in line and "dissipation velocity" in line, line
+    # A finite dissipation force says whether it holds a separation (docs/method.md, departure 4).
+    for extra, held in (('<custom><numeric name="scm_dissipation_force" data="2.5"/></custom>', True),
+                        ('<custom><text name="scm_integrator" data="rk4"/></custom>', False)):
+        compile_with(path, extra)
+        out = subprocess.run([str(SCM), "check", str(path.parent / "variant.xml")], capture_output=True,
+                             text=True).stdout
+        line = next(l for l in out.splitlines() if l.startswith("pair world - priority"))
+        assert "dissipation force" in line and ("a separation held" in line) is held, line
 
 
 def test_a_parameter_no_pair_uses_is_refused_with_why(both):
@@ -124,7 +132,9 @@ def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
     scene's scm_integrator), none (the paper's law, null in the JSON) under MuJoCo's Euler
     (damped_euler), RK4 (damped_rk4) and implicit integrators, and f m̂ g where the scene sets
     scm_dissipation_force f (0: none). The damping
-    at rest, F/V at the resting force, is MuJoCo's m̂ d B in every case."""
+    at rest, F/V at the resting force, is MuJoCo's m̂ d B in every case. A finite force holds a
+    separation to a few v_d where the integrator takes the damping implicitly (`hold_separation`,
+    docs/method.md, departure 4): the scene's 2.5 under MuJoCo's Euler, not rk4's 4."""
     path, compiled, m, d = both
     g = 9.81
     settings = {
@@ -150,6 +160,7 @@ def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
             reference = next(p for p in compiled["pairs"] if p["body1"] == pair["body1"]
                              and p["body2"] == pair["body2"])
             assert rest == pytest.approx(weight / reference["dissipation_velocity"], rel=1e-12)
+            assert pair["hold_separation"] is (f == 2.5), (extra, pair)
 
 
 def test_a_dissipation_force_out_of_range_or_without_effect_is_said(both):

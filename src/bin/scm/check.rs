@@ -257,7 +257,15 @@ pub(super) fn check(path: &Path, w: &mut dyn Write) -> Result<(), Failure> {
                 l.stiffness,
                 l.dissipation_velocity,
                 if l.dissipation_force.is_finite() {
-                    format!("dissipation force {:.4e} N", l.dissipation_force)
+                    format!(
+                        "dissipation force {:.4e} N{}",
+                        l.dissipation_force,
+                        if p.hold_separation {
+                            " (a separation held to a few v_d)"
+                        } else {
+                            ""
+                        }
+                    )
                 } else {
                     "damping unbounded in depth (the paper's law)".to_string()
                 },
