@@ -164,9 +164,10 @@ pub struct ContactParams<T> {
     pub dissipation: Dissipation,
     /// Whether a finite dissipation force reads the normal speed with its share
     /// ([`ContactParams::dissipation_velocity_at`]), which holds a separation to a few `v_d` at
-    /// any depth: where the integrator takes the contact's damping implicitly (the pair's law, chosen at load from
-    /// the file's integrator as the dissipation force is). Without it `V = v_d (1 + c/F_d)` at
-    /// every speed, whose damping an explicit integrator carries (docs/method.md, departure 4).
+    /// any depth: where the integrator takes the contact's damping implicitly (the pair's law,
+    /// chosen at load from the file's integrator as the dissipation force is). Without it
+    /// `V = v_d (1 + c/F_d)` at every speed, whose damping an explicit integrator carries
+    /// (docs/method.md, departure 4).
     pub hold_separation: bool,
 }
 
@@ -202,12 +203,12 @@ impl<T: Scalar> ContactParams<T> {
     #[inline]
     pub fn dissipation_velocity_at(&self, spring: T, vn: T) -> T {
         let vd = self.dissipation_velocity;
-        if !self.dissipation_force.re().is_finite() {
-            vd
-        } else if self.holds_separation() {
+        if self.holds_separation() {
             vd * (T::one() + spring / self.dissipation_force * separation_share(vn / vd))
-        } else {
+        } else if self.dissipation_force.re().is_finite() {
             vd * (T::one() + spring / self.dissipation_force)
+        } else {
+            vd
         }
     }
 
