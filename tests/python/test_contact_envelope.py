@@ -226,3 +226,44 @@ def test_humanoid_cmu_falls_as_mujocos_until_its_toes_touch_down():
         mujoco.mj_step(model, data)
     mujoco.mj_forward(model, data)
     assert data.ncon > 0
+
+
+def test_humanoid_cmu_lands_as_mujocos_stiffest_contact_does():
+    """Why humanoid_CMU falls ahead of MuJoCo's (docs/mjcf.md, "Contact on, against MuJoCo's
+    spread"): its landing. SCM's contact spring holds MuJoCo's static depth, so it is 1/(1 - d)
+    times MuJoCo's reference stiffness (100 times at this file's `solimp` 0.99). Landing at
+    1.3 m/s, SCM's toes sink 3.6 mm where MuJoCo's, whose 15 ms time constant spreads the
+    impact, sink 10.9 mm. With its time constant at 4 ms (the least `refsafe` allows at the
+    file's 2 ms step) MuJoCo's toes sink 3.1 mm and its root lands as SCM's does: root y 13.6
+    and 32.1 mm at 0.2 and 0.3 s, SCM's 13.6 and 32.5, MuJoCo's as written 12.0 and 29.3
+    (measured 2026-12-07). The inverted pendulum that follows multiplies the landing's lead."""
+    import mujoco
+
+    path = next(p for p in envelope.DM if p.stem == "humanoid_CMU")
+    run = subprocess.run([str(envelope.SCM), "simulate", str(path), "--duration", "0.3",
+                          "--output-interval", "0.002", "--outputs",
+                          "root.pos.y,contact.world.ltoes.distance"],
+                         capture_output=True, text=True, check=True)
+    rows = list(csv.reader(io.StringIO(run.stdout)))
+    ours = {round(float(t), 3): (float(y), float(dist)) for t, y, dist in rows[1:]}
+    toes_ours = min(dist for _, dist in ours.values())
+
+    def mujoco_landing(time_constant):
+        model = mujoco.MjModel.from_xml_path(str(path))
+        if time_constant is not None:
+            model.geom_solref[:, 0] = time_constant
+        data = mujoco.MjData(model)
+        toes = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "ltoes0")
+        root_y, deepest = {}, 0.0
+        while data.time < 0.3 - 1e-9:
+            mujoco.mj_step(model, data)
+            deepest = min([deepest] + [c.dist for c in data.contact[:data.ncon] if toes in (c.geom1, c.geom2)])
+            root_y[round(data.time, 3)] = data.qpos[1]
+        return root_y, deepest
+
+    written, toes_written = mujoco_landing(None)
+    stiff, toes_stiff = mujoco_landing(0.004)
+    assert -4.5e-3 < toes_ours < -2.5e-3 and -3.5e-3 < toes_stiff < -2.5e-3 and toes_written < -9e-3
+    for t in (0.2, 0.3):
+        assert abs(ours[t][0] - stiff[t]) < 1e-3, (t, ours[t][0], stiff[t])
+        assert ours[t][0] - written[t] > 1.5e-3, (t, ours[t][0], written[t])
