@@ -1,5 +1,6 @@
 """Contact on, SCM against MuJoCo's own spread (issue 40, item 4; docs/mjcf.md, "Contact on,
-against MuJoCo's spread"): every gymnasium file and dm_control suite file run as written with
+against MuJoCo's spread"): every gymnasium file, dm_control suite file and gymnasium-robotics
+file its environments load, run as written with
 zero controls, 1 s (2 s for the legged ones), in SCM (`scm simulate`) and in MuJoCo under
 plausible contact parameters: solref's time constant x0.5, x1, x2, friction x0.8, x1, x1.2, with
 Euler, RK4 and implicitfast (27 runs). A file passes when SCM's final pose lies inside MuJoCo's
@@ -30,7 +31,7 @@ import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
-from conftest import DM_CONTROL_DIR, DM_CONTROL_REFUSED, SCM  # noqa: E402
+from conftest import DM_CONTROL_DIR, DM_CONTROL_REFUSED, ROBOTICS, SCM  # noqa: E402
 
 import gymnasium  # noqa: E402
 
@@ -65,6 +66,10 @@ def coordinates(m):
     return out
 
 
+#: MuJoCo's warnings that it found a run unstable and reset its state.
+UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
+
 def mujoco_finals(path, seconds):
     finals = []
     for integrator in INTEGRATORS.values():
@@ -79,8 +84,9 @@ def mujoco_finals(path, seconds):
                 d = mujoco.MjData(m)
                 for _ in range(round(seconds / m.opt.timestep)):
                     mujoco.mj_step(m, d)
-                # A run MuJoCo finds unstable (it resets its state and warns) is no outcome.
-                if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0:
+                # A run MuJoCo finds unstable (a position, velocity or acceleration it cannot
+                # take: it resets its state and warns) is no outcome.
+                if not any(d.warning[w].number for w in UNSTABLE):
                     finals.append(d.qpos.copy())
     return m, np.array(finals)
 
@@ -143,7 +149,7 @@ def main():
     rows = ["| file | s | SCM | inside MuJoCo's envelope | worst excess | where | SCM wall (s) |",
             "|---|---|---|---|---|---|---|"]
     inside = total = 0
-    for corpus, files in (("gymnasium", GYM), ("dm_control", DM)):
+    for corpus, files in (("gymnasium", GYM), ("dm_control", DM), ("gymnasium-robotics", ROBOTICS)):
         for path in files:
             if only and path.stem not in only:
                 continue
