@@ -280,7 +280,10 @@ def test_refsafe_holds_a_limits_time_constant_at_twice_the_step(tmp_path):
         m = mujoco.MjModel.from_xml_path(str(path))
         d = mujoco.MjData(m)
         mujoco.mj_step(m, d, 1500)
-        final[name] = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0
+        # MuJoCo warns and resets on a position, velocity or acceleration it cannot take.
+        final[name] = not any(d.warning[w].number for w in (mujoco.mjtWarning.mjWARN_BADQPOS,
+                                                            mujoco.mjtWarning.mjWARN_BADQVEL,
+                                                            mujoco.mjtWarning.mjWARN_BADQACC))
         run = subprocess.run([str(SCM), "simulate", str(path), "--duration", "3", "-o", str(tmp_path / "run.csv")],
                              capture_output=True, text=True)
         if name == "held":
