@@ -44,7 +44,8 @@ pub enum Integrator {
     /// stays explicit, a passive force in MuJoCo's RK4. A stage's acceleration then decays a
     /// velocity at a rate of at most `1/h`, which RK4 carries (`h λ < 2.79`), however stiff the
     /// friction at low slip or the damping of a deep overlap: the friction keeps its own
-    /// stiction velocity (no floor) and the contact the paper's damping. The joints' limits act
+    /// stiction velocity (no floor) and the contact the implicit integrators' bounded damping,
+    /// a separation held (docs/method.md, departure 4). The joints' limits act
     /// with MuJoCo's statics and its impedance as an added inertia, which moves them at
     /// MuJoCo's pace, explicitly, as under `rk4`
     /// ([`crate::dynamics::limit::LimitLaw::under`]). Where nothing damps (contact-free, off

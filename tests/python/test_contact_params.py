@@ -129,23 +129,23 @@ def compile_with(path, before_worldbody):
 def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
     """Each pair's dissipation force (docs/method.md, departure 4) is four times its resting
     force m̂ g under an integrator that takes the contact's damping explicitly (rk4, named by the
-    scene's scm_integrator), none (the paper's law, null in the JSON) under MuJoCo's Euler
-    (damped_euler), RK4 (damped_rk4) and implicit integrators, and f m̂ g where the scene sets
-    scm_dissipation_force f (0: none). The damping
-    at rest, F/V at the resting force, is MuJoCo's m̂ d B in every case. A finite force holds a
-    separation to a few v_d where the integrator takes the damping implicitly (`hold_separation`,
-    docs/method.md, departure 4): the scene's 2.5 under MuJoCo's Euler, not rk4's 4."""
+    scene's scm_integrator), eight times under MuJoCo's Euler (damped_euler), RK4 (damped_rk4)
+    and implicit integrators, and f m̂ g where the scene sets scm_dissipation_force f (0: none,
+    the paper's law, null in the JSON). The damping at rest, F/V at the resting force, is
+    MuJoCo's m̂ d B in every case. A finite force holds a separation to a few v_d where the
+    integrator takes the damping implicitly (`hold_separation`, docs/method.md, departure 4):
+    the defaults' 8 and the scene's 2.5 under MuJoCo's integrators, not rk4's 4."""
     path, compiled, m, d = both
     g = 9.81
-    settings = {
-        "": None,
-        '<option integrator="implicitfast"/>': None,
-        '<option integrator="RK4"/>': None,
-        '<custom><text name="scm_integrator" data="rk4"/></custom>': 4.0,
-        '<custom><numeric name="scm_dissipation_force" data="2.5"/></custom>': 2.5,
-        '<option integrator="RK4"/><custom><numeric name="scm_dissipation_force" data="0"/></custom>': None,
+    settings = {  # the scene's addition: the dissipation force over m̂ g, and whether it holds
+        "": (8.0, True),
+        '<option integrator="implicitfast"/>': (8.0, True),
+        '<option integrator="RK4"/>': (8.0, True),
+        '<custom><text name="scm_integrator" data="rk4"/></custom>': (4.0, False),
+        '<custom><numeric name="scm_dissipation_force" data="2.5"/></custom>': (2.5, True),
+        '<option integrator="RK4"/><custom><numeric name="scm_dissipation_force" data="0"/></custom>': (None, False),
     }
-    for extra, f in settings.items():
+    for extra, (f, hold) in settings.items():
         run = compile_with(path, extra)
         assert run.returncode == 0, run.stderr
         for pair in json.loads(run.stdout)["pairs"]:
@@ -159,8 +159,9 @@ def test_the_dissipation_force_follows_the_integrator_and_the_setting(both):
             # MuJoCo's damping at rest, m̂ d(r) B: the same whatever the bound.
             reference = next(p for p in compiled["pairs"] if p["body1"] == pair["body1"]
                              and p["body2"] == pair["body2"])
-            assert rest == pytest.approx(weight / reference["dissipation_velocity"], rel=1e-12)
-            assert pair["hold_separation"] is (f == 2.5), (extra, pair)
+            assert reference["dissipation_force"] == pytest.approx(8.0 * weight, rel=1e-12)
+            assert rest == pytest.approx(weight / (reference["dissipation_velocity"] * (1 + 1 / 8.0)), rel=1e-12)
+            assert pair["hold_separation"] is hold, (extra, pair)
 
 
 def test_a_dissipation_force_out_of_range_or_without_effect_is_said(both):

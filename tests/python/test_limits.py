@@ -144,12 +144,15 @@ def test_gymnasiums_humanoid_falls_at_mujocos_pace():
 def test_the_humanoid_lies_where_mujocos_does_and_explicit_damping_of_the_papers_law_is_refused(tmp_path):
     """gymnasium's humanoid as written (MuJoCo's RK4, SCM's damped_rk4, 3 ms) runs through its
     knees' strike on the floor at 0.79 s and lies where MuJoCo's does (pelvis at 0.080 m from
-    1.2 s to 2.1 s). Its pairs keep the paper's damping, which grows with the depth, and the
-    stages take it implicitly. Taken explicitly (`--integrator rk4`, with the pair law the file's
-    integrator set) that damping is past what RK4 carries at 3 ms, and the energy guard refuses
-    the run at the strike; a scene that names rk4 gets the bounded damping
-    (`scm_dissipation_force` 4, docs/method.md, departure 4), which carries it."""
-    refused = subprocess.run([str(SCM), "simulate", str(GYM / "humanoid.xml"), "--duration", "1",
+    1.2 s to 2.1 s). Its pairs' damping is bounded at eight times the resting force, and the
+    stages take it implicitly. The paper's damping, which grows with the depth (the scene's
+    `scm_dissipation_force` 0), taken explicitly (`--integrator rk4`) is past what RK4 carries at
+    3 ms, and the energy guard refuses the run at the strike; a scene that names rk4 gets the
+    bound RK4 carries (`scm_dissipation_force` 4, docs/method.md, departure 4)."""
+    papers = tmp_path / "papers.xml"
+    setting = '<custom><numeric name="scm_dissipation_force" data="0"/></custom>'
+    papers.write_text(re.sub(r"(<mujoco[^>]*>)", r"\1" + setting, (GYM / "humanoid.xml").read_text(), count=1))
+    refused = subprocess.run([str(SCM), "simulate", str(papers), "--duration", "1",
                               "--step", "0.003", "--integrator", "rk4", "--output-interval", "0.15",
                               "-o", "/dev/null"], capture_output=True, text=True)
     assert refused.returncode == 1 and "the integration is unstable" in refused.stderr, refused.stderr
