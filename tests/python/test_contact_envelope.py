@@ -158,9 +158,9 @@ def test_robosuite_arms_end_inside_mujocos_envelope(arm):
     """The arms users bring, as their files are written, 1 s: each ends inside MuJoCo's 27-run
     envelope (measured 2026-12-07: all three). With SCM's contact disabled Franka ends 0.034
     rad and xArm7 0.36 rad outside (joint 6), TIAGo still inside: the test holds the first two
-    to their contact. Not half way for xArm7, whose wrist stays on its base for 100 ms where
-    MuJoCo's bounces off in 8 to 10 ms (at 0.5 s joint 4 is 0.10 rad outside: below; docs/mjcf.md,
-    "Contact on, against MuJoCo's spread")."""
+    to their contact. Half way too (below), where under the paper's law xArm7's wrist stays on
+    its base for 100 ms while MuJoCo's bounces off in 8 to 10 ms (docs/mjcf.md, "Contact on,
+    against MuJoCo's spread")."""
     path = ROOT / ".venv" / "robosuite_assets" / "robosuite" / "models" / "assets" / arm
     model, finals = envelope.mujoco_finals(path, 1.0)
     assert len(finals) >= 18, f"only {len(finals)} of MuJoCo's 27 runs are stable"
@@ -183,7 +183,7 @@ def xarm7_at_half_a_second(custom=""):
         ours, error = envelope.scm_final(copy, 0.5)
     finally:
         copy.unlink()
-    if error is not None:  # an error, not the expected failure
+    if error is not None:  # an error, not an outcome to compare
         raise RuntimeError(f"SCM stopped: {error}")
     return envelope.compare(model, finals, ours)
 

@@ -15,9 +15,9 @@ without that hold (docs/method.md, departure 4) and the overlap's energy throws 
 
 Measured: a 1 kg sphere started 3.5 cm into the floor (RK4, 3 ms): MuJoCo pushes with 96.8 N and
 the sphere rises to its resting depth, passing it by 0.02 mm; SCM pushes with 902 N and throws it
-19.8 cm up under rk4 (named by the scene); in a file of MuJoCo's implicitfast SCM's rises to 0.8 mm
-below the surface and rests, and in a file of its RK4 (damped_rk4) to 0.5 mm below (docs/dynamics.md,
-"Damped RK4, measured").
+19.8 cm up under rk4 (named by the scene); in a file of MuJoCo's implicitfast SCM's rises to 0.69 mm
+below the surface and rests, and in a file of its RK4 (damped_rk4) to 0.42 mm below (0.75 and
+0.53 mm under the paper's law; docs/dynamics.md, "Damped RK4, measured").
 humanoidstandup starts with its arms 3.6 cm into the floor (MuJoCo's contacts at -3.5 and
 -3.6 cm): SCM flings them up (right shoulder -0.87 rad at 60 ms, MuJoCo's -0.10) and the body
 slides +1.6 cm where MuJoCo's slides -1.3 cm. Started 2 cm higher (arms 1.6 cm in) or clear of
