@@ -31,9 +31,8 @@ pub struct Pair {
     /// The pair's own dissipation velocity (m/s), as `stiffness`.
     pub dissipation_velocity: Option<f64>,
     /// The pair's own dissipation force (N; [`ContactParams::dissipation_force`]): from the file
-    /// `f m̂ g`, `f` the scene's `scm_dissipation_force` or the file's integrator's (4 under an
-    /// explicit one, 8 under one that takes the damping implicitly), infinite where the scene
-    /// sets 0 (the paper's law); `None` where the scene's own `scm_*` law sets every pair's.
+    /// `f m̂ g`, `f` the scene's `scm_dissipation_force` or its integrator's (4 explicit, 8 implicit),
+    /// infinite at 0 (the paper's law); `None` where the scene's own `scm_*` law sets every pair's.
     pub dissipation_force: Option<f64>,
     /// Whether its own force holds a separation ([`ContactParams::hold_separation`]).
     pub hold_separation: bool,
