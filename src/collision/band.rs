@@ -429,6 +429,13 @@ pub(crate) fn band_of<T: Scalar>(
                             }
                             Collider::HalfSpace { normal, .. } => {
                                 let phi = planes.signed_distance(&x, eps1);
+                                // Above the running cutoff, so beyond the final one: dropped
+                                // below whatever follows, so not made (its spring's bound is
+                                // an `exp`). ("Above", so that a NaN stays.)
+                                if phi.re() > band.min + margin * e2 {
+                                    band.evaluated += 1;
+                                    continue;
+                                }
                                 if let Some(g) = grads.as_deref_mut() {
                                     g.push(*normal);
                                 }

@@ -168,9 +168,9 @@ pub fn point_plane_force_jacobian_at(
     // (or v_d) is infinite (V = v_d, `along` 1: the same bits as before the share).
     // Without the share (`hold_separation` off) g = 1 and g' = 0.
     let (d_through_spring, along) = if prm.holds_separation() {
-        // g = 1 - t and g' from one tanh (`separation_share`'s value to the bit).
-        let t = (0.5 * (vn / prm.dissipation_velocity)).tanh();
-        let (g, dg) = (1.0 - t, -0.5 * (1.0 - t * t));
+        // g and g' = -g (1 - g/2) from `separation_share`'s value, to the bit.
+        let g = super::params::separation_share(vn / prm.dissipation_velocity);
+        let dg = -g * (1.0 - 0.5 * g);
         let s = vn / vd;
         (
             d - spring * s * dd * g / (prm.dissipation_force + spring * g),
