@@ -407,10 +407,10 @@ impl Param {
 /// `g(x) = 1 - tanh(x/2)` of [`ContactParams::dissipation_velocity_at`]: 1 at rest, towards 2
 /// approaching and towards 0 separating, smooth, with `g'(0) = -1/2` and `g' = -g (1 - g/2)`.
 /// Evaluated as `2/(1 + e^x)`, the same function, through the logistic (one `exp` of a
-/// non-positive argument, never overflowing): a third of the `tanh` it replaced, which every
-/// point–plane force and every replay of Newton's iterations took (gymnasium's hopper spent
-/// 16 % of its run in `tanh` and its `expm1`, docs/performance.md), and no cancellation where
-/// bodies part fast (`1 - tanh` lost the share's relative precision there).
+/// non-positive argument, never overflowing) in place of `tanh`, which every point–plane force
+/// and every replay of Newton's iterations took (gymnasium's hopper spent 16 % of its run in
+/// `tanh` and its `expm1`, docs/performance.md); and no cancellation where bodies part fast
+/// (`1 - tanh` lost the share's relative precision there, and is 0 past `x` = 38).
 #[inline]
 pub fn separation_share<T: Scalar>(x: T) -> T {
     super::point::logistic(-x) * c::<T>(2.0)
@@ -421,25 +421,18 @@ mod share_tests {
     use super::separation_share;
     use num_dual::Dual64;
 
-    /// The share is `1 - tanh(x/2)`, computed without the cancellation where bodies part:
-    /// within a few ulps of it near rest, to the relative precision `tanh` loses past it, with
-    /// the exact tails, and its derivative `-g (1 - g/2)` by dual numbers and by central
-    /// differences.
+    /// The share is `1 - tanh(x/2)`: within a few ulps of 1 of it (the reference's own error
+    /// is absolute, `1 - tanh` rounding near 1), its derivative `-g (1 - g/2)` by dual numbers
+    /// and by central differences, and, where bodies part fast, the relative precision that
+    /// `1 - tanh` loses.
     #[test]
     fn the_separation_share_is_one_less_tanh_of_half_its_argument() {
         for i in -400..=400 {
             let x = i as f64 * 0.05;
             let g = separation_share(x);
             let reference = 1.0 - (0.5 * x).tanh();
-            // `1 - tanh` is exact to a few ulps of 2 where it is not small (x ≤ 2); past that
-            // its own error, ulp(1) over its value, is the bound.
-            let tol = if x <= 2.0 {
-                4.0 * f64::EPSILON
-            } else {
-                4.0 * f64::EPSILON / g
-            };
             assert!(
-                (g - reference).abs() <= tol * g.max(reference),
+                (g - reference).abs() <= 4.0 * f64::EPSILON,
                 "{x}: {g} vs {reference}"
             );
             let slope = separation_share(Dual64::new(x, 1.0)).eps;
@@ -451,13 +444,24 @@ mod share_tests {
             let fd = (separation_share(x + h) - separation_share(x - h)) / (2.0 * h);
             assert!((slope - fd).abs() <= 1e-9, "{x}: g' {slope} vs fd {fd}");
         }
+        // Parting fast, the share keeps its relative precision: `2 e^-x / (1 + e^-x)`, where
+        // `1 - tanh` has a few digits left at x = 30 and none from x = 38 on.
+        for x in [10.0, 20.0, 30.0, 40.0, 100.0, 700.0] {
+            let e = f64::exp(-x);
+            let exact = 2.0 * e / (1.0 + e);
+            let g = separation_share(x);
+            assert!((g / exact - 1.0).abs() < 1e-15, "{x}: {g} vs {exact}");
+            let slope = separation_share(Dual64::new(x, 1.0)).eps;
+            assert!(
+                (slope / -(g * (1.0 - 0.5 * g)) - 1.0).abs() < 1e-14,
+                "{x}: g' {slope}"
+            );
+        }
         // Fast approach, fast separation, and past `exp`'s range: finite, and the limits.
         assert_eq!(separation_share(-800.0), 2.0);
         assert_eq!(separation_share(800.0), 0.0);
         assert_eq!(separation_share(0.0), 1.0);
         let far = separation_share(Dual64::new(800.0, 1.0));
         assert!(far.re == 0.0 && far.eps == 0.0, "{far:?}");
-        // Where `1 - tanh` is 0 already (x = 40: tanh(20) rounds to 1), the share keeps its value.
-        assert!((separation_share(40.0) / (2.0 * (-40f64).exp()) - 1.0).abs() < 1e-15);
     }
 }
