@@ -106,13 +106,16 @@ pub(super) fn newton_from<T: Scalar>(
     // Whether the last update was a full Newton step (its size then measures the contraction).
     let mut last_full = false;
     let mut crawling = 0;
-    // The inverse as this call's secant updates left it (`f64` only), from the Jacobian's.
+    // The inverse as this call's secant updates left it (`f64` only), and the last update's
+    // `c` (`Secant::update`): the convergence tests read the step over `min(c, 1)`.
     let mut secant: Option<Secant> = None;
+    let mut shrunk = 1.0f64;
     for it in 1..=NEWTON_MAX_ITER {
         let fresh = refresh || exact_each_iteration;
         if fresh {
             *jac = Some(WarmJacobian::new(real_jacobian(&re_vec(&x))?));
             secant = None;
+            shrunk = 1.0;
             refresh = false;
         }
         let jinv = match &secant {
@@ -127,14 +130,14 @@ pub(super) fn newton_from<T: Scalar>(
         let dx: Vec<T> = (0..n)
             .map(|i| (0..n).fold(T::zero(), |s, k| s + r[k] * jinv[(i, k)]))
             .collect();
-        let dx_re = inf_norm(&re_vec(&dx));
+        let dx_re = inf_norm(&re_vec(&dx)) / shrunk.min(1.0);
         // Converged, tested on the full step before the residual at its end is evaluated (that
         // residual would serve the line search only): a full step within the tolerance, taken
         // with a Jacobian at this iterate or after a full step (a Jacobian kept from an earlier
         // step that is much stiffer than the residual's makes a small step where the residual
         // is not small: that first step goes through the line search); or, where this and the
-        // last full step with the same Jacobian (or its secant update, which changes it along
-        // the step by a bounded factor: `Secant::update`) show the iterations contracting at a rate
+        // last full step with the same Jacobian (or its secant update: `shrunk`) show the
+        // iterations contracting at a rate
         // θ < 1, the step's end within the tolerance of the solution, at most θ/(1-θ) times the
         // step from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta
         // codes, which saves the last iteration when the rate is fast). A NaN step passes
@@ -210,7 +213,7 @@ pub(super) fn newton_from<T: Scalar>(
         // The inverse the next iteration steps with, updated by the secant where it is kept.
         if let (Some((s, y)), false) = (secant_pair, refresh) {
             let warm = jac.as_mut().expect("a Jacobian was computed");
-            secant
+            shrunk = secant
                 .get_or_insert_with(|| Secant::of(warm))
                 .update(&s, &y);
         }
@@ -250,10 +253,10 @@ impl Secant {
     }
 
     /// For the step `s` whose residual changed by `y`: `H += (s - H y) (sᵀ H) / (sᵀ H y)`,
-    /// only where `H` maps `y` about onto the step, `0.1 |s|² ≤ sᵀ H y ≤ 10 |s|²` (after
-    /// Powell): off that, `H` is far off along the step (or `y` is rounding), the update large
-    /// and unreliable. It changes the determinant of `H` by `|s|² / sᵀ H y`, at most tenfold.
-    fn update(&mut self, s: &[f64], y: &[f64]) {
+    /// only where `0.1 |s|² ≤ sᵀ H y ≤ 10 |s|²` (after Powell; off that the update is large
+    /// and unreliable). Returns `c = |s|² / sᵀ H y` (1 without an update): after a full step
+    /// the next step is `c` times the kept inverse's, `H⁺ r = c H r`.
+    fn update(&mut self, s: &[f64], y: &[f64]) -> f64 {
         let h = &mut self.inverse;
         let n = s.len();
         let hy: Vec<f64> = (0..n)
@@ -264,7 +267,7 @@ impl Secant {
         // (NaN fails the test.)
         let near = ss > 0.0 && den >= 0.1 * ss && den <= 10.0 * ss;
         if !near {
-            return;
+            return 1.0;
         }
         let sh: Vec<f64> = (0..n)
             .map(|k| (0..n).map(|i| s[i] * h[(i, k)]).sum())
@@ -275,6 +278,7 @@ impl Secant {
                 h[(i, k)] += u * sh[k];
             }
         }
+        ss / den
     }
 }
 
@@ -499,9 +503,8 @@ mod tests {
         }
     }
 
-    /// The secant update makes the inverse map the residual's change to the step, and is not
-    /// made where the inverse is far off along the step (`sᵀ H y` outside `[0.1, 10] |s|²`) or
-    /// there is no step.
+    /// The secant update makes `H y = s`; it is not made where `sᵀ H y` is outside
+    /// `[0.1, 10] |s|²` or there is no step.
     #[test]
     fn a_secant_update_maps_the_change_of_residual_to_the_step() {
         let m = DMatrix::from_row_slice(3, 3, &[4.0, 0.0, 1.0, 0.0, 2.0, 0.0, -1.0, 0.0, 3.0]);
@@ -548,12 +551,10 @@ mod tests {
         );
     }
 
-    /// A Jacobian kept from an earlier step and off by 20 % (each component contracting at
-    /// about 0.17 without updates) on `x + 0.3 x³ = b`, from 0.05 off the solution: with the
-    /// secant updates the solution is reached within the tolerance with one fresh Jacobian
-    /// and four residuals; without them (the updates skipped, when this was written) it took
-    /// two fresh Jacobians and five residuals (the second because the iteration after the
-    /// first fresh one contracted by 0.251, just above the 0.25 that asks for another).
+    /// A Jacobian kept from an earlier step and off by 20 % (contracting at about 0.17) on
+    /// `x + 0.3 x³ = b`, from 0.05 off: with the secant updates, within the tolerance after one
+    /// fresh Jacobian and four residuals; with them skipped it took two and five (the second
+    /// Jacobian as one iteration contracted by 0.251, just above the 0.25 that asks for one).
     #[test]
     fn secant_updates_let_a_kept_jacobian_converge_in_fewer_residuals() {
         let b = [0.7, -1.3, 2.1];
