@@ -137,8 +137,7 @@ pub(super) fn newton_from<T: Scalar>(
         // step that is much stiffer than the residual's makes a small step where the residual
         // is not small: that first step goes through the line search); or, where this and the
         // last full step with the same Jacobian (or its secant update: `shrunk`) show the
-        // iterations contracting at a rate
-        // θ < 1, the step's end within the tolerance of the solution, at most θ/(1-θ) times the
+        // iterations contracting at a rate θ < 1, the step's end within the tolerance of the solution, at most θ/(1-θ) times the
         // step from it (a contraction's tail: the stopping rule of the implicit Runge–Kutta
         // codes, which saves the last iteration when the rate is fast). A NaN step passes
         // neither (`inf_norm` keeps NaN).
@@ -186,12 +185,11 @@ pub(super) fn newton_from<T: Scalar>(
         let scale = 1.0 + inf_norm(&re_vec(&x_new));
         let step = dx_re * alpha;
         // The step and the residual's change, for the secant update.
-        let secant_pair = (!exact_each_iteration).then(|| {
-            let (s, y) = (re_vec(&x_new), re_vec(&r_next));
-            let s: Vec<f64> = s.iter().zip(&re_vec(&x)).map(|(a, b)| a - b).collect();
-            let y: Vec<f64> = y.iter().zip(&re_vec(&r)).map(|(a, b)| a - b).collect();
-            (s, y)
-        });
+        let change = |to: &[T], from: &[T]| -> Vec<f64> {
+            to.iter().zip(from).map(|(a, b)| a.re() - b.re()).collect()
+        };
+        let secant_pair =
+            (!exact_each_iteration).then(|| (change(&x_new, &x), change(&r_next, &r)));
         x = x_new;
         r = r_next;
         if !inf_norm(&re_vec(&r)).is_finite() {
