@@ -160,8 +160,10 @@ def test_robots_as_written_are_timed_against_mujoco(tmp_path):
     plain = tmp_path / "pendulum.xml"
     plain.write_text("""<mujoco><worldbody><body><joint type="hinge" axis="0 1 0"/>
       <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/></body></worldbody></mujoco>""")
+    # 20 s of the pendulum: 10,000 steps take 4 to 5 ms of wall time, clear of `scm simulate`'s
+    # 1 ms resolution (at 2 s the 1,000 steps took about 1 ms, and a run under it had no time).
     p = subprocess.run([sys.executable, str(ROOT / "scripts" / "robots.py"), "--out", str(out),
-                        "--file", str(refused), "--file", str(plain), "--duration", "2"],
+                        "--file", str(refused), "--file", str(plain), "--duration", "20"],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
     table = out.read_text()
